@@ -1,0 +1,334 @@
+//! The coefficient file (`.prt`): a 128-byte little-endian header, then f32 transfer
+//! coefficients, vertex-major. `docs/coefficient-format.md` is the specification; this module
+//! is its reference implementation.
+//!
+//! Files are written atomically (temporary file in the same folder, then rename), so a failed
+//! or interrupted bake never leaves a partial file under the output name. The reader checks
+//! everything — size, magic, version, checksum, every field, every float — before it returns.
+
+use std::path::Path;
+
+use serde::Serialize;
+
+use crate::error::{Error, Result};
+use crate::sampling::Sampling;
+use crate::scene::Scene;
+use crate::sh;
+use crate::trace::Backend;
+use crate::transfer::{Mode, Transfer};
+
+/// First 8 bytes. Like PNG's: a non-ASCII byte, CR LF and ^Z catch text-mode mangling.
+pub const MAGIC: [u8; 8] = *b"\x89PRT\r\n\x1a\n";
+pub const VERSION: u32 = 1;
+pub const HEADER_SIZE: usize = 128;
+/// Offset of the CRC-32 (the last 4 bytes of the header).
+const CHECKSUM_OFFSET: usize = 124;
+
+/// The header, as `prt-bake inspect` prints it.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct Header {
+    pub version: u32,
+    pub order: u32,
+    pub channels: u32,
+    pub vertex_count: u64,
+    pub samples_per_vertex: u32,
+    #[serde(serialize_with = "as_name::mode")]
+    pub mode: Mode,
+    pub bounces: u32,
+    #[serde(serialize_with = "as_name::backend")]
+    pub backend: Backend,
+    #[serde(serialize_with = "as_name::sampling")]
+    pub sampling: Sampling,
+    pub seed: u64,
+    #[serde(serialize_with = "as_name::hex64")]
+    pub scene_fingerprint: u64,
+    /// Bit flags for optional per-vertex arrays after the coefficients; none are defined in
+    /// version 1, so this is 0.
+    pub aux_flags: u32,
+    #[serde(serialize_with = "as_name::hex32")]
+    pub checksum: u32,
+}
+
+mod as_name {
+    use serde::Serializer;
+
+    pub fn mode<S: Serializer>(m: &crate::transfer::Mode, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(m.name())
+    }
+    pub fn backend<S: Serializer>(b: &crate::trace::Backend, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(b.name())
+    }
+    pub fn sampling<S: Serializer>(m: &crate::sampling::Sampling, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(m.name())
+    }
+    pub fn hex64<S: Serializer>(x: &u64, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(&format!("{x:016x}"))
+    }
+    pub fn hex32<S: Serializer>(x: &u32, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(&format!("{x:08x}"))
+    }
+}
+
+impl Header {
+    pub fn coefficients_per_vertex(&self) -> usize {
+        self.channels as usize * sh::coeff_count(self.order as usize)
+    }
+
+    fn payload_bytes(&self) -> u64 {
+        self.vertex_count * self.coefficients_per_vertex() as u64 * 4
+    }
+}
+
+/// A coefficient file in memory.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CoefficientFile {
+    pub header: Header,
+    /// `coefficients[(v · channels + c) · n² + j]`.
+    pub coefficients: Vec<f32>,
+}
+
+fn mode_code(mode: Mode) -> u32 {
+    match mode {
+        Mode::Unshadowed => 0,
+        Mode::Shadowed => 1,
+    }
+}
+
+fn backend_code(backend: Backend) -> u32 {
+    match backend {
+        Backend::None => 0,
+        Backend::Embree => 1,
+    }
+}
+
+fn sampling_code(sampling: Sampling) -> u32 {
+    match sampling {
+        Sampling::OwenSobol => 0,
+        Sampling::ThesisRandom => 1,
+    }
+}
+
+impl CoefficientFile {
+    /// Packages a bake of `scene` with the settings it was made with.
+    pub fn from_bake(scene: &Scene, transfer: &Transfer) -> CoefficientFile {
+        let options = &transfer.options;
+        CoefficientFile {
+            header: Header {
+                version: VERSION,
+                order: options.order as u32,
+                channels: transfer.channels as u32,
+                vertex_count: transfer.vertex_count as u64,
+                samples_per_vertex: options.samples,
+                mode: options.mode,
+                bounces: 0,
+                backend: transfer.backend,
+                sampling: options.sampling,
+                seed: options.seed,
+                scene_fingerprint: scene.fingerprint(),
+                aux_flags: 0,
+                checksum: 0,
+            },
+            coefficients: transfer.coefficients.clone(),
+        }
+    }
+
+    /// Coefficients of vertex `v`, channel `c`.
+    pub fn vertex(&self, v: usize, c: usize) -> &[f32] {
+        let n = sh::coeff_count(self.header.order as usize);
+        let start = (v * self.header.channels as usize + c) * n;
+        &self.coefficients[start..start + n]
+    }
+
+    /// The file's bytes; the checksum field is computed (and stored in the returned header).
+    pub fn to_bytes(&self) -> (Vec<u8>, u32) {
+        let h = &self.header;
+        let mut bytes = Vec::with_capacity(HEADER_SIZE + self.coefficients.len() * 4);
+        bytes.extend(MAGIC);
+        bytes.extend(h.version.to_le_bytes());
+        bytes.extend((HEADER_SIZE as u32).to_le_bytes());
+        bytes.extend(h.order.to_le_bytes());
+        bytes.extend(h.channels.to_le_bytes());
+        bytes.extend(h.vertex_count.to_le_bytes());
+        bytes.extend(h.samples_per_vertex.to_le_bytes());
+        bytes.extend(mode_code(h.mode).to_le_bytes());
+        bytes.extend(h.bounces.to_le_bytes());
+        bytes.extend(backend_code(h.backend).to_le_bytes());
+        bytes.extend(h.seed.to_le_bytes());
+        bytes.extend(h.scene_fingerprint.to_le_bytes());
+        bytes.extend(sampling_code(h.sampling).to_le_bytes());
+        bytes.extend(h.aux_flags.to_le_bytes());
+        bytes.extend((self.coefficients.len() as u64 * 4).to_le_bytes());
+        bytes.resize(HEADER_SIZE, 0); // reserved bytes 80..124, then the checksum slot
+        bytes.extend(self.coefficients.iter().flat_map(|c| c.to_le_bytes()));
+        let checksum = checksum(&bytes);
+        bytes[CHECKSUM_OFFSET..HEADER_SIZE].copy_from_slice(&checksum.to_le_bytes());
+        (bytes, checksum)
+    }
+
+    /// Writes the file atomically: nothing appears under `path` unless all of it was written.
+    pub fn write(&mut self, path: &Path) -> Result<()> {
+        let (bytes, checksum) = self.to_bytes();
+        crate::atomic::write(path, &bytes)?;
+        self.header.checksum = checksum;
+        Ok(())
+    }
+
+    pub fn read(path: &Path) -> Result<CoefficientFile> {
+        let bytes = std::fs::read(path).map_err(|err| Error::io(path, err))?;
+        CoefficientFile::from_bytes(&bytes)
+            .map_err(|message| Error::coefficient_file(path, message))
+    }
+
+    /// Parses and validates a file's bytes; the error is a sentence for the user.
+    pub fn from_bytes(bytes: &[u8]) -> std::result::Result<CoefficientFile, String> {
+        if bytes.len() < MAGIC.len() || bytes[..MAGIC.len()] != MAGIC {
+            return Err("not a PRT coefficient file (wrong magic bytes)".into());
+        }
+        if bytes.len() < HEADER_SIZE {
+            return Err(format!(
+                "truncated: {} bytes, but the header alone is {HEADER_SIZE} bytes",
+                bytes.len()
+            ));
+        }
+        let u32_at = |o: usize| u32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes"));
+        let u64_at = |o: usize| u64::from_le_bytes(bytes[o..o + 8].try_into().expect("8 bytes"));
+        let version = u32_at(8);
+        if version != VERSION {
+            return Err(format!(
+                "unsupported format version {version} (this build reads version {VERSION})"
+            ));
+        }
+        if u32_at(12) as usize != HEADER_SIZE {
+            return Err(format!(
+                "header size {} (version {VERSION} headers are {HEADER_SIZE} bytes)",
+                u32_at(12)
+            ));
+        }
+        let payload = u64_at(72);
+        let found = (bytes.len() - HEADER_SIZE) as u64;
+        if found < payload {
+            return Err(format!(
+                "truncated: the header announces {payload} bytes of coefficients, the file holds {found}"
+            ));
+        }
+        if found > payload {
+            return Err(format!(
+                "{} unexpected bytes after the {payload} bytes of coefficients",
+                found - payload
+            ));
+        }
+        let stored = u32_at(CHECKSUM_OFFSET);
+        let computed = checksum(bytes);
+        if stored != computed {
+            return Err(format!(
+                "checksum mismatch (stored {stored:08x}, computed {computed:08x}): the file is corrupted"
+            ));
+        }
+
+        let order = u32_at(16);
+        if !(1..=sh::MAX_ORDER as u32).contains(&order) {
+            return Err(format!("SH order {order} is outside 1..={}", sh::MAX_ORDER));
+        }
+        let channels = u32_at(20);
+        if channels != 1 && channels != 3 {
+            return Err(format!("{channels} channels (1 or 3 are defined)"));
+        }
+        let mode = match u32_at(36) {
+            0 => Mode::Unshadowed,
+            1 => Mode::Shadowed,
+            other => return Err(format!("unknown transfer mode {other}")),
+        };
+        let backend = match u32_at(44) {
+            0 => Backend::None,
+            1 => Backend::Embree,
+            other => return Err(format!("unknown backend {other}")),
+        };
+        let sampling = match u32_at(64) {
+            0 => Sampling::OwenSobol,
+            1 => Sampling::ThesisRandom,
+            other => return Err(format!("unknown sampling method {other}")),
+        };
+        let aux_flags = u32_at(68);
+        if aux_flags != 0 {
+            return Err(format!("unknown auxiliary-array flags {aux_flags:#x}"));
+        }
+        if bytes[80..CHECKSUM_OFFSET].iter().any(|&b| b != 0) {
+            return Err("reserved header bytes are not zero".into());
+        }
+        let header = Header {
+            version,
+            order,
+            channels,
+            vertex_count: u64_at(24),
+            samples_per_vertex: u32_at(32),
+            mode,
+            bounces: u32_at(40),
+            backend,
+            sampling,
+            seed: u64_at(48),
+            scene_fingerprint: u64_at(56),
+            aux_flags,
+            checksum: stored,
+        };
+        if header.payload_bytes() != payload {
+            return Err(format!(
+                "{} vertices × {} coefficients need {} bytes, the header announces {payload}",
+                header.vertex_count,
+                header.coefficients_per_vertex(),
+                header.payload_bytes()
+            ));
+        }
+        let coefficients: Vec<f32> = bytes[HEADER_SIZE..]
+            .chunks_exact(4)
+            .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")))
+            .collect();
+        if let Some(i) = coefficients.iter().position(|c| !c.is_finite()) {
+            let per_vertex = header.coefficients_per_vertex();
+            return Err(format!(
+                "coefficient {} of vertex {} is not finite",
+                i % per_vertex,
+                i / per_vertex
+            ));
+        }
+        Ok(CoefficientFile {
+            header,
+            coefficients,
+        })
+    }
+
+    /// Refuses a file baked for a different scene (or a changed version of this one).
+    pub fn check_scene(&self, path: &Path, scene: &Scene) -> Result<()> {
+        let mismatch = |message: String| {
+            Err(Error::SceneMismatch {
+                path: path.to_path_buf(),
+                message,
+            })
+        };
+        if self.header.vertex_count != scene.vertex_count() as u64 {
+            return mismatch(format!(
+                "baked for a scene with {} vertices, but {} has {}",
+                self.header.vertex_count,
+                scene.path.display(),
+                scene.vertex_count()
+            ));
+        }
+        let fingerprint = scene.fingerprint();
+        if self.header.scene_fingerprint != fingerprint {
+            return mismatch(format!(
+                "baked for another scene: fingerprint {:016x}, but {} has {fingerprint:016x}",
+                self.header.scene_fingerprint,
+                scene.path.display()
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// CRC-32 (IEEE, as zlib's `crc32`) of the whole file with the checksum field read as zero.
+fn checksum(bytes: &[u8]) -> u32 {
+    let mut hasher = crc32fast::Hasher::new();
+    hasher.update(&bytes[..CHECKSUM_OFFSET]);
+    hasher.update(&[0; 4]);
+    hasher.update(&bytes[HEADER_SIZE..]);
+    hasher.finalize()
+}

@@ -1,0 +1,59 @@
+//! `prt-bake export`: a coefficient file and its scene as NumPy arrays, for analysis and for
+//! checking a bake against an independent reference.
+
+use std::path::Path;
+
+use crate::coefficient_file::CoefficientFile;
+use crate::error::Result;
+use crate::npz;
+use crate::scene::Scene;
+use crate::sh;
+
+/// Writes `positions` (V,3), `normals` (V,3), `albedo` (V,3, linear Kd × texture) and
+/// `transfer` (V, channels, n²), all float32 in the file's vertex order. The coefficient file
+/// must have been baked for this scene.
+pub fn export_npz(coefficients: &Path, scene: &Path, output: &Path) -> Result<()> {
+    let file = CoefficientFile::read(coefficients)?;
+    let scene = Scene::load(scene)?;
+    file.check_scene(coefficients, &scene)?;
+    let v = scene.vertex_count();
+    let flat = |values: &[glam::Vec3]| {
+        values
+            .iter()
+            .flat_map(|x| x.to_array())
+            .collect::<Vec<f32>>()
+    };
+    let positions = flat(&scene.positions);
+    let normals = flat(&scene.normals);
+    let albedo = flat(&scene.vertex_albedo());
+    let header = &file.header;
+    npz::write(
+        output,
+        &[
+            npz::Array {
+                name: "positions",
+                shape: vec![v, 3],
+                data: &positions,
+            },
+            npz::Array {
+                name: "normals",
+                shape: vec![v, 3],
+                data: &normals,
+            },
+            npz::Array {
+                name: "albedo",
+                shape: vec![v, 3],
+                data: &albedo,
+            },
+            npz::Array {
+                name: "transfer",
+                shape: vec![
+                    v,
+                    header.channels as usize,
+                    sh::coeff_count(header.order as usize),
+                ],
+                data: &file.coefficients,
+            },
+        ],
+    )
+}

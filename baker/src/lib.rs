@@ -1,0 +1,24 @@
+//! Precomputed radiance transfer baking, after Sloan, Kautz & Snyder (2002) and the 2008
+//! Zagreb thesis this project grew from.
+//!
+//! A bake turns a [`Scene`] into per-vertex spherical-harmonic transfer coefficients:
+//! [`sh`] holds the basis and its conventions, [`sampling`] the directions, [`trace`] the ray
+//! casting behind a backend-neutral trait, [`transfer`] the estimators, and
+//! [`coefficient_file`] the documented `.prt` format the viewer reads.
+
+pub mod atomic;
+pub mod coefficient_file;
+pub mod error;
+pub mod export;
+pub mod npz;
+pub mod progress;
+pub mod sampling;
+pub mod scene;
+pub mod sh;
+pub mod trace;
+pub mod transfer;
+
+pub use coefficient_file::CoefficientFile;
+pub use error::{Error, Location, Result};
+pub use scene::Scene;
+pub use transfer::{BakeOptions, Mode, Transfer, bake};

@@ -1,0 +1,292 @@
+//! Scenes: triangle meshes with per-vertex normals and texture coordinates, and the materials
+//! (Kd × texture) the renderer and the interreflection pass need.
+//!
+//! Two inputs are accepted (see `docs/scenes.md`):
+//! * the thesis's scene file: one `"object.obj" "texture.tga"` per line, quotes allow spaces,
+//!   `#` starts a comment, the texture is optional; objects are already in world space;
+//! * a bare `.obj` file.
+//!
+//! A vertex is a unique (position, normal, uv) combination, as OBJ faces reference them.
+//! Normals come from the file, or are computed (angle-weighted, welded by position within a
+//! mesh) where the file has none.
+
+mod normals;
+mod obj;
+mod scene_file;
+mod texture;
+
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use glam::{Vec2, Vec3};
+
+use crate::error::{Error, Location, Result};
+
+pub use normals::angle_weighted_normals;
+pub use scene_file::{SceneEntry, parse_scene_file};
+pub use texture::Texture;
+
+/// Diffuse reflectance of surfaces whose material sets no `Kd` and that have no texture.
+pub const DEFAULT_KD: Vec3 = Vec3::splat(0.8);
+
+/// A diffuse material: albedo = `kd` × texture (sRGB-decoded) at the surface's uv.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    pub kd: Vec3,
+    /// Index into [`Scene::textures`].
+    pub texture: Option<usize>,
+}
+
+impl Default for Material {
+    fn default() -> Material {
+        Material {
+            name: String::from("default"),
+            kd: DEFAULT_KD,
+            texture: None,
+        }
+    }
+}
+
+/// One mesh handed to [`Scene::from_meshes`]: what a loader (or a test) produces.
+#[derive(Clone, Debug, Default)]
+pub struct Mesh {
+    pub name: String,
+    pub positions: Vec<Vec3>,
+    /// Per-vertex normals; computed when `None`.
+    pub normals: Option<Vec<Vec3>>,
+    /// Per-vertex texture coordinates; (0, 0) when `None`.
+    pub uvs: Option<Vec<Vec2>>,
+    pub triangles: Vec<[u32; 3]>,
+    pub material: Material,
+}
+
+/// A named part of a scene (one line of a scene file, or one OBJ object) and its ranges in
+/// the scene's vertex and triangle arrays.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Object {
+    pub name: String,
+    pub vertices: Range<u32>,
+    pub triangles: Range<u32>,
+}
+
+/// A static scene, every array indexed by vertex (or by triangle for `triangles`).
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// The file the scene came from; errors and reports name it.
+    pub path: PathBuf,
+    pub objects: Vec<Object>,
+    pub positions: Vec<Vec3>,
+    /// Unit shading normals.
+    pub normals: Vec<Vec3>,
+    pub uvs: Vec<Vec2>,
+    /// Index into `materials` for every vertex (each mesh has one material).
+    pub vertex_material: Vec<u32>,
+    pub triangles: Vec<[u32; 3]>,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+}
+
+impl Scene {
+    /// Loads a scene file or a bare `.obj`, chosen by the extension.
+    pub fn load(path: &Path) -> Result<Scene> {
+        let is_obj = path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("obj"));
+        if is_obj {
+            let loaded = obj::load(path, None)?;
+            return Scene::from_meshes(path, loaded.meshes, loaded.textures);
+        }
+        let entries = parse_scene_file(path)?;
+        let mut meshes = Vec::new();
+        let mut textures: Vec<Texture> = Vec::new();
+        for entry in &entries {
+            let override_texture = match &entry.texture {
+                Some(texture_path) => {
+                    let at = Location::line(path, entry.line);
+                    Some(Texture::load(texture_path, &at)?)
+                }
+                None => None,
+            };
+            let loaded = obj::load(&entry.obj, override_texture)?;
+            let offset = textures.len();
+            textures.extend(loaded.textures);
+            meshes.extend(loaded.meshes.into_iter().map(|mut mesh| {
+                mesh.material.texture = mesh.material.texture.map(|t| t + offset);
+                mesh
+            }));
+        }
+        Scene::from_meshes(path, meshes, textures)
+    }
+
+    /// Assembles and validates a scene from meshes; `path` names it in errors and reports.
+    pub fn from_meshes(path: &Path, meshes: Vec<Mesh>, textures: Vec<Texture>) -> Result<Scene> {
+        let at = || Location::file(path);
+        let mut scene = Scene {
+            path: path.to_path_buf(),
+            objects: Vec::new(),
+            positions: Vec::new(),
+            normals: Vec::new(),
+            uvs: Vec::new(),
+            vertex_material: Vec::new(),
+            triangles: Vec::new(),
+            materials: Vec::new(),
+            textures,
+        };
+        for mesh in meshes {
+            let vertex_count = mesh.positions.len();
+            if let Some((i, p)) = mesh
+                .positions
+                .iter()
+                .enumerate()
+                .find(|(_, p)| !p.is_finite())
+            {
+                return Err(Error::scene(
+                    at(),
+                    format!(
+                        "mesh '{}': vertex {i} has a non-finite position {p}",
+                        mesh.name
+                    ),
+                ));
+            }
+            if let Some((t, tri)) = mesh
+                .triangles
+                .iter()
+                .enumerate()
+                .find(|(_, tri)| tri.iter().any(|&i| i as usize >= vertex_count))
+            {
+                return Err(Error::scene(
+                    at(),
+                    format!(
+                        "mesh '{}': triangle {t} uses vertex {tri:?} but the mesh has {vertex_count} vertices",
+                        mesh.name
+                    ),
+                ));
+            }
+            if mesh
+                .material
+                .texture
+                .is_some_and(|t| t >= scene.textures.len())
+            {
+                return Err(Error::scene(
+                    at(),
+                    format!("mesh '{}': texture index out of range", mesh.name),
+                ));
+            }
+            let computed = angle_weighted_normals(&mesh.positions, &mesh.triangles, true);
+            let normals = match mesh.normals {
+                Some(given) if given.len() == vertex_count => {
+                    if given.iter().any(|n| !n.is_finite()) {
+                        return Err(Error::scene(
+                            at(),
+                            format!("mesh '{}': non-finite normal", mesh.name),
+                        ));
+                    }
+                    // A zero normal (exporters write them for degenerate faces) takes the
+                    // computed one.
+                    given
+                        .iter()
+                        .zip(&computed)
+                        .map(|(n, c)| n.try_normalize().unwrap_or(*c))
+                        .collect()
+                }
+                _ => computed,
+            };
+            let uvs = match mesh.uvs {
+                Some(uvs) if uvs.len() == vertex_count => uvs,
+                _ => vec![Vec2::ZERO; vertex_count],
+            };
+            if uvs.iter().any(|uv| !uv.is_finite()) {
+                return Err(Error::scene(
+                    at(),
+                    format!("mesh '{}': non-finite texture coordinate", mesh.name),
+                ));
+            }
+
+            let base = scene.positions.len() as u32;
+            let first_triangle = scene.triangles.len() as u32;
+            let material = scene.materials.len() as u32;
+            scene.materials.push(mesh.material);
+            scene.positions.extend(&mesh.positions);
+            scene.normals.extend(normals);
+            scene.uvs.extend(uvs);
+            scene
+                .vertex_material
+                .extend(std::iter::repeat_n(material, vertex_count));
+            scene
+                .triangles
+                .extend(mesh.triangles.iter().map(|t| t.map(|i| i + base)));
+            scene.objects.push(Object {
+                name: mesh.name,
+                vertices: base..scene.positions.len() as u32,
+                triangles: first_triangle..scene.triangles.len() as u32,
+            });
+        }
+        if scene.triangles.is_empty() {
+            return Err(Error::scene(at(), "the scene has no triangles"));
+        }
+        if u32::try_from(scene.positions.len()).is_err() {
+            return Err(Error::scene(at(), "more than 2^32 vertices"));
+        }
+        Ok(scene)
+    }
+
+    pub fn vertex_count(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Axis-aligned bounds `(min, max)` of all vertices.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        self.positions
+            .iter()
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
+                (lo.min(*p), hi.max(*p))
+            })
+    }
+
+    /// The material of triangle `t` (the material of its first vertex: meshes have one).
+    pub fn triangle_material(&self, t: usize) -> &Material {
+        &self.materials[self.vertex_material[self.triangles[t][0] as usize] as usize]
+    }
+
+    /// Linear diffuse albedo of a material at a texture coordinate.
+    pub fn albedo(&self, material: &Material, uv: Vec2) -> Vec3 {
+        match material.texture {
+            Some(t) => material.kd * self.textures[t].sample(uv),
+            None => material.kd,
+        }
+    }
+
+    /// Linear diffuse albedo at every vertex (Kd × texture at the vertex's uv).
+    pub fn vertex_albedo(&self) -> Vec<Vec3> {
+        (0..self.vertex_count())
+            .map(|v| {
+                self.albedo(
+                    &self.materials[self.vertex_material[v] as usize],
+                    self.uvs[v],
+                )
+            })
+            .collect()
+    }
+
+    /// A 64-bit fingerprint of the geometry in vertex order (xxh3 over the little-endian bytes
+    /// of the counts, positions, normals, uvs and triangle indices). Coefficient files carry it
+    /// so a file baked for another scene, or another version of this one, is refused.
+    pub fn fingerprint(&self) -> u64 {
+        let mut bytes =
+            Vec::with_capacity(16 + self.positions.len() * 32 + self.triangles.len() * 12);
+        bytes.extend((self.positions.len() as u64).to_le_bytes());
+        bytes.extend((self.triangles.len() as u64).to_le_bytes());
+        let floats = self.positions.iter().flat_map(|p| p.to_array());
+        let floats = floats.chain(self.normals.iter().flat_map(|n| n.to_array()));
+        let floats = floats.chain(self.uvs.iter().flat_map(|uv| uv.to_array()));
+        bytes.extend(floats.flat_map(f32::to_le_bytes));
+        bytes.extend(
+            self.triangles
+                .iter()
+                .flatten()
+                .flat_map(|i| i.to_le_bytes()),
+        );
+        xxhash_rust::xxh3::xxh3_64(&bytes)
+    }
+}

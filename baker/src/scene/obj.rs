@@ -1,0 +1,285 @@
+//! OBJ and MTL through tobj, with errors that name the file and line.
+//!
+//! tobj parses line by line and stops at the first bad line but does not say which; the
+//! reader handed to it counts the lines it consumed, which is that line. A second, cheap pass
+//! over the text catches what tobj lets through: non-finite numbers and faces with fewer than
+//! three vertices (tobj drops those silently).
+
+use std::cell::{Cell, RefCell};
+use std::collections::HashMap;
+use std::io::{BufRead, Read};
+use std::path::{Path, PathBuf};
+
+use glam::{Vec2, Vec3};
+
+use super::{DEFAULT_KD, Material, Mesh, Texture};
+use crate::error::{Error, Location, Result};
+
+/// What one OBJ file contributes: its meshes and the textures they index (from 0).
+pub struct Loaded {
+    pub meshes: Vec<Mesh>,
+    pub textures: Vec<Texture>,
+}
+
+/// Loads an OBJ. `override_texture` (the scene file's texture for this object) replaces any
+/// `map_Kd` of its materials; objects with no material then get Kd = 1 so the texture is the
+/// albedo, as in the thesis's scenes.
+pub fn load(path: &Path, override_texture: Option<Texture>) -> Result<Loaded> {
+    let bytes = std::fs::read(path).map_err(|err| Error::io(path, err))?;
+    let dir = path.parent().unwrap_or(Path::new(""));
+
+    let obj_lines = Cell::new(LinePosition::default());
+    let mtl_error: RefCell<Option<Error>> = RefCell::new(None);
+    // Material name → (MTL file, line of its map_Kd), to resolve and report textures.
+    let texture_refs: RefCell<HashMap<String, (PathBuf, usize)>> = RefCell::new(HashMap::new());
+
+    let options = tobj::LoadOptions {
+        single_index: true,
+        triangulate: true,
+        ignore_points: true,
+        ignore_lines: true,
+    };
+    let mut reader = LineCounter {
+        inner: &bytes[..],
+        position: &obj_lines,
+    };
+    let loaded = tobj::load_obj_buf(&mut reader, &options, |mtl_name| {
+        let mtl_path = dir.join(mtl_name);
+        let at_mtllib = Location::line(path, obj_lines.get().current());
+        let result = load_mtl(&mtl_path, &at_mtllib, &mut texture_refs.borrow_mut());
+        result.map_err(|err| {
+            mtl_error.borrow_mut().get_or_insert(err);
+            tobj::LoadError::OpenFileFailed
+        })
+    });
+    if let Some(err) = mtl_error.into_inner() {
+        return Err(err);
+    }
+    let (models, materials) = loaded.map_err(|err| {
+        Error::scene(
+            Location::line(path, obj_lines.get().current()),
+            describe(&err),
+        )
+    })?;
+    let materials = materials.map_err(|err| Error::scene(Location::file(path), describe(&err)))?;
+
+    let text = String::from_utf8_lossy(&bytes);
+    lint(path, &text)?;
+
+    let mut textures = Vec::new();
+    let override_index = override_texture.map(|t| {
+        textures.push(t);
+        0
+    });
+    let mut material_table = Vec::with_capacity(materials.len());
+    let texture_refs = texture_refs.into_inner();
+    for m in &materials {
+        let texture = match (override_index, &m.diffuse_texture) {
+            (Some(index), _) => Some(index),
+            (None, Some(name)) => {
+                let (mtl_path, line) = texture_refs
+                    .get(&m.name)
+                    .cloned()
+                    .unwrap_or_else(|| (path.to_path_buf(), 0));
+                let texture_path = mtl_path.parent().unwrap_or(Path::new("")).join(name.trim());
+                let at = if line > 0 {
+                    Location::line(&mtl_path, line)
+                } else {
+                    Location::file(&mtl_path)
+                };
+                textures.push(Texture::load(&texture_path, &at)?);
+                Some(textures.len() - 1)
+            }
+            (None, None) => None,
+        };
+        material_table.push(Material {
+            name: m.name.clone(),
+            kd: m.diffuse.map(Vec3::from_array).unwrap_or(DEFAULT_KD),
+            texture,
+        });
+    }
+    let no_material = Material {
+        name: String::from("default"),
+        kd: if override_index.is_some() {
+            Vec3::ONE
+        } else {
+            DEFAULT_KD
+        },
+        texture: override_index,
+    };
+
+    let meshes: Vec<Mesh> = models
+        .into_iter()
+        .filter(|model| !model.mesh.indices.is_empty())
+        .map(|model| to_mesh(model, &material_table, &no_material))
+        .collect();
+    if meshes.is_empty() {
+        return Err(Error::scene(
+            Location::file(path),
+            "no faces: the file defines no triangles",
+        ));
+    }
+    Ok(Loaded { meshes, textures })
+}
+
+fn to_mesh(model: tobj::Model, materials: &[Material], no_material: &Material) -> Mesh {
+    let m = model.mesh;
+    let vec3s = |flat: &[f32]| {
+        flat.chunks_exact(3)
+            .map(Vec3::from_slice)
+            .collect::<Vec<_>>()
+    };
+    let positions = vec3s(&m.positions);
+    let normals = (m.normals.len() == m.positions.len()).then(|| vec3s(&m.normals));
+    let uvs = (m.texcoords.len() / 2 == positions.len())
+        .then(|| m.texcoords.chunks_exact(2).map(Vec2::from_slice).collect());
+    let triangles = m
+        .indices
+        .chunks_exact(3)
+        .map(|t| [t[0], t[1], t[2]])
+        .collect();
+    let material = m
+        .material_id
+        .and_then(|id| materials.get(id))
+        .cloned()
+        .unwrap_or_else(|| no_material.clone());
+    Mesh {
+        name: model.name,
+        positions,
+        normals,
+        uvs,
+        triangles,
+        material,
+    }
+}
+
+fn load_mtl(
+    mtl_path: &Path,
+    at_mtllib: &Location,
+    texture_refs: &mut HashMap<String, (PathBuf, usize)>,
+) -> Result<(Vec<tobj::Material>, HashMap<String, usize>)> {
+    let bytes = std::fs::read(mtl_path).map_err(|err| {
+        Error::scene(
+            at_mtllib.clone(),
+            format!("cannot read material library {}: {err}", mtl_path.display()),
+        )
+    })?;
+    let lines = Cell::new(LinePosition::default());
+    let mut reader = LineCounter {
+        inner: &bytes[..],
+        position: &lines,
+    };
+    let result = tobj::load_mtl_buf(&mut reader).map_err(|err| {
+        Error::scene(
+            Location::line(mtl_path, lines.get().current()),
+            describe(&err),
+        )
+    })?;
+    let mut current = None;
+    for (index, line) in String::from_utf8_lossy(&bytes).lines().enumerate() {
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("newmtl") => current = Some(words.collect::<Vec<_>>().join(" ")),
+            Some("map_Kd") => {
+                if let Some(name) = &current {
+                    texture_refs.insert(name.clone(), (mtl_path.to_path_buf(), index + 1));
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(result)
+}
+
+/// Checks what tobj accepts but a bake cannot use.
+fn lint(path: &Path, text: &str) -> Result<()> {
+    for (index, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        let keyword = words.next();
+        let problem = match keyword {
+            Some(kind @ ("v" | "vn" | "vt")) => words
+                .filter_map(|w| w.parse::<f32>().ok())
+                .any(|x| !x.is_finite())
+                .then(|| format!("non-finite number in `{kind}` line: {}", line.trim())),
+            Some("f") => {
+                let count = words.count();
+                (count < 3).then(|| format!("face with {count} vertices (a face needs at least 3)"))
+            }
+            _ => None,
+        };
+        if let Some(message) = problem {
+            return Err(Error::scene(Location::line(path, index + 1), message));
+        }
+    }
+    Ok(())
+}
+
+fn describe(err: &tobj::LoadError) -> String {
+    use tobj::LoadError as E;
+    match err {
+        E::PositionParseError => "malformed vertex position (expected `v x y z`)".into(),
+        E::NormalParseError => "malformed normal (expected `vn x y z`)".into(),
+        E::TexcoordParseError => "malformed texture coordinate (expected `vt u [v]`)".into(),
+        E::FaceParseError => {
+            "malformed face (expected `f v[/vt][/vn] ...` with integer indices)".into()
+        }
+        E::FaceVertexOutOfBounds => {
+            "face index out of range: no such vertex position (`v`) before this line".into()
+        }
+        E::FaceTexCoordOutOfBounds => {
+            "face index out of range: no such texture coordinate (`vt`) before this line".into()
+        }
+        E::FaceNormalOutOfBounds => {
+            "face index out of range: no such normal (`vn`) before this line".into()
+        }
+        E::ReadError => "unreadable line (not valid UTF-8?)".into(),
+        other => other.to_string(),
+    }
+}
+
+/// How far a [`LineCounter`] has read: the number of newlines consumed, and whether anything
+/// follows the last one.
+#[derive(Clone, Copy, Default)]
+struct LinePosition {
+    newlines: usize,
+    mid_line: bool,
+}
+
+impl LinePosition {
+    /// The 1-based number of the line consumed last.
+    fn current(self) -> usize {
+        self.newlines + usize::from(self.mid_line)
+    }
+}
+
+/// A `BufRead` that counts the lines its consumer has taken.
+struct LineCounter<'a> {
+    inner: &'a [u8],
+    position: &'a Cell<LinePosition>,
+}
+
+impl Read for LineCounter<'_> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.inner.len().min(buf.len());
+        buf[..n].copy_from_slice(&self.inner[..n]);
+        self.consume(n);
+        Ok(n)
+    }
+}
+
+impl BufRead for LineCounter<'_> {
+    fn fill_buf(&mut self) -> std::io::Result<&[u8]> {
+        Ok(self.inner)
+    }
+
+    fn consume(&mut self, amount: usize) {
+        let (taken, rest) = self.inner.split_at(amount);
+        if let Some(&last) = taken.last() {
+            let mut position = self.position.get();
+            position.newlines += taken.iter().filter(|&&b| b == b'\n').count();
+            position.mid_line = last != b'\n';
+            self.position.set(position);
+        }
+        self.inner = rest;
+    }
+}

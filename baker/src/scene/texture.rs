@@ -1,0 +1,148 @@
+//! Albedo textures (TGA, PNG through the `image` crate), sampled bilinearly with wrapping.
+//!
+//! Texels are taken as sRGB-encoded colour, as painted albedo maps are, and decoded to linear
+//! reflectance once at load; all lighting arithmetic is linear.
+
+use std::path::{Path, PathBuf};
+
+use glam::{Vec2, Vec3};
+
+use crate::error::{Error, Location, Result};
+
+#[derive(Clone, Debug)]
+pub struct Texture {
+    pub path: PathBuf,
+    pub width: u32,
+    pub height: u32,
+    /// Linear RGB, row-major, top row first (as stored in the image).
+    pub texels: Vec<Vec3>,
+    /// The original 8-bit sRGB RGBA pixels, for renderers that upload the image as is.
+    pub srgb8: Vec<[u8; 4]>,
+}
+
+/// The sRGB electro-optical transfer function (IEC 61966-2-1).
+pub fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+impl Texture {
+    /// Loads an image. `referenced_at` is where the scene named it, for the error message.
+    pub fn load(path: &Path, referenced_at: &Location) -> Result<Texture> {
+        if !path.is_file() {
+            return Err(Error::scene(
+                referenced_at.clone(),
+                format!("texture {} does not exist", path.display()),
+            ));
+        }
+        let image = image::open(path).map_err(|err| {
+            Error::scene(
+                referenced_at.clone(),
+                format!("cannot read texture {}: {err}", path.display()),
+            )
+        })?;
+        let rgba = image.to_rgba8();
+        let (width, height) = rgba.dimensions();
+        if width == 0 || height == 0 {
+            return Err(Error::scene(
+                referenced_at.clone(),
+                format!("texture {} is empty", path.display()),
+            ));
+        }
+        let lut: Vec<f32> = (0..=255)
+            .map(|v| srgb_to_linear(v as f32 / 255.0))
+            .collect();
+        let srgb8: Vec<[u8; 4]> = rgba.pixels().map(|p| p.0).collect();
+        let texels = srgb8
+            .iter()
+            .map(|p| Vec3::new(lut[p[0] as usize], lut[p[1] as usize], lut[p[2] as usize]))
+            .collect();
+        Ok(Texture {
+            path: path.to_path_buf(),
+            width,
+            height,
+            texels,
+            srgb8,
+        })
+    }
+
+    /// A texture from linear texels (tests, generated content).
+    pub fn from_linear(
+        path: impl Into<PathBuf>,
+        width: u32,
+        height: u32,
+        texels: Vec<Vec3>,
+    ) -> Texture {
+        assert_eq!(texels.len(), (width * height) as usize);
+        let encode = |c: f32| {
+            let c = c.clamp(0.0, 1.0);
+            let s = if c <= 0.003_130_8 {
+                c * 12.92
+            } else {
+                1.055 * c.powf(1.0 / 2.4) - 0.055
+            };
+            (s * 255.0).round() as u8
+        };
+        let srgb8 = texels
+            .iter()
+            .map(|t| [encode(t.x), encode(t.y), encode(t.z), 255])
+            .collect();
+        Texture {
+            path: path.into(),
+            width,
+            height,
+            texels,
+            srgb8,
+        }
+    }
+
+    fn texel(&self, x: i64, y: i64) -> Vec3 {
+        let x = x.rem_euclid(self.width as i64) as usize;
+        let y = y.rem_euclid(self.height as i64) as usize;
+        self.texels[y * self.width as usize + x]
+    }
+
+    /// Bilinear lookup with repeat wrapping. OBJ's v runs up from the bottom of the image.
+    pub fn sample(&self, uv: Vec2) -> Vec3 {
+        let x = uv.x * self.width as f32 - 0.5;
+        let y = (1.0 - uv.y) * self.height as f32 - 0.5;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let top = self.texel(x0, y0).lerp(self.texel(x0 + 1, y0), fx);
+        let bottom = self.texel(x0, y0 + 1).lerp(self.texel(x0 + 1, y0 + 1), fx);
+        top.lerp(bottom, fy)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bilinear_sampling_wraps_and_flips_v() {
+        // 2×1 texture: left black, right white.
+        let t = Texture::from_linear("t", 2, 1, vec![Vec3::ZERO, Vec3::ONE]);
+        assert_eq!(t.sample(Vec2::new(0.25, 0.5)), Vec3::ZERO);
+        assert_eq!(t.sample(Vec2::new(0.75, 0.5)), Vec3::ONE);
+        assert!((t.sample(Vec2::new(0.5, 0.5)) - Vec3::splat(0.5)).length() < 1e-6);
+        // At u = 0 the left texel blends with the right one across the wrap.
+        assert!((t.sample(Vec2::new(0.0, 0.5)) - Vec3::splat(0.5)).length() < 1e-6);
+        assert_eq!(t.sample(Vec2::new(1.25, 0.5)), Vec3::ZERO);
+
+        // 1×2: top row red, bottom row blue; v = 0.25 is the bottom half of the image.
+        let t = Texture::from_linear("t", 1, 2, vec![Vec3::X, Vec3::Z]);
+        assert_eq!(t.sample(Vec2::new(0.5, 0.25)), Vec3::Z);
+        assert_eq!(t.sample(Vec2::new(0.5, 0.75)), Vec3::X);
+    }
+
+    #[test]
+    fn srgb_decoding_matches_reference_values() {
+        assert_eq!(srgb_to_linear(0.0), 0.0);
+        assert!((srgb_to_linear(1.0) - 1.0).abs() < 1e-6);
+        assert!((srgb_to_linear(0.5) - 0.214_041).abs() < 1e-5);
+    }
+}

@@ -1,0 +1,216 @@
+//! Building a triangle scene and committing it into a queryable, shareable [`CommittedScene`].
+
+use std::mem::size_of;
+use std::sync::Arc;
+
+use crate::device::{Device, DeviceInner};
+use crate::error::{Error, ErrorKind};
+use crate::sys;
+
+/// The BVH builder's trade-off between build time and query speed (`RTCBuildQuality`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BuildQuality {
+    Low,
+    #[default]
+    Medium,
+    High,
+}
+
+/// Scene flags (`RTCSceneFlags`) that matter for static scenes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SceneFlags {
+    /// Avoid optimisations that lower arithmetic accuracy (`RTC_SCENE_FLAG_ROBUST`): fewer
+    /// missed hits on shared edges and vertices, at some speed.
+    pub robust: bool,
+    /// Smaller memory footprint, slower queries (`RTC_SCENE_FLAG_COMPACT`).
+    pub compact: bool,
+}
+
+/// A scene being assembled. Geometry is copied in; nothing borrowed outlives a call.
+pub struct SceneBuilder {
+    device: Device,
+    handle: sys::RTCScene,
+    triangle_count: usize,
+}
+
+impl SceneBuilder {
+    pub fn new(device: &Device) -> Result<SceneBuilder, Error> {
+        // SAFETY: the device handle is live for as long as `device`.
+        let handle = unsafe { sys::rtcNewScene(device.inner.handle) };
+        device.check()?;
+        if handle.is_null() {
+            return Err(Error::new(ErrorKind::Unknown, "rtcNewScene returned null"));
+        }
+        Ok(SceneBuilder {
+            device: device.clone(),
+            handle,
+            triangle_count: 0,
+        })
+    }
+
+    pub fn set_build_quality(&mut self, quality: BuildQuality) {
+        let quality = match quality {
+            BuildQuality::Low => sys::RTC_BUILD_QUALITY_LOW,
+            BuildQuality::Medium => sys::RTC_BUILD_QUALITY_MEDIUM,
+            BuildQuality::High => sys::RTC_BUILD_QUALITY_HIGH,
+        };
+        // SAFETY: the scene handle is live and not yet committed.
+        unsafe { sys::rtcSetSceneBuildQuality(self.handle, quality) };
+    }
+
+    pub fn set_flags(&mut self, flags: SceneFlags) {
+        let mut bits = sys::RTC_SCENE_FLAG_NONE;
+        if flags.robust {
+            bits |= sys::RTC_SCENE_FLAG_ROBUST;
+        }
+        if flags.compact {
+            bits |= sys::RTC_SCENE_FLAG_COMPACT;
+        }
+        // SAFETY: the scene handle is live and not yet committed.
+        unsafe { sys::rtcSetSceneFlags(self.handle, bits) };
+    }
+
+    /// Adds a triangle mesh and returns its geometry id. Primitive ids in hits index `triangles`.
+    ///
+    /// Every index must be below `positions.len()`: Embree does not check, so this does.
+    pub fn add_triangle_mesh(
+        &mut self,
+        positions: &[[f32; 3]],
+        triangles: &[[u32; 3]],
+    ) -> Result<u32, Error> {
+        if positions.is_empty() || triangles.is_empty() {
+            return Err(Error::new(
+                ErrorKind::InvalidArgument,
+                "triangle mesh is empty",
+            ));
+        }
+        if let Some((t, tri)) = triangles
+            .iter()
+            .enumerate()
+            .find(|(_, tri)| tri.iter().any(|&i| i as usize >= positions.len()))
+        {
+            return Err(Error::new(
+                ErrorKind::InvalidArgument,
+                format!(
+                    "triangle {t} has index {:?} but the mesh has {} vertices",
+                    tri,
+                    positions.len()
+                ),
+            ));
+        }
+        let too_big = || Error::new(ErrorKind::InvalidArgument, "mesh exceeds 2^32 items");
+        let vertex_count = u32::try_from(positions.len()).map_err(|_| too_big())?;
+        let triangle_count = u32::try_from(triangles.len()).map_err(|_| too_big())?;
+
+        // SAFETY: the device handle is live.
+        let geometry = unsafe {
+            sys::rtcNewGeometry(self.device.inner.handle, sys::RTC_GEOMETRY_TYPE_TRIANGLE)
+        };
+        self.device.check()?;
+        // SAFETY: `geometry` is a live triangle geometry. Embree allocates each buffer with the
+        // requested item count and stride (and its own padding), returns a pointer to it, and
+        // the copies below write exactly `count * stride` bytes into it. `[f32; 3]` and
+        // `[u32; 3]` have the FLOAT3 / UINT3 layouts with a 12-byte stride.
+        let result = unsafe {
+            let vertices = sys::rtcSetNewGeometryBuffer(
+                geometry,
+                sys::RTC_BUFFER_TYPE_VERTEX,
+                0,
+                sys::RTC_FORMAT_FLOAT3,
+                size_of::<[f32; 3]>(),
+                vertex_count as usize,
+            ) as *mut [f32; 3];
+            let indices = sys::rtcSetNewGeometryBuffer(
+                geometry,
+                sys::RTC_BUFFER_TYPE_INDEX,
+                0,
+                sys::RTC_FORMAT_UINT3,
+                size_of::<[u32; 3]>(),
+                triangle_count as usize,
+            ) as *mut [u32; 3];
+            match self.device.check() {
+                Err(err) => Err(err),
+                Ok(()) if vertices.is_null() || indices.is_null() => Err(Error::new(
+                    ErrorKind::OutOfMemory,
+                    "rtcSetNewGeometryBuffer returned null",
+                )),
+                Ok(()) => {
+                    vertices.copy_from_nonoverlapping(positions.as_ptr(), positions.len());
+                    indices.copy_from_nonoverlapping(triangles.as_ptr(), triangles.len());
+                    sys::rtcCommitGeometry(geometry);
+                    let id = sys::rtcAttachGeometry(self.handle, geometry);
+                    self.device.check().map(|()| id)
+                }
+            }
+        };
+        // SAFETY: the scene holds its own reference once attached; this drops ours either way.
+        unsafe { sys::rtcReleaseGeometry(geometry) };
+        self.triangle_count += triangles.len();
+        result
+    }
+
+    /// Builds the BVH. Only a committed scene answers queries.
+    pub fn commit(self) -> Result<CommittedScene, Error> {
+        // SAFETY: the scene handle is live; commit runs on Embree's thread pool and returns
+        // when the BVH is built.
+        unsafe { sys::rtcCommitScene(self.handle) };
+        self.device.check()?;
+        let scene = CommittedScene {
+            handle: self.handle,
+            device: Arc::clone(&self.device.inner),
+            triangle_count: self.triangle_count,
+        };
+        // The handle moved into `scene`; do not release it in our `Drop`.
+        std::mem::forget(self);
+        Ok(scene)
+    }
+}
+
+impl Drop for SceneBuilder {
+    fn drop(&mut self) {
+        // SAFETY: the handle is live and owned by this builder.
+        unsafe { sys::rtcReleaseScene(self.handle) };
+    }
+}
+
+/// A committed, read-only scene: the only type that answers queries.
+pub struct CommittedScene {
+    pub(crate) handle: sys::RTCScene,
+    /// Keeps the device (and the error slot its callback writes to) alive while queries run.
+    #[allow(dead_code)]
+    device: Arc<DeviceInner>,
+    triangle_count: usize,
+}
+
+// SAFETY: after `rtcCommitScene` the scene is never modified again (no method takes `&mut self`
+// or touches the geometry), and Embree documents `rtcIntersect*`/`rtcOccluded*` on a committed
+// scene as safe to call from any number of threads at once. Release happens once, in `Drop`,
+// which Rust runs only when no other reference exists.
+unsafe impl Send for CommittedScene {}
+// SAFETY: see `Send`: shared references only issue Embree's thread-safe queries.
+unsafe impl Sync for CommittedScene {}
+
+impl CommittedScene {
+    pub fn triangle_count(&self) -> usize {
+        self.triangle_count
+    }
+
+    /// The axis-aligned bounds of everything in the scene: `(lower, upper)`.
+    pub fn bounds(&self) -> ([f32; 3], [f32; 3]) {
+        let mut bounds = sys::RTCBounds::default();
+        // SAFETY: committed scene, and `bounds` is a properly aligned RTCBounds to write into.
+        unsafe { sys::rtcGetSceneBounds(self.handle, &mut bounds) };
+        (
+            [bounds.lower_x, bounds.lower_y, bounds.lower_z],
+            [bounds.upper_x, bounds.upper_y, bounds.upper_z],
+        )
+    }
+}
+
+impl Drop for CommittedScene {
+    fn drop(&mut self) {
+        // SAFETY: the handle is live and owned by this value; no query can be running because
+        // they all borrow `self`.
+        unsafe { sys::rtcReleaseScene(self.handle) };
+    }
+}

@@ -1,0 +1,336 @@
+//! The demo scenes, generated so that their vertex counts and layout are exact and documented.
+//!
+//! World space is z-up (the SH convention measures θ from +z, so the sky is +z).
+//!
+//! * `torus/`: the thesis's demo. A torus of exactly 10,800 unique vertices (119 × 89 quads
+//!   plus the texture seams: 120 × 90 vertices), tilted and resting on a floor, in a corner of
+//!   two walls; the three planes have 30 × 30 vertices each, 2,700 in all. Thesis scene-file
+//!   format, TGA textures.
+//! * `cornell/`: a Cornell-box-like room open at the front and the top (so distant light gets
+//!   in): white floor and back wall, red left wall, green right wall (the original box's
+//!   reflectances), a short and a tall white box. Materials in MTL, no textures.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use glam::{Mat3, Vec2, Vec3};
+
+/// A triangle mesh with per-vertex normals and texture coordinates.
+#[derive(Clone, Debug, Default)]
+pub struct Mesh {
+    pub positions: Vec<Vec3>,
+    pub normals: Vec<Vec3>,
+    pub uvs: Vec<Vec2>,
+    pub triangles: Vec<[u32; 3]>,
+}
+
+impl Mesh {
+    /// A (nu+1) × (nv+1) vertex grid over the parameter square, two triangles per cell,
+    /// wound so the face normal is ∂p/∂u × ∂p/∂v.
+    fn grid(nu: u32, nv: u32, mut vertex: impl FnMut(f32, f32) -> (Vec3, Vec3, Vec2)) -> Mesh {
+        let mut mesh = Mesh::default();
+        for j in 0..=nv {
+            for i in 0..=nu {
+                let (p, n, uv) = vertex(i as f32 / nu as f32, j as f32 / nv as f32);
+                mesh.positions.push(p);
+                mesh.normals.push(n);
+                mesh.uvs.push(uv);
+            }
+        }
+        let at = |i: u32, j: u32| j * (nu + 1) + i;
+        for j in 0..nv {
+            for i in 0..nu {
+                mesh.triangles
+                    .push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+                mesh.triangles
+                    .push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+            }
+        }
+        mesh
+    }
+
+    /// A flat rectangle `origin + u·edge_u + v·edge_v` with (n+1)² vertices; its normal is
+    /// edge_u × edge_v. Texture coordinates repeat `tiles` times.
+    pub fn plane(origin: Vec3, edge_u: Vec3, edge_v: Vec3, cells: u32, tiles: f32) -> Mesh {
+        let normal = edge_u.cross(edge_v).normalize();
+        Mesh::grid(cells, cells, |u, v| {
+            (
+                origin + edge_u * u + edge_v * v,
+                normal,
+                Vec2::new(u, v) * tiles,
+            )
+        })
+    }
+
+    /// A torus around the z axis: ring radius `major`, tube radius `minor`.
+    pub fn torus(major: f32, minor: f32, ring_cells: u32, tube_cells: u32) -> Mesh {
+        use std::f32::consts::TAU;
+        Mesh::grid(ring_cells, tube_cells, |u, v| {
+            let (sp, cp) = (TAU * u).sin_cos();
+            let (st, ct) = (TAU * v).sin_cos();
+            let normal = Vec3::new(ct * cp, ct * sp, st);
+            let p = Vec3::new(
+                (major + minor * ct) * cp,
+                (major + minor * ct) * sp,
+                minor * st,
+            );
+            (p, normal, Vec2::new(u * 4.0, v))
+        })
+    }
+
+    pub fn transformed(mut self, rotation: Mat3, translation: Vec3) -> Mesh {
+        for p in &mut self.positions {
+            *p = rotation * *p + translation;
+        }
+        for n in &mut self.normals {
+            *n = (rotation * *n).normalize();
+        }
+        self
+    }
+}
+
+/// Accumulates OBJ text; indices are global across the objects written into it.
+#[derive(Default)]
+struct ObjWriter {
+    text: String,
+    vertices: u32,
+}
+
+impl ObjWriter {
+    fn new(header: &str) -> ObjWriter {
+        let mut w = ObjWriter::default();
+        for line in header.lines() {
+            writeln!(w.text, "# {line}").unwrap();
+        }
+        w
+    }
+
+    fn object(&mut self, name: &str, material: Option<&str>, mesh: &Mesh) {
+        let t = &mut self.text;
+        writeln!(t, "o {name}").unwrap();
+        if let Some(material) = material {
+            writeln!(t, "usemtl {material}").unwrap();
+        }
+        for p in &mesh.positions {
+            writeln!(t, "v {:.6} {:.6} {:.6}", p.x, p.y, p.z).unwrap();
+        }
+        for uv in &mesh.uvs {
+            writeln!(t, "vt {:.6} {:.6}", uv.x, uv.y).unwrap();
+        }
+        for n in &mesh.normals {
+            writeln!(t, "vn {:.6} {:.6} {:.6}", n.x, n.y, n.z).unwrap();
+        }
+        for tri in &mesh.triangles {
+            let [a, b, c] = tri.map(|i| i + self.vertices + 1);
+            writeln!(t, "f {a}/{a}/{a} {b}/{b}/{b} {c}/{c}/{c}").unwrap();
+        }
+        self.vertices += mesh.positions.len() as u32;
+    }
+}
+
+fn write_tga(
+    path: &Path,
+    width: u32,
+    height: u32,
+    pixel: impl Fn(u32, u32) -> [u8; 3],
+) -> std::io::Result<()> {
+    let mut data = Vec::with_capacity((width * height * 3) as usize);
+    for y in 0..height {
+        for x in 0..width {
+            data.extend(pixel(x, y));
+        }
+    }
+    image::save_buffer_with_format(
+        path,
+        &data,
+        width,
+        height,
+        image::ColorType::Rgb8,
+        image::ImageFormat::Tga,
+    )
+    .map_err(std::io::Error::other)
+}
+
+/// The torus demo: ring radius 1, tube radius 0.35, tilted 25° about x, touching the floor.
+pub fn torus_scene(dir: &Path) -> std::io::Result<()> {
+    std::fs::create_dir_all(dir)?;
+    let (major, minor, tilt) = (1.0f32, 0.35f32, 25f32.to_radians());
+    // The tilted ring's lowest point is major·sin(tilt) below its centre; the tube adds minor.
+    let centre = Vec3::new(0.3, -0.2, major * tilt.sin() + minor);
+    let torus = Mesh::torus(major, minor, 119, 89).transformed(Mat3::from_rotation_x(tilt), centre);
+    let mut obj = ObjWriter::new(
+        "The thesis's demo object: a torus of 10,800 unique vertices.\nGenerated by prt-scenes (gen-scenes); do not edit.",
+    );
+    obj.object("torus", None, &torus);
+    std::fs::write(dir.join("torus.obj"), obj.text)?;
+
+    let size = 6.0f32;
+    let half = size / 2.0;
+    let floor = Mesh::plane(
+        Vec3::new(-half, -half, 0.0),
+        Vec3::X * size,
+        Vec3::Y * size,
+        29,
+        3.0,
+    );
+    let back = Mesh::plane(
+        Vec3::new(-half, -half, 0.0),
+        Vec3::Y * size,
+        Vec3::Z * size,
+        29,
+        3.0,
+    );
+    let side = Mesh::plane(
+        Vec3::new(-half, half, 0.0),
+        Vec3::X * size,
+        Vec3::Z * size,
+        29,
+        3.0,
+    );
+    let mut obj = ObjWriter::new(
+        "Floor and two walls around the torus: 3 × 900 vertices.\nGenerated by prt-scenes (gen-scenes); do not edit.",
+    );
+    obj.object("floor", None, &floor);
+    obj.object("back_wall", None, &back);
+    obj.object("side_wall", None, &side);
+    std::fs::write(dir.join("planes.obj"), obj.text)?;
+
+    write_tga(&dir.join("checker.tga"), 256, 256, |x, y| {
+        if ((x / 32) + (y / 32)) % 2 == 0 {
+            [200, 200, 196]
+        } else {
+            [120, 122, 128]
+        }
+    })?;
+    write_tga(&dir.join("torus.tga"), 256, 128, |x, y| {
+        // Warm bands along the ring with a thin darker stripe around the tube.
+        let band = ((x as f32 / 256.0 * std::f32::consts::TAU * 6.0).sin() * 0.5 + 0.5) * 60.0;
+        let stripe = if y % 32 < 3 { 0.55 } else { 1.0 };
+        [
+            ((190.0 + band) * stripe) as u8,
+            ((120.0 + band * 0.5) * stripe) as u8,
+            (60.0 * stripe) as u8,
+        ]
+    })?;
+    std::fs::write(
+        dir.join("torus.scene"),
+        "# The thesis's demo scene: a torus casting shadows on surrounding planes.\n\
+         # One object per line: \"object.obj\" \"texture.tga\" (paths relative to this file).\n\
+         \"torus.obj\" \"torus.tga\"\n\
+         \"planes.obj\" \"checker.tga\"\n",
+    )
+}
+
+/// A box of the given size standing on the floor, rotated about z; five faces (no bottom),
+/// each a grid of `cells`², with flat per-face normals.
+fn open_box(centre: Vec2, size: Vec3, angle_degrees: f32, cells: u32) -> Vec<(String, Mesh)> {
+    let (hx, hy, h) = (size.x / 2.0, size.y / 2.0, size.z);
+    let faces = [
+        (
+            "top",
+            Vec3::new(-hx, -hy, h),
+            Vec3::X * size.x,
+            Vec3::Y * size.y,
+        ),
+        (
+            "front",
+            Vec3::new(-hx, -hy, 0.0),
+            Vec3::X * size.x,
+            Vec3::Z * h,
+        ),
+        (
+            "back",
+            Vec3::new(hx, hy, 0.0),
+            -Vec3::X * size.x,
+            Vec3::Z * h,
+        ),
+        (
+            "left",
+            Vec3::new(-hx, hy, 0.0),
+            -Vec3::Y * size.y,
+            Vec3::Z * h,
+        ),
+        (
+            "right",
+            Vec3::new(hx, -hy, 0.0),
+            Vec3::Y * size.y,
+            Vec3::Z * h,
+        ),
+    ];
+    let rotation = Mat3::from_rotation_z(angle_degrees.to_radians());
+    faces
+        .into_iter()
+        .map(|(name, origin, eu, ev)| {
+            let mesh =
+                Mesh::plane(origin, eu, ev, cells, 1.0).transformed(rotation, centre.extend(0.0));
+            (name.to_string(), mesh)
+        })
+        .collect()
+}
+
+/// The Cornell-like room: x in [−1, 1] (red at −1, green at +1), y in [−1, 1] (open at −1),
+/// floor at z = 0, walls 2 high, no ceiling.
+pub fn cornell_scene(dir: &Path) -> std::io::Result<()> {
+    std::fs::create_dir_all(dir)?;
+    let cells = 23; // 24 × 24 vertices per wall
+    let mut obj = ObjWriter::new(
+        "A Cornell-box-like room, open at the front (−y) and the top.\nGenerated by prt-scenes (gen-scenes); do not edit.",
+    );
+    obj.text.push_str("mtllib cornell.mtl\n");
+    let floor = Mesh::plane(
+        Vec3::new(-1.0, -1.0, 0.0),
+        Vec3::X * 2.0,
+        Vec3::Y * 2.0,
+        cells,
+        1.0,
+    );
+    let back = Mesh::plane(
+        Vec3::new(-1.0, 1.0, 0.0),
+        Vec3::X * 2.0,
+        Vec3::Z * 2.0,
+        cells,
+        1.0,
+    );
+    let left = Mesh::plane(
+        Vec3::new(-1.0, -1.0, 0.0),
+        Vec3::Y * 2.0,
+        Vec3::Z * 2.0,
+        cells,
+        1.0,
+    );
+    let right = Mesh::plane(
+        Vec3::new(1.0, 1.0, 0.0),
+        -Vec3::Y * 2.0,
+        Vec3::Z * 2.0,
+        cells,
+        1.0,
+    );
+    obj.object("floor", Some("white"), &floor);
+    obj.object("back_wall", Some("white"), &back);
+    obj.object("left_wall", Some("red"), &left);
+    obj.object("right_wall", Some("green"), &right);
+    for (name, mesh) in open_box(Vec2::new(0.35, -0.3), Vec3::new(0.6, 0.6, 0.6), -17.0, 7) {
+        obj.object(&format!("short_box_{name}"), Some("white"), &mesh);
+    }
+    for (name, mesh) in open_box(Vec2::new(-0.35, 0.35), Vec3::new(0.6, 0.6, 1.2), 17.0, 7) {
+        obj.object(&format!("tall_box_{name}"), Some("white"), &mesh);
+    }
+    std::fs::write(dir.join("cornell.obj"), obj.text)?;
+    std::fs::write(
+        dir.join("cornell.mtl"),
+        "# Reflectances of the original Cornell box.\n\
+         newmtl white\nKd 0.73 0.73 0.73\n\n\
+         newmtl red\nKd 0.63 0.065 0.05\n\n\
+         newmtl green\nKd 0.14 0.45 0.091\n",
+    )?;
+    std::fs::write(
+        dir.join("cornell.scene"),
+        "# A Cornell-box-like room with coloured walls and two boxes.\n\"cornell.obj\"\n",
+    )
+}
+
+/// Writes every demo scene under `dir`.
+pub fn write_all(dir: &Path) -> std::io::Result<()> {
+    torus_scene(&dir.join("torus"))?;
+    cornell_scene(&dir.join("cornell"))
+}
