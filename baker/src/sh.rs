@@ -214,6 +214,38 @@ pub fn eval_hardcoded(order: usize, d: Vec3, out: &mut [f32]) {
     out[15] = -0.590_043_6 * x * (xx - 3.0 * yy);
 }
 
+/// Gauss–Legendre quadrature on [−1, 1]: `n` nodes and weights, exact for polynomials of
+/// degree ≤ 2n−1. Used for exact projections of zonal functions and by the tests.
+pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
+    assert!(n >= 1, "gauss_legendre needs at least one node");
+    let mut nodes = vec![0.0; n];
+    let mut weights = vec![0.0; n];
+    for i in 0..n.div_ceil(2) {
+        // Newton's method on P_n from Tricomi's initial guess.
+        let mut x = (PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
+        let mut derivative = 0.0;
+        for _ in 0..100 {
+            // (p_prev, p) = (P_{n−1}(x), P_n(x)) by Bonnet's recurrence.
+            let (mut p_prev, mut p) = (1.0, x);
+            for k in 2..=n {
+                (p_prev, p) = (p, ((2 * k - 1) as f64 * x * p - (k - 1) as f64 * p_prev) / k as f64);
+            }
+            derivative = n as f64 * (x * p - p_prev) / (x * x - 1.0);
+            let step = p / derivative;
+            x -= step;
+            if step.abs() < 1e-16 {
+                break;
+            }
+        }
+        nodes[i] = -x;
+        nodes[n - 1 - i] = x;
+        let w = 2.0 / ((1.0 - x * x) * derivative * derivative);
+        weights[i] = w;
+        weights[n - 1 - i] = w;
+    }
+    (nodes, weights)
+}
+
 /// Rotates SH coefficient vectors by arbitrary rotations, band by band.
 ///
 /// Method: projection of the rotated basis. Each band's functions span a rotation-invariant
@@ -452,6 +484,55 @@ mod tests {
                     let got = expand(&basis, &rotated, d);
                     assert!((want - got).abs() < 1e-9, "order {order}: {want} vs {got}");
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn gauss_legendre_integrates_polynomials_exactly() {
+        let (x, w) = gauss_legendre(6);
+        assert!((w.iter().sum::<f64>() - 2.0).abs() < 1e-14);
+        // ∫ x^10 dx over [−1, 1] = 2/11, degree 10 ≤ 2·6 − 1.
+        let integral: f64 = x.iter().zip(&w).map(|(x, w)| w * x.powi(10)).sum();
+        assert!((integral - 2.0 / 11.0).abs() < 1e-14);
+    }
+
+    /// Orthonormality to 1e-6 up to order 10 by a quadrature exact for every product of two
+    /// basis functions of bands < 10: Gauss–Legendre in cos θ (degree ≤ 18 needs 10 nodes;
+    /// 12 are used) times the trapezoid rule in φ (exact for trigonometric degree < 24).
+    #[test]
+    fn basis_is_orthonormal_up_to_order_10() {
+        let order = 10;
+        let n = coeff_count(order);
+        let basis = Basis::new(order);
+        let (zs, ws) = gauss_legendre(12);
+        let phis = 24;
+        let mut gram = vec![0.0f64; n * n];
+        let mut y64 = vec![0.0; n];
+        let mut y32 = vec![0.0f32; n];
+        for (z, wz) in zs.iter().zip(&ws) {
+            for k in 0..phis {
+                let phi = 2.0 * PI * k as f64 / phis as f64;
+                let r = (1.0 - z * z).sqrt();
+                let d = DVec3::new(r * phi.cos(), r * phi.sin(), *z);
+                basis.eval_recurrence(d, &mut y64);
+                // Check the f32 entry point too: it is what bakes call.
+                basis.eval(d.as_vec3(), &mut y32);
+                for (a, b) in y64.iter().zip(&y32) {
+                    assert!((a - *b as f64).abs() < 1e-5);
+                }
+                let weight = wz * 2.0 * PI / phis as f64;
+                for i in 0..n {
+                    for j in 0..n {
+                        gram[i * n + j] += weight * y64[i] * y64[j];
+                    }
+                }
+            }
+        }
+        for i in 0..n {
+            for j in 0..n {
+                let expect = if i == j { 1.0 } else { 0.0 };
+                assert!((gram[i * n + j] - expect).abs() < 1e-6, "<y{i}, y{j}> = {}", gram[i * n + j]);
             }
         }
     }
