@@ -11,6 +11,7 @@ use prt_baker::{BakeOptions, CoefficientFile, Error, Mode, Scene, trace};
 
 /// Exit codes: 0 success, 1 failure (I/O, backend), 2 bad command line, 3 bad input files.
 const EXIT_FAILURE: u8 = 1;
+const EXIT_BAD_COMMAND_LINE: u8 = 2;
 const EXIT_BAD_INPUT: u8 = 3;
 
 #[derive(Parser)]
@@ -99,13 +100,18 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Bake(args) => bake(args),
         Command::Inspect { file } => inspect(&file),
-        Command::Export { file, scene, npz } => prt_baker::export::export_npz(&file, &scene, &npz),
+        Command::Export { file, scene, npz } => check_output_folder(&npz)
+            .and_then(|()| prt_baker::export::export_npz(&file, &scene, &npz)),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
             eprintln!("prt-bake: error: {err}");
-            ExitCode::from(if err.is_bad_input() {
+            // Option values clap accepts but the bake cannot honour (`--samples 0`) are a bad
+            // command line too.
+            ExitCode::from(if matches!(err, Error::InvalidOption(_)) {
+                EXIT_BAD_COMMAND_LINE
+            } else if err.is_bad_input() {
                 EXIT_BAD_INPUT
             } else {
                 EXIT_FAILURE

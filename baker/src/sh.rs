@@ -228,7 +228,10 @@ pub fn gauss_legendre(n: usize) -> (Vec<f64>, Vec<f64>) {
             // (p_prev, p) = (P_{n−1}(x), P_n(x)) by Bonnet's recurrence.
             let (mut p_prev, mut p) = (1.0, x);
             for k in 2..=n {
-                (p_prev, p) = (p, ((2 * k - 1) as f64 * x * p - (k - 1) as f64 * p_prev) / k as f64);
+                (p_prev, p) = (
+                    p,
+                    ((2 * k - 1) as f64 * x * p - (k - 1) as f64 * p_prev) / k as f64,
+                );
             }
             derivative = n as f64 * (x * p - p_prev) / (x * x - 1.0);
             let step = p / derivative;
@@ -532,7 +535,11 @@ mod tests {
         for i in 0..n {
             for j in 0..n {
                 let expect = if i == j { 1.0 } else { 0.0 };
-                assert!((gram[i * n + j] - expect).abs() < 1e-6, "<y{i}, y{j}> = {}", gram[i * n + j]);
+                assert!(
+                    (gram[i * n + j] - expect).abs() < 1e-6,
+                    "<y{i}, y{j}> = {}",
+                    gram[i * n + j]
+                );
             }
         }
     }

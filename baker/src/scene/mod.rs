@@ -108,7 +108,15 @@ impl Scene {
                 }
                 None => None,
             };
-            let loaded = obj::load(&entry.obj, override_texture)?;
+            // An object that cannot be read is reported at the scene-file line that names it, as a
+            // missing texture or material library is.
+            let loaded = obj::load(&entry.obj, override_texture).map_err(|err| match err {
+                Error::Io { path: obj, source } if obj == entry.obj => Error::scene(
+                    Location::line(path, entry.line),
+                    format!("cannot read object {}: {source}", obj.display()),
+                ),
+                other => other,
+            })?;
             let offset = textures.len();
             textures.extend(loaded.textures);
             meshes.extend(loaded.meshes.into_iter().map(|mut mesh| {

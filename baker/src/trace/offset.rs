@@ -6,41 +6,76 @@
 //! the vertex, so the origin is above all of them), by
 //!
 //! ```text
-//!     δ(p) = max( 2^-16 · R,  16 · ulp(‖p‖∞) )
+//!     δ(p) = max( 8 · ulp(‖p‖∞),  2^-20 · e(p) )
 //! ```
 //!
-//! R is half the diagonal of the scene's bounding box: intersection round-off grows with the
-//! size of the coordinates involved, and 2^-16 ≈ 1.5e-5 leaves a margin of about two orders
-//! of magnitude over single-precision round-off at that scale. The second term covers scenes
-//! placed far from the origin, where the spacing of representable coordinates, not the
-//! scene's size, limits precision. Both terms scale with the scene: nothing here is an
-//! absolute epsilon, so scenes a millimetre or a thousand kilometres across behave the same
-//! (tested at 1e-4 and 1e5 units, and translated by 1e4).
+//! where e(p) is the longest edge of the triangles around the vertex. Those triangles are the
+//! only ones rounding can make the ray hit: the error of a ray–triangle test grows with how
+//! coarsely floats are spaced at the vertex's position (the first term) and with the size of
+//! the triangles involved (the second). Both terms are local: nothing here is an absolute
+//! epsilon, nor tied to the size of the whole scene — a floor point beside a 2,000-unit wall
+//! must stay at the wall's foot, not be lifted by a thousandth of the scene (a bug the wall
+//! oracle caught, pinned by `tests/ray_offset.rs`). The constants are margins over measured
+//! failure: convex spheres and flat grids at scales 1e-4 to 1e5 and up to 2e6 from the origin
+//! stop seeing themselves at 1 ulp and at 2^-24·e, so 8 ulp and 2^-20·e leave 8× and 16×.
 //!
 //! A ray that genuinely hits a neighbouring triangle (in a concave corner, grazing a rising
-//! face) still does: the offset is far below any real feature size.
+//! face) still does: the offset is far below any feature the mesh resolves.
+//!
+//! # Vertices on another surface
+//!
+//! Where meshes meet edge to edge (a floor against a wall, both modelled separately), a floor
+//! vertex lies *on* the wall's plane, and its rays towards the wall would start exactly on it:
+//! hits at t = 0 are not reported, so the corner would be fully lit. The origin is therefore
+//! also nudged along the tangent plane towards the centroid c̄ of its adjacent triangles, by
+//! δ·|c̄ − p|_tangent / e(p). On the boundary of a mesh that is about δ/3 into the mesh's own
+//! side; for interior vertices c̄ ≈ p and the nudge vanishes.
 
 use glam::Vec3;
 
 use crate::scene::{Scene, angle_weighted_normals};
 
-/// The offset δ(p) for a point of a scene whose bounding-box half-diagonal is `half_diagonal`.
-pub fn offset_distance(p: Vec3, half_diagonal: f32) -> f32 {
+/// The offset δ(p) for a vertex at `p` whose adjacent triangles' longest edge is
+/// `longest_edge`.
+pub fn offset_distance(p: Vec3, longest_edge: f32) -> f32 {
     let magnitude = p.abs().max_element();
     let ulp = f32::from_bits(magnitude.to_bits() + 1) - magnitude;
-    (half_diagonal * (1.0 / 65536.0)).max(16.0 * ulp)
+    (longest_edge * (1.0 / 1_048_576.0)).max(8.0 * ulp)
 }
 
-/// The origin of every ray cast from each vertex: the vertex moved by δ along n_g.
+/// The origin of every ray cast from each vertex: the vertex moved by δ along n_g, and on
+/// mesh boundaries nudged into its own triangles.
 pub fn ray_origins(scene: &Scene) -> Vec<Vec3> {
-    let (lo, hi) = scene.bounds();
-    let half_diagonal = 0.5 * (hi - lo).length();
+    let count = scene.vertex_count();
+    let mut longest_edge = vec![0.0f32; count];
+    let mut centroid_sum = vec![Vec3::ZERO; count];
+    let mut adjacent = vec![0u32; count];
+    for t in &scene.triangles {
+        let p = t.map(|i| scene.positions[i as usize]);
+        let longest = p[0]
+            .distance(p[1])
+            .max(p[1].distance(p[2]))
+            .max(p[2].distance(p[0]));
+        let centroid = (p[0] + p[1] + p[2]) / 3.0;
+        for &i in t {
+            let i = i as usize;
+            longest_edge[i] = longest_edge[i].max(longest);
+            centroid_sum[i] += centroid;
+            adjacent[i] += 1;
+        }
+    }
     let geometric = angle_weighted_normals(&scene.positions, &scene.triangles, false);
-    scene
-        .positions
-        .iter()
-        .zip(&geometric)
-        .map(|(&p, &n)| p + n * offset_distance(p, half_diagonal))
+    (0..count)
+        .map(|v| {
+            let (p, n, edge) = (scene.positions[v], geometric[v], longest_edge[v]);
+            if adjacent[v] == 0 || edge == 0.0 {
+                return p;
+            }
+            let delta = offset_distance(p, edge);
+            let towards = centroid_sum[v] / adjacent[v] as f32 - p;
+            let tangential = towards - n * towards.dot(n);
+            p + n * delta + tangential * (delta / edge)
+        })
         .collect()
 }
 
@@ -49,11 +84,12 @@ mod tests {
     use super::*;
 
     #[test]
-    fn offset_scales_with_the_scene_and_with_distance_from_the_origin() {
-        assert_eq!(offset_distance(Vec3::ZERO, 1.0), 1.0 / 65536.0);
-        assert_eq!(offset_distance(Vec3::ZERO, 1e-4), 1e-4 / 65536.0);
-        // A 10-unit scene 1e4 away: the spacing of floats near 1e4 (≈ 1e-3) dominates.
-        let far = offset_distance(Vec3::new(1e4, 0.0, 0.0), 10.0);
-        assert!(far > 1e-2 && far < 2e-2, "{far}");
+    fn offset_scales_with_the_local_triangles_and_with_distance_from_the_origin() {
+        assert_eq!(offset_distance(Vec3::ZERO, 1.0), 1.0 / 1_048_576.0);
+        assert_eq!(offset_distance(Vec3::ZERO, 1e-4), 1e-4 / 1_048_576.0);
+        assert_eq!(offset_distance(Vec3::splat(0.5), 1.0), 1.0 / 1_048_576.0);
+        // Unit triangles 1e4 from the origin: floats there are spaced 2^-10 apart.
+        let far = offset_distance(Vec3::new(1e4, 0.0, 0.0), 1.0);
+        assert_eq!(far, 8.0 / 1024.0);
     }
 }

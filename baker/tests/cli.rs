@@ -1,0 +1,666 @@
+//! End-to-end tests of the `prt-bake` binary: every test runs the real executable on files it
+//! writes into a scratch folder and checks what a user would see — the exit code, the error
+//! message (which must name the file, and the line as `path:LINE` where there is one), and the
+//! files left behind.
+//!
+//! Bad input files must exit with 3 (bad option values with 2), print one `prt-bake: error: …`
+//! line and leave no output file, not even the writer's hidden `.NAME.tmp-PID` file. Each test
+//! writes its outputs into an `out/` folder of its own scratch folder, so "nothing left behind"
+//! is "`out/` holds exactly the expected names".
+//!
+//! The commands run inside the scratch folder with relative paths, so messages can be checked
+//! exactly (`bad.obj:2: …`).
+
+use std::collections::BTreeSet;
+use std::io::Read;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use prt_baker::{CoefficientFile, Scene};
+use tempfile::TempDir;
+
+const CORNELL: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../scenes/cornell/cornell.scene"
+);
+
+/// Exit codes of `prt-bake` (see `main.rs`).
+const EXIT_BAD_COMMAND_LINE: i32 = 2;
+const EXIT_BAD_INPUT: i32 = 3;
+
+/// One triangle: 3 vertices.
+const TRIANGLE: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+
+/// The same triangle, one corner moved: still 3 vertices, different geometry.
+const MOVED_TRIANGLE: &str = "v 0 0 0\nv 2 0 0\nv 0 1 0\nf 1 2 3\n";
+
+/// A floor quad (4 vertices, each at the centre of one texel of a 2×2 texture) and a triangle
+/// above it that shadows it (3 vertices): 7 vertices, small enough to bake in milliseconds.
+const FLOOR_AND_OCCLUDER: &str = "\
+o floor
+v -1 0 -1
+v 1 0 -1
+v 1 0 1
+v -1 0 1
+vt 0.25 0.25
+vt 0.75 0.25
+vt 0.75 0.75
+vt 0.25 0.75
+vn 0 1 0
+f 1/1/1 4/4/1 3/3/1 2/2/1
+o occluder
+v -0.5 0.5 -0.5
+v -0.5 0.5 0.5
+v 0.5 0.5 0
+f 5 6 7
+";
+const FLOOR_AND_OCCLUDER_VERTICES: usize = 7;
+
+/// A scratch folder for one test: inputs at its root, outputs under `out/`.
+struct Scratch {
+    dir: TempDir,
+}
+
+impl Scratch {
+    fn new() -> Scratch {
+        let dir = tempfile::tempdir().expect("create a scratch folder");
+        std::fs::create_dir(dir.path().join("out")).expect("create out/");
+        Scratch { dir }
+    }
+
+    fn path(&self, name: &str) -> PathBuf {
+        self.dir.path().join(name)
+    }
+
+    fn write(&self, name: &str, contents: impl AsRef<[u8]>) {
+        std::fs::write(self.path(name), contents).expect("write a scratch file");
+    }
+
+    fn read(&self, name: &str) -> Vec<u8> {
+        std::fs::read(self.path(name)).unwrap_or_else(|err| panic!("read {name}: {err}"))
+    }
+
+    /// Runs `prt-bake` with `args` inside the scratch folder.
+    fn run(&self, args: &[&str]) -> Run {
+        let output = Command::new(env!("CARGO_BIN_EXE_prt-bake"))
+            .args(args)
+            .current_dir(self.dir.path())
+            .output()
+            .expect("start prt-bake");
+        Run {
+            args: args.join(" "),
+            code: output.status.code(),
+            stdout: String::from_utf8(output.stdout).expect("stdout is UTF-8"),
+            stderr: String::from_utf8(output.stderr).expect("stderr is UTF-8"),
+        }
+    }
+
+    /// Bakes a scene quietly into `out/NAME` (with 64 samples unless `extra` sets `--samples`)
+    /// and checks it succeeded.
+    fn bake(&self, scene: &str, output: &str, extra: &[&str]) -> Run {
+        let output = format!("out/{output}");
+        let mut args = vec!["bake", scene, "-o", &output, "--quiet"];
+        args.extend(extra);
+        if !extra.contains(&"--samples") {
+            args.extend(["--samples", "64"]);
+        }
+        self.run(&args).success()
+    }
+
+    /// Asserts that `out/` holds exactly `names`: no partial output, no temporary file.
+    fn assert_out_holds(&self, names: &[&str]) {
+        assert_folder_holds(&self.path("out"), names);
+    }
+}
+
+fn assert_folder_holds(folder: &Path, names: &[&str]) {
+    let found: BTreeSet<String> = std::fs::read_dir(folder)
+        .expect("list the folder")
+        .map(|entry| entry.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    let expected: BTreeSet<String> = names.iter().map(|n| n.to_string()).collect();
+    assert_eq!(
+        found,
+        expected,
+        "unexpected contents of {}",
+        folder.display()
+    );
+}
+
+/// What one run of `prt-bake` did.
+struct Run {
+    args: String,
+    code: Option<i32>,
+    stdout: String,
+    stderr: String,
+}
+
+impl Run {
+    fn success(self) -> Run {
+        assert_eq!(
+            self.code,
+            Some(0),
+            "prt-bake {} failed:\n{}",
+            self.args,
+            self.stderr
+        );
+        self
+    }
+
+    /// Asserts exit code `code`, nothing on stdout, and a single error line that contains every
+    /// one of `needles`.
+    fn fails_with(&self, code: i32, needles: &[&str]) {
+        assert_eq!(
+            self.code,
+            Some(code),
+            "prt-bake {}: exit code; stderr:\n{}",
+            self.args,
+            self.stderr
+        );
+        assert_eq!(self.stdout, "", "prt-bake {}: stdout", self.args);
+        assert!(
+            self.stderr.starts_with("prt-bake: error: ") && self.stderr.lines().count() == 1,
+            "prt-bake {}: expected one error line, got:\n{}",
+            self.args,
+            self.stderr
+        );
+        for needle in needles {
+            assert!(
+                self.stderr.contains(needle),
+                "prt-bake {}: error message lacks {needle:?}:\n{}",
+                self.args,
+                self.stderr
+            );
+        }
+    }
+
+    fn fails_with_bad_input(&self, needles: &[&str]) {
+        self.fails_with(EXIT_BAD_INPUT, needles);
+    }
+}
+
+/// A 2×2 uncompressed true-colour TGA.
+fn tga_2x2() -> Vec<u8> {
+    let mut bytes = vec![0, 0, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0, 2, 0, 2, 0, 24, 0x20];
+    // BGR: red, green / blue, white.
+    bytes.extend([0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 255, 255]);
+    bytes
+}
+
+// ---------------------------------------------------------------------------------------------
+// Bad scene input
+
+#[test]
+fn missing_scene_file_is_named() {
+    let s = Scratch::new();
+    s.run(&["bake", "nothere.scene", "-o", "out/x.prt"])
+        .fails_with_bad_input(&["nothere.scene: ", "No such file"]);
+    s.assert_out_holds(&[]);
+}
+
+#[test]
+fn missing_object_in_scene_file_names_the_scene_line() {
+    let s = Scratch::new();
+    s.write("a.scene", "# objects\n\n\"nothere.obj\"\n");
+    s.run(&["bake", "a.scene", "-o", "out/x.prt"])
+        .fails_with_bad_input(&["a.scene:3: ", "cannot read object nothere.obj"]);
+    s.assert_out_holds(&[]);
+}
+
+#[test]
+fn malformed_obj_vertex_names_the_line() {
+    let s = Scratch::new();
+    s.write("bad.obj", "v 0 0 0\nv 1 zero 0\nv 0 1 0\nf 1 2 3\n");
+    s.run(&["bake", "bad.obj", "-o", "out/x.prt"])
+        .fails_with_bad_input(&["bad.obj:2: ", "malformed vertex position"]);
+    s.assert_out_holds(&[]);
+}
+
+#[test]
+fn face_index_out_of_range_names_the_line() {
+    let s = Scratch::new();
+    s.write("bad.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n# comment\nf 1 2 4\n");
+    s.run(&["bake", "bad.obj", "-o", "out/x.prt"])
+        .fails_with_bad_input(&["bad.obj:5: ", "face index out of range"]);
+    s.assert_out_holds(&[]);
+}
+
+#[test]
+fn nan_coordinate_names_the_line() {
+    let s = Scratch::new();
+    s.write("bad.obj", "v 0 0 0\nv 1 0 0\nv nan 0 0\nf 1 2 3\n");
+    s.run(&["bake", "bad.obj", "-o", "out/x.prt"])
+        .fails_with_bad_input(&["bad.obj:3: ", "non-finite number", "v nan 0 0"]);
+    s.assert_out_holds(&[]);
+}
+
+#[test]
+fn mesh_without_faces_is_refused() {
+    let s = Scratch::new();
+    s.write("empty.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n");
+    s.run(&["bake", "empty.obj", "-o", "out/x.prt"])
+        .fails_with_bad_input(&["empty.obj: ", "no faces"]);
+    s.assert_out_holds(&[]);
+}
+
+#[test]
+fn unbalanced_quote_in_scene_file_names_the_line() {
+    let s = Scratch::new();
+    s.write("tri.obj", TRIANGLE);
+    s.write("a.scene", "# comment\n\"tri.obj\"\n\"tri.obj\n");
+    s.run(&["bake", "a.scene", "-o", "out/x.prt"])
+        .fails_with_bad_input(&["a.scene:3: ", "unbalanced quote"]);
+    s.assert_out_holds(&[]);
+}
+
+#[test]
+fn missing_texture_in_scene_file_names_the_scene_line() {
+    let s = Scratch::new();
+    s.write("tri.obj", TRIANGLE);
+    s.write("a.scene", "# comment\n\"tri.obj\" \"nothere.tga\"\n");
+    s.run(&["bake", "a.scene", "-o", "out/x.prt"])
+        .fails_with_bad_input(&["a.scene:2: ", "texture nothere.tga does not exist"]);
+    s.assert_out_holds(&[]);
+}
+
+#[test]
+fn missing_map_kd_texture_names_the_mtl_line() {
+    let s = Scratch::new();
+    s.write(
+        "a.obj",
+        "mtllib a.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl red\nf 1 2 3\n",
+    );
+    s.write(
+        "a.mtl",
+        "# materials\nnewmtl red\nKd 1 0 0\nmap_Kd nothere.tga\n",
+    );
+    s.run(&["bake", "a.obj", "-o", "out/x.prt"])
+        .fails_with_bad_input(&["a.mtl:4: ", "texture nothere.tga does not exist"]);
+    s.assert_out_holds(&[]);
+}
+
+#[test]
+fn missing_mtl_file_names_the_mtllib_line() {
+    let s = Scratch::new();
+    s.write(
+        "a.obj",
+        "# header\nmtllib nothere.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    );
+    s.run(&["bake", "a.obj", "-o", "out/x.prt"])
+        .fails_with_bad_input(&["a.obj:2: ", "cannot read material library nothere.mtl"]);
+    s.assert_out_holds(&[]);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Bad coefficient files
+
+#[test]
+fn truncated_coefficient_file_is_refused_by_inspect_and_export() {
+    let s = Scratch::new();
+    s.write("tri.obj", TRIANGLE);
+    s.bake("tri.obj", "tri.prt", &[]);
+    let bytes = s.read("out/tri.prt");
+    // Cut inside the coefficients, and inside the header.
+    s.write("short.prt", &bytes[..bytes.len() - 4]);
+    s.write("stub.prt", &bytes[..100]);
+    s.write("empty.prt", b"");
+    for (file, problem) in [
+        ("short.prt", "truncated: the header announces"),
+        ("stub.prt", "truncated: 100 bytes"),
+        ("empty.prt", "not a PRT coefficient file"),
+    ] {
+        s.run(&["inspect", file])
+            .fails_with_bad_input(&[&format!("{file}: {problem}")]);
+        s.run(&["export", file, "--scene", "tri.obj", "--npz", "out/x.npz"])
+            .fails_with_bad_input(&[&format!("{file}: {problem}")]);
+    }
+    s.assert_out_holds(&["tri.prt"]);
+}
+
+#[test]
+fn flipped_byte_in_coefficients_or_header_fails_the_checksum() {
+    let s = Scratch::new();
+    s.write("tri.obj", TRIANGLE);
+    s.bake("tri.obj", "tri.prt", &[]);
+    let bytes = s.read("out/tri.prt");
+    let flipped = |offset: usize| {
+        let mut copy = bytes.clone();
+        copy[offset] ^= 0x04;
+        copy
+    };
+    // A byte of the first coefficient's mantissa; the seed field of the header.
+    s.write(
+        "data.prt",
+        flipped(prt_baker::coefficient_file::HEADER_SIZE + 1),
+    );
+    s.write("header.prt", flipped(48));
+    for file in ["data.prt", "header.prt"] {
+        let needles = [&format!("{file}: checksum mismatch")[..], "corrupted"];
+        s.run(&["inspect", file]).fails_with_bad_input(&needles);
+        s.run(&["export", file, "--scene", "tri.obj", "--npz", "out/x.npz"])
+            .fails_with_bad_input(&needles);
+    }
+    s.assert_out_holds(&["tri.prt"]);
+}
+
+#[test]
+fn export_refuses_a_file_baked_for_a_scene_with_another_vertex_count() {
+    let s = Scratch::new();
+    s.write("tri.obj", TRIANGLE);
+    s.write("scene.obj", FLOOR_AND_OCCLUDER);
+    s.bake("tri.obj", "tri.prt", &[]);
+    s.run(&[
+        "export",
+        "out/tri.prt",
+        "--scene",
+        "scene.obj",
+        "--npz",
+        "out/x.npz",
+    ])
+    .fails_with_bad_input(&[
+        "out/tri.prt: ",
+        "baked for a scene with 3 vertices, but scene.obj has 7",
+    ]);
+    s.assert_out_holds(&["tri.prt"]);
+}
+
+#[test]
+fn export_refuses_a_file_baked_for_moved_geometry_by_fingerprint() {
+    let s = Scratch::new();
+    s.write("tri.obj", TRIANGLE);
+    s.write("moved.obj", MOVED_TRIANGLE);
+    s.bake("tri.obj", "tri.prt", &[]);
+    s.run(&[
+        "export",
+        "out/tri.prt",
+        "--scene",
+        "moved.obj",
+        "--npz",
+        "out/x.npz",
+    ])
+    .fails_with_bad_input(&["out/tri.prt: ", "baked for another scene: fingerprint"]);
+    s.assert_out_holds(&["tri.prt"]);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Outputs
+
+#[test]
+fn failed_bake_leaves_the_existing_output_untouched() {
+    let s = Scratch::new();
+    s.write("tri.obj", TRIANGLE);
+    s.write("bad.obj", "v 0 0 0\nv 1 zero 0\nv 0 1 0\nf 1 2 3\n");
+    s.bake("tri.obj", "x.prt", &[]);
+    let before = s.read("out/x.prt");
+    s.run(&["bake", "bad.obj", "-o", "out/x.prt", "--samples", "64"])
+        .fails_with_bad_input(&["bad.obj:2: "]);
+    assert_eq!(s.read("out/x.prt"), before, "the old output was changed");
+    s.assert_out_holds(&["x.prt"]);
+}
+
+#[test]
+fn missing_output_folder_is_reported_before_baking() {
+    let s = Scratch::new();
+    // A scene that would take a while to load and bake: the check must come first.
+    s.run(&["bake", CORNELL, "-o", "nothere/x.prt", "--samples", "256"])
+        .fails_with_bad_input(&["nothere/x.prt: ", "folder nothere does not exist"]);
+    // Even before the scene is read.
+    s.run(&["bake", "nothere.obj", "-o", "nothere/x.prt"])
+        .fails_with_bad_input(&["folder nothere does not exist"]);
+    s.write("tri.obj", TRIANGLE);
+    s.bake("tri.obj", "tri.prt", &[]);
+    s.run(&[
+        "export",
+        "out/tri.prt",
+        "--scene",
+        "tri.obj",
+        "--npz",
+        "nothere/x.npz",
+    ])
+    .fails_with_bad_input(&["nothere/x.npz: ", "folder nothere does not exist"]);
+    assert!(!s.path("nothere").exists());
+    s.assert_out_holds(&["tri.prt"]);
+}
+
+#[test]
+fn bake_is_deterministic_across_thread_counts_and_depends_on_the_seed() {
+    let s = Scratch::new();
+    let bake = |output: &str, threads: &str, seed: &str| {
+        s.bake(
+            CORNELL,
+            output,
+            &["--samples", "256", "--threads", threads, "--seed", seed],
+        );
+        s.read(&format!("out/{output}"))
+    };
+    let one = bake("one.prt", "1", "5");
+    let two = bake("two.prt", "2", "5");
+    let other_seed = bake("other.prt", "2", "6");
+    assert!(
+        one == two,
+        "--threads 1 and --threads 2 gave different files"
+    );
+    let header = prt_baker::coefficient_file::HEADER_SIZE;
+    assert_eq!(one.len(), other_seed.len());
+    assert!(
+        one[header..] != other_seed[header..],
+        "another seed gave the same coefficients"
+    );
+    s.assert_out_holds(&["one.prt", "two.prt", "other.prt"]);
+}
+
+#[test]
+fn inspect_prints_the_header_as_json() {
+    let s = Scratch::new();
+    s.write("scene.obj", FLOOR_AND_OCCLUDER);
+    let fingerprint = Scene::load(&s.path("scene.obj")).unwrap().fingerprint();
+    s.bake(
+        "scene.obj",
+        "shadowed.prt",
+        &["--order", "3", "--seed", "42"],
+    );
+    s.bake(
+        "scene.obj",
+        "unshadowed.prt",
+        &["--mode", "unshadowed", "--sampling", "thesis-random"],
+    );
+
+    let inspect = |file: &str| -> serde_json::Value {
+        let run = s.run(&["inspect", file]).success();
+        assert_eq!(run.stderr, "");
+        serde_json::from_str(&run.stdout).expect("inspect prints JSON")
+    };
+    let shadowed = inspect("out/shadowed.prt");
+    let expected = serde_json::json!({
+        "version": 1,
+        "order": 3,
+        "channels": 1,
+        "vertex_count": FLOOR_AND_OCCLUDER_VERTICES,
+        "samples_per_vertex": 64,
+        "mode": "shadowed",
+        "bounces": 0,
+        "backend": "embree",
+        "sampling": "owen-sobol",
+        "seed": 42,
+        "scene_fingerprint": format!("{fingerprint:016x}"),
+        "aux_flags": 0,
+        "checksum": shadowed["checksum"],
+    });
+    assert_eq!(shadowed, expected);
+    let checksum = shadowed["checksum"].as_str().expect("checksum is a string");
+    assert!(checksum.len() == 8 && checksum.chars().all(|c| c.is_ascii_hexdigit()));
+
+    let unshadowed = inspect("out/unshadowed.prt");
+    assert_eq!(unshadowed["order"], 4);
+    assert_eq!(unshadowed["mode"], "unshadowed");
+    assert_eq!(unshadowed["backend"], "none");
+    assert_eq!(unshadowed["sampling"], "thesis-random");
+    assert_eq!(unshadowed["seed"], 0);
+    assert_eq!(
+        unshadowed["scene_fingerprint"],
+        expected["scene_fingerprint"]
+    );
+}
+
+/// One float32 array read back from a `.npy` file.
+struct Npy {
+    shape: Vec<usize>,
+    data: Vec<f32>,
+}
+
+/// Parses an `.npy` (format 1.0) holding a little-endian float32 C-order array.
+fn parse_npy(bytes: &[u8]) -> Npy {
+    assert_eq!(&bytes[..8], b"\x93NUMPY\x01\x00", "npy magic and version");
+    let header_len = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
+    assert_eq!((10 + header_len) % 64, 0, "npy header is not padded to 64");
+    let header = std::str::from_utf8(&bytes[10..10 + header_len]).unwrap();
+    assert!(header.ends_with('\n'));
+    assert!(header.contains("'descr': '<f4'"), "{header}");
+    assert!(header.contains("'fortran_order': False"), "{header}");
+    let shape = header
+        .split("'shape': (")
+        .nth(1)
+        .and_then(|rest| rest.split(')').next())
+        .unwrap_or_else(|| panic!("no shape in {header}"));
+    let shape: Vec<usize> = shape
+        .split(',')
+        .map(str::trim)
+        .filter(|d| !d.is_empty())
+        .map(|d| d.parse().unwrap())
+        .collect();
+    let data: Vec<f32> = bytes[10 + header_len..]
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
+        .collect();
+    assert_eq!(data.len(), shape.iter().product::<usize>(), "npy data size");
+    Npy { shape, data }
+}
+
+fn flat(values: &[glam::Vec3]) -> Vec<f32> {
+    values.iter().flat_map(|v| v.to_array()).collect()
+}
+
+/// Compares floats bit for bit (so -0.0 ≠ 0.0 and any rounding shows).
+fn assert_bits_eq(name: &str, found: &[f32], expected: &[f32]) {
+    let bits = |x: &[f32]| x.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(found), bits(expected), "{name} differs");
+}
+
+#[test]
+fn export_writes_npz_arrays_equal_to_the_scene_and_coefficients() {
+    let s = Scratch::new();
+    s.write("scene.obj", FLOOR_AND_OCCLUDER);
+    s.write("checker.tga", tga_2x2());
+    s.write("a.scene", "\"scene.obj\" \"checker.tga\"\n");
+    s.bake("a.scene", "a.prt", &[]);
+    let run = s
+        .run(&[
+            "export",
+            "out/a.prt",
+            "--scene",
+            "a.scene",
+            "--npz",
+            "out/a.npz",
+        ])
+        .success();
+    assert_eq!(run.stdout, "");
+    assert_eq!(run.stderr, "");
+    s.assert_out_holds(&["a.prt", "a.npz"]);
+
+    let scene = Scene::load(&s.path("a.scene")).unwrap();
+    let coefficients = CoefficientFile::read(&s.path("out/a.prt")).unwrap();
+    let v = FLOOR_AND_OCCLUDER_VERTICES;
+    assert_eq!(scene.vertex_count(), v);
+
+    let file = std::fs::File::open(s.path("out/a.npz")).unwrap();
+    let mut zip = zip::ZipArchive::new(file).expect("the .npz is a zip archive");
+    let mut names: Vec<String> = zip
+        .file_names()
+        .map(|name| name.unwrap().into_owned())
+        .collect();
+    names.sort_unstable();
+    assert_eq!(
+        names,
+        ["albedo.npy", "normals.npy", "positions.npy", "transfer.npy"]
+    );
+    let mut array = |name: &str| {
+        let mut bytes = Vec::new();
+        zip.by_name(name).unwrap().read_to_end(&mut bytes).unwrap();
+        parse_npy(&bytes)
+    };
+
+    let positions = array("positions.npy");
+    assert_eq!(positions.shape, [v, 3]);
+    assert_bits_eq("positions", &positions.data, &flat(&scene.positions));
+    let normals = array("normals.npy");
+    assert_eq!(normals.shape, [v, 3]);
+    assert_bits_eq("normals", &normals.data, &flat(&scene.normals));
+    let albedo = array("albedo.npy");
+    assert_eq!(albedo.shape, [v, 3]);
+    assert_bits_eq("albedo", &albedo.data, &flat(&scene.vertex_albedo()));
+    // The texture reached the albedo: each floor corner sits on one texel (sRGB 255 decodes to
+    // exactly 1). Vertices come in order of first use by the faces (v1 v4 v3 v2); v runs up
+    // from the image's bottom row (blue, white) to its top row (red, green).
+    let corners: Vec<[f32; 3]> = albedo.data[..12]
+        .chunks_exact(3)
+        .map(|c| [c[0], c[1], c[2]])
+        .collect();
+    assert_eq!(
+        corners,
+        [
+            [0.0, 0.0, 1.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [1.0, 1.0, 1.0]
+        ]
+    );
+    let transfer = array("transfer.npy");
+    assert_eq!(transfer.shape, [v, 1, 16]);
+    assert_bits_eq("transfer", &transfer.data, &coefficients.coefficients);
+    assert!(transfer.data.iter().any(|&c| c != 0.0));
+}
+
+#[test]
+fn bake_summary_names_vertices_rays_rate_and_time() {
+    let s = Scratch::new();
+    s.write("scene.obj", FLOOR_AND_OCCLUDER);
+    let run = s.bake("scene.obj", "a.prt", &[]);
+    assert_eq!(run.stderr, "", "--quiet printed on stderr");
+    let line = run
+        .stdout
+        .strip_suffix('\n')
+        .expect("the summary ends with a newline");
+    assert!(!line.contains('\n'), "more than one line:\n{}", run.stdout);
+
+    let rays = FLOOR_AND_OCCLUDER_VERTICES * 64;
+    let prefix = format!("baked {FLOOR_AND_OCCLUDER_VERTICES} vertices, {rays} rays, ");
+    let rest = line
+        .strip_prefix(&prefix)
+        .unwrap_or_else(|| panic!("summary {line:?} does not start with {prefix:?}"));
+    let (rate, rest) = rest.split_once(" Mrays/s, ").expect("Mrays/s");
+    let (seconds, rest) = rest.split_once(" s (").expect("seconds");
+    for number in [rate, seconds] {
+        let value: f64 = number.parse().unwrap();
+        assert!(value.is_finite() && value >= 0.0, "{line}");
+    }
+    assert_eq!(
+        rest, "order 4, shadowed, 64 samples, embree) -> out/a.prt",
+        "{line}"
+    );
+}
+
+#[test]
+fn bad_option_values_are_refused_before_anything_is_written() {
+    let s = Scratch::new();
+    s.write("tri.obj", TRIANGLE);
+    for (option, value, message) in [
+        ("--samples", "0", "--samples must be at least 1"),
+        ("--order", "0", "SH order 0 is outside 1..="),
+        ("--order", "1000", "SH order 1000 is outside 1..="),
+        ("--threads", "0", "--threads must be at least 1"),
+    ] {
+        s.run(&["bake", "tri.obj", "-o", "out/x.prt", option, value])
+            .fails_with(EXIT_BAD_COMMAND_LINE, &[message]);
+    }
+    s.assert_out_holds(&[]);
+}

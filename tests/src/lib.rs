@@ -1,0 +1,315 @@
+//! Fixtures for the cross-crate tests: analytic geometry, the closed-form oracles of
+//! `../shared/docs/oracles.md`, and the rule that turns a Monte Carlo standard error into a
+//! tolerance.
+//!
+//! # Tolerances
+//!
+//! A coefficient estimated from N samples whose per-sample values have variance σ² is
+//! compared with its exact value under
+//!
+//! ```text
+//!     |estimate − exact| ≤ Z · sqrt(e · σ² / N) + FLOAT_SLACK
+//! ```
+//!
+//! * σ² is computed exactly for each oracle (by quadrature over the visible region), never
+//!   estimated from the run under test;
+//! * the factor e ≈ 2.72 is Owen's (1997) bound on the variance of a scrambled (0,m,2)-net in
+//!   base 2 relative to independent samples (N is a power of two in every test);
+//! * Z = [`Z`] standard errors; the seed is fixed, so a passing test stays passing;
+//! * [`FLOAT_SLACK`] covers f32 storage and accumulation.
+
+use glam::{DVec3, Vec2, Vec3};
+use prt_baker::sampling::Frame;
+use prt_baker::scene::{Material, Mesh, Scene};
+use prt_baker::sh;
+use prt_baker::trace::{EmbreeOptions, EmbreeTracer};
+use prt_baker::transfer::{Estimator, Scratch};
+use prt_baker::{BakeOptions, Mode};
+
+/// Standard errors allowed.
+pub const Z: f64 = 5.0;
+/// Absolute slack for f32 storage and summation of coefficients of size ≲ 1.
+pub const FLOAT_SLACK: f64 = 2e-6;
+/// Owen's variance bound for scrambled (0,m,2)-nets in base 2.
+pub const NET_VARIANCE_FACTOR: f64 = std::f64::consts::E;
+
+/// The tolerance for an estimate from `samples` samples of per-sample variance `variance`.
+pub fn tolerance(variance: f64, samples: u32) -> f64 {
+    Z * (NET_VARIANCE_FACTOR * variance.max(0.0) / f64::from(samples)).sqrt() + FLOAT_SLACK
+}
+
+// ---------------------------------------------------------------------------------------------
+// Oracles
+
+/// Exact moments of the transfer estimator's per-sample values over a region of directions.
+///
+/// With cosine-weighted sampling around the normal, a sample's value for coefficient j is
+/// V(s)·y_j(s). Over the region {s : t_lo ≤ n·s ≤ t_hi} (V = 1 inside, 0 outside):
+/// `mean[j]` = (1/π) ∫ y_j (n·s) ds = the exact transfer coefficient, and `second[j]` =
+/// (1/π) ∫ y_j² (n·s) ds, so the per-sample variance is `second − mean²`.
+pub struct Moments {
+    pub mean: Vec<f64>,
+    pub second: Vec<f64>,
+}
+
+impl Moments {
+    pub fn variance(&self, j: usize) -> f64 {
+        self.second[j] - self.mean[j] * self.mean[j]
+    }
+}
+
+/// [`Moments`] of the band of directions around `normal` with n·s in [t_lo, t_hi], by
+/// Gauss–Legendre quadrature in n·s and the trapezoid rule in azimuth (both exact for the
+/// polynomial integrands up to order 8), using the slow, trigonometric SH of the thesis.
+pub fn band_moments(order: usize, normal: DVec3, t_lo: f64, t_hi: f64) -> Moments {
+    let n = sh::coeff_count(order);
+    let normal = normal.normalize();
+    let (tangent, bitangent) = normal.any_orthonormal_pair();
+    let (nodes, weights) = sh::gauss_legendre(24);
+    let azimuths = 48;
+    let mut moments = Moments {
+        mean: vec![0.0; n],
+        second: vec![0.0; n],
+    };
+    for (x, w) in nodes.iter().zip(&weights) {
+        let t = 0.5 * (t_hi - t_lo) * x + 0.5 * (t_hi + t_lo);
+        let w = w * 0.5 * (t_hi - t_lo);
+        let r = (1.0 - t * t).max(0.0).sqrt();
+        for k in 0..azimuths {
+            let phi = std::f64::consts::TAU * k as f64 / azimuths as f64;
+            let d = tangent * (r * phi.cos()) + bitangent * (r * phi.sin()) + normal * t;
+            let (theta, az) = sh::angles(d);
+            let weight = w * std::f64::consts::TAU / azimuths as f64 * t / std::f64::consts::PI;
+            for j in 0..n {
+                let (l, m) = sh::band_and_m(j);
+                let y = sh::eval_slow(l, m, theta, az);
+                moments.mean[j] += weight * y;
+                moments.second[j] += weight * y * y;
+            }
+        }
+    }
+    moments
+}
+
+/// The oracles' zonal coefficient ∫ V max(cos θ, 0) y_l^0 over a visible cone of half-angle
+/// α about the normal: 2π·N_l·∫_{cos α}^1 t·P_l(t) dt (not divided by π).
+pub fn visible_cone_zonal(l: usize, cos_alpha: f64) -> f64 {
+    let (nodes, weights) = sh::gauss_legendre(l / 2 + 2);
+    let integral: f64 = nodes
+        .iter()
+        .zip(&weights)
+        .map(|(x, w)| {
+            let t = 0.5 * (1.0 - cos_alpha) * x + 0.5 * (1.0 + cos_alpha);
+            w * 0.5 * (1.0 - cos_alpha) * t * sh::legendre(l, 0, t)
+        })
+        .sum();
+    std::f64::consts::TAU * sh::normalization(l, 0) * integral
+}
+
+/// The clamped-cosine zonal coefficient z_l (an unoccluded point, normal +z).
+pub fn clamped_cosine_zonal(l: usize) -> f64 {
+    visible_cone_zonal(l, 0.0)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Geometry
+
+/// A mesh with explicit normals (so shading normals are exactly what the oracle assumes).
+pub fn mesh(
+    name: &str,
+    positions: Vec<Vec3>,
+    normals: Vec<Vec3>,
+    triangles: Vec<[u32; 3]>,
+) -> Mesh {
+    Mesh {
+        name: name.into(),
+        uvs: Some(vec![Vec2::ZERO; positions.len()]),
+        positions,
+        normals: Some(normals),
+        triangles,
+        material: Material::default(),
+    }
+}
+
+/// A small triangle lying in the plane through `corner` with normal `normal`; vertex 0 is
+/// `corner`, the face is wound so its geometric normal is `normal`.
+pub fn patch(corner: Vec3, normal: Vec3, size: f32) -> Mesh {
+    let frame = Frame::from_normal(normal);
+    let a = corner + (frame.tangent - frame.bitangent) * size;
+    let b = corner + (frame.tangent + frame.bitangent) * size;
+    mesh(
+        "patch",
+        vec![corner, a, b],
+        vec![normal; 3],
+        vec![[0, 1, 2]],
+    )
+}
+
+/// A rectangle `origin + u·edge_u + v·edge_v` split into `cells`² quads (normal
+/// edge_u × edge_v).
+pub fn grid(name: &str, origin: Vec3, edge_u: Vec3, edge_v: Vec3, cells: u32) -> Mesh {
+    let normal = edge_u.cross(edge_v).normalize();
+    let mut positions = Vec::new();
+    for j in 0..=cells {
+        for i in 0..=cells {
+            positions.push(
+                origin + edge_u * (i as f32 / cells as f32) + edge_v * (j as f32 / cells as f32),
+            );
+        }
+    }
+    let at = |i: u32, j: u32| j * (cells + 1) + i;
+    let mut triangles = Vec::new();
+    for j in 0..cells {
+        for i in 0..cells {
+            triangles.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+            triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+        }
+    }
+    let count = positions.len();
+    mesh(name, positions, vec![normal; count], triangles)
+}
+
+/// A horizontal disk of `radius` centred at `centre`, as a fan of `segments` triangles.
+pub fn disk(centre: Vec3, radius: f32, segments: u32) -> Mesh {
+    let mut positions = vec![centre];
+    for k in 0..segments {
+        let phi = std::f32::consts::TAU * k as f32 / segments as f32;
+        positions.push(centre + Vec3::new(phi.cos(), phi.sin(), 0.0) * radius);
+    }
+    let triangles = (0..segments)
+        .map(|k| [0, 1 + (k + 1) % segments, 1 + k])
+        .collect();
+    let count = positions.len();
+    mesh("disk", positions, vec![-Vec3::Z; count], triangles)
+}
+
+/// A sphere of `radius` around `centre` restricted to polar angles (from −z) up to
+/// `max_polar`, with `rings` × `segments` cells. Normals point `outward` or inward. Vertex 0
+/// is the bottom pole.
+pub fn spherical_cap(
+    centre: Vec3,
+    radius: f32,
+    max_polar: f32,
+    rings: u32,
+    segments: u32,
+    outward: bool,
+) -> Mesh {
+    let sign = if outward { 1.0 } else { -1.0 };
+    let point = |polar: f32, phi: f32| {
+        Vec3::new(
+            polar.sin() * phi.cos(),
+            polar.sin() * phi.sin(),
+            -polar.cos(),
+        )
+    };
+    let mut positions = vec![centre + radius * Vec3::NEG_Z];
+    let mut normals = vec![sign * Vec3::NEG_Z];
+    for ring in 1..=rings {
+        let polar = max_polar * ring as f32 / rings as f32;
+        for k in 0..segments {
+            let d = point(polar, std::f32::consts::TAU * k as f32 / segments as f32);
+            positions.push(centre + radius * d);
+            normals.push(sign * d);
+        }
+    }
+    let at = |ring: u32, k: u32| 1 + (ring - 1) * segments + k % segments;
+    let mut triangles = Vec::new();
+    for k in 0..segments {
+        triangles.push([0, at(1, k + 1), at(1, k)]);
+    }
+    for ring in 1..rings {
+        for k in 0..segments {
+            triangles.push([at(ring, k), at(ring, k + 1), at(ring + 1, k + 1)]);
+            triangles.push([at(ring, k), at(ring + 1, k + 1), at(ring + 1, k)]);
+        }
+    }
+    // As built the faces are wound outwards; flip them for a bowl seen from inside.
+    if !outward {
+        for t in &mut triangles {
+            t.swap(1, 2);
+        }
+    }
+    mesh("cap", positions, normals, triangles)
+}
+
+/// A closed UV sphere (outward normals); convex, so no vertex can see any of it.
+pub fn sphere(centre: Vec3, radius: f32, rings: u32, segments: u32) -> Mesh {
+    let mut mesh = spherical_cap(centre, radius, std::f32::consts::PI, rings, segments, true);
+    // The last ring sits at the top pole: weld it into one vertex.
+    let top = mesh.positions.len() as u32 - segments;
+    mesh.positions.truncate(top as usize + 1);
+    mesh.normals
+        .as_mut()
+        .expect("normals")
+        .truncate(top as usize + 1);
+    mesh.uvs = Some(vec![Vec2::ZERO; mesh.positions.len()]);
+    for t in &mut mesh.triangles {
+        for i in t.iter_mut() {
+            *i = (*i).min(top);
+        }
+    }
+    mesh.triangles
+        .retain(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2]);
+    mesh
+}
+
+pub fn scene(meshes: Vec<Mesh>) -> Scene {
+    Scene::from_meshes(std::path::Path::new("test-scene"), meshes, Vec::new())
+        .expect("valid test scene")
+}
+
+// ---------------------------------------------------------------------------------------------
+// Baking selected vertices
+
+/// Bakes only `vertices` (the oracle vertices of a large scene) through the real estimator and
+/// Embree; returns one coefficient vector per vertex.
+pub fn bake_vertices(scene: &Scene, options: &BakeOptions, vertices: &[usize]) -> Vec<Vec<f64>> {
+    let tracer = EmbreeTracer::new(scene, EmbreeOptions::default()).expect("embree scene");
+    let estimator = Estimator::new(scene, options).expect("valid options");
+    let n = sh::coeff_count(options.order);
+    let mut scratch = Scratch::new(n);
+    let tracer =
+        (options.mode == Mode::Shadowed).then_some(&tracer as &dyn prt_baker::trace::Tracer);
+    vertices
+        .iter()
+        .map(|&v| {
+            let mut out = vec![0.0f32; n];
+            estimator.vertex_transfer(v, tracer, &mut scratch, &mut out);
+            out.into_iter().map(f64::from).collect()
+        })
+        .collect()
+}
+
+pub fn shadowed(order: usize, samples: u32) -> BakeOptions {
+    BakeOptions {
+        order,
+        samples,
+        mode: Mode::Shadowed,
+        seed: 7,
+        ..BakeOptions::default()
+    }
+}
+
+/// Asserts every coefficient of `got` is within tolerance of the moments' mean; prints the
+/// worst case in units of its tolerance, so a regression shows how far off it is.
+pub fn assert_matches(what: &str, got: &[f64], expected: &Moments, samples: u32) {
+    let mut worst = (0.0f64, 0usize);
+    for (j, g) in got.iter().enumerate() {
+        let tol = tolerance(expected.variance(j), samples);
+        let ratio = (g - expected.mean[j]).abs() / tol;
+        if ratio > worst.0 {
+            worst = (ratio, j);
+        }
+        assert!(
+            ratio <= 1.0,
+            "{what}: coefficient {j} {:?} = {g:.6}, expected {:.6} ± {tol:.2e} (per-sample σ² = {:.3e}, N = {samples})",
+            sh::band_and_m(j),
+            expected.mean[j],
+            expected.variance(j),
+        );
+    }
+    eprintln!(
+        "{what}: worst coefficient {} at {:.3} of its tolerance",
+        worst.1, worst.0
+    );
+}
