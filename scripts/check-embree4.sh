@@ -116,7 +116,7 @@ echo "check-embree4: $(basename "${DEBS[0]}"): Embree $VERSION headers"
 
 STATE_AFTER="$(apt_state)"
 [ "$STATE_BEFORE" = "$STATE_AFTER" ] ||
-    fail "the system's apt configuration or state changed (/etc/apt, /var/lib/apt/lists, /var/cache/apt)"
+    fail "the system's apt configuration or state changed (/etc/apt, /var/lib/apt/lists, /var/cache/apt; or another apt process ran meanwhile)"
 
 cd "$REPO_ROOT"
 echo "check-embree4: cargo check -p embree-sys -p prt-baker --all-targets --target-dir $TARGET_DIR"

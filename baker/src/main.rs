@@ -162,11 +162,16 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
     let mut file = CoefficientFile::from_bake(&scene, &transfer);
     file.write(&args.output)?;
 
-    let rate = transfer.rays_cast as f64 / transfer.seconds / 1e6;
+    let rays = match transfer.rays_cast {
+        0 => String::from("no rays"),
+        rays => format!(
+            "{rays} rays, {:.2} Mrays/s",
+            rays as f64 / transfer.seconds.max(1e-9) / 1e6
+        ),
+    };
     println!(
-        "baked {} vertices, {} rays, {rate:.2} Mrays/s, {:.2} s (order {}, {}, {} samples, {}) -> {}",
+        "baked {} vertices, {rays}, {:.2} s (order {}, {}, {} samples, {}) -> {}",
         transfer.vertex_count,
-        transfer.rays_cast,
         transfer.seconds,
         options.order,
         options.mode.name(),

@@ -80,7 +80,7 @@ impl BakeOptions {
     pub fn validate(&self) -> Result<()> {
         if !(1..=sh::MAX_ORDER).contains(&self.order) {
             return Err(Error::InvalidOption(format!(
-                "SH order {} is outside 1..={}",
+                "--order {} is outside 1..={}",
                 self.order,
                 sh::MAX_ORDER
             )));

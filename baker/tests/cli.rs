@@ -655,8 +655,8 @@ fn bad_option_values_are_refused_before_anything_is_written() {
     s.write("tri.obj", TRIANGLE);
     for (option, value, message) in [
         ("--samples", "0", "--samples must be at least 1"),
-        ("--order", "0", "SH order 0 is outside 1..="),
-        ("--order", "1000", "SH order 1000 is outside 1..="),
+        ("--order", "0", "--order 0 is outside 1..="),
+        ("--order", "1000", "--order 1000 is outside 1..="),
         ("--threads", "0", "--threads must be at least 1"),
     ] {
         s.run(&["bake", "tri.obj", "-o", "out/x.prt", option, value])

@@ -442,6 +442,10 @@ def main():
     args = parser.parse_args()
     started = time.time()
 
+    if not os.access(args.prt_bake, os.X_OK):
+        raise SetupError(
+            f"{args.prt_bake} not found: build it with `cargo build --release -p prt-baker`"
+        )
     print(f"numpy {np.__version__}, scipy {scipy.__version__}")
     err1, ortho = check_sh(args.order)
     print(f"SH self-check: y_1 = (-{Y1:.6f} y, {Y1:.6f} z, -{Y1:.6f} x) to {err1:.1e}, "
@@ -451,10 +455,6 @@ def main():
           f"({hits} hits)")
     if args.sabotage:
         print(f"*** SABOTAGED reference: {args.sabotage} (the check is expected to FAIL) ***")
-    if not os.access(args.prt_bake, os.X_OK):
-        raise SetupError(
-            f"{args.prt_bake} not found: build it with `cargo build --release -p prt-baker`"
-        )
 
     with tempfile.TemporaryDirectory(prefix="prt-reference-") as tmp:
         scene, triangle_count = make_scene(tmp, args.seed)
