@@ -62,6 +62,20 @@ fn main() {
     let packet_seconds =
         best_of(|| raw_embree(&scene, &estimator, &tracer, samples, Query::Packet16));
     let trait_seconds = best_of(|| raw_embree(&scene, &estimator, &tracer, samples, Query::Trait));
+    let shuffled_seconds =
+        best_of(|| raw_embree(&scene, &estimator, &tracer, samples, Query::Shuffled));
+    let robust = EmbreeTracer::new(
+        &scene,
+        EmbreeOptions {
+            robust: true,
+            ..EmbreeOptions::default()
+        },
+    )
+    .unwrap_or_else(|err| panic!("{err}"));
+    let robust_seconds = best_of(|| {
+        let transfer = prt_baker::bake(&scene, Some(&robust), &options, &Silent).expect("bake");
+        transfer.seconds
+    });
 
     let rate = |seconds: f64| total_rays / seconds / 1e6;
     let ceiling = rate(stream_seconds).max(rate(packet_seconds));
@@ -80,7 +94,12 @@ fn main() {
     row("raw embree, rtcOccluded1M (same rays)", stream_seconds);
     row("raw embree, rtcOccluded16 (same rays)", packet_seconds);
     row("raw through the Tracer trait (same rays)", trait_seconds);
+    row(
+        "raw embree, same rays shuffled (incoherent)",
+        shuffled_seconds,
+    );
     row("full bake (sampling + tracing + SH)", bake_seconds);
+    row("full bake, Embree robust mode", robust_seconds);
     println!();
     println!(
         "bake: {:.2} s for {:.0} M rays, {:.1} Mrays/s = {:.3} x the raw Embree rate (target: <= 4 s, >= 0.8 x)",
@@ -100,6 +119,8 @@ enum Query {
     Stream,
     Packet16,
     Trait,
+    /// The stream in a fixed random order: what the rays cost without the Hilbert ordering.
+    Shuffled,
 }
 
 /// Seconds that the bake's rays take in Embree alone. Rays are generated outside the timed
@@ -135,13 +156,16 @@ fn raw_embree(
          v| {
             let origin = estimator.origin(v);
             estimator.directions(v, &estimator.vertex_frame(v), 0..samples, dirs, weights);
+            if query == Query::Shuffled {
+                shuffle(dirs, v as u64);
+            }
             stream.clear();
             stream.extend(dirs.iter().map(|d| {
                 embree_sys::Ray::new(origin.to_array(), d.to_array(), 0.0, f32::INFINITY)
             }));
             let started = Instant::now();
             match query {
-                Query::Stream => embree.occluded_stream(stream),
+                Query::Stream | Query::Shuffled => embree.occluded_stream(stream),
                 Query::Packet16 => {
                     for chunk in stream.chunks(embree_sys::PACKET_WIDTH) {
                         packet.clear();
@@ -157,4 +181,13 @@ fn raw_embree(
         },
     );
     traced_nanos.into_inner() as f64 / 1e9 / rayon::current_num_threads() as f64
+}
+
+/// A deterministic Fisher–Yates shuffle.
+fn shuffle(values: &mut [Vec3], seed: u64) {
+    let mut rng = prt_baker::sampling::Pcg32::new(seed, 99);
+    for i in (1..values.len()).rev() {
+        let j = (rng.next_u32() as usize) % (i + 1);
+        values.swap(i, j);
+    }
 }

@@ -13,6 +13,8 @@
 //!
 //! The generated declarations are in [`sys`]; only this crate calls them.
 
+#![warn(clippy::undocumented_unsafe_blocks)]
+
 mod device;
 mod error;
 mod query;
@@ -26,7 +28,7 @@ mod scene;
     non_snake_case,
     dead_code
 )]
-#[allow(clippy::all)]
+#[allow(clippy::all, clippy::undocumented_unsafe_blocks)]
 pub mod sys {
     include!(concat!(env!("OUT_DIR"), "/bindings.rs"));
 

@@ -46,13 +46,14 @@ impl CommittedScene {
     /// Whether anything blocks the segment (`rtcOccluded1`).
     pub fn occluded1(&self, ray: &Ray) -> bool {
         let mut ray = *ray;
-        // SAFETY (both arms): the scene is committed and alive for the call; `ray` is a valid,
+        // SAFETY: the scene is committed and alive for the call; `ray` is a valid,
         // 16-byte-aligned RTCRay that Embree may write; the context/arguments are initialised
         // as the headers' inline init functions do, with no filter or user callbacks.
         #[cfg(embree_v3)]
         unsafe {
             sys::rtcOccluded1(self.handle, &mut context(), &mut ray.0)
         };
+        // SAFETY: as above, with Embree 4's argument order.
         #[cfg(embree_v4)]
         unsafe {
             sys::rtcOccluded1(self.handle, &mut ray.0, &mut occluded_args())
@@ -63,7 +64,7 @@ impl CommittedScene {
     /// Occlusion for the active lanes of a packet (`rtcOccluded16`); read the answers with
     /// [`Ray16::is_occluded`].
     pub fn occluded16(&self, packet: &mut Ray16) {
-        // SAFETY (both arms): committed scene; `valid` and `rays` are 64-byte aligned as Embree
+        // SAFETY: committed scene; `valid` and `rays` are 64-byte aligned as Embree
         // requires for 16-wide packets, live and writable for the call.
         #[cfg(embree_v3)]
         unsafe {
@@ -74,6 +75,7 @@ impl CommittedScene {
                 &mut packet.rays,
             )
         };
+        // SAFETY: as above, with Embree 4's argument order.
         #[cfg(embree_v4)]
         unsafe {
             sys::rtcOccluded16(
@@ -125,12 +127,13 @@ impl CommittedScene {
     /// The closest hit along the segment, if any (`rtcIntersect1`).
     pub fn intersect1(&self, ray: &Ray) -> Option<Hit> {
         let mut rayhit = RayHit::new(*ray);
-        // SAFETY (both arms): committed scene; `rayhit` is a valid, aligned RTCRayHit with its
+        // SAFETY: committed scene; `rayhit` is a valid, aligned RTCRayHit with its
         // hit cleared to the invalid id, writable for the call.
         #[cfg(embree_v3)]
         unsafe {
             sys::rtcIntersect1(self.handle, &mut context(), &mut rayhit.0)
         };
+        // SAFETY: as above, with Embree 4's argument order.
         #[cfg(embree_v4)]
         unsafe {
             sys::rtcIntersect1(self.handle, &mut rayhit.0, &mut intersect_args())
@@ -141,7 +144,7 @@ impl CommittedScene {
     /// Closest hits for the active lanes of a packet (`rtcIntersect16`); read them with
     /// [`RayHit16::hit`].
     pub fn intersect16(&self, packet: &mut RayHit16) {
-        // SAFETY (both arms): committed scene; `valid` and `rayhits` are 64-byte aligned,
+        // SAFETY: committed scene; `valid` and `rayhits` are 64-byte aligned,
         // live and writable for the call.
         #[cfg(embree_v3)]
         unsafe {
@@ -152,6 +155,7 @@ impl CommittedScene {
                 &mut packet.rayhits,
             )
         };
+        // SAFETY: as above, with Embree 4's argument order.
         #[cfg(embree_v4)]
         unsafe {
             sys::rtcIntersect16(
