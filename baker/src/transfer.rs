@@ -16,7 +16,8 @@
 //! normal (so neighbouring vertices do not share sample directions), casts the rays, adds the
 //! table rows of the unblocked ones, and rotates the local coefficients into world space once
 //! ([`crate::sh::Rotator`], exact). Per ray that is a 3×3 transform and a row sum: the cost of
-//! a bake is the cost of its rays.
+//! a bake is the cost of its rays. The table takes N·(12 + 4n²) bytes: 0.8 MB for the demo's
+//! 10,000 rays at order 4, 270 MB for a million rays at order 8.
 //!
 //! Every quantity is a pure function of (seed, vertex, sample index) and sums are formed in a
 //! fixed order, so a bake is bit-identical whatever the number of threads.
