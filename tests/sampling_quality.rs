@@ -27,6 +27,7 @@ fn rms_error(sampling: Sampling, samples: u32) -> f64 {
             mode: Mode::Shadowed,
             seed,
             sampling,
+            ..BakeOptions::default()
         };
         let got = &bake_vertices(&scene, &options, &[0])[0];
         sum += got

@@ -137,3 +137,83 @@ fn every_interior_point_of_a_bowl_sees_half_the_sky() {
         );
     }
 }
+
+/// Ambient accessibility (the thesis's chapter-5 quantity, from the shadowed pass's rays) is
+/// the cosine-weighted visible fraction; the bent normal is the cosine-weighted mean visible
+/// direction.
+mod ambient_occlusion {
+    use super::*;
+
+    const AO_SAMPLES: u32 = 1 << 16;
+
+    /// Tolerance of an accessibility whose visible fraction is `p` (Bernoulli samples).
+    fn ao_tolerance(p: f64) -> f64 {
+        tolerance(p * (1.0 - p), AO_SAMPLES)
+    }
+
+    /// Tolerance of a bent normal's component that vanishes by symmetry: a sample's value
+    /// s_x·V has variance ≤ E[s_x²] = 1/4 under cosine weighting; normalising divides by the
+    /// mean's length `mean_length`.
+    fn symmetric_component_tolerance(mean_length: f64) -> f64 {
+        tolerance(0.25, AO_SAMPLES) / mean_length
+    }
+
+    #[test]
+    fn accessibility_of_the_oracle_cones() {
+        let cos45 = std::f64::consts::FRAC_1_SQRT_2;
+        // Bottom of the bowl: a visible cone of 45°, sin²45° = 1/2; mean visible direction
+        // along the normal with E[V s_z] = (2/3)(1 − cos³45°).
+        let bowl = bowl();
+        let under_disk = scene(vec![
+            patch(Vec3::ZERO, Vec3::Z, 0.1),
+            disk(Vec3::Z, 1.0, 512),
+        ]);
+        let cases = [
+            ("bowl bottom", &bowl, 0.5, 2.0 / 3.0 * (1.0 - cos45.powi(3))),
+            // Under the disk (r = h): occluded 1/2; E[V s_z] = (2/3)·cos³45°.
+            (
+                "under the disk",
+                &under_disk,
+                0.5,
+                2.0 / 3.0 * cos45.powi(3),
+            ),
+        ];
+        for (name, scene, visible, mean_z) in cases {
+            let v = visibility_of(scene, &shadowed(1, AO_SAMPLES), &[0])[0];
+            let (ao, bent) = (f64::from(v.accessibility), v.bent_normal.as_dvec3());
+            eprintln!("{name}: accessibility {ao:.5} (expected {visible}), bent normal {bent}");
+            assert!(
+                (ao - visible).abs() <= ao_tolerance(visible),
+                "{name}: accessibility {ao}"
+            );
+            let tol = symmetric_component_tolerance(mean_z);
+            assert!(
+                bent.x.abs() <= tol && bent.y.abs() <= tol,
+                "{name}: bent normal {bent} should be +z"
+            );
+        }
+    }
+
+    #[test]
+    fn wall_case_accessibility_and_bent_normal() {
+        let (d, h) = (1.0, 1.0);
+        let scene = wall_scene(d, h, 1.0, Vec3::ZERO);
+        let v = visibility_of(&scene, &shadowed(1, AO_SAMPLES), &[0])[0];
+        let (_, visible) = wall_oracle(f64::from(d), f64::from(h));
+        let ao = f64::from(v.accessibility);
+        eprintln!(
+            "wall: accessibility {ao:.5} (expected {visible:.5}), bent normal {}",
+            v.bent_normal
+        );
+        assert!((ao - visible).abs() <= ao_tolerance(visible));
+        // The wall is at +x: the mean visible direction leans away from it, and the scene
+        // is symmetric in y.
+        assert!(
+            v.bent_normal.x < -0.05,
+            "bent normal {} does not point away from the wall",
+            v.bent_normal
+        );
+        assert!(f64::from(v.bent_normal.y).abs() <= symmetric_component_tolerance(0.5));
+        assert!(v.bent_normal.z > 0.9);
+    }
+}

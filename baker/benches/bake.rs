@@ -64,6 +64,8 @@ fn main() {
     let trait_seconds = best_of(|| raw_embree(&scene, &estimator, &tracer, samples, Query::Trait));
     let shuffled_seconds =
         best_of(|| raw_embree(&scene, &estimator, &tracer, samples, Query::Shuffled));
+    let closest_seconds =
+        best_of(|| raw_embree(&scene, &estimator, &tracer, samples, Query::ClosestHit));
     let robust = EmbreeTracer::new(
         &scene,
         EmbreeOptions {
@@ -100,6 +102,10 @@ fn main() {
     );
     row("full bake (sampling + tracing + SH)", bake_seconds);
     row("full bake, Embree robust mode", robust_seconds);
+    row(
+        "raw embree closest hit, rtcIntersect1M (same rays)",
+        closest_seconds,
+    );
     println!();
     println!(
         "bake: {:.2} s for {:.0} M rays, {:.1} Mrays/s = {:.3} x the raw Embree rate (target: <= 4 s, >= 0.8 x)",
@@ -121,6 +127,8 @@ enum Query {
     Trait,
     /// The stream in a fixed random order: what the rays cost without the Hilbert ordering.
     Shuffled,
+    /// Closest hits instead of occlusion (what the interreflected mode's direct pass traces).
+    ClosestHit,
 }
 
 /// Seconds that the bake's rays take in Embree alone. Rays are generated outside the timed
@@ -163,6 +171,10 @@ fn raw_embree(
             stream.extend(dirs.iter().map(|d| {
                 embree_sys::Ray::new(origin.to_array(), d.to_array(), 0.0, f32::INFINITY)
             }));
+            let mut rayhits: Vec<embree_sys::RayHit> = match query {
+                Query::ClosestHit => stream.iter().map(|r| embree_sys::RayHit::new(*r)).collect(),
+                _ => Vec::new(),
+            };
             let started = Instant::now();
             match query {
                 Query::Stream | Query::Shuffled => embree.occluded_stream(stream),
@@ -176,6 +188,7 @@ fn raw_embree(
                     }
                 }
                 Query::Trait => tracer.occluded_from(origin, dirs, occluded),
+                Query::ClosestHit => embree.intersect_stream(&mut rayhits),
             }
             traced_nanos.fetch_add(started.elapsed().as_nanos() as u64, Ordering::Relaxed);
         },

@@ -8,6 +8,7 @@
 
 use std::path::Path;
 
+use glam::Vec3;
 use serde::Serialize;
 
 use crate::error::{Error, Result};
@@ -15,7 +16,7 @@ use crate::sampling::Sampling;
 use crate::scene::Scene;
 use crate::sh;
 use crate::trace::Backend;
-use crate::transfer::{Mode, Transfer};
+use crate::transfer::{Aux, Mode, Transfer};
 
 /// First 8 bytes. Like PNG's: a non-ASCII byte, CR LF and ^Z catch text-mode mangling.
 pub const MAGIC: [u8; 8] = *b"\x89PRT\r\n\x1a\n";
@@ -42,9 +43,10 @@ pub struct Header {
     pub seed: u64,
     #[serde(serialize_with = "as_name::hex64")]
     pub scene_fingerprint: u64,
-    /// Bit flags for optional per-vertex arrays after the coefficients; none are defined in
-    /// version 1, so this is 0.
-    pub aux_flags: u32,
+    /// Optional per-vertex arrays stored after the coefficients (header bit flags: 1 = AO,
+    /// 2 = bent normal).
+    #[serde(serialize_with = "as_name::aux")]
+    pub aux: Aux,
     #[serde(serialize_with = "as_name::hex32")]
     pub checksum: u32,
 }
@@ -58,6 +60,10 @@ mod as_name {
     pub fn backend<S: Serializer>(b: &crate::trace::Backend, s: S) -> Result<S::Ok, S::Error> {
         s.serialize_str(b.name())
     }
+    pub fn aux<S: Serializer>(a: &crate::transfer::Aux, s: S) -> Result<S::Ok, S::Error> {
+        let names = [(a.ao, "ao"), (a.bent_normal, "bent-normal")];
+        s.collect_seq(names.iter().filter(|(on, _)| *on).map(|(_, name)| name))
+    }
     pub fn sampling<S: Serializer>(m: &crate::sampling::Sampling, s: S) -> Result<S::Ok, S::Error> {
         s.serialize_str(m.name())
     }
@@ -69,13 +75,28 @@ mod as_name {
     }
 }
 
+/// Aux flag bits in the header.
+const AUX_AO: u32 = 1;
+const AUX_BENT_NORMAL: u32 = 2;
+
+fn aux_flags(aux: Aux) -> u32 {
+    (if aux.ao { AUX_AO } else { 0 }) | (if aux.bent_normal { AUX_BENT_NORMAL } else { 0 })
+}
+
 impl Header {
     pub fn coefficients_per_vertex(&self) -> usize {
         self.channels as usize * sh::coeff_count(self.order as usize)
     }
 
+    /// Floats per vertex in the aux arrays.
+    fn aux_floats_per_vertex(&self) -> usize {
+        usize::from(self.aux.ao) + 3 * usize::from(self.aux.bent_normal)
+    }
+
     fn payload_bytes(&self) -> u64 {
-        self.vertex_count * self.coefficients_per_vertex() as u64 * 4
+        self.vertex_count
+            * (self.coefficients_per_vertex() + self.aux_floats_per_vertex()) as u64
+            * 4
     }
 }
 
@@ -85,12 +106,17 @@ pub struct CoefficientFile {
     pub header: Header,
     /// `coefficients[(v · channels + c) · n² + j]`.
     pub coefficients: Vec<f32>,
+    /// Per-vertex ambient accessibility, if `header.aux.ao`.
+    pub ao: Option<Vec<f32>>,
+    /// Per-vertex bent normals, if `header.aux.bent_normal`.
+    pub bent_normal: Option<Vec<Vec3>>,
 }
 
 fn mode_code(mode: Mode) -> u32 {
     match mode {
         Mode::Unshadowed => 0,
         Mode::Shadowed => 1,
+        Mode::Interreflected => 2,
     }
 }
 
@@ -120,15 +146,26 @@ impl CoefficientFile {
                 vertex_count: transfer.vertex_count as u64,
                 samples_per_vertex: options.samples,
                 mode: options.mode,
-                bounces: 0,
+                bounces: options.bounces,
                 backend: transfer.backend,
                 sampling: options.sampling,
                 seed: options.seed,
                 scene_fingerprint: scene.fingerprint(),
-                aux_flags: 0,
+                aux: options.aux,
                 checksum: 0,
             },
             coefficients: transfer.coefficients.clone(),
+            ao: options.aux.ao.then(|| {
+                transfer
+                    .visibility
+                    .iter()
+                    .map(|v| v.accessibility)
+                    .collect()
+            }),
+            bent_normal: options
+                .aux
+                .bent_normal
+                .then(|| transfer.visibility.iter().map(|v| v.bent_normal).collect()),
         }
     }
 
@@ -156,10 +193,14 @@ impl CoefficientFile {
         bytes.extend(h.seed.to_le_bytes());
         bytes.extend(h.scene_fingerprint.to_le_bytes());
         bytes.extend(sampling_code(h.sampling).to_le_bytes());
-        bytes.extend(h.aux_flags.to_le_bytes());
-        bytes.extend((self.coefficients.len() as u64 * 4).to_le_bytes());
+        bytes.extend(aux_flags(h.aux).to_le_bytes());
+        bytes.extend(h.payload_bytes().to_le_bytes());
         bytes.resize(HEADER_SIZE, 0); // reserved bytes 80..124, then the checksum slot
         bytes.extend(self.coefficients.iter().flat_map(|c| c.to_le_bytes()));
+        let ao = self.ao.iter().flatten().copied();
+        let bent = self.bent_normal.iter().flatten().flat_map(|n| n.to_array());
+        bytes.extend(ao.chain(bent).flat_map(f32::to_le_bytes));
+        debug_assert_eq!(bytes.len() as u64, HEADER_SIZE as u64 + h.payload_bytes());
         let checksum = checksum(&bytes);
         bytes[CHECKSUM_OFFSET..HEADER_SIZE].copy_from_slice(&checksum.to_le_bytes());
         (bytes, checksum)
@@ -236,8 +277,13 @@ impl CoefficientFile {
         let mode = match u32_at(36) {
             0 => Mode::Unshadowed,
             1 => Mode::Shadowed,
+            2 => Mode::Interreflected,
             other => return Err(format!("unknown transfer mode {other}")),
         };
+        let bounces = u32_at(40);
+        if (mode == Mode::Interreflected) != (bounces > 0) {
+            return Err(format!("{bounces} bounces in a {} file", mode.name()));
+        }
         let backend = match u32_at(44) {
             0 => Backend::None,
             1 => Backend::Embree,
@@ -249,9 +295,13 @@ impl CoefficientFile {
             other => return Err(format!("unknown sampling method {other}")),
         };
         let aux_flags = u32_at(68);
-        if aux_flags != 0 {
+        if aux_flags & !(AUX_AO | AUX_BENT_NORMAL) != 0 {
             return Err(format!("unknown auxiliary-array flags {aux_flags:#x}"));
         }
+        let aux = Aux {
+            ao: aux_flags & AUX_AO != 0,
+            bent_normal: aux_flags & AUX_BENT_NORMAL != 0,
+        };
         if bytes[80..CHECKSUM_OFFSET].iter().any(|&b| b != 0) {
             return Err("reserved header bytes are not zero".into());
         }
@@ -262,12 +312,12 @@ impl CoefficientFile {
             vertex_count: u64_at(24),
             samples_per_vertex: u32_at(32),
             mode,
-            bounces: u32_at(40),
+            bounces,
             backend,
             sampling,
             seed: u64_at(48),
             scene_fingerprint: u64_at(56),
-            aux_flags,
+            aux,
             checksum: stored,
         };
         if header.payload_bytes() != payload {
@@ -278,10 +328,31 @@ impl CoefficientFile {
                 header.payload_bytes()
             ));
         }
-        let coefficients: Vec<f32> = bytes[HEADER_SIZE..]
+        let mut floats = bytes[HEADER_SIZE..]
             .chunks_exact(4)
-            .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")))
+            .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")));
+        let vertices = header.vertex_count as usize;
+        let coefficients: Vec<f32> = floats
+            .by_ref()
+            .take(vertices * header.coefficients_per_vertex())
             .collect();
+        let ao: Option<Vec<f32>> = aux.ao.then(|| floats.by_ref().take(vertices).collect());
+        let bent_normal: Option<Vec<Vec3>> = aux.bent_normal.then(|| {
+            let flat: Vec<f32> = floats.by_ref().take(3 * vertices).collect();
+            flat.chunks_exact(3).map(Vec3::from_slice).collect()
+        });
+        if let Some(v) = ao.iter().flatten().position(|a| !(0.0..=1.0).contains(a)) {
+            return Err(format!(
+                "ambient accessibility of vertex {v} is outside [0, 1]"
+            ));
+        }
+        if let Some(v) = bent_normal
+            .iter()
+            .flatten()
+            .position(|n| !n.is_finite() || (n.length() - 1.0).abs() > 1e-3)
+        {
+            return Err(format!("bent normal of vertex {v} is not a unit vector"));
+        }
         if let Some(i) = coefficients.iter().position(|c| !c.is_finite()) {
             let per_vertex = header.coefficients_per_vertex();
             return Err(format!(
@@ -293,6 +364,8 @@ impl CoefficientFile {
         Ok(CoefficientFile {
             header,
             coefficients,
+            ao,
+            bent_normal,
         })
     }
 

@@ -9,9 +9,10 @@ use crate::npz;
 use crate::scene::Scene;
 use crate::sh;
 
-/// Writes `positions` (V,3), `normals` (V,3), `albedo` (V,3, linear Kd × texture) and
-/// `transfer` (V, channels, n²), all float32 in the file's vertex order. The coefficient file
-/// must have been baked for this scene.
+/// Writes `positions` (V,3), `normals` (V,3), `albedo` (V,3, linear Kd × texture),
+/// `transfer` (V, channels, n²) and, where the file has them, `ao` (V,) and `bent_normal`
+/// (V,3), all float32 in the file's vertex order. The coefficient file must have been baked
+/// for this scene.
 pub fn export_npz(coefficients: &Path, scene: &Path, output: &Path) -> Result<()> {
     let file = CoefficientFile::read(coefficients)?;
     let scene = Scene::load(scene)?;
@@ -27,33 +28,47 @@ pub fn export_npz(coefficients: &Path, scene: &Path, output: &Path) -> Result<()
     let normals = flat(&scene.normals);
     let albedo = flat(&scene.vertex_albedo());
     let header = &file.header;
-    npz::write(
-        output,
-        &[
-            npz::Array {
-                name: "positions",
-                shape: vec![v, 3],
-                data: &positions,
-            },
-            npz::Array {
-                name: "normals",
-                shape: vec![v, 3],
-                data: &normals,
-            },
-            npz::Array {
-                name: "albedo",
-                shape: vec![v, 3],
-                data: &albedo,
-            },
-            npz::Array {
-                name: "transfer",
-                shape: vec![
-                    v,
-                    header.channels as usize,
-                    sh::coeff_count(header.order as usize),
-                ],
-                data: &file.coefficients,
-            },
-        ],
-    )
+    let ao = file.ao.clone();
+    let bent_normal = file.bent_normal.as_deref().map(flat);
+    let mut arrays = vec![
+        npz::Array {
+            name: "positions",
+            shape: vec![v, 3],
+            data: &positions,
+        },
+        npz::Array {
+            name: "normals",
+            shape: vec![v, 3],
+            data: &normals,
+        },
+        npz::Array {
+            name: "albedo",
+            shape: vec![v, 3],
+            data: &albedo,
+        },
+        npz::Array {
+            name: "transfer",
+            shape: vec![
+                v,
+                header.channels as usize,
+                sh::coeff_count(header.order as usize),
+            ],
+            data: &file.coefficients,
+        },
+    ];
+    if let Some(ao) = &ao {
+        arrays.push(npz::Array {
+            name: "ao",
+            shape: vec![v],
+            data: ao,
+        });
+    }
+    if let Some(bent_normal) = &bent_normal {
+        arrays.push(npz::Array {
+            name: "bent_normal",
+            shape: vec![v, 3],
+            data: bent_normal,
+        });
+    }
+    npz::write(output, &arrays)
 }

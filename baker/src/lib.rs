@@ -10,6 +10,7 @@ pub mod atomic;
 pub mod coefficient_file;
 pub mod error;
 pub mod export;
+pub mod interreflection;
 pub mod npz;
 pub mod progress;
 pub mod sampling;

@@ -7,6 +7,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand, ValueEnum};
 use prt_baker::progress::{Progress, ProgressBar, Silent};
 use prt_baker::sampling::Sampling;
+use prt_baker::transfer::Aux;
 use prt_baker::{BakeOptions, CoefficientFile, Error, Mode, Scene, trace};
 
 /// Exit codes: 0 success, 1 failure (I/O, backend), 2 bad command line, 3 bad input files.
@@ -71,6 +72,17 @@ struct BakeArgs {
     /// How directions are drawn.
     #[arg(long, value_enum, default_value_t = SamplingArg::OwenSobol)]
     sampling: SamplingArg,
+    /// Interreflection bounces (interreflected mode; default 1 there).
+    #[arg(long)]
+    bounces: Option<u32>,
+    /// Per-vertex arrays to store beside the coefficients: ambient accessibility and the
+    /// bent normal (comma-separated).
+    #[arg(long, value_enum, value_delimiter = ',')]
+    aux: Vec<AuxArg>,
+    /// Memory (MiB) the interreflected mode may use to cache first hits; beyond it the
+    /// bounces re-trace (slower, same result).
+    #[arg(long, default_value_t = 1024)]
+    hit_cache_mb: u64,
     /// Embree's robust mode: no accuracy-reducing optimisations (about 30 % slower).
     #[arg(long)]
     robust: bool,
@@ -85,6 +97,16 @@ enum ModeArg {
     Unshadowed,
     /// With occlusion rays.
     Shadowed,
+    /// Shadowed plus light bounced off other surfaces, in colour.
+    Interreflected,
+}
+
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
+enum AuxArg {
+    /// Ambient accessibility: cosine-weighted fraction of the sky seen.
+    Ao,
+    /// Cosine-weighted mean unoccluded direction.
+    BentNormal,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -121,18 +143,28 @@ fn main() -> ExitCode {
 }
 
 fn bake(args: BakeArgs) -> Result<(), Error> {
+    let mode = match args.mode {
+        ModeArg::Unshadowed => Mode::Unshadowed,
+        ModeArg::Shadowed => Mode::Shadowed,
+        ModeArg::Interreflected => Mode::Interreflected,
+    };
     let options = BakeOptions {
         order: args.order,
         samples: args.samples,
-        mode: match args.mode {
-            ModeArg::Unshadowed => Mode::Unshadowed,
-            ModeArg::Shadowed => Mode::Shadowed,
-        },
+        mode,
         seed: args.seed,
         sampling: match args.sampling {
             SamplingArg::OwenSobol => Sampling::OwenSobol,
             SamplingArg::ThesisRandom => Sampling::ThesisRandom,
         },
+        bounces: args
+            .bounces
+            .unwrap_or(if mode == Mode::Interreflected { 1 } else { 0 }),
+        aux: Aux {
+            ao: args.aux.contains(&AuxArg::Ao),
+            bent_normal: args.aux.contains(&AuxArg::BentNormal),
+        },
+        hit_cache_limit: args.hit_cache_mb.saturating_mul(1 << 20),
     };
     options.validate()?;
     check_output_folder(&args.output)?;
@@ -151,14 +183,14 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
     }
 
     let scene = Scene::load(&args.scene)?;
-    let tracer = match options.mode {
-        Mode::Unshadowed => None,
-        Mode::Shadowed => Some(trace::default_tracer(&scene, args.threads, args.robust)?),
+    let tracer = match options.mode.casts_rays() {
+        false => None,
+        true => Some(trace::default_tracer(&scene, args.threads, args.robust)?),
     };
     let progress: Box<dyn Progress> = if args.quiet {
         Box::new(Silent)
     } else {
-        Box::new(ProgressBar::new("baking"))
+        Box::new(ProgressBar::new())
     };
     let transfer = prt_baker::bake(&scene, tracer.as_deref(), &options, progress.as_ref())?;
     let mut file = CoefficientFile::from_bake(&scene, &transfer);
@@ -171,12 +203,24 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
             rays as f64 / transfer.seconds.max(1e-9) / 1e6
         ),
     };
+    let mode = match (options.mode, transfer.hit_cache_bytes) {
+        (Mode::Interreflected, Some(bytes)) => format!(
+            "interreflected, {} bounces, {} channels, hit cache {:.0} MiB",
+            options.bounces,
+            transfer.channels,
+            bytes as f64 / f64::from(1 << 20)
+        ),
+        (Mode::Interreflected, None) => format!(
+            "interreflected, {} bounces, {} channels, re-traced (hit cache over {} MiB)",
+            options.bounces, transfer.channels, args.hit_cache_mb
+        ),
+        (mode, _) => mode.name().to_string(),
+    };
     println!(
-        "baked {} vertices, {rays}, {:.2} s (order {}, {}, {} samples, {}) -> {}",
+        "baked {} vertices, {rays}, {:.2} s (order {}, {mode}, {} samples, {}) -> {}",
         transfer.vertex_count,
         transfer.seconds,
         options.order,
-        options.mode.name(),
         options.samples,
         transfer.backend.name(),
         args.output.display()

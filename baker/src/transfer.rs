@@ -3,6 +3,11 @@
 //! * `unshadowed`: V = 1 (the thesis's "fast mode"); no rays are cast but the estimator and
 //!   the directions are the same as for `shadowed`.
 //! * `shadowed`: V is 0 where an occlusion ray from the vertex is blocked.
+//! * `interreflected`: shadowed plus light that reaches the vertex after bouncing off other
+//!   surfaces, in colour ([`crate::interreflection`]).
+//!
+//! The rays of the shadowed pass also give the thesis's ambient-occlusion quantities for free
+//! ([`Visibility`]): the cosine-weighted accessibility and the bent normal.
 //!
 //! The stored transfer excludes the receiving surface's own albedo: the renderer multiplies by
 //! Kd × texture per pixel, so textures stay sharp between vertices.
@@ -43,6 +48,7 @@ pub enum Mode {
     Unshadowed,
     #[default]
     Shadowed,
+    Interreflected,
 }
 
 impl Mode {
@@ -50,7 +56,28 @@ impl Mode {
         match self {
             Mode::Unshadowed => "unshadowed",
             Mode::Shadowed => "shadowed",
+            Mode::Interreflected => "interreflected",
         }
+    }
+
+    /// Whether the mode casts rays (and so needs a tracer).
+    pub fn casts_rays(self) -> bool {
+        self != Mode::Unshadowed
+    }
+}
+
+/// Optional per-vertex arrays stored beside the coefficients (`--aux`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Aux {
+    /// Ambient accessibility, [`Visibility::accessibility`].
+    pub ao: bool,
+    /// [`Visibility::bent_normal`].
+    pub bent_normal: bool,
+}
+
+impl Aux {
+    pub fn any(self) -> bool {
+        self.ao || self.bent_normal
     }
 }
 
@@ -63,7 +90,17 @@ pub struct BakeOptions {
     pub mode: Mode,
     pub seed: u64,
     pub sampling: Sampling,
+    /// Interreflection bounces (interreflected mode only; at least 1 there).
+    pub bounces: u32,
+    /// Which per-vertex arrays to keep beside the coefficients.
+    pub aux: Aux,
+    /// Bytes the interreflected mode may spend caching first hits; beyond it the bounce
+    /// passes re-trace instead. Changes speed and memory, never the result.
+    pub hit_cache_limit: u64,
 }
+
+/// The default hit-cache budget: 1 GiB.
+pub const DEFAULT_HIT_CACHE_LIMIT: u64 = 1 << 30;
 
 impl Default for BakeOptions {
     fn default() -> BakeOptions {
@@ -73,6 +110,9 @@ impl Default for BakeOptions {
             mode: Mode::Shadowed,
             seed: 0,
             sampling: Sampling::OwenSobol,
+            bounces: 0,
+            aux: Aux::default(),
+            hit_cache_limit: DEFAULT_HIT_CACHE_LIMIT,
         }
     }
 }
@@ -89,6 +129,25 @@ impl BakeOptions {
         if self.samples == 0 {
             return Err(Error::InvalidOption("--samples must be at least 1".into()));
         }
+        match (self.mode, self.bounces) {
+            (Mode::Interreflected, 0) => {
+                return Err(Error::InvalidOption(
+                    "--bounces must be at least 1 in interreflected mode".into(),
+                ));
+            }
+            (Mode::Unshadowed | Mode::Shadowed, b) if b > 0 => {
+                return Err(Error::InvalidOption(format!(
+                    "--bounces {b} needs --mode interreflected (mode is {})",
+                    self.mode.name()
+                )));
+            }
+            _ => {}
+        }
+        if self.aux.any() && !self.mode.casts_rays() {
+            return Err(Error::InvalidOption(
+                "--aux needs rays: use --mode shadowed or interreflected".into(),
+            ));
+        }
         Ok(())
     }
 }
@@ -101,10 +160,28 @@ pub struct Transfer {
     pub channels: usize,
     pub vertex_count: usize,
     pub coefficients: Vec<f32>,
+    /// Per-vertex accessibility and bent normal (all vertices; what is stored is chosen by
+    /// `options.aux`). Empty for unshadowed bakes, which cast no rays.
+    pub visibility: Vec<Visibility>,
     pub backend: Backend,
     /// Rays actually cast (0 for unshadowed).
     pub rays_cast: u64,
     pub seconds: f64,
+    /// Interreflected mode: bytes of cached first hits, or `None` if the bounce passes
+    /// re-traced because the cache would have exceeded `options.hit_cache_limit`.
+    pub hit_cache_bytes: Option<u64>,
+}
+
+/// What a vertex's rays tell besides its transfer: the thesis's ambient-occlusion
+/// quantities (digest §9), here from the same rays as the shadowed transfer.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Visibility {
+    /// Cosine-weighted fraction of the hemisphere through which the sky is seen:
+    /// (1/π) ∫ V(s) max(n·s, 0) ds.
+    pub accessibility: f32,
+    /// The cosine-weighted mean of the unblocked directions, normalised; the shading normal
+    /// where every ray is blocked.
+    pub bent_normal: Vec3,
 }
 
 impl Transfer {
@@ -119,7 +196,7 @@ impl Transfer {
 /// Rays per tracer call: the batch over which the SH sums are first formed in f32.
 const BATCH: usize = 256;
 /// Vertices per parallel work item: progress is reported per item.
-const VERTICES_PER_JOB: usize = 8;
+pub(crate) const VERTICES_PER_JOB: usize = 8;
 
 /// Bakes the transfer of every vertex. `tracer` may be `None` only in unshadowed mode.
 pub fn bake(
@@ -128,59 +205,119 @@ pub fn bake(
     options: &BakeOptions,
     progress: &dyn Progress,
 ) -> Result<Transfer> {
-    let tracer = match (options.mode, tracer) {
-        (Mode::Unshadowed, _) => None,
-        (Mode::Shadowed, Some(t)) => Some(t),
-        (Mode::Shadowed, None) => {
-            return Err(Error::InvalidOption(
-                "shadowed transfer needs a ray-tracing backend".into(),
-            ));
+    let tracer = match (options.mode.casts_rays(), tracer) {
+        (false, _) => None,
+        (true, Some(t)) => Some(t),
+        (true, None) => {
+            return Err(Error::InvalidOption(format!(
+                "{} transfer needs a ray-tracing backend",
+                options.mode.name()
+            )));
         }
     };
     let started = Instant::now();
     let estimator = Estimator::new(scene, options)?;
-    let n = estimator.basis.coeff_count();
     let vertex_count = scene.vertex_count();
-    let rays_per_vertex = if tracer.is_some() {
-        u64::from(options.samples)
+    let (coefficients, channels, visibility, hit_cache_bytes) = match tracer {
+        Some(tracer) if options.mode == Mode::Interreflected => {
+            let bounced = crate::interreflection::bake(scene, tracer, &estimator, progress);
+            (
+                bounced.coefficients,
+                bounced.channels,
+                bounced.visibility,
+                bounced.hit_cache_bytes,
+            )
+        }
+        _ => {
+            let direct = direct_pass(&estimator, tracer, None, progress);
+            let visibility = if tracer.is_some() {
+                direct.visibility
+            } else {
+                Vec::new()
+            };
+            (direct.coefficients, 1, visibility, None)
+        }
+    };
+    let rays_per_pass = if tracer.is_some() {
+        u64::from(options.samples) * vertex_count as u64
     } else {
         0
     };
-    progress.begin(vertex_count as u64, rays_per_vertex);
+    // Re-tracing bounce passes cast every vertex's rays again.
+    let passes = match (options.mode, hit_cache_bytes) {
+        (Mode::Interreflected, None) => 1 + u64::from(options.bounces),
+        _ => 1,
+    };
+    Ok(Transfer {
+        options: options.clone(),
+        channels,
+        vertex_count,
+        coefficients,
+        visibility,
+        backend: tracer.map_or(Backend::None, |t| t.backend()),
+        rays_cast: rays_per_pass * passes,
+        seconds: started.elapsed().as_secs_f64(),
+        hit_cache_bytes,
+    })
+}
 
+/// The result of the shadowed (or unshadowed) pass over every vertex.
+pub(crate) struct DirectPass {
+    /// One channel: `coefficients[v · n² + j]`.
+    pub coefficients: Vec<f32>,
+    pub visibility: Vec<Visibility>,
+}
+
+/// The shadowed transfer of every vertex; with `recorder`, each vertex's front hits are
+/// handed to it (interreflected mode).
+pub(crate) fn direct_pass(
+    estimator: &Estimator,
+    tracer: Option<&dyn Tracer>,
+    recorder: Option<&crate::interreflection::HitRecorder<'_>>,
+    progress: &dyn Progress,
+) -> DirectPass {
+    let n = estimator.basis.coeff_count();
+    let vertex_count = estimator.normals.len();
+    let rays_per_vertex = if tracer.is_some() {
+        u64::from(estimator.options.samples)
+    } else {
+        0
+    };
+    progress.begin("direct", vertex_count as u64, rays_per_vertex);
     let mut coefficients = vec![0.0f32; vertex_count * n];
+    let mut visibility = vec![Visibility::default(); vertex_count];
     coefficients
         .par_chunks_mut(VERTICES_PER_JOB * n)
+        .zip(visibility.par_chunks_mut(VERTICES_PER_JOB))
         .enumerate()
         .for_each_init(
             || Scratch::new(n),
-            |scratch, (job, out)| {
+            |scratch, (job, (out, vis))| {
                 let first = job * VERTICES_PER_JOB;
-                for (k, out) in out.chunks_mut(n).enumerate() {
-                    estimator.vertex_transfer(first + k, tracer, scratch, out);
+                let mut hits = recorder.map(|r| r.job());
+                for (k, (out, vis)) in out.chunks_mut(n).zip(vis.iter_mut()).enumerate() {
+                    *vis =
+                        estimator.vertex_transfer(first + k, tracer, scratch, out, hits.as_mut());
                 }
-                progress.advance((out.len() / n) as u64);
+                if let (Some(recorder), Some(hits)) = (recorder, hits) {
+                    recorder.finish_job(job, hits);
+                }
+                progress.advance(vis.len() as u64);
             },
         );
     progress.finish();
-
-    Ok(Transfer {
-        options: options.clone(),
-        channels: 1,
-        vertex_count,
+    DirectPass {
         coefficients,
-        backend: tracer.map_or(Backend::None, |t| t.backend()),
-        rays_cast: rays_per_vertex * vertex_count as u64,
-        seconds: started.elapsed().as_secs_f64(),
-    })
+        visibility,
+    }
 }
 
 /// What all vertices of one bake share, and the per-vertex estimator.
 pub struct Estimator {
-    options: BakeOptions,
-    basis: Basis,
+    pub(crate) options: BakeOptions,
+    pub(crate) basis: Basis,
     rotator: Rotator,
-    normals: Vec<Vec3>,
+    pub(crate) normals: Vec<Vec3>,
     origins: Vec<Vec3>,
     /// The bake's cosine-weighted directions in the local frame (Owen–Sobol only).
     local_dirs: Vec<Vec3>,
@@ -275,26 +412,59 @@ impl Estimator {
         }
     }
 
-    /// The transfer coefficients of vertex `v` into `out`.
+    /// The estimator's normalisation: a sample of weight w stands for (w · norm) of the
+    /// cosine-weighted hemisphere, whose total is 1.
+    pub(crate) fn norm(&self) -> f64 {
+        match self.options.sampling {
+            // Cosine-weighted samples: each is 1/N of the cosine-weighted hemisphere.
+            Sampling::OwenSobol => 1.0 / f64::from(self.options.samples),
+            // Uniform over the hemisphere, weight cos θ: (2π/N)·cos θ/π each.
+            Sampling::ThesisRandom => 2.0 / f64::from(self.options.samples),
+        }
+    }
+
+    /// The shadowed (or unshadowed, with no tracer) transfer of vertex `v` into `out`, and
+    /// its [`Visibility`]. With `hits`, closest-hit rays are cast instead of occlusion rays
+    /// and the front-face hits are recorded for the bounce passes.
     pub fn vertex_transfer(
         &self,
         v: usize,
         tracer: Option<&dyn Tracer>,
         s: &mut Scratch,
         out: &mut [f32],
-    ) {
+        mut hits: Option<&mut crate::interreflection::JobRows<'_>>,
+    ) -> Visibility {
         let n = self.basis.coeff_count();
         let samples = self.options.samples as usize;
         let frame = self.vertex_frame(v);
         s.total.fill(0.0);
+        let (mut unblocked, mut bent) = (0.0f64, Vec3::ZERO);
+        if let Some(hits) = hits.as_deref_mut() {
+            hits.begin_vertex(&mut s.rows);
+        }
         let mut start = 0;
         while start < samples {
             let end = (start + BATCH).min(samples);
             self.directions(v, &frame, start..end, &mut s.dirs, &mut s.weights);
             let occluded = &mut s.occluded[..end - start];
-            match tracer {
-                Some(tracer) => tracer.occluded_from(self.origins[v], &s.dirs, occluded),
-                None => occluded.fill(false),
+            match (tracer, hits.as_deref_mut()) {
+                (Some(tracer), Some(hits)) => {
+                    let closest = &mut s.hits[..end - start];
+                    tracer.intersect_from(self.origins[v], &s.dirs, closest);
+                    for (((o, h), dir), &weight) in occluded
+                        .iter_mut()
+                        .zip(closest.iter())
+                        .zip(&s.dirs)
+                        .zip(&s.weights)
+                    {
+                        *o = h.is_some();
+                        if let Some(h) = h {
+                            hits.record(h, *dir, weight, &mut s.rows);
+                        }
+                    }
+                }
+                (Some(tracer), None) => tracer.occluded_from(self.origins[v], &s.dirs, occluded),
+                (None, _) => occluded.fill(false),
             }
             s.batch_sum.fill(0.0);
             match self.options.sampling {
@@ -321,29 +491,37 @@ impl Estimator {
                     }
                 }
             }
+            for ((dir, &blocked), &weight) in s.dirs.iter().zip(occluded.iter()).zip(&s.weights) {
+                if !blocked {
+                    unblocked += f64::from(weight);
+                    bent += *dir * weight;
+                }
+            }
             for (total, b) in s.total.iter_mut().zip(&s.batch_sum) {
                 *total += f64::from(*b);
             }
             start = end;
         }
+        if let Some(hits) = hits {
+            hits.end_vertex(&mut s.rows);
+        }
+        let norm = self.norm();
+        for t in s.total.iter_mut() {
+            *t *= norm;
+        }
         match self.options.sampling {
-            // Cosine-weighted: T_j ≈ (1/N) Σ V y_j, formed in the local frame, then rotated.
-            Sampling::OwenSobol => {
-                for t in s.total.iter_mut() {
-                    *t /= samples as f64;
-                }
-                self.rotator
-                    .rotate(frame.as_dmat3(), &s.total, &mut s.world);
-            }
-            // Uniform over the hemisphere: T_j ≈ (2π/N) Σ (1/π) V cos y_j.
-            Sampling::ThesisRandom => {
-                for (w, t) in s.world.iter_mut().zip(&s.total) {
-                    *w = t * 2.0 / samples as f64;
-                }
-            }
+            // Formed in the local frame: rotate into world space.
+            Sampling::OwenSobol => self
+                .rotator
+                .rotate(frame.as_dmat3(), &s.total, &mut s.world),
+            Sampling::ThesisRandom => s.world.copy_from_slice(&s.total),
         }
         for (o, w) in out.iter_mut().zip(&s.world) {
             *o = *w as f32;
+        }
+        Visibility {
+            accessibility: (unblocked * norm) as f32,
+            bent_normal: bent.try_normalize().unwrap_or(self.normals[v]),
         }
     }
 }
@@ -352,6 +530,9 @@ impl Estimator {
 pub struct Scratch {
     dirs: Vec<Vec3>,
     occluded: Vec<bool>,
+    hits: Vec<Option<crate::trace::Hit>>,
+    /// Interreflected mode: the current vertex's bounce row.
+    rows: crate::interreflection::RowBuilder,
     weights: Vec<f32>,
     y: Vec<f32>,
     batch_sum: Vec<f32>,
@@ -364,6 +545,8 @@ impl Scratch {
         Scratch {
             dirs: Vec::with_capacity(BATCH),
             occluded: vec![false; BATCH],
+            hits: vec![None; BATCH],
+            rows: Default::default(),
             weights: Vec::with_capacity(BATCH),
             y: vec![0.0; n],
             batch_sum: vec![0.0; n],

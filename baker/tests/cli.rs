@@ -483,7 +483,7 @@ fn inspect_prints_the_header_as_json() {
         "sampling": "owen-sobol",
         "seed": 42,
         "scene_fingerprint": format!("{fingerprint:016x}"),
-        "aux_flags": 0,
+        "aux": [],
         "checksum": shadowed["checksum"],
     });
     assert_eq!(shadowed, expected);
@@ -661,6 +661,197 @@ fn bad_option_values_are_refused_before_anything_is_written() {
     ] {
         s.run(&["bake", "tri.obj", "-o", "out/x.prt", option, value])
             .fails_with(EXIT_BAD_COMMAND_LINE, &[message]);
+    }
+    s.assert_out_holds(&[]);
+}
+
+/// A red floor and a white wall meeting at a right angle, with materials: light bounces off
+/// the red floor onto the wall in colour.
+const RED_FLOOR_WHITE_WALL: &str = "\
+mtllib room.mtl
+o floor
+usemtl red
+v 0 0 0
+v 2 0 0
+v 2 2 0
+v 0 2 0
+vn 0 0 1
+f 1//1 2//1 3//1 4//1
+o wall
+usemtl white
+v 0 0 0
+v 0 2 0
+v 0 2 2
+v 0 0 2
+vn 1 0 0
+f 5//2 6//2 7//2 8//2
+";
+const ROOM_MTL: &str = "newmtl red\nKd 0.8 0.1 0.1\n\nnewmtl white\nKd 0.7 0.7 0.7\n";
+
+/// Reads every array of an `.npz` by name.
+fn read_npz(path: &Path) -> std::collections::BTreeMap<String, Npy> {
+    let mut zip = zip::ZipArchive::new(std::fs::File::open(path).unwrap()).expect("a zip archive");
+    let names: Vec<String> = zip.file_names().map(|n| n.unwrap().into_owned()).collect();
+    names
+        .into_iter()
+        .map(|name| {
+            let mut bytes = Vec::new();
+            zip.by_name(&name).unwrap().read_to_end(&mut bytes).unwrap();
+            (name.trim_end_matches(".npy").to_string(), parse_npy(&bytes))
+        })
+        .collect()
+}
+
+#[test]
+fn interreflected_bake_records_bounces_colour_and_aux_arrays() {
+    let s = Scratch::new();
+    s.write("room.obj", RED_FLOOR_WHITE_WALL);
+    s.write("room.mtl", ROOM_MTL);
+    let extra = [
+        "--mode",
+        "interreflected",
+        "--bounces",
+        "2",
+        "--aux",
+        "ao,bent-normal",
+        "--samples",
+        "256",
+    ];
+    let run = s.bake("room.obj", "a.prt", &extra);
+    assert!(
+        run.stdout
+            .contains("interreflected, 2 bounces, 3 channels, hit cache"),
+        "{}",
+        run.stdout
+    );
+
+    let json: serde_json::Value =
+        serde_json::from_str(&s.run(&["inspect", "out/a.prt"]).success().stdout).unwrap();
+    assert_eq!(json["mode"], "interreflected");
+    assert_eq!(json["bounces"], 2);
+    assert_eq!(json["channels"], 3);
+    assert_eq!(json["aux"], serde_json::json!(["ao", "bent-normal"]));
+
+    s.run(&[
+        "export",
+        "out/a.prt",
+        "--scene",
+        "room.obj",
+        "--npz",
+        "out/a.npz",
+    ])
+    .success();
+    let file = CoefficientFile::read(&s.path("out/a.prt")).unwrap();
+    let arrays = read_npz(&s.path("out/a.npz"));
+    let v = 8;
+    assert_eq!(
+        arrays.keys().collect::<Vec<_>>(),
+        [
+            "albedo",
+            "ao",
+            "bent_normal",
+            "normals",
+            "positions",
+            "transfer"
+        ]
+    );
+    assert_eq!(arrays["transfer"].shape, [v, 3, 16]);
+    assert_bits_eq("transfer", &arrays["transfer"].data, &file.coefficients);
+    assert_eq!(arrays["ao"].shape, [v]);
+    assert_bits_eq("ao", &arrays["ao"].data, file.ao.as_ref().unwrap());
+    assert_eq!(arrays["bent_normal"].shape, [v, 3]);
+    assert_bits_eq(
+        "bent_normal",
+        &arrays["bent_normal"].data,
+        &flat(file.bent_normal.as_ref().unwrap()),
+    );
+    // The wall (vertices 4..8) receives light bounced off the red floor: more red than green.
+    let n = 16;
+    for vertex in 4..v {
+        let dc = |c: usize| file.coefficients[(vertex * 3 + c) * n];
+        assert!(
+            dc(0) > dc(1),
+            "wall vertex {vertex}: red {} green {}",
+            dc(0),
+            dc(1)
+        );
+    }
+    // Each quad hides part of the other's sky: a lot from the shared edge (floor vertices 0
+    // and 3, wall vertices 4 and 5), little from the far corners.
+    let ao = &arrays["ao"].data;
+    for (vertex, &a) in ao.iter().enumerate() {
+        let on_edge = [0, 3, 4, 5].contains(&vertex);
+        assert!(
+            if on_edge {
+                a > 0.5 && a < 0.7
+            } else {
+                a > 0.9 && a < 0.99
+            },
+            "vertex {vertex}: {ao:?}"
+        );
+    }
+}
+
+#[test]
+fn grey_scenes_keep_one_channel_when_interreflected() {
+    let s = Scratch::new();
+    s.write("a.obj", FLOOR_AND_OCCLUDER);
+    let run = s.bake("a.obj", "a.prt", &["--mode", "interreflected"]);
+    assert!(
+        run.stdout.contains("interreflected, 1 bounces, 1 channels"),
+        "{}",
+        run.stdout
+    );
+    let file = CoefficientFile::read(&s.path("out/a.prt")).unwrap();
+    assert_eq!((file.header.channels, file.header.bounces), (1, 1));
+}
+
+#[test]
+fn the_hit_cache_limit_changes_memory_never_the_result() {
+    // --hit-cache-mb 0 cannot hold one bounce row, so every bounce re-traces its rays.
+    let s = Scratch::new();
+    s.write("room.obj", RED_FLOOR_WHITE_WALL);
+    s.write("room.mtl", ROOM_MTL);
+    let common = [
+        "--mode",
+        "interreflected",
+        "--bounces",
+        "3",
+        "--samples",
+        "128",
+    ];
+    let cached = s.bake("room.obj", "cached.prt", &common);
+    let retraced = s.bake(
+        "room.obj",
+        "retraced.prt",
+        &[&common[..], &["--hit-cache-mb", "0"]].concat(),
+    );
+    assert!(cached.stdout.contains("hit cache"), "{}", cached.stdout);
+    assert!(retraced.stdout.contains("re-traced"), "{}", retraced.stdout);
+    assert_eq!(s.read("out/cached.prt"), s.read("out/retraced.prt"));
+}
+
+#[test]
+fn bounce_and_aux_options_must_fit_the_mode() {
+    let s = Scratch::new();
+    s.write("tri.obj", TRIANGLE);
+    for (args, message) in [
+        (
+            &["--bounces", "2"][..],
+            "--bounces 2 needs --mode interreflected",
+        ),
+        (
+            &["--mode", "interreflected", "--bounces", "0"][..],
+            "--bounces must be at least 1",
+        ),
+        (
+            &["--mode", "unshadowed", "--aux", "ao"][..],
+            "--aux needs rays",
+        ),
+    ] {
+        let mut all = vec!["bake", "tri.obj", "-o", "out/x.prt"];
+        all.extend(args);
+        s.run(&all).fails_with(EXIT_BAD_COMMAND_LINE, &[message]);
     }
     s.assert_out_holds(&[]);
 }

@@ -23,7 +23,7 @@ use prt_baker::sampling::Frame;
 use prt_baker::scene::{Material, Mesh, Scene};
 use prt_baker::sh;
 use prt_baker::trace::{EmbreeOptions, EmbreeTracer};
-use prt_baker::transfer::{Estimator, Scratch};
+use prt_baker::transfer::{Estimator, Scratch, Visibility};
 use prt_baker::{BakeOptions, Mode};
 
 /// Standard errors allowed.
@@ -80,6 +80,38 @@ pub fn band_moments(order: usize, normal: DVec3, t_lo: f64, t_hi: f64) -> Moment
             let d = tangent * (r * phi.cos()) + bitangent * (r * phi.sin()) + normal * t;
             let (theta, az) = sh::angles(d);
             let weight = w * std::f64::consts::TAU / azimuths as f64 * t / std::f64::consts::PI;
+            for j in 0..n {
+                let (l, m) = sh::band_and_m(j);
+                let y = sh::eval_slow(l, m, theta, az);
+                moments.mean[j] += weight * y;
+                moments.second[j] += weight * y * y;
+            }
+        }
+    }
+    moments
+}
+
+/// [`Moments`] of the quarter of the sphere {n·s > 0, c·s > 0} (`cut` ⊥ `normal`): a point
+/// on a plane with an infinite perpendicular plane through it blocking the other half.
+/// Gauss–Legendre in n·s and in azimuth over the half-turn.
+pub fn quarter_moments(order: usize, normal: DVec3, cut: DVec3) -> Moments {
+    let n = sh::coeff_count(order);
+    let (normal, cut) = (normal.normalize(), cut.normalize());
+    let side = normal.cross(cut);
+    let (nodes, weights) = sh::gauss_legendre(32);
+    let mut moments = Moments {
+        mean: vec![0.0; n],
+        second: vec![0.0; n],
+    };
+    for (xt, wt) in nodes.iter().zip(&weights) {
+        let t = 0.5 * (xt + 1.0);
+        let r = (1.0 - t * t).sqrt();
+        for (xp, wp) in nodes.iter().zip(&weights) {
+            // Azimuth in (−π/2, π/2) around `cut`.
+            let phi = 0.5 * std::f64::consts::PI * xp;
+            let d = cut * (r * phi.cos()) + side * (r * phi.sin()) + normal * t;
+            let (theta, az) = sh::angles(d);
+            let weight = 0.5 * wt * 0.5 * std::f64::consts::PI * wp * t / std::f64::consts::PI;
             for j in 0..n {
                 let (l, m) = sh::band_and_m(j);
                 let y = sh::eval_slow(l, m, theta, az);
@@ -161,6 +193,34 @@ pub fn grid(name: &str, origin: Vec3, edge_u: Vec3, edge_v: Vec3, cells: u32) ->
     let mut triangles = Vec::new();
     for j in 0..cells {
         for i in 0..cells {
+            triangles.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+            triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+        }
+    }
+    let count = positions.len();
+    mesh(name, positions, vec![normal; count], triangles)
+}
+
+/// A rectangle over the tensor grid of coordinates `us` × `vs` along `edge_u`, `edge_v`
+/// (unit directions) from `origin`: fine where the coordinates are dense.
+pub fn graded_grid(
+    name: &str,
+    origin: Vec3,
+    edge_u: Vec3,
+    edge_v: Vec3,
+    us: &[f32],
+    vs: &[f32],
+) -> Mesh {
+    let normal = edge_u.cross(edge_v).normalize();
+    let positions: Vec<Vec3> = vs
+        .iter()
+        .flat_map(|&v| us.iter().map(move |&u| origin + edge_u * u + edge_v * v))
+        .collect();
+    let (nu, nv) = (us.len() as u32, vs.len() as u32);
+    let at = |i: u32, j: u32| j * nu + i;
+    let mut triangles = Vec::new();
+    for j in 0..nv - 1 {
+        for i in 0..nu - 1 {
             triangles.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
             triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
         }
@@ -262,8 +322,12 @@ pub fn scene(meshes: Vec<Mesh>) -> Scene {
 // Baking selected vertices
 
 /// Bakes only `vertices` (the oracle vertices of a large scene) through the real estimator and
-/// Embree; returns one coefficient vector per vertex.
-pub fn bake_vertices(scene: &Scene, options: &BakeOptions, vertices: &[usize]) -> Vec<Vec<f64>> {
+/// Embree (the direct pass: shadowed or unshadowed transfer, and the rays' visibility).
+fn bake_selected(
+    scene: &Scene,
+    options: &BakeOptions,
+    vertices: &[usize],
+) -> Vec<(Vec<f64>, Visibility)> {
     let tracer = EmbreeTracer::new(scene, EmbreeOptions::default()).expect("embree scene");
     let estimator = Estimator::new(scene, options).expect("valid options");
     let n = sh::coeff_count(options.order);
@@ -274,10 +338,32 @@ pub fn bake_vertices(scene: &Scene, options: &BakeOptions, vertices: &[usize]) -
         .iter()
         .map(|&v| {
             let mut out = vec![0.0f32; n];
-            estimator.vertex_transfer(v, tracer, &mut scratch, &mut out);
-            out.into_iter().map(f64::from).collect()
+            let visibility = estimator.vertex_transfer(v, tracer, &mut scratch, &mut out, None);
+            (out.into_iter().map(f64::from).collect(), visibility)
         })
         .collect()
+}
+
+/// The transfer coefficients of `vertices`, baked alone (see [`bake_selected`]).
+pub fn bake_vertices(scene: &Scene, options: &BakeOptions, vertices: &[usize]) -> Vec<Vec<f64>> {
+    bake_selected(scene, options, vertices)
+        .into_iter()
+        .map(|(t, _)| t)
+        .collect()
+}
+
+/// The accessibility and bent normal of `vertices`, from the same rays.
+pub fn visibility_of(scene: &Scene, options: &BakeOptions, vertices: &[usize]) -> Vec<Visibility> {
+    bake_selected(scene, options, vertices)
+        .into_iter()
+        .map(|(_, v)| v)
+        .collect()
+}
+
+/// A whole-scene bake through the library entry point (every vertex, any mode).
+pub fn bake_scene(scene: &Scene, options: &BakeOptions) -> prt_baker::Transfer {
+    let tracer = EmbreeTracer::new(scene, EmbreeOptions::default()).expect("embree scene");
+    prt_baker::bake(scene, Some(&tracer), options, &prt_baker::progress::Silent).expect("bake")
 }
 
 pub fn shadowed(order: usize, samples: u32) -> BakeOptions {

@@ -99,21 +99,33 @@ impl Texture {
         }
     }
 
-    fn texel(&self, x: i64, y: i64) -> Vec3 {
-        let x = x.rem_euclid(self.width as i64) as usize;
-        let y = y.rem_euclid(self.height as i64) as usize;
-        self.texels[y * self.width as usize + x]
-    }
-
     /// Bilinear lookup with repeat wrapping. OBJ's v runs up from the bottom of the image.
     pub fn sample(&self, uv: Vec2) -> Vec3 {
-        let x = uv.x * self.width as f32 - 0.5;
-        let y = (1.0 - uv.y) * self.height as f32 - 0.5;
+        let (w, h) = (self.width as usize, self.height as usize);
+        // Wrap once in float, so each axis needs at most one neighbour wrapped below.
+        let x = (uv.x - uv.x.floor()) * w as f32 - 0.5;
+        let y = (1.0 - (uv.y - uv.y.floor())) * h as f32 - 0.5;
         let (x0, y0) = (x.floor(), y.floor());
         let (fx, fy) = (x - x0, y - y0);
-        let (x0, y0) = (x0 as i64, y0 as i64);
-        let top = self.texel(x0, y0).lerp(self.texel(x0 + 1, y0), fx);
-        let bottom = self.texel(x0, y0 + 1).lerp(self.texel(x0 + 1, y0 + 1), fx);
+        let wrap = |i: f32, size: usize| -> (usize, usize) {
+            // i is in [-1, size]: the pair (i, i + 1) modulo size.
+            let i = i as isize;
+            let first = if i < 0 {
+                size - 1
+            } else {
+                (i as usize).min(size - 1)
+            };
+            let second = if i + 1 >= size as isize {
+                0
+            } else {
+                (i + 1) as usize
+            };
+            (first, second)
+        };
+        let ((x0, x1), (y0, y1)) = (wrap(x0, w), wrap(y0, h));
+        let texel = |x: usize, y: usize| self.texels[y * w + x];
+        let top = texel(x0, y0).lerp(texel(x1, y0), fx);
+        let bottom = texel(x0, y1).lerp(texel(x1, y1), fx);
         top.lerp(bottom, fy)
     }
 }
@@ -137,6 +149,38 @@ mod tests {
         let t = Texture::from_linear("t", 1, 2, vec![Vec3::X, Vec3::Z]);
         assert_eq!(t.sample(Vec2::new(0.5, 0.25)), Vec3::Z);
         assert_eq!(t.sample(Vec2::new(0.5, 0.75)), Vec3::X);
+    }
+
+    /// The fast wrap against the obvious formulation, over uvs far outside [0, 1].
+    #[test]
+    fn sampling_matches_integer_wrapping_everywhere() {
+        let (w, h) = (5u32, 3u32);
+        let texels = (0..w * h)
+            .map(|i| Vec3::new(i as f32, (i * 7 % 11) as f32, 1.0))
+            .collect();
+        let t = Texture::from_linear("t", w, h, texels);
+        let reference = |uv: Vec2| {
+            let texel = |x: i64, y: i64| {
+                t.texels[(y.rem_euclid(h as i64) * w as i64 + x.rem_euclid(w as i64)) as usize]
+            };
+            let x = uv.x * w as f32 - 0.5;
+            let y = (1.0 - uv.y) * h as f32 - 0.5;
+            let (x0, y0) = (x.floor(), y.floor());
+            let (fx, fy) = (x - x0, y - y0);
+            let (x0, y0) = (x0 as i64, y0 as i64);
+            let top = texel(x0, y0).lerp(texel(x0 + 1, y0), fx);
+            let bottom = texel(x0, y0 + 1).lerp(texel(x0 + 1, y0 + 1), fx);
+            top.lerp(bottom, fy)
+        };
+        let mut rng = crate::sampling::Pcg32::new(1, 2);
+        for _ in 0..10_000 {
+            let uv = Vec2::new(rng.next_f32() * 8.0 - 4.0, rng.next_f32() * 8.0 - 4.0);
+            let (fast, slow) = (t.sample(uv), reference(uv));
+            assert!(
+                (fast - slow).abs().max_element() < 1e-3,
+                "uv {uv}: {fast} vs {slow}"
+            );
+        }
     }
 
     #[test]

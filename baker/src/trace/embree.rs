@@ -17,6 +17,18 @@ thread_local! {
     /// cost as much memory traffic as writing the rays.
     static OCCLUSION_STREAM: RefCell<Vec<embree_sys::Ray>> =
         RefCell::new(vec![embree_sys::Ray::default(); STREAM]);
+    static INTERSECTION_STREAM: RefCell<Vec<embree_sys::RayHit>> =
+        RefCell::new(vec![embree_sys::RayHit::new(embree_sys::Ray::default()); STREAM]);
+}
+
+fn to_hit(hit: embree_sys::Hit) -> Hit {
+    Hit {
+        triangle: hit.prim_id,
+        u: hit.u,
+        v: hit.v,
+        t: hit.t,
+        ng: glam::Vec3::from_array(hit.ng),
+    }
 }
 
 pub struct EmbreeTracer {
@@ -111,28 +123,37 @@ impl Tracer for EmbreeTracer {
 
     fn intersect(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
         assert_eq!(rays.len(), hits.len());
-        let empty = embree_sys::RayHit::new(embree_sys::Ray::default());
-        let mut stream = [empty; STREAM];
-        for (rays, hits) in rays.chunks(STREAM).zip(hits.chunks_mut(STREAM)) {
-            let stream = &mut stream[..rays.len()];
-            for (slot, r) in stream.iter_mut().zip(rays) {
-                *slot = embree_sys::RayHit::new(embree_sys::Ray::new(
-                    r.origin.to_array(),
-                    r.dir.to_array(),
-                    0.0,
-                    r.tfar,
-                ));
+        INTERSECTION_STREAM.with_borrow_mut(|stream| {
+            for (rays, hits) in rays.chunks(STREAM).zip(hits.chunks_mut(STREAM)) {
+                let stream = &mut stream[..rays.len()];
+                for (slot, r) in stream.iter_mut().zip(rays) {
+                    let ray =
+                        embree_sys::Ray::new(r.origin.to_array(), r.dir.to_array(), 0.0, r.tfar);
+                    *slot = embree_sys::RayHit::new(ray);
+                }
+                self.scene.intersect_stream(stream);
+                for (h, rh) in hits.iter_mut().zip(stream.iter()) {
+                    *h = rh.hit().map(to_hit);
+                }
             }
-            self.scene.intersect_stream(stream);
-            for (h, rh) in hits.iter_mut().zip(stream.iter()) {
-                *h = rh.hit().map(|hit| Hit {
-                    triangle: hit.prim_id,
-                    u: hit.u,
-                    v: hit.v,
-                    t: hit.t,
-                    ng: glam::Vec3::from_array(hit.ng),
-                });
+        });
+    }
+
+    fn intersect_from(&self, origin: glam::Vec3, dirs: &[glam::Vec3], hits: &mut [Option<Hit>]) {
+        assert_eq!(dirs.len(), hits.len());
+        let origin = origin.to_array();
+        INTERSECTION_STREAM.with_borrow_mut(|stream| {
+            for (dirs, hits) in dirs.chunks(STREAM).zip(hits.chunks_mut(STREAM)) {
+                let stream = &mut stream[..dirs.len()];
+                for (slot, d) in stream.iter_mut().zip(dirs) {
+                    let ray = embree_sys::Ray::new(origin, d.to_array(), 0.0, f32::INFINITY);
+                    *slot = embree_sys::RayHit::new(ray);
+                }
+                self.scene.intersect_stream(stream);
+                for (h, rh) in hits.iter_mut().zip(stream.iter()) {
+                    *h = rh.hit().map(to_hit);
+                }
             }
-        }
+        });
     }
 }

@@ -82,6 +82,20 @@ pub trait Tracer: Send + Sync {
 
     /// `hits[i]` = the closest hit of `rays[i]`, if any. The slices have equal lengths.
     fn intersect(&self, rays: &[Ray], hits: &mut [Option<Hit>]);
+
+    /// Closest hits of unbounded rays that share one origin. Same answers as
+    /// [`Tracer::intersect`].
+    fn intersect_from(&self, origin: Vec3, dirs: &[Vec3], hits: &mut [Option<Hit>]) {
+        let rays: Vec<Ray> = dirs
+            .iter()
+            .map(|&dir| Ray {
+                origin,
+                dir,
+                tfar: f32::INFINITY,
+            })
+            .collect();
+        self.intersect(&rays, hits);
+    }
 }
 
 /// The default tracer this build offers for `scene`; `threads` limits the backend's own

@@ -1,0 +1,355 @@
+//! Interreflected transfer: light that reaches a vertex after bouncing off other surfaces, in
+//! colour (Green's bounce method; the thesis's step beyond shadows).
+//!
+//! Bounce k at vertex x integrates, over the rays from x whose first hit h(s) lies on a front
+//! face,
+//!
+//! ```text
+//!     T_k(x) = (1/π) ∫ max(n·s, 0) · ρ(h) · T̃_{k−1}(h) ds
+//! ```
+//!
+//! where ρ(h) is the hit surface's albedo (Kd × texture at the hit's uv, per channel) and
+//! T̃_{k−1}(h) the previous bounce's transfer interpolated with the hit's barycentrics;
+//! T_0 is the shadowed transfer and the result is T_0 + T_1 + … + T_B. The SH basis never
+//! appears in a bounce: it is carried by T_0, so a bounce is a weighted gather of vertex
+//! transfers over the first hits.
+//!
+//! *Front face* means the side the hit's interpolated shading normal points to — the side
+//! whose transfer was baked. A ray that reaches a back face is blocked (it counts as
+//! occluded in T_0) and adds nothing: light does not pass through or reflect off the inside
+//! of a closed object. Scenes must be wound (or have normals) accordingly.
+//!
+//! Transfer becomes three channels (R, G, B) unless every albedo in the scene is grey.
+//!
+//! # Bounce rows, and memory
+//!
+//! A bounce is linear in the previous bounce's *vertex* values: T_k(x) = Σ_v w(x, v) ⊙ T_{k−1}(v),
+//! where w(x, v) sums, over the rays of x whose front hit lands on a triangle of v, the
+//! estimator weight × albedo × v's barycentric weight. The direct pass (which casts
+//! closest-hit rays along the same directions as the shadowed estimator) folds each vertex's
+//! hits into this sparse *bounce row* once: hits cluster on shared vertices, so a row is far
+//! shorter than three entries per hit, and every bounce is then a cheap gather with no rays.
+//! An entry is 16 bytes (vertex u32, RGB weight 3 × f32).
+//!
+//! If the rows would exceed `BakeOptions::hit_cache_limit` they are dropped, and each
+//! bounce pass re-traces the (deterministic) rays to rebuild one row at a time: the same
+//! result with memory O(vertices × coefficients), at the cost of a tracing pass per bounce.
+
+use std::ops::Range;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+
+use crate::progress::Progress;
+use crate::scene::Scene;
+use crate::sh;
+use crate::trace::{Hit, Tracer};
+use crate::transfer::{Estimator, Scratch, VERTICES_PER_JOB, Visibility, direct_pass};
+
+/// Bytes per bounce-row entry: vertex index and RGB weight.
+pub const BYTES_PER_ENTRY: u64 = 4 + 3 * 4;
+
+/// What an interreflected bake produces.
+pub(crate) struct Bounced {
+    /// `coefficients[(v · channels + c) · n² + j]`, the sum over bounces 0..=B.
+    pub coefficients: Vec<f32>,
+    pub channels: usize,
+    pub visibility: Vec<Visibility>,
+    /// Bytes of cached bounce rows, or `None` when the bounces re-traced.
+    pub hit_cache_bytes: Option<u64>,
+}
+
+/// A thread's dense accumulator for one vertex's bounce row: weights by vertex, and the
+/// vertices touched so far in first-touch order (which fixes the summation order).
+#[derive(Default)]
+pub struct RowBuilder {
+    dense: Vec<[f32; 3]>,
+    touched: Vec<u32>,
+}
+
+impl RowBuilder {
+    fn add(&mut self, vertex: u32, weight: Vec3) {
+        let slot = &mut self.dense[vertex as usize];
+        if *slot == [0.0; 3] {
+            self.touched.push(vertex);
+        }
+        *slot = (Vec3::from_array(*slot) + weight).to_array();
+    }
+}
+
+/// The bounce rows of a run of consecutive vertices.
+pub struct JobRows<'a> {
+    scene: &'a Scene,
+    /// Index of each begun vertex's first entry.
+    starts: Vec<u32>,
+    vertices: Vec<u32>,
+    weights: Vec<[f32; 3]>,
+}
+
+impl<'a> JobRows<'a> {
+    fn new(scene: &'a Scene) -> JobRows<'a> {
+        JobRows {
+            scene,
+            starts: Vec::new(),
+            vertices: Vec::new(),
+            weights: Vec::new(),
+        }
+    }
+
+    /// Starts the next vertex's row (vertices are recorded in order).
+    pub(crate) fn begin_vertex(&mut self, builder: &mut RowBuilder) {
+        builder.dense.resize(self.scene.vertex_count(), [0.0; 3]);
+        self.starts.push(self.vertices.len() as u32);
+    }
+
+    /// Adds a closest hit of a ray along `dir` with estimator weight `weight`, if the ray
+    /// reached a front face.
+    pub(crate) fn record(&mut self, hit: &Hit, dir: Vec3, weight: f32, builder: &mut RowBuilder) {
+        let scene = self.scene;
+        let tri = scene.triangles[hit.triangle as usize];
+        let corner = |i: u32| i as usize;
+        let barycentric = [1.0 - hit.u - hit.v, hit.u, hit.v];
+        let normal: Vec3 = (0..3)
+            .map(|k| scene.normals[corner(tri[k])] * barycentric[k])
+            .sum();
+        if normal.dot(dir) >= 0.0 {
+            return; // a back face: blocks, reflects nothing
+        }
+        let uv: Vec2 = (0..3)
+            .map(|k| scene.uvs[corner(tri[k])] * barycentric[k])
+            .sum();
+        let albedo = scene.albedo(scene.triangle_material(hit.triangle as usize), uv) * weight;
+        for (&vertex, &b) in tri.iter().zip(&barycentric) {
+            let w = albedo * b.max(0.0);
+            if w != Vec3::ZERO {
+                builder.add(vertex, w);
+            }
+        }
+    }
+
+    /// Ends the current vertex's row: moves the builder's entries into the job.
+    pub(crate) fn end_vertex(&mut self, builder: &mut RowBuilder) {
+        for &vertex in &builder.touched {
+            let slot = &mut builder.dense[vertex as usize];
+            self.vertices.push(vertex);
+            self.weights.push(*slot);
+            *slot = [0.0; 3];
+        }
+        builder.touched.clear();
+    }
+
+    fn bytes(&self) -> u64 {
+        self.vertices.len() as u64 * BYTES_PER_ENTRY + self.starts.len() as u64 * 4
+    }
+
+    /// The entries of the `k`-th vertex recorded.
+    fn vertex(&self, k: usize) -> Range<usize> {
+        let start = self.starts[k] as usize;
+        let end = self
+            .starts
+            .get(k + 1)
+            .map_or(self.vertices.len(), |&e| e as usize);
+        start..end
+    }
+}
+
+/// Collects the direct pass's bounce rows job by job, within a memory budget.
+pub(crate) struct HitRecorder<'a> {
+    scene: &'a Scene,
+    jobs: Vec<Mutex<Option<JobRows<'a>>>>,
+    bytes: AtomicU64,
+    limit: u64,
+    overflowed: AtomicBool,
+}
+
+impl<'a> HitRecorder<'a> {
+    fn new(scene: &'a Scene, limit: u64) -> HitRecorder<'a> {
+        let jobs = scene.vertex_count().div_ceil(VERTICES_PER_JOB);
+        HitRecorder {
+            scene,
+            jobs: (0..jobs).map(|_| Mutex::new(None)).collect(),
+            bytes: AtomicU64::new(0),
+            limit,
+            overflowed: AtomicBool::new(false),
+        }
+    }
+
+    /// An empty set of rows for the next job.
+    pub(crate) fn job(&self) -> JobRows<'a> {
+        JobRows::new(self.scene)
+    }
+
+    /// Keeps a finished job's rows, unless the budget is (or would be) exceeded.
+    pub(crate) fn finish_job(&self, job: usize, hits: JobRows<'a>) {
+        let total = self.bytes.fetch_add(hits.bytes(), Ordering::Relaxed) + hits.bytes();
+        if total > self.limit {
+            self.overflowed.store(true, Ordering::Relaxed);
+        }
+        if !self.overflowed.load(Ordering::Relaxed) {
+            *self.jobs[job]
+                .lock()
+                .expect("no job panicked holding the lock") = Some(hits);
+        }
+    }
+
+    /// The rows of every job, or `None` if the budget was exceeded.
+    fn into_cache(self) -> Option<(Vec<JobRows<'a>>, u64)> {
+        if self.overflowed.into_inner() {
+            return None;
+        }
+        let bytes = self.bytes.into_inner();
+        let jobs = self.jobs.into_iter().map(|j| {
+            j.into_inner()
+                .expect("no poisoned lock")
+                .expect("every job finished")
+        });
+        Some((jobs.collect(), bytes))
+    }
+}
+
+/// Whether every albedo in the scene is grey (R = G = B), so one channel suffices.
+pub fn albedo_is_grey(scene: &Scene) -> bool {
+    let grey = |c: Vec3| c.x == c.y && c.y == c.z;
+    scene.materials.iter().all(|m| {
+        grey(m.kd)
+            && m.texture
+                .is_none_or(|t| scene.textures[t].texels.iter().all(|&texel| grey(texel)))
+    })
+}
+
+/// The interreflected bake: the direct pass (recording hits), then `bounces` gather passes.
+pub(crate) fn bake(
+    scene: &Scene,
+    tracer: &dyn Tracer,
+    estimator: &Estimator,
+    progress: &dyn Progress,
+) -> Bounced {
+    let options = &estimator.options;
+    let n = sh::coeff_count(options.order);
+    let channels = if albedo_is_grey(scene) { 1 } else { 3 };
+    let recorder = HitRecorder::new(scene, options.hit_cache_limit);
+    let direct = direct_pass(estimator, Some(tracer), Some(&recorder), progress);
+    let cache = recorder.into_cache();
+    let hit_cache_bytes = cache.as_ref().map(|(_, bytes)| *bytes);
+    let cache = cache.map(|(jobs, _)| jobs);
+
+    let vertex_count = scene.vertex_count();
+    // Total = T_0 (grey) broadcast to every channel, plus each bounce.
+    let mut total = vec![0.0f32; vertex_count * channels * n];
+    for (v, t0) in direct.coefficients.chunks_exact(n).enumerate() {
+        for c in 0..channels {
+            total[(v * channels + c) * n..][..n].copy_from_slice(t0);
+        }
+    }
+    let mut previous = direct.coefficients;
+    let mut previous_channels = 1;
+    for bounce in 1..=options.bounces {
+        let retrace = cache.is_none();
+        let rays = if retrace {
+            u64::from(options.samples)
+        } else {
+            0
+        };
+        progress.begin(&format!("bounce {bounce}"), vertex_count as u64, rays);
+        let next = bounce_pass(
+            scene,
+            tracer,
+            estimator,
+            cache.as_deref(),
+            &previous,
+            previous_channels,
+            channels,
+            progress,
+        );
+        progress.finish();
+        for (t, b) in total.iter_mut().zip(&next) {
+            *t += b;
+        }
+        previous = next;
+        previous_channels = channels;
+    }
+    Bounced {
+        coefficients: total,
+        channels,
+        visibility: direct.visibility,
+        hit_cache_bytes,
+    }
+}
+
+/// One bounce: T_k(x) = norm · Σ_v w(x, v) ⊙ T_{k−1}(v) for every vertex x.
+#[allow(clippy::too_many_arguments)]
+fn bounce_pass(
+    scene: &Scene,
+    tracer: &dyn Tracer,
+    estimator: &Estimator,
+    cache: Option<&[JobRows]>,
+    previous: &[f32],
+    previous_channels: usize,
+    channels: usize,
+    progress: &dyn Progress,
+) -> Vec<f32> {
+    let n = sh::coeff_count(estimator.options.order);
+    let width = channels * n;
+    let norm = estimator.norm() as f32;
+    let mut next = vec![0.0f32; scene.vertex_count() * width];
+    next.par_chunks_mut(VERTICES_PER_JOB * width)
+        .enumerate()
+        .for_each_init(
+            || (Scratch::new(n), vec![0.0f32; n]),
+            |(scratch, direct), (job, out)| {
+                let first = job * VERTICES_PER_JOB;
+                let mut retraced = None;
+                for (k, out) in out.chunks_mut(width).enumerate() {
+                    let (rows, range) = match cache {
+                        Some(jobs) => (&jobs[job], jobs[job].vertex(k)),
+                        None => {
+                            // Same rays as the direct pass, so the same row.
+                            let mut fresh = JobRows::new(scene);
+                            estimator.vertex_transfer(
+                                first + k,
+                                Some(tracer),
+                                scratch,
+                                direct,
+                                Some(&mut fresh),
+                            );
+                            let fresh: &JobRows = retraced.insert(fresh);
+                            (fresh, fresh.vertex(0))
+                        }
+                    };
+                    gather(rows, range, previous, previous_channels, channels, n, out);
+                    for o in out.iter_mut() {
+                        *o *= norm;
+                    }
+                }
+                progress.advance((out.len() / width) as u64);
+            },
+        );
+    next
+}
+
+/// `out` = Σ over a row's entries of weight ⊙ the previous bounce's transfer at the entry's
+/// vertex.
+fn gather(
+    rows: &JobRows,
+    range: Range<usize>,
+    previous: &[f32],
+    previous_channels: usize,
+    channels: usize,
+    n: usize,
+    out: &mut [f32],
+) {
+    out.fill(0.0);
+    for i in range {
+        let vertex = rows.vertices[i] as usize;
+        let weight = rows.weights[i];
+        for c in 0..channels {
+            let from = if previous_channels == 1 { 0 } else { c };
+            let row = &previous[(vertex * previous_channels + from) * n..][..n];
+            for (o, t) in out[c * n..(c + 1) * n].iter_mut().zip(row) {
+                *o += weight[c] * t;
+            }
+        }
+    }
+}
