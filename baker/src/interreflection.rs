@@ -212,11 +212,10 @@ impl<'a> HitRecorder<'a> {
 /// Whether every albedo in the scene is grey (R = G = B), so one channel suffices.
 pub fn albedo_is_grey(scene: &Scene) -> bool {
     let grey = |c: Vec3| c.x == c.y && c.y == c.z;
-    scene.materials.iter().all(|m| {
-        grey(m.kd)
-            && m.texture
-                .is_none_or(|t| scene.textures[t].texels.iter().all(|&texel| grey(texel)))
-    })
+    scene
+        .materials
+        .iter()
+        .all(|m| grey(m.kd) && m.texture.is_none_or(|t| scene.textures[t].is_grey()))
 }
 
 /// The interreflected bake: the direct pass (recording hits), then `bounces` gather passes.

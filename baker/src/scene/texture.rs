@@ -1,9 +1,14 @@
 //! Albedo textures (TGA, PNG through the `image` crate), sampled bilinearly with wrapping.
 //!
 //! Texels are taken as sRGB-encoded colour, as painted albedo maps are, and decoded to linear
-//! reflectance once at load; all lighting arithmetic is linear.
+//! reflectance through a 256-entry table at lookup; all lighting arithmetic is linear. Keeping
+//! the 4-byte sRGB pixels rather than 12-byte linear ones matters: the interreflection pass
+//! looks textures up at tens of millions of random hit points, and a third of the footprint
+//! keeps a texture in cache.
 
 use std::path::{Path, PathBuf};
+
+use std::sync::LazyLock;
 
 use glam::{Vec2, Vec3};
 
@@ -14,9 +19,8 @@ pub struct Texture {
     pub path: PathBuf,
     pub width: u32,
     pub height: u32,
-    /// Linear RGB, row-major, top row first (as stored in the image).
-    pub texels: Vec<Vec3>,
-    /// The original 8-bit sRGB RGBA pixels, for renderers that upload the image as is.
+    /// 8-bit sRGB RGBA pixels, row-major, top row first (as stored in the image); renderers
+    /// can upload them as is.
     pub srgb8: Vec<[u8; 4]>,
 }
 
@@ -28,6 +32,10 @@ pub fn srgb_to_linear(c: f32) -> f32 {
         ((c + 0.055) / 1.055).powf(2.4)
     }
 }
+
+/// Linear values of the 256 sRGB codes.
+static DECODE: LazyLock<[f32; 256]> =
+    LazyLock::new(|| std::array::from_fn(|v| srgb_to_linear(v as f32 / 255.0)));
 
 impl Texture {
     /// Loads an image. `referenced_at` is where the scene named it, for the error message.
@@ -52,24 +60,17 @@ impl Texture {
                 format!("texture {} is empty", path.display()),
             ));
         }
-        let lut: Vec<f32> = (0..=255)
-            .map(|v| srgb_to_linear(v as f32 / 255.0))
-            .collect();
         let srgb8: Vec<[u8; 4]> = rgba.pixels().map(|p| p.0).collect();
-        let texels = srgb8
-            .iter()
-            .map(|p| Vec3::new(lut[p[0] as usize], lut[p[1] as usize], lut[p[2] as usize]))
-            .collect();
         Ok(Texture {
             path: path.to_path_buf(),
             width,
             height,
-            texels,
             srgb8,
         })
     }
 
-    /// A texture from linear texels (tests, generated content).
+    /// A texture from linear texels (tests, generated content), stored as sRGB8 like a
+    /// loaded one: values are clamped to [0, 1] and quantised.
     pub fn from_linear(
         path: impl Into<PathBuf>,
         width: u32,
@@ -94,9 +95,19 @@ impl Texture {
             path: path.into(),
             width,
             height,
-            texels,
             srgb8,
         }
+    }
+
+    /// The linear colour of texel (x, y), counted from the image's top-left corner.
+    pub fn texel(&self, x: usize, y: usize) -> Vec3 {
+        let [r, g, b, _] = self.srgb8[y * self.width as usize + x];
+        Vec3::new(DECODE[r as usize], DECODE[g as usize], DECODE[b as usize])
+    }
+
+    /// Whether every texel is grey (R = G = B).
+    pub fn is_grey(&self) -> bool {
+        self.srgb8.iter().all(|[r, g, b, _]| r == g && g == b)
     }
 
     /// Bilinear lookup with repeat wrapping. OBJ's v runs up from the bottom of the image.
@@ -123,9 +134,8 @@ impl Texture {
             (first, second)
         };
         let ((x0, x1), (y0, y1)) = (wrap(x0, w), wrap(y0, h));
-        let texel = |x: usize, y: usize| self.texels[y * w + x];
-        let top = texel(x0, y0).lerp(texel(x1, y0), fx);
-        let bottom = texel(x0, y1).lerp(texel(x1, y1), fx);
+        let top = self.texel(x0, y0).lerp(self.texel(x1, y0), fx);
+        let bottom = self.texel(x0, y1).lerp(self.texel(x1, y1), fx);
         top.lerp(bottom, fy)
     }
 }
@@ -161,7 +171,10 @@ mod tests {
         let t = Texture::from_linear("t", w, h, texels);
         let reference = |uv: Vec2| {
             let texel = |x: i64, y: i64| {
-                t.texels[(y.rem_euclid(h as i64) * w as i64 + x.rem_euclid(w as i64)) as usize]
+                t.texel(
+                    x.rem_euclid(w as i64) as usize,
+                    y.rem_euclid(h as i64) as usize,
+                )
             };
             let x = uv.x * w as f32 - 0.5;
             let y = (1.0 - uv.y) * h as f32 - 0.5;
