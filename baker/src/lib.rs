@@ -5,11 +5,15 @@
 //! [`sh`] holds the basis and its conventions, [`sampling`] the directions, [`trace`] the ray
 //! casting behind a backend-neutral trait, [`transfer`] the estimators, and
 //! [`coefficient_file`] the documented `.prt` format the viewer reads.
+//!
+//! At run time, [`light`] projects lights (suns, skies, HDR environment maps, TOML rigs of
+//! them) to SH and [`sh::rotation`] turns them.
 
 pub mod atomic;
 pub mod coefficient_file;
 pub mod error;
 pub mod export;
+pub mod light;
 pub mod npz;
 pub mod progress;
 pub mod sampling;
