@@ -1,6 +1,8 @@
 //! Lights against closed forms (oracles.md, "Lights"): projections of constant, directional,
 //! sun, sphere and hemisphere lights and of environment maps written by the test as `.hdr`
-//! and `.exr`; the intensity convention through the irradiance of a floor; ringing control.
+//! and `.exr`; the intensity convention through the irradiance of a floor; ringing control;
+//! and `relight` of a baked floor against the analytic radiance, with the SH truncation error
+//! of the order computed and stated.
 //!
 //! Independent references: `sh::eval_slow` (the thesis's trigonometric formulas) and the
 //! quadratures of `prt_tests` — nothing here goes through the code under test twice.
@@ -9,7 +11,8 @@ use std::f64::consts::PI;
 use std::path::Path;
 
 use glam::{DMat3, DVec3};
-use prt_baker::light::{EnvironmentMap, Light, LightCoefficients, Window};
+use prt_baker::CoefficientFile;
+use prt_baker::light::{EnvironmentMap, Light, LightCoefficients, Rig, Window};
 use prt_baker::sh;
 use prt_tests::*;
 
@@ -443,4 +446,137 @@ fn windows_reduce_the_ringing_of_a_directional_light() {
         assert!(low > plain_low && peak < plain_peak, "{window:?}");
         assert_eq!(windowed.rgb[0][0], light.rgb[0][0]);
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Relighting a baked floor
+
+/// `relight` of a baked, unoccluded floor under a directional light against the analytic
+/// radiance ρ·E·max(cos θ, 0)/π.
+///
+/// Through SH the floor's exact transfer and the light meet band by band (Σ_m y_lm(n)y_lm(d)
+/// = (2l+1)/(4π)·P_l(n·d)), so at order n the radiance is ρE/π·K_n(cos θ) with
+/// K_n(t) = Σ_{l<n} z_l·N_l·P_l(t) (z_l the clamped cosine's zonal coefficients, N_l the
+/// zonal normalisation). The truncation error ρE/π·|K_n − max(t, 0)| is computed per light
+/// angle, printed, and allowed, plus the bake's Monte Carlo error.
+///
+/// The Monte Carlo error: with V = 1 the baked Σ_j T_j c_j is exactly an N-sample
+/// cosine-weighted estimate of ∫ L_n(s) cos/π, L_n = Σ_j c_j y_j the light's truncated
+/// reconstruction, so the radiance's per-sample variance is that of L_n under the cosine
+/// lobe (computed by quadrature) and `prt_tests`' rule turns it into a tolerance; f32
+/// storage adds at most [`FLOAT_SLACK`] per coefficient, weighted by |c_j|.
+#[test]
+fn relight_of_an_unoccluded_floor_matches_the_analytic_radiance() {
+    let folder = tempfile::tempdir().unwrap();
+    let obj = folder.path().join("floor.obj");
+    std::fs::write(
+        &obj,
+        "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nv 0 0 0\nvn 0 0 1\n\
+         f 1//1 2//1 5//1\nf 2//1 3//1 5//1\nf 3//1 4//1 5//1\nf 4//1 1//1 5//1\n",
+    )
+    .unwrap();
+    let scene = prt_baker::Scene::load(&obj).unwrap();
+    let albedo = f64::from(prt_baker::scene::DEFAULT_KD.x);
+    let colour = DVec3::new(1.0, 0.5, 0.25);
+    let irradiance = 2.0;
+    // 2^18 rays: the sample table of an order-8 bake then takes 70 MB, and the Monte Carlo
+    // bound falls below the truncation error at most angles, so both parts are tested.
+    let samples = 1 << 18;
+    for order in [4, 8] {
+        let options = shadowed(order, samples);
+        let tracer = prt_baker::trace::default_tracer(&scene, None, false).unwrap();
+        let transfer = prt_baker::bake(
+            &scene,
+            Some(tracer.as_ref()),
+            &options,
+            &prt_baker::progress::Silent,
+        )
+        .unwrap();
+        let prt = folder.path().join("floor.prt");
+        CoefficientFile::from_bake(&scene, &transfer)
+            .write(&prt)
+            .unwrap();
+        for (theta_deg, phi_deg) in [
+            (0.0, 0.0),
+            (30.0, 40.0),
+            (60.0, -100.0),
+            (89.0, 10.0),
+            (120.0, 200.0),
+        ] {
+            let rig = folder.path().join("rig.toml");
+            std::fs::write(
+                &rig,
+                format!(
+                    "[[light]]\nkind = \"directional\"\ntheta = {theta_deg}\nphi = {phi_deg}\n\
+                     color = [{}, {}, {}]\nintensity = {irradiance}\n",
+                    colour.x, colour.y, colour.z
+                ),
+            )
+            .unwrap();
+            let ply = folder.path().join("floor.ply");
+            prt_baker::relight::relight(&obj, &prt, &rig, &ply, 0.0).unwrap();
+            let radiance = read_ply_radiance(&std::fs::read(&ply).unwrap(), scene.vertex_count());
+
+            let t = f64::to_radians(theta_deg).cos();
+            let truncated: f64 = (0..order)
+                .map(|l| clamped_cosine_zonal(l) * sh::normalization(l, 0) * sh::legendre(l, 0, t))
+                .sum();
+            let light = Rig::load(&rig).unwrap().project(order);
+            let mut worst = 0.0f64;
+            for c in 0..3 {
+                let scale = albedo * irradiance * colour[c] / PI;
+                let analytic = scale * t.max(0.0);
+                let truncation = scale * (truncated - t.max(0.0)).abs();
+                let (mut mean, mut second) = (0.0, 0.0);
+                band_quadrature(order, DVec3::Z, 0.0, 1.0, |w, t, y| {
+                    let value: f64 = y.iter().zip(&light.rgb[c]).map(|(y, c)| y * c).sum();
+                    mean += w * t / PI * value;
+                    second += w * t / PI * value * value;
+                });
+                assert!((albedo * mean - scale * truncated).abs() < ROUNDING);
+                let sum_abs: f64 = light.rgb[c].iter().map(|x| x.abs()).sum();
+                let monte_carlo = albedo
+                    * (Z * (NET_VARIANCE_FACTOR * (second - mean * mean) / f64::from(samples))
+                        .sqrt()
+                        + FLOAT_SLACK * sum_abs);
+                for (v, r) in radiance.iter().enumerate() {
+                    let got = f64::from(r[c]);
+                    assert!(
+                        (got - scale * truncated).abs() <= monte_carlo,
+                        "order {order}, θ = {theta_deg}°, vertex {v}, channel {c}: {got} vs truncated {} ± {monte_carlo:.2e}",
+                        scale * truncated
+                    );
+                    assert!(
+                        (got - analytic).abs() <= truncation + monte_carlo,
+                        "order {order}, θ = {theta_deg}°, vertex {v}, channel {c}"
+                    );
+                    worst = worst.max((got - scale * truncated).abs() / monte_carlo);
+                }
+                if c == 0 {
+                    eprintln!(
+                        "order {order}, θ = {theta_deg:>5}°: analytic {analytic:.5}, SH {:.5}, \
+                         truncation error {truncation:.2e}, Monte Carlo bound {monte_carlo:.2e}",
+                        scale * truncated
+                    );
+                }
+            }
+            eprintln!("    worst vertex at {worst:.1e} of its Monte Carlo bound");
+        }
+    }
+}
+
+/// The radiance floats of the vertices of a PLY written by `relight`.
+fn read_ply_radiance(bytes: &[u8], vertices: usize) -> Vec<[f32; 3]> {
+    let end = b"end_header\n";
+    let start = bytes.windows(end.len()).position(|w| w == end).unwrap() + end.len();
+    // Per vertex: x y z nx ny nz (floats), red green blue (bytes), then the radiance.
+    let offset = 6 * 4 + 3;
+    (0..vertices)
+        .map(|v| {
+            let at = start + v * prt_baker::ply::VERTEX_BYTES + offset;
+            std::array::from_fn(|c| {
+                f32::from_le_bytes(bytes[at + 4 * c..at + 4 * c + 4].try_into().unwrap())
+            })
+        })
+        .collect()
 }

@@ -7,7 +7,8 @@
 //! [`coefficient_file`] the documented `.prt` format the viewer reads.
 //!
 //! At run time, [`light`] projects lights (suns, skies, HDR environment maps, TOML rigs of
-//! them) to SH and [`sh::rotation`] turns them.
+//! them) to SH, [`sh::rotation`] turns them, and [`relight`] shades a bake with them on the
+//! CPU: the reference a viewer must match.
 
 pub mod atomic;
 pub mod coefficient_file;
@@ -15,7 +16,9 @@ pub mod error;
 pub mod export;
 pub mod light;
 pub mod npz;
+pub mod ply;
 pub mod progress;
+pub mod relight;
 pub mod sampling;
 pub mod scene;
 pub mod sh;
