@@ -448,6 +448,26 @@ fn windows_reduce_the_ringing_of_a_directional_light() {
     }
 }
 
+/// The example rig of docs/lights.md parses as printed (its map is written beside it).
+#[test]
+fn the_documented_example_rig_parses() {
+    let docs = include_str!("../docs/lights.md");
+    let start = docs.find("```toml\nwindow").expect("the example rig") + "```toml\n".len();
+    let rig = &docs[start..start + docs[start..].find("```").unwrap()];
+    let folder = tempfile::tempdir().unwrap();
+    write_maps(folder.path(), 8, 4, &[[1.0, 1.0, 1.0]; 32]);
+    std::fs::rename(
+        folder.path().join("map.exr"),
+        folder.path().join("studio.exr"),
+    )
+    .unwrap();
+    let path = folder.path().join("rig.toml");
+    std::fs::write(&path, rig).unwrap();
+    let rig = Rig::load(&path).unwrap_or_else(|err| panic!("{err}"));
+    assert_eq!(rig.lights.len(), 6);
+    assert_eq!(rig.window, Window::Hanning { width: None });
+}
+
 // ---------------------------------------------------------------------------------------------
 // Relighting a baked floor
 
