@@ -48,6 +48,11 @@ pub enum Error {
     #[error("{location}: {message}")]
     Scene { location: Location, message: String },
 
+    /// A light rig (TOML) or an environment map that cannot be used as it is; rig errors name
+    /// the line and the key.
+    #[error("{location}: {message}")]
+    Light { location: Location, message: String },
+
     /// A coefficient file that is truncated, corrupted or of an unknown kind.
     #[error("{}: {message}", path.display())]
     CoefficientFile { path: PathBuf, message: String },
@@ -83,6 +88,13 @@ impl Error {
         }
     }
 
+    pub fn light(location: Location, message: impl Into<String>) -> Error {
+        Error::Light {
+            location,
+            message: message.into(),
+        }
+    }
+
     pub fn coefficient_file(path: &Path, message: impl Into<String>) -> Error {
         Error::CoefficientFile {
             path: path.to_path_buf(),
@@ -95,7 +107,10 @@ impl Error {
     pub fn is_bad_input(&self) -> bool {
         matches!(
             self,
-            Error::Scene { .. } | Error::CoefficientFile { .. } | Error::SceneMismatch { .. }
+            Error::Scene { .. }
+                | Error::Light { .. }
+                | Error::CoefficientFile { .. }
+                | Error::SceneMismatch { .. }
         ) || matches!(self, Error::Io { source, .. } if source.kind() == io::ErrorKind::NotFound)
     }
 }

@@ -5,14 +5,21 @@
 //! [`sh`] holds the basis and its conventions, [`sampling`] the directions, [`trace`] the ray
 //! casting behind a backend-neutral trait, [`transfer`] the estimators, and
 //! [`coefficient_file`] the documented `.prt` format the viewer reads.
+//!
+//! At run time, [`light`] projects lights (suns, skies, HDR environment maps, TOML rigs of
+//! them) to SH, [`sh::rotation`] turns them, and [`relight`] shades a bake with them on the
+//! CPU: the reference a viewer must match.
 
 pub mod atomic;
 pub mod coefficient_file;
 pub mod error;
 pub mod export;
 pub mod interreflection;
+pub mod light;
 pub mod npz;
+pub mod ply;
 pub mod progress;
+pub mod relight;
 pub mod sampling;
 pub mod scene;
 pub mod sh;

@@ -1,14 +1,16 @@
-//! `prt-bake`: bakes per-vertex SH transfer coefficients, inspects and exports them.
+//! `prt-bake`: bakes per-vertex SH transfer coefficients, inspects and exports them, projects
+//! light rigs and relights bakes with them.
 //! Everything it does is a library call; this file parses arguments and reports.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
+use prt_baker::light::Rig;
 use prt_baker::progress::{Progress, ProgressBar, Silent};
 use prt_baker::sampling::Sampling;
 use prt_baker::transfer::Aux;
-use prt_baker::{BakeOptions, CoefficientFile, Error, Mode, Scene, trace};
+use prt_baker::{BakeOptions, CoefficientFile, Error, Mode, Scene, sh, trace};
 
 /// Exit codes: 0 success, 1 failure (I/O, backend), 2 bad command line, 3 bad input files.
 const EXIT_FAILURE: u8 = 1;
@@ -46,6 +48,37 @@ enum Command {
         #[arg(long)]
         npz: PathBuf,
     },
+    /// Project a light rig (TOML) to SH and write the summed RGB coefficients as JSON.
+    Light {
+        /// The rig file (docs/lights.md).
+        rig: PathBuf,
+        /// SH order n: n² coefficients per colour channel.
+        #[arg(long, default_value_t = 4)]
+        order: usize,
+        /// Output .json file.
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// Light a bake with a rig on the CPU and write per-vertex radiance as a PLY mesh.
+    Relight(RelightArgs),
+}
+
+#[derive(clap::Args)]
+struct RelightArgs {
+    /// The scene the coefficient file was baked from.
+    scene: PathBuf,
+    /// The .prt file.
+    file: PathBuf,
+    /// The light rig (TOML).
+    #[arg(long)]
+    lights: PathBuf,
+    /// Output .ply file.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Exposure of the 8-bit colour in stops: radiance × 2^EV before clamping to [0, 1]
+    /// (the float radiance is written unscaled).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    exposure: f64,
 }
 
 #[derive(clap::Args)]
@@ -124,6 +157,8 @@ fn main() -> ExitCode {
         Command::Inspect { file } => inspect(&file),
         Command::Export { file, scene, npz } => check_output_folder(&npz)
             .and_then(|()| prt_baker::export::export_npz(&file, &scene, &npz)),
+        Command::Light { rig, order, output } => light(&rig, order, &output),
+        Command::Relight(args) => relight(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -250,5 +285,41 @@ fn inspect(path: &Path) -> Result<(), Error> {
     let file = CoefficientFile::read(path)?;
     let json = serde_json::to_string_pretty(&file.header).expect("the header serialises");
     println!("{json}");
+    Ok(())
+}
+
+fn light(rig: &Path, order: usize, output: &Path) -> Result<(), Error> {
+    if !(1..=sh::MAX_ORDER).contains(&order) {
+        return Err(Error::InvalidOption(format!(
+            "--order {order} is outside 1..={}",
+            sh::MAX_ORDER
+        )));
+    }
+    check_output_folder(output)?;
+    let rig = Rig::load(rig)?;
+    let json = rig.project(order).to_json() + "\n";
+    prt_baker::atomic::write(output, json.as_bytes())
+}
+
+fn relight(args: RelightArgs) -> Result<(), Error> {
+    if !args.exposure.is_finite() {
+        return Err(Error::InvalidOption("--exposure must be finite".into()));
+    }
+    check_output_folder(&args.output)?;
+    let relit = prt_baker::relight::relight(
+        &args.scene,
+        &args.file,
+        &args.lights,
+        &args.output,
+        args.exposure,
+    )?;
+    println!(
+        "relit {} vertices with {} light(s) at order {}, largest radiance {:.4} -> {}",
+        relit.vertex_count,
+        relit.light_count,
+        relit.order,
+        relit.max_radiance,
+        args.output.display()
+    );
     Ok(())
 }

@@ -15,6 +15,12 @@
 //! [`Basis`] runs the same recurrences on the Cartesian direction, trading
 //! sin^m θ·cos mφ for Re (x+iy)^m so no trigonometry is needed; and for orders ≤ 4 [`Basis`]
 //! uses hard-coded polynomials. Tests check each against the one before.
+//!
+//! Rotations: [`Rotator`] below projects rotated basis functions (what the baker uses), and
+//! [`rotation`] builds explicit band matrices (the thesis's ZYZ product and Ivanic–Ruedenberg's
+//! recurrence), what lights use.
+
+pub mod rotation;
 
 use glam::Vec3;
 use std::f64::consts::PI;

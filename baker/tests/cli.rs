@@ -11,22 +11,17 @@
 //! The commands run inside the scratch folder with relative paths, so messages can be checked
 //! exactly (`bad.obj:2: …`).
 
-use std::collections::BTreeSet;
-use std::io::Read;
-use std::path::{Path, PathBuf};
-use std::process::Command;
+mod common;
 
+use std::io::Read;
+
+use common::*;
 use prt_baker::{CoefficientFile, Scene};
-use tempfile::TempDir;
 
 const CORNELL: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
     "/../scenes/cornell/cornell.scene"
 );
-
-/// Exit codes of `prt-bake` (see `main.rs`).
-const EXIT_BAD_COMMAND_LINE: i32 = 2;
-const EXIT_BAD_INPUT: i32 = 3;
 
 /// One triangle: 3 vertices.
 const TRIANGLE: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
@@ -55,129 +50,6 @@ v 0.5 0.5 0
 f 5 6 7
 ";
 const FLOOR_AND_OCCLUDER_VERTICES: usize = 7;
-
-/// A scratch folder for one test: inputs at its root, outputs under `out/`.
-struct Scratch {
-    dir: TempDir,
-}
-
-impl Scratch {
-    fn new() -> Scratch {
-        let dir = tempfile::tempdir().expect("create a scratch folder");
-        std::fs::create_dir(dir.path().join("out")).expect("create out/");
-        Scratch { dir }
-    }
-
-    fn path(&self, name: &str) -> PathBuf {
-        self.dir.path().join(name)
-    }
-
-    fn write(&self, name: &str, contents: impl AsRef<[u8]>) {
-        std::fs::write(self.path(name), contents).expect("write a scratch file");
-    }
-
-    fn read(&self, name: &str) -> Vec<u8> {
-        std::fs::read(self.path(name)).unwrap_or_else(|err| panic!("read {name}: {err}"))
-    }
-
-    /// Runs `prt-bake` with `args` inside the scratch folder.
-    fn run(&self, args: &[&str]) -> Run {
-        let output = Command::new(env!("CARGO_BIN_EXE_prt-bake"))
-            .args(args)
-            .current_dir(self.dir.path())
-            .output()
-            .expect("start prt-bake");
-        Run {
-            args: args.join(" "),
-            code: output.status.code(),
-            stdout: String::from_utf8(output.stdout).expect("stdout is UTF-8"),
-            stderr: String::from_utf8(output.stderr).expect("stderr is UTF-8"),
-        }
-    }
-
-    /// Bakes a scene quietly into `out/NAME` (with 64 samples unless `extra` sets `--samples`)
-    /// and checks it succeeded.
-    fn bake(&self, scene: &str, output: &str, extra: &[&str]) -> Run {
-        let output = format!("out/{output}");
-        let mut args = vec!["bake", scene, "-o", &output, "--quiet"];
-        args.extend(extra);
-        if !extra.contains(&"--samples") {
-            args.extend(["--samples", "64"]);
-        }
-        self.run(&args).success()
-    }
-
-    /// Asserts that `out/` holds exactly `names`: no partial output, no temporary file.
-    fn assert_out_holds(&self, names: &[&str]) {
-        assert_folder_holds(&self.path("out"), names);
-    }
-}
-
-fn assert_folder_holds(folder: &Path, names: &[&str]) {
-    let found: BTreeSet<String> = std::fs::read_dir(folder)
-        .expect("list the folder")
-        .map(|entry| entry.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    let expected: BTreeSet<String> = names.iter().map(|n| n.to_string()).collect();
-    assert_eq!(
-        found,
-        expected,
-        "unexpected contents of {}",
-        folder.display()
-    );
-}
-
-/// What one run of `prt-bake` did.
-struct Run {
-    args: String,
-    code: Option<i32>,
-    stdout: String,
-    stderr: String,
-}
-
-impl Run {
-    fn success(self) -> Run {
-        assert_eq!(
-            self.code,
-            Some(0),
-            "prt-bake {} failed:\n{}",
-            self.args,
-            self.stderr
-        );
-        self
-    }
-
-    /// Asserts exit code `code`, nothing on stdout, and a single error line that contains every
-    /// one of `needles`.
-    fn fails_with(&self, code: i32, needles: &[&str]) {
-        assert_eq!(
-            self.code,
-            Some(code),
-            "prt-bake {}: exit code; stderr:\n{}",
-            self.args,
-            self.stderr
-        );
-        assert_eq!(self.stdout, "", "prt-bake {}: stdout", self.args);
-        assert!(
-            self.stderr.starts_with("prt-bake: error: ") && self.stderr.lines().count() == 1,
-            "prt-bake {}: expected one error line, got:\n{}",
-            self.args,
-            self.stderr
-        );
-        for needle in needles {
-            assert!(
-                self.stderr.contains(needle),
-                "prt-bake {}: error message lacks {needle:?}:\n{}",
-                self.args,
-                self.stderr
-            );
-        }
-    }
-
-    fn fails_with_bad_input(&self, needles: &[&str]) {
-        self.fails_with(EXIT_BAD_INPUT, needles);
-    }
-}
 
 /// A 2×2 uncompressed true-colour TGA.
 fn tga_2x2() -> Vec<u8> {
@@ -689,7 +561,7 @@ f 5//2 6//2 7//2 8//2
 const ROOM_MTL: &str = "newmtl red\nKd 0.8 0.1 0.1\n\nnewmtl white\nKd 0.7 0.7 0.7\n";
 
 /// Reads every array of an `.npz` by name.
-fn read_npz(path: &Path) -> std::collections::BTreeMap<String, Npy> {
+fn read_npz(path: &std::path::Path) -> std::collections::BTreeMap<String, Npy> {
     let mut zip = zip::ZipArchive::new(std::fs::File::open(path).unwrap()).expect("a zip archive");
     let names: Vec<String> = zip.file_names().map(|n| n.unwrap().into_owned()).collect();
     names

@@ -58,36 +58,56 @@ impl Moments {
     }
 }
 
-/// [`Moments`] of the band of directions around `normal` with n·s in [t_lo, t_hi], by
-/// Gauss–Legendre quadrature in n·s and the trapezoid rule in azimuth (both exact for the
-/// polynomial integrands up to order 8), using the slow, trigonometric SH of the thesis.
-pub fn band_moments(order: usize, normal: DVec3, t_lo: f64, t_hi: f64) -> Moments {
+/// Visits a quadrature of the band of directions around `axis` with axis·s in [t_lo, t_hi]:
+/// Gauss–Legendre in t and the trapezoid rule in azimuth, both exact for the polynomial
+/// integrands of SH products up to order 8. `visit(weight, t, y)` gets each node's weight
+/// (solid angle), its t and every basis value there, from the slow, trigonometric SH of the
+/// thesis.
+pub fn band_quadrature(
+    order: usize,
+    axis: DVec3,
+    t_lo: f64,
+    t_hi: f64,
+    mut visit: impl FnMut(f64, f64, &[f64]),
+) {
     let n = sh::coeff_count(order);
-    let normal = normal.normalize();
-    let (tangent, bitangent) = normal.any_orthonormal_pair();
+    let axis = axis.normalize();
+    let (tangent, bitangent) = axis.any_orthonormal_pair();
     let (nodes, weights) = sh::gauss_legendre(24);
     let azimuths = 48;
-    let mut moments = Moments {
-        mean: vec![0.0; n],
-        second: vec![0.0; n],
-    };
+    let mut y = vec![0.0; n];
     for (x, w) in nodes.iter().zip(&weights) {
         let t = 0.5 * (t_hi - t_lo) * x + 0.5 * (t_hi + t_lo);
         let w = w * 0.5 * (t_hi - t_lo);
         let r = (1.0 - t * t).max(0.0).sqrt();
         for k in 0..azimuths {
             let phi = std::f64::consts::TAU * k as f64 / azimuths as f64;
-            let d = tangent * (r * phi.cos()) + bitangent * (r * phi.sin()) + normal * t;
+            let d = tangent * (r * phi.cos()) + bitangent * (r * phi.sin()) + axis * t;
             let (theta, az) = sh::angles(d);
-            let weight = w * std::f64::consts::TAU / azimuths as f64 * t / std::f64::consts::PI;
-            for j in 0..n {
+            for (j, value) in y.iter_mut().enumerate() {
                 let (l, m) = sh::band_and_m(j);
-                let y = sh::eval_slow(l, m, theta, az);
-                moments.mean[j] += weight * y;
-                moments.second[j] += weight * y * y;
+                *value = sh::eval_slow(l, m, theta, az);
             }
+            visit(w * std::f64::consts::TAU / azimuths as f64, t, &y);
         }
     }
+}
+
+/// [`Moments`] of the band of directions around `normal` with n·s in [t_lo, t_hi], by
+/// [`band_quadrature`].
+pub fn band_moments(order: usize, normal: DVec3, t_lo: f64, t_hi: f64) -> Moments {
+    let n = sh::coeff_count(order);
+    let mut moments = Moments {
+        mean: vec![0.0; n],
+        second: vec![0.0; n],
+    };
+    band_quadrature(order, normal, t_lo, t_hi, |w, t, y| {
+        let weight = w * t / std::f64::consts::PI;
+        for (j, y) in y.iter().enumerate() {
+            moments.mean[j] += weight * y;
+            moments.second[j] += weight * y * y;
+        }
+    });
     moments
 }
 
@@ -121,6 +141,18 @@ pub fn quarter_moments(order: usize, normal: DVec3, cut: DVec3) -> Moments {
         }
     }
     moments
+}
+
+/// ∫ y_j over the band of directions around `axis` with axis·s in [t_lo, t_hi]: the
+/// coefficients of unit radiance there (a disk light, a hemisphere), by [`band_quadrature`].
+pub fn band_projection(order: usize, axis: DVec3, t_lo: f64, t_hi: f64) -> Vec<f64> {
+    let mut c = vec![0.0; sh::coeff_count(order)];
+    band_quadrature(order, axis, t_lo, t_hi, |w, _, y| {
+        for (c, y) in c.iter_mut().zip(y) {
+            *c += w * y;
+        }
+    });
+    c
 }
 
 /// The oracles' zonal coefficient ∫ V max(cos θ, 0) y_l^0 over a visible cone of half-angle

@@ -24,7 +24,7 @@ use crate::error::{Error, Location, Result};
 
 pub use normals::angle_weighted_normals;
 pub use scene_file::{SceneEntry, parse_scene_file};
-pub use texture::Texture;
+pub use texture::{Texture, srgb_to_linear};
 
 /// Diffuse reflectance of surfaces whose material sets no `Kd` and that have no texture.
 pub const DEFAULT_KD: Vec3 = Vec3::splat(0.8);

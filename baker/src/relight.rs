@@ -1,0 +1,181 @@
+//! `prt-bake relight`: a bake lit by a light rig on the CPU, written as a coloured mesh.
+//!
+//! Per vertex and colour channel c, outgoing radiance = albedo_c · Σ_j T_j·L_cj, with T the
+//! stored transfer (channel c's own when the file holds three, the grey one otherwise), L the
+//! rig projected at the file's order, and albedo the scene's linear Kd × texture at the
+//! vertex. This is the reference a GPU viewer must reproduce, and a way to look at a bake
+//! without one.
+//!
+//! The 8-bit colour is tone-mapped by the simplest operator that leaves radiance in [0, 1]
+//! untouched: scale by 2^exposure, clamp to [0, 1] (negative SH ringing shows black, anything
+//! above 1 white), and encode with the sRGB transfer curve. The float radiance beside it is
+//! not tone-mapped.
+
+use std::path::Path;
+
+use glam::Vec3;
+
+use crate::coefficient_file::CoefficientFile;
+use crate::error::Result;
+use crate::light::{LightCoefficients, Rig};
+use crate::ply::ColouredMesh;
+use crate::scene::Scene;
+
+/// Per-vertex linear RGB radiance of a bake lit by `light` (of the file's order).
+pub fn vertex_radiance(
+    file: &CoefficientFile,
+    albedo: &[Vec3],
+    light: &LightCoefficients,
+) -> Vec<[f32; 3]> {
+    assert_eq!(
+        light.order(),
+        file.header.order as usize,
+        "light and transfer orders differ"
+    );
+    let channels = file.header.channels as usize;
+    albedo
+        .iter()
+        .enumerate()
+        .map(|(v, a)| {
+            let mut radiance = [0.0f32; 3];
+            for (c, out) in radiance.iter_mut().enumerate() {
+                let transfer = file.vertex(v, if channels == 3 { c } else { 0 });
+                let dot: f64 = transfer
+                    .iter()
+                    .zip(&light.rgb[c])
+                    .map(|(t, l)| f64::from(*t) * l)
+                    .sum();
+                *out = (f64::from(a[c]) * dot) as f32;
+            }
+            radiance
+        })
+        .collect()
+}
+
+/// The display colour of a linear radiance: × 2^exposure, clamped to [0, 1], sRGB-encoded.
+pub fn display_colour(radiance: [f32; 3], exposure: f64) -> [u8; 3] {
+    let scale = exposure.exp2() as f32;
+    radiance.map(|x| {
+        let x = (x * scale).clamp(0.0, 1.0);
+        let encoded = if x <= 0.003_130_8 {
+            12.92 * x
+        } else {
+            1.055 * x.powf(1.0 / 2.4) - 0.055
+        };
+        (encoded * 255.0).round() as u8
+    })
+}
+
+/// What [`relight`] did, for the CLI's summary line.
+#[derive(Clone, Debug)]
+pub struct Relit {
+    pub vertex_count: usize,
+    pub order: usize,
+    pub light_count: usize,
+    /// The largest radiance of any channel at any vertex.
+    pub max_radiance: f32,
+}
+
+/// Lights the bake `coefficients` of `scene` with the rig and writes `output` (PLY, see
+/// [`crate::ply`]) atomically. Refuses a coefficient file baked for another scene.
+pub fn relight(
+    scene: &Path,
+    coefficients: &Path,
+    rig: &Path,
+    output: &Path,
+    exposure: f64,
+) -> Result<Relit> {
+    let rig = Rig::load(rig)?;
+    let file = CoefficientFile::read(coefficients)?;
+    let scene_path = scene;
+    let scene = Scene::load(scene)?;
+    file.check_scene(coefficients, &scene)?;
+    let order = file.header.order as usize;
+    let light = rig.project(order);
+    let radiance = vertex_radiance(&file, &scene.vertex_albedo(), &light);
+    let colours: Vec<[u8; 3]> = radiance
+        .iter()
+        .map(|r| display_colour(*r, exposure))
+        .collect();
+    let mesh = ColouredMesh {
+        positions: &scene.positions,
+        normals: &scene.normals,
+        colours: &colours,
+        radiance: &radiance,
+        triangles: &scene.triangles,
+        comments: vec![
+            format!(
+                "prt-bake relight: scene {}, transfer {}, lights {} (order {order}, window {})",
+                scene_path.display(),
+                coefficients.display(),
+                rig.path.display(),
+                rig.window.name()
+            ),
+            format!(
+                "radiance_*: linear outgoing radiance; red green blue: radiance x 2^{exposure}, clamped to [0, 1], sRGB-encoded"
+            ),
+        ],
+    };
+    mesh.write(output)?;
+    Ok(Relit {
+        vertex_count: scene.vertex_count(),
+        order,
+        light_count: rig.lights.len(),
+        max_radiance: radiance.iter().flatten().fold(0.0, |a, &b| a.max(b)),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::coefficient_file::Header;
+
+    /// A file of order 1 (one coefficient per channel) holding `coefficients`.
+    fn file(channels: u32, coefficients: Vec<f32>) -> CoefficientFile {
+        CoefficientFile {
+            header: Header {
+                version: crate::coefficient_file::VERSION,
+                order: 1,
+                channels,
+                vertex_count: (coefficients.len() / channels as usize) as u64,
+                samples_per_vertex: 1,
+                mode: crate::Mode::Unshadowed,
+                bounces: 0,
+                backend: crate::trace::Backend::None,
+                sampling: crate::sampling::Sampling::OwenSobol,
+                seed: 0,
+                scene_fingerprint: 0,
+                aux: crate::transfer::Aux::default(),
+                checksum: 0,
+            },
+            coefficients,
+            ao: None,
+            bent_normal: None,
+        }
+    }
+
+    #[test]
+    fn grey_transfer_serves_every_channel_and_rgb_transfer_its_own() {
+        let light = LightCoefficients::tinted(1, &[1.0], glam::DVec3::new(10.0, 100.0, 1000.0));
+        let albedo = [Vec3::ONE, Vec3::splat(0.5)];
+        let grey = vertex_radiance(&file(1, vec![1.0, 4.0]), &albedo, &light);
+        assert_eq!(grey, [[10.0, 100.0, 1000.0], [20.0, 200.0, 2000.0]]);
+        let rgb = vertex_radiance(
+            &file(3, vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0]),
+            &albedo,
+            &light,
+        );
+        assert_eq!(rgb, [[10.0, 200.0, 3000.0], [20.0, 250.0, 3000.0]]);
+    }
+
+    #[test]
+    fn display_colour_clamps_and_encodes_srgb() {
+        assert_eq!(display_colour([0.0, 1.0, 2.0], 0.0), [0, 255, 255]);
+        assert_eq!(display_colour([-0.5, 0.5, 0.25], 1.0), [0, 255, 188]);
+        // The inverse of the texture decoder at every 8-bit value.
+        for k in 0..=255u8 {
+            let linear = crate::scene::srgb_to_linear(f32::from(k) / 255.0);
+            assert_eq!(display_colour([linear; 3], 0.0), [k; 3]);
+        }
+    }
+}

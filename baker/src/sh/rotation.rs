@@ -1,0 +1,474 @@
+//! Rotation of SH coefficient vectors by explicit band matrices.
+//!
+//! A rotation R acts on a function by g(s) = f(Rᵀs) (the function is carried along with the
+//! rotation: a light at +z rotated by R shines from R·z). Its matrix on coefficients is
+//! block-diagonal, one orthogonal (2l+1)×(2l+1) block per band, and composes like R:
+//! M(R₁R₂) = M(R₁)·M(R₂). Rows and columns of a block run over m = −l..l.
+//!
+//! Two independent constructions, both exact up to rounding and for any order:
+//!
+//! * [`ZyzRotator`]: the thesis's (§5) product of fixed and angle-dependent factors,
+//!   `R_SH(α, β, γ) = Z_γ · X_−90 · Z_β · X_+90 · Z_α` for `R = Rz(γ)·Ry(β)·Rz(α)`. Z_α mixes
+//!   each (m, −m) pair by cos mα and sin mα; the y-rotation is written as a z-rotation between
+//!   two fixed 90° x-rotations, Ry(β) = Rx(−90°)·Rz(β)·Rx(+90°), because X_±90 do not depend on
+//!   the angle and so are built once per order. A matrix or quaternion is first split into
+//!   those ZYZ angles ([`euler_zyz`]), gimbal cases included.
+//! * [`ShRotation::from_matrix_recurrence`]: Ivanic & Ruedenberg's recurrence (J. Phys. Chem.
+//!   1996, 100, 6342, with the 1998 erratum), which builds band l from band l−1 and the 3×3
+//!   matrix. It supplies the X_+90 blocks of the first construction, and the tests use it and
+//!   the projection method [`crate::sh::Rotator`] to check the ZYZ path.
+//!
+//! The recurrence is stated for real harmonics without the Condon–Shortley phase; this
+//! project's harmonics carry (−1)^m on every m ≠ 0 function, so its blocks are conjugated by
+//! diag((−1)^m): entry (m, m′) changes sign when m + m′ is odd.
+
+use glam::{DMat3, DQuat};
+
+use super::coeff_count;
+
+/// The block-diagonal SH matrix of one rotation, for one order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ShRotation {
+    order: usize,
+    /// Band l: the (2l+1)² block, row-major, rows the output m, columns the input m′.
+    bands: Vec<Vec<f64>>,
+}
+
+impl ShRotation {
+    /// The identity of `order` (n² coefficients).
+    pub fn identity(order: usize) -> ShRotation {
+        ShRotation {
+            order,
+            bands: (0..order).map(|l| identity_block(2 * l + 1)).collect(),
+        }
+    }
+
+    /// The thesis's ZYZ construction for R = Rz(γ)·Ry(β)·Rz(α) (radians). Builds X_+90 for
+    /// this call; a caller rotating many times should keep a [`ZyzRotator`].
+    pub fn from_euler_zyz(order: usize, alpha: f64, beta: f64, gamma: f64) -> ShRotation {
+        ZyzRotator::new(order).rotation(alpha, beta, gamma)
+    }
+
+    /// The rotation that takes +z to the direction (θ, φ): R = Rz(φ)·Ry(θ), so a light whose
+    /// coefficients were projected about +z shines from (θ, φ) after it. This is how the thesis
+    /// steers a light: always from its unrotated coefficients and the absolute angles.
+    pub fn from_light_angles(order: usize, theta: f64, phi: f64) -> ShRotation {
+        ShRotation::from_euler_zyz(order, 0.0, theta, phi)
+    }
+
+    /// The ZYZ construction for a rotation matrix (orthonormal, determinant +1).
+    pub fn from_matrix(order: usize, m: DMat3) -> ShRotation {
+        let (alpha, beta, gamma) = euler_zyz(m);
+        ShRotation::from_euler_zyz(order, alpha, beta, gamma)
+    }
+
+    /// The ZYZ construction for a unit quaternion.
+    pub fn from_quat(order: usize, q: DQuat) -> ShRotation {
+        ShRotation::from_matrix(order, DMat3::from_quat(q.normalize()))
+    }
+
+    /// Ivanic–Ruedenberg's recurrence for a rotation matrix: the second, independent method.
+    pub fn from_matrix_recurrence(order: usize, m: DMat3) -> ShRotation {
+        let r = |i: usize, j: usize| m.col(j)[i];
+        // Band 1 without the Condon–Shortley phase is (y, z, x) up to one constant, so its
+        // block is R with rows and columns permuted to that order.
+        let axis = [1, 2, 0];
+        let mut band1 = vec![0.0; 9];
+        for (i, &ai) in axis.iter().enumerate() {
+            for (j, &aj) in axis.iter().enumerate() {
+                band1[i * 3 + j] = r(ai, aj);
+            }
+        }
+        let mut plain: Vec<Vec<f64>> = vec![vec![1.0]];
+        if order > 1 {
+            plain.push(band1);
+        }
+        for l in 2..order {
+            let block = ivanic_ruedenberg_band(l, &plain[1], &plain[l - 1]);
+            plain.push(block);
+        }
+        let bands = plain
+            .into_iter()
+            .enumerate()
+            .map(|(l, mut block)| {
+                let w = 2 * l + 1;
+                for i in 0..w {
+                    for j in 0..w {
+                        if (i + j) % 2 == 1 {
+                            // m + m′ = (i − l) + (j − l) is odd exactly when i + j is.
+                            block[i * w + j] = -block[i * w + j];
+                        }
+                    }
+                }
+                block
+            })
+            .collect();
+        ShRotation { order, bands }
+    }
+
+    pub fn order(&self) -> usize {
+        self.order
+    }
+
+    /// Band l's (2l+1)² block, row-major.
+    pub fn band(&self, l: usize) -> &[f64] {
+        &self.bands[l]
+    }
+
+    /// `out` = the coefficients of g(s) = f(Rᵀs), where `c` holds f's; both n² long.
+    pub fn apply(&self, c: &[f64], out: &mut [f64]) {
+        let n = coeff_count(self.order);
+        assert!(
+            c.len() >= n && out.len() >= n,
+            "coefficient vectors too short"
+        );
+        for (l, block) in self.bands.iter().enumerate() {
+            let (start, w) = (l * l, 2 * l + 1);
+            let input = &c[start..start + w];
+            for (i, o) in out[start..start + w].iter_mut().enumerate() {
+                *o = block[i * w..(i + 1) * w]
+                    .iter()
+                    .zip(input)
+                    .map(|(a, b)| a * b)
+                    .sum();
+            }
+        }
+    }
+
+    /// [`Self::apply`] into a new vector.
+    pub fn rotate(&self, c: &[f64]) -> Vec<f64> {
+        let mut out = vec![0.0; coeff_count(self.order)];
+        self.apply(c, &mut out);
+        out
+    }
+
+    /// The inverse rotation: every block is orthogonal, so its transpose.
+    pub fn inverse(&self) -> ShRotation {
+        ShRotation {
+            order: self.order,
+            bands: self
+                .bands
+                .iter()
+                .enumerate()
+                .map(|(l, b)| transpose(b, 2 * l + 1))
+                .collect(),
+        }
+    }
+
+    /// `self · other`: the rotation that applies `other` first.
+    pub fn then_after(&self, other: &ShRotation) -> ShRotation {
+        assert_eq!(self.order, other.order, "rotations of different orders");
+        ShRotation {
+            order: self.order,
+            bands: self
+                .bands
+                .iter()
+                .zip(&other.bands)
+                .enumerate()
+                .map(|(l, (a, b))| matmul(a, b, 2 * l + 1))
+                .collect(),
+        }
+    }
+}
+
+/// The thesis's ZYZ construction with the fixed X_+90 blocks built once for an order.
+#[derive(Clone, Debug)]
+pub struct ZyzRotator {
+    /// X_+90, the SH matrix of Rx(+90°); X_−90 is its transpose.
+    x_plus: ShRotation,
+    x_minus: ShRotation,
+}
+
+impl ZyzRotator {
+    pub fn new(order: usize) -> ZyzRotator {
+        // Rx(+90°) written exactly: cos 90° rounds to 6e-17 in floating point.
+        let rx90 = DMat3::from_cols_array(&[1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, -1.0, 0.0]);
+        let x_plus = ShRotation::from_matrix_recurrence(order, rx90);
+        let x_minus = x_plus.inverse();
+        ZyzRotator { x_plus, x_minus }
+    }
+
+    pub fn order(&self) -> usize {
+        self.x_plus.order
+    }
+
+    /// R_SH(α, β, γ) = Z_γ · X_−90 · Z_β · X_+90 · Z_α, the SH matrix of Rz(γ)·Ry(β)·Rz(α).
+    pub fn rotation(&self, alpha: f64, beta: f64, gamma: f64) -> ShRotation {
+        let bands = (0..self.order())
+            .map(|l| {
+                let w = 2 * l + 1;
+                let mut m = z_block(l, alpha);
+                m = matmul(&self.x_plus.bands[l], &m, w);
+                m = matmul(&z_block(l, beta), &m, w);
+                m = matmul(&self.x_minus.bands[l], &m, w);
+                matmul(&z_block(l, gamma), &m, w)
+            })
+            .collect();
+        ShRotation {
+            order: self.order(),
+            bands,
+        }
+    }
+
+    /// The rotation taking +z to (θ, φ); see [`ShRotation::from_light_angles`].
+    pub fn light_angles(&self, theta: f64, phi: f64) -> ShRotation {
+        self.rotation(0.0, theta, phi)
+    }
+}
+
+/// ZYZ Euler angles (α, β, γ) with `m` = Rz(γ)·Ry(β)·Rz(α), β in [0, π], α and γ in (−π, π].
+///
+/// Near β = 0 only α + γ is defined, near β = π only γ − α; each is read from the entries
+/// that stay well conditioned there ((1 ± cos β)·cos, sin of the sum or difference), and α
+/// from the third row, so the angles rebuild `m` to rounding even in the gimbal cases.
+pub fn euler_zyz(m: DMat3) -> (f64, f64, f64) {
+    let r = |i: usize, j: usize| m.col(j)[i];
+    let beta = r(2, 0).hypot(r(2, 1)).atan2(r(2, 2));
+    // sin β·(cos α, sin α) = (−r20, r21); at sin β = 0 any α will do, 0 is the convention.
+    let alpha = if r(2, 0) == 0.0 && r(2, 1) == 0.0 {
+        0.0
+    } else {
+        r(2, 1).atan2(-r(2, 0))
+    };
+    let gamma = if r(2, 2) >= 0.0 {
+        // (1 + cos β)·(cos, sin)(α + γ) = (r00 + r11, r10 − r01)
+        let sum = (r(1, 0) - r(0, 1)).atan2(r(0, 0) + r(1, 1));
+        sum - alpha
+    } else {
+        // (1 − cos β)·(cos, sin)(γ − α) = (r11 − r00, −(r10 + r01))
+        let difference = (-(r(1, 0) + r(0, 1))).atan2(r(1, 1) - r(0, 0));
+        difference + alpha
+    };
+    (alpha, beta, wrap_angle(gamma))
+}
+
+/// An angle in (−π, π].
+fn wrap_angle(a: f64) -> f64 {
+    let tau = std::f64::consts::TAU;
+    let wrapped = a - tau * (a / tau).round();
+    if wrapped <= -std::f64::consts::PI {
+        wrapped + tau
+    } else {
+        wrapped
+    }
+}
+
+/// Z_α for band l: g(s) = f(Rz(α)ᵀs) turns cos mφ, sin mφ into cos m(φ−α), sin m(φ−α), so
+/// (c₊, c₋) ↦ (c₊ cos mα − c₋ sin mα, c₊ sin mα + c₋ cos mα). The phase convention does not
+/// enter: the two functions of a pair carry the same sign.
+fn z_block(l: usize, alpha: f64) -> Vec<f64> {
+    let w = 2 * l + 1;
+    let mut z = vec![0.0; w * w];
+    z[l * w + l] = 1.0;
+    for m in 1..=l {
+        let (s, c) = (m as f64 * alpha).sin_cos();
+        let (plus, minus) = (l + m, l - m);
+        z[plus * w + plus] = c;
+        z[plus * w + minus] = -s;
+        z[minus * w + plus] = s;
+        z[minus * w + minus] = c;
+    }
+    z
+}
+
+/// Band l of the Ivanic–Ruedenberg recurrence (no Condon–Shortley phase), from band 1 `r1`
+/// and band l−1 `prev`.
+fn ivanic_ruedenberg_band(l: usize, r1: &[f64], prev: &[f64]) -> Vec<f64> {
+    let li = l as i64;
+    let w = 2 * l + 1;
+    // Centred access: r1 and prev indexed by m from −1..1 and −(l−1)..l−1.
+    let r = |i: i64, j: i64| r1[((i + 1) * 3 + (j + 1)) as usize];
+    let pw = (2 * l - 1) as i64;
+    let p_el = |a: i64, b: i64| prev[((a + li - 1) * pw + (b + li - 1)) as usize];
+    // P^i_{a,b} of the paper.
+    let p = |i: i64, a: i64, b: i64| {
+        if b == li {
+            r(i, 1) * p_el(a, li - 1) - r(i, -1) * p_el(a, -li + 1)
+        } else if b == -li {
+            r(i, 1) * p_el(a, -li + 1) + r(i, -1) * p_el(a, li - 1)
+        } else {
+            r(i, 0) * p_el(a, b)
+        }
+    };
+    let delta = |a: i64, b: i64| if a == b { 1.0 } else { 0.0 };
+    let mut block = vec![0.0; w * w];
+    for m in -li..=li {
+        for n in -li..=li {
+            let d0 = delta(m, 0);
+            let denominator = if n.abs() == li {
+                (2 * li * (2 * li - 1)) as f64
+            } else {
+                ((li + n) * (li - n)) as f64
+            };
+            let am = m.abs();
+            let u = (((li + m) * (li - m)) as f64 / denominator).sqrt();
+            let v = 0.5
+                * ((1.0 + d0) * ((li + am - 1) * (li + am)) as f64 / denominator).sqrt()
+                * (1.0 - 2.0 * d0);
+            let wc = -0.5 * (((li - am - 1) * (li - am)) as f64 / denominator).sqrt() * (1.0 - d0);
+            let mut value = 0.0;
+            if u != 0.0 {
+                value += u * p(0, m, n);
+            }
+            if v != 0.0 {
+                let big_v = if m == 0 {
+                    p(1, 1, n) + p(-1, -1, n)
+                } else if m > 0 {
+                    p(1, m - 1, n) * (1.0 + delta(m, 1)).sqrt()
+                        - p(-1, -m + 1, n) * (1.0 - delta(m, 1))
+                } else {
+                    p(1, m + 1, n) * (1.0 - delta(m, -1))
+                        + p(-1, -m - 1, n) * (1.0 + delta(m, -1)).sqrt()
+                };
+                value += v * big_v;
+            }
+            if wc != 0.0 {
+                let big_w = if m > 0 {
+                    p(1, m + 1, n) + p(-1, -m - 1, n)
+                } else {
+                    p(1, m - 1, n) - p(-1, -m + 1, n)
+                };
+                value += wc * big_w;
+            }
+            block[((m + li) as usize) * w + (n + li) as usize] = value;
+        }
+    }
+    block
+}
+
+fn identity_block(w: usize) -> Vec<f64> {
+    let mut m = vec![0.0; w * w];
+    for i in 0..w {
+        m[i * w + i] = 1.0;
+    }
+    m
+}
+
+fn transpose(a: &[f64], w: usize) -> Vec<f64> {
+    let mut t = vec![0.0; w * w];
+    for i in 0..w {
+        for j in 0..w {
+            t[j * w + i] = a[i * w + j];
+        }
+    }
+    t
+}
+
+fn matmul(a: &[f64], b: &[f64], w: usize) -> Vec<f64> {
+    let mut c = vec![0.0; w * w];
+    for i in 0..w {
+        for k in 0..w {
+            let aik = a[i * w + k];
+            if aik != 0.0 {
+                for j in 0..w {
+                    c[i * w + j] += aik * b[k * w + j];
+                }
+            }
+        }
+    }
+    c
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sh::{Basis, Rotator};
+    use glam::DVec3;
+
+    /// Rounding of a few hundred f64 products per entry: far below any real error.
+    const EXACT: f64 = 1e-12;
+
+    fn max_difference(a: &[f64], b: &[f64]) -> f64 {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn band_one_rotates_like_the_vector_with_the_convention_signs() {
+        // f(s) = a·s has coefficients k·(−a_y, a_z, −a_x); g(s) = f(Rᵀs) = (Ra)·s.
+        let k = (3.0 / (4.0 * std::f64::consts::PI)).sqrt();
+        let a = DVec3::new(0.3, -0.5, 0.8);
+        let r = DMat3::from_axis_angle(DVec3::new(1.0, 2.0, -0.5).normalize(), 0.9);
+        let coefficients = |v: DVec3| vec![0.0, -k * v.y, k * v.z, -k * v.x];
+        let want = coefficients(r * a);
+        for rotation in [
+            ShRotation::from_matrix(2, r),
+            ShRotation::from_matrix_recurrence(2, r),
+        ] {
+            let got = rotation.rotate(&coefficients(a));
+            assert!(max_difference(&got, &want) < EXACT, "{got:?} vs {want:?}");
+        }
+    }
+
+    #[test]
+    fn recurrence_equals_the_projection_method_up_to_order_10() {
+        let order = 10;
+        let rotator = Rotator::new(order);
+        let n = coeff_count(order);
+        for (axis, angle) in [
+            (DVec3::X, std::f64::consts::FRAC_PI_2),
+            (DVec3::new(0.2, -0.9, 0.4), 2.1),
+        ] {
+            let r = DMat3::from_axis_angle(axis.normalize(), angle);
+            let rotation = ShRotation::from_matrix_recurrence(order, r);
+            for i in 0..n {
+                let mut unit = vec![0.0; n];
+                unit[i] = 1.0;
+                let mut want = vec![0.0; n];
+                rotator.rotate(r, &unit, &mut want);
+                let got = rotation.rotate(&unit);
+                // The projection method's pseudo-inverse loses a few digits at order 10.
+                assert!(max_difference(&got, &want) < 1e-9, "column {i}");
+            }
+        }
+    }
+
+    #[test]
+    fn euler_angles_rebuild_the_matrix_including_gimbal_cases() {
+        let zyz = |a: f64, b: f64, g: f64| {
+            DMat3::from_rotation_z(g) * DMat3::from_rotation_y(b) * DMat3::from_rotation_z(a)
+        };
+        let pi = std::f64::consts::PI;
+        for (a, b, g) in [
+            (0.3, 1.1, -2.0),
+            (1.0, 0.0, 0.5),
+            (1.0, 1e-9, 0.5),
+            (-2.5, pi, 0.7),
+            (-2.5, pi - 1e-9, 0.7),
+            (3.0, 2.9, -3.0),
+        ] {
+            let m = zyz(a, b, g);
+            let (a2, b2, g2) = euler_zyz(m);
+            let rebuilt = zyz(a2, b2, g2);
+            let error = (rebuilt - m)
+                .to_cols_array()
+                .iter()
+                .map(|x| x.abs())
+                .fold(0.0, f64::max);
+            assert!(
+                error < EXACT,
+                "({a}, {b}, {g}) → ({a2}, {b2}, {g2}): {error}"
+            );
+        }
+    }
+
+    #[test]
+    fn light_angles_take_z_to_the_direction() {
+        let order = 5;
+        let basis = Basis::new(order);
+        let (theta, phi) = (1.2f64, -2.3f64);
+        let d = DVec3::new(
+            theta.sin() * phi.cos(),
+            theta.sin() * phi.sin(),
+            theta.cos(),
+        );
+        let (mut at_z, mut at_d) = (vec![0.0; 25], vec![0.0; 25]);
+        basis.eval_recurrence(DVec3::Z, &mut at_z);
+        basis.eval_recurrence(d, &mut at_d);
+        // A delta at +z has coefficients y(z); rotated, a delta at d.
+        let got = ShRotation::from_light_angles(order, theta, phi).rotate(&at_z);
+        assert!(max_difference(&got, &at_d) < EXACT);
+    }
+}
