@@ -4,9 +4,11 @@
 //!
 //! Bounce k alone is the difference of the bakes with k and k − 1 bounces (same seed, so the
 //! same rays and the same direct pass). Its tolerance adds two terms: the Monte Carlo error
-//! of the bounce's own estimator (per-sample variance from the closed form, N samples,
-//! `prt_tests::tolerance`) and the error it inherits from the previous bounce's values at the
-//! hit vertices, at most (fraction of rays that hit) × ρ × that bounce's tolerance.
+//! of the bounce's own estimator (per-sample variance from the closed form, over the M bounce
+//! samples — a quarter of the N samples by default, the sequence's first M points, so with N
+//! a power of two a scrambled net of their own — `prt_tests::tolerance`) and the error it
+//! inherits from the previous bounce's values at the hit vertices, at most (fraction of rays
+//! that hit) × ρ × that bounce's tolerance.
 
 use glam::{DVec3, Vec3};
 use prt_baker::scene::Material;
@@ -79,6 +81,7 @@ fn bowl_under_a_constant_sky_approaches_the_closed_form() {
     // An interior vertex half-way up the bowl (ring 12 of 24).
     let v = 1 + 11 * 48 + 5;
     let totals = per_bounce_totals(&scene, 1, samples, 3, v);
+    let bounce_samples = samples / 4;
     let rho = f64::from(rho);
     let mut expected_bounce = Y00 / 2.0;
     let mut tol = tolerance(Y00 * Y00 * 0.25, samples);
@@ -96,7 +99,7 @@ fn bowl_under_a_constant_sky_approaches_the_closed_form() {
         // Next bounce: a hit fraction of 1/2 with value ρ·(this bounce's value).
         let next = expected_bounce * rho / 2.0;
         let sample = 2.0 * next; // the value of a sample that hits
-        tol = tolerance(sample * sample * 0.25, samples) + 0.5 * rho * tol;
+        tol = tolerance(sample * sample * 0.25, bounce_samples) + 0.5 * rho * tol;
         expected_bounce = next;
     }
     let limit = (Y00 / 2.0) / (1.0 - rho / 2.0);
@@ -157,6 +160,7 @@ fn floor_meeting_a_wall_at_a_right_angle() {
     let a = quarter_moments(order, DVec3::Z, DVec3::X); // floor (x > 0): sees s.x > 0
     let b = quarter_moments(order, DVec3::X, DVec3::Z); // wall: sees s.z > 0
     let totals = per_bounce_totals(&scene, order, samples, 2, v);
+    let bounce_samples = samples / 4;
     let half_rho = f64::from(rho) / 2.0;
     let n = sh::coeff_count(order);
     for j in 0..n {
@@ -164,9 +168,9 @@ fn floor_meeting_a_wall_at_a_right_angle() {
         let tol0_wall = tolerance(b.variance(j), samples);
         // Bounce 1 at the floor point: half the rays hit the wall, each worth ρ·B_j.
         let sample1 = f64::from(rho) * b.mean[j];
-        let tol1 = tolerance(sample1 * sample1 * 0.25, samples) + half_rho * tol0_wall;
+        let tol1 = tolerance(sample1 * sample1 * 0.25, bounce_samples) + half_rho * tol0_wall;
         let sample2 = f64::from(rho) * half_rho * a.mean[j];
-        let tol2 = tolerance(sample2 * sample2 * 0.25, samples) + half_rho * tol1;
+        let tol2 = tolerance(sample2 * sample2 * 0.25, bounce_samples) + half_rho * tol1;
         let expected = [
             a.mean[j],
             a.mean[j] + half_rho * b.mean[j],

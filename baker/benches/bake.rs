@@ -66,6 +66,8 @@ fn main() {
         best_of(|| raw_embree(&scene, &estimator, &tracer, samples, Query::Shuffled));
     let closest_seconds =
         best_of(|| raw_embree(&scene, &estimator, &tracer, samples, Query::ClosestHit));
+    let closest16_seconds =
+        best_of(|| raw_embree(&scene, &estimator, &tracer, samples, Query::ClosestHit16));
     let robust = EmbreeTracer::new(
         &scene,
         EmbreeOptions {
@@ -106,6 +108,10 @@ fn main() {
         "raw embree closest hit, rtcIntersect1M (same rays)",
         closest_seconds,
     );
+    row(
+        "raw embree closest hit, rtcIntersect16 (same rays)",
+        closest16_seconds,
+    );
     println!();
     println!(
         "bake: {:.2} s for {:.0} M rays, {:.1} Mrays/s = {:.3} x the raw Embree rate (target: <= 4 s, >= 0.8 x)",
@@ -129,6 +135,7 @@ enum Query {
     Shuffled,
     /// Closest hits instead of occlusion (what the interreflected mode's direct pass traces).
     ClosestHit,
+    ClosestHit16,
 }
 
 /// Seconds that the bake's rays take in Embree alone. Rays are generated outside the timed
@@ -189,6 +196,16 @@ fn raw_embree(
                 }
                 Query::Trait => tracer.occluded_from(origin, dirs, occluded),
                 Query::ClosestHit => embree.intersect_stream(&mut rayhits),
+                Query::ClosestHit16 => {
+                    let mut packet = embree_sys::RayHit16::default();
+                    for chunk in stream.chunks(embree_sys::PACKET_WIDTH) {
+                        packet.clear();
+                        for (i, r) in chunk.iter().enumerate() {
+                            packet.set(i, r.origin(), r.dir(), 0.0, r.tfar());
+                        }
+                        embree.intersect16(&mut packet);
+                    }
+                }
             }
             traced_nanos.fetch_add(started.elapsed().as_nanos() as u64, Ordering::Relaxed);
         },

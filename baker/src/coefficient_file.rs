@@ -36,6 +36,8 @@ pub struct Header {
     #[serde(serialize_with = "as_name::mode")]
     pub mode: Mode,
     pub bounces: u32,
+    /// Rays per vertex whose hits fed the bounces (interreflected mode; 0 otherwise).
+    pub bounce_samples: u32,
     #[serde(serialize_with = "as_name::backend")]
     pub backend: Backend,
     #[serde(serialize_with = "as_name::sampling")]
@@ -147,6 +149,7 @@ impl CoefficientFile {
                 samples_per_vertex: options.samples,
                 mode: options.mode,
                 bounces: options.bounces,
+                bounce_samples: options.effective_bounce_samples(),
                 backend: transfer.backend,
                 sampling: options.sampling,
                 seed: options.seed,
@@ -195,7 +198,8 @@ impl CoefficientFile {
         bytes.extend(sampling_code(h.sampling).to_le_bytes());
         bytes.extend(aux_flags(h.aux).to_le_bytes());
         bytes.extend(h.payload_bytes().to_le_bytes());
-        bytes.resize(HEADER_SIZE, 0); // reserved bytes 80..124, then the checksum slot
+        bytes.extend(h.bounce_samples.to_le_bytes());
+        bytes.resize(HEADER_SIZE, 0); // reserved bytes 84..124, then the checksum slot
         bytes.extend(self.coefficients.iter().flat_map(|c| c.to_le_bytes()));
         let ao = self.ao.iter().flatten().copied();
         let bent = self.bent_normal.iter().flatten().flat_map(|n| n.to_array());
@@ -302,7 +306,19 @@ impl CoefficientFile {
             ao: aux_flags & AUX_AO != 0,
             bent_normal: aux_flags & AUX_BENT_NORMAL != 0,
         };
-        if bytes[80..CHECKSUM_OFFSET].iter().any(|&b| b != 0) {
+        let bounce_samples = u32_at(80);
+        let samples_per_vertex = u32_at(32);
+        let bounce_samples_valid = match mode {
+            Mode::Interreflected => (1..=samples_per_vertex).contains(&bounce_samples),
+            _ => bounce_samples == 0,
+        };
+        if !bounce_samples_valid {
+            return Err(format!(
+                "{bounce_samples} bounce samples in a {} file of {samples_per_vertex} samples",
+                mode.name()
+            ));
+        }
+        if bytes[84..CHECKSUM_OFFSET].iter().any(|&b| b != 0) {
             return Err("reserved header bytes are not zero".into());
         }
         let header = Header {
@@ -310,9 +326,10 @@ impl CoefficientFile {
             order,
             channels,
             vertex_count: u64_at(24),
-            samples_per_vertex: u32_at(32),
+            samples_per_vertex,
             mode,
             bounces,
+            bounce_samples,
             backend,
             sampling,
             seed: u64_at(48),

@@ -296,8 +296,8 @@ fn bounce_pass(
     next.par_chunks_mut(VERTICES_PER_JOB * width)
         .enumerate()
         .for_each_init(
-            || (Scratch::new(n), vec![0.0f32; n]),
-            |(scratch, direct), (job, out)| {
+            || Scratch::new(n),
+            |scratch, (job, out)| {
                 let first = job * VERTICES_PER_JOB;
                 let mut retraced = None;
                 for (k, out) in out.chunks_mut(width).enumerate() {
@@ -306,13 +306,7 @@ fn bounce_pass(
                         None => {
                             // Same rays as the direct pass, so the same row.
                             let mut fresh = JobRows::new(scene);
-                            estimator.vertex_transfer(
-                                first + k,
-                                Some(tracer),
-                                scratch,
-                                direct,
-                                Some(&mut fresh),
-                            );
+                            estimator.bounce_row(first + k, tracer, scratch, &mut fresh);
                             let fresh: &JobRows = retraced.insert(fresh);
                             (fresh, fresh.vertex(0))
                         }

@@ -141,6 +141,7 @@ mod tests {
                 samples_per_vertex: 1,
                 mode: crate::Mode::Unshadowed,
                 bounces: 0,
+                bounce_samples: 0,
                 backend: crate::trace::Backend::None,
                 sampling: crate::sampling::Sampling::OwenSobol,
                 seed: 0,

@@ -92,6 +92,11 @@ pub struct BakeOptions {
     pub sampling: Sampling,
     /// Interreflection bounces (interreflected mode only; at least 1 there).
     pub bounces: u32,
+    /// Rays per vertex whose first hits feed the bounces (interreflected mode): the first
+    /// this many of the `samples` directions; `None` is a quarter of them. Bounced light is
+    /// dimmer and smoother than direct light, so fewer of the costlier closest-hit rays give
+    /// it a comparable error.
+    pub bounce_samples: Option<u32>,
     /// Which per-vertex arrays to keep beside the coefficients.
     pub aux: Aux,
     /// Bytes the interreflected mode may spend caching first hits; beyond it the bounce
@@ -111,6 +116,7 @@ impl Default for BakeOptions {
             seed: 0,
             sampling: Sampling::OwenSobol,
             bounces: 0,
+            bounce_samples: None,
             aux: Aux::default(),
             hit_cache_limit: DEFAULT_HIT_CACHE_LIMIT,
         }
@@ -118,6 +124,15 @@ impl Default for BakeOptions {
 }
 
 impl BakeOptions {
+    /// Bounce rays per vertex: `bounce_samples`, or a quarter of `samples` (at least 1);
+    /// 0 outside interreflected mode.
+    pub fn effective_bounce_samples(&self) -> u32 {
+        match self.mode {
+            Mode::Interreflected => self.bounce_samples.unwrap_or(self.samples.div_ceil(4)),
+            _ => 0,
+        }
+    }
+
     pub fn validate(&self) -> Result<()> {
         if !(1..=sh::MAX_ORDER).contains(&self.order) {
             return Err(Error::InvalidOption(format!(
@@ -142,6 +157,19 @@ impl BakeOptions {
                 )));
             }
             _ => {}
+        }
+        if let Some(m) = self.bounce_samples {
+            if self.mode != Mode::Interreflected {
+                return Err(Error::InvalidOption(
+                    "--bounce-samples needs --mode interreflected".into(),
+                ));
+            }
+            if m == 0 || m > self.samples {
+                return Err(Error::InvalidOption(format!(
+                    "--bounce-samples {m} must be in 1..={} (--samples)",
+                    self.samples
+                )));
+            }
         }
         if self.aux.any() && !self.mode.casts_rays() {
             return Err(Error::InvalidOption(
@@ -243,10 +271,14 @@ pub fn bake(
     } else {
         0
     };
-    // Re-tracing bounce passes cast every vertex's rays again.
-    let passes = match (options.mode, hit_cache_bytes) {
-        (Mode::Interreflected, None) => 1 + u64::from(options.bounces),
-        _ => 1,
+    // Re-tracing bounce passes cast every vertex's bounce rays again.
+    let retraced = match (options.mode, hit_cache_bytes) {
+        (Mode::Interreflected, None) => {
+            u64::from(options.bounces)
+                * u64::from(options.effective_bounce_samples())
+                * vertex_count as u64
+        }
+        _ => 0,
     };
     Ok(Transfer {
         options: options.clone(),
@@ -255,7 +287,7 @@ pub fn bake(
         coefficients,
         visibility,
         backend: tracer.map_or(Backend::None, |t| t.backend()),
-        rays_cast: rays_per_pass * passes,
+        rays_cast: rays_per_pass + retraced,
         seconds: started.elapsed().as_secs_f64(),
         hit_cache_bytes,
     })
@@ -321,7 +353,9 @@ pub struct Estimator {
     origins: Vec<Vec3>,
     /// The bake's cosine-weighted directions in the local frame (Owen–Sobol only).
     local_dirs: Vec<Vec3>,
-    /// y_j(local_dirs[i]) at `[i·n² + j]`.
+    /// y_j(local_dirs[i]) at `[i·n² + j]`. With bounce samples (interreflected mode), rows
+    /// 0..M are the sequence's first M points — a stratified set of their own — the rest
+    /// follow; thesis-random samples are independent, so their first M serve.
     local_sh: Vec<f32>,
 }
 
@@ -333,13 +367,21 @@ impl Estimator {
         let (mut local_dirs, mut local_sh) = (Vec::new(), Vec::new());
         if options.sampling == Sampling::OwenSobol {
             let points = OwenSobol::new(vertex_seed(options.seed, u64::MAX));
-            let mut uv: Vec<(f32, f32)> = (0..options.samples).map(|i| points.point(i)).collect();
-            // Consecutive rays with close directions trace much faster (Embree forms
-            // coherent packets); the set, and so the estimate, is unchanged by the order.
-            uv.sort_by_key(|&(u1, u2)| hilbert_index(u1, u2));
+            let mut uv: Vec<(u32, f32, f32)> = (0..options.samples)
+                .map(|i| {
+                    let (u1, u2) = points.point(i);
+                    (i, u1, u2)
+                })
+                .collect();
+            // The bounce samples (the sequence's first M points) come first, so a batch is
+            // all closest-hit rays or all occlusion rays; within each group, consecutive rays
+            // with close directions trace much faster (Embree forms coherent packets). The
+            // set, and so the estimate, does not depend on the order.
+            let bounce_samples = options.effective_bounce_samples();
+            uv.sort_by_key(|&(i, u1, u2)| (i >= bounce_samples, hilbert_index(u1, u2)));
             local_dirs = uv
                 .iter()
-                .map(|&(u1, u2)| cosine_hemisphere(u1, u2))
+                .map(|&(_, u1, u2)| cosine_hemisphere(u1, u2))
                 .collect();
             local_sh = vec![0.0; local_dirs.len() * n];
             for (row, d) in local_sh.chunks_mut(n).zip(&local_dirs) {
@@ -354,6 +396,22 @@ impl Estimator {
             origins: ray_origins(scene),
             local_dirs,
             local_sh,
+        })
+    }
+
+    /// The batches of sample indices a vertex traces: at most [`BATCH`] long, and split at
+    /// the bounce samples' end, so each batch is all bounce samples or none.
+    fn batches(&self) -> impl Iterator<Item = std::ops::Range<usize>> {
+        let samples = self.options.samples as usize;
+        let bounce = self.options.effective_bounce_samples() as usize;
+        let mut start = 0;
+        std::iter::from_fn(move || {
+            (start < samples).then(|| {
+                let limit = if start < bounce { bounce } else { samples };
+                let range = start..(start + BATCH).min(limit);
+                start = range.end;
+                range
+            })
         })
     }
 
@@ -423,9 +481,66 @@ impl Estimator {
         }
     }
 
+    /// One batch of an interreflected bake (directions already in `s.dirs`): bounce
+    /// samples are traced with closest-hit rays, their front hits going into `rows` with
+    /// weight × N/M; other batches (only when `occlusion`) with occlusion rays. Fills
+    /// `s.occluded` for the rays traced.
+    fn trace_recording_batch(
+        &self,
+        v: usize,
+        batch: std::ops::Range<usize>,
+        tracer: &dyn Tracer,
+        s: &mut Scratch,
+        rows: &mut crate::interreflection::JobRows<'_>,
+        occlusion: bool,
+    ) {
+        let origin = self.origins[v];
+        let len = batch.len();
+        if batch.start >= self.options.effective_bounce_samples() as usize {
+            if occlusion {
+                tracer.occluded_from(origin, &s.dirs, &mut s.occluded[..len]);
+            }
+            return;
+        }
+        let hits = &mut s.hits[..len];
+        tracer.intersect_from(origin, &s.dirs, hits);
+        let scale = self.options.samples as f32 / self.options.effective_bounce_samples() as f32;
+        for (((blocked, hit), dir), weight) in s
+            .occluded
+            .iter_mut()
+            .zip(hits.iter())
+            .zip(&s.dirs)
+            .zip(&s.weights)
+        {
+            *blocked = hit.is_some();
+            if let Some(hit) = hit {
+                rows.record(hit, *dir, weight * scale, &mut s.rows);
+            }
+        }
+    }
+
+    /// Re-traces vertex `v`'s bounce samples only and records its bounce row (what the
+    /// direct pass recorded, when the rows could not be kept).
+    pub(crate) fn bounce_row(
+        &self,
+        v: usize,
+        tracer: &dyn Tracer,
+        s: &mut Scratch,
+        rows: &mut crate::interreflection::JobRows<'_>,
+    ) {
+        let frame = self.vertex_frame(v);
+        rows.begin_vertex(&mut s.rows);
+        let bounce = self.options.effective_bounce_samples() as usize;
+        for batch in self.batches().take_while(|b| b.start < bounce) {
+            self.directions(v, &frame, batch.clone(), &mut s.dirs, &mut s.weights);
+            self.trace_recording_batch(v, batch, tracer, s, rows, false);
+        }
+        rows.end_vertex(&mut s.rows);
+    }
+
     /// The shadowed (or unshadowed, with no tracer) transfer of vertex `v` into `out`, and
-    /// its [`Visibility`]. With `hits`, closest-hit rays are cast instead of occlusion rays
-    /// and the front-face hits are recorded for the bounce passes.
+    /// its [`Visibility`]. With `hits` (interreflected mode), the bounce samples are traced
+    /// with closest-hit rays and their front hits recorded for the bounce passes.
     pub fn vertex_transfer(
         &self,
         v: usize,
@@ -435,37 +550,26 @@ impl Estimator {
         mut hits: Option<&mut crate::interreflection::JobRows<'_>>,
     ) -> Visibility {
         let n = self.basis.coeff_count();
-        let samples = self.options.samples as usize;
         let frame = self.vertex_frame(v);
         s.total.fill(0.0);
         let (mut unblocked, mut bent) = (0.0f64, Vec3::ZERO);
         if let Some(hits) = hits.as_deref_mut() {
             hits.begin_vertex(&mut s.rows);
         }
-        let mut start = 0;
-        while start < samples {
-            let end = (start + BATCH).min(samples);
-            self.directions(v, &frame, start..end, &mut s.dirs, &mut s.weights);
-            let occluded = &mut s.occluded[..end - start];
+        for batch in self.batches() {
+            let (start, end) = (batch.start, batch.end);
+            self.directions(v, &frame, batch.clone(), &mut s.dirs, &mut s.weights);
+            let len = end - start;
             match (tracer, hits.as_deref_mut()) {
                 (Some(tracer), Some(hits)) => {
-                    let closest = &mut s.hits[..end - start];
-                    tracer.intersect_from(self.origins[v], &s.dirs, closest);
-                    for (((o, h), dir), &weight) in occluded
-                        .iter_mut()
-                        .zip(closest.iter())
-                        .zip(&s.dirs)
-                        .zip(&s.weights)
-                    {
-                        *o = h.is_some();
-                        if let Some(h) = h {
-                            hits.record(h, *dir, weight, &mut s.rows);
-                        }
-                    }
+                    self.trace_recording_batch(v, batch, tracer, s, hits, true);
                 }
-                (Some(tracer), None) => tracer.occluded_from(self.origins[v], &s.dirs, occluded),
-                (None, _) => occluded.fill(false),
+                (Some(tracer), None) => {
+                    tracer.occluded_from(self.origins[v], &s.dirs, &mut s.occluded[..len])
+                }
+                (None, _) => s.occluded[..len].fill(false),
             }
+            let occluded = &s.occluded[..len];
             s.batch_sum.fill(0.0);
             match self.options.sampling {
                 Sampling::OwenSobol => {
@@ -500,7 +604,6 @@ impl Estimator {
             for (total, b) in s.total.iter_mut().zip(&s.batch_sum) {
                 *total += f64::from(*b);
             }
-            start = end;
         }
         if let Some(hits) = hits {
             hits.end_vertex(&mut s.rows);

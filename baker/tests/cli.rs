@@ -356,6 +356,7 @@ fn inspect_prints_the_header_as_json() {
         "seed": 42,
         "scene_fingerprint": format!("{fingerprint:016x}"),
         "aux": [],
+        "bounce_samples": 0,
         "checksum": shadowed["checksum"],
     });
     assert_eq!(shadowed, expected);
@@ -592,7 +593,7 @@ fn interreflected_bake_records_bounces_colour_and_aux_arrays() {
     let run = s.bake("room.obj", "a.prt", &extra);
     assert!(
         run.stdout
-            .contains("interreflected, 2 bounces, 3 channels, hit cache"),
+            .contains("interreflected, 2 bounces from 64 rays, 3 channels, hit cache"),
         "{}",
         run.stdout
     );
@@ -601,6 +602,10 @@ fn interreflected_bake_records_bounces_colour_and_aux_arrays() {
         serde_json::from_str(&s.run(&["inspect", "out/a.prt"]).success().stdout).unwrap();
     assert_eq!(json["mode"], "interreflected");
     assert_eq!(json["bounces"], 2);
+    assert_eq!(
+        json["bounce_samples"], 64,
+        "a quarter of the 256 samples by default"
+    );
     assert_eq!(json["channels"], 3);
     assert_eq!(json["aux"], serde_json::json!(["ao", "bent-normal"]));
 
@@ -670,7 +675,8 @@ fn grey_scenes_keep_one_channel_when_interreflected() {
     s.write("a.obj", FLOOR_AND_OCCLUDER);
     let run = s.bake("a.obj", "a.prt", &["--mode", "interreflected"]);
     assert!(
-        run.stdout.contains("interreflected, 1 bounces, 1 channels"),
+        run.stdout
+            .contains("interreflected, 1 bounces from 16 rays, 1 channels"),
         "{}",
         run.stdout
     );
@@ -719,6 +725,21 @@ fn bounce_and_aux_options_must_fit_the_mode() {
         (
             &["--mode", "unshadowed", "--aux", "ao"][..],
             "--aux needs rays",
+        ),
+        (
+            &["--bounce-samples", "8"][..],
+            "--bounce-samples needs --mode interreflected",
+        ),
+        (
+            &[
+                "--mode",
+                "interreflected",
+                "--samples",
+                "64",
+                "--bounce-samples",
+                "65",
+            ][..],
+            "--bounce-samples 65 must be in 1..=64",
         ),
     ] {
         let mut all = vec!["bake", "tri.obj", "-o", "out/x.prt"];

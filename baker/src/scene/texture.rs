@@ -101,8 +101,13 @@ impl Texture {
 
     /// The linear colour of texel (x, y), counted from the image's top-left corner.
     pub fn texel(&self, x: usize, y: usize) -> Vec3 {
+        self.decoded_texel(&DECODE, x, y)
+    }
+
+    #[inline]
+    fn decoded_texel(&self, decode: &[f32; 256], x: usize, y: usize) -> Vec3 {
         let [r, g, b, _] = self.srgb8[y * self.width as usize + x];
-        Vec3::new(DECODE[r as usize], DECODE[g as usize], DECODE[b as usize])
+        Vec3::new(decode[r as usize], decode[g as usize], decode[b as usize])
     }
 
     /// Whether every texel is grey (R = G = B).
@@ -134,8 +139,10 @@ impl Texture {
             (first, second)
         };
         let ((x0, x1), (y0, y1)) = (wrap(x0, w), wrap(y0, h));
-        let top = self.texel(x0, y0).lerp(self.texel(x1, y0), fx);
-        let bottom = self.texel(x0, y1).lerp(self.texel(x1, y1), fx);
+        let decode: &[f32; 256] = &DECODE; // one initialisation check per lookup, not twelve
+        let texel = |x, y| self.decoded_texel(decode, x, y);
+        let top = texel(x0, y0).lerp(texel(x1, y0), fx);
+        let bottom = texel(x0, y1).lerp(texel(x1, y1), fx);
         top.lerp(bottom, fy)
     }
 }
