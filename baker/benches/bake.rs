@@ -120,6 +120,54 @@ fn main() {
         rate(bake_seconds),
         rate(bake_seconds) / ceiling
     );
+
+    // Interreflection (issue 4): the same scene and rays, 1–3 bounces, against the shadowed
+    // bake just measured.
+    println!();
+    println!(
+        "{:<44} {:>10} {:>12} {:>12}",
+        "", "seconds", "x shadowed", "cache MiB"
+    );
+    let mut previous = bake_seconds;
+    for bounces in 1..=3 {
+        let options = BakeOptions {
+            mode: Mode::Interreflected,
+            bounces,
+            ..options.clone()
+        };
+        let mut cache = 0;
+        let seconds = best_of(|| {
+            let transfer = prt_baker::bake(&scene, Some(&tracer), &options, &Silent).expect("bake");
+            cache = transfer.hit_cache_bytes.unwrap_or(0);
+            transfer.seconds
+        });
+        println!(
+            "{:<44} {seconds:>10.3} {:>12.3} {:>12.0}   (+{:.3} x for this bounce)",
+            format!(
+                "interreflected, {bounces} bounce(s), {} bounce rays",
+                options.effective_bounce_samples()
+            ),
+            seconds / bake_seconds,
+            cache as f64 / f64::from(1 << 20),
+            (seconds - previous) / bake_seconds,
+        );
+        previous = seconds;
+    }
+    println!(
+        "peak resident memory of this benchmark process: {:.0} MiB",
+        peak_rss_mib()
+    );
+}
+
+/// The process's peak resident set (VmHWM), in MiB; 0 where /proc is unavailable.
+fn peak_rss_mib() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|status| {
+            let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+            line.split_whitespace().nth(1)?.parse::<f64>().ok()
+        })
+        .map_or(0.0, |kib| kib / 1024.0)
 }
 
 fn best_of(mut run: impl FnMut() -> f64) -> f64 {
