@@ -24,12 +24,20 @@
 //! # Bounce rows, and memory
 //!
 //! A bounce is linear in the previous bounce's *vertex* values: T_k(x) = Σ_v w(x, v) ⊙ T_{k−1}(v),
-//! where w(x, v) sums, over the rays of x whose front hit lands on a triangle of v, the
-//! estimator weight × albedo × v's barycentric weight. The direct pass (which casts
-//! closest-hit rays along the same directions as the shadowed estimator) folds each vertex's
-//! hits into this sparse *bounce row* once: hits cluster on shared vertices, so a row is far
-//! shorter than three entries per hit, and every bounce is then a cheap gather with no rays.
-//! An entry is 16 bytes (vertex u32, RGB weight 3 × f32).
+//! where w(x, v) sums, over the bounce rays of x whose front hit lands on a triangle of v,
+//! the estimator weight × albedo × v's barycentric weight. The direct pass folds each
+//! vertex's hits into this sparse *bounce row* once: hits cluster on shared vertices, so a
+//! row is far shorter than three entries per hit, and every bounce is then a cheap gather
+//! with no rays. An entry is 16 bytes (vertex u32, RGB weight 3 × f32).
+//!
+//! # Bounce samples
+//!
+//! Closest-hit rays cost two to four times as much as occlusion rays, and bounced light is
+//! dimmer and smoother than direct light. So only the first M of a vertex's N directions —
+//! the first points of its sample sequence, a stratified set of their own; M = N/4 unless
+//! `--bounce-samples` says otherwise — are traced for their closest hits, each weighted
+//! N/M; the other N − M stay occlusion rays. All N still estimate T_0, the accessibility and
+//! the bent normal. The bounce estimate is unbiased, with the error of M samples.
 //!
 //! If the rows would exceed `BakeOptions::hit_cache_limit` they are dropped, and each
 //! bounce pass re-traces the (deterministic) rays to rebuild one row at a time: the same
