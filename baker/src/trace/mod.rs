@@ -24,7 +24,8 @@ use glam::Vec3;
 use crate::error::{Error, Result};
 use crate::scene::Scene;
 
-/// A ray segment `origin + t·dir`, t in `(0, tfar]`: a hit at exactly t = 0 is not reported.
+/// A ray segment `origin + t·dir`, t in `[0, tfar]`. (A hit at exactly t = 0 — an origin on a
+/// surface — counts for obvhs and Embree's robust mode, not for Embree's default mode.)
 /// Self-intersection is avoided by where the origin is put ([`ray_origins`]), not by a
 /// minimum t.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -9,7 +9,9 @@
 //!
 //! obvhs's own test clamps the entry distance to at least 10⁻⁴ (absolute), which skips every
 //! box that ends closer than that to the origin — a whole scene a tenth of a millimetre
-//! across, or the corner where a floor meets a wall. Ours clamps to the ray's [0, tfar]. And
+//! across, or the corner where a floor meets a wall. Ours clamps to the ray's [0, tfar] and
+//! widens it by a bound on the rounding error, so no box is missed by rounding (as Embree's
+//! robust traversal). And
 //! where obvhs replaces direction components below f32::EPSILON by ±EPSILON before inverting
 //! (which shrinks slab intervals, so a box crossed at large t can be missed), we substitute
 //! ±10⁻¹⁸ as Embree does, which moves the ray by far less than a float.
@@ -93,11 +95,18 @@ impl ChildBoxes {
         }
     }
 
-    /// Bit c is set if the ray enters child c's box within [0, tfar].
+    /// Bit c is set if the ray enters child c's box within [0, tfar], or comes within
+    /// rounding error of it: the test never misses a box the ray enters.
     #[inline(always)]
     pub(super) fn entered_by(&self, ray: &BoxRay) -> u32 {
         let scale = self.quantum * ray.inv_dir;
         let offset = (self.p - ray.origin) * ray.inv_dir;
+        // Each distance q·scale + offset is off by at most 4 roundings of its terms' size,
+        // ≤ 2⁻²²·(255·|scale| + |offset|); entry and exit each may be, hence 2⁻²¹. The same
+        // margin covers obvhs's quantisation, which can round a plane inwards by half an ulp.
+        let slack = Vec4::splat(
+            (255.0 * scale.abs().max_element() + offset.abs().max_element()) * (1.0 / 2_097_152.0),
+        );
         let mut entered = 0;
         for half in 0..2 {
             let planes = |axis: usize| {
@@ -115,7 +124,7 @@ impl ChildBoxes {
             let ((near_x, far_x), (near_y, far_y), (near_z, far_z)) =
                 (planes(0), planes(1), planes(2));
             let entry = near_x.max(near_y).max(near_z).max(Vec4::ZERO);
-            let exit = far_x.min(far_y).min(far_z).min(Vec4::splat(ray.tfar));
+            let exit = far_x.min(far_y).min(far_z).min(Vec4::splat(ray.tfar)) + slack;
             entered |= entry.cmple(exit).bitmask() << (4 * half);
         }
         entered

@@ -1,22 +1,31 @@
-//! Embree's Möller–Trumbore ray–triangle test (its default, non-robust intersector), for one
-//! ray and for four rays at a time.
+//! A watertight ray–triangle test — Embree's robust-mode (Plücker) formulation — for one ray
+//! and for four rays at a time.
 //!
-//! Embree precomputes e1 = v0 − v1, e2 = v2 − v0 and n = e2 × e1 = (v1 − v0) × (v2 − v0), and
-//! for a ray (o, d) with c = v0 − o, r = c × d, den = n·d evaluates
+//! With the vertices taken relative to the ray origin (vᵢ = pᵢ − o), each edge a → b gets the
+//! edge function E(a, b) = ((b − a) × (b + a))·d, and
 //!
 //! ```text
-//!     U = ±(r·e2),  V = ±(r·e1),  T = ±(n·c)     (± the sign of den)
-//!     hit  ⇔  den ≠ 0,  U ≥ 0,  V ≥ 0,  U + V ≤ |den|,  0 < T ≤ |den|·tfar
+//!     U = E(v0, v2),  V = E(v1, v0),  W = E(v2, v1)
+//!     hit  ⇔  min(U, V, W) ≥ 0  or  max(U, V, W) ≤ 0,   n·d ≠ 0,   0 ≤ t ≤ tfar
 //! ```
 //!
-//! with barycentrics u = U/|den| (the weight of v1), v = V/|den| (of v2) and t = T/|den|.
-//! Edges count, so a ray through a shared edge hits one of its two triangles unless rounding
-//! tips both tests the other way; hits at t = 0 do not. (Embree flips signs by xor-ing den's
-//! sign bit; multiplying by ±1 gives the same numbers.) obvhs's own test differs: it rejects
-//! barycentrics of −0, so rays through edges slip between triangles more often.
+//! with t = ((p0 − o)·n)/(d·n), n = (p1 − p0) × (p2 − p0), and barycentrics u = U/(U+V+W)
+//! (the weight of p1), v = V/(U+V+W) (of p2). A shared edge gets, in its two triangles, edge
+//! functions computed from the same two floats in swapped order, which are exact negatives of
+//! each other: a ray through the edge cannot slip between the triangles, whatever the
+//! rounding (and around a vertex, one of the triangles of its fan accepts the ray). Embree's
+//! default (Möller–Trumbore) test evaluates each triangle's edges from its own precomputed
+//! edge vectors, so rounding can open a crack along a shared edge; at a vertex where a floor
+//! meets a wall, the baker's ray origins sit within rounding of the wall's edges and such
+//! cracks leak light (`tests/agreement.rs` counts them).
+//! Embree's robust mode uses this formulation, tolerance included. (A rigorous bound on each
+//! edge function's rounding error, 2⁻¹⁸·‖b − a‖·‖b + a‖·‖d‖, closes vertices for certain
+//! but measured far too generous: it accepted thousands of rays in a million that miss by
+//! more than rounding.)
 //!
-//! Both versions evaluate every product and sum in the same order (the generic [`cross`] and
-//! [`dot`]), so four rays tested together get exactly the answers they get one by one.
+//! Both versions here evaluate every product and sum in the same order (the generic [`cross`],
+//! [`dot`] and [`edge`]), so four rays tested together get exactly the answers they get one
+//! by one.
 
 use std::ops::{Add, Mul, Sub};
 
@@ -27,22 +36,19 @@ use super::node::BoxRay;
 /// A triangle prepared for the test.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Triangle {
-    v0: [f32; 3],
-    /// v0 − v1.
-    e1: [f32; 3],
-    /// v2 − v0.
-    e2: [f32; 3],
-    /// e2 × e1 = (v1 − v0) × (v2 − v0), unnormalised.
+    p: [[f32; 3]; 3],
+    /// (p1 − p0) × (p2 − p0), unnormalised.
     ng: [f32; 3],
 }
 
-/// A hit before the division by |den|: t = `t` / `det`, and so on.
+/// A hit as edge functions and plane distances: u = `u` / `uvw`, t = `t` / `den`, and so on.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct ScaledHit {
     pub(super) t: f32,
+    pub(super) den: f32,
     pub(super) u: f32,
     pub(super) v: f32,
-    pub(super) det: f32,
+    pub(super) uvw: f32,
 }
 
 /// Four rays, one per lane (a lane may repeat another ray).
@@ -75,7 +81,30 @@ impl RayGroup {
     }
 }
 
-fn cross<T: Copy + Mul<Output = T> + Sub<Output = T>>(a: [T; 3], b: [T; 3]) -> [T; 3] {
+/// What the test needs of a number type: `f32` for one ray, `Vec4` for four, `f64` for the
+/// exact recheck.
+trait Lanes: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> {
+    fn abs(self) -> Self;
+    fn max(self, other: Self) -> Self;
+}
+
+macro_rules! lanes {
+    ($t:ty) => {
+        impl Lanes for $t {
+            fn abs(self) -> $t {
+                <$t>::abs(self)
+            }
+            fn max(self, other: $t) -> $t {
+                <$t>::max(self, other)
+            }
+        }
+    };
+}
+lanes!(f32);
+lanes!(f64);
+lanes!(Vec4);
+
+fn cross<T: Lanes>(a: [T; 3], b: [T; 3]) -> [T; 3] {
     [
         a[1] * b[2] - a[2] * b[1],
         a[2] * b[0] - a[0] * b[2],
@@ -83,28 +112,84 @@ fn cross<T: Copy + Mul<Output = T> + Sub<Output = T>>(a: [T; 3], b: [T; 3]) -> [
     ]
 }
 
-fn dot<T: Copy + Mul<Output = T> + Add<Output = T>>(a: [T; 3], b: [T; 3]) -> T {
+fn dot<T: Lanes>(a: [T; 3], b: [T; 3]) -> T {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
-fn sub<T: Copy + Sub<Output = T>>(a: [T; 3], b: [T; 3]) -> [T; 3] {
+fn sub<T: Lanes>(a: [T; 3], b: [T; 3]) -> [T; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
+fn add<T: Lanes>(a: [T; 3], b: [T; 3]) -> [T; 3] {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+fn max_norm<T: Lanes>(a: [T; 3]) -> T {
+    a[0].abs().max(a[1].abs()).max(a[2].abs())
+}
+
+/// The edge tests accept values down to −ε, ε = 2⁻²³·|U + V + W|, as Embree's robust mode
+/// does. Exact negation makes shared edges watertight without it; at a vertex, though, all
+/// the edge functions of its fan are near 0 for a ray through it.
+const EDGE_TOLERANCE: f32 = f32::EPSILON;
+
+/// Rounding bound that sends a test to the exact recheck: an f32 edge function is off by at
+/// most 42u·‖b − a‖∞·‖b + a‖∞·‖d‖∞ ≤ 168u·R²·‖d‖∞ (u = 2⁻²⁴, R the largest ‖pᵢ − o‖∞), and
+/// the plane distance n·(p0 − o) by at most 6u·R·‖n‖∞; 2⁻¹⁴ is 4× the larger factor.
+const NEAR: f32 = 1.0 / 16_384.0;
+
+/// What the test computes for a triangle with corners `p` and normal `ng` and rays from `o`
+/// along `d`: the edge functions [U, V, W], the plane distances n·(p0 − o) and n·d, and
+/// whether any of them is within rounding of deciding the other way.
+struct Evaluation<T> {
+    edges: [T; 3],
+    t: T,
+    den: T,
+    near: T,
+    near_t: T,
+}
+
+fn evaluate<T: Lanes>(p: [[T; 3]; 3], ng: [T; 3], o: [T; 3], d: [T; 3]) -> Evaluation<T> {
+    let v = p.map(|p| sub(p, o));
+    let edge = |a: [T; 3], b: [T; 3]| dot(cross(sub(b, a), add(b, a)), d);
+    let reach = max_norm(v[0]).max(max_norm(v[1])).max(max_norm(v[2]));
+    Evaluation {
+        edges: [edge(v[0], v[2]), edge(v[1], v[0]), edge(v[2], v[1])],
+        t: dot(v[0], ng),
+        den: dot(ng, d),
+        near: reach * reach * max_norm(d),
+        near_t: reach * max_norm(ng),
+    }
+}
+
+/// The decision for one ray, in f32 or f64: edges within tolerance, and t/den in [0, tfar]
+/// (t is 0 or has den's sign, and |t| ≤ |den|·tfar), without dividing.
+macro_rules! decide {
+    ($e:expr, $tfar:expr, $tolerance:expr) => {{
+        let e = $e;
+        let [u, v, w] = e.edges;
+        let eps = $tolerance * (u + v + w).abs();
+        let inside = (u.min(v).min(w) >= -eps) || (u.max(v).max(w) <= eps);
+        let ahead = e.den != 0.0
+            && (e.t == 0.0 || (e.t > 0.0) == (e.den > 0.0))
+            && e.t.abs() <= e.den.abs() * $tfar;
+        (inside && ahead).then(|| (e.t, e.den, u, v, u + v + w))
+    }};
+}
+
 impl Triangle {
-    pub(super) fn new(v0: Vec3A, v1: Vec3A, v2: Vec3A) -> Triangle {
-        let (v0, v1, v2) = (v0.to_array(), v1.to_array(), v2.to_array());
-        let e1 = sub(v0, v1);
-        let e2 = sub(v2, v0);
+    pub(super) fn new(p0: Vec3A, p1: Vec3A, p2: Vec3A) -> Triangle {
+        // The normal in double precision, rounded once: in f32 the cross product of a thin
+        // triangle's two long edges cancels to a few correct bits, and the sign of the
+        // distance n·(p0 − o) from a nearby origin to the plane comes out wrong.
+        let [a, b, c] = [p0, p1, p2].map(|p| p.as_dvec3());
         Triangle {
-            v0,
-            e1,
-            e2,
-            ng: cross(e2, e1),
+            p: [p0.to_array(), p1.to_array(), p2.to_array()],
+            ng: (b - a).cross(c - a).as_vec3().to_array(),
         }
     }
 
-    /// The unnormalised geometric normal (v1 − v0) × (v2 − v0).
+    /// The unnormalised geometric normal (p1 − p0) × (p2 − p0).
     pub(super) fn normal(&self) -> Vec3A {
         Vec3A::from_array(self.ng)
     }
@@ -112,37 +197,72 @@ impl Triangle {
     /// The test for one ray.
     #[inline(always)]
     pub(super) fn intersect(&self, ray: &BoxRay) -> Option<ScaledHit> {
-        let dir = ray.dir.to_array();
-        let c = sub(self.v0, ray.origin.to_array());
-        let r = cross(c, dir);
-        let den = dot(self.ng, dir);
-        let (det, sign) = (den.abs(), den.signum());
-        let u = dot(r, self.e2) * sign;
-        let v = dot(r, self.e1) * sign;
-        if !(den != 0.0 && u >= 0.0 && v >= 0.0 && u + v <= det) {
-            return None;
+        let (o, d) = (ray.origin.to_array(), ray.dir.to_array());
+        let e = evaluate(self.p, self.ng, o, d);
+        let smallest = e
+            .edges
+            .map(f32::abs)
+            .into_iter()
+            .fold(f32::INFINITY, f32::min);
+        if smallest <= NEAR * e.near || e.t.abs() <= NEAR * e.near_t {
+            return self.intersect_exact(o, d, ray.tfar);
         }
-        let t = dot(self.ng, c) * sign;
-        (0.0 < t && t <= det * ray.tfar).then_some(ScaledHit { t, u, v, det })
+        decide!(e, ray.tfar, EDGE_TOLERANCE).map(|(t, den, u, v, uvw)| ScaledHit {
+            t,
+            den,
+            u,
+            v,
+            uvw,
+        })
+    }
+
+    /// The test in double precision, for rays within f32 rounding of an edge, a vertex or the
+    /// plane: exact negation still makes shared edges watertight, and the answers are those of
+    /// the geometry up to 2⁻⁵³ rather than 2⁻²⁴.
+    #[cold]
+    fn intersect_exact(&self, o: [f32; 3], d: [f32; 3], tfar: f32) -> Option<ScaledHit> {
+        let double = |v: [f32; 3]| v.map(f64::from);
+        let p = self.p.map(double);
+        let ng = cross(sub(p[1], p[0]), sub(p[2], p[0]));
+        let e = evaluate(p, ng, double(o), double(d));
+        let tolerance = f64::from(EDGE_TOLERANCE);
+        decide!(e, f64::from(tfar), tolerance).map(|(t, den, u, v, uvw)| ScaledHit {
+            t: t as f32,
+            den: den as f32,
+            u: u as f32,
+            v: v as f32,
+            uvw: uvw as f32,
+        })
     }
 
     /// The test for four rays: bit i is set if the ray in lane i hits.
     #[inline(always)]
     pub(super) fn hits(&self, rays: &RayGroup) -> u32 {
         let splat = |v: [f32; 3]| v.map(Vec4::splat);
-        let ng = splat(self.ng);
-        let c = sub(splat(self.v0), rays.origin);
-        let r = cross(c, rays.dir);
-        let den = dot(ng, rays.dir);
-        let (det, sign) = (den.abs(), den.signum());
-        let u = dot(r, splat(self.e2)) * sign;
-        let v = dot(r, splat(self.e1)) * sign;
-        let inside =
-            den.cmpne(Vec4::ZERO) & u.cmpge(Vec4::ZERO) & v.cmpge(Vec4::ZERO) & (u + v).cmple(det);
-        if !inside.any() {
+        let e = evaluate(self.p.map(splat), splat(self.ng), rays.origin, rays.dir);
+        let [u, v, w] = e.edges;
+        let eps = (u + v + w).abs() * EDGE_TOLERANCE;
+        let inside = u.min(v).min(w).cmpge(-eps) | u.max(v).max(w).cmple(eps);
+        let smallest = u.abs().min(v.abs()).min(w.abs());
+        let near = smallest.cmple(e.near * NEAR) | e.t.abs().cmple(e.near_t * NEAR);
+        if !(inside | near).any() {
             return 0;
         }
-        let t = dot(ng, c) * sign;
-        (inside & Vec4::ZERO.cmplt(t) & t.cmple(det * rays.tfar)).bitmask()
+        let (zero, t, den) = (Vec4::ZERO, e.t, e.den);
+        let signed =
+            t.cmpeq(zero) | (t.cmpgt(zero) & den.cmpgt(zero)) | (t.cmplt(zero) & den.cmplt(zero));
+        let ahead = signed & den.cmpne(zero) & t.abs().cmple(den.abs() * rays.tfar);
+        let mut hits = (inside & ahead).bitmask();
+        // Lanes within rounding of the decision: recheck exactly.
+        let near = near.bitmask();
+        if near != 0 {
+            for lane in (0..4).filter(|lane| near & (1 << lane) != 0) {
+                let o = rays.origin.map(|c| c[lane]);
+                let d = rays.dir.map(|c| c[lane]);
+                let hit = self.intersect_exact(o, d, rays.tfar[lane]).is_some();
+                hits = (hits & !(1 << lane)) | (u32::from(hit) << lane);
+            }
+        }
+        hits
     }
 }
