@@ -1,13 +1,19 @@
 # The two commands of the README, and their parts. Every target installs what it needs.
 #   make demo   bake the thesis's demo scene (progress bar), say where the output is
-#   make test   formatting, lints, every test, the Embree 4 header check, the independent reference
-#   make bench  the bake benchmark against the raw Embree rate (docs/performance.md)
+#   make test   formatting, lints, every test, a build without Embree, the Embree 4 header
+#               check, the independent reference
+#   make bench  the bake benchmark: Embree and obvhs against the raw Embree rate
+#               (docs/performance.md)
 
 CARGO ?= cargo
 BAKE := target/release/prt-bake
 SCENE := scenes/torus/torus.scene
+# prt-bake without the `embree` feature, built in its own folder so the two builds do not
+# invalidate each other.
+NO_EMBREE := target/no-embree
+NO_EMBREE_BAKE := $(NO_EMBREE)/release/prt-bake
 
-.PHONY: demo test bench deps build lint unit embree4 reference scenes
+.PHONY: demo test bench deps build lint unit no-embree embree4 reference scenes
 
 deps:
 	@scripts/install-deps.sh
@@ -30,13 +36,29 @@ lint: deps
 unit: deps
 	$(CARGO) test --workspace --release
 
+# A build without Embree: prt-baker's tests pass, embree-sys is not even in the dependency
+# graph (so no Embree headers are needed), the binary does not link libembree, and it bakes
+# the demo scene with obvhs.
+no-embree: deps
+	$(CARGO) test --release -p prt-baker --no-default-features --target-dir $(NO_EMBREE)
+	$(CARGO) build --release -p prt-baker --no-default-features --target-dir $(NO_EMBREE)
+	@if $(CARGO) tree -p prt-baker --no-default-features -e normal,build,dev | grep embree; then \
+		echo "no-embree: embree-sys is in the dependency graph"; exit 1; fi
+	@if ldd $(NO_EMBREE_BAKE) | grep -i embree; then \
+		echo "no-embree: $(NO_EMBREE_BAKE) links Embree"; exit 1; fi
+	@mkdir -p out
+	$(NO_EMBREE_BAKE) bake $(SCENE) -o out/torus-obvhs.prt --samples 10000 --quiet
+	@$(NO_EMBREE_BAKE) inspect out/torus-obvhs.prt | grep -q '"backend": "obvhs"' || \
+		{ echo "no-embree: out/torus-obvhs.prt was not baked with obvhs"; exit 1; }
+	@echo "no-embree: built and baked without Embree (ldd: no libembree)"
+
 embree4: deps
 	scripts/check-embree4.sh
 
 reference: build
 	scripts/reference/run.sh
 
-test: lint unit embree4 reference
+test: lint unit no-embree embree4 reference
 
 bench: deps
 	$(CARGO) bench -p prt-baker --bench bake

@@ -505,7 +505,12 @@ fn relight_of_an_unoccluded_floor_matches_the_analytic_radiance() {
     let samples = 1 << 18;
     for order in [4, 8] {
         let options = shadowed(order, samples);
-        let tracer = prt_baker::trace::default_tracer(&scene, None, false).unwrap();
+        let tracer = prt_baker::trace::build(
+            prt_baker::trace::Backend::DEFAULT,
+            &scene,
+            prt_baker::trace::TracerOptions::default(),
+        )
+        .unwrap();
         let transfer = prt_baker::bake(
             &scene,
             Some(tracer.as_ref()),

@@ -1,15 +1,29 @@
-//! `make bench`: the demo scene baked at 10,000 rays per vertex (order 4, shadowed), and, in the
-//! same run, the raw Embree occlusion rate for the very same rays with no sampling or SH work.
-//! Rates are reported as ratios within the run, because these machines are shared and noisy.
+//! `make bench`: the demo scene baked at 10,000 rays per vertex (order 4, shadowed) with each
+//! backend, and, in the same run, the raw occlusion rate of each backend for the very same
+//! rays with no sampling or SH work; then interreflected bakes at 1–3 bounces against the
+//! shadowed one, with their hit-cache size and the process's peak memory. Rates are reported as ratios within the run, because these
+//! machines are shared and noisy.
 //!
-//! Usage: `cargo bench -p prt-baker --bench bake [-- SCENE [SAMPLES]]`.
+//! Times are **CPU time** (user + system, all threads, from `/proc/self/stat`) divided by the
+//! thread count: the wall time the work would take on otherwise idle cores. On a shared machine
+//! wall time also counts the time other tenants hold our cores, which swung ratios between
+//! backends by 2× from one run to the next; CPU time moved by a few per cent. Raw rows subtract
+//! the CPU time of generating the same rays without tracing them.
+//!
+//! Usage: `cargo bench -p prt-baker --bench bake [-- SCENE [SAMPLES]] [-- --presets]`;
+//! `--presets` also times every obvhs build preset.
 
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use glam::Vec3;
+use obvhs::BvhBuildParams;
+use obvhs::cwbvh::CwBvh;
+use obvhs::cwbvh::builder::build_cwbvh_from_tris;
+use obvhs::rt_triangle::RtTriangle;
 use prt_baker::progress::Silent;
-use prt_baker::trace::{EmbreeOptions, EmbreeTracer, Tracer};
+use prt_baker::trace::{
+    Backend, EmbreeOptions, EmbreeTracer, Hit, ObvhsOptions, ObvhsTracer, Ray, Tracer, embree_sys,
+};
 use prt_baker::transfer::Estimator;
 use prt_baker::{BakeOptions, Mode, Scene};
 use rayon::prelude::*;
@@ -18,7 +32,9 @@ use rayon::prelude::*;
 const REPEATS: usize = 3;
 
 fn main() {
-    let mut args = std::env::args().skip(1).filter(|a| !a.starts_with("--"));
+    let all_args: Vec<String> = std::env::args().skip(1).collect();
+    let presets = all_args.iter().any(|a| a == "--presets");
+    let mut args = all_args.iter().filter(|a| !a.starts_with("--"));
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let scene_path = args
         .next()
@@ -47,27 +63,39 @@ fn main() {
     );
 
     let started = Instant::now();
-    let tracer =
+    let embree =
         EmbreeTracer::new(&scene, EmbreeOptions::default()).unwrap_or_else(|err| panic!("{err}"));
     println!("embree BVH build: {:.3} s", started.elapsed().as_secs_f64());
+    let started = Instant::now();
+    let obvhs = ObvhsTracer::new(&scene, ObvhsOptions::default());
+    println!("obvhs BVH build:  {:.3} s", started.elapsed().as_secs_f64());
     let total_rays = scene.vertex_count() as f64 * samples as f64;
-
-    let bake_seconds = best_of(|| {
-        let transfer = prt_baker::bake(&scene, Some(&tracer), &options, &Silent).expect("bake");
-        transfer.seconds
-    });
     let estimator = Estimator::new(&scene, &options).expect("options are valid");
-    let stream_seconds =
-        best_of(|| raw_embree(&scene, &estimator, &tracer, samples, Query::Stream));
-    let packet_seconds =
-        best_of(|| raw_embree(&scene, &estimator, &tracer, samples, Query::Packet16));
-    let trait_seconds = best_of(|| raw_embree(&scene, &estimator, &tracer, samples, Query::Trait));
-    let shuffled_seconds =
-        best_of(|| raw_embree(&scene, &estimator, &tracer, samples, Query::Shuffled));
-    let closest_seconds =
-        best_of(|| raw_embree(&scene, &estimator, &tracer, samples, Query::ClosestHit));
-    let closest16_seconds =
-        best_of(|| raw_embree(&scene, &estimator, &tracer, samples, Query::ClosestHit16));
+    let rays = SameRays {
+        scene: &scene,
+        estimator: &estimator,
+        samples: samples as usize,
+    };
+    let mut bake_wall = f64::INFINITY;
+    let mut bake = |tracer: &dyn Tracer| {
+        best_of(|| {
+            cpu_time(|| {
+                let transfer =
+                    prt_baker::bake(&scene, Some(tracer), &options, &Silent).expect("bake");
+                if tracer.backend() == Backend::Embree {
+                    bake_wall = bake_wall.min(transfer.seconds);
+                }
+            })
+        })
+    };
+
+    let bake_seconds = bake(&embree);
+    let stream_seconds = raw_embree(&rays, &embree, Query::Stream);
+    let packet_seconds = raw_embree(&rays, &embree, Query::Packet16);
+    let trait_seconds = rays.time(Order::Hilbert, &embree);
+    let shuffled_seconds = raw_embree(&rays, &embree, Query::Shuffled);
+    let closest_seconds = raw_embree(&rays, &embree, Query::ClosestHit);
+    let closest16_seconds = raw_embree(&rays, &embree, Query::ClosestHit16);
     let robust = EmbreeTracer::new(
         &scene,
         EmbreeOptions {
@@ -76,33 +104,38 @@ fn main() {
         },
     )
     .unwrap_or_else(|err| panic!("{err}"));
-    let robust_seconds = best_of(|| {
-        let transfer = prt_baker::bake(&scene, Some(&robust), &options, &Silent).expect("bake");
-        transfer.seconds
-    });
+    let robust_seconds = bake(&robust);
+    let obvhs_seconds = rays.time(Order::Hilbert, &obvhs);
+    let obvhs_shuffled_seconds = rays.time(Order::Shuffled, &obvhs);
+    let stock = StockObvhs::new(&scene, ObvhsOptions::default().build);
+    let stock_seconds = rays.time(Order::Hilbert, &stock);
+    let obvhs_bake_seconds = bake(&obvhs);
 
     let rate = |seconds: f64| total_rays / seconds / 1e6;
     let ceiling = rate(stream_seconds).max(rate(packet_seconds));
     println!();
     println!(
-        "{:<44} {:>10} {:>12} {:>9}",
+        "{:<52} {:>10} {:>12} {:>9}",
         "", "seconds", "Mrays/s", "ratio"
     );
     let row = |name: &str, seconds: f64| {
         println!(
-            "{name:<44} {seconds:>10.3} {:>12.2} {:>9.3}",
+            "{name:<52} {seconds:>10.3} {:>12.2} {:>9.3}",
             rate(seconds),
             rate(seconds) / ceiling
         );
     };
     row("raw embree, rtcOccluded1M (same rays)", stream_seconds);
     row("raw embree, rtcOccluded16 (same rays)", packet_seconds);
-    row("raw through the Tracer trait (same rays)", trait_seconds);
+    row(
+        "raw embree through the Tracer trait (same rays)",
+        trait_seconds,
+    );
     row(
         "raw embree, same rays shuffled (incoherent)",
         shuffled_seconds,
     );
-    row("full bake (sampling + tracing + SH)", bake_seconds);
+    row("full bake (sampling + tracing + SH), embree", bake_seconds);
     row("full bake, Embree robust mode", robust_seconds);
     row(
         "raw embree closest hit, rtcIntersect1M (same rays)",
@@ -112,20 +145,46 @@ fn main() {
         "raw embree closest hit, rtcIntersect16 (same rays)",
         closest16_seconds,
     );
+    row(
+        "raw obvhs through the Tracer trait (same rays)",
+        obvhs_seconds,
+    );
+    row("raw obvhs, same rays shuffled", obvhs_shuffled_seconds);
+    row(
+        "raw obvhs stock (ray_traverse_miss, RtTriangle)",
+        stock_seconds,
+    );
+    row("full bake, obvhs", obvhs_bake_seconds);
     println!();
     println!(
-        "bake: {:.2} s for {:.0} M rays, {:.1} Mrays/s = {:.3} x the raw Embree rate (target: <= 4 s, >= 0.8 x)",
+        "load average {}",
+        std::fs::read_to_string("/proc/loadavg")
+            .unwrap_or_default()
+            .trim()
+    );
+    println!(
+        "bake: {:.2} s wall ({:.2} s CPU per thread) for {:.0} M rays, {:.1} Mrays/s = {:.3} x the raw Embree rate (target: <= 4 s, >= 0.8 x)",
+        bake_wall,
         bake_seconds,
         total_rays / 1e6,
         rate(bake_seconds),
         rate(bake_seconds) / ceiling
     );
+    println!(
+        "obvhs/embree on the same rays: raw {:.3} (obvhs {:.1} / embree {:.1} Mrays/s), bake {:.3} ({:.2} s / {:.2} s) (target: > 0.35)",
+        rate(obvhs_seconds) / ceiling,
+        rate(obvhs_seconds),
+        ceiling,
+        bake_seconds / obvhs_bake_seconds,
+        obvhs_bake_seconds,
+        bake_seconds
+    );
 
     // Interreflection (issue 4): the same scene and rays, 1–3 bounces, against the shadowed
-    // bake just measured.
+    // Embree bake just measured.
     println!();
     println!(
-        "{:<44} {:>10} {:>12} {:>12}",
+        "{:<52} {:>10} {:>12} {:>12}",
         "", "seconds", "x shadowed", "cache MiB"
     );
     let mut previous = bake_seconds;
@@ -137,12 +196,14 @@ fn main() {
         };
         let mut cache = 0;
         let seconds = best_of(|| {
-            let transfer = prt_baker::bake(&scene, Some(&tracer), &options, &Silent).expect("bake");
-            cache = transfer.hit_cache_bytes.unwrap_or(0);
-            transfer.seconds
+            cpu_time(|| {
+                let transfer =
+                    prt_baker::bake(&scene, Some(&embree), &options, &Silent).expect("bake");
+                cache = transfer.hit_cache_bytes.unwrap_or(0);
+            })
         });
         println!(
-            "{:<44} {seconds:>10.3} {:>12.3} {:>12.0}   (+{:.3} x for this bounce)",
+            "{:<52} {seconds:>10.3} {:>12.3} {:>12.0}   (+{:.3} x for this bounce)",
             format!(
                 "interreflected, {bounces} bounce(s), {} bounce rays",
                 options.effective_bounce_samples()
@@ -157,6 +218,40 @@ fn main() {
         "peak resident memory of this benchmark process: {:.0} MiB",
         peak_rss_mib()
     );
+
+    if presets {
+        println!();
+        println!(
+            "{:<24} {:>9} {:>8} {:>12} {:>9}",
+            "obvhs preset", "build s", "nodes", "Mrays/s", "ratio"
+        );
+        for (name, build) in [
+            ("fastest_build", BvhBuildParams::fastest_build()),
+            ("very_fast_build", BvhBuildParams::very_fast_build()),
+            ("fast_build", BvhBuildParams::fast_build()),
+            ("medium_build", BvhBuildParams::medium_build()),
+            ("slow_build", BvhBuildParams::slow_build()),
+            ("very_slow_build", BvhBuildParams::very_slow_build()),
+        ] {
+            for leaf in [1, 3] {
+                let build = BvhBuildParams {
+                    max_prims_per_leaf: leaf,
+                    ..build
+                };
+                let started = Instant::now();
+                let tracer = ObvhsTracer::new(&scene, ObvhsOptions { build });
+                let build_seconds = started.elapsed().as_secs_f64();
+                let seconds = rays.time(Order::Hilbert, &tracer);
+                println!(
+                    "{:<24} {build_seconds:>9.3} {:>8} {:>12.2} {:>9.3}",
+                    format!("{name}, leaf {leaf}"),
+                    tracer.node_count(),
+                    rate(seconds),
+                    rate(seconds) / ceiling
+                );
+            }
+        }
+    }
 }
 
 /// The process's peak resident set (VmHWM), in MiB; 0 where /proc is unavailable.
@@ -174,63 +269,129 @@ fn best_of(mut run: impl FnMut() -> f64) -> f64 {
     (0..REPEATS).map(|_| run()).fold(f64::INFINITY, f64::min)
 }
 
+/// CPU seconds (user + system) of all of this process's threads so far, from `/proc/self/stat`
+/// in clock ticks of 1/100 s (Linux's USER_HZ on every architecture we build for).
+fn cpu_seconds() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").expect("read /proc/self/stat");
+    // Fields after the parenthesised command name; utime and stime are fields 14 and 15.
+    let fields: Vec<&str> = stat
+        .rsplit_once(')')
+        .expect("a stat line")
+        .1
+        .split_whitespace()
+        .collect();
+    let ticks = |i: usize| fields[i - 3].parse::<f64>().expect("a tick count");
+    (ticks(14) + ticks(15)) / 100.0
+}
+
+/// CPU seconds of `work` divided by the thread count (see the module comment).
+fn cpu_time(work: impl FnOnce()) -> f64 {
+    let before = cpu_seconds();
+    work();
+    (cpu_seconds() - before) / rayon::current_num_threads() as f64
+}
+
+/// The rays of the bake, regenerated per vertex.
+struct SameRays<'a> {
+    scene: &'a Scene,
+    estimator: &'a Estimator,
+    samples: usize,
+}
+
+#[derive(Clone, Copy, PartialEq)]
+enum Order {
+    /// As the bake casts them.
+    Hilbert,
+    /// In a fixed random order: what the rays cost without the Hilbert ordering.
+    Shuffled,
+}
+
+impl SameRays<'_> {
+    /// Generates every vertex's rays in `order` and hands them to `trace`, on all threads.
+    fn run<S>(
+        &self,
+        order: Order,
+        init: impl Fn() -> S + Sync + Send,
+        trace: impl Fn(&mut S, Vec3, &[Vec3]) + Sync + Send,
+    ) {
+        (0..self.scene.vertex_count())
+            .into_par_iter()
+            .for_each_init(
+                || (Vec::new(), Vec::new(), init()),
+                |(dirs, weights, state), v| {
+                    let estimator = self.estimator;
+                    let frame = estimator.vertex_frame(v);
+                    estimator.directions(v, &frame, 0..self.samples, dirs, weights);
+                    if order == Order::Shuffled {
+                        shuffle(dirs, v as u64);
+                    }
+                    trace(state, estimator.origin(v), dirs);
+                },
+            );
+    }
+
+    /// Best-of CPU seconds (per thread) that tracing the rays with `trace` takes: the run
+    /// minus a run that only generates the rays.
+    fn time_with<S>(
+        &self,
+        order: Order,
+        init: impl Fn() -> S + Sync + Send,
+        trace: impl Fn(&mut S, Vec3, &[Vec3]) + Sync + Send,
+    ) -> f64 {
+        let generate = best_of(|| cpu_time(|| self.run(order, || (), |_, _, _| ())));
+        best_of(|| cpu_time(|| self.run(order, &init, &trace))) - generate
+    }
+
+    /// [`SameRays::time_with`] through a [`Tracer`]'s `occluded_from`, as the bake calls it.
+    fn time(&self, order: Order, tracer: &dyn Tracer) -> f64 {
+        self.time_with(
+            order,
+            || vec![false; self.samples],
+            |occluded, origin, dirs| tracer.occluded_from(origin, dirs, occluded),
+        )
+    }
+}
+
 #[derive(Clone, Copy, PartialEq)]
 enum Query {
     Stream,
     Packet16,
-    Trait,
-    /// The stream in a fixed random order: what the rays cost without the Hilbert ordering.
+    /// The stream in a fixed random order.
     Shuffled,
-    /// Closest hits instead of occlusion (what the interreflected mode's direct pass traces).
+    /// Closest hits instead of occlusion (what the interreflected mode's bounce rays trace).
     ClosestHit,
     ClosestHit16,
 }
 
-/// Seconds that the bake's rays take in Embree alone. Rays are generated outside the timed
-/// sections; the time inside them, summed over threads and divided by the thread count, is
-/// the wall time a pure tracing run would take.
-fn raw_embree(
-    scene: &Scene,
-    estimator: &Estimator,
-    tracer: &EmbreeTracer,
-    samples: u32,
-    query: Query,
-) -> f64 {
+/// CPU seconds that the bake's rays take in Embree alone, called directly.
+fn raw_embree(rays: &SameRays, tracer: &EmbreeTracer, query: Query) -> f64 {
     let embree = tracer.embree_scene();
-    let traced_nanos = AtomicU64::new(0);
-    let samples = samples as usize;
-    (0..scene.vertex_count()).into_par_iter().for_each_init(
+    let order = match query {
+        Query::Shuffled => Order::Shuffled,
+        _ => Order::Hilbert,
+    };
+    rays.time_with(
+        order,
         || {
             (
                 Vec::new(),
                 Vec::new(),
-                Vec::new(),
-                vec![false; samples],
                 embree_sys::Ray16::default(),
+                embree_sys::RayHit16::default(),
             )
         },
-        |(dirs, weights, stream, occluded, packet): &mut (
-            Vec<Vec3>,
-            Vec<f32>,
+        |(stream, rayhits, packet, hit_packet): &mut (
             Vec<embree_sys::Ray>,
-            Vec<bool>,
+            Vec<embree_sys::RayHit>,
+            _,
             _,
         ),
-         v| {
-            let origin = estimator.origin(v);
-            estimator.directions(v, &estimator.vertex_frame(v), 0..samples, dirs, weights);
-            if query == Query::Shuffled {
-                shuffle(dirs, v as u64);
-            }
+         origin,
+         dirs| {
             stream.clear();
             stream.extend(dirs.iter().map(|d| {
                 embree_sys::Ray::new(origin.to_array(), d.to_array(), 0.0, f32::INFINITY)
             }));
-            let mut rayhits: Vec<embree_sys::RayHit> = match query {
-                Query::ClosestHit => stream.iter().map(|r| embree_sys::RayHit::new(*r)).collect(),
-                _ => Vec::new(),
-            };
-            let started = Instant::now();
             match query {
                 Query::Stream | Query::Shuffled => embree.occluded_stream(stream),
                 Query::Packet16 => {
@@ -242,23 +403,70 @@ fn raw_embree(
                         embree.occluded16(packet);
                     }
                 }
-                Query::Trait => tracer.occluded_from(origin, dirs, occluded),
-                Query::ClosestHit => embree.intersect_stream(&mut rayhits),
+                Query::ClosestHit => {
+                    rayhits.clear();
+                    rayhits.extend(stream.iter().map(|r| embree_sys::RayHit::new(*r)));
+                    embree.intersect_stream(rayhits);
+                }
                 Query::ClosestHit16 => {
-                    let mut packet = embree_sys::RayHit16::default();
                     for chunk in stream.chunks(embree_sys::PACKET_WIDTH) {
-                        packet.clear();
+                        hit_packet.clear();
                         for (i, r) in chunk.iter().enumerate() {
-                            packet.set(i, r.origin(), r.dir(), 0.0, r.tfar());
+                            hit_packet.set(i, r.origin(), r.dir(), 0.0, r.tfar());
                         }
-                        embree.intersect16(&mut packet);
+                        embree.intersect16(hit_packet);
                     }
                 }
             }
-            traced_nanos.fetch_add(started.elapsed().as_nanos() as u64, Ordering::Relaxed);
         },
-    );
-    traced_nanos.into_inner() as f64 / 1e9 / rayon::current_num_threads() as f64
+    )
+}
+
+/// obvhs as its examples use it: `ray_traverse_miss` with its own box and triangle tests
+/// (which differ from Embree's at edges and within 10⁻⁴ of the origin; see
+/// `baker/src/trace/obvhs.rs`). The row shows what our own tests cost or gain.
+struct StockObvhs {
+    bvh: CwBvh,
+    triangles: Vec<RtTriangle>,
+}
+
+impl StockObvhs {
+    fn new(scene: &Scene, build: BvhBuildParams) -> StockObvhs {
+        let soup: Vec<obvhs::triangle::Triangle> = scene
+            .triangles
+            .iter()
+            .map(|t| {
+                let [v0, v1, v2] = t.map(|i| scene.positions[i as usize].into());
+                obvhs::triangle::Triangle { v0, v1, v2 }
+            })
+            .collect();
+        let bvh = build_cwbvh_from_tris(&soup, build, &mut Duration::default());
+        let triangles = bvh
+            .primitive_indices
+            .iter()
+            .map(|&i| RtTriangle::from(&soup[i as usize]))
+            .collect();
+        StockObvhs { bvh, triangles }
+    }
+}
+
+impl Tracer for StockObvhs {
+    fn backend(&self) -> Backend {
+        Backend::Obvhs
+    }
+
+    fn occluded(&self, rays: &[Ray], occluded: &mut [bool]) {
+        for (o, r) in occluded.iter_mut().zip(rays) {
+            let ray = obvhs::ray::Ray::new(r.origin.into(), r.dir.into(), 0.0, r.tfar);
+            *o = !self
+                .bvh
+                .ray_traverse_miss(ray, |ray, id| self.triangles[id].intersect(ray));
+        }
+    }
+
+    fn intersect(&self, _: &[Ray], _: &mut [Option<Hit>]) {
+        unimplemented!("the benchmark times occlusion only")
+    }
 }
 
 /// A deterministic Fisher–Yates shuffle.

@@ -126,6 +126,7 @@ fn backend_code(backend: Backend) -> u32 {
     match backend {
         Backend::None => 0,
         Backend::Embree => 1,
+        Backend::Obvhs => 2,
     }
 }
 
@@ -291,6 +292,7 @@ impl CoefficientFile {
         let backend = match u32_at(44) {
             0 => Backend::None,
             1 => Backend::Embree,
+            2 => Backend::Obvhs,
             other => return Err(format!("unknown backend {other}")),
         };
         let sampling = match u32_at(64) {

@@ -10,12 +10,16 @@
 //!
 //! The commands run inside the scratch folder with relative paths, so messages can be checked
 //! exactly (`bad.obj:2: …`).
+//!
+//! The tests bake with the build's default backend (Embree, or obvhs in a build without the
+//! `embree` feature), so they run in both builds; `make test` runs them in both.
 
 mod common;
 
 use std::io::Read;
 
 use common::*;
+use prt_baker::trace::Backend;
 use prt_baker::{CoefficientFile, Scene};
 
 const CORNELL: &str = concat!(
@@ -351,7 +355,7 @@ fn inspect_prints_the_header_as_json() {
         "samples_per_vertex": 64,
         "mode": "shadowed",
         "bounces": 0,
-        "backend": "embree",
+        "backend": Backend::DEFAULT.name(),
         "sampling": "owen-sobol",
         "seed": 42,
         "scene_fingerprint": format!("{fingerprint:016x}"),
@@ -517,7 +521,11 @@ fn bake_summary_names_vertices_rays_rate_and_time() {
         assert!(value.is_finite() && value >= 0.0, "{line}");
     }
     assert_eq!(
-        rest, "order 4, shadowed, 64 samples, embree) -> out/a.prt",
+        rest,
+        format!(
+            "order 4, shadowed, 64 samples, {}) -> out/a.prt",
+            Backend::DEFAULT.name()
+        ),
         "{line}"
     );
 }
@@ -746,5 +754,60 @@ fn bounce_and_aux_options_must_fit_the_mode() {
         all.extend(args);
         s.run(&all).fails_with(EXIT_BAD_COMMAND_LINE, &[message]);
     }
+    s.assert_out_holds(&[]);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Backends
+
+#[test]
+fn obvhs_backend_bakes_and_is_recorded_in_the_header() {
+    let s = Scratch::new();
+    s.write("scene.obj", FLOOR_AND_OCCLUDER);
+    let run = s.bake("scene.obj", "a.prt", &["--backend", "obvhs"]);
+    assert!(
+        run.stdout.contains(", obvhs) -> out/a.prt"),
+        "{}",
+        run.stdout
+    );
+    let file = CoefficientFile::read(&s.path("out/a.prt")).unwrap();
+    assert_eq!(file.header.backend, Backend::Obvhs);
+    let json = s.run(&["inspect", "out/a.prt"]).success().stdout;
+    let header: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(header["backend"], "obvhs");
+    // The occluder shadows the floor (vertices 0..4): the rays were really traced.
+    s.bake("scene.obj", "b.prt", &["--mode", "unshadowed"]);
+    let unshadowed = CoefficientFile::read(&s.path("out/b.prt")).unwrap();
+    let floor_t00 = |f: &CoefficientFile| (0..4).map(|v| f.vertex(v, 0)[0]).sum::<f32>();
+    assert!(floor_t00(&file) < floor_t00(&unshadowed));
+}
+
+#[test]
+fn robust_mode_is_refused_for_obvhs() {
+    let s = Scratch::new();
+    s.write("tri.obj", TRIANGLE);
+    s.run(&[
+        "bake",
+        "tri.obj",
+        "-o",
+        "out/x.prt",
+        "--backend",
+        "obvhs",
+        "--robust",
+    ])
+    .fails_with(
+        EXIT_BAD_COMMAND_LINE,
+        &["--robust", "does not apply to --backend obvhs"],
+    );
+    s.assert_out_holds(&[]);
+}
+
+#[cfg(not(feature = "embree"))]
+#[test]
+fn embree_backend_is_refused_by_a_build_without_it() {
+    let s = Scratch::new();
+    s.write("tri.obj", TRIANGLE);
+    s.run(&["bake", "tri.obj", "-o", "out/x.prt", "--backend", "embree"])
+        .fails_with(EXIT_BAD_COMMAND_LINE, &["built without Embree"]);
     s.assert_out_holds(&[]);
 }

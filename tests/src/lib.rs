@@ -18,8 +18,11 @@
 //! * Z = [`Z`] standard errors; the seed is fixed, so a passing test stays passing;
 //! * [`FLOAT_SLACK`] covers f32 storage and accumulation.
 
+pub mod ray_sets;
+pub mod referee;
+
 use glam::{DVec3, Vec2, Vec3};
-use prt_baker::sampling::Frame;
+use prt_baker::sampling::{Frame, Pcg32};
 use prt_baker::scene::{Material, Mesh, Scene};
 use prt_baker::sh;
 use prt_baker::trace::{EmbreeOptions, EmbreeTracer};
@@ -342,6 +345,45 @@ pub fn sphere(centre: Vec3, radius: f32, rings: u32, segments: u32) -> Mesh {
     }
     mesh.triangles
         .retain(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2]);
+    mesh
+}
+
+/// `count` triangles with corners drawn independently in a box of side `size` around a random
+/// point of the unit cube: a soup of every orientation, aspect and overlap.
+pub fn triangle_soup(count: u32, size: f32, rng: &mut Pcg32) -> Mesh {
+    let mut point = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+    let mut positions = Vec::with_capacity(3 * count as usize);
+    for _ in 0..count {
+        let centre = point();
+        for _ in 0..3 {
+            positions.push(centre + (point() - 0.5) * size);
+        }
+    }
+    let triangles = (0..count).map(|t| [3 * t, 3 * t + 1, 3 * t + 2]).collect();
+    let normals = vec![Vec3::Z; positions.len()];
+    mesh("soup", positions, normals, triangles)
+}
+
+/// `count` needle triangles in the unit cube: length about 1, width `width` (aspect 1/width),
+/// in random orientations.
+pub fn slivers(count: u32, width: f32, rng: &mut Pcg32) -> Mesh {
+    let mut positions = Vec::with_capacity(3 * count as usize);
+    for _ in 0..count {
+        let a = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+        let b = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+        let across = (b - a).normalize().any_orthonormal_vector() * width;
+        positions.extend([a, b, b + across]);
+    }
+    let triangles = (0..count).map(|t| [3 * t, 3 * t + 1, 3 * t + 2]).collect();
+    let normals = vec![Vec3::Z; positions.len()];
+    mesh("slivers", positions, normals, triangles)
+}
+
+/// `mesh` scaled by `scale` about the origin, then moved by `offset`.
+pub fn placed(mut mesh: Mesh, scale: f32, offset: Vec3) -> Mesh {
+    for p in &mut mesh.positions {
+        *p = *p * scale + offset;
+    }
     mesh
 }
 

@@ -1,26 +1,33 @@
 //! Ray casting behind one trait, so the baker does not care which BVH answers.
 //!
-//! Backends: [`EmbreeTracer`] (default, needs the `embree` feature). Every backend answers the
-//! same two questions for batches of rays: is the segment blocked, and what does it hit first.
-//! Batches let a backend use its fast paths (Embree's ray streams).
+//! Backends: [`EmbreeTracer`] (the default, needs the `embree` feature and Embree's library)
+//! and [`ObvhsTracer`] (pure Rust, always built, so a machine without Embree can still bake).
+//! Every backend answers the same two questions for batches of rays, with the same semantics:
+//! is the segment blocked, and what does it hit first. Batches let a backend use its fast
+//! paths (Embree's ray streams). `tests/agreement.rs` checks that the two agree.
 
 #[cfg(feature = "embree")]
 mod embree;
+mod obvhs;
 mod offset;
 
+pub use self::obvhs::{ObvhsOptions, ObvhsTracer};
 #[cfg(feature = "embree")]
 pub use embree::{EmbreeOptions, EmbreeTracer};
+/// The Embree bindings, for benchmarks that call Embree directly on the same scene.
+#[cfg(feature = "embree")]
+pub use embree_sys;
 pub use offset::{offset_distance, ray_origins};
 
 use glam::Vec3;
 
-#[cfg(not(feature = "embree"))]
-use crate::error::Error;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::scene::Scene;
 
-/// A ray segment `origin + t·dir`, t in `[0, tfar]`. Self-intersection is avoided by where the
-/// origin is put ([`ray_origins`]), not by a minimum t.
+/// A ray segment `origin + t·dir`, t in `[0, tfar]`. (A hit at exactly t = 0 — an origin on a
+/// surface — counts for obvhs and Embree's robust mode, not for Embree's default mode.)
+/// Self-intersection is avoided by where the origin is put ([`ray_origins`]), not by a
+/// minimum t.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ray {
     pub origin: Vec3,
@@ -48,13 +55,23 @@ pub enum Backend {
     /// No rays were cast (unshadowed transfer).
     None,
     Embree,
+    Obvhs,
 }
 
 impl Backend {
+    /// The backend a bake uses unless told otherwise: Embree where this build has it (it is
+    /// about three times faster), obvhs otherwise.
+    pub const DEFAULT: Backend = if cfg!(feature = "embree") {
+        Backend::Embree
+    } else {
+        Backend::Obvhs
+    };
+
     pub fn name(self) -> &'static str {
         match self {
             Backend::None => "none",
             Backend::Embree => "embree",
+            Backend::Obvhs => "obvhs",
         }
     }
 }
@@ -98,27 +115,51 @@ pub trait Tracer: Send + Sync {
     }
 }
 
-/// The default tracer this build offers for `scene`; `threads` limits the backend's own
-/// worker threads (BVH build) where it has any, `robust` asks for its most careful mode.
-pub fn default_tracer(
-    scene: &Scene,
-    threads: Option<usize>,
-    robust: bool,
-) -> Result<Box<dyn Tracer>> {
-    #[cfg(feature = "embree")]
-    {
-        Ok(Box::new(EmbreeTracer::new(
-            scene,
-            EmbreeOptions { threads, robust },
-        )?))
-    }
-    #[cfg(not(feature = "embree"))]
-    {
-        let _ = (scene, threads, robust);
-        Err(Error::Tracer {
-            backend: "none",
-            message: "this build has no ray-tracing backend (rebuild with the `embree` feature)"
+/// Settings a backend may honour when it builds its acceleration structure.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TracerOptions {
+    /// Limits the backend's own worker threads (Embree's BVH build); obvhs builds on the
+    /// calling thread.
+    pub threads: Option<usize>,
+    /// Embree's robust mode. Only Embree has one: asking another backend for it is an error
+    /// rather than a silent no-op.
+    pub robust: bool,
+}
+
+/// Refuses what [`build`] would refuse without looking at a scene: [`Backend::None`], Embree in
+/// a build without the `embree` feature, `robust` with a backend that has no robust mode. The
+/// CLI calls it before loading the scene, so a bad command line fails at once.
+pub fn check(backend: Backend, options: TracerOptions) -> Result<()> {
+    match backend {
+        Backend::None => Err(Error::InvalidOption(
+            "shadowed transfer needs a ray-tracing backend".into(),
+        )),
+        Backend::Embree if !cfg!(feature = "embree") => Err(Error::InvalidOption(
+            "--backend embree: this prt-bake was built without Embree (the `embree` cargo \
+             feature); use --backend obvhs"
                 .into(),
-        })
+        )),
+        Backend::Obvhs if options.robust => Err(Error::InvalidOption(
+            "--robust is Embree's robust mode; it does not apply to --backend obvhs".into(),
+        )),
+        Backend::Embree | Backend::Obvhs => Ok(()),
+    }
+}
+
+/// A tracer of `backend` over `scene`; fails as [`check`] does, or when Embree cannot build
+/// its scene.
+pub fn build(backend: Backend, scene: &Scene, options: TracerOptions) -> Result<Box<dyn Tracer>> {
+    check(backend, options)?;
+    match backend {
+        #[cfg(feature = "embree")]
+        Backend::Embree => Ok(Box::new(EmbreeTracer::new(
+            scene,
+            EmbreeOptions {
+                threads: options.threads,
+                robust: options.robust,
+            },
+        )?)),
+        Backend::Obvhs => Ok(Box::new(ObvhsTracer::new(scene, ObvhsOptions::default()))),
+        _ => unreachable!("check() refused {backend:?}"),
     }
 }
