@@ -3,11 +3,13 @@
 //!
 //! Every configuration renders the same frames offscreen at the same size: the camera swings
 //! through 60° around the scene, and every light turns a little each frame, so PRT re-rotates
-//! and re-sums its coefficients on the CPU every frame (its whole per-light cost). Each frame
-//! is waited for before the next, so a frame's time is its full cost, not its submission.
-//! The configurations take turns, round after round, and each reports its best round: the
-//! machines are shared, and a round disturbed by another process says nothing about the
-//! renderer.
+//! and re-sums its coefficients on the CPU every frame (its whole per-light cost). A frame's
+//! time runs from the start of its update to the GPU's completion of it (waited for), so it is
+//! the frame's full cost, not its submission.
+//!
+//! The configurations take turns frame by frame, and each reports the median of its frame
+//! times: the machines are shared, so whatever disturbs one configuration's frames disturbs
+//! the others' alike, and the median ignores the frames that another process interrupted.
 
 use std::time::Instant;
 
@@ -33,27 +35,41 @@ const LIGHT_DEGREES_PER_FRAME: f64 = 1.0;
 /// The camera path: an arc of this many degrees about the scene's vertical axis.
 const CAMERA_ARC_DEGREES: f32 = 60.0;
 
+/// Frames each configuration renders before the timed ones (pipelines compiled, caches
+/// filled).
+const WARM_UP_FRAMES: u32 = 5;
+
 #[derive(Clone, Copy, Debug)]
 pub struct BenchOptions {
     pub size: (u32, u32),
-    /// Frames per configuration per round.
+    /// Timed frames per configuration.
     pub frames: u32,
-    pub rounds: u32,
 }
 
-/// One configuration's frame rate.
+/// One configuration's frame times.
 #[derive(Clone, Debug)]
 pub struct Measurement {
     pub mode: Mode,
     pub lights: usize,
-    /// Frames per second of each round.
-    pub rounds: Vec<f64>,
+    /// Seconds per frame, in frame order.
+    pub frame_seconds: Vec<f64>,
 }
 
 impl Measurement {
-    /// The best round's frames per second.
+    /// Frames per second: one over the median frame time.
     pub fn fps(&self) -> f64 {
-        self.rounds.iter().copied().fold(0.0, f64::max)
+        let mut times = self.frame_seconds.clone();
+        times.sort_by(f64::total_cmp);
+        let n = times.len();
+        if n == 0 {
+            return f64::NAN;
+        }
+        let median = if n % 2 == 1 {
+            times[n / 2]
+        } else {
+            0.5 * (times[n / 2 - 1] + times[n / 2])
+        };
+        1.0 / median
     }
 }
 
@@ -90,15 +106,10 @@ impl BenchReport {
     pub fn table(&self) -> String {
         let (w, h) = self.options.size;
         let mut text = format!(
-            "prt-view --bench: {} vertices, {} triangles, order {}, {w}×{h}, {} rounds × {} frames per configuration (best round)\n\
+            "prt-view --bench: {} vertices, {} triangles, order {}, {w}×{h}, {} frames per configuration, interleaved (fps = 1 / median frame time)\n\
              device: {}\n\n\
              | model | 1 light | 8 lights |\n|---|---:|---:|\n",
-            self.vertices,
-            self.triangles,
-            self.order,
-            self.options.rounds,
-            self.options.frames,
-            self.device
+            self.vertices, self.triangles, self.order, self.options.frames, self.device
         );
         for mode in [Mode::Phong, Mode::Prt] {
             text += &format!(
@@ -131,9 +142,9 @@ fn camera_on_path(framing: &Camera, centre: Vec3, k: u32, frames: u32) -> Camera
 
 /// Runs the benchmark on `gpu`.
 pub fn run(gpu: &Gpu, bake: &Bake, options: BenchOptions) -> Result<BenchReport> {
-    if options.frames == 0 || options.rounds == 0 {
+    if options.frames == 0 {
         return Err(Error::InvalidOption(
-            "--bench-frames and --bench-rounds must be at least 1".into(),
+            "--bench-frames must be at least 1".into(),
         ));
     }
     let (device, queue) = (&gpu.device, &gpu.queue);
@@ -153,37 +164,31 @@ pub fn run(gpu: &Gpu, bake: &Bake, options: BenchOptions) -> Result<BenchReport>
             })
         })
         .collect();
-    let mut rounds = vec![Vec::new(); views.len()];
-    let wait = || {
-        device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|err| Error::Gpu(format!("waiting for a frame: {err}")))
-    };
-    // Round 0 warms up (pipelines compiled, caches filled) and is not counted.
-    for round in 0..=options.rounds {
-        for (view, times) in views.iter_mut().zip(&mut rounds) {
+    let mut times = vec![Vec::with_capacity(options.frames as usize); views.len()];
+    for k in 0..WARM_UP_FRAMES + options.frames {
+        for (view, times) in views.iter_mut().zip(&mut times) {
             let started = Instant::now();
-            for k in 0..options.frames {
-                view.camera = camera_on_path(&framing, centre, k, options.frames);
-                for light in view.lights.iter_mut() {
-                    light.steerable.phi += LIGHT_DEGREES_PER_FRAME.to_radians();
-                }
-                renderer.update(queue, &FrameInputs::from_view(view, None));
-                renderer.render(&target.view, device, queue);
-                wait()?;
+            view.camera = camera_on_path(&framing, centre, k, WARM_UP_FRAMES + options.frames);
+            for light in view.lights.iter_mut() {
+                light.steerable.phi += LIGHT_DEGREES_PER_FRAME.to_radians();
             }
-            if round > 0 {
-                times.push(f64::from(options.frames) / started.elapsed().as_secs_f64());
+            renderer.update(queue, &FrameInputs::from_view(view, None));
+            renderer.render(&target.view, device, queue);
+            device
+                .poll(wgpu::PollType::wait_indefinitely())
+                .map_err(|err| Error::Gpu(format!("waiting for a frame: {err}")))?;
+            if k >= WARM_UP_FRAMES {
+                times.push(started.elapsed().as_secs_f64());
             }
         }
     }
     let measurements = views
         .iter()
-        .zip(rounds)
-        .map(|(view, rounds)| Measurement {
+        .zip(times)
+        .map(|(view, frame_seconds)| Measurement {
             mode: view.mode,
             lights: view.lights.len(),
-            rounds,
+            frame_seconds,
         })
         .collect();
     Ok(BenchReport {
@@ -194,4 +199,22 @@ pub fn run(gpu: &Gpu, bake: &Bake, options: BenchOptions) -> Result<BenchReport>
         order: bake.order(),
         measurements,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fps_is_one_over_the_median_frame_time() {
+        let m = |frame_seconds: Vec<f64>| Measurement {
+            mode: Mode::Prt,
+            lights: 1,
+            frame_seconds,
+        };
+        // One frame interrupted by another process does not move the median.
+        assert_eq!(m(vec![0.02, 0.5, 0.02]).fps(), 50.0);
+        assert_eq!(m(vec![0.01, 0.03]).fps(), 50.0);
+        assert!(m(vec![]).fps().is_nan());
+    }
 }

@@ -181,10 +181,11 @@ impl View {
         self.held.clear();
     }
 
-    /// Applies the held keys for `seconds` of frame time.
-    pub fn advance(&mut self, seconds: f32) {
-        let step = f64::from(seconds) * LIGHT_DEGREES_PER_SECOND.to_radians();
-        let travel = seconds * CAMERA_RADII_PER_SECOND * self.camera.scale;
+    /// Applies the held keys for `seconds` of frame time (f64, so that light angles
+    /// accumulate no f32 rounding of the frame time).
+    pub fn advance(&mut self, seconds: f64) {
+        let step = seconds * LIGHT_DEGREES_PER_SECOND.to_radians();
+        let travel = seconds as f32 * CAMERA_RADII_PER_SECOND * self.camera.scale;
         for key in self.held.clone() {
             match key {
                 Key::Up => self.camera.position += self.camera.forward() * travel,

@@ -17,36 +17,47 @@ pub struct Gpu {
     pub queue: wgpu::Queue,
 }
 
-/// The instance: Vulkan and GL, modified by wgpu's environment variables. `display` is the
-/// window system's connection, which GL needs to present to a window.
-pub fn instance(display: Option<winit::event_loop::OwnedDisplayHandle>) -> wgpu::Instance {
+/// The backends tried, in turn: Vulkan (lavapipe on machines without a GPU), then GL only
+/// where Vulkan has no adapter, so the same machine always gets the same driver.
+pub const BACKENDS: [wgpu::Backends; 2] = [wgpu::Backends::VULKAN, wgpu::Backends::GL];
+
+/// An instance of `backends`, modified by wgpu's environment variables (`WGPU_BACKEND`
+/// replaces them). `display` is the window system's connection, which GL needs to present
+/// to a window.
+pub fn instance(
+    backends: wgpu::Backends,
+    display: Option<winit::event_loop::OwnedDisplayHandle>,
+) -> wgpu::Instance {
     let mut descriptor = match display {
         Some(display) => wgpu::InstanceDescriptor::new_with_display_handle(Box::new(display)),
         None => wgpu::InstanceDescriptor::new_without_display_handle(),
     };
-    descriptor.backends = wgpu::Backends::VULKAN | wgpu::Backends::GL;
+    descriptor.backends = backends;
     wgpu::Instance::new(descriptor.with_env())
 }
 
 impl Gpu {
     /// The default adapter for offscreen work (a GPU if there is one).
     pub fn headless() -> Result<Gpu> {
-        let instance = instance(None);
-        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
-            power_preference: wgpu::PowerPreference::HighPerformance,
-            force_fallback_adapter: false,
-            ..Default::default()
-        }))
-        .map_err(|err| Error::NoAdapter(err.to_string()))?;
-        Gpu::open(instance, adapter)
+        let mut failures = Vec::new();
+        for backends in BACKENDS {
+            let instance = instance(backends, None);
+            let options = wgpu::RequestAdapterOptions {
+                power_preference: wgpu::PowerPreference::HighPerformance,
+                ..Default::default()
+            };
+            match pollster::block_on(instance.request_adapter(&options)) {
+                Ok(adapter) => return Gpu::open(instance, adapter),
+                Err(err) => failures.push(format!("{backends:?}: {err}")),
+            }
+        }
+        Err(Error::NoAdapter(failures.join("; ")))
     }
 
     /// The adapter the tests' golden images were made with: Mesa's software Vulkan driver
     /// (lavapipe), else a software GL driver (llvmpipe), else whatever exists. `None` only
     /// when there is no adapter at all.
     pub fn software() -> Result<Option<Gpu>> {
-        let instance = instance(None);
-        let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()));
         let rank = |adapter: &wgpu::Adapter| {
             let info = adapter.get_info();
             let software = info.device_type == wgpu::DeviceType::Cpu;
@@ -56,10 +67,21 @@ impl Gpu {
                 _ => 2,
             }
         };
-        match adapters.into_iter().min_by_key(rank) {
-            Some(adapter) => Gpu::open(instance, adapter).map(Some),
-            None => Ok(None),
+        let mut best: Option<(wgpu::Instance, wgpu::Adapter)> = None;
+        for backends in BACKENDS {
+            let instance = instance(backends, None);
+            let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()));
+            if let Some(adapter) = adapters.into_iter().min_by_key(rank) {
+                if best.as_ref().is_none_or(|(_, b)| rank(&adapter) < rank(b)) {
+                    best = Some((instance, adapter));
+                }
+            }
+            if best.as_ref().is_some_and(|(_, b)| rank(b) == 0) {
+                break; // lavapipe: GL has nothing better
+            }
         }
+        best.map(|(instance, adapter)| Gpu::open(instance, adapter))
+            .transpose()
     }
 
     /// Opens a device with the adapter's own limits (large scenes need large storage

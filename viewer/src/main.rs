@@ -74,12 +74,9 @@ struct Cli {
     /// Window: keys pressed one per frame from the first, e.g. F1,Q,Q,2,F2,Escape.
     #[arg(long, value_name = "KEYS", value_delimiter = ',', value_parser = parse_key)]
     keys: Vec<Key>,
-    /// Bench: frames per configuration and round.
-    #[arg(long, value_name = "N", default_value_t = 30)]
+    /// Bench: timed frames per configuration.
+    #[arg(long, value_name = "N", default_value_t = 120)]
     bench_frames: u32,
-    /// Bench: rounds (each configuration reports its best).
-    #[arg(long, value_name = "N", default_value_t = 5)]
-    bench_rounds: u32,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -151,7 +148,6 @@ fn run(cli: Cli) -> Result<(), Error> {
         let options = BenchOptions {
             size: cli.size,
             frames: cli.bench_frames,
-            rounds: cli.bench_rounds,
         };
         println!("{}", bench::run(&gpu, &bake, options)?.table());
         return Ok(());

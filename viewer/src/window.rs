@@ -97,18 +97,7 @@ impl Running {
                 .create_window(attributes)
                 .map_err(|err| Error::Window(err.to_string()))?,
         );
-        let instance = gpu::instance(Some(event_loop.owned_display_handle()));
-        let surface = instance
-            .create_surface(window.clone())
-            .map_err(|err| Error::Window(format!("cannot draw into the window: {err}")))?;
-        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
-            power_preference: wgpu::PowerPreference::HighPerformance,
-            force_fallback_adapter: false,
-            compatible_surface: Some(&surface),
-            ..Default::default()
-        }))
-        .map_err(|err| Error::NoAdapter(err.to_string()))?;
-        let gpu = Gpu::open(instance, adapter)?;
+        let (surface, gpu) = open_surface(event_loop, &window)?;
         let capabilities = surface.get_capabilities(&gpu.adapter);
         let format = capabilities
             .formats
@@ -217,23 +206,31 @@ impl App {
         event_loop.exit();
     }
 
-    fn key(&mut self, event_loop: &ActiveEventLoop, key: Key, pressed: bool) {
-        if self.view.key(key, pressed) == Response::Quit {
+    /// Passes a key to the view; `true` if it asked to quit.
+    fn key(&mut self, event_loop: &ActiveEventLoop, key: Key, pressed: bool) -> bool {
+        let quit = self.view.key(key, pressed) == Response::Quit;
+        if quit {
             event_loop.exit();
         }
+        quit
     }
 
     fn frame(&mut self, event_loop: &ActiveEventLoop) {
         let now = Instant::now();
-        let dt = self.last_frame.map_or(0.0, |t| (now - t).as_secs_f32());
+        let dt = self.last_frame.map_or(0.0, |t| (now - t).as_secs_f64());
         self.last_frame = Some(now);
         self.started.get_or_insert(now);
 
-        if let Some(key) = self.pending_release.take() {
-            self.key(event_loop, key, false);
+        let quit = if let Some(key) = self.pending_release.take() {
+            self.key(event_loop, key, false)
         } else if let Some(key) = self.script.pop_front() {
-            self.key(event_loop, key, true);
             self.pending_release = Some(key);
+            self.key(event_loop, key, true)
+        } else {
+            false
+        };
+        if quit {
+            return;
         }
         self.view.advance(dt);
 
@@ -255,6 +252,35 @@ impl App {
             event_loop.exit();
         }
     }
+}
+
+/// A surface on the window and a device that can draw to it, from the first of
+/// [`gpu::BACKENDS`] that has one.
+fn open_surface(
+    event_loop: &ActiveEventLoop,
+    window: &Arc<Window>,
+) -> Result<(wgpu::Surface<'static>, Gpu)> {
+    let mut failures = Vec::new();
+    for backends in gpu::BACKENDS {
+        let instance = gpu::instance(backends, Some(event_loop.owned_display_handle()));
+        let surface = match instance.create_surface(window.clone()) {
+            Ok(surface) => surface,
+            Err(err) => {
+                failures.push(format!("{backends:?}: cannot draw into the window: {err}"));
+                continue;
+            }
+        };
+        let options = wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::HighPerformance,
+            compatible_surface: Some(&surface),
+            ..Default::default()
+        };
+        match pollster::block_on(instance.request_adapter(&options)) {
+            Ok(adapter) => return Ok((surface, Gpu::open(instance, adapter)?)),
+            Err(err) => failures.push(format!("{backends:?}: {err}")),
+        }
+    }
+    Err(Error::NoAdapter(failures.join("; ")))
 }
 
 /// The viewer's key for a key event: named keys by name, characters by their letter (so Q
