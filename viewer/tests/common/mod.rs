@@ -19,23 +19,28 @@ pub fn demo_scene_path() -> PathBuf {
     workspace().join("scenes/torus/torus.scene")
 }
 
-/// The demo scene baked with shadows: order 4, 256 rays per vertex, seed 1 (deterministic:
+/// The demo scene baked with shadows at `order`: 256 rays per vertex, seed 1 (deterministic:
 /// the same seed gives a bit-identical bake whatever the thread count).
 pub fn demo_bake(order: usize) -> Bake {
-    let path = demo_scene_path();
-    let scene = Scene::load(&path).expect("the demo scene loads");
+    bake(
+        &demo_scene_path(),
+        BakeOptions {
+            order,
+            samples: 256,
+            mode: Mode::Shadowed,
+            seed: 1,
+            ..BakeOptions::default()
+        },
+    )
+}
+
+/// A scene baked with Embree.
+pub fn bake(path: &Path, options: BakeOptions) -> Bake {
+    let scene = Scene::load(path).expect("the scene loads");
     let tracer = EmbreeTracer::new(&scene, EmbreeOptions::default()).expect("Embree");
-    let options = BakeOptions {
-        order,
-        samples: 256,
-        mode: Mode::Shadowed,
-        seed: 1,
-        ..BakeOptions::default()
-    };
-    let transfer =
-        prt_baker::bake(&scene, Some(&tracer), &options, &Silent).expect("the demo scene bakes");
+    let transfer = prt_baker::bake(&scene, Some(&tracer), &options, &Silent).expect("the bake");
     let file = CoefficientFile::from_bake(&scene, &transfer);
-    Bake::new(scene, file, Path::new("demo.prt")).expect("the bake belongs to its scene")
+    Bake::new(scene, file, Path::new("test.prt")).expect("the bake belongs to its scene")
 }
 
 /// Mesa's software Vulkan (lavapipe), which the golden images were made with; `None`, with
