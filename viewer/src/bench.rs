@@ -7,9 +7,10 @@
 //! time runs from the start of its update to the GPU's completion of it (waited for), so it is
 //! the frame's full cost, not its submission.
 //!
-//! The configurations take turns frame by frame, and each reports the median of its frame
-//! times: the machines are shared, so whatever disturbs one configuration's frames disturbs
-//! the others' alike, and the median ignores the frames that another process interrupted.
+//! The configurations take turns frame by frame, in an order that rotates every frame, and
+//! each reports the median of its frame times: the machines are shared, so whatever disturbs
+//! one configuration's frames disturbs the others' alike, and the median ignores the frames
+//! that another process interrupted.
 
 use std::time::Instant;
 
@@ -165,8 +166,12 @@ pub fn run(gpu: &Gpu, bake: &Bake, options: BenchOptions) -> Result<BenchReport>
         })
         .collect();
     let mut times = vec![Vec::with_capacity(options.frames as usize); views.len()];
+    let count = views.len();
     for k in 0..WARM_UP_FRAMES + options.frames {
-        for (view, times) in views.iter_mut().zip(&mut times) {
+        // Each frame starts the cycle at another configuration, so none always follows the
+        // same one (a frame right after the heaviest runs measurably slower).
+        for i in (0..count).map(|i| (i + k as usize) % count) {
+            let (view, times) = (&mut views[i], &mut times[i]);
             let started = Instant::now();
             view.camera = camera_on_path(&framing, centre, k, WARM_UP_FRAMES + options.frames);
             for light in view.lights.iter_mut() {

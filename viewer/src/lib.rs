@@ -37,8 +37,10 @@ pub mod font;
 pub mod gpu;
 pub mod lights;
 pub mod offscreen;
+mod overlay;
 pub mod probe;
 pub mod renderer;
+mod resources;
 pub mod textures;
 pub mod window;
 

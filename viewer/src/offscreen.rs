@@ -4,6 +4,7 @@ use std::path::Path;
 
 use crate::error::{Error, Result};
 use crate::renderer::{FrameInputs, Renderer};
+use crate::resources::readable_target;
 
 /// The offscreen colour format: 8-bit sRGB, like a window's, so the tone-mapped linear
 /// colour is encoded on store exactly as `prt-bake relight` encodes its 8-bit colours.
@@ -17,22 +18,8 @@ pub struct Offscreen {
 }
 
 impl Offscreen {
-    pub fn new(device: &wgpu::Device, (width, height): (u32, u32)) -> Offscreen {
-        let texture = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("offscreen"),
-            size: wgpu::Extent3d {
-                width,
-                height,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-            view_formats: &[],
-        });
-        let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
+    pub fn new(device: &wgpu::Device, size: (u32, u32)) -> Offscreen {
+        let (texture, view) = readable_target(device, "offscreen", size, FORMAT);
         Offscreen { texture, view }
     }
 

@@ -9,7 +9,8 @@
 
 use crate::error::Result;
 use crate::offscreen::read_texture;
-use crate::renderer::{Renderer, shader};
+use crate::renderer::Renderer;
+use crate::resources::{readable_target, scene_shader};
 
 /// Points per row; `PROBE_WIDTH` in probe.wgsl.
 pub const WIDTH: u32 = 256;
@@ -24,23 +25,9 @@ pub fn vertex_radiance(
 ) -> Result<Vec<[f32; 3]>> {
     let count = renderer.vertex_count();
     let rows = count.div_ceil(WIDTH).max(1);
-    let target = device.create_texture(&wgpu::TextureDescriptor {
-        label: Some("probe"),
-        size: wgpu::Extent3d {
-            width: WIDTH,
-            height: rows,
-            depth_or_array_layers: 1,
-        },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format: FORMAT,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-        view_formats: &[],
-    });
-    let view = target.create_view(&wgpu::TextureViewDescriptor::default());
+    let (target, view) = readable_target(device, "probe", (WIDTH, rows), FORMAT);
     let (frame_layout, frame_bind_group) = renderer.frame_bindings();
-    let module = shader(device, "probe", include_str!("shaders/probe.wgsl"));
+    let module = scene_shader(device, "probe", include_str!("shaders/probe.wgsl"));
     let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some("probe"),
         bind_group_layouts: &[Some(frame_layout)],

@@ -17,11 +17,14 @@ use crate::bake::Bake;
 use crate::camera::Camera;
 use crate::controls::{Mode, View};
 use crate::error::{Error, Result};
-use crate::font;
 use crate::lights::{MAX_LIGHTS, PhongLights, PhongShape};
+use crate::overlay::Overlay;
+use crate::resources::{
+    DEPTH_FORMAT, PipelineSpec, buffer_binding, pipeline, scene_shader, texture_2d, texture_entry,
+    uniform_buffer, uniform_entry, view_binding,
+};
 use crate::textures;
 
-pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 /// Behind the scene: a dark grey, linear.
 const BACKGROUND: wgpu::Color = wgpu::Color {
     r: 0.02,
@@ -31,19 +34,8 @@ const BACKGROUND: wgpu::Color = wgpu::Color {
 };
 /// Drawn normals, as a fraction of the scene's radius.
 const NORMAL_LENGTH: f32 = 0.03;
-/// Readout: screen pixels per font pixel (1 below [`READOUT_DOUBLE_WIDTH`]), and its margin
-/// in screen pixels.
-const READOUT_SCALE: f32 = 2.0;
-const READOUT_DOUBLE_WIDTH: u32 = 600;
-const READOUT_MARGIN: f32 = 8.0;
 /// Light vectors the renderer has room for (one line each).
 const LIGHT_VECTOR_CAPACITY: usize = 64;
-/// Characters the readout can show in one frame.
-const MAX_READOUT_GLYPHS: usize = 512;
-
-/// The scene's shaders: common.wgsl (bindings, the PRT dot product, albedo, tone map) is
-/// prepended to each, since WGSL has no includes.
-pub(crate) const COMMON_WGSL: &str = include_str!("shaders/common.wgsl");
 
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
@@ -92,24 +84,6 @@ struct MaterialUniform {
     kd: [f32; 4],
     has_texture: u32,
     pad: [u32; 3],
-}
-
-/// `GlyphIn` of overlay.wgsl: one character (or the panel behind them), in pixels.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-struct GlyphInstance {
-    origin: [f32; 2],
-    size: [f32; 2],
-    glyph: u32,
-    colour: [f32; 4],
-}
-
-/// `Overlay` of overlay.wgsl.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-struct OverlayUniform {
-    screen: [f32; 2],
-    pad: [f32; 2],
 }
 
 /// Everything one frame shows, taken from a [`View`] (or built by a test).
@@ -191,11 +165,7 @@ pub struct Renderer {
     lines_depth_tested: wgpu::RenderPipeline,
     lines_on_top: wgpu::RenderPipeline,
 
-    overlay_buffer: wgpu::Buffer,
-    overlay_bind_group: wgpu::BindGroup,
-    glyphs: wgpu::Buffer,
-    glyph_count: u32,
-    overlay: wgpu::RenderPipeline,
+    overlay: Overlay,
 
     mode: Mode,
     normals: bool,
@@ -264,12 +234,7 @@ impl Renderer {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let frame_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("frame"),
-            size: std::mem::size_of::<FrameUniform>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let frame_buffer = uniform_buffer(device, "frame", std::mem::size_of::<FrameUniform>());
 
         let vertex_and_fragment = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
         let storage = |binding| wgpu::BindGroupLayoutEntry {
@@ -300,75 +265,7 @@ impl Renderer {
             ],
         });
 
-        let material_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("material"),
-            entries: &[
-                uniform_entry(0, wgpu::ShaderStages::FRAGMENT),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 1,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
-                wgpu::BindGroupLayoutEntry {
-                    binding: 2,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                    count: None,
-                },
-            ],
-        });
-        let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
-            label: Some("albedo"),
-            address_mode_u: wgpu::AddressMode::Repeat,
-            address_mode_v: wgpu::AddressMode::Repeat,
-            mag_filter: wgpu::FilterMode::Linear,
-            min_filter: wgpu::FilterMode::Linear,
-            mipmap_filter: wgpu::MipmapFilterMode::Linear,
-            ..Default::default()
-        });
-        let texture_views: Vec<wgpu::TextureView> = scene
-            .textures
-            .iter()
-            .map(|t| textures::upload(device, queue, t))
-            .collect();
-        let white = textures::white(device, queue);
-        let materials = scene
-            .materials
-            .iter()
-            .map(|m| {
-                let uniform = MaterialUniform {
-                    kd: m.kd.extend(1.0).to_array(),
-                    has_texture: u32::from(m.texture.is_some()),
-                    pad: [0; 3],
-                };
-                let uniform = buffer(
-                    "material",
-                    bytemuck::bytes_of(&uniform),
-                    wgpu::BufferUsages::UNIFORM,
-                );
-                let view = m.texture.map_or(&white, |t| &texture_views[t]);
-                device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("material"),
-                    layout: &material_layout,
-                    entries: &[
-                        buffer_binding(0, &uniform),
-                        wgpu::BindGroupEntry {
-                            binding: 1,
-                            resource: wgpu::BindingResource::TextureView(view),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 2,
-                            resource: wgpu::BindingResource::Sampler(&sampler),
-                        },
-                    ],
-                })
-            })
-            .collect();
+        let (material_layout, materials) = materials(device, queue, scene);
         let draws = scene
             .objects
             .iter()
@@ -379,12 +276,7 @@ impl Renderer {
             })
             .collect();
 
-        let scene_module = shader(device, "scene", include_str!("shaders/scene.wgsl"));
-        let scene_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("scene"),
-            bind_group_layouts: &[Some(&frame_layout), Some(&material_layout)],
-            immediate_size: 0,
-        });
+        let scene_module = scene_shader(device, "scene", include_str!("shaders/scene.wgsl"));
         let vertex_layout = wgpu::VertexBufferLayout {
             array_stride: std::mem::size_of::<Vertex>() as u64,
             step_mode: wgpu::VertexStepMode::Vertex,
@@ -395,7 +287,7 @@ impl Renderer {
                 device,
                 PipelineSpec {
                     label: vs,
-                    layout: &scene_layout,
+                    bind_group_layouts: &[Some(&frame_layout), Some(&material_layout)],
                     module: &scene_module,
                     entry_points: (vs, fs),
                     buffers: &[Some(vertex_layout.clone())],
@@ -434,12 +326,7 @@ impl Renderer {
             usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let lines_module = shader(device, "lines", include_str!("shaders/lines.wgsl"));
-        let lines_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("lines"),
-            bind_group_layouts: &[Some(&frame_layout)],
-            immediate_size: 0,
-        });
+        let lines_module = scene_shader(device, "lines", include_str!("shaders/lines.wgsl"));
         let line_vertex_layout = wgpu::VertexBufferLayout {
             array_stride: std::mem::size_of::<LineVertex>() as u64,
             step_mode: wgpu::VertexStepMode::Vertex,
@@ -450,7 +337,7 @@ impl Renderer {
                 device,
                 PipelineSpec {
                     label: "lines",
-                    layout: &lines_layout,
+                    bind_group_layouts: &[Some(&frame_layout)],
                     module: &lines_module,
                     entry_points: ("vs_line", "fs_line"),
                     buffers: &[Some(line_vertex_layout.clone())],
@@ -463,10 +350,6 @@ impl Renderer {
         };
         let lines_depth_tested = line_pipeline(true);
         let lines_on_top = line_pipeline(false);
-
-        let (overlay, overlay_buffer, overlay_bind_group, glyphs) =
-            Self::overlay(device, queue, format);
-
         Ok(Renderer {
             format,
             size,
@@ -491,113 +374,11 @@ impl Renderer {
             light_line_vertices: 0,
             lines_depth_tested,
             lines_on_top,
-            overlay_buffer,
-            overlay_bind_group,
-            glyphs,
-            glyph_count: 0,
-            overlay,
+            overlay: Overlay::new(device, queue, format),
             mode: Mode::Prt,
             normals: false,
             light_vectors: false,
         })
-    }
-
-    /// The readout's pipeline, uniform, font atlas and instance buffer.
-    fn overlay(
-        device: &wgpu::Device,
-        queue: &wgpu::Queue,
-        format: wgpu::TextureFormat,
-    ) -> (
-        wgpu::RenderPipeline,
-        wgpu::Buffer,
-        wgpu::BindGroup,
-        wgpu::Buffer,
-    ) {
-        let (width, height, pixels) = font::atlas();
-        let atlas = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("font"),
-            size: wgpu::Extent3d {
-                width,
-                height,
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: wgpu::TextureFormat::R8Unorm,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-            view_formats: &[],
-        });
-        textures::write_level(queue, &atlas, 0, width, height, &pixels);
-        let uniform = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("overlay"),
-            size: std::mem::size_of::<OverlayUniform>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("overlay"),
-            entries: &[
-                uniform_entry(0, wgpu::ShaderStages::VERTEX),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 1,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
-            ],
-        });
-        let atlas_view = atlas.create_view(&wgpu::TextureViewDescriptor::default());
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("overlay"),
-            layout: &layout,
-            entries: &[
-                buffer_binding(0, &uniform),
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(&atlas_view),
-                },
-            ],
-        });
-        let glyphs = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("glyphs"),
-            size: (MAX_READOUT_GLYPHS * std::mem::size_of::<GlyphInstance>()) as u64,
-            usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("overlay"),
-            source: wgpu::ShaderSource::Wgsl(include_str!("shaders/overlay.wgsl").into()),
-        });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("overlay"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let instance_layout = wgpu::VertexBufferLayout {
-            array_stride: std::mem::size_of::<GlyphInstance>() as u64,
-            step_mode: wgpu::VertexStepMode::Instance,
-            attributes: &wgpu::vertex_attr_array![0 => Float32x2, 1 => Float32x2, 2 => Uint32, 3 => Float32x4],
-        };
-        let pipeline = pipeline(
-            device,
-            PipelineSpec {
-                label: "overlay",
-                layout: &pipeline_layout,
-                module: &module,
-                entry_points: ("vs_glyph", "fs_glyph"),
-                buffers: &[Some(instance_layout)],
-                topology: wgpu::PrimitiveTopology::TriangleList,
-                format,
-                depth_test: false,
-                blend: Some(wgpu::BlendState::ALPHA_BLENDING),
-            },
-        );
-        (pipeline, uniform, bind_group, glyphs)
     }
 
     /// The colour format the pipelines write.
@@ -678,22 +459,8 @@ impl Renderer {
         queue.write_buffer(&self.light_lines, 0, bytemuck::cast_slice(&lines));
         self.light_line_vertices = lines.len() as u32;
 
-        let scale = if w >= READOUT_DOUBLE_WIDTH {
-            READOUT_SCALE
-        } else {
-            1.0
-        };
-        let glyphs = inputs
-            .readout
-            .as_deref()
-            .map_or(Vec::new(), |text| readout_glyphs(text, scale));
-        queue.write_buffer(&self.glyphs, 0, bytemuck::cast_slice(&glyphs));
-        self.glyph_count = glyphs.len() as u32;
-        let overlay = OverlayUniform {
-            screen: [w as f32, h as f32],
-            pad: [0.0; 2],
-        };
-        queue.write_buffer(&self.overlay_buffer, 0, bytemuck::bytes_of(&overlay));
+        self.overlay
+            .update(queue, inputs.readout.as_deref(), self.size);
 
         self.mode = inputs.mode;
         self.normals = inputs.normals;
@@ -751,12 +518,7 @@ impl Renderer {
                 pass.set_vertex_buffer(0, self.light_lines.slice(..));
                 pass.draw(0..self.light_line_vertices, 0..1);
             }
-            if self.glyph_count > 0 {
-                pass.set_pipeline(&self.overlay);
-                pass.set_bind_group(0, &self.overlay_bind_group, &[]);
-                pass.set_vertex_buffer(0, self.glyphs.slice(..));
-                pass.draw(0..6, 0..self.glyph_count);
-            }
+            self.overlay.draw(&mut pass);
         }
         queue.submit([encoder.finish()]);
     }
@@ -772,6 +534,73 @@ impl Renderer {
     }
 }
 
+/// The materials' bind group layout, and one bind group per material: Kd, the texture
+/// (white where there is none) and a trilinear, repeating sampler.
+fn materials(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    scene: &prt_baker::Scene,
+) -> (wgpu::BindGroupLayout, Vec<wgpu::BindGroup>) {
+    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("material"),
+        entries: &[
+            uniform_entry(0, wgpu::ShaderStages::FRAGMENT),
+            texture_entry(1, true),
+            wgpu::BindGroupLayoutEntry {
+                binding: 2,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                count: None,
+            },
+        ],
+    });
+    let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+        label: Some("albedo"),
+        address_mode_u: wgpu::AddressMode::Repeat,
+        address_mode_v: wgpu::AddressMode::Repeat,
+        mag_filter: wgpu::FilterMode::Linear,
+        min_filter: wgpu::FilterMode::Linear,
+        mipmap_filter: wgpu::MipmapFilterMode::Linear,
+        ..Default::default()
+    });
+    let views: Vec<wgpu::TextureView> = scene
+        .textures
+        .iter()
+        .map(|t| textures::upload(device, queue, t))
+        .collect();
+    let white = textures::white(device, queue);
+    let groups = scene
+        .materials
+        .iter()
+        .map(|m| {
+            let uniform = MaterialUniform {
+                kd: m.kd.extend(1.0).to_array(),
+                has_texture: u32::from(m.texture.is_some()),
+                pad: [0; 3],
+            };
+            let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("material"),
+                contents: bytemuck::bytes_of(&uniform),
+                usage: wgpu::BufferUsages::UNIFORM,
+            });
+            let view = m.texture.map_or(&white, |t| &views[t]);
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("material"),
+                layout: &layout,
+                entries: &[
+                    buffer_binding(0, &uniform),
+                    view_binding(1, view),
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: wgpu::BindingResource::Sampler(&sampler),
+                    },
+                ],
+            })
+        })
+        .collect();
+    (layout, groups)
+}
+
 /// The light as the shader reads it: coefficient j's (R, G, B, 0) at j.
 fn light_vectors(light: &LightCoefficients) -> Vec<[f32; 4]> {
     let [r, g, b] = &light.rgb;
@@ -782,129 +611,14 @@ fn light_vectors(light: &LightCoefficients) -> Vec<[f32; 4]> {
         .collect()
 }
 
-/// The readout's characters on a translucent panel, top left.
-fn readout_glyphs(text: &str, scale: f32) -> Vec<GlyphInstance> {
-    let (placed, (w, h)) = font::layout(text);
-    let s = scale;
-    let m = READOUT_MARGIN;
-    let panel = GlyphInstance {
-        origin: [m / 2.0, m / 2.0],
-        size: [w as f32 * s + m, h as f32 * s + m],
-        glyph: font::glyph(font::SOLID),
-        colour: [0.0, 0.0, 0.0, 0.6],
-    };
-    let cell = [font::GLYPH_WIDTH as f32 * s, font::GLYPH_HEIGHT as f32 * s];
-    std::iter::once(panel)
-        .chain(placed.iter().map(|p| GlyphInstance {
-            origin: [m + p.x as f32 * s, m + p.y as f32 * s],
-            size: cell,
-            glyph: p.glyph,
-            colour: [1.0, 1.0, 1.0, 1.0],
-        }))
-        .take(MAX_READOUT_GLYPHS)
-        .collect()
-}
-
-fn depth_view(device: &wgpu::Device, (width, height): (u32, u32)) -> wgpu::TextureView {
-    device
-        .create_texture(&wgpu::TextureDescriptor {
-            label: Some("depth"),
-            size: wgpu::Extent3d {
-                width: width.max(1),
-                height: height.max(1),
-                depth_or_array_layers: 1,
-            },
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: DEPTH_FORMAT,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
-            view_formats: &[],
-        })
-        .create_view(&wgpu::TextureViewDescriptor::default())
-}
-
-fn uniform_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Uniform,
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
-}
-
-fn buffer_binding(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
-    wgpu::BindGroupEntry {
-        binding,
-        resource: buffer.as_entire_binding(),
-    }
-}
-
-/// A shader module of common.wgsl followed by `source`.
-pub(crate) fn shader(device: &wgpu::Device, label: &str, source: &str) -> wgpu::ShaderModule {
-    device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some(label),
-        source: wgpu::ShaderSource::Wgsl(format!("{COMMON_WGSL}\n{source}").into()),
-    })
-}
-
-/// What differs between the renderer's pipelines.
-pub(crate) struct PipelineSpec<'a> {
-    pub label: &'a str,
-    pub layout: &'a wgpu::PipelineLayout,
-    pub module: &'a wgpu::ShaderModule,
-    pub entry_points: (&'a str, &'a str),
-    pub buffers: &'a [Option<wgpu::VertexBufferLayout<'a>>],
-    pub topology: wgpu::PrimitiveTopology,
-    pub format: wgpu::TextureFormat,
-    /// Depth-tested and written (the scene, normals), or drawn over everything.
-    pub depth_test: bool,
-    pub blend: Option<wgpu::BlendState>,
-}
-
-/// A pipeline for the renderer's pass (depth buffer [`DEPTH_FORMAT`]). Both faces are drawn:
-/// the scenes' walls are single planes seen from either side.
-pub(crate) fn pipeline(device: &wgpu::Device, spec: PipelineSpec<'_>) -> wgpu::RenderPipeline {
-    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-        label: Some(spec.label),
-        layout: Some(spec.layout),
-        vertex: wgpu::VertexState {
-            module: spec.module,
-            entry_point: Some(spec.entry_points.0),
-            compilation_options: Default::default(),
-            buffers: spec.buffers,
-        },
-        primitive: wgpu::PrimitiveState {
-            topology: spec.topology,
-            ..Default::default()
-        },
-        depth_stencil: Some(wgpu::DepthStencilState {
-            format: DEPTH_FORMAT,
-            depth_write_enabled: Some(spec.depth_test),
-            depth_compare: Some(if spec.depth_test {
-                wgpu::CompareFunction::LessEqual
-            } else {
-                wgpu::CompareFunction::Always
-            }),
-            stencil: wgpu::StencilState::default(),
-            bias: wgpu::DepthBiasState::default(),
-        }),
-        multisample: wgpu::MultisampleState::default(),
-        fragment: Some(wgpu::FragmentState {
-            module: spec.module,
-            entry_point: Some(spec.entry_points.1),
-            compilation_options: Default::default(),
-            targets: &[Some(wgpu::ColorTargetState {
-                format: spec.format,
-                blend: spec.blend,
-                write_mask: wgpu::ColorWrites::ALL,
-            })],
-        }),
-        multiview_mask: None,
-        cache: None,
-    })
+fn depth_view(device: &wgpu::Device, size: (u32, u32)) -> wgpu::TextureView {
+    texture_2d(
+        device,
+        "depth",
+        size,
+        1,
+        DEPTH_FORMAT,
+        wgpu::TextureUsages::RENDER_ATTACHMENT,
+    )
+    .create_view(&wgpu::TextureViewDescriptor::default())
 }

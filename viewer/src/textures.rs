@@ -9,6 +9,8 @@
 use prt_baker::relight::display_colour;
 use prt_baker::scene::{Texture, srgb_to_linear};
 
+use crate::resources::texture_2d;
+
 /// The mip chain of a texture: level 0 is its pixels; each next level halves both sides
 /// (rounding down, at least 1), averaging up to 2×2 texels in linear light.
 pub fn mip_chain(texture: &Texture) -> Vec<(u32, u32, Vec<[u8; 4]>)> {
@@ -51,20 +53,14 @@ pub fn mip_chain(texture: &Texture) -> Vec<(u32, u32, Vec<[u8; 4]>)> {
 /// Uploads a texture and its mip chain.
 pub fn upload(device: &wgpu::Device, queue: &wgpu::Queue, texture: &Texture) -> wgpu::TextureView {
     let levels = mip_chain(texture);
-    let gpu = device.create_texture(&wgpu::TextureDescriptor {
-        label: Some("albedo"),
-        size: wgpu::Extent3d {
-            width: texture.width,
-            height: texture.height,
-            depth_or_array_layers: 1,
-        },
-        mip_level_count: levels.len() as u32,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format: wgpu::TextureFormat::Rgba8UnormSrgb,
-        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
-        view_formats: &[],
-    });
+    let gpu = texture_2d(
+        device,
+        "albedo",
+        (texture.width, texture.height),
+        levels.len() as u32,
+        wgpu::TextureFormat::Rgba8UnormSrgb,
+        wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+    );
     for (level, (w, h, pixels)) in levels.iter().enumerate() {
         write_level(
             queue,
