@@ -75,7 +75,7 @@ struct Cli {
     #[arg(long, value_name = "KEYS", value_delimiter = ',', value_parser = parse_key)]
     keys: Vec<Key>,
     /// Bench: timed frames per configuration.
-    #[arg(long, value_name = "N", default_value_t = 120)]
+    #[arg(long, value_name = "N", default_value_t = 240)]
     bench_frames: u32,
 }
 
