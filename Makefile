@@ -1,19 +1,22 @@
 # The two commands of the README, and their parts. Every target installs what it needs.
-#   make demo   bake the thesis's demo scene (progress bar), say where the output is
-#   make test   formatting, lints, every test, a build without Embree, the Embree 4 header
-#               check, the independent reference
-#   make bench  the bake benchmark: Embree and obvhs against the raw Embree rate
-#               (docs/performance.md)
+#   make demo        bake the thesis's demo scene (progress bar), then open the viewer on it, or
+#                    without a display render PRT and Blinn-Phong screenshots and say where
+#   make test        formatting, lints, every test, a build without Embree, the Embree 4 header
+#                    check, the independent reference
+#   make bench       the bake benchmark: Embree and obvhs against the raw Embree rate
+#                    (docs/performance.md)
+#   make bench-view  the viewer's frame rates, Blinn-Phong and PRT with 1 and 8 lights (docs/performance.md)
 
 CARGO ?= cargo
 BAKE := target/release/prt-bake
+VIEW := target/release/prt-view
 SCENE := scenes/torus/torus.scene
 # prt-bake without the `embree` feature, built in its own folder so the two builds do not
 # invalidate each other.
 NO_EMBREE := target/no-embree
 NO_EMBREE_BAKE := $(NO_EMBREE)/release/prt-bake
 
-.PHONY: demo test bench deps build lint unit no-embree embree4 reference scenes
+.PHONY: demo test bench bench-view deps build lint unit no-embree embree4 reference scenes
 
 deps:
 	@scripts/install-deps.sh
@@ -21,13 +24,25 @@ deps:
 build: deps
 	$(CARGO) build --release --workspace
 
-demo: build
+out/torus.prt: build
 	@mkdir -p out
 	$(BAKE) bake $(SCENE) -o out/torus.prt --samples 10000
+
+demo: out/torus.prt
 	$(BAKE) export out/torus.prt --scene $(SCENE) --npz out/torus.npz
 	@echo
 	@echo "demo: coefficients in out/torus.prt (header: $(BAKE) inspect out/torus.prt),"
 	@echo "      NumPy arrays (positions, normals, albedo, transfer) in out/torus.npz"
+	@if [ -n "$$DISPLAY" ]; then \
+		echo "demo: opening the viewer (Escape quits; keys in README.md)"; \
+		$(VIEW) $(SCENE) out/torus.prt; \
+	else \
+		$(VIEW) $(SCENE) out/torus.prt --headless --screenshot out/demo-prt.png --mode prt && \
+		$(VIEW) $(SCENE) out/torus.prt --headless --screenshot out/demo-phong.png --mode phong && \
+		echo "demo: no display (DISPLAY is unset), so no window; screenshots:" && \
+		echo "      out/demo-prt.png    PRT" && \
+		echo "      out/demo-phong.png  Blinn-Phong, the same lights"; \
+	fi
 
 lint: deps
 	$(CARGO) fmt --all --check
@@ -62,6 +77,9 @@ test: lint unit no-embree embree4 reference
 
 bench: deps
 	$(CARGO) bench -p prt-baker --bench bake
+
+bench-view: out/torus.prt
+	$(VIEW) $(SCENE) out/torus.prt --bench
 
 # Regenerates the committed demo scenes (a test checks they match the generator).
 scenes:

@@ -1,11 +1,18 @@
 #!/usr/bin/env bash
-# Installs the Debian packages the build needs, only those missing:
-#   libembree-dev  Embree (3.13 on Debian 12, 4.3 on Debian 13): headers and library
-#   libclang-dev   libclang, which bindgen loads to read Embree's headers
+# Installs the Debian packages the build and the tests need, only those missing:
+#   libembree-dev       Embree (3.13 on Debian 12, 4.3 on Debian 13): headers and library
+#   libclang-dev        libclang, which bindgen loads to read Embree's headers
+#   mesa-vulkan-drivers Mesa's Vulkan drivers, lavapipe among them: prt-view and its tests
+#                       render on the CPU where there is no GPU
+#   libvulkan1          the Vulkan loader
+#   xvfb xauth          a virtual X server, for the test of prt-view's window (xvfb-run)
+#   libx11-6 libxcursor1 libxrandr2 libxi6 libxkbcommon-x11-0
+#                       the X11 libraries winit loads at run time
 # The Rust toolchain itself is expected (rustup); python3 for the reference check.
 set -euo pipefail
 
-packages=(libembree-dev libclang-dev)
+packages=(libembree-dev libclang-dev mesa-vulkan-drivers libvulkan1 xvfb xauth
+    libx11-6 libxcursor1 libxrandr2 libxi6 libxkbcommon-x11-0)
 missing=()
 for package in "${packages[@]}"; do
     if ! dpkg-query -W -f='${Status}' "$package" 2>/dev/null | grep -q "install ok installed"; then

@@ -1,0 +1,229 @@
+//! `prt-view --bench`: the thesis's Table 2 — frames per second of Blinn-Phong and PRT with 1
+//! and 8 lights — measured in one run, on one device, along one camera path.
+//!
+//! Every configuration renders the same frames offscreen at the same size: the camera swings
+//! through 60° around the scene, and every light turns a little each frame, so PRT re-rotates
+//! and re-sums its coefficients on the CPU every frame (its whole per-light cost). A frame's
+//! time runs from the start of its update to the GPU's completion of it (waited for), so it is
+//! the frame's full cost, not its submission.
+//!
+//! The configurations take turns in blocks of [`BLOCK`] frames, round after round, and each
+//! reports the median of its frame times. The machines are shared, so taking turns spreads
+//! whatever disturbs the run over every configuration alike, and the median ignores the
+//! frames that another process interrupted. Blocks rather than single frames, because on
+//! lavapipe the frame after a switch from another configuration runs slower (by about 10 %
+//! after Blinn-Phong with 8 lights, the heaviest); in a block only the first frame pays it,
+//! and the median does not see it.
+
+use std::time::Instant;
+
+use glam::Vec3;
+
+use crate::bake::Bake;
+use crate::camera::Camera;
+use crate::controls::{Mode, View};
+use crate::error::{Error, Result};
+use crate::gpu::Gpu;
+use crate::lights::Lights;
+use crate::offscreen::{self, Offscreen};
+use crate::renderer::{FrameInputs, Renderer};
+
+/// The light counts the thesis measured.
+pub const LIGHT_COUNTS: [usize; 2] = [1, 8];
+/// Targets of issue 6: PRT's frame rate barely changes with the number of lights, and PRT is
+/// at least as fast as Blinn-Phong with 8 lights.
+pub const PRT_LIGHT_RATIO_TARGET: f64 = 0.95;
+pub const PRT_OVER_PHONG_TARGET: f64 = 1.0;
+/// How far the lights turn per frame.
+const LIGHT_DEGREES_PER_FRAME: f64 = 1.0;
+/// The camera path: an arc of this many degrees about the scene's vertical axis.
+const CAMERA_ARC_DEGREES: f32 = 60.0;
+
+/// Frames each configuration renders before the timed ones (pipelines compiled, caches
+/// filled).
+const WARM_UP_FRAMES: u32 = 5;
+/// Frames a configuration renders in a row before the next takes its turn.
+pub const BLOCK: u32 = 8;
+
+#[derive(Clone, Copy, Debug)]
+pub struct BenchOptions {
+    pub size: (u32, u32),
+    /// Timed frames per configuration.
+    pub frames: u32,
+}
+
+/// One configuration's frame times.
+#[derive(Clone, Debug)]
+pub struct Measurement {
+    pub mode: Mode,
+    pub lights: usize,
+    /// Seconds per frame, in frame order.
+    pub frame_seconds: Vec<f64>,
+}
+
+impl Measurement {
+    /// Frames per second: one over the median frame time.
+    pub fn fps(&self) -> f64 {
+        let mut times = self.frame_seconds.clone();
+        times.sort_by(f64::total_cmp);
+        let n = times.len();
+        if n == 0 {
+            return f64::NAN;
+        }
+        let median = if n % 2 == 1 {
+            times[n / 2]
+        } else {
+            0.5 * (times[n / 2 - 1] + times[n / 2])
+        };
+        1.0 / median
+    }
+}
+
+/// A benchmark run.
+#[derive(Clone, Debug)]
+pub struct BenchReport {
+    pub device: String,
+    pub options: BenchOptions,
+    pub vertices: usize,
+    pub triangles: usize,
+    pub order: usize,
+    pub measurements: Vec<Measurement>,
+}
+
+impl BenchReport {
+    pub fn fps(&self, mode: Mode, lights: usize) -> f64 {
+        self.measurements
+            .iter()
+            .find(|m| m.mode == mode && m.lights == lights)
+            .map_or(f64::NAN, Measurement::fps)
+    }
+
+    /// PRT with 8 lights over PRT with 1.
+    pub fn prt_light_ratio(&self) -> f64 {
+        self.fps(Mode::Prt, 8) / self.fps(Mode::Prt, 1)
+    }
+
+    /// PRT over Blinn-Phong, both with 8 lights.
+    pub fn prt_over_phong(&self) -> f64 {
+        self.fps(Mode::Prt, 8) / self.fps(Mode::Phong, 8)
+    }
+
+    /// The table, as Markdown, with the two ratios and their targets.
+    pub fn table(&self) -> String {
+        let (w, h) = self.options.size;
+        let mut text = format!(
+            "prt-view --bench: {} vertices, {} triangles, order {}, {w}×{h}, {} frames per configuration in turns of {BLOCK} (fps = 1 / median frame time)\n\
+             device: {}\n\n\
+             | model | 1 light | 8 lights |\n|---|---:|---:|\n",
+            self.vertices, self.triangles, self.order, self.options.frames, self.device
+        );
+        for mode in [Mode::Phong, Mode::Prt] {
+            text += &format!(
+                "| {} | {:.1} | {:.1} |\n",
+                mode.name(),
+                self.fps(mode, 1),
+                self.fps(mode, 8)
+            );
+        }
+        let verdict = |ok: bool| if ok { "met" } else { "NOT MET" };
+        let (a, b) = (self.prt_light_ratio(), self.prt_over_phong());
+        text += &format!(
+            "\nPRT, 8 lights / 1 light: {a:.3} (target ≥ {PRT_LIGHT_RATIO_TARGET}: {})\n\
+             PRT / Blinn-Phong, 8 lights: {b:.3} (target ≥ {PRT_OVER_PHONG_TARGET}: {})",
+            verdict(a >= PRT_LIGHT_RATIO_TARGET),
+            verdict(b >= PRT_OVER_PHONG_TARGET)
+        );
+        text
+    }
+}
+
+/// The camera of frame `k` of `frames`: the default framing swung about the vertical axis
+/// through the scene's centre.
+fn camera_on_path(framing: &Camera, centre: Vec3, k: u32, frames: u32) -> Camera {
+    let t = k as f32 / frames.max(1) as f32 - 0.5;
+    let angle = (CAMERA_ARC_DEGREES * t).to_radians();
+    let offset = glam::Quat::from_rotation_z(angle) * (framing.position - centre);
+    Camera::looking_at(centre + offset, centre, framing.scale)
+}
+
+/// Runs the benchmark on `gpu`.
+pub fn run(gpu: &Gpu, bake: &Bake, options: BenchOptions) -> Result<BenchReport> {
+    if options.frames == 0 {
+        return Err(Error::InvalidOption(
+            "--bench-frames must be at least 1".into(),
+        ));
+    }
+    let (device, queue) = (&gpu.device, &gpu.queue);
+    let mut renderer = Renderer::new(device, queue, bake, offscreen::FORMAT, options.size)?;
+    let target = Offscreen::new(device, options.size);
+    let (w, h) = options.size;
+    let framing = Camera::framing(&bake.scene.positions, w as f32 / h as f32);
+    let bounds = bake.scene.bounds();
+    let centre = 0.5 * (bounds.0 + bounds.1);
+    let mut views: Vec<View> = [Mode::Phong, Mode::Prt]
+        .into_iter()
+        .flat_map(|mode| {
+            LIGHT_COUNTS.map(|count| {
+                let mut view = View::new(framing, Lights::suns(count, bake.order()));
+                view.mode = mode;
+                view
+            })
+        })
+        .collect();
+    let mut times = vec![Vec::with_capacity(options.frames as usize); views.len()];
+    let frames = WARM_UP_FRAMES + options.frames;
+    for first in (0..frames).step_by(BLOCK as usize) {
+        for (view, times) in views.iter_mut().zip(&mut times) {
+            for k in first..(first + BLOCK).min(frames) {
+                let started = Instant::now();
+                view.camera = camera_on_path(&framing, centre, k, frames);
+                for light in view.lights.iter_mut() {
+                    light.steerable.phi += LIGHT_DEGREES_PER_FRAME.to_radians();
+                }
+                renderer.update(queue, &FrameInputs::from_view(view, None));
+                renderer.render(&target.view, device, queue);
+                device
+                    .poll(wgpu::PollType::wait_indefinitely())
+                    .map_err(|err| Error::Gpu(format!("waiting for a frame: {err}")))?;
+                if k >= WARM_UP_FRAMES {
+                    times.push(started.elapsed().as_secs_f64());
+                }
+            }
+        }
+    }
+    let measurements = views
+        .iter()
+        .zip(times)
+        .map(|(view, frame_seconds)| Measurement {
+            mode: view.mode,
+            lights: view.lights.len(),
+            frame_seconds,
+        })
+        .collect();
+    Ok(BenchReport {
+        device: gpu.description(),
+        options,
+        vertices: bake.scene.vertex_count(),
+        triangles: bake.scene.triangles.len(),
+        order: bake.order(),
+        measurements,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fps_is_one_over_the_median_frame_time() {
+        let m = |frame_seconds: Vec<f64>| Measurement {
+            mode: Mode::Prt,
+            lights: 1,
+            frame_seconds,
+        };
+        // One frame interrupted by another process does not move the median.
+        assert_eq!(m(vec![0.02, 0.5, 0.02]).fps(), 50.0);
+        assert_eq!(m(vec![0.01, 0.03]).fps(), 50.0);
+        assert!(m(vec![]).fps().is_nan());
+    }
+}

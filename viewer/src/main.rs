@@ -1,0 +1,187 @@
+//! `prt-view`: shows a baked scene in real time, PRT against Blinn-Phong, with the thesis's
+//! controls; renders screenshots without a display; measures frame rates.
+//! Everything it does is a library call; this file parses arguments and reports.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, ValueEnum};
+use prt_viewer::bench::{self, BenchOptions};
+use prt_viewer::lights::{Lights, MAX_LIGHTS};
+use prt_viewer::offscreen;
+use prt_viewer::window::{self, WindowOptions};
+use prt_viewer::{Bake, Camera, Error, FrameInputs, Gpu, Key, Mode, Renderer, View};
+
+/// Exit codes, as `prt-bake`'s: 0 success, 1 failure, 2 bad command line, 3 bad input files.
+const EXIT_FAILURE: u8 = 1;
+const EXIT_BAD_INPUT: u8 = 3;
+
+#[derive(Parser)]
+#[command(
+    name = "prt-view",
+    version,
+    about = "Real-time viewer of PRT bakes: PRT against Blinn-Phong, with the thesis's controls",
+    after_help = "Controls: arrows move, left-drag turns, 1-8 select a light, Q/A its theta, W/E its phi, \
+                  T textures, N normals, L light vectors, F1 Blinn-Phong, F2 PRT, Escape quits."
+)]
+struct Cli {
+    /// The scene the coefficient file was baked from.
+    scene: PathBuf,
+    /// The .prt coefficient file.
+    file: PathBuf,
+    /// Light rig (TOML, docs/lights.md); a sun and a sky if not given.
+    #[arg(long, value_name = "RIG.toml")]
+    lights: Option<PathBuf>,
+    /// Render one frame without a display (needs --screenshot).
+    #[arg(long, requires = "screenshot")]
+    headless: bool,
+    /// With --headless: write the frame here as PNG.
+    #[arg(long, value_name = "OUT.png", requires = "headless")]
+    screenshot: Option<PathBuf>,
+    /// Print a frame-rate table of Blinn-Phong and PRT with 1 and 8 lights (offscreen).
+    #[arg(long, conflicts_with_all = ["headless", "frames", "keys"])]
+    bench: bool,
+    /// Image or initial window size.
+    #[arg(long, value_name = "WxH", default_value = "1280x720", value_parser = parse_size)]
+    size: (u32, u32),
+    /// Shading model of the first frame.
+    #[arg(long, value_enum, default_value_t = ModeArg::Prt)]
+    mode: ModeArg,
+    /// Camera position and direction, angles in degrees (yaw from +x towards +y, pitch up);
+    /// a view of the whole scene if not given.
+    #[arg(long, value_name = "X,Y,Z,YAW,PITCH", allow_hyphen_values = true)]
+    camera: Option<String>,
+    /// Exposure in stops (radiance × 2^EV before clamping), as `prt-bake relight --exposure`.
+    #[arg(
+        long,
+        value_name = "EV",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
+    )]
+    exposure: f32,
+    /// Start with textures off (T toggles).
+    #[arg(long)]
+    no_textures: bool,
+    /// Start with normals drawn (N toggles).
+    #[arg(long)]
+    normals: bool,
+    /// Start with light vectors drawn (L toggles).
+    #[arg(long)]
+    light_vectors: bool,
+    /// Window: quit after N frames.
+    #[arg(long, value_name = "N")]
+    frames: Option<u64>,
+    /// Window: keys pressed one per frame from the first, e.g. F1,Q,Q,2,F2,Escape.
+    #[arg(long, value_name = "KEYS", value_delimiter = ',', value_parser = parse_key)]
+    keys: Vec<Key>,
+    /// Bench: timed frames per configuration.
+    #[arg(long, value_name = "N", default_value_t = 240)]
+    bench_frames: u32,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum ModeArg {
+    Prt,
+    Phong,
+}
+
+fn parse_size(text: &str) -> Result<(u32, u32), String> {
+    let (w, h) = text
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("expected WxH, e.g. 1280x720, not {text}"))?;
+    let parse = |s: &str| match s.trim().parse::<u32>() {
+        Ok(n @ 1..=16384) => Ok(n),
+        _ => Err(format!("{s} is not a size from 1 to 16384")),
+    };
+    Ok((parse(w)?, parse(h)?))
+}
+
+fn parse_key(text: &str) -> Result<Key, String> {
+    Key::parse(text).ok_or_else(|| {
+        format!(
+            "unknown key {text} (Up, Down, Left, Right, 1-8, Q, A, W, E, T, N, L, F1, F2, Escape)"
+        )
+    })
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(err) => {
+            eprintln!("prt-view: error: {err}");
+            ExitCode::from(if err.is_bad_input() {
+                EXIT_BAD_INPUT
+            } else {
+                EXIT_FAILURE
+            })
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<(), Error> {
+    let bake = Bake::load(&cli.scene, &cli.file)?;
+    let lights = Lights::load(cli.lights.as_deref(), bake.order())?;
+    let dropped = lights.phong().dropped;
+    if dropped > 0 {
+        eprintln!(
+            "prt-view: Blinn-Phong mode shows the first {MAX_LIGHTS} directional and hemisphere lights; {dropped} more are left out (PRT shows them all)"
+        );
+    }
+    let framing = Camera::framing(&bake.scene.positions, cli.size.0 as f32 / cli.size.1 as f32);
+    let camera = match &cli.camera {
+        Some(text) => Camera::parse(text, framing.scale)?,
+        None => framing,
+    };
+    let mut view = View::new(camera, lights);
+    view.mode = match cli.mode {
+        ModeArg::Prt => Mode::Prt,
+        ModeArg::Phong => Mode::Phong,
+    };
+    view.textures = !cli.no_textures;
+    view.normals = cli.normals;
+    view.light_vectors = cli.light_vectors;
+    view.exposure = cli.exposure;
+
+    if cli.bench {
+        let gpu = Gpu::headless()?;
+        let options = BenchOptions {
+            size: cli.size,
+            frames: cli.bench_frames,
+        };
+        println!("{}", bench::run(&gpu, &bake, options)?.table());
+        return Ok(());
+    }
+    if let Some(path) = &cli.screenshot {
+        let gpu = Gpu::headless()?;
+        let mut renderer =
+            Renderer::new(&gpu.device, &gpu.queue, &bake, offscreen::FORMAT, cli.size)?;
+        let inputs = FrameInputs::from_view(&view, None);
+        let image = offscreen::render_image(&gpu.device, &gpu.queue, &mut renderer, &inputs)?;
+        offscreen::save_png(&image, path)?;
+        println!(
+            "prt-view: wrote {} ({}×{}, {}, camera {}; {})",
+            path.display(),
+            cli.size.0,
+            cli.size.1,
+            view.mode.name(),
+            view.camera.to_argument(),
+            gpu.description()
+        );
+        return Ok(());
+    }
+    let options = WindowOptions {
+        size: cli.size,
+        frames: cli.frames,
+        keys: cli.keys,
+    };
+    let stats = window::run(bake, view, options)?;
+    println!(
+        "prt-view: {} frames in {:.2} s ({:.1} fps{})",
+        stats.frames,
+        stats.seconds,
+        stats.frames as f64 / stats.seconds.max(1e-9),
+        stats.backend.map_or(String::new(), |b| format!(", {b:?}"))
+    );
+    Ok(())
+}

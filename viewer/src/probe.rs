@@ -1,0 +1,106 @@
+//! Reading back what the PRT vertex shader computes, vertex by vertex, so tests can compare
+//! it with the CPU reference (`prt_baker::relight::vertex_radiance`).
+//!
+//! A debug pipeline draws vertex v as a single point at pixel (v mod 256, v div 256) of a
+//! 32-bit float target, coloured with `prt_radiance(v)` — the same WGSL function the PRT
+//! vertex shader calls — before albedo and tone mapping. Nothing is interpolated (the
+//! output is flat) and nothing is rounded to 8 bits, so what comes back is the shader's own
+//! f32 result.
+
+use crate::error::Result;
+use crate::offscreen::read_texture;
+use crate::renderer::Renderer;
+use crate::resources::{readable_target, scene_shader};
+
+/// Points per row; `PROBE_WIDTH` in probe.wgsl.
+pub const WIDTH: u32 = 256;
+const FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+
+/// Σ_j T_j·L_j per channel for every vertex, as the GPU computes it for the light last given
+/// to [`Renderer::update`].
+pub fn vertex_radiance(
+    renderer: &Renderer,
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+) -> Result<Vec<[f32; 3]>> {
+    let count = renderer.vertex_count();
+    let rows = count.div_ceil(WIDTH).max(1);
+    let (target, view) = readable_target(device, "probe", (WIDTH, rows), FORMAT);
+    let (frame_layout, frame_bind_group) = renderer.frame_bindings();
+    let module = scene_shader(device, "probe", include_str!("shaders/probe.wgsl"));
+    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("probe"),
+        bind_group_layouts: &[Some(frame_layout)],
+        immediate_size: 0,
+    });
+    let constants = [("PROBE_ROWS", f64::from(rows))];
+    let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some("probe"),
+        layout: Some(&layout),
+        vertex: wgpu::VertexState {
+            module: &module,
+            entry_point: Some("vs_probe"),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants: &constants,
+                zero_initialize_workgroup_memory: false,
+            },
+            buffers: &[],
+        },
+        primitive: wgpu::PrimitiveState {
+            topology: wgpu::PrimitiveTopology::PointList,
+            ..Default::default()
+        },
+        depth_stencil: None,
+        multisample: wgpu::MultisampleState::default(),
+        fragment: Some(wgpu::FragmentState {
+            module: &module,
+            entry_point: Some("fs_probe"),
+            compilation_options: Default::default(),
+            targets: &[Some(wgpu::ColorTargetState {
+                format: FORMAT,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            })],
+        }),
+        multiview_mask: None,
+        cache: None,
+    });
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+        label: Some("probe"),
+    });
+    {
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("probe"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    // A vertex that drew no point reads back as NaN and fails any comparison.
+                    load: wgpu::LoadOp::Clear(wgpu::Color {
+                        r: f64::NAN,
+                        g: f64::NAN,
+                        b: f64::NAN,
+                        a: f64::NAN,
+                    }),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: None,
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, frame_bind_group, &[]);
+        pass.draw(0..count, 0..1);
+    }
+    queue.submit([encoder.finish()]);
+    let bytes = read_texture(device, queue, &target, 16)?;
+    // Copied into f32s: the byte vector need not be 4-aligned.
+    let texels: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&bytes);
+    Ok(texels[..count as usize]
+        .iter()
+        .map(|[r, g, b, _]| [*r, *g, *b])
+        .collect())
+}

@@ -1,0 +1,624 @@
+//! The renderer: `new` / `resize` / `update` / `render(&TextureView, &Device, &Queue)`.
+//!
+//! One vertex buffer (position, normal, uv) and one index buffer hold the scene; the
+//! coefficient file's payload goes to a storage buffer unchanged, and the summed light
+//! (n² × RGB) to another, which the PRT vertex shader reads by vertex index. Each object is
+//! drawn with its material's bind group (Kd, texture). Normals, light vectors and the
+//! readout are drawn on top.
+
+use std::ops::Range;
+
+use bytemuck::{Pod, Zeroable};
+use glam::{Vec3, Vec4};
+use prt_baker::light::LightCoefficients;
+use wgpu::util::DeviceExt;
+
+use crate::bake::Bake;
+use crate::camera::Camera;
+use crate::controls::{Mode, View};
+use crate::error::{Error, Result};
+use crate::lights::{MAX_LIGHTS, PhongLights, PhongShape};
+use crate::overlay::Overlay;
+use crate::resources::{
+    DEPTH_FORMAT, PipelineSpec, buffer_binding, pipeline, scene_shader, texture_2d, texture_entry,
+    uniform_buffer, uniform_entry, view_binding,
+};
+use crate::textures;
+
+/// Behind the scene: a dark grey, linear.
+const BACKGROUND: wgpu::Color = wgpu::Color {
+    r: 0.02,
+    g: 0.02,
+    b: 0.025,
+    a: 1.0,
+};
+/// Drawn normals, as a fraction of the scene's radius.
+const NORMAL_LENGTH: f32 = 0.03;
+/// Light vectors the renderer has room for (one line each).
+const LIGHT_VECTOR_CAPACITY: usize = 64;
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct Vertex {
+    position: [f32; 3],
+    normal: [f32; 3],
+    uv: [f32; 2],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct LineVertex {
+    position: [f32; 3],
+    colour: [f32; 4],
+}
+
+/// `PhongLight` of common.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+struct PhongLightUniform {
+    direction: [f32; 4],
+    colour: [f32; 4],
+    ground: [f32; 4],
+}
+
+/// `Frame` of common.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct FrameUniform {
+    view_projection: [[f32; 4]; 4],
+    camera_position: [f32; 4],
+    coefficient_count: u32,
+    channels: u32,
+    use_textures: u32,
+    exposure_scale: f32,
+    light_count: u32,
+    pad: [u32; 3],
+    ambient: [f32; 4],
+    lights: [PhongLightUniform; MAX_LIGHTS],
+}
+
+/// `Material` of common.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+struct MaterialUniform {
+    kd: [f32; 4],
+    has_texture: u32,
+    pad: [u32; 3],
+}
+
+/// Everything one frame shows, taken from a [`View`] (or built by a test).
+#[derive(Clone, Debug)]
+pub struct FrameInputs {
+    pub camera: Camera,
+    pub mode: Mode,
+    pub textures: bool,
+    pub normals: bool,
+    pub light_vectors: bool,
+    /// Exposure in stops.
+    pub exposure: f32,
+    /// PRT's light: the summed, rotated coefficients (of the bake's order).
+    pub prt_light: LightCoefficients,
+    pub phong: PhongLights,
+    /// Light vectors to draw: direction, colour, whether it is the active light.
+    pub light_lines: Vec<(Vec3, Vec3, bool)>,
+    /// Text drawn in the top-left corner.
+    pub readout: Option<String>,
+}
+
+impl FrameInputs {
+    /// The frame of a view; `readout` is drawn over it if given.
+    pub fn from_view(view: &View, readout: Option<String>) -> FrameInputs {
+        FrameInputs {
+            camera: view.camera,
+            mode: view.mode,
+            textures: view.textures,
+            normals: view.normals,
+            light_vectors: view.light_vectors,
+            exposure: view.exposure,
+            prt_light: view.lights.prt(),
+            phong: view.lights.phong(),
+            light_lines: view
+                .lights
+                .iter()
+                .enumerate()
+                .filter(|(_, l)| l.is_directed())
+                .map(|(i, l)| (l.direction(), l.display_colour(), i == view.active_light))
+                .collect(),
+            readout,
+        }
+    }
+}
+
+/// One draw call: an object's triangles and its material.
+#[derive(Clone, Debug)]
+struct Draw {
+    indices: Range<u32>,
+    material: usize,
+}
+
+/// The scene on the GPU and the pipelines that draw it.
+#[derive(Debug)]
+pub struct Renderer {
+    format: wgpu::TextureFormat,
+    size: (u32, u32),
+    depth: wgpu::TextureView,
+    order: usize,
+    channels: usize,
+    vertex_count: u32,
+    centre: Vec3,
+    radius: f32,
+
+    frame_layout: wgpu::BindGroupLayout,
+    frame_buffer: wgpu::Buffer,
+    light_buffer: wgpu::Buffer,
+    frame_bind_group: wgpu::BindGroup,
+    vertices: wgpu::Buffer,
+    indices: wgpu::Buffer,
+    draws: Vec<Draw>,
+    materials: Vec<wgpu::BindGroup>,
+    prt: wgpu::RenderPipeline,
+    phong: wgpu::RenderPipeline,
+
+    normal_lines: wgpu::Buffer,
+    light_lines: wgpu::Buffer,
+    light_line_vertices: u32,
+    lines_depth_tested: wgpu::RenderPipeline,
+    lines_on_top: wgpu::RenderPipeline,
+
+    overlay: Overlay,
+
+    mode: Mode,
+    normals: bool,
+    light_vectors: bool,
+}
+
+impl Renderer {
+    /// Uploads the scene and its transfer and builds the pipelines for a colour target of
+    /// `format` (an sRGB format, so the tone-mapped linear colour is encoded on store) and
+    /// `size` in pixels.
+    pub fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        bake: &Bake,
+        format: wgpu::TextureFormat,
+        size: (u32, u32),
+    ) -> Result<Renderer> {
+        let scene = &bake.scene;
+        let order = bake.order();
+        let n2 = order * order;
+        let transfer_bytes = std::mem::size_of_val(bake.file.coefficients.as_slice()) as u64;
+        let limits = device.limits();
+        let limit = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size);
+        if transfer_bytes > limit {
+            return Err(Error::Device(format!(
+                "{}: the transfer takes {transfer_bytes} bytes, more than the device's largest storage buffer ({limit} bytes)",
+                bake.file_path.display()
+            )));
+        }
+
+        let vertices: Vec<Vertex> = (0..scene.vertex_count())
+            .map(|v| Vertex {
+                position: scene.positions[v].to_array(),
+                normal: scene.normals[v].to_array(),
+                uv: scene.uvs[v].to_array(),
+            })
+            .collect();
+        let indices: Vec<u32> = scene.triangles.iter().flatten().copied().collect();
+        let buffer = |label, contents: &[u8], usage| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage,
+            })
+        };
+        let vertex_buffer = buffer(
+            "vertices",
+            bytemuck::cast_slice(&vertices),
+            wgpu::BufferUsages::VERTEX,
+        );
+        let index_buffer = buffer(
+            "indices",
+            bytemuck::cast_slice(&indices),
+            wgpu::BufferUsages::INDEX,
+        );
+        let transfer = buffer(
+            "transfer",
+            bytemuck::cast_slice(&bake.file.coefficients),
+            wgpu::BufferUsages::STORAGE,
+        );
+        let light_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("light"),
+            size: (n2 * 16) as u64,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let frame_buffer = uniform_buffer(device, "frame", std::mem::size_of::<FrameUniform>());
+
+        let vertex_and_fragment = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
+        let storage = |binding| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::VERTEX,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only: true },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let frame_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("frame"),
+            entries: &[
+                uniform_entry(0, vertex_and_fragment),
+                storage(1),
+                storage(2),
+            ],
+        });
+        let frame_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("frame"),
+            layout: &frame_layout,
+            entries: &[
+                buffer_binding(0, &frame_buffer),
+                buffer_binding(1, &transfer),
+                buffer_binding(2, &light_buffer),
+            ],
+        });
+
+        let (material_layout, materials) = materials(device, queue, scene);
+        let draws = scene
+            .objects
+            .iter()
+            .filter(|o| !o.triangles.is_empty())
+            .map(|o| Draw {
+                indices: 3 * o.triangles.start..3 * o.triangles.end,
+                material: scene.vertex_material[o.vertices.start as usize] as usize,
+            })
+            .collect();
+
+        let scene_module = scene_shader(device, "scene", include_str!("shaders/scene.wgsl"));
+        let vertex_layout = wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<Vertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x2],
+        };
+        let scene_pipeline = |vs, fs| {
+            pipeline(
+                device,
+                PipelineSpec {
+                    label: vs,
+                    bind_group_layouts: &[Some(&frame_layout), Some(&material_layout)],
+                    module: &scene_module,
+                    entry_points: (vs, fs),
+                    buffers: &[Some(vertex_layout.clone())],
+                    topology: wgpu::PrimitiveTopology::TriangleList,
+                    format,
+                    depth_test: true,
+                    blend: None,
+                },
+            )
+        };
+        let prt = scene_pipeline("vs_prt", "fs_prt");
+        let phong = scene_pipeline("vs_phong", "fs_phong");
+
+        let (centre, radius) = {
+            let (lo, hi) = scene.bounds();
+            (0.5 * (lo + hi), (0.5 * (hi - lo).length()).max(1e-6))
+        };
+        let normal_lines: Vec<LineVertex> = (0..scene.vertex_count())
+            .flat_map(|v| {
+                let (p, n) = (scene.positions[v], scene.normals[v]);
+                let colour = (0.5 * n + Vec3::splat(0.5)).extend(1.0).to_array();
+                [p, p + n * NORMAL_LENGTH * radius].map(|q| LineVertex {
+                    position: q.to_array(),
+                    colour,
+                })
+            })
+            .collect();
+        let normal_lines = buffer(
+            "normals",
+            bytemuck::cast_slice(&normal_lines),
+            wgpu::BufferUsages::VERTEX,
+        );
+        let light_lines = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("light vectors"),
+            size: (LIGHT_VECTOR_CAPACITY * 2 * std::mem::size_of::<LineVertex>()) as u64,
+            usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let lines_module = scene_shader(device, "lines", include_str!("shaders/lines.wgsl"));
+        let line_vertex_layout = wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<LineVertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x4],
+        };
+        let line_pipeline = |depth_test| {
+            pipeline(
+                device,
+                PipelineSpec {
+                    label: "lines",
+                    bind_group_layouts: &[Some(&frame_layout)],
+                    module: &lines_module,
+                    entry_points: ("vs_line", "fs_line"),
+                    buffers: &[Some(line_vertex_layout.clone())],
+                    topology: wgpu::PrimitiveTopology::LineList,
+                    format,
+                    depth_test,
+                    blend: None,
+                },
+            )
+        };
+        let lines_depth_tested = line_pipeline(true);
+        let lines_on_top = line_pipeline(false);
+        Ok(Renderer {
+            format,
+            size,
+            depth: depth_view(device, size),
+            order,
+            channels: bake.channels(),
+            vertex_count: scene.vertex_count() as u32,
+            centre,
+            radius,
+            frame_layout,
+            frame_buffer,
+            light_buffer,
+            frame_bind_group,
+            vertices: vertex_buffer,
+            indices: index_buffer,
+            draws,
+            materials,
+            prt,
+            phong,
+            normal_lines,
+            light_lines,
+            light_line_vertices: 0,
+            lines_depth_tested,
+            lines_on_top,
+            overlay: Overlay::new(device, queue, format),
+            mode: Mode::Prt,
+            normals: false,
+            light_vectors: false,
+        })
+    }
+
+    /// The colour format the pipelines write.
+    pub fn format(&self) -> wgpu::TextureFormat {
+        self.format
+    }
+
+    /// The target size in pixels.
+    pub fn size(&self) -> (u32, u32) {
+        self.size
+    }
+
+    /// A new target size: recreates the depth buffer.
+    pub fn resize(&mut self, device: &wgpu::Device, size: (u32, u32)) {
+        if size != self.size {
+            self.size = size;
+            self.depth = depth_view(device, size);
+        }
+    }
+
+    /// Uploads one frame's camera, lights, toggles and readout.
+    pub fn update(&mut self, queue: &wgpu::Queue, inputs: &FrameInputs) {
+        assert_eq!(
+            inputs.prt_light.order(),
+            self.order,
+            "the light's order must be the transfer's"
+        );
+        let (w, h) = self.size;
+        let aspect = w as f32 / h.max(1) as f32;
+        let mut lights = [PhongLightUniform::default(); MAX_LIGHTS];
+        for (uniform, light) in lights.iter_mut().zip(&inputs.phong.lights) {
+            let (kind, colour, ground) = match light.shape {
+                PhongShape::Directional { irradiance } => (0.0, irradiance, Vec3::ZERO),
+                PhongShape::Hemisphere { sky, ground } => (1.0, sky, ground),
+                PhongShape::Ambient { radiance } => (0.0, radiance, Vec3::ZERO),
+            };
+            *uniform = PhongLightUniform {
+                direction: light.direction.extend(kind).to_array(),
+                colour: colour.extend(0.0).to_array(),
+                ground: ground.extend(0.0).to_array(),
+            };
+        }
+        let frame = FrameUniform {
+            view_projection: inputs.camera.view_projection(aspect).to_cols_array_2d(),
+            camera_position: inputs.camera.position.extend(1.0).to_array(),
+            coefficient_count: (self.order * self.order) as u32,
+            channels: self.channels as u32,
+            use_textures: u32::from(inputs.textures),
+            exposure_scale: inputs.exposure.exp2(),
+            light_count: inputs.phong.lights.len().min(MAX_LIGHTS) as u32,
+            pad: [0; 3],
+            ambient: inputs.phong.ambient.extend(0.0).to_array(),
+            lights,
+        };
+        queue.write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&frame));
+        queue.write_buffer(
+            &self.light_buffer,
+            0,
+            bytemuck::cast_slice(&light_vectors(&inputs.prt_light)),
+        );
+
+        let lines: Vec<LineVertex> = inputs
+            .light_lines
+            .iter()
+            .take(LIGHT_VECTOR_CAPACITY)
+            .flat_map(|(direction, colour, active)| {
+                let colour = if *active {
+                    Vec4::new(1.0, 1.0, 0.0, 1.0)
+                } else {
+                    colour.extend(1.0)
+                };
+                [self.centre, self.centre + *direction * self.radius].map(|p| LineVertex {
+                    position: p.to_array(),
+                    colour: colour.to_array(),
+                })
+            })
+            .collect();
+        queue.write_buffer(&self.light_lines, 0, bytemuck::cast_slice(&lines));
+        self.light_line_vertices = lines.len() as u32;
+
+        self.overlay
+            .update(queue, inputs.readout.as_deref(), self.size);
+
+        self.mode = inputs.mode;
+        self.normals = inputs.normals;
+        self.light_vectors = inputs.light_vectors;
+    }
+
+    /// Draws the frame last given to [`Renderer::update`] into `target` (of the renderer's
+    /// format and size) and submits it.
+    pub fn render(&self, target: &wgpu::TextureView, device: &wgpu::Device, queue: &wgpu::Queue) {
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("frame"),
+        });
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("frame"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: target,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(BACKGROUND),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &self.depth,
+                    depth_ops: Some(wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(1.0),
+                        store: wgpu::StoreOp::Discard,
+                    }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(match self.mode {
+                Mode::Prt => &self.prt,
+                Mode::Phong => &self.phong,
+            });
+            pass.set_bind_group(0, &self.frame_bind_group, &[]);
+            pass.set_vertex_buffer(0, self.vertices.slice(..));
+            pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
+            for draw in &self.draws {
+                pass.set_bind_group(1, &self.materials[draw.material], &[]);
+                pass.draw_indexed(draw.indices.clone(), 0, 0..1);
+            }
+            if self.normals {
+                pass.set_pipeline(&self.lines_depth_tested);
+                pass.set_vertex_buffer(0, self.normal_lines.slice(..));
+                pass.draw(0..2 * self.vertex_count, 0..1);
+            }
+            if self.light_vectors && self.light_line_vertices > 0 {
+                pass.set_pipeline(&self.lines_on_top);
+                pass.set_vertex_buffer(0, self.light_lines.slice(..));
+                pass.draw(0..self.light_line_vertices, 0..1);
+            }
+            self.overlay.draw(&mut pass);
+        }
+        queue.submit([encoder.finish()]);
+    }
+
+    /// The frame bind group's layout and the bind group (transfer, light, frame uniform), for
+    /// the probe.
+    pub(crate) fn frame_bindings(&self) -> (&wgpu::BindGroupLayout, &wgpu::BindGroup) {
+        (&self.frame_layout, &self.frame_bind_group)
+    }
+
+    pub fn vertex_count(&self) -> u32 {
+        self.vertex_count
+    }
+}
+
+/// The materials' bind group layout, and one bind group per material: Kd, the texture
+/// (white where there is none) and a trilinear, repeating sampler.
+fn materials(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    scene: &prt_baker::Scene,
+) -> (wgpu::BindGroupLayout, Vec<wgpu::BindGroup>) {
+    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("material"),
+        entries: &[
+            uniform_entry(0, wgpu::ShaderStages::FRAGMENT),
+            texture_entry(1, true),
+            wgpu::BindGroupLayoutEntry {
+                binding: 2,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+                count: None,
+            },
+        ],
+    });
+    let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
+        label: Some("albedo"),
+        address_mode_u: wgpu::AddressMode::Repeat,
+        address_mode_v: wgpu::AddressMode::Repeat,
+        mag_filter: wgpu::FilterMode::Linear,
+        min_filter: wgpu::FilterMode::Linear,
+        mipmap_filter: wgpu::MipmapFilterMode::Linear,
+        ..Default::default()
+    });
+    let views: Vec<wgpu::TextureView> = scene
+        .textures
+        .iter()
+        .map(|t| textures::upload(device, queue, t))
+        .collect();
+    let white = textures::white(device, queue);
+    let groups = scene
+        .materials
+        .iter()
+        .map(|m| {
+            let uniform = MaterialUniform {
+                kd: m.kd.extend(1.0).to_array(),
+                has_texture: u32::from(m.texture.is_some()),
+                pad: [0; 3],
+            };
+            let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("material"),
+                contents: bytemuck::bytes_of(&uniform),
+                usage: wgpu::BufferUsages::UNIFORM,
+            });
+            let view = m.texture.map_or(&white, |t| &views[t]);
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("material"),
+                layout: &layout,
+                entries: &[
+                    buffer_binding(0, &uniform),
+                    view_binding(1, view),
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: wgpu::BindingResource::Sampler(&sampler),
+                    },
+                ],
+            })
+        })
+        .collect();
+    (layout, groups)
+}
+
+/// The light as the shader reads it: coefficient j's (R, G, B, 0) at j.
+fn light_vectors(light: &LightCoefficients) -> Vec<[f32; 4]> {
+    let [r, g, b] = &light.rgb;
+    r.iter()
+        .zip(g)
+        .zip(b)
+        .map(|((r, g), b)| [*r as f32, *g as f32, *b as f32, 0.0])
+        .collect()
+}
+
+fn depth_view(device: &wgpu::Device, size: (u32, u32)) -> wgpu::TextureView {
+    texture_2d(
+        device,
+        "depth",
+        size,
+        1,
+        DEPTH_FORMAT,
+        wgpu::TextureUsages::RENDER_ATTACHMENT,
+    )
+    .create_view(&wgpu::TextureViewDescriptor::default())
+}

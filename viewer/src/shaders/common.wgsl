@@ -1,0 +1,87 @@
+// Shared by the scene, line and probe shaders (prepended to each): the per-frame uniform,
+// the transfer and light buffers, the material, and the tone map of `prt-bake relight`.
+// The Rust mirror of these structs is in renderer.rs.
+
+const PI: f32 = 3.14159265358979;
+
+struct PhongLight {
+    // xyz: unit vector toward the light (directional) or the sky's zenith (hemisphere);
+    // w: 0 directional, 1 hemisphere.
+    direction: vec4<f32>,
+    // Directional: irradiance E on a facing surface; hemisphere: the sky's radiance.
+    colour: vec4<f32>,
+    // Hemisphere: the ground's radiance.
+    ground: vec4<f32>,
+}
+
+struct Frame {
+    view_projection: mat4x4<f32>,
+    camera_position: vec4<f32>,
+    // n² of the transfer and of the light.
+    coefficient_count: u32,
+    // 1: grey transfer serves every colour channel; 3: R, G, B transfer.
+    channels: u32,
+    use_textures: u32,
+    // 2^exposure.
+    exposure_scale: f32,
+    light_count: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
+    // Blinn-Phong: radiance from every direction (constant skies, environment means).
+    ambient: vec4<f32>,
+    lights: array<PhongLight, 8>,
+}
+
+struct Material {
+    kd: vec4<f32>,
+    has_texture: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
+}
+
+@group(0) @binding(0) var<uniform> frame: Frame;
+// The coefficient file's payload as is: vertex v, channel c, coefficient j at
+// (v·channels + c)·n² + j.
+@group(0) @binding(1) var<storage, read> transfer: array<f32>;
+// The summed, rotated light: coefficient j's (R, G, B) at j.
+@group(0) @binding(2) var<storage, read> light: array<vec4<f32>>;
+
+@group(1) @binding(0) var<uniform> material: Material;
+@group(1) @binding(1) var albedo_texture: texture_2d<f32>;
+@group(1) @binding(2) var albedo_sampler: sampler;
+
+// Σ_j T_j·L_j per channel for vertex v: the light a vertex sends out per unit albedo. This
+// is the one place the PRT dot product is computed; the probe reads it back for the tests.
+fn prt_radiance(v: u32) -> vec3<f32> {
+    let n2 = frame.coefficient_count;
+    var radiance = vec3<f32>(0.0);
+    if frame.channels == 3u {
+        let base = 3u * v * n2;
+        for (var j = 0u; j < n2; j++) {
+            let t = vec3<f32>(transfer[base + j], transfer[base + n2 + j], transfer[base + 2u * n2 + j]);
+            radiance += t * light[j].rgb;
+        }
+    } else {
+        let base = v * n2;
+        for (var j = 0u; j < n2; j++) {
+            radiance += transfer[base + j] * light[j].rgb;
+        }
+    }
+    return radiance;
+}
+
+// Linear albedo Kd × texture (the texture is sRGB, so sampling returns linear values).
+fn albedo(uv: vec2<f32>) -> vec3<f32> {
+    // OBJ's v runs up from the bottom of the image; textures are stored top row first.
+    let texel = textureSample(albedo_texture, albedo_sampler, vec2<f32>(uv.x, 1.0 - uv.y)).rgb;
+    let textured = material.has_texture != 0u && frame.use_textures != 0u;
+    return material.kd.rgb * select(vec3<f32>(1.0), texel, textured);
+}
+
+// `prt-bake relight`'s display colour: × 2^exposure, clamped to [0, 1]; the sRGB framebuffer
+// encodes it.
+fn tone_map(radiance: vec3<f32>) -> vec4<f32> {
+    return vec4<f32>(clamp(radiance * frame.exposure_scale, vec3<f32>(0.0), vec3<f32>(1.0)), 1.0);
+}
