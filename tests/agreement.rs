@@ -660,3 +660,70 @@ fn cornell_room_bakes_agree() {
     let scene = demo("cornell/cornell.scene");
     check_bakes("cornell room", &scene);
 }
+
+/// Interreflected bakes of the Cornell room (2 bounces, colour) with obvhs and robust Embree.
+/// An interreflected bake is the shadowed bake (the same rays, which [`check_bakes`] already
+/// holds to the thresholds and explains) plus the bounced light, which is built from closest
+/// hits: which triangle, where on it. So this compares the *bounced* part, interreflected
+/// minus shadowed, of every channel of every vertex: it holds the backends' `intersect` to
+/// each other where the product uses it, with the same tolerance and threshold.
+#[test]
+fn cornell_room_interreflected_bakes_agree() {
+    let scene = demo("cornell/cornell.scene");
+    let shadowed = BakeOptions {
+        order: 4,
+        samples: 1024,
+        mode: Mode::Shadowed,
+        seed: 11,
+        ..BakeOptions::default()
+    };
+    let interreflected = BakeOptions {
+        mode: Mode::Interreflected,
+        bounces: 2,
+        ..shadowed.clone()
+    };
+    let tracers = Tracers::new(&scene);
+    let bounced = |tracer: &dyn Tracer| {
+        let bake = |options| prt_baker::bake(&scene, Some(tracer), options, &Silent).unwrap();
+        let (direct, all) = (bake(&shadowed), bake(&interreflected));
+        assert_eq!(all.channels, 3, "the Cornell room's walls are coloured");
+        (0..scene.vertex_count())
+            .map(|v| {
+                (0..3)
+                    .flat_map(|c| all.vertex(v, c).iter().zip(direct.vertex(v, 0)))
+                    .map(|(a, d)| a - d)
+                    .collect::<Vec<f32>>()
+            })
+            .collect::<Vec<_>>()
+    };
+    let (embree, obvhs) = (bounced(&tracers.embree), bounced(&tracers.obvhs));
+    let count = scene.vertex_count();
+    let (mut outside, mut worst, mut largest) = (0, 0.0f32, 0.0f32);
+    for (e, o) in embree.iter().zip(&obvhs) {
+        let diff = e
+            .iter()
+            .zip(o)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f32::max);
+        worst = worst.max(diff);
+        largest = e.iter().fold(largest, |m, x| m.max(x.abs()));
+        outside += usize::from(diff > COEFFICIENT_TOLERANCE);
+    }
+    let agreement = 1.0 - outside as f64 / count as f64;
+    eprintln!(
+        "agreement cornell room, interreflected (2 bounces), bounced light: {} of {count} \
+         vertices within {COEFFICIENT_TOLERANCE:e} in all 3 channels ({:.3} %); largest \
+         difference {worst:.2e}; largest bounced coefficient {largest:.3}",
+        count - outside,
+        100.0 * agreement
+    );
+    assert!(
+        largest > 0.01,
+        "the bounce adds light (it is what is compared)"
+    );
+    assert!(
+        agreement >= VERTEX_AGREEMENT,
+        "interreflected: {:.3} % of vertices agree within {COEFFICIENT_TOLERANCE:e}",
+        100.0 * agreement
+    );
+}
