@@ -133,10 +133,14 @@ fn max_norm<T: Lanes>(a: [T; 3]) -> T {
 /// the edge functions of its fan are near 0 for a ray through it.
 const EDGE_TOLERANCE: f32 = f32::EPSILON;
 
-/// Rounding bound that sends a test to the exact recheck: an f32 edge function is off by at
-/// most 42u·‖b − a‖∞·‖b + a‖∞·‖d‖∞ ≤ 168u·R²·‖d‖∞ (u = 2⁻²⁴, R the largest ‖pᵢ − o‖∞), and
-/// the plane distance n·(p0 − o) by at most 6u·R·‖n‖∞; 2⁻¹⁴ is 4× the larger factor.
-const NEAR: f32 = 1.0 / 16_384.0;
+/// Rounding bounds that send a test to the exact recheck: an f32 edge function E(a, b) is off
+/// by at most 42u·‖b − a‖∞·‖b + a‖∞·‖d‖∞ (u = 2⁻²⁴), so [`NEAR_EDGE`] = 2⁻¹⁶ ≈ 4 × 42u. The
+/// plane distances n·(p0 − o) and n·d, three-term dot products (the first of rounded
+/// differences), are off by at most 12u·‖p0 − o‖∞·‖n‖∞ and 9u·‖n‖∞·‖d‖∞; [`NEAR_PLANE`] =
+/// 2⁻¹⁹ ≈ 2.7 × 12u. The edge bound is per edge: the cruder 168u·R²·‖d‖∞ (R the largest
+/// ‖pᵢ − o‖∞) sent every ray within about a degree of a small triangle's edge to f64.
+const NEAR_EDGE: f32 = 1.0 / 65_536.0;
+const NEAR_PLANE: f32 = 1.0 / 524_288.0;
 
 /// What the test computes for a triangle with corners `p` and normal `ng` and rays from `o`
 /// along `d`: the edge functions [U, V, W], the plane distances n·(p0 − o) and n·d, and
@@ -145,20 +149,34 @@ struct Evaluation<T> {
     edges: [T; 3],
     t: T,
     den: T,
-    near: T,
+    /// The edge functions' rounding bounds, without the constant factor [`NEAR_EDGE`].
+    near: [T; 3],
+    /// The plane distances' (t's and den's), without [`NEAR_PLANE`].
     near_t: T,
+    near_den: T,
 }
 
+#[inline(always)]
 fn evaluate<T: Lanes>(p: [[T; 3]; 3], ng: [T; 3], o: [T; 3], d: [T; 3]) -> Evaluation<T> {
     let v = p.map(|p| sub(p, o));
-    let edge = |a: [T; 3], b: [T; 3]| dot(cross(sub(b, a), add(b, a)), d);
-    let reach = max_norm(v[0]).max(max_norm(v[1])).max(max_norm(v[2]));
+    let d_norm = max_norm(d);
+    // (E(a, b), its rounding bound without the constant).
+    let edge = |a: [T; 3], b: [T; 3]| {
+        let (diff, sum) = (sub(b, a), add(b, a));
+        (
+            dot(cross(diff, sum), d),
+            max_norm(diff) * max_norm(sum) * d_norm,
+        )
+    };
+    let [(u, near_u), (v_, near_v), (w, near_w)] =
+        [edge(v[0], v[2]), edge(v[1], v[0]), edge(v[2], v[1])];
     Evaluation {
-        edges: [edge(v[0], v[2]), edge(v[1], v[0]), edge(v[2], v[1])],
+        edges: [u, v_, w],
         t: dot(v[0], ng),
         den: dot(ng, d),
-        near: reach * reach * max_norm(d),
-        near_t: reach * max_norm(ng),
+        near: [near_u, near_v, near_w],
+        near_t: max_norm(v[0]) * max_norm(ng),
+        near_den: max_norm(ng) * d_norm,
     }
 }
 
@@ -199,12 +217,15 @@ impl Triangle {
     pub(super) fn intersect(&self, ray: &BoxRay) -> Option<ScaledHit> {
         let (o, d) = (ray.origin.to_array(), ray.dir.to_array());
         let e = evaluate(self.p, self.ng, o, d);
-        let smallest = e
-            .edges
-            .map(f32::abs)
-            .into_iter()
-            .fold(f32::INFINITY, f32::min);
-        if smallest <= NEAR * e.near || e.t.abs() <= NEAR * e.near_t {
+        // A triangle certainly behind the origin (t and den certainly non-zero and of
+        // opposite signs) is missed whatever its edges say: the common case of a ray leaving
+        // a vertex, tested against that vertex's own triangles, whose edges it starts on.
+        let certain = e.t.abs() > NEAR_PLANE * e.near_t && e.den.abs() > NEAR_PLANE * e.near_den;
+        if certain && (e.t > 0.0) != (e.den > 0.0) {
+            return None;
+        }
+        let near_edge = (0..3).any(|i| e.edges[i].abs() <= NEAR_EDGE * e.near[i]);
+        if near_edge || !certain {
             return self.intersect_exact(o, d, ray.tfar);
         }
         decide!(e, ray.tfar, EDGE_TOLERANCE).map(|(t, den, u, v, uvw)| ScaledHit {
@@ -243,8 +264,14 @@ impl Triangle {
         let [u, v, w] = e.edges;
         let eps = (u + v + w).abs() * EDGE_TOLERANCE;
         let inside = u.min(v).min(w).cmpge(-eps) | u.max(v).max(w).cmple(eps);
-        let smallest = u.abs().min(v.abs()).min(w.abs());
-        let near = smallest.cmple(e.near * NEAR) | e.t.abs().cmple(e.near_t * NEAR);
+        let [near_u, near_v, near_w] = e.near.map(|n| n * NEAR_EDGE);
+        let certain =
+            e.t.abs().cmpgt(e.near_t * NEAR_PLANE) & e.den.abs().cmpgt(e.near_den * NEAR_PLANE);
+        let behind = certain & (e.t.cmpgt(Vec4::ZERO) ^ e.den.cmpgt(Vec4::ZERO));
+        // As in the one-ray test: no recheck for a triangle certainly behind the origin.
+        let near =
+            (u.abs().cmple(near_u) | v.abs().cmple(near_v) | w.abs().cmple(near_w) | !certain)
+                & !behind;
         if !(inside | near).any() {
             return 0;
         }
