@@ -140,15 +140,7 @@ pub fn surface_rays(scene: &Scene, count: usize, rng: &mut Pcg32) -> Vec<Ray> {
         })
         .collect();
     while rays.len() < count {
-        let t = rng.next_u32() as usize % scene.triangles.len();
-        let [a, b, c] = corners(scene, t);
-        let (u, v) = (rng.next_f32(), rng.next_f32());
-        let (u, v) = if u + v > 1.0 {
-            (1.0 - u, 1.0 - v)
-        } else {
-            (u, v)
-        };
-        let point = a + (b - a) * u + (c - a) * v;
+        let ([a, b, c], point) = random_surface_point(scene, rng);
         let longest = longest_edge([a, b, c]);
         let side = if rng.next_u32() % 2 == 0 { 1.0 } else { -1.0 };
         let normal = (b - a).cross(c - a).normalize_or_zero() * side;
@@ -166,15 +158,7 @@ pub fn surface_rays(scene: &Scene, count: usize, rng: &mut Pcg32) -> Vec<Ray> {
 pub fn aimed_rays(scene: &Scene, count: usize, scale: f32, rng: &mut Pcg32) -> Vec<Ray> {
     let mut rays = random_rays(count / 2, scale, Vec3::ZERO, rng);
     while rays.len() < count {
-        let t = rng.next_u32() as usize % scene.triangles.len();
-        let [a, b, c] = corners(scene, t);
-        let (u, v) = (rng.next_f32(), rng.next_f32());
-        let (u, v) = if u + v > 1.0 {
-            (1.0 - u, 1.0 - v)
-        } else {
-            (u, v)
-        };
-        let target = a + (b - a) * u + (c - a) * v;
+        let (_, target) = random_surface_point(scene, rng);
         let origin = random_point(rng) * scale;
         rays.push(Ray {
             origin,
@@ -183,4 +167,17 @@ pub fn aimed_rays(scene: &Scene, count: usize, scale: f32, rng: &mut Pcg32) -> V
         });
     }
     rays
+}
+
+/// A uniformly random point of a random triangle, and that triangle's corners.
+fn random_surface_point(scene: &Scene, rng: &mut Pcg32) -> ([Vec3; 3], Vec3) {
+    let t = rng.next_u32() as usize % scene.triangles.len();
+    let [a, b, c] = corners(scene, t);
+    let (u, v) = (rng.next_f32(), rng.next_f32());
+    let (u, v) = if u + v > 1.0 {
+        (1.0 - u, 1.0 - v)
+    } else {
+        (u, v)
+    };
+    ([a, b, c], a + (b - a) * u + (c - a) * v)
 }
