@@ -49,6 +49,8 @@ const OCCLUSION_AGREEMENT: f64 = 0.999_99;
 const HIT_ID_AGREEMENT: f64 = 0.999_9;
 /// Rays per set: enough that the occlusion threshold allows 10 differing rays, not 0.
 const MIN_RAYS: usize = 1_000_000;
+/// Occlusion answers of Embree's default mode that differ from obvhs's, judged per set.
+const DEFAULT_MODE_JUDGED: usize = 2_000;
 /// Disagreements printed in full per set, kind and verdict.
 const SHOWN: usize = 4;
 
@@ -148,6 +150,9 @@ struct Figures {
     max_duv: f32,
     /// Occlusion answers of Embree's default mode that differ from obvhs's.
     default_mode_differs: usize,
+    /// What the referee says of the first [`DEFAULT_MODE_JUDGED`] of those: [ambiguous,
+    /// default mode right, default mode wrong].
+    default_mode_judged: [usize; 3],
 }
 
 fn percent(count: usize, of: usize) -> f64 {
@@ -165,6 +170,8 @@ impl Figures {
             max_relative_dt: self.max_relative_dt.max(b.max_relative_dt),
             max_duv: self.max_duv.max(b.max_duv),
             default_mode_differs: self.default_mode_differs + b.default_mode_differs,
+            default_mode_judged: [0, 1, 2]
+                .map(|i| self.default_mode_judged[i] + b.default_mode_judged[i]),
         }
     }
 
@@ -179,7 +186,8 @@ impl Figures {
              occlusion agrees on {:.5} % ({}): {occlusion:.5} % counted\n  \
              {} hit; ids agree on {:.4} % ({}; {} ties): {ids:.4} % counted; \
              same hit: max |dt|/t {:.1e}, max |du|,|dv| {:.1e}\n  \
-             Embree default mode: occlusion agrees on {:.5} % ({} differ)",
+             Embree default mode: occlusion agrees on {:.5} % ({} differ; of the first \
+             {DEFAULT_MODE_JUDGED}: {} ambiguous, default mode right on {}, wrong on {})",
             self.rays,
             percent(self.occlusion.differ, self.rays),
             self.occlusion.describe(),
@@ -191,6 +199,9 @@ impl Figures {
             self.max_duv,
             percent(self.default_mode_differs, self.rays),
             self.default_mode_differs,
+            self.default_mode_judged[0],
+            self.default_mode_judged[1],
+            self.default_mode_judged[2],
         );
         assert!(self.rays >= MIN_RAYS, "{name}: only {} rays", self.rays);
         assert!(
@@ -321,9 +332,13 @@ fn compare(name: &str, scene: &Scene, tracers: &Tracers, rays: &[Ray]) -> Figure
                 ..Figures::default()
             };
             let mut found = Vec::new();
+            let mut default_mode = Vec::new();
             for (k, ray) in rays.iter().enumerate() {
                 let (e, o) = (hits[0][k], hits[1][k]);
-                f.default_mode_differs += usize::from(blocked[2][k] != blocked[1][k]);
+                if blocked[2][k] != blocked[1][k] {
+                    f.default_mode_differs += 1;
+                    default_mode.push((*ray, blocked[2][k], o));
+                }
                 let disagreement = |occlusion| Disagreement {
                     ray: *ray,
                     occlusion,
@@ -350,17 +365,27 @@ fn compare(name: &str, scene: &Scene, tracers: &Tracers, rays: &[Ray]) -> Figure
                     }
                 }
             }
-            (f, found)
+            (f, (found, default_mode))
         })
         .reduce(
-            || (Figures::default(), Vec::new()),
-            |(a, mut da), (b, db)| {
+            || (Figures::default(), (Vec::new(), Vec::new())),
+            |(a, (mut da, mut ma)), (b, (db, mb))| {
                 da.extend(db);
-                (a.add(b), da)
+                ma.extend(mb);
+                (a.add(b), (da, ma))
             },
         );
+    let (disagreements, default_mode) = disagreements;
 
     let referee = Referee::new(scene);
+    let verdicts: Vec<usize> = default_mode
+        .par_iter()
+        .take(DEFAULT_MODE_JUDGED)
+        .map(|(ray, blocked, hit)| judge_default_mode(&referee, tracers, ray, *blocked, *hit))
+        .collect();
+    for v in verdicts {
+        figures.default_mode_judged[v] += 1;
+    }
     let judged: Vec<Judgement> = disagreements
         .par_iter()
         .map(|d| d.judge(&referee))
@@ -381,6 +406,30 @@ fn compare(name: &str, scene: &Scene, tracers: &Tracers, rays: &[Ray]) -> Figure
     }
     figures.check(name);
     figures
+}
+
+/// The referee's verdict on Embree's default mode where its occlusion answer differs from
+/// obvhs's: 0 ambiguous, 1 default mode right, 2 default mode wrong. (Reported only: the
+/// default mode is not held to the thresholds.)
+fn judge_default_mode(
+    referee: &Referee,
+    tracers: &Tracers,
+    ray: &Ray,
+    blocked: bool,
+    obvhs_hit: Option<Hit>,
+) -> usize {
+    let mut default_hit = [None];
+    tracers.embree_default.intersect(&[*ray], &mut default_hit);
+    let disputed: Vec<u32> = [obvhs_hit, default_hit[0]]
+        .iter()
+        .flatten()
+        .map(|h| h.triangle)
+        .collect();
+    match referee.occlusion(ray, &disputed) {
+        Verdict::Ambiguous => 0,
+        Verdict::Stable(b) if b == blocked => 1,
+        Verdict::Stable(_) => 2,
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
