@@ -149,10 +149,9 @@ struct Figures {
     max_relative_dt: f32,
     max_duv: f32,
     /// Occlusion answers of Embree's default mode that differ from obvhs's.
-    default_mode_differs: usize,
-    /// What the referee says of the first [`DEFAULT_MODE_JUDGED`] of those: [ambiguous,
-    /// default mode right, default mode wrong].
-    default_mode_judged: [usize; 3],
+    /// Occlusion answers of Embree's default mode that differ from obvhs's (reported only);
+    /// the first [`DEFAULT_MODE_JUDGED`] of them judged, "embree" meaning the default mode.
+    default_mode: Tally,
 }
 
 fn percent(count: usize, of: usize) -> f64 {
@@ -169,9 +168,7 @@ impl Figures {
             ties: self.ties + b.ties,
             max_relative_dt: self.max_relative_dt.max(b.max_relative_dt),
             max_duv: self.max_duv.max(b.max_duv),
-            default_mode_differs: self.default_mode_differs + b.default_mode_differs,
-            default_mode_judged: [0, 1, 2]
-                .map(|i| self.default_mode_judged[i] + b.default_mode_judged[i]),
+            default_mode: self.default_mode.add(b.default_mode),
         }
     }
 
@@ -197,11 +194,11 @@ impl Figures {
             self.ties,
             self.max_relative_dt,
             self.max_duv,
-            percent(self.default_mode_differs, self.rays),
-            self.default_mode_differs,
-            self.default_mode_judged[0],
-            self.default_mode_judged[1],
-            self.default_mode_judged[2],
+            percent(self.default_mode.differ, self.rays),
+            self.default_mode.differ,
+            self.default_mode.ambiguous,
+            self.default_mode.embree_right,
+            self.default_mode.obvhs_right,
         );
         assert!(self.rays >= MIN_RAYS, "{name}: only {} rays", self.rays);
         assert!(
@@ -336,8 +333,13 @@ fn compare(name: &str, scene: &Scene, tracers: &Tracers, rays: &[Ray]) -> Figure
             for (k, ray) in rays.iter().enumerate() {
                 let (e, o) = (hits[0][k], hits[1][k]);
                 if blocked[2][k] != blocked[1][k] {
-                    f.default_mode_differs += 1;
-                    default_mode.push((*ray, blocked[2][k], o));
+                    f.default_mode.differ += 1;
+                    default_mode.push(Disagreement {
+                        ray: *ray,
+                        occlusion: true,
+                        blocked: [blocked[2][k], blocked[1][k]],
+                        hits: [None, o],
+                    });
                 }
                 let disagreement = |occlusion| Disagreement {
                     ray: *ray,
@@ -378,13 +380,22 @@ fn compare(name: &str, scene: &Scene, tracers: &Tracers, rays: &[Ray]) -> Figure
     let (disagreements, default_mode) = disagreements;
 
     let referee = Referee::new(scene);
-    let verdicts: Vec<usize> = default_mode
+    let verdicts: Vec<Judgement> = default_mode
         .par_iter()
         .take(DEFAULT_MODE_JUDGED)
-        .map(|(ray, blocked, hit)| judge_default_mode(&referee, tracers, ray, *blocked, *hit))
+        .map(|d| {
+            // The referee needs the triangle the default mode hits, if any, beside obvhs's.
+            let mut hit = [None];
+            tracers.embree_default.intersect(&[d.ray], &mut hit);
+            Disagreement {
+                hits: [hit[0], d.hits[1]],
+                ..*d
+            }
+            .judge(&referee)
+        })
         .collect();
-    for v in verdicts {
-        figures.default_mode_judged[v] += 1;
+    for judgement in verdicts {
+        figures.default_mode.count(judgement);
     }
     let judged: Vec<Judgement> = disagreements
         .par_iter()
@@ -406,30 +417,6 @@ fn compare(name: &str, scene: &Scene, tracers: &Tracers, rays: &[Ray]) -> Figure
     }
     figures.check(name);
     figures
-}
-
-/// The referee's verdict on Embree's default mode where its occlusion answer differs from
-/// obvhs's: 0 ambiguous, 1 default mode right, 2 default mode wrong. (Reported only: the
-/// default mode is not held to the thresholds.)
-fn judge_default_mode(
-    referee: &Referee,
-    tracers: &Tracers,
-    ray: &Ray,
-    blocked: bool,
-    obvhs_hit: Option<Hit>,
-) -> usize {
-    let mut default_hit = [None];
-    tracers.embree_default.intersect(&[*ray], &mut default_hit);
-    let disputed: Vec<u32> = [obvhs_hit, default_hit[0]]
-        .iter()
-        .flatten()
-        .map(|h| h.triangle)
-        .collect();
-    match referee.occlusion(ray, &disputed) {
-        Verdict::Ambiguous => 0,
-        Verdict::Stable(b) if b == blocked => 1,
-        Verdict::Stable(_) => 2,
-    }
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -22,7 +22,7 @@ use obvhs::cwbvh::builder::build_cwbvh_from_tris;
 use obvhs::rt_triangle::RtTriangle;
 use prt_baker::progress::Silent;
 use prt_baker::trace::{
-    Backend, EmbreeOptions, EmbreeTracer, Hit, ObvhsOptions, ObvhsTracer, Ray, Tracer, embree_sys,
+    Backend, EmbreeOptions, EmbreeTracer, ObvhsOptions, ObvhsTracer, Tracer, embree_sys,
 };
 use prt_baker::transfer::Estimator;
 use prt_baker::{BakeOptions, Mode, Scene};
@@ -108,7 +108,11 @@ fn main() {
     let obvhs_seconds = rays.time(Order::Hilbert, &obvhs);
     let obvhs_shuffled_seconds = rays.time(Order::Shuffled, &obvhs);
     let stock = StockObvhs::new(&scene, ObvhsOptions::default().build);
-    let stock_seconds = rays.time(Order::Hilbert, &stock);
+    let stock_seconds = rays.time_with(
+        Order::Hilbert,
+        || vec![false; samples as usize],
+        |occluded, origin, dirs| stock.occluded_from(origin, dirs, occluded),
+    );
     let obvhs_bake_seconds = bake(&obvhs);
 
     let rate = |seconds: f64| total_rays / seconds / 1e6;
@@ -424,7 +428,7 @@ fn raw_embree(rays: &SameRays, tracer: &EmbreeTracer, query: Query) -> f64 {
 
 /// obvhs as its examples use it: `ray_traverse_miss` with its own box and triangle tests
 /// (which differ from Embree's at edges and within 10⁻⁴ of the origin; see
-/// `baker/src/trace/obvhs.rs`). The row shows what our own tests cost or gain.
+/// `baker/src/trace/obvhs/node.rs`). The row shows what our own tests cost or gain.
 struct StockObvhs {
     bvh: CwBvh,
     triangles: Vec<RtTriangle>,
@@ -448,24 +452,15 @@ impl StockObvhs {
             .collect();
         StockObvhs { bvh, triangles }
     }
-}
 
-impl Tracer for StockObvhs {
-    fn backend(&self) -> Backend {
-        Backend::Obvhs
-    }
-
-    fn occluded(&self, rays: &[Ray], occluded: &mut [bool]) {
-        for (o, r) in occluded.iter_mut().zip(rays) {
-            let ray = obvhs::ray::Ray::new(r.origin.into(), r.dir.into(), 0.0, r.tfar);
+    /// Occlusion only, one ray at a time: all the benchmark times.
+    fn occluded_from(&self, origin: Vec3, dirs: &[Vec3], occluded: &mut [bool]) {
+        for (o, d) in occluded.iter_mut().zip(dirs) {
+            let ray = obvhs::ray::Ray::new(origin.into(), (*d).into(), 0.0, f32::INFINITY);
             *o = !self
                 .bvh
                 .ray_traverse_miss(ray, |ray, id| self.triangles[id].intersect(ray));
         }
-    }
-
-    fn intersect(&self, _: &[Ray], _: &mut [Option<Hit>]) {
-        unimplemented!("the benchmark times occlusion only")
     }
 }
 

@@ -38,13 +38,7 @@ pub fn vertex_rays(estimator: &Estimator, v: usize, samples: usize) -> Vec<Ray> 
         &mut dirs,
         &mut weights,
     );
-    dirs.into_iter()
-        .map(|dir| Ray {
-            origin: estimator.origin(v),
-            dir,
-            tfar: f32::INFINITY,
-        })
-        .collect()
+    Ray::fan(estimator.origin(v), &dirs)
 }
 
 /// Random rays through the unit cube scaled by `scale` and moved by `offset`; one in four is

@@ -35,6 +35,19 @@ pub struct Ray {
     pub tfar: f32,
 }
 
+impl Ray {
+    /// Unbounded rays from `origin` along each of `dirs`: a vertex's rays.
+    pub fn fan(origin: Vec3, dirs: &[Vec3]) -> Vec<Ray> {
+        dirs.iter()
+            .map(|&dir| Ray {
+                origin,
+                dir,
+                tfar: f32::INFINITY,
+            })
+            .collect()
+    }
+}
+
 /// The closest hit of a ray.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
@@ -86,15 +99,7 @@ pub trait Tracer: Send + Sync {
     /// Occlusion of unbounded rays that share one origin (all of a vertex's rays do), so a
     /// backend can skip building general rays. Same answers as [`Tracer::occluded`].
     fn occluded_from(&self, origin: Vec3, dirs: &[Vec3], occluded: &mut [bool]) {
-        let rays: Vec<Ray> = dirs
-            .iter()
-            .map(|&dir| Ray {
-                origin,
-                dir,
-                tfar: f32::INFINITY,
-            })
-            .collect();
-        self.occluded(&rays, occluded);
+        self.occluded(&Ray::fan(origin, dirs), occluded);
     }
 
     /// `hits[i]` = the closest hit of `rays[i]`, if any. The slices have equal lengths.
@@ -103,15 +108,7 @@ pub trait Tracer: Send + Sync {
     /// Closest hits of unbounded rays that share one origin. Same answers as
     /// [`Tracer::intersect`].
     fn intersect_from(&self, origin: Vec3, dirs: &[Vec3], hits: &mut [Option<Hit>]) {
-        let rays: Vec<Ray> = dirs
-            .iter()
-            .map(|&dir| Ray {
-                origin,
-                dir,
-                tfar: f32::INFINITY,
-            })
-            .collect();
-        self.intersect(&rays, hits);
+        self.intersect(&Ray::fan(origin, dirs), hits);
     }
 }
 
