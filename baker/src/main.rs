@@ -125,8 +125,9 @@ struct BakeArgs {
     /// Embree's speed; the only one in a build without Embree). Recorded in the file.
     #[arg(long, value_enum, default_value_t = BackendArg::DEFAULT)]
     backend: BackendArg,
-    /// Embree's robust mode: no accuracy-reducing optimisations (about 30 % slower). Applies
-    /// to --backend embree only.
+    /// Embree's robust mode for every ray (about 30 % slower). Without it, only the rays of
+    /// vertices near another surface's edge use it, which already makes the answers
+    /// watertight. Applies to --backend embree only.
     #[arg(long)]
     robust: bool,
     /// No progress bar (the summary line is still printed).

@@ -10,10 +10,11 @@
 mod embree;
 mod obvhs;
 mod offset;
+pub mod seams;
 
 pub use self::obvhs::{ObvhsOptions, ObvhsTracer};
 #[cfg(feature = "embree")]
-pub use embree::{EmbreeOptions, EmbreeTracer};
+pub use embree::{EmbreeMode, EmbreeOptions, EmbreeTracer};
 /// The Embree bindings, for benchmarks that call Embree directly on the same scene.
 #[cfg(feature = "embree")]
 pub use embree_sys;
@@ -118,8 +119,9 @@ pub struct TracerOptions {
     /// Limits the backend's own worker threads (Embree's BVH build); obvhs builds on the
     /// calling thread.
     pub threads: Option<usize>,
-    /// Embree's robust mode. Only Embree has one: asking another backend for it is an error
-    /// rather than a silent no-op.
+    /// Embree's robust mode for every ray (by default only the rays of seam vertices, where
+    /// the default mode leaks, use it: [`EmbreeMode::Watertight`]). Only Embree has one:
+    /// asking another backend for it is an error rather than a silent no-op.
     pub robust: bool,
 }
 
@@ -153,7 +155,11 @@ pub fn build(backend: Backend, scene: &Scene, options: TracerOptions) -> Result<
             scene,
             EmbreeOptions {
                 threads: options.threads,
-                robust: options.robust,
+                mode: if options.robust {
+                    EmbreeMode::Robust
+                } else {
+                    EmbreeMode::Watertight
+                },
             },
         )?)),
         Backend::Obvhs => Ok(Box::new(ObvhsTracer::new(scene, ObvhsOptions::default()))),

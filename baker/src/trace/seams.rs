@@ -1,0 +1,206 @@
+//! Which vertices' rays start near another surface's edge: the only rays Embree's default mode
+//! answers wrongly in a bake.
+//!
+//! Embree's default triangle test is not watertight: a ray that crosses a triangle within
+//! rounding of one of its edges may slip through (or, at a shared edge, between two
+//! triangles). A ray crosses a surface within rounding ε of an edge with a probability of
+//! about ε/D, where D is how far the ray's origin is from that edge. For most vertices D is at
+//! least a fraction of an edge length and ε/D is far below one ray in a bake. But where
+//! meshes meet edge to edge (a floor against a wall, the boards of a room, a box standing on
+//! a table), a vertex of one lies on an edge of the other, and its ray origin
+//! ([`super::ray_origins`]) is only the offset δ ≈ 2⁻²⁰ edges away from it: a good share of
+//! its rays cross the other surface right beside that edge, and some leak through
+//! (`tests/agreement.rs` measured 126 of the Cornell room's 2,944 vertices off by more than
+//! 10⁻³).
+//!
+//! So a vertex is a *seam vertex* when its ray origin lies near an edge of a *foreign*
+//! triangle, one that does not use the vertex: within [`SEAM_RADIUS`] × (the longer of its
+//! own longest edge and the other triangle's), or [`SEAM_OFFSETS`] × its offset δ, whichever
+//! is larger. (Far from the origin, where floats are coarse, δ is 8 ulps of the position and
+//! the second term is the larger; rounding there is proportionally worse.) Its own triangles
+//! do not count: rays leave them on their open side. The Embree backend traces seam vertices'
+//! rays in robust mode and all others in the default mode.
+//!
+//! The radius is generous (the leaks come from within a few δ, and it is at least 256 δ): on
+//! the demo scene seam vertices are 4 % of all, so the margin costs little.
+
+use std::time::Duration;
+
+use glam::{Vec3, Vec3A};
+use obvhs::aabb::Aabb;
+use obvhs::bvh2::builder::build_bvh2;
+use obvhs::{Boundable, BvhBuildParams};
+use rayon::prelude::*;
+
+use super::offset_distance;
+use crate::scene::Scene;
+
+/// A vertex is a seam vertex if its ray origin is within this fraction of the longer of its
+/// own longest edge and a foreign triangle's longest edge from that triangle's edges.
+pub const SEAM_RADIUS: f32 = 1.0 / 64.0;
+/// ... or within this many times its offset δ ([`super::offset_distance`]).
+pub const SEAM_OFFSETS: f32 = 256.0;
+
+/// A triangle's box grown by [`SEAM_RADIUS`] × its longest edge: every origin that may be
+/// near one of its edges (for its own edge length) lies inside.
+struct Reach {
+    aabb: Aabb,
+}
+
+impl Boundable for Reach {
+    fn aabb(&self) -> Aabb {
+        self.aabb
+    }
+}
+
+/// The longest edge of each triangle, and of the triangles around each vertex.
+fn longest_edges(scene: &Scene) -> (Vec<f32>, Vec<f32>) {
+    let mut per_vertex = vec![0.0f32; scene.vertex_count()];
+    let per_triangle = scene
+        .triangles
+        .iter()
+        .map(|t| {
+            let p = t.map(|i| scene.positions[i as usize]);
+            let longest = p[0]
+                .distance(p[1])
+                .max(p[1].distance(p[2]))
+                .max(p[2].distance(p[0]));
+            for &i in t {
+                per_vertex[i as usize] = per_vertex[i as usize].max(longest);
+            }
+            longest
+        })
+        .collect();
+    (per_triangle, per_vertex)
+}
+
+/// The distance from `p` to the segment `a`–`b`, in double precision (the distances that
+/// matter are a millionth of the segment's length).
+fn distance_to_segment(p: Vec3, a: Vec3, b: Vec3) -> f64 {
+    let (p, a, b) = (p.as_dvec3(), a.as_dvec3(), b.as_dvec3());
+    let ab = b - a;
+    let length2 = ab.length_squared();
+    let s = if length2 > 0.0 {
+        ((p - a).dot(ab) / length2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    p.distance(a + ab * s)
+}
+
+/// `seam[v]`: whether vertex `v`'s ray origin (`origins[v]`, from [`super::ray_origins`]) lies
+/// near an edge of a triangle that does not use `v`.
+pub fn seam_vertices(scene: &Scene, origins: &[Vec3]) -> Vec<bool> {
+    let (triangle_edge, vertex_edge) = longest_edges(scene);
+    let reaches: Vec<Reach> = scene
+        .triangles
+        .iter()
+        .zip(&triangle_edge)
+        .map(|(t, &longest)| {
+            let mut aabb = Aabb::empty();
+            for &i in t {
+                aabb.extend(Vec3A::from(scene.positions[i as usize]));
+            }
+            let margin = Vec3A::splat(SEAM_RADIUS * longest);
+            Aabb::new(aabb.min - margin, aabb.max + margin)
+        })
+        .map(|aabb| Reach { aabb })
+        .collect();
+    if reaches.is_empty() {
+        return vec![false; origins.len()];
+    }
+    let bvh = build_bvh2(
+        &reaches,
+        BvhBuildParams::fast_build(),
+        &mut Duration::default(),
+    );
+    origins
+        .par_iter()
+        .enumerate()
+        .map(|(v, &origin)| {
+            let offsets = SEAM_OFFSETS * offset_distance(scene.positions[v], vertex_edge[v]);
+            let own = (SEAM_RADIUS * vertex_edge[v]).max(offsets);
+            let query = Aabb::new(
+                Vec3A::from(origin) - Vec3A::splat(own),
+                Vec3A::from(origin) + Vec3A::splat(own),
+            );
+            let mut seam = false;
+            bvh.aabb_traverse(query, |bvh, node| {
+                let node = &bvh.nodes[node as usize];
+                let first = node.first_index as usize;
+                for &t in &bvh.primitive_indices[first..first + node.prim_count as usize] {
+                    let triangle = scene.triangles[t as usize];
+                    if triangle.contains(&(v as u32)) {
+                        continue;
+                    }
+                    let longest = triangle_edge[t as usize].max(vertex_edge[v]);
+                    let radius = f64::from((SEAM_RADIUS * longest).max(offsets));
+                    let p = triangle.map(|i| scene.positions[i as usize]);
+                    if (0..3).any(|k| distance_to_segment(origin, p[k], p[(k + 1) % 3]) <= radius) {
+                        seam = true;
+                    }
+                }
+                !seam
+            });
+            seam
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use super::*;
+    use crate::scene::{Material, Mesh};
+    use crate::trace::ray_origins;
+
+    /// A square grid of `cells` × `cells` cells from `origin` along `u` and `v`.
+    fn grid(origin: Vec3, u: Vec3, v: Vec3, cells: u32) -> Mesh {
+        let mut positions = Vec::new();
+        for j in 0..=cells {
+            for i in 0..=cells {
+                positions
+                    .push(origin + u * (i as f32 / cells as f32) + v * (j as f32 / cells as f32));
+            }
+        }
+        let at = |i: u32, j: u32| j * (cells + 1) + i;
+        let mut triangles = Vec::new();
+        for j in 0..cells {
+            for i in 0..cells {
+                triangles.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+                triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+            }
+        }
+        Mesh {
+            name: "grid".into(),
+            positions,
+            normals: None,
+            uvs: None,
+            triangles,
+            material: Material::default(),
+        }
+    }
+
+    #[test]
+    fn seam_vertices_are_those_where_a_floor_meets_a_wall() {
+        // A floor and a wall, separate meshes meeting along the y axis, and a free-standing
+        // board far from both.
+        let cells = 8;
+        let meshes = vec![
+            grid(Vec3::ZERO, Vec3::X, Vec3::Y, cells),
+            grid(Vec3::ZERO, Vec3::Y, Vec3::Z, cells),
+            grid(Vec3::new(5.0, 0.0, 1.0), Vec3::X, Vec3::Y, cells),
+        ];
+        let scene = Scene::from_meshes(Path::new("test"), meshes, Vec::new()).expect("valid");
+        let seam = seam_vertices(&scene, &ray_origins(&scene));
+        for (v, (&seam, p)) in seam.iter().zip(&scene.positions).enumerate() {
+            let on_the_corner = v < 2 * 81 && p.x == 0.0 && p.z == 0.0;
+            assert_eq!(seam, on_the_corner, "vertex {v} at {p}");
+        }
+        assert_eq!(
+            seam.iter().filter(|&&s| s).count(),
+            2 * (cells as usize + 1)
+        );
+    }
+}
