@@ -51,11 +51,12 @@ impl BoxRay {
     }
 }
 
-/// A node's child planes as floats, four children per SSE lane group (glam's `Vec4`).
+/// A node's child planes as floats, all eight children side by side, for one 8-wide AVX test
+/// ([`ChildBoxes::entered_by_avx`]) or two 4-wide SSE ones ([`ChildBoxes::entered_by`]).
 pub(super) struct ChildBoxes {
-    /// `[axis][half]`: the min planes of children 4·half .. 4·half + 3, in quanta.
-    min: [[Vec4; 2]; 3],
-    max: [[Vec4; 2]; 3],
+    /// `[axis]`: the min planes of children 0..8, in quanta.
+    min: [[f32; 8]; 3],
+    max: [[f32; 8]; 3],
     p: Vec3A,
     quantum: Vec3A,
 }
@@ -63,32 +64,17 @@ pub(super) struct ChildBoxes {
 impl ChildBoxes {
     #[inline(always)]
     pub(super) fn new(node: &CwBvhNode) -> ChildBoxes {
-        // One loop over the 48 planes, which LLVM turns into a few vector conversions.
-        let mut q = [0.0f32; 48];
-        let rows = [
-            &node.child_min_x,
-            &node.child_max_x,
-            &node.child_min_y,
-            &node.child_max_y,
-            &node.child_min_z,
-            &node.child_max_z,
-        ];
-        for (dst, row) in q.chunks_exact_mut(8).zip(rows) {
-            for (d, q) in dst.iter_mut().zip(row) {
-                *d = f32::from(*q);
-            }
-        }
-        let lanes = |k: usize| Vec4::from_slice(&q[4 * k..4 * k + 4]);
+        let planes = |row: &[u8; 8]| row.map(f32::from);
         ChildBoxes {
             min: [
-                [lanes(0), lanes(1)],
-                [lanes(4), lanes(5)],
-                [lanes(8), lanes(9)],
+                planes(&node.child_min_x),
+                planes(&node.child_min_y),
+                planes(&node.child_min_z),
             ],
             max: [
-                [lanes(2), lanes(3)],
-                [lanes(6), lanes(7)],
-                [lanes(10), lanes(11)],
+                planes(&node.child_max_x),
+                planes(&node.child_max_y),
+                planes(&node.child_max_z),
             ],
             p: node.p.into(),
             quantum: node.compute_extent(),
@@ -96,38 +82,79 @@ impl ChildBoxes {
     }
 
     /// Bit c is set if the ray enters child c's box within [0, tfar], or comes within
-    /// rounding error of it: the test never misses a box the ray enters.
+    /// rounding error of it: the test never misses a box the ray enters. Four children at a
+    /// time (SSE).
     #[inline(always)]
     pub(super) fn entered_by(&self, ray: &BoxRay) -> u32 {
+        let (scale, offset, slack) = self.distances(ray);
+        let slack = Vec4::splat(slack);
+        let mut entered = 0;
+        for half in 0..2 {
+            let lanes = |planes: &[f32; 8]| Vec4::from_slice(&planes[4 * half..4 * half + 4]);
+            let mut entry = Vec4::ZERO;
+            let mut exit = Vec4::splat(ray.tfar);
+            for axis in 0..3 {
+                let (near, far) = self.near_far(ray, axis);
+                entry = entry.max(lanes(near) * scale[axis] + offset[axis]);
+                exit = exit.min(lanes(far) * scale[axis] + offset[axis]);
+            }
+            entered |= entry.cmple(exit + slack).bitmask() << (4 * half);
+        }
+        entered
+    }
+
+    /// [`ChildBoxes::entered_by`], all eight children at once (AVX): the same operations on
+    /// the same values, so the same answers.
+    ///
+    /// # Safety
+    /// The CPU must support AVX.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    #[inline]
+    pub(super) unsafe fn entered_by_avx(&self, ray: &BoxRay) -> u32 {
+        use std::arch::x86_64::*;
+        let (scale, offset, slack) = self.distances(ray);
+        let mut entry = _mm256_setzero_ps();
+        let mut exit = _mm256_set1_ps(ray.tfar);
+        for axis in 0..3 {
+            let (near, far) = self.near_far(ray, axis);
+            // SAFETY: each array holds the 8 floats an unaligned 256-bit load reads.
+            let (near, far) = unsafe {
+                (
+                    _mm256_loadu_ps(near.as_ptr()),
+                    _mm256_loadu_ps(far.as_ptr()),
+                )
+            };
+            let (s, o) = (_mm256_set1_ps(scale[axis]), _mm256_set1_ps(offset[axis]));
+            entry = _mm256_max_ps(entry, _mm256_add_ps(_mm256_mul_ps(near, s), o));
+            exit = _mm256_min_ps(exit, _mm256_add_ps(_mm256_mul_ps(far, s), o));
+        }
+        let inside = _mm256_cmp_ps::<_CMP_LE_OQ>(entry, _mm256_add_ps(exit, _mm256_set1_ps(slack)));
+        _mm256_movemask_ps(inside) as u32
+    }
+
+    /// The ray's distance to a plane q quanta from the node's corner is q·scale + offset, per
+    /// axis; and the slack that covers the rounding of entry and exit distances.
+    #[inline(always)]
+    fn distances(&self, ray: &BoxRay) -> (Vec3A, Vec3A, f32) {
         let scale = self.quantum * ray.inv_dir;
         let offset = (self.p - ray.origin) * ray.inv_dir;
         // Each distance q·scale + offset is off by at most 4 roundings of its terms' size,
         // ≤ 2⁻²²·(255·|scale| + |offset|); entry and exit each may be, hence 2⁻²¹. The same
         // margin covers obvhs's quantisation, which can round a plane inwards by half an ulp.
-        let slack = Vec4::splat(
-            (255.0 * scale.abs().max_element() + offset.abs().max_element()) * (1.0 / 2_097_152.0),
-        );
-        let mut entered = 0;
-        for half in 0..2 {
-            let planes = |axis: usize| {
-                let (lo, hi) = (self.min[axis][half], self.max[axis][half]);
-                let (near, far) = if ray.dir[axis] < 0.0 {
-                    (hi, lo)
-                } else {
-                    (lo, hi)
-                };
-                (
-                    near * scale[axis] + offset[axis],
-                    far * scale[axis] + offset[axis],
-                )
-            };
-            let ((near_x, far_x), (near_y, far_y), (near_z, far_z)) =
-                (planes(0), planes(1), planes(2));
-            let entry = near_x.max(near_y).max(near_z).max(Vec4::ZERO);
-            let exit = far_x.min(far_y).min(far_z).min(Vec4::splat(ray.tfar)) + slack;
-            entered |= entry.cmple(exit).bitmask() << (4 * half);
+        let slack =
+            (255.0 * scale.abs().max_element() + offset.abs().max_element()) * (1.0 / 2_097_152.0);
+        (scale, offset, slack)
+    }
+
+    /// The planes of `axis` the ray meets first and last.
+    #[inline(always)]
+    fn near_far(&self, ray: &BoxRay, axis: usize) -> (&[f32; 8], &[f32; 8]) {
+        if ray.dir[axis] < 0.0 {
+            (&self.max[axis], &self.min[axis])
+        } else {
+            (&self.min[axis], &self.max[axis])
         }
-        entered
     }
 }
 
