@@ -96,7 +96,9 @@ impl ObvhsTracer {
         self.packets::<true>(rays, occluded)
     }
 
-    fn blocked_in_packets_baseline(
+    /// [`ObvhsTracer::blocked_in_packets`] compiled for the build's baseline (SSE) whatever
+    /// the CPU: the portable path, which the tests compare with the AVX2 one.
+    pub(super) fn blocked_in_packets_baseline(
         &self,
         rays: impl ExactSizeIterator<Item = BoxRay>,
         occluded: &mut [bool],
