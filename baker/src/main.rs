@@ -121,7 +121,7 @@ struct BakeArgs {
     /// bounces re-trace (slower, same result).
     #[arg(long, default_value_t = 1024)]
     hit_cache_mb: u64,
-    /// Ray-tracing backend: Embree, or obvhs (pure Rust, watertight, about a sixth of
+    /// Ray-tracing backend: Embree, or obvhs (pure Rust, watertight, about a quarter of
     /// Embree's speed; the only one in a build without Embree). Recorded in the file.
     #[arg(long, value_enum, default_value_t = BackendArg::DEFAULT)]
     backend: BackendArg,

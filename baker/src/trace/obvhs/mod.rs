@@ -12,8 +12,9 @@
 //! * **Boxes** ([`node`]): no minimum distance (obvhs skips boxes closer than 10⁻⁴), a margin
 //!   that covers rounding, and axis-parallel rays handled as Embree handles them.
 //!
-//! So this backend answers as Embree does in robust mode, up to rounding, at about a sixth
-//! of Embree's default speed and a quarter of its robust mode's (docs/performance.md).
+//! So this backend answers as Embree does in robust mode, up to rounding, at about a quarter
+//! of the Embree backend's default speed and a third of its robust mode's
+//! (docs/performance.md).
 //!
 //! Occlusion rays traverse in packets ([`packet`]); closest hits one ray at a time. Triangles
 //! are stored in the BVH's leaf order, so a leaf's triangles are contiguous in memory and no
