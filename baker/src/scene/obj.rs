@@ -176,6 +176,19 @@ fn load_mtl(
         ),
         other => other,
     })?;
+    // tobj 4.0.5 panics on a colour with fewer than three numbers (`Kd 1 1`); refuse it first.
+    for (index, line) in String::from_utf8_lossy(&bytes).lines().enumerate() {
+        let mut words = line.split_whitespace();
+        if let Some(key @ ("Ka" | "Kd" | "Ks" | "Ke")) = words.next() {
+            let count = words.count();
+            if count < 3 {
+                return Err(Error::scene(
+                    Location::line(mtl_path, index + 1),
+                    format!("`{key}` needs three numbers (r g b), found {count}"),
+                ));
+            }
+        }
+    }
     let lines = Cell::new(LinePosition::default());
     let mut reader = LineCounter {
         inner: &bytes[..],
