@@ -470,7 +470,7 @@ mod tests {
             fs::hard_link(&input, &hard).unwrap();
             assert!(Output::new(&hard, std::slice::from_ref(&input)).is_err());
             let detour = dir.path().join("..").join(dir.path().file_name().unwrap());
-            assert!(Output::new(&detour.join("scene.obj"), &[input.clone()]).is_err());
+            assert!(Output::new(&detour.join("scene.obj"), std::slice::from_ref(&input)).is_err());
         }
         assert_eq!(fs::read(&input).unwrap(), b"v 0 0 0");
     }
