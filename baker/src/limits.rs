@@ -83,26 +83,35 @@ pub fn check(what: impl Into<String>, asked: &str, needed: Option<u64>) -> Resul
     }
 }
 
-/// Reads a whole input file, refusing one larger than the memory limit before reading it
-/// (and, for a device or pipe that never ends, after reading that much).
+/// The most read from an input that is not a regular file (a pipe, a device such as
+/// `/dev/zero`), whose size cannot be known first.
+pub const MAX_STREAM_INPUT: u64 = 256 << 20;
+
+/// Reads a whole input file, refusing one larger than the memory limit before reading it;
+/// a pipe or device is read up to [`MAX_STREAM_INPUT`] (or the limit, if lower).
 pub fn read_file(path: &Path) -> Result<Vec<u8>> {
     let file = std::fs::File::open(path).map_err(|err| Error::io(path, err))?;
-    let limit = max_memory();
-    if let Ok(metadata) = file.metadata() {
-        if metadata.is_file() {
-            check(
-                path.display().to_string(),
-                "reading the file",
-                Some(metadata.len()),
-            )?;
-        }
+    let mut limit = max_memory();
+    match file.metadata() {
+        Ok(metadata) if metadata.is_file() => check(
+            path.display().to_string(),
+            "reading the file",
+            Some(metadata.len()),
+        )?,
+        _ => limit = limit.min(MAX_STREAM_INPUT),
     }
     let mut bytes = Vec::new();
     file.take(limit.saturating_add(1))
         .read_to_end(&mut bytes)
         .map_err(|err| Error::io(path, err))?;
     if bytes.len() as u64 > limit {
-        return check(path.display().to_string(), "reading the file", None).map(|()| bytes);
+        return Err(Error::TooLarge {
+            what: path.display().to_string(),
+            message: format!(
+                "not a regular file, and longer than the {} read from one",
+                human(limit)
+            ),
+        });
     }
     Ok(bytes)
 }
@@ -183,6 +192,14 @@ pub fn check_bake_options(options: &BakeOptions) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_endless_device_is_not_read_to_the_end() {
+        if Path::new("/dev/zero").exists() {
+            let err = read_file(Path::new("/dev/zero")).unwrap_err();
+            assert!(err.to_string().contains("not a regular file"), "{err}");
+        }
+    }
 
     #[test]
     fn human_sizes() {

@@ -230,6 +230,10 @@ fn absurd_sizes_are_refused_before_allocation() {
             "s.scene:1: texture huge.tga: decoding its declared 65535×65535 pixels needs 64.0 GiB",
             "over the memory limit of 1.0 GiB",
         ]);
+    // An endless device given as the scene is read only so far.
+    scratch
+        .run(&["bake", "/dev/zero", "-o", "out/a.prt"])
+        .fails_with_bad_input(&["/dev/zero: not a regular file, and longer than the 256.0 MiB"]);
     // An OBJ index of 10^18.
     scratch.write(
         "far.obj",
