@@ -774,7 +774,9 @@ fn check_docs_table(table: &str) {
         return;
     }
     panic!(
-        "docs/robustness.md's fuzz table is not this run's; rerun with PRT_FUZZ_BLESS=1 to rewrite it.\n\
+        "docs/robustness.md's fuzz table is not this run's (a parser changed what it accepts?); \
+         if the change is intended, rewrite the table with \
+         `PRT_FUZZ_BLESS=1 cargo test --release -p prt-baker --test fuzz` and commit it.\n\
          docs:\n{current}\nthis run:\n{table}"
     );
 }
