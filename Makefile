@@ -5,6 +5,7 @@
 #                    check, the independent reference
 #   make bench       the bake benchmark: Embree and obvhs against the raw Embree rate
 #                    (docs/performance.md)
+#   make fuzz        the parsers' mutation fuzzing at 20 times make test's mutants (docs/robustness.md)
 #   make bench-view  the viewer's frame rates, Blinn-Phong and PRT with 1 and 8 lights (docs/performance.md)
 
 CARGO ?= cargo
@@ -16,7 +17,7 @@ SCENE := scenes/torus/torus.scene
 NO_EMBREE := target/no-embree
 NO_EMBREE_BAKE := $(NO_EMBREE)/release/prt-bake
 
-.PHONY: demo test bench bench-view deps build lint unit no-embree embree4 reference scenes
+.PHONY: demo test bench bench-view deps build lint unit no-embree embree4 reference scenes fuzz
 
 deps:
 	@scripts/install-deps.sh
@@ -77,6 +78,10 @@ test: lint unit no-embree embree4 reference
 
 bench: deps
 	$(CARGO) bench -p prt-baker --bench bake
+
+# 400,000 mutants per parser (make test runs 20,000): a few minutes.
+fuzz: deps
+	PRT_FUZZ_CASES=400000 $(CARGO) test --release -p prt-baker --test fuzz -- --nocapture
 
 bench-view: out/torus.prt
 	$(VIEW) $(SCENE) out/torus.prt --bench

@@ -1,32 +1,15 @@
 //! Writing output files so that a reader never sees half of one.
 
-use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-use crate::error::{Error, Result};
+use crate::error::Result;
+use crate::output::Output;
 
-/// Writes `bytes` to a temporary file beside `path`, flushes it to disk, then renames it over
-/// `path`. On any failure the temporary file is removed and `path` is left as it was.
+/// Writes `bytes` to `path` under the output policy ([`crate::output`]): a regular file is
+/// written to a temporary file beside it, flushed to disk and renamed over it (on any failure
+/// the temporary file is removed and `path` is left as it was); a directory or block device is
+/// refused; a character device or FIFO is written through. Commands that read input files
+/// use [`Output::new`] with them, so an output can never replace one of its inputs.
 pub fn write(path: &Path, bytes: &[u8]) -> Result<()> {
-    let temporary = temporary_path(path);
-    let result = (|| {
-        let mut file = std::fs::File::create(&temporary)?;
-        file.write_all(bytes)?;
-        file.sync_all()?;
-        std::fs::rename(&temporary, path)
-    })();
-    result.map_err(|err| {
-        let _ = std::fs::remove_file(&temporary);
-        Error::io(path, err)
-    })
-}
-
-/// `dir/.name.tmp-PID`: same folder (rename is atomic only within a file system), hidden,
-/// and unique per process.
-fn temporary_path(path: &Path) -> PathBuf {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    path.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
+    Output::new(path, &[])?.write(bytes)
 }

@@ -220,7 +220,7 @@ impl CoefficientFile {
     }
 
     pub fn read(path: &Path) -> Result<CoefficientFile> {
-        let bytes = std::fs::read(path).map_err(|err| Error::io(path, err))?;
+        let bytes = crate::limits::read_file(path)?;
         CoefficientFile::from_bytes(&bytes)
             .map_err(|message| Error::coefficient_file(path, message))
     }
@@ -339,12 +339,16 @@ impl CoefficientFile {
             aux,
             checksum: stored,
         };
-        if header.payload_bytes() != payload {
+        // Checked: a corrupted count must not wrap around to the payload's size.
+        let needed = header.vertex_count.checked_mul(
+            (header.coefficients_per_vertex() + header.aux_floats_per_vertex()) as u64 * 4,
+        );
+        if needed != Some(payload) {
             return Err(format!(
                 "{} vertices × {} coefficients need {} bytes, the header announces {payload}",
                 header.vertex_count,
                 header.coefficients_per_vertex(),
-                header.payload_bytes()
+                needed.map_or_else(|| "more than 2^64".into(), |n| n.to_string())
             ));
         }
         let mut floats = bytes[HEADER_SIZE..]

@@ -61,6 +61,16 @@ pub enum Error {
     #[error("{}: {message}", path.display())]
     SceneMismatch { path: PathBuf, message: String },
 
+    /// An output path the output policy refuses (an input of the run, a directory, a block
+    /// device…; see [`crate::output`]): a bad command line.
+    #[error("{}: {message}", path.display())]
+    Output { path: PathBuf, message: String },
+
+    /// Input or work larger than the memory limit allows (`--max-memory`; see
+    /// [`crate::limits`]): refused before anything is allocated.
+    #[error("{what}: {message}")]
+    TooLarge { what: String, message: String },
+
     /// Options that cannot be honoured (an order out of range, zero samples, …).
     #[error("{0}")]
     InvalidOption(String),
@@ -111,6 +121,7 @@ impl Error {
                 | Error::Light { .. }
                 | Error::CoefficientFile { .. }
                 | Error::SceneMismatch { .. }
+                | Error::TooLarge { .. }
         ) || matches!(self, Error::Io { source, .. } if source.kind() == io::ErrorKind::NotFound)
     }
 }

@@ -17,6 +17,9 @@ pub fn export_npz(coefficients: &Path, scene: &Path, output: &Path) -> Result<()
     let file = CoefficientFile::read(coefficients)?;
     let scene = Scene::load(scene)?;
     file.check_scene(coefficients, &scene)?;
+    let mut inputs = scene.input_files();
+    inputs.push(coefficients.to_path_buf());
+    let output = crate::output::Output::new(output, &inputs)?;
     let v = scene.vertex_count();
     let flat = |values: &[glam::Vec3]| {
         values
@@ -70,5 +73,5 @@ pub fn export_npz(coefficients: &Path, scene: &Path, output: &Path) -> Result<()
             data: bent_normal,
         });
     }
-    npz::write(output, &arrays)
+    output.write(&npz::to_bytes(&arrays)?)
 }

@@ -7,11 +7,12 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
 use prt_baker::light::Rig;
+use prt_baker::output::Output;
 use prt_baker::progress::{Progress, ProgressBar, Silent};
 use prt_baker::sampling::Sampling;
 use prt_baker::trace::{self, Backend, TracerOptions};
 use prt_baker::transfer::Aux;
-use prt_baker::{BakeOptions, CoefficientFile, Error, Mode, Scene, sh};
+use prt_baker::{BakeOptions, CoefficientFile, Error, Mode, Scene, limits, sh};
 
 /// Exit codes: 0 success, 1 failure (I/O, backend), 2 bad command line, 3 bad input files.
 const EXIT_FAILURE: u8 = 1;
@@ -27,6 +28,10 @@ const EXIT_BAD_INPUT: u8 = 3;
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Memory the command may use, in MiB (default: 3/4 of the physical memory). Inputs and
+    /// bakes that need more are refused before anything is allocated.
+    #[arg(long, global = true, value_name = "MIB")]
+    max_memory: Option<u64>,
 }
 
 #[derive(Subcommand)]
@@ -56,7 +61,7 @@ enum Command {
         /// SH order n: n² coefficients per colour channel.
         #[arg(long, default_value_t = 4)]
         order: usize,
-        /// Output .json file.
+        /// Output .json file (`-`: standard output).
         #[arg(short, long)]
         output: PathBuf,
     },
@@ -185,27 +190,50 @@ enum SamplingArg {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let result = match cli.command {
+    if let Some(mib) = cli.max_memory {
+        limits::set_max_memory(mib.saturating_mul(1 << 20));
+    }
+    // A panic is a bug, but still ends with one clear line and exit code 1; the output's
+    // temporary file is removed as the panic unwinds (prt_baker::output).
+    std::panic::set_hook(Box::new(|info| {
+        let location = info
+            .location()
+            .map_or(String::new(), |l| format!(" at {}:{}", l.file(), l.line()));
+        let message = info
+            .payload()
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| info.payload().downcast_ref::<String>().cloned())
+            .unwrap_or_default();
+        eprintln!(
+            "prt-bake: error: internal error (a bug{location}: {message}); no output was written"
+        );
+    }));
+    let result = std::panic::catch_unwind(|| match cli.command {
         Command::Bake(args) => bake(args),
         Command::Inspect { file } => inspect(&file),
-        Command::Export { file, scene, npz } => check_output_folder(&npz)
-            .and_then(|()| prt_baker::export::export_npz(&file, &scene, &npz)),
+        Command::Export { file, scene, npz } => export(&file, &scene, &npz),
         Command::Light { rig, order, output } => light(&rig, order, &output),
         Command::Relight(args) => relight(args),
+    });
+    let Ok(result) = result else {
+        return ExitCode::from(EXIT_FAILURE);
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
             eprintln!("prt-bake: error: {err}");
-            // Option values clap accepts but the bake cannot honour (`--samples 0`) are a bad
-            // command line too.
-            ExitCode::from(if matches!(err, Error::InvalidOption(_)) {
-                EXIT_BAD_COMMAND_LINE
-            } else if err.is_bad_input() {
-                EXIT_BAD_INPUT
-            } else {
-                EXIT_FAILURE
-            })
+            // Option values clap accepts but the bake cannot honour (`--samples 0`), and
+            // outputs the output policy refuses, are a bad command line too.
+            ExitCode::from(
+                if matches!(err, Error::InvalidOption(_) | Error::Output { .. }) {
+                    EXIT_BAD_COMMAND_LINE
+                } else if err.is_bad_input() {
+                    EXIT_BAD_INPUT
+                } else {
+                    EXIT_FAILURE
+                },
+            )
         }
     }
 }
@@ -236,6 +264,7 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
         hit_cache_limit: args.hit_cache_mb.saturating_mul(1 << 20),
     };
     options.validate()?;
+    limits::check_bake_options(&options)?;
     let tracer_options = TracerOptions {
         threads: args.threads,
         robust: args.robust,
@@ -243,7 +272,7 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
     if options.mode.casts_rays() {
         trace::check(args.backend.backend(), tracer_options)?;
     }
-    check_output_folder(&args.output)?;
+    Output::new(&args.output, std::slice::from_ref(&args.scene))?;
     if let Some(threads) = args.threads {
         if threads == 0 {
             return Err(Error::InvalidOption("--threads must be at least 1".into()));
@@ -259,6 +288,29 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
     }
 
     let scene = Scene::load(&args.scene)?;
+    let output = Output::new(&args.output, &scene.input_files())?;
+    let needed = limits::bake_bytes(
+        &options,
+        scene.vertex_count() as u64,
+        scene.triangles.len() as u64,
+    );
+    limits::check(
+        args.scene.display().to_string(),
+        &format!(
+            "baking {} vertices at order {} with {} samples",
+            scene.vertex_count(),
+            options.order,
+            options.samples
+        ),
+        needed,
+    )?;
+    if !args.quiet && needed.is_some_and(|n| n >= 1 << 30) {
+        eprintln!(
+            "prt-bake: this bake needs up to {} of memory (limit {})",
+            limits::human(needed.unwrap_or(0)),
+            limits::human(limits::max_memory())
+        );
+    }
     let tracer = match options.mode.casts_rays() {
         false => None,
         true => Some(trace::build(
@@ -273,8 +325,8 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
         Box::new(ProgressBar::new())
     };
     let transfer = prt_baker::bake(&scene, tracer.as_deref(), &options, progress.as_ref())?;
-    let mut file = CoefficientFile::from_bake(&scene, &transfer);
-    file.write(&args.output)?;
+    let file = CoefficientFile::from_bake(&scene, &transfer);
+    output.write(&file.to_bytes().0)?;
 
     let rays = match transfer.rays_cast {
         0 => String::from("no rays"),
@@ -312,22 +364,10 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
     Ok(())
 }
 
-/// Fails before a long bake rather than after it if the output cannot be written there.
-fn check_output_folder(output: &Path) -> Result<(), Error> {
-    let folder = match output.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    if !folder.is_dir() {
-        return Err(Error::io(
-            output,
-            std::io::Error::new(
-                std::io::ErrorKind::NotFound,
-                format!("folder {} does not exist", folder.display()),
-            ),
-        ));
-    }
-    Ok(())
+fn export(file: &Path, scene: &Path, npz: &Path) -> Result<(), Error> {
+    // Checked before the inputs are read; export_npz checks again against all of them.
+    Output::new(npz, &[file.to_path_buf(), scene.to_path_buf()])?;
+    prt_baker::export::export_npz(file, scene, npz)
 }
 
 fn inspect(path: &Path) -> Result<(), Error> {
@@ -344,17 +384,19 @@ fn light(rig: &Path, order: usize, output: &Path) -> Result<(), Error> {
             sh::MAX_ORDER
         )));
     }
-    check_output_folder(output)?;
+    Output::new_or_stdout(output, &[rig.to_path_buf()])?;
     let rig = Rig::load(rig)?;
+    let output = Output::new_or_stdout(output, &rig.input_files())?;
     let json = rig.project(order).to_json() + "\n";
-    prt_baker::atomic::write(output, json.as_bytes())
+    output.write(json.as_bytes())
 }
 
 fn relight(args: RelightArgs) -> Result<(), Error> {
     if !args.exposure.is_finite() {
         return Err(Error::InvalidOption("--exposure must be finite".into()));
     }
-    check_output_folder(&args.output)?;
+    let inputs = [args.scene.clone(), args.file.clone(), args.lights.clone()];
+    Output::new(&args.output, &inputs)?;
     let relit = prt_baker::relight::relight(
         &args.scene,
         &args.file,

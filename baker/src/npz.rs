@@ -40,6 +40,18 @@ pub fn npy_bytes(shape: &[usize], data: &[f32]) -> Vec<u8> {
 
 /// Writes the arrays into `path` atomically.
 pub fn write(path: &Path, arrays: &[Array<'_>]) -> Result<()> {
+    crate::atomic::write(
+        path,
+        &to_bytes(arrays).map_err(|err| match err {
+            Error::Io { source, .. } => Error::io(path, source),
+            other => other,
+        })?,
+    )
+}
+
+/// The `.npz` file's bytes.
+pub fn to_bytes(arrays: &[Array<'_>]) -> Result<Vec<u8>> {
+    let path = Path::new("npz archive");
     let mut zip = zip::ZipWriter::new(Cursor::new(Vec::new()));
     let options = zip::write::SimpleFileOptions::default()
         .compression_method(zip::CompressionMethod::Stored)
@@ -51,6 +63,5 @@ pub fn write(path: &Path, arrays: &[Array<'_>]) -> Result<()> {
         zip.write_all(&npy_bytes(&array.shape, array.data))
             .map_err(|err| Error::io(path, err))?;
     }
-    let bytes = zip.finish().map_err(zip_error)?.into_inner();
-    crate::atomic::write(path, &bytes)
+    Ok(zip.finish().map_err(zip_error)?.into_inner())
 }

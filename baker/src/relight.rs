@@ -90,6 +90,10 @@ pub fn relight(
     let scene_path = scene;
     let scene = Scene::load(scene)?;
     file.check_scene(coefficients, &scene)?;
+    let mut inputs = scene.input_files();
+    inputs.push(coefficients.to_path_buf());
+    inputs.extend(rig.input_files());
+    let output = crate::output::Output::new(output, &inputs)?;
     let order = file.header.order as usize;
     let light = rig.project(order);
     let radiance = vertex_radiance(&file, &scene.vertex_albedo(), &light);
@@ -116,7 +120,7 @@ pub fn relight(
             ),
         ],
     };
-    mesh.write(output)?;
+    output.write(&mesh.to_bytes())?;
     Ok(Relit {
         vertex_count: scene.vertex_count(),
         order,

@@ -6,6 +6,8 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, ValueEnum};
+use prt_baker::light::Rig;
+use prt_baker::output::Output;
 use prt_viewer::bench::{self, BenchOptions};
 use prt_viewer::lights::{Lights, MAX_LIGHTS};
 use prt_viewer::offscreen;
@@ -14,6 +16,7 @@ use prt_viewer::{Bake, Camera, Error, FrameInputs, Gpu, Key, Mode, Renderer, Vie
 
 /// Exit codes, as `prt-bake`'s: 0 success, 1 failure, 2 bad command line, 3 bad input files.
 const EXIT_FAILURE: u8 = 1;
+const EXIT_BAD_COMMAND_LINE: u8 = 2;
 const EXIT_BAD_INPUT: u8 = 3;
 
 #[derive(Parser)]
@@ -106,22 +109,58 @@ fn parse_key(text: &str) -> Result<Key, String> {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    match run(cli) {
+    // A panic is a bug, but still ends with one clear line and exit code 1; a screenshot's
+    // temporary file is removed as the panic unwinds (prt_baker::output).
+    std::panic::set_hook(Box::new(|info| {
+        let location = info
+            .location()
+            .map_or(String::new(), |l| format!(" at {}:{}", l.file(), l.line()));
+        let message = info
+            .payload()
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| info.payload().downcast_ref::<String>().cloned())
+            .unwrap_or_default();
+        eprintln!(
+            "prt-view: error: internal error (a bug{location}: {message}); no output was written"
+        );
+    }));
+    let Ok(result) = std::panic::catch_unwind(|| run(cli)) else {
+        return ExitCode::from(EXIT_FAILURE);
+    };
+    match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(err) => {
             eprintln!("prt-view: error: {err}");
-            ExitCode::from(if err.is_bad_input() {
-                EXIT_BAD_INPUT
-            } else {
-                EXIT_FAILURE
-            })
+            ExitCode::from(
+                if matches!(err, Error::Baker(prt_baker::Error::Output { .. })) {
+                    EXIT_BAD_COMMAND_LINE
+                } else if err.is_bad_input() {
+                    EXIT_BAD_INPUT
+                } else {
+                    EXIT_FAILURE
+                },
+            )
         }
     }
 }
 
 fn run(cli: Cli) -> Result<(), Error> {
+    let named_inputs: Vec<PathBuf> = [Some(&cli.scene), Some(&cli.file), cli.lights.as_ref()]
+        .into_iter()
+        .flatten()
+        .cloned()
+        .collect();
+    if let Some(path) = &cli.screenshot {
+        // Refused before the scene is loaded and the GPU started.
+        Output::new(path, &named_inputs)?;
+    }
     let bake = Bake::load(&cli.scene, &cli.file)?;
-    let lights = Lights::load(cli.lights.as_deref(), bake.order())?;
+    let rig = match &cli.lights {
+        Some(path) => Rig::load(path)?,
+        None => Lights::default_rig(),
+    };
+    let lights = Lights::from_rig(&rig, bake.order());
     let dropped = lights.phong().dropped;
     if dropped > 0 {
         eprintln!(
@@ -153,12 +192,18 @@ fn run(cli: Cli) -> Result<(), Error> {
         return Ok(());
     }
     if let Some(path) = &cli.screenshot {
+        let mut inputs = bake.scene.input_files();
+        inputs.extend(named_inputs);
+        if cli.lights.is_some() {
+            inputs.extend(rig.input_files());
+        }
+        let output = Output::new(path, &inputs)?;
         let gpu = Gpu::headless()?;
         let mut renderer =
             Renderer::new(&gpu.device, &gpu.queue, &bake, offscreen::FORMAT, cli.size)?;
         let inputs = FrameInputs::from_view(&view, None);
         let image = offscreen::render_image(&gpu.device, &gpu.queue, &mut renderer, &inputs)?;
-        offscreen::save_png(&image, path)?;
+        offscreen::save_png_to(&image, &output)?;
         println!(
             "prt-view: wrote {} ({}×{}, {}, camera {}; {})",
             path.display(),

@@ -84,3 +84,30 @@ fn malformed_options_are_refused() {
         assert!(stderr.contains(message), "{args:?}: {stderr}");
     }
 }
+
+/// The output policy: a screenshot may not replace an input (the scene's texture here, the
+/// coefficient file, through a link), checked before the GPU starts; the inputs stay as they were.
+#[test]
+fn a_screenshot_over_an_input_is_refused() {
+    let folder = tempfile::tempdir().unwrap();
+    let mut bake = common::demo_bake(1);
+    let file = folder.path().join("demo.prt");
+    bake.file.write(&file).unwrap();
+    let texture = common::workspace().join("scenes/torus/torus.tga");
+    let link = folder.path().join("link.png");
+    std::os::unix::fs::symlink(&file, &link).unwrap();
+    for target in [&texture, &file, &link] {
+        let before = std::fs::read(target).unwrap();
+        let output = prt_view()
+            .arg(common::demo_scene_path())
+            .arg(&file)
+            .args(["--headless", "--screenshot"])
+            .arg(target)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(2), "{stderr}");
+        assert!(stderr.contains("input"), "{stderr}");
+        assert_eq!(std::fs::read(target).unwrap(), before);
+    }
+}

@@ -44,6 +44,8 @@ pub struct EnvironmentMap {
     height: usize,
     /// Row-major, top row first.
     pixels: Vec<[f32; 3]>,
+    /// The file it was read from, if any (an output must not replace it).
+    source: Option<std::path::PathBuf>,
 }
 
 impl EnvironmentMap {
@@ -56,6 +58,7 @@ impl EnvironmentMap {
             width,
             height,
             pixels,
+            source: None,
         }
     }
 
@@ -78,11 +81,24 @@ impl EnvironmentMap {
                 )));
             }
         }
+        // The header's size first: decoding (up to 16 bytes a pixel), the RGB float copy and
+        // the kept pixels (12 each) must fit before a byte of pixels is allocated.
+        let (width, height) = image::ImageReader::open(path)
+            .and_then(|r| r.with_guessed_format())
+            .map_err(|err| Error::io(path, err))?
+            .into_dimensions()
+            .map_err(|err| fail(format!("cannot decode the environment map: {err}")))?;
+        crate::limits::check_image(path, width, height, 40)?;
+        let mut reader = reader;
+        reader.limits(crate::limits::image_limits());
         let image = reader
             .decode()
             .map_err(|err| fail(format!("cannot decode the environment map: {err}")))?
             .into_rgb32f();
         let (width, height) = (image.width() as usize, image.height() as usize);
+        if width == 0 || height == 0 {
+            return Err(fail("the environment map has no pixels".into()));
+        }
         let pixels: Vec<[f32; 3]> = image.pixels().map(|p| p.0).collect();
         if let Some(i) = pixels.iter().position(|p| p.iter().any(|c| !c.is_finite())) {
             return Err(fail(format!(
@@ -91,7 +107,14 @@ impl EnvironmentMap {
                 i / width
             )));
         }
-        Ok(EnvironmentMap::new(width, height, pixels))
+        let mut map = EnvironmentMap::new(width, height, pixels);
+        map.source = Some(path.to_path_buf());
+        Ok(map)
+    }
+
+    /// The file the map was read from (None for a map made in memory).
+    pub fn source(&self) -> Option<&Path> {
+        self.source.as_deref()
     }
 
     pub fn width(&self) -> usize {

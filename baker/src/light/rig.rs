@@ -40,7 +40,9 @@ pub struct Rig {
 impl Rig {
     /// Reads and checks a rig file; environment maps are loaded relative to its folder.
     pub fn load(path: &Path) -> Result<Rig> {
-        let text = std::fs::read_to_string(path).map_err(|err| Error::io(path, err))?;
+        let bytes = crate::limits::read_file(path)?;
+        let text = String::from_utf8(bytes)
+            .map_err(|_| Error::light(Location::file(path), "not a text file (invalid UTF-8)"))?;
         Rig::parse(&text, path)
     }
 
@@ -114,6 +116,15 @@ impl Rig {
             }
         };
         Ok(rig)
+    }
+
+    /// The rig file and the environment maps it read: an output must not replace them.
+    pub fn input_files(&self) -> Vec<PathBuf> {
+        let maps = self.lights.iter().filter_map(|light| match light {
+            Light::Environment { map, .. } => map.source().map(Path::to_path_buf),
+            _ => None,
+        });
+        std::iter::once(self.path.clone()).chain(maps).collect()
     }
 
     /// The sum of the rig's lights at `order`, windowed.

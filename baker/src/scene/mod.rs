@@ -85,6 +85,9 @@ pub struct Scene {
     pub triangles: Vec<[u32; 3]>,
     pub materials: Vec<Material>,
     pub textures: Vec<Texture>,
+    /// Files read besides `path` and the textures (OBJs, material libraries), for
+    /// [`Scene::input_files`].
+    pub sources: Vec<PathBuf>,
 }
 
 impl Scene {
@@ -95,11 +98,14 @@ impl Scene {
             .is_some_and(|e| e.eq_ignore_ascii_case("obj"));
         if is_obj {
             let loaded = obj::load(path, None)?;
-            return Scene::from_meshes(path, loaded.meshes, loaded.textures);
+            let mut scene = Scene::from_meshes(path, loaded.meshes, loaded.textures)?;
+            scene.sources = loaded.files;
+            return Ok(scene);
         }
         let entries = parse_scene_file(path)?;
         let mut meshes = Vec::new();
         let mut textures: Vec<Texture> = Vec::new();
+        let mut sources = Vec::new();
         for entry in &entries {
             let override_texture = match &entry.texture {
                 Some(texture_path) => {
@@ -118,13 +124,26 @@ impl Scene {
                 other => other,
             })?;
             let offset = textures.len();
+            sources.extend(loaded.files);
             textures.extend(loaded.textures);
             meshes.extend(loaded.meshes.into_iter().map(|mut mesh| {
                 mesh.material.texture = mesh.material.texture.map(|t| t + offset);
                 mesh
             }));
         }
-        Scene::from_meshes(path, meshes, textures)
+        let mut scene = Scene::from_meshes(path, meshes, textures)?;
+        scene.sources = sources;
+        Ok(scene)
+    }
+
+    /// Every file the scene was read from: the scene file, OBJs, material libraries,
+    /// textures. An output must not replace any of them ([`crate::output::Output`]).
+    pub fn input_files(&self) -> Vec<PathBuf> {
+        let mut files = vec![self.path.clone()];
+        files.extend(self.sources.iter().cloned());
+        files.extend(self.textures.iter().map(|t| t.path.clone()));
+        files.dedup();
+        files
     }
 
     /// Assembles and validates a scene from meshes; `path` names it in errors and reports.
@@ -140,6 +159,7 @@ impl Scene {
             triangles: Vec::new(),
             materials: Vec::new(),
             textures,
+            sources: Vec::new(),
         };
         for mesh in meshes {
             let vertex_count = mesh.positions.len();

@@ -19,14 +19,17 @@ use crate::error::{Error, Location, Result};
 pub struct Loaded {
     pub meshes: Vec<Mesh>,
     pub textures: Vec<Texture>,
+    /// The OBJ and the material libraries it read.
+    pub files: Vec<PathBuf>,
 }
 
 /// Loads an OBJ. `override_texture` (the scene file's texture for this object) replaces any
 /// `map_Kd` of its materials; objects with no material then get Kd = 1 so the texture is the
 /// albedo, as in the thesis's scenes.
 pub fn load(path: &Path, override_texture: Option<Texture>) -> Result<Loaded> {
-    let bytes = std::fs::read(path).map_err(|err| Error::io(path, err))?;
+    let bytes = crate::limits::read_file(path)?;
     let dir = path.parent().unwrap_or(Path::new(""));
+    let files = RefCell::new(vec![path.to_path_buf()]);
 
     let obj_lines = Cell::new(LinePosition::default());
     let mtl_error: RefCell<Option<Error>> = RefCell::new(None);
@@ -45,6 +48,7 @@ pub fn load(path: &Path, override_texture: Option<Texture>) -> Result<Loaded> {
     };
     let loaded = tobj::load_obj_buf(&mut reader, &options, |mtl_name| {
         let mtl_path = dir.join(mtl_name);
+        files.borrow_mut().push(mtl_path.clone());
         let at_mtllib = Location::line(path, obj_lines.get().current());
         let result = load_mtl(&mtl_path, &at_mtllib, &mut texture_refs.borrow_mut());
         result.map_err(|err| {
@@ -119,7 +123,11 @@ pub fn load(path: &Path, override_texture: Option<Texture>) -> Result<Loaded> {
             "no faces: the file defines no triangles",
         ));
     }
-    Ok(Loaded { meshes, textures })
+    Ok(Loaded {
+        meshes,
+        textures,
+        files: files.into_inner(),
+    })
 }
 
 fn to_mesh(model: tobj::Model, materials: &[Material], no_material: &Material) -> Mesh {
@@ -158,12 +166,29 @@ fn load_mtl(
     at_mtllib: &Location,
     texture_refs: &mut HashMap<String, (PathBuf, usize)>,
 ) -> Result<(Vec<tobj::Material>, HashMap<String, usize>)> {
-    let bytes = std::fs::read(mtl_path).map_err(|err| {
-        Error::scene(
+    let bytes = crate::limits::read_file(mtl_path).map_err(|err| match err {
+        Error::Io { source, .. } => Error::scene(
             at_mtllib.clone(),
-            format!("cannot read material library {}: {err}", mtl_path.display()),
-        )
+            format!(
+                "cannot read material library {}: {source}",
+                mtl_path.display()
+            ),
+        ),
+        other => other,
     })?;
+    // tobj 4.0.5 panics on a colour with fewer than three numbers (`Kd 1 1`); refuse it first.
+    for (index, line) in String::from_utf8_lossy(&bytes).lines().enumerate() {
+        let mut words = line.split_whitespace();
+        if let Some(key @ ("Ka" | "Kd" | "Ks" | "Ke")) = words.next() {
+            let count = words.count();
+            if count < 3 {
+                return Err(Error::scene(
+                    Location::line(mtl_path, index + 1),
+                    format!("`{key}` needs three numbers (r g b), found {count}"),
+                ));
+            }
+        }
+    }
     let lines = Cell::new(LinePosition::default());
     let mut reader = LineCounter {
         inner: &bytes[..],

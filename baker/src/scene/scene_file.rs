@@ -22,7 +22,7 @@ pub struct SceneEntry {
 }
 
 pub fn parse_scene_file(path: &Path) -> Result<Vec<SceneEntry>> {
-    let bytes = std::fs::read(path).map_err(|err| Error::io(path, err))?;
+    let bytes = crate::limits::read_file(path)?;
     let text = String::from_utf8(bytes)
         .map_err(|_| Error::scene(Location::file(path), "not a text file (invalid UTF-8)"))?;
     let base = path.parent().unwrap_or(Path::new(""));

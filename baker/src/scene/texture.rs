@@ -46,12 +46,21 @@ impl Texture {
                 format!("texture {} does not exist", path.display()),
             ));
         }
-        let image = image::open(path).map_err(|err| {
+        let cannot_read = |err: &dyn std::fmt::Display| {
             Error::scene(
                 referenced_at.clone(),
                 format!("cannot read texture {}: {err}", path.display()),
             )
-        })?;
+        };
+        let open = || image::ImageReader::open(path).map_err(|err| cannot_read(&err));
+        // The header's size first: decoding (up to 8 bytes a pixel), the RGBA copy and the
+        // kept sRGB pixels (4 each) must fit before a byte of pixels is allocated.
+        let (width, height) = open()?.into_dimensions().map_err(|err| cannot_read(&err))?;
+        crate::limits::check_image(path, width, height, 16)
+            .map_err(|err| Error::scene(referenced_at.clone(), format!("texture {err}")))?;
+        let mut reader = open()?;
+        reader.limits(crate::limits::image_limits());
+        let image = reader.decode().map_err(|err| cannot_read(&err))?;
         let rgba = image.to_rgba8();
         let (width, height) = rgba.dimensions();
         if width == 0 || height == 0 {

@@ -1,0 +1,231 @@
+//! Resource limits, checked before anything is allocated.
+//!
+//! A header that declares 65535×65535 pixels, a coefficient file of 2³² vertices or an
+//! absurd `--samples` would otherwise make the process ask for gigabytes, and be killed by
+//! the system or take the machine down with it. Every such size is turned into the bytes it
+//! needs and compared with one process-wide limit, [`max_memory`]: `--max-memory`, by default
+//! three quarters of the physical memory (`/proc/meminfo`). What is refused is a
+//! [`Error::TooLarge`] that says what was asked, what it needs and what the limit is.
+
+use std::io::Read;
+use std::path::Path;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use crate::error::{Error, Result};
+use crate::sh;
+use crate::transfer::{BakeOptions, Mode};
+
+/// The limit when the physical memory cannot be read (not Linux): 4 GiB.
+const FALLBACK_MAX_MEMORY: u64 = 4 << 30;
+
+/// 0 until set or first read.
+static MAX_MEMORY: AtomicU64 = AtomicU64::new(0);
+
+/// The physical memory in bytes (`MemTotal` of `/proc/meminfo`), if known.
+pub fn physical_memory() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemTotal:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    kib.checked_mul(1024)
+}
+
+/// The default limit: three quarters of the physical memory.
+pub fn default_max_memory() -> u64 {
+    physical_memory().map_or(FALLBACK_MAX_MEMORY, |m| m / 4 * 3)
+}
+
+/// The memory one command may use, in bytes.
+pub fn max_memory() -> u64 {
+    match MAX_MEMORY.load(Ordering::Relaxed) {
+        0 => {
+            let limit = default_max_memory();
+            MAX_MEMORY.store(limit, Ordering::Relaxed);
+            limit
+        }
+        limit => limit,
+    }
+}
+
+/// Sets the limit for the rest of the process (`--max-memory`).
+pub fn set_max_memory(bytes: u64) {
+    MAX_MEMORY.store(bytes.max(1), Ordering::Relaxed);
+}
+
+/// `1.5 GiB`, `12.0 MiB`, `512 bytes`.
+pub fn human(bytes: u64) -> String {
+    const UNITS: [&str; 5] = ["KiB", "MiB", "GiB", "TiB", "PiB"];
+    if bytes < 1024 {
+        return format!("{bytes} bytes");
+    }
+    let mut value = bytes as f64 / 1024.0;
+    let mut unit = 0;
+    while value >= 1024.0 && unit < UNITS.len() - 1 {
+        value /= 1024.0;
+        unit += 1;
+    }
+    format!("{value:.1} {}", UNITS[unit])
+}
+
+/// Refuses `needed` bytes (None: more than 2⁶⁴) over the limit; `what` names the input or
+/// option, `asked` says what it asked for.
+pub fn check(what: impl Into<String>, asked: &str, needed: Option<u64>) -> Result<()> {
+    let limit = max_memory();
+    match needed {
+        Some(bytes) if bytes <= limit => Ok(()),
+        _ => Err(Error::TooLarge {
+            what: what.into(),
+            message: format!(
+                "{asked} needs {}, over the memory limit of {} (--max-memory; the default is 3/4 of the physical memory)",
+                needed.map_or_else(|| "more than 2^64 bytes".into(), human),
+                human(limit)
+            ),
+        }),
+    }
+}
+
+/// The most read from an input that is not a regular file (a pipe, a device such as
+/// `/dev/zero`), whose size cannot be known first.
+pub const MAX_STREAM_INPUT: u64 = 256 << 20;
+
+/// Reads a whole input file, refusing one larger than the memory limit before reading it;
+/// a pipe or device is read up to [`MAX_STREAM_INPUT`] (or the limit, if lower).
+pub fn read_file(path: &Path) -> Result<Vec<u8>> {
+    let file = std::fs::File::open(path).map_err(|err| Error::io(path, err))?;
+    let mut limit = max_memory();
+    match file.metadata() {
+        Ok(metadata) if metadata.is_file() => check(
+            path.display().to_string(),
+            "reading the file",
+            Some(metadata.len()),
+        )?,
+        _ => limit = limit.min(MAX_STREAM_INPUT),
+    }
+    let mut bytes = Vec::new();
+    file.take(limit.saturating_add(1))
+        .read_to_end(&mut bytes)
+        .map_err(|err| Error::io(path, err))?;
+    if bytes.len() as u64 > limit {
+        return Err(Error::TooLarge {
+            what: path.display().to_string(),
+            message: format!(
+                "not a regular file, and longer than the {} read from one",
+                human(limit)
+            ),
+        });
+    }
+    Ok(bytes)
+}
+
+/// Refuses an image whose header declares more pixels than fit, before it is decoded:
+/// `bytes_per_pixel` is what decoding and keeping one pixel costs in all.
+pub fn check_image(path: &Path, width: u32, height: u32, bytes_per_pixel: u64) -> Result<()> {
+    let needed = (u64::from(width) * u64::from(height)).checked_mul(bytes_per_pixel);
+    check(
+        path.display().to_string(),
+        &format!("decoding its declared {width}×{height} pixels"),
+        needed,
+    )
+}
+
+/// The `image` crate's own limits, as a second line behind [`check_image`]: no single
+/// allocation above the memory limit, whatever the decoder finds further into the file.
+pub fn image_limits() -> image::Limits {
+    let mut limits = image::Limits::default();
+    limits.max_alloc = Some(max_memory());
+    limits
+}
+
+/// An upper bound of a bake's memory: the scene, the tracer's acceleration structure, the
+/// sample tables, the coefficients (computed, packed and written) and, interreflected, the
+/// bounce buffers and the hit cache at most at its limit. None if it overflows.
+pub fn bake_bytes(options: &BakeOptions, vertices: u64, triangles: u64) -> Option<u64> {
+    let n = sh::coeff_count(options.order) as u64;
+    let samples = u64::from(options.samples);
+    // Directions (12 bytes) and their SH values (4 n² bytes) in the local frame, plus the
+    // sort keys while they are built.
+    let tables = samples.checked_mul(24 + 4 * n)?;
+    // Positions, normals, uvs, material, ray origins; triangles and a BVH of ~3 nodes each.
+    let scene = vertices
+        .checked_mul(64)?
+        .checked_add(triangles.checked_mul(12 + 3 * 64)?)?;
+    let channels = if options.mode == Mode::Interreflected {
+        3
+    } else {
+        1
+    };
+    // The coefficients three times over: the bake's, the file's copy and its bytes.
+    let coefficients = vertices.checked_mul(channels * n * 4)?.checked_mul(3)?;
+    let bounce = match options.mode {
+        Mode::Interreflected => {
+            // Hit-cache rows: up to three (vertex, weight) entries of 16 bytes per bounce ray,
+            // dropped beyond the cache's limit.
+            let rows = vertices
+                .checked_mul(u64::from(options.effective_bounce_samples()))?
+                .checked_mul(48)?;
+            vertices
+                .checked_mul(3 * n * 4 * 3)?
+                .checked_add(rows.min(options.hit_cache_limit))?
+        }
+        _ => 0,
+    };
+    tables
+        .checked_add(scene)?
+        .checked_add(coefficients)?
+        .checked_add(bounce)
+}
+
+/// Refuses `--samples` and `--order` whose sample tables alone cannot fit, before the scene
+/// is even read (a bad command line: [`Error::InvalidOption`]).
+pub fn check_bake_options(options: &BakeOptions) -> Result<()> {
+    let n = sh::coeff_count(options.order) as u64;
+    check(
+        "--samples",
+        &format!(
+            "{} samples at order {} ({n} SH values per sample)",
+            options.samples, options.order
+        ),
+        u64::from(options.samples).checked_mul(24 + 4 * n),
+    )
+    .map_err(|err| Error::InvalidOption(err.to_string()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_endless_device_is_not_read_to_the_end() {
+        if Path::new("/dev/zero").exists() {
+            let err = read_file(Path::new("/dev/zero")).unwrap_err();
+            assert!(err.to_string().contains("not a regular file"), "{err}");
+        }
+    }
+
+    #[test]
+    fn human_sizes() {
+        assert_eq!(human(512), "512 bytes");
+        assert_eq!(human(3 << 20), "3.0 MiB");
+        assert_eq!(human(65535 * 65535 * 16), "64.0 GiB");
+    }
+
+    #[test]
+    fn physical_memory_is_read_on_linux() {
+        if cfg!(target_os = "linux") {
+            let m = physical_memory().expect("/proc/meminfo has MemTotal");
+            assert!(m > 64 << 20, "{m}");
+            assert_eq!(default_max_memory(), m / 4 * 3);
+        }
+    }
+
+    #[test]
+    fn a_huge_image_is_refused_with_its_size_and_the_limit() {
+        if max_memory() < 65535 * 65535 * 16 {
+            let err = check_image(Path::new("big.tga"), 65535, 65535, 16).unwrap_err();
+            let text = err.to_string();
+            let expected = "big.tga: decoding its declared 65535×65535 pixels needs 64.0 GiB, \
+                            over the memory limit of";
+            assert!(text.contains(expected), "{text}");
+        }
+        assert!(check_image(Path::new("small.tga"), 64, 64, 16).is_ok());
+    }
+}

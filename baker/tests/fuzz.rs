@@ -1,0 +1,782 @@
+//! Mutation fuzzing of every parser, on stable Rust: OBJ, MTL, scene file, TGA, PNG, HDR, EXR,
+//! rig TOML and the `.prt` coefficient file.
+//!
+//! Each parser gets seeds (valid files made here, plus every file committed under
+//! `tests/fuzz-corpus/<parser>/`: hand-made seeds and the crashes found so far, kept as
+//! regressions) and a fixed number of mutants of them from a deterministic mutator (bit flips,
+//! interesting integers in headers, cut, duplicated and spliced ranges, numbers in text
+//! replaced by huge, negative or non-finite ones, lines dropped or repeated). Every case must
+//! return `Ok` or `Err`:
+//!
+//! * a panic fails the test, and the input is saved into the corpus folder as `crash-*`;
+//! * a case running longer than [`CASE_TIME_LIMIT`] (a hang) ends the test, saved likewise;
+//! * this binary's global allocator counts every byte; a case may not hold more than
+//!   [`ALLOCATION_CAP`] at once (the parsers run with a 64 MiB `--max-memory`, so a header
+//!   claiming gigabytes must be refused, not allocated). A single request above the cap is
+//!   refused on the spot (the process aborts, the input saved as `fuzz-over-allocation.bin`).
+//! * a `.prt` mutant whose checksum was not repaired must be rejected (a corruption that is
+//!   accepted is counted and fails the test); with the checksum repaired, what is accepted
+//!   must read back to the same bytes.
+//!
+//! The counts are the table of `docs/robustness.md`, which this test checks (run it with
+//! `PRT_FUZZ_BLESS=1` to rewrite the table after a parser changed). `PRT_FUZZ_CASES=N` sets the
+//! mutants per parser (`make fuzz`: longer runs, not compared with the table).
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::io::Cursor;
+use std::panic::AssertUnwindSafe;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::time::{Duration, Instant};
+
+use prt_baker::coefficient_file::{CoefficientFile, Header};
+use prt_baker::light::{EnvironmentMap, Rig};
+use prt_baker::sampling::Sampling;
+use prt_baker::scene::Texture;
+use prt_baker::trace::Backend;
+use prt_baker::transfer::{Aux, Mode};
+use prt_baker::{Location, Scene};
+
+/// Mutants per parser in `make test`.
+const DEFAULT_CASES: usize = 20_000;
+/// The memory limit the parsers run under.
+const MAX_MEMORY: u64 = 64 << 20;
+/// The most one case may hold at once.
+const ALLOCATION_CAP: usize = 256 << 20;
+/// Longer than any case takes on a loaded machine (they take well under 10 ms).
+const CASE_TIME_LIMIT: Duration = Duration::from_secs(10);
+
+// ---------------------------------------------------------------------------------------
+// The counting allocator.
+
+struct Counting;
+
+static LIVE: AtomicUsize = AtomicUsize::new(0);
+static PEAK: AtomicUsize = AtomicUsize::new(0);
+/// The input of the case running now, for the allocator to save if it must refuse.
+static CASE_PTR: AtomicUsize = AtomicUsize::new(0);
+static CASE_LEN: AtomicUsize = AtomicUsize::new(0);
+
+impl Counting {
+    fn over_cap(size: usize) {
+        // No allocation in here: raw writes of the case and a fixed message.
+        let message =
+            b"fuzz: a single allocation over the cap; input saved as fuzz-over-allocation.bin\n";
+        // SAFETY: plain system calls on a fixed path and the case's live buffer.
+        unsafe {
+            libc::write(2, message.as_ptr().cast(), message.len());
+            let fd = libc::open(
+                c"fuzz-over-allocation.bin".as_ptr(),
+                libc::O_CREAT | libc::O_WRONLY | libc::O_TRUNC,
+                0o644,
+            );
+            let (ptr, len) = (
+                CASE_PTR.load(Ordering::SeqCst),
+                CASE_LEN.load(Ordering::SeqCst),
+            );
+            if fd >= 0 && ptr != 0 {
+                libc::write(fd, ptr as *const libc::c_void, len);
+                libc::close(fd);
+            }
+        }
+        let _ = size;
+    }
+
+    fn count(size: usize) {
+        let live = LIVE.fetch_add(size, Ordering::Relaxed) + size;
+        PEAK.fetch_max(live, Ordering::Relaxed);
+    }
+}
+
+// SAFETY: forwards to the system allocator; only counts, and refuses (null) above the cap.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        if layout.size() > ALLOCATION_CAP {
+            Counting::over_cap(layout.size());
+            return std::ptr::null_mut();
+        }
+        Counting::count(layout.size());
+        unsafe { System.alloc(layout) }
+    }
+
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        if layout.size() > ALLOCATION_CAP {
+            Counting::over_cap(layout.size());
+            return std::ptr::null_mut();
+        }
+        Counting::count(layout.size());
+        unsafe { System.alloc_zeroed(layout) }
+    }
+
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        LIVE.fetch_sub(layout.size(), Ordering::Relaxed);
+        unsafe { System.dealloc(ptr, layout) }
+    }
+
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        if new_size > ALLOCATION_CAP {
+            Counting::over_cap(new_size);
+            return std::ptr::null_mut();
+        }
+        let result = unsafe { System.realloc(ptr, layout, new_size) };
+        if !result.is_null() {
+            LIVE.fetch_sub(layout.size(), Ordering::Relaxed);
+            Counting::count(new_size);
+        }
+        result
+    }
+}
+
+#[global_allocator]
+static ALLOCATOR: Counting = Counting;
+
+// ---------------------------------------------------------------------------------------
+// The deterministic mutator.
+
+/// SplitMix64: tiny, fast, and the same stream everywhere.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+
+    fn below(&mut self, n: usize) -> usize {
+        (self.next() % n.max(1) as u64) as usize
+    }
+}
+
+const INTERESTING_BYTES: [u8; 8] = [0, 1, 0x7f, 0x80, 0xff, b'0', b'-', b'\n'];
+const INTERESTING_INTS: [u64; 10] = [
+    0,
+    1,
+    0xff,
+    0xffff,
+    0x7fff_ffff,
+    0xffff_ffff,
+    1 << 32,
+    0x7fff_ffff_ffff_ffff,
+    u64::MAX,
+    65535 * 65535,
+];
+const INTERESTING_NUMBERS: [&str; 12] = [
+    "1e18",
+    "-1",
+    "nan",
+    "inf",
+    "-inf",
+    "1000000000000000000",
+    "-9223372036854775808",
+    "0",
+    "4294967296",
+    "1e-45",
+    "3.4e39",
+    "65535",
+];
+
+fn mutate(seed: &[u8], seeds: &[Vec<u8>], text: bool, rng: &mut Rng) -> Vec<u8> {
+    let mut data = seed.to_vec();
+    for _ in 0..1 + rng.below(4) {
+        let len = data.len();
+        match rng.below(if text { 11 } else { 8 }) {
+            0 if len > 0 => {
+                let i = rng.below(len);
+                data[i] ^= 1 << rng.below(8);
+            }
+            1 if len > 0 => {
+                let i = rng.below(len);
+                data[i] = INTERESTING_BYTES[rng.below(INTERESTING_BYTES.len())];
+            }
+            2 if len > 0 => {
+                // An interesting integer, mostly in the header.
+                let width = [2, 4, 8][rng.below(3)];
+                let window = if rng.below(4) > 0 { len.min(160) } else { len };
+                let at = rng.below(window);
+                let value = INTERESTING_INTS[rng.below(INTERESTING_INTS.len())];
+                let bytes = if rng.below(2) == 0 {
+                    value.to_le_bytes()
+                } else {
+                    (value << (64 - 8 * width).min(63)).to_be_bytes()
+                };
+                for k in 0..width {
+                    if at + k < len {
+                        data[at + k] = bytes[k];
+                    }
+                }
+            }
+            3 if len > 0 => {
+                let at = rng.below(len);
+                let end = (at + 1 + rng.below(32)).min(len);
+                data.drain(at..end);
+            }
+            4 => {
+                let at = rng.below(len + 1);
+                let piece: Vec<u8> = match len {
+                    0 => vec![0],
+                    _ => {
+                        let from = rng.below(len);
+                        data[from..(from + 1 + rng.below(64)).min(len)].to_vec()
+                    }
+                };
+                for _ in 0..1 + rng.below(3) {
+                    data.splice(at..at, piece.iter().copied());
+                }
+            }
+            5 if len > 0 => data.truncate(rng.below(len)),
+            6 => {
+                let other = &seeds[rng.below(seeds.len())];
+                if !other.is_empty() {
+                    let from = rng.below(other.len());
+                    let piece = &other[from..(from + 1 + rng.below(128)).min(other.len())];
+                    let at = rng.below(len + 1);
+                    data.splice(at..at, piece.iter().copied());
+                }
+            }
+            7 => {
+                let at = rng.below(len + 1);
+                let count = 1 + rng.below(16);
+                let random: Vec<u8> = (0..count).map(|_| rng.next() as u8).collect();
+                data.splice(at..at, random);
+            }
+            8 => replace_number(&mut data, rng),
+            9 | 10 => {
+                // Repeat or drop a line.
+                let lines: Vec<usize> = std::iter::once(0)
+                    .chain(
+                        data.iter()
+                            .enumerate()
+                            .filter(|(_, b)| **b == b'\n')
+                            .map(|(i, _)| i + 1),
+                    )
+                    .filter(|&i| i < len)
+                    .collect();
+                if !lines.is_empty() {
+                    let start = lines[rng.below(lines.len())];
+                    let end = data[start..]
+                        .iter()
+                        .position(|&b| b == b'\n')
+                        .map_or(len, |p| start + p + 1);
+                    let line = data[start..end].to_vec();
+                    if rng.below(2) == 0 {
+                        data.drain(start..end);
+                    } else {
+                        data.splice(start..start, line);
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    data
+}
+
+/// Replaces one number of a text with an interesting one.
+fn replace_number(data: &mut Vec<u8>, rng: &mut Rng) {
+    let starts: Vec<usize> = (0..data.len())
+        .filter(|&i| data[i].is_ascii_digit() && (i == 0 || !data[i - 1].is_ascii_digit()))
+        .collect();
+    if starts.is_empty() {
+        return;
+    }
+    let start = starts[rng.below(starts.len())];
+    let end = start
+        + data[start..]
+            .iter()
+            .position(|b| !(b.is_ascii_digit() || *b == b'.' || *b == b'e'))
+            .unwrap_or(data.len() - start);
+    let number = INTERESTING_NUMBERS[rng.below(INTERESTING_NUMBERS.len())];
+    data.splice(start..end, number.bytes());
+}
+
+// ---------------------------------------------------------------------------------------
+// The parsers under test.
+
+#[derive(Clone, Copy, PartialEq)]
+enum Target {
+    Obj,
+    Mtl,
+    SceneFile,
+    Tga,
+    Png,
+    Hdr,
+    Exr,
+    Rig,
+    Prt,
+}
+
+const TARGETS: [Target; 9] = [
+    Target::Obj,
+    Target::Mtl,
+    Target::SceneFile,
+    Target::Tga,
+    Target::Png,
+    Target::Hdr,
+    Target::Exr,
+    Target::Rig,
+    Target::Prt,
+];
+
+impl Target {
+    fn name(self) -> &'static str {
+        match self {
+            Target::Obj => "obj",
+            Target::Mtl => "mtl",
+            Target::SceneFile => "scene",
+            Target::Tga => "tga",
+            Target::Png => "png",
+            Target::Hdr => "hdr",
+            Target::Exr => "exr",
+            Target::Rig => "rig",
+            Target::Prt => "prt",
+        }
+    }
+
+    fn is_text(self) -> bool {
+        matches!(
+            self,
+            Target::Obj | Target::Mtl | Target::SceneFile | Target::Rig | Target::Hdr
+        )
+    }
+
+    /// The file a case is written to, in the case folder.
+    fn file(self) -> &'static str {
+        match self {
+            Target::Obj => "case.obj",
+            Target::Mtl => "case.mtl",
+            Target::SceneFile => "case.scene",
+            Target::Tga => "case.tga",
+            Target::Png => "case.png",
+            Target::Hdr => "case.hdr",
+            Target::Exr => "case.exr",
+            Target::Rig => "case.toml",
+            Target::Prt => "case.prt",
+        }
+    }
+
+    /// Parses one case (already written to `folder`); true if it was accepted.
+    fn run(self, folder: &Path, bytes: &[u8]) -> bool {
+        let path = folder.join(self.file());
+        let at = Location::file(folder.join("case.scene"));
+        match self {
+            Target::Obj => Scene::load(&path).is_ok(),
+            Target::Mtl => Scene::load(&folder.join("uses-mtl.obj")).is_ok(),
+            Target::SceneFile => Scene::load(&path).is_ok(),
+            Target::Tga | Target::Png => Texture::load(&path, &at).is_ok(),
+            Target::Hdr | Target::Exr => EnvironmentMap::load(&path).is_ok(),
+            Target::Rig => Rig::load(&path).is_ok(),
+            Target::Prt => CoefficientFile::from_bytes(bytes).is_ok(),
+        }
+    }
+}
+
+fn image_bytes(image: image::DynamicImage, format: image::ImageFormat) -> Vec<u8> {
+    let mut bytes = Vec::new();
+    image
+        .write_to(&mut Cursor::new(&mut bytes), format)
+        .unwrap();
+    bytes
+}
+
+fn rgb8(width: u32, height: u32) -> image::DynamicImage {
+    image::DynamicImage::ImageRgb8(image::RgbImage::from_fn(width, height, |x, y| {
+        image::Rgb([(x * 40) as u8, (y * 60) as u8, 200])
+    }))
+}
+
+fn rgbf(width: u32, height: u32) -> image::DynamicImage {
+    image::DynamicImage::ImageRgb32F(image::Rgb32FImage::from_fn(width, height, |x, y| {
+        image::Rgb([x as f32 * 0.5, y as f32 + 0.25, 2.0])
+    }))
+}
+
+fn prt_seeds() -> Vec<Vec<u8>> {
+    let header = |order: u32, channels: u32, mode: Mode, aux: Aux, vertex_count: u64| Header {
+        version: 1,
+        order,
+        channels,
+        vertex_count,
+        samples_per_vertex: 64,
+        mode,
+        bounces: u32::from(mode == Mode::Interreflected),
+        bounce_samples: if mode == Mode::Interreflected { 16 } else { 0 },
+        backend: if mode == Mode::Unshadowed {
+            Backend::None
+        } else {
+            Backend::Obvhs
+        },
+        sampling: Sampling::OwenSobol,
+        seed: 7,
+        scene_fingerprint: 0x0123_4567_89ab_cdef,
+        aux,
+        checksum: 0,
+    };
+    let file = |h: Header| {
+        let v = h.vertex_count as usize;
+        let n = h.coefficients_per_vertex();
+        let aux = h.aux;
+        CoefficientFile {
+            header: h,
+            coefficients: (0..v * n).map(|i| (i as f32 * 0.37).sin()).collect(),
+            ao: aux
+                .ao
+                .then(|| (0..v).map(|i| i as f32 / v as f32).collect()),
+            bent_normal: aux.bent_normal.then(|| vec![glam::Vec3::Z; v]),
+        }
+        .to_bytes()
+        .0
+    };
+    let none = Aux::default();
+    let both = Aux {
+        ao: true,
+        bent_normal: true,
+    };
+    vec![
+        file(header(2, 1, Mode::Unshadowed, none, 3)),
+        file(header(3, 1, Mode::Shadowed, both, 4)),
+        file(header(2, 3, Mode::Interreflected, both, 2)),
+    ]
+}
+
+/// Valid inputs of each parser, made here (no binary blobs to keep in step with encoders).
+fn generated_seeds(target: Target) -> Vec<Vec<u8>> {
+    let text = |items: &[&str]| items.iter().map(|s| s.as_bytes().to_vec()).collect();
+    match target {
+        Target::Obj => text(&[
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+            "mtllib m.mtl\no a\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+             vn 0 0 1\nusemtl m\nf 1/1/1 2/2/1 3/3/1 4/4/1\no b\nv 0 0 1\nv 1 0 1\nv 0 1 1\nf -3 -2 -1\n",
+            "g x\nv 0 0 0 1\nv 2 0 0\nv 0 2 0\nvn 0 0 1\nf 1//1 2//1 3//1\ns 1\n# comment\n",
+        ]),
+        Target::Mtl => text(&[
+            "newmtl m\nKd 0.5 0.25 1\nmap_Kd tex.tga\n",
+            "newmtl m\nKa 1 1 1\nKd 1 1 1\nNs 10\nd 1\nillum 2\n\nnewmtl other\nKd 0 0 0\n",
+        ]),
+        Target::SceneFile => text(&[
+            "\"mesh.obj\" \"tex.tga\"\n",
+            "# two objects\nmesh.obj\n\"mesh.obj\"   tex.tga # comment\n",
+        ]),
+        Target::Tga => vec![
+            image_bytes(rgb8(3, 2), image::ImageFormat::Tga),
+            image_bytes(
+                image::DynamicImage::ImageLumaA8(image::GrayAlphaImage::new(2, 2)),
+                image::ImageFormat::Tga,
+            ),
+        ],
+        Target::Png => vec![
+            image_bytes(rgb8(3, 2), image::ImageFormat::Png),
+            image_bytes(
+                image::DynamicImage::ImageRgba16(image::ImageBuffer::new(2, 3)),
+                image::ImageFormat::Png,
+            ),
+        ],
+        Target::Hdr => vec![image_bytes(rgbf(4, 2), image::ImageFormat::Hdr)],
+        Target::Exr => vec![image_bytes(rgbf(4, 2), image::ImageFormat::OpenExr)],
+        Target::Rig => text(&[
+            "[[light]]\nkind = \"directional\"\ndirection = [0.3, 0.4, 0.866]\ncolor = [1.0, 0.5, 0.25]\nintensity = 2.0\n",
+            "window = \"hanning\"\nwindow_width = 3\n[[light]]\nkind = \"sun\"\ntheta = 30\nphi = 45\n\
+             angular_radius = 2\n[[light]]\nkind = \"hemisphere\"\nsky = [0.2, 0.3, 0.8]\nground = [0.1, 0.1, 0.1]\n\
+             [[light]]\nkind = \"environment\"\npath = \"sky.hdr\"\nrotation = [0, 0, 90]\n",
+            "[[light]]\nkind = \"sphere\"\ntheta = 20\nphi = 0\nangular_radius = 10\nintensity = 3\n\
+             [[light]]\nkind = \"constant\"\ncolor = [1, 1, 1]\n",
+        ]),
+        Target::Prt => prt_seeds(),
+    }
+}
+
+fn corpus_folder(target: Target) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fuzz-corpus")
+        .join(target.name())
+}
+
+/// The committed corpus files of a parser, sorted by name.
+fn corpus(target: Target) -> Vec<(String, Vec<u8>)> {
+    let Ok(entries) = std::fs::read_dir(corpus_folder(target)) else {
+        return Vec::new();
+    };
+    let mut files: Vec<(String, Vec<u8>)> = entries
+        .map(|e| e.unwrap())
+        .map(|e| {
+            let name = e.file_name().to_string_lossy().into_owned();
+            (name, std::fs::read(e.path()).unwrap())
+        })
+        .collect();
+    files.sort();
+    files
+}
+
+/// The files every case folder holds: what the OBJ, MTL, scene and rig cases refer to.
+fn case_folder() -> tempfile::TempDir {
+    // In memory where there is a tmpfs: a case is written per run, and a disk shared with
+    // other jobs made that most of the time.
+    let shm = Path::new("/dev/shm");
+    let dir = match shm.is_dir() {
+        true => tempfile::tempdir_in(shm).or_else(|_| tempfile::tempdir()),
+        false => tempfile::tempdir(),
+    }
+    .unwrap();
+    let write = |name: &str, bytes: &[u8]| std::fs::write(dir.path().join(name), bytes).unwrap();
+    write("mesh.obj", b"mtllib m.mtl\nusemtl m\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n");
+    write("m.mtl", b"newmtl m\nKd 1 1 1\nmap_Kd tex.tga\n");
+    write("tex.tga", &image_bytes(rgb8(2, 2), image::ImageFormat::Tga));
+    write(
+        "uses-mtl.obj",
+        b"mtllib case.mtl\nusemtl m\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    );
+    write("sky.hdr", &image_bytes(rgbf(4, 2), image::ImageFormat::Hdr));
+    dir
+}
+
+/// What happened to one parser's cases.
+#[derive(Default)]
+struct Tally {
+    seeds: usize,
+    cases: usize,
+    accepted: usize,
+    panics: Vec<String>,
+    /// `.prt` mutants with their checksum left as it was that were accepted anyway (must be 0).
+    accepted_corruptions: usize,
+    /// `.prt` mutants with a repaired checksum, accepted, that read back to other bytes.
+    unfaithful: usize,
+    peak_bytes: usize,
+    slowest: Duration,
+}
+
+/// The case being run, for the watchdog: its number (0 = none) and when it started.
+static CASE_NUMBER: AtomicU64 = AtomicU64::new(0);
+static CASE_STARTED_MS: AtomicU64 = AtomicU64::new(0);
+static FINISHED: AtomicBool = AtomicBool::new(false);
+
+fn watchdog(start: Instant, current: std::sync::Arc<std::sync::Mutex<(String, Vec<u8>)>>) {
+    std::thread::spawn(move || {
+        while !FINISHED.load(Ordering::SeqCst) {
+            std::thread::sleep(Duration::from_millis(200));
+            let number = CASE_NUMBER.load(Ordering::SeqCst);
+            let started = Duration::from_millis(CASE_STARTED_MS.load(Ordering::SeqCst));
+            if number != 0 && start.elapsed().saturating_sub(started) > CASE_TIME_LIMIT {
+                let (name, bytes) = current.lock().unwrap().clone();
+                let path = corpus_folder_by_name(&name).join(format!("hang-{:016x}", hash(&bytes)));
+                let _ = std::fs::create_dir_all(path.parent().unwrap());
+                let _ = std::fs::write(&path, &bytes);
+                eprintln!(
+                    "fuzz: a {name} case ran past {CASE_TIME_LIMIT:?} (a hang); saved as {}",
+                    path.display()
+                );
+                std::process::exit(1);
+            }
+        }
+    });
+}
+
+fn corpus_folder_by_name(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fuzz-corpus")
+        .join(name)
+}
+
+fn hash(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &b| {
+        (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3)
+    })
+}
+
+/// Sets a `.prt` image's checksum to the right one.
+fn repair_checksum(bytes: &mut [u8]) {
+    if bytes.len() < 128 {
+        return;
+    }
+    let mut hasher = crc32fast::Hasher::new();
+    hasher.update(&bytes[..124]);
+    hasher.update(&[0; 4]);
+    hasher.update(&bytes[128..]);
+    let crc = hasher.finalize();
+    bytes[124..128].copy_from_slice(&crc.to_le_bytes());
+}
+
+fn fuzz(
+    target: Target,
+    cases: usize,
+    start: Instant,
+    current: &std::sync::Mutex<(String, Vec<u8>)>,
+) -> Tally {
+    let folder = case_folder();
+    let mut seeds = generated_seeds(target);
+    seeds.extend(corpus(target).into_iter().map(|(_, bytes)| bytes));
+    let mut tally = Tally {
+        seeds: seeds.len(),
+        ..Tally::default()
+    };
+    let mut rng = Rng(0x5eed_0000 + target as u64);
+    let total = seeds.len() + cases;
+    for k in 0..total {
+        // Seeds first, as they are (the regressions among them), then mutants.
+        let (mut bytes, repaired) = match k < seeds.len() {
+            true => (seeds[k].clone(), false),
+            false => {
+                let seed = &seeds[rng.below(seeds.len())];
+                let mut bytes = mutate(seed, &seeds, target.is_text(), &mut rng);
+                // Half the .prt mutants get a valid checksum, to reach the structural checks.
+                let repaired = target == Target::Prt && k % 2 == 0;
+                if repaired {
+                    repair_checksum(&mut bytes);
+                }
+                (bytes, repaired)
+            }
+        };
+        if target != Target::Prt {
+            std::fs::write(folder.path().join(target.file()), &bytes).unwrap();
+        }
+        *current.lock().unwrap() = (target.name().to_string(), bytes.clone());
+        CASE_PTR.store(bytes.as_ptr() as usize, Ordering::SeqCst);
+        CASE_LEN.store(bytes.len(), Ordering::SeqCst);
+        let live_before = LIVE.load(Ordering::SeqCst);
+        PEAK.store(live_before, Ordering::SeqCst);
+        CASE_STARTED_MS.store(start.elapsed().as_millis() as u64, Ordering::SeqCst);
+        CASE_NUMBER.store(k as u64 + 1, Ordering::SeqCst);
+        let began = Instant::now();
+        let outcome =
+            std::panic::catch_unwind(AssertUnwindSafe(|| target.run(folder.path(), &bytes)));
+        let took = began.elapsed();
+        CASE_NUMBER.store(0, Ordering::SeqCst);
+        tally.slowest = tally.slowest.max(took);
+        let held = PEAK.load(Ordering::SeqCst).saturating_sub(live_before);
+        tally.peak_bytes = tally.peak_bytes.max(held);
+        tally.cases += 1;
+        match outcome {
+            Err(_) => {
+                let path = corpus_folder(target).join(format!("crash-{:016x}", hash(&bytes)));
+                std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+                std::fs::write(&path, &bytes).unwrap();
+                tally.panics.push(path.display().to_string());
+            }
+            Ok(false) => {}
+            Ok(true) => {
+                tally.accepted += 1;
+                if target == Target::Prt && k >= seeds.len() {
+                    let is_a_seed = seeds.contains(&bytes);
+                    if !repaired && !is_a_seed {
+                        tally.accepted_corruptions += 1;
+                    }
+                    let again = CoefficientFile::from_bytes(&bytes).unwrap().to_bytes().0;
+                    if again != bytes {
+                        tally.unfaithful += 1;
+                    }
+                }
+            }
+        }
+        bytes.clear();
+        CASE_PTR.store(0, Ordering::SeqCst);
+    }
+    tally
+}
+
+const TABLE_BEGIN: &str = "<!-- fuzz-table:begin (written by baker/tests/fuzz.rs) -->";
+const TABLE_END: &str = "<!-- fuzz-table:end -->";
+
+#[test]
+fn every_parser_survives_its_mutants() {
+    prt_baker::limits::set_max_memory(MAX_MEMORY);
+    let cases: usize = std::env::var("PRT_FUZZ_CASES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(DEFAULT_CASES);
+    // A panic is caught and counted per case; the default hook's report would only be noise.
+    std::panic::set_hook(Box::new(|_| {}));
+    let start = Instant::now();
+    let current = std::sync::Arc::new(std::sync::Mutex::new((String::new(), Vec::new())));
+    watchdog(start, current.clone());
+    let mut rows = vec![
+        "| parser | seeds | mutants | accepted | rejected | panics | hangs | accepted corruptions |".to_string(),
+        "|---|---:|---:|---:|---:|---:|---:|---:|".to_string(),
+    ];
+    let mut failures = Vec::new();
+    for target in TARGETS {
+        let began = Instant::now();
+        let t = fuzz(target, cases, start, &current);
+        eprintln!(
+            "fuzz {:5}: {} cases in {:.2} s, slowest {:.1} ms, most held {:.1} MiB, {} accepted",
+            target.name(),
+            t.cases,
+            began.elapsed().as_secs_f64(),
+            t.slowest.as_secs_f64() * 1e3,
+            t.peak_bytes as f64 / f64::from(1 << 20),
+            t.accepted
+        );
+        let corruptions = match target {
+            Target::Prt => t.accepted_corruptions.to_string(),
+            _ => "—".to_string(),
+        };
+        rows.push(format!(
+            "| {} | {} | {} | {} | {} | {} | 0 | {} |",
+            target.name(),
+            t.seeds,
+            t.cases - t.seeds,
+            t.accepted,
+            t.cases - t.accepted - t.panics.len(),
+            t.panics.len(),
+            corruptions
+        ));
+        if !t.panics.is_empty() {
+            let mut saved = t.panics.clone();
+            saved.sort();
+            saved.dedup();
+            failures.push(format!(
+                "{}: {} panics, saved as {} files in {} (first: {})",
+                target.name(),
+                t.panics.len(),
+                saved.len(),
+                corpus_folder(target).display(),
+                saved[0]
+            ));
+        }
+        if t.peak_bytes > ALLOCATION_CAP {
+            failures.push(format!(
+                "{}: a case held {} bytes",
+                target.name(),
+                t.peak_bytes
+            ));
+        }
+        if t.accepted_corruptions > 0 || t.unfaithful > 0 {
+            failures.push(format!(
+                "prt: {} corruptions accepted, {} accepted files read back differently",
+                t.accepted_corruptions, t.unfaithful
+            ));
+        }
+    }
+    FINISHED.store(true, Ordering::SeqCst);
+    let _ = std::panic::take_hook();
+    let table = rows.join("\n");
+    eprintln!("{table}");
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+    if cases == DEFAULT_CASES {
+        check_docs_table(&table);
+    }
+}
+
+/// The table in docs/robustness.md must be this run's (PRT_FUZZ_BLESS=1 rewrites it).
+fn check_docs_table(table: &str) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/robustness.md");
+    let doc = std::fs::read_to_string(&path).expect("docs/robustness.md");
+    let (Some(begin), Some(end)) = (doc.find(TABLE_BEGIN), doc.find(TABLE_END)) else {
+        panic!("docs/robustness.md lacks the fuzz table markers");
+    };
+    let current = doc[begin + TABLE_BEGIN.len()..end].trim();
+    if current == table {
+        return;
+    }
+    if std::env::var_os("PRT_FUZZ_BLESS").is_some() {
+        let updated = format!("{}{TABLE_BEGIN}\n{table}\n{}", &doc[..begin], &doc[end..]);
+        std::fs::write(&path, updated).unwrap();
+        return;
+    }
+    panic!(
+        "docs/robustness.md's fuzz table is not this run's (a parser changed what it accepts?); \
+         if the change is intended, rewrite the table with \
+         `PRT_FUZZ_BLESS=1 cargo test --release -p prt-baker --test fuzz` and commit it.\n\
+         docs:\n{current}\nthis run:\n{table}"
+    );
+}
