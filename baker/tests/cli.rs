@@ -361,6 +361,7 @@ fn inspect_prints_the_header_as_json() {
         "scene_fingerprint": format!("{fingerprint:016x}"),
         "aux": [],
         "bounce_samples": 0,
+        "up": "z",
         "checksum": shadowed["checksum"],
     });
     assert_eq!(shadowed, expected);
