@@ -121,7 +121,7 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> Result<(), Error> {
     let bake = Bake::load(&cli.scene, &cli.file)?;
-    let lights = Lights::load(cli.lights.as_deref(), bake.order())?;
+    let lights = Lights::load(cli.lights.as_deref(), bake.order())?.for_up(bake.up());
     let dropped = lights.phong().dropped;
     if dropped > 0 {
         eprintln!(
