@@ -314,15 +314,15 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
     };
     let mode = match (options.mode, transfer.hit_cache_bytes) {
         (Mode::Interreflected, Some(bytes)) => format!(
-            "interreflected, {} bounces from {} rays, {} channels, hit cache {:.0} MiB",
-            options.bounces,
+            "interreflected, {} from {} rays, {} channels, hit cache {:.0} MiB",
+            bounces(options.bounces),
             options.effective_bounce_samples(),
             transfer.channels,
             bytes as f64 / f64::from(1 << 20)
         ),
         (Mode::Interreflected, None) => format!(
-            "interreflected, {} bounces from {} rays, {} channels, re-traced (hit cache over {} MiB)",
-            options.bounces,
+            "interreflected, {} from {} rays, {} channels, re-traced (hit cache over {} MiB)",
+            bounces(options.bounces),
             options.effective_bounce_samples(),
             transfer.channels,
             args.hit_cache_mb
@@ -339,6 +339,14 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
         args.output.display()
     );
     Ok(())
+}
+
+/// "1 bounce", "2 bounces".
+fn bounces(count: u32) -> String {
+    match count {
+        1 => String::from("1 bounce"),
+        n => format!("{n} bounces"),
+    }
 }
 
 /// Fails before a long bake rather than after it if the output cannot be written there.

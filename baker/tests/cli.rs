@@ -685,7 +685,7 @@ fn grey_scenes_keep_one_channel_when_interreflected() {
     let run = s.bake("a.obj", "a.prt", &["--mode", "interreflected"]);
     assert!(
         run.stdout
-            .contains("interreflected, 1 bounces from 16 rays, 1 channels"),
+            .contains("interreflected, 1 bounce from 16 rays, 1 channels"),
         "{}",
         run.stdout
     );
