@@ -78,10 +78,7 @@ pub fn export_glb(
     let scene = Scene::load(scene)?;
     file.check_scene(coefficients, &scene)?;
     let up = file.header.up;
-    let light = rig.map(|rig| {
-        rig.project(file.header.order as usize)
-            .in_scene_frame(up)
-    });
+    let light = rig.map(|rig| rig.project(file.header.order as usize).in_scene_frame(up));
     let contents = Contents {
         file: Some(&file),
         light: light.as_ref(),
@@ -180,12 +177,8 @@ pub fn glb_bytes(scene: &Scene, contents: &Contents<'_>) -> Result<(Vec<u8>, Wri
             .flat_map(|v| (turn_f32 * *v).to_array())
             .collect()
     };
-    let uvs = |values: &[Vec2]| -> Vec<f32> {
-        values
-            .iter()
-            .flat_map(|uv| [uv.x, 1.0 - uv.y])
-            .collect()
-    };
+    let uvs =
+        |values: &[Vec2]| -> Vec<f32> { values.iter().flat_map(|uv| [uv.x, 1.0 - uv.y]).collect() };
     let positions = vec3s(&scene.positions);
     let normals: Vec<f32> = scene
         .normals
@@ -300,7 +293,10 @@ pub fn glb_bytes(scene: &Scene, contents: &Contents<'_>) -> Result<(Vec<u8>, Wri
             );
         }
         for (name, array) in prt_names.iter().zip(&prt_arrays) {
-            attributes.insert(name.clone(), json!(b.floats(&array[4 * v0..4 * v1], 4, false)));
+            attributes.insert(
+                name.clone(),
+                json!(b.floats(&array[4 * v0..4 * v1], 4, false)),
+            );
         }
         let local: Vec<u32> = scene.triangles
             [object.triangles.start as usize..object.triangles.end as usize]
@@ -345,7 +341,8 @@ pub fn glb_bytes(scene: &Scene, contents: &Contents<'_>) -> Result<(Vec<u8>, Wri
         root["images"] = json!(images);
         root["textures"] = json!(textures);
         // Repeat wrapping, as the baker samples textures; linear filtering with mipmaps.
-        root["samplers"] = json!([{"magFilter": 9729, "minFilter": 9987, "wrapS": 10497, "wrapT": 10497}]);
+        root["samplers"] =
+            json!([{"magFilter": 9729, "minFilter": 9987, "wrapS": 10497, "wrapT": 10497}]);
     }
     if unlit {
         root["extensionsUsed"] = json!(["KHR_materials_unlit"]);
@@ -358,8 +355,9 @@ pub fn glb_bytes(scene: &Scene, contents: &Contents<'_>) -> Result<(Vec<u8>, Wri
                 "channels": h.channels,
                 "attributes": prt_names,
                 "coefficients_per_channel": sh::coeff_count(h.order as usize),
-                "convention": "real orthonormal SH, index l(l+1)+m, theta from +y (glTF up), \
-                    in the file's coordinates; transfer excludes the albedo (the base colour)",
+                "convention": "real orthonormal SH, index l(l+1)+m, Condon-Shortley phase, of \
+                    directions in this file's coordinates (theta from +z, phi from +x towards +y); \
+                    transfer excludes the albedo (the base colour)",
                 "mode": h.mode.name(),
                 "colour_0": if colour.is_some() { "transfer . light per channel, clamped to [0, 1]; times the base colour it is the relit radiance" } else { "absent" },
             }
@@ -429,10 +427,7 @@ mod tests {
         assert_eq!(prt_attribute_names(1, 1), ["_PRT_0"]);
         assert_eq!(prt_attribute_names(3, 1), ["_PRT_0", "_PRT_1", "_PRT_2"]);
         assert_eq!(prt_attribute_names(4, 1).len(), 4);
-        assert_eq!(
-            prt_attribute_names(2, 3),
-            ["_PRT_R0", "_PRT_G0", "_PRT_B0"]
-        );
+        assert_eq!(prt_attribute_names(2, 3), ["_PRT_R0", "_PRT_G0", "_PRT_B0"]);
         assert_eq!(prt_attribute_names(5, 3).len(), 21);
     }
 }

@@ -373,11 +373,19 @@ fn export(args: ExportArgs) -> Result<(), Error> {
     }
     if let Some(npz) = &args.npz {
         prt_baker::export::export_npz(&args.file, &args.scene, npz)?;
-        println!("wrote {} (NumPy arrays of {})", npz.display(), args.file.display());
+        println!(
+            "wrote {} (NumPy arrays of {})",
+            npz.display(),
+            args.file.display()
+        );
     }
     if let Some(glb) = &args.gltf {
-        let written =
-            prt_baker::gltf_export::export_glb(&args.file, &args.scene, glb, args.lights.as_deref())?;
+        let written = prt_baker::gltf_export::export_glb(
+            &args.file,
+            &args.scene,
+            glb,
+            args.lights.as_deref(),
+        )?;
         let prt = match written.prt_attributes.as_slice() {
             [] => String::from("no transfer"),
             [only] => format!("transfer in {only}"),

@@ -139,11 +139,20 @@ fn y_up_gltf_export_of_a_z_up_obj_bakes_and_relights_the_same() {
     s.write("rig.toml", RIG);
     s.bake(CORNELL, "z.prt", &["--samples", "512", "--seed", "3"]);
     let export = s
-        .run(&["export", "out/z.prt", "--scene", CORNELL, "--gltf", "out/cornell.glb"])
+        .run(&[
+            "export",
+            "out/z.prt",
+            "--scene",
+            CORNELL,
+            "--gltf",
+            "out/cornell.glb",
+        ])
         .success();
     assert!(
         export.stdout.starts_with("wrote out/cornell.glb (")
-            && export.stdout.contains("transfer in 4 VEC4 attributes _PRT_0.._PRT_3")
+            && export
+                .stdout
+                .contains("transfer in 4 VEC4 attributes _PRT_0.._PRT_3")
             && export.stdout.contains("turned from z-up to glTF's y-up"),
         "{}",
         export.stdout
@@ -156,10 +165,16 @@ fn y_up_gltf_export_of_a_z_up_obj_bakes_and_relights_the_same() {
     assert_eq!(gltf.vertex_count(), obj.vertex_count());
     assert_eq!(gltf.triangles, obj.triangles);
     for (p, q) in obj.positions.iter().zip(&gltf.positions) {
-        assert!((Vec3::new(p.x, p.z, -p.y) - *q).length() < 1e-6, "{p} -> {q}");
+        assert!(
+            (Vec3::new(p.x, p.z, -p.y) - *q).length() < 1e-6,
+            "{p} -> {q}"
+        );
     }
     for (n, m) in obj.normals.iter().zip(&gltf.normals) {
-        assert!((Vec3::new(n.x, n.z, -n.y) - *m).length() < 1e-5, "{n} -> {m}");
+        assert!(
+            (Vec3::new(n.x, n.z, -n.y) - *m).length() < 1e-5,
+            "{n} -> {m}"
+        );
     }
 
     // The _PRT attributes are the OBJ bake's transfer turned to y-up: lit by the rig turned
@@ -168,7 +183,9 @@ fn y_up_gltf_export_of_a_z_up_obj_bakes_and_relights_the_same() {
     let glb = Glb::parse(&s.read("out/cornell.glb"));
     let light_z = Rig::load(&s.path("rig.toml")).unwrap().project(4);
     let light_y = light_z.in_scene_frame(Up::Y);
-    let prt: Vec<Vec<f32>> = (0..4).map(|k| glb.attribute(&format!("_PRT_{k}"))).collect();
+    let prt: Vec<Vec<f32>> = (0..4)
+        .map(|k| glb.attribute(&format!("_PRT_{k}")))
+        .collect();
     for v in 0..obj.vertex_count() {
         let from_gltf: f64 = (0..16)
             .map(|j| f64::from(prt[j / 4][4 * v + j % 4]) * light_y.rgb[0][j])
@@ -187,7 +204,11 @@ fn y_up_gltf_export_of_a_z_up_obj_bakes_and_relights_the_same() {
 
     // Baked again from the glTF (y-up by default) and relit by the same rig: the OBJ's
     // radiance, up to the bakes' noise (the rays differ: each vertex's sample frame turns).
-    s.bake("out/cornell.glb", "y.prt", &["--samples", "512", "--seed", "3"]);
+    s.bake(
+        "out/cornell.glb",
+        "y.prt",
+        &["--samples", "512", "--seed", "3"],
+    );
     let inspect = |file: &str| -> Value {
         serde_json::from_str(&s.run(&["inspect", file]).success().stdout).unwrap()
     };
@@ -228,7 +249,10 @@ fn y_up_gltf_export_of_a_z_up_obj_bakes_and_relights_the_same() {
     .success();
     let wrong = relative_mean_difference(&z, &ply_radiance(&s.read("out/wrong.ply")));
     eprintln!("with the wrong up axis: {wrong:.5}");
-    assert!(wrong > 0.1, "a wrong up axis changed the radiance by only {wrong}");
+    assert!(
+        wrong > 0.1,
+        "a wrong up axis changed the radiance by only {wrong}"
+    );
 }
 
 /// A 4 × 4-cell floor over [−1, 1]² at z = 0 (normal +z) and a cube of 8 shared corners above
@@ -313,7 +337,11 @@ fn base64(bytes: &[u8]) -> String {
     const ALPHABET: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
     let mut out = String::new();
     for chunk in bytes.chunks(3) {
-        let b = [chunk[0], *chunk.get(1).unwrap_or(&0), *chunk.get(2).unwrap_or(&0)];
+        let b = [
+            chunk[0],
+            *chunk.get(1).unwrap_or(&0),
+            *chunk.get(2).unwrap_or(&0),
+        ];
         let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
         for k in 0..4 {
             if k <= chunk.len() {
@@ -345,7 +373,8 @@ impl GltfBuilder {
     }
 
     fn accessor(&mut self, bytes: Vec<u8>, component: u32, count: usize, kind: &str) -> usize {
-        self.views.push(json!({"buffer": 0, "byteOffset": self.bin.len(), "byteLength": bytes.len()}));
+        self.views
+            .push(json!({"buffer": 0, "byteOffset": self.bin.len(), "byteLength": bytes.len()}));
         self.bin.extend(bytes);
         self.accessors.push(json!({
             "bufferView": self.views.len() - 1, "componentType": component,
@@ -355,16 +384,28 @@ impl GltfBuilder {
     }
 
     /// A mesh of one primitive; `mode` 4 = triangles, 0 = points.
-    fn mesh(&mut self, name: &str, positions: &[Vec3], normals: Option<&[Vec3]>, indices: &[u32], mode: u32) {
+    fn mesh(
+        &mut self,
+        name: &str,
+        positions: &[Vec3],
+        normals: Option<&[Vec3]>,
+        indices: &[u32],
+        mode: u32,
+    ) {
         let flat: Vec<f32> = positions.iter().flat_map(|p| p.to_array()).collect();
         let position = self.accessor(le(&flat, f32::to_le_bytes), 5126, positions.len(), "VEC3");
-        let (lo, hi) = positions.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+        let (lo, hi) = positions
+            .iter()
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
+                (lo.min(*p), hi.max(*p))
+            });
         self.accessors[position]["min"] = json!(lo.to_array());
         self.accessors[position]["max"] = json!(hi.to_array());
         let mut attributes = json!({"POSITION": position});
         if let Some(normals) = normals {
             let flat: Vec<f32> = normals.iter().flat_map(|p| p.to_array()).collect();
-            attributes["NORMAL"] = json!(self.accessor(le(&flat, f32::to_le_bytes), 5126, normals.len(), "VEC3"));
+            attributes["NORMAL"] =
+                json!(self.accessor(le(&flat, f32::to_le_bytes), 5126, normals.len(), "VEC3"));
         }
         let indices = self.accessor(le(indices, u32::to_le_bytes), 5125, indices.len(), "SCALAR");
         self.meshes.push(json!({"name": name, "primitives": [{"attributes": attributes, "indices": indices, "mode": mode, "material": 0}]}));
@@ -435,17 +476,29 @@ fn gltf_node_hierarchy_bakes_like_the_same_world_geometry_as_obj() {
     assert!(Mat3::from_mat4(cube_world).determinant() < 0.0);
     let local = |m: Mat4, points: &[Vec3]| -> Vec<Vec3> {
         let inverse = m.inverse();
-        points.iter().map(|p| inverse.transform_point3(*p)).collect()
+        points
+            .iter()
+            .map(|p| inverse.transform_point3(*p))
+            .collect()
     };
     let floor_local = local(root, &floor);
     let floor_normal_local = (Mat3::from_mat4(root).transpose() * Vec3::Z).normalize();
     let cube_local = local(cube_world, &cube);
     // Authored in the mirrored frame, the cube's faces wind the other way round.
-    let cube_local_triangles: Vec<u32> = cube_triangles.iter().flat_map(|[a, b, c]| [*a, *c, *b]).collect();
+    let cube_local_triangles: Vec<u32> = cube_triangles
+        .iter()
+        .flat_map(|[a, b, c]| [*a, *c, *b])
+        .collect();
     let floor_indices: Vec<u32> = floor_triangles.iter().flatten().copied().collect();
 
     let mut b = GltfBuilder::new();
-    b.mesh("floor", &floor_local, Some(&vec![floor_normal_local; floor.len()]), &floor_indices, 4);
+    b.mesh(
+        "floor",
+        &floor_local,
+        Some(&vec![floor_normal_local; floor.len()]),
+        &floor_indices,
+        4,
+    );
     b.mesh("cube", &cube_local, None, &cube_local_triangles, 4);
     let nodes = json!([
         {"name": "root", "mesh": 0, "children": [1],
@@ -454,9 +507,15 @@ fn gltf_node_hierarchy_bakes_like_the_same_world_geometry_as_obj() {
     ]);
     // The same document three ways: external buffer, data URI, GLB.
     s.write("geometry.bin", &b.bin);
-    s.write("external.gltf", serde_json::to_vec(&b.document(nodes.clone(), Some("geometry.bin".into()))).unwrap());
+    s.write(
+        "external.gltf",
+        serde_json::to_vec(&b.document(nodes.clone(), Some("geometry.bin".into()))).unwrap(),
+    );
     let data_uri = format!("data:application/octet-stream;base64,{}", base64(&b.bin));
-    s.write("embedded.gltf", serde_json::to_vec(&b.document(nodes.clone(), Some(data_uri))).unwrap());
+    s.write(
+        "embedded.gltf",
+        serde_json::to_vec(&b.document(nodes.clone(), Some(data_uri))).unwrap(),
+    );
     s.write("binary.glb", glb(&b.document(nodes, None), &b.bin));
 
     let obj = Scene::load(&s.path("world.obj")).unwrap();
@@ -471,24 +530,42 @@ fn gltf_node_hierarchy_bakes_like_the_same_world_geometry_as_obj() {
         for (p, n) in obj.positions.iter().zip(&obj.normals) {
             let v = (0..gltf.vertex_count())
                 .min_by(|&i, &j| {
-                    (gltf.positions[i] - *p).length().total_cmp(&(gltf.positions[j] - *p).length())
+                    (gltf.positions[i] - *p)
+                        .length()
+                        .total_cmp(&(gltf.positions[j] - *p).length())
                 })
                 .unwrap();
-            assert!((gltf.positions[v] - *p).length() < 1e-5, "{name}: {p} vs {}", gltf.positions[v]);
-            assert!((gltf.normals[v] - *n).length() < 1e-4, "{name}: normal at {p}: {n} vs {}", gltf.normals[v]);
+            assert!(
+                (gltf.positions[v] - *p).length() < 1e-5,
+                "{name}: {p} vs {}",
+                gltf.positions[v]
+            );
+            assert!(
+                (gltf.normals[v] - *n).length() < 1e-4,
+                "{name}: normal at {p}: {n} vs {}",
+                gltf.normals[v]
+            );
         }
     }
 
     // The bakes agree vertex by vertex (same world geometry; rounding moves a few rays).
     s.bake("world.obj", "obj.prt", &["--samples", "256", "--aux", "ao"]);
-    s.bake("binary.glb", "gltf.prt", &["--samples", "256", "--aux", "ao"]);
+    s.bake(
+        "binary.glb",
+        "gltf.prt",
+        &["--samples", "256", "--aux", "ao"],
+    );
     let obj_file = CoefficientFile::read(&s.path("out/obj.prt")).unwrap();
     let gltf_file = CoefficientFile::read(&s.path("out/gltf.prt")).unwrap();
     let gltf = Scene::load(&s.path("binary.glb")).unwrap();
     let (mut worst, mut sum) = (0.0f32, 0.0f32);
     for (i, p) in obj.positions.iter().enumerate() {
         let v = (0..gltf.vertex_count())
-            .min_by(|&a, &b| (gltf.positions[a] - *p).length().total_cmp(&(gltf.positions[b] - *p).length()))
+            .min_by(|&a, &b| {
+                (gltf.positions[a] - *p)
+                    .length()
+                    .total_cmp(&(gltf.positions[b] - *p).length())
+            })
             .unwrap();
         let a = obj_file.vertex(i, 0);
         let b = gltf_file.vertex(v, 0);
@@ -496,22 +573,34 @@ fn gltf_node_hierarchy_bakes_like_the_same_world_geometry_as_obj() {
             worst = worst.max((x - y).abs());
             sum += (x - y).abs();
         }
-        let (ao_obj, ao_gltf) = (obj_file.ao.as_ref().unwrap()[i], gltf_file.ao.as_ref().unwrap()[v]);
-        assert!((ao_obj - ao_gltf).abs() < 0.02, "AO at {p}: {ao_obj} vs {ao_gltf}");
+        let (ao_obj, ao_gltf) = (
+            obj_file.ao.as_ref().unwrap()[i],
+            gltf_file.ao.as_ref().unwrap()[v],
+        );
+        assert!(
+            (ao_obj - ao_gltf).abs() < 0.02,
+            "AO at {p}: {ao_obj} vs {ao_gltf}"
+        );
     }
     let mean = sum / (obj.vertex_count() * 16) as f32;
-    eprintln!("hierarchy glTF vs world OBJ: transfer differs by {mean:.2e} mean, {worst:.2e} worst");
-    assert!(mean < 4e-3 && worst < 0.08, "transfer differs: mean {mean}, worst {worst}");
+    eprintln!(
+        "hierarchy glTF vs world OBJ: transfer differs by {mean:.2e} mean, {worst:.2e} worst"
+    );
+    assert!(
+        mean < 4e-3 && worst < 0.08,
+        "transfer differs: mean {mean}, worst {worst}"
+    );
 }
 
 #[test]
 fn gltf_errors_and_warnings_name_the_file_and_the_problem() {
     let s = Scratch::new();
     s.write("mesh.ply", "ply\nformat ascii 1.0\nend_header\n");
-    s.run(&["bake", "mesh.ply", "-o", "out/x.prt"]).fails_with_bad_input(&[
-        "mesh.ply: unknown scene format .ply",
-        "Wavefront OBJ (.obj), glTF 2.0 (.gltf, .glb)",
-    ]);
+    s.run(&["bake", "mesh.ply", "-o", "out/x.prt"])
+        .fails_with_bad_input(&[
+            "mesh.ply: unknown scene format .ply",
+            "Wavefront OBJ (.obj), glTF 2.0 (.gltf, .glb)",
+        ]);
 
     let (floor, floor_triangles, ..) = floor_and_cube();
     let indices: Vec<u32> = floor_triangles.iter().flatten().copied().collect();
@@ -523,7 +612,8 @@ fn gltf_errors_and_warnings_name_the_file_and_the_problem() {
     s.write("points.glb", glb(&document, &b.bin));
     let run = s.bake("points.glb", "points.prt", &[]);
     assert!(
-        run.stderr.contains("warning: points.glb: mesh 'dots': skipped a primitive of Points"),
+        run.stderr
+            .contains("warning: points.glb: mesh 'dots': skipped a primitive of Points"),
         "{}",
         run.stderr
     );
@@ -531,9 +621,8 @@ fn gltf_errors_and_warnings_name_the_file_and_the_problem() {
     document["extensionsUsed"] = json!(["KHR_draco_mesh_compression"]);
     document["extensionsRequired"] = json!(["KHR_draco_mesh_compression"]);
     s.write("draco.glb", glb(&document, &b.bin));
-    s.run(&["bake", "draco.glb", "-o", "out/x.prt"]).fails_with_bad_input(&[
-        "draco.glb: requires glTF extension KHR_draco_mesh_compression",
-    ]);
+    s.run(&["bake", "draco.glb", "-o", "out/x.prt"])
+        .fails_with_bad_input(&["draco.glb: requires glTF extension KHR_draco_mesh_compression"]);
 
     // An edited file (a material's colour: the geometry is the same) is another scene.
     let mut edited = b.document(json!([{"mesh": 0}]), None);
@@ -541,8 +630,15 @@ fn gltf_errors_and_warnings_name_the_file_and_the_problem() {
     s.bake("scene.glb", "scene.prt", &[]);
     edited["materials"][0]["pbrMetallicRoughness"]["baseColorFactor"] = json!([0.9, 0.6, 0.7, 1.0]);
     s.write("scene.glb", glb(&edited, &b.bin));
-    s.run(&["export", "out/scene.prt", "--scene", "scene.glb", "--npz", "out/x.npz"])
-        .fails_with_bad_input(&["out/scene.prt: baked for another scene: fingerprint"]);
+    s.run(&[
+        "export",
+        "out/scene.prt",
+        "--scene",
+        "scene.glb",
+        "--npz",
+        "out/x.npz",
+    ])
+    .fails_with_bad_input(&["out/scene.prt: baked for another scene: fingerprint"]);
     s.assert_out_holds(&["points.prt", "scene.prt"]);
 }
 
@@ -560,7 +656,10 @@ fn npz_arrays(path: &Path) -> std::collections::BTreeMap<String, (String, Vec<us
         let header = std::str::from_utf8(&bytes[10..10 + header_len]).unwrap();
         let descr = header.split('\'').nth(3).unwrap().to_string();
         let shape_text = header.split('(').nth(1).unwrap().split(')').next().unwrap();
-        let shape = shape_text.split(',').filter_map(|d| d.trim().parse().ok()).collect();
+        let shape = shape_text
+            .split(',')
+            .filter_map(|d| d.trim().parse().ok())
+            .collect();
         arrays.insert(name, (descr, shape, bytes[10 + header_len..].to_vec()));
     }
     arrays
@@ -570,19 +669,49 @@ fn npz_arrays(path: &Path) -> std::collections::BTreeMap<String, (String, Vec<us
 fn npz_export_holds_triangles_and_uvs_and_says_what_it_wrote() {
     let s = Scratch::new();
     let torus = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/torus/torus.scene");
-    s.bake(torus, "torus.prt", &["--mode", "unshadowed", "--order", "3"]);
+    s.bake(
+        torus,
+        "torus.prt",
+        &["--mode", "unshadowed", "--order", "3"],
+    );
     let run = s
-        .run(&["export", "out/torus.prt", "--scene", torus, "--npz", "out/torus.npz"])
+        .run(&[
+            "export",
+            "out/torus.prt",
+            "--scene",
+            torus,
+            "--npz",
+            "out/torus.npz",
+        ])
         .success();
-    assert_eq!(run.stdout, "wrote out/torus.npz (NumPy arrays of out/torus.prt)\n");
+    assert_eq!(
+        run.stdout,
+        "wrote out/torus.npz (NumPy arrays of out/torus.prt)\n"
+    );
     let scene = Scene::load(Path::new(torus)).unwrap();
     let arrays = npz_arrays(&s.path("out/torus.npz"));
     let (descr, shape, bytes) = &arrays["triangles"];
-    assert_eq!((descr.as_str(), shape.as_slice()), ("<u4", &[scene.triangles.len(), 3][..]));
-    let expected: Vec<u8> = scene.triangles.iter().flatten().flat_map(|i| i.to_le_bytes()).collect();
+    assert_eq!(
+        (descr.as_str(), shape.as_slice()),
+        ("<u4", &[scene.triangles.len(), 3][..])
+    );
+    let expected: Vec<u8> = scene
+        .triangles
+        .iter()
+        .flatten()
+        .flat_map(|i| i.to_le_bytes())
+        .collect();
     assert_eq!(bytes, &expected);
     let (descr, shape, bytes) = &arrays["uv"];
-    assert_eq!((descr.as_str(), shape.as_slice()), ("<f4", &[scene.vertex_count(), 2][..]));
-    let expected: Vec<u8> = scene.uvs.iter().flat_map(|uv| uv.to_array()).flat_map(f32::to_le_bytes).collect();
+    assert_eq!(
+        (descr.as_str(), shape.as_slice()),
+        ("<f4", &[scene.vertex_count(), 2][..])
+    );
+    let expected: Vec<u8> = scene
+        .uvs
+        .iter()
+        .flat_map(|uv| uv.to_array())
+        .flat_map(f32::to_le_bytes)
+        .collect();
     assert_eq!(bytes, &expected);
 }

@@ -71,5 +71,8 @@ fn a_y_up_gltf_looks_like_the_z_up_obj_of_the_same_geometry() {
     let wrong = Bake::new(wrong_scene, file, Path::new("wrong.prt")).unwrap();
     let wrong = common::difference(&image(&gpu, &wrong), &expected, 8);
     eprintln!("with the up axis ignored: mean {:.3} codes", wrong.mean);
-    assert!(wrong.mean > 5.0, "a wrong up axis went unnoticed: {wrong:?}");
+    assert!(
+        wrong.mean > 5.0,
+        "a wrong up axis went unnoticed: {wrong:?}"
+    );
 }

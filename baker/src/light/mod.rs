@@ -349,11 +349,19 @@ mod tests {
             (DVec3::Z, DVec3::Y),
             (DVec3::Y, DVec3::NEG_Z),
             (DVec3::X, DVec3::X),
-            (DVec3::new(0.3, -0.5, 0.8).normalize(), DVec3::new(0.3, 0.8, 0.5).normalize()),
+            (
+                DVec3::new(0.3, -0.5, 0.8).normalize(),
+                DVec3::new(0.3, 0.8, 0.5).normalize(),
+            ),
         ] {
             let turned = directional(rig_direction).project(6).in_scene_frame(Up::Y);
             let expected = directional(scene_direction).project(6);
-            for (a, b) in turned.rgb.iter().flatten().zip(expected.rgb.iter().flatten()) {
+            for (a, b) in turned
+                .rgb
+                .iter()
+                .flatten()
+                .zip(expected.rgb.iter().flatten())
+            {
                 assert!((a - b).abs() < 1e-9, "{rig_direction} -> {scene_direction}");
             }
             let same = directional(rig_direction).project(6);

@@ -32,13 +32,14 @@ pub use texture::{Texture, srgb_to_linear};
 pub use up::Up;
 
 /// The scene formats [`Scene::load`] reads, for the error about any other.
-pub const FORMATS: &str = "scene files (.scene or .txt), Wavefront OBJ (.obj), glTF 2.0 (.gltf, .glb)";
+pub const FORMATS: &str =
+    "scene files (.scene or .txt), Wavefront OBJ (.obj), glTF 2.0 (.gltf, .glb)";
 
 /// Extensions of formats that are recognisably something else than a scene file (which has no
 /// fixed extension), refused with the list of [`FORMATS`].
 const OTHER_FORMATS: &[&str] = &[
-    "ply", "stl", "fbx", "dae", "3ds", "blend", "usd", "usda", "usdc", "usdz", "abc", "x3d",
-    "wrl", "off", "prt", "npz", "png", "jpg", "jpeg", "tga", "hdr", "exr", "toml",
+    "ply", "stl", "fbx", "dae", "3ds", "blend", "usd", "usda", "usdc", "usdz", "abc", "x3d", "wrl",
+    "off", "prt", "npz", "png", "jpg", "jpeg", "tga", "hdr", "exr", "toml",
 ];
 
 /// Diffuse reflectance of surfaces whose material sets no `Kd` and that have no texture.
