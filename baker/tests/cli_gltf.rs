@@ -257,7 +257,10 @@ fn y_up_gltf_export_of_a_z_up_obj_bakes_and_relights_the_same() {
 
 /// A 4 × 4-cell floor over [−1, 1]² at z = 0 (normal +z) and a cube of 8 shared corners above
 /// it: the world geometry of the hierarchy test.
-fn floor_and_cube() -> (Vec<Vec3>, Vec<[u32; 3]>, Vec<Vec3>, Vec<[u32; 3]>) {
+/// Positions and triangles.
+type Part = (Vec<Vec3>, Vec<[u32; 3]>);
+
+fn floor_and_cube() -> (Part, Part) {
     let mut floor = Vec::new();
     let cells = 4;
     for j in 0..=cells {
@@ -302,13 +305,16 @@ fn floor_and_cube() -> (Vec<Vec3>, Vec<[u32; 3]>, Vec<Vec3>, Vec<[u32; 3]>) {
         [1, 3, 7],
         [1, 7, 5],
     ];
-    (floor, floor_triangles, cube, cube_triangles)
+    ((floor, floor_triangles), (cube, cube_triangles))
 }
 
-fn obj_text(objects: &[(&str, &[Vec3], &[[u32; 3]], Option<Vec3>)]) -> String {
+/// One OBJ object: name, positions, triangles, one normal for all its vertices (or none).
+struct ObjObject<'a>(&'a str, &'a [Vec3], &'a [[u32; 3]], Option<Vec3>);
+
+fn obj_text(objects: &[ObjObject<'_>]) -> String {
     let mut text = String::new();
     let mut base = 1;
-    for (name, positions, triangles, normal) in objects {
+    for ObjObject(name, positions, triangles, normal) in objects {
         text += &format!("o {name}\n");
         for p in *positions {
             text += &format!("v {} {} {}\n", p.x, p.y, p.z);
@@ -454,12 +460,12 @@ fn glb(json: &Value, bin: &[u8]) -> Vec<u8> {
 #[test]
 fn gltf_node_hierarchy_bakes_like_the_same_world_geometry_as_obj() {
     let s = Scratch::new();
-    let (floor, floor_triangles, cube, cube_triangles) = floor_and_cube();
+    let ((floor, floor_triangles), (cube, cube_triangles)) = floor_and_cube();
     s.write(
         "world.obj",
         obj_text(&[
-            ("floor", &floor, &floor_triangles, Some(Vec3::Z)),
-            ("cube", &cube, &cube_triangles, None),
+            ObjObject("floor", &floor, &floor_triangles, Some(Vec3::Z)),
+            ObjObject("cube", &cube, &cube_triangles, None),
         ]),
     );
 
@@ -602,7 +608,7 @@ fn gltf_errors_and_warnings_name_the_file_and_the_problem() {
             "Wavefront OBJ (.obj), glTF 2.0 (.gltf, .glb)",
         ]);
 
-    let (floor, floor_triangles, ..) = floor_and_cube();
+    let ((floor, floor_triangles), _) = floor_and_cube();
     let indices: Vec<u32> = floor_triangles.iter().flatten().copied().collect();
     let mut b = GltfBuilder::new();
     b.mesh("floor", &floor, None, &indices, 4);
@@ -714,4 +720,48 @@ fn npz_export_holds_triangles_and_uvs_and_says_what_it_wrote() {
         .flat_map(f32::to_le_bytes)
         .collect();
     assert_eq!(bytes, &expected);
+}
+
+#[test]
+fn exported_glb_keeps_materials_textures_and_uvs() {
+    let s = Scratch::new();
+    let torus = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/torus/torus.scene");
+    s.bake(torus, "t.prt", &["--mode", "unshadowed", "--order", "1"]);
+    s.run(&[
+        "export",
+        "out/t.prt",
+        "--scene",
+        torus,
+        "--gltf",
+        "out/t.glb",
+    ])
+    .success();
+    let obj = Scene::load(Path::new(torus)).unwrap();
+    let gltf = Scene::load(&s.path("out/t.glb")).unwrap();
+    assert_eq!(gltf.textures.len(), obj.textures.len());
+    for (a, b) in obj.textures.iter().zip(&gltf.textures) {
+        assert_eq!((a.width, a.height), (b.width, b.height));
+        assert!(
+            a.srgb8 == b.srgb8,
+            "texture pixels changed on the way through PNG"
+        );
+    }
+    for (a, b) in obj.uvs.iter().zip(&gltf.uvs) {
+        assert!((*a - *b).length() < 1e-6, "uv {a} became {b}");
+    }
+    let (a, b) = (obj.vertex_albedo(), gltf.vertex_albedo());
+    let worst = a
+        .iter()
+        .zip(&b)
+        .map(|(x, y)| (*x - *y).abs().max_element())
+        .fold(0.0, f32::max);
+    assert!(worst < 1e-3, "albedo differs by up to {worst}");
+    // Order 1: one coefficient, padded to one VEC4 with zeros.
+    let glb = Glb::parse(&s.read("out/t.glb"));
+    let prt = glb.attribute("_PRT_0");
+    assert_eq!(prt.len(), 4 * obj.vertex_count());
+    assert!(
+        prt.chunks_exact(4)
+            .all(|c| c[1] == 0.0 && c[2] == 0.0 && c[3] == 0.0)
+    );
 }
