@@ -765,3 +765,43 @@ fn exported_glb_keeps_materials_textures_and_uvs() {
             .all(|c| c[1] == 0.0 && c[2] == 0.0 && c[3] == 0.0)
     );
 }
+
+#[test]
+fn both_texture_coordinate_sets_are_read_and_exported() {
+    let s = Scratch::new();
+    let ((floor, floor_triangles), _) = floor_and_cube();
+    let indices: Vec<u32> = floor_triangles.iter().flatten().copied().collect();
+    let mut b = GltfBuilder::new();
+    b.mesh("floor", &floor, None, &indices, 4);
+    // TEXCOORD_0 = (x, y) and TEXCOORD_1 = (y, x) / 2 in glTF's top-down convention.
+    let uv0: Vec<f32> = floor.iter().flat_map(|p| [p.x, p.y]).collect();
+    let uv1: Vec<f32> = floor.iter().flat_map(|p| [p.y / 2.0, p.x / 2.0]).collect();
+    for (set, uv) in [("TEXCOORD_0", uv0), ("TEXCOORD_1", uv1)] {
+        let accessor = b.accessor(le(&uv, f32::to_le_bytes), 5126, floor.len(), "VEC2");
+        b.meshes[0]["primitives"][0]["attributes"][set] = json!(accessor);
+    }
+    s.write(
+        "uv.glb",
+        glb(&b.document(json!([{"mesh": 0}]), None), &b.bin),
+    );
+    let scene = Scene::load(&s.path("uv.glb")).unwrap();
+    let lightmap = scene.lightmap_uvs.as_ref().expect("TEXCOORD_1 is kept");
+    for (v, p) in floor.iter().enumerate() {
+        // Stored with v up from the image's bottom, as OBJ's.
+        assert_eq!(scene.uvs[v], glam::Vec2::new(p.x, 1.0 - p.y));
+        assert_eq!(lightmap[v], glam::Vec2::new(p.y / 2.0, 1.0 - p.x / 2.0));
+    }
+    s.bake("uv.glb", "uv.prt", &["--mode", "unshadowed"]);
+    s.run(&[
+        "export",
+        "out/uv.prt",
+        "--scene",
+        "uv.glb",
+        "--gltf",
+        "out/uv-prt.glb",
+    ])
+    .success();
+    let exported = Glb::parse(&s.read("out/uv-prt.glb"));
+    let expected: Vec<f32> = floor.iter().flat_map(|p| [p.y / 2.0, p.x / 2.0]).collect();
+    assert_eq!(exported.attribute("TEXCOORD_1"), expected);
+}
