@@ -3,6 +3,8 @@
 #                    without a display render PRT and Blinn-Phong screenshots and say where
 #   make test        formatting, lints, every test, a build without Embree, the Embree 4 header
 #                    check, the independent reference
+#   make interop     glTF export checked by the Khronos glTF-Validator, the Python .prt reader
+#                    against the npz export (part of make test)
 #   make bench       the bake benchmark: Embree and obvhs against the raw Embree rate
 #                    (docs/performance.md)
 #   make fuzz        the parsers' mutation fuzzing at 20 times make test's mutants (docs/robustness.md)
@@ -17,7 +19,7 @@ SCENE := scenes/torus/torus.scene
 NO_EMBREE := target/no-embree
 NO_EMBREE_BAKE := $(NO_EMBREE)/release/prt-bake
 
-.PHONY: demo test bench bench-view deps build lint unit no-embree embree4 reference scenes fuzz
+.PHONY: demo test bench bench-view deps build lint unit no-embree embree4 reference interop scenes fuzz
 
 deps:
 	@scripts/install-deps.sh
@@ -74,7 +76,14 @@ embree4: deps
 reference: build
 	scripts/reference/run.sh
 
-test: lint unit no-embree embree4 reference
+# Real assets out: exported .glb files pass the Khronos glTF-Validator with zero errors (npm
+# package installed into target/node), and scripts/python/prt.py reads every .prt variant as
+# the npz export has it (NumPy in a venv under target/).
+interop: build
+	scripts/gltf/validate.sh
+	scripts/python/run-tests.sh
+
+test: lint unit no-embree embree4 reference interop
 
 bench: deps
 	$(CARGO) bench -p prt-baker --bench bake

@@ -8,11 +8,16 @@
 #   xvfb xauth          a virtual X server, for the test of prt-view's window (xvfb-run)
 #   libx11-6 libxcursor1 libxrandr2 libxi6 libxkbcommon-x11-0
 #                       the X11 libraries winit loads at run time
+#   npm (with nodejs)   the Khronos glTF-Validator of `make interop`; only if no npm is on
+#                       PATH (a NodeSource or nvm install is kept)
+#   python3-venv        the venvs of the reference check and the Python reader's test
 # The Rust toolchain itself is expected (rustup); python3 for the reference check.
 set -euo pipefail
 
 packages=(libembree-dev libclang-dev mesa-vulkan-drivers libvulkan1 xvfb xauth
     libx11-6 libxcursor1 libxrandr2 libxi6 libxkbcommon-x11-0)
+command -v npm >/dev/null 2>&1 || packages+=(npm)
+packages+=(python3-venv)
 missing=()
 for package in "${packages[@]}"; do
     if ! dpkg-query -W -f='${Status}' "$package" 2>/dev/null | grep -q "install ok installed"; then

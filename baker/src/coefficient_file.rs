@@ -13,7 +13,7 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::sampling::Sampling;
-use crate::scene::Scene;
+use crate::scene::{Scene, Up};
 use crate::sh;
 use crate::trace::Backend;
 use crate::transfer::{Aux, Mode, Transfer};
@@ -49,6 +49,10 @@ pub struct Header {
     /// 2 = bent normal).
     #[serde(serialize_with = "as_name::aux")]
     pub aux: Aux,
+    /// The scene's up axis (bytes 84..88: 0 = +z, 1 = +y): how rigs and skies are turned
+    /// to light it.
+    #[serde(serialize_with = "as_name::up")]
+    pub up: Up,
     #[serde(serialize_with = "as_name::hex32")]
     pub checksum: u32,
 }
@@ -71,6 +75,9 @@ mod as_name {
     }
     pub fn hex64<S: Serializer>(x: &u64, s: S) -> Result<S::Ok, S::Error> {
         s.serialize_str(&format!("{x:016x}"))
+    }
+    pub fn up<S: Serializer>(u: &crate::scene::Up, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(u.name())
     }
     pub fn hex32<S: Serializer>(x: &u32, s: S) -> Result<S::Ok, S::Error> {
         s.serialize_str(&format!("{x:08x}"))
@@ -138,7 +145,8 @@ fn sampling_code(sampling: Sampling) -> u32 {
 }
 
 impl CoefficientFile {
-    /// Packages a bake of `scene` with the settings it was made with.
+    /// Packages a bake of `scene` with the settings it was made with; the up axis is the
+    /// scene's (set [`Header::up`] afterwards to override it).
     pub fn from_bake(scene: &Scene, transfer: &Transfer) -> CoefficientFile {
         let options = &transfer.options;
         CoefficientFile {
@@ -156,6 +164,7 @@ impl CoefficientFile {
                 seed: options.seed,
                 scene_fingerprint: scene.fingerprint(),
                 aux: options.aux,
+                up: scene.up,
                 checksum: 0,
             },
             coefficients: transfer.coefficients.clone(),
@@ -200,7 +209,8 @@ impl CoefficientFile {
         bytes.extend(aux_flags(h.aux).to_le_bytes());
         bytes.extend(h.payload_bytes().to_le_bytes());
         bytes.extend(h.bounce_samples.to_le_bytes());
-        bytes.resize(HEADER_SIZE, 0); // reserved bytes 84..124, then the checksum slot
+        bytes.extend(h.up.code().to_le_bytes());
+        bytes.resize(HEADER_SIZE, 0); // reserved bytes 88..124, then the checksum slot
         bytes.extend(self.coefficients.iter().flat_map(|c| c.to_le_bytes()));
         let ao = self.ao.iter().flatten().copied();
         let bent = self.bent_normal.iter().flatten().flat_map(|n| n.to_array());
@@ -320,7 +330,11 @@ impl CoefficientFile {
                 mode.name()
             ));
         }
-        if bytes[84..CHECKSUM_OFFSET].iter().any(|&b| b != 0) {
+        let up = match Up::from_code(u32_at(84)) {
+            Some(up) => up,
+            None => return Err(format!("unknown up axis {} (0 = +z, 1 = +y)", u32_at(84))),
+        };
+        if bytes[88..CHECKSUM_OFFSET].iter().any(|&b| b != 0) {
             return Err("reserved header bytes are not zero".into());
         }
         let header = Header {
@@ -337,6 +351,7 @@ impl CoefficientFile {
             seed: u64_at(48),
             scene_fingerprint: u64_at(56),
             aux,
+            up,
             checksum: stored,
         };
         // Checked: a corrupted count must not wrap around to the payload's size.

@@ -10,9 +10,10 @@ use crate::scene::Scene;
 use crate::sh;
 
 /// Writes `positions` (V,3), `normals` (V,3), `albedo` (V,3, linear Kd × texture),
-/// `transfer` (V, channels, n²) and, where the file has them, `ao` (V,) and `bent_normal`
-/// (V,3), all float32 in the file's vertex order. The coefficient file must have been baked
-/// for this scene.
+/// `transfer` (V, channels, n²), `uv` (V,2, v up from the image's bottom, as OBJ) where the
+/// scene has texture coordinates, and, where the file has them, `ao` (V,) and `bent_normal`
+/// (V,3), all float32 in the file's vertex order; and `triangles` (F,3) uint32 vertex
+/// indices. The coefficient file must have been baked for this scene.
 pub fn export_npz(coefficients: &Path, scene: &Path, output: &Path) -> Result<()> {
     let file = CoefficientFile::read(coefficients)?;
     let scene = Scene::load(scene)?;
@@ -73,5 +74,20 @@ pub fn export_npz(coefficients: &Path, scene: &Path, output: &Path) -> Result<()
             data: bent_normal,
         });
     }
-    output.write(&npz::to_bytes(&arrays)?)
+    // A scene whose every uv is (0, 0) has none (OBJ without `vt`, glTF without TEXCOORD_0).
+    let uv: Vec<f32> = scene.uvs.iter().flat_map(|uv| uv.to_array()).collect();
+    if uv.iter().any(|&x| x != 0.0) {
+        arrays.push(npz::Array {
+            name: "uv",
+            shape: vec![v, 2],
+            data: &uv,
+        });
+    }
+    let triangles: Vec<u32> = scene.triangles.iter().flatten().copied().collect();
+    let indices = [npz::IndexArray {
+        name: "triangles",
+        shape: vec![scene.triangles.len(), 3],
+        data: &triangles,
+    }];
+    output.write(&npz::to_bytes(&arrays, &indices)?)
 }

@@ -14,6 +14,7 @@ pub mod atomic;
 pub mod coefficient_file;
 pub mod error;
 pub mod export;
+pub mod gltf_export;
 pub mod interreflection;
 pub mod light;
 pub mod limits;

@@ -43,17 +43,9 @@ enum Command {
         /// The .prt file.
         file: PathBuf,
     },
-    /// Write a coefficient file and its scene as NumPy arrays (positions, normals, albedo, transfer).
-    Export {
-        /// The .prt file.
-        file: PathBuf,
-        /// The scene it was baked from.
-        #[arg(long)]
-        scene: PathBuf,
-        /// Output .npz file.
-        #[arg(long)]
-        npz: PathBuf,
-    },
+    /// Write a coefficient file and its scene as NumPy arrays (--npz) and/or as a binary glTF
+    /// with the transfer as vertex attributes (--gltf).
+    Export(ExportArgs),
     /// Project a light rig (TOML) to SH and write the summed RGB coefficients as JSON.
     Light {
         /// The rig file (docs/lights.md).
@@ -67,6 +59,26 @@ enum Command {
     },
     /// Light a bake with a rig on the CPU and write per-vertex radiance as a PLY mesh.
     Relight(RelightArgs),
+}
+
+#[derive(clap::Args)]
+#[command(group(clap::ArgGroup::new("outputs").required(true).multiple(true).args(["npz", "gltf"])))]
+struct ExportArgs {
+    /// The .prt file.
+    file: PathBuf,
+    /// The scene it was baked from.
+    #[arg(long)]
+    scene: PathBuf,
+    /// Output .npz file (positions, normals, albedo, transfer, uv, triangles, aux arrays).
+    #[arg(long)]
+    npz: Option<PathBuf>,
+    /// Output .glb file: the scene in world space, y up, with the transfer as `_PRT_k`
+    /// vertex attributes (docs/gltf.md).
+    #[arg(long)]
+    gltf: Option<PathBuf>,
+    /// With --gltf: a light rig (TOML) whose relit shading goes into COLOR_0.
+    #[arg(long, requires = "gltf")]
+    lights: Option<PathBuf>,
 }
 
 #[derive(clap::Args)]
@@ -89,8 +101,13 @@ struct RelightArgs {
 
 #[derive(clap::Args)]
 struct BakeArgs {
-    /// A scene file (one `"object.obj" "texture.tga"` per line) or a bare .obj.
+    /// A scene file (one `"object.obj" "texture.tga"` per line), a bare .obj, or a glTF 2.0
+    /// file (.gltf, .glb).
     scene: PathBuf,
+    /// The scene's up axis, recorded in the file: rigs, skies and the viewer turn to it.
+    /// Default: y for glTF (its specification's axis), z for OBJ and scene files.
+    #[arg(long, value_enum)]
+    up: Option<UpArg>,
     /// Output coefficient file.
     #[arg(short, long)]
     output: PathBuf,
@@ -148,6 +165,14 @@ enum ModeArg {
     Shadowed,
     /// Shadowed plus light bounced off other surfaces, in colour.
     Interreflected,
+}
+
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
+enum UpArg {
+    /// +z is up.
+    Z,
+    /// +y is up.
+    Y,
 }
 
 #[derive(Clone, Copy, PartialEq, ValueEnum)]
@@ -212,7 +237,7 @@ fn main() -> ExitCode {
     let result = std::panic::catch_unwind(|| match cli.command {
         Command::Bake(args) => bake(args),
         Command::Inspect { file } => inspect(&file),
-        Command::Export { file, scene, npz } => export(&file, &scene, &npz),
+        Command::Export(args) => export(args),
         Command::Light { rig, order, output } => light(&rig, order, &output),
         Command::Relight(args) => relight(args),
     });
@@ -325,7 +350,13 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
         Box::new(ProgressBar::new())
     };
     let transfer = prt_baker::bake(&scene, tracer.as_deref(), &options, progress.as_ref())?;
-    let file = CoefficientFile::from_bake(&scene, &transfer);
+    let mut file = CoefficientFile::from_bake(&scene, &transfer);
+    if let Some(up) = args.up {
+        file.header.up = match up {
+            UpArg::Z => prt_baker::scene::Up::Z,
+            UpArg::Y => prt_baker::scene::Up::Y,
+        };
+    }
     output.write(&file.to_bytes().0)?;
 
     let rays = match transfer.rays_cast {
@@ -337,15 +368,15 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
     };
     let mode = match (options.mode, transfer.hit_cache_bytes) {
         (Mode::Interreflected, Some(bytes)) => format!(
-            "interreflected, {} bounces from {} rays, {} channels, hit cache {:.0} MiB",
-            options.bounces,
+            "interreflected, {} from {} rays, {} channels, hit cache {:.0} MiB",
+            bounces(options.bounces),
             options.effective_bounce_samples(),
             transfer.channels,
             bytes as f64 / f64::from(1 << 20)
         ),
         (Mode::Interreflected, None) => format!(
-            "interreflected, {} bounces from {} rays, {} channels, re-traced (hit cache over {} MiB)",
-            options.bounces,
+            "interreflected, {} from {} rays, {} channels, re-traced (hit cache over {} MiB)",
+            bounces(options.bounces),
             options.effective_bounce_samples(),
             transfer.channels,
             args.hit_cache_mb
@@ -364,10 +395,65 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
     Ok(())
 }
 
-fn export(file: &Path, scene: &Path, npz: &Path) -> Result<(), Error> {
-    // Checked before the inputs are read; export_npz checks again against all of them.
-    Output::new(npz, &[file.to_path_buf(), scene.to_path_buf()])?;
-    prt_baker::export::export_npz(file, scene, npz)
+/// "1 bounce", "2 bounces".
+fn bounces(count: u32) -> String {
+    match count {
+        1 => String::from("1 bounce"),
+        n => format!("{n} bounces"),
+    }
+}
+
+fn export(args: ExportArgs) -> Result<(), Error> {
+    // Checked before the inputs are read; the writers check again against all of them.
+    let mut inputs = vec![args.file.clone(), args.scene.clone()];
+    inputs.extend(args.lights.clone());
+    for output in args.npz.iter().chain(&args.gltf) {
+        Output::new(output, &inputs)?;
+    }
+    if let Some(npz) = &args.npz {
+        prt_baker::export::export_npz(&args.file, &args.scene, npz)?;
+        println!(
+            "wrote {} (NumPy arrays of {})",
+            npz.display(),
+            args.file.display()
+        );
+    }
+    if let Some(glb) = &args.gltf {
+        let written = prt_baker::gltf_export::export_glb(
+            &args.file,
+            &args.scene,
+            glb,
+            args.lights.as_deref(),
+        )?;
+        let prt = match written.prt_attributes.as_slice() {
+            [] => String::from("no transfer"),
+            [only] => format!("transfer in {only}"),
+            [first, .., last] => format!(
+                "transfer in {} VEC4 attributes {first}..{last}",
+                written.prt_attributes.len()
+            ),
+        };
+        println!(
+            "wrote {} ({} bytes): {} vertices, {} triangles, {} material(s), {} texture(s), {prt}{}{}",
+            glb.display(),
+            written.bytes,
+            written.vertex_count,
+            written.triangle_count,
+            written.materials,
+            written.textures,
+            if written.colour {
+                ", COLOR_0 lit by the rig (unlit materials)"
+            } else {
+                ""
+            },
+            if written.turned_to_y_up {
+                "; turned from z-up to glTF's y-up"
+            } else {
+                ""
+            },
+        );
+    }
+    Ok(())
 }
 
 fn inspect(path: &Path) -> Result<(), Error> {

@@ -1,5 +1,5 @@
 //! NumPy `.npz` output: a zip archive (stored, uncompressed) of `.npy` arrays, readable with
-//! `numpy.load`. Only little-endian float32 arrays are needed here.
+//! `numpy.load`. Little-endian float32 arrays, and uint32 ones for indices.
 
 use std::io::{Cursor, Write};
 use std::path::Path;
@@ -13,19 +13,42 @@ pub struct Array<'a> {
     pub data: &'a [f32],
 }
 
-/// The `.npy` (format 1.0) encoding of one array.
+/// A named uint32 array of the given shape (C order).
+pub struct IndexArray<'a> {
+    pub name: &'a str,
+    pub shape: Vec<usize>,
+    pub data: &'a [u32],
+}
+
+/// The `.npy` (format 1.0) encoding of one float32 array.
 pub fn npy_bytes(shape: &[usize], data: &[f32]) -> Vec<u8> {
     assert_eq!(
         shape.iter().product::<usize>(),
         data.len(),
         "shape does not match data"
     );
+    let data: Vec<[u8; 4]> = data.iter().map(|x| x.to_le_bytes()).collect();
+    npy_bytes_of("<f4", shape, &data)
+}
+
+/// The `.npy` (format 1.0) encoding of one uint32 array.
+pub fn npy_bytes_u32(shape: &[usize], data: &[u32]) -> Vec<u8> {
+    assert_eq!(
+        shape.iter().product::<usize>(),
+        data.len(),
+        "shape does not match data"
+    );
+    let data: Vec<[u8; 4]> = data.iter().map(|x| x.to_le_bytes()).collect();
+    npy_bytes_of("<u4", shape, &data)
+}
+
+fn npy_bytes_of(descr: &str, shape: &[usize], data: &[[u8; 4]]) -> Vec<u8> {
     let dims: Vec<String> = shape.iter().map(|d| d.to_string()).collect();
     let shape = match dims.len() {
         1 => format!("({},)", dims[0]),
         _ => format!("({})", dims.join(", ")),
     };
-    let mut header = format!("{{'descr': '<f4', 'fortran_order': False, 'shape': {shape}, }}");
+    let mut header = format!("{{'descr': '{descr}', 'fortran_order': False, 'shape': {shape}, }}");
     // Magic (6) + version (2) + length (2) + header + '\n' is padded to a multiple of 64.
     let unpadded = 10 + header.len() + 1;
     header.push_str(&" ".repeat(unpadded.next_multiple_of(64) - unpadded));
@@ -34,7 +57,7 @@ pub fn npy_bytes(shape: &[usize], data: &[f32]) -> Vec<u8> {
     bytes.extend(b"\x93NUMPY\x01\x00");
     bytes.extend((header.len() as u16).to_le_bytes());
     bytes.extend(header.as_bytes());
-    bytes.extend(data.iter().flat_map(|x| x.to_le_bytes()));
+    bytes.extend(data.iter().flatten());
     bytes
 }
 
@@ -42,15 +65,15 @@ pub fn npy_bytes(shape: &[usize], data: &[f32]) -> Vec<u8> {
 pub fn write(path: &Path, arrays: &[Array<'_>]) -> Result<()> {
     crate::atomic::write(
         path,
-        &to_bytes(arrays).map_err(|err| match err {
+        &to_bytes(arrays, &[]).map_err(|err| match err {
             Error::Io { source, .. } => Error::io(path, source),
             other => other,
         })?,
     )
 }
 
-/// The `.npz` file's bytes.
-pub fn to_bytes(arrays: &[Array<'_>]) -> Result<Vec<u8>> {
+/// The `.npz` file's bytes: the float arrays, then the index arrays.
+pub fn to_bytes(arrays: &[Array<'_>], index_arrays: &[IndexArray<'_>]) -> Result<Vec<u8>> {
     let path = Path::new("npz archive");
     let mut zip = zip::ZipWriter::new(Cursor::new(Vec::new()));
     let options = zip::write::SimpleFileOptions::default()
@@ -61,6 +84,12 @@ pub fn to_bytes(arrays: &[Array<'_>]) -> Result<Vec<u8>> {
         zip.start_file(format!("{}.npy", array.name), options)
             .map_err(zip_error)?;
         zip.write_all(&npy_bytes(&array.shape, array.data))
+            .map_err(|err| Error::io(path, err))?;
+    }
+    for array in index_arrays {
+        zip.start_file(format!("{}.npy", array.name), options)
+            .map_err(zip_error)?;
+        zip.write_all(&npy_bytes_u32(&array.shape, array.data))
             .map_err(|err| Error::io(path, err))?;
     }
     Ok(zip.finish().map_err(zip_error)?.into_inner())

@@ -95,7 +95,8 @@ pub fn relight(
     inputs.extend(rig.input_files());
     let output = crate::output::Output::new(output, &inputs)?;
     let order = file.header.order as usize;
-    let light = rig.project(order);
+    // Rigs are written for a z-up world; a y-up bake gets them turned to its up axis.
+    let light = rig.project(order).in_scene_frame(file.header.up);
     let radiance = vertex_radiance(&file, &scene.vertex_albedo(), &light);
     let colours: Vec<[u8; 3]> = radiance
         .iter()
@@ -151,6 +152,7 @@ mod tests {
                 seed: 0,
                 scene_fingerprint: 0,
                 aux: crate::transfer::Aux::default(),
+                up: crate::scene::Up::Z,
                 checksum: 0,
             },
             coefficients,

@@ -32,7 +32,7 @@ use std::time::{Duration, Instant};
 use prt_baker::coefficient_file::{CoefficientFile, Header};
 use prt_baker::light::{EnvironmentMap, Rig};
 use prt_baker::sampling::Sampling;
-use prt_baker::scene::Texture;
+use prt_baker::scene::{Texture, Up};
 use prt_baker::trace::Backend;
 use prt_baker::transfer::{Aux, Mode};
 use prt_baker::{Location, Scene};
@@ -412,6 +412,7 @@ fn prt_seeds() -> Vec<Vec<u8>> {
         seed: 7,
         scene_fingerprint: 0x0123_4567_89ab_cdef,
         aux,
+        up: if channels == 3 { Up::Y } else { Up::Z },
         checksum: 0,
     };
     let file = |h: Header| {

@@ -1,7 +1,14 @@
 //! A scene and its coefficient file, loaded together.
+//!
+//! The viewer works in the z-up frame that rigs are written in: a y-up bake's scene is turned
+//! by the inverse of [`Up::from_z_up`] on loading (its positions and normals; the transfer
+//! stays in the scene's coordinates, and [`crate::lights::Lights::for_up`] turns the light to
+//! meet it). The camera, its framing, the θ/φ controls and the default rig then need no
+//! notion of up, and a z-up OBJ and the y-up glTF of the same geometry look the same.
 
 use std::path::{Path, PathBuf};
 
+use prt_baker::scene::Up;
 use prt_baker::{CoefficientFile, Scene};
 
 use crate::error::Result;
@@ -25,9 +32,20 @@ impl Bake {
         Bake::new(scene, file, coefficients)
     }
 
-    /// A bake already in memory (tests), with the same check as [`Bake::load`].
-    pub fn new(scene: Scene, file: CoefficientFile, file_path: &Path) -> Result<Bake> {
+    /// A bake already in memory (tests), with the same check as [`Bake::load`]; the scene is
+    /// then turned to z-up (see the module's documentation).
+    pub fn new(mut scene: Scene, file: CoefficientFile, file_path: &Path) -> Result<Bake> {
         file.check_scene(file_path, &scene)?;
+        let up = file.header.up;
+        if up != Up::Z {
+            let to_z_up = up.from_z_up().transpose().as_mat3();
+            for p in &mut scene.positions {
+                *p = to_z_up * *p;
+            }
+            for n in &mut scene.normals {
+                *n = (to_z_up * *n).normalize();
+            }
+        }
         Ok(Bake {
             scene,
             file,
@@ -38,6 +56,11 @@ impl Bake {
     /// The SH order n of the transfer (n² coefficients per channel).
     pub fn order(&self) -> usize {
         self.file.header.order as usize
+    }
+
+    /// The scene's up axis, as the bake recorded it.
+    pub fn up(&self) -> Up {
+        self.file.header.up
     }
 
     /// 1 (grey transfer) or 3 (R, G, B).

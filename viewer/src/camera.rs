@@ -1,4 +1,5 @@
 //! A fly camera for z-up scenes: a position, a yaw about +z and a pitch above the horizon.
+//! (A y-up bake is shown turned to z-up: see [`crate::bake`].)
 
 use glam::camera::rh;
 use glam::{Mat4, Vec3};

@@ -20,6 +20,7 @@ use std::path::Path;
 
 use glam::{DVec3, Vec3};
 use prt_baker::light::{Light, LightCoefficients, Rig, SteerableLight, Window};
+use prt_baker::scene::Up;
 use prt_baker::sh;
 
 use crate::error::Result;
@@ -212,6 +213,8 @@ pub struct Lights {
     lights: Vec<SceneLight>,
     window: Window,
     order: usize,
+    /// The bake's up axis: PRT's light is turned from the rig's z-up frame to it.
+    up: Up,
 }
 
 impl Lights {
@@ -225,7 +228,16 @@ impl Lights {
                 .collect(),
             window: rig.window,
             order,
+            up: Up::Z,
         }
+    }
+
+    /// The lights for a bake whose scene has this up axis: directions and controls stay in
+    /// the z-up frame the viewer shows, [`Lights::prt`] turns the summed light to the
+    /// transfer's coordinates.
+    pub fn for_up(mut self, up: Up) -> Lights {
+        self.up = up;
+        self
     }
 
     /// [`DEFAULT_RIG`], parsed by the baker's rig parser.
@@ -262,6 +274,7 @@ impl Lights {
             lights,
             window: Window::None,
             order,
+            up: Up::Z,
         }
     }
 
@@ -303,7 +316,7 @@ impl Lights {
             sum.add(&light.steerable.coefficients());
         }
         sum.scale_bands(&self.window.factors(self.order));
-        sum
+        sum.in_scene_frame(self.up)
     }
 
     /// Blinn-Phong's lights, at their current directions.

@@ -160,7 +160,7 @@ fn run(cli: Cli) -> Result<(), Error> {
         Some(path) => Rig::load(path)?,
         None => Lights::default_rig(),
     };
-    let lights = Lights::from_rig(&rig, bake.order());
+    let lights = Lights::from_rig(&rig, bake.order()).for_up(bake.up());
     let dropped = lights.phong().dropped;
     if dropped > 0 {
         eprintln!(

@@ -87,6 +87,17 @@ impl LightCoefficients {
         }
     }
 
+    /// The light, given in the z-up frame that rigs are written in, turned into the
+    /// coordinates of a scene whose up axis is `up` (see [`crate::scene::Up`]): unchanged for
+    /// z-up, rotated by (x, y, z) ↦ (x, z, −y) for y-up. Every light of a rig (its directions,
+    /// the hemisphere's zenith, an environment map's pole) turns with it.
+    pub fn in_scene_frame(&self, up: crate::scene::Up) -> LightCoefficients {
+        match up {
+            crate::scene::Up::Z => self.clone(),
+            up => self.rotated(&ShRotation::from_matrix(self.order, up.from_z_up())),
+        }
+    }
+
     /// Scales band l of every channel by `factors[l]` (see [`Window`]).
     pub fn scale_bands(&mut self, factors: &[f64]) {
         for channel in &mut self.rgb {
@@ -326,6 +337,37 @@ mod tests {
 
     /// Far below any quantity these tests compare (f64 rounding of short sums).
     const EXACT: f64 = 1e-12;
+
+    #[test]
+    fn y_up_turns_a_rigs_zenith_to_plus_y_and_its_plus_y_to_minus_z() {
+        use crate::scene::Up;
+        let directional = |d: DVec3| Light::Directional {
+            direction: d,
+            irradiance: DVec3::new(1.0, 2.0, 3.0),
+        };
+        for (rig_direction, scene_direction) in [
+            (DVec3::Z, DVec3::Y),
+            (DVec3::Y, DVec3::NEG_Z),
+            (DVec3::X, DVec3::X),
+            (
+                DVec3::new(0.3, -0.5, 0.8).normalize(),
+                DVec3::new(0.3, 0.8, 0.5).normalize(),
+            ),
+        ] {
+            let turned = directional(rig_direction).project(6).in_scene_frame(Up::Y);
+            let expected = directional(scene_direction).project(6);
+            for (a, b) in turned
+                .rgb
+                .iter()
+                .flatten()
+                .zip(expected.rgb.iter().flatten())
+            {
+                assert!((a - b).abs() < 1e-9, "{rig_direction} -> {scene_direction}");
+            }
+            let same = directional(rig_direction).project(6);
+            assert_eq!(same.in_scene_frame(Up::Z), same);
+        }
+    }
 
     /// g_l by quadrature of the definition (Gauss–Legendre in t over [cos δ, 1], exact for the
     /// polynomial P_l): an independent check of the closed form.

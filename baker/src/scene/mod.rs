@@ -1,19 +1,23 @@
 //! Scenes: triangle meshes with per-vertex normals and texture coordinates, and the materials
 //! (Kd × texture) the renderer and the interreflection pass need.
 //!
-//! Two inputs are accepted (see `docs/scenes.md`):
-//! * the thesis's scene file: one `"object.obj" "texture.tga"` per line, quotes allow spaces,
-//!   `#` starts a comment, the texture is optional; objects are already in world space;
-//! * a bare `.obj` file.
+//! Three inputs are accepted, chosen by the extension (see `docs/scenes.md`):
+//! * the thesis's scene file (`.scene`, or any other text file): one
+//!   `"object.obj" "texture.tga"` per line, quotes allow spaces, `#` starts a comment, the
+//!   texture is optional; objects are already in world space;
+//! * a bare `.obj` file;
+//! * a glTF 2.0 file (`.gltf`, `.glb`), its node hierarchy flattened to world space.
 //!
 //! A vertex is a unique (position, normal, uv) combination, as OBJ faces reference them.
 //! Normals come from the file, or are computed (angle-weighted, welded by position within a
 //! mesh) where the file has none.
 
+mod gltf;
 mod normals;
 mod obj;
 mod scene_file;
 mod texture;
+mod up;
 
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -25,6 +29,18 @@ use crate::error::{Error, Location, Result};
 pub use normals::angle_weighted_normals;
 pub use scene_file::{SceneEntry, parse_scene_file};
 pub use texture::{Texture, srgb_to_linear};
+pub use up::Up;
+
+/// The scene formats [`Scene::load`] reads, for the error about any other.
+pub const FORMATS: &str =
+    "scene files (.scene or .txt), Wavefront OBJ (.obj), glTF 2.0 (.gltf, .glb)";
+
+/// Extensions of formats that are recognisably something else than a scene file (which has no
+/// fixed extension), refused with the list of [`FORMATS`].
+const OTHER_FORMATS: &[&str] = &[
+    "ply", "stl", "fbx", "dae", "3ds", "blend", "usd", "usda", "usdc", "usdz", "abc", "x3d", "wrl",
+    "off", "prt", "npz", "png", "jpg", "jpeg", "tga", "hdr", "exr", "toml",
+];
 
 /// Diffuse reflectance of surfaces whose material sets no `Kd` and that have no texture.
 pub const DEFAULT_KD: Vec3 = Vec3::splat(0.8);
@@ -88,11 +104,61 @@ pub struct Scene {
     /// Files read besides `path` and the textures (OBJs, material libraries), for
     /// [`Scene::input_files`].
     pub sources: Vec<PathBuf>,
+    /// The format's up axis: +y for glTF, +z otherwise. A bake's `--up` overrides it.
+    pub up: Up,
+    /// Second texture coordinates (glTF TEXCOORD_1, e.g. lightmap UVs), per vertex, where any
+    /// mesh has them ((0, 0) for those that do not).
+    pub lightmap_uvs: Option<Vec<Vec2>>,
+    /// A digest of the source file's whole content where the format calls for one (glTF:
+    /// JSON, buffers, images), folded into [`Scene::fingerprint`].
+    pub content_digest: Option<u64>,
 }
 
 impl Scene {
-    /// Loads a scene file or a bare `.obj`, chosen by the extension.
+    /// Loads a scene file, a bare `.obj` or a glTF file, chosen by the extension. Warnings
+    /// (glTF primitives that are not triangles) go to stderr.
     pub fn load(path: &Path) -> Result<Scene> {
+        let (scene, warnings) = Scene::load_with_warnings(path)?;
+        for warning in warnings {
+            eprintln!("warning: {}: {warning}", path.display());
+        }
+        Ok(scene)
+    }
+
+    /// [`Scene::load`], returning the warnings instead of printing them.
+    pub fn load_with_warnings(path: &Path) -> Result<(Scene, Vec<String>)> {
+        let extension = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase())
+            .unwrap_or_default();
+        match extension.as_str() {
+            "gltf" | "glb" => {
+                let loaded = gltf::load(path)?;
+                let mut scene = Scene::from_meshes(path, loaded.meshes, loaded.textures)?;
+                scene.up = Up::Y;
+                scene.content_digest = Some(loaded.digest);
+                if loaded.lightmap_uvs.iter().any(Option::is_some) {
+                    let mut uvs = Vec::with_capacity(scene.vertex_count());
+                    for (object, lightmap) in scene.objects.iter().zip(&loaded.lightmap_uvs) {
+                        let count = object.vertices.len();
+                        match lightmap {
+                            Some(given) if given.len() == count => uvs.extend(given),
+                            _ => uvs.extend(std::iter::repeat_n(Vec2::ZERO, count)),
+                        }
+                    }
+                    scene.lightmap_uvs = Some(uvs);
+                }
+                Ok((scene, loaded.warnings))
+            }
+            other if OTHER_FORMATS.contains(&other) => Err(Error::scene(
+                Location::file(path),
+                format!("unknown scene format .{other}: the formats read are {FORMATS}"),
+            )),
+            _ => Scene::load_obj_or_scene_file(path).map(|scene| (scene, Vec::new())),
+        }
+    }
+
+    fn load_obj_or_scene_file(path: &Path) -> Result<Scene> {
         let is_obj = path
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("obj"));
@@ -160,6 +226,9 @@ impl Scene {
             materials: Vec::new(),
             textures,
             sources: Vec::new(),
+            up: Up::Z,
+            lightmap_uvs: None,
+            content_digest: None,
         };
         for mesh in meshes {
             let vertex_count = mesh.positions.len();
@@ -298,8 +367,9 @@ impl Scene {
     }
 
     /// A 64-bit fingerprint of the geometry in vertex order (xxh3 over the little-endian bytes
-    /// of the counts, positions, normals, uvs and triangle indices). Coefficient files carry it
-    /// so a file baked for another scene, or another version of this one, is refused.
+    /// of the counts, positions, normals, uvs and triangle indices, then, for glTF, the
+    /// digest of the file's content). Coefficient files carry it so a file baked for another
+    /// scene, or another version of this one, is refused.
     pub fn fingerprint(&self) -> u64 {
         let mut bytes =
             Vec::with_capacity(16 + self.positions.len() * 32 + self.triangles.len() * 12);
@@ -315,6 +385,10 @@ impl Scene {
                 .flatten()
                 .flat_map(|i| i.to_le_bytes()),
         );
+        // Absent for OBJ and scene files, whose fingerprints stay what they were.
+        if let Some(digest) = self.content_digest {
+            bytes.extend(digest.to_le_bytes());
+        }
         xxhash_rust::xxh3::xxh3_64(&bytes)
     }
 }

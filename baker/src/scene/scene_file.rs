@@ -23,8 +23,15 @@ pub struct SceneEntry {
 
 pub fn parse_scene_file(path: &Path) -> Result<Vec<SceneEntry>> {
     let bytes = crate::limits::read_file(path)?;
-    let text = String::from_utf8(bytes)
-        .map_err(|_| Error::scene(Location::file(path), "not a text file (invalid UTF-8)"))?;
+    let text = String::from_utf8(bytes).map_err(|_| {
+        Error::scene(
+            Location::file(path),
+            format!(
+                "not a text file (invalid UTF-8), so not a scene file; the formats read are {}",
+                super::FORMATS
+            ),
+        )
+    })?;
     let base = path.parent().unwrap_or(Path::new(""));
     let mut entries = Vec::new();
     for (index, line) in text.lines().enumerate() {

@@ -1,0 +1,320 @@
+//! glTF 2.0 scenes (`.gltf` with external or data-URI buffers, `.glb`) through the `gltf`
+//! crate.
+//!
+//! The default scene's node hierarchy is flattened to world space: every node's matrix (or
+//! TRS) times its parent's; normals go through the inverse transpose; a transform of negative
+//! determinant (a mirror) flips the winding so faces keep facing out. Triangle lists, strips
+//! and fans are read; points and lines are skipped with a warning. A primitive without
+//! NORMAL gets angle-weighted normals, as an OBJ without `vn`. Albedo is baseColorFactor ×
+//! baseColorTexture (sRGB, as the specification says); a primitive without a material takes
+//! [`DEFAULT_KD`], as an OBJ object without one does.
+//!
+//! glTF's texture v runs down from the image's top; the scene keeps OBJ's convention (v up
+//! from the bottom), so v is stored as 1 − v.
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use glam::{Mat3, Mat4, Vec2, Vec3};
+use gltf::mesh::Mode;
+
+use super::{DEFAULT_KD, Material, Mesh, Texture};
+use crate::error::{Error, Location, Result};
+
+/// What a glTF file contributes.
+pub struct Loaded {
+    pub meshes: Vec<Mesh>,
+    pub textures: Vec<Texture>,
+    /// TEXCOORD_1 of each mesh (v flipped like TEXCOORD_0), where it has one.
+    pub lightmap_uvs: Vec<Option<Vec<Vec2>>>,
+    /// xxh3 of the JSON, every buffer and every decoded image: the file's whole content.
+    pub digest: u64,
+    /// Things skipped (points, lines), one sentence each.
+    pub warnings: Vec<String>,
+}
+
+/// Extensions a file may *require* and still be read correctly. None yet: a required
+/// extension changes how data is to be read (Draco, meshopt, quantisation, texture
+/// transforms), and reading on without it would bake the wrong scene.
+const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[];
+
+pub fn load(path: &Path) -> Result<Loaded> {
+    let at = || Location::file(path);
+    let fail = |message: String| Error::scene(at(), message);
+    let bytes = std::fs::read(path).map_err(|err| Error::io(path, err))?;
+    let gltf = gltf::Gltf::from_slice_without_validation(&bytes)
+        .map_err(|err| fail(format!("not a readable glTF file: {err}")))?;
+    let unsupported: Vec<&str> = gltf
+        .extensions_required()
+        .filter(|e| !SUPPORTED_REQUIRED_EXTENSIONS.contains(e))
+        .collect();
+    if !unsupported.is_empty() {
+        return Err(fail(format!(
+            "requires glTF extension{} {} which this reader does not support (re-export without {})",
+            if unsupported.len() > 1 { "s" } else { "" },
+            unsupported.join(", "),
+            if unsupported.len() > 1 { "them" } else { "it" }
+        )));
+    }
+    let gltf::Gltf { document, blob } = gltf;
+    let document = gltf::Document::from_json(document.into_json())
+        .map_err(|err| fail(format!("invalid glTF: {err}")))?;
+    let json_bytes = match blob {
+        Some(_) => gltf::Glb::from_slice(&bytes)
+            .map(|glb| glb.json.into_owned())
+            .unwrap_or_default(),
+        None => bytes.clone(),
+    };
+    let base = path.parent().unwrap_or(Path::new(""));
+    let buffers = gltf::import_buffers(&document, Some(base), blob)
+        .map_err(|err| fail(format!("cannot read a buffer: {err}")))?;
+
+    let mut digest = xxhash_rust::xxh3::Xxh3::new();
+    digest.update(&json_bytes);
+    for buffer in &buffers {
+        digest.update(&(buffer.len() as u64).to_le_bytes());
+        digest.update(buffer);
+    }
+
+    // Images are decoded only when a material uses them as its base colour.
+    let mut textures = Vec::new();
+    let mut texture_of_image: HashMap<usize, usize> = HashMap::new();
+    let mut decoded: Option<Vec<gltf::image::Data>> = None;
+
+    let scene = document
+        .default_scene()
+        .or_else(|| document.scenes().next())
+        .ok_or_else(|| fail("the file has no scene".into()))?;
+    let mut placed = Vec::new();
+    for node in scene.nodes() {
+        flatten(node, Mat4::IDENTITY, &mut placed);
+    }
+
+    let mut loaded = Loaded {
+        meshes: Vec::new(),
+        textures: Vec::new(),
+        lightmap_uvs: Vec::new(),
+        digest: 0,
+        warnings: Vec::new(),
+    };
+    for (mesh, world) in placed {
+        let mesh_name = mesh
+            .name()
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("mesh {}", mesh.index()));
+        let primitive_count = mesh.primitives().len();
+        for primitive in mesh.primitives() {
+            let name = if primitive_count > 1 {
+                format!("{mesh_name}/{}", primitive.index())
+            } else {
+                mesh_name.clone()
+            };
+            let mode = primitive.mode();
+            if !matches!(
+                mode,
+                Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+            ) {
+                loaded.warnings.push(format!(
+                    "mesh '{name}': skipped a primitive of {mode:?} (only triangles are baked)"
+                ));
+                continue;
+            }
+            let reader = primitive.reader(|b| Some(&buffers[b.index()]));
+            let Some(positions) = reader.read_positions() else {
+                return Err(fail(format!("mesh '{name}': a primitive has no POSITION")));
+            };
+            let positions: Vec<Vec3> = positions.map(Vec3::from_array).collect();
+            let normals: Option<Vec<Vec3>> = reader
+                .read_normals()
+                .map(|n| n.map(Vec3::from_array).collect());
+            let read_uvs = |set: u32| {
+                reader.read_tex_coords(set).map(|uv| {
+                    uv.into_f32()
+                        .map(|[u, v]| Vec2::new(u, 1.0 - v))
+                        .collect::<Vec<Vec2>>()
+                })
+            };
+            let indices: Vec<u32> = match reader.read_indices() {
+                Some(indices) => indices.into_u32().collect(),
+                None => (0..positions.len() as u32).collect(),
+            };
+            let mut triangles = assemble(mode, &indices);
+
+            // World space: positions by the matrix, normals by its inverse transpose; a
+            // mirror reverses the winding.
+            let linear = Mat3::from_mat4(world);
+            let normal_matrix = linear.inverse().transpose();
+            let positions: Vec<Vec3> = positions
+                .iter()
+                .map(|p| world.transform_point3(*p))
+                .collect();
+            let normals = normals.map(|normals| {
+                normals
+                    .iter()
+                    .map(|n| (normal_matrix * *n).normalize_or_zero())
+                    .collect()
+            });
+            if linear.determinant() < 0.0 {
+                for t in &mut triangles {
+                    t.swap(1, 2);
+                }
+            }
+
+            let pbr = primitive.material().pbr_metallic_roughness();
+            let base_colour = pbr.base_color_texture();
+            let uv_set = base_colour.as_ref().map_or(0, |info| info.tex_coord());
+            let texture = match &base_colour {
+                None => None,
+                Some(info) => {
+                    let image = info.texture().source().index();
+                    if let Some(&t) = texture_of_image.get(&image) {
+                        Some(t)
+                    } else {
+                        if decoded.is_none() {
+                            let images = gltf::import_images(&document, Some(base), &buffers)
+                                .map_err(|err| fail(format!("cannot read an image: {err}")))?;
+                            for image in &images {
+                                digest.update(&image.pixels);
+                            }
+                            decoded = Some(images);
+                        }
+                        let data = &decoded.as_ref().expect("decoded above")[image];
+                        let texture = to_texture(path, image, data)
+                            .ok_or_else(|| fail(format!(
+                                "image {image}: {:?} pixels cannot be a base colour (8-bit RGB or RGBA needed)",
+                                data.format
+                            )))?;
+                        textures.push(texture);
+                        texture_of_image.insert(image, textures.len() - 1);
+                        Some(textures.len() - 1)
+                    }
+                }
+            };
+            let material = match primitive.material().index() {
+                None => Material {
+                    name: String::from("default"),
+                    kd: DEFAULT_KD,
+                    texture: None,
+                },
+                Some(index) => {
+                    let [r, g, b, _] = pbr.base_color_factor();
+                    Material {
+                        name: primitive
+                            .material()
+                            .name()
+                            .map(str::to_string)
+                            .unwrap_or_else(|| format!("material {index}")),
+                        kd: Vec3::new(r, g, b),
+                        texture,
+                    }
+                }
+            };
+            loaded.lightmap_uvs.push(read_uvs(1));
+            loaded.meshes.push(Mesh {
+                name,
+                positions,
+                normals,
+                uvs: read_uvs(uv_set),
+                triangles,
+                material,
+            });
+        }
+    }
+    if loaded.meshes.is_empty() {
+        return Err(fail(
+            "no triangles: the default scene has no triangle primitives".into(),
+        ));
+    }
+    loaded.textures = textures;
+    loaded.digest = digest.digest();
+    Ok(loaded)
+}
+
+/// Every node under `node` with a mesh, and its node-to-world matrix.
+fn flatten<'a>(node: gltf::Node<'a>, parent: Mat4, out: &mut Vec<(gltf::Mesh<'a>, Mat4)>) {
+    let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+    if let Some(mesh) = node.mesh() {
+        out.push((mesh, world));
+    }
+    for child in node.children() {
+        flatten(child, world, out);
+    }
+}
+
+/// Triangles of a list, strip or fan (glTF 2.0 §3.7.2.1); degenerate ones (repeated indices,
+/// as strips use to restart) are dropped.
+fn assemble(mode: Mode, indices: &[u32]) -> Vec<[u32; 3]> {
+    let triangles: Vec<[u32; 3]> = match mode {
+        Mode::Triangles => indices
+            .chunks_exact(3)
+            .map(|t| [t[0], t[1], t[2]])
+            .collect(),
+        Mode::TriangleStrip => (0..indices.len().saturating_sub(2))
+            .map(|i| {
+                let [a, b, c] = [indices[i], indices[i + 1], indices[i + 2]];
+                if i % 2 == 0 { [a, b, c] } else { [b, a, c] }
+            })
+            .collect(),
+        Mode::TriangleFan => (1..indices.len().saturating_sub(1))
+            .map(|i| [indices[i], indices[i + 1], indices[0]])
+            .collect(),
+        _ => Vec::new(),
+    };
+    triangles
+        .into_iter()
+        .filter(|[a, b, c]| a != b && b != c && a != c)
+        .collect()
+}
+
+/// An 8-bit RGB(A) or grey image as a texture (texels stay sRGB-encoded, as loaded ones).
+fn to_texture(path: &Path, index: usize, data: &gltf::image::Data) -> Option<Texture> {
+    use gltf::image::Format;
+    let pixels = &data.pixels;
+    let srgb8: Vec<[u8; 4]> = match data.format {
+        Format::R8G8B8A8 => pixels
+            .chunks_exact(4)
+            .map(|p| [p[0], p[1], p[2], p[3]])
+            .collect(),
+        Format::R8G8B8 => pixels
+            .chunks_exact(3)
+            .map(|p| [p[0], p[1], p[2], 255])
+            .collect(),
+        Format::R8 => pixels.iter().map(|&g| [g, g, g, 255]).collect(),
+        Format::R8G8 => pixels
+            .chunks_exact(2)
+            .map(|p| [p[0], p[0], p[0], p[1]])
+            .collect(),
+        _ => return None,
+    };
+    if data.width == 0 || data.height == 0 {
+        return None;
+    }
+    Some(Texture {
+        path: path.with_file_name(format!(
+            "{}#image{index}",
+            path.file_name().unwrap_or_default().to_string_lossy()
+        )),
+        width: data.width,
+        height: data.height,
+        srgb8,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn strips_and_fans_become_triangles_of_one_orientation() {
+        // A strip over a quad 0-1-2-3 (zig-zag) and a fan over the same quad.
+        assert_eq!(
+            assemble(Mode::TriangleStrip, &[0, 1, 2, 3]),
+            [[0, 1, 2], [2, 1, 3]]
+        );
+        assert_eq!(
+            assemble(Mode::TriangleFan, &[0, 1, 2, 3]),
+            [[1, 2, 0], [2, 3, 0]]
+        );
+        assert_eq!(assemble(Mode::Triangles, &[0, 1, 2, 2, 2, 3]), [[0, 1, 2]]);
+    }
+}

@@ -1,0 +1,807 @@
+//! glTF in and out, and the up axis, end to end through the `prt-bake` binary:
+//! * a glTF whose node hierarchy (rotation, non-uniform scale, a mirror, translation) places
+//!   its meshes bakes to the transfer of the same world geometry given as OBJ;
+//! * the y-up glTF that `export --gltf` makes of a z-up OBJ bakes and relights, under the same
+//!   rig, to the OBJ's radiance (rigs are relative to the scene's up axis), and its `_PRT_k`
+//!   attributes are the OBJ bake's transfer turned to y-up;
+//! * the errors and warnings a user meets (unknown format, required extension, points, an
+//!   edited file), and the npz's `triangles` and `uv`.
+
+mod common;
+
+use std::path::Path;
+
+use common::*;
+use glam::{Mat3, Mat4, Quat, Vec3};
+use prt_baker::light::Rig;
+use prt_baker::scene::Up;
+use prt_baker::{CoefficientFile, Scene};
+use serde_json::{Value, json};
+
+const CORNELL: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../scenes/cornell/cornell.scene"
+);
+
+/// A sun and a sky: directional detail the up axis must turn, and a hemisphere whose zenith
+/// must be the scene's up.
+const RIG: &str = r#"
+[[light]]
+kind = "sun"
+theta = 40
+phi = 30
+color = [1.0, 0.9, 0.8]
+intensity = 3.0
+
+[[light]]
+kind = "hemisphere"
+color = [0.2, 0.25, 0.35]
+ground_color = [0.05, 0.04, 0.03]
+"#;
+
+/// The float radiance of a `prt-bake relight` PLY.
+fn ply_radiance(bytes: &[u8]) -> Vec<[f32; 3]> {
+    let end = b"end_header\n";
+    let header_len = bytes.windows(end.len()).position(|w| w == end).unwrap() + end.len();
+    let header = std::str::from_utf8(&bytes[..header_len]).unwrap();
+    let count: usize = header
+        .lines()
+        .find_map(|l| l.strip_prefix("element vertex "))
+        .unwrap()
+        .parse()
+        .unwrap();
+    let record = 9 * 4 + 3;
+    (0..count)
+        .map(|v| {
+            let at = header_len + v * record + 6 * 4 + 3;
+            std::array::from_fn(|i| {
+                f32::from_le_bytes(bytes[at + 4 * i..at + 4 * i + 4].try_into().unwrap())
+            })
+        })
+        .collect()
+}
+
+/// A parsed `.glb`: its JSON and binary chunk.
+struct Glb {
+    json: Value,
+    bin: Vec<u8>,
+}
+
+impl Glb {
+    fn parse(bytes: &[u8]) -> Glb {
+        assert_eq!(&bytes[..4], b"glTF");
+        assert_eq!(u32::from_le_bytes(bytes[4..8].try_into().unwrap()), 2);
+        assert_eq!(
+            u32::from_le_bytes(bytes[8..12].try_into().unwrap()) as usize,
+            bytes.len()
+        );
+        let json_len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+        assert_eq!(&bytes[16..20], b"JSON");
+        let json = serde_json::from_slice(&bytes[20..20 + json_len]).unwrap();
+        let bin_at = 20 + json_len;
+        assert_eq!(&bytes[bin_at + 4..bin_at + 8], b"BIN\0");
+        Glb {
+            json,
+            bin: bytes[bin_at + 8..].to_vec(),
+        }
+    }
+
+    /// The floats of a (tightly packed) float accessor.
+    fn floats(&self, accessor: &Value) -> Vec<f32> {
+        let index = accessor.as_u64().unwrap() as usize;
+        let accessor = &self.json["accessors"][index];
+        assert_eq!(accessor["componentType"], 5126);
+        let view = &self.json["bufferViews"][accessor["bufferView"].as_u64().unwrap() as usize];
+        let start = view["byteOffset"].as_u64().unwrap_or(0) as usize
+            + accessor["byteOffset"].as_u64().unwrap_or(0) as usize;
+        let components = match accessor["type"].as_str().unwrap() {
+            "VEC2" => 2,
+            "VEC3" => 3,
+            "VEC4" => 4,
+            other => panic!("unexpected accessor type {other}"),
+        };
+        let count = accessor["count"].as_u64().unwrap() as usize * components;
+        (0..count)
+            .map(|i| {
+                let at = start + 4 * i;
+                f32::from_le_bytes(self.bin[at..at + 4].try_into().unwrap())
+            })
+            .collect()
+    }
+
+    /// An attribute over all meshes (one primitive each), concatenated in mesh order.
+    fn attribute(&self, name: &str) -> Vec<f32> {
+        self.json["meshes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .flat_map(|mesh| self.floats(&mesh["primitives"][0]["attributes"][name]))
+            .collect()
+    }
+}
+
+/// The mean of |a − b| over every channel of every vertex, relative to the mean of |a|.
+fn relative_mean_difference(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    let (mut diff, mut size) = (0.0, 0.0);
+    for (x, y) in a.iter().zip(b) {
+        for c in 0..3 {
+            diff += f64::from((x[c] - y[c]).abs());
+            size += f64::from(x[c].abs());
+        }
+    }
+    diff / size
+}
+
+#[test]
+fn y_up_gltf_export_of_a_z_up_obj_bakes_and_relights_the_same() {
+    let s = Scratch::new();
+    s.write("rig.toml", RIG);
+    s.bake(CORNELL, "z.prt", &["--samples", "512", "--seed", "3"]);
+    let export = s
+        .run(&[
+            "export",
+            "out/z.prt",
+            "--scene",
+            CORNELL,
+            "--gltf",
+            "out/cornell.glb",
+        ])
+        .success();
+    assert!(
+        export.stdout.starts_with("wrote out/cornell.glb (")
+            && export
+                .stdout
+                .contains("transfer in 4 VEC4 attributes _PRT_0.._PRT_3")
+            && export.stdout.contains("turned from z-up to glTF's y-up"),
+        "{}",
+        export.stdout
+    );
+
+    // The glTF holds the OBJ's vertices, in order, turned by (x, y, z) -> (x, z, -y).
+    let obj = Scene::load(Path::new(CORNELL)).unwrap();
+    let gltf = Scene::load(&s.path("out/cornell.glb")).unwrap();
+    assert_eq!(gltf.up, Up::Y);
+    assert_eq!(gltf.vertex_count(), obj.vertex_count());
+    assert_eq!(gltf.triangles, obj.triangles);
+    for (p, q) in obj.positions.iter().zip(&gltf.positions) {
+        assert!(
+            (Vec3::new(p.x, p.z, -p.y) - *q).length() < 1e-6,
+            "{p} -> {q}"
+        );
+    }
+    for (n, m) in obj.normals.iter().zip(&gltf.normals) {
+        assert!(
+            (Vec3::new(n.x, n.z, -n.y) - *m).length() < 1e-5,
+            "{n} -> {m}"
+        );
+    }
+
+    // The _PRT attributes are the OBJ bake's transfer turned to y-up: lit by the rig turned
+    // to y-up they give what the OBJ's transfer gives under the rig, to rounding.
+    let z_file = CoefficientFile::read(&s.path("out/z.prt")).unwrap();
+    let glb = Glb::parse(&s.read("out/cornell.glb"));
+    let light_z = Rig::load(&s.path("rig.toml")).unwrap().project(4);
+    let light_y = light_z.in_scene_frame(Up::Y);
+    let prt: Vec<Vec<f32>> = (0..4)
+        .map(|k| glb.attribute(&format!("_PRT_{k}")))
+        .collect();
+    for v in 0..obj.vertex_count() {
+        let from_gltf: f64 = (0..16)
+            .map(|j| f64::from(prt[j / 4][4 * v + j % 4]) * light_y.rgb[0][j])
+            .sum();
+        let from_obj: f64 = z_file
+            .vertex(v, 0)
+            .iter()
+            .zip(&light_z.rgb[0])
+            .map(|(t, l)| f64::from(*t) * l)
+            .sum();
+        assert!(
+            (from_gltf - from_obj).abs() < 1e-4 * (1.0 + from_obj.abs()),
+            "vertex {v}: {from_gltf} from the glTF, {from_obj} from the OBJ"
+        );
+    }
+
+    // Baked again from the glTF (y-up by default) and relit by the same rig: the OBJ's
+    // radiance, up to the bakes' noise (the rays differ: each vertex's sample frame turns).
+    s.bake(
+        "out/cornell.glb",
+        "y.prt",
+        &["--samples", "512", "--seed", "3"],
+    );
+    let inspect = |file: &str| -> Value {
+        serde_json::from_str(&s.run(&["inspect", file]).success().stdout).unwrap()
+    };
+    assert_eq!(inspect("out/z.prt")["up"], "z");
+    assert_eq!(inspect("out/y.prt")["up"], "y");
+    for (scene, file, out) in [
+        (CORNELL, "out/z.prt", "out/z.ply"),
+        ("out/cornell.glb", "out/y.prt", "out/y.ply"),
+    ] {
+        s.run(&["relight", scene, file, "--lights", "rig.toml", "-o", out])
+            .success();
+    }
+    let z = ply_radiance(&s.read("out/z.ply"));
+    let y = ply_radiance(&s.read("out/y.ply"));
+    let difference = relative_mean_difference(&z, &y);
+    eprintln!("z-up OBJ vs y-up glTF: relit radiance differs by {difference:.5} (relative mean)");
+    assert!(
+        difference < 0.03,
+        "relit radiance differs by {:.2} % on average between the z-up OBJ and the y-up glTF",
+        100.0 * difference
+    );
+
+    // The same glTF baked as if it were z-up is lit from the side: the test can tell.
+    s.bake(
+        "out/cornell.glb",
+        "wrong.prt",
+        &["--samples", "512", "--seed", "3", "--up", "z"],
+    );
+    s.run(&[
+        "relight",
+        "out/cornell.glb",
+        "out/wrong.prt",
+        "--lights",
+        "rig.toml",
+        "-o",
+        "out/wrong.ply",
+    ])
+    .success();
+    let wrong = relative_mean_difference(&z, &ply_radiance(&s.read("out/wrong.ply")));
+    eprintln!("with the wrong up axis: {wrong:.5}");
+    assert!(
+        wrong > 0.1,
+        "a wrong up axis changed the radiance by only {wrong}"
+    );
+}
+
+/// A 4 × 4-cell floor over [−1, 1]² at z = 0 (normal +z) and a cube of 8 shared corners above
+/// it: the world geometry of the hierarchy test.
+/// Positions and triangles.
+type Part = (Vec<Vec3>, Vec<[u32; 3]>);
+
+fn floor_and_cube() -> (Part, Part) {
+    let mut floor = Vec::new();
+    let cells = 4;
+    for j in 0..=cells {
+        for i in 0..=cells {
+            floor.push(Vec3::new(
+                -1.0 + 2.0 * i as f32 / cells as f32,
+                -1.0 + 2.0 * j as f32 / cells as f32,
+                0.0,
+            ));
+        }
+    }
+    let mut floor_triangles = Vec::new();
+    for j in 0..cells {
+        for i in 0..cells {
+            let a = j * (cells + 1) + i;
+            let (b, c, d) = (a + 1, a + cells + 2, a + cells + 1);
+            floor_triangles.push([a, b, c]);
+            floor_triangles.push([a, c, d]);
+        }
+    }
+    let cube: Vec<Vec3> = (0..8)
+        .map(|k| {
+            Vec3::new(
+                if k & 1 == 0 { -0.3 } else { 0.3 },
+                if k & 2 == 0 { -0.3 } else { 0.3 },
+                if k & 4 == 0 { 0.2 } else { 0.8 },
+            )
+        })
+        .collect();
+    // Outward-facing: bottom, top, −y, +y, −x, +x.
+    let cube_triangles = vec![
+        [0, 2, 3],
+        [0, 3, 1],
+        [4, 5, 7],
+        [4, 7, 6],
+        [0, 1, 5],
+        [0, 5, 4],
+        [2, 6, 7],
+        [2, 7, 3],
+        [0, 4, 6],
+        [0, 6, 2],
+        [1, 3, 7],
+        [1, 7, 5],
+    ];
+    ((floor, floor_triangles), (cube, cube_triangles))
+}
+
+/// One OBJ object: name, positions, triangles, one normal for all its vertices (or none).
+struct ObjObject<'a>(&'a str, &'a [Vec3], &'a [[u32; 3]], Option<Vec3>);
+
+fn obj_text(objects: &[ObjObject<'_>]) -> String {
+    let mut text = String::new();
+    let mut base = 1;
+    for ObjObject(name, positions, triangles, normal) in objects {
+        text += &format!("o {name}\n");
+        for p in *positions {
+            text += &format!("v {} {} {}\n", p.x, p.y, p.z);
+        }
+        if let Some(n) = normal {
+            text += &format!("vn {} {} {}\n", n.x, n.y, n.z);
+        }
+        for t in *triangles {
+            let [a, b, c] = t.map(|i| i + base);
+            text += &match normal {
+                Some(_) => format!("f {a}//{b0} {b}//{b0} {c}//{b0}\n", b0 = 1),
+                None => format!("f {a} {b} {c}\n"),
+            };
+        }
+        base += positions.len() as u32;
+    }
+    text
+}
+
+/// Little-endian bytes of floats or indices.
+fn le<T: Copy, const N: usize>(values: &[T], bytes: impl Fn(T) -> [u8; N]) -> Vec<u8> {
+    values.iter().flat_map(|v| bytes(*v)).collect()
+}
+
+fn base64(bytes: &[u8]) -> String {
+    const ALPHABET: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::new();
+    for chunk in bytes.chunks(3) {
+        let b = [
+            chunk[0],
+            *chunk.get(1).unwrap_or(&0),
+            *chunk.get(2).unwrap_or(&0),
+        ];
+        let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
+        for k in 0..4 {
+            if k <= chunk.len() {
+                out.push(ALPHABET[(n >> (18 - 6 * k)) as usize & 63] as char);
+            } else {
+                out.push('=');
+            }
+        }
+    }
+    out
+}
+
+/// A glTF document of meshes given in their nodes' local frames, and its binary buffer.
+struct GltfBuilder {
+    bin: Vec<u8>,
+    views: Vec<Value>,
+    accessors: Vec<Value>,
+    meshes: Vec<Value>,
+}
+
+impl GltfBuilder {
+    fn new() -> GltfBuilder {
+        GltfBuilder {
+            bin: Vec::new(),
+            views: Vec::new(),
+            accessors: Vec::new(),
+            meshes: Vec::new(),
+        }
+    }
+
+    fn accessor(&mut self, bytes: Vec<u8>, component: u32, count: usize, kind: &str) -> usize {
+        self.views
+            .push(json!({"buffer": 0, "byteOffset": self.bin.len(), "byteLength": bytes.len()}));
+        self.bin.extend(bytes);
+        self.accessors.push(json!({
+            "bufferView": self.views.len() - 1, "componentType": component,
+            "count": count, "type": kind,
+        }));
+        self.accessors.len() - 1
+    }
+
+    /// A mesh of one primitive; `mode` 4 = triangles, 0 = points.
+    fn mesh(
+        &mut self,
+        name: &str,
+        positions: &[Vec3],
+        normals: Option<&[Vec3]>,
+        indices: &[u32],
+        mode: u32,
+    ) {
+        let flat: Vec<f32> = positions.iter().flat_map(|p| p.to_array()).collect();
+        let position = self.accessor(le(&flat, f32::to_le_bytes), 5126, positions.len(), "VEC3");
+        let (lo, hi) = positions
+            .iter()
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
+                (lo.min(*p), hi.max(*p))
+            });
+        self.accessors[position]["min"] = json!(lo.to_array());
+        self.accessors[position]["max"] = json!(hi.to_array());
+        let mut attributes = json!({"POSITION": position});
+        if let Some(normals) = normals {
+            let flat: Vec<f32> = normals.iter().flat_map(|p| p.to_array()).collect();
+            attributes["NORMAL"] =
+                json!(self.accessor(le(&flat, f32::to_le_bytes), 5126, normals.len(), "VEC3"));
+        }
+        let indices = self.accessor(le(indices, u32::to_le_bytes), 5125, indices.len(), "SCALAR");
+        self.meshes.push(json!({"name": name, "primitives": [{"attributes": attributes, "indices": indices, "mode": mode, "material": 0}]}));
+    }
+
+    fn document(&self, nodes: Value, buffer_uri: Option<String>) -> Value {
+        let mut buffer = json!({"byteLength": self.bin.len()});
+        if let Some(uri) = buffer_uri {
+            buffer["uri"] = json!(uri);
+        }
+        json!({
+            "asset": {"version": "2.0"},
+            "scene": 0,
+            "scenes": [{"nodes": [0]}],
+            "nodes": nodes,
+            "meshes": self.meshes,
+            "materials": [{"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.6, 0.7, 1.0]}}],
+            "accessors": self.accessors,
+            "bufferViews": self.views,
+            "buffers": [buffer],
+        })
+    }
+}
+
+fn glb(json: &Value, bin: &[u8]) -> Vec<u8> {
+    let mut text = serde_json::to_vec(json).unwrap();
+    while text.len() % 4 != 0 {
+        text.push(b' ');
+    }
+    let mut bin = bin.to_vec();
+    while bin.len() % 4 != 0 {
+        bin.push(0);
+    }
+    let mut bytes = b"glTF".to_vec();
+    bytes.extend(2u32.to_le_bytes());
+    bytes.extend(((12 + 8 + text.len() + 8 + bin.len()) as u32).to_le_bytes());
+    bytes.extend((text.len() as u32).to_le_bytes());
+    bytes.extend(b"JSON");
+    bytes.extend(text);
+    bytes.extend((bin.len() as u32).to_le_bytes());
+    bytes.extend(b"BIN\0");
+    bytes.extend(bin);
+    bytes
+}
+
+#[test]
+fn gltf_node_hierarchy_bakes_like_the_same_world_geometry_as_obj() {
+    let s = Scratch::new();
+    let ((floor, floor_triangles), (cube, cube_triangles)) = floor_and_cube();
+    s.write(
+        "world.obj",
+        obj_text(&[
+            ObjObject("floor", &floor, &floor_triangles, Some(Vec3::Z)),
+            ObjObject("cube", &cube, &cube_triangles, None),
+        ]),
+    );
+
+    // Root: translation, rotation and non-uniform scale as TRS. Child: a matrix with a mirror
+    // (negative determinant), a turn and an offset.
+    let root_t = Vec3::new(0.3, -0.2, 0.1);
+    let root_r = Quat::from_axis_angle(Vec3::new(1.0, 2.0, 3.0).normalize(), 0.7);
+    let root_s = Vec3::new(1.5, 0.7, 1.2);
+    let root = Mat4::from_scale_rotation_translation(root_s, root_r, root_t);
+    let child = Mat4::from_translation(Vec3::new(0.1, 0.2, 0.3))
+        * Mat4::from_rotation_z(0.4)
+        * Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0));
+    let cube_world = root * child;
+    assert!(Mat3::from_mat4(cube_world).determinant() < 0.0);
+    let local = |m: Mat4, points: &[Vec3]| -> Vec<Vec3> {
+        let inverse = m.inverse();
+        points
+            .iter()
+            .map(|p| inverse.transform_point3(*p))
+            .collect()
+    };
+    let floor_local = local(root, &floor);
+    let floor_normal_local = (Mat3::from_mat4(root).transpose() * Vec3::Z).normalize();
+    let cube_local = local(cube_world, &cube);
+    // Authored in the mirrored frame, the cube's faces wind the other way round.
+    let cube_local_triangles: Vec<u32> = cube_triangles
+        .iter()
+        .flat_map(|[a, b, c]| [*a, *c, *b])
+        .collect();
+    let floor_indices: Vec<u32> = floor_triangles.iter().flatten().copied().collect();
+
+    let mut b = GltfBuilder::new();
+    b.mesh(
+        "floor",
+        &floor_local,
+        Some(&vec![floor_normal_local; floor.len()]),
+        &floor_indices,
+        4,
+    );
+    b.mesh("cube", &cube_local, None, &cube_local_triangles, 4);
+    let nodes = json!([
+        {"name": "root", "mesh": 0, "children": [1],
+         "translation": root_t.to_array(), "rotation": root_r.to_array(), "scale": root_s.to_array()},
+        {"name": "child", "mesh": 1, "matrix": child.to_cols_array()},
+    ]);
+    // The same document three ways: external buffer, data URI, GLB.
+    s.write("geometry.bin", &b.bin);
+    s.write(
+        "external.gltf",
+        serde_json::to_vec(&b.document(nodes.clone(), Some("geometry.bin".into()))).unwrap(),
+    );
+    let data_uri = format!("data:application/octet-stream;base64,{}", base64(&b.bin));
+    s.write(
+        "embedded.gltf",
+        serde_json::to_vec(&b.document(nodes.clone(), Some(data_uri))).unwrap(),
+    );
+    s.write("binary.glb", glb(&b.document(nodes, None), &b.bin));
+
+    let obj = Scene::load(&s.path("world.obj")).unwrap();
+    for name in ["external.gltf", "embedded.gltf", "binary.glb"] {
+        let gltf = Scene::load(&s.path(name)).unwrap();
+        assert_eq!(gltf.vertex_count(), obj.vertex_count(), "{name}");
+        assert_eq!(gltf.triangles.len(), obj.triangles.len(), "{name}");
+        assert_eq!(gltf.materials[0].kd, Vec3::new(0.5, 0.6, 0.7));
+        // The OBJ reader orders a mesh's vertices as its faces first use them; match by
+        // position. Positions agree to rounding; normals too, computed ones included (a
+        // missed mirror would turn the cube's inside out).
+        for (p, n) in obj.positions.iter().zip(&obj.normals) {
+            let v = (0..gltf.vertex_count())
+                .min_by(|&i, &j| {
+                    (gltf.positions[i] - *p)
+                        .length()
+                        .total_cmp(&(gltf.positions[j] - *p).length())
+                })
+                .unwrap();
+            assert!(
+                (gltf.positions[v] - *p).length() < 1e-5,
+                "{name}: {p} vs {}",
+                gltf.positions[v]
+            );
+            assert!(
+                (gltf.normals[v] - *n).length() < 1e-4,
+                "{name}: normal at {p}: {n} vs {}",
+                gltf.normals[v]
+            );
+        }
+    }
+
+    // The bakes agree vertex by vertex (same world geometry; rounding moves a few rays).
+    s.bake("world.obj", "obj.prt", &["--samples", "256", "--aux", "ao"]);
+    s.bake(
+        "binary.glb",
+        "gltf.prt",
+        &["--samples", "256", "--aux", "ao"],
+    );
+    let obj_file = CoefficientFile::read(&s.path("out/obj.prt")).unwrap();
+    let gltf_file = CoefficientFile::read(&s.path("out/gltf.prt")).unwrap();
+    let gltf = Scene::load(&s.path("binary.glb")).unwrap();
+    let (mut worst, mut sum) = (0.0f32, 0.0f32);
+    for (i, p) in obj.positions.iter().enumerate() {
+        let v = (0..gltf.vertex_count())
+            .min_by(|&a, &b| {
+                (gltf.positions[a] - *p)
+                    .length()
+                    .total_cmp(&(gltf.positions[b] - *p).length())
+            })
+            .unwrap();
+        let a = obj_file.vertex(i, 0);
+        let b = gltf_file.vertex(v, 0);
+        for (x, y) in a.iter().zip(b) {
+            worst = worst.max((x - y).abs());
+            sum += (x - y).abs();
+        }
+        let (ao_obj, ao_gltf) = (
+            obj_file.ao.as_ref().unwrap()[i],
+            gltf_file.ao.as_ref().unwrap()[v],
+        );
+        assert!(
+            (ao_obj - ao_gltf).abs() < 0.02,
+            "AO at {p}: {ao_obj} vs {ao_gltf}"
+        );
+    }
+    let mean = sum / (obj.vertex_count() * 16) as f32;
+    eprintln!(
+        "hierarchy glTF vs world OBJ: transfer differs by {mean:.2e} mean, {worst:.2e} worst"
+    );
+    assert!(
+        mean < 4e-3 && worst < 0.08,
+        "transfer differs: mean {mean}, worst {worst}"
+    );
+}
+
+#[test]
+fn gltf_errors_and_warnings_name_the_file_and_the_problem() {
+    let s = Scratch::new();
+    s.write("mesh.ply", "ply\nformat ascii 1.0\nend_header\n");
+    s.run(&["bake", "mesh.ply", "-o", "out/x.prt"])
+        .fails_with_bad_input(&[
+            "mesh.ply: unknown scene format .ply",
+            "Wavefront OBJ (.obj), glTF 2.0 (.gltf, .glb)",
+        ]);
+
+    let ((floor, floor_triangles), _) = floor_and_cube();
+    let indices: Vec<u32> = floor_triangles.iter().flatten().copied().collect();
+    let mut b = GltfBuilder::new();
+    b.mesh("floor", &floor, None, &indices, 4);
+    b.mesh("dots", &floor, None, &[0, 1, 2], 0);
+    let nodes = json!([{"mesh": 0, "children": [1]}, {"mesh": 1}]);
+    let mut document = b.document(nodes, None);
+    s.write("points.glb", glb(&document, &b.bin));
+    let run = s.bake("points.glb", "points.prt", &[]);
+    assert!(
+        run.stderr
+            .contains("warning: points.glb: mesh 'dots': skipped a primitive of Points"),
+        "{}",
+        run.stderr
+    );
+
+    document["extensionsUsed"] = json!(["KHR_draco_mesh_compression"]);
+    document["extensionsRequired"] = json!(["KHR_draco_mesh_compression"]);
+    s.write("draco.glb", glb(&document, &b.bin));
+    s.run(&["bake", "draco.glb", "-o", "out/x.prt"])
+        .fails_with_bad_input(&["draco.glb: requires glTF extension KHR_draco_mesh_compression"]);
+
+    // An edited file (a material's colour: the geometry is the same) is another scene.
+    let mut edited = b.document(json!([{"mesh": 0}]), None);
+    s.write("scene.glb", glb(&edited, &b.bin));
+    s.bake("scene.glb", "scene.prt", &[]);
+    edited["materials"][0]["pbrMetallicRoughness"]["baseColorFactor"] = json!([0.9, 0.6, 0.7, 1.0]);
+    s.write("scene.glb", glb(&edited, &b.bin));
+    s.run(&[
+        "export",
+        "out/scene.prt",
+        "--scene",
+        "scene.glb",
+        "--npz",
+        "out/x.npz",
+    ])
+    .fails_with_bad_input(&["out/scene.prt: baked for another scene: fingerprint"]);
+    s.assert_out_holds(&["points.prt", "scene.prt"]);
+}
+
+/// The names and raw payloads of an `.npz`'s arrays with their dtype and shape.
+fn npz_arrays(path: &Path) -> std::collections::BTreeMap<String, (String, Vec<usize>, Vec<u8>)> {
+    use std::io::Read;
+    let mut archive = zip::ZipArchive::new(std::fs::File::open(path).unwrap()).unwrap();
+    let mut arrays = std::collections::BTreeMap::new();
+    for i in 0..archive.len() {
+        let mut entry = archive.by_index(i).unwrap();
+        let name = entry.name().unwrap().trim_end_matches(".npy").to_string();
+        let mut bytes = Vec::new();
+        entry.read_to_end(&mut bytes).unwrap();
+        let header_len = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
+        let header = std::str::from_utf8(&bytes[10..10 + header_len]).unwrap();
+        let descr = header.split('\'').nth(3).unwrap().to_string();
+        let shape_text = header.split('(').nth(1).unwrap().split(')').next().unwrap();
+        let shape = shape_text
+            .split(',')
+            .filter_map(|d| d.trim().parse().ok())
+            .collect();
+        arrays.insert(name, (descr, shape, bytes[10 + header_len..].to_vec()));
+    }
+    arrays
+}
+
+#[test]
+fn npz_export_holds_triangles_and_uvs_and_says_what_it_wrote() {
+    let s = Scratch::new();
+    let torus = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/torus/torus.scene");
+    s.bake(
+        torus,
+        "torus.prt",
+        &["--mode", "unshadowed", "--order", "3"],
+    );
+    let run = s
+        .run(&[
+            "export",
+            "out/torus.prt",
+            "--scene",
+            torus,
+            "--npz",
+            "out/torus.npz",
+        ])
+        .success();
+    assert_eq!(
+        run.stdout,
+        "wrote out/torus.npz (NumPy arrays of out/torus.prt)\n"
+    );
+    let scene = Scene::load(Path::new(torus)).unwrap();
+    let arrays = npz_arrays(&s.path("out/torus.npz"));
+    let (descr, shape, bytes) = &arrays["triangles"];
+    assert_eq!(
+        (descr.as_str(), shape.as_slice()),
+        ("<u4", &[scene.triangles.len(), 3][..])
+    );
+    let expected: Vec<u8> = scene
+        .triangles
+        .iter()
+        .flatten()
+        .flat_map(|i| i.to_le_bytes())
+        .collect();
+    assert_eq!(bytes, &expected);
+    let (descr, shape, bytes) = &arrays["uv"];
+    assert_eq!(
+        (descr.as_str(), shape.as_slice()),
+        ("<f4", &[scene.vertex_count(), 2][..])
+    );
+    let expected: Vec<u8> = scene
+        .uvs
+        .iter()
+        .flat_map(|uv| uv.to_array())
+        .flat_map(f32::to_le_bytes)
+        .collect();
+    assert_eq!(bytes, &expected);
+}
+
+#[test]
+fn exported_glb_keeps_materials_textures_and_uvs() {
+    let s = Scratch::new();
+    let torus = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/torus/torus.scene");
+    s.bake(torus, "t.prt", &["--mode", "unshadowed", "--order", "1"]);
+    s.run(&[
+        "export",
+        "out/t.prt",
+        "--scene",
+        torus,
+        "--gltf",
+        "out/t.glb",
+    ])
+    .success();
+    let obj = Scene::load(Path::new(torus)).unwrap();
+    let gltf = Scene::load(&s.path("out/t.glb")).unwrap();
+    assert_eq!(gltf.textures.len(), obj.textures.len());
+    for (a, b) in obj.textures.iter().zip(&gltf.textures) {
+        assert_eq!((a.width, a.height), (b.width, b.height));
+        assert!(
+            a.srgb8 == b.srgb8,
+            "texture pixels changed on the way through PNG"
+        );
+    }
+    for (a, b) in obj.uvs.iter().zip(&gltf.uvs) {
+        assert!((*a - *b).length() < 1e-6, "uv {a} became {b}");
+    }
+    let (a, b) = (obj.vertex_albedo(), gltf.vertex_albedo());
+    let worst = a
+        .iter()
+        .zip(&b)
+        .map(|(x, y)| (*x - *y).abs().max_element())
+        .fold(0.0, f32::max);
+    assert!(worst < 1e-3, "albedo differs by up to {worst}");
+    // Order 1: one coefficient, padded to one VEC4 with zeros.
+    let glb = Glb::parse(&s.read("out/t.glb"));
+    let prt = glb.attribute("_PRT_0");
+    assert_eq!(prt.len(), 4 * obj.vertex_count());
+    assert!(
+        prt.chunks_exact(4)
+            .all(|c| c[1] == 0.0 && c[2] == 0.0 && c[3] == 0.0)
+    );
+}
+
+#[test]
+fn both_texture_coordinate_sets_are_read_and_exported() {
+    let s = Scratch::new();
+    let ((floor, floor_triangles), _) = floor_and_cube();
+    let indices: Vec<u32> = floor_triangles.iter().flatten().copied().collect();
+    let mut b = GltfBuilder::new();
+    b.mesh("floor", &floor, None, &indices, 4);
+    // TEXCOORD_0 = (x, y) and TEXCOORD_1 = (y, x) / 2 in glTF's top-down convention.
+    let uv0: Vec<f32> = floor.iter().flat_map(|p| [p.x, p.y]).collect();
+    let uv1: Vec<f32> = floor.iter().flat_map(|p| [p.y / 2.0, p.x / 2.0]).collect();
+    for (set, uv) in [("TEXCOORD_0", uv0), ("TEXCOORD_1", uv1)] {
+        let accessor = b.accessor(le(&uv, f32::to_le_bytes), 5126, floor.len(), "VEC2");
+        b.meshes[0]["primitives"][0]["attributes"][set] = json!(accessor);
+    }
+    s.write(
+        "uv.glb",
+        glb(&b.document(json!([{"mesh": 0}]), None), &b.bin),
+    );
+    let scene = Scene::load(&s.path("uv.glb")).unwrap();
+    let lightmap = scene.lightmap_uvs.as_ref().expect("TEXCOORD_1 is kept");
+    for (v, p) in floor.iter().enumerate() {
+        // Stored with v up from the image's bottom, as OBJ's.
+        assert_eq!(scene.uvs[v], glam::Vec2::new(p.x, 1.0 - p.y));
+        assert_eq!(lightmap[v], glam::Vec2::new(p.y / 2.0, 1.0 - p.x / 2.0));
+    }
+    s.bake("uv.glb", "uv.prt", &["--mode", "unshadowed"]);
+    s.run(&[
+        "export",
+        "out/uv.prt",
+        "--scene",
+        "uv.glb",
+        "--gltf",
+        "out/uv-prt.glb",
+    ])
+    .success();
+    let exported = Glb::parse(&s.read("out/uv-prt.glb"));
+    let expected: Vec<f32> = floor.iter().flat_map(|p| [p.y / 2.0, p.x / 2.0]).collect();
+    assert_eq!(exported.attribute("TEXCOORD_1"), expected);
+}

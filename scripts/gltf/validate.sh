@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# Exports the demo bake as .glb (grey and RGB transfer, with and without a rig's COLOR_0) and
+# runs the Khronos glTF-Validator on the files: any error fails. The validator (npm package
+# `gltf-validator`) is installed into target/node on first use.
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/../.."
+NODE_DIR=target/node
+OUT=target/gltf-validate
+if [ ! -d "$NODE_DIR/node_modules/gltf-validator" ]; then
+    command -v npm >/dev/null || { echo "validate.sh: npm is missing (scripts/install-deps.sh installs it)" >&2; exit 2; }
+    mkdir -p "$NODE_DIR"
+    npm install --silent --no-audit --no-fund --prefix "$NODE_DIR" gltf-validator@2.0.0-dev.3.10
+fi
+cargo build --release -p prt-baker
+BAKE=target/release/prt-bake
+mkdir -p "$OUT"
+$BAKE bake scenes/torus/torus.scene -o "$OUT/torus.prt" --samples 16 --order 3 --quiet
+$BAKE export "$OUT/torus.prt" --scene scenes/torus/torus.scene --gltf "$OUT/torus.glb"
+$BAKE bake scenes/cornell/cornell.scene -o "$OUT/cornell.prt" --samples 16 --mode interreflected --quiet
+$BAKE export "$OUT/cornell.prt" --scene scenes/cornell/cornell.scene --gltf "$OUT/cornell.glb" \
+    --lights viewer/src/default-rig.toml
+# The exported file read back as a scene: the round trip.
+$BAKE bake "$OUT/torus.glb" -o "$OUT/torus-from-glb.prt" --samples 16 --order 3 --quiet
+$BAKE export "$OUT/torus-from-glb.prt" --scene "$OUT/torus.glb" --gltf "$OUT/torus-again.glb"
+node scripts/gltf/validate.mjs "$NODE_DIR/node_modules" "$OUT/torus.glb" "$OUT/cornell.glb" "$OUT/torus-again.glb"

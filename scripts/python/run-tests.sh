@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# Tests the NumPy-only .prt reader (scripts/python/prt.py) against prt-bake's npz export.
+# Uses the reference check's environment (target/reference-venv) when it has NumPy, else
+# python3 if it has NumPy, else makes target/python-venv with NumPy.
+set -euo pipefail
+HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+cd "$HERE/../.."
+PYTHON="${PYTHON:-python3}"
+if target/reference-venv/bin/python -c 'import numpy' >/dev/null 2>&1; then
+    PY=target/reference-venv/bin/python
+elif target/python-venv/bin/python -c 'import numpy' >/dev/null 2>&1; then
+    PY=target/python-venv/bin/python
+elif "$PYTHON" -c 'import numpy' >/dev/null 2>&1; then
+    PY="$PYTHON"
+else
+    echo "run-tests.sh: installing numpy into target/python-venv"
+    "$PYTHON" -m venv target/python-venv
+    target/python-venv/bin/python -m pip install --quiet --disable-pip-version-check numpy
+    PY=target/python-venv/bin/python
+fi
+cargo build --release -p prt-baker
+exec "$PY" "$HERE/test_prt.py" target/release/prt-bake target/python-reader
