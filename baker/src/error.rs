@@ -61,6 +61,11 @@ pub enum Error {
     #[error("{}: {message}", path.display())]
     SceneMismatch { path: PathBuf, message: String },
 
+    /// Shard parts that do not make up one bake (missing, duplicated or foreign parts), or a
+    /// checkpoint folder of another bake; the message names the files.
+    #[error("{0}")]
+    Shards(String),
+
     /// Options that cannot be honoured (an order out of range, zero samples, …).
     #[error("{0}")]
     InvalidOption(String),
@@ -111,6 +116,7 @@ impl Error {
                 | Error::Light { .. }
                 | Error::CoefficientFile { .. }
                 | Error::SceneMismatch { .. }
+                | Error::Shards(_)
         ) || matches!(self, Error::Io { source, .. } if source.kind() == io::ErrorKind::NotFound)
     }
 }

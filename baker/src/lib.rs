@@ -11,11 +11,13 @@
 //! CPU: the reference a viewer must match.
 
 pub mod atomic;
+pub mod checkpoint;
 pub mod coefficient_file;
 pub mod error;
 pub mod export;
 pub mod interreflection;
 pub mod light;
+pub mod merge;
 pub mod npz;
 pub mod ply;
 pub mod progress;
@@ -23,6 +25,7 @@ pub mod relight;
 pub mod sampling;
 pub mod scene;
 pub mod sh;
+pub mod shard;
 pub mod trace;
 pub mod transfer;
 
