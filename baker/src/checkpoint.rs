@@ -142,7 +142,10 @@ pub fn bake(
             rays += block_rays;
             done[i] = Some(part);
         }
-        row_bytes += done[i].as_ref().and_then(|p| p.rows.as_ref()).map_or(0, |r| r.bytes());
+        row_bytes += done[i]
+            .as_ref()
+            .and_then(|p| p.rows.as_ref())
+            .map_or(0, |r| r.bytes());
         if row_bytes > options.hit_cache_limit {
             return Err(Error::InvalidOption(format!(
                 "the bounce rows of blocks 0..={i} exceed --hit-cache-mb {}; the blocks are kept \
@@ -158,7 +161,10 @@ pub fn bake(
         first_vertex: vertices.start as u64,
         vertices: vertices.len() as u32,
     };
-    let parts = done.into_iter().map(|d| d.expect("every block done")).collect();
+    let parts = done
+        .into_iter()
+        .map(|d| d.expect("every block done"))
+        .collect();
     Ok(Checkpointed {
         part: Part::join(parts, id),
         blocks: blocks.len(),

@@ -6,11 +6,11 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
+use prt_baker::checkpoint;
 use prt_baker::light::Rig;
 use prt_baker::progress::{Progress, ProgressBar, Silent};
 use prt_baker::sampling::Sampling;
 use prt_baker::shard::{self, ShardId, shard_range};
-use prt_baker::checkpoint;
 use prt_baker::trace::{self, Backend, TracerOptions};
 use prt_baker::transfer::Aux;
 use prt_baker::{BakeOptions, CoefficientFile, Error, Mode, Scene, sh};
@@ -397,7 +397,8 @@ fn bake_in_parts(
             (done.part, done.rays, blocks)
         }
         None => {
-            let (part, rays) = shard::bake_part(scene, tracer, options, id, vertices.clone(), progress)?;
+            let (part, rays) =
+                shard::bake_part(scene, tracer, options, id, vertices.clone(), progress)?;
             (part, rays, String::new())
         }
     };

@@ -69,7 +69,9 @@ impl ShardId {
             return Err(bad("the shard count must be at least 1".into()));
         }
         if index >= count {
-            return Err(bad(format!("shard index {index} is not below the count {count}")));
+            return Err(bad(format!(
+                "shard index {index} is not below the count {count}"
+            )));
         }
         Ok(ShardId { index, count })
     }
@@ -248,8 +250,8 @@ impl Part {
         let width = Part::coefficient_width(&header);
         let aux_floats = usize::from(header.aux.ao) + 3 * usize::from(header.aux.bent_normal);
         let interreflected = header.mode == Mode::Interreflected;
-        let fixed = (count * (width + aux_floats) * 4 + if interreflected { count * 4 } else { 0 })
-            as u64;
+        let fixed =
+            (count * (width + aux_floats) * 4 + if interreflected { count * 4 } else { 0 }) as u64;
         if payload_bytes < fixed {
             return Err(format!(
                 "{id}: the payload is {payload_bytes} bytes, its arrays need at least {fixed}"
@@ -290,7 +292,9 @@ impl Part {
         };
         let check = if interreflected { &check } else { &header };
         coefficient_file::check_floats(check, &coefficients, ao.as_deref(), bent_normal.as_deref())
-            .map_err(|message| format!("{id}: {message} (counting from the part's first vertex)"))?;
+            .map_err(|message| {
+                format!("{id}: {message} (counting from the part's first vertex)")
+            })?;
         Ok(Part {
             header,
             id,
@@ -484,7 +488,11 @@ pub fn bake_part(
         }
     };
     let estimator = Estimator::new(scene, options)?;
-    let header = bake_header(scene, tracer.map_or(Backend::None, |t| t.backend()), options);
+    let header = bake_header(
+        scene,
+        tracer.map_or(Backend::None, |t| t.backend()),
+        options,
+    );
     let recorder = (options.mode == Mode::Interreflected)
         .then(|| HitRecorder::new(scene, vertices.len(), options.hit_cache_limit));
     let direct = direct_pass(
