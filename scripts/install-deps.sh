@@ -8,11 +8,15 @@
 #   xvfb xauth          a virtual X server, for the test of prt-view's window (xvfb-run)
 #   libx11-6 libxcursor1 libxrandr2 libxi6 libxkbcommon-x11-0
 #                       the X11 libraries winit loads at run time
+#   slurm-wlm munge     Slurm 22.05 (slurmctld, slurmd, sbatch) and its authentication daemon:
+#                       the sharded-bake test starts a single-node cluster of its own
+#                       (scripts/slurm/test-cluster.sh) on its own ports and munge socket, so
+#                       it does not need or disturb the packages' own services
 # The Rust toolchain itself is expected (rustup); python3 for the reference check.
 set -euo pipefail
 
 packages=(libembree-dev libclang-dev mesa-vulkan-drivers libvulkan1 xvfb xauth
-    libx11-6 libxcursor1 libxrandr2 libxi6 libxkbcommon-x11-0)
+    libx11-6 libxcursor1 libxrandr2 libxi6 libxkbcommon-x11-0 slurm-wlm munge)
 missing=()
 for package in "${packages[@]}"; do
     if ! dpkg-query -W -f='${Status}' "$package" 2>/dev/null | grep -q "install ok installed"; then
