@@ -59,7 +59,17 @@ merge_job=$(sbatch --parsable "${extra[@]}" --job-name=prt-merge \
     --output="$parts/merge.log" $wait_for_merge \
     --wrap "$(quote "$bake" merge "${part_files[@]}" -o "$out" --quiet)") || {
     status=$?
-    echo "submit: the merge job failed or was cancelled (logs in $parts)" >&2
+    echo "submit: the merge job failed (logs in $parts)" >&2
     exit $status
 }
-echo "submit: shards job $array (array 0-$((count - 1))), merge job ${merge_job%%;*} -> $out"
+merge_job=${merge_job%%;*}
+echo "submit: shards job $array (array 0-$((count - 1))), merge job $merge_job -> $out"
+if [ -n "$wait_for_merge" ]; then
+    # sbatch --wait exits 0 for a job cancelled before it started (a shard failed), so ask
+    # the controller how the merge ended.
+    state=$(scontrol show job "$merge_job" -o | grep -o 'JobState=[A-Z_]*' || true)
+    if [ "$state" != "JobState=COMPLETED" ]; then
+        echo "submit: the merge job ended with ${state:-an unknown state}: a shard failed? (logs in $parts)" >&2
+        exit 1
+    fi
+fi

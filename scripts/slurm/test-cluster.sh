@@ -36,8 +36,8 @@ teardown() {
         kill -9 "$pid" 2>/dev/null || true
     done
     if [ $status -ne 0 ]; then
-        echo "slurm test: FAILED; the daemons' logs:" >&2
-        tail -n 20 "$tmp"/*.log >&2 2>/dev/null || true
+        echo "slurm test: FAILED; the logs of the daemons and the jobs:" >&2
+        tail -n 20 "$tmp"/*.log "$tmp"/merged.prt.parts/*.log >&2 2>/dev/null || true
     fi
     rm -rf "$tmp"
     exit $status
