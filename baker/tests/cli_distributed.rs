@@ -184,7 +184,10 @@ fn merge_refuses_missing_duplicated_and_foreign_parts_and_writes_nothing() {
         "--npz",
         "out/p0.npz",
     ])
-    .fails_with_bad_input(&["out/p0.prt: a shard part (shard 0 of 3, vertices 0..981)", "prt-bake merge"]);
+    .fails_with_bad_input(&[
+        "out/p0.prt: a shard part (shard 0 of 3, vertices 0..981)",
+        "prt-bake merge",
+    ]);
     // But inspect shows it, with its identity.
     let run = s.run(&["inspect", "out/p1.prt"]).success();
     for needle in [
