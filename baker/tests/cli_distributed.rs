@@ -175,6 +175,26 @@ fn merge_refuses_missing_duplicated_and_foreign_parts_and_writes_nothing() {
         s.run(&args).fails_with_bad_input(needles);
         s.assert_out_holds(&parts);
     }
+    // A corrupted or truncated part is refused by its checksum and size.
+    let mut bytes = s.read("out/p1.prt");
+    let last = bytes.len() - 1;
+    bytes[last] ^= 1;
+    s.write("out/corrupt.prt", &bytes);
+    s.write("out/short.prt", &bytes[..last]);
+    for (name, needle) in [("corrupt", "checksum mismatch"), ("short", "truncated")] {
+        let path = format!("out/{name}.prt");
+        s.run(&[
+            "merge",
+            "out/p0.prt",
+            &path,
+            "out/p2.prt",
+            "-o",
+            "out/merged.prt",
+        ])
+        .fails_with_bad_input(&[&format!("{path}: "), needle]);
+    }
+    let parts = [&parts[..], &["corrupt.prt", "short.prt"]].concat();
+    s.assert_out_holds(&parts);
     // A part is not a bake: readers of whole files say what to do with it.
     s.run(&[
         "export",
