@@ -338,7 +338,8 @@ pub(crate) enum RowSource<'a> {
 
 /// The interreflected transfer from the direct pass's `t0` (one channel, every vertex) and
 /// the bounce rows: T_0 broadcast to `channels`, plus `options.bounces` gathers. The
-/// single-machine bake and the merge of shard parts both end here, so they agree bit for bit.
+/// single-machine bake and the merge of checkpoint blocks end here; the merge of shard parts
+/// ends in [`sum_bounces`] with the same gather, so they agree bit for bit.
 pub(crate) fn add_bounces(
     t0: Vec<f32>,
     channels: usize,
@@ -346,6 +347,42 @@ pub(crate) fn add_bounces(
     rows: &RowSource,
     progress: &dyn Progress,
 ) -> Vec<f32> {
+    let n = sh::coeff_count(options.order);
+    let norm = Estimator::norm_of(options) as f32;
+    let rays = match rows {
+        RowSource::Retrace { .. } => u64::from(options.samples),
+        _ => 0,
+    };
+    let mut pass = |previous: &[f32], previous_channels: usize, next: &mut [f32]| {
+        bounce_pass(
+            rows,
+            norm,
+            n,
+            previous,
+            previous_channels,
+            channels,
+            next,
+            progress,
+        );
+        Ok::<(), std::convert::Infallible>(())
+    };
+    match sum_bounces(t0, channels, options, rays, progress, &mut pass) {
+        Ok(total) => total,
+        Err(never) => match never {},
+    }
+}
+
+/// T_0 (`t0`, one channel, every vertex) broadcast to `channels`, plus `options.bounces`
+/// bounces, each of which `bounce` writes into a zeroed array from the previous one (and its
+/// channel count). `rays_per_vertex` is for the progress bar.
+pub(crate) fn sum_bounces<E>(
+    t0: Vec<f32>,
+    channels: usize,
+    options: &crate::transfer::BakeOptions,
+    rays_per_vertex: u64,
+    progress: &dyn Progress,
+    bounce: &mut dyn FnMut(&[f32], usize, &mut [f32]) -> Result<(), E>,
+) -> Result<Vec<f32>, E> {
     let n = sh::coeff_count(options.order);
     let vertex_count = t0.len() / n;
     // Total = T_0 (grey) broadcast to every channel, plus each bounce.
@@ -355,26 +392,12 @@ pub(crate) fn add_bounces(
             total[(v * channels + c) * n..][..n].copy_from_slice(t0);
         }
     }
-    let norm = Estimator::norm_of(options) as f32;
     let mut previous = t0;
     let mut previous_channels = 1;
-    for bounce in 1..=options.bounces {
-        let retrace = matches!(rows, RowSource::Retrace { .. });
-        let rays = if retrace {
-            u64::from(options.samples)
-        } else {
-            0
-        };
-        progress.begin(&format!("bounce {bounce}"), vertex_count as u64, rays);
-        let next = bounce_pass(
-            rows,
-            norm,
-            n,
-            &previous,
-            previous_channels,
-            channels,
-            progress,
-        );
+    for k in 1..=options.bounces {
+        progress.begin(&format!("bounce {k}"), vertex_count as u64, rays_per_vertex);
+        let mut next = vec![0.0f32; vertex_count * channels * n];
+        bounce(&previous, previous_channels, &mut next)?;
         progress.finish();
         for (t, b) in total.iter_mut().zip(&next) {
             *t += b;
@@ -382,10 +405,49 @@ pub(crate) fn add_bounces(
         previous = next;
         previous_channels = channels;
     }
-    total
+    Ok(total)
+}
+
+/// One bounce at a run of consecutive vertices whose rows are `rows` (the k-th vertex's
+/// result goes to `out`'s k-th `channels × n²` floats): what [`bounce_pass`] computes for
+/// them, for a merge that holds one part's rows at a time.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn bounce_rows(
+    rows: &Rows,
+    norm: f32,
+    n: usize,
+    previous: &[f32],
+    previous_channels: usize,
+    channels: usize,
+    out: &mut [f32],
+    progress: &dyn Progress,
+) {
+    let width = channels * n;
+    out.par_chunks_mut(VERTICES_PER_JOB * width)
+        .enumerate()
+        .for_each(|(job, out)| {
+            for (k, out) in out.chunks_mut(width).enumerate() {
+                let range = rows.vertex(job * VERTICES_PER_JOB + k);
+                let (vertices, weights) = (&rows.vertices[range.clone()], &rows.weights[range]);
+                gather(
+                    vertices,
+                    weights,
+                    previous,
+                    previous_channels,
+                    channels,
+                    n,
+                    out,
+                );
+                for o in out.iter_mut() {
+                    *o *= norm;
+                }
+            }
+            progress.advance((out.len() / width) as u64);
+        });
 }
 
 /// One bounce: T_k(x) = norm · Σ_v w(x, v) ⊙ T_{k−1}(v) for every vertex x.
+#[allow(clippy::too_many_arguments)]
 fn bounce_pass(
     rows: &RowSource,
     norm: f32,
@@ -393,11 +455,10 @@ fn bounce_pass(
     previous: &[f32],
     previous_channels: usize,
     channels: usize,
+    next: &mut [f32],
     progress: &dyn Progress,
-) -> Vec<f32> {
+) {
     let width = channels * n;
-    let vertex_count = previous.len() / (previous_channels * n);
-    let mut next = vec![0.0f32; vertex_count * width];
     next.par_chunks_mut(VERTICES_PER_JOB * width)
         .enumerate()
         .for_each_init(
@@ -444,7 +505,6 @@ fn bounce_pass(
                 progress.advance((out.len() / width) as u64);
             },
         );
-    next
 }
 
 /// `out` = Σ over a row's entries of weight ⊙ the previous bounce's transfer at the entry's

@@ -2,14 +2,22 @@
 //! for byte. The parts must come from one bake (same header: scene fingerprint, options,
 //! seed, backend) and hold every shard of it exactly once; anything else is refused before
 //! an output is written.
+//!
+//! In interreflected mode the parts' bounce rows are most of what travels (kilobytes per
+//! vertex), so the merge never holds them all: it checks every part, keeps the direct
+//! transfer and aux arrays, and re-reads one part's rows at a time in each bounce. Its
+//! memory is the transfer arrays (previous bounce, next bounce, total) plus one part.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use crate::CoefficientFile;
 use crate::error::{Error, Result};
+use crate::interreflection;
 use crate::progress::Progress;
-use crate::shard::{Part, PartId, header_difference, shard_range};
+use crate::sh;
+use crate::shard::{Part, PartId, header_difference, options_of, shard_range};
+use crate::transfer::{Estimator, Mode};
 
 /// Reads, checks and merges the parts at `paths` (in any order).
 pub fn merge(paths: &[PathBuf], progress: &dyn Progress) -> Result<CoefficientFile> {
@@ -18,7 +26,9 @@ pub fn merge(paths: &[PathBuf], progress: &dyn Progress) -> Result<CoefficientFi
         .ok_or_else(|| Error::InvalidOption("merge needs at least one part".into()))?;
     let mut parts = Vec::with_capacity(paths.len());
     for path in paths {
-        parts.push((path.as_path(), Part::read(path)?));
+        let mut part = Part::read(path)?;
+        part.rows = None; // read again, one part at a time, by each bounce
+        parts.push((path.as_path(), part));
     }
     let (header, first_shard) = (parts[0].1.header.clone(), parts[0].1.id.shard);
     let count = first_shard.count;
@@ -83,8 +93,44 @@ pub fn merge(paths: &[PathBuf], progress: &dyn Progress) -> Result<CoefficientFi
         first_vertex: 0,
         vertices: header.vertex_count as u32,
     };
+    let order: Vec<(&Path, PartId)> = by_index.values().map(|(p, part)| (*p, part.id)).collect();
     let parts = by_index.into_values().map(|(_, part)| part).collect();
-    Ok(Part::join(parts, id).finish(progress))
+    let mut whole = Part::join(parts, id);
+    if header.mode != Mode::Interreflected {
+        return Ok(whole.finish(progress));
+    }
+    // The bounces, as interreflection::add_bounces gathers them, one part's rows at a time.
+    let options = options_of(&header);
+    let n = sh::coeff_count(options.order);
+    let channels = header.channels as usize;
+    let norm = Estimator::norm_of(&options) as f32;
+    let mut pass = |previous: &[f32], previous_channels: usize, next: &mut [f32]| {
+        for &(path, id) in &order {
+            let part = Part::read(path)?;
+            if header_difference(&header, &part.header).is_some() || part.id != id {
+                return Err(refuse(format!(
+                    "{}: changed while it was being merged",
+                    path.display()
+                )));
+            }
+            let rows = part.rows.expect("an interreflected part has rows");
+            let out = &mut next[id.range().start * channels * n..id.range().end * channels * n];
+            interreflection::bounce_rows(
+                &rows,
+                norm,
+                n,
+                previous,
+                previous_channels,
+                channels,
+                out,
+                progress,
+            );
+        }
+        Ok(())
+    };
+    let t0 = std::mem::take(&mut whole.coefficients);
+    let total = interreflection::sum_bounces(t0, channels, &options, 0, progress, &mut pass)?;
+    Ok(whole.into_file(total))
 }
 
 fn refuse(message: String) -> Error {

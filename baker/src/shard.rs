@@ -338,27 +338,31 @@ impl Part {
 
     /// The whole bake from a part that holds every vertex: in interreflected mode the
     /// bounces are gathered here (no rays), exactly as a single-machine bake gathers them.
-    pub fn finish(self, progress: &dyn Progress) -> CoefficientFile {
-        let header = self.header;
-        assert_eq!(
-            self.id.range(),
-            0..header.vertex_count as usize,
-            "finish needs every vertex"
-        );
-        let coefficients = match &self.rows {
+    pub fn finish(mut self, progress: &dyn Progress) -> CoefficientFile {
+        let coefficients = match self.rows.take() {
             Some(rows) => interreflection::add_bounces(
-                self.coefficients,
-                header.channels as usize,
-                &options_of(&header),
-                &RowSource::Flat(rows),
+                std::mem::take(&mut self.coefficients),
+                self.header.channels as usize,
+                &options_of(&self.header),
+                &RowSource::Flat(&rows),
                 progress,
             ),
-            None => self.coefficients,
+            None => std::mem::take(&mut self.coefficients),
         };
+        self.into_file(coefficients)
+    }
+
+    /// The whole file of a part that holds every vertex, with the final `coefficients`.
+    pub(crate) fn into_file(self, coefficients: Vec<f32>) -> CoefficientFile {
+        assert_eq!(
+            self.id.range(),
+            0..self.header.vertex_count as usize,
+            "a whole file needs every vertex"
+        );
         CoefficientFile {
             header: Header {
                 checksum: 0,
-                ..header
+                ..self.header
             },
             coefficients,
             ao: self.ao,
@@ -406,7 +410,7 @@ fn parse_rows(bytes: &[u8], id: &PartId, header: &Header) -> std::result::Result
 }
 
 /// The options a header records (what the merge needs to gather the bounces).
-fn options_of(header: &Header) -> BakeOptions {
+pub(crate) fn options_of(header: &Header) -> BakeOptions {
     BakeOptions {
         order: header.order as usize,
         samples: header.samples_per_vertex,
