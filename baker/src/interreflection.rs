@@ -353,7 +353,7 @@ pub(crate) fn add_bounces(
         RowSource::Retrace { .. } => u64::from(options.samples),
         _ => 0,
     };
-    let mut pass = |previous: &[f32], previous_channels: usize, next: &mut [f32]| {
+    let pass = |previous: &[f32], previous_channels: usize, next: &mut [f32]| {
         bounce_pass(
             rows,
             norm,
@@ -366,7 +366,7 @@ pub(crate) fn add_bounces(
         );
         Ok::<(), std::convert::Infallible>(())
     };
-    match sum_bounces(t0, channels, options, rays, progress, &mut pass) {
+    match sum_bounces(t0, channels, options, rays, progress, pass) {
         Ok(total) => total,
         Err(never) => match never {},
     }
@@ -375,14 +375,17 @@ pub(crate) fn add_bounces(
 /// T_0 (`t0`, one channel, every vertex) broadcast to `channels`, plus `options.bounces`
 /// bounces, each of which `bounce` writes into a zeroed array from the previous one (and its
 /// channel count). `rays_per_vertex` is for the progress bar.
-pub(crate) fn sum_bounces<E>(
+pub(crate) fn sum_bounces<E, F>(
     t0: Vec<f32>,
     channels: usize,
     options: &crate::transfer::BakeOptions,
     rays_per_vertex: u64,
     progress: &dyn Progress,
-    bounce: &mut dyn FnMut(&[f32], usize, &mut [f32]) -> Result<(), E>,
-) -> Result<Vec<f32>, E> {
+    mut bounce: F,
+) -> Result<Vec<f32>, E>
+where
+    F: FnMut(&[f32], usize, &mut [f32]) -> Result<(), E>,
+{
     let n = sh::coeff_count(options.order);
     let vertex_count = t0.len() / n;
     // Total = T_0 (grey) broadcast to every channel, plus each bounce.

@@ -104,7 +104,7 @@ pub fn merge(paths: &[PathBuf], progress: &dyn Progress) -> Result<CoefficientFi
     let n = sh::coeff_count(options.order);
     let channels = header.channels as usize;
     let norm = Estimator::norm_of(&options) as f32;
-    let mut pass = |previous: &[f32], previous_channels: usize, next: &mut [f32]| {
+    let pass = |previous: &[f32], previous_channels: usize, next: &mut [f32]| {
         for &(path, id) in &order {
             let part = Part::read(path)?;
             if header_difference(&header, &part.header).is_some() || part.id != id {
@@ -129,7 +129,7 @@ pub fn merge(paths: &[PathBuf], progress: &dyn Progress) -> Result<CoefficientFi
         Ok(())
     };
     let t0 = std::mem::take(&mut whole.coefficients);
-    let total = interreflection::sum_bounces(t0, channels, &options, 0, progress, &mut pass)?;
+    let total = interreflection::sum_bounces(t0, channels, &options, 0, progress, pass)?;
     Ok(whole.into_file(total))
 }
 
