@@ -61,6 +61,15 @@ fn merged_shards_equal_the_single_machine_bake_in_every_mode() {
     // The Cornell box's coloured walls: three channels, two bounces gathered by the merge.
     let interreflected = ["--mode", "interreflected", "--bounces", "2", "--aux", "ao"];
     assert_merge_is_the_whole_bake(&s, CORNELL, "rgb", 5, &interreflected);
+    let thesis = [
+        "--mode",
+        "interreflected",
+        "--sampling",
+        "thesis-random",
+        "--bounces",
+        "2",
+    ];
+    assert_merge_is_the_whole_bake(&s, CORNELL, "thesis", 2, &thesis);
     let header = s.run(&["inspect", "out/rgb.prt"]).success().stdout;
     assert!(header.contains("\"channels\": 3"), "{header}");
     // More shards than vertices of some shards' share: a shard may be empty.
