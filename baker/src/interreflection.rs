@@ -326,7 +326,7 @@ pub(crate) fn bake(
 pub(crate) enum RowSource<'a> {
     /// The direct pass's rows, job by job ([`VERTICES_PER_JOB`] vertices each).
     Jobs(&'a [JobRows<'a>]),
-    /// The rows of every vertex in order (the merge of shard parts or checkpoint blocks).
+    /// The rows of every vertex in order (checkpoint blocks joined).
     Flat(&'a Rows),
     /// Re-trace each vertex's bounce samples (the rows were over the hit-cache budget).
     Retrace {
