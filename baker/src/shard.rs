@@ -555,6 +555,77 @@ mod tests {
         }
     }
 
+    /// An interreflected part of the Cornell room's vertices 100..140 (shard 1 of 3 in name).
+    fn cornell_part() -> Part {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../scenes/cornell/cornell.scene"
+        );
+        let scene = Scene::load(Path::new(path)).unwrap();
+        let tracer = crate::trace::build(Backend::DEFAULT, &scene, Default::default()).unwrap();
+        let options = BakeOptions {
+            samples: 32,
+            mode: Mode::Interreflected,
+            bounces: 1,
+            aux: crate::transfer::Aux {
+                ao: true,
+                bent_normal: true,
+            },
+            ..BakeOptions::default()
+        };
+        let shard = ShardId { index: 1, count: 3 };
+        let silent = crate::progress::Silent;
+        bake_part(&scene, Some(&*tracer), &options, shard, 100..140, &silent)
+            .unwrap()
+            .0
+    }
+
+    #[test]
+    fn parts_round_trip_and_bad_rows_or_sizes_are_refused() {
+        let part = cornell_part();
+        let rows = part.rows.as_ref().unwrap();
+        assert_eq!(rows.vertex_count(), 40);
+        assert!(!rows.vertices.is_empty());
+        let bytes = part.to_bytes();
+        let mut read = Part::from_bytes(&bytes).unwrap();
+        assert_ne!(read.header.checksum, 0);
+        read.header.checksum = 0; // the bake's header has none until written
+        assert!(
+            read == part,
+            "a part read back differs from the one written"
+        );
+        // A whole-file reader refuses it, naming what it is.
+        let err = CoefficientFile::from_bytes(&bytes).unwrap_err();
+        assert!(
+            err.contains("a shard part (shard 1 of 3, vertices 100..140)"),
+            "{err}"
+        );
+
+        // A row entry naming a vertex beyond the scene (checksum recomputed).
+        let mut bad = part.clone();
+        bad.rows.as_mut().unwrap().vertices[0] = part.header.vertex_count as u32;
+        let err = Part::from_bytes(&bad.to_bytes()).unwrap_err();
+        assert!(err.contains("bounce-row entry 0"), "{err}");
+        // Row lengths that do not add up to the entries.
+        let mut bad = part.clone();
+        bad.rows.as_mut().unwrap().starts[40] -= 1;
+        let err = Part::from_bytes(&bad.to_bytes()).unwrap_err();
+        assert!(err.contains("the bounce rows announce"), "{err}");
+        // A range beyond the scene.
+        let mut bad = part.clone();
+        bad.id.first_vertex = part.header.vertex_count - 10;
+        let err = Part::from_bytes(&bad.to_bytes()).unwrap_err();
+        assert!(err.contains("beyond the scene"), "{err}");
+        // A non-finite coefficient.
+        let mut bad = part;
+        bad.coefficients[17] = f32::NAN;
+        let err = Part::from_bytes(&bad.to_bytes()).unwrap_err();
+        assert!(
+            err.contains("coefficient 1 of vertex 1 is not finite"),
+            "{err}"
+        );
+    }
+
     #[test]
     fn shard_ranges_tile_the_vertices_in_equal_shares() {
         for (vertices, count) in [(0, 1), (7, 3), (10, 4), (13_500, 7), (5, 8)] {
