@@ -2,7 +2,7 @@
 #   make demo        bake the thesis's demo scene (progress bar), then open the viewer on it, or
 #                    without a display render PRT and Blinn-Phong screenshots and say where
 #   make test        formatting, lints, every test, a build without Embree, the Embree 4 header
-#                    check, the independent reference
+#                    check, the independent reference, a sharded bake on a real Slurm cluster
 #   make interop     glTF export checked by the Khronos glTF-Validator, the Python .prt reader
 #                    against the npz export (part of make test)
 #   make bench       the bake benchmark: Embree and obvhs against the raw Embree rate
@@ -19,7 +19,7 @@ SCENE := scenes/torus/torus.scene
 NO_EMBREE := target/no-embree
 NO_EMBREE_BAKE := $(NO_EMBREE)/release/prt-bake
 
-.PHONY: demo test bench bench-view deps build lint unit no-embree embree4 reference interop scenes fuzz
+.PHONY: demo test bench bench-view deps build lint unit no-embree embree4 reference interop scenes slurm fuzz
 
 deps:
 	@scripts/install-deps.sh
@@ -83,7 +83,12 @@ interop: build
 	scripts/gltf/validate.sh
 	scripts/python/run-tests.sh
 
-test: lint unit no-embree embree4 reference interop
+# A single-node Slurm cluster (slurmctld, slurmd, munged) started and stopped by the test:
+# scripts/slurm/submit.sh bakes in 4 shards, the merge must equal the single-machine bake.
+slurm: build
+	scripts/slurm/test-cluster.sh $(BAKE)
+
+test: lint unit no-embree embree4 reference interop slurm
 
 bench: deps
 	$(CARGO) bench -p prt-baker --bench bake

@@ -11,11 +11,15 @@
 #   npm (with nodejs)   the Khronos glTF-Validator of `make interop`; only if no npm is on
 #                       PATH (a NodeSource or nvm install is kept)
 #   python3-venv        the venvs of the reference check and the Python reader's test
+#   slurm-wlm munge     Slurm 22.05 (slurmctld, slurmd, sbatch) and its authentication daemon:
+#                       the sharded-bake test starts a single-node cluster of its own
+#                       (scripts/slurm/test-cluster.sh) on its own ports and munge socket, so
+#                       it does not need or disturb the packages' own services
 # The Rust toolchain itself is expected (rustup); python3 for the reference check.
 set -euo pipefail
 
 packages=(libembree-dev libclang-dev mesa-vulkan-drivers libvulkan1 xvfb xauth
-    libx11-6 libxcursor1 libxrandr2 libxi6 libxkbcommon-x11-0)
+    libx11-6 libxcursor1 libxrandr2 libxi6 libxkbcommon-x11-0 slurm-wlm munge)
 command -v npm >/dev/null 2>&1 || packages+=(npm)
 packages+=(python3-venv)
 missing=()

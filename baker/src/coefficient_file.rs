@@ -237,123 +237,12 @@ impl CoefficientFile {
 
     /// Parses and validates a file's bytes; the error is a sentence for the user.
     pub fn from_bytes(bytes: &[u8]) -> std::result::Result<CoefficientFile, String> {
-        if bytes.len() < MAGIC.len() || bytes[..MAGIC.len()] != MAGIC {
-            return Err("not a PRT coefficient file (wrong magic bytes)".into());
-        }
-        if bytes.len() < HEADER_SIZE {
+        let (header, payload) = parse_header(bytes)?;
+        if let Some(shard) = crate::shard::PartId::from_header_bytes(bytes)? {
             return Err(format!(
-                "truncated: {} bytes, but the header alone is {HEADER_SIZE} bytes",
-                bytes.len()
+                "a shard part ({shard}) of a bake, not a whole bake: combine the parts with `prt-bake merge`"
             ));
         }
-        let u32_at = |o: usize| u32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes"));
-        let u64_at = |o: usize| u64::from_le_bytes(bytes[o..o + 8].try_into().expect("8 bytes"));
-        let version = u32_at(8);
-        if version != VERSION {
-            return Err(format!(
-                "unsupported format version {version} (this build reads version {VERSION})"
-            ));
-        }
-        if u32_at(12) as usize != HEADER_SIZE {
-            return Err(format!(
-                "header size {} (version {VERSION} headers are {HEADER_SIZE} bytes)",
-                u32_at(12)
-            ));
-        }
-        let payload = u64_at(72);
-        let found = (bytes.len() - HEADER_SIZE) as u64;
-        if found < payload {
-            return Err(format!(
-                "truncated: the header announces {payload} bytes of coefficients, the file holds {found}"
-            ));
-        }
-        if found > payload {
-            return Err(format!(
-                "{} unexpected bytes after the {payload} bytes of coefficients",
-                found - payload
-            ));
-        }
-        let stored = u32_at(CHECKSUM_OFFSET);
-        let computed = checksum(bytes);
-        if stored != computed {
-            return Err(format!(
-                "checksum mismatch (stored {stored:08x}, computed {computed:08x}): the file is corrupted"
-            ));
-        }
-
-        let order = u32_at(16);
-        if !(1..=sh::MAX_ORDER as u32).contains(&order) {
-            return Err(format!("SH order {order} is outside 1..={}", sh::MAX_ORDER));
-        }
-        let channels = u32_at(20);
-        if channels != 1 && channels != 3 {
-            return Err(format!("{channels} channels (1 or 3 are defined)"));
-        }
-        let mode = match u32_at(36) {
-            0 => Mode::Unshadowed,
-            1 => Mode::Shadowed,
-            2 => Mode::Interreflected,
-            other => return Err(format!("unknown transfer mode {other}")),
-        };
-        let bounces = u32_at(40);
-        if (mode == Mode::Interreflected) != (bounces > 0) {
-            return Err(format!("{bounces} bounces in a {} file", mode.name()));
-        }
-        let backend = match u32_at(44) {
-            0 => Backend::None,
-            1 => Backend::Embree,
-            2 => Backend::Obvhs,
-            other => return Err(format!("unknown backend {other}")),
-        };
-        let sampling = match u32_at(64) {
-            0 => Sampling::OwenSobol,
-            1 => Sampling::ThesisRandom,
-            other => return Err(format!("unknown sampling method {other}")),
-        };
-        let aux_flags = u32_at(68);
-        if aux_flags & !(AUX_AO | AUX_BENT_NORMAL) != 0 {
-            return Err(format!("unknown auxiliary-array flags {aux_flags:#x}"));
-        }
-        let aux = Aux {
-            ao: aux_flags & AUX_AO != 0,
-            bent_normal: aux_flags & AUX_BENT_NORMAL != 0,
-        };
-        let bounce_samples = u32_at(80);
-        let samples_per_vertex = u32_at(32);
-        let bounce_samples_valid = match mode {
-            Mode::Interreflected => (1..=samples_per_vertex).contains(&bounce_samples),
-            _ => bounce_samples == 0,
-        };
-        if !bounce_samples_valid {
-            return Err(format!(
-                "{bounce_samples} bounce samples in a {} file of {samples_per_vertex} samples",
-                mode.name()
-            ));
-        }
-        let up = match Up::from_code(u32_at(84)) {
-            Some(up) => up,
-            None => return Err(format!("unknown up axis {} (0 = +z, 1 = +y)", u32_at(84))),
-        };
-        if bytes[88..CHECKSUM_OFFSET].iter().any(|&b| b != 0) {
-            return Err("reserved header bytes are not zero".into());
-        }
-        let header = Header {
-            version,
-            order,
-            channels,
-            vertex_count: u64_at(24),
-            samples_per_vertex,
-            mode,
-            bounces,
-            bounce_samples,
-            backend,
-            sampling,
-            seed: u64_at(48),
-            scene_fingerprint: u64_at(56),
-            aux,
-            up,
-            checksum: stored,
-        };
         // Checked: a corrupted count must not wrap around to the payload's size.
         let needed = header.vertex_count.checked_mul(
             (header.coefficients_per_vertex() + header.aux_floats_per_vertex()) as u64 * 4,
@@ -366,6 +255,7 @@ impl CoefficientFile {
                 needed.map_or_else(|| "more than 2^64".into(), |n| n.to_string())
             ));
         }
+        let aux = header.aux;
         let mut floats = bytes[HEADER_SIZE..]
             .chunks_exact(4)
             .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")));
@@ -379,26 +269,12 @@ impl CoefficientFile {
             let flat: Vec<f32> = floats.by_ref().take(3 * vertices).collect();
             flat.chunks_exact(3).map(Vec3::from_slice).collect()
         });
-        if let Some(v) = ao.iter().flatten().position(|a| !(0.0..=1.0).contains(a)) {
-            return Err(format!(
-                "ambient accessibility of vertex {v} is outside [0, 1]"
-            ));
-        }
-        if let Some(v) = bent_normal
-            .iter()
-            .flatten()
-            .position(|n| !n.is_finite() || (n.length() - 1.0).abs() > 1e-3)
-        {
-            return Err(format!("bent normal of vertex {v} is not a unit vector"));
-        }
-        if let Some(i) = coefficients.iter().position(|c| !c.is_finite()) {
-            let per_vertex = header.coefficients_per_vertex();
-            return Err(format!(
-                "coefficient {} of vertex {} is not finite",
-                i % per_vertex,
-                i / per_vertex
-            ));
-        }
+        check_floats(
+            &header,
+            &coefficients,
+            ao.as_deref(),
+            bent_normal.as_deref(),
+        )?;
         Ok(CoefficientFile {
             header,
             coefficients,
@@ -406,7 +282,171 @@ impl CoefficientFile {
             bent_normal,
         })
     }
+}
 
+/// Checks the header of a whole file or a shard part (everything but the payload's layout):
+/// size, magic, version, checksum and every field. Returns the header and the payload length
+/// it announces.
+pub(crate) fn parse_header(bytes: &[u8]) -> std::result::Result<(Header, u64), String> {
+    if bytes.len() < MAGIC.len() || bytes[..MAGIC.len()] != MAGIC {
+        return Err("not a PRT coefficient file (wrong magic bytes)".into());
+    }
+    if bytes.len() < HEADER_SIZE {
+        return Err(format!(
+            "truncated: {} bytes, but the header alone is {HEADER_SIZE} bytes",
+            bytes.len()
+        ));
+    }
+    let u32_at = |o: usize| u32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes"));
+    let u64_at = |o: usize| u64::from_le_bytes(bytes[o..o + 8].try_into().expect("8 bytes"));
+    let version = u32_at(8);
+    if version != VERSION {
+        return Err(format!(
+            "unsupported format version {version} (this build reads version {VERSION})"
+        ));
+    }
+    if u32_at(12) as usize != HEADER_SIZE {
+        return Err(format!(
+            "header size {} (version {VERSION} headers are {HEADER_SIZE} bytes)",
+            u32_at(12)
+        ));
+    }
+    let payload = u64_at(72);
+    let found = (bytes.len() - HEADER_SIZE) as u64;
+    if found < payload {
+        return Err(format!(
+            "truncated: the header announces {payload} bytes of coefficients, the file holds {found}"
+        ));
+    }
+    if found > payload {
+        return Err(format!(
+            "{} unexpected bytes after the {payload} bytes of coefficients",
+            found - payload
+        ));
+    }
+    let stored = u32_at(CHECKSUM_OFFSET);
+    let computed = checksum(bytes);
+    if stored != computed {
+        return Err(format!(
+            "checksum mismatch (stored {stored:08x}, computed {computed:08x}): the file is corrupted"
+        ));
+    }
+
+    let order = u32_at(16);
+    if !(1..=sh::MAX_ORDER as u32).contains(&order) {
+        return Err(format!("SH order {order} is outside 1..={}", sh::MAX_ORDER));
+    }
+    let channels = u32_at(20);
+    if channels != 1 && channels != 3 {
+        return Err(format!("{channels} channels (1 or 3 are defined)"));
+    }
+    let mode = match u32_at(36) {
+        0 => Mode::Unshadowed,
+        1 => Mode::Shadowed,
+        2 => Mode::Interreflected,
+        other => return Err(format!("unknown transfer mode {other}")),
+    };
+    let bounces = u32_at(40);
+    if (mode == Mode::Interreflected) != (bounces > 0) {
+        return Err(format!("{bounces} bounces in a {} file", mode.name()));
+    }
+    let backend = match u32_at(44) {
+        0 => Backend::None,
+        1 => Backend::Embree,
+        2 => Backend::Obvhs,
+        other => return Err(format!("unknown backend {other}")),
+    };
+    let sampling = match u32_at(64) {
+        0 => Sampling::OwenSobol,
+        1 => Sampling::ThesisRandom,
+        other => return Err(format!("unknown sampling method {other}")),
+    };
+    let aux_flags = u32_at(68);
+    if aux_flags & !(AUX_AO | AUX_BENT_NORMAL) != 0 {
+        return Err(format!("unknown auxiliary-array flags {aux_flags:#x}"));
+    }
+    let aux = Aux {
+        ao: aux_flags & AUX_AO != 0,
+        bent_normal: aux_flags & AUX_BENT_NORMAL != 0,
+    };
+    let bounce_samples = u32_at(80);
+    let samples_per_vertex = u32_at(32);
+    let bounce_samples_valid = match mode {
+        Mode::Interreflected => (1..=samples_per_vertex).contains(&bounce_samples),
+        _ => bounce_samples == 0,
+    };
+    if !bounce_samples_valid {
+        return Err(format!(
+            "{bounce_samples} bounce samples in a {} file of {samples_per_vertex} samples",
+            mode.name()
+        ));
+    }
+    let up = match Up::from_code(u32_at(84)) {
+        Some(up) => up,
+        None => return Err(format!("unknown up axis {} (0 = +z, 1 = +y)", u32_at(84))),
+    };
+    // 88..108 is the shard identity (crate::shard::PartId).
+    if bytes[108..CHECKSUM_OFFSET].iter().any(|&b| b != 0) {
+        return Err("reserved header bytes are not zero".into());
+    }
+    let header = Header {
+        version,
+        order,
+        channels,
+        vertex_count: u64_at(24),
+        samples_per_vertex,
+        mode,
+        bounces,
+        bounce_samples,
+        backend,
+        sampling,
+        seed: u64_at(48),
+        scene_fingerprint: u64_at(56),
+        aux,
+        up,
+        checksum: stored,
+    };
+    Ok((header, payload))
+}
+
+/// Checks every float of a file's (or a part's) arrays; `coefficients` holds whole vertices
+/// of `coefficients.len() / vertices` floats each.
+pub(crate) fn check_floats(
+    header: &Header,
+    coefficients: &[f32],
+    ao: Option<&[f32]>,
+    bent_normal: Option<&[Vec3]>,
+) -> std::result::Result<(), String> {
+    if let Some(v) = ao
+        .iter()
+        .copied()
+        .flatten()
+        .position(|a| !(0.0..=1.0).contains(a))
+    {
+        return Err(format!(
+            "ambient accessibility of vertex {v} is outside [0, 1]"
+        ));
+    }
+    if let Some(v) = bent_normal
+        .iter()
+        .copied()
+        .flatten()
+        .position(|n| !n.is_finite() || (n.length() - 1.0).abs() > 1e-3)
+    {
+        return Err(format!("bent normal of vertex {v} is not a unit vector"));
+    }
+    if let Some(i) = coefficients.iter().position(|c| !c.is_finite()) {
+        let per_vertex = header.coefficients_per_vertex();
+        return Err(format!(
+            "coefficient {} of vertex {} is not finite",
+            i % per_vertex,
+            i / per_vertex
+        ));
+    }
+    Ok(())
+}
+
+impl CoefficientFile {
     /// Refuses a file baked for a different scene (or a changed version of this one).
     pub fn check_scene(&self, path: &Path, scene: &Scene) -> Result<()> {
         let mismatch = |message: String| {
@@ -442,4 +482,27 @@ fn checksum(bytes: &[u8]) -> u32 {
     hasher.update(&[0; 4]);
     hasher.update(&bytes[HEADER_SIZE..]);
     hasher.finalize()
+}
+
+/// The bytes of a file with `header`'s fields but another payload (a shard part's): the
+/// header exactly as [`CoefficientFile::to_bytes`] writes it, with the payload length, the
+/// shard identity `shard` (bytes 88..108) and the checksum set for `payload`.
+pub(crate) fn bytes_with_payload(header: &Header, shard: &[u8; 20], payload: &[u8]) -> Vec<u8> {
+    let empty = CoefficientFile {
+        header: Header {
+            vertex_count: 0,
+            ..header.clone()
+        },
+        coefficients: Vec::new(),
+        ao: header.aux.ao.then(Vec::new),
+        bent_normal: header.aux.bent_normal.then(Vec::new),
+    };
+    let (mut bytes, _) = empty.to_bytes();
+    bytes[24..32].copy_from_slice(&header.vertex_count.to_le_bytes());
+    bytes[72..80].copy_from_slice(&(payload.len() as u64).to_le_bytes());
+    bytes[88..108].copy_from_slice(shard);
+    bytes.extend_from_slice(payload);
+    let checksum = checksum(&bytes);
+    bytes[CHECKSUM_OFFSET..HEADER_SIZE].copy_from_slice(&checksum.to_le_bytes());
+    bytes
 }

@@ -71,6 +71,11 @@ pub enum Error {
     #[error("{what}: {message}")]
     TooLarge { what: String, message: String },
 
+    /// Shard parts that do not make up one bake (missing, duplicated or foreign parts), or a
+    /// checkpoint folder of another bake; the message names the files.
+    #[error("{0}")]
+    Shards(String),
+
     /// Options that cannot be honoured (an order out of range, zero samples, …).
     #[error("{0}")]
     InvalidOption(String),
@@ -122,6 +127,7 @@ impl Error {
                 | Error::CoefficientFile { .. }
                 | Error::SceneMismatch { .. }
                 | Error::TooLarge { .. }
+                | Error::Shards(_)
         ) || matches!(self, Error::Io { source, .. } if source.kind() == io::ErrorKind::NotFound)
     }
 }

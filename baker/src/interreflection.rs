@@ -163,6 +163,64 @@ impl<'a> JobRows<'a> {
     }
 }
 
+/// The bounce rows of a run of consecutive vertices, in order: what a shard part or a
+/// checkpoint block carries, and what the merge concatenates.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Rows {
+    /// Entries of vertex k (of the run) are `starts[k]..starts[k + 1]`; `starts[0]` is 0.
+    pub starts: Vec<u64>,
+    /// Vertex of each entry (over the whole scene).
+    pub vertices: Vec<u32>,
+    /// RGB weight of each entry.
+    pub weights: Vec<[f32; 3]>,
+}
+
+impl Rows {
+    /// The rows of a direct pass's jobs, in order.
+    pub(crate) fn from_jobs(jobs: Vec<JobRows>) -> Rows {
+        let mut rows = Rows {
+            starts: vec![0],
+            ..Rows::default()
+        };
+        for job in jobs {
+            for k in 0..job.starts.len() {
+                let range = job.vertex(k);
+                rows.vertices.extend(&job.vertices[range.clone()]);
+                rows.weights.extend(&job.weights[range]);
+                rows.starts.push(rows.vertices.len() as u64);
+            }
+        }
+        rows
+    }
+
+    /// Vertices whose rows these are.
+    pub fn vertex_count(&self) -> usize {
+        self.starts.len().saturating_sub(1)
+    }
+
+    /// Appends the rows of the vertices that follow.
+    pub fn append(&mut self, next: &Rows) {
+        if self.starts.is_empty() {
+            self.starts.push(0);
+        }
+        let offset = self.vertices.len() as u64;
+        self.starts
+            .extend(next.starts.iter().skip(1).map(|s| s + offset));
+        self.vertices.extend(&next.vertices);
+        self.weights.extend(&next.weights);
+    }
+
+    /// The entries of the `k`-th vertex.
+    fn vertex(&self, k: usize) -> Range<usize> {
+        self.starts[k] as usize..self.starts[k + 1] as usize
+    }
+
+    /// Bytes in memory and in a part: entries, plus a u32 length per vertex.
+    pub fn bytes(&self) -> u64 {
+        self.vertices.len() as u64 * BYTES_PER_ENTRY + self.vertex_count() as u64 * 4
+    }
+}
+
 /// Collects the direct pass's bounce rows job by job, within a memory budget.
 pub(crate) struct HitRecorder<'a> {
     scene: &'a Scene,
@@ -173,8 +231,9 @@ pub(crate) struct HitRecorder<'a> {
 }
 
 impl<'a> HitRecorder<'a> {
-    fn new(scene: &'a Scene, limit: u64) -> HitRecorder<'a> {
-        let jobs = scene.vertex_count().div_ceil(VERTICES_PER_JOB);
+    /// A recorder for a direct pass over `vertices` consecutive vertices.
+    pub(crate) fn new(scene: &'a Scene, vertices: usize, limit: u64) -> HitRecorder<'a> {
+        let jobs = vertices.div_ceil(VERTICES_PER_JOB);
         HitRecorder {
             scene,
             jobs: (0..jobs).map(|_| Mutex::new(None)).collect(),
@@ -203,7 +262,7 @@ impl<'a> HitRecorder<'a> {
     }
 
     /// The rows of every job, or `None` if the budget was exceeded.
-    fn into_cache(self) -> Option<(Vec<JobRows<'a>>, u64)> {
+    pub(crate) fn into_cache(self) -> Option<(Vec<JobRows<'a>>, u64)> {
         if self.overflowed.into_inner() {
             return None;
         }
@@ -234,42 +293,114 @@ pub(crate) fn bake(
     progress: &dyn Progress,
 ) -> Bounced {
     let options = &estimator.options;
-    let n = sh::coeff_count(options.order);
     let channels = if albedo_is_grey(scene) { 1 } else { 3 };
-    let recorder = HitRecorder::new(scene, options.hit_cache_limit);
-    let direct = direct_pass(estimator, Some(tracer), Some(&recorder), progress);
+    let vertex_count = scene.vertex_count();
+    let recorder = HitRecorder::new(scene, vertex_count, options.hit_cache_limit);
+    let direct = direct_pass(
+        estimator,
+        Some(tracer),
+        Some(&recorder),
+        0..vertex_count,
+        progress,
+    );
     let cache = recorder.into_cache();
     let hit_cache_bytes = cache.as_ref().map(|(_, bytes)| *bytes);
     let cache = cache.map(|(jobs, _)| jobs);
+    let rows = match &cache {
+        Some(jobs) => RowSource::Jobs(jobs),
+        None => RowSource::Retrace {
+            scene,
+            tracer,
+            estimator,
+        },
+    };
+    Bounced {
+        coefficients: add_bounces(direct.coefficients, channels, options, &rows, progress),
+        channels,
+        visibility: direct.visibility,
+        hit_cache_bytes,
+    }
+}
 
-    let vertex_count = scene.vertex_count();
+/// Where a bounce pass finds each vertex's bounce row.
+pub(crate) enum RowSource<'a> {
+    /// The direct pass's rows, job by job ([`VERTICES_PER_JOB`] vertices each).
+    Jobs(&'a [JobRows<'a>]),
+    /// The rows of every vertex in order (checkpoint blocks joined).
+    Flat(&'a Rows),
+    /// Re-trace each vertex's bounce samples (the rows were over the hit-cache budget).
+    Retrace {
+        scene: &'a Scene,
+        tracer: &'a dyn Tracer,
+        estimator: &'a Estimator,
+    },
+}
+
+/// The interreflected transfer from the direct pass's `t0` (one channel, every vertex) and
+/// the bounce rows: T_0 broadcast to `channels`, plus `options.bounces` gathers. The
+/// single-machine bake and the merge of checkpoint blocks end here; the merge of shard parts
+/// ends in [`sum_bounces`] with the same gather, so they agree bit for bit.
+pub(crate) fn add_bounces(
+    t0: Vec<f32>,
+    channels: usize,
+    options: &crate::transfer::BakeOptions,
+    rows: &RowSource,
+    progress: &dyn Progress,
+) -> Vec<f32> {
+    let n = sh::coeff_count(options.order);
+    let norm = Estimator::norm_of(options) as f32;
+    let rays = match rows {
+        RowSource::Retrace { .. } => u64::from(options.samples),
+        _ => 0,
+    };
+    let pass = |previous: &[f32], previous_channels: usize, next: &mut [f32]| {
+        bounce_pass(
+            rows,
+            norm,
+            n,
+            previous,
+            previous_channels,
+            channels,
+            next,
+            progress,
+        );
+        Ok::<(), std::convert::Infallible>(())
+    };
+    match sum_bounces(t0, channels, options, rays, progress, pass) {
+        Ok(total) => total,
+        Err(never) => match never {},
+    }
+}
+
+/// T_0 (`t0`, one channel, every vertex) broadcast to `channels`, plus `options.bounces`
+/// bounces, each of which `bounce` writes into a zeroed array from the previous one (and its
+/// channel count). `rays_per_vertex` is for the progress bar.
+pub(crate) fn sum_bounces<E, F>(
+    t0: Vec<f32>,
+    channels: usize,
+    options: &crate::transfer::BakeOptions,
+    rays_per_vertex: u64,
+    progress: &dyn Progress,
+    mut bounce: F,
+) -> Result<Vec<f32>, E>
+where
+    F: FnMut(&[f32], usize, &mut [f32]) -> Result<(), E>,
+{
+    let n = sh::coeff_count(options.order);
+    let vertex_count = t0.len() / n;
     // Total = T_0 (grey) broadcast to every channel, plus each bounce.
     let mut total = vec![0.0f32; vertex_count * channels * n];
-    for (v, t0) in direct.coefficients.chunks_exact(n).enumerate() {
+    for (v, t0) in t0.chunks_exact(n).enumerate() {
         for c in 0..channels {
             total[(v * channels + c) * n..][..n].copy_from_slice(t0);
         }
     }
-    let mut previous = direct.coefficients;
+    let mut previous = t0;
     let mut previous_channels = 1;
-    for bounce in 1..=options.bounces {
-        let retrace = cache.is_none();
-        let rays = if retrace {
-            u64::from(options.samples)
-        } else {
-            0
-        };
-        progress.begin(&format!("bounce {bounce}"), vertex_count as u64, rays);
-        let next = bounce_pass(
-            scene,
-            tracer,
-            estimator,
-            cache.as_deref(),
-            &previous,
-            previous_channels,
-            channels,
-            progress,
-        );
+    for k in 1..=options.bounces {
+        progress.begin(&format!("bounce {k}"), vertex_count as u64, rays_per_vertex);
+        let mut next = vec![0.0f32; vertex_count * channels * n];
+        bounce(&previous, previous_channels, &mut next)?;
         progress.finish();
         for (t, b) in total.iter_mut().zip(&next) {
             *t += b;
@@ -277,49 +408,99 @@ pub(crate) fn bake(
         previous = next;
         previous_channels = channels;
     }
-    Bounced {
-        coefficients: total,
-        channels,
-        visibility: direct.visibility,
-        hit_cache_bytes,
-    }
+    Ok(total)
+}
+
+/// One bounce at a run of consecutive vertices whose rows are `rows` (the k-th vertex's
+/// result goes to `out`'s k-th `channels × n²` floats): what [`bounce_pass`] computes for
+/// them, for a merge that holds one part's rows at a time.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn bounce_rows(
+    rows: &Rows,
+    norm: f32,
+    n: usize,
+    previous: &[f32],
+    previous_channels: usize,
+    channels: usize,
+    out: &mut [f32],
+    progress: &dyn Progress,
+) {
+    let width = channels * n;
+    out.par_chunks_mut(VERTICES_PER_JOB * width)
+        .enumerate()
+        .for_each(|(job, out)| {
+            for (k, out) in out.chunks_mut(width).enumerate() {
+                let range = rows.vertex(job * VERTICES_PER_JOB + k);
+                let (vertices, weights) = (&rows.vertices[range.clone()], &rows.weights[range]);
+                gather(
+                    vertices,
+                    weights,
+                    previous,
+                    previous_channels,
+                    channels,
+                    n,
+                    out,
+                );
+                for o in out.iter_mut() {
+                    *o *= norm;
+                }
+            }
+            progress.advance((out.len() / width) as u64);
+        });
 }
 
 /// One bounce: T_k(x) = norm · Σ_v w(x, v) ⊙ T_{k−1}(v) for every vertex x.
 #[allow(clippy::too_many_arguments)]
 fn bounce_pass(
-    scene: &Scene,
-    tracer: &dyn Tracer,
-    estimator: &Estimator,
-    cache: Option<&[JobRows]>,
+    rows: &RowSource,
+    norm: f32,
+    n: usize,
     previous: &[f32],
     previous_channels: usize,
     channels: usize,
+    next: &mut [f32],
     progress: &dyn Progress,
-) -> Vec<f32> {
-    let n = sh::coeff_count(estimator.options.order);
+) {
     let width = channels * n;
-    let norm = estimator.norm() as f32;
-    let mut next = vec![0.0f32; scene.vertex_count() * width];
     next.par_chunks_mut(VERTICES_PER_JOB * width)
         .enumerate()
         .for_each_init(
             || Scratch::new(n),
             |scratch, (job, out)| {
                 let first = job * VERTICES_PER_JOB;
-                let mut retraced = None;
                 for (k, out) in out.chunks_mut(width).enumerate() {
-                    let (rows, range) = match cache {
-                        Some(jobs) => (&jobs[job], jobs[job].vertex(k)),
-                        None => {
+                    let gather = |vertices: &[u32], weights: &[[f32; 3]], out: &mut [f32]| {
+                        gather(
+                            vertices,
+                            weights,
+                            previous,
+                            previous_channels,
+                            channels,
+                            n,
+                            out,
+                        )
+                    };
+                    match rows {
+                        RowSource::Jobs(jobs) => {
+                            let range = jobs[job].vertex(k);
+                            let rows = &jobs[job];
+                            gather(&rows.vertices[range.clone()], &rows.weights[range], out);
+                        }
+                        RowSource::Flat(rows) => {
+                            let range = rows.vertex(first + k);
+                            gather(&rows.vertices[range.clone()], &rows.weights[range], out);
+                        }
+                        RowSource::Retrace {
+                            scene,
+                            tracer,
+                            estimator,
+                        } => {
                             // Same rays as the direct pass, so the same row.
                             let mut fresh = JobRows::new(scene);
-                            estimator.bounce_row(first + k, tracer, scratch, &mut fresh);
-                            let fresh: &JobRows = retraced.insert(fresh);
-                            (fresh, fresh.vertex(0))
+                            estimator.bounce_row(first + k, *tracer, scratch, &mut fresh);
+                            gather(&fresh.vertices, &fresh.weights, out);
                         }
-                    };
-                    gather(rows, range, previous, previous_channels, channels, n, out);
+                    }
                     for o in out.iter_mut() {
                         *o *= norm;
                     }
@@ -327,14 +508,13 @@ fn bounce_pass(
                 progress.advance((out.len() / width) as u64);
             },
         );
-    next
 }
 
 /// `out` = Σ over a row's entries of weight ⊙ the previous bounce's transfer at the entry's
 /// vertex.
 fn gather(
-    rows: &JobRows,
-    range: Range<usize>,
+    vertices: &[u32],
+    weights: &[[f32; 3]],
     previous: &[f32],
     previous_channels: usize,
     channels: usize,
@@ -342,9 +522,8 @@ fn gather(
     out: &mut [f32],
 ) {
     out.fill(0.0);
-    for i in range {
-        let vertex = rows.vertices[i] as usize;
-        let weight = rows.weights[i];
+    for (&vertex, weight) in vertices.iter().zip(weights) {
+        let vertex = vertex as usize;
         for c in 0..channels {
             let from = if previous_channels == 1 { 0 } else { c };
             let row = &previous[(vertex * previous_channels + from) * n..][..n];

@@ -11,6 +11,7 @@
 //! CPU: the reference a viewer must match.
 
 pub mod atomic;
+pub mod checkpoint;
 pub mod coefficient_file;
 pub mod error;
 pub mod export;
@@ -18,6 +19,7 @@ pub mod gltf_export;
 pub mod interreflection;
 pub mod light;
 pub mod limits;
+pub mod merge;
 pub mod npz;
 pub mod output;
 pub mod ply;
@@ -26,6 +28,7 @@ pub mod relight;
 pub mod sampling;
 pub mod scene;
 pub mod sh;
+pub mod shard;
 pub mod trace;
 pub mod transfer;
 

@@ -6,10 +6,12 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
+use prt_baker::checkpoint;
 use prt_baker::light::Rig;
 use prt_baker::output::Output;
 use prt_baker::progress::{Progress, ProgressBar, Silent};
 use prt_baker::sampling::Sampling;
+use prt_baker::shard::{self, ShardId, shard_range};
 use prt_baker::trace::{self, Backend, TracerOptions};
 use prt_baker::transfer::Aux;
 use prt_baker::{BakeOptions, CoefficientFile, Error, Mode, Scene, limits, sh};
@@ -59,6 +61,19 @@ enum Command {
     },
     /// Light a bake with a rig on the CPU and write per-vertex radiance as a PLY mesh.
     Relight(RelightArgs),
+    /// Merge the shard parts of a bake (`bake --shard`) into the file one machine would have
+    /// baked, byte for byte; refuses missing, duplicated or foreign parts (docs/distributed.md).
+    Merge {
+        /// Every part of the bake, in any order.
+        #[arg(required = true)]
+        parts: Vec<PathBuf>,
+        /// Output coefficient file.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// No progress bar.
+        #[arg(long)]
+        quiet: bool,
+    },
 }
 
 #[derive(clap::Args)]
@@ -155,6 +170,18 @@ struct BakeArgs {
     /// No progress bar (the summary line is still printed).
     #[arg(long)]
     quiet: bool,
+    /// Bake only part K of N (0 ≤ K < N), a range of vertices, into a part file for
+    /// `prt-bake merge`. `auto` reads K and N from a Slurm array task; `auto/N` takes K from
+    /// a Kubernetes Indexed Job's JOB_COMPLETION_INDEX (or set PRT_SHARD_COUNT and use `auto`).
+    #[arg(long, value_name = "K/N|auto|auto/N")]
+    shard: Option<String>,
+    /// Write completed blocks of vertices into DIR as the bake goes; the same command run
+    /// again after a crash or a kill continues from them (same file as an uninterrupted bake).
+    #[arg(long, value_name = "DIR")]
+    checkpoint: Option<PathBuf>,
+    /// Vertices per checkpoint block (default: about 67 million rays' worth).
+    #[arg(long, requires = "checkpoint")]
+    checkpoint_vertices: Option<usize>,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -240,6 +267,11 @@ fn main() -> ExitCode {
         Command::Export(args) => export(args),
         Command::Light { rig, order, output } => light(&rig, order, &output),
         Command::Relight(args) => relight(args),
+        Command::Merge {
+            parts,
+            output,
+            quiet,
+        } => merge(&parts, &output, quiet),
     });
     let Ok(result) = result else {
         return ExitCode::from(EXIT_FAILURE);
@@ -290,6 +322,10 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
     };
     options.validate()?;
     limits::check_bake_options(&options)?;
+    let shard = match &args.shard {
+        Some(spec) => Some(ShardId::parse(spec, &|name| std::env::var(name).ok())?),
+        None => None,
+    };
     let tracer_options = TracerOptions {
         threads: args.threads,
         robust: args.robust,
@@ -312,7 +348,14 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
             })?;
     }
 
-    let scene = Scene::load(&args.scene)?;
+    let mut scene = Scene::load(&args.scene)?;
+    // --up overrides the format's axis; whole files, parts and checkpoints all record it.
+    if let Some(up) = args.up {
+        scene.up = match up {
+            UpArg::Z => prt_baker::scene::Up::Z,
+            UpArg::Y => prt_baker::scene::Up::Y,
+        };
+    }
     let output = Output::new(&args.output, &scene.input_files())?;
     let needed = limits::bake_bytes(
         &options,
@@ -349,14 +392,18 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
     } else {
         Box::new(ProgressBar::new())
     };
-    let transfer = prt_baker::bake(&scene, tracer.as_deref(), &options, progress.as_ref())?;
-    let mut file = CoefficientFile::from_bake(&scene, &transfer);
-    if let Some(up) = args.up {
-        file.header.up = match up {
-            UpArg::Z => prt_baker::scene::Up::Z,
-            UpArg::Y => prt_baker::scene::Up::Y,
-        };
+    if shard.is_some() || args.checkpoint.is_some() {
+        return bake_in_parts(
+            &args,
+            &scene,
+            tracer.as_deref(),
+            &options,
+            shard,
+            progress.as_ref(),
+        );
     }
+    let transfer = prt_baker::bake(&scene, tracer.as_deref(), &options, progress.as_ref())?;
+    let file = CoefficientFile::from_bake(&scene, &transfer);
     output.write(&file.to_bytes().0)?;
 
     let rays = match transfer.rays_cast {
@@ -391,6 +438,95 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
         options.samples,
         transfer.backend.name(),
         args.output.display()
+    );
+    Ok(())
+}
+
+/// A bake with `--shard` or `--checkpoint`: a part file, or the whole file from checkpoint
+/// blocks.
+fn bake_in_parts(
+    args: &BakeArgs,
+    scene: &Scene,
+    tracer: Option<&dyn trace::Tracer>,
+    options: &BakeOptions,
+    shard: Option<ShardId>,
+    progress: &dyn Progress,
+) -> Result<(), Error> {
+    let started = std::time::Instant::now();
+    let vertex_count = scene.vertex_count();
+    let (id, vertices) = match shard {
+        Some(shard) => (shard, shard_range(vertex_count, shard)),
+        None => (ShardId { index: 0, count: 1 }, 0..vertex_count),
+    };
+    let (part, rays, blocks) = match &args.checkpoint {
+        Some(dir) => {
+            let block_vertices = args
+                .checkpoint_vertices
+                .unwrap_or_else(|| checkpoint::default_block_vertices(options));
+            let done = checkpoint::bake(
+                scene,
+                tracer,
+                options,
+                id,
+                vertices.clone(),
+                dir,
+                block_vertices,
+                progress,
+            )?;
+            let blocks = format!(
+                ", {} blocks ({} resumed from {})",
+                done.blocks,
+                done.reused,
+                dir.display()
+            );
+            (done.part, done.rays, blocks)
+        }
+        None => {
+            let (part, rays) =
+                shard::bake_part(scene, tracer, options, id, vertices.clone(), progress)?;
+            (part, rays, String::new())
+        }
+    };
+    let what = match shard {
+        Some(shard) => {
+            part.write(&args.output)?;
+            format!(
+                "{shard} (vertices {}..{} of {vertex_count})",
+                vertices.start, vertices.end
+            )
+        }
+        None => {
+            part.finish(progress).write(&args.output)?;
+            format!("{vertex_count} vertices")
+        }
+    };
+    let seconds = started.elapsed().as_secs_f64();
+    println!(
+        "baked {what}, {rays} rays, {seconds:.2} s (order {}, {}, {} samples{blocks}) -> {}",
+        options.order,
+        options.mode.name(),
+        options.samples,
+        args.output.display()
+    );
+    Ok(())
+}
+
+fn merge(parts: &[PathBuf], output: &Path, quiet: bool) -> Result<(), Error> {
+    let output_policy = Output::new(output, parts)?;
+    let started = std::time::Instant::now();
+    let progress: Box<dyn Progress> = if quiet {
+        Box::new(Silent)
+    } else {
+        Box::new(ProgressBar::new())
+    };
+    let file = prt_baker::merge::merge(parts, progress.as_ref())?;
+    output_policy.write(&file.to_bytes().0)?;
+    println!(
+        "merged {} parts, {} vertices, {:.2} s -> {}",
+        parts.len(),
+        file.header.vertex_count,
+        started.elapsed().as_secs_f64(),
+        output.display()
     );
     Ok(())
 }
@@ -457,8 +593,20 @@ fn export(args: ExportArgs) -> Result<(), Error> {
 }
 
 fn inspect(path: &Path) -> Result<(), Error> {
-    let file = CoefficientFile::read(path)?;
-    let json = serde_json::to_string_pretty(&file.header).expect("the header serialises");
+    let bytes = limits::read_file(path)?;
+    let is_part = bytes.len() >= prt_baker::coefficient_file::HEADER_SIZE
+        && matches!(shard::PartId::from_header_bytes(&bytes), Ok(Some(_)));
+    let json = if is_part {
+        // A shard part: its header, plus which shard and vertices it holds.
+        let part = shard::Part::read(path)?;
+        let mut json = serde_json::to_value(&part.header).expect("the header serialises");
+        json["shard"] = serde_json::to_value(part.id).expect("the identity serialises");
+        serde_json::to_string_pretty(&json)
+    } else {
+        let file = CoefficientFile::read(path)?;
+        serde_json::to_string_pretty(&file.header)
+    }
+    .expect("the header serialises");
     println!("{json}");
     Ok(())
 }

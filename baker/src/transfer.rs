@@ -257,7 +257,7 @@ pub fn bake(
             )
         }
         _ => {
-            let direct = direct_pass(&estimator, tracer, None, progress);
+            let direct = direct_pass(&estimator, tracer, None, 0..vertex_count, progress);
             let visibility = if tracer.is_some() {
                 direct.visibility
             } else {
@@ -300,16 +300,18 @@ pub(crate) struct DirectPass {
     pub visibility: Vec<Visibility>,
 }
 
-/// The shadowed transfer of every vertex; with `recorder`, each vertex's front hits are
-/// handed to it (interreflected mode).
+/// The shadowed transfer of the vertices `vertices` (every vertex, or a shard's or a
+/// checkpoint block's range; results are indexed from `vertices.start`); with `recorder`,
+/// each vertex's front hits are handed to it (interreflected mode).
 pub(crate) fn direct_pass(
     estimator: &Estimator,
     tracer: Option<&dyn Tracer>,
     recorder: Option<&crate::interreflection::HitRecorder<'_>>,
+    vertices: std::ops::Range<usize>,
     progress: &dyn Progress,
 ) -> DirectPass {
     let n = estimator.basis.coeff_count();
-    let vertex_count = estimator.normals.len();
+    let vertex_count = vertices.len();
     let rays_per_vertex = if tracer.is_some() {
         u64::from(estimator.options.samples)
     } else {
@@ -325,7 +327,7 @@ pub(crate) fn direct_pass(
         .for_each_init(
             || Scratch::new(n),
             |scratch, (job, (out, vis))| {
-                let first = job * VERTICES_PER_JOB;
+                let first = vertices.start + job * VERTICES_PER_JOB;
                 let mut hits = recorder.map(|r| r.job());
                 for (k, (out, vis)) in out.chunks_mut(n).zip(vis.iter_mut()).enumerate() {
                     *vis =
@@ -473,11 +475,16 @@ impl Estimator {
     /// The estimator's normalisation: a sample of weight w stands for (w · norm) of the
     /// cosine-weighted hemisphere, whose total is 1.
     pub(crate) fn norm(&self) -> f64 {
-        match self.options.sampling {
+        Estimator::norm_of(&self.options)
+    }
+
+    /// [`Estimator::norm`] from the options alone (the merge of shard parts has no scene).
+    pub(crate) fn norm_of(options: &BakeOptions) -> f64 {
+        match options.sampling {
             // Cosine-weighted samples: each is 1/N of the cosine-weighted hemisphere.
-            Sampling::OwenSobol => 1.0 / f64::from(self.options.samples),
+            Sampling::OwenSobol => 1.0 / f64::from(options.samples),
             // Uniform over the hemisphere, weight cos θ: (2π/N)·cos θ/π each.
-            Sampling::ThesisRandom => 2.0 / f64::from(self.options.samples),
+            Sampling::ThesisRandom => 2.0 / f64::from(options.samples),
         }
     }
 

@@ -1,0 +1,183 @@
+//! `--checkpoint DIR`: a bake in blocks of consecutive vertices, each written into DIR (through
+//! [`crate::atomic::write`]) as soon as it is done, so that a bake that is killed continues
+//! where it stopped when it is started again with the same command.
+//!
+//! A block is a shard part ([`crate::shard`]) of the range being baked: the whole scene, or
+//! the shard of `--shard`. Finishing joins the blocks as the merge joins parts, so the file is
+//! byte-identical to an uninterrupted bake. A block whose header is not this bake's (another
+//! scene, other options, seed or backend) or whose vertices are not this bake's block (another
+//! `--shard` or `--checkpoint-vertices`) is refused, never overwritten.
+
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use crate::error::{Error, Result};
+use crate::progress::Progress;
+use crate::scene::Scene;
+use crate::shard::{Part, PartId, ShardId, bake_header, bake_part, header_difference};
+use crate::trace::{Backend, Tracer};
+use crate::transfer::{BakeOptions, VERTICES_PER_JOB};
+
+/// Rays per block by default: about a second and a half on this project's 2-core machine, a
+/// fraction of that on a cluster node, and few enough files for a large bake.
+pub const BLOCK_RAYS: u64 = 1 << 26;
+
+/// Vertices per block for `options` unless `--checkpoint-vertices` says otherwise: about
+/// [`BLOCK_RAYS`] rays, whole parallel jobs, at least 64 vertices.
+pub fn default_block_vertices(options: &BakeOptions) -> usize {
+    let vertices = (BLOCK_RAYS / u64::from(options.samples.max(1))).max(64) as usize;
+    vertices.next_multiple_of(VERTICES_PER_JOB)
+}
+
+/// What a checkpointed bake produced.
+pub struct Checkpointed {
+    /// Every vertex of the range baked.
+    pub part: Part,
+    pub blocks: usize,
+    /// Blocks found in the folder rather than baked.
+    pub reused: usize,
+    /// Rays cast by this run.
+    pub rays: u64,
+}
+
+/// `DIR/block-NNNNNN.prt`.
+fn block_path(dir: &Path, index: usize) -> PathBuf {
+    dir.join(format!("block-{index:06}.prt"))
+}
+
+/// Bakes `vertices` (shard `shard`'s, or every vertex as shard 0 of 1) in blocks of
+/// `block_vertices`, reusing the blocks already in `dir`.
+#[allow(clippy::too_many_arguments)]
+pub fn bake(
+    scene: &Scene,
+    tracer: Option<&dyn Tracer>,
+    options: &BakeOptions,
+    shard: ShardId,
+    vertices: Range<usize>,
+    dir: &Path,
+    block_vertices: usize,
+    progress: &dyn Progress,
+) -> Result<Checkpointed> {
+    if block_vertices == 0 {
+        return Err(Error::InvalidOption(
+            "--checkpoint-vertices must be at least 1".into(),
+        ));
+    }
+    std::fs::create_dir_all(dir).map_err(|err| Error::io(dir, err))?;
+    let backend = match (options.mode.casts_rays(), tracer) {
+        (true, Some(tracer)) => tracer.backend(),
+        _ => Backend::None,
+    };
+    let header = bake_header(scene, backend, options);
+    let mut blocks: Vec<Range<usize>> = vertices
+        .clone()
+        .step_by(block_vertices)
+        .map(|start| start..(start + block_vertices).min(vertices.end))
+        .collect();
+    if blocks.is_empty() {
+        // A shard of no vertices (more shards than vertices) is one empty block.
+        blocks.push(vertices.clone());
+    }
+    let expected_id = |block: &Range<usize>| PartId {
+        shard,
+        first_vertex: block.start as u64,
+        vertices: block.len() as u32,
+    };
+
+    let mut done: Vec<Option<Part>> = vec![None; blocks.len()];
+    for entry in std::fs::read_dir(dir).map_err(|err| Error::io(dir, err))? {
+        let path = entry.map_err(|err| Error::io(dir, err))?.path();
+        let name = path.file_name().unwrap_or_default().to_string_lossy();
+        // Hidden names are the atomic writer's temporary files of a killed run.
+        let Some(index) = name
+            .strip_prefix("block-")
+            .and_then(|rest| rest.strip_suffix(".prt"))
+        else {
+            continue;
+        };
+        let part = Part::read(&path)?;
+        if let Some(difference) = header_difference(&header, &part.header) {
+            return Err(Error::Shards(format!(
+                "{}: a checkpoint of another bake: {difference}; use another --checkpoint folder",
+                path.display()
+            )));
+        }
+        let index: Option<usize> = index.parse().ok();
+        match index.and_then(|i| blocks.get(i).map(|b| (i, b))) {
+            Some((i, block)) if part.id == expected_id(block) => done[i] = Some(part),
+            _ => {
+                return Err(Error::Shards(format!(
+                    "{}: holds {}, which is not a block of this bake ({}, vertices {}..{}, \
+                     {block_vertices} per block): use another --checkpoint folder",
+                    path.display(),
+                    part.id,
+                    shard,
+                    vertices.start,
+                    vertices.end
+                )));
+            }
+        }
+    }
+
+    let reused = done.iter().flatten().count();
+    let remaining: usize = blocks
+        .iter()
+        .zip(&done)
+        .filter(|(_, d)| d.is_none())
+        .map(|(b, _)| b.len())
+        .sum();
+    let rays_per_vertex = if backend == Backend::None {
+        0
+    } else {
+        u64::from(options.samples)
+    };
+    progress.begin("direct", remaining as u64, rays_per_vertex);
+    let quiet = OnePass(progress);
+    let (mut rays, mut row_bytes) = (0, 0);
+    for (i, block) in blocks.iter().enumerate() {
+        if done[i].is_none() {
+            let (part, block_rays) =
+                bake_part(scene, tracer, options, shard, block.clone(), &quiet)?;
+            part.write(&block_path(dir, i))?;
+            rays += block_rays;
+            done[i] = Some(part);
+        }
+        row_bytes += done[i]
+            .as_ref()
+            .and_then(|p| p.rows.as_ref())
+            .map_or(0, |r| r.bytes());
+        if row_bytes > options.hit_cache_limit {
+            return Err(Error::InvalidOption(format!(
+                "the bounce rows of blocks 0..={i} exceed --hit-cache-mb {}; the blocks are kept \
+                 in {}: run again with a larger --hit-cache-mb to continue, or bake in shards",
+                options.hit_cache_limit >> 20,
+                dir.display()
+            )));
+        }
+    }
+    progress.finish();
+    let id = PartId {
+        shard,
+        first_vertex: vertices.start as u64,
+        vertices: vertices.len() as u32,
+    };
+    let parts = done
+        .into_iter()
+        .map(|d| d.expect("every block done"))
+        .collect();
+    Ok(Checkpointed {
+        part: Part::join(parts, id),
+        blocks: blocks.len(),
+        reused,
+        rays,
+    })
+}
+
+/// Forwards a block's progress to one pass over every block.
+struct OnePass<'a>(&'a dyn Progress);
+
+impl Progress for OnePass<'_> {
+    fn advance(&self, vertices: u64) {
+        self.0.advance(vertices);
+    }
+}

@@ -1,0 +1,138 @@
+//! `prt-bake merge`: shard parts back into the file a single machine would have baked, byte
+//! for byte. The parts must come from one bake (same header: scene fingerprint, options,
+//! seed, backend) and hold every shard of it exactly once; anything else is refused before
+//! an output is written.
+//!
+//! In interreflected mode the parts' bounce rows are most of what travels (kilobytes per
+//! vertex), so the merge never holds them all: it checks every part, keeps the direct
+//! transfer and aux arrays, and re-reads one part's rows at a time in each bounce. Its
+//! memory is the transfer arrays (previous bounce, next bounce, total) plus one part.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use crate::CoefficientFile;
+use crate::error::{Error, Result};
+use crate::interreflection;
+use crate::progress::Progress;
+use crate::sh;
+use crate::shard::{Part, PartId, header_difference, options_of, shard_range};
+use crate::transfer::{Estimator, Mode};
+
+/// Reads, checks and merges the parts at `paths` (in any order).
+pub fn merge(paths: &[PathBuf], progress: &dyn Progress) -> Result<CoefficientFile> {
+    let first_path = paths
+        .first()
+        .ok_or_else(|| Error::InvalidOption("merge needs at least one part".into()))?;
+    let mut parts = Vec::with_capacity(paths.len());
+    for path in paths {
+        let mut part = Part::read(path)?;
+        part.rows = None; // read again, one part at a time, by each bounce
+        parts.push((path.as_path(), part));
+    }
+    let (header, first_shard) = (parts[0].1.header.clone(), parts[0].1.id.shard);
+    let count = first_shard.count;
+    let mut by_index: BTreeMap<u32, (&Path, Part)> = BTreeMap::new();
+    for (path, part) in parts {
+        if let Some(difference) = header_difference(&header, &part.header) {
+            return Err(refuse(format!(
+                "{}: a part of another bake than {}: {difference}",
+                path.display(),
+                first_path.display()
+            )));
+        }
+        if part.id.shard.count != count {
+            return Err(refuse(format!(
+                "{}: {} of a bake split {} ways, but {} is of one split {count} ways",
+                path.display(),
+                part.id.shard,
+                part.id.shard.count,
+                first_path.display()
+            )));
+        }
+        let expected = shard_range(header.vertex_count as usize, part.id.shard);
+        if part.range() != expected {
+            return Err(refuse(format!(
+                "{}: holds vertices {}..{}, but {} is vertices {}..{} (a checkpoint block, not a part)",
+                path.display(),
+                part.range().start,
+                part.range().end,
+                part.id.shard,
+                expected.start,
+                expected.end
+            )));
+        }
+        if let Some((other, _)) = by_index.get(&part.id.shard.index) {
+            return Err(refuse(format!(
+                "{} and {}: both are {}",
+                other.display(),
+                path.display(),
+                part.id.shard
+            )));
+        }
+        by_index.insert(part.id.shard.index, (path, part));
+    }
+    let missing: Vec<String> = (0..count)
+        .filter(|k| !by_index.contains_key(k))
+        .map(|k| k.to_string())
+        .collect();
+    if !missing.is_empty() {
+        return Err(refuse(format!(
+            "shard{} {} of {count} missing: the parts given hold shards {}",
+            if missing.len() > 1 { "s" } else { "" },
+            missing.join(", "),
+            by_index
+                .keys()
+                .map(|k| k.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )));
+    }
+    let id = PartId {
+        shard: first_shard,
+        first_vertex: 0,
+        vertices: header.vertex_count as u32,
+    };
+    let order: Vec<(&Path, PartId)> = by_index.values().map(|(p, part)| (*p, part.id)).collect();
+    let parts = by_index.into_values().map(|(_, part)| part).collect();
+    let mut whole = Part::join(parts, id);
+    if header.mode != Mode::Interreflected {
+        return Ok(whole.finish(progress));
+    }
+    // The bounces, as interreflection::add_bounces gathers them, one part's rows at a time.
+    let options = options_of(&header);
+    let n = sh::coeff_count(options.order);
+    let channels = header.channels as usize;
+    let norm = Estimator::norm_of(&options) as f32;
+    let pass = |previous: &[f32], previous_channels: usize, next: &mut [f32]| {
+        for &(path, id) in &order {
+            let part = Part::read(path)?;
+            if header_difference(&header, &part.header).is_some() || part.id != id {
+                return Err(refuse(format!(
+                    "{}: changed while it was being merged",
+                    path.display()
+                )));
+            }
+            let rows = part.rows.expect("an interreflected part has rows");
+            let out = &mut next[id.range().start * channels * n..id.range().end * channels * n];
+            interreflection::bounce_rows(
+                &rows,
+                norm,
+                n,
+                previous,
+                previous_channels,
+                channels,
+                out,
+                progress,
+            );
+        }
+        Ok(())
+    };
+    let t0 = std::mem::take(&mut whole.coefficients);
+    let total = interreflection::sum_bounces(t0, channels, &options, 0, progress, pass)?;
+    Ok(whole.into_file(total))
+}
+
+fn refuse(message: String) -> Error {
+    Error::Shards(message)
+}

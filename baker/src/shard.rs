@@ -1,0 +1,675 @@
+//! Shards: one bake split into parts that bake on different machines (a Slurm job array, a
+//! Kubernetes Indexed Job) and are merged into the file one machine would have written
+//! ([`crate::merge`]). A checkpoint block ([`crate::checkpoint`]) is the same kind of part.
+//!
+//! A part is a range of consecutive vertices. Every vertex casts `--samples` rays in every mode
+//! (the interreflected mode's bounce samples are among them), so ranges of equal length are
+//! balanced by expected rays: shard K of N is vertices ⌊K·V/N⌋..⌊(K+1)·V/N⌋.
+//!
+//! A part file is a `.prt` whose header is the whole bake's (every option, the seed, the scene
+//! fingerprint, the backend, the final channel count), with its identity in bytes 88..108 and
+//! a payload of its own: its vertices' coefficients and aux arrays, and in interreflected mode
+//! its direct (shadowed) transfer and bounce rows instead of the final transfer, because a
+//! bounce gathers from every vertex of the scene. `docs/coefficient-format.md` specifies it.
+
+use std::fmt;
+use std::ops::Range;
+use std::path::Path;
+
+use glam::Vec3;
+use serde::Serialize;
+
+use crate::coefficient_file::{self, CoefficientFile, HEADER_SIZE, Header};
+use crate::error::{Error, Result};
+use crate::interreflection::{self, HitRecorder, RowSource, Rows};
+use crate::progress::Progress;
+use crate::scene::Scene;
+use crate::sh;
+use crate::trace::{Backend, Tracer};
+use crate::transfer::{BakeOptions, Estimator, Mode, Transfer, direct_pass};
+
+/// Which of how many shards: `index` in 0..`count`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct ShardId {
+    pub index: u32,
+    pub count: u32,
+}
+
+impl fmt::Display for ShardId {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "shard {} of {}", self.index, self.count)
+    }
+}
+
+/// The environment variable that gives the shard count to `--shard auto` in a Kubernetes
+/// Indexed Job (which sets only the index, `JOB_COMPLETION_INDEX`).
+pub const SHARD_COUNT_VARIABLE: &str = "PRT_SHARD_COUNT";
+
+impl ShardId {
+    /// Parses `--shard`: `K/N`, or `auto` / `auto/N`, which read the index (and the count)
+    /// from the environment through `env`:
+    /// * a Slurm array task: `SLURM_ARRAY_TASK_ID` − `SLURM_ARRAY_TASK_MIN` (0 if unset) and
+    ///   `SLURM_ARRAY_TASK_COUNT` (`--array=0-(N-1)`);
+    /// * a Kubernetes Indexed Job: `JOB_COMPLETION_INDEX`, the count from `auto/N` or
+    ///   [`SHARD_COUNT_VARIABLE`].
+    pub fn parse(spec: &str, env: &dyn Fn(&str) -> Option<String>) -> Result<ShardId> {
+        let bad = |why: String| Error::InvalidOption(format!("--shard {spec}: {why}"));
+        let number = |text: &str, what: &str| {
+            text.trim()
+                .parse::<u32>()
+                .map_err(|_| bad(format!("{what} {text:?} is not a whole number")))
+        };
+        let (index, count) = match spec.split_once('/') {
+            _ if spec == "auto" => auto(None, env).map_err(bad)?,
+            Some(("auto", count)) => auto(Some(number(count, "the count")?), env).map_err(bad)?,
+            Some((index, count)) => (number(index, "the index")?, number(count, "the count")?),
+            None => return Err(bad("expected K/N, auto or auto/N".into())),
+        };
+        if count == 0 {
+            return Err(bad("the shard count must be at least 1".into()));
+        }
+        if index >= count {
+            return Err(bad(format!(
+                "shard index {index} is not below the count {count}"
+            )));
+        }
+        Ok(ShardId { index, count })
+    }
+}
+
+/// `--shard auto`: (index, count) from a Slurm array task or a Kubernetes Indexed Job.
+fn auto(
+    count: Option<u32>,
+    env: &dyn Fn(&str) -> Option<String>,
+) -> std::result::Result<(u32, u32), String> {
+    let number = |name: &str| -> std::result::Result<Option<u32>, String> {
+        env(name)
+            .map(|value| {
+                value
+                    .trim()
+                    .parse::<u32>()
+                    .map_err(|_| format!("{name}={value:?} is not a whole number"))
+            })
+            .transpose()
+    };
+    if let Some(id) = number("SLURM_ARRAY_TASK_ID")? {
+        let slurm_count = number("SLURM_ARRAY_TASK_COUNT")?
+            .ok_or("SLURM_ARRAY_TASK_ID is set but SLURM_ARRAY_TASK_COUNT is not")?;
+        let min = number("SLURM_ARRAY_TASK_MIN")?.unwrap_or(0);
+        if let Some(count) = count.filter(|&c| c != slurm_count) {
+            return Err(format!(
+                "the count {count} differs from the Slurm array's SLURM_ARRAY_TASK_COUNT={slurm_count}"
+            ));
+        }
+        let index = id
+            .checked_sub(min)
+            .ok_or("SLURM_ARRAY_TASK_ID is below SLURM_ARRAY_TASK_MIN")?;
+        return Ok((index, slurm_count));
+    }
+    if let Some(index) = number("JOB_COMPLETION_INDEX")? {
+        let count = match count {
+            Some(count) => count,
+            None => number(SHARD_COUNT_VARIABLE)?.ok_or(format!(
+                "JOB_COMPLETION_INDEX is set, but not the count: use --shard auto/N or set {SHARD_COUNT_VARIABLE}"
+            ))?,
+        };
+        return Ok((index, count));
+    }
+    Err(
+        "neither a Slurm array task (SLURM_ARRAY_TASK_ID) nor a Kubernetes Indexed Job \
+         (JOB_COMPLETION_INDEX) is in the environment"
+            .into(),
+    )
+}
+
+/// The vertices of shard `shard` of a scene of `vertex_count` vertices: equal shares (±1),
+/// hence equal expected rays.
+pub fn shard_range(vertex_count: usize, shard: ShardId) -> Range<usize> {
+    let at = |k: u32| (vertex_count as u128 * u128::from(k) / u128::from(shard.count)) as usize;
+    at(shard.index)..at(shard.index + 1)
+}
+
+/// What header bytes 88..108 say: which shard a part belongs to and which vertices it holds
+/// (a shard's range, or a checkpoint block of it). All zero in a whole bake.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct PartId {
+    pub shard: ShardId,
+    /// First vertex held.
+    pub first_vertex: u64,
+    /// Vertices held.
+    pub vertices: u32,
+}
+
+impl fmt::Display for PartId {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let range = self.range();
+        write!(f, "{}, vertices {}..{}", self.shard, range.start, range.end)
+    }
+}
+
+/// Offset of the shard identity in the header.
+const ID_OFFSET: usize = 88;
+
+impl PartId {
+    pub fn range(&self) -> Range<usize> {
+        let first = self.first_vertex as usize;
+        first..first + self.vertices as usize
+    }
+
+    /// The 20 header bytes: u32 shard count (never 0), u32 shard index, u64 first vertex,
+    /// u32 vertex count.
+    fn to_bytes(self) -> [u8; 20] {
+        let mut bytes = [0; 20];
+        bytes[0..4].copy_from_slice(&self.shard.count.to_le_bytes());
+        bytes[4..8].copy_from_slice(&self.shard.index.to_le_bytes());
+        bytes[8..16].copy_from_slice(&self.first_vertex.to_le_bytes());
+        bytes[16..20].copy_from_slice(&self.vertices.to_le_bytes());
+        bytes
+    }
+
+    /// The identity in a file's header (at least 128 bytes): `None` for a whole bake.
+    pub fn from_header_bytes(bytes: &[u8]) -> std::result::Result<Option<PartId>, String> {
+        let id = &bytes[ID_OFFSET..ID_OFFSET + 20];
+        if id.iter().all(|&b| b == 0) {
+            return Ok(None);
+        }
+        let u32_at = |o: usize| u32::from_le_bytes(id[o..o + 4].try_into().expect("4 bytes"));
+        let (count, index) = (u32_at(0), u32_at(4));
+        if index >= count {
+            return Err(format!(
+                "shard identity {index} of {count}: the index must be below the count"
+            ));
+        }
+        Ok(Some(PartId {
+            shard: ShardId { index, count },
+            first_vertex: u64::from_le_bytes(id[8..16].try_into().expect("8 bytes")),
+            vertices: u32_at(16),
+        }))
+    }
+}
+
+/// A shard part (or checkpoint block) in memory.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Part {
+    /// The whole bake's header: `vertex_count` is the scene's, `channels` the final file's.
+    pub header: Header,
+    pub id: PartId,
+    /// Per vertex of the part, `width` floats ([`Part::coefficient_width`]): the final
+    /// transfer, or in interreflected mode the direct (shadowed, one-channel) transfer.
+    pub coefficients: Vec<f32>,
+    pub ao: Option<Vec<f32>>,
+    pub bent_normal: Option<Vec<Vec3>>,
+    /// Interreflected mode: the part's bounce rows.
+    pub rows: Option<Rows>,
+}
+
+impl Part {
+    /// Floats per vertex in a part's coefficient array.
+    pub fn coefficient_width(header: &Header) -> usize {
+        match header.mode {
+            Mode::Interreflected => sh::coeff_count(header.order as usize),
+            _ => header.coefficients_per_vertex(),
+        }
+    }
+
+    pub fn range(&self) -> Range<usize> {
+        self.id.range()
+    }
+
+    /// The part file's bytes (checksummed).
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut payload = Vec::new();
+        let floats = self.coefficients.iter().copied();
+        let ao = self.ao.iter().flatten().copied();
+        let bent = self.bent_normal.iter().flatten().flat_map(|n| n.to_array());
+        payload.extend(floats.chain(ao).chain(bent).flat_map(f32::to_le_bytes));
+        if let Some(rows) = &self.rows {
+            for pair in rows.starts.windows(2) {
+                payload.extend(((pair[1] - pair[0]) as u32).to_le_bytes());
+            }
+            for (vertex, weight) in rows.vertices.iter().zip(&rows.weights) {
+                payload.extend(vertex.to_le_bytes());
+                payload.extend(weight.iter().flat_map(|w| w.to_le_bytes()));
+            }
+        }
+        coefficient_file::bytes_with_payload(&self.header, &self.id.to_bytes(), &payload)
+    }
+
+    /// Parses and validates a part file's bytes; the error is a sentence for the user.
+    pub fn from_bytes(bytes: &[u8]) -> std::result::Result<Part, String> {
+        let (header, payload_bytes) = coefficient_file::parse_header(bytes)?;
+        let id = PartId::from_header_bytes(bytes)?
+            .ok_or("a whole bake, not a shard part (nothing to merge)")?;
+        if id.first_vertex + u64::from(id.vertices) > header.vertex_count {
+            return Err(format!(
+                "{id}: beyond the scene's {} vertices",
+                header.vertex_count
+            ));
+        }
+        let count = id.vertices as usize;
+        let width = Part::coefficient_width(&header);
+        let aux_floats = usize::from(header.aux.ao) + 3 * usize::from(header.aux.bent_normal);
+        let interreflected = header.mode == Mode::Interreflected;
+        let fixed =
+            (count * (width + aux_floats) * 4 + if interreflected { count * 4 } else { 0 }) as u64;
+        if payload_bytes < fixed {
+            return Err(format!(
+                "{id}: the payload is {payload_bytes} bytes, its arrays need at least {fixed}"
+            ));
+        }
+        let payload = &bytes[HEADER_SIZE..];
+        let mut words = payload.chunks_exact(4);
+        let mut f32s = |n: usize| -> Vec<f32> {
+            words
+                .by_ref()
+                .take(n)
+                .map(|w| f32::from_le_bytes(w.try_into().expect("4 bytes")))
+                .collect()
+        };
+        let coefficients = f32s(count * width);
+        let ao = header.aux.ao.then(|| f32s(count));
+        let bent_normal = header.aux.bent_normal.then(|| {
+            f32s(3 * count)
+                .chunks_exact(3)
+                .map(Vec3::from_slice)
+                .collect::<Vec<_>>()
+        });
+        let rows_at = (count * (width + aux_floats) * 4) as u64;
+        let rows = if interreflected {
+            Some(parse_rows(&payload[rows_at as usize..], &id, &header)?)
+        } else {
+            if payload_bytes != fixed {
+                return Err(format!(
+                    "{id}: {} unexpected bytes after the arrays",
+                    payload_bytes - fixed
+                ));
+            }
+            None
+        };
+        let check = Header {
+            channels: 1,
+            ..header.clone()
+        };
+        let check = if interreflected { &check } else { &header };
+        coefficient_file::check_floats(check, &coefficients, ao.as_deref(), bent_normal.as_deref())
+            .map_err(|message| {
+                format!("{id}: {message} (counting from the part's first vertex)")
+            })?;
+        Ok(Part {
+            header,
+            id,
+            coefficients,
+            ao,
+            bent_normal,
+            rows,
+        })
+    }
+
+    pub fn read(path: &Path) -> Result<Part> {
+        let bytes = std::fs::read(path).map_err(|err| Error::io(path, err))?;
+        Part::from_bytes(&bytes).map_err(|message| Error::coefficient_file(path, message))
+    }
+
+    /// Writes the part atomically.
+    pub fn write(&self, path: &Path) -> Result<()> {
+        crate::atomic::write(path, &self.to_bytes())
+    }
+
+    /// Joins parts of one bake that hold consecutive ranges, in order, into one part with
+    /// identity `id` (the caller has checked that they tile its range).
+    pub fn join(parts: Vec<Part>, id: PartId) -> Part {
+        let mut parts = parts.into_iter();
+        let mut joined = parts.next().expect("at least one part");
+        joined.id = id;
+        for part in parts {
+            joined.coefficients.extend(part.coefficients);
+            if let (Some(ao), Some(more)) = (&mut joined.ao, part.ao) {
+                ao.extend(more);
+            }
+            if let (Some(bent), Some(more)) = (&mut joined.bent_normal, part.bent_normal) {
+                bent.extend(more);
+            }
+            if let (Some(rows), Some(more)) = (&mut joined.rows, part.rows) {
+                rows.append(&more);
+            }
+        }
+        joined
+    }
+
+    /// The whole bake from a part that holds every vertex: in interreflected mode the
+    /// bounces are gathered here (no rays), exactly as a single-machine bake gathers them.
+    pub fn finish(mut self, progress: &dyn Progress) -> CoefficientFile {
+        let coefficients = match self.rows.take() {
+            Some(rows) => interreflection::add_bounces(
+                std::mem::take(&mut self.coefficients),
+                self.header.channels as usize,
+                &options_of(&self.header),
+                &RowSource::Flat(&rows),
+                progress,
+            ),
+            None => std::mem::take(&mut self.coefficients),
+        };
+        self.into_file(coefficients)
+    }
+
+    /// The whole file of a part that holds every vertex, with the final `coefficients`.
+    pub(crate) fn into_file(self, coefficients: Vec<f32>) -> CoefficientFile {
+        assert_eq!(
+            self.id.range(),
+            0..self.header.vertex_count as usize,
+            "a whole file needs every vertex"
+        );
+        CoefficientFile {
+            header: Header {
+                checksum: 0,
+                ..self.header
+            },
+            coefficients,
+            ao: self.ao,
+            bent_normal: self.bent_normal,
+        }
+    }
+}
+
+/// Bounce rows of `id.vertices` vertices: u32 lengths, then 16-byte entries.
+fn parse_rows(bytes: &[u8], id: &PartId, header: &Header) -> std::result::Result<Rows, String> {
+    let count = id.vertices as usize;
+    let u32_at = |o: usize| u32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes"));
+    let f32_at = |o: usize| f32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes"));
+    let mut starts = Vec::with_capacity(count + 1);
+    starts.push(0u64);
+    for k in 0..count {
+        starts.push(starts[k] + u64::from(u32_at(4 * k)));
+    }
+    let entries = starts[count];
+    let expected = count as u64 * 4 + entries * interreflection::BYTES_PER_ENTRY;
+    if bytes.len() as u64 != expected {
+        return Err(format!(
+            "{id}: the bounce rows announce {entries} entries ({expected} bytes), the payload holds {} bytes for them",
+            bytes.len()
+        ));
+    }
+    let mut rows = Rows {
+        starts,
+        vertices: Vec::with_capacity(entries as usize),
+        weights: Vec::with_capacity(entries as usize),
+    };
+    for e in 0..entries as usize {
+        let at = count * 4 + e * interreflection::BYTES_PER_ENTRY as usize;
+        let vertex = u32_at(at);
+        let weight = [f32_at(at + 4), f32_at(at + 8), f32_at(at + 12)];
+        if u64::from(vertex) >= header.vertex_count || !weight.iter().all(|w| w.is_finite()) {
+            return Err(format!(
+                "{id}: bounce-row entry {e} (vertex {vertex}, weight {weight:?}) is invalid"
+            ));
+        }
+        rows.vertices.push(vertex);
+        rows.weights.push(weight);
+    }
+    Ok(rows)
+}
+
+/// The options a header records (what the merge needs to gather the bounces).
+pub(crate) fn options_of(header: &Header) -> BakeOptions {
+    BakeOptions {
+        order: header.order as usize,
+        samples: header.samples_per_vertex,
+        mode: header.mode,
+        seed: header.seed,
+        sampling: header.sampling,
+        bounces: header.bounces,
+        bounce_samples: (header.mode == Mode::Interreflected).then_some(header.bounce_samples),
+        aux: header.aux,
+        ..BakeOptions::default()
+    }
+}
+
+/// The header a bake of `scene` with `options` writes (the same code as a whole bake's).
+pub fn bake_header(scene: &Scene, backend: Backend, options: &BakeOptions) -> Header {
+    let channels = match options.mode {
+        Mode::Interreflected if !interreflection::albedo_is_grey(scene) => 3,
+        _ => 1,
+    };
+    let shape = Transfer {
+        options: options.clone(),
+        channels,
+        vertex_count: scene.vertex_count(),
+        coefficients: Vec::new(),
+        visibility: Vec::new(),
+        backend,
+        rays_cast: 0,
+        seconds: 0.0,
+        hit_cache_bytes: None,
+    };
+    CoefficientFile::from_bake(scene, &shape).header
+}
+
+/// How two headers of parts differ (fields by name), or `None` if they belong to one bake.
+pub fn header_difference(a: &Header, b: &Header) -> Option<String> {
+    let fields = |h: &Header| match serde_json::to_value(Header {
+        checksum: 0,
+        ..h.clone()
+    }) {
+        Ok(serde_json::Value::Object(map)) => map,
+        _ => unreachable!("a header serialises to an object"),
+    };
+    let (a, b) = (fields(a), fields(b));
+    let differences: Vec<String> = a
+        .iter()
+        .filter(|(key, value)| b.get(*key) != Some(value))
+        .map(|(key, value)| {
+            let other = b.get(key).map_or("none".into(), |v| v.to_string());
+            let name = match key.as_str() {
+                "scene_fingerprint" => "scene fingerprint (another scene)",
+                key => key,
+            };
+            format!("{name} {other} instead of {value}")
+        })
+        .collect();
+    (!differences.is_empty()).then(|| differences.join(", "))
+}
+
+/// Bakes the vertices `vertices` into a part of `shard`. In interreflected mode the part
+/// carries its bounce rows, so they must fit in `options.hit_cache_limit`; otherwise the
+/// bake stops with an error (a part cannot fall back to re-tracing: the merge casts no rays).
+/// Also returns the rays cast.
+pub fn bake_part(
+    scene: &Scene,
+    tracer: Option<&dyn Tracer>,
+    options: &BakeOptions,
+    shard: ShardId,
+    vertices: Range<usize>,
+    progress: &dyn Progress,
+) -> Result<(Part, u64)> {
+    let tracer = match (options.mode.casts_rays(), tracer) {
+        (false, _) => None,
+        (true, Some(t)) => Some(t),
+        (true, None) => {
+            return Err(Error::InvalidOption(format!(
+                "{} transfer needs a ray-tracing backend",
+                options.mode.name()
+            )));
+        }
+    };
+    let estimator = Estimator::new(scene, options)?;
+    let header = bake_header(
+        scene,
+        tracer.map_or(Backend::None, |t| t.backend()),
+        options,
+    );
+    let recorder = (options.mode == Mode::Interreflected)
+        .then(|| HitRecorder::new(scene, vertices.len(), options.hit_cache_limit));
+    let direct = direct_pass(
+        &estimator,
+        tracer,
+        recorder.as_ref(),
+        vertices.clone(),
+        progress,
+    );
+    let rows = match recorder {
+        Some(recorder) => match recorder.into_cache() {
+            Some((jobs, _)) => Some(Rows::from_jobs(jobs)),
+            None => {
+                return Err(Error::InvalidOption(format!(
+                    "the bounce rows of vertices {}..{} exceed --hit-cache-mb {}; a part carries \
+                     its rows (the merge casts no rays): use more shards or a larger --hit-cache-mb",
+                    vertices.start,
+                    vertices.end,
+                    options.hit_cache_limit >> 20
+                )));
+            }
+        },
+        None => None,
+    };
+    let rays = tracer.map_or(0, |_| u64::from(options.samples) * vertices.len() as u64);
+    let part = Part {
+        id: PartId {
+            shard,
+            first_vertex: vertices.start as u64,
+            vertices: vertices.len() as u32,
+        },
+        coefficients: direct.coefficients,
+        ao: header
+            .aux
+            .ao
+            .then(|| direct.visibility.iter().map(|v| v.accessibility).collect()),
+        bent_normal: header
+            .aux
+            .bent_normal
+            .then(|| direct.visibility.iter().map(|v| v.bent_normal).collect()),
+        rows,
+        header,
+    };
+    Ok((part, rays))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn env<'a>(vars: &'a [(&'a str, &'a str)]) -> impl Fn(&str) -> Option<String> + 'a {
+        move |name| {
+            vars.iter()
+                .find(|(n, _)| *n == name)
+                .map(|(_, v)| v.to_string())
+        }
+    }
+
+    /// An interreflected part of the Cornell room's vertices 100..140 (shard 1 of 3 in name).
+    fn cornell_part() -> Part {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../scenes/cornell/cornell.scene"
+        );
+        let scene = Scene::load(Path::new(path)).unwrap();
+        let tracer = crate::trace::build(Backend::DEFAULT, &scene, Default::default()).unwrap();
+        let options = BakeOptions {
+            samples: 32,
+            mode: Mode::Interreflected,
+            bounces: 1,
+            aux: crate::transfer::Aux {
+                ao: true,
+                bent_normal: true,
+            },
+            ..BakeOptions::default()
+        };
+        let shard = ShardId { index: 1, count: 3 };
+        let silent = crate::progress::Silent;
+        bake_part(&scene, Some(&*tracer), &options, shard, 100..140, &silent)
+            .unwrap()
+            .0
+    }
+
+    #[test]
+    fn parts_round_trip_and_bad_rows_or_sizes_are_refused() {
+        let part = cornell_part();
+        let rows = part.rows.as_ref().unwrap();
+        assert_eq!(rows.vertex_count(), 40);
+        assert!(!rows.vertices.is_empty());
+        let bytes = part.to_bytes();
+        let mut read = Part::from_bytes(&bytes).unwrap();
+        assert_ne!(read.header.checksum, 0);
+        read.header.checksum = 0; // the bake's header has none until written
+        assert!(
+            read == part,
+            "a part read back differs from the one written"
+        );
+        // A whole-file reader refuses it, naming what it is.
+        let err = CoefficientFile::from_bytes(&bytes).unwrap_err();
+        assert!(
+            err.contains("a shard part (shard 1 of 3, vertices 100..140)"),
+            "{err}"
+        );
+
+        // A row entry naming a vertex beyond the scene (checksum recomputed).
+        let mut bad = part.clone();
+        bad.rows.as_mut().unwrap().vertices[0] = part.header.vertex_count as u32;
+        let err = Part::from_bytes(&bad.to_bytes()).unwrap_err();
+        assert!(err.contains("bounce-row entry 0"), "{err}");
+        // Row lengths that do not add up to the entries.
+        let mut bad = part.clone();
+        bad.rows.as_mut().unwrap().starts[40] -= 1;
+        let err = Part::from_bytes(&bad.to_bytes()).unwrap_err();
+        assert!(err.contains("the bounce rows announce"), "{err}");
+        // A range beyond the scene.
+        let mut bad = part.clone();
+        bad.id.first_vertex = part.header.vertex_count - 10;
+        let err = Part::from_bytes(&bad.to_bytes()).unwrap_err();
+        assert!(err.contains("beyond the scene"), "{err}");
+        // A non-finite coefficient.
+        let mut bad = part;
+        bad.coefficients[17] = f32::NAN;
+        let err = Part::from_bytes(&bad.to_bytes()).unwrap_err();
+        assert!(
+            err.contains("coefficient 1 of vertex 1 is not finite"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn shard_ranges_tile_the_vertices_in_equal_shares() {
+        for (vertices, count) in [(0, 1), (7, 3), (10, 4), (13_500, 7), (5, 8)] {
+            let mut next = 0;
+            for index in 0..count {
+                let range = shard_range(vertices, ShardId { index, count });
+                assert_eq!(range.start, next);
+                assert!(range.len().abs_diff(vertices / count as usize) <= 1);
+                next = range.end;
+            }
+            assert_eq!(next, vertices);
+        }
+    }
+
+    #[test]
+    fn shard_specs_parse_from_the_command_line_slurm_and_kubernetes() {
+        let none = env(&[]);
+        assert_eq!(
+            ShardId::parse("2/5", &none).unwrap(),
+            ShardId { index: 2, count: 5 }
+        );
+        for bad in ["5/5", "1/0", "x/3", "3", "auto"] {
+            assert!(ShardId::parse(bad, &none).is_err(), "{bad}");
+        }
+        let slurm = env(&[
+            ("SLURM_ARRAY_TASK_ID", "13"),
+            ("SLURM_ARRAY_TASK_MIN", "10"),
+            ("SLURM_ARRAY_TASK_COUNT", "4"),
+        ]);
+        assert_eq!(
+            ShardId::parse("auto", &slurm).unwrap(),
+            ShardId { index: 3, count: 4 }
+        );
+        assert!(ShardId::parse("auto/5", &slurm).is_err());
+        let kubernetes = env(&[("JOB_COMPLETION_INDEX", "6")]);
+        assert_eq!(
+            ShardId::parse("auto/8", &kubernetes).unwrap(),
+            ShardId { index: 6, count: 8 }
+        );
+        assert!(ShardId::parse("auto", &kubernetes).is_err());
+        let counted = env(&[("JOB_COMPLETION_INDEX", "6"), (SHARD_COUNT_VARIABLE, "7")]);
+        assert_eq!(
+            ShardId::parse("auto", &counted).unwrap(),
+            ShardId { index: 6, count: 7 }
+        );
+    }
+}
