@@ -11,7 +11,8 @@ use crate::sh;
 
 /// Writes `positions` (V,3), `normals` (V,3), `albedo` (V,3, linear Kd × texture),
 /// `transfer` (V, channels, n²) and, where the file has them, `ao` (V,) and `bent_normal`
-/// (V,3), all float32 in the file's vertex order. The coefficient file must have been baked
+/// (V,3), and for adaptive bakes `rays` (V,; per-vertex rays cast, exact below 2^24) and
+/// `error_estimate` (V,), all float32 in the file's vertex order. The coefficient file must have been baked
 /// for this scene.
 pub fn export_npz(coefficients: &Path, scene: &Path, output: &Path) -> Result<()> {
     let file = CoefficientFile::read(coefficients)?;
@@ -68,6 +69,24 @@ pub fn export_npz(coefficients: &Path, scene: &Path, output: &Path) -> Result<()
             name: "bent_normal",
             shape: vec![v, 3],
             data: bent_normal,
+        });
+    }
+    let rays: Option<Vec<f32>> = file
+        .rays
+        .as_ref()
+        .map(|r| r.iter().map(|&r| r as f32).collect());
+    if let Some(rays) = &rays {
+        arrays.push(npz::Array {
+            name: "rays",
+            shape: vec![v],
+            data: rays,
+        });
+    }
+    if let Some(errors) = &file.error_estimate {
+        arrays.push(npz::Array {
+            name: "error_estimate",
+            shape: vec![v],
+            data: errors,
         });
     }
     npz::write(output, &arrays)

@@ -148,10 +148,13 @@ mod tests {
                 scene_fingerprint: 0,
                 aux: crate::transfer::Aux::default(),
                 checksum: 0,
+                adaptive: None,
             },
             coefficients,
             ao: None,
             bent_normal: None,
+            rays: None,
+            error_estimate: None,
         }
     }
 
