@@ -545,7 +545,10 @@ fn time_to_thesis_accuracy(scene: &Scene, tracer: &dyn Tracer, order: usize) {
         fewest *= 2;
     }
     let rows = [
-        ("fixed, thesis-random, 10,000 rays".to_string(), thesis_options),
+        (
+            "fixed, thesis-random, 10,000 rays".to_string(),
+            thesis_options,
+        ),
         (
             "fixed, owen-sobol, 10,000 rays".to_string(),
             BakeOptions {
@@ -575,8 +578,8 @@ fn time_to_thesis_accuracy(scene: &Scene, tracer: &dyn Tracer, order: usize) {
          at 10,000 rays against an owen-sobol reference at 65,536)"
     );
     println!(
-        "{:<52} {:>10} {:>9} {:>10} {:>10} {:>10}",
-        "", "rays/vtx", "seconds", "x faster", "RMS err", "p95 err"
+        "{:<52} {:>10} {:>9} {:>10} {:>10} {:>10} {:>10} {:>9}",
+        "", "rays/vtx", "seconds", "x faster", "RMS err", "p95 err", "max err", "> 1.5 E"
     );
     for (name, options) in rows {
         let (seconds, transfer) = if options == thesis.options {
@@ -586,11 +589,13 @@ fn time_to_thesis_accuracy(scene: &Scene, tracer: &dyn Tracer, order: usize) {
         };
         let e = errors(&transfer);
         println!(
-            "{name:<52} {:>10.0} {seconds:>9.3} {:>10.2} {:>10.2e} {:>10.2e}",
+            "{name:<52} {:>10.0} {seconds:>9.3} {:>10.2} {:>10.2e} {:>10.2e} {:>10.2e} {:>8.2}%",
             transfer.rays_cast as f64 / transfer.vertex_count as f64,
             thesis_seconds / seconds,
             rms(&e),
             p95(&e),
+            e.iter().copied().fold(0.0, f64::max),
+            100.0 * e.iter().filter(|&&e| e > 1.5 * target).count() as f64 / e.len() as f64,
         );
         if options.target_error.is_some() {
             let above = transfer

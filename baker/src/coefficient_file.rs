@@ -660,12 +660,15 @@ mod tests {
         assert_eq!((read.header.adaptive, read.rays), (None, None));
     }
 
+    /// A change to a file's bytes.
+    type Corruption = Box<dyn Fn(&mut Vec<u8>)>;
+
     #[test]
     fn inconsistent_adaptive_fields_are_refused() {
         let (good, _) = adaptive_file().to_bytes();
         let rays_at = HEADER_SIZE + 4 * 4;
         let errors_at = rays_at + 2 * 4;
-        let cases: [(&str, Box<dyn Fn(&mut Vec<u8>)>); 7] = [
+        let cases: [(&str, Corruption); 7] = [
             (
                 "without a target error",
                 Box::new(|b: &mut Vec<u8>| b[108..112].fill(0)),
