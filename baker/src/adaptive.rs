@@ -194,13 +194,13 @@ pub struct AdaptiveScratch {
 
 /// Estimates vertex `v`'s local-frame transfer into `local` (n² values): rays from `origin`
 /// along `frame` × the table's directions, round after round, until the estimated RMS error
-/// is at most the target or the last round is done.
+/// is at most the target or the last round is done. With no tracer nothing is blocked.
 pub fn vertex_transfer(
     tables: &Tables,
     n: usize,
     origin: Vec3,
     frame: &Mat3,
-    tracer: &dyn Tracer,
+    tracer: Option<&dyn Tracer>,
     s: &mut AdaptiveScratch,
     local: &mut [f64],
 ) -> VertexResult {
@@ -219,7 +219,10 @@ pub fn vertex_transfer(
             s.dirs.clear();
             s.dirs
                 .extend(tables.dirs[batch.clone()].iter().map(|d| *frame * *d));
-            tracer.occluded_from(origin, &s.dirs, &mut s.occluded[..len]);
+            match tracer {
+                Some(tracer) => tracer.occluded_from(origin, &s.dirs, &mut s.occluded[..len]),
+                None => s.occluded[..len].fill(false),
+            }
             s.batch.fill(0.0);
             let rows = tables.sh[batch.start * n..batch.end * n].chunks_exact(n);
             for (((row, &blocked), &r), dir) in rows

@@ -565,7 +565,7 @@ impl Estimator {
         out: &mut [f32],
         mut hits: Option<&mut crate::interreflection::JobRows<'_>>,
     ) -> Visibility {
-        if let (Some(tables), Some(tracer)) = (&self.adaptive, tracer) {
+        if let Some(tables) = &self.adaptive {
             return self.adaptive_vertex_transfer(v, tables, tracer, s, out);
         }
         let n = self.basis.coeff_count();
@@ -659,7 +659,7 @@ impl Estimator {
         &self,
         v: usize,
         tables: &crate::adaptive::Tables,
-        tracer: &dyn Tracer,
+        tracer: Option<&dyn Tracer>,
         s: &mut Scratch,
         out: &mut [f32],
     ) -> Visibility {
