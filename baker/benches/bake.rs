@@ -12,7 +12,9 @@
 //!
 //! Usage: `cargo bench -p prt-baker --bench bake [-- SCENE [SAMPLES]] [-- --presets] [-- --quick]`;
 //! `--presets` also times every obvhs build preset; `--quick` times only the bakes and the raw
-//! rates they are compared with (no shuffled, closest-hit or interreflection rows).
+//! rates they are compared with (no shuffled, closest-hit or interreflection rows);
+//! `--adaptive-only` runs only the last section, the time to the thesis's accuracy (adaptive
+//! against fixed sampling).
 
 use std::time::{Duration, Instant};
 
@@ -36,6 +38,7 @@ fn main() {
     let all_args: Vec<String> = std::env::args().skip(1).collect();
     let presets = all_args.iter().any(|a| a == "--presets");
     let quick = all_args.iter().any(|a| a == "--quick");
+    let adaptive_only = all_args.iter().any(|a| a == "--adaptive-only");
     let mut args = all_args.iter().filter(|a| !a.starts_with("--"));
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let scene_path = args
@@ -74,6 +77,10 @@ fn main() {
         embree.seam_origin_count(),
         scene.vertex_count()
     );
+    if adaptive_only {
+        time_to_thesis_accuracy(&scene, &embree, options.order);
+        return;
+    }
     let started = Instant::now();
     let obvhs = ObvhsTracer::new(&scene, ObvhsOptions::default());
     println!("obvhs BVH build:  {:.3} s", started.elapsed().as_secs_f64());
@@ -277,6 +284,8 @@ fn main() {
         "peak resident memory of this benchmark process: {:.0} MiB",
         peak_rss_mib()
     );
+
+    time_to_thesis_accuracy(&scene, &embree, options.order);
 
     if presets {
         println!();
@@ -525,5 +534,132 @@ fn shuffle(values: &mut [Vec3], seed: u64) {
     for i in (1..values.len()).rev() {
         let j = (rng.next_u32() as usize) % (i + 1);
         values.swap(i, j);
+    }
+}
+
+/// Issue 12 (`--target-error`): the time to reach the thesis's accuracy. The thesis cast
+/// 10,000 independent uniform rays per vertex (`--sampling thesis-random --samples 10000`);
+/// its RMS coefficient error E is measured against a 2^16-ray Owen–Sobol reference of another
+/// seed. Then, each timed as the bake above: the thesis's bake; fixed Owen–Sobol at 10,000
+/// rays and at the fewest rays (a power of two) whose RMS error is at most E; and the adaptive
+/// bake with `--target-error E` (capped at 2^16 rays per vertex).
+fn time_to_thesis_accuracy(scene: &Scene, tracer: &dyn Tracer, order: usize) {
+    use prt_baker::sampling::Sampling;
+    let base = BakeOptions {
+        order,
+        mode: Mode::Shadowed,
+        ..BakeOptions::default()
+    };
+    let bake = |options: &BakeOptions| {
+        prt_baker::bake(scene, Some(tracer), options, &Silent).expect("bake")
+    };
+    let timed = |options: &BakeOptions| {
+        let mut transfer = None;
+        let seconds = best_of(|| cpu_time(|| transfer = Some(bake(options))));
+        (seconds, transfer.expect("a bake"))
+    };
+    let reference = bake(&BakeOptions {
+        samples: 1 << 16,
+        seed: 12_345,
+        ..base.clone()
+    });
+    // Per-vertex RMS coefficient errors against the reference.
+    let errors = |t: &prt_baker::Transfer| -> Vec<f64> {
+        let n = prt_baker::sh::coeff_count(order);
+        t.coefficients
+            .chunks(n)
+            .zip(reference.coefficients.chunks(n))
+            .map(|(a, r)| {
+                let squares: f64 = a.iter().zip(r).map(|(a, r)| f64::from(a - r).powi(2)).sum();
+                (squares / n as f64).sqrt()
+            })
+            .collect()
+    };
+    let rms = |e: &[f64]| (e.iter().map(|e| e * e).sum::<f64>() / e.len() as f64).sqrt();
+    let p95 = |e: &[f64]| {
+        let mut sorted = e.to_vec();
+        sorted.sort_by(f64::total_cmp);
+        sorted[(0.95 * sorted.len() as f64).ceil() as usize - 1]
+    };
+
+    let thesis_options = BakeOptions {
+        samples: 10_000,
+        sampling: Sampling::ThesisRandom,
+        ..base.clone()
+    };
+    let (thesis_seconds, thesis) = timed(&thesis_options);
+    let target = rms(&errors(&thesis));
+    let mut fewest = 64;
+    while fewest < 10_000 {
+        let options = BakeOptions {
+            samples: fewest,
+            ..base.clone()
+        };
+        if rms(&errors(&bake(&options))) <= target {
+            break;
+        }
+        fewest *= 2;
+    }
+    let rows = [
+        (
+            "fixed, thesis-random, 10,000 rays".to_string(),
+            thesis_options,
+        ),
+        (
+            "fixed, owen-sobol, 10,000 rays".to_string(),
+            BakeOptions {
+                samples: 10_000,
+                ..base.clone()
+            },
+        ),
+        (
+            format!("fixed, owen-sobol, {fewest} rays (fewest reaching E)"),
+            BakeOptions {
+                samples: fewest,
+                ..base.clone()
+            },
+        ),
+        (
+            format!("adaptive, --target-error {target:.2e}"),
+            BakeOptions {
+                samples: 1 << 16,
+                target_error: Some(target as f32),
+                ..base.clone()
+            },
+        ),
+    ];
+    println!();
+    println!(
+        "time to the thesis's accuracy: E = {target:.3e} (RMS coefficient error of thesis-random \
+         at 10,000 rays against an owen-sobol reference at 65,536)"
+    );
+    println!(
+        "{:<52} {:>10} {:>9} {:>10} {:>10} {:>10} {:>10} {:>9}",
+        "", "rays/vtx", "seconds", "x faster", "RMS err", "p95 err", "max err", "> 1.5 E"
+    );
+    for (name, options) in rows {
+        let (seconds, transfer) = if options == thesis.options {
+            (thesis_seconds, thesis.clone())
+        } else {
+            timed(&options)
+        };
+        let e = errors(&transfer);
+        println!(
+            "{name:<52} {:>10.0} {seconds:>9.3} {:>10.2} {:>10.2e} {:>10.2e} {:>10.2e} {:>8.2}%",
+            transfer.rays_cast as f64 / transfer.vertex_count as f64,
+            thesis_seconds / seconds,
+            rms(&e),
+            p95(&e),
+            e.iter().copied().fold(0.0, f64::max),
+            100.0 * e.iter().filter(|&&e| e > 1.5 * target).count() as f64 / e.len() as f64,
+        );
+        if options.target_error.is_some() {
+            let above = transfer
+                .visibility
+                .iter()
+                .filter(|v| f64::from(v.error_estimate) > target)
+                .count();
+            println!("  adaptive: {above} vertices stopped at the cap above E");
+        }
     }
 }

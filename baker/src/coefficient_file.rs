@@ -26,7 +26,7 @@ pub const HEADER_SIZE: usize = 128;
 const CHECKSUM_OFFSET: usize = 124;
 
 /// The header, as `prt-bake inspect` prints it.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Header {
     pub version: u32,
     pub order: u32,
@@ -55,6 +55,21 @@ pub struct Header {
     pub up: Up,
     #[serde(serialize_with = "as_name::hex32")]
     pub checksum: u32,
+    /// Adaptive sampling (`--target-error`, bytes 108..124); `None` for fixed-sample bakes.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub adaptive: Option<Adaptive>,
+}
+
+/// How an adaptive bake sampled (header bytes 108..124; all zero for fixed sampling). Its
+/// files carry two per-vertex arrays, rays cast and estimated error (aux bits 2 and 3).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Adaptive {
+    /// The RMS coefficient error each vertex was sampled to (f32 at 108; > 0).
+    pub target_error: f32,
+    /// Independently scrambled point sets the error was estimated from (u32 at 112).
+    pub replicates: u32,
+    /// Rays cast by all vertices together (u64 at 116).
+    pub rays_cast: u64,
 }
 
 mod as_name {
@@ -87,6 +102,10 @@ mod as_name {
 /// Aux flag bits in the header.
 const AUX_AO: u32 = 1;
 const AUX_BENT_NORMAL: u32 = 2;
+/// Adaptive bakes: per-vertex rays cast (u32) and estimated error (f32), both always.
+const AUX_RAYS: u32 = 4;
+const AUX_ERROR_ESTIMATE: u32 = 8;
+const AUX_ADAPTIVE: u32 = AUX_RAYS | AUX_ERROR_ESTIMATE;
 
 fn aux_flags(aux: Aux) -> u32 {
     (if aux.ao { AUX_AO } else { 0 }) | (if aux.bent_normal { AUX_BENT_NORMAL } else { 0 })
@@ -99,7 +118,18 @@ impl Header {
 
     /// Floats per vertex in the aux arrays.
     fn aux_floats_per_vertex(&self) -> usize {
-        usize::from(self.aux.ao) + 3 * usize::from(self.aux.bent_normal)
+        usize::from(self.aux.ao)
+            + 3 * usize::from(self.aux.bent_normal)
+            + 2 * usize::from(self.adaptive.is_some())
+    }
+
+    fn aux_flags(&self) -> u32 {
+        aux_flags(self.aux)
+            | if self.adaptive.is_some() {
+                AUX_ADAPTIVE
+            } else {
+                0
+            }
     }
 
     fn payload_bytes(&self) -> u64 {
@@ -119,6 +149,10 @@ pub struct CoefficientFile {
     pub ao: Option<Vec<f32>>,
     /// Per-vertex bent normals, if `header.aux.bent_normal`.
     pub bent_normal: Option<Vec<Vec3>>,
+    /// Adaptive bakes (`header.adaptive`): rays each vertex cast.
+    pub rays: Option<Vec<u32>>,
+    /// Adaptive bakes: each vertex's estimated RMS coefficient error.
+    pub error_estimate: Option<Vec<f32>>,
 }
 
 fn mode_code(mode: Mode) -> u32 {
@@ -166,6 +200,11 @@ impl CoefficientFile {
                 aux: options.aux,
                 up: scene.up,
                 checksum: 0,
+                adaptive: options.target_error.map(|target_error| Adaptive {
+                    target_error,
+                    replicates: crate::adaptive::REPLICATES as u32,
+                    rays_cast: transfer.rays_cast,
+                }),
             },
             coefficients: transfer.coefficients.clone(),
             ao: options.aux.ao.then(|| {
@@ -179,6 +218,16 @@ impl CoefficientFile {
                 .aux
                 .bent_normal
                 .then(|| transfer.visibility.iter().map(|v| v.bent_normal).collect()),
+            rays: options
+                .target_error
+                .map(|_| transfer.visibility.iter().map(|v| v.rays).collect()),
+            error_estimate: options.target_error.map(|_| {
+                transfer
+                    .visibility
+                    .iter()
+                    .map(|v| v.error_estimate)
+                    .collect()
+            }),
         }
     }
 
@@ -206,15 +255,27 @@ impl CoefficientFile {
         bytes.extend(h.seed.to_le_bytes());
         bytes.extend(h.scene_fingerprint.to_le_bytes());
         bytes.extend(sampling_code(h.sampling).to_le_bytes());
-        bytes.extend(aux_flags(h.aux).to_le_bytes());
+        bytes.extend(h.aux_flags().to_le_bytes());
         bytes.extend(h.payload_bytes().to_le_bytes());
         bytes.extend(h.bounce_samples.to_le_bytes());
         bytes.extend(h.up.code().to_le_bytes());
-        bytes.resize(HEADER_SIZE, 0); // reserved bytes 88..124, then the checksum slot
+        bytes.resize(108, 0); // the shard identity 88..108: zero in a whole file
+        let adaptive = h.adaptive.unwrap_or(Adaptive {
+            target_error: 0.0,
+            replicates: 0,
+            rays_cast: 0,
+        });
+        bytes.extend(adaptive.target_error.to_le_bytes());
+        bytes.extend(adaptive.replicates.to_le_bytes());
+        bytes.extend(adaptive.rays_cast.to_le_bytes());
+        bytes.resize(HEADER_SIZE, 0); // the checksum slot
         bytes.extend(self.coefficients.iter().flat_map(|c| c.to_le_bytes()));
         let ao = self.ao.iter().flatten().copied();
         let bent = self.bent_normal.iter().flatten().flat_map(|n| n.to_array());
         bytes.extend(ao.chain(bent).flat_map(f32::to_le_bytes));
+        bytes.extend(self.rays.iter().flatten().flat_map(|r| r.to_le_bytes()));
+        let errors = self.error_estimate.iter().flatten();
+        bytes.extend(errors.flat_map(|e| e.to_le_bytes()));
         debug_assert_eq!(bytes.len() as u64, HEADER_SIZE as u64 + h.payload_bytes());
         let checksum = checksum(&bytes);
         bytes[CHECKSUM_OFFSET..HEADER_SIZE].copy_from_slice(&checksum.to_le_bytes());
@@ -269,6 +330,40 @@ impl CoefficientFile {
             let flat: Vec<f32> = floats.by_ref().take(3 * vertices).collect();
             flat.chunks_exact(3).map(Vec3::from_slice).collect()
         });
+        let rays: Option<Vec<u32>> = adaptive.map(|_| {
+            // u32s: the same 4 little-endian bytes, reinterpreted.
+            let bits = floats.by_ref().take(vertices).map(f32::to_bits);
+            bits.collect()
+        });
+        let error_estimate: Option<Vec<f32>> =
+            adaptive.map(|_| floats.by_ref().take(vertices).collect());
+        if let (Some(adaptive), Some(rays)) = (adaptive, &rays) {
+            if let Some(v) = rays
+                .iter()
+                .position(|r| !(1..=header.samples_per_vertex).contains(r))
+            {
+                return Err(format!(
+                    "vertex {v} cast {} rays, outside 1..={} (the samples per vertex)",
+                    rays[v], header.samples_per_vertex
+                ));
+            }
+            let total: u64 = rays.iter().map(|&r| u64::from(r)).sum();
+            if total != adaptive.rays_cast {
+                return Err(format!(
+                    "the per-vertex rays add up to {total}, the header says {} were cast",
+                    adaptive.rays_cast
+                ));
+            }
+        }
+        if let Some(v) = error_estimate
+            .iter()
+            .flatten()
+            .position(|e| !(e.is_finite() && *e >= 0.0))
+        {
+            return Err(format!(
+                "estimated error of vertex {v} is not a non-negative number"
+            ));
+        }
         check_floats(
             &header,
             &coefficients,
@@ -280,6 +375,8 @@ impl CoefficientFile {
             coefficients,
             ao,
             bent_normal,
+            rays,
+            error_estimate,
         })
     }
 }
@@ -362,7 +459,7 @@ pub(crate) fn parse_header(bytes: &[u8]) -> std::result::Result<(Header, u64), S
         other => return Err(format!("unknown sampling method {other}")),
     };
     let aux_flags = u32_at(68);
-    if aux_flags & !(AUX_AO | AUX_BENT_NORMAL) != 0 {
+    if aux_flags & !(AUX_AO | AUX_BENT_NORMAL | AUX_ADAPTIVE) != 0 {
         return Err(format!("unknown auxiliary-array flags {aux_flags:#x}"));
     }
     let aux = Aux {
@@ -386,9 +483,8 @@ pub(crate) fn parse_header(bytes: &[u8]) -> std::result::Result<(Header, u64), S
         None => return Err(format!("unknown up axis {} (0 = +z, 1 = +y)", u32_at(84))),
     };
     // 88..108 is the shard identity (crate::shard::PartId).
-    if bytes[108..CHECKSUM_OFFSET].iter().any(|&b| b != 0) {
-        return Err("reserved header bytes are not zero".into());
-    }
+    // 88..108 is the shard identity (crate::shard::PartId); 108..124 the adaptive fields.
+    let adaptive = read_adaptive(bytes, aux_flags, mode, sampling)?;
     let header = Header {
         version,
         order,
@@ -405,6 +501,7 @@ pub(crate) fn parse_header(bytes: &[u8]) -> std::result::Result<(Header, u64), S
         aux,
         up,
         checksum: stored,
+        adaptive,
     };
     Ok((header, payload))
 }
@@ -475,6 +572,56 @@ impl CoefficientFile {
     }
 }
 
+/// Header bytes 108..124 and aux bits 2–3: all zero, or a consistent adaptive bake.
+fn read_adaptive(
+    bytes: &[u8],
+    aux_flags: u32,
+    mode: Mode,
+    sampling: Sampling,
+) -> std::result::Result<Option<Adaptive>, String> {
+    let target_error = f32::from_le_bytes(bytes[108..112].try_into().expect("4 bytes"));
+    let replicates = u32::from_le_bytes(bytes[112..116].try_into().expect("4 bytes"));
+    let rays_cast = u64::from_le_bytes(bytes[116..124].try_into().expect("8 bytes"));
+    let flags = aux_flags & AUX_ADAPTIVE;
+    if target_error.to_bits() == 0 {
+        if replicates != 0 || rays_cast != 0 || flags != 0 {
+            return Err(
+                "adaptive-sampling fields (bytes 112..124, aux bits 2-3) set without a target error"
+                    .into(),
+            );
+        }
+        return Ok(None);
+    }
+    if !(target_error.is_finite() && target_error > 0.0) {
+        return Err(format!(
+            "target error {target_error} is not a positive number"
+        ));
+    }
+    if replicates < 2 {
+        return Err(format!(
+            "{replicates} replicates cannot estimate an error (at least 2)"
+        ));
+    }
+    if flags != AUX_ADAPTIVE {
+        return Err(
+            "an adaptive bake without its per-vertex rays and errors (aux bits 2 and 3)".into(),
+        );
+    }
+    if mode != Mode::Shadowed || sampling != Sampling::OwenSobol {
+        return Err(format!(
+            "a target error in a file of mode {}, sampling {} (adaptive bakes are shadowed, \
+             owen-sobol)",
+            mode.name(),
+            sampling.name()
+        ));
+    }
+    Ok(Some(Adaptive {
+        target_error,
+        replicates,
+        rays_cast,
+    }))
+}
+
 /// CRC-32 (IEEE, as zlib's `crc32`) of the whole file with the checksum field read as zero.
 fn checksum(bytes: &[u8]) -> u32 {
     let mut hasher = crc32fast::Hasher::new();
@@ -496,6 +643,8 @@ pub(crate) fn bytes_with_payload(header: &Header, shard: &[u8; 20], payload: &[u
         coefficients: Vec::new(),
         ao: header.aux.ao.then(Vec::new),
         bent_normal: header.aux.bent_normal.then(Vec::new),
+        rays: header.adaptive.map(|_| Vec::new()),
+        error_estimate: header.adaptive.map(|_| Vec::new()),
     };
     let (mut bytes, _) = empty.to_bytes();
     bytes[24..32].copy_from_slice(&header.vertex_count.to_le_bytes());
@@ -505,4 +654,155 @@ pub(crate) fn bytes_with_payload(header: &Header, shard: &[u8; 20], payload: &[u
     let checksum = checksum(&bytes);
     bytes[CHECKSUM_OFFSET..HEADER_SIZE].copy_from_slice(&checksum.to_le_bytes());
     bytes
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An adaptive file of two vertices at order 1.
+    fn adaptive_file() -> CoefficientFile {
+        CoefficientFile {
+            header: Header {
+                version: VERSION,
+                order: 1,
+                channels: 1,
+                vertex_count: 2,
+                samples_per_vertex: 4096,
+                mode: Mode::Shadowed,
+                bounces: 0,
+                bounce_samples: 0,
+                backend: Backend::Embree,
+                sampling: Sampling::OwenSobol,
+                seed: 3,
+                scene_fingerprint: 0x1234,
+                aux: Aux {
+                    ao: true,
+                    bent_normal: false,
+                },
+                checksum: 0,
+                adaptive: Some(Adaptive {
+                    target_error: 1e-3,
+                    replicates: 16,
+                    rays_cast: 256 + 4096,
+                }),
+            },
+            coefficients: vec![0.25, 0.5],
+            ao: Some(vec![0.75, 1.0]),
+            bent_normal: None,
+            rays: Some(vec![256, 4096]),
+            error_estimate: Some(vec![5e-4, 2e-3]),
+        }
+    }
+
+    /// `bytes` with a new checksum, so only the change under test is wrong.
+    fn resealed(mut bytes: Vec<u8>) -> Vec<u8> {
+        let sum = checksum(&bytes);
+        bytes[CHECKSUM_OFFSET..HEADER_SIZE].copy_from_slice(&sum.to_le_bytes());
+        bytes
+    }
+
+    #[test]
+    fn adaptive_files_round_trip_and_fixed_ones_keep_their_bytes() {
+        let file = adaptive_file();
+        let (bytes, sum) = file.to_bytes();
+        // Header, 2 coefficients, 2 accessibilities, 2 ray counts, 2 errors.
+        assert_eq!(bytes.len(), HEADER_SIZE + 8 * 4);
+        assert_eq!(
+            u32::from_le_bytes(bytes[68..72].try_into().unwrap()),
+            1 | 4 | 8
+        );
+        let read = CoefficientFile::from_bytes(&bytes).unwrap();
+        assert_eq!(read.header.checksum, sum);
+        assert_eq!(
+            read,
+            CoefficientFile {
+                header: Header {
+                    checksum: sum,
+                    ..file.header.clone()
+                },
+                ..file.clone()
+            }
+        );
+
+        // Zero means "not adaptive": a fixed-sample file has zeros in 108..124 and no bits 2–3.
+        let fixed = CoefficientFile {
+            header: Header {
+                adaptive: None,
+                ..file.header.clone()
+            },
+            rays: None,
+            error_estimate: None,
+            ..file
+        };
+        let (bytes, _) = fixed.to_bytes();
+        assert!(bytes[84..CHECKSUM_OFFSET].iter().all(|&b| b == 0));
+        assert_eq!(u32::from_le_bytes(bytes[68..72].try_into().unwrap()), 1);
+        let read = CoefficientFile::from_bytes(&bytes).unwrap();
+        assert_eq!((read.header.adaptive, read.rays), (None, None));
+    }
+
+    /// A change to a file's bytes.
+    type Corruption = Box<dyn Fn(&mut Vec<u8>)>;
+
+    #[test]
+    fn inconsistent_adaptive_fields_are_refused() {
+        let (good, _) = adaptive_file().to_bytes();
+        let rays_at = HEADER_SIZE + 4 * 4;
+        let errors_at = rays_at + 2 * 4;
+        let cases: [(&str, Corruption); 7] = [
+            (
+                "without a target error",
+                Box::new(|b: &mut Vec<u8>| b[108..112].fill(0)),
+            ),
+            (
+                "is not a positive number",
+                Box::new(|b: &mut Vec<u8>| b[108..112].copy_from_slice(&(-1e-3f32).to_le_bytes())),
+            ),
+            (
+                "replicates cannot estimate",
+                Box::new(|b: &mut Vec<u8>| b[112..116].copy_from_slice(&1u32.to_le_bytes())),
+            ),
+            (
+                "without its per-vertex rays and errors",
+                Box::new(|b: &mut Vec<u8>| b[68] = 1 | 4),
+            ),
+            (
+                "the header says 4352 were cast",
+                Box::new(move |b: &mut Vec<u8>| {
+                    b[rays_at..rays_at + 4].copy_from_slice(&512u32.to_le_bytes())
+                }),
+            ),
+            (
+                "vertex 1 cast 5000 rays, outside 1..=4096",
+                Box::new(move |b: &mut Vec<u8>| {
+                    b[rays_at + 4..rays_at + 8].copy_from_slice(&5000u32.to_le_bytes())
+                }),
+            ),
+            (
+                "estimated error of vertex 0",
+                Box::new(move |b: &mut Vec<u8>| {
+                    b[errors_at..errors_at + 4].copy_from_slice(&f32::NAN.to_le_bytes())
+                }),
+            ),
+        ];
+        for (message, corrupt) in cases {
+            let mut bytes = good.clone();
+            corrupt(&mut bytes);
+            match CoefficientFile::from_bytes(&resealed(bytes)) {
+                Err(m) => assert!(m.contains(message), "{message}: {m}"),
+                Ok(_) => panic!("{message}: accepted"),
+            }
+        }
+        // A target error in an interreflected file.
+        let mut bytes = good.clone();
+        bytes[36..40].copy_from_slice(&2u32.to_le_bytes());
+        bytes[40..44].copy_from_slice(&1u32.to_le_bytes());
+        bytes[80..84].copy_from_slice(&1u32.to_le_bytes());
+        let m = CoefficientFile::from_bytes(&resealed(bytes)).unwrap_err();
+        assert!(
+            m.contains("a target error in a file of mode interreflected"),
+            "{m}"
+        );
+    }
 }

@@ -12,8 +12,9 @@ use crate::sh;
 /// Writes `positions` (V,3), `normals` (V,3), `albedo` (V,3, linear Kd × texture),
 /// `transfer` (V, channels, n²), `uv` (V,2, v up from the image's bottom, as OBJ) where the
 /// scene has texture coordinates, and, where the file has them, `ao` (V,) and `bent_normal`
-/// (V,3), all float32 in the file's vertex order; and `triangles` (F,3) uint32 vertex
-/// indices. The coefficient file must have been baked for this scene.
+/// (V,3), and for adaptive bakes `rays` (V,; per-vertex rays cast, exact below 2^24) and
+/// `error_estimate` (V,), all float32 in the file's vertex order; and `triangles` (F,3)
+/// uint32 vertex indices. The coefficient file must have been baked for this scene.
 pub fn export_npz(coefficients: &Path, scene: &Path, output: &Path) -> Result<()> {
     let file = CoefficientFile::read(coefficients)?;
     let scene = Scene::load(scene)?;
@@ -72,6 +73,24 @@ pub fn export_npz(coefficients: &Path, scene: &Path, output: &Path) -> Result<()
             name: "bent_normal",
             shape: vec![v, 3],
             data: bent_normal,
+        });
+    }
+    let rays: Option<Vec<f32>> = file
+        .rays
+        .as_ref()
+        .map(|r| r.iter().map(|&r| r as f32).collect());
+    if let Some(rays) = &rays {
+        arrays.push(npz::Array {
+            name: "rays",
+            shape: vec![v],
+            data: rays,
+        });
+    }
+    if let Some(errors) = &file.error_estimate {
+        arrays.push(npz::Array {
+            name: "error_estimate",
+            shape: vec![v],
+            data: errors,
         });
     }
     // A scene whose every uv is (0, 0) has none (OBJ without `vt`, glTF without TEXCOORD_0).

@@ -10,6 +10,7 @@
 //! them) to SH, [`sh::rotation`] turns them, and [`relight`] shades a bake with them on the
 //! CPU: the reference a viewer must match.
 
+pub mod adaptive;
 pub mod atomic;
 pub mod checkpoint;
 pub mod coefficient_file;

@@ -154,10 +154,13 @@ mod tests {
                 aux: crate::transfer::Aux::default(),
                 up: crate::scene::Up::Z,
                 checksum: 0,
+                adaptive: None,
             },
             coefficients,
             ao: None,
             bent_normal: None,
+            rays: None,
+            error_estimate: None,
         }
     }
 

@@ -81,7 +81,7 @@ impl Aux {
     }
 }
 
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct BakeOptions {
     /// SH order n (n² coefficients).
     pub order: usize,
@@ -102,6 +102,10 @@ pub struct BakeOptions {
     /// Bytes the interreflected mode may spend caching first hits; beyond it the bounce
     /// passes re-trace instead. Changes speed and memory, never the result.
     pub hit_cache_limit: u64,
+    /// `--target-error E`: cast rays in rounds until each vertex's estimated RMS coefficient
+    /// error is at most E (`samples` becomes the cap); `None` casts `samples` rays everywhere.
+    /// See [`crate::adaptive`].
+    pub target_error: Option<f32>,
 }
 
 /// The default hit-cache budget: 1 GiB.
@@ -119,6 +123,7 @@ impl Default for BakeOptions {
             bounce_samples: None,
             aux: Aux::default(),
             hit_cache_limit: DEFAULT_HIT_CACHE_LIMIT,
+            target_error: None,
         }
     }
 }
@@ -176,7 +181,7 @@ impl BakeOptions {
                 "--aux needs rays: use --mode shadowed or interreflected".into(),
             ));
         }
-        Ok(())
+        crate::adaptive::check_options(self)
     }
 }
 
@@ -210,6 +215,11 @@ pub struct Visibility {
     /// The cosine-weighted mean of the unblocked directions, normalised; the shading normal
     /// where every ray is blocked.
     pub bent_normal: Vec3,
+    /// Rays the vertex cast: `samples` (0 with no tracer), or fewer in an adaptive bake.
+    pub rays: u32,
+    /// Adaptive bakes: the estimated RMS coefficient error of the vertex's transfer
+    /// ([`crate::adaptive`]); 0 otherwise.
+    pub error_estimate: f32,
 }
 
 impl Transfer {
@@ -266,10 +276,10 @@ pub fn bake(
             (direct.coefficients, 1, visibility, None)
         }
     };
-    let rays_per_pass = if tracer.is_some() {
-        u64::from(options.samples) * vertex_count as u64
-    } else {
-        0
+    let rays_per_pass = match (tracer, options.target_error) {
+        (None, _) => 0,
+        (Some(_), None) => u64::from(options.samples) * vertex_count as u64,
+        (Some(_), Some(_)) => visibility.iter().map(|v| u64::from(v.rays)).sum(),
     };
     // Re-tracing bounce passes cast every vertex's bounce rays again.
     let retraced = match (options.mode, hit_cache_bytes) {
@@ -359,6 +369,8 @@ pub struct Estimator {
     /// 0..M are the sequence's first M points — a stratified set of their own — the rest
     /// follow; thesis-random samples are independent, so their first M serve.
     local_sh: Vec<f32>,
+    /// Adaptive bakes (`--target-error`): the replicate point sets, instead of the table above.
+    adaptive: Option<crate::adaptive::Tables>,
 }
 
 impl Estimator {
@@ -367,7 +379,10 @@ impl Estimator {
         let basis = Basis::new(options.order);
         let n = basis.coeff_count();
         let (mut local_dirs, mut local_sh) = (Vec::new(), Vec::new());
-        if options.sampling == Sampling::OwenSobol {
+        let adaptive = options
+            .target_error
+            .map(|_| crate::adaptive::Tables::new(options, &basis));
+        if options.sampling == Sampling::OwenSobol && adaptive.is_none() {
             let points = OwenSobol::new(vertex_seed(options.seed, u64::MAX));
             let mut uv: Vec<(u32, f32, f32)> = (0..options.samples)
                 .map(|i| {
@@ -398,6 +413,7 @@ impl Estimator {
             origins: ray_origins(scene),
             local_dirs,
             local_sh,
+            adaptive,
         })
     }
 
@@ -556,6 +572,9 @@ impl Estimator {
         out: &mut [f32],
         mut hits: Option<&mut crate::interreflection::JobRows<'_>>,
     ) -> Visibility {
+        if let Some(tables) = &self.adaptive {
+            return self.adaptive_vertex_transfer(v, tables, tracer, s, out);
+        }
         let n = self.basis.coeff_count();
         let frame = self.vertex_frame(v);
         s.total.fill(0.0);
@@ -632,6 +651,46 @@ impl Estimator {
         Visibility {
             accessibility: (unblocked * norm) as f32,
             bent_normal: bent.try_normalize().unwrap_or(self.normals[v]),
+            rays: if tracer.is_some() {
+                self.options.samples
+            } else {
+                0
+            },
+            error_estimate: 0.0,
+        }
+    }
+
+    /// [`Estimator::vertex_transfer`] of an adaptive bake: rounds of rays until the estimated
+    /// error is at most the target ([`crate::adaptive`]).
+    fn adaptive_vertex_transfer(
+        &self,
+        v: usize,
+        tables: &crate::adaptive::Tables,
+        tracer: Option<&dyn Tracer>,
+        s: &mut Scratch,
+        out: &mut [f32],
+    ) -> Visibility {
+        let n = self.basis.coeff_count();
+        let frame = self.vertex_frame(v);
+        let result = crate::adaptive::vertex_transfer(
+            tables,
+            n,
+            self.origins[v],
+            &frame,
+            tracer,
+            &mut s.adaptive,
+            &mut s.total,
+        );
+        self.rotator
+            .rotate(frame.as_dmat3(), &s.total, &mut s.world);
+        for (o, w) in out.iter_mut().zip(&s.world) {
+            *o = *w as f32;
+        }
+        Visibility {
+            accessibility: (f64::from(result.unblocked) / f64::from(result.rays)) as f32,
+            bent_normal: result.bent.try_normalize().unwrap_or(self.normals[v]),
+            rays: result.rays,
+            error_estimate: result.error as f32,
         }
     }
 }
@@ -648,6 +707,7 @@ pub struct Scratch {
     batch_sum: Vec<f32>,
     total: Vec<f64>,
     world: Vec<f64>,
+    adaptive: crate::adaptive::AdaptiveScratch,
 }
 
 impl Scratch {
@@ -662,6 +722,7 @@ impl Scratch {
             batch_sum: vec![0.0; n],
             total: vec![0.0; n],
             world: vec![0.0; n],
+            adaptive: Default::default(),
         }
     }
 }

@@ -821,3 +821,115 @@ fn embree_backend_is_refused_by_a_build_without_it() {
         .fails_with(EXIT_BAD_COMMAND_LINE, &["built without Embree"]);
     s.assert_out_holds(&[]);
 }
+
+#[test]
+fn adaptive_bake_is_deterministic_and_inspect_reports_its_rays_and_errors() {
+    let s = Scratch::new();
+    let bake = |output: &str, threads: &str| {
+        let args = ["--samples", "4096", "--target-error", "2e-3"];
+        let run = s.bake(
+            CORNELL,
+            output,
+            &[&args[..], &["--threads", threads]].concat(),
+        );
+        assert!(
+            run.stdout.contains("adaptive to 2e-3"),
+            "summary: {}",
+            run.stdout
+        );
+        s.read(&format!("out/{output}"))
+    };
+    let one = bake("one.prt", "1");
+    let two = bake("two.prt", "2");
+    assert!(
+        one == two,
+        "--threads 1 and --threads 2 gave different adaptive files"
+    );
+
+    let file = CoefficientFile::read(&s.path("out/one.prt")).unwrap();
+    let adaptive = file.header.adaptive.expect("an adaptive header");
+    assert_eq!(adaptive.target_error, 2e-3);
+    assert_eq!(adaptive.replicates, 16);
+    let rays = file.rays.as_deref().expect("per-vertex rays");
+    let errors = file.error_estimate.as_deref().expect("per-vertex errors");
+    assert_eq!(
+        rays.iter().map(|&r| u64::from(r)).sum::<u64>(),
+        adaptive.rays_cast
+    );
+    // Open walls stop after the first round (16 replicates × 16 points); contact shadows
+    // cast more; every vertex stops at or below the target or at --samples.
+    assert_eq!(rays.iter().min(), Some(&256));
+    assert!(rays.iter().any(|&r| r > 1024), "no vertex needed more rays");
+    for (&r, &e) in rays.iter().zip(errors) {
+        assert!(e <= 2e-3 || r == 4096, "stopped at {r} rays with error {e}");
+    }
+
+    let run = s.run(&["inspect", "out/one.prt"]).success();
+    let json: serde_json::Value = serde_json::from_str(&run.stdout).expect("inspect prints JSON");
+    assert_eq!(json["adaptive"]["rays_cast"], adaptive.rays_cast);
+    assert_eq!(json["adaptive"]["replicates"], 16);
+    let per_vertex = &json["per_vertex"];
+    assert_eq!(per_vertex["rays_per_vertex"]["min"], 256.0);
+    for quantity in ["rays_per_vertex", "estimated_error"] {
+        for stat in ["min", "median", "p95", "max", "mean"] {
+            assert!(
+                per_vertex[quantity][stat].is_number(),
+                "inspect lacks {quantity}.{stat}: {}",
+                run.stdout
+            );
+        }
+    }
+    assert!(per_vertex["vertices_above_target"].is_number());
+
+    s.run(&[
+        "export",
+        "out/one.prt",
+        "--scene",
+        CORNELL,
+        "--npz",
+        "out/one.npz",
+    ])
+    .success();
+    let arrays = read_npz(&s.path("out/one.npz"));
+    let exported: Vec<u32> = arrays["rays"].data.iter().map(|&r| r as u32).collect();
+    assert_eq!(exported, rays);
+    assert_bits_eq("error_estimate", &arrays["error_estimate"].data, errors);
+}
+
+#[test]
+fn target_error_is_refused_where_it_is_not_supported() {
+    let s = Scratch::new();
+    s.write("tri.obj", TRIANGLE);
+    for (extra, message) in [
+        (
+            &["--mode", "interreflected"][..],
+            "--target-error needs --mode shadowed",
+        ),
+        (
+            &["--mode", "unshadowed"],
+            "--target-error needs --mode shadowed",
+        ),
+        (
+            &["--sampling", "thesis-random"],
+            "--target-error needs --sampling owen-sobol",
+        ),
+        (&["--samples", "100"], "needs --samples of at least 256"),
+    ] {
+        let mut args = vec![
+            "bake",
+            "tri.obj",
+            "-o",
+            "out/x.prt",
+            "--target-error",
+            "1e-3",
+        ];
+        args.extend(extra);
+        s.run(&args).fails_with(EXIT_BAD_COMMAND_LINE, &[message]);
+    }
+    s.run(&["bake", "tri.obj", "-o", "out/x.prt", "--target-error", "0"])
+        .fails_with(
+            EXIT_BAD_COMMAND_LINE,
+            &["--target-error 0 must be a positive number"],
+        );
+    s.assert_out_holds(&[]);
+}

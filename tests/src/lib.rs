@@ -397,7 +397,7 @@ pub fn scene(meshes: Vec<Mesh>) -> Scene {
 
 /// Bakes only `vertices` (the oracle vertices of a large scene) through the real estimator and
 /// Embree (the direct pass: shadowed or unshadowed transfer, and the rays' visibility).
-fn bake_selected(
+pub fn bake_selected(
     scene: &Scene,
     options: &BakeOptions,
     vertices: &[usize],
