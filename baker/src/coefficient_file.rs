@@ -330,14 +330,14 @@ impl CoefficientFile {
             let flat: Vec<f32> = floats.by_ref().take(3 * vertices).collect();
             flat.chunks_exact(3).map(Vec3::from_slice).collect()
         });
-        let rays: Option<Vec<u32>> = adaptive.map(|_| {
+        let rays: Option<Vec<u32>> = header.adaptive.map(|_| {
             // u32s: the same 4 little-endian bytes, reinterpreted.
             let bits = floats.by_ref().take(vertices).map(f32::to_bits);
             bits.collect()
         });
         let error_estimate: Option<Vec<f32>> =
-            adaptive.map(|_| floats.by_ref().take(vertices).collect());
-        if let (Some(adaptive), Some(rays)) = (adaptive, &rays) {
+            header.adaptive.map(|_| floats.by_ref().take(vertices).collect());
+        if let (Some(adaptive), Some(rays)) = (header.adaptive, &rays) {
             if let Some(v) = rays
                 .iter()
                 .position(|r| !(1..=header.samples_per_vertex).contains(r))
@@ -676,6 +676,7 @@ mod tests {
                 sampling: Sampling::OwenSobol,
                 seed: 3,
                 scene_fingerprint: 0x1234,
+                up: crate::scene::Up::Z,
                 aux: Aux {
                     ao: true,
                     bent_normal: false,

@@ -367,6 +367,9 @@ impl Part {
             coefficients,
             ao: self.ao,
             bent_normal: self.bent_normal,
+            // Parts of adaptive bakes are refused before baking (prt-bake's `bake`).
+            rays: None,
+            error_estimate: None,
         }
     }
 }

@@ -29,7 +29,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
-use prt_baker::coefficient_file::{CoefficientFile, Header};
+use prt_baker::coefficient_file::{Adaptive, CoefficientFile, Header};
 use prt_baker::light::{EnvironmentMap, Rig};
 use prt_baker::sampling::Sampling;
 use prt_baker::scene::{Texture, Up};
@@ -414,11 +414,18 @@ fn prt_seeds() -> Vec<Vec<u8>> {
         aux,
         up: if channels == 3 { Up::Y } else { Up::Z },
         checksum: 0,
+        // Shadowed Owen–Sobol seeds are adaptive bakes (--target-error), with their arrays.
+        adaptive: (mode == Mode::Shadowed).then_some(Adaptive {
+            target_error: 1e-3,
+            replicates: 16,
+            rays_cast: 64 * vertex_count,
+        }),
     };
     let file = |h: Header| {
         let v = h.vertex_count as usize;
         let n = h.coefficients_per_vertex();
         let aux = h.aux;
+        let adaptive = h.adaptive.is_some();
         CoefficientFile {
             header: h,
             coefficients: (0..v * n).map(|i| (i as f32 * 0.37).sin()).collect(),
@@ -426,6 +433,8 @@ fn prt_seeds() -> Vec<Vec<u8>> {
                 .ao
                 .then(|| (0..v).map(|i| i as f32 / v as f32).collect()),
             bent_normal: aux.bent_normal.then(|| vec![glam::Vec3::Z; v]),
+            rays: adaptive.then(|| vec![64; v]),
+            error_estimate: adaptive.then(|| (0..v).map(|i| 1e-4 * i as f32).collect()),
         }
         .to_bytes()
         .0
