@@ -16,6 +16,7 @@ pub mod error;
 pub mod export;
 pub mod interreflection;
 pub mod light;
+pub mod lightmap;
 pub mod npz;
 pub mod ply;
 pub mod progress;

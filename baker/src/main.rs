@@ -132,6 +132,13 @@ struct BakeArgs {
     /// No progress bar (the summary line is still printed).
     #[arg(long)]
     quiet: bool,
+    /// Bake per texel of a RES×RES lightmap atlas (xatlas unwrap) instead of per vertex
+    /// (docs/lightmaps.md). Unshadowed and shadowed modes.
+    #[arg(long, value_name = "RES")]
+    lightmap: Option<u32>,
+    /// With --lightmap: the world size of a texel (default: the charts fill the atlas).
+    #[arg(long, value_name = "S", requires = "lightmap")]
+    texel_size: Option<f32>,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -271,8 +278,33 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
     } else {
         Box::new(ProgressBar::new())
     };
-    let transfer = prt_baker::bake(&scene, tracer.as_deref(), &options, progress.as_ref())?;
-    let mut file = CoefficientFile::from_bake(&scene, &transfer);
+    let (transfer, mut file, what) = match args.lightmap {
+        None => {
+            let transfer =
+                prt_baker::bake(&scene, tracer.as_deref(), &options, progress.as_ref())?;
+            let file = CoefficientFile::from_bake(&scene, &transfer);
+            let what = format!("{} vertices", transfer.vertex_count);
+            (transfer, file, what)
+        }
+        Some(resolution) => {
+            let atlas = prt_baker::lightmap::Atlas::generate(&scene, resolution, args.texel_size)?;
+            let bake = prt_baker::lightmap::bake(
+                &scene,
+                tracer.as_deref(),
+                &options,
+                atlas,
+                progress.as_ref(),
+            )?;
+            let file = CoefficientFile::from_lightmap_bake(&scene, &bake);
+            let what = format!(
+                "{} of {}×{} texels",
+                bake.texels.valid_count(),
+                bake.texels.width,
+                bake.texels.height
+            );
+            (bake.transfer, file, what)
+        }
+    };
     file.write(&args.output)?;
 
     let rays = match transfer.rays_cast {
@@ -300,8 +332,7 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
         (mode, _) => mode.name().to_string(),
     };
     println!(
-        "baked {} vertices, {rays}, {:.2} s (order {}, {mode}, {} samples, {}) -> {}",
-        transfer.vertex_count,
+        "baked {what}, {rays}, {:.2} s (order {}, {mode}, {} samples, {}) -> {}",
         transfer.seconds,
         options.order,
         options.samples,

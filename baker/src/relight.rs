@@ -152,6 +152,7 @@ mod tests {
             coefficients,
             ao: None,
             bent_normal: None,
+            lightmap: None,
         }
     }
 
