@@ -137,7 +137,7 @@ struct BakeArgs {
     #[arg(long, value_name = "RES")]
     lightmap: Option<u32>,
     /// With --lightmap: the world size of a texel (default: the charts fill the atlas).
-    #[arg(long, value_name = "S", requires = "lightmap")]
+    #[arg(long, value_name = "S")]
     texel_size: Option<f32>,
 }
 
@@ -242,6 +242,9 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
         hit_cache_limit: args.hit_cache_mb.saturating_mul(1 << 20),
     };
     options.validate()?;
+    if args.texel_size.is_some() && args.lightmap.is_none() {
+        return Err(Error::InvalidOption("--texel-size needs --lightmap".into()));
+    }
     let tracer_options = TracerOptions {
         threads: args.threads,
         robust: args.robust,
