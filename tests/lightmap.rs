@@ -61,7 +61,11 @@ fn texel_under_a_coaxial_disk() {
     let scene = scene(vec![floor(1.0), disk(Vec3::Z, 1.0, 512)]);
     let atlas = Atlas::from_vertex_uvs(&scene, &floor_uvs(&scene, 1.0), 17, 17).unwrap();
     let bake = bake_lightmap(&scene, atlas, &shadowed(order, samples));
-    assert_eq!(bake.texels.valid_count(), 17 * 17, "the floor covers the atlas");
+    assert_eq!(
+        bake.texels.valid_count(),
+        17 * 17,
+        "the floor covers the atlas"
+    );
     let (p, got) = texel(&bake, 8, 8);
     assert!(p.length() < 1e-6, "centre texel at {p}");
     let expected = band_moments(order, DVec3::Z, 0.0, std::f64::consts::FRAC_1_SQRT_2);
@@ -139,7 +143,10 @@ fn texels_on_a_dense_grids_vertices_agree_with_the_vertex_bake() {
     for v in 0..17 * 17 {
         let (x, y) = (v % 17, v / 17);
         let (p, t) = texel(&texels, x, y);
-        assert!(p.distance(scene.positions[v]) < 1e-5, "texel ({x},{y}) at {p}");
+        assert!(
+            p.distance(scene.positions[v]) < 1e-5,
+            "texel ({x},{y}) at {p}"
+        );
         let vt = vertices.vertex(v, 0);
         if vt[0] < 0.8 * bound.mean[0] as f32 {
             shadowed_texels += 1;
@@ -148,11 +155,21 @@ fn texels_on_a_dense_grids_vertices_agree_with_the_vertex_bake() {
             let tol = std::f64::consts::SQRT_2 * tolerance(bound.second[j], samples);
             let err = (t[j] - f64::from(vt[j])).abs();
             worst = worst.max(err / tol);
-            assert!(err <= tol, "texel ({x},{y}) j={j}: {} vs {} ± {tol:.1e}", t[j], vt[j]);
+            assert!(
+                err <= tol,
+                "texel ({x},{y}) j={j}: {} vs {} ± {tol:.1e}",
+                t[j],
+                vt[j]
+            );
         }
     }
-    eprintln!("texel/vertex agreement: worst {worst:.3} tolerances, {shadowed_texels} texels in shadow");
-    assert!(shadowed_texels > 20, "the disk must shadow part of the floor");
+    eprintln!(
+        "texel/vertex agreement: worst {worst:.3} tolerances, {shadowed_texels} texels in shadow"
+    );
+    assert!(
+        shadowed_texels > 20,
+        "the disk must shadow part of the floor"
+    );
 }
 
 #[test]
@@ -182,9 +199,17 @@ fn a_four_vertex_floor_shows_a_sphere_contact_shadow() {
         }
     }
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
-    assert!(under.len() >= 4 && far.len() >= 20, "{} {}", under.len(), far.len());
+    assert!(
+        under.len() >= 4 && far.len() >= 20,
+        "{} {}",
+        under.len(),
+        far.len()
+    );
     let (under, far) = (mean(&under), mean(&far));
-    eprintln!("contact shadow: under the sphere {under:.4}, far {far:.4}, ratio {:.3}", under / far);
+    eprintln!(
+        "contact shadow: under the sphere {under:.4}, far {far:.4}, ratio {:.3}",
+        under / far
+    );
     // Measured (seed 7, 4,096 rays): under = 0.22 × far. Within 0.3 of the contact point a
     // unit sphere hides most of the sky; beyond 3.5 it hides under 3 %.
     assert!(far > 0.97, "far texels are lit: {far}");
@@ -196,7 +221,8 @@ fn every_chart_texel_is_set_and_nothing_else() {
     // The Cornell box unwrapped into 64²: the texel under each triangle's UV centroid is
     // valid (so no texel inside a chart is unset), valid texels hold finite transfer and
     // unit normals, invalid ones hold zeros.
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell/cornell.scene");
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell/cornell.scene");
     let scene = Scene::load(&path).expect("cornell scene");
     let atlas = Atlas::generate(&scene, 64, None).unwrap();
     let options = BakeOptions {
@@ -209,7 +235,10 @@ fn every_chart_texel_is_set_and_nothing_else() {
     for (t, uv) in atlas.uv1.iter().enumerate() {
         let c = (uv[0] + uv[1] + uv[2]) / 3.0 * 64.0;
         let i = c.y as usize * 64 + c.x as usize;
-        assert!(bake.texels.valid[i], "triangle {t}'s centroid texel is unset");
+        assert!(
+            bake.texels.valid[i],
+            "triangle {t}'s centroid texel is unset"
+        );
     }
     for (i, valid) in bake.texels.valid.iter().enumerate() {
         let coeffs = &bake.transfer.coefficients[i * n..(i + 1) * n];
@@ -222,7 +251,10 @@ fn every_chart_texel_is_set_and_nothing_else() {
     }
     // Charts never share a texel: padding keeps them apart.
     let valid = bake.texels.valid_count();
-    assert!(valid > 64 * 64 / 4, "the charts fill the atlas: {valid} texels");
+    assert!(
+        valid > 64 * 64 / 4,
+        "the charts fill the atlas: {valid} texels"
+    );
 }
 
 #[test]
@@ -247,7 +279,10 @@ fn a_texel_file_round_trips_and_refuses_vertex_readers() {
     assert_eq!(block.uv1, bake.atlas.uv1);
     assert_eq!(read.coefficients, bake.transfer.coefficients);
     let path = std::path::Path::new("t.prt");
-    assert!(read.check_scene(path, &scene).is_err(), "vertex readers refuse it");
+    assert!(
+        read.check_scene(path, &scene).is_err(),
+        "vertex readers refuse it"
+    );
     assert!(read.check_lightmap_scene(path, &scene).is_ok());
     // A damaged validity mask is refused (here by the checksum).
     let mut bad = bytes.clone();

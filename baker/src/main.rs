@@ -283,8 +283,7 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
     };
     let (transfer, mut file, what) = match args.lightmap {
         None => {
-            let transfer =
-                prt_baker::bake(&scene, tracer.as_deref(), &options, progress.as_ref())?;
+            let transfer = prt_baker::bake(&scene, tracer.as_deref(), &options, progress.as_ref())?;
             let file = CoefficientFile::from_bake(&scene, &transfer);
             let what = format!("{} vertices", transfer.vertex_count);
             (transfer, file, what)

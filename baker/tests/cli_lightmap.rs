@@ -31,15 +31,30 @@ fn npz_headers(path: &std::path::Path) -> std::collections::BTreeMap<String, Str
 fn texel_bakes_are_deterministic_and_export_texel_arrays() {
     let s = Scratch::new();
     let lightmap = ["--lightmap", "32", "--aux", "ao"];
-    let one = s.bake(CORNELL, "one.prt", &[&lightmap[..], &["--threads", "1"]].concat());
+    let one = s.bake(
+        CORNELL,
+        "one.prt",
+        &[&lightmap[..], &["--threads", "1"]].concat(),
+    );
     assert!(one.stdout.contains("of 32×32 texels"), "{}", one.stdout);
-    s.bake(CORNELL, "two.prt", &[&lightmap[..], &["--threads", "2"]].concat());
+    s.bake(
+        CORNELL,
+        "two.prt",
+        &[&lightmap[..], &["--threads", "2"]].concat(),
+    );
     assert!(
         s.read("out/one.prt") == s.read("out/two.prt"),
         "--threads 1 and 2 gave different texel files"
     );
-    s.run(&["export", "out/one.prt", "--scene", CORNELL, "--npz", "out/one.npz"])
-        .success();
+    s.run(&[
+        "export",
+        "out/one.prt",
+        "--scene",
+        CORNELL,
+        "--npz",
+        "out/one.npz",
+    ])
+    .success();
     let headers = npz_headers(&s.path("out/one.npz"));
     let triangles = prt_baker::Scene::load(std::path::Path::new(CORNELL))
         .unwrap()
@@ -54,16 +69,30 @@ fn texel_bakes_are_deterministic_and_export_texel_arrays() {
         ("ao", "<f4", "(32, 32)".to_string()),
     ] {
         let header = headers.get(name).unwrap_or_else(|| panic!("no {name}"));
-        assert!(header.contains(&format!("'descr': '{descr}'")), "{name}: {header}");
-        assert!(header.contains(&format!("'shape': {shape}")), "{name}: {header}");
+        assert!(
+            header.contains(&format!("'descr': '{descr}'")),
+            "{name}: {header}"
+        );
+        assert!(
+            header.contains(&format!("'shape': {shape}")),
+            "{name}: {header}"
+        );
     }
     // Per-vertex readers refuse a texel file (bad input), and naming the problem.
     s.write(
         "rig.toml",
         include_str!("../../viewer/src/default-rig.toml"),
     );
-    s.run(&["relight", CORNELL, "out/one.prt", "--lights", "rig.toml", "-o", "out/x.ply"])
-        .fails_with_bad_input(&["lightmap bake"]);
+    s.run(&[
+        "relight",
+        CORNELL,
+        "out/one.prt",
+        "--lights",
+        "rig.toml",
+        "-o",
+        "out/x.ply",
+    ])
+    .fails_with_bad_input(&["lightmap bake"]);
     s.assert_out_holds(&["one.prt", "two.prt", "one.npz"]);
 }
 

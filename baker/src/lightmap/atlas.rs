@@ -180,7 +180,10 @@ pub fn planar_charts(scene: &Scene) -> Vec<Chart> {
     for (t, tri) in scene.triangles.iter().enumerate() {
         for k in 0..3 {
             let (a, b) = (tri[k], tri[(k + 1) % 3]);
-            edge_faces.entry((a.min(b), a.max(b))).or_default().push(t as u32);
+            edge_faces
+                .entry((a.min(b), a.max(b)))
+                .or_default()
+                .push(t as u32);
         }
     }
     let mut assigned = vec![false; scene.triangles.len()];
@@ -235,7 +238,12 @@ fn pack(charts: &[Chart], scale: f32, resolution: u32) -> Option<(f32, Vec<Vec2>
     let size = |c: &Chart| ((c.max - c.min) * scale).ceil() + Vec2::splat(1.0 + PADDING as f32);
     let mut order: Vec<usize> = (0..charts.len()).collect();
     // Tallest first, ties in chart order: deterministic.
-    order.sort_by(|&a, &b| size(&charts[b]).y.total_cmp(&size(&charts[a]).y).then(a.cmp(&b)));
+    order.sort_by(|&a, &b| {
+        size(&charts[b])
+            .y
+            .total_cmp(&size(&charts[a]).y)
+            .then(a.cmp(&b))
+    });
     let r = resolution as f32;
     let mut offsets = vec![Vec2::ZERO; charts.len()];
     let (mut x, mut y, mut shelf) = (0.0f32, 0.0f32, 0.0f32);

@@ -48,7 +48,12 @@ impl Texels {
             origins: vec![Vec3::ZERO; w * h],
             triangle: vec![u32::MAX; w * h],
         };
-        for (t, (tri, uv)) in scene.triangles.iter().zip(atlas.texel_corners()).enumerate() {
+        for (t, (tri, uv)) in scene
+            .triangles
+            .iter()
+            .zip(atlas.texel_corners())
+            .enumerate()
+        {
             let uv_area = cross(uv[1] - uv[0], uv[2] - uv[0]);
             if !uv_area.is_finite() || uv_area == 0.0 {
                 continue; // not in the atlas, or degenerate there: no texels
@@ -88,8 +93,7 @@ impl Texels {
                     texels.valid[i] = true;
                     texels.positions[i] = position;
                     texels.normals[i] = normal;
-                    texels.origins[i] =
-                        position + face_normal * offset_distance(position, longest);
+                    texels.origins[i] = position + face_normal * offset_distance(position, longest);
                     texels.triangle[i] = t as u32;
                 }
             }
@@ -212,7 +216,11 @@ mod tests {
         let uv = [Vec2::ZERO, Vec2::new(1.0, 0.0), Vec2::new(0.0, 1.0)];
         assert!((polygon_area(&clip_to_square(uv, Vec2::ZERO)) - 0.5).abs() < 1e-6);
         assert_eq!(polygon_area(&clip_to_square(uv, Vec2::new(1.0, 0.0))), 0.0);
-        let big = [Vec2::splat(-5.0), Vec2::new(10.0, -5.0), Vec2::new(-5.0, 10.0)];
+        let big = [
+            Vec2::splat(-5.0),
+            Vec2::new(10.0, -5.0),
+            Vec2::new(-5.0, 10.0),
+        ];
         assert!((polygon_area(&clip_to_square(big, Vec2::new(1.0, 1.0))) - 1.0).abs() < 1e-6);
     }
 
