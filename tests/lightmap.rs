@@ -220,7 +220,7 @@ fn a_four_vertex_floor_shows_a_sphere_contact_shadow() {
 fn every_chart_texel_is_set_and_nothing_else() {
     // The Cornell box unwrapped into 64²: the texel under each triangle's UV centroid is
     // valid (so no texel inside a chart is unset), valid texels hold finite transfer and
-    // unit normals, invalid ones hold zeros.
+    // unit normals; every texel within 2 of a valid one is dilated into, the rest hold zeros.
     let path =
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell/cornell.scene");
     let scene = Scene::load(&path).expect("cornell scene");
@@ -240,15 +240,34 @@ fn every_chart_texel_is_set_and_nothing_else() {
             "triangle {t}'s centroid texel is unset"
         );
     }
+    let near_valid = |i: usize| {
+        let (x, y) = ((i % 64) as isize, (i / 64) as isize);
+        (-2..=2).any(|dy| {
+            (-2..=2).any(|dx| {
+                let (nx, ny) = (x + dx, y + dy);
+                (0..64).contains(&nx)
+                    && (0..64).contains(&ny)
+                    && bake.texels.valid[(ny * 64 + nx) as usize]
+            })
+        })
+    };
+    let mut padding = 0;
     for (i, valid) in bake.texels.valid.iter().enumerate() {
         let coeffs = &bake.transfer.coefficients[i * n..(i + 1) * n];
         if *valid {
             assert!(coeffs.iter().all(|c| c.is_finite()) && coeffs[0] > 0.0);
             assert!((bake.texels.normals[i].length() - 1.0).abs() < 1e-5);
+            assert!(!bake.dilated[i]);
+        } else if near_valid(i) {
+            assert!(bake.dilated[i], "padding texel {i} is empty");
+            assert!(coeffs.iter().all(|c| c.is_finite()) && coeffs[0] > 0.0);
+            padding += 1;
         } else {
+            assert!(!bake.dilated[i]);
             assert!(coeffs.iter().all(|&c| c == 0.0));
         }
     }
+    assert!(padding > 0);
     // Charts never share a texel: padding keeps them apart.
     let valid = bake.texels.valid_count();
     assert!(
@@ -276,6 +295,8 @@ fn a_texel_file_round_trips_and_refuses_vertex_readers() {
     let block = read.lightmap.as_ref().expect("a lightmap block");
     assert_eq!((block.width, block.height), (16, 16));
     assert_eq!(block.valid, bake.texels.valid);
+    assert_eq!(block.dilated, bake.dilated);
+    assert!(block.dilated.iter().any(|&d| d));
     assert_eq!(block.uv1, bake.atlas.uv1);
     assert_eq!(read.coefficients, bake.transfer.coefficients);
     let path = std::path::Path::new("t.prt");

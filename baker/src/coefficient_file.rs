@@ -132,8 +132,10 @@ pub struct LightmapBlock {
     /// `--texel-size`, or 0 where the charts were scaled to fill the atlas.
     pub texel_size: f32,
     pub source: AtlasSource,
-    /// Per texel (row-major), whether a triangle covers it.
+    /// Per texel (row-major), whether a triangle covers it (its transfer was baked).
     pub valid: Vec<bool>,
+    /// Per texel, whether it is padding filled from baked neighbours (dilation).
+    pub dilated: Vec<bool>,
     /// Per scene triangle, its corners' lightmap UVs in [0, 1] ((−1, −1) for a triangle left
     /// out of the atlas).
     pub uv1: Vec<[Vec2; 3]>,
@@ -217,6 +219,7 @@ impl CoefficientFile {
             texel_size: bake.atlas.texel_size.unwrap_or(0.0),
             source: bake.atlas.source,
             valid: bake.texels.valid.clone(),
+            dilated: bake.dilated.clone(),
             uv1: bake.atlas.uv1.clone(),
         });
         file
@@ -277,7 +280,12 @@ impl CoefficientFile {
         if let Some(l) = &self.lightmap {
             let uv = l.uv1.iter().flatten().flat_map(|p| p.to_array());
             bytes.extend(uv.flat_map(f32::to_le_bytes));
-            bytes.extend(l.valid.iter().map(|&v| u8::from(v)));
+            let state = |(&valid, &dilated): (&bool, &bool)| match (valid, dilated) {
+                (true, _) => 1u8,
+                (false, true) => 2,
+                (false, false) => 0,
+            };
+            bytes.extend(l.valid.iter().zip(&l.dilated).map(state));
         }
         debug_assert_eq!(
             bytes.len() as u64,
@@ -446,6 +454,7 @@ impl CoefficientFile {
                 texel_size,
                 source,
                 valid: Vec::new(),
+                dilated: Vec::new(),
                 uv1: Vec::new(),
             });
         }
@@ -509,10 +518,11 @@ impl CoefficientFile {
                 })
                 .collect();
             let mask = &bytes[bytes.len() - header.vertex_count as usize..];
-            if let Some(i) = mask.iter().position(|&b| b > 1) {
-                return Err(format!("validity of texel {i} is {} (0 or 1)", mask[i]));
+            if let Some(i) = mask.iter().position(|&b| b > 2) {
+                return Err(format!("state of texel {i} is {} (0, 1 or 2)", mask[i]));
             }
             l.valid = mask.iter().map(|&b| b == 1).collect();
+            l.dilated = mask.iter().map(|&b| b == 2).collect();
         }
         Ok(CoefficientFile {
             header,

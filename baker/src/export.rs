@@ -80,7 +80,8 @@ pub fn export_npz(coefficients: &Path, scene: &Path, output: &Path) -> Result<()
 
 /// A texel bake of a W×H lightmap: `texel_positions` (H,W,3), `texel_normals` (H,W,3) (the
 /// points the texels were baked at, recomputed from the stored UVs exactly as the bake did),
-/// `texel_valid` (H,W, bool), `transfer` (H,W,channels,n²), `uv1` (triangles,3,2: each
+/// `texel_valid` (H,W, bool: baked), `texel_dilated` (H,W, bool: padding filled from baked
+/// neighbours), `transfer` (H,W,channels,n²), `uv1` (triangles,3,2: each
 /// triangle corner's lightmap UV in [0, 1]) and, where stored, `ao` (H,W) and
 /// `bent_normal` (H,W,3). Row y of the arrays is v ∈ [y/H, (y+1)/H].
 fn export_lightmap_npz(
@@ -156,10 +157,17 @@ fn export_lightmap_npz(
             data: bent_normal,
         });
     }
-    let masks = [npz::BoolArray {
-        name: "texel_valid",
-        shape: vec![h, w],
-        data: &block.valid,
-    }];
+    let masks = [
+        npz::BoolArray {
+            name: "texel_valid",
+            shape: vec![h, w],
+            data: &block.valid,
+        },
+        npz::BoolArray {
+            name: "texel_dilated",
+            shape: vec![h, w],
+            data: &block.dilated,
+        },
+    ];
     npz::write_with_masks(output, &arrays, &masks)
 }

@@ -64,6 +64,7 @@ fn texel_bakes_are_deterministic_and_export_texel_arrays() {
         ("texel_positions", "<f4", "(32, 32, 3)".to_string()),
         ("texel_normals", "<f4", "(32, 32, 3)".to_string()),
         ("texel_valid", "|b1", "(32, 32)".to_string()),
+        ("texel_dilated", "|b1", "(32, 32)".to_string()),
         ("transfer", "<f4", "(32, 32, 1, 16)".to_string()),
         ("uv1", "<f4", format!("({triangles}, 3, 2)")),
         ("ao", "<f4", "(32, 32)".to_string()),

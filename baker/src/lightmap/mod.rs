@@ -18,14 +18,20 @@ use crate::progress::Progress;
 use crate::trace::{Backend, Tracer};
 use crate::transfer::{BakeOptions, Estimator, Mode, Receivers, Transfer, Visibility};
 
+/// Padding texels around each chart that [`dilate`] fills: bilinear filtering at a chart's
+/// edge reads one texel beyond it, mipmapping further.
+pub const DILATION: usize = 2;
+
 /// A texel bake: the atlas, its sample points, and the transfer of all W×H texels
-/// (`transfer.vertex_count` = W·H; invalid texels hold zero transfer, zero accessibility
-/// and a +z bent normal).
+/// (`transfer.vertex_count` = W·H). Texels within [`DILATION`] of a chart hold dilated
+/// values; the rest hold zero transfer, zero accessibility and a +z bent normal.
 #[derive(Clone, Debug)]
 pub struct LightmapBake {
     pub atlas: Atlas,
     pub texels: Texels,
     pub transfer: Transfer,
+    /// Per texel: not baked, but filled from baked neighbours.
+    pub dilated: Vec<bool>,
 }
 
 /// Bakes the transfer of every texel of `atlas` that a triangle covers. Unshadowed and
@@ -85,8 +91,10 @@ pub fn bake(
             visibility[i] = direct.visibility[k];
         }
     }
+    let dilated = dilate(&texels, n, &mut coefficients, &mut visibility);
     Ok(LightmapBake {
         atlas,
+        dilated,
         texels,
         transfer: Transfer {
             options: options.clone(),
@@ -101,3 +109,74 @@ pub fn bake(
         },
     })
 }
+
+/// Spreads baked texels into the empty texels around them, [`DILATION`] rings deep: each
+/// pass gives every empty texel that touches (8-neighbourhood) a texel filled before the
+/// pass the mean of those neighbours. Charts are packed at least [`atlas::PADDING`] = 2
+/// texels apart, so the first ring of one chart never mixes in its neighbour. Returns which
+/// texels were filled.
+pub fn dilate(
+    texels: &Texels,
+    n: usize,
+    coefficients: &mut [f32],
+    visibility: &mut [Visibility],
+) -> Vec<bool> {
+    let (w, h) = (texels.width as usize, texels.height as usize);
+    let mut filled = texels.valid.clone();
+    let mut dilated = vec![false; w * h];
+    for _ in 0..DILATION {
+        let before = filled.clone();
+        for y in 0..h {
+            for x in 0..w {
+                let i = y * w + x;
+                if before[i] {
+                    continue;
+                }
+                let mut sum = vec![0.0f32; n];
+                let (mut count, mut ao, mut bent) = (0u32, 0.0f32, glam::Vec3::ZERO);
+                for (dx, dy) in NEIGHBOURS {
+                    let (nx, ny) = (x as isize + dx, y as isize + dy);
+                    if nx < 0 || ny < 0 || nx >= w as isize || ny >= h as isize {
+                        continue;
+                    }
+                    let j = ny as usize * w + nx as usize;
+                    if !before[j] {
+                        continue;
+                    }
+                    count += 1;
+                    for (s, c) in sum.iter_mut().zip(&coefficients[j * n..(j + 1) * n]) {
+                        *s += c;
+                    }
+                    if let Some(v) = visibility.get(j) {
+                        ao += v.accessibility;
+                        bent += v.bent_normal;
+                    }
+                }
+                if count == 0 {
+                    continue;
+                }
+                for (c, s) in coefficients[i * n..(i + 1) * n].iter_mut().zip(&sum) {
+                    *c = s / count as f32;
+                }
+                if let Some(v) = visibility.get_mut(i) {
+                    v.accessibility = ao / count as f32;
+                    v.bent_normal = bent.try_normalize().unwrap_or(glam::Vec3::Z);
+                }
+                filled[i] = true;
+                dilated[i] = true;
+            }
+        }
+    }
+    dilated
+}
+
+const NEIGHBOURS: [(isize, isize); 8] = [
+    (-1, -1),
+    (0, -1),
+    (1, -1),
+    (-1, 0),
+    (1, 0),
+    (-1, 1),
+    (0, 1),
+    (1, 1),
+];
