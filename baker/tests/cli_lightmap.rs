@@ -79,22 +79,37 @@ fn texel_bakes_are_deterministic_and_export_texel_arrays() {
             "{name}: {header}"
         );
     }
-    // Per-vertex readers refuse a texel file (bad input), and naming the problem.
+    // Relit, a texel bake is a PNG lightmap; not a PLY mesh.
     s.write(
         "rig.toml",
         include_str!("../../viewer/src/default-rig.toml"),
     );
-    s.run(&[
-        "relight",
-        CORNELL,
-        "out/one.prt",
-        "--lights",
-        "rig.toml",
-        "-o",
-        "out/x.ply",
-    ])
-    .fails_with_bad_input(&["lightmap bake"]);
-    s.assert_out_holds(&["one.prt", "two.prt", "one.npz"]);
+    let relight = |output: &str| {
+        s.run(&[
+            "relight",
+            CORNELL,
+            "out/one.prt",
+            "--lights",
+            "rig.toml",
+            "-o",
+            output,
+        ])
+    };
+    relight("out/x.ply").fails_with(2, &["relights to a .png"]);
+    relight("out/lit.png").success();
+    let png = image::load_from_memory(&s.read("out/lit.png")).expect("a PNG");
+    assert_eq!((png.width(), png.height()), (32, 32));
+    let lit = png.to_rgb8().pixels().filter(|p| p.0 != [0, 0, 0]).count();
+    let file = prt_baker::CoefficientFile::read(&s.path("out/one.prt")).unwrap();
+    let block = file.lightmap.unwrap();
+    let filled = (0..32 * 32)
+        .filter(|&i| block.valid[i] || block.dilated[i])
+        .count();
+    assert!(
+        lit > filled / 2 && lit <= filled,
+        "{lit} lit pixels, {filled} filled texels"
+    );
+    s.assert_out_holds(&["one.prt", "two.prt", "one.npz", "lit.png"]);
 }
 
 #[test]
