@@ -364,7 +364,29 @@ fn check_output_folder(output: &Path) -> Result<(), Error> {
 
 fn inspect(path: &Path) -> Result<(), Error> {
     let file = CoefficientFile::read(path)?;
-    let json = serde_json::to_string_pretty(&file.header).expect("the header serialises");
+    let Some(l) = &file.lightmap else {
+        let json = serde_json::to_string_pretty(&file.header).expect("the header serialises");
+        println!("{json}");
+        return Ok(());
+    };
+    // Texel bakes: the header (keys sorted) and the lightmap block.
+    let mut json = serde_json::to_value(&file.header).expect("the header serialises");
+    if let Some(object) = json.as_object_mut() {
+        let texels = |flags: &[bool]| flags.iter().filter(|&&f| f).count();
+        object.insert(
+            "lightmap".into(),
+            serde_json::json!({
+                "width": l.width,
+                "height": l.height,
+                "baked_texels": texels(&l.valid),
+                "dilated_texels": texels(&l.dilated),
+                "texel_size": l.texel_size,
+                "scene_vertex_count": l.scene_vertex_count,
+                "scene_triangle_count": l.scene_triangle_count,
+            }),
+        );
+    }
+    let json = serde_json::to_string_pretty(&json).expect("JSON serialises");
     println!("{json}");
     Ok(())
 }

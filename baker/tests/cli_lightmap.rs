@@ -46,6 +46,12 @@ fn texel_bakes_are_deterministic_and_export_texel_arrays() {
         s.read("out/one.prt") == s.read("out/two.prt"),
         "--threads 1 and 2 gave different texel files"
     );
+    let inspect = s.run(&["inspect", "out/one.prt"]).success();
+    assert!(
+        inspect.stdout.contains("\"width\": 32") && inspect.stdout.contains("baked_texels"),
+        "{}",
+        inspect.stdout
+    );
     s.run(&[
         "export",
         "out/one.prt",
