@@ -77,11 +77,12 @@ fn floor_texels_in_a_walls_shadow() {
     // A 4-vertex floor [−1, 1]² meeting a wall of height 1 at x = 1, 2,000 long. Every
     // texel of the middle row lies at d = 1 − x from the wall: T_00 follows oracles.md.
     let samples = 1 << 16;
+    // Wound to face the floor (normal −x): leak detection takes back faces for insides.
     let wall = grid(
         "wall",
         Vec3::new(1.0, -1000.0, 0.0),
-        Vec3::Y * 2000.0,
         Vec3::Z,
+        Vec3::Y * 2000.0,
         1,
     );
     let scene = scene(vec![floor(1.0), wall]);
@@ -310,4 +311,37 @@ fn a_texel_file_round_trips_and_refuses_vertex_readers() {
     let last = bad.len() - 1;
     bad[last] = 2;
     assert!(CoefficientFile::from_bytes(&bad).is_err());
+}
+
+#[test]
+fn texels_inside_a_sphere_are_left_out_as_leaking_and_filled() {
+    // A 4-vertex floor passing through a closed sphere of radius 0.5: floor texels inside
+    // it see only the sphere's back faces, so they leak; those outside see its front.
+    let scene = scene(vec![floor(1.0), sphere(Vec3::ZERO, 0.5, 16, 32)]);
+    let atlas = Atlas::from_vertex_uvs(&scene, &floor_uvs(&scene, 1.0), 33, 33).unwrap();
+    let bake = bake_lightmap(&scene, atlas, &shadowed(1, 256));
+    let (mut inside, mut outside) = (0, 0);
+    for (i, p) in bake.texels.positions.iter().enumerate() {
+        let r = Vec2::new(p.x, p.y).length();
+        if r < 0.45 {
+            assert!(
+                !bake.texels.valid[i],
+                "texel at r = {r} is inside the sphere"
+            );
+            inside += 1;
+        } else if r > 0.55 {
+            assert!(
+                bake.texels.valid[i],
+                "texel at r = {r} is outside the sphere"
+            );
+            outside += 1;
+        }
+    }
+    assert!(
+        inside > 100 && outside > 500,
+        "{inside} inside, {outside} outside"
+    );
+    assert!(bake.leaking >= inside, "{} reported leaking", bake.leaking);
+    // The ring just inside the sphere's edge is filled from outside texels.
+    assert!(bake.dilated.iter().any(|&d| d));
 }

@@ -299,10 +299,11 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
             )?;
             let file = CoefficientFile::from_lightmap_bake(&scene, &bake);
             let what = format!(
-                "{} of {}×{} texels",
+                "{} of {}×{} texels ({} left out as leaking)",
                 bake.texels.valid_count(),
                 bake.texels.width,
-                bake.texels.height
+                bake.texels.height,
+                bake.leaking
             );
             (bake.transfer, file, what)
         }

@@ -6,6 +6,7 @@
 //! tracing, sums and determinism. `docs/lightmaps.md` describes what exists and what not.
 
 pub mod atlas;
+pub mod leaks;
 pub mod texels;
 
 use std::time::Instant;
@@ -32,6 +33,8 @@ pub struct LightmapBake {
     pub transfer: Transfer,
     /// Per texel: not baked, but filled from baked neighbours.
     pub dilated: Vec<bool>,
+    /// Covered texels left out as leaking ([`leaks`]; shadowed mode only).
+    pub leaking: usize,
 }
 
 /// Bakes the transfer of every texel of `atlas` that a triangle covers. Unshadowed and
@@ -61,7 +64,17 @@ pub fn bake(
         }
     };
     let started = Instant::now();
-    let texels = Texels::rasterise(scene, &atlas);
+    let mut texels = Texels::rasterise(scene, &atlas);
+    let mut leaking = 0;
+    if let Some(tracer) = tracer {
+        let found = leaks::find_leaks(&texels, tracer, options.seed);
+        for (valid, leaks) in texels.valid.iter_mut().zip(found) {
+            if leaks {
+                *valid = false;
+                leaking += 1;
+            }
+        }
+    }
     let receivers: Receivers = texels.receivers();
     let count = receivers.len();
     let estimator = Estimator::for_receivers(receivers, options)?;
@@ -95,6 +108,7 @@ pub fn bake(
     Ok(LightmapBake {
         atlas,
         dilated,
+        leaking,
         texels,
         transfer: Transfer {
             options: options.clone(),
