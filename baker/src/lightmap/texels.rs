@@ -21,16 +21,16 @@ use crate::transfer::Receivers;
 pub struct Texels {
     pub width: u32,
     pub height: u32,
-    /// Whether a triangle covers the texel.
+    /// Whether a triangle covers the texel (a bake clears it again for leaking texels).
     pub valid: Vec<bool>,
-    /// The texel's point on the surface (zero where invalid).
+    /// The texel's point on the surface (zero where no triangle covers it).
     pub positions: Vec<Vec3>,
-    /// The interpolated unit shading normal (zero where invalid).
+    /// The interpolated unit shading normal (zero where no triangle covers it).
     pub normals: Vec<Vec3>,
     /// Where its rays start: the point moved off its triangle along the face normal by
-    /// [`offset_distance`], as vertices are (zero where invalid).
+    /// [`offset_distance`], as vertices are (zero where no triangle covers it).
     pub origins: Vec<Vec3>,
-    /// The winning triangle (`u32::MAX` where invalid).
+    /// The winning triangle (`u32::MAX` where none covers it).
     pub triangle: Vec<u32>,
 }
 
