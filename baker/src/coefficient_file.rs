@@ -8,10 +8,11 @@
 
 use std::path::Path;
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use serde::Serialize;
 
 use crate::error::{Error, Result};
+use crate::lightmap::{AtlasSource, LightmapBake};
 use crate::sampling::Sampling;
 use crate::scene::{Scene, Up};
 use crate::sh;
@@ -22,6 +23,8 @@ use crate::transfer::{Aux, Mode, Transfer};
 pub const MAGIC: [u8; 8] = *b"\x89PRT\r\n\x1a\n";
 pub const VERSION: u32 = 1;
 pub const HEADER_SIZE: usize = 128;
+/// The header size of a lightmap (texel) bake: the 128 bytes, then the texel block.
+pub const LIGHTMAP_HEADER_SIZE: usize = 160;
 /// Offset of the CRC-32 (the last 4 bytes of the header).
 const CHECKSUM_OFFSET: usize = 124;
 
@@ -153,6 +156,45 @@ pub struct CoefficientFile {
     pub rays: Option<Vec<u32>>,
     /// Adaptive bakes: each vertex's estimated RMS coefficient error.
     pub error_estimate: Option<Vec<f32>>,
+    /// Texel bakes only: the lightmap's size, validity mask and UVs. The "vertices" of such
+    /// a file are the W×H texels, row-major.
+    pub lightmap: Option<LightmapBlock>,
+}
+
+/// What a texel bake stores beyond a vertex bake (docs/coefficient-format.md, "Lightmap
+/// (texel) bakes").
+#[derive(Clone, Debug, PartialEq)]
+pub struct LightmapBlock {
+    pub width: u32,
+    pub height: u32,
+    /// The scene's vertex and triangle counts (the file's own vertex count is W·H).
+    pub scene_vertex_count: u64,
+    pub scene_triangle_count: u64,
+    /// `--texel-size`, or 0 where the charts were scaled to fill the atlas.
+    pub texel_size: f32,
+    pub source: AtlasSource,
+    /// Per texel (row-major), whether a triangle covers it (its transfer was baked).
+    pub valid: Vec<bool>,
+    /// Per texel, whether it is padding filled from baked neighbours (dilation).
+    pub dilated: Vec<bool>,
+    /// Per scene triangle, its corners' lightmap UVs in [0, 1] ((−1, −1) for a triangle left
+    /// out of the atlas).
+    pub uv1: Vec<[Vec2; 3]>,
+}
+
+impl LightmapBlock {
+    /// Bytes after the aux arrays: the UVs (f32) then the mask (u8).
+    fn payload_bytes(&self) -> u64 {
+        self.scene_triangle_count * 6 * 4 + u64::from(self.width) * u64::from(self.height)
+    }
+
+    /// [`LightmapBlock::payload_bytes`] of a block read from a file: `None` where a corrupted
+    /// count overflows.
+    fn checked_payload_bytes(&self) -> Option<u64> {
+        self.scene_triangle_count
+            .checked_mul(6 * 4)?
+            .checked_add(u64::from(self.width) * u64::from(self.height))
+    }
 }
 
 fn mode_code(mode: Mode) -> u32 {
@@ -228,6 +270,36 @@ impl CoefficientFile {
                     .map(|v| v.error_estimate)
                     .collect()
             }),
+            lightmap: None,
+        }
+    }
+
+    /// Packages a texel bake of `scene`.
+    pub fn from_lightmap_bake(scene: &Scene, bake: &LightmapBake) -> CoefficientFile {
+        let mut file = CoefficientFile::from_bake(scene, &bake.transfer);
+        file.lightmap = Some(LightmapBlock {
+            width: bake.atlas.width,
+            height: bake.atlas.height,
+            scene_vertex_count: scene.vertex_count() as u64,
+            scene_triangle_count: scene.triangles.len() as u64,
+            texel_size: bake.atlas.texel_size.unwrap_or(0.0),
+            source: bake.atlas.source,
+            valid: bake.texels.valid.clone(),
+            dilated: bake.dilated.clone(),
+            uv1: bake.atlas.uv1.clone(),
+        });
+        file
+    }
+
+    /// Bytes after the header.
+    fn payload_bytes(&self) -> u64 {
+        self.header.payload_bytes() + self.lightmap.as_ref().map_or(0, |l| l.payload_bytes())
+    }
+
+    fn header_size(&self) -> usize {
+        match self.lightmap {
+            Some(_) => LIGHTMAP_HEADER_SIZE,
+            None => HEADER_SIZE,
         }
     }
 
@@ -244,7 +316,7 @@ impl CoefficientFile {
         let mut bytes = Vec::with_capacity(HEADER_SIZE + self.coefficients.len() * 4);
         bytes.extend(MAGIC);
         bytes.extend(h.version.to_le_bytes());
-        bytes.extend((HEADER_SIZE as u32).to_le_bytes());
+        bytes.extend((self.header_size() as u32).to_le_bytes());
         bytes.extend(h.order.to_le_bytes());
         bytes.extend(h.channels.to_le_bytes());
         bytes.extend(h.vertex_count.to_le_bytes());
@@ -256,7 +328,7 @@ impl CoefficientFile {
         bytes.extend(h.scene_fingerprint.to_le_bytes());
         bytes.extend(sampling_code(h.sampling).to_le_bytes());
         bytes.extend(h.aux_flags().to_le_bytes());
-        bytes.extend(h.payload_bytes().to_le_bytes());
+        bytes.extend(self.payload_bytes().to_le_bytes());
         bytes.extend(h.bounce_samples.to_le_bytes());
         bytes.extend(h.up.code().to_le_bytes());
         bytes.resize(108, 0); // the shard identity 88..108: zero in a whole file
@@ -269,6 +341,14 @@ impl CoefficientFile {
         bytes.extend(adaptive.replicates.to_le_bytes());
         bytes.extend(adaptive.rays_cast.to_le_bytes());
         bytes.resize(HEADER_SIZE, 0); // the checksum slot
+        if let Some(l) = &self.lightmap {
+            bytes.extend(l.width.to_le_bytes());
+            bytes.extend(l.height.to_le_bytes());
+            bytes.extend(l.scene_vertex_count.to_le_bytes());
+            bytes.extend(l.scene_triangle_count.to_le_bytes());
+            bytes.extend(l.texel_size.to_le_bytes());
+            bytes.extend(l.source.code().to_le_bytes());
+        }
         bytes.extend(self.coefficients.iter().flat_map(|c| c.to_le_bytes()));
         let ao = self.ao.iter().flatten().copied();
         let bent = self.bent_normal.iter().flatten().flat_map(|n| n.to_array());
@@ -276,7 +356,20 @@ impl CoefficientFile {
         bytes.extend(self.rays.iter().flatten().flat_map(|r| r.to_le_bytes()));
         let errors = self.error_estimate.iter().flatten();
         bytes.extend(errors.flat_map(|e| e.to_le_bytes()));
-        debug_assert_eq!(bytes.len() as u64, HEADER_SIZE as u64 + h.payload_bytes());
+        if let Some(l) = &self.lightmap {
+            let uv = l.uv1.iter().flatten().flat_map(|p| p.to_array());
+            bytes.extend(uv.flat_map(f32::to_le_bytes));
+            let state = |(&valid, &dilated): (&bool, &bool)| match (valid, dilated) {
+                (true, _) => 1u8,
+                (false, true) => 2,
+                (false, false) => 0,
+            };
+            bytes.extend(l.valid.iter().zip(&l.dilated).map(state));
+        }
+        debug_assert_eq!(
+            bytes.len() as u64,
+            self.header_size() as u64 + self.payload_bytes()
+        );
         let checksum = checksum(&bytes);
         bytes[CHECKSUM_OFFSET..HEADER_SIZE].copy_from_slice(&checksum.to_le_bytes());
         (bytes, checksum)
@@ -298,16 +391,53 @@ impl CoefficientFile {
 
     /// Parses and validates a file's bytes; the error is a sentence for the user.
     pub fn from_bytes(bytes: &[u8]) -> std::result::Result<CoefficientFile, String> {
-        let (header, payload) = parse_header(bytes)?;
+        let (header, payload, header_size) = parse_header(bytes)?;
         if let Some(shard) = crate::shard::PartId::from_header_bytes(bytes)? {
             return Err(format!(
                 "a shard part ({shard}) of a bake, not a whole bake: combine the parts with `prt-bake merge`"
             ));
         }
+        let mut lightmap = None;
+        if header_size == LIGHTMAP_HEADER_SIZE {
+            let u32_at =
+                |o: usize| u32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes"));
+            let u64_at =
+                |o: usize| u64::from_le_bytes(bytes[o..o + 8].try_into().expect("8 bytes"));
+            let (width, height) = (u32_at(128), u32_at(132));
+            if u64::from(width) * u64::from(height) != header.vertex_count {
+                return Err(format!(
+                    "a {width}×{height} lightmap in a file of {} texels",
+                    header.vertex_count
+                ));
+            }
+            let source = AtlasSource::from_code(u32_at(156))
+                .ok_or_else(|| format!("unknown atlas source {}", u32_at(156)))?;
+            let texel_size = f32::from_le_bytes(bytes[152..156].try_into().expect("4 bytes"));
+            if !(texel_size.is_finite() && texel_size >= 0.0) {
+                return Err(format!("texel size {texel_size} is not a size"));
+            }
+            lightmap = Some(LightmapBlock {
+                width,
+                height,
+                scene_vertex_count: u64_at(136),
+                scene_triangle_count: u64_at(144),
+                texel_size,
+                source,
+                valid: Vec::new(),
+                dilated: Vec::new(),
+                uv1: Vec::new(),
+            });
+        }
         // Checked: a corrupted count must not wrap around to the payload's size.
-        let needed = header.vertex_count.checked_mul(
-            (header.coefficients_per_vertex() + header.aux_floats_per_vertex()) as u64 * 4,
-        );
+        let needed = header
+            .vertex_count
+            .checked_mul(
+                (header.coefficients_per_vertex() + header.aux_floats_per_vertex()) as u64 * 4,
+            )
+            .and_then(|n| match &lightmap {
+                Some(l) => l.checked_payload_bytes().and_then(|m| n.checked_add(m)),
+                None => Some(n),
+            });
         if needed != Some(payload) {
             return Err(format!(
                 "{} vertices × {} coefficients need {} bytes, the header announces {payload}",
@@ -317,7 +447,7 @@ impl CoefficientFile {
             ));
         }
         let aux = header.aux;
-        let mut floats = bytes[HEADER_SIZE..]
+        let mut floats = bytes[header_size..]
             .chunks_exact(4)
             .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")));
         let vertices = header.vertex_count as usize;
@@ -335,8 +465,9 @@ impl CoefficientFile {
             let bits = floats.by_ref().take(vertices).map(f32::to_bits);
             bits.collect()
         });
-        let error_estimate: Option<Vec<f32>> =
-            header.adaptive.map(|_| floats.by_ref().take(vertices).collect());
+        let error_estimate: Option<Vec<f32>> = header
+            .adaptive
+            .map(|_| floats.by_ref().take(vertices).collect());
         if let (Some(adaptive), Some(rays)) = (header.adaptive, &rays) {
             if let Some(v) = rays
                 .iter()
@@ -370,6 +501,31 @@ impl CoefficientFile {
             ao.as_deref(),
             bent_normal.as_deref(),
         )?;
+        if let Some(l) = lightmap.as_mut() {
+            let uv: Vec<f32> = floats
+                .by_ref()
+                .take(l.scene_triangle_count as usize * 6)
+                .collect();
+            if let Some(i) = uv.iter().position(|x| !x.is_finite()) {
+                return Err(format!("lightmap UV of triangle {} is not finite", i / 6));
+            }
+            l.uv1 = uv
+                .chunks_exact(6)
+                .map(|c| {
+                    [
+                        Vec2::new(c[0], c[1]),
+                        Vec2::new(c[2], c[3]),
+                        Vec2::new(c[4], c[5]),
+                    ]
+                })
+                .collect();
+            let mask = &bytes[bytes.len() - header.vertex_count as usize..];
+            if let Some(i) = mask.iter().position(|&b| b > 2) {
+                return Err(format!("state of texel {i} is {} (0, 1 or 2)", mask[i]));
+            }
+            l.valid = mask.iter().map(|&b| b == 1).collect();
+            l.dilated = mask.iter().map(|&b| b == 2).collect();
+        }
         Ok(CoefficientFile {
             header,
             coefficients,
@@ -377,6 +533,7 @@ impl CoefficientFile {
             bent_normal,
             rays,
             error_estimate,
+            lightmap,
         })
     }
 }
@@ -384,7 +541,7 @@ impl CoefficientFile {
 /// Checks the header of a whole file or a shard part (everything but the payload's layout):
 /// size, magic, version, checksum and every field. Returns the header and the payload length
 /// it announces.
-pub(crate) fn parse_header(bytes: &[u8]) -> std::result::Result<(Header, u64), String> {
+pub(crate) fn parse_header(bytes: &[u8]) -> std::result::Result<(Header, u64, usize), String> {
     if bytes.len() < MAGIC.len() || bytes[..MAGIC.len()] != MAGIC {
         return Err("not a PRT coefficient file (wrong magic bytes)".into());
     }
@@ -402,14 +559,21 @@ pub(crate) fn parse_header(bytes: &[u8]) -> std::result::Result<(Header, u64), S
             "unsupported format version {version} (this build reads version {VERSION})"
         ));
     }
-    if u32_at(12) as usize != HEADER_SIZE {
+    let header_size = u32_at(12) as usize;
+    if header_size != HEADER_SIZE && header_size != LIGHTMAP_HEADER_SIZE {
         return Err(format!(
-            "header size {} (version {VERSION} headers are {HEADER_SIZE} bytes)",
-            u32_at(12)
+            "header size {header_size} (version {VERSION} headers are {HEADER_SIZE} bytes, \
+             {LIGHTMAP_HEADER_SIZE} for lightmap bakes)"
+        ));
+    }
+    if bytes.len() < header_size {
+        return Err(format!(
+            "truncated: {} bytes, but the header alone is {header_size} bytes",
+            bytes.len()
         ));
     }
     let payload = u64_at(72);
-    let found = (bytes.len() - HEADER_SIZE) as u64;
+    let found = (bytes.len() - header_size) as u64;
     if found < payload {
         return Err(format!(
             "truncated: the header announces {payload} bytes of coefficients, the file holds {found}"
@@ -503,7 +667,7 @@ pub(crate) fn parse_header(bytes: &[u8]) -> std::result::Result<(Header, u64), S
         checksum: stored,
         adaptive,
     };
-    Ok((header, payload))
+    Ok((header, payload, header_size))
 }
 
 /// Checks every float of a file's (or a part's) arrays; `coefficients` holds whole vertices
@@ -552,10 +716,50 @@ impl CoefficientFile {
                 message,
             })
         };
-        if self.header.vertex_count != scene.vertex_count() as u64 {
+        if let Some(l) = &self.lightmap {
+            return mismatch(format!(
+                "a lightmap bake ({}×{} texels), which this reader does not read (only \
+                 `export` reads lightmap bakes so far)",
+                l.width, l.height
+            ));
+        }
+        self.check_fingerprint(path, scene, self.header.vertex_count)
+    }
+
+    /// Refuses a lightmap bake made for a different scene, or a vertex bake.
+    pub fn check_lightmap_scene(&self, path: &Path, scene: &Scene) -> Result<&LightmapBlock> {
+        let Some(l) = &self.lightmap else {
+            return Err(Error::SceneMismatch {
+                path: path.to_path_buf(),
+                message: "a per-vertex bake, not a lightmap bake".into(),
+            });
+        };
+        if l.scene_triangle_count != scene.triangles.len() as u64 {
+            return Err(Error::SceneMismatch {
+                path: path.to_path_buf(),
+                message: format!(
+                    "baked for a scene with {} triangles, but {} has {}",
+                    l.scene_triangle_count,
+                    scene.path.display(),
+                    scene.triangles.len()
+                ),
+            });
+        }
+        self.check_fingerprint(path, scene, l.scene_vertex_count)?;
+        Ok(l)
+    }
+
+    fn check_fingerprint(&self, path: &Path, scene: &Scene, vertex_count: u64) -> Result<()> {
+        let mismatch = |message: String| {
+            Err(Error::SceneMismatch {
+                path: path.to_path_buf(),
+                message,
+            })
+        };
+        if vertex_count != scene.vertex_count() as u64 {
             return mismatch(format!(
                 "baked for a scene with {} vertices, but {} has {}",
-                self.header.vertex_count,
+                vertex_count,
                 scene.path.display(),
                 scene.vertex_count()
             ));
@@ -645,6 +849,7 @@ pub(crate) fn bytes_with_payload(header: &Header, shard: &[u8; 20], payload: &[u
         bent_normal: header.aux.bent_normal.then(Vec::new),
         rays: header.adaptive.map(|_| Vec::new()),
         error_estimate: header.adaptive.map(|_| Vec::new()),
+        lightmap: None,
     };
     let (mut bytes, _) = empty.to_bytes();
     bytes[24..32].copy_from_slice(&header.vertex_count.to_le_bytes());
@@ -693,6 +898,7 @@ mod tests {
             bent_normal: None,
             rays: Some(vec![256, 4096]),
             error_estimate: Some(vec![5e-4, 2e-3]),
+            lightmap: None,
         }
     }
 

@@ -19,6 +19,7 @@ pub mod export;
 pub mod gltf_export;
 pub mod interreflection;
 pub mod light;
+pub mod lightmap;
 pub mod limits;
 pub mod merge;
 pub mod npz;

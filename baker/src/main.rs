@@ -187,6 +187,13 @@ struct BakeArgs {
     /// Vertices per checkpoint block (default: about 67 million rays' worth).
     #[arg(long, requires = "checkpoint")]
     checkpoint_vertices: Option<usize>,
+    /// Bake per texel of a RES×RES lightmap atlas (xatlas unwrap) instead of per vertex
+    /// (docs/lightmaps.md). Unshadowed and shadowed modes.
+    #[arg(long, value_name = "RES")]
+    lightmap: Option<u32>,
+    /// With --lightmap: the world size of a texel (default: the charts fill the atlas).
+    #[arg(long, value_name = "S")]
+    texel_size: Option<f32>,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -338,6 +345,18 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
             "--target-error cannot be combined with --shard or --checkpoint (yet)".into(),
         ));
     }
+    if args.texel_size.is_some() && args.lightmap.is_none() {
+        return Err(Error::InvalidOption("--texel-size needs --lightmap".into()));
+    }
+    // Texel bakes are whole, fixed-sample bakes for now (docs/lightmaps.md).
+    if args.lightmap.is_some()
+        && (shard.is_some() || args.checkpoint.is_some() || options.target_error.is_some())
+    {
+        return Err(Error::InvalidOption(
+            "--lightmap cannot be combined with --shard, --checkpoint or --target-error (yet)"
+                .into(),
+        ));
+    }
     let tracer_options = TracerOptions {
         threads: args.threads,
         robust: args.robust,
@@ -414,8 +433,33 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
             progress.as_ref(),
         );
     }
-    let transfer = prt_baker::bake(&scene, tracer.as_deref(), &options, progress.as_ref())?;
-    let file = CoefficientFile::from_bake(&scene, &transfer);
+    let (transfer, file, what) = match args.lightmap {
+        None => {
+            let transfer = prt_baker::bake(&scene, tracer.as_deref(), &options, progress.as_ref())?;
+            let file = CoefficientFile::from_bake(&scene, &transfer);
+            let what = format!("{} vertices", transfer.vertex_count);
+            (transfer, file, what)
+        }
+        Some(resolution) => {
+            let atlas = prt_baker::lightmap::Atlas::generate(&scene, resolution, args.texel_size)?;
+            let bake = prt_baker::lightmap::bake(
+                &scene,
+                tracer.as_deref(),
+                &options,
+                atlas,
+                progress.as_ref(),
+            )?;
+            let file = CoefficientFile::from_lightmap_bake(&scene, &bake);
+            let what = format!(
+                "{} of {}×{} texels ({} left out as leaking)",
+                bake.texels.valid_count(),
+                bake.texels.width,
+                bake.texels.height,
+                bake.leaking
+            );
+            (bake.transfer, file, what)
+        }
+    };
     output.write(&file.to_bytes().0)?;
 
     let rays = match transfer.rays_cast {
@@ -450,8 +494,7 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
         None => mode,
     };
     println!(
-        "baked {} vertices, {rays}, {:.2} s (order {}, {mode}, {} samples, {}) -> {}",
-        transfer.vertex_count,
+        "baked {what}, {rays}, {:.2} s (order {}, {mode}, {} samples, {}) -> {}",
         transfer.seconds,
         options.order,
         options.samples,
@@ -630,6 +673,19 @@ fn inspect(path: &Path) -> Result<(), Error> {
         {
             let summary = prt_baker::adaptive::Summary::new(adaptive.target_error, rays, errors);
             json["per_vertex"] = serde_json::to_value(summary).expect("the summary serialises");
+        }
+        if let Some(l) = &file.lightmap {
+            // Texel bakes: the lightmap block.
+            let texels = |flags: &[bool]| flags.iter().filter(|&&f| f).count();
+            json["lightmap"] = serde_json::json!({
+                "width": l.width,
+                "height": l.height,
+                "baked_texels": texels(&l.valid),
+                "dilated_texels": texels(&l.dilated),
+                "texel_size": l.texel_size,
+                "scene_vertex_count": l.scene_vertex_count,
+                "scene_triangle_count": l.scene_triangle_count,
+            });
         }
         json
     };

@@ -20,15 +20,22 @@ pub struct IndexArray<'a> {
     pub data: &'a [u32],
 }
 
-/// The `.npy` (format 1.0) encoding of one float32 array.
+/// A named boolean array (NumPy `|b1`, one byte per element).
+pub struct BoolArray<'a> {
+    pub name: &'a str,
+    pub shape: Vec<usize>,
+    pub data: &'a [bool],
+}
+
+/// The `.npy` (format 1.0) encoding of one array.
 pub fn npy_bytes(shape: &[usize], data: &[f32]) -> Vec<u8> {
     assert_eq!(
         shape.iter().product::<usize>(),
         data.len(),
         "shape does not match data"
     );
-    let data: Vec<[u8; 4]> = data.iter().map(|x| x.to_le_bytes()).collect();
-    npy_bytes_of("<f4", shape, &data)
+    let payload: Vec<u8> = data.iter().flat_map(|x| x.to_le_bytes()).collect();
+    npy_encode("<f4", shape, &payload)
 }
 
 /// The `.npy` (format 1.0) encoding of one uint32 array.
@@ -38,11 +45,18 @@ pub fn npy_bytes_u32(shape: &[usize], data: &[u32]) -> Vec<u8> {
         data.len(),
         "shape does not match data"
     );
-    let data: Vec<[u8; 4]> = data.iter().map(|x| x.to_le_bytes()).collect();
-    npy_bytes_of("<u4", shape, &data)
+    let payload: Vec<u8> = data.iter().flat_map(|x| x.to_le_bytes()).collect();
+    npy_encode("<u4", shape, &payload)
 }
 
-fn npy_bytes_of(descr: &str, shape: &[usize], data: &[[u8; 4]]) -> Vec<u8> {
+/// The `.npy` encoding of a boolean array.
+pub fn npy_bool_bytes(shape: &[usize], data: &[bool]) -> Vec<u8> {
+    assert_eq!(shape.iter().product::<usize>(), data.len());
+    let payload: Vec<u8> = data.iter().map(|&b| u8::from(b)).collect();
+    npy_encode("|b1", shape, &payload)
+}
+
+fn npy_encode(descr: &str, shape: &[usize], data: &[u8]) -> Vec<u8> {
     let dims: Vec<String> = shape.iter().map(|d| d.to_string()).collect();
     let shape = match dims.len() {
         1 => format!("({},)", dims[0]),
@@ -53,11 +67,11 @@ fn npy_bytes_of(descr: &str, shape: &[usize], data: &[[u8; 4]]) -> Vec<u8> {
     let unpadded = 10 + header.len() + 1;
     header.push_str(&" ".repeat(unpadded.next_multiple_of(64) - unpadded));
     header.push('\n');
-    let mut bytes = Vec::with_capacity(10 + header.len() + data.len() * 4);
+    let mut bytes = Vec::with_capacity(10 + header.len() + data.len());
     bytes.extend(b"\x93NUMPY\x01\x00");
     bytes.extend((header.len() as u16).to_le_bytes());
     bytes.extend(header.as_bytes());
-    bytes.extend(data.iter().flatten());
+    bytes.extend(data);
     bytes
 }
 
@@ -65,15 +79,19 @@ fn npy_bytes_of(descr: &str, shape: &[usize], data: &[[u8; 4]]) -> Vec<u8> {
 pub fn write(path: &Path, arrays: &[Array<'_>]) -> Result<()> {
     crate::atomic::write(
         path,
-        &to_bytes(arrays, &[]).map_err(|err| match err {
+        &to_bytes(arrays, &[], &[]).map_err(|err| match err {
             Error::Io { source, .. } => Error::io(path, source),
             other => other,
         })?,
     )
 }
 
-/// The `.npz` file's bytes: the float arrays, then the index arrays.
-pub fn to_bytes(arrays: &[Array<'_>], index_arrays: &[IndexArray<'_>]) -> Result<Vec<u8>> {
+/// The `.npz` file's bytes: the float arrays, then the index arrays, then the boolean masks.
+pub fn to_bytes(
+    arrays: &[Array<'_>],
+    index_arrays: &[IndexArray<'_>],
+    masks: &[BoolArray<'_>],
+) -> Result<Vec<u8>> {
     let path = Path::new("npz archive");
     let mut zip = zip::ZipWriter::new(Cursor::new(Vec::new()));
     let options = zip::write::SimpleFileOptions::default()
@@ -90,6 +108,12 @@ pub fn to_bytes(arrays: &[Array<'_>], index_arrays: &[IndexArray<'_>]) -> Result
         zip.start_file(format!("{}.npy", array.name), options)
             .map_err(zip_error)?;
         zip.write_all(&npy_bytes_u32(&array.shape, array.data))
+            .map_err(|err| Error::io(path, err))?;
+    }
+    for mask in masks {
+        zip.start_file(format!("{}.npy", mask.name), options)
+            .map_err(zip_error)?;
+        zip.write_all(&npy_bool_bytes(&mask.shape, mask.data))
             .map_err(|err| Error::io(path, err))?;
     }
     Ok(zip.finish().map_err(zip_error)?.into_inner())

@@ -89,6 +89,9 @@ pub fn relight(
     let file = CoefficientFile::read(coefficients)?;
     let scene_path = scene;
     let scene = Scene::load(scene)?;
+    if file.lightmap.is_some() {
+        return relight_lightmap(&file, coefficients, &scene, &rig, output, exposure);
+    }
     file.check_scene(coefficients, &scene)?;
     let mut inputs = scene.input_files();
     inputs.push(coefficients.to_path_buf());
@@ -130,6 +133,54 @@ pub fn relight(
     })
 }
 
+/// A lightmap (texel) bake lit by the rig, written as a W×H PNG: per texel Σ_j T_j·L_cj,
+/// the light a surface of albedo 1 reflects there (the renderer multiplies by albedo), with
+/// [`display_colour`]'s tone mapping. Image row y is texel row y (v = 0 at the top, as glTF
+/// and most engines read UVs). Empty texels are black.
+fn relight_lightmap(
+    file: &CoefficientFile,
+    coefficients: &Path,
+    scene: &Scene,
+    rig: &Rig,
+    output: &Path,
+    exposure: f64,
+) -> Result<Relit> {
+    let block = file.check_lightmap_scene(coefficients, scene)?;
+    let is_png = output
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+    if !is_png {
+        return Err(crate::Error::InvalidOption(format!(
+            "{}: a lightmap bake relights to a .png image",
+            output.display()
+        )));
+    }
+    let order = file.header.order as usize;
+    let light = rig.project(order);
+    let texels = (block.width * block.height) as usize;
+    let radiance = vertex_radiance(file, &vec![Vec3::ONE; texels], &light);
+    let pixels: Vec<u8> = radiance
+        .iter()
+        .flat_map(|r| display_colour(*r, exposure))
+        .collect();
+    let mut png = Vec::new();
+    image::ImageEncoder::write_image(
+        image::codecs::png::PngEncoder::new(&mut png),
+        &pixels,
+        block.width,
+        block.height,
+        image::ExtendedColorType::Rgb8,
+    )
+    .map_err(|err| crate::Error::io(output, std::io::Error::other(err)))?;
+    crate::atomic::write(output, &png)?;
+    Ok(Relit {
+        vertex_count: texels,
+        order,
+        light_count: rig.lights.len(),
+        max_radiance: radiance.iter().flatten().fold(0.0, |a, &b| a.max(b)),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -161,6 +212,7 @@ mod tests {
             bent_normal: None,
             rays: None,
             error_estimate: None,
+            lightmap: None,
         }
     }
 

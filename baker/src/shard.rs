@@ -237,7 +237,10 @@ impl Part {
 
     /// Parses and validates a part file's bytes; the error is a sentence for the user.
     pub fn from_bytes(bytes: &[u8]) -> std::result::Result<Part, String> {
-        let (header, payload_bytes) = coefficient_file::parse_header(bytes)?;
+        let (header, payload_bytes, header_size) = coefficient_file::parse_header(bytes)?;
+        if header_size != coefficient_file::HEADER_SIZE {
+            return Err("a lightmap (texel) file, which has no shard parts".into());
+        }
         let id = PartId::from_header_bytes(bytes)?
             .ok_or("a whole bake, not a shard part (nothing to merge)")?;
         if id.first_vertex + u64::from(id.vertices) > header.vertex_count {
@@ -370,6 +373,7 @@ impl Part {
             // Parts of adaptive bakes are refused before baking (prt-bake's `bake`).
             rays: None,
             error_estimate: None,
+            lightmap: None,
         }
     }
 }

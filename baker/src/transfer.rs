@@ -356,6 +356,35 @@ pub(crate) fn direct_pass(
     }
 }
 
+/// What a bake estimates transfer at: a point a ray leaves from and a shading normal, per
+/// receiver. Vertices and lightmap texels are both receivers, so they share sampling,
+/// tracing and determinism (receiver index `i` seeds its frame as vertex `i` does).
+#[derive(Clone, Debug, Default)]
+pub struct Receivers {
+    /// Where the receiver's rays start (already moved off its surface).
+    pub origins: Vec<Vec3>,
+    /// Unit shading normals.
+    pub normals: Vec<Vec3>,
+}
+
+impl Receivers {
+    /// The scene's vertices, rays leaving from [`ray_origins`].
+    pub fn vertices(scene: &Scene) -> Receivers {
+        Receivers {
+            origins: ray_origins(scene),
+            normals: scene.normals.clone(),
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.normals.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.normals.is_empty()
+    }
+}
+
 /// What all vertices of one bake share, and the per-vertex estimator.
 pub struct Estimator {
     pub(crate) options: BakeOptions,
@@ -374,7 +403,14 @@ pub struct Estimator {
 }
 
 impl Estimator {
+    /// The estimator for the scene's vertices.
     pub fn new(scene: &Scene, options: &BakeOptions) -> Result<Estimator> {
+        Estimator::for_receivers(Receivers::vertices(scene), options)
+    }
+
+    /// The estimator for any receivers (vertices, or lightmap texels: [`crate::lightmap`]);
+    /// receiver `i` plays the part of vertex `i` everywhere below.
+    pub fn for_receivers(receivers: Receivers, options: &BakeOptions) -> Result<Estimator> {
         options.validate()?;
         let basis = Basis::new(options.order);
         let n = basis.coeff_count();
@@ -409,8 +445,8 @@ impl Estimator {
             options: options.clone(),
             rotator: Rotator::new(options.order),
             basis,
-            normals: scene.normals.clone(),
-            origins: ray_origins(scene),
+            normals: receivers.normals,
+            origins: receivers.origins,
             local_dirs,
             local_sh,
             adaptive,

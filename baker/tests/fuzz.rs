@@ -435,6 +435,7 @@ fn prt_seeds() -> Vec<Vec<u8>> {
             bent_normal: aux.bent_normal.then(|| vec![glam::Vec3::Z; v]),
             rays: adaptive.then(|| vec![64; v]),
             error_estimate: adaptive.then(|| (0..v).map(|i| 1e-4 * i as f32).collect()),
+            lightmap: None,
         }
         .to_bytes()
         .0

@@ -1,0 +1,248 @@
+//! Texel sample points: which texels a triangle covers, and the world point and normal each
+//! covered texel is baked at.
+//!
+//! Rasterisation is conservative: a texel is covered by a triangle when the triangle
+//! overlaps the texel's square footprint with positive area (computed exactly, by clipping
+//! the triangle to the square). Where several triangles cover a texel, the one with the
+//! largest overlap wins (the first in scene order on a tie, so the result is deterministic).
+//! The texel's point is its centre when the centre lies in the winning triangle; otherwise
+//! (edge texels) the centroid of the overlap, which lies both in the triangle and in the
+//! texel: the centre "clipped into the triangle" without leaving the texel.
+
+use glam::{Vec2, Vec3};
+
+use super::atlas::Atlas;
+use crate::scene::Scene;
+use crate::trace::offset_distance;
+use crate::transfer::Receivers;
+
+/// Texel sample points of an atlas; every array is row-major, index `y · width + x`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Texels {
+    pub width: u32,
+    pub height: u32,
+    /// Whether a triangle covers the texel (a bake clears it again for leaking texels).
+    pub valid: Vec<bool>,
+    /// The texel's point on the surface (zero where no triangle covers it).
+    pub positions: Vec<Vec3>,
+    /// The interpolated unit shading normal (zero where no triangle covers it).
+    pub normals: Vec<Vec3>,
+    /// Where its rays start: the point moved off its triangle along the face normal by
+    /// [`offset_distance`], as vertices are (zero where no triangle covers it).
+    pub origins: Vec<Vec3>,
+    /// The winning triangle (`u32::MAX` where none covers it).
+    pub triangle: Vec<u32>,
+}
+
+impl Texels {
+    /// Rasterises every triangle of `scene` into `atlas`.
+    pub fn rasterise(scene: &Scene, atlas: &Atlas) -> Texels {
+        let (w, h) = (atlas.width as usize, atlas.height as usize);
+        let mut coverage = vec![0.0f32; w * h];
+        let mut texels = Texels {
+            width: atlas.width,
+            height: atlas.height,
+            valid: vec![false; w * h],
+            positions: vec![Vec3::ZERO; w * h],
+            normals: vec![Vec3::ZERO; w * h],
+            origins: vec![Vec3::ZERO; w * h],
+            triangle: vec![u32::MAX; w * h],
+        };
+        for (t, (tri, uv)) in scene
+            .triangles
+            .iter()
+            .zip(atlas.texel_corners())
+            .enumerate()
+        {
+            let uv_area = cross(uv[1] - uv[0], uv[2] - uv[0]);
+            if !uv_area.is_finite() || uv_area == 0.0 {
+                continue; // not in the atlas, or degenerate there: no texels
+            }
+            let p = tri.map(|v| scene.positions[v as usize]);
+            let n = tri.map(|v| scene.normals[v as usize]);
+            let face = (p[1] - p[0]).cross(p[2] - p[0]);
+            let Some(face_normal) = face.try_normalize() else {
+                continue; // zero area in space
+            };
+            let longest = p[0]
+                .distance(p[1])
+                .max(p[1].distance(p[2]))
+                .max(p[2].distance(p[0]));
+            let lo = uv[0].min(uv[1]).min(uv[2]).floor().max(Vec2::ZERO);
+            let hi = uv[0].max(uv[1]).max(uv[2]).ceil();
+            let (x1, y1) = ((hi.x as usize).min(w), (hi.y as usize).min(h));
+            for y in lo.y as usize..y1 {
+                for x in lo.x as usize..x1 {
+                    let square = Vec2::new(x as f32, y as f32);
+                    let overlap = clip_to_square(uv, square);
+                    let area = polygon_area(&overlap);
+                    let i = y * w + x;
+                    if area <= coverage[i] || area <= 0.0 {
+                        continue;
+                    }
+                    let centre = square + Vec2::splat(0.5);
+                    let b = match barycentric(uv, centre) {
+                        Some(b) => b,
+                        None => barycentric_clamped(uv, polygon_centroid(&overlap)),
+                    };
+                    let position = p[0] * b[0] + p[1] * b[1] + p[2] * b[2];
+                    let normal = (n[0] * b[0] + n[1] * b[1] + n[2] * b[2])
+                        .try_normalize()
+                        .unwrap_or(face_normal);
+                    coverage[i] = area;
+                    texels.valid[i] = true;
+                    texels.positions[i] = position;
+                    texels.normals[i] = normal;
+                    texels.origins[i] = position + face_normal * offset_distance(position, longest);
+                    texels.triangle[i] = t as u32;
+                }
+            }
+        }
+        texels
+    }
+
+    pub fn valid_count(&self) -> usize {
+        self.valid.iter().filter(|&&v| v).count()
+    }
+
+    /// The valid texels as receivers, in row-major order of the valid ones.
+    pub fn receivers(&self) -> Receivers {
+        let pick = |values: &[Vec3]| -> Vec<Vec3> {
+            values
+                .iter()
+                .zip(&self.valid)
+                .filter(|(_, v)| **v)
+                .map(|(x, _)| *x)
+                .collect()
+        };
+        Receivers {
+            origins: pick(&self.origins),
+            normals: pick(&self.normals),
+        }
+    }
+}
+
+fn cross(a: Vec2, b: Vec2) -> f32 {
+    a.x * b.y - a.y * b.x
+}
+
+/// The barycentric coordinates of `q` if it lies in the triangle (edges included).
+fn barycentric(uv: [Vec2; 3], q: Vec2) -> Option<[f32; 3]> {
+    let b = barycentric_unclipped(uv, q);
+    b.iter().all(|&x| x >= 0.0).then_some(b)
+}
+
+fn barycentric_unclipped(uv: [Vec2; 3], q: Vec2) -> [f32; 3] {
+    let area = cross(uv[1] - uv[0], uv[2] - uv[0]);
+    let b1 = cross(q - uv[0], uv[2] - uv[0]) / area;
+    let b2 = cross(uv[1] - uv[0], q - uv[0]) / area;
+    [1.0 - b1 - b2, b1, b2]
+}
+
+/// Barycentric coordinates of a point that lies in the triangle up to rounding, clamped
+/// into it.
+fn barycentric_clamped(uv: [Vec2; 3], q: Vec2) -> [f32; 3] {
+    let b = barycentric_unclipped(uv, q).map(|x| x.max(0.0));
+    let sum = b[0] + b[1] + b[2];
+    b.map(|x| x / sum)
+}
+
+/// The triangle clipped to the unit square at `corner` (Sutherland–Hodgman).
+fn clip_to_square(uv: [Vec2; 3], corner: Vec2) -> Vec<Vec2> {
+    let mut poly: Vec<Vec2> = uv.to_vec();
+    // Each half-plane as (axis, bound, keep below?).
+    let planes = [
+        (0, corner.x, false),
+        (0, corner.x + 1.0, true),
+        (1, corner.y, false),
+        (1, corner.y + 1.0, true),
+    ];
+    for (axis, bound, below) in planes {
+        if poly.is_empty() {
+            break;
+        }
+        let inside = |p: Vec2| {
+            if below {
+                p[axis] <= bound
+            } else {
+                p[axis] >= bound
+            }
+        };
+        let mut out = Vec::with_capacity(poly.len() + 1);
+        for k in 0..poly.len() {
+            let (a, b) = (poly[k], poly[(k + 1) % poly.len()]);
+            match (inside(a), inside(b)) {
+                (true, true) => out.push(b),
+                (true, false) => out.push(intersect(a, b, axis, bound)),
+                (false, true) => {
+                    out.push(intersect(a, b, axis, bound));
+                    out.push(b);
+                }
+                (false, false) => {}
+            }
+        }
+        poly = out;
+    }
+    poly
+}
+
+fn intersect(a: Vec2, b: Vec2, axis: usize, bound: f32) -> Vec2 {
+    let t = (bound - a[axis]) / (b[axis] - a[axis]);
+    let mut p = a + (b - a) * t;
+    p[axis] = bound;
+    p
+}
+
+/// Unsigned area of a simple polygon.
+fn polygon_area(poly: &[Vec2]) -> f32 {
+    let mut twice = 0.0;
+    for k in 0..poly.len() {
+        twice += cross(poly[k], poly[(k + 1) % poly.len()]);
+    }
+    (twice * 0.5).abs()
+}
+
+/// Centroid of a convex polygon (its vertex mean is inside it too, which is all we need).
+fn polygon_centroid(poly: &[Vec2]) -> Vec2 {
+    poly.iter().copied().sum::<Vec2>() / poly.len() as f32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_triangle_covering_a_square_exactly_half_has_half_the_area() {
+        let uv = [Vec2::ZERO, Vec2::new(1.0, 0.0), Vec2::new(0.0, 1.0)];
+        assert!((polygon_area(&clip_to_square(uv, Vec2::ZERO)) - 0.5).abs() < 1e-6);
+        assert_eq!(polygon_area(&clip_to_square(uv, Vec2::new(1.0, 0.0))), 0.0);
+        let big = [
+            Vec2::splat(-5.0),
+            Vec2::new(10.0, -5.0),
+            Vec2::new(-5.0, 10.0),
+        ];
+        assert!((polygon_area(&clip_to_square(big, Vec2::new(1.0, 1.0))) - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn the_centroid_of_an_overlap_lies_in_the_triangle() {
+        let uv = [
+            Vec2::new(0.2, 0.1),
+            Vec2::new(3.7, 0.4),
+            Vec2::new(0.6, 2.9),
+        ];
+        for y in 0..3 {
+            for x in 0..4 {
+                let overlap = clip_to_square(uv, Vec2::new(x as f32, y as f32));
+                if polygon_area(&overlap) > 0.0 {
+                    let b = barycentric_clamped(uv, polygon_centroid(&overlap));
+                    let raw = barycentric_unclipped(uv, polygon_centroid(&overlap));
+                    for k in 0..3 {
+                        assert!(raw[k] > -1e-5, "texel ({x},{y}): {raw:?}");
+                        assert!(b[k] >= 0.0);
+                    }
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,134 @@
+//! End-to-end tests of `prt-bake bake --lightmap` and of exporting texel bakes.
+
+mod common;
+
+use std::io::Read;
+
+use common::*;
+
+const CORNELL: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../scenes/cornell/cornell.scene"
+);
+
+/// Each array's npy header (dtype and shape), by name.
+fn npz_headers(path: &std::path::Path) -> std::collections::BTreeMap<String, String> {
+    let mut zip = zip::ZipArchive::new(std::fs::File::open(path).unwrap()).expect("a zip archive");
+    let names: Vec<String> = zip.file_names().map(|n| n.unwrap().into_owned()).collect();
+    names
+        .into_iter()
+        .map(|name| {
+            let mut bytes = Vec::new();
+            zip.by_name(&name).unwrap().read_to_end(&mut bytes).unwrap();
+            let len = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
+            let header = String::from_utf8(bytes[10..10 + len].to_vec()).unwrap();
+            (name.trim_end_matches(".npy").to_string(), header)
+        })
+        .collect()
+}
+
+#[test]
+fn texel_bakes_are_deterministic_and_export_texel_arrays() {
+    let s = Scratch::new();
+    let lightmap = ["--lightmap", "32", "--aux", "ao"];
+    let one = s.bake(
+        CORNELL,
+        "one.prt",
+        &[&lightmap[..], &["--threads", "1"]].concat(),
+    );
+    assert!(one.stdout.contains("of 32×32 texels"), "{}", one.stdout);
+    s.bake(
+        CORNELL,
+        "two.prt",
+        &[&lightmap[..], &["--threads", "2"]].concat(),
+    );
+    assert!(
+        s.read("out/one.prt") == s.read("out/two.prt"),
+        "--threads 1 and 2 gave different texel files"
+    );
+    let inspect = s.run(&["inspect", "out/one.prt"]).success();
+    assert!(
+        inspect.stdout.contains("\"width\": 32") && inspect.stdout.contains("baked_texels"),
+        "{}",
+        inspect.stdout
+    );
+    s.run(&[
+        "export",
+        "out/one.prt",
+        "--scene",
+        CORNELL,
+        "--npz",
+        "out/one.npz",
+    ])
+    .success();
+    let headers = npz_headers(&s.path("out/one.npz"));
+    let triangles = prt_baker::Scene::load(std::path::Path::new(CORNELL))
+        .unwrap()
+        .triangles
+        .len();
+    for (name, descr, shape) in [
+        ("texel_positions", "<f4", "(32, 32, 3)".to_string()),
+        ("texel_normals", "<f4", "(32, 32, 3)".to_string()),
+        ("texel_valid", "|b1", "(32, 32)".to_string()),
+        ("texel_dilated", "|b1", "(32, 32)".to_string()),
+        ("transfer", "<f4", "(32, 32, 1, 16)".to_string()),
+        ("uv1", "<f4", format!("({triangles}, 3, 2)")),
+        ("ao", "<f4", "(32, 32)".to_string()),
+    ] {
+        let header = headers.get(name).unwrap_or_else(|| panic!("no {name}"));
+        assert!(
+            header.contains(&format!("'descr': '{descr}'")),
+            "{name}: {header}"
+        );
+        assert!(
+            header.contains(&format!("'shape': {shape}")),
+            "{name}: {header}"
+        );
+    }
+    // Relit, a texel bake is a PNG lightmap; not a PLY mesh.
+    s.write(
+        "rig.toml",
+        include_str!("../../viewer/src/default-rig.toml"),
+    );
+    let relight = |output: &str| {
+        s.run(&[
+            "relight",
+            CORNELL,
+            "out/one.prt",
+            "--lights",
+            "rig.toml",
+            "-o",
+            output,
+        ])
+    };
+    relight("out/x.ply").fails_with(2, &["relights to a .png"]);
+    relight("out/lit.png").success();
+    let png = image::load_from_memory(&s.read("out/lit.png")).expect("a PNG");
+    assert_eq!((png.width(), png.height()), (32, 32));
+    let lit = png.to_rgb8().pixels().filter(|p| p.0 != [0, 0, 0]).count();
+    let file = prt_baker::CoefficientFile::read(&s.path("out/one.prt")).unwrap();
+    let block = file.lightmap.unwrap();
+    let filled = (0..32 * 32)
+        .filter(|&i| block.valid[i] || block.dilated[i])
+        .count();
+    assert!(
+        lit > filled / 2 && lit <= filled,
+        "{lit} lit pixels, {filled} filled texels"
+    );
+    s.assert_out_holds(&["one.prt", "two.prt", "one.npz", "lit.png"]);
+}
+
+#[test]
+fn lightmap_options_are_checked() {
+    let s = Scratch::new();
+    let bake = |extra: &[&str]| {
+        let mut args = vec!["bake", CORNELL, "-o", "out/x.prt", "--quiet"];
+        args.extend(extra);
+        s.run(&args)
+    };
+    bake(&["--texel-size", "0.1"]).fails_with(2, &["--lightmap"]);
+    bake(&["--lightmap", "0"]).fails_with(2, &["--lightmap 0"]);
+    bake(&["--lightmap", "16", "--mode", "interreflected"]).fails_with(2, &["interreflected"]);
+    bake(&["--lightmap", "64", "--texel-size", "0.001"]).fails_with(2, &["do not fit"]);
+    s.assert_out_holds(&[]);
+}
