@@ -187,8 +187,9 @@ struct BakeArgs {
     /// Vertices per checkpoint block (default: about 67 million rays' worth).
     #[arg(long, requires = "checkpoint")]
     checkpoint_vertices: Option<usize>,
-    /// Bake per texel of a RES×RES lightmap atlas (xatlas unwrap) instead of per vertex
-    /// (docs/lightmaps.md). Unshadowed and shadowed modes.
+    /// Bake per texel of a RES×RES lightmap atlas instead of per vertex (docs/lightmaps.md):
+    /// the scene's lightmap UVs (glTF TEXCOORD_1) where it has them and no --texel-size is
+    /// given, else planar charts unwrapped here. Unshadowed and shadowed modes.
     #[arg(long, value_name = "RES")]
     lightmap: Option<u32>,
     /// With --lightmap: the world size of a texel (default: the charts fill the atlas).
@@ -441,7 +442,11 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
             (transfer, file, what)
         }
         Some(resolution) => {
-            let atlas = prt_baker::lightmap::Atlas::generate(&scene, resolution, args.texel_size)?;
+            use prt_baker::lightmap::Atlas;
+            let atlas = match (&scene.lightmap_uvs, args.texel_size) {
+                (Some(uvs), None) => Atlas::from_vertex_uvs(&scene, uvs, resolution, resolution)?,
+                _ => Atlas::generate(&scene, resolution, args.texel_size)?,
+            };
             let bake = prt_baker::lightmap::bake(
                 &scene,
                 tracer.as_deref(),
@@ -683,6 +688,10 @@ fn inspect(path: &Path) -> Result<(), Error> {
                 "baked_texels": texels(&l.valid),
                 "dilated_texels": texels(&l.dilated),
                 "texel_size": l.texel_size,
+                "atlas": match l.source {
+                    prt_baker::lightmap::AtlasSource::Generated => "generated",
+                    prt_baker::lightmap::AtlasSource::SceneUvs => "scene-uvs",
+                },
                 "scene_vertex_count": l.scene_vertex_count,
                 "scene_triangle_count": l.scene_triangle_count,
             });

@@ -804,4 +804,16 @@ fn both_texture_coordinate_sets_are_read_and_exported() {
     let exported = Glb::parse(&s.read("out/uv-prt.glb"));
     let expected: Vec<f32> = floor.iter().flat_map(|p| [p.y / 2.0, p.x / 2.0]).collect();
     assert_eq!(exported.attribute("TEXCOORD_1"), expected);
+
+    // A texel bake uses TEXCOORD_1 as its atlas; --texel-size asks for an unwrap instead.
+    for (extra, atlas) in [
+        (&[][..], "\"atlas\": \"scene-uvs\""),
+        (&["--texel-size", "0.5"][..], "\"atlas\": \"generated\""),
+    ] {
+        let mut args = vec!["--mode", "unshadowed", "--lightmap", "16"];
+        args.extend_from_slice(extra);
+        s.bake("uv.glb", "uv-texels.prt", &args);
+        let inspect = s.run(&["inspect", "out/uv-texels.prt"]).success();
+        assert!(inspect.stdout.contains(atlas), "{}", inspect.stdout);
+    }
 }

@@ -1,5 +1,5 @@
-//! Mutation fuzzing of every parser, on stable Rust: OBJ, MTL, scene file, TGA, PNG, HDR, EXR,
-//! rig TOML and the `.prt` coefficient file.
+//! Mutation fuzzing of every parser, on stable Rust: OBJ, MTL, scene file, glTF (`.glb` and
+//! `.gltf`), TGA, PNG, HDR, EXR, rig TOML and the `.prt` coefficient file.
 //!
 //! Each parser gets seeds (valid files made here, plus every file committed under
 //! `tests/fuzz-corpus/<parser>/`: hand-made seeds and the crashes found so far, kept as
@@ -30,6 +30,7 @@ use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 use prt_baker::coefficient_file::{Adaptive, CoefficientFile, Header};
+use prt_baker::gltf_export::{Contents, glb_bytes};
 use prt_baker::light::{EnvironmentMap, Rig};
 use prt_baker::sampling::Sampling;
 use prt_baker::scene::{Texture, Up};
@@ -306,12 +307,15 @@ enum Target {
     Exr,
     Rig,
     Prt,
+    // Last, so that the earlier targets keep their discriminants, the seeds of their mutators.
+    Gltf,
 }
 
-const TARGETS: [Target; 9] = [
+const TARGETS: [Target; 10] = [
     Target::Obj,
     Target::Mtl,
     Target::SceneFile,
+    Target::Gltf,
     Target::Tga,
     Target::Png,
     Target::Hdr,
@@ -326,6 +330,7 @@ impl Target {
             Target::Obj => "obj",
             Target::Mtl => "mtl",
             Target::SceneFile => "scene",
+            Target::Gltf => "gltf",
             Target::Tga => "tga",
             Target::Png => "png",
             Target::Hdr => "hdr",
@@ -338,7 +343,12 @@ impl Target {
     fn is_text(self) -> bool {
         matches!(
             self,
-            Target::Obj | Target::Mtl | Target::SceneFile | Target::Rig | Target::Hdr
+            Target::Obj
+                | Target::Mtl
+                | Target::SceneFile
+                | Target::Gltf
+                | Target::Rig
+                | Target::Hdr
         )
     }
 
@@ -348,6 +358,9 @@ impl Target {
             Target::Obj => "case.obj",
             Target::Mtl => "case.mtl",
             Target::SceneFile => "case.scene",
+            // The `gltf` crate tells a binary file by its magic, not its name: one name serves
+            // the `.glb` and the `.gltf` seeds and their mutants.
+            Target::Gltf => "case.gltf",
             Target::Tga => "case.tga",
             Target::Png => "case.png",
             Target::Hdr => "case.hdr",
@@ -365,6 +378,8 @@ impl Target {
             Target::Obj => Scene::load(&path).is_ok(),
             Target::Mtl => Scene::load(&folder.join("uses-mtl.obj")).is_ok(),
             Target::SceneFile => Scene::load(&path).is_ok(),
+            // `Scene::load` without the printing of warnings (a mutant turned into points).
+            Target::Gltf => Scene::load_with_warnings(&path).is_ok(),
             Target::Tga | Target::Png => Texture::load(&path, &at).is_ok(),
             Target::Hdr | Target::Exr => EnvironmentMap::load(&path).is_ok(),
             Target::Rig => Rig::load(&path).is_ok(),
@@ -452,6 +467,50 @@ fn prt_seeds() -> Vec<Vec<u8>> {
     ]
 }
 
+/// Standard base64 (RFC 4648, padded), for the data-URI seed.
+fn base64(bytes: &[u8]) -> String {
+    const ALPHABET: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::new();
+    for chunk in bytes.chunks(3) {
+        let b = [
+            chunk[0],
+            *chunk.get(1).unwrap_or(&0),
+            *chunk.get(2).unwrap_or(&0),
+        ];
+        let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
+        for k in 0..4 {
+            match k <= chunk.len() {
+                true => out.push(ALPHABET[(n >> (18 - 6 * k)) as usize & 63] as char),
+                false => out.push('='),
+            }
+        }
+    }
+    out
+}
+
+/// A `.glb` of the case folder's textured triangle, written by the exporter (its buffer in the
+/// binary chunk, the texture as a PNG in a buffer view), and the same document as a `.gltf`
+/// whose buffer is a base64 data URI.
+fn gltf_seeds() -> Vec<Vec<u8>> {
+    let folder = case_folder();
+    let scene = Scene::load(&folder.path().join("mesh.obj")).unwrap();
+    let contents = Contents {
+        file: None,
+        light: None,
+        up: scene.up,
+    };
+    let (glb, _) = glb_bytes(&scene, &contents).unwrap();
+    let parsed = gltf::Glb::from_slice(&glb).unwrap();
+    let mut json: serde_json::Value = serde_json::from_slice(&parsed.json).unwrap();
+    let bin = parsed.bin.expect("the exporter writes a binary chunk");
+    json["buffers"][0]["uri"] = serde_json::Value::String(format!(
+        "data:application/octet-stream;base64,{}",
+        base64(&bin)
+    ));
+    let text = serde_json::to_vec_pretty(&json).unwrap();
+    vec![glb, text]
+}
+
 /// Valid inputs of each parser, made here (no binary blobs to keep in step with encoders).
 fn generated_seeds(target: Target) -> Vec<Vec<u8>> {
     let text = |items: &[&str]| items.iter().map(|s| s.as_bytes().to_vec()).collect();
@@ -470,6 +529,7 @@ fn generated_seeds(target: Target) -> Vec<Vec<u8>> {
             "\"mesh.obj\" \"tex.tga\"\n",
             "# two objects\nmesh.obj\n\"mesh.obj\"   tex.tga # comment\n",
         ]),
+        Target::Gltf => gltf_seeds(),
         Target::Tga => vec![
             image_bytes(rgb8(3, 2), image::ImageFormat::Tga),
             image_bytes(

@@ -4,11 +4,25 @@
     f = read_prt("out/torus.prt")
     f.transfer          # (V, channels, n²) float32: T[v, c, j], j = l(l+1)+m
     f.ao, f.bent_normal # (V,) and (V, 3) where the bake stored them (--aux), else None
-    f.header            # dict: order, channels, vertex_count, mode, up, ...
+    f.rays              # adaptive bakes (--target-error): (V,) uint32 rays cast, else None
+    f.error_estimate    # adaptive bakes: (V,) float32 estimated RMS coefficient error, else None
+    f.lightmap          # texel bakes (--lightmap): a Lightmap (below), else None
+    f.header            # dict: order, channels, vertex_count, mode, up, ..., and for
+                        # adaptive bakes "adaptive": {target_error, replicates, rays_cast}
+
+A texel (lightmap) bake of a W×H lightmap stores its texels as the vertices, row-major; this
+reader shapes its arrays as `prt-bake export --npz` does: transfer (H, W, channels, n²), ao
+(H, W), bent_normal (H, W, 3) (and rays, error_estimate (H, W)), with f.lightmap.width,
+.height, .scene_vertex_count, .scene_triangle_count, .texel_size, .source ("generated" or
+"scene-uvs"), .uv1 (triangles, 3, 2) float32 lightmap UVs per triangle corner, and .valid,
+.dilated (H, W) bool texel states (baked; padding dilated from baked neighbours).
 
 Every variant of version 1 is read: grey or RGB transfer, any order 1..45, the auxiliary
-arrays. The checks are docs/coefficient-format.md's ("What a reader must check"); a file
-that fails one raises PrtError with the reason. Copy this file anywhere: it needs only NumPy.
+arrays, z- or y-up, adaptive bakes and texel bakes. A shard part (`prt-bake bake --shard`)
+is refused: combine the parts with `prt-bake merge` first. The checks are
+docs/coefficient-format.md's ("What a reader must check"), in the reference reader's
+order (baker/src/coefficient_file.rs); a file that fails one raises PrtError with the
+reason. Copy this file anywhere: it needs only NumPy.
 """
 
 import zlib
@@ -18,15 +32,32 @@ import numpy as np
 
 MAGIC = b"\x89PRT\r\n\x1a\n"
 HEADER_SIZE = 128
+LIGHTMAP_HEADER_SIZE = 160  # the 128-byte header, then the 32-byte texel block
+CHECKSUM_OFFSET = 124
 MODES = {0: "unshadowed", 1: "shadowed", 2: "interreflected"}
 BACKENDS = {0: "none", 1: "embree", 2: "obvhs"}
 SAMPLINGS = {0: "owen-sobol", 1: "thesis-random"}
 UP_AXES = {0: "z", 1: "y"}
-AUX_AO, AUX_BENT_NORMAL = 1, 2
+ATLAS_SOURCES = {0: "generated", 1: "scene-uvs"}
+AUX_AO, AUX_BENT_NORMAL, AUX_RAYS, AUX_ERROR = 1, 2, 4, 8
+AUX_ADAPTIVE = AUX_RAYS | AUX_ERROR  # adaptive bakes: both or neither
 
 
 class PrtError(ValueError):
-    """A file that is not a valid version-1 coefficient file."""
+    """A file that is not a valid version-1 coefficient file (or is a shard part)."""
+
+
+@dataclass
+class Lightmap:
+    width: int
+    height: int
+    scene_vertex_count: int
+    scene_triangle_count: int
+    texel_size: float  # --texel-size, or 0.0 where the charts were scaled to fill the atlas
+    source: str
+    uv1: np.ndarray  # (triangles, 3, 2) float32; (-1, -1) at the corners of a left-out triangle
+    valid: np.ndarray  # (H, W) bool: baked
+    dilated: np.ndarray  # (H, W) bool: padding dilated from baked neighbours
 
 
 @dataclass
@@ -35,6 +66,9 @@ class PrtFile:
     transfer: np.ndarray
     ao: "np.ndarray | None"
     bent_normal: "np.ndarray | None"
+    rays: "np.ndarray | None" = None
+    error_estimate: "np.ndarray | None" = None
+    lightmap: "Lightmap | None" = None
 
 
 def read_prt(path):
@@ -43,6 +77,7 @@ def read_prt(path):
 
 
 def parse_prt(b):
+    b = bytes(b)
     if b[:8] != MAGIC:
         raise PrtError("not a PRT coefficient file (wrong magic bytes)")
     if len(b) < HEADER_SIZE:
@@ -54,15 +89,24 @@ def parse_prt(b):
     def u64(offset):
         return int(np.frombuffer(b, "<u8", 1, offset)[0])
 
+    def f32(offset):
+        return np.frombuffer(b, "<f4", 1, offset)[0]
+
     if u32(8) != 1:
         raise PrtError(f"unsupported format version {u32(8)}")
-    if u32(12) != HEADER_SIZE:
-        raise PrtError(f"header size {u32(12)}")
+    header_size = u32(12)
+    if header_size not in (HEADER_SIZE, LIGHTMAP_HEADER_SIZE):
+        raise PrtError(f"header size {header_size} (128 bytes, 160 for lightmap bakes)")
+    if len(b) < header_size:
+        raise PrtError(f"truncated: {len(b)} bytes, the header alone is {header_size}")
     payload = u64(72)
-    if len(b) - HEADER_SIZE != payload:
-        raise PrtError(f"the header announces {payload} bytes of coefficients, the file holds {len(b) - HEADER_SIZE}")
-    if zlib.crc32(b[:124] + bytes(4) + b[HEADER_SIZE:]) != u32(124):
+    if len(b) - header_size != payload:
+        raise PrtError(f"the header announces {payload} bytes of coefficients, the file holds {len(b) - header_size}")
+    # The checksum covers every byte but its own 4 (the texel block included).
+    crc = zlib.crc32(b[HEADER_SIZE:], zlib.crc32(bytes(4), zlib.crc32(b[:CHECKSUM_OFFSET])))
+    if crc != u32(CHECKSUM_OFFSET):
         raise PrtError("checksum mismatch: the file is corrupted")
+
     order, channels, vertices = u32(16), u32(20), u64(24)
     if not 1 <= order <= 45:
         raise PrtError(f"SH order {order} is outside 1..=45")
@@ -72,36 +116,123 @@ def parse_prt(b):
                                (u32(64), SAMPLINGS, "sampling method"), (u32(84), UP_AXES, "up axis")):
         if value not in table:
             raise PrtError(f"unknown {what} {value}")
+    mode, samples, bounces, bounce_samples = MODES[u32(36)], u32(32), u32(40), u32(80)
+    if (mode == "interreflected") != (bounces > 0):
+        raise PrtError(f"{bounces} bounces in a {mode} file")
+    if not (1 <= bounce_samples <= samples if mode == "interreflected" else bounce_samples == 0):
+        raise PrtError(f"{bounce_samples} bounce samples in a {mode} file of {samples} samples")
     aux = u32(68)
-    # Bits 0 and 1 are defined by version 1; later bits name arrays this reader does not know.
-    if aux & ~(AUX_AO | AUX_BENT_NORMAL):
+    # Bits 0..3 are defined by version 1; later bits name arrays this reader does not know.
+    if aux & ~(AUX_AO | AUX_BENT_NORMAL | AUX_ADAPTIVE):
         raise PrtError(f"unknown auxiliary-array flags {aux:#x}")
+    adaptive = _read_adaptive(b, aux, mode, SAMPLINGS[u32(64)])
+    shard = b[88:108]
+    if any(shard):
+        count, index, first, part_vertices = u32(88), u32(92), u64(96), u32(104)
+        if index >= count:
+            raise PrtError(f"shard identity {index} of {count}: the index must be below the count")
+        raise PrtError(f"a shard part (shard {index} of {count}, vertices {first}..{first + part_vertices}) "
+                       "of a bake, not a whole bake: combine the parts with `prt-bake merge`")
+
+    lightmap = None
+    if header_size == LIGHTMAP_HEADER_SIZE:
+        width, height = u32(128), u32(132)
+        if width * height != vertices:
+            raise PrtError(f"a {width}×{height} lightmap in a file of {vertices} texels")
+        if u32(156) not in ATLAS_SOURCES:
+            raise PrtError(f"unknown atlas source {u32(156)}")
+        texel_size = f32(152)
+        if not (np.isfinite(texel_size) and texel_size >= 0):
+            raise PrtError(f"texel size {texel_size} is not a size")
+        lightmap = Lightmap(width, height, u64(136), u64(144), float(texel_size),
+                            ATLAS_SOURCES[u32(156)], None, None, None)
     n2 = order * order
-    aux_floats = (1 if aux & AUX_AO else 0) + (3 if aux & AUX_BENT_NORMAL else 0)
-    if vertices * (channels * n2 + aux_floats) * 4 != payload:
-        raise PrtError("the payload size does not match the vertex count, order, channels and aux arrays")
+    aux_floats = ((1 if aux & AUX_AO else 0) + (3 if aux & AUX_BENT_NORMAL else 0)
+                  + (2 if adaptive else 0))
+    needed = vertices * (channels * n2 + aux_floats) * 4
+    if lightmap is not None:
+        needed += lightmap.scene_triangle_count * 6 * 4 + vertices
+    if needed != payload:
+        raise PrtError("the payload size does not match the vertex count, order, channels, aux arrays"
+                       + (" and lightmap" if lightmap is not None else ""))
 
     header = {
         "version": 1, "order": order, "channels": channels, "vertex_count": vertices,
-        "samples_per_vertex": u32(32), "mode": MODES[u32(36)], "bounces": u32(40),
+        "samples_per_vertex": samples, "mode": mode, "bounces": bounces,
         "backend": BACKENDS[u32(44)], "seed": u64(48), "scene_fingerprint": f"{u64(56):016x}",
-        "sampling": SAMPLINGS[u32(64)], "bounce_samples": u32(80), "up": UP_AXES[u32(84)],
+        "sampling": SAMPLINGS[u32(64)], "bounce_samples": bounce_samples, "up": UP_AXES[u32(84)],
         "aux": [name for bit, name in ((AUX_AO, "ao"), (AUX_BENT_NORMAL, "bent-normal")) if aux & bit],
-        "checksum": f"{u32(124):08x}",
+        "checksum": f"{u32(CHECKSUM_OFFSET):08x}",
     }
-    floats = np.frombuffer(b, "<f4", offset=HEADER_SIZE)
-    count = vertices * channels * n2
-    transfer = floats[:count].reshape(vertices, channels, n2)
-    rest = floats[count:]
-    ao = bent_normal = None
-    if aux & AUX_AO:
-        ao, rest = rest[:vertices], rest[vertices:]
-        if np.any((ao < 0) | (ao > 1)):
-            raise PrtError("an ambient accessibility is outside [0, 1]")
-    if aux & AUX_BENT_NORMAL:
-        bent_normal, rest = rest[: 3 * vertices].reshape(vertices, 3), rest[3 * vertices:]
-        if np.any(np.abs(np.linalg.norm(bent_normal, axis=1) - 1) > 1e-3):
-            raise PrtError("a bent normal is not a unit vector")
+    if adaptive:
+        header["adaptive"] = adaptive
+
+    offset = header_size
+
+    def take(dtype, count):
+        nonlocal offset
+        array = np.frombuffer(b, dtype, count, offset)
+        offset += array.nbytes
+        return array
+
+    transfer = take("<f4", vertices * channels * n2).reshape(vertices, channels, n2)
+    ao = take("<f4", vertices) if aux & AUX_AO else None
+    bent_normal = take("<f4", 3 * vertices).reshape(vertices, 3) if aux & AUX_BENT_NORMAL else None
+    rays = error_estimate = None
+    if adaptive:
+        rays, error_estimate = take("<u4", vertices), take("<f4", vertices)
+        if np.any((rays < 1) | (rays > samples)):
+            v = int(np.argmax((rays < 1) | (rays > samples)))
+            raise PrtError(f"vertex {v} cast {rays[v]} rays, outside 1..={samples} (the samples per vertex)")
+        total = int(rays.sum(dtype=np.uint64))
+        if total != adaptive["rays_cast"]:
+            raise PrtError(f"the per-vertex rays add up to {total}, the header says {adaptive['rays_cast']} were cast")
+        # Written as `not (finite and >= 0)` so that NaN fails too.
+        if not np.all(np.isfinite(error_estimate) & (error_estimate >= 0)):
+            raise PrtError("an estimated error is not a non-negative number")
+    if ao is not None and not np.all((ao >= 0) & (ao <= 1)):
+        raise PrtError("an ambient accessibility is outside [0, 1]")
+    if bent_normal is not None and not np.all(np.abs(np.linalg.norm(bent_normal, axis=1) - 1) <= 1e-3):
+        raise PrtError("a bent normal is not a unit vector")
     if not np.all(np.isfinite(transfer)):
         raise PrtError("a coefficient is not finite")
-    return PrtFile(header, transfer, ao, bent_normal)
+
+    if lightmap is not None:
+        uv1 = take("<f4", lightmap.scene_triangle_count * 6).reshape(-1, 3, 2)
+        if not np.all(np.isfinite(uv1)):
+            raise PrtError("a lightmap UV is not finite")
+        states = take(np.uint8, vertices)
+        if np.any(states > 2):
+            raise PrtError(f"state of texel {int(np.argmax(states > 2))} is {states.max()} (0, 1 or 2)")
+        shape = (lightmap.height, lightmap.width)
+        lightmap.uv1 = uv1
+        lightmap.valid, lightmap.dilated = (states == 1).reshape(shape), (states == 2).reshape(shape)
+        transfer = transfer.reshape(*shape, channels, n2)
+        ao = None if ao is None else ao.reshape(shape)
+        bent_normal = None if bent_normal is None else bent_normal.reshape(*shape, 3)
+        rays = None if rays is None else rays.reshape(shape)
+        error_estimate = None if error_estimate is None else error_estimate.reshape(shape)
+    assert offset == len(b)
+    return PrtFile(header, transfer, ao, bent_normal, rays, error_estimate, lightmap)
+
+
+def _read_adaptive(b, aux, mode, sampling):
+    """Header bytes 108..124 and aux bits 2-3: all zero (None), or a consistent adaptive bake."""
+    target_error = np.frombuffer(b, "<f4", 1, 108)[0]
+    replicates = int(np.frombuffer(b, "<u4", 1, 112)[0])
+    rays_cast = int(np.frombuffer(b, "<u8", 1, 116)[0])
+    flags = aux & AUX_ADAPTIVE
+    if not any(b[108:112]):
+        if replicates or rays_cast or flags:
+            raise PrtError("adaptive-sampling fields (bytes 112..124, aux bits 2-3) set without a target error")
+        return None
+    if not (np.isfinite(target_error) and target_error > 0):
+        raise PrtError(f"target error {target_error} is not a positive number")
+    if replicates < 2:
+        raise PrtError(f"{replicates} replicates cannot estimate an error (at least 2)")
+    if flags != AUX_ADAPTIVE:
+        raise PrtError("an adaptive bake without its per-vertex rays and errors (aux bits 2 and 3)")
+    if mode != "shadowed" or sampling != "owen-sobol":
+        raise PrtError(f"a target error in a file of mode {mode}, sampling {sampling} "
+                       "(adaptive bakes are shadowed, owen-sobol)")
+    return {"target_error": float(target_error), "replicates": replicates, "rays_cast": rays_cast}

@@ -1,10 +1,13 @@
 """Tests prt.py against `prt-bake export --npz` and `prt-bake inspect` on every variant:
-grey and RGB transfer, orders 1, 3, 4 and 5, with and without the aux arrays, z- and y-up;
-and that corrupted or truncated files are refused. Usage: test_prt.py PRT_BAKE OUT_DIR."""
+grey and RGB transfer, orders 1, 3, 4 and 5, with and without the aux arrays, z- and y-up,
+an adaptive bake (rays cast, estimated errors) and texel (lightmap) bakes; that a shard part
+is refused; and that corrupted or truncated files of each kind are refused with the reason.
+Usage: test_prt.py PRT_BAKE OUT_DIR."""
 
 import json
 import subprocess
 import sys
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -18,42 +21,182 @@ root = Path(__file__).resolve().parents[2]
 cornell = str(root / "scenes/cornell/cornell.scene")
 torus = str(root / "scenes/torus/torus.scene")
 
+# name: (scene, bake options); --samples 32 unless given.
 VARIANTS = {
     "grey-order3-aux": (torus, ["--order", "3", "--aux", "ao,bent-normal"]),
     "rgb-order5-ao": (cornell, ["--order", "5", "--mode", "interreflected", "--aux", "ao"]),
     "grey-order1-unshadowed": (cornell, ["--order", "1", "--mode", "unshadowed"]),
     "grey-order4-y-up": (cornell, ["--up", "y"]),
+    # Adaptive bakes are shadowed; --target-error needs --samples >= 256. 3e-3 spreads the
+    # per-vertex rays over 256..1024 on the Cornell box.
+    "adaptive-aux": (cornell, ["--samples", "4096", "--target-error", "3e-3", "--aux", "ao,bent-normal"]),
+    "lightmap16-aux": (cornell, ["--lightmap", "16", "--samples", "16", "--aux", "ao,bent-normal"]),
+    # 21² = 441 state bytes: the payload is not a whole number of floats.
+    "lightmap21-texel-size-unshadowed": (cornell, ["--lightmap", "21", "--texel-size", "1", "--order", "3",
+                                                   "--mode", "unshadowed"]),
 }
+# What export writes from the scene rather than from the file.
+SCENE_ARRAYS = {"positions", "normals", "albedo", "uv", "triangles", "texel_positions", "texel_normals"}
 
 
 def run(*args):
     return subprocess.run([bake_bin, *args], check=True, capture_output=True, text=True).stdout
 
 
+def arrays_of(f):
+    """prt.py's arrays under the names export --npz gives them."""
+    ours = {"transfer": f.transfer, "ao": f.ao, "bent_normal": f.bent_normal, "rays": f.rays,
+            "error_estimate": f.error_estimate}
+    if f.lightmap is not None:
+        ours.update(uv1=f.lightmap.uv1, texel_valid=f.lightmap.valid, texel_dilated=f.lightmap.dilated)
+    return {name: array for name, array in ours.items() if array is not None}
+
+
+def nearest_rank_summary(values):
+    """adaptive::Distribution: min, nearest-rank median and p95, max, mean."""
+    s = np.sort(values.ravel().astype(np.float64))
+    rank = lambda q: s[min(max(int(np.ceil(q * len(s))), 1), len(s)) - 1]  # noqa: E731
+    return {"min": s[0], "median": rank(0.5), "p95": rank(0.95), "max": s[-1], "mean": s.mean()}
+
+
+def same_summary(ours, theirs):
+    return all(np.isclose(ours[k], theirs[k], rtol=1e-12, atol=0) for k in ours) and ours.keys() == theirs.keys()
+
+
 for name, (scene, extra) in VARIANTS.items():
     prt, npz = out / f"{name}.prt", out / f"{name}.npz"
-    run("bake", scene, "-o", str(prt), "--samples", "32", "--quiet", *extra)
+    samples = [] if "--samples" in extra else ["--samples", "32"]
+    run("bake", scene, "-o", str(prt), "--quiet", *samples, *extra)
     run("export", str(prt), "--scene", scene, "--npz", str(npz))
     f, arrays = read_prt(prt), np.load(npz)
     inspected = json.loads(run("inspect", str(prt)))
     assert all(inspected[key] == value for key, value in f.header.items()), (name, f.header, inspected)
-    assert np.array_equal(f.transfer, arrays["transfer"]), name
-    for aux in ("ao", "bent_normal"):
-        ours = getattr(f, aux)
-        assert (ours is None) == (aux not in arrays), (name, aux)
-        if ours is not None:
-            assert np.array_equal(ours, arrays[aux]), (name, aux)
-    assert arrays["triangles"].dtype == np.uint32 and arrays["triangles"].max() < f.header["vertex_count"]
-    print(f"test_prt.py: {name}: transfer {f.transfer.shape}, aux {f.header['aux']}, up {f.header['up']}: "
-          "equal to the npz export")
+    assert ("adaptive" in f.header) == ("adaptive" in inspected), name
+    # Every array of the file, and only those, equal to the export's, shape and values.
+    ours = arrays_of(f)
+    assert set(ours) == set(arrays.files) - SCENE_ARRAYS, (name, set(ours), arrays.files)
+    for key, array in ours.items():
+        theirs = arrays[key]
+        assert array.shape == theirs.shape, (name, key, array.shape, theirs.shape)
+        # rays: uint32 in the file, float32 (exact below 2^24) in the npz.
+        assert np.array_equal(array.astype(theirs.dtype), theirs), (name, key)
+    if "triangles" in arrays:
+        assert arrays["triangles"].dtype == np.uint32 and arrays["triangles"].max() < f.header["vertex_count"]
+    if f.rays is not None:
+        assert f.rays.dtype == np.uint32 and len(np.unique(f.rays)) > 1, (name, "rays do not vary")
+        per_vertex = inspected["per_vertex"]
+        assert same_summary(nearest_rank_summary(f.rays), per_vertex["rays_per_vertex"]), name
+        assert same_summary(nearest_rank_summary(f.error_estimate), per_vertex["estimated_error"]), name
+        above = int(np.sum(f.error_estimate > np.float32(f.header["adaptive"]["target_error"])))
+        assert above == per_vertex["vertices_above_target"], name
+    lightmap = f.lightmap
+    assert (lightmap is None) == ("lightmap" not in inspected), name
+    if lightmap is not None:
+        block = inspected["lightmap"]
+        ours = {"width": lightmap.width, "height": lightmap.height, "texel_size": lightmap.texel_size,
+                "scene_vertex_count": lightmap.scene_vertex_count,
+                "scene_triangle_count": lightmap.scene_triangle_count,
+                "baked_texels": int(lightmap.valid.sum()), "dilated_texels": int(lightmap.dilated.sum()),
+                "atlas": lightmap.source}
+        assert ours == block, (name, ours, block)
+        assert lightmap.source == "generated" and lightmap.width * lightmap.height == f.header["vertex_count"]
+        assert f.transfer.shape[:2] == (lightmap.height, lightmap.width)
+    print(f"test_prt.py: {name}: transfer {f.transfer.shape}, aux {f.header['aux']}, up {f.header['up']}"
+          + (f", adaptive {f.header['adaptive']}" if f.rays is not None else "")
+          + (f", {lightmap.width}×{lightmap.height} lightmap, {len(lightmap.uv1)} UV triples"
+             if lightmap is not None else "")
+          + ": equal to the npz export and inspect")
+
+
+def resealed(data):
+    """data with its checksum recomputed: a file corrupted past the checksum."""
+    data = bytearray(data)
+    data[124:128] = bytes(4)
+    data[124:128] = zlib.crc32(bytes(data)).to_bytes(4, "little")
+    return bytes(data)
+
+
+def patched(data, offset, value):
+    """data with `value` (bytes or a NumPy scalar) written at offset, resealed."""
+    value = value.tobytes() if hasattr(value, "tobytes") else value
+    return resealed(data[:offset] + value + data[offset + len(value):])
+
+
+def refused(data, reason, what, by_inspect=True):
+    """prt.py refuses data for reason; so does the reference reader (prt-bake inspect, exit 3)
+    unless by_inspect is False (inspect shows shard parts)."""
+    try:
+        parse_prt(data)
+    except PrtError as err:
+        assert reason in str(err), (what, reason, str(err))
+    else:
+        raise AssertionError(f"{what}: a file with a bad {reason} was read")
+    broken = out / "broken.prt"
+    broken.write_bytes(data)
+    inspect = subprocess.run([bake_bin, "inspect", str(broken)], capture_output=True, text=True)
+    assert inspect.returncode == (3 if by_inspect else 0), (what, reason, inspect.returncode, inspect.stderr)
+
 
 data = (out / "grey-order3-aux.prt").read_bytes()
+assert resealed(data) == data
 for broken, reason in ((data[:-4], "announces"), (data[:200] + b"\0" + data[201:], "checksum"),
-                       (b"not a prt" + data[9:], "magic")):
-    try:
-        parse_prt(broken)
-    except PrtError as err:
-        assert reason in str(err), err
-    else:
-        raise AssertionError(f"a file with a bad {reason} was read")
-print("test_prt.py: truncated, corrupted and foreign files are refused")
+                       (b"not a prt" + data[9:], "magic"), (patched(data, 84, np.uint32(2)), "up axis"),
+                       (patched(data, 40, np.uint32(1)), "bounces")):
+    refused(broken, reason, "vertex file")
+print("test_prt.py: truncated, corrupted and foreign files are refused by prt.py and by prt-bake inspect")
+
+# Adaptive: payload after 128 + V*(16 + 1 + 3)*4 bytes: rays (V u32), then errors (V f32).
+data = (out / "adaptive-aux.prt").read_bytes()
+f = parse_prt(data)
+V = f.header["vertex_count"]
+rays_at = 128 + V * (16 + 1 + 3) * 4
+errors_at = rays_at + 4 * V
+for broken, reason in (
+        (data[:-1], "announces"),
+        (data[:rays_at] + b"\1" + data[rays_at + 1:], "checksum"),
+        (patched(data, rays_at + 8, np.uint32(0)), "rays, outside 1..=4096"),
+        (patched(data, rays_at + 8, np.uint32(4097)), "rays, outside 1..=4096"),
+        (patched(data, 116, np.uint64(f.header["adaptive"]["rays_cast"] + 1)), "add up"),
+        (patched(data, errors_at + 4, np.float32(np.nan)), "estimated error"),
+        (patched(data, errors_at + 4, np.float32(-1)), "estimated error"),
+        (patched(data, 112, np.uint32(1)), "replicates"),
+        (patched(data, 108, np.float32(-1e-3)), "target error"),
+        (patched(data, 108, np.float32(0)), "without a target error"),
+        (patched(data, 68, np.uint32(1 | 2 | 4)), "aux bits 2 and 3"),
+        (patched(data, 36, np.uint32(0)), "mode unshadowed"),
+        (patched(data, 68, np.uint32(1 | 2 | 4 | 8 | 16)), "unknown auxiliary-array flags"),
+        (patched(data, 128 + 4 * (V * 16), np.float32(np.nan)), "accessibility")):
+    refused(broken, reason, "adaptive file")
+print("test_prt.py: corrupted adaptive files are refused by prt.py and by prt-bake inspect")
+
+# Texel: 160-byte header; the states are the last W*H bytes, the UVs the 24*T bytes before.
+data = (out / "lightmap21-texel-size-unshadowed.prt").read_bytes()
+f = parse_prt(data)
+W, T = f.lightmap.width, f.lightmap.scene_triangle_count
+states_at, uv_at = len(data) - W * W, len(data) - W * W - 24 * T
+for broken, reason in (
+        (data[:-1], "announces"),
+        (data[:150], "truncated"),
+        (data[:states_at] + b"\7" + data[states_at + 1:], "checksum"),
+        (data[:130] + b"\7" + data[131:], "checksum"),  # the texel block is checksummed
+        (patched(data, states_at + 5, b"\3"), "state of texel 5 is 3"),
+        (patched(data, uv_at + 12, np.float32(np.inf)), "lightmap UV"),
+        (patched(data, 128, np.uint32(W + 1)), "lightmap in a file"),
+        (patched(data, 144, np.uint64(T - 1)), "payload size"),
+        (patched(data, 152, np.float32(-1)), "texel size"),
+        (patched(data, 156, np.uint32(2)), "atlas source"),
+        (patched(data, 12, np.uint32(128)), "announces"),
+        (patched(data, 12, np.uint32(144)), "header size"),
+        (patched(data, 160, np.float32(np.nan)), "coefficient")):
+    refused(broken, reason, "texel file")
+print("test_prt.py: corrupted texel files are refused by prt.py and by prt-bake inspect")
+
+# A shard part: a bake's header with a non-zero identity and a payload of its own.
+part = out / "shard-1-of-2.prt"
+run("bake", cornell, "-o", str(part), "--quiet", "--samples", "16", "--shard", "1/2")
+data = part.read_bytes()
+assert any(data[88:108])
+refused(data, "combine the parts with `prt-bake merge`", "shard part", by_inspect=False)
+refused(data, "shard 1 of 2", "shard part", by_inspect=False)
+refused(patched(data, 92, np.uint32(2)), "the index must be below the count", "shard part")
+print("test_prt.py: a shard part is refused (merge it first)")

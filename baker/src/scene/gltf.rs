@@ -41,7 +41,7 @@ const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[];
 pub fn load(path: &Path) -> Result<Loaded> {
     let at = || Location::file(path);
     let fail = |message: String| Error::scene(at(), message);
-    let bytes = std::fs::read(path).map_err(|err| Error::io(path, err))?;
+    let bytes = crate::limits::read_file(path)?;
     let gltf = gltf::Gltf::from_slice_without_validation(&bytes)
         .map_err(|err| fail(format!("not a readable glTF file: {err}")))?;
     let unsupported: Vec<&str> = gltf
@@ -57,8 +57,10 @@ pub fn load(path: &Path) -> Result<Loaded> {
         )));
     }
     let gltf::Gltf { document, blob } = gltf;
-    let document = gltf::Document::from_json(document.into_json())
-        .map_err(|err| fail(format!("invalid glTF: {err}")))?;
+    let json = document.into_json();
+    positions_exist(&json).map_err(fail)?;
+    let document =
+        gltf::Document::from_json(json).map_err(|err| fail(format!("invalid glTF: {err}")))?;
     let json_bytes = match blob {
         Some(_) => gltf::Glb::from_slice(&bytes)
             .map(|glb| glb.json.into_owned())
@@ -119,6 +121,11 @@ pub fn load(path: &Path) -> Result<Loaded> {
                 ));
                 continue;
             }
+            let pbr = primitive.material().pbr_metallic_roughness();
+            let base_colour = pbr.base_color_texture();
+            let uv_set = base_colour.as_ref().map_or(0, |info| info.tex_coord());
+            readable_accessors(&document, &primitive, uv_set)
+                .map_err(|problem| fail(format!("mesh '{name}': {problem}")))?;
             let reader = primitive.reader(|b| Some(&buffers[b.index()]));
             let Some(positions) = reader.read_positions() else {
                 return Err(fail(format!("mesh '{name}': a primitive has no POSITION")));
@@ -160,9 +167,6 @@ pub fn load(path: &Path) -> Result<Loaded> {
                 }
             }
 
-            let pbr = primitive.material().pbr_metallic_roughness();
-            let base_colour = pbr.base_color_texture();
-            let uv_set = base_colour.as_ref().map_or(0, |info| info.tex_coord());
             let texture = match &base_colour {
                 None => None,
                 Some(info) => {
@@ -171,6 +175,7 @@ pub fn load(path: &Path) -> Result<Loaded> {
                         Some(t)
                     } else {
                         if decoded.is_none() {
+                            images_are_readable(&document, &buffers).map_err(fail)?;
                             let images = gltf::import_images(&document, Some(base), &buffers)
                                 .map_err(|err| fail(format!("cannot read an image: {err}")))?;
                             for image in &images {
@@ -228,6 +233,138 @@ pub fn load(path: &Path) -> Result<Loaded> {
     loaded.textures = textures;
     loaded.digest = digest.digest();
     Ok(loaded)
+}
+
+/// Guards a panic of `gltf-json` 1.4: its validation of a primitive indexes the accessor list
+/// with the POSITION index before checking it (found by `baker/tests/fuzz.rs`).
+fn positions_exist(json: &gltf::json::Root) -> std::result::Result<(), String> {
+    use gltf::json::validation::Checked;
+    let position = Checked::Valid(gltf::Semantic::Positions);
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for primitive in &mesh.primitives {
+            let index = primitive.attributes.get(&position).map(|i| i.value());
+            if let Some(index) = index.filter(|&i| i >= json.accessors.len()) {
+                return Err(format!(
+                    "invalid glTF: mesh {m}: POSITION names accessor {index}, but there are {}",
+                    json.accessors.len()
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Guards panics of `gltf` 1.4's `import_images` (found by `baker/tests/fuzz.rs`): it unwraps
+/// an image's `mimeType` where it has a `bufferView`, and its `uri` where it has none, and it
+/// slices the view out of its buffer without checking that it fits.
+fn images_are_readable(
+    document: &gltf::Document,
+    buffers: &[gltf::buffer::Data],
+) -> std::result::Result<(), String> {
+    let json = document.as_json();
+    for (i, image) in json.images.iter().enumerate() {
+        let Some(view) = image.buffer_view else {
+            if image.uri.is_none() {
+                return Err(format!(
+                    "invalid glTF: image {i} has neither a uri nor a bufferView"
+                ));
+            }
+            continue;
+        };
+        if image.mime_type.is_none() {
+            return Err(format!(
+                "invalid glTF: image {i} has a bufferView but no mimeType"
+            ));
+        }
+        // Indices were validated by `Document::from_json`.
+        let view = &json.buffer_views[view.value()];
+        let size = buffers[view.buffer.value()].len() as u64;
+        let offset = view.byte_offset.map_or(0, |o| o.0);
+        if offset
+            .checked_add(view.byte_length.0)
+            .is_none_or(|end| end > size)
+        {
+            return Err(format!(
+                "cannot read an image: image {i} lies at bytes {offset}..+{} of buffer {}, which has {size}",
+                view.byte_length.0,
+                view.buffer.value()
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Guards panics of `gltf` 1.4's typed readers (found by `baker/tests/fuzz.rs`): they reach
+/// `unreachable!` on a component type the specification does not allow for the attribute
+/// (indices of floats), and slice out of bounds when a view's stride is shorter than an
+/// element or a sparse accessor is empty.
+fn readable_accessors(
+    document: &gltf::Document,
+    primitive: &gltf::Primitive,
+    uv_set: u32,
+) -> std::result::Result<(), String> {
+    use gltf::Semantic;
+    use gltf::accessor::{DataType, Dimensions};
+    use gltf::json::accessor::{ComponentType, IndexComponentType};
+    use gltf::json::validation::Checked;
+    let float = &[DataType::F32][..];
+    let uv = &[DataType::F32, DataType::U8, DataType::U16][..];
+    let mut used: Vec<(String, gltf::Accessor, Dimensions, &[DataType])> = Vec::new();
+    for (semantic, dimensions, types) in [
+        (Semantic::Positions, Dimensions::Vec3, float),
+        (Semantic::Normals, Dimensions::Vec3, float),
+        (Semantic::TexCoords(uv_set), Dimensions::Vec2, uv),
+        (Semantic::TexCoords(1), Dimensions::Vec2, uv),
+    ] {
+        if let Some(accessor) = primitive.get(&semantic) {
+            used.push((semantic.to_string(), accessor, dimensions, types));
+        }
+    }
+    if let Some(accessor) = primitive.indices() {
+        let types = &[DataType::U8, DataType::U16, DataType::U32][..];
+        used.push(("indices".into(), accessor, Dimensions::Scalar, types));
+    }
+    let views = &document.as_json().buffer_views;
+    let short_stride = |view: usize, size: usize| {
+        let stride = views[view].byte_stride.map_or(0, |s| s.0);
+        stride != 0 && stride < size
+    };
+    for (what, accessor, dimensions, types) in used {
+        let at = format!("{what} (accessor {})", accessor.index());
+        if accessor.dimensions() != dimensions || !types.contains(&accessor.data_type()) {
+            return Err(format!(
+                "{at} is {:?} of {:?}, which glTF does not allow there",
+                accessor.dimensions(),
+                accessor.data_type()
+            ));
+        }
+        let size = accessor.size();
+        let json = &document.as_json().accessors[accessor.index()];
+        let mut strides = vec![(json.buffer_view.map(|v| v.value()), size)];
+        if let Some(sparse) = &json.sparse {
+            let index_size = match sparse.indices.component_type {
+                Checked::Valid(IndexComponentType(ComponentType::U8)) => 1,
+                Checked::Valid(IndexComponentType(ComponentType::U16)) => 2,
+                Checked::Valid(IndexComponentType(ComponentType::U32)) => 4,
+                _ => return Err(format!("{at}: sparse indices must be unsigned integers")),
+            };
+            if json.count.0 == 0 || sparse.count.0 == 0 {
+                return Err(format!(
+                    "{at}: a sparse accessor must have a count of 1 or more"
+                ));
+            }
+            strides.push((Some(sparse.indices.buffer_view.value()), index_size));
+            strides.push((Some(sparse.values.buffer_view.value()), size));
+        }
+        for (view, size) in strides {
+            if let Some(view) = view.filter(|&v| short_stride(v, size)) {
+                return Err(format!(
+                    "{at}: buffer view {view}'s byteStride is shorter than an element ({size} bytes)"
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Every node under `node` with a mesh, and its node-to-world matrix.
