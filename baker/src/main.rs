@@ -389,18 +389,26 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
         };
     }
     let output = Output::new(&args.output, &scene.input_files())?;
-    let needed = limits::bake_bytes(
-        &options,
-        scene.vertex_count() as u64,
-        scene.triangles.len() as u64,
-    );
+    // A texel bake's receivers are the atlas's texels, besides the scene's own vertices.
+    let (receivers, what) = match args.lightmap {
+        Some(res) => {
+            let texels = u64::from(res) * u64::from(res);
+            (
+                texels + scene.vertex_count() as u64,
+                format!("{texels} texels"),
+            )
+        }
+        None => (
+            scene.vertex_count() as u64,
+            format!("{} vertices", scene.vertex_count()),
+        ),
+    };
+    let needed = limits::bake_bytes(&options, receivers, scene.triangles.len() as u64);
     limits::check(
         args.scene.display().to_string(),
         &format!(
-            "baking {} vertices at order {} with {} samples",
-            scene.vertex_count(),
-            options.order,
-            options.samples
+            "baking {what} at order {} with {} samples",
+            options.order, options.samples
         ),
         needed,
     )?;

@@ -130,5 +130,8 @@ fn lightmap_options_are_checked() {
     bake(&["--lightmap", "0"]).fails_with(2, &["--lightmap 0"]);
     bake(&["--lightmap", "16", "--mode", "interreflected"]).fails_with(2, &["interreflected"]);
     bake(&["--lightmap", "64", "--texel-size", "0.001"]).fails_with(2, &["do not fit"]);
+    // Refused before the atlas is made: the memory is stated, nothing is allocated.
+    bake(&["--lightmap", "16384", "--max-memory", "1024"])
+        .fails_with(3, &["268435456 texels", "over the memory limit"]);
     s.assert_out_holds(&[]);
 }
