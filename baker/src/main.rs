@@ -55,6 +55,10 @@ enum Command {
         /// SH order n: n² coefficients per colour channel.
         #[arg(long, default_value_t = 4)]
         order: usize,
+        /// The up axis of the scene the coefficients are for: rigs are written for a z-up
+        /// world and are turned to a y-up scene as `relight` and the viewer turn them.
+        #[arg(long, value_enum, default_value_t = UpArg::Z)]
+        up: UpArg,
         /// Output .json file (`-`: standard output).
         #[arg(short, long)]
         output: PathBuf,
@@ -215,6 +219,15 @@ enum UpArg {
     Y,
 }
 
+impl UpArg {
+    fn up(self) -> prt_baker::scene::Up {
+        match self {
+            UpArg::Z => prt_baker::scene::Up::Z,
+            UpArg::Y => prt_baker::scene::Up::Y,
+        }
+    }
+}
+
 #[derive(Clone, Copy, PartialEq, ValueEnum)]
 enum AuxArg {
     /// Ambient accessibility: cosine-weighted fraction of the sky seen.
@@ -278,7 +291,12 @@ fn main() -> ExitCode {
         Command::Bake(args) => bake(args),
         Command::Inspect { file } => inspect(&file),
         Command::Export(args) => export(args),
-        Command::Light { rig, order, output } => light(&rig, order, &output),
+        Command::Light {
+            rig,
+            order,
+            up,
+            output,
+        } => light(&rig, order, up, &output),
         Command::Relight(args) => relight(args),
         Command::Merge {
             parts,
@@ -383,10 +401,7 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
     let mut scene = Scene::load(&args.scene)?;
     // --up overrides the format's axis; whole files, parts and checkpoints all record it.
     if let Some(up) = args.up {
-        scene.up = match up {
-            UpArg::Z => prt_baker::scene::Up::Z,
-            UpArg::Y => prt_baker::scene::Up::Y,
-        };
+        scene.up = up.up();
     }
     let output = Output::new(&args.output, &scene.input_files())?;
     // A texel bake's receivers are the atlas's texels, besides the scene's own vertices.
@@ -711,7 +726,7 @@ fn inspect(path: &Path) -> Result<(), Error> {
     Ok(())
 }
 
-fn light(rig: &Path, order: usize, output: &Path) -> Result<(), Error> {
+fn light(rig: &Path, order: usize, up: UpArg, output: &Path) -> Result<(), Error> {
     if !(1..=sh::MAX_ORDER).contains(&order) {
         return Err(Error::InvalidOption(format!(
             "--order {order} is outside 1..={}",
@@ -721,7 +736,7 @@ fn light(rig: &Path, order: usize, output: &Path) -> Result<(), Error> {
     Output::new_or_stdout(output, &[rig.to_path_buf()])?;
     let rig = Rig::load(rig)?;
     let output = Output::new_or_stdout(output, &rig.input_files())?;
-    let json = rig.project(order).to_json() + "\n";
+    let json = rig.project(order).in_scene_frame(up.up()).to_json() + "\n";
     output.write(json.as_bytes())
 }
 

@@ -817,3 +817,55 @@ fn both_texture_coordinate_sets_are_read_and_exported() {
         assert!(inspect.stdout.contains(atlas), "{}", inspect.stdout);
     }
 }
+
+/// A glTF image whose header declares more pixels than `--max-memory` allows is refused
+/// before it is decoded, naming the file and the image, embedded or beside the file; the
+/// same file bakes under the default limit.
+#[test]
+fn gltf_images_are_checked_against_the_memory_limit() {
+    let s = Scratch::new();
+    // 4096² grey pixels: a small PNG that decodes to 16 M pixels (256 MiB at 16 bytes each).
+    let mut png = Vec::new();
+    image::GrayImage::new(4096, 4096)
+        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .unwrap();
+    let ((floor, floor_triangles), _) = floor_and_cube();
+    let indices: Vec<u32> = floor_triangles.iter().flatten().copied().collect();
+    let mut b = GltfBuilder::new();
+    b.mesh("floor", &floor, None, &indices, 4);
+    let uvs: Vec<f32> = floor.iter().flat_map(|p| [p.x, p.y]).collect();
+    let uv = b.accessor(le(&uvs, f32::to_le_bytes), 5126, floor.len(), "VEC2");
+    b.meshes[0]["primitives"][0]["attributes"]["TEXCOORD_0"] = json!(uv);
+    let image_view = b.views.len();
+    b.views
+        .push(json!({"buffer": 0, "byteOffset": b.bin.len(), "byteLength": png.len()}));
+    b.bin.extend(&png);
+    let mut document = b.document(json!([{"mesh": 0}]), None);
+    document["textures"] = json!([{"source": 0}]);
+    document["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = json!({"index": 0});
+    document["images"] = json!([{"bufferView": image_view, "mimeType": "image/png"}]);
+    s.write("embedded.glb", glb(&document, &b.bin));
+    let limited = |scene: &str| {
+        s.run(&[
+            "--max-memory",
+            "64",
+            "bake",
+            scene,
+            "-o",
+            "out/x.prt",
+            "--mode",
+            "unshadowed",
+        ])
+    };
+    limited("embedded.glb").fails_with_bad_input(&[
+        "embedded.glb#image0",
+        "decoding its declared 4096×4096 pixels needs 256.0 MiB",
+    ]);
+
+    document["images"] = json!([{"uri": "big.png"}]);
+    s.write("beside.glb", glb(&document, &b.bin));
+    std::fs::write(s.path("big.png"), &png).unwrap();
+    limited("beside.glb").fails_with_bad_input(&["beside.glb#image0", "4096×4096"]);
+    s.assert_out_holds(&[]);
+    s.bake("embedded.glb", "x.prt", &["--mode", "unshadowed"]);
+}

@@ -92,6 +92,34 @@ fn light_writes_the_issue_rig_as_json() {
     }
 }
 
+/// `light --up y` turns the rig into a y-up scene's frame, (x, y, z) ↦ (x, z, −y), as
+/// `relight` and the viewer do, so its JSON can be dotted with a y-up bake's transfer.
+#[test]
+fn light_turns_the_rig_to_a_y_up_scene() {
+    let s = Scratch::new();
+    s.write("rig.toml", DIRECTIONAL_RIG);
+    s.run(&[
+        "light",
+        "rig.toml",
+        "--order",
+        "3",
+        "--up",
+        "y",
+        "-o",
+        "out/l.json",
+    ])
+    .success();
+    let coefficients = channels(&read_json(&s, "out/l.json"));
+    let (theta, phi) = sh::angles(DVec3::new(0.3, 0.866, -0.4));
+    for (channel, colour) in coefficients.iter().zip([1.0, 0.5, 0.25]) {
+        for (j, c) in channel.iter().enumerate() {
+            let (l, m) = sh::band_and_m(j);
+            let want = 2.0 * colour * sh::eval_slow(l, m, theta, phi);
+            assert!((c - want).abs() < 1e-9, "{j}: {c} vs {want}");
+        }
+    }
+}
+
 #[test]
 fn light_sums_a_constant_sky_into_the_dc_term() {
     let s = Scratch::new();

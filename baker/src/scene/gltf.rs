@@ -176,6 +176,7 @@ pub fn load(path: &Path) -> Result<Loaded> {
                     } else {
                         if decoded.is_none() {
                             images_are_readable(&document, &buffers).map_err(fail)?;
+                            images_fit_in_memory(path, base, &document, &buffers)?;
                             let images = gltf::import_images(&document, Some(base), &buffers)
                                 .map_err(|err| fail(format!("cannot read an image: {err}")))?;
                             for image in &images {
@@ -292,6 +293,52 @@ fn images_are_readable(
         }
     }
     Ok(())
+}
+
+/// Refuses, before `gltf::import_images` decodes every image of the file, an image whose
+/// header declares more pixels than fit under `--max-memory` (as OBJ textures are checked:
+/// up to 16 bytes a pixel for decoding, the RGBA copy and the kept pixels). Embedded
+/// (`bufferView`) and file images are checked; a `data:` URI image is decoded by `gltf` under
+/// the `image` crate's own 512 MiB allocation limit. Headers that cannot be read are left to
+/// `import_images` to report.
+fn images_fit_in_memory(
+    path: &Path,
+    base: &Path,
+    document: &gltf::Document,
+    buffers: &[gltf::buffer::Data],
+) -> Result<()> {
+    use std::io::Cursor;
+    let json = document.as_json();
+    for (i, image) in json.images.iter().enumerate() {
+        let dimensions = match (&image.buffer_view, &image.uri) {
+            (Some(view), _) => {
+                // In bounds: checked by `images_are_readable`.
+                let view = &json.buffer_views[view.value()];
+                let offset = view.byte_offset.map_or(0, |o| o.0) as usize;
+                let bytes = &buffers[view.buffer.value()][offset..][..view.byte_length.0 as usize];
+                header_dimensions(Cursor::new(bytes))
+            }
+            (None, Some(uri)) if !uri.starts_with("data:") => std::fs::File::open(base.join(uri))
+                .ok()
+                .and_then(|file| header_dimensions(std::io::BufReader::new(file))),
+            _ => None,
+        };
+        let Some((width, height)) = dimensions else {
+            continue;
+        };
+        let name = path.with_file_name(format!(
+            "{}#image{i}",
+            path.file_name().unwrap_or_default().to_string_lossy()
+        ));
+        crate::limits::check_image(&name, width, height, 16)?;
+    }
+    Ok(())
+}
+
+/// An image's size from its header, without decoding its pixels.
+fn header_dimensions(reader: impl std::io::BufRead + std::io::Seek) -> Option<(u32, u32)> {
+    let reader = image::ImageReader::new(reader).with_guessed_format().ok()?;
+    reader.into_dimensions().ok()
 }
 
 /// Guards panics of `gltf` 1.4's typed readers (found by `baker/tests/fuzz.rs`): they reach
