@@ -22,6 +22,8 @@
 //! `PRT_FUZZ_BLESS=1` to rewrite the table after a parser changed). `PRT_FUZZ_CASES=N` sets the
 //! mutants per parser (`make fuzz`: longer runs, not compared with the table).
 
+mod common;
+
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::io::Cursor;
 use std::panic::AssertUnwindSafe;
@@ -29,6 +31,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
+use common::base64;
 use prt_baker::coefficient_file::{Adaptive, CoefficientFile, Header};
 use prt_baker::gltf_export::{Contents, glb_bytes};
 use prt_baker::light::{EnvironmentMap, Rig};
@@ -465,27 +468,6 @@ fn prt_seeds() -> Vec<Vec<u8>> {
         file(header(3, 1, Mode::Shadowed, both, 4)),
         file(header(2, 3, Mode::Interreflected, both, 2)),
     ]
-}
-
-/// Standard base64 (RFC 4648, padded), for the data-URI seed.
-fn base64(bytes: &[u8]) -> String {
-    const ALPHABET: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::new();
-    for chunk in bytes.chunks(3) {
-        let b = [
-            chunk[0],
-            *chunk.get(1).unwrap_or(&0),
-            *chunk.get(2).unwrap_or(&0),
-        ];
-        let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
-        for k in 0..4 {
-            match k <= chunk.len() {
-                true => out.push(ALPHABET[(n >> (18 - 6 * k)) as usize & 63] as char),
-                false => out.push('='),
-            }
-        }
-    }
-    out
 }
 
 /// A `.glb` of the case folder's textured triangle, written by the exporter (its buffer in the
