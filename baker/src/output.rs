@@ -418,6 +418,27 @@ mod test_fault {
     }
 }
 
+/// Makes a panic (a bug) end with one clear line, `PROGRAM: error: internal error (a bug at
+/// FILE:LINE: MESSAGE); no output was written`, instead of Rust's backtrace hint. The binaries
+/// install it and catch the unwind to exit with code 1; an output's temporary file is removed
+/// as the panic unwinds (the drop guard above).
+pub fn install_panic_hook(program: &'static str) {
+    std::panic::set_hook(Box::new(move |info| {
+        let location = info
+            .location()
+            .map_or(String::new(), |l| format!(" at {}:{}", l.file(), l.line()));
+        let message = info
+            .payload()
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| info.payload().downcast_ref::<String>().cloned())
+            .unwrap_or_default();
+        eprintln!(
+            "{program}: error: internal error (a bug{location}: {message}); no output was written"
+        );
+    }));
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

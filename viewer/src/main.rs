@@ -111,20 +111,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     // A panic is a bug, but still ends with one clear line and exit code 1; a screenshot's
     // temporary file is removed as the panic unwinds (prt_baker::output).
-    std::panic::set_hook(Box::new(|info| {
-        let location = info
-            .location()
-            .map_or(String::new(), |l| format!(" at {}:{}", l.file(), l.line()));
-        let message = info
-            .payload()
-            .downcast_ref::<&str>()
-            .map(|s| s.to_string())
-            .or_else(|| info.payload().downcast_ref::<String>().cloned())
-            .unwrap_or_default();
-        eprintln!(
-            "prt-view: error: internal error (a bug{location}: {message}); no output was written"
-        );
-    }));
+    prt_baker::output::install_panic_hook("prt-view");
     let Ok(result) = std::panic::catch_unwind(|| run(cli)) else {
         return ExitCode::from(EXIT_FAILURE);
     };
