@@ -136,7 +136,10 @@ fn check(what: &str, scene: &Scene, g: &Generated) -> f64 {
     for y in 0..h {
         for x in 0..w {
             let c = owner[y * w + x];
-            assert_ne!(c, SHARED, "{what}: texel ({x}, {y}) is covered by two charts");
+            assert_ne!(
+                c, SHARED,
+                "{what}: texel ({x}, {y}) is covered by two charts"
+            );
             if c == EMPTY {
                 continue;
             }
@@ -194,7 +197,12 @@ fn generated_charts_never_share_a_texel_and_keep_their_padding() {
 /// World area over texel area, summed over the atlas's triangles: the texel size squared.
 fn texel_size_of(scene: &Scene, g: &Generated) -> f64 {
     let (mut world, mut texels) = (0.0f64, 0.0f64);
-    for ((t, tri), uv) in scene.triangles.iter().enumerate().zip(g.atlas.texel_corners()) {
+    for ((t, tri), uv) in scene
+        .triangles
+        .iter()
+        .enumerate()
+        .zip(g.atlas.texel_corners())
+    {
         if g.chart[t] == EMPTY {
             continue;
         }

@@ -5,7 +5,7 @@
 
 use glam::Vec2;
 
-use super::{Placed, PADDING};
+use super::{PADDING, Placed};
 use crate::error::{Error, Result};
 use crate::scene::Scene;
 

@@ -9,7 +9,7 @@
 
 use glam::Vec2;
 
-use super::{Placed, PADDING};
+use super::{PADDING, Placed};
 use crate::error::{Error, Result};
 use crate::scene::Scene;
 
@@ -69,12 +69,12 @@ pub(super) fn generate(scene: &Scene, resolution: u32, texel_size: Option<f32>) 
             return Err(Error::InvalidOption(format!(
                 "--texel-size {}: the charts would need {texels} texels; use a larger texel",
                 texel_size.unwrap_or(0.0)
-            )))
+            )));
         }
         Err(e) => {
             return Err(Error::InvalidOption(format!(
                 "the lightmap unwrap failed: {e}"
-            )))
+            )));
         }
     };
     if atlas.page_count > 1 {
