@@ -193,12 +193,17 @@ struct BakeArgs {
     checkpoint_vertices: Option<usize>,
     /// Bake per texel of a RES×RES lightmap atlas instead of per vertex (docs/lightmaps.md):
     /// the scene's lightmap UVs (glTF TEXCOORD_1) where it has them and no --texel-size is
-    /// given, else planar charts unwrapped here. Unshadowed and shadowed modes.
+    /// given, else an atlas unwrapped here (--atlas). Unshadowed and shadowed modes.
     #[arg(long, value_name = "RES")]
     lightmap: Option<u32>,
     /// With --lightmap: the world size of a texel (default: the charts fill the atlas).
     #[arg(long, value_name = "S")]
     texel_size: Option<f32>,
+    /// With --lightmap: unwrap the atlas here (even where the scene has lightmap UVs) with
+    /// `unwrap` (the default: few large charts, curved meshes too) or `planar` (flat charts,
+    /// shelf-packed; no distortion, but one chart per few triangles on curved meshes).
+    #[arg(long, value_enum)]
+    atlas: Option<AtlasArg>,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -354,6 +359,9 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
     if args.texel_size.is_some() && args.lightmap.is_none() {
         return Err(Error::InvalidOption("--texel-size needs --lightmap".into()));
     }
+    if args.atlas.is_some() && args.lightmap.is_none() {
+        return Err(Error::InvalidOption("--atlas needs --lightmap".into()));
+    }
     // Texel bakes are whole, fixed-sample bakes for now (docs/lightmaps.md).
     if args.lightmap.is_some()
         && (shard.is_some() || args.checkpoint.is_some() || options.target_error.is_some())
@@ -453,9 +461,15 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
         }
         Some(resolution) => {
             use prt_baker::lightmap::Atlas;
-            let atlas = match (&scene.lightmap_uvs, args.texel_size) {
-                (Some(uvs), None) => Atlas::from_vertex_uvs(&scene, uvs, resolution, resolution)?,
-                _ => Atlas::generate(&scene, resolution, args.texel_size)?,
+            let atlas = match (&scene.lightmap_uvs, args.texel_size, args.atlas) {
+                (Some(uvs), None, None) => {
+                    Atlas::from_vertex_uvs(&scene, uvs, resolution, resolution)?
+                }
+                (_, texel_size, method) => {
+                    let method = method.map_or(Default::default(), AtlasArg::method);
+                    prt_baker::lightmap::atlas::generate(&scene, resolution, texel_size, method)?
+                        .atlas
+                }
             };
             let bake = prt_baker::lightmap::bake(
                 &scene,
@@ -749,4 +763,20 @@ fn relight(args: RelightArgs) -> Result<(), Error> {
         args.output.display()
     );
     Ok(())
+}
+
+/// `bake --atlas`: which unwrapper makes a generated lightmap atlas.
+#[derive(Clone, Copy, ValueEnum)]
+enum AtlasArg {
+    Unwrap,
+    Planar,
+}
+
+impl AtlasArg {
+    fn method(self) -> prt_baker::lightmap::atlas::AtlasMethod {
+        match self {
+            AtlasArg::Unwrap => prt_baker::lightmap::atlas::AtlasMethod::Unwrap,
+            AtlasArg::Planar => prt_baker::lightmap::atlas::AtlasMethod::Planar,
+        }
+    }
 }

@@ -135,3 +135,37 @@ fn lightmap_options_are_checked() {
         .fails_with(3, &["268435456 texels", "over the memory limit"]);
     s.assert_out_holds(&[]);
 }
+
+#[test]
+fn the_atlas_unwrapper_is_chosen_with_atlas() {
+    let s = Scratch::new();
+    let lightmap = ["--lightmap", "32", "--samples", "16"];
+    s.bake(CORNELL, "default.prt", &lightmap);
+    s.bake(
+        CORNELL,
+        "unwrap.prt",
+        &[&lightmap[..], &["--atlas", "unwrap"]].concat(),
+    );
+    s.bake(
+        CORNELL,
+        "planar.prt",
+        &[&lightmap[..], &["--atlas", "planar"]].concat(),
+    );
+    assert!(s.read("out/default.prt") == s.read("out/unwrap.prt"));
+    assert!(s.read("out/default.prt") != s.read("out/planar.prt"));
+    let bake = |extra: &[&str]| {
+        let mut args = vec!["bake", CORNELL, "-o", "out/x.prt", "--quiet"];
+        args.extend(extra);
+        s.run(&args)
+    };
+    bake(&["--atlas", "planar"]).fails_with(2, &["--lightmap"]);
+    // clap's own usage error (several lines, listing the values).
+    let unknown = bake(&["--lightmap", "32", "--atlas", "xatlas"]);
+    assert_eq!(unknown.code, Some(2));
+    assert!(
+        unknown.stderr.contains("unwrap, planar"),
+        "{}",
+        unknown.stderr
+    );
+    s.assert_out_holds(&["default.prt", "unwrap.prt", "planar.prt"]);
+}
