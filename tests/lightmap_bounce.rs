@@ -135,11 +135,14 @@ fn floor_and_wall_texels_follow_the_closed_form() {
                     let tol1 =
                         tolerance(sample1 * sample1 * 0.25, bounce_samples) + half_rho * tol0_other;
                     let sample2 = f64::from(rho) * half_rho * mine.mean[j];
-                    let tol2 = tolerance(sample2 * sample2 * 0.25, bounce_samples) + half_rho * tol1;
+                    let tol2 =
+                        tolerance(sample2 * sample2 * 0.25, bounce_samples) + half_rho * tol1;
                     let expected = [
                         mine.mean[j],
                         mine.mean[j] + half_rho * other.mean[j],
-                        mine.mean[j] + half_rho * other.mean[j] + half_rho * half_rho * mine.mean[j],
+                        mine.mean[j]
+                            + half_rho * other.mean[j]
+                            + half_rho * half_rho * mine.mean[j],
                     ];
                     let tols = [tol0, tol0 + tol1, tol0 + tol1 + tol2];
                     for bounces in 0..3 {
@@ -211,7 +214,11 @@ fn texels_on_dense_grids_vertices_agree_with_the_vertex_bake() {
     let options = interreflected(order, samples, 1);
     let texels = bake_lightmap(&scene, &atlas, &options);
     let count = scene.vertex_count();
-    assert_eq!(texels.texels.valid_count(), count, "every vertex is a texel");
+    assert_eq!(
+        texels.texels.valid_count(),
+        count,
+        "every vertex is a texel"
+    );
     assert_eq!(texels.transfer.channels, 3, "a red wall makes colour");
     let vertices = bake_scene(
         &scene,
@@ -253,7 +260,8 @@ fn texels_on_dense_grids_vertices_agree_with_the_vertex_bake() {
             for j in 0..n {
                 let sample = 0.8 * largest[j];
                 let tol = std::f64::consts::SQRT_2
-                    * (tolerance(bound.second[j], samples) + tolerance(sample * sample, samples / 4));
+                    * (tolerance(bound.second[j], samples)
+                        + tolerance(sample * sample, samples / 4));
                 let err = (t[j] - f64::from(vt[j])).abs();
                 worst = worst.max(err / tol);
                 assert!(
@@ -299,7 +307,11 @@ fn interreflected_texel_bakes_do_not_depend_on_threads_or_the_hit_cache() {
     );
     assert!(retraced.transfer.hit_cache_bytes.is_none());
     let bits = |b: &LightmapBake| -> Vec<u32> {
-        b.transfer.coefficients.iter().map(|c| c.to_bits()).collect()
+        b.transfer
+            .coefficients
+            .iter()
+            .map(|c| c.to_bits())
+            .collect()
     };
     assert!(bits(&one) == bits(&two), "1 and 2 threads differ");
     assert!(bits(&one) == bits(&retraced), "re-traced bounces differ");
@@ -308,4 +320,50 @@ fn interreflected_texel_bakes_do_not_depend_on_threads_or_the_hit_cache() {
     let n = sh::coeff_count(2);
     let dilated = one.dilated.iter().position(|&d| d).expect("dilated texels");
     assert!((0..3).all(|c| one.transfer.coefficients[(dilated * 3 + c) * n] > 0.0));
+}
+
+#[test]
+fn a_constant_lightmap_reads_back_constant_up_to_the_charts_edges() {
+    // A 4-vertex floor in the middle 8×8 texels of a 16×16 lightmap, every valid texel
+    // holding 1: a bounce hit anywhere on the floor, even half a texel from its edge where
+    // bilinear taps reach the padding, must read 1. That needs the padding dilated before
+    // the lookup (and the weights of empty texels renormalised away).
+    let floor = grid(
+        "floor",
+        Vec3::new(-1.0, -1.0, 0.0),
+        Vec3::X * 2.0,
+        Vec3::Y * 2.0,
+        1,
+    );
+    let scene = scene(vec![floor]);
+    let uvs: Vec<Vec2> = scene
+        .positions
+        .iter()
+        .map(|p| Vec2::new(p.x, p.y) / 4.0 + Vec2::splat(0.5))
+        .collect();
+    let atlas = Atlas::from_vertex_uvs(&scene, &uvs, 16, 16).unwrap();
+    let texels = prt_baker::lightmap::Texels::rasterise(&scene, &atlas);
+    assert_eq!(texels.valid_count(), 64);
+    let targets = prt_baker::transfer::BounceTargets::texels(&atlas, &texels);
+    let ones = vec![1.0f32; 64];
+    let lightmap = targets.slot_values(&ones, 1);
+    let mut slots = [(0, 0.0); 4];
+    let steps = 40;
+    for triangle in 0..2 {
+        for i in 0..=steps {
+            for j in 0..=steps - i {
+                let (b1, b2) = (i as f32 / steps as f32, j as f32 / steps as f32);
+                let count = targets.lookup(&scene, triangle, [1.0 - b1 - b2, b1, b2], &mut slots);
+                let value: f32 = slots[..count]
+                    .iter()
+                    .map(|&(slot, w)| w * lightmap[slot as usize])
+                    .sum();
+                assert!(
+                    (value - 1.0).abs() < 1e-5,
+                    "triangle {triangle} at ({b1}, {b2}): {value} from {:?}",
+                    &slots[..count]
+                );
+            }
+        }
+    }
 }

@@ -238,4 +238,3 @@ impl<'a> HitRecorder<'a> {
         Some((jobs.collect(), bytes))
     }
 }
-

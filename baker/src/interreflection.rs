@@ -76,7 +76,6 @@ pub(crate) struct Bounced {
     pub hit_cache_bytes: Option<u64>,
 }
 
-
 /// Whether every albedo in the scene is grey (R = G = B), so one channel suffices.
 pub fn albedo_is_grey(scene: &Scene) -> bool {
     let grey = |c: Vec3| c.x == c.y && c.y == c.z;

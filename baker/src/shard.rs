@@ -19,16 +19,16 @@ use std::path::Path;
 use glam::Vec3;
 use serde::Serialize;
 
+use crate::bounce_rows::HitRecorder;
 use crate::coefficient_file::{self, CoefficientFile, HEADER_SIZE, Header};
 use crate::error::{Error, Result};
-use crate::bounce_rows::HitRecorder;
 use crate::interreflection::{self, RowSource, Rows};
 use crate::progress::Progress;
 use crate::scene::Scene;
 use crate::sh;
 use crate::trace::{Backend, Tracer};
 use crate::transfer::{
-    Baked, BakeOptions, BounceTargets, Estimator, Mode, Transfer, direct_pass, tracer_for,
+    BakeOptions, Baked, BounceTargets, Estimator, Mode, Transfer, direct_pass, tracer_for,
 };
 
 /// Which of how many shards: `index` in 0..`count`.

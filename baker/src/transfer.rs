@@ -33,10 +33,10 @@ use crate::scene::Scene;
 use crate::sh;
 use crate::trace::{Backend, Tracer};
 
-pub use crate::receivers::BounceTargets;
 pub use crate::estimator::{Estimator, Scratch, Visibility};
 pub(crate) use crate::estimator::{VERTICES_PER_JOB, direct_pass};
 pub use crate::options::{Aux, BakeOptions, DEFAULT_HIT_CACHE_LIMIT, Mode};
+pub use crate::receivers::BounceTargets;
 pub use crate::receivers::Receivers;
 
 /// The result of a bake: `coefficients[(v · channels + c) · n² + j]`.
@@ -167,8 +167,7 @@ pub fn bake_receivers(
     let receivers = estimator.receiver_count();
     let mut baked = match tracer {
         Some(tracer) if options.mode == Mode::Interreflected => {
-            let bounced =
-                crate::interreflection::bake(scene, tracer, estimator, targets, progress);
+            let bounced = crate::interreflection::bake(scene, tracer, estimator, targets, progress);
             Baked {
                 coefficients: bounced.coefficients,
                 channels: bounced.channels,

@@ -140,16 +140,35 @@ fn interreflected_texel_bakes_are_colour_and_deterministic() {
     // The Cornell room's coloured walls: an interreflected texel bake is accepted, stored
     // with 3 channels, and bit-identical for --threads 1 and 2.
     let s = Scratch::new();
-    let args = ["--lightmap", "24", "--mode", "interreflected", "--samples", "64"];
-    let one = s.bake(CORNELL, "one.prt", &[&args[..], &["--threads", "1"]].concat());
+    let args = [
+        "--lightmap",
+        "24",
+        "--mode",
+        "interreflected",
+        "--samples",
+        "64",
+    ];
+    let one = s.bake(
+        CORNELL,
+        "one.prt",
+        &[&args[..], &["--threads", "1"]].concat(),
+    );
     assert!(one.stdout.contains("3 channels"), "{}", one.stdout);
-    s.bake(CORNELL, "two.prt", &[&args[..], &["--threads", "2"]].concat());
+    s.bake(
+        CORNELL,
+        "two.prt",
+        &[&args[..], &["--threads", "2"]].concat(),
+    );
     assert!(
         s.read("out/one.prt") == s.read("out/two.prt"),
         "--threads 1 and 2 gave different interreflected texel files"
     );
     let inspect = s.run(&["inspect", "out/one.prt"]).success();
-    for field in ["\"mode\": \"interreflected\"", "\"channels\": 3", "\"width\": 24"] {
+    for field in [
+        "\"mode\": \"interreflected\"",
+        "\"channels\": 3",
+        "\"width\": 24",
+    ] {
         assert!(inspect.stdout.contains(field), "{}", inspect.stdout);
     }
 }
