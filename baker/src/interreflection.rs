@@ -139,7 +139,7 @@ pub(crate) enum RowSource<'a> {
     /// Rows in memory, one per receiver in order (checkpoint blocks joined, or a shard part
     /// the merge has read).
     Flat(&'a Rows),
-    /// Re-trace each vertex's bounce samples (the rows were over the hit-cache budget).
+    /// Re-trace each receiver's bounce samples (the rows were over the hit-cache budget).
     Retrace {
         scene: &'a Scene,
         tracer: &'a dyn Tracer,
@@ -148,10 +148,11 @@ pub(crate) enum RowSource<'a> {
     },
 }
 
-/// The interreflected transfer from the direct pass's `t0` (one channel, every vertex) and
-/// the bounce rows: T_0 broadcast to `channels`, plus `options.bounces` gathers. The
-/// single-machine bake and the merge of checkpoint blocks end here; the merge of shard parts
-/// ends in [`sum_bounces`] with the same gather, so they agree bit for bit.
+/// The interreflected transfer from the direct pass's `t0` (one channel, every receiver) and
+/// the bounce rows, read through `targets`: T_0 broadcast to `channels`, plus
+/// `options.bounces` gathers. The single-machine bake and the merge of checkpoint blocks end
+/// here; the merge of shard parts ends in [`sum_bounces`] with the same [`bounce_pass`], so
+/// they agree bit for bit.
 pub(crate) fn add_bounces(
     t0: Vec<f32>,
     channels: usize,

@@ -115,8 +115,8 @@ impl<'a> BounceTargets<'a> {
         match self {
             BounceTargets::Vertices => {
                 let tri = scene.triangles[triangle as usize];
-                for k in 0..3 {
-                    out[k] = (tri[k], barycentric[k].max(0.0));
+                for (slot, (&vertex, &b)) in out.iter_mut().zip(tri.iter().zip(&barycentric)) {
+                    *slot = (vertex, b.max(0.0));
                 }
                 3
             }
