@@ -12,8 +12,8 @@ use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use crate::error::{Error, Result};
+use crate::options::{BakeOptions, Mode};
 use crate::sh;
-use crate::transfer::{BakeOptions, Mode};
 
 /// The limit when the physical memory cannot be read (not Linux): 4 GiB.
 const FALLBACK_MAX_MEMORY: u64 = 4 << 30;

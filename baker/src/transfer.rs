@@ -19,7 +19,7 @@
 //! with the way bounce hits read transfer back ([`BounceTargets`]: vertices, or texels).
 //! Shard parts ([`crate::shard`]) run its first half, the direct pass, on a vertex range.
 //!
-//! The pieces,  in the order data flows through them: [`crate::options`] (what is asked),
+//! The pieces, in the order data flows through them: [`crate::options`] (what is asked),
 //! [`crate::receivers`] (what is baked at, and how bounce hits map back to it),
 //! [`crate::estimator`] (the per-receiver estimator and the direct pass),
 //! [`crate::bounce_rows`] and [`crate::interreflection`] (the bounces), and this module:
