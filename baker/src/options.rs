@@ -32,9 +32,9 @@ impl Mode {
 /// Optional per-vertex arrays stored beside the coefficients (`--aux`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Aux {
-    /// Ambient accessibility, [`Visibility::accessibility`].
+    /// Ambient accessibility, [`crate::estimator::Visibility::accessibility`].
     pub ao: bool,
-    /// [`Visibility::bent_normal`].
+    /// [`crate::estimator::Visibility::bent_normal`].
     pub bent_normal: bool,
 }
 

@@ -155,7 +155,7 @@ pub fn bake(
 
 /// Bakes the estimator's receivers: the direct pass, and in interreflected mode the bounces,
 /// whose hits read the previous bounce through `targets`. `tracer` is `None` exactly in
-/// unshadowed mode ([`tracer_for`]).
+/// unshadowed mode.
 pub fn bake_receivers(
     scene: &Scene,
     tracer: Option<&dyn Tracer>,
