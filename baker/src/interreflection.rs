@@ -1,4 +1,4 @@
-//! Interreflected transfer: light that reaches a vertex after bouncing off other surfaces, in
+//! Interreflected transfer: light that reaches a receiver (a vertex or a lightmap texel) after bouncing off other surfaces, in
 //! colour (Green's bounce method; the thesis's step beyond shadows).
 //!
 //! Bounce k at vertex x integrates, over the rays from x whose first hit h(s) lies on a front
@@ -9,7 +9,9 @@
 //! ```
 //!
 //! where ρ(h) is the hit surface's albedo (Kd × texture at the hit's uv, per channel) and
-//! T̃_{k−1}(h) the previous bounce's transfer interpolated with the hit's barycentrics;
+//! T̃_{k−1}(h) the previous bounce's transfer at the hit: interpolated with the hit's
+//! barycentrics in a vertex bake, sampled bilinearly at the hit's lightmap UV in a texel bake
+//! ([`crate::receivers::BounceTargets`]);
 //! T_0 is the shadowed transfer and the result is T_0 + T_1 + … + T_B. The SH basis never
 //! appears in a bounce: it is carried by T_0, so a bounce is a weighted gather of vertex
 //! transfers over the first hits.
@@ -30,6 +32,13 @@
 //! row is far shorter than three entries per hit, and every bounce is then a cheap gather
 //! with no rays. An entry is 16 bytes (vertex u32, RGB weight 3 × f32).
 //!
+//! In a texel bake the entries name texels instead (the 4 around the hit's lightmap UV, by
+//! bilinear weight), and the previous bounce's values are those of the whole lightmap: the
+//! valid texels' values put in place and dilated, as the final lightmap is, so that a hit
+//! near a chart's edge reads what a renderer would read there
+//! ([`crate::receivers::BounceTargets::slot_values`]). Rows, caching, re-tracing and
+//! determinism are the same code as for vertices.
+//!
 //! # Bounce samples
 //!
 //! Closest-hit rays cost two to four times as much as occlusion rays, and bounced light is
@@ -43,21 +52,19 @@
 //! bounce pass re-traces the (deterministic) rays to rebuild one row at a time: the same
 //! result with memory O(vertices × coefficients), at the cost of a tracing pass per bounce.
 
-use std::ops::Range;
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 use rayon::prelude::*;
 
+use crate::bounce_rows::{HitRecorder, JobRows};
+use crate::estimator::{Estimator, Scratch, VERTICES_PER_JOB, Visibility, direct_pass};
+use crate::options::BakeOptions;
 use crate::progress::Progress;
+use crate::receivers::BounceTargets;
 use crate::scene::Scene;
 use crate::sh;
-use crate::trace::{Hit, Tracer};
-use crate::transfer::{Estimator, Scratch, VERTICES_PER_JOB, Visibility, direct_pass};
+use crate::trace::Tracer;
 
-/// Bytes per bounce-row entry: vertex index and RGB weight.
-pub const BYTES_PER_ENTRY: u64 = 4 + 3 * 4;
+pub use crate::bounce_rows::{BYTES_PER_ENTRY, Rows};
 
 /// What an interreflected bake produces.
 pub(crate) struct Bounced {
@@ -69,213 +76,6 @@ pub(crate) struct Bounced {
     pub hit_cache_bytes: Option<u64>,
 }
 
-/// A thread's dense accumulator for one vertex's bounce row: weights by vertex, and the
-/// vertices touched so far in first-touch order (which fixes the summation order).
-#[derive(Default)]
-pub struct RowBuilder {
-    dense: Vec<[f32; 3]>,
-    touched: Vec<u32>,
-}
-
-impl RowBuilder {
-    fn add(&mut self, vertex: u32, weight: Vec3) {
-        let slot = &mut self.dense[vertex as usize];
-        if *slot == [0.0; 3] {
-            self.touched.push(vertex);
-        }
-        *slot = (Vec3::from_array(*slot) + weight).to_array();
-    }
-}
-
-/// The bounce rows of a run of consecutive vertices.
-pub struct JobRows<'a> {
-    scene: &'a Scene,
-    /// Index of each begun vertex's first entry.
-    starts: Vec<u32>,
-    vertices: Vec<u32>,
-    weights: Vec<[f32; 3]>,
-}
-
-impl<'a> JobRows<'a> {
-    fn new(scene: &'a Scene) -> JobRows<'a> {
-        JobRows {
-            scene,
-            starts: Vec::new(),
-            vertices: Vec::new(),
-            weights: Vec::new(),
-        }
-    }
-
-    /// Starts the next vertex's row (vertices are recorded in order).
-    pub(crate) fn begin_vertex(&mut self, builder: &mut RowBuilder) {
-        builder.dense.resize(self.scene.vertex_count(), [0.0; 3]);
-        self.starts.push(self.vertices.len() as u32);
-    }
-
-    /// Adds a closest hit of a ray along `dir` with estimator weight `weight`, if the ray
-    /// reached a front face.
-    pub(crate) fn record(&mut self, hit: &Hit, dir: Vec3, weight: f32, builder: &mut RowBuilder) {
-        let scene = self.scene;
-        let tri = scene.triangles[hit.triangle as usize];
-        let corner = |i: u32| i as usize;
-        let barycentric = [1.0 - hit.u - hit.v, hit.u, hit.v];
-        let normal: Vec3 = (0..3)
-            .map(|k| scene.normals[corner(tri[k])] * barycentric[k])
-            .sum();
-        if normal.dot(dir) >= 0.0 {
-            return; // a back face: blocks, reflects nothing
-        }
-        let uv: Vec2 = (0..3)
-            .map(|k| scene.uvs[corner(tri[k])] * barycentric[k])
-            .sum();
-        let albedo = scene.albedo(scene.triangle_material(hit.triangle as usize), uv) * weight;
-        for (&vertex, &b) in tri.iter().zip(&barycentric) {
-            let w = albedo * b.max(0.0);
-            if w != Vec3::ZERO {
-                builder.add(vertex, w);
-            }
-        }
-    }
-
-    /// Ends the current vertex's row: moves the builder's entries into the job.
-    pub(crate) fn end_vertex(&mut self, builder: &mut RowBuilder) {
-        for &vertex in &builder.touched {
-            let slot = &mut builder.dense[vertex as usize];
-            self.vertices.push(vertex);
-            self.weights.push(*slot);
-            *slot = [0.0; 3];
-        }
-        builder.touched.clear();
-    }
-
-    fn bytes(&self) -> u64 {
-        self.vertices.len() as u64 * BYTES_PER_ENTRY + self.starts.len() as u64 * 4
-    }
-
-    /// The entries of the `k`-th vertex recorded.
-    fn vertex(&self, k: usize) -> Range<usize> {
-        let start = self.starts[k] as usize;
-        let end = self
-            .starts
-            .get(k + 1)
-            .map_or(self.vertices.len(), |&e| e as usize);
-        start..end
-    }
-}
-
-/// The bounce rows of a run of consecutive vertices, in order: what a shard part or a
-/// checkpoint block carries, and what the merge concatenates.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Rows {
-    /// Entries of vertex k (of the run) are `starts[k]..starts[k + 1]`; `starts[0]` is 0.
-    pub starts: Vec<u64>,
-    /// Vertex of each entry (over the whole scene).
-    pub vertices: Vec<u32>,
-    /// RGB weight of each entry.
-    pub weights: Vec<[f32; 3]>,
-}
-
-impl Rows {
-    /// The rows of a direct pass's jobs, in order.
-    pub(crate) fn from_jobs(jobs: Vec<JobRows>) -> Rows {
-        let mut rows = Rows {
-            starts: vec![0],
-            ..Rows::default()
-        };
-        for job in jobs {
-            for k in 0..job.starts.len() {
-                let range = job.vertex(k);
-                rows.vertices.extend(&job.vertices[range.clone()]);
-                rows.weights.extend(&job.weights[range]);
-                rows.starts.push(rows.vertices.len() as u64);
-            }
-        }
-        rows
-    }
-
-    /// Vertices whose rows these are.
-    pub fn vertex_count(&self) -> usize {
-        self.starts.len().saturating_sub(1)
-    }
-
-    /// Appends the rows of the vertices that follow.
-    pub fn append(&mut self, next: &Rows) {
-        if self.starts.is_empty() {
-            self.starts.push(0);
-        }
-        let offset = self.vertices.len() as u64;
-        self.starts
-            .extend(next.starts.iter().skip(1).map(|s| s + offset));
-        self.vertices.extend(&next.vertices);
-        self.weights.extend(&next.weights);
-    }
-
-    /// The entries of the `k`-th vertex.
-    fn vertex(&self, k: usize) -> Range<usize> {
-        self.starts[k] as usize..self.starts[k + 1] as usize
-    }
-
-    /// Bytes in memory and in a part: entries, plus a u32 length per vertex.
-    pub fn bytes(&self) -> u64 {
-        self.vertices.len() as u64 * BYTES_PER_ENTRY + self.vertex_count() as u64 * 4
-    }
-}
-
-/// Collects the direct pass's bounce rows job by job, within a memory budget.
-pub(crate) struct HitRecorder<'a> {
-    scene: &'a Scene,
-    jobs: Vec<Mutex<Option<JobRows<'a>>>>,
-    bytes: AtomicU64,
-    limit: u64,
-    overflowed: AtomicBool,
-}
-
-impl<'a> HitRecorder<'a> {
-    /// A recorder for a direct pass over `vertices` consecutive vertices.
-    pub(crate) fn new(scene: &'a Scene, vertices: usize, limit: u64) -> HitRecorder<'a> {
-        let jobs = vertices.div_ceil(VERTICES_PER_JOB);
-        HitRecorder {
-            scene,
-            jobs: (0..jobs).map(|_| Mutex::new(None)).collect(),
-            bytes: AtomicU64::new(0),
-            limit,
-            overflowed: AtomicBool::new(false),
-        }
-    }
-
-    /// An empty set of rows for the next job.
-    pub(crate) fn job(&self) -> JobRows<'a> {
-        JobRows::new(self.scene)
-    }
-
-    /// Keeps a finished job's rows, unless the budget is (or would be) exceeded.
-    pub(crate) fn finish_job(&self, job: usize, hits: JobRows<'a>) {
-        let total = self.bytes.fetch_add(hits.bytes(), Ordering::Relaxed) + hits.bytes();
-        if total > self.limit {
-            self.overflowed.store(true, Ordering::Relaxed);
-        }
-        if !self.overflowed.load(Ordering::Relaxed) {
-            *self.jobs[job]
-                .lock()
-                .expect("no job panicked holding the lock") = Some(hits);
-        }
-    }
-
-    /// The rows of every job, or `None` if the budget was exceeded.
-    pub(crate) fn into_cache(self) -> Option<(Vec<JobRows<'a>>, u64)> {
-        if self.overflowed.into_inner() {
-            return None;
-        }
-        let bytes = self.bytes.into_inner();
-        let jobs = self.jobs.into_iter().map(|j| {
-            j.into_inner()
-                .expect("no poisoned lock")
-                .expect("every job finished")
-        });
-        Some((jobs.collect(), bytes))
-    }
-}
-
 /// Whether every albedo in the scene is grey (R = G = B), so one channel suffices.
 pub fn albedo_is_grey(scene: &Scene) -> bool {
     let grey = |c: Vec3| c.x == c.y && c.y == c.z;
@@ -285,22 +85,24 @@ pub fn albedo_is_grey(scene: &Scene) -> bool {
         .all(|m| grey(m.kd) && m.texture.is_none_or(|t| scene.textures[t].is_grey()))
 }
 
-/// The interreflected bake: the direct pass (recording hits), then `bounces` gather passes.
+/// The interreflected bake of the estimator's receivers, whose bounce hits read `targets`:
+/// the direct pass (recording hits), then `bounces` gather passes.
 pub(crate) fn bake(
     scene: &Scene,
     tracer: &dyn Tracer,
     estimator: &Estimator,
+    targets: &BounceTargets,
     progress: &dyn Progress,
 ) -> Bounced {
     let options = &estimator.options;
     let channels = if albedo_is_grey(scene) { 1 } else { 3 };
-    let vertex_count = scene.vertex_count();
-    let recorder = HitRecorder::new(scene, vertex_count, options.hit_cache_limit);
+    let receivers = estimator.receiver_count();
+    let recorder = HitRecorder::new(scene, targets, receivers, options.hit_cache_limit);
     let direct = direct_pass(
         estimator,
         Some(tracer),
         Some(&recorder),
-        0..vertex_count,
+        0..receivers,
         progress,
     );
     let cache = recorder.into_cache();
@@ -312,39 +114,51 @@ pub(crate) fn bake(
             scene,
             tracer,
             estimator,
+            targets,
         },
     };
     Bounced {
-        coefficients: add_bounces(direct.coefficients, channels, options, &rows, progress),
+        coefficients: add_bounces(
+            direct.coefficients,
+            channels,
+            options,
+            &rows,
+            targets,
+            progress,
+        ),
         channels,
         visibility: direct.visibility,
         hit_cache_bytes,
     }
 }
 
-/// Where a bounce pass finds each vertex's bounce row.
+/// Where a bounce pass finds each receiver's bounce row.
 pub(crate) enum RowSource<'a> {
-    /// The direct pass's rows, job by job ([`VERTICES_PER_JOB`] vertices each).
+    /// The direct pass's rows, job by job ([`VERTICES_PER_JOB`] receivers each).
     Jobs(&'a [JobRows<'a>]),
-    /// The rows of every vertex in order (checkpoint blocks joined).
+    /// Rows in memory, one per receiver in order (checkpoint blocks joined, or a shard part
+    /// the merge has read).
     Flat(&'a Rows),
-    /// Re-trace each vertex's bounce samples (the rows were over the hit-cache budget).
+    /// Re-trace each receiver's bounce samples (the rows were over the hit-cache budget).
     Retrace {
         scene: &'a Scene,
         tracer: &'a dyn Tracer,
         estimator: &'a Estimator,
+        targets: &'a BounceTargets<'a>,
     },
 }
 
-/// The interreflected transfer from the direct pass's `t0` (one channel, every vertex) and
-/// the bounce rows: T_0 broadcast to `channels`, plus `options.bounces` gathers. The
-/// single-machine bake and the merge of checkpoint blocks end here; the merge of shard parts
-/// ends in [`sum_bounces`] with the same gather, so they agree bit for bit.
+/// The interreflected transfer from the direct pass's `t0` (one channel, every receiver) and
+/// the bounce rows, read through `targets`: T_0 broadcast to `channels`, plus
+/// `options.bounces` gathers. The single-machine bake and the merge of checkpoint blocks end
+/// here; the merge of shard parts ends in [`sum_bounces`] with the same [`bounce_pass`], so
+/// they agree bit for bit.
 pub(crate) fn add_bounces(
     t0: Vec<f32>,
     channels: usize,
-    options: &crate::transfer::BakeOptions,
+    options: &BakeOptions,
     rows: &RowSource,
+    targets: &BounceTargets,
     progress: &dyn Progress,
 ) -> Vec<f32> {
     let n = sh::coeff_count(options.order);
@@ -354,11 +168,12 @@ pub(crate) fn add_bounces(
         _ => 0,
     };
     let pass = |previous: &[f32], previous_channels: usize, next: &mut [f32]| {
+        let previous = targets.slot_values(previous, previous_channels * n);
         bounce_pass(
             rows,
             norm,
             n,
-            previous,
+            &previous,
             previous_channels,
             channels,
             next,
@@ -378,7 +193,7 @@ pub(crate) fn add_bounces(
 pub(crate) fn sum_bounces<E, F>(
     t0: Vec<f32>,
     channels: usize,
-    options: &crate::transfer::BakeOptions,
+    options: &BakeOptions,
     rays_per_vertex: u64,
     progress: &dyn Progress,
     mut bounce: F,
@@ -411,47 +226,12 @@ where
     Ok(total)
 }
 
-/// One bounce at a run of consecutive vertices whose rows are `rows` (the k-th vertex's
-/// result goes to `out`'s k-th `channels × n²` floats): what [`bounce_pass`] computes for
-/// them, for a merge that holds one part's rows at a time.
+/// One bounce: T_k(x) = norm · Σ_v w(x, v) ⊙ T_{k−1}(v) for every receiver x whose row
+/// `rows` holds (the k-th receiver's result goes to `next`'s k-th `channels × n²` floats;
+/// `previous` holds the previous bounce at every slot). The bake, the merge of checkpoint
+/// blocks and the merge of shard parts (one part's rows at a time) all gather here.
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn bounce_rows(
-    rows: &Rows,
-    norm: f32,
-    n: usize,
-    previous: &[f32],
-    previous_channels: usize,
-    channels: usize,
-    out: &mut [f32],
-    progress: &dyn Progress,
-) {
-    let width = channels * n;
-    out.par_chunks_mut(VERTICES_PER_JOB * width)
-        .enumerate()
-        .for_each(|(job, out)| {
-            for (k, out) in out.chunks_mut(width).enumerate() {
-                let range = rows.vertex(job * VERTICES_PER_JOB + k);
-                let (vertices, weights) = (&rows.vertices[range.clone()], &rows.weights[range]);
-                gather(
-                    vertices,
-                    weights,
-                    previous,
-                    previous_channels,
-                    channels,
-                    n,
-                    out,
-                );
-                for o in out.iter_mut() {
-                    *o *= norm;
-                }
-            }
-            progress.advance((out.len() / width) as u64);
-        });
-}
-
-/// One bounce: T_k(x) = norm · Σ_v w(x, v) ⊙ T_{k−1}(v) for every vertex x.
-#[allow(clippy::too_many_arguments)]
-fn bounce_pass(
+pub(crate) fn bounce_pass(
     rows: &RowSource,
     norm: f32,
     n: usize,
@@ -494,9 +274,10 @@ fn bounce_pass(
                             scene,
                             tracer,
                             estimator,
+                            targets,
                         } => {
                             // Same rays as the direct pass, so the same row.
-                            let mut fresh = JobRows::new(scene);
+                            let mut fresh = JobRows::new(scene, targets);
                             estimator.bounce_row(first + k, *tracer, scratch, &mut fresh);
                             gather(&fresh.vertices, &fresh.weights, out);
                         }
@@ -511,7 +292,7 @@ fn bounce_pass(
 }
 
 /// `out` = Σ over a row's entries of weight ⊙ the previous bounce's transfer at the entry's
-/// vertex.
+/// slot.
 fn gather(
     vertices: &[u32],
     weights: &[[f32; 3]],

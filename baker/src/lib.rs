@@ -12,9 +12,11 @@
 
 pub mod adaptive;
 pub mod atomic;
+pub mod bounce_rows;
 pub mod checkpoint;
 pub mod coefficient_file;
 pub mod error;
+pub mod estimator;
 pub mod export;
 pub mod gltf_export;
 pub mod interreflection;
@@ -23,9 +25,11 @@ pub mod lightmap;
 pub mod limits;
 pub mod merge;
 pub mod npz;
+pub mod options;
 pub mod output;
 pub mod ply;
 pub mod progress;
+pub mod receivers;
 pub mod relight;
 pub mod sampling;
 pub mod scene;

@@ -12,8 +12,8 @@ use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use crate::error::{Error, Result};
+use crate::options::{BakeOptions, Mode};
 use crate::sh;
-use crate::transfer::{BakeOptions, Mode};
 
 /// The limit when the physical memory cannot be read (not Linux): 4 GiB.
 const FALLBACK_MAX_MEMORY: u64 = 4 << 30;
@@ -137,7 +137,9 @@ pub fn image_limits() -> image::Limits {
 
 /// An upper bound of a bake's memory: the scene, the tracer's acceleration structure, the
 /// sample tables, the coefficients (computed, packed and written) and, interreflected, the
-/// bounce buffers and the hit cache at most at its limit. None if it overflows.
+/// bounce buffers, each thread's row accumulator and the hit cache at most at its limit.
+/// `vertices` counts receivers and slots: a texel bake passes its W·H texels plus the
+/// scene's vertices. None if it overflows.
 pub fn bake_bytes(options: &BakeOptions, vertices: u64, triangles: u64) -> Option<u64> {
     let n = sh::coeff_count(options.order) as u64;
     let samples = u64::from(options.samples);
@@ -157,13 +159,18 @@ pub fn bake_bytes(options: &BakeOptions, vertices: u64, triangles: u64) -> Optio
     let coefficients = vertices.checked_mul(channels * n * 4)?.checked_mul(3)?;
     let bounce = match options.mode {
         Mode::Interreflected => {
-            // Hit-cache rows: up to three (vertex, weight) entries of 16 bytes per bounce ray,
-            // dropped beyond the cache's limit.
+            // Hit-cache rows: up to three (vertex) or four (texel) (slot, weight) entries of
+            // 16 bytes per bounce ray, dropped beyond the cache's limit.
             let rows = vertices
                 .checked_mul(u64::from(options.effective_bounce_samples()))?
-                .checked_mul(48)?;
+                .checked_mul(4 * crate::bounce_rows::BYTES_PER_ENTRY)?;
+            // Each thread accumulates a row densely: an RGB weight per slot.
+            let builders = vertices.checked_mul(12 * rayon::current_num_threads() as u64)?;
+            // Previous bounce, next bounce, total; a texel bake's previous bounce is also
+            // spread over its lightmap, and its total placed there.
             vertices
-                .checked_mul(3 * n * 4 * 3)?
+                .checked_mul(3 * n * 4 * 5)?
+                .checked_add(builders)?
                 .checked_add(rows.min(options.hit_cache_limit))?
         }
         _ => 0,

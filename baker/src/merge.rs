@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 
 use crate::CoefficientFile;
 use crate::error::{Error, Result};
-use crate::interreflection;
+use crate::interreflection::{self, RowSource};
 use crate::progress::Progress;
 use crate::sh;
 use crate::shard::{Part, PartId, header_difference, options_of, shard_range};
@@ -115,8 +115,8 @@ pub fn merge(paths: &[PathBuf], progress: &dyn Progress) -> Result<CoefficientFi
             }
             let rows = part.rows.expect("an interreflected part has rows");
             let out = &mut next[id.range().start * channels * n..id.range().end * channels * n];
-            interreflection::bounce_rows(
-                &rows,
+            interreflection::bounce_pass(
+                &RowSource::Flat(&rows),
                 norm,
                 n,
                 previous,

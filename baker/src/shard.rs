@@ -19,14 +19,17 @@ use std::path::Path;
 use glam::Vec3;
 use serde::Serialize;
 
+use crate::bounce_rows::HitRecorder;
 use crate::coefficient_file::{self, CoefficientFile, HEADER_SIZE, Header};
 use crate::error::{Error, Result};
-use crate::interreflection::{self, HitRecorder, RowSource, Rows};
+use crate::interreflection::{self, RowSource, Rows};
 use crate::progress::Progress;
 use crate::scene::Scene;
 use crate::sh;
 use crate::trace::{Backend, Tracer};
-use crate::transfer::{BakeOptions, Estimator, Mode, Transfer, direct_pass};
+use crate::transfer::{
+    BakeOptions, Baked, BounceTargets, Estimator, Mode, Transfer, direct_pass, tracer_for,
+};
 
 /// Which of how many shards: `index` in 0..`count`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -348,6 +351,7 @@ impl Part {
                 self.header.channels as usize,
                 &options_of(&self.header),
                 &RowSource::Flat(&rows),
+                &BounceTargets::Vertices,
                 progress,
             ),
             None => std::mem::take(&mut self.coefficients),
@@ -437,17 +441,16 @@ pub fn bake_header(scene: &Scene, backend: Backend, options: &BakeOptions) -> He
         Mode::Interreflected if !interreflection::albedo_is_grey(scene) => 3,
         _ => 1,
     };
-    let shape = Transfer {
-        options: options.clone(),
-        channels,
-        vertex_count: scene.vertex_count(),
-        coefficients: Vec::new(),
-        visibility: Vec::new(),
+    let shape = Transfer::from_direct(
+        options,
         backend,
-        rays_cast: 0,
-        seconds: 0.0,
-        hit_cache_bytes: None,
-    };
+        scene.vertex_count(),
+        Baked {
+            channels,
+            ..Baked::default()
+        },
+        0.0,
+    );
     CoefficientFile::from_bake(scene, &shape).header
 }
 
@@ -488,24 +491,21 @@ pub fn bake_part(
     vertices: Range<usize>,
     progress: &dyn Progress,
 ) -> Result<(Part, u64)> {
-    let tracer = match (options.mode.casts_rays(), tracer) {
-        (false, _) => None,
-        (true, Some(t)) => Some(t),
-        (true, None) => {
-            return Err(Error::InvalidOption(format!(
-                "{} transfer needs a ray-tracing backend",
-                options.mode.name()
-            )));
-        }
-    };
+    let tracer = tracer_for(options, tracer)?;
     let estimator = Estimator::new(scene, options)?;
     let header = bake_header(
         scene,
         tracer.map_or(Backend::None, |t| t.backend()),
         options,
     );
-    let recorder = (options.mode == Mode::Interreflected)
-        .then(|| HitRecorder::new(scene, vertices.len(), options.hit_cache_limit));
+    let recorder = (options.mode == Mode::Interreflected).then(|| {
+        HitRecorder::new(
+            scene,
+            &BounceTargets::Vertices,
+            vertices.len(),
+            options.hit_cache_limit,
+        )
+    });
     let direct = direct_pass(
         &estimator,
         tracer,

@@ -1,4 +1,4 @@
-//! Per-vertex diffuse transfer: T_j = (1/π) ∫ V(x, s) max(n·s, 0) y_j(s) ds.
+//! Diffuse transfer of vertices and lightmap texels: T_j = (1/π) ∫ V(x, s) max(n·s, 0) y_j(s) ds.
 //!
 //! * `unshadowed`: V = 1 (the thesis's "fast mode"); no rays are cast but the estimator and
 //!   the directions are the same as for `shadowed`.
@@ -12,178 +12,32 @@
 //! The stored transfer excludes the receiving surface's own albedo: the renderer multiplies by
 //! Kd × texture per pixel, so textures stay sharp between vertices.
 //!
-//! # How the default estimator is organised
+//! # How a receiver is baked
 //!
-//! The thesis generates its sample directions and evaluates the SH basis at them once, for
-//! all vertices. The default estimator does the same in each vertex's *local* frame (z along
-//! the normal): one Owen-scrambled, cosine-weighted point set per bake (from the seed), with
-//! y_j precomputed at every point. A vertex turns the set by its own random angle about its
-//! normal (so neighbouring vertices do not share sample directions), casts the rays, adds the
-//! table rows of the unblocked ones, and rotates the local coefficients into world space once
-//! ([`crate::sh::Rotator`], exact). Per ray that is a 3×3 transform and a row sum: the cost of
-//! a bake is the cost of its rays. The table takes N·(12 + 4n²) bytes: 0.8 MB for the demo's
-//! 10,000 rays at order 4, 270 MB for a million rays at order 8.
+//! [`bake_receivers`] is the one place: a vertex bake ([`bake`]) and a texel bake
+//! ([`crate::lightmap::bake`]) both build an [`Estimator`] over their receivers and call it,
+//! with the way bounce hits read transfer back ([`BounceTargets`]: vertices, or texels).
+//! Shard parts ([`crate::shard`]) run its first half, the direct pass, on a vertex range.
 //!
-//! Every quantity is a pure function of (seed, vertex, sample index) and sums are formed in a
-//! fixed order, so a bake is bit-identical whatever the number of threads.
+//! The pieces, in the order data flows through them: [`crate::options`] (what is asked),
+//! [`crate::receivers`] (what is baked at, and how bounce hits map back to it),
+//! [`crate::estimator`] (the per-receiver estimator and the direct pass),
+//! [`crate::bounce_rows`] and [`crate::interreflection`] (the bounces), and this module:
+//! the [`Transfer`] a bake returns and [`bake`], the entry point that dispatches.
 
 use std::time::Instant;
 
-use glam::{Mat3, Vec3};
-use rayon::prelude::*;
-
 use crate::error::{Error, Result};
 use crate::progress::Progress;
-use crate::sampling::{
-    Frame, OwenSobol, Pcg32, Sampling, cosine_hemisphere, hilbert_index, to_unit_float,
-    uniform_sphere, vertex_seed,
-};
 use crate::scene::Scene;
-use crate::sh::{self, Basis, Rotator};
-use crate::trace::{Backend, Tracer, ray_origins};
+use crate::sh;
+use crate::trace::{Backend, Tracer};
 
-/// What the transfer function includes.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Mode {
-    Unshadowed,
-    #[default]
-    Shadowed,
-    Interreflected,
-}
-
-impl Mode {
-    pub fn name(self) -> &'static str {
-        match self {
-            Mode::Unshadowed => "unshadowed",
-            Mode::Shadowed => "shadowed",
-            Mode::Interreflected => "interreflected",
-        }
-    }
-
-    /// Whether the mode casts rays (and so needs a tracer).
-    pub fn casts_rays(self) -> bool {
-        self != Mode::Unshadowed
-    }
-}
-
-/// Optional per-vertex arrays stored beside the coefficients (`--aux`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Aux {
-    /// Ambient accessibility, [`Visibility::accessibility`].
-    pub ao: bool,
-    /// [`Visibility::bent_normal`].
-    pub bent_normal: bool,
-}
-
-impl Aux {
-    pub fn any(self) -> bool {
-        self.ao || self.bent_normal
-    }
-}
-
-#[derive(Clone, Debug, PartialEq)]
-pub struct BakeOptions {
-    /// SH order n (n² coefficients).
-    pub order: usize,
-    /// Directions (rays, in shadowed mode) per vertex.
-    pub samples: u32,
-    pub mode: Mode,
-    pub seed: u64,
-    pub sampling: Sampling,
-    /// Interreflection bounces (interreflected mode only; at least 1 there).
-    pub bounces: u32,
-    /// Rays per vertex whose first hits feed the bounces (interreflected mode): the first
-    /// this many of the `samples` directions; `None` is a quarter of them. Bounced light is
-    /// dimmer and smoother than direct light, so fewer of the costlier closest-hit rays give
-    /// it a comparable error.
-    pub bounce_samples: Option<u32>,
-    /// Which per-vertex arrays to keep beside the coefficients.
-    pub aux: Aux,
-    /// Bytes the interreflected mode may spend caching first hits; beyond it the bounce
-    /// passes re-trace instead. Changes speed and memory, never the result.
-    pub hit_cache_limit: u64,
-    /// `--target-error E`: cast rays in rounds until each vertex's estimated RMS coefficient
-    /// error is at most E (`samples` becomes the cap); `None` casts `samples` rays everywhere.
-    /// See [`crate::adaptive`].
-    pub target_error: Option<f32>,
-}
-
-/// The default hit-cache budget: 1 GiB.
-pub const DEFAULT_HIT_CACHE_LIMIT: u64 = 1 << 30;
-
-impl Default for BakeOptions {
-    fn default() -> BakeOptions {
-        BakeOptions {
-            order: 4,
-            samples: 1024,
-            mode: Mode::Shadowed,
-            seed: 0,
-            sampling: Sampling::OwenSobol,
-            bounces: 0,
-            bounce_samples: None,
-            aux: Aux::default(),
-            hit_cache_limit: DEFAULT_HIT_CACHE_LIMIT,
-            target_error: None,
-        }
-    }
-}
-
-impl BakeOptions {
-    /// Bounce rays per vertex: `bounce_samples`, or a quarter of `samples` (at least 1);
-    /// 0 outside interreflected mode.
-    pub fn effective_bounce_samples(&self) -> u32 {
-        match self.mode {
-            Mode::Interreflected => self.bounce_samples.unwrap_or(self.samples.div_ceil(4)),
-            _ => 0,
-        }
-    }
-
-    pub fn validate(&self) -> Result<()> {
-        if !(1..=sh::MAX_ORDER).contains(&self.order) {
-            return Err(Error::InvalidOption(format!(
-                "--order {} is outside 1..={}",
-                self.order,
-                sh::MAX_ORDER
-            )));
-        }
-        if self.samples == 0 {
-            return Err(Error::InvalidOption("--samples must be at least 1".into()));
-        }
-        match (self.mode, self.bounces) {
-            (Mode::Interreflected, 0) => {
-                return Err(Error::InvalidOption(
-                    "--bounces must be at least 1 in interreflected mode".into(),
-                ));
-            }
-            (Mode::Unshadowed | Mode::Shadowed, b) if b > 0 => {
-                return Err(Error::InvalidOption(format!(
-                    "--bounces {b} needs --mode interreflected (mode is {})",
-                    self.mode.name()
-                )));
-            }
-            _ => {}
-        }
-        if let Some(m) = self.bounce_samples {
-            if self.mode != Mode::Interreflected {
-                return Err(Error::InvalidOption(
-                    "--bounce-samples needs --mode interreflected".into(),
-                ));
-            }
-            if m == 0 || m > self.samples {
-                return Err(Error::InvalidOption(format!(
-                    "--bounce-samples {m} must be in 1..={} (--samples)",
-                    self.samples
-                )));
-            }
-        }
-        if self.aux.any() && !self.mode.casts_rays() {
-            return Err(Error::InvalidOption(
-                "--aux needs rays: use --mode shadowed or interreflected".into(),
-            ));
-        }
-        crate::adaptive::check_options(self)
-    }
-}
+pub use crate::estimator::{Estimator, Scratch, Visibility};
+pub(crate) use crate::estimator::{VERTICES_PER_JOB, direct_pass};
+pub use crate::options::{Aux, BakeOptions, DEFAULT_HIT_CACHE_LIMIT, Mode};
+pub use crate::receivers::BounceTargets;
+pub use crate::receivers::Receivers;
 
 /// The result of a bake: `coefficients[(v · channels + c) · n² + j]`.
 #[derive(Clone, Debug)]
@@ -205,24 +59,50 @@ pub struct Transfer {
     pub hit_cache_bytes: Option<u64>,
 }
 
-/// What a vertex's rays tell besides its transfer: the thesis's ambient-occlusion
-/// quantities (digest §9), here from the same rays as the shadowed transfer.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Visibility {
-    /// Cosine-weighted fraction of the hemisphere through which the sky is seen:
-    /// (1/π) ∫ V(s) max(n·s, 0) ds.
-    pub accessibility: f32,
-    /// The cosine-weighted mean of the unblocked directions, normalised; the shading normal
-    /// where every ray is blocked.
-    pub bent_normal: Vec3,
-    /// Rays the vertex cast: `samples` (0 with no tracer), or fewer in an adaptive bake.
-    pub rays: u32,
-    /// Adaptive bakes: the estimated RMS coefficient error of the vertex's transfer
-    /// ([`crate::adaptive`]); 0 otherwise.
-    pub error_estimate: f32,
+/// What baking a set of receivers gave, before it becomes a [`Transfer`] (a texel bake
+/// first places it in its lightmap).
+#[derive(Clone, Debug, Default)]
+pub struct Baked {
+    /// `coefficients[(r · channels + c) · n² + j]` for receiver r.
+    pub coefficients: Vec<f32>,
+    pub channels: usize,
+    /// Per receiver; empty when no rays were cast.
+    pub visibility: Vec<Visibility>,
+    /// Rays cast, re-traced bounce rays included.
+    pub rays_cast: u64,
+    /// Interreflected mode: bytes of cached bounce rows, `None` if the bounces re-traced.
+    pub hit_cache_bytes: Option<u64>,
 }
 
 impl Transfer {
+    /// The one constructor: `baked` as the transfer of `vertex_count` receivers (vertices,
+    /// or a lightmap's W·H texels), baked with `options` on `backend` in `seconds`. A shard
+    /// header's "shape" passes empty arrays.
+    pub fn from_direct(
+        options: &BakeOptions,
+        backend: Backend,
+        vertex_count: usize,
+        baked: Baked,
+        seconds: f64,
+    ) -> Transfer {
+        let n = sh::coeff_count(options.order);
+        debug_assert!(
+            baked.coefficients.is_empty()
+                || baked.coefficients.len() == vertex_count * baked.channels * n
+        );
+        Transfer {
+            options: options.clone(),
+            channels: baked.channels,
+            vertex_count,
+            coefficients: baked.coefficients,
+            visibility: baked.visibility,
+            backend,
+            rays_cast: baked.rays_cast,
+            seconds,
+            hit_cache_bytes: baked.hit_cache_bytes,
+        }
+    }
+
     /// Coefficients of vertex `v`, channel `c`.
     pub fn vertex(&self, v: usize, c: usize) -> &[f32] {
         let n = sh::coeff_count(self.options.order);
@@ -231,10 +111,21 @@ impl Transfer {
     }
 }
 
-/// Rays per tracer call: the batch over which the SH sums are first formed in f32.
-const BATCH: usize = 256;
-/// Vertices per parallel work item: progress is reported per item.
-pub(crate) const VERTICES_PER_JOB: usize = 8;
+/// The tracer a bake in `options.mode` uses: none for unshadowed bakes, and an error if a
+/// mode that casts rays has none.
+pub(crate) fn tracer_for<'t>(
+    options: &BakeOptions,
+    tracer: Option<&'t dyn Tracer>,
+) -> Result<Option<&'t dyn Tracer>> {
+    match (options.mode.casts_rays(), tracer) {
+        (false, _) => Ok(None),
+        (true, Some(t)) => Ok(Some(t)),
+        (true, None) => Err(Error::InvalidOption(format!(
+            "{} transfer needs a ray-tracing backend",
+            options.mode.name()
+        ))),
+    }
+}
 
 /// Bakes the transfer of every vertex. `tracer` may be `None` only in unshadowed mode.
 pub fn bake(
@@ -243,522 +134,76 @@ pub fn bake(
     options: &BakeOptions,
     progress: &dyn Progress,
 ) -> Result<Transfer> {
-    let tracer = match (options.mode.casts_rays(), tracer) {
-        (false, _) => None,
-        (true, Some(t)) => Some(t),
-        (true, None) => {
-            return Err(Error::InvalidOption(format!(
-                "{} transfer needs a ray-tracing backend",
-                options.mode.name()
-            )));
-        }
-    };
+    let tracer = tracer_for(options, tracer)?;
     let started = Instant::now();
     let estimator = Estimator::new(scene, options)?;
-    let vertex_count = scene.vertex_count();
-    let (coefficients, channels, visibility, hit_cache_bytes) = match tracer {
+    let baked = bake_receivers(
+        scene,
+        tracer,
+        &estimator,
+        &BounceTargets::Vertices,
+        progress,
+    );
+    Ok(Transfer::from_direct(
+        options,
+        tracer.map_or(Backend::None, |t| t.backend()),
+        scene.vertex_count(),
+        baked,
+        started.elapsed().as_secs_f64(),
+    ))
+}
+
+/// Bakes the estimator's receivers: the direct pass, and in interreflected mode the bounces,
+/// whose hits read the previous bounce through `targets`. `tracer` is `None` exactly in
+/// unshadowed mode.
+pub fn bake_receivers(
+    scene: &Scene,
+    tracer: Option<&dyn Tracer>,
+    estimator: &Estimator,
+    targets: &BounceTargets,
+    progress: &dyn Progress,
+) -> Baked {
+    let options = &estimator.options;
+    let receivers = estimator.receiver_count();
+    let mut baked = match tracer {
         Some(tracer) if options.mode == Mode::Interreflected => {
-            let bounced = crate::interreflection::bake(scene, tracer, &estimator, progress);
-            (
-                bounced.coefficients,
-                bounced.channels,
-                bounced.visibility,
-                bounced.hit_cache_bytes,
-            )
+            let bounced = crate::interreflection::bake(scene, tracer, estimator, targets, progress);
+            Baked {
+                coefficients: bounced.coefficients,
+                channels: bounced.channels,
+                visibility: bounced.visibility,
+                rays_cast: 0,
+                hit_cache_bytes: bounced.hit_cache_bytes,
+            }
         }
         _ => {
-            let direct = direct_pass(&estimator, tracer, None, 0..vertex_count, progress);
-            let visibility = if tracer.is_some() {
-                direct.visibility
-            } else {
-                Vec::new()
-            };
-            (direct.coefficients, 1, visibility, None)
+            let direct = direct_pass(estimator, tracer, None, 0..receivers, progress);
+            Baked {
+                coefficients: direct.coefficients,
+                channels: 1,
+                visibility: match tracer {
+                    Some(_) => direct.visibility,
+                    None => Vec::new(),
+                },
+                rays_cast: 0,
+                hit_cache_bytes: None,
+            }
         }
     };
     let rays_per_pass = match (tracer, options.target_error) {
         (None, _) => 0,
-        (Some(_), None) => u64::from(options.samples) * vertex_count as u64,
-        (Some(_), Some(_)) => visibility.iter().map(|v| u64::from(v.rays)).sum(),
+        (Some(_), None) => u64::from(options.samples) * receivers as u64,
+        (Some(_), Some(_)) => baked.visibility.iter().map(|v| u64::from(v.rays)).sum(),
     };
-    // Re-tracing bounce passes cast every vertex's bounce rays again.
-    let retraced = match (options.mode, hit_cache_bytes) {
+    // Re-tracing bounce passes cast every receiver's bounce rays again.
+    let retraced = match (options.mode, baked.hit_cache_bytes) {
         (Mode::Interreflected, None) => {
             u64::from(options.bounces)
                 * u64::from(options.effective_bounce_samples())
-                * vertex_count as u64
+                * receivers as u64
         }
         _ => 0,
     };
-    Ok(Transfer {
-        options: options.clone(),
-        channels,
-        vertex_count,
-        coefficients,
-        visibility,
-        backend: tracer.map_or(Backend::None, |t| t.backend()),
-        rays_cast: rays_per_pass + retraced,
-        seconds: started.elapsed().as_secs_f64(),
-        hit_cache_bytes,
-    })
-}
-
-/// The result of the shadowed (or unshadowed) pass over every vertex.
-pub(crate) struct DirectPass {
-    /// One channel: `coefficients[v · n² + j]`.
-    pub coefficients: Vec<f32>,
-    pub visibility: Vec<Visibility>,
-}
-
-/// The shadowed transfer of the vertices `vertices` (every vertex, or a shard's or a
-/// checkpoint block's range; results are indexed from `vertices.start`); with `recorder`,
-/// each vertex's front hits are handed to it (interreflected mode).
-pub(crate) fn direct_pass(
-    estimator: &Estimator,
-    tracer: Option<&dyn Tracer>,
-    recorder: Option<&crate::interreflection::HitRecorder<'_>>,
-    vertices: std::ops::Range<usize>,
-    progress: &dyn Progress,
-) -> DirectPass {
-    let n = estimator.basis.coeff_count();
-    let vertex_count = vertices.len();
-    let rays_per_vertex = if tracer.is_some() {
-        u64::from(estimator.options.samples)
-    } else {
-        0
-    };
-    progress.begin("direct", vertex_count as u64, rays_per_vertex);
-    let mut coefficients = vec![0.0f32; vertex_count * n];
-    let mut visibility = vec![Visibility::default(); vertex_count];
-    coefficients
-        .par_chunks_mut(VERTICES_PER_JOB * n)
-        .zip(visibility.par_chunks_mut(VERTICES_PER_JOB))
-        .enumerate()
-        .for_each_init(
-            || Scratch::new(n),
-            |scratch, (job, (out, vis))| {
-                let first = vertices.start + job * VERTICES_PER_JOB;
-                let mut hits = recorder.map(|r| r.job());
-                for (k, (out, vis)) in out.chunks_mut(n).zip(vis.iter_mut()).enumerate() {
-                    *vis =
-                        estimator.vertex_transfer(first + k, tracer, scratch, out, hits.as_mut());
-                }
-                if let (Some(recorder), Some(hits)) = (recorder, hits) {
-                    recorder.finish_job(job, hits);
-                }
-                progress.advance(vis.len() as u64);
-            },
-        );
-    progress.finish();
-    DirectPass {
-        coefficients,
-        visibility,
-    }
-}
-
-/// What a bake estimates transfer at: a point a ray leaves from and a shading normal, per
-/// receiver. Vertices and lightmap texels are both receivers, so they share sampling,
-/// tracing and determinism (receiver index `i` seeds its frame as vertex `i` does).
-#[derive(Clone, Debug, Default)]
-pub struct Receivers {
-    /// Where the receiver's rays start (already moved off its surface).
-    pub origins: Vec<Vec3>,
-    /// Unit shading normals.
-    pub normals: Vec<Vec3>,
-}
-
-impl Receivers {
-    /// The scene's vertices, rays leaving from [`ray_origins`].
-    pub fn vertices(scene: &Scene) -> Receivers {
-        Receivers {
-            origins: ray_origins(scene),
-            normals: scene.normals.clone(),
-        }
-    }
-
-    pub fn len(&self) -> usize {
-        self.normals.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.normals.is_empty()
-    }
-}
-
-/// What all vertices of one bake share, and the per-vertex estimator.
-pub struct Estimator {
-    pub(crate) options: BakeOptions,
-    pub(crate) basis: Basis,
-    rotator: Rotator,
-    pub(crate) normals: Vec<Vec3>,
-    origins: Vec<Vec3>,
-    /// The bake's cosine-weighted directions in the local frame (Owen–Sobol only).
-    local_dirs: Vec<Vec3>,
-    /// y_j(local_dirs[i]) at `[i·n² + j]`. With bounce samples (interreflected mode), rows
-    /// 0..M are the sequence's first M points — a stratified set of their own — the rest
-    /// follow; thesis-random samples are independent, so their first M serve.
-    local_sh: Vec<f32>,
-    /// Adaptive bakes (`--target-error`): the replicate point sets, instead of the table above.
-    adaptive: Option<crate::adaptive::Tables>,
-}
-
-impl Estimator {
-    /// The estimator for the scene's vertices.
-    pub fn new(scene: &Scene, options: &BakeOptions) -> Result<Estimator> {
-        Estimator::for_receivers(Receivers::vertices(scene), options)
-    }
-
-    /// The estimator for any receivers (vertices, or lightmap texels: [`crate::lightmap`]);
-    /// receiver `i` plays the part of vertex `i` everywhere below.
-    pub fn for_receivers(receivers: Receivers, options: &BakeOptions) -> Result<Estimator> {
-        options.validate()?;
-        let basis = Basis::new(options.order);
-        let n = basis.coeff_count();
-        let (mut local_dirs, mut local_sh) = (Vec::new(), Vec::new());
-        let adaptive = options
-            .target_error
-            .map(|_| crate::adaptive::Tables::new(options, &basis));
-        if options.sampling == Sampling::OwenSobol && adaptive.is_none() {
-            let points = OwenSobol::new(vertex_seed(options.seed, u64::MAX));
-            let mut uv: Vec<(u32, f32, f32)> = (0..options.samples)
-                .map(|i| {
-                    let (u1, u2) = points.point(i);
-                    (i, u1, u2)
-                })
-                .collect();
-            // The bounce samples (the sequence's first M points) come first, so a batch is
-            // all closest-hit rays or all occlusion rays; within each group, consecutive rays
-            // with close directions trace much faster (Embree forms coherent packets). The
-            // set, and so the estimate, does not depend on the order.
-            let bounce_samples = options.effective_bounce_samples();
-            uv.sort_by_key(|&(i, u1, u2)| (i >= bounce_samples, hilbert_index(u1, u2)));
-            local_dirs = uv
-                .iter()
-                .map(|&(_, u1, u2)| cosine_hemisphere(u1, u2))
-                .collect();
-            local_sh = vec![0.0; local_dirs.len() * n];
-            for (row, d) in local_sh.chunks_mut(n).zip(&local_dirs) {
-                basis.eval(*d, row);
-            }
-        }
-        Ok(Estimator {
-            options: options.clone(),
-            rotator: Rotator::new(options.order),
-            basis,
-            normals: receivers.normals,
-            origins: receivers.origins,
-            local_dirs,
-            local_sh,
-            adaptive,
-        })
-    }
-
-    /// The batches of sample indices a vertex traces: at most [`BATCH`] long, and split at
-    /// the bounce samples' end, so each batch is all bounce samples or none.
-    fn batches(&self) -> impl Iterator<Item = std::ops::Range<usize>> {
-        let samples = self.options.samples as usize;
-        let bounce = self.options.effective_bounce_samples() as usize;
-        let mut start = 0;
-        std::iter::from_fn(move || {
-            (start < samples).then(|| {
-                let limit = if start < bounce { bounce } else { samples };
-                let range = start..(start + BATCH).min(limit);
-                start = range.end;
-                range
-            })
-        })
-    }
-
-    /// Vertex `v`'s local frame (columns: tangent, bitangent, normal), turned about the normal
-    /// by an angle drawn from (seed, v).
-    pub fn vertex_frame(&self, v: usize) -> Mat3 {
-        let frame = Frame::from_normal(self.normals[v]);
-        let angle =
-            std::f32::consts::TAU * to_unit_float(vertex_seed(self.options.seed, v as u64) as u32);
-        let (sin, cos) = angle.sin_cos();
-        let tangent = frame.tangent * cos + frame.bitangent * sin;
-        let bitangent = frame.normal.cross(tangent);
-        Mat3::from_cols(tangent, bitangent, frame.normal)
-    }
-
-    /// Where vertex `v`'s rays start (see [`crate::trace::ray_origins`]).
-    pub fn origin(&self, v: usize) -> Vec3 {
-        self.origins[v]
-    }
-
-    /// The directions vertex `v` casts rays in for samples `range` (what the bake traces), with
-    /// their estimator weights. `frame` is [`Estimator::vertex_frame`]`(v)`.
-    pub fn directions(
-        &self,
-        v: usize,
-        frame: &Mat3,
-        range: std::ops::Range<usize>,
-        dirs: &mut Vec<Vec3>,
-        weights: &mut Vec<f32>,
-    ) {
-        dirs.clear();
-        weights.clear();
-        match self.options.sampling {
-            Sampling::OwenSobol => {
-                dirs.extend(self.local_dirs[range].iter().map(|d| *frame * *d));
-                weights.resize(dirs.len(), 1.0);
-            }
-            Sampling::ThesisRandom => {
-                // Uniform over the hemisphere: the thesis's sphere points, those below the
-                // horizon rejected; the cosine goes into the weight.
-                let normal = self.normals[v];
-                let mut rng =
-                    Pcg32::new(vertex_seed(self.options.seed, v as u64), range.start as u64);
-                for _ in range {
-                    let (dir, cos) = loop {
-                        let d = uniform_sphere(rng.next_f32(), rng.next_f32());
-                        let cos = d.dot(normal);
-                        if cos > 0.0 {
-                            break (d, cos);
-                        }
-                    };
-                    dirs.push(dir);
-                    weights.push(cos);
-                }
-            }
-        }
-    }
-
-    /// The estimator's normalisation: a sample of weight w stands for (w · norm) of the
-    /// cosine-weighted hemisphere, whose total is 1.
-    pub(crate) fn norm(&self) -> f64 {
-        Estimator::norm_of(&self.options)
-    }
-
-    /// [`Estimator::norm`] from the options alone (the merge of shard parts has no scene).
-    pub(crate) fn norm_of(options: &BakeOptions) -> f64 {
-        match options.sampling {
-            // Cosine-weighted samples: each is 1/N of the cosine-weighted hemisphere.
-            Sampling::OwenSobol => 1.0 / f64::from(options.samples),
-            // Uniform over the hemisphere, weight cos θ: (2π/N)·cos θ/π each.
-            Sampling::ThesisRandom => 2.0 / f64::from(options.samples),
-        }
-    }
-
-    /// One batch of an interreflected bake (directions already in `s.dirs`): bounce
-    /// samples are traced with closest-hit rays, their front hits going into `rows` with
-    /// weight × N/M; other batches (only when `occlusion`) with occlusion rays. Fills
-    /// `s.occluded` for the rays traced.
-    fn trace_recording_batch(
-        &self,
-        v: usize,
-        batch: std::ops::Range<usize>,
-        tracer: &dyn Tracer,
-        s: &mut Scratch,
-        rows: &mut crate::interreflection::JobRows<'_>,
-        occlusion: bool,
-    ) {
-        let origin = self.origins[v];
-        let len = batch.len();
-        if batch.start >= self.options.effective_bounce_samples() as usize {
-            if occlusion {
-                tracer.occluded_from(origin, &s.dirs, &mut s.occluded[..len]);
-            }
-            return;
-        }
-        let hits = &mut s.hits[..len];
-        tracer.intersect_from(origin, &s.dirs, hits);
-        let scale = self.options.samples as f32 / self.options.effective_bounce_samples() as f32;
-        for (((blocked, hit), dir), weight) in s
-            .occluded
-            .iter_mut()
-            .zip(hits.iter())
-            .zip(&s.dirs)
-            .zip(&s.weights)
-        {
-            *blocked = hit.is_some();
-            if let Some(hit) = hit {
-                rows.record(hit, *dir, weight * scale, &mut s.rows);
-            }
-        }
-    }
-
-    /// Re-traces vertex `v`'s bounce samples only and records its bounce row (what the
-    /// direct pass recorded, when the rows could not be kept).
-    pub(crate) fn bounce_row(
-        &self,
-        v: usize,
-        tracer: &dyn Tracer,
-        s: &mut Scratch,
-        rows: &mut crate::interreflection::JobRows<'_>,
-    ) {
-        let frame = self.vertex_frame(v);
-        rows.begin_vertex(&mut s.rows);
-        let bounce = self.options.effective_bounce_samples() as usize;
-        for batch in self.batches().take_while(|b| b.start < bounce) {
-            self.directions(v, &frame, batch.clone(), &mut s.dirs, &mut s.weights);
-            self.trace_recording_batch(v, batch, tracer, s, rows, false);
-        }
-        rows.end_vertex(&mut s.rows);
-    }
-
-    /// The shadowed (or unshadowed, with no tracer) transfer of vertex `v` into `out`, and
-    /// its [`Visibility`]. With `hits` (interreflected mode), the bounce samples are traced
-    /// with closest-hit rays and their front hits recorded for the bounce passes.
-    pub fn vertex_transfer(
-        &self,
-        v: usize,
-        tracer: Option<&dyn Tracer>,
-        s: &mut Scratch,
-        out: &mut [f32],
-        mut hits: Option<&mut crate::interreflection::JobRows<'_>>,
-    ) -> Visibility {
-        if let Some(tables) = &self.adaptive {
-            return self.adaptive_vertex_transfer(v, tables, tracer, s, out);
-        }
-        let n = self.basis.coeff_count();
-        let frame = self.vertex_frame(v);
-        s.total.fill(0.0);
-        let (mut unblocked, mut bent) = (0.0f64, Vec3::ZERO);
-        if let Some(hits) = hits.as_deref_mut() {
-            hits.begin_vertex(&mut s.rows);
-        }
-        for batch in self.batches() {
-            let (start, end) = (batch.start, batch.end);
-            self.directions(v, &frame, batch.clone(), &mut s.dirs, &mut s.weights);
-            let len = end - start;
-            match (tracer, hits.as_deref_mut()) {
-                (Some(tracer), Some(hits)) => {
-                    self.trace_recording_batch(v, batch, tracer, s, hits, true);
-                }
-                (Some(tracer), None) => {
-                    tracer.occluded_from(self.origins[v], &s.dirs, &mut s.occluded[..len])
-                }
-                (None, _) => s.occluded[..len].fill(false),
-            }
-            let occluded = &s.occluded[..len];
-            s.batch_sum.fill(0.0);
-            match self.options.sampling {
-                Sampling::OwenSobol => {
-                    let rows = self.local_sh[start * n..end * n].chunks_exact(n);
-                    for (row, &blocked) in rows.zip(occluded.iter()) {
-                        if !blocked {
-                            for (acc, y) in s.batch_sum.iter_mut().zip(row) {
-                                *acc += y;
-                            }
-                        }
-                    }
-                }
-                Sampling::ThesisRandom => {
-                    for ((dir, &blocked), &weight) in
-                        s.dirs.iter().zip(occluded.iter()).zip(&s.weights)
-                    {
-                        if !blocked {
-                            self.basis.eval(*dir, &mut s.y);
-                            for (acc, y) in s.batch_sum.iter_mut().zip(&s.y) {
-                                *acc += weight * y;
-                            }
-                        }
-                    }
-                }
-            }
-            for ((dir, &blocked), &weight) in s.dirs.iter().zip(occluded.iter()).zip(&s.weights) {
-                if !blocked {
-                    unblocked += f64::from(weight);
-                    bent += *dir * weight;
-                }
-            }
-            for (total, b) in s.total.iter_mut().zip(&s.batch_sum) {
-                *total += f64::from(*b);
-            }
-        }
-        if let Some(hits) = hits {
-            hits.end_vertex(&mut s.rows);
-        }
-        let norm = self.norm();
-        for t in s.total.iter_mut() {
-            *t *= norm;
-        }
-        match self.options.sampling {
-            // Formed in the local frame: rotate into world space.
-            Sampling::OwenSobol => self
-                .rotator
-                .rotate(frame.as_dmat3(), &s.total, &mut s.world),
-            Sampling::ThesisRandom => s.world.copy_from_slice(&s.total),
-        }
-        for (o, w) in out.iter_mut().zip(&s.world) {
-            *o = *w as f32;
-        }
-        Visibility {
-            accessibility: (unblocked * norm) as f32,
-            bent_normal: bent.try_normalize().unwrap_or(self.normals[v]),
-            rays: if tracer.is_some() {
-                self.options.samples
-            } else {
-                0
-            },
-            error_estimate: 0.0,
-        }
-    }
-
-    /// [`Estimator::vertex_transfer`] of an adaptive bake: rounds of rays until the estimated
-    /// error is at most the target ([`crate::adaptive`]).
-    fn adaptive_vertex_transfer(
-        &self,
-        v: usize,
-        tables: &crate::adaptive::Tables,
-        tracer: Option<&dyn Tracer>,
-        s: &mut Scratch,
-        out: &mut [f32],
-    ) -> Visibility {
-        let n = self.basis.coeff_count();
-        let frame = self.vertex_frame(v);
-        let result = crate::adaptive::vertex_transfer(
-            tables,
-            n,
-            self.origins[v],
-            &frame,
-            tracer,
-            &mut s.adaptive,
-            &mut s.total,
-        );
-        self.rotator
-            .rotate(frame.as_dmat3(), &s.total, &mut s.world);
-        for (o, w) in out.iter_mut().zip(&s.world) {
-            *o = *w as f32;
-        }
-        Visibility {
-            accessibility: (f64::from(result.unblocked) / f64::from(result.rays)) as f32,
-            bent_normal: result.bent.try_normalize().unwrap_or(self.normals[v]),
-            rays: result.rays,
-            error_estimate: result.error as f32,
-        }
-    }
-}
-
-/// Per-thread buffers, reused across vertices.
-pub struct Scratch {
-    dirs: Vec<Vec3>,
-    occluded: Vec<bool>,
-    hits: Vec<Option<crate::trace::Hit>>,
-    /// Interreflected mode: the current vertex's bounce row.
-    rows: crate::interreflection::RowBuilder,
-    weights: Vec<f32>,
-    y: Vec<f32>,
-    batch_sum: Vec<f32>,
-    total: Vec<f64>,
-    world: Vec<f64>,
-    adaptive: crate::adaptive::AdaptiveScratch,
-}
-
-impl Scratch {
-    pub fn new(n: usize) -> Scratch {
-        Scratch {
-            dirs: Vec::with_capacity(BATCH),
-            occluded: vec![false; BATCH],
-            hits: vec![None; BATCH],
-            rows: Default::default(),
-            weights: Vec::with_capacity(BATCH),
-            y: vec![0.0; n],
-            batch_sum: vec![0.0; n],
-            total: vec![0.0; n],
-            world: vec![0.0; n],
-            adaptive: Default::default(),
-        }
-    }
+    baked.rays_cast = rays_per_pass + retraced;
+    baked
 }

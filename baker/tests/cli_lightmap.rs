@@ -128,7 +128,6 @@ fn lightmap_options_are_checked() {
     };
     bake(&["--texel-size", "0.1"]).fails_with(2, &["--lightmap"]);
     bake(&["--lightmap", "0"]).fails_with(2, &["--lightmap 0"]);
-    bake(&["--lightmap", "16", "--mode", "interreflected"]).fails_with(2, &["interreflected"]);
     bake(&["--lightmap", "64", "--texel-size", "0.001"]).fails_with(2, &["do not fit"]);
     // Refused before the atlas is made: the memory is stated, nothing is allocated.
     bake(&["--lightmap", "16384", "--max-memory", "1024"])
@@ -168,4 +167,42 @@ fn the_atlas_unwrapper_is_chosen_with_atlas() {
         unknown.stderr
     );
     s.assert_out_holds(&["default.prt", "unwrap.prt", "planar.prt"]);
+}
+
+#[test]
+fn interreflected_texel_bakes_are_colour_and_deterministic() {
+    // The Cornell room's coloured walls: an interreflected texel bake is accepted, stored
+    // with 3 channels, and bit-identical for --threads 1 and 2.
+    let s = Scratch::new();
+    let args = [
+        "--lightmap",
+        "24",
+        "--mode",
+        "interreflected",
+        "--samples",
+        "64",
+    ];
+    let one = s.bake(
+        CORNELL,
+        "one.prt",
+        &[&args[..], &["--threads", "1"]].concat(),
+    );
+    assert!(one.stdout.contains("3 channels"), "{}", one.stdout);
+    s.bake(
+        CORNELL,
+        "two.prt",
+        &[&args[..], &["--threads", "2"]].concat(),
+    );
+    assert!(
+        s.read("out/one.prt") == s.read("out/two.prt"),
+        "--threads 1 and 2 gave different interreflected texel files"
+    );
+    let inspect = s.run(&["inspect", "out/one.prt"]).success();
+    for field in [
+        "\"mode\": \"interreflected\"",
+        "\"channels\": 3",
+        "\"width\": 24",
+    ] {
+        assert!(inspect.stdout.contains(field), "{}", inspect.stdout);
+    }
 }

@@ -14,10 +14,12 @@ use std::time::Instant;
 pub use atlas::{Atlas, AtlasSource};
 pub use texels::Texels;
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::progress::Progress;
 use crate::trace::{Backend, Tracer};
-use crate::transfer::{BakeOptions, Estimator, Mode, Receivers, Transfer, Visibility};
+use crate::transfer::{
+    BakeOptions, Baked, BounceTargets, Estimator, Receivers, Transfer, Visibility, bake_receivers,
+};
 
 /// Padding texels around each chart that [`dilate`] fills: bilinear filtering at a chart's
 /// edge reads one texel beyond it, mipmapping further.
@@ -37,8 +39,10 @@ pub struct LightmapBake {
     pub leaking: usize,
 }
 
-/// Bakes the transfer of every texel of `atlas` that a triangle covers. Unshadowed and
-/// shadowed modes (with `--aux`); interreflected texel bakes are not implemented yet.
+/// Bakes the transfer of every texel of `atlas` that a triangle covers, in any mode: the
+/// valid texels are the receivers of [`crate::transfer::bake_receivers`], and in
+/// interreflected mode a bounce hit reads the previous bounce from the lightmap around its
+/// lightmap UV ([`BounceTargets::texels`]).
 pub fn bake(
     scene: &crate::Scene,
     tracer: Option<&dyn Tracer>,
@@ -46,23 +50,7 @@ pub fn bake(
     atlas: Atlas,
     progress: &dyn Progress,
 ) -> Result<LightmapBake> {
-    if options.mode == Mode::Interreflected {
-        return Err(Error::InvalidOption(
-            "--lightmap bakes support --mode unshadowed and shadowed only (interreflected \
-             texel bakes are not implemented yet)"
-                .into(),
-        ));
-    }
-    let tracer = match (options.mode.casts_rays(), tracer) {
-        (false, _) => None,
-        (true, Some(t)) => Some(t),
-        (true, None) => {
-            return Err(Error::InvalidOption(format!(
-                "{} transfer needs a ray-tracing backend",
-                options.mode.name()
-            )));
-        }
-    };
+    let tracer = crate::transfer::tracer_for(options, tracer)?;
     let started = Instant::now();
     let mut texels = Texels::rasterise(scene, &atlas);
     let mut leaking = 0;
@@ -76,12 +64,13 @@ pub fn bake(
         }
     }
     let receivers: Receivers = texels.receivers();
-    let count = receivers.len();
     let estimator = Estimator::for_receivers(receivers, options)?;
-    let direct = crate::transfer::direct_pass(&estimator, tracer, None, 0..count, progress);
-    let n = crate::sh::coeff_count(options.order);
+    let targets = BounceTargets::texels(&atlas, &texels);
+    let baked = bake_receivers(scene, tracer, &estimator, &targets, progress);
+    // In place in the W×H lightmap.
+    let width = baked.channels * crate::sh::coeff_count(options.order);
     let texel_count = texels.valid.len();
-    let mut coefficients = vec![0.0f32; texel_count * n];
+    let mut coefficients = vec![0.0f32; texel_count * width];
     let mut visibility = Vec::new();
     if tracer.is_some() {
         visibility = vec![
@@ -100,28 +89,30 @@ pub fn bake(
         .filter(|(_, v)| **v)
         .map(|(i, _)| i);
     for (k, i) in valid_indices.enumerate() {
-        coefficients[i * n..(i + 1) * n].copy_from_slice(&direct.coefficients[k * n..(k + 1) * n]);
+        coefficients[i * width..(i + 1) * width]
+            .copy_from_slice(&baked.coefficients[k * width..(k + 1) * width]);
         if tracer.is_some() {
-            visibility[i] = direct.visibility[k];
+            visibility[i] = baked.visibility[k];
         }
     }
-    let dilated = dilate(&texels, n, &mut coefficients, &mut visibility);
+    let dilated = dilate(&texels, width, &mut coefficients, &mut visibility);
+    let transfer = Transfer::from_direct(
+        options,
+        tracer.map_or(Backend::None, |t| t.backend()),
+        texel_count,
+        Baked {
+            coefficients,
+            visibility,
+            ..baked
+        },
+        started.elapsed().as_secs_f64(),
+    );
     Ok(LightmapBake {
         atlas,
         dilated,
         leaking,
         texels,
-        transfer: Transfer {
-            options: options.clone(),
-            channels: 1,
-            vertex_count: texel_count,
-            coefficients,
-            visibility,
-            backend: tracer.map_or(Backend::None, |t| t.backend()),
-            rays_cast: tracer.map_or(0, |_| u64::from(options.samples) * count as u64),
-            seconds: started.elapsed().as_secs_f64(),
-            hit_cache_bytes: None,
-        },
+        transfer,
     })
 }
 

@@ -1,0 +1,149 @@
+//! What a bake is asked for: the transfer's mode, SH order, samples, seed, bounces and the
+//! arrays kept beside it. Every other bake module reads these; none of them is read here.
+
+use crate::error::{Error, Result};
+use crate::sampling::Sampling;
+use crate::sh;
+
+/// What the transfer function includes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Mode {
+    Unshadowed,
+    #[default]
+    Shadowed,
+    Interreflected,
+}
+
+impl Mode {
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Unshadowed => "unshadowed",
+            Mode::Shadowed => "shadowed",
+            Mode::Interreflected => "interreflected",
+        }
+    }
+
+    /// Whether the mode casts rays (and so needs a tracer).
+    pub fn casts_rays(self) -> bool {
+        self != Mode::Unshadowed
+    }
+}
+
+/// Optional per-vertex arrays stored beside the coefficients (`--aux`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Aux {
+    /// Ambient accessibility, [`crate::estimator::Visibility::accessibility`].
+    pub ao: bool,
+    /// [`crate::estimator::Visibility::bent_normal`].
+    pub bent_normal: bool,
+}
+
+impl Aux {
+    pub fn any(self) -> bool {
+        self.ao || self.bent_normal
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct BakeOptions {
+    /// SH order n (n² coefficients).
+    pub order: usize,
+    /// Directions (rays, in shadowed mode) per vertex.
+    pub samples: u32,
+    pub mode: Mode,
+    pub seed: u64,
+    pub sampling: Sampling,
+    /// Interreflection bounces (interreflected mode only; at least 1 there).
+    pub bounces: u32,
+    /// Rays per vertex whose first hits feed the bounces (interreflected mode): the first
+    /// this many of the `samples` directions; `None` is a quarter of them. Bounced light is
+    /// dimmer and smoother than direct light, so fewer of the costlier closest-hit rays give
+    /// it a comparable error.
+    pub bounce_samples: Option<u32>,
+    /// Which per-vertex arrays to keep beside the coefficients.
+    pub aux: Aux,
+    /// Bytes the interreflected mode may spend caching first hits; beyond it the bounce
+    /// passes re-trace instead. Changes speed and memory, never the result.
+    pub hit_cache_limit: u64,
+    /// `--target-error E`: cast rays in rounds until each vertex's estimated RMS coefficient
+    /// error is at most E (`samples` becomes the cap); `None` casts `samples` rays everywhere.
+    /// See [`crate::adaptive`].
+    pub target_error: Option<f32>,
+}
+
+/// The default hit-cache budget: 1 GiB.
+pub const DEFAULT_HIT_CACHE_LIMIT: u64 = 1 << 30;
+
+impl Default for BakeOptions {
+    fn default() -> BakeOptions {
+        BakeOptions {
+            order: 4,
+            samples: 1024,
+            mode: Mode::Shadowed,
+            seed: 0,
+            sampling: Sampling::OwenSobol,
+            bounces: 0,
+            bounce_samples: None,
+            aux: Aux::default(),
+            hit_cache_limit: DEFAULT_HIT_CACHE_LIMIT,
+            target_error: None,
+        }
+    }
+}
+
+impl BakeOptions {
+    /// Bounce rays per vertex: `bounce_samples`, or a quarter of `samples` (at least 1);
+    /// 0 outside interreflected mode.
+    pub fn effective_bounce_samples(&self) -> u32 {
+        match self.mode {
+            Mode::Interreflected => self.bounce_samples.unwrap_or(self.samples.div_ceil(4)),
+            _ => 0,
+        }
+    }
+
+    pub fn validate(&self) -> Result<()> {
+        if !(1..=sh::MAX_ORDER).contains(&self.order) {
+            return Err(Error::InvalidOption(format!(
+                "--order {} is outside 1..={}",
+                self.order,
+                sh::MAX_ORDER
+            )));
+        }
+        if self.samples == 0 {
+            return Err(Error::InvalidOption("--samples must be at least 1".into()));
+        }
+        match (self.mode, self.bounces) {
+            (Mode::Interreflected, 0) => {
+                return Err(Error::InvalidOption(
+                    "--bounces must be at least 1 in interreflected mode".into(),
+                ));
+            }
+            (Mode::Unshadowed | Mode::Shadowed, b) if b > 0 => {
+                return Err(Error::InvalidOption(format!(
+                    "--bounces {b} needs --mode interreflected (mode is {})",
+                    self.mode.name()
+                )));
+            }
+            _ => {}
+        }
+        if let Some(m) = self.bounce_samples {
+            if self.mode != Mode::Interreflected {
+                return Err(Error::InvalidOption(
+                    "--bounce-samples needs --mode interreflected".into(),
+                ));
+            }
+            if m == 0 || m > self.samples {
+                return Err(Error::InvalidOption(format!(
+                    "--bounce-samples {m} must be in 1..={} (--samples)",
+                    self.samples
+                )));
+            }
+        }
+        if self.aux.any() && !self.mode.casts_rays() {
+            return Err(Error::InvalidOption(
+                "--aux needs rays: use --mode shadowed or interreflected".into(),
+            ));
+        }
+        crate::adaptive::check_options(self)
+    }
+}

@@ -1,0 +1,188 @@
+//! What a bake estimates transfer at — its *receivers* — and how light bounced off a surface
+//! finds its way back to them.
+//!
+//! A receiver is a point a ray leaves from and a shading normal: a scene vertex, or a
+//! lightmap texel ([`crate::lightmap`]). The estimator ([`crate::estimator`]) treats both
+//! alike, so they share sampling, tracing and determinism (receiver `i` seeds its frame as
+//! vertex `i` does).
+//!
+//! Interreflection needs the way back ([`BounceTargets`]): a bounce ray's first hit (a
+//! triangle and barycentrics) reads the previous bounce's transfer *at the hit*, as a
+//! weighted sum over *slots* that hold values. For vertex bakes the slots are the vertices,
+//! weighted by the hit's barycentrics (the interpolation a renderer does between vertices).
+//! For texel bakes the slots are the W×H texels of the lightmap, weighted bilinearly around
+//! the hit's lightmap UV (the lookup a renderer does in the lightmap).
+
+use std::borrow::Cow;
+
+use glam::{Vec2, Vec3};
+
+use crate::lightmap::{Atlas, Texels};
+use crate::scene::Scene;
+use crate::trace::ray_origins;
+
+/// Receivers per parallel work item (progress is reported per item; hit rows are kept per
+/// item).
+pub const RECEIVERS_PER_JOB: usize = 8;
+
+/// What a bake estimates transfer at: a point a ray leaves from and a shading normal, per
+/// receiver. Vertices and lightmap texels are both receivers, so they share sampling,
+/// tracing and determinism (receiver index `i` seeds its frame as vertex `i` does).
+#[derive(Clone, Debug, Default)]
+pub struct Receivers {
+    /// Where the receiver's rays start (already moved off its surface).
+    pub origins: Vec<Vec3>,
+    /// Unit shading normals.
+    pub normals: Vec<Vec3>,
+}
+
+impl Receivers {
+    /// The scene's vertices, rays leaving from [`ray_origins`].
+    pub fn vertices(scene: &Scene) -> Receivers {
+        Receivers {
+            origins: ray_origins(scene),
+            normals: scene.normals.clone(),
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.normals.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.normals.is_empty()
+    }
+}
+
+/// Where a bounce hit reads the previous bounce's transfer: the *slots* that hold values,
+/// and each hit's weights over them (see the module doc).
+#[derive(Clone, Debug)]
+pub enum BounceTargets<'a> {
+    /// Slots are the scene's vertices, which are also the receivers; a hit reads its
+    /// triangle's corners with its barycentric weights.
+    Vertices,
+    /// Slots are the W×H texels of a lightmap; the receivers are its valid texels.
+    Texels(TexelTargets<'a>),
+}
+
+/// The texel lookup of a texel bake's bounces.
+#[derive(Clone, Debug)]
+pub struct TexelTargets<'a> {
+    texels: &'a Texels,
+    /// Per triangle, its corners in texel units (uv · (W, H)).
+    corners: Vec<[Vec2; 3]>,
+    /// Texels that hold a value: baked (valid) or dilated from baked ones.
+    filled: Vec<bool>,
+}
+
+impl<'a> BounceTargets<'a> {
+    /// The lookup of a texel bake over `atlas`, whose valid texels are `texels`.
+    pub fn texels(atlas: &Atlas, texels: &'a Texels) -> BounceTargets<'a> {
+        // Which texels dilation fills depends on the valid ones only: dilate no values.
+        let dilated = crate::lightmap::dilate(texels, 0, &mut [], &mut []);
+        let filled = texels
+            .valid
+            .iter()
+            .zip(&dilated)
+            .map(|(v, d)| *v || *d)
+            .collect();
+        BounceTargets::Texels(TexelTargets {
+            texels,
+            corners: atlas.texel_corners().collect(),
+            filled,
+        })
+    }
+
+    /// How many slots a row entry may name.
+    pub fn slot_count(&self, scene: &Scene) -> usize {
+        match self {
+            BounceTargets::Vertices => scene.vertex_count(),
+            BounceTargets::Texels(t) => t.filled.len(),
+        }
+    }
+
+    /// The slots a hit on `triangle` at `barycentric` reads, with their weights (summing to
+    /// 1, or to less where barycentrics are negative by rounding), into `out`; returns how
+    /// many. None where the hit's triangle lies outside the atlas or no texel around its
+    /// lightmap UV holds a value: that light is lost.
+    pub fn lookup(
+        &self,
+        scene: &Scene,
+        triangle: u32,
+        barycentric: [f32; 3],
+        out: &mut [(u32, f32); 4],
+    ) -> usize {
+        match self {
+            BounceTargets::Vertices => {
+                let tri = scene.triangles[triangle as usize];
+                for (slot, (&vertex, &b)) in out.iter_mut().zip(tri.iter().zip(&barycentric)) {
+                    *slot = (vertex, b.max(0.0));
+                }
+                3
+            }
+            BounceTargets::Texels(t) => t.bilinear(triangle, barycentric, out),
+        }
+    }
+
+    /// The previous bounce's values at every slot, from its values at the receivers
+    /// (`width` floats each): the same array for vertices; for texels, the valid texels'
+    /// values put in place in the W×H lightmap and dilated, as the final lightmap is.
+    pub fn slot_values<'v>(&self, values: &'v [f32], width: usize) -> Cow<'v, [f32]> {
+        match self {
+            BounceTargets::Vertices => Cow::Borrowed(values),
+            BounceTargets::Texels(t) => Cow::Owned(t.lightmap(values, width)),
+        }
+    }
+}
+
+impl TexelTargets<'_> {
+    /// Bilinear weights over the 4 texels around the hit's lightmap point uv·(W, H) − ½, as
+    /// a GPU samples a lightmap; texels outside the lightmap or holding no value are left
+    /// out and the others' weights renormalised.
+    fn bilinear(&self, triangle: u32, barycentric: [f32; 3], out: &mut [(u32, f32); 4]) -> usize {
+        let c = self.corners[triangle as usize];
+        let p = c[0] * barycentric[0] + c[1] * barycentric[1] + c[2] * barycentric[2];
+        let p = p - Vec2::splat(0.5);
+        let (x0, y0) = (p.x.floor(), p.y.floor());
+        let (fx, fy) = (p.x - x0, p.y - y0);
+        if !(x0.is_finite() && y0.is_finite()) {
+            return 0;
+        }
+        let (w, h) = (self.texels.width as i64, self.texels.height as i64);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let taps = [
+            (x0, y0, (1.0 - fx) * (1.0 - fy)),
+            (x0 + 1, y0, fx * (1.0 - fy)),
+            (x0, y0 + 1, (1.0 - fx) * fy),
+            (x0 + 1, y0 + 1, fx * fy),
+        ];
+        let (mut count, mut sum) = (0, 0.0);
+        for (x, y, weight) in taps {
+            if x < 0 || y < 0 || x >= w || y >= h || weight <= 0.0 {
+                continue;
+            }
+            let i = (y * w + x) as usize;
+            if self.filled[i] {
+                out[count] = (i as u32, weight);
+                sum += weight;
+                count += 1;
+            }
+        }
+        for slot in &mut out[..count] {
+            slot.1 /= sum;
+        }
+        count
+    }
+
+    /// The valid texels' values (`width` floats each, in row-major order of the valid
+    /// texels) in a W×H lightmap, dilated.
+    fn lightmap(&self, values: &[f32], width: usize) -> Vec<f32> {
+        let mut map = vec![0.0f32; self.filled.len() * width];
+        let valid = self.texels.valid.iter().enumerate().filter(|(_, v)| **v);
+        for ((i, _), value) in valid.zip(values.chunks_exact(width)) {
+            map[i * width..(i + 1) * width].copy_from_slice(value);
+        }
+        crate::lightmap::dilate(self.texels, width, &mut map, &mut []);
+        map
+    }
+}
