@@ -41,6 +41,7 @@ mod overlay;
 pub mod probe;
 pub mod renderer;
 mod resources;
+pub mod texel_transfer;
 pub mod textures;
 pub mod window;
 

@@ -47,6 +47,9 @@ struct Material {
 @group(0) @binding(1) var<storage, read> transfer: array<f32>;
 // The summed, rotated light: coefficient j's (R, G, B) at j.
 @group(0) @binding(2) var<storage, read> light: array<vec4<f32>>;
+// A lightmap (texel) bake's transfer (texel_transfer.rs): coefficient i = c·n² + j of texel
+// (x, y) at layer i / 4, component i mod 4. Vertex bakes bind a 1×1 placeholder.
+@group(0) @binding(3) var transfer_texels: texture_2d_array<f32>;
 
 @group(1) @binding(0) var<uniform> material: Material;
 @group(1) @binding(1) var albedo_texture: texture_2d<f32>;
@@ -67,6 +70,55 @@ fn prt_radiance(v: u32) -> vec3<f32> {
         let base = v * n2;
         for (var j = 0u; j < n2; j++) {
             radiance += transfer[base + j] * light[j].rgb;
+        }
+    }
+    return radiance;
+}
+
+// The lightmap's packed coefficients of `layer`, filtered bilinearly at `uv1` by hand
+// (Rgba32Float is not filterable everywhere). Texel (x, y) covers uv·(W, H) ∈ [x, x+1] ×
+// [y, y+1], so its value sits at its centre; outside the outermost centres the edge texels
+// are held (clamp to edge). Charts are dilated 2 texels deep, so the four texels read at a
+// chart's edge all hold the chart's values.
+fn texel_coefficients(uv1: vec2<f32>, layer: u32) -> vec4<f32> {
+    let size = vec2<i32>(textureDimensions(transfer_texels));
+    let p = uv1 * vec2<f32>(size) - vec2<f32>(0.5);
+    let corner = floor(p);
+    let f = p - corner;
+    let last = size - vec2<i32>(1);
+    let lo = clamp(vec2<i32>(corner), vec2<i32>(0), last);
+    let hi = clamp(vec2<i32>(corner) + vec2<i32>(1), vec2<i32>(0), last);
+    let t00 = textureLoad(transfer_texels, vec2<i32>(lo.x, lo.y), layer, 0);
+    let t10 = textureLoad(transfer_texels, vec2<i32>(hi.x, lo.y), layer, 0);
+    let t01 = textureLoad(transfer_texels, vec2<i32>(lo.x, hi.y), layer, 0);
+    let t11 = textureLoad(transfer_texels, vec2<i32>(hi.x, hi.y), layer, 0);
+    return mix(mix(t00, t10, f.x), mix(t01, t11, f.x), f.y);
+}
+
+// Σ_j T_j·L_j per channel at lightmap coordinate uv1: prt_radiance for a texel bake, with the
+// transfer filtered per pixel. A triangle left out of the atlas (uv1 = (−1, −1)) has no
+// transfer and is black.
+fn prt_radiance_texel(uv1: vec2<f32>) -> vec3<f32> {
+    if any(uv1 < vec2<f32>(0.0)) {
+        return vec3<f32>(0.0);
+    }
+    let n2 = frame.coefficient_count;
+    let count = frame.channels * n2;
+    var radiance = vec3<f32>(0.0);
+    for (var layer = 0u; 4u * layer < count; layer++) {
+        let t = texel_coefficients(uv1, layer);
+        for (var k = 0u; k < 4u; k++) {
+            let i = 4u * layer + k;
+            if i >= count {
+                break;
+            }
+            let c = i / n2;
+            let j = i - c * n2;
+            if frame.channels == 3u {
+                radiance[c] += t[k] * light[j][c];
+            } else {
+                radiance += t[k] * light[j].rgb;
+            }
         }
     }
     return radiance;
