@@ -242,6 +242,41 @@ fn texel_and_vertex_renders_agree_where_texels_sit_at_the_vertices() {
     // its corners: bilinearly per pixel, or linearly over each of its two triangles.
     let Some(gpu) = common::gpu() else { return };
     let folder = tempfile::tempdir().unwrap();
+    let (scene, options, texels) = dense_floor_under_a_disk();
+    let vertices = vertex_bake(&scene, &options);
+    let frame = dense_floor_frame(folder.path(), DENSE_FLOOR_LIGHT);
+    let texel_image = common::render(&gpu, &texels, &frame, SIZE);
+    let vertex_image = common::render(&gpu, &vertices, &frame, SIZE);
+    if std::env::var_os("PRT_SAVE_IMAGES").is_some() {
+        texel_image
+            .save(common::workspace().join("target/tmp-agree-texel.png"))
+            .unwrap();
+        vertex_image
+            .save(common::workspace().join("target/tmp-agree-vertex.png"))
+            .unwrap();
+    }
+    // The shadow is in view: the floor's darkest pixel is under half its brightest.
+    let floor_pixels: Vec<f64> = dense_floor_pixels(&frame)
+        .into_iter()
+        .map(|q| linear(&vertex_image, q))
+        .collect();
+    let lo = floor_pixels.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = floor_pixels.iter().copied().fold(0.0, f64::max);
+    assert!(floor_pixels.len() > 400 && lo < 0.5 * hi, "{lo} {hi}");
+    let d = common::difference(&texel_image, &vertex_image, 3);
+    eprintln!(
+        "texel vs vertex render: mean {:.3} codes, max {}, {:.3} % of pixels off by > 3 (floor {lo:.3}..{hi:.3})",
+        d.mean,
+        d.max,
+        100.0 * d.outliers
+    );
+    assert!(d.mean <= 0.5 && d.outliers <= 0.01, "{d:?}");
+}
+
+/// A 16×16-cell floor [−1, 1]² whose 17² vertices sit at the centres of a 17² lightmap's
+/// texels (texel k is vertex k), under a tilted, off-centre disk left out of the atlas; the
+/// scene, the options (order 3, 1,024 rays, seed 7) and its texel bake.
+fn dense_floor_under_a_disk() -> (Scene, BakeOptions, Bake) {
     let cells = 16;
     let scene = scene(vec![
         floor(1.0, cells),
@@ -257,44 +292,74 @@ fn texel_and_vertex_renders_agree_where_texels_sit_at_the_vertices() {
     let atlas = Atlas::from_vertex_uvs(&scene, &uvs, side, side).unwrap();
     let options = options(3, 1024);
     let texels = texel_bake(&scene, atlas, &options);
-    let vertices = vertex_bake(&scene, &options);
-    let light = "[[light]]\nkind = \"sun\"\ndirection = [0.3, 0.2, 1.0]\nintensity = 2.0\n\n\
-                 [[light]]\nkind = \"constant\"\nintensity = 0.2\n";
-    let frame = inputs(
-        rig(folder.path(), light, 3),
-        Vec3::new(0.0, -0.6, -3.2),
-        2.0,
-    );
-    let texel_image = common::render(&gpu, &texels, &frame, SIZE);
-    let vertex_image = common::render(&gpu, &vertices, &frame, SIZE);
-    if std::env::var_os("PRT_SAVE_IMAGES").is_some() {
-        texel_image
-            .save(common::workspace().join("target/tmp-agree-texel.png"))
-            .unwrap();
-        vertex_image
-            .save(common::workspace().join("target/tmp-agree-vertex.png"))
-            .unwrap();
-    }
-    // The shadow is in view: the floor's darkest pixel is under half its brightest.
-    let floor_pixels: Vec<f64> = (0..=20)
+    (scene, options, texels)
+}
+
+/// A sun and a dim sky for the dense floor.
+const DENSE_FLOOR_LIGHT: &str = "[[light]]\nkind = \"sun\"\ndirection = [0.3, 0.2, 1.0]\nintensity = 2.0\n\n\
+                                 [[light]]\nkind = \"constant\"\nintensity = 0.2\n";
+
+/// The dense floor's frame under `light`, seen from below.
+fn dense_floor_frame(folder: &Path, light: &str) -> FrameInputs {
+    inputs(rig(folder, light, 3), Vec3::new(0.0, -0.6, -3.2), 2.0)
+}
+
+/// The pixels of a 21² grid of points on the dense floor (those in view).
+fn dense_floor_pixels(frame: &FrameInputs) -> Vec<(u32, u32)> {
+    (0..=20)
         .flat_map(|i| (0..=20).map(move |j| (i, j)))
         .filter_map(|(i, j)| {
             let p = Vec3::new(-0.95 + 0.095 * i as f32, -0.95 + 0.095 * j as f32, 0.0);
-            pixel(&frame, p)
+            pixel(frame, p)
         })
-        .map(|q| linear(&vertex_image, q))
-        .collect();
-    let lo = floor_pixels.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi = floor_pixels.iter().copied().fold(0.0, f64::max);
-    assert!(floor_pixels.len() > 400 && lo < 0.5 * hi, "{lo} {hi}");
-    let d = common::difference(&texel_image, &vertex_image, 3);
-    eprintln!(
-        "texel vs vertex render: mean {:.3} codes, max {}, {:.3} % of pixels off by > 3 (floor {lo:.3}..{hi:.3})",
-        d.mean,
-        d.max,
-        100.0 * d.outliers
-    );
-    assert!(d.mean <= 0.5 && d.outliers <= 0.01, "{d:?}");
+        .collect()
+}
+
+#[test]
+fn rgb_texel_transfer_shades_each_channel_with_its_own_light() {
+    // The texel path's three-channel branch (the baker writes grey texel files today; RGB
+    // ones once interreflected texel bakes exist): the dense floor's grey transfer T put in
+    // channel c alone (the others zero), under a coloured light, must render channel c as
+    // the grey file does and the other two black. A mix-up of channels or of the light's
+    // colours shows.
+    let Some(gpu) = common::gpu() else { return };
+    let folder = tempfile::tempdir().unwrap();
+    let (_, _, grey) = dense_floor_under_a_disk();
+    let light = "[[light]]\nkind = \"sun\"\ndirection = [0.3, 0.2, 1.0]\ncolor = [1.0, 0.5, 0.25]\nintensity = 2.0\n\n\
+                 [[light]]\nkind = \"constant\"\ncolor = [0.1, 0.3, 0.2]\n";
+    let frame = dense_floor_frame(folder.path(), light);
+    let grey_image = common::render(&gpu, &grey, &frame, SIZE);
+    let pixels = dense_floor_pixels(&frame);
+    let n2 = grey.order() * grey.order();
+    for c in 0..3 {
+        let mut rgb = grey.clone();
+        rgb.file.header.channels = 3;
+        rgb.file.coefficients = grey
+            .file
+            .coefficients
+            .chunks_exact(n2)
+            .flat_map(|t| {
+                (0..3).flat_map(move |k| t.iter().map(move |x| if k == c { *x } else { 0.0 }))
+            })
+            .collect();
+        let image = common::render(&gpu, &rgb, &frame, SIZE);
+        let mut worst = 0u8;
+        for &(x, y) in &pixels {
+            let (got, want) = (image.get_pixel(x, y), grey_image.get_pixel(x, y));
+            for k in 0..3 {
+                let expected = if k == c { want[k] } else { 0 };
+                worst = worst.max(got[k].abs_diff(expected));
+            }
+        }
+        eprintln!(
+            "channel {c} alone: worst difference {worst} codes over {} floor pixels",
+            pixels.len()
+        );
+        assert!(
+            pixels.len() > 400 && worst <= 1,
+            "channel {c}: {worst} codes"
+        );
+    }
 }
 
 /// A floor quad and a box standing on it, as OBJ text.
