@@ -274,7 +274,9 @@ impl Renderer {
         };
         let light_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("light"),
-            size: (n2 * 16) as u64,
+            // Padded with zeros to a multiple of 4 coefficients for the texel shader's grey
+            // path, which reads them four at a time.
+            size: (n2.next_multiple_of(4) * 16) as u64,
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
