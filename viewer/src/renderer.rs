@@ -252,7 +252,7 @@ impl Renderer {
             wgpu::BufferUsages::INDEX,
         );
         // A texel bake's transfer goes to the texture array; the storage buffer then holds
-        // one unread zero (a binding cannot be empty).
+        // unread zeros (a binding cannot be empty).
         let transfer = buffer(
             "transfer",
             match lightmap {
