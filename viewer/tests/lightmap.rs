@@ -393,6 +393,19 @@ f 8 5 9
 f 8 9 12
 ";
 
+/// The box on a floor, as OBJ, and its 32² lightmap bake (order 3, 64 rays) written beside
+/// it, as `prt-bake bake box.obj -o box-lm.prt --lightmap 32` writes it.
+fn box_texel_file(folder: &Path) -> (std::path::PathBuf, std::path::PathBuf) {
+    let obj = folder.join("box.obj");
+    std::fs::write(&obj, FLOOR_AND_BOX_OBJ).unwrap();
+    let scene = Scene::load(&obj).unwrap();
+    let atlas = Atlas::generate(&scene, 32, None).unwrap();
+    let mut bake = texel_bake(&scene, atlas, &options(3, 64));
+    let file = folder.join("box-lm.prt");
+    bake.file.write(&file).unwrap();
+    (obj, file)
+}
+
 fn prt_view() -> Command {
     Command::new(env!("CARGO_BIN_EXE_prt-view"))
 }
@@ -403,16 +416,7 @@ fn the_command_line_shows_and_benchmarks_a_texel_file() {
     // 32` writes it: screenshots in both modes, `--bench` prints its table, and the file is
     // refused for another scene (exit 3).
     let folder = tempfile::tempdir().unwrap();
-    let obj = folder.path().join("box.obj");
-    std::fs::write(&obj, FLOOR_AND_BOX_OBJ).unwrap();
-    let scene = Scene::load(&obj).unwrap();
-    let mut bake = texel_bake(
-        &scene,
-        Atlas::generate(&scene, 32, None).unwrap(),
-        &options(3, 64),
-    );
-    let file = folder.path().join("box-lm.prt");
-    bake.file.write(&file).unwrap();
+    let (obj, file) = box_texel_file(folder.path());
     let run = |args: &[&str]| {
         let output = prt_view().arg(&obj).arg(&file).args(args).output().unwrap();
         let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
@@ -471,4 +475,32 @@ fn the_command_line_shows_and_benchmarks_a_texel_file() {
     assert_eq!(output.status.code(), Some(3), "{stderr}");
     assert!(stderr.contains("baked for a scene with"), "{stderr}");
     assert!(!folder.path().join("x.png").exists());
+}
+
+#[test]
+fn the_window_runs_every_control_on_a_texel_file() {
+    // As window.rs does for a vertex bake, under a virtual X server (Xvfb).
+    let xvfb = Command::new("sh")
+        .args(["-c", "command -v xvfb-run"])
+        .output()
+        .expect("sh runs");
+    assert!(
+        xvfb.status.success(),
+        "xvfb-run is missing: run scripts/install-deps.sh (make test does)"
+    );
+    let folder = tempfile::tempdir().unwrap();
+    let (obj, file) = box_texel_file(folder.path());
+    let keys = "F1,Q,A,W,E,2,1,T,N,L,Up,Down,Left,Right,F2";
+    let output = Command::new("xvfb-run")
+        .args(["-a", "-s", "-screen 0 1024x768x24"])
+        .arg(env!("CARGO_BIN_EXE_prt-view"))
+        .arg(&obj)
+        .arg(&file)
+        .args(["--size", "320x180", "--frames", "40", "--keys", keys])
+        .output()
+        .expect("xvfb-run starts");
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(output.status.success(), "{stdout}\n{stderr}");
+    assert!(stdout.contains("prt-view: 40 frames in"), "{stdout}");
 }
