@@ -8,6 +8,7 @@
 
 use std::path::{Path, PathBuf};
 
+use prt_baker::coefficient_file::LightmapBlock;
 use prt_baker::scene::Up;
 use prt_baker::{CoefficientFile, Scene};
 
@@ -33,9 +34,15 @@ impl Bake {
     }
 
     /// A bake already in memory (tests), with the same check as [`Bake::load`]; the scene is
-    /// then turned to z-up (see the module's documentation).
+    /// then turned to z-up (see the module's documentation). A lightmap (texel) bake is
+    /// checked against the scene's vertex and triangle counts and fingerprint recorded in
+    /// its texel block.
     pub fn new(mut scene: Scene, file: CoefficientFile, file_path: &Path) -> Result<Bake> {
-        file.check_scene(file_path, &scene)?;
+        if file.lightmap.is_some() {
+            file.check_lightmap_scene(file_path, &scene)?;
+        } else {
+            file.check_scene(file_path, &scene)?;
+        }
         let up = file.header.up;
         if up != Up::Z {
             let to_z_up = up.from_z_up().transpose().as_mat3();
@@ -66,5 +73,11 @@ impl Bake {
     /// 1 (grey transfer) or 3 (R, G, B).
     pub fn channels(&self) -> usize {
         self.file.header.channels as usize
+    }
+
+    /// The texel block of a lightmap bake (the file's "vertices" are then its W×H texels);
+    /// `None` for a per-vertex bake.
+    pub fn lightmap(&self) -> Option<&LightmapBlock> {
+        self.file.lightmap.as_ref()
     }
 }

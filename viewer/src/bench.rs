@@ -87,6 +87,8 @@ pub struct BenchReport {
     pub vertices: usize,
     pub triangles: usize,
     pub order: usize,
+    /// A lightmap (texel) bake's W×H, shaded per pixel.
+    pub lightmap: Option<(u32, u32)>,
     pub measurements: Vec<Measurement>,
 }
 
@@ -111,11 +113,15 @@ impl BenchReport {
     /// The table, as Markdown, with the two ratios and their targets.
     pub fn table(&self) -> String {
         let (w, h) = self.options.size;
+        let transfer = match self.lightmap {
+            Some((lw, lh)) => format!("order {}, a {lw}×{lh} lightmap (PRT per pixel)", self.order),
+            None => format!("order {}", self.order),
+        };
         let mut text = format!(
-            "prt-view --bench: {} vertices, {} triangles, order {}, {w}×{h}, {} frames per configuration in turns of {BLOCK} (fps = 1 / median frame time)\n\
+            "prt-view --bench: {} vertices, {} triangles, {transfer}, {w}×{h}, {} frames per configuration in turns of {BLOCK} (fps = 1 / median frame time)\n\
              device: {}\n\n\
              | model | 1 light | 8 lights |\n|---|---:|---:|\n",
-            self.vertices, self.triangles, self.order, self.options.frames, self.device
+            self.vertices, self.triangles, self.options.frames, self.device
         );
         for mode in [Mode::Phong, Mode::Prt] {
             text += &format!(
@@ -206,6 +212,7 @@ pub fn run(gpu: &Gpu, bake: &Bake, options: BenchOptions) -> Result<BenchReport>
         vertices: bake.scene.vertex_count(),
         triangles: bake.scene.triangles.len(),
         order: bake.order(),
+        lightmap: bake.lightmap().map(|l| (l.width, l.height)),
         measurements,
     })
 }

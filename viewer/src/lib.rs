@@ -13,6 +13,10 @@
 //! multiplies the interpolated radiance by Kd × texture per pixel and tone-maps it exactly as
 //! `prt-bake relight` does (× 2^exposure, clamp to [0, 1], sRGB encoding by the framebuffer).
 //!
+//! A lightmap (texel) bake is shaded per pixel instead: its transfer goes to a texture array
+//! ([`texel_transfer`]), and the fragment shader filters it bilinearly at the fragment's
+//! lightmap uv and dots it with the same summed light.
+//!
 //! # Structure
 //!
 //! * [`Bake`] loads a scene through the baker's loader and its coefficient file, refusing a
@@ -41,6 +45,7 @@ mod overlay;
 pub mod probe;
 pub mod renderer;
 mod resources;
+pub mod texel_transfer;
 pub mod textures;
 pub mod window;
 

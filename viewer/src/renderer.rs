@@ -1,10 +1,16 @@
 //! The renderer: `new` / `resize` / `update` / `render(&TextureView, &Device, &Queue)`.
 //!
-//! One vertex buffer (position, normal, uv) and one index buffer hold the scene; the
-//! coefficient file's payload goes to a storage buffer unchanged, and the summed light
+//! One vertex buffer (position, normal, uv, lightmap uv) and one index buffer hold the scene;
+//! the coefficient file's payload goes to a storage buffer unchanged, and the summed light
 //! (n² × RGB) to another, which the PRT vertex shader reads by vertex index. Each object is
 //! drawn with its material's bind group (Kd, texture). Normals, light vectors and the
 //! readout are drawn on top.
+//!
+//! A lightmap (texel) bake instead puts its transfer in a texture array
+//! ([`crate::texel_transfer`]) that the PRT fragment shader filters at the fragment's
+//! lightmap uv, with the same light buffer. Its lightmap UVs are per triangle corner, so the
+//! vertex buffer then holds one vertex per corner (indices 0, 1, 2, …), and objects are drawn
+//! by the same triangle ranges.
 
 use std::ops::Range;
 
@@ -23,7 +29,7 @@ use crate::resources::{
     DEPTH_FORMAT, PipelineSpec, buffer_binding, pipeline, scene_shader, texture_2d, texture_entry,
     uniform_buffer, uniform_entry, view_binding,
 };
-use crate::textures;
+use crate::{texel_transfer, textures};
 
 /// Behind the scene: a dark grey, linear.
 const BACKGROUND: wgpu::Color = wgpu::Color {
@@ -43,6 +49,8 @@ struct Vertex {
     position: [f32; 3],
     normal: [f32; 3],
     uv: [f32; 2],
+    /// Lightmap uv (texel bakes; zero for vertex bakes).
+    uv1: [f32; 2],
 }
 
 #[repr(C)]
@@ -186,7 +194,11 @@ impl Renderer {
         let scene = &bake.scene;
         let order = bake.order();
         let n2 = order * order;
-        let transfer_bytes = std::mem::size_of_val(bake.file.coefficients.as_slice()) as u64;
+        let lightmap = bake.lightmap();
+        let transfer_bytes = match lightmap {
+            Some(_) => 0,
+            None => std::mem::size_of_val(bake.file.coefficients.as_slice()) as u64,
+        };
         let limits = device.limits();
         let limit = limits
             .max_storage_buffer_binding_size
@@ -198,14 +210,30 @@ impl Renderer {
             )));
         }
 
-        let vertices: Vec<Vertex> = (0..scene.vertex_count())
-            .map(|v| Vertex {
-                position: scene.positions[v].to_array(),
-                normal: scene.normals[v].to_array(),
-                uv: scene.uvs[v].to_array(),
-            })
-            .collect();
-        let indices: Vec<u32> = scene.triangles.iter().flatten().copied().collect();
+        let vertex = |v: usize, uv1: glam::Vec2| Vertex {
+            position: scene.positions[v].to_array(),
+            normal: scene.normals[v].to_array(),
+            uv: scene.uvs[v].to_array(),
+            uv1: uv1.to_array(),
+        };
+        let (vertices, indices): (Vec<Vertex>, Vec<u32>) = match lightmap {
+            None => (
+                (0..scene.vertex_count())
+                    .map(|v| vertex(v, glam::Vec2::ZERO))
+                    .collect(),
+                scene.triangles.iter().flatten().copied().collect(),
+            ),
+            Some(l) => (
+                scene
+                    .triangles
+                    .iter()
+                    .zip(&l.uv1)
+                    .flat_map(|(t, uv1)| (0..3).map(move |k| (t[k] as usize, uv1[k])))
+                    .map(|(v, uv1)| vertex(v, uv1))
+                    .collect(),
+                (0..3 * scene.triangles.len() as u32).collect(),
+            ),
+        };
         let buffer = |label, contents: &[u8], usage| {
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
@@ -223,23 +251,41 @@ impl Renderer {
             bytemuck::cast_slice(&indices),
             wgpu::BufferUsages::INDEX,
         );
+        // A texel bake's transfer goes to the texture array; the storage buffer then holds
+        // unread zeros (a binding cannot be empty).
         let transfer = buffer(
             "transfer",
-            bytemuck::cast_slice(&bake.file.coefficients),
+            match lightmap {
+                Some(_) => bytemuck::bytes_of(&[0.0f32; 4]),
+                None => bytemuck::cast_slice(&bake.file.coefficients),
+            },
             wgpu::BufferUsages::STORAGE,
         );
+        let texel_transfer = match lightmap {
+            Some(l) => texel_transfer::upload(
+                device,
+                queue,
+                &bake.file_path,
+                (l.width, l.height),
+                &bake.file.coefficients,
+                bake.channels() * n2,
+            )?,
+            None => texel_transfer::placeholder(device),
+        };
         let light_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("light"),
-            size: (n2 * 16) as u64,
+            // Padded with zeros to a multiple of 4 coefficients for the texel shader's grey
+            // path, which reads them four at a time.
+            size: (n2.next_multiple_of(4) * 16) as u64,
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
         let frame_buffer = uniform_buffer(device, "frame", std::mem::size_of::<FrameUniform>());
 
         let vertex_and_fragment = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
-        let storage = |binding| wgpu::BindGroupLayoutEntry {
+        let storage = |binding, visibility| wgpu::BindGroupLayoutEntry {
             binding,
-            visibility: wgpu::ShaderStages::VERTEX,
+            visibility,
             ty: wgpu::BindingType::Buffer {
                 ty: wgpu::BufferBindingType::Storage { read_only: true },
                 has_dynamic_offset: false,
@@ -251,8 +297,18 @@ impl Renderer {
             label: Some("frame"),
             entries: &[
                 uniform_entry(0, vertex_and_fragment),
-                storage(1),
-                storage(2),
+                storage(1, wgpu::ShaderStages::VERTEX),
+                storage(2, vertex_and_fragment),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 3,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                        view_dimension: wgpu::TextureViewDimension::D2Array,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
             ],
         });
         let frame_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -262,6 +318,7 @@ impl Renderer {
                 buffer_binding(0, &frame_buffer),
                 buffer_binding(1, &transfer),
                 buffer_binding(2, &light_buffer),
+                view_binding(3, &texel_transfer),
             ],
         });
 
@@ -280,7 +337,7 @@ impl Renderer {
         let vertex_layout = wgpu::VertexBufferLayout {
             array_stride: std::mem::size_of::<Vertex>() as u64,
             step_mode: wgpu::VertexStepMode::Vertex,
-            attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x2],
+            attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x2, 3 => Float32x2],
         };
         let scene_pipeline = |vs, fs| {
             pipeline(
@@ -298,7 +355,10 @@ impl Renderer {
                 },
             )
         };
-        let prt = scene_pipeline("vs_prt", "fs_prt");
+        let prt = match lightmap {
+            Some(_) => scene_pipeline("vs_prt_texel", "fs_prt_texel"),
+            None => scene_pipeline("vs_prt", "fs_prt"),
+        };
         let phong = scene_pipeline("vs_phong", "fs_phong");
 
         let (centre, radius) = {

@@ -4,6 +4,8 @@ struct VertexIn {
     @location(0) position: vec3<f32>,
     @location(1) normal: vec3<f32>,
     @location(2) uv: vec2<f32>,
+    // Lightmap uv (texel bakes).
+    @location(3) uv1: vec2<f32>,
 }
 
 struct PrtOut {
@@ -25,6 +27,28 @@ fn vs_prt(in: VertexIn, @builtin(vertex_index) v: u32) -> PrtOut {
 @fragment
 fn fs_prt(in: PrtOut) -> @location(0) vec4<f32> {
     return tone_map(in.radiance * albedo(in.uv));
+}
+
+struct PrtTexelOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) uv: vec2<f32>,
+    @location(1) uv1: vec2<f32>,
+}
+
+// PRT from a lightmap (texel) bake: the transfer filtered at the pixel's lightmap uv, dotted
+// with the light, times the albedo.
+@vertex
+fn vs_prt_texel(in: VertexIn) -> PrtTexelOut {
+    var out: PrtTexelOut;
+    out.clip = frame.view_projection * vec4<f32>(in.position, 1.0);
+    out.uv = in.uv;
+    out.uv1 = in.uv1;
+    return out;
+}
+
+@fragment
+fn fs_prt_texel(in: PrtTexelOut) -> @location(0) vec4<f32> {
+    return tone_map(prt_radiance_texel(in.uv1) * albedo(in.uv));
 }
 
 struct PhongOut {
