@@ -23,6 +23,7 @@ pub mod lightmap;
 pub mod limits;
 pub mod merge;
 pub mod npz;
+pub mod openexr;
 pub mod output;
 pub mod ply;
 pub mod progress;
