@@ -391,6 +391,16 @@ fn glb_of_a_texel_bake_has_the_atlas_as_texcoord_1() {
         "out/lit.png",
     ])
     .success();
+    s.run(&[
+        "export",
+        "out/lm.prt",
+        "--scene",
+        "cube.obj",
+        "--exr",
+        "out/exr",
+    ])
+    .success();
+    let state = read_exr(&s.path("out/exr/texel_state.exr"));
     let file = CoefficientFile::read(&s.path("out/lm.prt")).unwrap();
     let block = file.lightmap.as_ref().unwrap();
     let scene = prt_baker::Scene::load(&s.path("cube.obj")).unwrap();
@@ -418,6 +428,18 @@ fn glb_of_a_texel_bake_has_the_atlas_as_texcoord_1() {
                     let p = scene.positions[scene.triangles[triangle][c] as usize];
                     assert_eq!(positions[i as usize], [p.x, p.z, -p.y]);
                 }
+                // An engine sampling the EXR with TEXCOORD_1 (v down, row 0 at the top) at
+                // the triangle's UV centroid reads a baked texel.
+                let centroid = corners
+                    .iter()
+                    .map(|&i| uv1[i as usize])
+                    .fold([0.0; 2], |a, b| [a[0] + b[0] / 3.0, a[1] + b[1] / 3.0]);
+                let (x, row) = ((centroid[0] * 32.0) as usize, (centroid[1] * 32.0) as usize);
+                assert_eq!(
+                    state.channels["Y"][row * 32 + x],
+                    1.0,
+                    "triangle {triangle}: texel_state.exr at its TEXCOORD_1 centroid"
+                );
                 triangle += 1;
             }
         }
@@ -444,7 +466,7 @@ fn glb_of_a_texel_bake_has_the_atlas_as_texcoord_1() {
         png == s.read("out/lit.png"),
         "the embedded lightmap is not relight's PNG"
     );
-    s.assert_out_holds(&["lm.prt", "lm.glb", "lit.png"]);
+    s.assert_out_holds(&["lm.prt", "lm.glb", "lit.png", "exr"]);
     // A scene that is not the bake's is refused.
     s.run(&[
         "export",
