@@ -785,8 +785,9 @@ fn relight(args: RelightArgs) -> Result<(), Error> {
         args.exposure,
     )?;
     println!(
-        "relit {} vertices with {} light(s) at order {}, largest radiance {:.4} -> {}",
+        "relit {} {} with {} light(s) at order {}, largest radiance {:.4} -> {}",
         relit.vertex_count,
+        if relit.lightmap { "texels" } else { "vertices" },
         relit.light_count,
         relit.order,
         relit.max_radiance,

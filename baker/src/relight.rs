@@ -70,7 +70,10 @@ pub fn display_colour(radiance: [f32; 3], exposure: f64) -> [u8; 3] {
 /// What [`relight`] did, for the CLI's summary line.
 #[derive(Clone, Debug)]
 pub struct Relit {
+    /// Vertices lit, or a lightmap's texels (W·H).
     pub vertex_count: usize,
+    /// Whether the bake was a lightmap (texel) bake, written as an image.
+    pub lightmap: bool,
     pub order: usize,
     pub light_count: usize,
     /// The largest radiance of any channel at any vertex.
@@ -134,6 +137,7 @@ pub fn relight(
     output.write(&mesh.to_bytes())?;
     Ok(Relit {
         vertex_count: scene.vertex_count(),
+        lightmap: false,
         order,
         light_count: rig.lights.len(),
         max_radiance: radiance.iter().flatten().fold(0.0, |a, &b| a.max(b)),
@@ -211,6 +215,7 @@ fn relight_lightmap(
     output_policy.write(&bytes)?;
     Ok(Relit {
         vertex_count: w * h,
+        lightmap: true,
         order,
         light_count: rig.lights.len(),
         max_radiance: radiance.iter().flatten().fold(0.0, |a, &b| a.max(b)),
