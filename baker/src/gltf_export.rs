@@ -163,10 +163,11 @@ pub fn split_at_lightmap_seams(scene: &Scene, uv1: &[[Vec2; 3]]) -> Scene {
     for object in &scene.objects {
         let first = split.positions.len() as u32;
         let mut index = std::collections::HashMap::new();
-        for t in object.triangles.start as usize..object.triangles.end as usize {
+        let range = object.triangles.start as usize..object.triangles.end as usize;
+        for (vertices, uvs) in scene.triangles[range.clone()].iter().zip(&uv1[range]) {
             let triangle = std::array::from_fn(|corner| {
-                let v = scene.triangles[t][corner];
-                let uv = uv1[t][corner];
+                let v = vertices[corner];
+                let uv = uvs[corner];
                 *index
                     .entry((v, uv.x.to_bits(), uv.y.to_bits()))
                     .or_insert_with(|| {

@@ -99,7 +99,7 @@ mod tests {
 
     #[test]
     fn encoded_images_read_back() {
-        use exr::prelude::ReadChannels;
+        use exr::prelude::{ReadChannels, ReadLayers};
         let values: Vec<f32> = (0..6).map(|i| i as f32 * 0.25 - 0.5).collect();
         for pixel_type in [PixelType::F32, PixelType::F16] {
             let bytes = encode(
