@@ -16,6 +16,10 @@
 //!   `KHR_materials_unlit` so viewers show it without adding their own lights.
 //!
 //! Materials are metallic 0, roughness 1, base colour = Kd (× the texture, embedded as PNG).
+//!
+//! A lightmap (texel) bake has no per-vertex transfer: its `.glb` carries TEXCOORD_1 = the
+//! atlas (vertices split at chart seams) and, with a rig, the relit lightmap as a texture the
+//! materials name in `extras.prt_lightmap` ([`split_at_lightmap_seams`], docs/gltf.md).
 
 use std::path::Path;
 

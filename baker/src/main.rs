@@ -45,8 +45,9 @@ enum Command {
         /// The .prt file.
         file: PathBuf,
     },
-    /// Write a coefficient file and its scene as NumPy arrays (--npz) and/or as a binary glTF
-    /// with the transfer as vertex attributes (--gltf).
+    /// Write a coefficient file and its scene as NumPy arrays (--npz), as a binary glTF
+    /// with the transfer as vertex attributes or the lightmap UVs (--gltf), and a lightmap
+    /// bake as OpenEXR images (--exr).
     Export(ExportArgs),
     /// Project a light rig (TOML) to SH and write the summed RGB coefficients as JSON.
     Light {
