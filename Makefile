@@ -4,7 +4,7 @@
 #   make test        formatting, lints, every test, a build without Embree, the Embree 4 header
 #                    check, the independent reference, a sharded bake on a real Slurm cluster
 #   make interop     glTF export checked by the Khronos glTF-Validator, the Python .prt reader
-#                    against the npz export (part of make test)
+#                    against the npz export, the EXR export against it (part of make test)
 #   make bench       the bake benchmark: Embree and obvhs against the raw Embree rate
 #                    (docs/performance.md)
 #   make fuzz        the parsers' mutation fuzzing at 20 times make test's mutants (docs/robustness.md)

@@ -5,7 +5,7 @@ use std::path::Path;
 
 use crate::coefficient_file::CoefficientFile;
 use crate::error::Result;
-use crate::npz;
+use crate::npz::{self, Array};
 use crate::scene::Scene;
 use crate::sh;
 
@@ -28,29 +28,12 @@ pub fn export_npz(coefficients: &Path, scene: &Path, output: &Path) -> Result<()
     inputs.push(coefficients.to_path_buf());
     let output = crate::output::Output::new(output, &inputs)?;
     let v = scene.vertex_count();
-    let flat = |values: &[glam::Vec3]| {
-        values
-            .iter()
-            .flat_map(|x| x.to_array())
-            .collect::<Vec<f32>>()
-    };
-    let positions = flat(&scene.positions);
-    let normals = flat(&scene.normals);
-    let albedo = flat(&scene.vertex_albedo());
+    let receivers = Receivers::new(&scene.positions, &scene.normals, &file);
+    let (geometry, aux) = receivers.arrays(&[v], ["positions", "normals"]);
+    let albedo = flat3(&scene.vertex_albedo());
     let header = &file.header;
-    let ao = file.ao.clone();
-    let bent_normal = file.bent_normal.as_deref().map(flat);
-    let mut arrays = vec![
-        npz::Array {
-            name: "positions",
-            shape: vec![v, 3],
-            data: &positions,
-        },
-        npz::Array {
-            name: "normals",
-            shape: vec![v, 3],
-            data: &normals,
-        },
+    let mut arrays = geometry;
+    arrays.extend([
         npz::Array {
             name: "albedo",
             shape: vec![v, 3],
@@ -65,21 +48,8 @@ pub fn export_npz(coefficients: &Path, scene: &Path, output: &Path) -> Result<()
             ],
             data: &file.coefficients,
         },
-    ];
-    if let Some(ao) = &ao {
-        arrays.push(npz::Array {
-            name: "ao",
-            shape: vec![v],
-            data: ao,
-        });
-    }
-    if let Some(bent_normal) = &bent_normal {
-        arrays.push(npz::Array {
-            name: "bent_normal",
-            shape: vec![v, 3],
-            data: bent_normal,
-        });
-    }
+    ]);
+    arrays.extend(aux);
     let rays: Option<Vec<f32>> = file
         .rays
         .as_ref()
@@ -141,33 +111,17 @@ fn export_lightmap_npz(
         texel_size: (block.texel_size > 0.0).then_some(block.texel_size),
     };
     let texels = crate::lightmap::Texels::rasterise(scene, &atlas);
-    let flat = |values: &[glam::Vec3]| {
-        values
-            .iter()
-            .flat_map(|x| x.to_array())
-            .collect::<Vec<f32>>()
-    };
-    let positions = flat(&texels.positions);
-    let normals = flat(&texels.normals);
+    let receivers = Receivers::new(&texels.positions, &texels.normals, file);
+    let (geometry, aux) = receivers.arrays(&[h, w], ["texel_positions", "texel_normals"]);
     let uv1: Vec<f32> = block
         .uv1
         .iter()
         .flatten()
         .flat_map(|p| p.to_array())
         .collect();
-    let bent_normal = file.bent_normal.as_deref().map(flat);
     let header = &file.header;
-    let mut arrays = vec![
-        npz::Array {
-            name: "texel_positions",
-            shape: vec![h, w, 3],
-            data: &positions,
-        },
-        npz::Array {
-            name: "texel_normals",
-            shape: vec![h, w, 3],
-            data: &normals,
-        },
+    let mut arrays = geometry;
+    arrays.extend([
         npz::Array {
             name: "transfer",
             shape: vec![
@@ -183,21 +137,8 @@ fn export_lightmap_npz(
             shape: vec![block.uv1.len(), 3, 2],
             data: &uv1,
         },
-    ];
-    if let Some(ao) = &file.ao {
-        arrays.push(npz::Array {
-            name: "ao",
-            shape: vec![h, w],
-            data: ao,
-        });
-    }
-    if let Some(bent_normal) = &bent_normal {
-        arrays.push(npz::Array {
-            name: "bent_normal",
-            shape: vec![h, w, 3],
-            data: bent_normal,
-        });
-    }
+    ]);
+    arrays.extend(aux);
     let masks = [
         npz::BoolArray {
             name: "texel_valid",
@@ -211,4 +152,258 @@ fn export_lightmap_npz(
         },
     ];
     output.write(&npz::to_bytes(&arrays, &[], &masks)?)
+}
+
+/// Vectors as a flat float32 array (x, y, z of each in turn).
+fn flat3(values: &[glam::Vec3]) -> Vec<f32> {
+    values.iter().flat_map(|x| x.to_array()).collect()
+}
+
+/// What vertex and texel exports both write per receiver, flattened.
+struct Receivers<'a> {
+    positions: Vec<f32>,
+    normals: Vec<f32>,
+    ao: Option<&'a [f32]>,
+    bent_normal: Option<Vec<f32>>,
+}
+
+impl<'a> Receivers<'a> {
+    fn new(positions: &[glam::Vec3], normals: &[glam::Vec3], file: &'a CoefficientFile) -> Self {
+        Receivers {
+            positions: flat3(positions),
+            normals: flat3(normals),
+            ao: file.ao.as_deref(),
+            bent_normal: file.bent_normal.as_deref().map(flat3),
+        }
+    }
+
+    /// The arrays of leading shape `lead` ((V,) for vertices, (H, W) for texels): the
+    /// geometry, `names` (…, 3), and the stored aux arrays `ao` (…) and `bent_normal` (…, 3).
+    fn arrays(&self, lead: &[usize], names: [&'static str; 2]) -> (Vec<Array<'_>>, Vec<Array<'_>>) {
+        let shape = |inner: &[usize]| [lead, inner].concat();
+        let geometry = vec![
+            Array {
+                name: names[0],
+                shape: shape(&[3]),
+                data: &self.positions,
+            },
+            Array {
+                name: names[1],
+                shape: shape(&[3]),
+                data: &self.normals,
+            },
+        ];
+        let mut aux = Vec::new();
+        if let Some(ao) = self.ao {
+            aux.push(Array {
+                name: "ao",
+                shape: shape(&[]),
+                data: ao,
+            });
+        }
+        if let Some(bent_normal) = &self.bent_normal {
+            aux.push(Array {
+                name: "bent_normal",
+                shape: shape(&[3]),
+                data: bent_normal,
+            });
+        }
+        (geometry, aux)
+    }
+}
+
+/// What [`export_exr`] wrote, for the CLI's summary line.
+#[derive(Clone, Debug)]
+pub struct ExrWritten {
+    pub width: u32,
+    pub height: u32,
+    /// The image files, in the manifest's order (the manifest is written last).
+    pub files: Vec<std::path::PathBuf>,
+    pub manifest: std::path::PathBuf,
+}
+
+/// The transfer image names of a bake: coefficients 4k..4k+3 of channel c (`""` grey, or
+/// `"r"`, `"g"`, `"b"`) in `transfer_[c_]AA-BB.exr`, AA = 4k, BB = 4k+3.
+pub fn exr_transfer_names(order: usize, channels: usize) -> Vec<(usize, usize, String)> {
+    let groups = sh::coeff_count(order).div_ceil(4);
+    let prefixes: &[&str] = match channels {
+        1 => &[""],
+        _ => &["r_", "g_", "b_"],
+    };
+    prefixes
+        .iter()
+        .enumerate()
+        .flat_map(|(c, prefix)| {
+            (0..groups).map(move |k| {
+                (
+                    c,
+                    k,
+                    format!("transfer_{prefix}{:02}-{:02}.exr", 4 * k, 4 * k + 3),
+                )
+            })
+        })
+        .collect()
+}
+
+/// A texel bake's coefficients as OpenEXR images in `dir` (created if missing), W×H each,
+/// rows as [`crate::openexr`] states (row 0 at the top: texel row H−1): per colour channel
+/// c and k, coefficients 4k..4k+3 in R, G, B, A of `transfer_[c_]AA-BB.exr` (the last
+/// zero-padded); `texel_state.exr` (Y: 1 baked, 0.5 dilated, 0 empty); where stored `ao.exr`
+/// (Y) and `bent_normal.exr` (RGB = x, y, z in the bake's frame); and `manifest.json` saying
+/// all that. Every file goes through the output policy; the manifest is written last, so a
+/// directory with a manifest is complete. A vertex bake is refused (`InvalidOption`).
+pub fn export_exr(
+    coefficients: &Path,
+    scene: &Path,
+    dir: &Path,
+    pixel_type: crate::openexr::PixelType,
+) -> Result<ExrWritten> {
+    use crate::openexr::{encode, image_rows};
+    use serde_json::json;
+    let file = CoefficientFile::read(coefficients)?;
+    if file.lightmap.is_none() {
+        return Err(crate::Error::InvalidOption(format!(
+            "{}: a per-vertex bake; --exr writes lightmap (texel) bakes only (bake with \
+             --lightmap RES, or export this one with --npz or --gltf)",
+            coefficients.display()
+        )));
+    }
+    let scene = Scene::load(scene)?;
+    let block = file.check_lightmap_scene(coefficients, &scene)?;
+    let mut inputs = scene.input_files();
+    inputs.push(coefficients.to_path_buf());
+    if dir.exists() && !dir.is_dir() {
+        return Err(crate::Error::Output {
+            path: dir.to_path_buf(),
+            message: "is not a directory; --exr names a directory for the images".into(),
+        });
+    }
+    std::fs::create_dir_all(dir).map_err(|err| crate::Error::io(dir, err))?;
+
+    let (w, h) = (block.width as usize, block.height as usize);
+    let header = &file.header;
+    let (order, channels) = (header.order as usize, header.channels as usize);
+    let n = sh::coeff_count(order);
+    let rows = |texels: Vec<f32>| image_rows(&texels, w, h);
+    // (file name, EXR bytes) of every image, then the manifest's entries.
+    let mut images: Vec<(String, Vec<u8>)> = Vec::new();
+    let mut transfer_entries = Vec::new();
+    for (c, k, name) in exr_transfer_names(order, channels) {
+        let rgba: Vec<(&str, Vec<f32>)> = ["R", "G", "B", "A"]
+            .iter()
+            .enumerate()
+            .map(|(i, &channel)| {
+                let j = 4 * k + i;
+                let texels = (0..w * h)
+                    .map(|t| if j < n { file.vertex(t, c)[j] } else { 0.0 })
+                    .collect();
+                (channel, rows(texels))
+            })
+            .collect();
+        let held: Vec<usize> = (4 * k..(4 * k + 4).min(n)).collect();
+        // The coefficient in R, G, B and A (null: padding).
+        let rgba_held: Vec<Option<usize>> =
+            (4 * k..4 * k + 4).map(|j| (j < n).then_some(j)).collect();
+        transfer_entries.push(json!({
+            "file": name,
+            "colour_channel": match channels { 1 => "grey", _ => ["r", "g", "b"][c] },
+            "coefficients": held,
+            "rgba": rgba_held,
+            "zero_padded_channels": 4 - held.len(),
+        }));
+        images.push((
+            name.clone(),
+            encode(&dir.join(&name), w, h, rgba, pixel_type)?,
+        ));
+    }
+    let state: Vec<f32> = (0..w * h)
+        .map(|t| match (block.valid[t], block.dilated[t]) {
+            (true, _) => 1.0,
+            (false, true) => 0.5,
+            _ => 0.0,
+        })
+        .collect();
+    images.push((
+        "texel_state.exr".into(),
+        encode(
+            &dir.join("texel_state.exr"),
+            w,
+            h,
+            vec![("Y", rows(state))],
+            pixel_type,
+        )?,
+    ));
+    if let Some(ao) = &file.ao {
+        images.push((
+            "ao.exr".into(),
+            encode(
+                &dir.join("ao.exr"),
+                w,
+                h,
+                vec![("Y", rows(ao.clone()))],
+                pixel_type,
+            )?,
+        ));
+    }
+    if let Some(bent) = &file.bent_normal {
+        let axis = |i: usize| rows(bent.iter().map(|b| b[i]).collect());
+        images.push((
+            "bent_normal.exr".into(),
+            encode(
+                &dir.join("bent_normal.exr"),
+                w,
+                h,
+                vec![("R", axis(0)), ("G", axis(1)), ("B", axis(2))],
+                pixel_type,
+            )?,
+        ));
+    }
+    let manifest = json!({
+        "generator": concat!("prt-bake ", env!("CARGO_PKG_VERSION")),
+        "source": coefficients.display().to_string(),
+        "width": w,
+        "height": h,
+        "pixel_type": pixel_type.name(),
+        "order": order,
+        "channels": channels,
+        "coefficients_per_channel": n,
+        "convention": "real orthonormal SH, index l(l+1)+m, Condon-Shortley phase, of directions \
+            in the bake's own coordinates (theta from +z); transfer excludes the albedo",
+        "up": header.up.name(),
+        "mode": header.mode.name(),
+        "rows": "image row r holds texel row H-1-r: the top row is v = 1 of the .prt's UVs \
+            (v up, as OBJ) and v = 0 of glTF's TEXCOORD_1 (v down), as for any texture",
+        "transfer": transfer_entries,
+        "texel_state": {
+            "file": "texel_state.exr",
+            "channel": "Y",
+            "values": {"1": "baked", "0.5": "dilated (padding filled from baked neighbours)", "0": "empty (zero transfer)"},
+        },
+        "ao": file.ao.as_ref().map(|_| json!({"file": "ao.exr", "channel": "Y"})),
+        "bent_normal": file.bent_normal.as_ref().map(|_| json!({
+            "file": "bent_normal.exr",
+            "channels": {"R": "x", "G": "y", "B": "z"},
+        })),
+    });
+    let mut manifest_bytes = serde_json::to_vec_pretty(&manifest).expect("plain JSON serialises");
+    manifest_bytes.push(b'\n');
+    images.push(("manifest.json".into(), manifest_bytes));
+
+    // Every path checked before any is written: a refusal leaves the directory as it was.
+    let outputs = images
+        .iter()
+        .map(|(name, _)| crate::output::Output::new(&dir.join(name), &inputs))
+        .collect::<Result<Vec<_>>>()?;
+    for (output, (_, bytes)) in outputs.iter().zip(&images) {
+        output.write(bytes)?;
+    }
+    let mut files: Vec<std::path::PathBuf> =
+        outputs.iter().map(|o| o.path().to_path_buf()).collect();
+    let manifest = files.pop().expect("the manifest");
+    Ok(ExrWritten {
+        width: block.width,
+        height: block.height,
+        files,
+        manifest,
+    })
 }

@@ -16,6 +16,10 @@
 //!   `KHR_materials_unlit` so viewers show it without adding their own lights.
 //!
 //! Materials are metallic 0, roughness 1, base colour = Kd (× the texture, embedded as PNG).
+//!
+//! A lightmap (texel) bake has no per-vertex transfer: its `.glb` carries TEXCOORD_1 = the
+//! atlas (vertices split at chart seams) and, with a rig, the relit lightmap as a texture the
+//! materials name in `extras.prt_lightmap` ([`split_at_lightmap_seams`], docs/gltf.md).
 
 use std::path::Path;
 
@@ -51,6 +55,10 @@ pub struct Written {
     pub bytes: usize,
     /// Whether the scene was turned from z-up to glTF's y-up.
     pub turned_to_y_up: bool,
+    /// A texel bake's lightmap size (W, H): TEXCOORD_1 holds its UVs.
+    pub lightmap: Option<[u32; 2]>,
+    /// Whether the relit lightmap is embedded (texel bakes with a rig).
+    pub lightmap_texture: bool,
 }
 
 /// Names of the VEC4 transfer attributes of a bake of `order` with `channels` (1 or 3).
@@ -76,17 +84,125 @@ pub fn export_glb(
     let rig = rig.map(Rig::load).transpose()?;
     let file = CoefficientFile::read(coefficients)?;
     let scene = Scene::load(scene)?;
-    file.check_scene(coefficients, &scene)?;
+    let mut inputs = scene.input_files();
+    inputs.push(coefficients.to_path_buf());
+    inputs.extend(rig.iter().flat_map(Rig::input_files));
+    let output = crate::output::Output::new(output, &inputs)?;
     let up = file.header.up;
     let light = rig.map(|rig| rig.project(file.header.order as usize).in_scene_frame(up));
+    if file.lightmap.is_some() {
+        let (bytes, written) =
+            lightmap_glb_bytes(&file, coefficients, &scene, light.as_ref(), output.path())?;
+        output.write(&bytes)?;
+        return Ok(written);
+    }
+    file.check_scene(coefficients, &scene)?;
     let contents = Contents {
         file: Some(&file),
         light: light.as_ref(),
         up,
     };
     let (bytes, written) = glb_bytes(&scene, &contents)?;
-    crate::atomic::write(output, &bytes)?;
+    output.write(&bytes)?;
     Ok(written)
+}
+
+/// A texel bake's `.glb`: the scene with TEXCOORD_1 = the atlas's UVs (vertices split where
+/// the triangle corners sharing one disagree), no transfer attributes (the transfer is per
+/// texel: `export --exr` writes it as images), and with `light` the relit lightmap embedded
+/// as a PNG that every material names in `extras.prt_lightmap` (docs/gltf.md).
+fn lightmap_glb_bytes(
+    file: &CoefficientFile,
+    coefficients: &Path,
+    scene: &Scene,
+    light: Option<&LightCoefficients>,
+    output: &Path,
+) -> Result<(Vec<u8>, Written)> {
+    let block = file.check_lightmap_scene(coefficients, scene)?;
+    let split = split_at_lightmap_seams(scene, &block.uv1);
+    let image = match light {
+        None => None,
+        Some(light) => {
+            let radiance = crate::relight::lightmap_radiance(file, light);
+            let (w, h) = (block.width as usize, block.height as usize);
+            let rows = crate::openexr::image_rows(&radiance, w, h);
+            Some(crate::relight::png_bytes(
+                &rows,
+                block.width,
+                block.height,
+                0.0,
+                output,
+            )?)
+        }
+    };
+    let contents = Contents {
+        file: None,
+        light: None,
+        up: file.header.up,
+    };
+    let lightmap = LightmapContents {
+        width: block.width,
+        height: block.height,
+        file,
+        png: image,
+    };
+    glb_bytes_with(&split, &contents, Some(&lightmap))
+}
+
+/// The scene with one vertex per distinct (vertex, lightmap UV) pair of its triangle corners
+/// and `lightmap_uvs` set to those UVs; triangles keep their order, each object's new
+/// vertices are contiguous and in order of first use. Vertices no triangle uses are dropped.
+pub fn split_at_lightmap_seams(scene: &Scene, uv1: &[[Vec2; 3]]) -> Scene {
+    let mut split = Scene {
+        positions: Vec::new(),
+        normals: Vec::new(),
+        uvs: Vec::new(),
+        vertex_material: Vec::new(),
+        triangles: Vec::with_capacity(scene.triangles.len()),
+        objects: Vec::with_capacity(scene.objects.len()),
+        lightmap_uvs: None,
+        ..scene.clone()
+    };
+    let mut lightmap = Vec::new();
+    for object in &scene.objects {
+        let first = split.positions.len() as u32;
+        let mut index = std::collections::HashMap::new();
+        let range = object.triangles.start as usize..object.triangles.end as usize;
+        for (vertices, uvs) in scene.triangles[range.clone()].iter().zip(&uv1[range]) {
+            let triangle = std::array::from_fn(|corner| {
+                let v = vertices[corner];
+                let uv = uvs[corner];
+                *index
+                    .entry((v, uv.x.to_bits(), uv.y.to_bits()))
+                    .or_insert_with(|| {
+                        let v = v as usize;
+                        split.positions.push(scene.positions[v]);
+                        split.normals.push(scene.normals[v]);
+                        split.uvs.push(scene.uvs[v]);
+                        split.vertex_material.push(scene.vertex_material[v]);
+                        lightmap.push(uv);
+                        split.positions.len() as u32 - 1
+                    })
+            });
+            split.triangles.push(triangle);
+        }
+        split.objects.push(crate::scene::Object {
+            name: object.name.clone(),
+            vertices: first..split.positions.len() as u32,
+            triangles: object.triangles.clone(),
+        });
+    }
+    split.lightmap_uvs = Some(lightmap);
+    split
+}
+
+/// A texel bake's part of a `.glb`: its size and header for `asset.extras.prt`, and the relit
+/// lightmap to embed.
+struct LightmapContents<'a> {
+    width: u32,
+    height: u32,
+    file: &'a CoefficientFile,
+    png: Option<Vec<u8>>,
 }
 
 /// A growing binary chunk and the JSON objects that index it.
@@ -167,6 +283,14 @@ impl Builder {
 
 /// The `.glb` bytes of `scene` and what they hold.
 pub fn glb_bytes(scene: &Scene, contents: &Contents<'_>) -> Result<(Vec<u8>, Written)> {
+    glb_bytes_with(scene, contents, None)
+}
+
+fn glb_bytes_with(
+    scene: &Scene,
+    contents: &Contents<'_>,
+    lightmap_contents: Option<&LightmapContents<'_>>,
+) -> Result<(Vec<u8>, Written)> {
     // Scene coordinates → the rig's z-up frame → glTF's y-up frame.
     let turn: DMat3 = Up::Y.from_z_up() * contents.up.from_z_up().transpose();
     let turned = contents.up != Up::Y;
@@ -238,9 +362,21 @@ pub fn glb_bytes(scene: &Scene, contents: &Contents<'_>) -> Result<(Vec<u8>, Wri
         let view = b.view(&png, None);
         images.push(json!({"bufferView": view, "mimeType": "image/png"}));
     }
-    let textures: Vec<Value> = (0..scene.textures.len())
+    let mut textures: Vec<Value> = (0..scene.textures.len())
         .map(|i| json!({"source": i, "sampler": 0}))
         .collect();
+    // The relit lightmap: clamped to its edge, linear filtering without mipmaps (sampler 1).
+    let lightmap_texture = match lightmap_contents.and_then(|l| l.png.as_deref()) {
+        None => None,
+        Some(png) => {
+            let view = b.view(png, None);
+            images
+                .push(json!({"bufferView": view, "mimeType": "image/png", "name": "prt_lightmap"}));
+            textures
+                .push(json!({"source": images.len() - 1, "sampler": 1, "name": "prt_lightmap"}));
+            Some(textures.len() - 1)
+        }
+    };
     let unlit = colour.is_some();
     let materials: Vec<Value> = scene
         .materials
@@ -259,6 +395,9 @@ pub fn glb_bytes(scene: &Scene, contents: &Contents<'_>) -> Result<(Vec<u8>, Wri
             let mut material = json!({"name": m.name, "pbrMetallicRoughness": pbr});
             if unlit {
                 material["extensions"] = json!({"KHR_materials_unlit": {}});
+            }
+            if let Some(t) = lightmap_texture {
+                material["extras"] = json!({"prt_lightmap": {"index": t, "texCoord": 1}});
             }
             material
         })
@@ -343,6 +482,11 @@ pub fn glb_bytes(scene: &Scene, contents: &Contents<'_>) -> Result<(Vec<u8>, Wri
         // Repeat wrapping, as the baker samples textures; linear filtering with mipmaps.
         root["samplers"] =
             json!([{"magFilter": 9729, "minFilter": 9987, "wrapS": 10497, "wrapT": 10497}]);
+        if lightmap_texture.is_some() {
+            root["samplers"].as_array_mut().expect("an array").push(
+                json!({"magFilter": 9729, "minFilter": 9729, "wrapS": 33071, "wrapT": 33071}),
+            );
+        }
     }
     if unlit {
         root["extensionsUsed"] = json!(["KHR_materials_unlit"]);
@@ -364,6 +508,27 @@ pub fn glb_bytes(scene: &Scene, contents: &Contents<'_>) -> Result<(Vec<u8>, Wri
         });
     }
 
+    if let Some(l) = lightmap_contents {
+        let h = &l.file.header;
+        root["asset"]["extras"] = json!({
+            "prt": {
+                "order": h.order,
+                "channels": h.channels,
+                "mode": h.mode.name(),
+                "lightmap": {
+                    "width": l.width,
+                    "height": l.height,
+                    "texCoord": 1,
+                    "uv_convention": "glTF's: v down from the image's top; row 0 of the \
+                        lightmap images prt-bake writes (export --exr, relight) is v = 0",
+                    "transfer": "per texel, not in this file: prt-bake export --exr writes it \
+                        as images (manifest.json)",
+                    "texture": lightmap_texture,
+                    "texture_holds": if lightmap_texture.is_some() { "transfer . light per channel (albedo 1), clamped to [0, 1], sRGB-encoded; times the base colour it is the relit radiance" } else { "absent" },
+                },
+            }
+        });
+    }
     let mut json_bytes = serde_json::to_vec(&root).expect("plain JSON serialises");
     while json_bytes.len() % 4 != 0 {
         json_bytes.push(b' ');
@@ -394,6 +559,8 @@ pub fn glb_bytes(scene: &Scene, contents: &Contents<'_>) -> Result<(Vec<u8>, Wri
         colour: colour.is_some(),
         bytes: bytes.len(),
         turned_to_y_up: turned,
+        lightmap: lightmap_contents.map(|l| [l.width, l.height]),
+        lightmap_texture: lightmap_texture.is_some(),
     };
     Ok((bytes, written))
 }

@@ -26,6 +26,7 @@ pub mod limits;
 pub mod merge;
 pub mod npz;
 pub mod options;
+pub mod openexr;
 pub mod output;
 pub mod ply;
 pub mod progress;

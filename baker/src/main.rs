@@ -45,8 +45,9 @@ enum Command {
         /// The .prt file.
         file: PathBuf,
     },
-    /// Write a coefficient file and its scene as NumPy arrays (--npz) and/or as a binary glTF
-    /// with the transfer as vertex attributes (--gltf).
+    /// Write a coefficient file and its scene as NumPy arrays (--npz), as a binary glTF
+    /// with the transfer as vertex attributes or the lightmap UVs (--gltf), and a lightmap
+    /// bake as OpenEXR images (--exr).
     Export(ExportArgs),
     /// Project a light rig (TOML) to SH and write the summed RGB coefficients as JSON.
     Light {
@@ -81,7 +82,7 @@ enum Command {
 }
 
 #[derive(clap::Args)]
-#[command(group(clap::ArgGroup::new("outputs").required(true).multiple(true).args(["npz", "gltf"])))]
+#[command(group(clap::ArgGroup::new("outputs").required(true).multiple(true).args(["npz", "gltf", "exr"])))]
 struct ExportArgs {
     /// The .prt file.
     file: PathBuf,
@@ -92,12 +93,30 @@ struct ExportArgs {
     #[arg(long)]
     npz: Option<PathBuf>,
     /// Output .glb file: the scene in world space, y up, with the transfer as `_PRT_k`
-    /// vertex attributes (docs/gltf.md).
-    #[arg(long)]
+    /// vertex attributes, or for a lightmap bake with its lightmap UVs as TEXCOORD_1
+    /// (docs/gltf.md).
+    #[arg(long, visible_alias = "glb")]
     gltf: Option<PathBuf>,
-    /// With --gltf: a light rig (TOML) whose relit shading goes into COLOR_0.
+    /// With --gltf: a light rig (TOML) whose relit shading goes into COLOR_0 (vertex bakes)
+    /// or into an embedded lightmap texture (lightmap bakes).
     #[arg(long, requires = "gltf")]
     lights: Option<PathBuf>,
+    /// Output directory (created if missing) for a lightmap bake's coefficients as OpenEXR
+    /// images, 4 per RGBA image, with the texel mask, AO, bent normals and a manifest.json
+    /// (docs/lightmaps.md).
+    #[arg(long, value_name = "DIR")]
+    exr: Option<PathBuf>,
+    /// With --exr: the images' pixel type.
+    #[arg(long, value_enum, default_value_t = ExrTypeArg::F32, requires = "exr")]
+    exr_type: ExrTypeArg,
+}
+
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
+enum ExrTypeArg {
+    /// 16-bit half floats (11 significant bits).
+    F16,
+    /// 32-bit floats: the .prt's values exactly.
+    F32,
 }
 
 #[derive(clap::Args)]
@@ -109,7 +128,7 @@ struct RelightArgs {
     /// The light rig (TOML).
     #[arg(long)]
     lights: PathBuf,
-    /// Output .ply file.
+    /// Output .ply file; for a lightmap bake a .png (tone-mapped) or .exr (linear) image.
     #[arg(short, long)]
     output: PathBuf,
     /// Exposure of the 8-bit colour in stops: radiance × 2^EV before clamping to [0, 1]
@@ -637,6 +656,23 @@ fn export(args: ExportArgs) -> Result<(), Error> {
     for output in args.npz.iter().chain(&args.gltf) {
         Output::new(output, &inputs)?;
     }
+    // First: it refuses a vertex bake before anything is written.
+    if let Some(dir) = &args.exr {
+        let pixel_type = match args.exr_type {
+            ExrTypeArg::F16 => prt_baker::openexr::PixelType::F16,
+            ExrTypeArg::F32 => prt_baker::openexr::PixelType::F32,
+        };
+        let written = prt_baker::export::export_exr(&args.file, &args.scene, dir, pixel_type)?;
+        println!(
+            "wrote {} {}×{} {} OpenEXR images of {} and {}",
+            written.files.len(),
+            written.width,
+            written.height,
+            pixel_type.name(),
+            args.file.display(),
+            written.manifest.display()
+        );
+    }
     if let Some(npz) = &args.npz {
         prt_baker::export::export_npz(&args.file, &args.scene, npz)?;
         println!(
@@ -653,6 +689,17 @@ fn export(args: ExportArgs) -> Result<(), Error> {
             args.lights.as_deref(),
         )?;
         let prt = match written.prt_attributes.as_slice() {
+            [] if written.lightmap.is_some() => {
+                let [w, h] = written.lightmap.unwrap_or_default();
+                format!(
+                    "TEXCOORD_1 = the {w}×{h} lightmap's UVs{}",
+                    if written.lightmap_texture {
+                        ", the relit lightmap embedded (materials' extras.prt_lightmap)"
+                    } else {
+                        ""
+                    }
+                )
+            }
             [] => String::from("no transfer"),
             [only] => format!("transfer in {only}"),
             [first, .., last] => format!(
@@ -755,8 +802,9 @@ fn relight(args: RelightArgs) -> Result<(), Error> {
         args.exposure,
     )?;
     println!(
-        "relit {} vertices with {} light(s) at order {}, largest radiance {:.4} -> {}",
+        "relit {} {} with {} light(s) at order {}, largest radiance {:.4} -> {}",
         relit.vertex_count,
+        if relit.lightmap { "texels" } else { "vertices" },
         relit.light_count,
         relit.order,
         relit.max_radiance,

@@ -1,4 +1,5 @@
-//! `prt-bake relight`: a bake lit by a light rig on the CPU, written as a coloured mesh.
+//! `prt-bake relight`: a bake lit by a light rig on the CPU, written as a coloured mesh (vertex
+//! bakes) or a lightmap image (texel bakes: tone-mapped PNG, or linear OpenEXR).
 //!
 //! Per vertex and colour channel c, outgoing radiance = albedo_c · Σ_j T_j·L_cj, with T the
 //! stored transfer (channel c's own when the file holds three, the grey one otherwise), L the
@@ -69,7 +70,10 @@ pub fn display_colour(radiance: [f32; 3], exposure: f64) -> [u8; 3] {
 /// What [`relight`] did, for the CLI's summary line.
 #[derive(Clone, Debug)]
 pub struct Relit {
+    /// Vertices lit, or a lightmap's texels (W·H).
     pub vertex_count: usize,
+    /// Whether the bake was a lightmap (texel) bake, written as an image.
+    pub lightmap: bool,
     pub order: usize,
     pub light_count: usize,
     /// The largest radiance of any channel at any vertex.
@@ -93,6 +97,12 @@ pub fn relight(
         return relight_lightmap(&file, coefficients, &scene, &rig, output, exposure);
     }
     file.check_scene(coefficients, &scene)?;
+    if image_format(output).is_some() {
+        return Err(crate::Error::InvalidOption(format!(
+            "{}: a per-vertex bake relights to a .ply mesh; images are for lightmap bakes",
+            output.display()
+        )));
+    }
     let mut inputs = scene.input_files();
     inputs.push(coefficients.to_path_buf());
     inputs.extend(rig.input_files());
@@ -127,16 +137,36 @@ pub fn relight(
     output.write(&mesh.to_bytes())?;
     Ok(Relit {
         vertex_count: scene.vertex_count(),
+        lightmap: false,
         order,
         light_count: rig.lights.len(),
         max_radiance: radiance.iter().flatten().fold(0.0, |a, &b| a.max(b)),
     })
 }
 
-/// A lightmap (texel) bake lit by the rig, written as a W×H PNG: per texel Σ_j T_j·L_cj,
-/// the light a surface of albedo 1 reflects there (the renderer multiplies by albedo), with
-/// [`display_colour`]'s tone mapping. Image row y is texel row y (v = 0 at the top, as glTF
-/// and most engines read UVs). Empty texels are black.
+/// The lightmap image formats `relight` writes, by the output's extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum ImageFormat {
+    Png,
+    Exr,
+}
+
+fn image_format(output: &Path) -> Option<ImageFormat> {
+    let extension = output.extension()?.to_str()?.to_ascii_lowercase();
+    match extension.as_str() {
+        "png" => Some(ImageFormat::Png),
+        "exr" => Some(ImageFormat::Exr),
+        _ => None,
+    }
+}
+
+/// A lightmap (texel) bake lit by the rig (turned to the bake's up axis), written as a W×H
+/// image: per texel Σ_j T_j·L_cj, the light a surface of albedo 1 reflects there (the
+/// renderer multiplies by its albedo). A `.png` gets [`display_colour`]'s tone mapping; an
+/// `.exr` the linear values as they are (f32 RGBA, no exposure, no clamp, no sRGB curve;
+/// A = 1 where the texel holds transfer, baked or dilated, 0 where it is empty). Rows as
+/// [`crate::openexr`] states: image row r is texel row H−1−r (the top row is v = 1 of the
+/// file's UVs, v = 0 of glTF's TEXCOORD_1). Empty texels are black.
 fn relight_lightmap(
     file: &CoefficientFile,
     coefficients: &Path,
@@ -146,20 +176,62 @@ fn relight_lightmap(
     exposure: f64,
 ) -> Result<Relit> {
     let block = file.check_lightmap_scene(coefficients, scene)?;
-    let is_png = output
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
-    if !is_png {
+    let Some(format) = image_format(output) else {
         return Err(crate::Error::InvalidOption(format!(
-            "{}: a lightmap bake relights to a .png image",
+            "{}: a lightmap bake relights to a .png or .exr image",
             output.display()
         )));
-    }
+    };
+    let mut inputs = scene.input_files();
+    inputs.push(coefficients.to_path_buf());
+    inputs.extend(rig.input_files());
+    let output_policy = crate::output::Output::new(output, &inputs)?;
     let order = file.header.order as usize;
-    let light = rig.project(order);
-    let texels = (block.width * block.height) as usize;
-    let radiance = vertex_radiance(file, &vec![Vec3::ONE; texels], &light);
-    let pixels: Vec<u8> = radiance
+    let light = rig.project(order).in_scene_frame(file.header.up);
+    let (w, h) = (block.width as usize, block.height as usize);
+    let radiance = lightmap_radiance(file, &light);
+    let rows = crate::openexr::image_rows(&radiance, w, h);
+    let bytes = match format {
+        ImageFormat::Png => png_bytes(&rows, block.width, block.height, exposure, output)?,
+        ImageFormat::Exr => {
+            let filled: Vec<f32> = (0..w * h)
+                .map(|t| f32::from(u8::from(block.valid[t] || block.dilated[t])))
+                .collect();
+            let channel = |c: usize| rows.iter().map(|r| r[c]).collect::<Vec<f32>>();
+            crate::openexr::encode(
+                output,
+                w,
+                h,
+                vec![
+                    ("R", channel(0)),
+                    ("G", channel(1)),
+                    ("B", channel(2)),
+                    ("A", crate::openexr::image_rows(&filled, w, h)),
+                ],
+                crate::openexr::PixelType::F32,
+            )?
+        }
+    };
+    output_policy.write(&bytes)?;
+    Ok(Relit {
+        vertex_count: w * h,
+        lightmap: true,
+        order,
+        light_count: rig.lights.len(),
+        max_radiance: radiance.iter().flatten().fold(0.0, |a, &b| a.max(b)),
+    })
+}
+
+/// An 8-bit sRGB PNG of linear radiances given in image rows, tone-mapped by
+/// [`display_colour`]; `path` names the image in errors.
+pub fn png_bytes(
+    rows: &[[f32; 3]],
+    width: u32,
+    height: u32,
+    exposure: f64,
+    path: &Path,
+) -> Result<Vec<u8>> {
+    let pixels: Vec<u8> = rows
         .iter()
         .flat_map(|r| display_colour(*r, exposure))
         .collect();
@@ -167,18 +239,19 @@ fn relight_lightmap(
     image::ImageEncoder::write_image(
         image::codecs::png::PngEncoder::new(&mut png),
         &pixels,
-        block.width,
-        block.height,
+        width,
+        height,
         image::ExtendedColorType::Rgb8,
     )
-    .map_err(|err| crate::Error::io(output, std::io::Error::other(err)))?;
-    crate::atomic::write(output, &png)?;
-    Ok(Relit {
-        vertex_count: texels,
-        order,
-        light_count: rig.lights.len(),
-        max_radiance: radiance.iter().flatten().fold(0.0, |a, &b| a.max(b)),
-    })
+    .map_err(|err| crate::Error::io(path, std::io::Error::other(err)))?;
+    Ok(png)
+}
+
+/// Per texel (texel order) Σ_j T_j·L_cj: the linear light a surface of albedo 1 reflects.
+/// `light` is in the bake's frame.
+pub fn lightmap_radiance(file: &CoefficientFile, light: &LightCoefficients) -> Vec<[f32; 3]> {
+    let texels = file.header.vertex_count as usize;
+    vertex_radiance(file, &vec![Vec3::ONE; texels], light)
 }
 
 #[cfg(test)]

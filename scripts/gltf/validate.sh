@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Exports the demo bake as .glb (grey and RGB transfer, with and without a rig's COLOR_0) and
+# Exports the demo bake as .glb (grey and RGB transfer, with and without a rig's COLOR_0, and a
+# lightmap bake with TEXCOORD_1 and its relit lightmap embedded) and
 # runs the Khronos glTF-Validator on the files: any error fails. The validator (npm package
 # `gltf-validator`) is installed into target/node on first use.
 set -euo pipefail
@@ -19,7 +20,15 @@ $BAKE export "$OUT/torus.prt" --scene scenes/torus/torus.scene --gltf "$OUT/toru
 $BAKE bake scenes/cornell/cornell.scene -o "$OUT/cornell.prt" --samples 16 --mode interreflected --quiet
 $BAKE export "$OUT/cornell.prt" --scene scenes/cornell/cornell.scene --gltf "$OUT/cornell.glb" \
     --lights viewer/src/default-rig.toml
+# A lightmap (texel) bake: TEXCOORD_1 = the atlas's UVs, and with a rig the relit lightmap.
+$BAKE bake scenes/cornell/cornell.scene -o "$OUT/cornell-lm.prt" --lightmap 64 --samples 16 --quiet
+$BAKE export "$OUT/cornell-lm.prt" --scene scenes/cornell/cornell.scene --glb "$OUT/cornell-lm.glb" \
+    --lights viewer/src/default-rig.toml
 # The exported file read back as a scene: the round trip.
 $BAKE bake "$OUT/torus.glb" -o "$OUT/torus-from-glb.prt" --samples 16 --order 3 --quiet
 $BAKE export "$OUT/torus-from-glb.prt" --scene "$OUT/torus.glb" --gltf "$OUT/torus-again.glb"
-node scripts/gltf/validate.mjs "$NODE_DIR/node_modules" "$OUT/torus.glb" "$OUT/cornell.glb" "$OUT/torus-again.glb"
+# The texel bake's glb as a scene: its TEXCOORD_1 is the atlas of a new texel bake.
+$BAKE bake "$OUT/cornell-lm.glb" -o "$OUT/cornell-lm-from-glb.prt" --lightmap 64 --samples 16 --quiet
+$BAKE export "$OUT/cornell-lm-from-glb.prt" --scene "$OUT/cornell-lm.glb" --glb "$OUT/cornell-lm-again.glb"
+node scripts/gltf/validate.mjs "$NODE_DIR/node_modules" "$OUT/torus.glb" "$OUT/cornell.glb" "$OUT/torus-again.glb" \
+    "$OUT/cornell-lm.glb" "$OUT/cornell-lm-again.glb"

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Tests the NumPy-only .prt reader (scripts/python/prt.py) against prt-bake's npz export.
+# Tests the NumPy-only .prt reader (scripts/python/prt.py) against prt-bake's npz export, and
+# the EXR export against the npz export (with OpenEXR's Python bindings).
 # Uses the reference check's environment (target/reference-venv) when it has NumPy, else
 # python3 if it has NumPy, else makes target/python-venv with NumPy.
 set -euo pipefail
@@ -17,6 +18,15 @@ else
     "$PYTHON" -m venv target/python-venv
     target/python-venv/bin/python -m pip install --quiet --disable-pip-version-check numpy
     PY=target/python-venv/bin/python
+fi
+# OpenEXR's Python bindings (a PyPI wheel) read the EXR export independently of the exr crate.
+if ! "$PY" -c 'import OpenEXR' >/dev/null 2>&1; then
+    case "$PY" in
+        target/*) echo "run-tests.sh: installing OpenEXR into ${PY%/bin/python}"
+                  "$PY" -m pip install --quiet --disable-pip-version-check OpenEXR \
+                      || echo "run-tests.sh: OpenEXR did not install: the EXR export is not checked" ;;
+        *) echo "run-tests.sh: $PY has no OpenEXR module: the EXR export is not checked" ;;
+    esac
 fi
 cargo build --release -p prt-baker
 exec "$PY" "$HERE/test_prt.py" target/release/prt-bake target/python-reader

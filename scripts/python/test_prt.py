@@ -200,3 +200,59 @@ refused(data, "combine the parts with `prt-bake merge`", "shard part", by_inspec
 refused(data, "shard 1 of 2", "shard part", by_inspect=False)
 refused(patched(data, 92, np.uint32(2)), "the index must be below the count", "shard part")
 print("test_prt.py: a shard part is refused (merge it first)")
+
+# The EXR export of texel bakes (prt-bake export --exr) read with OpenEXR's own Python
+# bindings, against the npz export: f32 images equal the transfer, f16 ones its rounding
+# (NumPy's float16 cast), the mask and aux images the npz arrays, rows flipped (image row r
+# is texel row H-1-r, as the manifest says).
+try:
+    import OpenEXR
+except ImportError:
+    OpenEXR = None
+    print("test_prt.py: the OpenEXR module is not installed: the EXR export is not checked")
+if OpenEXR is not None:
+    for name in ("lightmap16-aux", "lightmap21-texel-size-unshadowed"):
+        scene = VARIANTS[name][0]
+        arrays = np.load(out / f"{name}.npz")
+        transfer = arrays["transfer"]
+        H, W, C, n = transfer.shape
+        for pixel_type, dtype in (("f32", np.float32), ("f16", np.float16)):
+            d = out / f"{name}-exr-{pixel_type}"
+            run("export", str(out / f"{name}.prt"), "--scene", scene, "--exr", str(d),
+                "--exr-type", pixel_type)
+            manifest = json.loads((d / "manifest.json").read_text())
+            assert (manifest["width"], manifest["height"], manifest["channels"]) == (W, H, C), manifest
+            assert manifest["pixel_type"] == pixel_type and manifest["coefficients_per_channel"] == n
+
+            def texels(file):
+                """The image's channels in texel order (row 0 is v = 0)."""
+                part = OpenEXR.File(str(d / file), separate_channels=True).parts[0]
+                channels = {k: c.pixels[::-1] for k, c in part.channels.items()}
+                assert all(x.dtype == dtype and x.shape == (H, W) for x in channels.values()), file
+                return channels
+
+            rebuilt = np.full((H, W, C, n), np.nan, dtype)
+            files = {"manifest.json", "texel_state.exr"}
+            for entry in manifest["transfer"]:
+                files.add(entry["file"])
+                c = 0 if entry["colour_channel"] == "grey" else "rgb".index(entry["colour_channel"])
+                image = texels(entry["file"])
+                for channel, j in zip("RGBA", entry["rgba"]):
+                    if j is None:
+                        assert not image[channel].any(), (name, entry["file"], channel, "padding")
+                    else:
+                        rebuilt[:, :, c, j] = image[channel]
+            assert np.array_equal(rebuilt, transfer.astype(dtype)), (name, pixel_type)
+            state = texels("texel_state.exr")["Y"]
+            expected = np.where(arrays["texel_valid"], 1.0, np.where(arrays["texel_dilated"], 0.5, 0.0))
+            assert np.array_equal(state, expected.astype(dtype)), (name, "texel_state")
+            if "ao" in arrays.files:
+                files.add("ao.exr")
+                assert np.array_equal(texels("ao.exr")["Y"], arrays["ao"].astype(dtype)), name
+            if "bent_normal" in arrays.files:
+                files.add("bent_normal.exr")
+                bent = texels("bent_normal.exr")
+                for axis, channel in enumerate("RGB"):
+                    assert np.array_equal(bent[channel], arrays["bent_normal"][..., axis].astype(dtype))
+            assert {p.name for p in d.iterdir()} == files, (name, files)
+        print(f"test_prt.py: {name}: EXR export (f32, f16) equal to the npz export, read by OpenEXR")
