@@ -1,9 +1,9 @@
 //! Per-texel transfer: SH lightmaps over a lightmap UV atlas (`prt-bake bake --lightmap`).
 //!
 //! [`atlas`] says where each triangle lies in the lightmap (the scene's own lightmap UVs, or
-//! planar charts unwrapped here), [`texels`] turns covered texels into sample points, and the bake runs
-//! the same estimator as vertex bakes over those points as [`Receivers`]: same directions,
-//! tracing, sums and determinism. `docs/lightmaps.md` describes what exists and what not.
+//! charts unwrapped by `uvunwrap` or planar projection), [`texels`] turns covered texels into
+//! sample points, and the bake runs the same estimator as vertex bakes over those points as
+//! [`Receivers`]: same directions, tracing, sums and determinism. `docs/lightmaps.md` describes what exists and what not.
 
 pub mod atlas;
 pub mod leaks;
