@@ -131,14 +131,14 @@ impl Tracer for ObvhsTracer {
         let rays = rays
             .iter()
             .map(|r| BoxRay::new(r.origin.into(), r.dir.into(), r.tfar));
-        self.blocked_in_packets(rays, occluded);
+        self.blocked_in_packets(rays, None, occluded);
     }
 
     fn occluded_from(&self, origin: Vec3, dirs: &[Vec3], occluded: &mut [bool]) {
         let rays = dirs
             .iter()
             .map(|&d| BoxRay::new(origin.into(), d.into(), f32::INFINITY));
-        self.blocked_in_packets(rays, occluded);
+        self.blocked_in_packets(rays, Some(origin.into()), occluded);
     }
 
     fn intersect(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
@@ -281,11 +281,43 @@ mod tests {
             })
             .collect();
         let (mut dispatched, mut baseline) = (vec![false; rays.len()], vec![false; rays.len()]);
-        tracer.blocked_in_packets(rays.iter().copied(), &mut dispatched);
-        tracer.blocked_in_packets_baseline(rays.iter().copied(), &mut baseline);
+        tracer.blocked_in_packets(rays.iter().copied(), None, &mut dispatched);
+        tracer.blocked_in_packets_baseline(rays.iter().copied(), None, &mut baseline);
         assert_eq!(dispatched, baseline);
         let blocked = dispatched.iter().filter(|&&b| b).count();
         assert!(blocked > rays.len() / 10 && blocked < rays.len() * 9 / 10);
+    }
+
+    /// Rays from one origin answer alike whether the packet shares the origin's terms of the
+    /// triangle test or computes them per ray, with and without AVX.
+    #[test]
+    fn packets_answer_alike_with_and_without_a_shared_origin() {
+        let mut rng = Pcg32::new(14, 0);
+        let scene = soup(2_000, 0.1, &mut rng);
+        let tracer = tracer(&scene);
+        for _ in 0..8 {
+            let origin = Vec3A::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+            let rays: Vec<BoxRay> = (0..2_000)
+                .map(|_| {
+                    let dir = uniform_sphere(rng.next_f32(), rng.next_f32()).into();
+                    BoxRay::new(origin, dir, f32::INFINITY)
+                })
+                .collect();
+            let answers = |shared: Option<Vec3A>, avx: bool| {
+                let mut occluded = vec![false; rays.len()];
+                if avx {
+                    tracer.blocked_in_packets(rays.iter().copied(), shared, &mut occluded);
+                } else {
+                    tracer.blocked_in_packets_baseline(rays.iter().copied(), shared, &mut occluded);
+                }
+                occluded
+            };
+            let per_ray = answers(None, false);
+            assert_eq!(answers(Some(origin), false), per_ray);
+            assert_eq!(answers(Some(origin), true), per_ray);
+            assert_eq!(answers(None, true), per_ray);
+            assert!(per_ray.contains(&true) && per_ray.contains(&false));
+        }
     }
 
     #[test]
