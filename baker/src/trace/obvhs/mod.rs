@@ -266,8 +266,8 @@ mod tests {
         }
     }
 
-    /// The packet loop compiled for AVX2 (8-wide box tests) and for the baseline (4-wide)
-    /// answer alike. (On a CPU without AVX2 both calls take the baseline path.)
+    /// The packet loop compiled for AVX2 (box tests of eight rays at a time) and for the
+    /// baseline (one ray against four children at a time) answer alike. (On a CPU without AVX2 both calls take the baseline path.)
     #[test]
     fn packets_answer_alike_with_and_without_avx() {
         let mut rng = Pcg32::new(13, 0);

@@ -17,7 +17,7 @@
 use glam::Vec3A;
 
 use super::ObvhsTracer;
-use super::node::{BoxRay, ChildBoxes, bits};
+use super::node::{BoxRay, ChildBoxes, RayLanes, bits};
 use super::triangle::RayGroup;
 
 /// Rays per packet (docs/performance.md).
@@ -46,6 +46,9 @@ impl ObvhsTracer {
         for (group, rays) in groups.iter_mut().zip(rays.chunks(4)) {
             *group = RayGroup::new(rays);
         }
+        let lanes: [RayLanes; PACKET / 8] = std::array::from_fn(|h| {
+            RayLanes::new(rays.get(8 * h..).filter(|r| !r.is_empty()).unwrap_or(rays))
+        });
         let all = u32::MAX >> (32 - rays.len());
         // Children in obvhs's front-to-back order for the first ray's octant: slot k ^ flip
         // for k = 7, 6, …, 0.
@@ -63,11 +66,15 @@ impl ObvhsTracer {
             }
             let node = &self.bvh.nodes[index as usize];
             let boxes = ChildBoxes::new(node);
-            let mut entered = [0u8; PACKET];
-            for i in bits(open) {
-                entered[i] = entered_by::<AVX>(&boxes, &rays[i]) as u8;
-            }
-            let children = by_child(&entered);
+            let children = if AVX {
+                children_entered_avx(&boxes, &lanes, open)
+            } else {
+                let mut entered = [0u8; PACKET];
+                for i in bits(open) {
+                    entered[i] = boxes.entered_by(&rays[i]) as u8;
+                }
+                by_child(&entered)
+            };
             // Leaves first, front to back.
             for k in (0..8).rev() {
                 let c = k ^ flip;
@@ -189,15 +196,25 @@ impl ObvhsTracer {
     }
 }
 
-/// [`ChildBoxes::entered_by`], 8-wide with `AVX`.
+/// The rays of `open` that enter each child, eight rays per AVX test
+/// ([`ChildBoxes::lanes_enter_avx`]). Only called where `AVX` is true, in code compiled for
+/// AVX2 after the CPU's support was checked.
 #[inline(always)]
-fn entered_by<const AVX: bool>(boxes: &ChildBoxes, ray: &BoxRay) -> u32 {
+fn children_entered_avx(boxes: &ChildBoxes, lanes: &[RayLanes; PACKET / 8], open: u32) -> [u32; 8] {
+    let mut children = [0u32; 8];
     #[cfg(target_arch = "x86_64")]
-    if AVX {
-        // SAFETY: `AVX` is true only in code the CPU's AVX2 support was checked for.
-        return unsafe { boxes.entered_by_avx(ray) };
+    for (h, lanes) in lanes.iter().enumerate() {
+        if open >> (8 * h) & 0xff != 0 {
+            // SAFETY: see above.
+            let entered = unsafe { boxes.lanes_enter_avx(lanes) };
+            for (children, entered) in children.iter_mut().zip(entered) {
+                *children |= entered << (8 * h);
+            }
+        }
     }
-    boxes.entered_by(ray)
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (boxes, lanes);
+    children.map(|c| c & open)
 }
 
 /// Transposes the packet's box answers: from bit c of `entered[i]` (ray i entered child c)
