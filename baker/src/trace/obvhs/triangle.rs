@@ -159,7 +159,7 @@ struct Evaluation<T> {
 /// The part of [`Evaluation`] that depends on the origin only: per edge, the cross product
 /// (b − a) × (b + a) and ‖b − a‖∞·‖b + a‖∞; the plane distance n·(p0 − o) and its bound. Rays
 /// from one origin share it, so a packet from one vertex computes it once per triangle
-/// ([`Triangle::from_origin`]); the per-ray part ([`along`]) then does the rest with the
+/// ([`Triangle::seen_from`]); the per-ray part ([`along`]) then does the rest with the
 /// same operations in the same order as [`evaluate`], so the answers are identical.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct FromOrigin<T> {
@@ -293,7 +293,7 @@ impl Triangle {
     /// The origin's part of the test, for rays that all leave `o`; four-wide, for
     /// [`Triangle::hits_from`].
     #[inline(always)]
-    pub(super) fn from_origin(&self, o: Vec3A) -> FromOrigin<Vec4> {
+    pub(super) fn seen_from(&self, o: Vec3A) -> FromOrigin<Vec4> {
         let f = from_origin(self.p, self.ng, o.to_array());
         let splat = |v: [f32; 3]| v.map(Vec4::splat);
         FromOrigin {
