@@ -51,8 +51,40 @@ impl BoxRay {
     }
 }
 
-/// A node's child planes as floats, all eight children side by side, for one 8-wide AVX test
-/// ([`ChildBoxes::entered_by_avx`]) or two 4-wide SSE ones ([`ChildBoxes::entered_by`]).
+/// Eight rays, one per lane, for [`ChildBoxes::lanes_enter_avx`].
+#[derive(Clone, Copy, Debug)]
+pub(super) struct RayLanes {
+    origin: [[f32; 8]; 3],
+    dir: [[f32; 8]; 3],
+    inv_dir: [[f32; 8]; 3],
+    tfar: [f32; 8],
+}
+
+impl RayLanes {
+    /// `rays` (at most eight) in lanes 0, 1, …; missing lanes repeat the first ray.
+    pub(super) fn new(rays: &[BoxRay]) -> RayLanes {
+        let mut lanes = RayLanes {
+            origin: [[0.0; 8]; 3],
+            dir: [[0.0; 8]; 3],
+            inv_dir: [[0.0; 8]; 3],
+            tfar: [0.0; 8],
+        };
+        for lane in 0..8 {
+            let ray = rays.get(lane).unwrap_or(&rays[0]);
+            for axis in 0..3 {
+                lanes.origin[axis][lane] = ray.origin[axis];
+                lanes.dir[axis][lane] = ray.dir[axis];
+                lanes.inv_dir[axis][lane] = ray.inv_dir[axis];
+            }
+            lanes.tfar[lane] = ray.tfar;
+        }
+        lanes
+    }
+}
+
+/// A node's child planes as floats, all eight children side by side: for eight rays' tests
+/// against one child at a time (AVX, [`ChildBoxes::lanes_enter_avx`]), or one ray's against
+/// four children at a time (SSE, [`ChildBoxes::entered_by`]).
 pub(super) struct ChildBoxes {
     /// `[axis]`: the min planes of children 0..8, in quanta.
     min: [[f32; 8]; 3],
@@ -103,34 +135,67 @@ impl ChildBoxes {
         entered
     }
 
-    /// [`ChildBoxes::entered_by`], all eight children at once (AVX): the same operations on
-    /// the same values, so the same answers.
+    /// [`ChildBoxes::entered_by`] for eight rays at once, one per lane (AVX): `[c]` has bit
+    /// i set if ray i of `rays` enters child c. Lane by lane the same operations on the same
+    /// values as the one-ray tests, so the same answers; the rays' terms are computed once per
+    /// node for the eight, and the answers come out by child, as the packet needs them.
     ///
     /// # Safety
     /// The CPU must support AVX.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
     #[inline]
-    pub(super) unsafe fn entered_by_avx(&self, ray: &BoxRay) -> u32 {
+    pub(super) unsafe fn lanes_enter_avx(&self, rays: &RayLanes) -> [u32; 8] {
         use std::arch::x86_64::*;
-        let (scale, offset, slack) = self.distances(ray);
-        let mut entry = _mm256_setzero_ps();
-        let mut exit = _mm256_set1_ps(ray.tfar);
+        // SAFETY (all loads): each array holds the 8 floats an unaligned 256-bit load reads.
+        let load = |v: &[f32; 8]| unsafe { _mm256_loadu_ps(v.as_ptr()) };
+        let abs = |v: __m256| _mm256_andnot_ps(_mm256_set1_ps(-0.0), v);
+        let (p, quantum) = (self.p.to_array(), self.quantum.to_array());
+        let mut scale = [_mm256_setzero_ps(); 3];
+        let mut offset = [_mm256_setzero_ps(); 3];
+        let mut negative = [_mm256_setzero_ps(); 3];
         for axis in 0..3 {
-            let (near, far) = self.near_far(ray, axis);
-            // SAFETY: each array holds the 8 floats an unaligned 256-bit load reads.
-            let (near, far) = unsafe {
-                (
-                    _mm256_loadu_ps(near.as_ptr()),
-                    _mm256_loadu_ps(far.as_ptr()),
-                )
-            };
-            let (s, o) = (_mm256_set1_ps(scale[axis]), _mm256_set1_ps(offset[axis]));
-            entry = _mm256_max_ps(entry, _mm256_add_ps(_mm256_mul_ps(near, s), o));
-            exit = _mm256_min_ps(exit, _mm256_add_ps(_mm256_mul_ps(far, s), o));
+            let inv = load(&rays.inv_dir[axis]);
+            scale[axis] = _mm256_mul_ps(_mm256_set1_ps(quantum[axis]), inv);
+            offset[axis] = _mm256_mul_ps(
+                _mm256_sub_ps(_mm256_set1_ps(p[axis]), load(&rays.origin[axis])),
+                inv,
+            );
+            negative[axis] =
+                _mm256_cmp_ps::<_CMP_LT_OQ>(load(&rays.dir[axis]), _mm256_setzero_ps());
         }
-        let inside = _mm256_cmp_ps::<_CMP_LE_OQ>(entry, _mm256_add_ps(exit, _mm256_set1_ps(slack)));
-        _mm256_movemask_ps(inside) as u32
+        let largest =
+            |v: [__m256; 3]| _mm256_max_ps(_mm256_max_ps(abs(v[0]), abs(v[1])), abs(v[2]));
+        let slack = _mm256_mul_ps(
+            _mm256_add_ps(
+                _mm256_mul_ps(_mm256_set1_ps(255.0), largest(scale)),
+                largest(offset),
+            ),
+            _mm256_set1_ps(1.0 / 2_097_152.0),
+        );
+        let tfar = load(&rays.tfar);
+        let mut entered = [0u32; 8];
+        for (c, entered) in entered.iter_mut().enumerate() {
+            let mut entry = _mm256_setzero_ps();
+            let mut exit = tfar;
+            for axis in 0..3 {
+                let lo = _mm256_set1_ps(self.min[axis][c]);
+                let hi = _mm256_set1_ps(self.max[axis][c]);
+                let near = _mm256_blendv_ps(lo, hi, negative[axis]);
+                let far = _mm256_blendv_ps(hi, lo, negative[axis]);
+                entry = _mm256_max_ps(
+                    entry,
+                    _mm256_add_ps(_mm256_mul_ps(near, scale[axis]), offset[axis]),
+                );
+                exit = _mm256_min_ps(
+                    exit,
+                    _mm256_add_ps(_mm256_mul_ps(far, scale[axis]), offset[axis]),
+                );
+            }
+            let inside = _mm256_cmp_ps::<_CMP_LE_OQ>(entry, _mm256_add_ps(exit, slack));
+            *entered = _mm256_movemask_ps(inside) as u32;
+        }
+        entered
     }
 
     /// The ray's distance to a plane q quanta from the node's corner is q·scale + offset, per

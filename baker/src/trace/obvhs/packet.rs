@@ -1,85 +1,150 @@
-//! Occlusion of consecutive rays in packets.
+//! Occlusion of consecutive rays in packets, each ray culled on its own.
 //!
-//! Up to [`PACKET`] rays traverse the BVH together: a node is visited if any ray of the packet
-//! that is still unblocked enters it; its child planes are decoded once for all of them
-//! ([`ChildBoxes`]) and each ray tests the boxes itself, so the packet visits the union of
-//! the nodes its rays would visit alone. At a leaf, each triangle is tested against the
-//! unblocked rays four at a time ([`Triangle::hits`], the same arithmetic as the one-ray
-//! test). Every ray therefore meets every triangle it would meet alone, and the answers are
-//! those of single-ray traversal. The bake's rays leave one vertex in Hilbert order, so
-//! neighbours in a batch are close in direction and their node sets overlap.
+//! Up to [`PACKET`] rays traverse the BVH together, with our own stack rather than obvhs's
+//! `traverse!` loop: a stack entry is a node and the mask of the packet's rays that entered
+//! its box. At a node, the child planes are decoded once ([`ChildBoxes`]) and each of those
+//! rays (still unblocked) tests the eight boxes itself; the per-ray answers, transposed
+//! ([`by_child`]), give each child the mask of the rays that entered it. A ray is therefore
+//! only tested against the children and triangles of boxes it entered, exactly as if it
+//! traversed alone, and its answer is the single-ray answer (every triangle a ray hits lies in
+//! boxes it enters: the box test never misses). At a leaf, each triangle is tested against
+//! its rays four at a time ([`Triangle::hits`], the same arithmetic as the one-ray test).
+//! Children are visited front to back for the first ray's octant (obvhs's order), leaves
+//! before inner nodes, and a packet stops once all its rays are blocked. The bake's rays leave
+//! one vertex in Hilbert order, so neighbours in a batch are close in direction and their
+//! node sets overlap.
 
-use glam::UVec2;
-use obvhs::traverse;
+use glam::Vec3A;
 
 use super::ObvhsTracer;
-use super::node::{BoxRay, ChildBoxes, bits, traversal_mask};
+use super::node::{BoxRay, ChildBoxes, RayLanes, bits};
 use super::triangle::RayGroup;
 
-/// Rays per packet. On the demo scene at 10,000 rays per vertex, 4, 8 and 16 traced within
-/// 5 % of each other and 1.5 times as fast as single rays (docs/performance.md).
+/// Rays per packet: two AVX box tests of eight rays. (Before per-ray culling, 4, 8 and 16
+/// traced within 5 % of each other; not re-measured since.)
 pub(super) const PACKET: usize = 16;
 const GROUPS: usize = PACKET / 4;
+
+/// A node to visit and the rays (bit i: ray i of the packet) that entered its box.
+type Entry = (u32, u32);
 
 impl ObvhsTracer {
     /// Bit i is set if `rays[i]` (at most [`PACKET`] rays) is blocked.
     ///
     /// With `AVX`, the box tests use AVX instructions: only where the CPU has them.
     #[inline(always)]
-    fn blocked_packet<const AVX: bool>(&self, rays: &[BoxRay]) -> u32 {
+    fn blocked_packet<const AVX: bool>(
+        &self,
+        rays: &[BoxRay],
+        origin: Option<Vec3A>,
+        stack: &mut Vec<Entry>,
+    ) -> u32 {
         debug_assert!((1..=PACKET).contains(&rays.len()));
+        if self.bvh.nodes.is_empty() {
+            return 0;
+        }
         let mut groups = [RayGroup::new(&rays[..1]); GROUPS];
         for (group, rays) in groups.iter_mut().zip(rays.chunks(4)) {
             *group = RayGroup::new(rays);
         }
+        let lanes: [RayLanes; PACKET / 8] = std::array::from_fn(|h| {
+            RayLanes::new(rays.get(8 * h..).filter(|r| !r.is_empty()).unwrap_or(rays))
+        });
         let all = u32::MAX >> (32 - rays.len());
+        // Children in obvhs's front-to-back order for the first ray's octant: slot k ^ flip
+        // for k = 7, 6, …, 0.
+        let d = rays[0].dir;
+        let flip = (usize::from(d.x >= 0.0) << 2)
+            | (usize::from(d.y >= 0.0) << 1)
+            | usize::from(d.z >= 0.0);
         let mut blocked = 0u32;
-        let mut state = self.bvh.new_traversal(rays[0].dir);
-        let mut node;
-        'traversal: {
-            traverse!(
-                self.bvh,
-                node,
-                state,
-                {
-                    let boxes = ChildBoxes::new(node);
-                    let entered = bits(all & !blocked)
-                        .fold(0, |e, i| e | entered_by::<AVX>(&boxes, &rays[i]));
-                    traversal_mask(node, state.oct_inv4, entered)
-                },
-                {
-                    let triangle = &self.triangles[state.primitive_id as usize];
-                    for (g, group) in groups.iter().enumerate() {
-                        let open = (all & !blocked) >> (4 * g) & 0xf;
-                        if open != 0 {
-                            blocked |= (triangle.hits(group) & open) << (4 * g);
+        stack.clear();
+        stack.push((0, all));
+        while let Some((index, entered_node)) = stack.pop() {
+            let open = entered_node & !blocked;
+            if open == 0 {
+                continue;
+            }
+            let node = &self.bvh.nodes[index as usize];
+            let boxes = ChildBoxes::new(node);
+            let children = if AVX {
+                children_entered_avx(&boxes, &lanes, open)
+            } else {
+                let mut entered = [0u8; PACKET];
+                for i in bits(open) {
+                    entered[i] = boxes.entered_by(&rays[i]) as u8;
+                }
+                by_child(&entered)
+            };
+            // Leaves first, front to back.
+            for k in (0..8).rev() {
+                let c = k ^ flip;
+                let meta = node.child_meta[c];
+                if node.imask & (1 << c) != 0 || meta == 0 {
+                    continue;
+                }
+                let first = node.primitive_base_idx + u32::from(meta & 0b1_1111);
+                let count = (meta & 0b1110_0000).count_ones();
+                for slot in first..first + count {
+                    let open = children[c] & !blocked;
+                    if open == 0 {
+                        break;
+                    }
+                    let triangle = &self.triangles[slot as usize];
+                    if let Some(o) = origin {
+                        let shared = triangle.seen_from(o);
+                        for (g, group) in groups.iter().enumerate() {
+                            let lanes = open >> (4 * g) & 0xf;
+                            if lanes != 0 {
+                                blocked |= (triangle.hits_from(&shared, group) & lanes) << (4 * g);
+                            }
+                        }
+                    } else {
+                        for (g, group) in groups.iter().enumerate() {
+                            let lanes = open >> (4 * g) & 0xf;
+                            if lanes != 0 {
+                                blocked |= (triangle.hits(group) & lanes) << (4 * g);
+                            }
                         }
                     }
-                    if blocked == all {
-                        break 'traversal;
-                    }
                 }
-            );
+                if blocked == all {
+                    return blocked;
+                }
+            }
+            // Inner children, the front one pushed last (popped first). An inner child's
+            // index is the number of inner children before it in the node.
+            for k in 0..8 {
+                let c = k ^ flip;
+                if node.imask & (1 << c) != 0 && children[c] != 0 {
+                    let before = (u32::from(node.imask) & ((1 << c) - 1)).count_ones();
+                    stack.push((node.child_base_idx + before, children[c]));
+                }
+            }
         }
         blocked
     }
 
     /// Occlusion of `rays` in order, [`PACKET`] at a time: compiled for AVX2 where the CPU
-    /// has it (the box tests then take one 8-wide instruction per step instead of two 4-wide
-    /// ones), and for the build's baseline otherwise. Both compilations evaluate the same
+    /// has it (the box tests then test eight rays against a child per instruction), and for
+    /// the build's baseline otherwise (one ray against four children). Both compilations evaluate the same
     /// operations in the same order, without fused multiply-adds, so their answers are
     /// identical.
+    ///
+    /// `origin`, where every ray leaves it, lets a leaf compute the triangle's origin-only
+    /// terms once for the packet ([`Triangle::seen_from`]).
     pub(super) fn blocked_in_packets(
         &self,
         rays: impl ExactSizeIterator<Item = BoxRay>,
+        origin: Option<Vec3A>,
         occluded: &mut [bool],
     ) {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU supports AVX2, checked just above.
-            return unsafe { self.blocked_in_packets_avx2(rays, occluded) };
+            return unsafe { self.blocked_in_packets_avx2(rays, origin, occluded) };
         }
-        self.blocked_in_packets_baseline(rays, occluded)
+        self.blocked_in_packets_baseline(rays, origin, occluded)
     }
 
     /// [`ObvhsTracer::blocked_in_packets`] compiled for AVX2, with 8-wide box tests.
@@ -91,9 +156,10 @@ impl ObvhsTracer {
     unsafe fn blocked_in_packets_avx2(
         &self,
         rays: impl ExactSizeIterator<Item = BoxRay>,
+        origin: Option<Vec3A>,
         occluded: &mut [bool],
     ) {
-        self.packets::<true>(rays, occluded)
+        self.packets::<true>(rays, origin, occluded)
     }
 
     /// [`ObvhsTracer::blocked_in_packets`] compiled for the build's baseline (SSE) whatever
@@ -101,25 +167,29 @@ impl ObvhsTracer {
     pub(super) fn blocked_in_packets_baseline(
         &self,
         rays: impl ExactSizeIterator<Item = BoxRay>,
+        origin: Option<Vec3A>,
         occluded: &mut [bool],
     ) {
-        self.packets::<false>(rays, occluded)
+        self.packets::<false>(rays, origin, occluded)
     }
 
     #[inline(always)]
     fn packets<const AVX: bool>(
         &self,
         rays: impl ExactSizeIterator<Item = BoxRay>,
+        origin: Option<Vec3A>,
         occluded: &mut [bool],
     ) {
         assert_eq!(rays.len(), occluded.len());
         let mut rays = rays;
+        // Each visited node pushes at most 8 entries; reused by all packets of the batch.
+        let mut stack = Vec::with_capacity(256);
         for occluded in occluded.chunks_mut(PACKET) {
-            let mut packet = [BoxRay::new(glam::Vec3A::ZERO, glam::Vec3A::Z, 0.0); PACKET];
+            let mut packet = [BoxRay::new(Vec3A::ZERO, Vec3A::Z, 0.0); PACKET];
             for (p, r) in packet.iter_mut().zip(&mut rays) {
                 *p = r;
             }
-            let blocked = self.blocked_packet::<AVX>(&packet[..occluded.len()]);
+            let blocked = self.blocked_packet::<AVX>(&packet[..occluded.len()], origin, &mut stack);
             for (i, o) in occluded.iter_mut().enumerate() {
                 *o = blocked & (1 << i) != 0;
             }
@@ -127,13 +197,84 @@ impl ObvhsTracer {
     }
 }
 
-/// [`ChildBoxes::entered_by`], 8-wide with `AVX`.
+/// The rays of `open` that enter each child, eight rays per AVX test
+/// ([`ChildBoxes::lanes_enter_avx`]). Only called where `AVX` is true, in code compiled for
+/// AVX2 after the CPU's support was checked.
 #[inline(always)]
-fn entered_by<const AVX: bool>(boxes: &ChildBoxes, ray: &BoxRay) -> u32 {
+fn children_entered_avx(boxes: &ChildBoxes, lanes: &[RayLanes; PACKET / 8], open: u32) -> [u32; 8] {
+    let mut children = [0u32; 8];
     #[cfg(target_arch = "x86_64")]
-    if AVX {
-        // SAFETY: `AVX` is true only in code the CPU's AVX2 support was checked for.
-        return unsafe { boxes.entered_by_avx(ray) };
+    for (h, lanes) in lanes.iter().enumerate() {
+        if open >> (8 * h) & 0xff != 0 {
+            // SAFETY: see above.
+            let entered = unsafe { boxes.lanes_enter_avx(lanes) };
+            for (children, entered) in children.iter_mut().zip(entered) {
+                *children |= entered << (8 * h);
+            }
+        }
     }
-    boxes.entered_by(ray)
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (boxes, lanes);
+    children.map(|c| c & open)
+}
+
+/// Transposes the packet's box answers: from bit c of `entered[i]` (ray i entered child c)
+/// to bit i of the result's `[c]`.
+#[inline(always)]
+fn by_child(entered: &[u8; PACKET]) -> [u32; 8] {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE2 is part of x86_64; the load reads the array's 16 bytes.
+        unsafe {
+            let v = _mm_loadu_si128(entered.as_ptr().cast());
+            // Shifting the 64-bit lanes left by 7 − c moves bit c of every byte to the byte's
+            // top bit (a lower byte's bits land below it), which movemask collects.
+            macro_rules! column {
+                ($s:literal) => {
+                    _mm_movemask_epi8(_mm_slli_epi64::<$s>(v)) as u32
+                };
+            }
+            [
+                column!(7),
+                column!(6),
+                column!(5),
+                column!(4),
+                column!(3),
+                column!(2),
+                column!(1),
+                column!(0),
+            ]
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let mut children = [0u32; 8];
+        for (i, &e) in entered.iter().enumerate() {
+            for c in bits(u32::from(e)) {
+                children[c] |= 1 << i;
+            }
+        }
+        children
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn by_child_transposes() {
+        let mut entered = [0u8; PACKET];
+        let mut expected = [0u32; 8];
+        let mut x = 0x9e37_79b9u32;
+        for (i, e) in entered.iter_mut().enumerate() {
+            x = x.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            *e = (x >> 24) as u8;
+            for (c, children) in expected.iter_mut().enumerate() {
+                *children |= u32::from(*e >> c & 1) << i;
+            }
+        }
+        assert_eq!(by_child(&entered), expected);
+    }
 }

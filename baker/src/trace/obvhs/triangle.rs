@@ -156,28 +156,54 @@ struct Evaluation<T> {
     near_den: T,
 }
 
+/// The part of [`Evaluation`] that depends on the origin only: per edge, the cross product
+/// (b − a) × (b + a) and ‖b − a‖∞·‖b + a‖∞; the plane distance n·(p0 − o) and its bound. Rays
+/// from one origin share it, so a packet from one vertex computes it once per triangle
+/// ([`Triangle::seen_from`]); the per-ray part ([`along`]) then does the rest with the
+/// same operations in the same order as [`evaluate`], so the answers are identical.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct FromOrigin<T> {
+    edges: [([T; 3], T); 3],
+    ng: [T; 3],
+    ng_norm: T,
+    t: T,
+    near_t: T,
+}
+
 #[inline(always)]
-fn evaluate<T: Lanes>(p: [[T; 3]; 3], ng: [T; 3], o: [T; 3], d: [T; 3]) -> Evaluation<T> {
+fn from_origin<T: Lanes>(p: [[T; 3]; 3], ng: [T; 3], o: [T; 3]) -> FromOrigin<T> {
     let v = p.map(|p| sub(p, o));
-    let d_norm = max_norm(d);
-    // (E(a, b), its rounding bound without the constant).
     let edge = |a: [T; 3], b: [T; 3]| {
         let (diff, sum) = (sub(b, a), add(b, a));
-        (
-            dot(cross(diff, sum), d),
-            max_norm(diff) * max_norm(sum) * d_norm,
-        )
+        (cross(diff, sum), max_norm(diff) * max_norm(sum))
     };
-    let [(u, near_u), (v_, near_v), (w, near_w)] =
-        [edge(v[0], v[2]), edge(v[1], v[0]), edge(v[2], v[1])];
-    Evaluation {
-        edges: [u, v_, w],
+    let ng_norm = max_norm(ng);
+    FromOrigin {
+        edges: [edge(v[0], v[2]), edge(v[1], v[0]), edge(v[2], v[1])],
+        ng,
+        ng_norm,
         t: dot(v[0], ng),
-        den: dot(ng, d),
-        near: [near_u, near_v, near_w],
-        near_t: max_norm(v[0]) * max_norm(ng),
-        near_den: max_norm(ng) * d_norm,
+        near_t: max_norm(v[0]) * ng_norm,
     }
+}
+
+#[inline(always)]
+fn along<T: Lanes>(f: &FromOrigin<T>, d: [T; 3]) -> Evaluation<T> {
+    let d_norm = max_norm(d);
+    let [(cu, nu), (cv, nv), (cw, nw)] = f.edges;
+    Evaluation {
+        edges: [dot(cu, d), dot(cv, d), dot(cw, d)],
+        t: f.t,
+        den: dot(f.ng, d),
+        near: [nu * d_norm, nv * d_norm, nw * d_norm],
+        near_t: f.near_t,
+        near_den: f.ng_norm * d_norm,
+    }
+}
+
+#[inline(always)]
+fn evaluate<T: Lanes>(p: [[T; 3]; 3], ng: [T; 3], o: [T; 3], d: [T; 3]) -> Evaluation<T> {
+    along(&from_origin(p, ng, o), d)
 }
 
 /// The decision for one ray, in f32 or f64: edges within tolerance, and t/den in [0, tfar]
@@ -260,7 +286,30 @@ impl Triangle {
     #[inline(always)]
     pub(super) fn hits(&self, rays: &RayGroup) -> u32 {
         let splat = |v: [f32; 3]| v.map(Vec4::splat);
-        let e = evaluate(self.p.map(splat), splat(self.ng), rays.origin, rays.dir);
+        let shared = from_origin(self.p.map(splat), splat(self.ng), rays.origin);
+        self.hits_from(&shared, rays)
+    }
+
+    /// The origin's part of the test, for rays that all leave `o`; four-wide, for
+    /// [`Triangle::hits_from`].
+    #[inline(always)]
+    pub(super) fn seen_from(&self, o: Vec3A) -> FromOrigin<Vec4> {
+        let f = from_origin(self.p, self.ng, o.to_array());
+        let splat = |v: [f32; 3]| v.map(Vec4::splat);
+        FromOrigin {
+            edges: f.edges.map(|(c, n)| (splat(c), Vec4::splat(n))),
+            ng: splat(f.ng),
+            ng_norm: Vec4::splat(f.ng_norm),
+            t: Vec4::splat(f.t),
+            near_t: Vec4::splat(f.near_t),
+        }
+    }
+
+    /// [`Triangle::hits`] for four rays whose origins' part is `shared` (every lane's origin
+    /// gave it).
+    #[inline(always)]
+    pub(super) fn hits_from(&self, shared: &FromOrigin<Vec4>, rays: &RayGroup) -> u32 {
+        let e = along(shared, rays.dir);
         let [u, v, w] = e.edges;
         let eps = (u + v + w).abs() * EDGE_TOLERANCE;
         let inside = u.min(v).min(w).cmpge(-eps) | u.max(v).max(w).cmple(eps);
