@@ -26,7 +26,7 @@ use super::texels::Texels;
 use crate::error::Result;
 use crate::sampling::{Frame, Pcg32, cosine_hemisphere, vertex_seed};
 use crate::scene::Scene;
-use crate::trace::{Hit, Ray, Tracer, offset_distance};
+use crate::trace::{Hit, Tracer, offset_distance};
 
 /// Closest-hit rays per texel for the test (cosine-weighted over its hemisphere).
 pub const LEAK_RAYS: usize = 64;
@@ -62,10 +62,14 @@ pub fn settle(
 ) -> Result<Settled> {
     let found = find_leaks(texels, tracer, seed);
     let leaking: Vec<usize> = (0..found.len()).filter(|&i| found[i]).collect();
+    let around = match leaking.is_empty() {
+        true => Vec::new(),
+        false => triangles_around_vertices(scene),
+    };
     // Where each leaking texel could go: (position, origin).
     let candidates: Vec<Option<(Vec3, Vec3)>> = leaking
         .par_iter()
-        .map(|&i| slide_out(scene, atlas, texels, tracer, i))
+        .map(|&i| slide_out(scene, &around, atlas, texels, tracer, i))
         .collect();
     // The candidates' own seam points, so their re-test is watertight too.
     let (origins, own): (Vec<Vec3>, Vec<u32>) = leaking
@@ -154,6 +158,7 @@ fn slide_margin(texel_size: f32, delta: f32) -> f32 {
 /// its footprint.
 fn slide_out(
     scene: &Scene,
+    around: &[Vec<u32>],
     atlas: &Atlas,
     texels: &Texels,
     tracer: &dyn Tracer,
@@ -182,8 +187,11 @@ fn slide_out(
             frame.tangent * a.cos() + frame.bitangent * a.sin()
         })
         .collect();
+    // Cast a sixteenth of a texel above the surface, so they meet a wall standing on it well
+    // away from the wall's bottom edge (a ray δ above the surface would graze that edge,
+    // where backends may answer differently); a wall lower than that is not slid past.
     let mut hits: Vec<Option<Hit>> = vec![None; SLIDE_RAYS];
-    tracer.intersect_from(origin, &dirs, &mut hits);
+    tracer.intersect_from(origin + normal * (texel_size / 16.0), &dirs, &mut hits);
     let (dir, distance) = hits
         .iter()
         .zip(&dirs)
@@ -202,21 +210,47 @@ fn slide_out(
     if !(at.cmpge(square).all() && at.cmple(square + Vec2::ONE).all()) {
         return None;
     }
-    // ... and on the surface: in its triangle, or over a front face right under it (the
-    // next triangle of a flat floor).
-    if b.iter().any(|&x| x < 0.0) {
-        let down = Ray {
-            origin: origin + step,
-            dir: -normal,
-            tfar: 4.0 * delta,
-        };
-        let mut hit = [None];
-        tracer.intersect(&[down], &mut hit);
-        if !hit[0].is_some_and(|h| h.ng.dot(normal) > 0.0) {
-            return None;
-        }
+    // ... and on the surface: in its triangle, or in a triangle that touches it and lies in
+    // its plane (the next triangle of a flat floor). Decided from the geometry, not by rays,
+    // so every backend decides alike.
+    if b.iter().any(|&x| x < 0.0) && !on_a_flat_neighbour(scene, around, t, normal, moved) {
+        return None;
     }
     Some((moved, origin + step))
+}
+
+/// The triangles that use each vertex.
+fn triangles_around_vertices(scene: &Scene) -> Vec<Vec<u32>> {
+    let mut around = vec![Vec::new(); scene.vertex_count()];
+    for (t, tri) in scene.triangles.iter().enumerate() {
+        for &v in tri {
+            around[v as usize].push(t as u32);
+        }
+    }
+    around
+}
+
+/// Whether `q` lies in a triangle that shares a vertex with triangle `t` and lies in its
+/// plane (normals within 0.1°, `q` within rounding of it).
+fn on_a_flat_neighbour(
+    scene: &Scene,
+    around: &[Vec<u32>],
+    t: usize,
+    normal: Vec3,
+    q: Vec3,
+) -> bool {
+    scene.triangles[t].iter().any(|&v| {
+        around[v as usize].iter().any(|&u| {
+            let p = scene.triangles[u as usize].map(|w| scene.positions[w as usize]);
+            let Some(n) = (p[1] - p[0]).cross(p[2] - p[0]).try_normalize() else {
+                return false;
+            };
+            let scale = p[0].distance(p[1]).max(p[0].distance(p[2]));
+            n.dot(normal) > 0.999_998
+                && (q - p[0]).dot(n).abs() <= 1e-5 * scale
+                && barycentric(p, q).is_some_and(|b| b.iter().all(|&x| x >= 0.0))
+        })
+    })
 }
 
 /// The lower corner of texel `i`'s square, in texel units.
