@@ -109,7 +109,12 @@ fn cornell_room_texel_bakes_agree() {
     }
 
     let baked_default = bake(&scene, &default, atlas(), &options);
-    let robust = bake(&scene, &embree(&scene, EmbreeMode::Robust), atlas(), &options);
+    let robust = bake(
+        &scene,
+        &embree(&scene, EmbreeMode::Robust),
+        atlas(),
+        &options,
+    );
     let obvhs = ObvhsTracer::new(&scene, ObvhsOptions::default());
     let baked_obvhs = bake(&scene, &obvhs, atlas(), &options);
     let fast = bake(&scene, &embree(&scene, EmbreeMode::Fast), atlas(), &options);
@@ -297,8 +302,18 @@ fn floor_texels_at_the_foot_of_walls_are_watertight() {
         seed: 11,
         ..BakeOptions::default()
     };
-    let robust = bake(&scene, &embree(&scene, EmbreeMode::Robust), atlas(), &options);
-    let default = bake(&scene, &embree(&scene, EmbreeMode::Watertight), atlas(), &options);
+    let robust = bake(
+        &scene,
+        &embree(&scene, EmbreeMode::Robust),
+        atlas(),
+        &options,
+    );
+    let default = bake(
+        &scene,
+        &embree(&scene, EmbreeMode::Watertight),
+        atlas(),
+        &options,
+    );
     let fast = bake(&scene, &embree(&scene, EmbreeMode::Fast), atlas(), &options);
     let all = robust.texels.valid.clone();
     agreement(

@@ -157,28 +157,21 @@ fn cpu_time(work: impl FnOnce()) -> f64 {
 fn raw_embree(estimator: &Estimator, count: usize, samples: usize, tracer: &EmbreeTracer) -> f64 {
     let embree = tracer.embree_scene();
     let run = |trace: bool| {
-        (0..count)
-            .into_par_iter()
-            .for_each_init(
-                || (Vec::new(), Vec::new(), Vec::<embree_sys::Ray>::new()),
-                |(dirs, weights, stream), v| {
-                    let frame = estimator.vertex_frame(v);
-                    estimator.directions(v, &frame, 0..samples, dirs, weights);
-                    if trace {
-                        let origin: Vec3 = estimator.origin(v);
-                        stream.clear();
-                        stream.extend(dirs.iter().map(|d| {
-                            embree_sys::Ray::new(
-                                origin.to_array(),
-                                d.to_array(),
-                                0.0,
-                                f32::INFINITY,
-                            )
-                        }));
-                        embree.occluded_stream(stream);
-                    }
-                },
-            );
+        (0..count).into_par_iter().for_each_init(
+            || (Vec::new(), Vec::new(), Vec::<embree_sys::Ray>::new()),
+            |(dirs, weights, stream), v| {
+                let frame = estimator.vertex_frame(v);
+                estimator.directions(v, &frame, 0..samples, dirs, weights);
+                if trace {
+                    let origin: Vec3 = estimator.origin(v);
+                    stream.clear();
+                    stream.extend(dirs.iter().map(|d| {
+                        embree_sys::Ray::new(origin.to_array(), d.to_array(), 0.0, f32::INFINITY)
+                    }));
+                    embree.occluded_stream(stream);
+                }
+            },
+        );
     };
     let generate = best_of(|| cpu_time(|| run(false)));
     best_of(|| cpu_time(|| run(true))) - generate

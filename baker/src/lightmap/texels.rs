@@ -12,8 +12,8 @@
 use glam::{Vec2, Vec3};
 
 use super::atlas::Atlas;
-use crate::scene::Scene;
 use crate::error::Result;
+use crate::scene::Scene;
 use crate::trace::{Tracer, offset_distance};
 use crate::transfer::Receivers;
 
