@@ -330,3 +330,71 @@ fn floor_texels_at_the_foot_of_walls_are_watertight() {
     );
     assert!(agree >= TEXEL_AGREEMENT, "{:.3} % agree", 100.0 * agree);
 }
+
+/// A floor built as two meshes meeting at x = 0, so the generated atlas makes them two charts,
+/// and a tall wall along y = 1.5 (so the transfer varies with y, not x): along the seam, each
+/// texel of one chart and the nearest texel of the other (same y within a texel, across the
+/// seam) agree within the sampling error — their mean squared difference is at most 1.5 × that
+/// between two seeds of the same texels.
+#[test]
+fn charts_meeting_at_a_seam_agree_there() {
+    let (x, y, z) = (Vec3::X, Vec3::Y, Vec3::Z);
+    let scene = scene(vec![
+        grid("floor west", Vec3::new(-1.0, -1.0, 0.0), x, y * 2.0, 4),
+        grid("floor east", Vec3::new(0.0, -1.0, 0.0), x, y * 2.0, 4),
+        grid("wall", Vec3::new(-2.0, 1.5, 0.0), x * 4.0, z * 3.0, 4),
+    ]);
+    let bake_seed = |seed| {
+        let options = BakeOptions {
+            seed,
+            ..shadowed(2, 4096)
+        };
+        let atlas = Atlas::generate(&scene, 96, None).expect("atlas");
+        bake(
+            &scene,
+            &embree(&scene, EmbreeMode::Watertight),
+            atlas,
+            &options,
+        )
+    };
+    let (a, b) = (bake_seed(1), bake_seed(2));
+    let triangles = scene.triangles.len() as u32;
+    let west = |i: usize| a.texels.triangle[i] < triangles / 3;
+    let on_floor = |i: usize| a.texels.valid[i] && a.texels.normals[i].z > 0.99;
+    // A texel's world width: the texel points' spacing along the seam.
+    let near: Vec<usize> = (0..a.texels.valid.len())
+        .filter(|&i| on_floor(i) && a.texels.positions[i].x.abs() < 0.1)
+        .collect();
+    let (mut pairs, mut pair_sq, mut seed_sq, mut seed_n) = (0usize, 0.0f64, 0.0f64, 0usize);
+    let sq = |p: &[f32], q: &[f32]| -> f64 {
+        p.iter().zip(q).map(|(x, y)| f64::from(x - y).powi(2)).sum()
+    };
+    for &i in near.iter().filter(|&&i| west(i)) {
+        let p = a.texels.positions[i];
+        // The nearest texel of the other chart.
+        let Some(&j) = near.iter().filter(|&&j| !west(j)).min_by(|&&j, &&k| {
+            let d = |t: usize| a.texels.positions[t].distance(p);
+            d(j).total_cmp(&d(k))
+        }) else {
+            continue;
+        };
+        let q = a.texels.positions[j];
+        if q.distance(p) > 0.05 {
+            continue;
+        }
+        pairs += 1;
+        pair_sq += sq(coefficients(&a, i), coefficients(&a, j));
+        for t in [i, j] {
+            seed_sq += sq(coefficients(&a, t), coefficients(&b, t));
+            seed_n += 1;
+        }
+    }
+    let (pair_ms, seed_ms) = (pair_sq / pairs as f64, seed_sq / seed_n as f64);
+    eprintln!(
+        "seam: {pairs} texel pairs across the chart seam; mean squared difference {pair_ms:.3e} \
+         across it, {seed_ms:.3e} between two seeds ({:.2} ×)",
+        pair_ms / seed_ms
+    );
+    assert!(pairs >= 20, "{pairs} pairs");
+    assert!(pair_ms <= 1.5 * seed_ms, "{pair_ms:e} against {seed_ms:e}");
+}
