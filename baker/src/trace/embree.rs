@@ -199,7 +199,7 @@ impl EmbreeTracer {
             },
         };
         Ok(Some(EmbreePoints {
-            fast: &self.scene,
+            base: self,
             robust,
             origins: keys,
         }))
@@ -209,7 +209,8 @@ impl EmbreeTracer {
 /// An [`EmbreeTracer`] in [`EmbreeMode::Watertight`] that also knows the seam points of a
 /// set of receivers that are not vertices (texels): [`EmbreeTracer::watertight_for`].
 pub struct EmbreePoints<'a> {
-    fast: &'a CommittedScene,
+    /// The tracer it extends: its default-mode scene traces all other rays.
+    base: &'a EmbreeTracer,
     robust: Arc<CommittedScene>,
     /// The seam points' and the seam vertices' ray origins.
     origins: HashSet<[u32; 3]>,
@@ -223,7 +224,7 @@ impl EmbreePoints<'_> {
 
     fn routing(&self) -> Routing<'_> {
         Routing {
-            fast: self.fast,
+            fast: &self.base.scene,
             robust: Some((&*self.robust, &self.origins)),
         }
     }
@@ -351,6 +352,16 @@ impl Tracer for EmbreeTracer {
 impl Tracer for EmbreePoints<'_> {
     fn backend(&self) -> Backend {
         Backend::Embree
+    }
+
+    /// For yet other points (texels moved out of a wall): as the tracer it extends.
+    fn for_points<'s>(
+        &'s self,
+        scene: &Scene,
+        origins: &[glam::Vec3],
+        own: &[u32],
+    ) -> Result<Option<Box<dyn Tracer + 's>>> {
+        self.base.for_points(scene, origins, own)
     }
 
     fn occluded(&self, rays: &[Ray], occluded: &mut [bool]) {
