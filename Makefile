@@ -92,6 +92,7 @@ test: lint unit no-embree embree4 reference interop slurm
 
 bench: deps
 	$(CARGO) bench -p prt-baker --bench bake
+	$(CARGO) bench -p prt-baker --bench lightmap
 
 # 400,000 mutants per parser (make test runs 20,000): a few minutes.
 fuzz: deps

@@ -499,10 +499,11 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
             )?;
             let file = CoefficientFile::from_lightmap_bake(&scene, &bake);
             let what = format!(
-                "{} of {}×{} texels ({} left out as leaking)",
+                "{} of {}×{} texels ({} moved out, {} left out as leaking)",
                 bake.texels.valid_count(),
                 bake.texels.width,
                 bake.texels.height,
+                bake.moved,
                 bake.leaking
             );
             (bake.transfer, file, what)

@@ -35,6 +35,9 @@ pub struct LightmapBake {
     pub transfer: Transfer,
     /// Per texel: not baked, but filled from baked neighbours.
     pub dilated: Vec<bool>,
+    /// Leaking texels moved out to a point of their footprint that does not leak ([`leaks`];
+    /// shadowed mode only).
+    pub moved: usize,
     /// Covered texels left out as leaking ([`leaks`]; shadowed mode only).
     pub leaking: usize,
 }
@@ -53,16 +56,18 @@ pub fn bake(
     let tracer = crate::transfer::tracer_for(options, tracer)?;
     let started = Instant::now();
     let mut texels = Texels::rasterise(scene, &atlas);
-    let mut leaking = 0;
+    let mut settled = leaks::Settled::default();
     if let Some(tracer) = tracer {
-        let found = leaks::find_leaks(&texels, tracer, options.seed);
-        for (valid, leaks) in texels.valid.iter_mut().zip(found) {
-            if leaks {
-                *valid = false;
-                leaking += 1;
-            }
-        }
+        let watertight = texels.watertight(scene, tracer)?;
+        let tracer = watertight.as_deref().unwrap_or(tracer);
+        settled = leaks::settle(scene, &atlas, &mut texels, tracer, options.seed)?;
     }
+    // Watertight for the final texel origins (moved-out ones included).
+    let watertight = match tracer {
+        Some(t) => texels.watertight(scene, t)?,
+        None => None,
+    };
+    let tracer = watertight.as_deref().or(tracer);
     let receivers: Receivers = texels.receivers();
     let estimator = Estimator::for_receivers(receivers, options)?;
     let targets = BounceTargets::texels(&atlas, &texels);
@@ -110,7 +115,8 @@ pub fn bake(
     Ok(LightmapBake {
         atlas,
         dilated,
-        leaking,
+        moved: settled.moved,
+        leaking: settled.leaking,
         texels,
         transfer,
     })

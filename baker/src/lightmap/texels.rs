@@ -12,8 +12,9 @@
 use glam::{Vec2, Vec3};
 
 use super::atlas::Atlas;
+use crate::error::Result;
 use crate::scene::Scene;
-use crate::trace::offset_distance;
+use crate::trace::{Tracer, offset_distance};
 use crate::transfer::Receivers;
 
 /// Texel sample points of an atlas; every array is row-major, index `y · width + x`.
@@ -28,7 +29,10 @@ pub struct Texels {
     /// The interpolated unit shading normal (zero where no triangle covers it).
     pub normals: Vec<Vec3>,
     /// Where its rays start: the point moved off its triangle along the face normal by
-    /// [`offset_distance`], as vertices are (zero where no triangle covers it).
+    /// [`offset_distance`] δ, as vertices are, and by up to δ towards the triangle's centroid
+    /// (δ·|c − p|/e), so a point on the triangle's edge, where it may meet another surface
+    /// (a wall's foot on the floor), does not start its rays on that surface, where a
+    /// watertight test sees it from behind at t = 0 (zero where no triangle covers it).
     pub origins: Vec<Vec3>,
     /// The winning triangle (`u32::MAX` where none covers it).
     pub triangle: Vec<u32>,
@@ -68,6 +72,7 @@ impl Texels {
                 .distance(p[1])
                 .max(p[1].distance(p[2]))
                 .max(p[2].distance(p[0]));
+            let centroid = (p[0] + p[1] + p[2]) / 3.0;
             let lo = uv[0].min(uv[1]).min(uv[2]).floor().max(Vec2::ZERO);
             let hi = uv[0].max(uv[1]).max(uv[2]).ceil();
             let (x1, y1) = ((hi.x as usize).min(w), (hi.y as usize).min(h));
@@ -93,7 +98,9 @@ impl Texels {
                     texels.valid[i] = true;
                     texels.positions[i] = position;
                     texels.normals[i] = normal;
-                    texels.origins[i] = position + face_normal * offset_distance(position, longest);
+                    let delta = offset_distance(position, longest);
+                    texels.origins[i] =
+                        position + face_normal * delta + (centroid - position) * (delta / longest);
                     texels.triangle[i] = t as u32;
                 }
             }
@@ -103,6 +110,25 @@ impl Texels {
 
     pub fn valid_count(&self) -> usize {
         self.valid.iter().filter(|&&v| v).count()
+    }
+
+    /// A tracer that is watertight for the valid texels' ray origins (Embree's default mode
+    /// picks robust mode per origin, [`crate::trace::seams`]), or `None` where `tracer`
+    /// already is for any origin.
+    pub fn watertight<'t>(
+        &self,
+        scene: &Scene,
+        tracer: &'t dyn Tracer,
+    ) -> Result<Option<Box<dyn Tracer + 't>>> {
+        let (origins, own): (Vec<Vec3>, Vec<u32>) = self
+            .origins
+            .iter()
+            .zip(&self.triangle)
+            .zip(&self.valid)
+            .filter(|(_, v)| **v)
+            .map(|((o, t), _)| (*o, *t))
+            .unzip();
+        tracer.for_points(scene, &origins, &own)
     }
 
     /// The valid texels as receivers, in row-major order of the valid ones.

@@ -2,10 +2,11 @@
 
 use std::cell::RefCell;
 use std::collections::HashSet;
+use std::sync::{Arc, OnceLock};
 
 use embree_sys::{BuildQuality, CommittedScene, Device, SceneBuilder, SceneFlags};
 
-use super::seams::seam_vertices;
+use super::seams::{seam_points, seam_vertices};
 use super::{Backend, Hit, Ray, Tracer, ray_origins};
 use crate::error::{Error, Result};
 use crate::scene::Scene;
@@ -33,7 +34,7 @@ fn to_hit(hit: embree_sys::Hit) -> Hit {
     }
 }
 
-/// The key of a ray origin in [`Seams::origins`]: its exact bits.
+/// The key of a ray origin in a set of seam origins: its exact bits.
 fn origin_key(origin: glam::Vec3) -> [u32; 3] {
     origin.to_array().map(f32::to_bits)
 }
@@ -44,11 +45,16 @@ pub struct EmbreeTracer {
     scene: CommittedScene,
     /// With [`EmbreeMode::Watertight`], where the rays of seam vertices go.
     seams: Option<Seams>,
+    /// Kept to build a robust scene for [`Tracer::for_points`] when no vertex needed one.
+    device: Device,
+    /// That robust scene, built once.
+    points_robust: OnceLock<Arc<CommittedScene>>,
+    mode: EmbreeMode,
 }
 
 /// The robust-mode scene over the same geometry, and the ray origins traced in it.
 struct Seams {
-    robust: CommittedScene,
+    robust: Arc<CommittedScene>,
     /// The bit patterns of the seam vertices' ray origins ([`super::seams`]).
     origins: HashSet<[u32; 3]>,
 }
@@ -57,9 +63,9 @@ struct Seams {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum EmbreeMode {
     /// Robust mode for the rays that leave a seam vertex (a vertex near another triangle's
-    /// edge, [`super::seams`]), the default mode for all others. The default: watertight
-    /// answers at nearly the default mode's speed, because only the seam vertices' rays can
-    /// leak through the default mode's cracks.
+    /// edge, [`super::seams`]), or a seam texel through [`Tracer::for_points`], the default
+    /// mode for all others. The default: watertight answers at nearly the default mode's
+    /// speed, because only the seam origins' rays can leak through the default mode's cracks.
     #[default]
     Watertight,
     /// Robust mode (`RTC_SCENE_FLAG_ROBUST`: no accuracy-reducing optimisations) for every
@@ -87,6 +93,21 @@ fn tracer_error(err: embree_sys::Error) -> Error {
     }
 }
 
+/// Builds an Embree scene over `scene`'s triangles, robust or not.
+fn commit(device: &Device, scene: &Scene, robust: bool) -> Result<CommittedScene> {
+    let positions: Vec<[f32; 3]> = scene.positions.iter().map(|p| p.to_array()).collect();
+    let mut builder = SceneBuilder::new(device).map_err(tracer_error)?;
+    builder.set_build_quality(BuildQuality::High);
+    builder.set_flags(SceneFlags {
+        robust,
+        compact: false,
+    });
+    builder
+        .add_triangle_mesh(&positions, &scene.triangles)
+        .map_err(tracer_error)?;
+    builder.commit().map_err(tracer_error)
+}
+
 impl EmbreeTracer {
     /// Builds a high-quality BVH: a bake casts millions of rays per second of build time.
     /// With [`EmbreeMode::Watertight`], a second, robust one where the scene has seam
@@ -97,19 +118,6 @@ impl EmbreeTracer {
             .map(|t| format!("threads={t}"))
             .unwrap_or_default();
         let device = Device::with_config(&config).map_err(tracer_error)?;
-        let positions: Vec<[f32; 3]> = scene.positions.iter().map(|p| p.to_array()).collect();
-        let commit = |robust: bool| -> Result<CommittedScene> {
-            let mut builder = SceneBuilder::new(&device).map_err(tracer_error)?;
-            builder.set_build_quality(BuildQuality::High);
-            builder.set_flags(SceneFlags {
-                robust,
-                compact: false,
-            });
-            builder
-                .add_triangle_mesh(&positions, &scene.triangles)
-                .map_err(tracer_error)?;
-            builder.commit().map_err(tracer_error)
-        };
         let seams = match options.mode {
             EmbreeMode::Watertight => {
                 let origins = ray_origins(scene);
@@ -124,7 +132,7 @@ impl EmbreeTracer {
                     None
                 } else {
                     Some(Seams {
-                        robust: commit(true)?,
+                        robust: Arc::new(commit(&device, scene, true)?),
                         origins,
                     })
                 }
@@ -132,8 +140,11 @@ impl EmbreeTracer {
             EmbreeMode::Robust | EmbreeMode::Fast => None,
         };
         Ok(EmbreeTracer {
-            scene: commit(options.mode == EmbreeMode::Robust)?,
+            scene: commit(&device, scene, options.mode == EmbreeMode::Robust)?,
             seams,
+            device,
+            points_robust: OnceLock::new(),
+            mode: options.mode,
         })
     }
 
@@ -143,19 +154,102 @@ impl EmbreeTracer {
         self.seams.as_ref().map_or(0, |s| s.origins.len())
     }
 
+    fn routing(&self) -> Routing<'_> {
+        Routing {
+            fast: &self.scene,
+            robust: self.seams.as_ref().map(|s| (&*s.robust, &s.origins)),
+        }
+    }
+
+    /// The committed Embree scene, for benchmarks that call Embree directly.
+    pub fn embree_scene(&self) -> &CommittedScene {
+        &self.scene
+    }
+
+    /// [`Tracer::for_points`] for Embree, typed: with [`EmbreeMode::Watertight`], a tracer
+    /// that also traces the rays of the seam points among `origins` in robust mode.
+    pub fn watertight_for(
+        &self,
+        scene: &Scene,
+        origins: &[glam::Vec3],
+        own: &[u32],
+    ) -> Result<Option<EmbreePoints<'_>>> {
+        if self.mode != EmbreeMode::Watertight {
+            return Ok(None);
+        }
+        let seam = seam_points(scene, origins, own);
+        let mut keys: HashSet<[u32; 3]> = origins
+            .iter()
+            .zip(&seam)
+            .filter(|&(_, &seam)| seam)
+            .map(|(o, _)| origin_key(*o))
+            .collect();
+        let robust = match &self.seams {
+            Some(seams) => {
+                keys.extend(seams.origins.iter().copied());
+                seams.robust.clone()
+            }
+            None if keys.is_empty() => return Ok(None),
+            None => match self.points_robust.get() {
+                Some(robust) => robust.clone(),
+                None => {
+                    let robust = Arc::new(commit(&self.device, scene, true)?);
+                    self.points_robust.get_or_init(|| robust).clone()
+                }
+            },
+        };
+        Ok(Some(EmbreePoints {
+            base: self,
+            robust,
+            origins: keys,
+        }))
+    }
+}
+
+/// An [`EmbreeTracer`] in [`EmbreeMode::Watertight`] that also knows the seam points of a
+/// set of receivers that are not vertices (texels): [`EmbreeTracer::watertight_for`].
+pub struct EmbreePoints<'a> {
+    /// The tracer it extends: its default-mode scene traces all other rays.
+    base: &'a EmbreeTracer,
+    robust: Arc<CommittedScene>,
+    /// The seam points' and the seam vertices' ray origins.
+    origins: HashSet<[u32; 3]>,
+}
+
+impl EmbreePoints<'_> {
+    /// How many distinct ray origins are traced in robust mode.
+    pub fn seam_origin_count(&self) -> usize {
+        self.origins.len()
+    }
+
+    fn routing(&self) -> Routing<'_> {
+        Routing {
+            fast: &self.base.scene,
+            robust: Some((&*self.robust, &self.origins)),
+        }
+    }
+}
+
+/// Which scene traces a ray: the robust one for the listed origins, the fast one otherwise.
+struct Routing<'a> {
+    fast: &'a CommittedScene,
+    robust: Option<(&'a CommittedScene, &'a HashSet<[u32; 3]>)>,
+}
+
+impl<'a> Routing<'a> {
     /// The scene that traces rays from `origin`.
-    fn scene_for(&self, origin: [f32; 3]) -> &CommittedScene {
-        match &self.seams {
-            Some(seams) if seams.origins.contains(&origin.map(f32::to_bits)) => &seams.robust,
-            _ => &self.scene,
+    fn scene_for(&self, origin: [f32; 3]) -> &'a CommittedScene {
+        match self.robust {
+            Some((robust, origins)) if origins.contains(&origin.map(f32::to_bits)) => robust,
+            _ => self.fast,
         }
     }
 
     /// `rays` split into runs of consecutive rays traced in the same scene.
-    fn runs<'a>(
-        &'a self,
-        rays: &'a [Ray],
-    ) -> impl Iterator<Item = (std::ops::Range<usize>, &'a CommittedScene)> + 'a {
+    fn runs<'r>(
+        &'r self,
+        rays: &'r [Ray],
+    ) -> impl Iterator<Item = (std::ops::Range<usize>, &'a CommittedScene)> + 'r {
         let mut start = 0;
         std::iter::from_fn(move || {
             let first = rays.get(start)?;
@@ -168,17 +262,6 @@ impl EmbreeTracer {
             start = range.end;
             Some((range, scene))
         })
-    }
-
-    /// The committed Embree scene, for benchmarks that call Embree directly.
-    pub fn embree_scene(&self) -> &CommittedScene {
-        &self.scene
-    }
-}
-
-impl Tracer for EmbreeTracer {
-    fn backend(&self) -> Backend {
-        Backend::Embree
     }
 
     fn occluded(&self, rays: &[Ray], occluded: &mut [bool]) {
@@ -230,6 +313,71 @@ impl Tracer for EmbreeTracer {
                 }
             }
         });
+    }
+}
+
+impl Tracer for EmbreeTracer {
+    fn backend(&self) -> Backend {
+        Backend::Embree
+    }
+
+    fn occluded(&self, rays: &[Ray], occluded: &mut [bool]) {
+        self.routing().occluded(rays, occluded);
+    }
+
+    fn occluded_from(&self, origin: glam::Vec3, dirs: &[glam::Vec3], occluded: &mut [bool]) {
+        self.routing().occluded_from(origin, dirs, occluded);
+    }
+
+    fn intersect(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        self.routing().intersect(rays, hits);
+    }
+
+    fn intersect_from(&self, origin: glam::Vec3, dirs: &[glam::Vec3], hits: &mut [Option<Hit>]) {
+        self.routing().intersect_from(origin, dirs, hits);
+    }
+
+    fn for_points<'s>(
+        &'s self,
+        scene: &Scene,
+        origins: &[glam::Vec3],
+        own: &[u32],
+    ) -> Result<Option<Box<dyn Tracer + 's>>> {
+        Ok(self
+            .watertight_for(scene, origins, own)?
+            .map(|t| Box::new(t) as Box<dyn Tracer + 's>))
+    }
+}
+
+impl Tracer for EmbreePoints<'_> {
+    fn backend(&self) -> Backend {
+        Backend::Embree
+    }
+
+    /// For yet other points (texels moved out of a wall): as the tracer it extends.
+    fn for_points<'s>(
+        &'s self,
+        scene: &Scene,
+        origins: &[glam::Vec3],
+        own: &[u32],
+    ) -> Result<Option<Box<dyn Tracer + 's>>> {
+        self.base.for_points(scene, origins, own)
+    }
+
+    fn occluded(&self, rays: &[Ray], occluded: &mut [bool]) {
+        self.routing().occluded(rays, occluded);
+    }
+
+    fn occluded_from(&self, origin: glam::Vec3, dirs: &[glam::Vec3], occluded: &mut [bool]) {
+        self.routing().occluded_from(origin, dirs, occluded);
+    }
+
+    fn intersect(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        self.routing().intersect(rays, hits);
+    }
+
+    fn intersect_from(&self, origin: glam::Vec3, dirs: &[glam::Vec3], hits: &mut [Option<Hit>]) {
+        self.routing().intersect_from(origin, dirs, hits);
     }
 }
 

@@ -14,7 +14,7 @@ pub mod seams;
 
 pub use self::obvhs::{ObvhsOptions, ObvhsTracer};
 #[cfg(feature = "embree")]
-pub use embree::{EmbreeMode, EmbreeOptions, EmbreeTracer};
+pub use embree::{EmbreeMode, EmbreeOptions, EmbreePoints, EmbreeTracer};
 /// The Embree bindings, for benchmarks that call Embree directly on the same scene.
 #[cfg(feature = "embree")]
 pub use embree_sys;
@@ -110,6 +110,21 @@ pub trait Tracer: Send + Sync {
     /// [`Tracer::intersect`].
     fn intersect_from(&self, origin: Vec3, dirs: &[Vec3], hits: &mut [Option<Hit>]) {
         self.intersect(&Ray::fan(origin, dirs), hits);
+    }
+
+    /// A tracer for rays from receivers that are not `scene`'s vertices (texels):
+    /// `origins[i]`, the ray origin of a point on triangle `own[i]`. Embree's watertight mode
+    /// picks robust mode by ray origin ([`seams`]), so it needs to know which of these are
+    /// seam points; backends whose answers do not depend on the origin answer `None` (trace
+    /// with `self`).
+    fn for_points<'s>(
+        &'s self,
+        scene: &Scene,
+        origins: &[Vec3],
+        own: &[u32],
+    ) -> Result<Option<Box<dyn Tracer + 's>>> {
+        let _ = (scene, origins, own);
+        Ok(None)
     }
 }
 

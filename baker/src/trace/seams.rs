@@ -88,61 +88,125 @@ fn distance_to_segment(p: Vec3, a: Vec3, b: Vec3) -> f64 {
     p.distance(a + ab * s)
 }
 
+/// A BVH over every triangle's [`Reach`], to find the triangles whose edges a ray origin may
+/// lie near.
+struct SeamIndex<'a> {
+    scene: &'a Scene,
+    bvh: Option<obvhs::bvh2::Bvh2>,
+    /// The longest edge of each triangle.
+    triangle_edge: Vec<f32>,
+}
+
+impl<'a> SeamIndex<'a> {
+    fn new(scene: &'a Scene, triangle_edge: Vec<f32>) -> SeamIndex<'a> {
+        let reaches: Vec<Reach> = scene
+            .triangles
+            .iter()
+            .zip(&triangle_edge)
+            .map(|(t, &longest)| {
+                let mut aabb = Aabb::empty();
+                for &i in t {
+                    aabb.extend(Vec3A::from(scene.positions[i as usize]));
+                }
+                let margin = Vec3A::splat(SEAM_RADIUS * longest);
+                Aabb::new(aabb.min - margin, aabb.max + margin)
+            })
+            .map(|aabb| Reach { aabb })
+            .collect();
+        let bvh = (!reaches.is_empty()).then(|| {
+            build_bvh2(
+                &reaches,
+                BvhBuildParams::fast_build(),
+                &mut Duration::default(),
+            )
+        });
+        SeamIndex {
+            scene,
+            bvh,
+            triangle_edge,
+        }
+    }
+
+    /// Whether `origin` lies near an edge of a triangle that `own` does not exclude.
+    /// `own_edge` is the longest edge of the triangles the origin belongs to, `offset` its
+    /// offset δ.
+    fn near_foreign_edge(
+        &self,
+        origin: Vec3,
+        own_edge: f32,
+        offset: f32,
+        own: impl Fn(u32, [u32; 3]) -> bool,
+    ) -> bool {
+        let Some(bvh) = &self.bvh else {
+            return false;
+        };
+        let offsets = SEAM_OFFSETS * offset;
+        let reach = (SEAM_RADIUS * own_edge).max(offsets);
+        let query = Aabb::new(
+            Vec3A::from(origin) - Vec3A::splat(reach),
+            Vec3A::from(origin) + Vec3A::splat(reach),
+        );
+        let mut seam = false;
+        bvh.aabb_traverse(query, |bvh, node| {
+            let node = &bvh.nodes[node as usize];
+            let first = node.first_index as usize;
+            for &t in &bvh.primitive_indices[first..first + node.prim_count as usize] {
+                let triangle = self.scene.triangles[t as usize];
+                if own(t, triangle) {
+                    continue;
+                }
+                let longest = self.triangle_edge[t as usize].max(own_edge);
+                let radius = f64::from((SEAM_RADIUS * longest).max(offsets));
+                let p = triangle.map(|i| self.scene.positions[i as usize]);
+                if (0..3).any(|k| distance_to_segment(origin, p[k], p[(k + 1) % 3]) <= radius) {
+                    seam = true;
+                }
+            }
+            !seam
+        });
+        seam
+    }
+}
+
 /// `seam[v]`: whether vertex `v`'s ray origin (`origins[v]`, from [`super::ray_origins`]) lies
 /// near an edge of a triangle that does not use `v`.
 pub fn seam_vertices(scene: &Scene, origins: &[Vec3]) -> Vec<bool> {
     let (triangle_edge, vertex_edge) = longest_edges(scene);
-    let reaches: Vec<Reach> = scene
-        .triangles
-        .iter()
-        .zip(&triangle_edge)
-        .map(|(t, &longest)| {
-            let mut aabb = Aabb::empty();
-            for &i in t {
-                aabb.extend(Vec3A::from(scene.positions[i as usize]));
-            }
-            let margin = Vec3A::splat(SEAM_RADIUS * longest);
-            Aabb::new(aabb.min - margin, aabb.max + margin)
-        })
-        .map(|aabb| Reach { aabb })
-        .collect();
-    if reaches.is_empty() {
-        return vec![false; origins.len()];
-    }
-    let bvh = build_bvh2(
-        &reaches,
-        BvhBuildParams::fast_build(),
-        &mut Duration::default(),
-    );
+    let index = SeamIndex::new(scene, triangle_edge);
     origins
         .par_iter()
         .enumerate()
         .map(|(v, &origin)| {
-            let offsets = SEAM_OFFSETS * offset_distance(scene.positions[v], vertex_edge[v]);
-            let own = (SEAM_RADIUS * vertex_edge[v]).max(offsets);
-            let query = Aabb::new(
-                Vec3A::from(origin) - Vec3A::splat(own),
-                Vec3A::from(origin) + Vec3A::splat(own),
-            );
-            let mut seam = false;
-            bvh.aabb_traverse(query, |bvh, node| {
-                let node = &bvh.nodes[node as usize];
-                let first = node.first_index as usize;
-                for &t in &bvh.primitive_indices[first..first + node.prim_count as usize] {
-                    let triangle = scene.triangles[t as usize];
-                    if triangle.contains(&(v as u32)) {
-                        continue;
-                    }
-                    let longest = triangle_edge[t as usize].max(vertex_edge[v]);
-                    let radius = f64::from((SEAM_RADIUS * longest).max(offsets));
-                    let p = triangle.map(|i| scene.positions[i as usize]);
-                    if (0..3).any(|k| distance_to_segment(origin, p[k], p[(k + 1) % 3]) <= radius) {
-                        seam = true;
-                    }
-                }
-                !seam
-            });
-            seam
+            let offset = offset_distance(scene.positions[v], vertex_edge[v]);
+            index.near_foreign_edge(origin, vertex_edge[v], offset, |_, triangle| {
+                triangle.contains(&(v as u32))
+            })
+        })
+        .collect()
+}
+
+/// `seam[i]`: whether the ray origin `origins[i]` of a point on triangle `own[i]` (a texel,
+/// [`crate::lightmap::texels`]) lies near an edge of any other triangle. The same test as
+/// [`seam_vertices`] with the triangles that touch the point's triangle (share a vertex with
+/// it) as its own, just as a vertex's own triangles are those that touch it: what lies near a
+/// point of a mesh's interior is its own mesh, whose triangles its rays leave on their open
+/// side; what lies near a point where meshes meet (a floor's edge against a wall) is foreign.
+/// Its offset δ is taken as [`offset_distance`] at the origin for its triangle's edges.
+pub fn seam_points(scene: &Scene, origins: &[Vec3], own: &[u32]) -> Vec<bool> {
+    let (triangle_edge, _) = longest_edges(scene);
+    let index = SeamIndex::new(scene, triangle_edge);
+    origins
+        .par_iter()
+        .zip(own.par_iter())
+        .map(|(&origin, &t)| {
+            let Some(&own_edge) = index.triangle_edge.get(t as usize) else {
+                return false;
+            };
+            let offset = offset_distance(origin, own_edge);
+            let mine = scene.triangles[t as usize];
+            index.near_foreign_edge(origin, own_edge, offset, |_, other| {
+                other.iter().any(|v| mine.contains(v))
+            })
         })
         .collect()
 }
