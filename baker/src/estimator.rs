@@ -116,6 +116,8 @@ pub struct Estimator {
     rotator: Rotator,
     pub(crate) normals: Vec<Vec3>,
     origins: Vec<Vec3>,
+    /// [`Receivers::streams`].
+    streams: Option<Vec<u64>>,
     /// The bake's cosine-weighted directions in the local frame (Owen–Sobol only).
     local_dirs: Vec<Vec3>,
     /// y_j(local_dirs[i]) at `[i·n² + j]`. With bounce samples (interreflected mode), rows
@@ -171,6 +173,7 @@ impl Estimator {
             basis,
             normals: receivers.normals,
             origins: receivers.origins,
+            streams: receivers.streams,
             local_dirs,
             local_sh,
             adaptive,
@@ -198,12 +201,17 @@ impl Estimator {
         })
     }
 
+    /// The random stream receiver `v` samples from ([`Receivers::streams`]).
+    fn stream(&self, v: usize) -> u64 {
+        self.streams.as_ref().map_or(v as u64, |s| s[v])
+    }
+
     /// Vertex `v`'s local frame (columns: tangent, bitangent, normal), turned about the normal
     /// by an angle drawn from (seed, v).
     pub fn vertex_frame(&self, v: usize) -> Mat3 {
         let frame = Frame::from_normal(self.normals[v]);
-        let angle =
-            std::f32::consts::TAU * to_unit_float(vertex_seed(self.options.seed, v as u64) as u32);
+        let angle = std::f32::consts::TAU
+            * to_unit_float(vertex_seed(self.options.seed, self.stream(v)) as u32);
         let (sin, cos) = angle.sin_cos();
         let tangent = frame.tangent * cos + frame.bitangent * sin;
         let bitangent = frame.normal.cross(tangent);
@@ -236,8 +244,10 @@ impl Estimator {
                 // Uniform over the hemisphere: the thesis's sphere points, those below the
                 // horizon rejected; the cosine goes into the weight.
                 let normal = self.normals[v];
-                let mut rng =
-                    Pcg32::new(vertex_seed(self.options.seed, v as u64), range.start as u64);
+                let mut rng = Pcg32::new(
+                    vertex_seed(self.options.seed, self.stream(v)),
+                    range.start as u64,
+                );
                 for _ in range {
                     let (dir, cos) = loop {
                         let d = uniform_sphere(rng.next_f32(), rng.next_f32());

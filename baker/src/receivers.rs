@@ -34,6 +34,12 @@ pub struct Receivers {
     pub origins: Vec<Vec3>,
     /// Unit shading normals.
     pub normals: Vec<Vec3>,
+    /// Which random stream each receiver's samples come from (its rotation of the point set,
+    /// its thesis-random directions): a texel's index y·W + x, so that a texel's samples do
+    /// not depend on which other texels are baked (two backends that disagree on one leaking
+    /// texel still sample every other texel alike). `None`: the receiver's position in the
+    /// list, as for vertices.
+    pub streams: Option<Vec<u64>>,
 }
 
 impl Receivers {
@@ -42,6 +48,7 @@ impl Receivers {
         Receivers {
             origins: ray_origins(scene),
             normals: scene.normals.clone(),
+            streams: None,
         }
     }
 

@@ -131,7 +131,8 @@ impl Texels {
         tracer.for_points(scene, &origins, &own)
     }
 
-    /// The valid texels as receivers, in row-major order of the valid ones.
+    /// The valid texels as receivers, in row-major order of the valid ones, each sampled from
+    /// the stream of its texel index.
     pub fn receivers(&self) -> Receivers {
         let pick = |values: &[Vec3]| -> Vec<Vec3> {
             values
@@ -141,9 +142,15 @@ impl Texels {
                 .map(|(x, _)| *x)
                 .collect()
         };
+        let streams = (0..self.valid.len() as u64)
+            .zip(&self.valid)
+            .filter(|(_, v)| **v)
+            .map(|(i, _)| i)
+            .collect();
         Receivers {
             origins: pick(&self.origins),
             normals: pick(&self.normals),
+            streams: Some(streams),
         }
     }
 }
