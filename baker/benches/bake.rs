@@ -16,6 +16,8 @@
 //! `--adaptive-only` runs only the last section, the time to the thesis's accuracy (adaptive
 //! against fixed sampling).
 
+mod timing;
+
 use std::time::{Duration, Instant};
 
 use glam::Vec3;
@@ -30,9 +32,7 @@ use prt_baker::trace::{
 use prt_baker::transfer::Estimator;
 use prt_baker::{BakeOptions, Mode, Scene};
 use rayon::prelude::*;
-
-/// Each measurement is repeated and the best kept: noise from other tenants only slows runs down.
-const REPEATS: usize = 3;
+use timing::{REPEATS, best_of, cpu_time};
 
 fn main() {
     let all_args: Vec<String> = std::env::args().skip(1).collect();
@@ -331,32 +331,6 @@ fn peak_rss_mib() -> f64 {
             line.split_whitespace().nth(1)?.parse::<f64>().ok()
         })
         .map_or(0.0, |kib| kib / 1024.0)
-}
-
-fn best_of(mut run: impl FnMut() -> f64) -> f64 {
-    (0..REPEATS).map(|_| run()).fold(f64::INFINITY, f64::min)
-}
-
-/// CPU seconds (user + system) of all of this process's threads so far, from `/proc/self/stat`
-/// in clock ticks of 1/100 s (Linux's USER_HZ on every architecture we build for).
-fn cpu_seconds() -> f64 {
-    let stat = std::fs::read_to_string("/proc/self/stat").expect("read /proc/self/stat");
-    // Fields after the parenthesised command name; utime and stime are fields 14 and 15.
-    let fields: Vec<&str> = stat
-        .rsplit_once(')')
-        .expect("a stat line")
-        .1
-        .split_whitespace()
-        .collect();
-    let ticks = |i: usize| fields[i - 3].parse::<f64>().expect("a tick count");
-    (ticks(14) + ticks(15)) / 100.0
-}
-
-/// CPU seconds of `work` divided by the thread count (see the module comment).
-fn cpu_time(work: impl FnOnce()) -> f64 {
-    let before = cpu_seconds();
-    work();
-    (cpu_seconds() - before) / rayon::current_num_threads() as f64
 }
 
 /// The rays of the bake, regenerated per vertex.

@@ -16,6 +16,8 @@
 //!
 //! Usage: `cargo bench -p prt-baker --bench lightmap [-- RESOLUTION [SAMPLES]]`.
 
+mod timing;
+
 use glam::Vec3;
 use prt_baker::lightmap::{self, Atlas, LightmapBake, Texels, leaks};
 use prt_baker::progress::Silent;
@@ -23,8 +25,8 @@ use prt_baker::trace::{EmbreeMode, EmbreeOptions, EmbreeTracer, Tracer, embree_s
 use prt_baker::transfer::Estimator;
 use prt_baker::{BakeOptions, Mode, Scene};
 use rayon::prelude::*;
+use timing::{REPEATS, best_of, cpu_time};
 
-const REPEATS: usize = 3;
 /// The goal: the texel bake's rate over the raw Embree rate of its rays.
 const GOAL: f64 = 0.8;
 
@@ -130,31 +132,6 @@ fn main() {
         "goal: texel bake ≥ {GOAL} × raw Embree: {ratio:.2} × ({})",
         if ratio >= GOAL { "met" } else { "NOT met" }
     );
-}
-
-fn best_of(mut run: impl FnMut() -> f64) -> f64 {
-    (0..REPEATS).map(|_| run()).fold(f64::INFINITY, f64::min)
-}
-
-/// CPU seconds (user + system) of all of this process's threads so far, from `/proc/self/stat`
-/// in clock ticks of 1/100 s.
-fn cpu_seconds() -> f64 {
-    let stat = std::fs::read_to_string("/proc/self/stat").expect("read /proc/self/stat");
-    let fields: Vec<&str> = stat
-        .rsplit_once(')')
-        .expect("a stat line")
-        .1
-        .split_whitespace()
-        .collect();
-    let ticks = |i: usize| fields[i - 3].parse::<f64>().expect("a tick count");
-    (ticks(14) + ticks(15)) / 100.0
-}
-
-/// CPU seconds of `work` divided by the thread count.
-fn cpu_time(work: impl FnOnce()) -> f64 {
-    let before = cpu_seconds();
-    work();
-    (cpu_seconds() - before) / rayon::current_num_threads() as f64
 }
 
 /// Best-of CPU seconds that Embree alone takes for every receiver's rays (default-mode scene,
