@@ -22,7 +22,7 @@ use glam::Vec3;
 use prt_baker::lightmap::{self, Atlas, LightmapBake, Texels, leaks};
 use prt_baker::progress::Silent;
 use prt_baker::trace::{EmbreeMode, EmbreeOptions, EmbreeTracer, Tracer, embree_sys};
-use prt_baker::transfer::Estimator;
+use prt_baker::transfer::{Estimator, Receivers};
 use prt_baker::{BakeOptions, Mode, Scene};
 use rayon::prelude::*;
 use timing::{REPEATS, best_of, cpu_time};
@@ -102,8 +102,8 @@ fn main() {
     });
 
     // The raw Embree rate of the bake's own rays: the final texels as receivers.
-    let estimator =
-        Estimator::for_receivers(baked.texels.receivers(), &options).expect("valid options");
+    let estimator = Estimator::for_receivers(Receivers::texels(&baked.texels), &options)
+        .expect("valid options");
     let raw_s = raw_embree(&estimator, texels, samples as usize, &fast);
     let rays = texels as f64 * f64::from(samples);
     let rate = |s: f64| rays / s / 1e6;

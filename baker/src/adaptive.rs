@@ -52,10 +52,10 @@ use glam::{Mat3, Vec3};
 use serde::Serialize;
 
 use crate::error::{Error, Result};
+use crate::options::{BakeOptions, Mode};
 use crate::sampling::{OwenSobol, Sampling, cosine_hemisphere, hilbert_index, vertex_seed};
 use crate::sh::Basis;
 use crate::trace::Tracer;
-use crate::transfer::{BakeOptions, Mode};
 
 /// Independent scrambles (replicates) per bake.
 pub const REPLICATES: usize = 16;

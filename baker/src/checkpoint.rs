@@ -12,11 +12,12 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
+use crate::estimator::VERTICES_PER_JOB;
+use crate::options::BakeOptions;
 use crate::progress::Progress;
 use crate::scene::Scene;
 use crate::shard::{Part, PartId, ShardId, bake_header, bake_part, header_difference};
 use crate::trace::{Backend, Tracer};
-use crate::transfer::{BakeOptions, VERTICES_PER_JOB};
 
 /// Rays per block by default: about a second and a half on this project's 2-core machine, a
 /// fraction of that on a cluster node, and few enough files for a large bake.

@@ -17,7 +17,9 @@ use std::borrow::Cow;
 
 use glam::{Vec2, Vec3};
 
-use crate::lightmap::{Atlas, Texels};
+use crate::lightmap::atlas::Atlas;
+use crate::lightmap::dilation;
+use crate::lightmap::texels::Texels;
 use crate::scene::Scene;
 use crate::trace::ray_origins;
 
@@ -49,6 +51,29 @@ impl Receivers {
             origins: ray_origins(scene),
             normals: scene.normals.clone(),
             streams: None,
+        }
+    }
+
+    /// A lightmap's valid texels as receivers, in row-major order of the valid ones, each sampled from
+    /// the stream of its texel index.
+    pub fn texels(texels: &Texels) -> Receivers {
+        let pick = |values: &[Vec3]| -> Vec<Vec3> {
+            values
+                .iter()
+                .zip(&texels.valid)
+                .filter(|(_, v)| **v)
+                .map(|(x, _)| *x)
+                .collect()
+        };
+        let streams = (0..texels.valid.len() as u64)
+            .zip(&texels.valid)
+            .filter(|(_, v)| **v)
+            .map(|(i, _)| i)
+            .collect();
+        Receivers {
+            origins: pick(&texels.origins),
+            normals: pick(&texels.normals),
+            streams: Some(streams),
         }
     }
 
@@ -86,7 +111,7 @@ impl<'a> BounceTargets<'a> {
     /// The lookup of a texel bake over `atlas`, whose valid texels are `texels`.
     pub fn texels(atlas: &Atlas, texels: &'a Texels) -> BounceTargets<'a> {
         // Which texels dilation fills depends on the valid ones only: dilate no values.
-        let dilated = crate::lightmap::dilate(texels, 0, &mut [], &mut []);
+        let dilated = dilation::dilate_values(texels, 0, &mut []);
         let filled = texels
             .valid
             .iter()
@@ -189,7 +214,7 @@ impl TexelTargets<'_> {
         for ((i, _), value) in valid.zip(values.chunks_exact(width)) {
             map[i * width..(i + 1) * width].copy_from_slice(value);
         }
-        crate::lightmap::dilate(self.texels, width, &mut map, &mut []);
+        dilation::dilate_values(self.texels, width, &mut map);
         map
     }
 }

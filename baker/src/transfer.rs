@@ -33,8 +33,8 @@ use crate::scene::Scene;
 use crate::sh;
 use crate::trace::{Backend, Tracer};
 
+pub(crate) use crate::estimator::direct_pass;
 pub use crate::estimator::{Estimator, Scratch, Visibility};
-pub(crate) use crate::estimator::{VERTICES_PER_JOB, direct_pass};
 pub use crate::options::{Aux, BakeOptions, DEFAULT_HIT_CACHE_LIMIT, Mode};
 pub use crate::receivers::BounceTargets;
 pub use crate::receivers::Receivers;

@@ -6,6 +6,7 @@
 //! [`Receivers`]: same directions, tracing, sums and determinism. `docs/lightmaps.md` describes what exists and what not.
 
 pub mod atlas;
+pub mod dilation;
 pub mod leaks;
 pub mod texels;
 
@@ -21,9 +22,7 @@ use crate::transfer::{
     BakeOptions, Baked, BounceTargets, Estimator, Receivers, Transfer, Visibility, bake_receivers,
 };
 
-/// Padding texels around each chart that [`dilate`] fills: bilinear filtering at a chart's
-/// edge reads one texel beyond it, mipmapping further.
-pub const DILATION: usize = 2;
+pub use dilation::DILATION;
 
 /// A texel bake: the atlas, its sample points, and the transfer of all W×H texels
 /// (`transfer.vertex_count` = W·H). Texels within [`DILATION`] of a chart hold dilated
@@ -68,7 +67,7 @@ pub fn bake(
         None => None,
     };
     let tracer = watertight.as_deref().or(tracer);
-    let receivers: Receivers = texels.receivers();
+    let receivers: Receivers = Receivers::texels(&texels);
     let estimator = Estimator::for_receivers(receivers, options)?;
     let targets = BounceTargets::texels(&atlas, &texels);
     let baked = bake_receivers(scene, tracer, &estimator, &targets, progress);
@@ -122,73 +121,25 @@ pub fn bake(
     })
 }
 
-/// Spreads baked texels into the empty texels around them, [`DILATION`] rings deep: each
-/// pass gives every empty texel that touches (8-neighbourhood) a texel filled before the
-/// pass the mean of those neighbours. Charts are packed at least [`atlas::PADDING`] = 2
-/// texels apart, so the first ring of one chart never mixes in its neighbour. Returns which
-/// texels were filled.
+/// Spreads baked texels' coefficients (`n` per texel) and visibility (if any) into the
+/// empty texels around them ([`dilation`]). Returns which texels were filled.
 pub fn dilate(
     texels: &Texels,
     n: usize,
     coefficients: &mut [f32],
     visibility: &mut [Visibility],
 ) -> Vec<bool> {
-    let (w, h) = (texels.width as usize, texels.height as usize);
-    let mut filled = texels.valid.clone();
-    let mut dilated = vec![false; w * h];
-    for _ in 0..DILATION {
-        let before = filled.clone();
-        for y in 0..h {
-            for x in 0..w {
-                let i = y * w + x;
-                if before[i] {
-                    continue;
-                }
-                let mut sum = vec![0.0f32; n];
-                let (mut count, mut ao, mut bent) = (0u32, 0.0f32, glam::Vec3::ZERO);
-                for (dx, dy) in NEIGHBOURS {
-                    let (nx, ny) = (x as isize + dx, y as isize + dy);
-                    if nx < 0 || ny < 0 || nx >= w as isize || ny >= h as isize {
-                        continue;
-                    }
-                    let j = ny as usize * w + nx as usize;
-                    if !before[j] {
-                        continue;
-                    }
-                    count += 1;
-                    for (s, c) in sum.iter_mut().zip(&coefficients[j * n..(j + 1) * n]) {
-                        *s += c;
-                    }
-                    if let Some(v) = visibility.get(j) {
-                        ao += v.accessibility;
-                        bent += v.bent_normal;
-                    }
-                }
-                if count == 0 {
-                    continue;
-                }
-                for (c, s) in coefficients[i * n..(i + 1) * n].iter_mut().zip(&sum) {
-                    *c = s / count as f32;
-                }
-                if let Some(v) = visibility.get_mut(i) {
-                    v.accessibility = ao / count as f32;
-                    v.bent_normal = bent.try_normalize().unwrap_or(glam::Vec3::Z);
-                }
-                filled[i] = true;
-                dilated[i] = true;
-            }
+    dilation::dilate_with(texels, |i, sources| {
+        dilation::mean_into(coefficients, n, i, sources);
+        if visibility.is_empty() {
+            return;
         }
-    }
-    dilated
+        let (mut ao, mut bent) = (0.0f32, glam::Vec3::ZERO);
+        for &j in sources {
+            ao += visibility[j].accessibility;
+            bent += visibility[j].bent_normal;
+        }
+        visibility[i].accessibility = ao / sources.len() as f32;
+        visibility[i].bent_normal = bent.try_normalize().unwrap_or(glam::Vec3::Z);
+    })
 }
-
-const NEIGHBOURS: [(isize, isize); 8] = [
-    (-1, -1),
-    (0, -1),
-    (1, -1),
-    (-1, 0),
-    (1, 0),
-    (-1, 1),
-    (0, 1),
-    (1, 1),
-];

@@ -15,7 +15,6 @@ use super::atlas::Atlas;
 use crate::error::Result;
 use crate::scene::Scene;
 use crate::trace::{Tracer, offset_distance};
-use crate::transfer::Receivers;
 
 /// Texel sample points of an atlas; every array is row-major, index `y · width + x`.
 #[derive(Clone, Debug, PartialEq)]
@@ -129,29 +128,6 @@ impl Texels {
             .map(|((o, t), _)| (*o, *t))
             .unzip();
         tracer.for_points(scene, &origins, &own)
-    }
-
-    /// The valid texels as receivers, in row-major order of the valid ones, each sampled from
-    /// the stream of its texel index.
-    pub fn receivers(&self) -> Receivers {
-        let pick = |values: &[Vec3]| -> Vec<Vec3> {
-            values
-                .iter()
-                .zip(&self.valid)
-                .filter(|(_, v)| **v)
-                .map(|(x, _)| *x)
-                .collect()
-        };
-        let streams = (0..self.valid.len() as u64)
-            .zip(&self.valid)
-            .filter(|(_, v)| **v)
-            .map(|(i, _)| i)
-            .collect();
-        Receivers {
-            origins: pick(&self.origins),
-            normals: pick(&self.normals),
-            streams: Some(streams),
-        }
     }
 }
 
