@@ -44,61 +44,21 @@
 //! # Scope
 //!
 //! Shadowed mode with Owen–Sobol sampling only; the options refuse the rest
-//! ([`check_options`]): unshadowed bakes cast no rays, the thesis's random sampling is the
+//! ([`BakeOptions::validate`]): unshadowed bakes cast no rays, the thesis's random sampling is the
 //! baseline adaptive sampling is measured against, and in interreflected mode the bounce rows
 //! would be built from a number of rays that differs per vertex (not supported yet).
 
 use glam::{Mat3, Vec3};
 use serde::Serialize;
 
-use crate::error::{Error, Result};
-use crate::options::{BakeOptions, Mode};
-use crate::sampling::{OwenSobol, Sampling, cosine_hemisphere, hilbert_index, vertex_seed};
+use crate::options::BakeOptions;
+pub use crate::options::{MIN_POINTS, REPLICATES};
+use crate::sampling::{OwenSobol, cosine_hemisphere, hilbert_index, vertex_seed};
 use crate::sh::Basis;
 use crate::trace::Tracer;
 
-/// Independent scrambles (replicates) per bake.
-pub const REPLICATES: usize = 16;
-/// Points per replicate in the first round, at least.
-pub const MIN_POINTS: u32 = 16;
 /// Rays per tracer call.
 const BATCH: usize = 256;
-
-/// Refuses what adaptive sampling does not support, with the reason.
-pub fn check_options(options: &BakeOptions) -> Result<()> {
-    let Some(target) = options.target_error else {
-        return Ok(());
-    };
-    if !(target.is_finite() && target > 0.0) {
-        return Err(Error::InvalidOption(format!(
-            "--target-error {target} must be a positive number"
-        )));
-    }
-    if options.mode != Mode::Shadowed {
-        return Err(Error::InvalidOption(format!(
-            "--target-error needs --mode shadowed (mode is {}): unshadowed bakes cast no rays, \
-             and interreflected bakes would build their bounces from a different number of \
-             rays per vertex, which is not supported",
-            options.mode.name()
-        )));
-    }
-    if options.sampling != Sampling::OwenSobol {
-        return Err(Error::InvalidOption(format!(
-            "--target-error needs --sampling owen-sobol (sampling is {}): its error estimate \
-             comes from independent Owen scrambles",
-            options.sampling.name()
-        )));
-    }
-    let least = REPLICATES as u32 * MIN_POINTS;
-    if options.samples < least {
-        return Err(Error::InvalidOption(format!(
-            "--target-error needs --samples of at least {least} ({REPLICATES} replicates × \
-             {MIN_POINTS} points, the first round); it is {}",
-            options.samples
-        )));
-    }
-    Ok(())
-}
 
 /// Points per replicate after each round (cumulative): doubling from the first round's
 /// count to the cap of ⌊samples / K⌋.
@@ -329,6 +289,9 @@ impl Summary {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::error::Error;
+    use crate::options::Mode;
+    use crate::sampling::Sampling;
 
     #[test]
     fn the_schedule_doubles_from_the_first_round_to_the_cap() {
@@ -366,7 +329,7 @@ mod tests {
             samples: 4096,
             ..BakeOptions::default()
         };
-        assert!(check_options(&adaptive).is_ok());
+        assert!(adaptive.validate().is_ok());
         for (options, message) in [
             (
                 BakeOptions {
@@ -412,7 +375,7 @@ mod tests {
                 "positive",
             ),
         ] {
-            match check_options(&options) {
+            match options.validate() {
                 Err(Error::InvalidOption(m)) => assert!(m.contains(message), "{m}"),
                 other => panic!("{options:?}: {other:?}"),
             }

@@ -144,6 +144,47 @@ impl BakeOptions {
                 "--aux needs rays: use --mode shadowed or interreflected".into(),
             ));
         }
-        crate::adaptive::check_options(self)
+        check_adaptive(self)
     }
+}
+
+/// Adaptive bakes ([`crate::adaptive`]): independent scrambles (replicates) per bake.
+pub const REPLICATES: usize = 16;
+/// Adaptive bakes: points per replicate in the first round, at least.
+pub const MIN_POINTS: u32 = 16;
+
+/// Refuses what adaptive sampling ([`crate::adaptive`]) does not support, with the reason.
+fn check_adaptive(options: &BakeOptions) -> Result<()> {
+    let Some(target) = options.target_error else {
+        return Ok(());
+    };
+    if !(target.is_finite() && target > 0.0) {
+        return Err(Error::InvalidOption(format!(
+            "--target-error {target} must be a positive number"
+        )));
+    }
+    if options.mode != Mode::Shadowed {
+        return Err(Error::InvalidOption(format!(
+            "--target-error needs --mode shadowed (mode is {}): unshadowed bakes cast no rays, \
+             and interreflected bakes would build their bounces from a different number of \
+             rays per vertex, which is not supported",
+            options.mode.name()
+        )));
+    }
+    if options.sampling != Sampling::OwenSobol {
+        return Err(Error::InvalidOption(format!(
+            "--target-error needs --sampling owen-sobol (sampling is {}): its error estimate \
+             comes from independent Owen scrambles",
+            options.sampling.name()
+        )));
+    }
+    let least = REPLICATES as u32 * MIN_POINTS;
+    if options.samples < least {
+        return Err(Error::InvalidOption(format!(
+            "--target-error needs --samples of at least {least} ({REPLICATES} replicates × \
+             {MIN_POINTS} points, the first round); it is {}",
+            options.samples
+        )));
+    }
+    Ok(())
 }
