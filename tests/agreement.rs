@@ -40,9 +40,7 @@
 use glam::Vec3;
 use prt_baker::progress::Silent;
 use prt_baker::sampling::Pcg32;
-use prt_baker::trace::{
-    EmbreeMode, EmbreeOptions, EmbreeTracer, Hit, ObvhsOptions, ObvhsTracer, Ray, Tracer,
-};
+use prt_baker::trace::{EmbreeMode, EmbreeTracer, Hit, ObvhsOptions, ObvhsTracer, Ray, Tracer};
 use prt_baker::transfer::Estimator;
 use prt_baker::{BakeOptions, Mode, Scene, Transfer};
 use prt_tests::ray_sets::*;
@@ -83,16 +81,7 @@ struct Tracers {
 
 impl Tracers {
     fn new(scene: &Scene) -> Tracers {
-        let embree = |mode| {
-            EmbreeTracer::new(
-                scene,
-                EmbreeOptions {
-                    mode,
-                    ..EmbreeOptions::default()
-                },
-            )
-            .expect("embree scene")
-        };
+        let embree = |mode| embree_tracer(scene, mode);
         Tracers {
             embree: embree(EmbreeMode::Robust),
             embree_default: embree(EmbreeMode::Watertight),

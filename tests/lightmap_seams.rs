@@ -7,23 +7,10 @@ use prt_baker::lightmap::{self, Atlas, LightmapBake};
 use prt_baker::progress::Silent;
 use prt_baker::scene::Mesh;
 use prt_baker::trace::seams::seam_points;
-use prt_baker::trace::{
-    EmbreeMode, EmbreeOptions, EmbreeTracer, ObvhsOptions, ObvhsTracer, Tracer,
-};
+use prt_baker::trace::{EmbreeMode, ObvhsOptions, ObvhsTracer, Tracer};
 use prt_baker::transfer::{Estimator, Receivers, Scratch};
 use prt_baker::{BakeOptions, Mode, Scene, sh};
 use prt_tests::*;
-
-fn embree(scene: &Scene, mode: EmbreeMode) -> EmbreeTracer {
-    EmbreeTracer::new(
-        scene,
-        EmbreeOptions {
-            mode,
-            ..EmbreeOptions::default()
-        },
-    )
-    .expect("embree scene")
-}
 
 fn bake(scene: &Scene, tracer: &dyn Tracer, atlas: Atlas, options: &BakeOptions) -> LightmapBake {
     lightmap::bake(scene, Some(tracer), options, atlas, &Silent).expect("texel bake")
@@ -85,7 +72,7 @@ fn cornell_room_texel_bakes_agree() {
         ..BakeOptions::default()
     };
     let atlas = || Atlas::generate(&scene, 128, None).expect("atlas");
-    let default = embree(&scene, EmbreeMode::Watertight);
+    let default = embree_tracer(&scene, EmbreeMode::Watertight);
     // The default tracer does route seam texels into robust mode.
     let texels = lightmap::Texels::rasterise(&scene, &atlas());
     let (origins, own): (Vec<Vec3>, Vec<u32>) = (0..texels.valid.len())
@@ -114,13 +101,18 @@ fn cornell_room_texel_bakes_agree() {
     let baked_default = bake(&scene, &default, atlas(), &options);
     let robust = bake(
         &scene,
-        &embree(&scene, EmbreeMode::Robust),
+        &embree_tracer(&scene, EmbreeMode::Robust),
         atlas(),
         &options,
     );
     let obvhs = ObvhsTracer::new(&scene, ObvhsOptions::default());
     let baked_obvhs = bake(&scene, &obvhs, atlas(), &options);
-    let fast = bake(&scene, &embree(&scene, EmbreeMode::Fast), atlas(), &options);
+    let fast = bake(
+        &scene,
+        &embree_tracer(&scene, EmbreeMode::Fast),
+        atlas(),
+        &options,
+    );
     let all = &texels.valid;
     for (subset, among) in [("", all), (" at seams", &at_seams)] {
         agreement(
@@ -227,7 +219,7 @@ fn floor_texels_half_under_a_wall_move_out() {
     meshes.extend(open_box(x0, x1, y0, y1, 0.5));
     let scene = scene(meshes);
     let options = shadowed(2, 4096);
-    let tracer = embree(&scene, EmbreeMode::Watertight);
+    let tracer = embree_tracer(&scene, EmbreeMode::Watertight);
     let atlas = Atlas::from_vertex_uvs(&scene, &floor_uvs(&scene), 33, 33).expect("atlas");
     let baked = bake(&scene, &tracer, atlas, &options);
     let size = 2.0 / 33.0;
@@ -312,17 +304,22 @@ fn floor_texels_at_the_foot_of_walls_are_watertight() {
     };
     let robust = bake(
         &scene,
-        &embree(&scene, EmbreeMode::Robust),
+        &embree_tracer(&scene, EmbreeMode::Robust),
         atlas(),
         &options,
     );
     let default = bake(
         &scene,
-        &embree(&scene, EmbreeMode::Watertight),
+        &embree_tracer(&scene, EmbreeMode::Watertight),
         atlas(),
         &options,
     );
-    let fast = bake(&scene, &embree(&scene, EmbreeMode::Fast), atlas(), &options);
+    let fast = bake(
+        &scene,
+        &embree_tracer(&scene, EmbreeMode::Fast),
+        atlas(),
+        &options,
+    );
     let all = robust.texels.valid.clone();
     agreement(
         "boards' floor texels, Embree fast mode against robust (reported only)",
@@ -360,7 +357,7 @@ fn charts_meeting_at_a_seam_agree_there() {
         let atlas = Atlas::generate(&scene, 96, None).expect("atlas");
         bake(
             &scene,
-            &embree(&scene, EmbreeMode::Watertight),
+            &embree_tracer(&scene, EmbreeMode::Watertight),
             atlas,
             &options,
         )
@@ -385,12 +382,12 @@ fn charts_meeting_at_a_seam_agree_there() {
             .map(|(x, y)| f64::from(x - y).powi(2))
             .sum()
     };
+    let east: Vec<usize> = near.iter().copied().filter(|&j| !west(j)).collect();
     for &i in near.iter().filter(|&&i| west(i)) {
         let p = a.texels.positions[i];
         // The other chart at p: its texels need not line up with this chart's (uvunwrap
         // rotates and places charts freely), so interpolate linearly along y (the field's
         // only direction of change) between its nearest texels below and above p.
-        let east: Vec<usize> = near.iter().copied().filter(|&j| !west(j)).collect();
         let y = |t: usize| a.texels.positions[t].y;
         let below = east
             .iter()

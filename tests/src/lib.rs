@@ -25,7 +25,7 @@ use glam::{DVec3, Vec2, Vec3};
 use prt_baker::sampling::{Frame, Pcg32};
 use prt_baker::scene::{Material, Mesh, Scene};
 use prt_baker::sh;
-use prt_baker::trace::{EmbreeOptions, EmbreeTracer};
+use prt_baker::trace::{EmbreeMode, EmbreeOptions, EmbreeTracer};
 use prt_baker::transfer::{Estimator, Scratch, Visibility};
 use prt_baker::{BakeOptions, Mode};
 
@@ -435,6 +435,19 @@ pub fn visibility_of(scene: &Scene, options: &BakeOptions, vertices: &[usize]) -
 }
 
 /// A whole-scene bake through the library entry point (every vertex, any mode).
+/// An Embree tracer over `scene` in `mode` (robust, the watertight default, fast), for the
+/// tests that compare modes.
+pub fn embree_tracer(scene: &Scene, mode: EmbreeMode) -> EmbreeTracer {
+    EmbreeTracer::new(
+        scene,
+        EmbreeOptions {
+            mode,
+            ..EmbreeOptions::default()
+        },
+    )
+    .expect("embree scene")
+}
+
 pub fn bake_scene(scene: &Scene, options: &BakeOptions) -> prt_baker::Transfer {
     let tracer = EmbreeTracer::new(scene, EmbreeOptions::default()).expect("embree scene");
     prt_baker::bake(scene, Some(&tracer), options, &prt_baker::progress::Silent).expect("bake")
