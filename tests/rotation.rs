@@ -1,6 +1,6 @@
 //! SH rotation (oracles.md, "Rotation"): the thesis's ZYZ construction against the two
-//! independent methods — Ivanic–Ruedenberg's recurrence and the projection of rotated basis
-//! functions (`sh::Rotator`, what the baker uses) — and against lights projected at rotated
+//! independent methods — Ivanic–Ruedenberg's recurrence (what the baker uses) and the
+//! projection of rotated basis functions (`sh::Rotator`) — and against lights projected at rotated
 //! directions, for random rotations (fixed seed) and the gimbal cases.
 
 use glam::{DMat3, DQuat, DVec3};

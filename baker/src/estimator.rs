@@ -11,9 +11,12 @@
 //! y_j precomputed at every point. A vertex turns the set by its own random angle about its
 //! normal (so neighbouring vertices do not share sample directions), casts the rays, adds the
 //! table rows of the unblocked ones, and rotates the local coefficients into world space once
-//! ([`crate::sh::Rotator`], exact). Per ray that is a 3×3 transform and a row sum: the cost of
-//! a bake is the cost of its rays. The table takes N·(12 + 4n²) bytes: 0.8 MB for the demo's
-//! 10,000 rays at order 4, 270 MB for a million rays at order 8.
+//! ([`crate::sh::RecurrenceRotator`], exact). Per ray that is a 3×3 transform and a row sum:
+//! the cost of a bake is the cost of its rays. Each row also holds the local direction, so the
+//! same sums give the bent normal; and a batch of rays most of which are unblocked is summed
+//! as the batch's precomputed total minus its blocked rows (on an open surface, most rays are
+//! unblocked). The table takes N·(24 + 4n²) bytes: 0.9 MB for the demo's 10,000 rays at
+//! order 4, 280 MB for a million rays at order 8.
 //!
 //! Every quantity is a pure function of (seed, vertex, sample index) and sums are formed in a
 //! fixed order, so a bake is bit-identical whatever the number of threads.
@@ -31,7 +34,7 @@ use crate::sampling::{
     uniform_sphere, vertex_seed,
 };
 use crate::scene::Scene;
-use crate::sh::{Basis, Rotator};
+use crate::sh::{Basis, RecurrenceRotator as Rotator, RotationScratch};
 use crate::trace::Tracer;
 
 /// What a vertex's rays tell besides its transfer: the thesis's ambient-occlusion
@@ -53,6 +56,8 @@ pub struct Visibility {
 
 /// Rays per tracer call: the batch over which the SH sums are first formed in f32.
 const BATCH: usize = 256;
+/// The columns after the n² coefficients in the estimator's rows: the local direction.
+const DIR_COLUMNS: usize = 3;
 /// Receivers per parallel work item (the name predates texel receivers).
 pub(crate) const VERTICES_PER_JOB: usize = RECEIVERS_PER_JOB;
 
@@ -109,6 +114,30 @@ pub(crate) fn direct_pass(
     }
 }
 
+/// The batches of sample indices a vertex traces: at most [`BATCH`] long, and split at the
+/// bounce samples' end, so each batch is all bounce samples or none.
+fn batch_ranges(options: &BakeOptions) -> impl Iterator<Item = std::ops::Range<usize>> + use<> {
+    let samples = options.samples as usize;
+    let bounce = options.effective_bounce_samples() as usize;
+    let mut start = 0;
+    std::iter::from_fn(move || {
+        (start < samples).then(|| {
+            let limit = if start < bounce { bounce } else { samples };
+            let range = start..(start + BATCH).min(limit);
+            start = range.end;
+            range
+        })
+    })
+}
+
+/// `acc += row`, element by element.
+#[inline]
+fn add_row(acc: &mut [f32], row: &[f32]) {
+    for (a, y) in acc.iter_mut().zip(row) {
+        *a += y;
+    }
+}
+
 /// What all vertices of one bake share, and the per-vertex estimator.
 pub struct Estimator {
     pub(crate) options: BakeOptions,
@@ -120,10 +149,15 @@ pub struct Estimator {
     streams: Option<Vec<u64>>,
     /// The bake's cosine-weighted directions in the local frame (Owen–Sobol only).
     local_dirs: Vec<Vec3>,
-    /// y_j(local_dirs[i]) at `[i·n² + j]`. With bounce samples (interreflected mode), rows
-    /// 0..M are the sequence's first M points — a stratified set of their own — the rest
-    /// follow; thesis-random samples are independent, so their first M serve.
-    local_sh: Vec<f32>,
+    /// Row i (width n² + 3): y_j(local_dirs[i]) for j < n², then local_dirs[i] itself, whose
+    /// sum over the unblocked rays gives the bent normal with the same additions. With bounce
+    /// samples (interreflected mode), rows 0..M are the sequence's first M points — a
+    /// stratified set of their own — the rest follow; thesis-random samples are independent,
+    /// so their first M serve.
+    local_rows: Vec<f32>,
+    /// Per batch of [`Estimator::batches`], the sum of its rows of `local_rows`: a batch in
+    /// which fewer rays are blocked than not is summed as this total minus its blocked rows.
+    batch_totals: Vec<f32>,
     /// Adaptive bakes (`--target-error`): the replicate point sets, instead of the table above.
     adaptive: Option<crate::adaptive::Tables>,
 }
@@ -140,7 +174,8 @@ impl Estimator {
         options.validate()?;
         let basis = Basis::new(options.order);
         let n = basis.coeff_count();
-        let (mut local_dirs, mut local_sh) = (Vec::new(), Vec::new());
+        let (mut local_dirs, mut local_rows, mut batch_totals) =
+            (Vec::new(), Vec::new(), Vec::new());
         let adaptive = options
             .target_error
             .map(|_| crate::adaptive::Tables::new(options, &basis));
@@ -162,9 +197,18 @@ impl Estimator {
                 .iter()
                 .map(|&(_, u1, u2)| cosine_hemisphere(u1, u2))
                 .collect();
-            local_sh = vec![0.0; local_dirs.len() * n];
-            for (row, d) in local_sh.chunks_mut(n).zip(&local_dirs) {
-                basis.eval(*d, row);
+            let width = n + DIR_COLUMNS;
+            local_rows = vec![0.0; local_dirs.len() * width];
+            for (row, d) in local_rows.chunks_mut(width).zip(&local_dirs) {
+                basis.eval(*d, &mut row[..n]);
+                row[n..].copy_from_slice(&d.to_array());
+            }
+            for batch in batch_ranges(options) {
+                let mut total = vec![0.0f32; width];
+                for row in local_rows[batch.start * width..batch.end * width].chunks_exact(width) {
+                    add_row(&mut total, row);
+                }
+                batch_totals.extend(total);
             }
         }
         Ok(Estimator {
@@ -175,7 +219,8 @@ impl Estimator {
             origins: receivers.origins,
             streams: receivers.streams,
             local_dirs,
-            local_sh,
+            local_rows,
+            batch_totals,
             adaptive,
         })
     }
@@ -185,20 +230,9 @@ impl Estimator {
         self.normals.len()
     }
 
-    /// The batches of sample indices a vertex traces: at most [`BATCH`] long, and split at
-    /// the bounce samples' end, so each batch is all bounce samples or none.
+    /// The batches of sample indices a vertex traces ([`batch_ranges`]).
     fn batches(&self) -> impl Iterator<Item = std::ops::Range<usize>> {
-        let samples = self.options.samples as usize;
-        let bounce = self.options.effective_bounce_samples() as usize;
-        let mut start = 0;
-        std::iter::from_fn(move || {
-            (start < samples).then(|| {
-                let limit = if start < bounce { bounce } else { samples };
-                let range = start..(start + BATCH).min(limit);
-                start = range.end;
-                range
-            })
-        })
+        batch_ranges(&self.options)
     }
 
     /// The random stream receiver `v` samples from ([`Receivers::streams`]).
@@ -357,7 +391,7 @@ impl Estimator {
         if let Some(hits) = hits.as_deref_mut() {
             hits.begin_vertex(&mut s.rows);
         }
-        for batch in self.batches() {
+        for (b, batch) in self.batches().enumerate() {
             let (start, end) = (batch.start, batch.end);
             self.directions(v, &frame, batch.clone(), &mut s.dirs, &mut s.weights);
             let len = end - start;
@@ -371,19 +405,30 @@ impl Estimator {
                 (None, _) => s.occluded[..len].fill(false),
             }
             let occluded = &s.occluded[..len];
-            s.batch_sum.fill(0.0);
             match self.options.sampling {
                 Sampling::OwenSobol => {
-                    let rows = self.local_sh[start * n..end * n].chunks_exact(n);
-                    for (row, &blocked) in rows.zip(occluded.iter()) {
-                        if !blocked {
+                    // Every weight is 1: the count, and the bent normal from the rows.
+                    let blocked = occluded.iter().filter(|&&b| b).count();
+                    unblocked += (len - blocked) as f64;
+                    let width = n + DIR_COLUMNS;
+                    let rows = self.local_rows[start * width..end * width].chunks_exact(width);
+                    if 2 * blocked <= len {
+                        s.batch_sum
+                            .copy_from_slice(&self.batch_totals[b * width..(b + 1) * width]);
+                        for (row, _) in rows.zip(occluded).filter(|(_, blocked)| **blocked) {
                             for (acc, y) in s.batch_sum.iter_mut().zip(row) {
-                                *acc += y;
+                                *acc -= y;
                             }
+                        }
+                    } else {
+                        s.batch_sum.fill(0.0);
+                        for (row, _) in rows.zip(occluded).filter(|(_, blocked)| !**blocked) {
+                            add_row(&mut s.batch_sum, row);
                         }
                     }
                 }
                 Sampling::ThesisRandom => {
+                    s.batch_sum.fill(0.0);
                     for ((dir, &blocked), &weight) in
                         s.dirs.iter().zip(occluded.iter()).zip(&s.weights)
                     {
@@ -392,14 +437,10 @@ impl Estimator {
                             for (acc, y) in s.batch_sum.iter_mut().zip(&s.y) {
                                 *acc += weight * y;
                             }
+                            unblocked += f64::from(weight);
+                            bent += *dir * weight;
                         }
                     }
-                }
-            }
-            for ((dir, &blocked), &weight) in s.dirs.iter().zip(occluded.iter()).zip(&s.weights) {
-                if !blocked {
-                    unblocked += f64::from(weight);
-                    bent += *dir * weight;
                 }
             }
             for (total, b) in s.total.iter_mut().zip(&s.batch_sum) {
@@ -410,15 +451,19 @@ impl Estimator {
             hits.end_vertex(&mut s.rows);
         }
         let norm = self.norm();
-        for t in s.total.iter_mut() {
+        let (total, local_bent) = s.total.split_at_mut(n);
+        for t in total.iter_mut() {
             *t *= norm;
         }
         match self.options.sampling {
             // Formed in the local frame: rotate into world space.
-            Sampling::OwenSobol => self
-                .rotator
-                .rotate(frame.as_dmat3(), &s.total, &mut s.world),
-            Sampling::ThesisRandom => s.world.copy_from_slice(&s.total),
+            Sampling::OwenSobol => {
+                let local_bent = glam::DVec3::from_slice(local_bent).as_vec3();
+                bent = frame * local_bent;
+                self.rotator
+                    .rotate(frame.as_dmat3(), total, &mut s.world, &mut s.rotation);
+            }
+            Sampling::ThesisRandom => s.world.copy_from_slice(total),
         }
         for (o, w) in out.iter_mut().zip(&s.world) {
             *o = *w as f32;
@@ -454,10 +499,14 @@ impl Estimator {
             &frame,
             tracer,
             &mut s.adaptive,
-            &mut s.total,
+            &mut s.total[..n],
         );
-        self.rotator
-            .rotate(frame.as_dmat3(), &s.total, &mut s.world);
+        self.rotator.rotate(
+            frame.as_dmat3(),
+            &s.total[..n],
+            &mut s.world,
+            &mut s.rotation,
+        );
         for (o, w) in out.iter_mut().zip(&s.world) {
             *o = *w as f32;
         }
@@ -479,9 +528,12 @@ pub struct Scratch {
     rows: RowBuilder,
     weights: Vec<f32>,
     y: Vec<f32>,
+    /// A batch's sums and the run's totals: n² coefficients, then [`DIR_COLUMNS`].
     batch_sum: Vec<f32>,
     total: Vec<f64>,
     world: Vec<f64>,
+    /// The current receiver's SH rotation blocks.
+    rotation: RotationScratch,
     adaptive: crate::adaptive::AdaptiveScratch,
 }
 
@@ -494,9 +546,10 @@ impl Scratch {
             rows: Default::default(),
             weights: Vec::with_capacity(BATCH),
             y: vec![0.0; n],
-            batch_sum: vec![0.0; n],
-            total: vec![0.0; n],
+            batch_sum: vec![0.0; n + DIR_COLUMNS],
+            total: vec![0.0; n + DIR_COLUMNS],
             world: vec![0.0; n],
+            rotation: Default::default(),
             adaptive: Default::default(),
         }
     }

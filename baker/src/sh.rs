@@ -16,11 +16,13 @@
 //! sin^m θ·cos mφ for Re (x+iy)^m so no trigonometry is needed; and for orders ≤ 4 [`Basis`]
 //! uses hard-coded polynomials. Tests check each against the one before.
 //!
-//! Rotations: [`Rotator`] below projects rotated basis functions (what the baker uses), and
-//! [`rotation`] builds explicit band matrices (the thesis's ZYZ product and Ivanic–Ruedenberg's
-//! recurrence), what lights use.
+//! Rotations: [`rotation`] builds explicit band matrices (the thesis's ZYZ product, what lights
+//! use, and Ivanic–Ruedenberg's recurrence, what the baker uses per receiver), and [`Rotator`]
+//! below projects rotated basis functions, the independent method the tests check both with.
 
 pub mod rotation;
+
+pub use rotation::{RecurrenceRotator, RotationScratch};
 
 use glam::Vec3;
 use std::f64::consts::PI;

@@ -122,28 +122,30 @@ pub fn find_leaks(texels: &Texels, tracer: &dyn Tracer, seed: u64) -> Vec<bool> 
 }
 
 /// Whether more than [`LEAK_FRACTION`] of [`LEAK_RAYS`] cosine-distributed rays from `origin`
-/// around `normal` hit back faces.
+/// around `normal` hit back faces. The directions are drawn in order from `rng`, the last
+/// [`LEAK_RAYS`] − [`SCREEN_RAYS`] only when the screen finds a back face (most texels stop
+/// there, and drawing a direction costs a sine and a cosine).
 fn leaks_at(origin: Vec3, normal: Vec3, tracer: &dyn Tracer, rng: &mut Pcg32) -> bool {
     let frame = Frame::from_normal(normal);
-    let dirs: Vec<Vec3> = (0..LEAK_RAYS)
-        .map(|_| frame.to_world(cosine_hemisphere(rng.next_f32(), rng.next_f32())))
-        .collect();
-    let mut hits: Vec<Option<Hit>> = vec![None; LEAK_RAYS];
-    let back = |hits: &[Option<Hit>], dirs: &[Vec3]| {
-        hits.iter()
-            .zip(dirs)
+    let mut dirs = [Vec3::ZERO; LEAK_RAYS];
+    let mut hits: [Option<Hit>; LEAK_RAYS] = [None; LEAK_RAYS];
+    let mut back = 0;
+    for range in [0..SCREEN_RAYS, SCREEN_RAYS..LEAK_RAYS] {
+        let (dirs, hits) = (&mut dirs[range.clone()], &mut hits[range]);
+        for d in dirs.iter_mut() {
+            *d = frame.to_world(cosine_hemisphere(rng.next_f32(), rng.next_f32()));
+        }
+        tracer.intersect_from(origin, dirs, hits);
+        back += hits
+            .iter()
+            .zip(dirs.iter())
             .filter(|(hit, dir)| hit.as_ref().is_some_and(|h| h.ng.dot(**dir) > 0.0))
-            .count()
-    };
-    let (first, rest) = dirs.split_at(SCREEN_RAYS);
-    let (first_hits, rest_hits) = hits.split_at_mut(SCREEN_RAYS);
-    tracer.intersect_from(origin, first, first_hits);
-    let screened = back(first_hits, first);
-    if screened == 0 {
-        return false;
+            .count();
+        if back == 0 {
+            return false;
+        }
     }
-    tracer.intersect_from(origin, rest, rest_hits);
-    (screened + back(rest_hits, rest)) as f32 > LEAK_FRACTION * LEAK_RAYS as f32
+    back as f32 > LEAK_FRACTION * LEAK_RAYS as f32
 }
 
 /// How far past the back face a moved point goes: 1/256 of a texel, and at least 64 times

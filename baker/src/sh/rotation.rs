@@ -15,8 +15,9 @@
 //!   those ZYZ angles ([`euler_zyz`]), gimbal cases included.
 //! * [`ShRotation::from_matrix_recurrence`]: Ivanic & Ruedenberg's recurrence (J. Phys. Chem.
 //!   1996, 100, 6342, with the 1998 erratum), which builds band l from band l−1 and the 3×3
-//!   matrix. It supplies the X_+90 blocks of the first construction, and the tests use it and
-//!   the projection method [`crate::sh::Rotator`] to check the ZYZ path.
+//!   matrix. It supplies the X_+90 blocks of the first construction, the baker rotates every
+//!   receiver's transfer with it ([`RecurrenceRotator`]), and the tests use it and the
+//!   projection method [`crate::sh::Rotator`] to check the ZYZ path.
 //!
 //! The recurrence is stated for real harmonics without the Condon–Shortley phase; this
 //! project's harmonics carry (−1)^m on every m ≠ 0 function, so its blocks are conjugated by
@@ -68,42 +69,10 @@ impl ShRotation {
     }
 
     /// Ivanic–Ruedenberg's recurrence for a rotation matrix: the second, independent method.
+    /// Builds the recurrence's constants for this call; a caller rotating many times should
+    /// keep a [`RecurrenceRotator`].
     pub fn from_matrix_recurrence(order: usize, m: DMat3) -> ShRotation {
-        let r = |i: usize, j: usize| m.col(j)[i];
-        // Band 1 without the Condon–Shortley phase is (y, z, x) up to one constant, so its
-        // block is R with rows and columns permuted to that order.
-        let axis = [1, 2, 0];
-        let mut band1 = vec![0.0; 9];
-        for (i, &ai) in axis.iter().enumerate() {
-            for (j, &aj) in axis.iter().enumerate() {
-                band1[i * 3 + j] = r(ai, aj);
-            }
-        }
-        let mut plain: Vec<Vec<f64>> = vec![vec![1.0]];
-        if order > 1 {
-            plain.push(band1);
-        }
-        for l in 2..order {
-            let block = ivanic_ruedenberg_band(l, &plain[1], &plain[l - 1]);
-            plain.push(block);
-        }
-        let bands = plain
-            .into_iter()
-            .enumerate()
-            .map(|(l, mut block)| {
-                let w = 2 * l + 1;
-                for i in 0..w {
-                    for j in 0..w {
-                        if (i + j) % 2 == 1 {
-                            // m + m′ = (i − l) + (j − l) is odd exactly when i + j is.
-                            block[i * w + j] = -block[i * w + j];
-                        }
-                    }
-                }
-                block
-            })
-            .collect();
-        ShRotation { order, bands }
+        RecurrenceRotator::new(order).rotation(m)
     }
 
     pub fn order(&self) -> usize {
@@ -167,6 +136,107 @@ impl ShRotation {
                 .enumerate()
                 .map(|(l, (a, b))| matmul(a, b, 2 * l + 1))
                 .collect(),
+        }
+    }
+}
+
+/// Ivanic–Ruedenberg's recurrence with its per-entry constants computed once for an order.
+/// The baker turns every receiver's local-frame transfer into world space with
+/// [`RecurrenceRotator::rotate`]: for order 4 that is about 80 entries of a few products each,
+/// and no allocation.
+#[derive(Clone, Debug)]
+pub struct RecurrenceRotator {
+    order: usize,
+    /// Band l ≥ 2 at index l − 2: per entry (m, n), row-major, the paper's (u, v, w).
+    constants: Vec<Vec<[f64; 3]>>,
+}
+
+/// Storage reused by [`RecurrenceRotator::rotate`]: the current rotation's blocks without the
+/// Condon–Shortley phase.
+#[derive(Clone, Debug, Default)]
+pub struct RotationScratch {
+    plain: Vec<Vec<f64>>,
+}
+
+impl RecurrenceRotator {
+    pub fn new(order: usize) -> RecurrenceRotator {
+        RecurrenceRotator {
+            order,
+            constants: (2..order).map(band_constants).collect(),
+        }
+    }
+
+    pub fn order(&self) -> usize {
+        self.order
+    }
+
+    /// The SH matrix of the rotation `m` (orthonormal, determinant +1).
+    pub fn rotation(&self, m: DMat3) -> ShRotation {
+        let mut plain = Vec::new();
+        self.plain_blocks(m, &mut plain);
+        for (l, block) in plain.iter_mut().enumerate() {
+            let w = 2 * l + 1;
+            for i in 0..w {
+                for j in 0..w {
+                    if (i + j) % 2 == 1 {
+                        // m + m′ = (i − l) + (j − l) is odd exactly when i + j is.
+                        block[i * w + j] = -block[i * w + j];
+                    }
+                }
+            }
+        }
+        ShRotation {
+            order: self.order,
+            bands: plain,
+        }
+    }
+
+    /// `out` = the coefficients of g(s) = f(mᵀs), where `c` holds f's (both n² long), as
+    /// `self.rotation(m).apply(c, out)` computes them, without building the phased blocks:
+    /// the phase's sign (−1)^(i+j) is (−1)^i·(−1)^j, applied to `c` and `out`.
+    pub fn rotate(&self, m: DMat3, c: &[f64], out: &mut [f64], scratch: &mut RotationScratch) {
+        self.plain_blocks(m, &mut scratch.plain);
+        let sign = |i: usize| if i % 2 == 1 { -1.0 } else { 1.0 };
+        for (l, block) in scratch.plain.iter().enumerate() {
+            let (start, w) = (l * l, 2 * l + 1);
+            let input = &c[start..start + w];
+            for (i, o) in out[start..start + w].iter_mut().enumerate() {
+                let row = &block[i * w..(i + 1) * w];
+                let sum: f64 = (0..w).map(|j| row[j] * sign(j) * input[j]).sum();
+                *o = sign(i) * sum;
+            }
+        }
+    }
+
+    /// The band blocks of `m` without the Condon–Shortley phase, band l at `plain[l]`.
+    fn plain_blocks(&self, m: DMat3, plain: &mut Vec<Vec<f64>>) {
+        plain.resize_with(self.order, Vec::new);
+        for (l, block) in plain.iter_mut().enumerate() {
+            block.resize((2 * l + 1) * (2 * l + 1), 0.0);
+        }
+        if self.order > 0 {
+            plain[0][0] = 1.0;
+        }
+        if self.order > 1 {
+            // Band 1 without the Condon–Shortley phase is (y, z, x) up to one constant, so its
+            // block is R with rows and columns permuted to that order.
+            let r = |i: usize, j: usize| m.col(j)[i];
+            let axis = [1, 2, 0];
+            for (i, &ai) in axis.iter().enumerate() {
+                for (j, &aj) in axis.iter().enumerate() {
+                    plain[1][i * 3 + j] = r(ai, aj);
+                }
+            }
+        }
+        for l in 2..self.order {
+            let (done, rest) = plain.split_at_mut(l);
+            ivanic_ruedenberg_band(
+                l,
+                &self.constants[l - 2],
+                &done[1],
+                &done[l - 1],
+                &mut rest[0],
+            );
         }
     }
 }
@@ -271,30 +341,30 @@ fn z_block(l: usize, alpha: f64) -> Vec<f64> {
     z
 }
 
-/// Band l of the Ivanic–Ruedenberg recurrence (no Condon–Shortley phase), from band 1 `r1`
-/// and band l−1 `prev`.
-fn ivanic_ruedenberg_band(l: usize, r1: &[f64], prev: &[f64]) -> Vec<f64> {
+/// P^i_{a,b} of the paper, from band 1 `r1` and band l−1 `prev`, both indexed by m from
+/// −1..1 and −(l−1)..l−1.
+#[inline(always)]
+fn recurrence_p(l: usize, r1: &[f64], prev: &[f64], i: i64, a: i64, b: i64) -> f64 {
     let li = l as i64;
-    let w = 2 * l + 1;
-    // Centred access: r1 and prev indexed by m from −1..1 and −(l−1)..l−1.
     let r = |i: i64, j: i64| r1[((i + 1) * 3 + (j + 1)) as usize];
     let pw = (2 * l - 1) as i64;
     let p_el = |a: i64, b: i64| prev[((a + li - 1) * pw + (b + li - 1)) as usize];
-    // P^i_{a,b} of the paper.
-    let p = |i: i64, a: i64, b: i64| {
-        if b == li {
-            r(i, 1) * p_el(a, li - 1) - r(i, -1) * p_el(a, -li + 1)
-        } else if b == -li {
-            r(i, 1) * p_el(a, -li + 1) + r(i, -1) * p_el(a, li - 1)
-        } else {
-            r(i, 0) * p_el(a, b)
-        }
-    };
-    let delta = |a: i64, b: i64| if a == b { 1.0 } else { 0.0 };
-    let mut block = vec![0.0; w * w];
+    if b == li {
+        r(i, 1) * p_el(a, li - 1) - r(i, -1) * p_el(a, -li + 1)
+    } else if b == -li {
+        r(i, 1) * p_el(a, -li + 1) + r(i, -1) * p_el(a, li - 1)
+    } else {
+        r(i, 0) * p_el(a, b)
+    }
+}
+
+/// The Ivanic–Ruedenberg constants (u, v, w) of band l ≥ 2, per entry (m, n) row-major.
+fn band_constants(l: usize) -> Vec<[f64; 3]> {
+    let li = l as i64;
+    let mut constants = Vec::with_capacity((2 * l + 1) * (2 * l + 1));
     for m in -li..=li {
         for n in -li..=li {
-            let d0 = delta(m, 0);
+            let d0 = if m == 0 { 1.0 } else { 0.0 };
             let denominator = if n.abs() == li {
                 (2 * li * (2 * li - 1)) as f64
             } else {
@@ -305,7 +375,31 @@ fn ivanic_ruedenberg_band(l: usize, r1: &[f64], prev: &[f64]) -> Vec<f64> {
             let v = 0.5
                 * ((1.0 + d0) * ((li + am - 1) * (li + am)) as f64 / denominator).sqrt()
                 * (1.0 - 2.0 * d0);
-            let wc = -0.5 * (((li - am - 1) * (li - am)) as f64 / denominator).sqrt() * (1.0 - d0);
+            let w = -0.5 * (((li - am - 1) * (li - am)) as f64 / denominator).sqrt() * (1.0 - d0);
+            constants.push([u, v, w]);
+        }
+    }
+    constants
+}
+
+/// Band l of the Ivanic–Ruedenberg recurrence (no Condon–Shortley phase) into `block`, from
+/// its constants, band 1 `r1` and band l−1 `prev`.
+fn ivanic_ruedenberg_band(
+    l: usize,
+    constants: &[[f64; 3]],
+    r1: &[f64],
+    prev: &[f64],
+    block: &mut [f64],
+) {
+    let li = l as i64;
+    let w = 2 * l + 1;
+    let p = |i: i64, a: i64, b: i64| recurrence_p(l, r1, prev, i, a, b);
+    // √(1 + δ), written out: √2 and √1 exactly as `sqrt` rounds them.
+    let root = |delta: bool| if delta { std::f64::consts::SQRT_2 } else { 1.0 };
+    for m in -li..=li {
+        for n in -li..=li {
+            let index = ((m + li) as usize) * w + (n + li) as usize;
+            let [u, v, wc] = constants[index];
             let mut value = 0.0;
             if u != 0.0 {
                 value += u * p(0, m, n);
@@ -314,11 +408,11 @@ fn ivanic_ruedenberg_band(l: usize, r1: &[f64], prev: &[f64]) -> Vec<f64> {
                 let big_v = if m == 0 {
                     p(1, 1, n) + p(-1, -1, n)
                 } else if m > 0 {
-                    p(1, m - 1, n) * (1.0 + delta(m, 1)).sqrt()
-                        - p(-1, -m + 1, n) * (1.0 - delta(m, 1))
+                    p(1, m - 1, n) * root(m == 1)
+                        - p(-1, -m + 1, n) * if m == 1 { 0.0 } else { 1.0 }
                 } else {
-                    p(1, m + 1, n) * (1.0 - delta(m, -1))
-                        + p(-1, -m - 1, n) * (1.0 + delta(m, -1)).sqrt()
+                    p(1, m + 1, n) * if m == -1 { 0.0 } else { 1.0 }
+                        + p(-1, -m - 1, n) * root(m == -1)
                 };
                 value += v * big_v;
             }
@@ -330,10 +424,9 @@ fn ivanic_ruedenberg_band(l: usize, r1: &[f64], prev: &[f64]) -> Vec<f64> {
                 };
                 value += wc * big_w;
             }
-            block[((m + li) as usize) * w + (n + li) as usize] = value;
+            block[index] = value;
         }
     }
-    block
 }
 
 fn identity_block(w: usize) -> Vec<f64> {
@@ -421,6 +514,27 @@ mod tests {
                 let got = rotation.rotate(&unit);
                 // The projection method's pseudo-inverse loses a few digits at order 10.
                 assert!(max_difference(&got, &want) < 1e-9, "column {i}");
+            }
+        }
+    }
+
+    #[test]
+    fn rotate_in_place_equals_the_phased_matrix_and_the_projection_method() {
+        // One scratch reused across rotations, as the baker reuses it across receivers.
+        let mut scratch = RotationScratch::default();
+        for order in [1, 2, 4, 7] {
+            let n = coeff_count(order);
+            let (rotator, projection) = (RecurrenceRotator::new(order), Rotator::new(order));
+            let c: Vec<f64> = (0..n).map(|i| ((i * 7 + 3) % 11) as f64 - 5.0).collect();
+            for (axis, angle) in [(DVec3::new(0.3, 1.0, -0.2), 0.7), (DVec3::Y, -2.9)] {
+                let r = DMat3::from_axis_angle(axis.normalize(), angle);
+                let mut got = vec![f64::NAN; n];
+                rotator.rotate(r, &c, &mut got, &mut scratch);
+                let matrix = rotator.rotation(r).rotate(&c);
+                assert!(max_difference(&got, &matrix) < EXACT, "order {order}");
+                let mut want = vec![0.0; n];
+                projection.rotate(r, &c, &mut want);
+                assert!(max_difference(&got, &want) < 1e-10, "order {order}");
             }
         }
     }
