@@ -798,8 +798,8 @@ fn both_texture_coordinate_sets_are_read_and_exported() {
 }
 
 /// A glTF image whose header declares more pixels than `--max-memory` allows is refused
-/// before it is decoded, naming the file and the image, embedded or beside the file; the
-/// same file bakes under the default limit.
+/// before it is decoded, naming the file and the image: embedded, in a `data:` URI, or beside
+/// the file (its uri percent-encoded); the same file bakes under the default limit.
 #[test]
 fn gltf_images_are_checked_against_the_memory_limit() {
     let s = Scratch::new();
@@ -845,6 +845,42 @@ fn gltf_images_are_checked_against_the_memory_limit() {
     s.write("beside.glb", glb(&document, &b.bin));
     std::fs::write(s.path("big.png"), &png).unwrap();
     limited("beside.glb").fails_with_bad_input(&["beside.glb#image0", "4096×4096"]);
+    // The file name as a uri: percent-encoded, as gltf reads it.
+    document["images"] = json!([{"uri": "big%20image.png"}]);
+    s.write("encoded.glb", glb(&document, &b.bin));
+    std::fs::write(s.path("big image.png"), &png).unwrap();
+    limited("encoded.glb").fails_with_bad_input(&["encoded.glb#image0", "4096×4096"]);
+    let uri = format!("data:image/png;base64,{}", base64(&png));
+    document["images"] = json!([{ "uri": uri }]);
+    s.write("data-uri.glb", glb(&document, &b.bin));
+    limited("data-uri.glb").fails_with_bad_input(&["data-uri.glb#image0", "4096×4096"]);
     s.assert_out_holds(&[]);
     s.bake("embedded.glb", "x.prt", &["--mode", "unshadowed"]);
+    s.bake("data-uri.glb", "y.prt", &["--mode", "unshadowed"]);
+}
+
+/// A buffer or image uri that does not percent-decode to UTF-8 is bad input (gltf 1.4 itself
+/// would panic on it), named with the file.
+#[test]
+fn gltf_uris_that_do_not_percent_decode_are_bad_input() {
+    let s = Scratch::new();
+    let ((floor, floor_triangles), _) = floor_and_cube();
+    let indices: Vec<u32> = floor_triangles.iter().flatten().copied().collect();
+    let mut b = GltfBuilder::new();
+    b.mesh("floor", &floor, None, &indices, 4);
+    let mut document = b.document(json!([{"mesh": 0}]), None);
+    s.write("floor.bin", &b.bin);
+    document["buffers"][0]["uri"] = json!("%FF.bin");
+    s.write("buffer.gltf", serde_json::to_vec(&document).unwrap());
+    s.run(&["bake", "buffer.gltf", "-o", "out/x.prt"])
+        .fails_with_bad_input(&[
+            "buffer.gltf",
+            "buffer 0's uri \"%FF.bin\" is not percent-encoded UTF-8",
+        ]);
+    document["buffers"][0]["uri"] = json!("floor.bin");
+    document["images"] = json!([{"uri": "%C3%28.png"}]);
+    s.write("image.gltf", serde_json::to_vec(&document).unwrap());
+    s.run(&["bake", "image.gltf", "-o", "out/x.prt"])
+        .fails_with_bad_input(&["image.gltf", "image 0's uri"]);
+    s.assert_out_holds(&[]);
 }

@@ -68,6 +68,7 @@ pub fn load(path: &Path) -> Result<Loaded> {
         None => bytes.clone(),
     };
     let base = path.parent().unwrap_or(Path::new(""));
+    uris_are_readable(document.as_json()).map_err(fail)?;
     let buffers = gltf::import_buffers(&document, Some(base), blob)
         .map_err(|err| fail(format!("cannot read a buffer: {err}")))?;
 
@@ -255,6 +256,55 @@ fn positions_exist(json: &gltf::json::Root) -> std::result::Result<(), String> {
     Ok(())
 }
 
+/// Guards a panic of `gltf` 1.4's `import_buffers` and `import_images`: they unwrap the
+/// percent-decoding of a relative uri, which fails where it does not decode to UTF-8
+/// (`%FF.bin`).
+fn uris_are_readable(json: &gltf::json::Root) -> std::result::Result<(), String> {
+    uris_decode("buffer", json.buffers.iter().map(|b| b.uri.as_deref()))?;
+    uris_decode("image", json.images.iter().map(|i| i.uri.as_deref()))
+}
+
+/// [`uris_are_readable`] for the uris of one kind of object.
+fn uris_decode<'a>(
+    what: &str,
+    uris: impl Iterator<Item = Option<&'a str>>,
+) -> std::result::Result<(), String> {
+    for (i, uri) in uris.enumerate() {
+        // gltf tells a relative uri from a scheme by the colon.
+        if let Some(uri) = uri.filter(|u| !u.contains(':'))
+            && urlencoding::decode(uri).is_err()
+        {
+            return Err(format!(
+                "invalid glTF: {what} {i}'s uri {uri:?} is not percent-encoded UTF-8"
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Where a `uri` image's bytes are, as `gltf` 1.4 reads them: a `data:` URI's payload (after
+/// `;base64,`, or all of it), a `file:` path, or a path relative to the glTF (percent-decoded).
+/// `None` for other schemes (which `gltf` refuses itself).
+fn uri_image_dimensions(base: &Path, uri: &str) -> Option<(u32, u32)> {
+    use std::io::{BufReader, Cursor};
+    if let Some(rest) = uri.strip_prefix("data:") {
+        let payload = rest.split(";base64,").nth(1).unwrap_or(rest);
+        // The base64 text is already in memory; its bytes take three quarters of it.
+        let bytes = base64::decode(payload).ok()?;
+        return header_dimensions(Cursor::new(bytes));
+    }
+    let path = match uri
+        .strip_prefix("file://")
+        .or_else(|| uri.strip_prefix("file:"))
+    {
+        Some(path) => std::path::PathBuf::from(path),
+        None if uri.contains(':') => return None,
+        None => base.join(&*urlencoding::decode(uri).ok()?),
+    };
+    let file = std::fs::File::open(path).ok()?;
+    header_dimensions(BufReader::new(file))
+}
+
 /// Guards panics of `gltf` 1.4's `import_images` (found by `baker/tests/fuzz.rs`): it unwraps
 /// an image's `mimeType` where it has a `bufferView`, and its `uri` where it has none, and it
 /// slices the view out of its buffer without checking that it fits.
@@ -298,9 +348,8 @@ fn images_are_readable(
 /// Refuses, before `gltf::import_images` decodes every image of the file, an image whose
 /// header declares more pixels than fit under `--max-memory` (as OBJ textures are checked:
 /// up to 16 bytes a pixel for decoding, the RGBA copy and the kept pixels). Embedded
-/// (`bufferView`) and file images are checked; a `data:` URI image is decoded by `gltf` under
-/// the `image` crate's own 512 MiB allocation limit. Headers that cannot be read are left to
-/// `import_images` to report.
+/// (`bufferView`), `data:` URI and file images are all checked. Headers that cannot be read
+/// are left to `import_images` to report.
 fn images_fit_in_memory(
     path: &Path,
     base: &Path,
@@ -318,10 +367,8 @@ fn images_fit_in_memory(
                 let bytes = &buffers[view.buffer.value()][offset..][..view.byte_length.0 as usize];
                 header_dimensions(Cursor::new(bytes))
             }
-            (None, Some(uri)) if !uri.starts_with("data:") => std::fs::File::open(base.join(uri))
-                .ok()
-                .and_then(|file| header_dimensions(std::io::BufReader::new(file))),
-            _ => None,
+            (None, Some(uri)) => uri_image_dimensions(base, uri),
+            (None, None) => None,
         };
         let Some((width, height)) = dimensions else {
             continue;
