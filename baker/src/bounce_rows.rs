@@ -3,6 +3,8 @@
 //! barycentric weights, or lightmap texels with bilinear ones). See
 //! [`crate::interreflection`] for what the rows are for and why they pay.
 
+use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
 use std::ops::Range;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -16,21 +18,48 @@ use crate::trace::Hit;
 /// Bytes per bounce-row entry: vertex index and RGB weight.
 pub const BYTES_PER_ENTRY: u64 = 4 + 3 * 4;
 
-/// A thread's dense accumulator for one receiver's bounce row: weights by slot, and the
-/// slots touched so far in first-touch order (which fixes the summation order).
+/// A thread's accumulator for one receiver's bounce row: the slots touched so far in
+/// first-touch order (which fixes the output order) with their sums, and where each slot's sum
+/// is. Sparse, so a thread's memory is bounded by a row's length (at most 4 slots a bounce ray)
+/// rather than the slot count: a dense array over a 16,384² lightmap's texels took 3 GiB a
+/// thread.
 #[derive(Default)]
 pub struct RowBuilder {
-    dense: Vec<[f32; 3]>,
+    index: HashMap<u32, u32, BuildHasherDefault<SlotHasher>>,
     touched: Vec<u32>,
+    sums: Vec<[f32; 3]>,
 }
 
 impl RowBuilder {
-    fn add(&mut self, vertex: u32, weight: Vec3) {
-        let slot = &mut self.dense[vertex as usize];
-        if *slot == [0.0; 3] {
-            self.touched.push(vertex);
+    fn add(&mut self, slot: u32, weight: Vec3) {
+        let next = self.touched.len() as u32;
+        let i = *self.index.entry(slot).or_insert(next) as usize;
+        if i == self.touched.len() {
+            self.touched.push(slot);
+            self.sums.push([0.0; 3]);
         }
-        *slot = (Vec3::from_array(*slot) + weight).to_array();
+        self.sums[i] = (Vec3::from_array(self.sums[i]) + weight).to_array();
+    }
+}
+
+/// Fibonacci hashing of a slot index: the standard library's SipHash guards against keys
+/// chosen by an attacker, which slot indices are not, at several times the cost.
+#[derive(Default)]
+pub struct SlotHasher(u64);
+
+impl Hasher for SlotHasher {
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.write_u32(u32::from(b) ^ (self.0 as u32));
+        }
+    }
+
+    fn write_u32(&mut self, slot: u32) {
+        self.0 = u64::from(slot).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+    }
+
+    fn finish(&self) -> u64 {
+        self.0
     }
 }
 
@@ -57,10 +86,7 @@ impl<'a> JobRows<'a> {
     }
 
     /// Starts the next receiver's row (receivers are recorded in order).
-    pub(crate) fn begin_vertex(&mut self, builder: &mut RowBuilder) {
-        builder
-            .dense
-            .resize(self.targets.slot_count(self.scene), [0.0; 3]);
+    pub(crate) fn begin_vertex(&mut self) {
         self.starts.push(self.vertices.len() as u32);
     }
 
@@ -95,13 +121,11 @@ impl<'a> JobRows<'a> {
 
     /// Ends the current receiver's row: moves the builder's entries into the job.
     pub(crate) fn end_vertex(&mut self, builder: &mut RowBuilder) {
-        for &vertex in &builder.touched {
-            let slot = &mut builder.dense[vertex as usize];
-            self.vertices.push(vertex);
-            self.weights.push(*slot);
-            *slot = [0.0; 3];
-        }
+        self.vertices.extend(&builder.touched);
+        self.weights.extend(&builder.sums);
         builder.touched.clear();
+        builder.sums.clear();
+        builder.index.clear();
     }
 
     fn bytes(&self) -> u64 {
@@ -236,5 +260,22 @@ impl<'a> HitRecorder<'a> {
                 .expect("every job finished")
         });
         Some((jobs.collect(), bytes))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_row_sums_each_slot_in_record_order_and_lists_slots_by_first_touch() {
+        let mut builder = RowBuilder::default();
+        // Any slot index, however large: nothing is sized by the slot count.
+        let far = 4_000_000_000;
+        for (slot, w) in [(7, 1.0), (3, 0.5), (7, 0.25), (far, 2.0), (3, 0.125)] {
+            builder.add(slot, Vec3::splat(w));
+        }
+        assert_eq!(builder.touched, [7, 3, far]);
+        assert_eq!(builder.sums, [[1.25; 3], [0.625; 3], [2.0; 3]]);
     }
 }

@@ -361,7 +361,7 @@ impl Estimator {
         rows: &mut JobRows<'_>,
     ) {
         let frame = self.vertex_frame(v);
-        rows.begin_vertex(&mut s.rows);
+        rows.begin_vertex();
         let bounce = self.options.effective_bounce_samples() as usize;
         for batch in self.batches().take_while(|b| b.start < bounce) {
             self.directions(v, &frame, batch.clone(), &mut s.dirs, &mut s.weights);
@@ -389,7 +389,7 @@ impl Estimator {
         s.total.fill(0.0);
         let (mut unblocked, mut bent) = (0.0f64, Vec3::ZERO);
         if let Some(hits) = hits.as_deref_mut() {
-            hits.begin_vertex(&mut s.rows);
+            hits.begin_vertex();
         }
         for (b, batch) in self.batches().enumerate() {
             let (start, end) = (batch.start, batch.end);

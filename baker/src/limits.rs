@@ -142,10 +142,7 @@ pub fn image_limits() -> image::Limits {
 /// scene's vertices. None if it overflows.
 pub fn bake_bytes(options: &BakeOptions, vertices: u64, triangles: u64) -> Option<u64> {
     let n = sh::coeff_count(options.order) as u64;
-    let samples = u64::from(options.samples);
-    // Directions (12 bytes) and their SH values (4 n² bytes) in the local frame, plus the
-    // sort keys while they are built.
-    let tables = samples.checked_mul(24 + 4 * n)?;
+    let tables = table_bytes(options)?;
     // Positions, normals, uvs, material, ray origins; triangles and a BVH of ~3 nodes each.
     let scene = vertices
         .checked_mul(64)?
@@ -164,8 +161,10 @@ pub fn bake_bytes(options: &BakeOptions, vertices: u64, triangles: u64) -> Optio
             let rows = vertices
                 .checked_mul(u64::from(options.effective_bounce_samples()))?
                 .checked_mul(4 * crate::bounce_rows::BYTES_PER_ENTRY)?;
-            // Each thread accumulates a row densely: an RGB weight per slot.
-            let builders = vertices.checked_mul(12 * rayon::current_num_threads() as u64)?;
+            // Each thread accumulates one row at a time, sparsely: a slot, an RGB weight and
+            // a hash-map entry (≤ 32 bytes) for each of up to four entries per bounce ray.
+            let builders = u64::from(options.effective_bounce_samples())
+                .checked_mul(4 * 32 * rayon::current_num_threads() as u64)?;
             // Previous bounce, next bounce, total; a texel bake's previous bounce is also
             // spread over its lightmap, and its total placed there.
             vertices
@@ -181,6 +180,14 @@ pub fn bake_bytes(options: &BakeOptions, vertices: u64, triangles: u64) -> Optio
         .checked_add(bounce)
 }
 
+/// The estimator's sample tables: per sample its local direction (12 bytes), its row of n² SH
+/// values and the direction again (4 n² + 12 bytes), and the sort key while they are built
+/// (12 bytes). None if it overflows.
+fn table_bytes(options: &BakeOptions) -> Option<u64> {
+    let n = sh::coeff_count(options.order) as u64;
+    u64::from(options.samples).checked_mul(36 + 4 * n)
+}
+
 /// Refuses `--samples` and `--order` whose sample tables alone cannot fit, before the scene
 /// is even read (a bad command line: [`Error::InvalidOption`]).
 pub fn check_bake_options(options: &BakeOptions) -> Result<()> {
@@ -191,7 +198,7 @@ pub fn check_bake_options(options: &BakeOptions) -> Result<()> {
             "{} samples at order {} ({n} SH values per sample)",
             options.samples, options.order
         ),
-        u64::from(options.samples).checked_mul(24 + 4 * n),
+        table_bytes(options),
     )
     .map_err(|err| Error::InvalidOption(err.to_string()))
 }

@@ -125,14 +125,6 @@ impl<'a> BounceTargets<'a> {
         })
     }
 
-    /// How many slots a row entry may name.
-    pub fn slot_count(&self, scene: &Scene) -> usize {
-        match self {
-            BounceTargets::Vertices => scene.vertex_count(),
-            BounceTargets::Texels(t) => t.filled.len(),
-        }
-    }
-
     /// The slots a hit on `triangle` at `barycentric` reads, with their weights (summing to
     /// 1, or to less where barycentrics are negative by rounding), into `out`; returns how
     /// many. None where the hit's triangle lies outside the atlas or no texel around its
