@@ -486,8 +486,14 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
                 }
                 (_, texel_size, method) => {
                     let method = method.map_or(Default::default(), AtlasArg::method);
-                    prt_baker::lightmap::atlas::generate(&scene, resolution, texel_size, method)?
-                        .atlas
+                    // The unwrap reports no progress of its own (seconds on the demo): a bar
+                    // with its elapsed time shows that it runs.
+                    progress.begin("atlas", 0, 0);
+                    let generated = prt_baker::lightmap::atlas::generate(
+                        &scene, resolution, texel_size, method,
+                    );
+                    progress.finish();
+                    generated?.atlas
                 }
             };
             let bake = prt_baker::lightmap::bake(

@@ -6,7 +6,8 @@ use std::time::Duration;
 /// Receives progress from the bake's worker threads.
 pub trait Progress: Sync {
     /// Called before each pass over the vertices (the direct pass, then each bounce): its
-    /// name, how many vertices, and rays cast per vertex (0 for passes without rays).
+    /// name, how many vertices, and rays cast per vertex (0 for passes without rays). A stage
+    /// of unknown length (the atlas unwrap) passes 0 vertices.
     fn begin(&self, _stage: &str, _vertices: u64, _rays_per_vertex: u64) {}
     /// Called from worker threads as vertices complete.
     fn advance(&self, vertices: u64);
@@ -60,19 +61,23 @@ fn rate(rays_per_vertex: u64, per_second: f64, w: &mut dyn std::fmt::Write) {
 
 impl Progress for ProgressBar {
     fn begin(&self, stage: &str, vertices: u64, rays_per_vertex: u64) {
-        let style = indicatif::ProgressStyle::with_template(
-            "{msg:>9} [{elapsed_precise}] {wide_bar} {percent:>3}% {rate} ETA {eta}",
-        )
-        .expect("the template is valid")
-        .with_key(
-            "rate",
-            move |state: &indicatif::ProgressState, w: &mut dyn std::fmt::Write| {
-                rate(rays_per_vertex, state.per_sec(), w)
-            },
-        );
+        let template = match vertices {
+            0 => "{msg:>9} [{elapsed_precise}] {spinner}",
+            _ => "{msg:>9} [{elapsed_precise}] {wide_bar} {percent:>3}% {rate} ETA {eta}",
+        };
+        let style = indicatif::ProgressStyle::with_template(template)
+            .expect("the template is valid")
+            .with_key(
+                "rate",
+                move |state: &indicatif::ProgressState, w: &mut dyn std::fmt::Write| {
+                    rate(rays_per_vertex, state.per_sec(), w)
+                },
+            )
+            // The spinner's frames; the last is what a finished stage shows.
+            .tick_strings(&["-", "\\", "|", "/", "done"]);
         // Styled and named before it is first drawn; rates and time left are per pass.
         let bar = indicatif::ProgressBar::with_draw_target(
-            Some(vertices),
+            (vertices > 0).then_some(vertices),
             indicatif::ProgressDrawTarget::stderr(),
         )
         .with_style(style)
