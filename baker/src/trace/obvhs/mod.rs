@@ -424,6 +424,51 @@ mod tests {
         }
     }
 
+    /// Regression: a direction component of −0 (a ray straight down is (−0, −0, −1) from
+    /// `-Vec3::Z`) took the box's near and far planes the wrong way round, so the ray missed
+    /// a floor that Embree hits. Every sign of zero, one ray at a time, as packets, and with
+    /// and without AVX.
+    #[test]
+    fn rays_with_zero_direction_components_of_either_sign_hit() {
+        let floor = scene(
+            vec![
+                Vec3::new(-1.0, -1.0, 0.0),
+                Vec3::new(1.0, -1.0, 0.0),
+                Vec3::new(1.0, 1.0, 0.0),
+                Vec3::new(-1.0, 1.0, 0.0),
+            ],
+            vec![[0, 1, 2], [0, 2, 3]],
+        );
+        let tracer = tracer(&floor);
+        let origin = Vec3::new(0.1, 0.2, 0.3);
+        let dirs: Vec<Vec3> = [(0.0, 0.0), (-0.0, 0.0), (0.0, -0.0), (-0.0, -0.0)]
+            .into_iter()
+            .map(|(x, y)| Vec3::new(x, y, -1.0))
+            .collect();
+        let rays: Vec<Ray> = dirs
+            .iter()
+            .map(|&d| ray(origin, d, f32::INFINITY))
+            .collect();
+        let mut occluded = vec![false; dirs.len()];
+        tracer.occluded(&rays, &mut occluded);
+        assert_eq!(occluded, [true; 4], "single rays");
+        let mut hits = vec![None; dirs.len()];
+        tracer.intersect(&rays, &mut hits);
+        assert!(
+            hits.iter()
+                .all(|h| h.is_some_and(|h| (h.t - 0.3).abs() < 1e-6))
+        );
+        let box_rays = || {
+            dirs.iter()
+                .map(|&d| BoxRay::new(origin.into(), d.into(), f32::INFINITY))
+        };
+        let (mut dispatched, mut baseline) = (vec![false; 4], vec![false; 4]);
+        tracer.blocked_in_packets(box_rays(), Some(origin.into()), &mut dispatched);
+        tracer.blocked_in_packets_baseline(box_rays(), Some(origin.into()), &mut baseline);
+        assert_eq!(dispatched, [true; 4], "packets (AVX where the CPU has it)");
+        assert_eq!(baseline, [true; 4], "packets without AVX");
+    }
+
     #[test]
     fn a_ray_in_the_plane_of_a_triangle_misses_it() {
         let scene = scene(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]);

@@ -161,8 +161,8 @@ impl ChildBoxes {
                 _mm256_sub_ps(_mm256_set1_ps(p[axis]), load(&rays.origin[axis])),
                 inv,
             );
-            negative[axis] =
-                _mm256_cmp_ps::<_CMP_LT_OQ>(load(&rays.dir[axis]), _mm256_setzero_ps());
+            // By the inverse's sign, as `near_far`.
+            negative[axis] = _mm256_cmp_ps::<_CMP_LT_OQ>(inv, _mm256_setzero_ps());
         }
         let largest =
             |v: [__m256; 3]| _mm256_max_ps(_mm256_max_ps(abs(v[0]), abs(v[1])), abs(v[2]));
@@ -212,10 +212,12 @@ impl ChildBoxes {
         (scale, offset, slack)
     }
 
-    /// The planes of `axis` the ray meets first and last.
+    /// The planes of `axis` the ray meets first and last. Which is which follows the sign of
+    /// the inverse the distances are scaled by: a direction component of −0 has the inverse
+    /// −10¹⁸ but does not compare below 0 (a ray straight down, −z, missed every floor).
     #[inline(always)]
     fn near_far(&self, ray: &BoxRay, axis: usize) -> (&[f32; 8], &[f32; 8]) {
-        if ray.dir[axis] < 0.0 {
+        if ray.inv_dir[axis] < 0.0 {
             (&self.max[axis], &self.min[axis])
         } else {
             (&self.min[axis], &self.max[axis])
