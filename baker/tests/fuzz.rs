@@ -471,8 +471,10 @@ fn prt_seeds() -> Vec<Vec<u8>> {
 }
 
 /// A `.glb` of the case folder's textured triangle, written by the exporter (its buffer in the
-/// binary chunk, the texture as a PNG in a buffer view), and the same document as a `.gltf`
-/// whose buffer is a base64 data URI.
+/// binary chunk, the texture as a PNG in a buffer view); the same document as a `.gltf` whose
+/// buffer is a base64 data URI; and that `.gltf` with its image the case folder's `té.png`,
+/// named by its percent-encoded UTF-8 (`t%C3%A9.png`): a bit flipped in those hex digits
+/// makes invalid UTF-8, on which gltf 1.4's uri decoding panicked.
 fn gltf_seeds() -> Vec<Vec<u8>> {
     let folder = case_folder();
     let scene = Scene::load(&folder.path().join("mesh.obj")).unwrap();
@@ -490,7 +492,10 @@ fn gltf_seeds() -> Vec<Vec<u8>> {
         base64(&bin)
     ));
     let text = serde_json::to_vec_pretty(&json).unwrap();
-    vec![glb, text]
+    json["images"] = serde_json::json!([{"uri": "t%C3%A9.png"}]);
+    // Compact, so that the uri's hex digits are a larger share of the bytes mutated.
+    let external = serde_json::to_vec(&json).unwrap();
+    vec![glb, text, external]
 }
 
 /// Valid inputs of each parser, made here (no binary blobs to keep in step with encoders).
@@ -576,6 +581,7 @@ fn case_folder() -> tempfile::TempDir {
     write("mesh.obj", b"mtllib m.mtl\nusemtl m\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n");
     write("m.mtl", b"newmtl m\nKd 1 1 1\nmap_Kd tex.tga\n");
     write("tex.tga", &image_bytes(rgb8(2, 2), image::ImageFormat::Tga));
+    write("té.png", &image_bytes(rgb8(2, 2), image::ImageFormat::Png));
     write(
         "uses-mtl.obj",
         b"mtllib case.mtl\nusemtl m\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
