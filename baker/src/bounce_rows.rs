@@ -45,17 +45,24 @@ impl RowBuilder {
 /// Fibonacci hashing of a slot index: the standard library's SipHash guards against keys
 /// chosen by an attacker, which slot indices are not, at several times the cost.
 #[derive(Default)]
-pub struct SlotHasher(u64);
+struct SlotHasher(u64);
+
+impl SlotHasher {
+    fn mix(&mut self, value: u64) {
+        self.0 = (self.0 ^ value).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+    }
+}
 
 impl Hasher for SlotHasher {
+    /// Not used by `u32` keys; here for the trait.
     fn write(&mut self, bytes: &[u8]) {
         for &b in bytes {
-            self.write_u32(u32::from(b) ^ (self.0 as u32));
+            self.mix(u64::from(b));
         }
     }
 
     fn write_u32(&mut self, slot: u32) {
-        self.0 = u64::from(slot).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+        self.mix(u64::from(slot));
     }
 
     fn finish(&self) -> u64 {

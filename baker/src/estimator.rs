@@ -34,7 +34,7 @@ use crate::sampling::{
     uniform_sphere, vertex_seed,
 };
 use crate::scene::Scene;
-use crate::sh::{Basis, RecurrenceRotator as Rotator, RotationScratch};
+use crate::sh::{Basis, RecurrenceRotator, RotationScratch};
 use crate::trace::Tracer;
 
 /// What a vertex's rays tell besides its transfer: the thesis's ambient-occlusion
@@ -138,11 +138,19 @@ fn add_row(acc: &mut [f32], row: &[f32]) {
     }
 }
 
+/// `acc -= row`, element by element.
+#[inline]
+fn sub_row(acc: &mut [f32], row: &[f32]) {
+    for (a, y) in acc.iter_mut().zip(row) {
+        *a -= y;
+    }
+}
+
 /// What all vertices of one bake share, and the per-vertex estimator.
 pub struct Estimator {
     pub(crate) options: BakeOptions,
     pub(crate) basis: Basis,
-    rotator: Rotator,
+    rotator: RecurrenceRotator,
     pub(crate) normals: Vec<Vec3>,
     origins: Vec<Vec3>,
     /// [`Receivers::streams`].
@@ -213,7 +221,7 @@ impl Estimator {
         }
         Ok(Estimator {
             options: options.clone(),
-            rotator: Rotator::new(options.order),
+            rotator: RecurrenceRotator::new(options.order),
             basis,
             normals: receivers.normals,
             origins: receivers.origins,
@@ -416,9 +424,7 @@ impl Estimator {
                         s.batch_sum
                             .copy_from_slice(&self.batch_totals[b * width..(b + 1) * width]);
                         for (row, _) in rows.zip(occluded).filter(|(_, blocked)| **blocked) {
-                            for (acc, y) in s.batch_sum.iter_mut().zip(row) {
-                                *acc -= y;
-                            }
+                            sub_row(&mut s.batch_sum, row);
                         }
                     } else {
                         s.batch_sum.fill(0.0);

@@ -270,9 +270,8 @@ fn uris_decode<'a>(
     uris: impl Iterator<Item = Option<&'a str>>,
 ) -> std::result::Result<(), String> {
     for (i, uri) in uris.enumerate() {
-        // gltf tells a relative uri from a scheme by the colon.
-        if let Some(uri) = uri.filter(|u| !u.contains(':'))
-            && urlencoding::decode(uri).is_err()
+        if let Some(uri) = uri
+            && let Some(Err(_)) = relative_path(uri)
         {
             return Err(format!(
                 "invalid glTF: {what} {i}'s uri {uri:?} is not percent-encoded UTF-8"
@@ -280,6 +279,14 @@ fn uris_decode<'a>(
         }
     }
     Ok(())
+}
+
+/// A relative uri percent-decoded, as gltf 1.4 reads it (it tells one from a scheme by the
+/// colon); `None` for a uri with a scheme.
+fn relative_path(
+    uri: &str,
+) -> Option<std::result::Result<std::borrow::Cow<'_, str>, std::string::FromUtf8Error>> {
+    (!uri.contains(':')).then(|| urlencoding::decode(uri))
 }
 
 /// Where a `uri` image's bytes are, as `gltf` 1.4 reads them: a `data:` URI's payload (after
@@ -298,8 +305,7 @@ fn uri_image_dimensions(base: &Path, uri: &str) -> Option<(u32, u32)> {
         .or_else(|| uri.strip_prefix("file:"))
     {
         Some(path) => std::path::PathBuf::from(path),
-        None if uri.contains(':') => return None,
-        None => base.join(&*urlencoding::decode(uri).ok()?),
+        None => base.join(&*relative_path(uri)?.ok()?),
     };
     let file = std::fs::File::open(path).ok()?;
     header_dimensions(BufReader::new(file))

@@ -55,7 +55,6 @@ impl BoxRay {
 #[derive(Clone, Copy, Debug)]
 pub(super) struct RayLanes {
     origin: [[f32; 8]; 3],
-    dir: [[f32; 8]; 3],
     inv_dir: [[f32; 8]; 3],
     tfar: [f32; 8],
 }
@@ -65,7 +64,6 @@ impl RayLanes {
     pub(super) fn new(rays: &[BoxRay]) -> RayLanes {
         let mut lanes = RayLanes {
             origin: [[0.0; 8]; 3],
-            dir: [[0.0; 8]; 3],
             inv_dir: [[0.0; 8]; 3],
             tfar: [0.0; 8],
         };
@@ -73,7 +71,6 @@ impl RayLanes {
             let ray = rays.get(lane).unwrap_or(&rays[0]);
             for axis in 0..3 {
                 lanes.origin[axis][lane] = ray.origin[axis];
-                lanes.dir[axis][lane] = ray.dir[axis];
                 lanes.inv_dir[axis][lane] = ray.inv_dir[axis];
             }
             lanes.tfar[lane] = ray.tfar;
