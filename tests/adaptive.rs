@@ -10,7 +10,7 @@
 //! scrambles and a new frame, so each (vertex, seed) is an independent trial of the estimate.
 
 use glam::{DVec3, Vec3};
-use prt_baker::sh;
+use prt_baker::math::sh;
 use prt_baker::{BakeOptions, Mode, Scene};
 use prt_tests::*;
 

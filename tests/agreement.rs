@@ -38,10 +38,10 @@
 //! Run with `--nocapture` to see them.
 
 use glam::Vec3;
-use prt_baker::progress::Silent;
-use prt_baker::sampling::Pcg32;
+use prt_baker::bake::transfer::Estimator;
+use prt_baker::math::sampling::Pcg32;
+use prt_baker::support::progress::Silent;
 use prt_baker::trace::{EmbreeMode, EmbreeTracer, Hit, ObvhsOptions, ObvhsTracer, Ray, Tracer};
-use prt_baker::transfer::Estimator;
 use prt_baker::{BakeOptions, Mode, Scene, Transfer};
 use prt_tests::ray_sets::*;
 use prt_tests::referee::{Referee, Verdict};

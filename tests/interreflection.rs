@@ -11,8 +11,9 @@
 //! that hit) × ρ × that bounce's tolerance.
 
 use glam::{DVec3, Vec3};
+use prt_baker::math::sh;
 use prt_baker::scene::Material;
-use prt_baker::{BakeOptions, Mode, Scene, sh};
+use prt_baker::{BakeOptions, Mode, Scene};
 use prt_tests::*;
 
 const Y00: f64 = 0.282_094_791_773_878_1;

@@ -3,11 +3,12 @@
 //! a contact shadow on a 4-vertex floor, and the texel file layout.
 
 use glam::{DVec3, Vec2, Vec3};
-use prt_baker::coefficient_file::CoefficientFile;
-use prt_baker::lightmap::{self, Atlas, LightmapBake};
-use prt_baker::progress::Silent;
+use prt_baker::bake::lightmap::{self, Atlas, LightmapBake};
+use prt_baker::formats::coefficient_file::CoefficientFile;
+use prt_baker::math::sh;
+use prt_baker::support::progress::Silent;
 use prt_baker::trace::{EmbreeOptions, EmbreeTracer};
-use prt_baker::{BakeOptions, Mode, Scene, sh};
+use prt_baker::{BakeOptions, Mode, Scene};
 use prt_tests::*;
 
 const Y00: f64 = 0.282_094_791_773_878_1;
@@ -298,7 +299,7 @@ fn a_texel_file_round_trips_and_refuses_vertex_readers() {
     let scene = scene(vec![floor(1.0), disk(Vec3::Z, 1.0, 16)]);
     let atlas = Atlas::generate(&scene, 16, None).unwrap();
     let options = BakeOptions {
-        aux: prt_baker::transfer::Aux {
+        aux: prt_baker::bake::transfer::Aux {
             ao: true,
             bent_normal: true,
         },

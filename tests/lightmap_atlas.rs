@@ -8,7 +8,7 @@ use std::path::Path;
 
 use glam::{Vec2, Vec3};
 use prt_baker::Scene;
-use prt_baker::lightmap::atlas::{self, AtlasMethod, Generated, PADDING};
+use prt_baker::bake::lightmap::atlas::{self, AtlasMethod, Generated, PADDING};
 use prt_tests::*;
 
 const METHODS: [AtlasMethod; 2] = [AtlasMethod::Unwrap, AtlasMethod::Planar];

@@ -4,11 +4,12 @@
 //! texel points are vertices, and for determinism across thread counts and the hit cache.
 
 use glam::{DVec3, Vec2, Vec3};
-use prt_baker::lightmap::{self, Atlas, LightmapBake};
-use prt_baker::progress::Silent;
+use prt_baker::bake::lightmap::{self, Atlas, LightmapBake};
+use prt_baker::math::sh;
 use prt_baker::scene::{Material, Mesh};
+use prt_baker::support::progress::Silent;
 use prt_baker::trace::{EmbreeOptions, EmbreeTracer};
-use prt_baker::{BakeOptions, Mode, Scene, sh};
+use prt_baker::{BakeOptions, Mode, Scene};
 use prt_tests::*;
 
 fn interreflected(order: usize, samples: u32, bounces: u32) -> BakeOptions {
@@ -342,9 +343,9 @@ fn a_constant_lightmap_reads_back_constant_up_to_the_charts_edges() {
         .map(|p| Vec2::new(p.x, p.y) / 4.0 + Vec2::splat(0.5))
         .collect();
     let atlas = Atlas::from_vertex_uvs(&scene, &uvs, 16, 16).unwrap();
-    let texels = prt_baker::lightmap::Texels::rasterise(&scene, &atlas);
+    let texels = prt_baker::bake::lightmap::Texels::rasterise(&scene, &atlas);
     assert_eq!(texels.valid_count(), 64);
-    let targets = prt_baker::transfer::BounceTargets::texels(&atlas, &texels);
+    let targets = prt_baker::bake::transfer::BounceTargets::texels(&atlas, &texels);
     let ones = vec![1.0f32; 64];
     let lightmap = targets.slot_values(&ones, 1);
     let mut slots = [(0, 0.0); 4];

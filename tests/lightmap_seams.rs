@@ -3,13 +3,14 @@
 //! that straddle a wall moved out rather than left out.
 
 use glam::{Vec2, Vec3};
-use prt_baker::lightmap::{self, Atlas, LightmapBake};
-use prt_baker::progress::Silent;
+use prt_baker::bake::lightmap::{self, Atlas, LightmapBake};
+use prt_baker::bake::transfer::{Estimator, Receivers, Scratch};
+use prt_baker::math::sh;
 use prt_baker::scene::Mesh;
+use prt_baker::support::progress::Silent;
 use prt_baker::trace::seams::seam_points;
 use prt_baker::trace::{EmbreeMode, ObvhsOptions, ObvhsTracer, Tracer};
-use prt_baker::transfer::{Estimator, Receivers, Scratch};
-use prt_baker::{BakeOptions, Mode, Scene, sh};
+use prt_baker::{BakeOptions, Mode, Scene};
 use prt_tests::*;
 
 fn bake(scene: &Scene, tracer: &dyn Tracer, atlas: Atlas, options: &BakeOptions) -> LightmapBake {
@@ -198,7 +199,7 @@ fn point_transfer(tracer: &dyn Tracer, options: &BakeOptions, at: Vec3) -> Vec<f
     let estimator = Estimator::for_receivers(receivers, options).expect("valid options");
     let n = sh::coeff_count(options.order);
     let mut out = vec![0.0f32; n];
-    estimator.vertex_transfer(0, Some(tracer), &mut Scratch::new(n), &mut out, None);
+    estimator.receiver_transfer(0, Some(tracer), &mut Scratch::new(n), &mut out, None);
     out
 }
 

@@ -13,7 +13,7 @@ use std::path::Path;
 use glam::{DMat3, DVec3};
 use prt_baker::CoefficientFile;
 use prt_baker::light::{EnvironmentMap, Light, LightCoefficients, Rig, Window};
-use prt_baker::sh;
+use prt_baker::math::sh;
 use prt_tests::*;
 
 /// f64 rounding of sums of up to ~10⁴ terms of size ≲ 10 (map pixels, quadrature nodes):
@@ -515,7 +515,7 @@ fn relight_of_an_unoccluded_floor_matches_the_analytic_radiance() {
             &scene,
             Some(tracer.as_ref()),
             &options,
-            &prt_baker::progress::Silent,
+            &prt_baker::support::progress::Silent,
         )
         .unwrap();
         let prt = folder.path().join("floor.prt");
@@ -540,7 +540,7 @@ fn relight_of_an_unoccluded_floor_matches_the_analytic_radiance() {
             )
             .unwrap();
             let ply = folder.path().join("floor.ply");
-            prt_baker::relight::relight(&obj, &prt, &rig, &ply, 0.0).unwrap();
+            prt_baker::export::relight::relight(&obj, &prt, &rig, &ply, 0.0).unwrap();
             let radiance = read_ply_radiance(&std::fs::read(&ply).unwrap(), scene.vertex_count());
 
             let t = f64::to_radians(theta_deg).cos();
@@ -599,7 +599,7 @@ fn read_ply_radiance(bytes: &[u8], vertices: usize) -> Vec<[f32; 3]> {
     let offset = 6 * 4 + 3;
     (0..vertices)
         .map(|v| {
-            let at = start + v * prt_baker::ply::VERTEX_BYTES + offset;
+            let at = start + v * prt_baker::formats::ply::VERTEX_BYTES + offset;
             std::array::from_fn(|c| {
                 f32::from_le_bytes(bytes[at + 4 * c..at + 4 * c + 4].try_into().unwrap())
             })

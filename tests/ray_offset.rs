@@ -6,7 +6,7 @@
 //! bit (same directions, every ray unblocked).
 
 use glam::Vec3;
-use prt_baker::progress::Silent;
+use prt_baker::support::progress::Silent;
 use prt_baker::trace::{EmbreeOptions, EmbreeTracer};
 use prt_baker::{BakeOptions, Mode, Scene};
 use prt_tests::*;

@@ -5,9 +5,9 @@
 
 use glam::{DMat3, DQuat, DVec3};
 use prt_baker::light::{Light, LightCoefficients, project_sum};
-use prt_baker::sampling::Pcg32;
-use prt_baker::sh::rotation::{ShRotation, ZyzRotator, euler_zyz};
-use prt_baker::sh::{self, Rotator};
+use prt_baker::math::sampling::Pcg32;
+use prt_baker::math::sh::rotation::{ShRotation, ZyzRotator, euler_zyz};
+use prt_baker::math::sh::{self, Rotator};
 
 /// f64 rounding of a rotated coefficient: five (2l+1)-term matrix products for l ≤ 7 (ZYZ) or
 /// the recurrence's chain of ≤ 8 band products, entries ≤ 1 and coefficients ≤ ~3 in these

@@ -3,7 +3,7 @@
 //! point under a coaxial disk, whose every coefficient is known in closed form.
 
 use glam::{DVec3, Vec3};
-use prt_baker::sampling::Sampling;
+use prt_baker::math::sampling::Sampling;
 use prt_baker::{BakeOptions, Mode};
 use prt_tests::*;
 

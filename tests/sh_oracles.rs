@@ -3,8 +3,8 @@
 //! the +z normal and for random normals (which exercises the local-to-world rotation).
 
 use glam::{DVec3, Vec3};
-use prt_baker::sampling::{Pcg32, uniform_sphere};
-use prt_baker::sh;
+use prt_baker::math::sampling::{Pcg32, uniform_sphere};
+use prt_baker::math::sh;
 use prt_tests::*;
 
 /// oracles.md, "Unoccluded point": zonal l = 0..6 (×π of the transfer).

@@ -4,7 +4,7 @@
 //! variance computed exactly for the visible region.
 
 use glam::{DVec3, Vec3};
-use prt_baker::sh;
+use prt_baker::math::sh;
 use prt_tests::*;
 
 /// Rays per oracle vertex: the zonal tests (order 5, a 117 MB sample table) use 2^20; the

@@ -25,11 +25,11 @@ use obvhs::BvhBuildParams;
 use obvhs::cwbvh::CwBvh;
 use obvhs::cwbvh::builder::build_cwbvh_from_tris;
 use obvhs::rt_triangle::RtTriangle;
-use prt_baker::progress::Silent;
+use prt_baker::bake::transfer::Estimator;
+use prt_baker::support::progress::Silent;
 use prt_baker::trace::{
     EmbreeMode, EmbreeOptions, EmbreeTracer, ObvhsOptions, ObvhsTracer, Tracer, embree_sys,
 };
-use prt_baker::transfer::Estimator;
 use prt_baker::{BakeOptions, Mode, Scene};
 use rayon::prelude::*;
 use timing::{REPEATS, best_of, cpu_time};
@@ -504,7 +504,7 @@ impl StockObvhs {
 
 /// A deterministic Fisher–Yates shuffle.
 fn shuffle(values: &mut [Vec3], seed: u64) {
-    let mut rng = prt_baker::sampling::Pcg32::new(seed, 99);
+    let mut rng = prt_baker::math::sampling::Pcg32::new(seed, 99);
     for i in (1..values.len()).rev() {
         let j = (rng.next_u32() as usize) % (i + 1);
         values.swap(i, j);
@@ -518,7 +518,7 @@ fn shuffle(values: &mut [Vec3], seed: u64) {
 /// rays and at the fewest rays (a power of two) whose RMS error is at most E; and the adaptive
 /// bake with `--target-error E` (capped at 2^16 rays per vertex).
 fn time_to_thesis_accuracy(scene: &Scene, tracer: &dyn Tracer, order: usize) {
-    use prt_baker::sampling::Sampling;
+    use prt_baker::math::sampling::Sampling;
     let base = BakeOptions {
         order,
         mode: Mode::Shadowed,
@@ -539,7 +539,7 @@ fn time_to_thesis_accuracy(scene: &Scene, tracer: &dyn Tracer, order: usize) {
     });
     // Per-vertex RMS coefficient errors against the reference.
     let errors = |t: &prt_baker::Transfer| -> Vec<f64> {
-        let n = prt_baker::sh::coeff_count(order);
+        let n = prt_baker::math::sh::coeff_count(order);
         t.coefficients
             .chunks(n)
             .zip(reference.coefficients.chunks(n))
@@ -620,7 +620,7 @@ fn time_to_thesis_accuracy(scene: &Scene, tracer: &dyn Tracer, order: usize) {
         let e = errors(&transfer);
         println!(
             "{name:<52} {:>10.0} {seconds:>9.3} {:>10.2} {:>10.2e} {:>10.2e} {:>10.2e} {:>8.2}%",
-            transfer.rays_cast as f64 / transfer.vertex_count as f64,
+            transfer.rays_cast as f64 / transfer.receiver_count as f64,
             thesis_seconds / seconds,
             rms(&e),
             p95(&e),

@@ -19,10 +19,10 @@
 mod timing;
 
 use glam::Vec3;
-use prt_baker::lightmap::{self, Atlas, LightmapBake, Texels, leaks};
-use prt_baker::progress::Silent;
+use prt_baker::bake::lightmap::{self, Atlas, LightmapBake, Texels, leaks};
+use prt_baker::bake::transfer::{Estimator, Receivers};
+use prt_baker::support::progress::Silent;
 use prt_baker::trace::{EmbreeMode, EmbreeOptions, EmbreeTracer, Tracer, embree_sys};
-use prt_baker::transfer::{Estimator, Receivers};
 use prt_baker::{BakeOptions, Mode, Scene};
 use rayon::prelude::*;
 use timing::{REPEATS, best_of, cpu_time};

@@ -1,45 +1,36 @@
 //! Precomputed radiance transfer baking, after Sloan, Kautz & Snyder (2002) and the 2008
 //! Zagreb thesis this project grew from.
 //!
-//! A bake turns a [`Scene`] into per-vertex spherical-harmonic transfer coefficients:
-//! [`sh`] holds the basis and its conventions, [`sampling`] the directions, [`trace`] the ray
-//! casting behind a backend-neutral trait, [`transfer`] the estimators, and
-//! [`coefficient_file`] the documented `.prt` format the viewer reads.
+//! A bake turns a [`Scene`] into per-vertex (or per-texel) spherical-harmonic transfer
+//! coefficients. The crate is built in layers; each folder may import only the layers listed
+//! before it (its `mod.rs` says which), so the bake can be read from the bottom up:
 //!
-//! At run time, [`light`] projects lights (suns, skies, HDR environment maps, TOML rigs of
-//! them) to SH, [`sh::rotation`] turns them, and [`relight`] shades a bake with them on the
-//! CPU: the reference a viewer must match.
+//! | layer | holds |
+//! |---|---|
+//! | [`support`] | errors, memory limits and bounded file reads, progress, the output policy |
+//! | [`math`] | the SH basis and its rotations, sample directions and random numbers |
+//! | [`scene`] | triangle scenes from OBJ/MTL, scene files and glTF, their textures and up axis |
+//! | [`trace`] | ray casting behind one trait: Embree, obvhs, ray origins, seams |
+//! | [`light`] | lights (suns, skies, environment maps, rigs) projected to SH |
+//! | [`formats`] | the files we read and write: the `.prt` coefficient file, npz, OpenEXR, PLY |
+//! | [`bake`] | the bake: options, receivers, the estimator, adaptive sampling, bounces, lightmaps |
+//! | [`distribute`] | shards, checkpoints and the merge that rejoins them |
+//! | [`export`] | a bake for other tools: NumPy arrays, glTF, relighting on the CPU |
+//!
+//! `prt-bake` itself (`main.rs` and `commands/`) sits on top: one file per subcommand.
 
-pub mod adaptive;
-pub mod atomic;
-pub mod bounce_rows;
-pub mod checkpoint;
-pub mod coefficient_file;
-pub mod error;
-pub mod estimator;
+pub mod bake;
+pub mod distribute;
 pub mod export;
-pub mod gltf_export;
-pub mod interreflection;
+pub mod formats;
 pub mod light;
-pub mod lightmap;
-pub mod limits;
-pub mod merge;
-pub mod npz;
-pub mod openexr;
-pub mod options;
-pub mod output;
-pub mod ply;
-pub mod progress;
-pub mod receivers;
-pub mod relight;
-pub mod sampling;
+pub mod math;
 pub mod scene;
-pub mod sh;
-pub mod shard;
+pub mod support;
 pub mod trace;
-pub mod transfer;
 
-pub use coefficient_file::CoefficientFile;
-pub use error::{Error, Location, Result};
+pub use bake::lightmap;
+pub use bake::transfer::{BakeOptions, Mode, Transfer, bake};
+pub use formats::coefficient_file::CoefficientFile;
 pub use scene::Scene;
-pub use transfer::{BakeOptions, Mode, Transfer, bake};
+pub use support::error::{Error, Location, Result};

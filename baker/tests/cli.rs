@@ -207,7 +207,7 @@ fn flipped_byte_in_coefficients_or_header_fails_the_checksum() {
     // A byte of the first coefficient's mantissa; the seed field of the header.
     s.write(
         "data.prt",
-        flipped(prt_baker::coefficient_file::HEADER_SIZE + 1),
+        flipped(prt_baker::formats::coefficient_file::HEADER_SIZE + 1),
     );
     s.write("header.prt", flipped(48));
     for file in ["data.prt", "header.prt"] {
@@ -316,7 +316,7 @@ fn bake_is_deterministic_across_thread_counts_and_depends_on_the_seed() {
         one == two,
         "--threads 1 and --threads 2 gave different files"
     );
-    let header = prt_baker::coefficient_file::HEADER_SIZE;
+    let header = prt_baker::formats::coefficient_file::HEADER_SIZE;
     assert_eq!(one.len(), other_seed.len());
     assert!(
         one[header..] != other_seed[header..],

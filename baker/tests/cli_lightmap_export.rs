@@ -333,7 +333,7 @@ fn relight_to_exr_is_the_linear_lightmap_and_the_png_its_tone_mapped_image() {
             // The PNG is the same image, tone-mapped (exposure 0).
             assert_eq!(
                 png.get_pixel((p % 20) as u32, (p / 20) as u32).0,
-                prt_baker::relight::display_colour(rgb, 0.0),
+                prt_baker::export::relight::display_colour(rgb, 0.0),
                 "pixel {p}"
             );
         }

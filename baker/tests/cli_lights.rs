@@ -5,9 +5,10 @@ mod common;
 
 use common::*;
 use glam::{DVec3, Vec3};
+use prt_baker::export::relight::{display_colour, vertex_radiance};
 use prt_baker::light::Rig;
-use prt_baker::relight::{display_colour, vertex_radiance};
-use prt_baker::{CoefficientFile, Scene, sh};
+use prt_baker::math::sh;
+use prt_baker::{CoefficientFile, Scene};
 
 /// A 1×1 floor facing +z, as two triangles: 4 vertices.
 const FLOOR: &str = "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvn 0 0 1\nf 1//1 2//1 3//1 4//1\n";

@@ -32,13 +32,13 @@ use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 use common::base64;
-use prt_baker::coefficient_file::{Adaptive, CoefficientFile, Header};
-use prt_baker::gltf_export::{Contents, glb_bytes};
+use prt_baker::bake::transfer::{Aux, Mode};
+use prt_baker::export::gltf::{Contents, glb_bytes};
+use prt_baker::formats::coefficient_file::{Adaptive, CoefficientFile, Header};
 use prt_baker::light::{EnvironmentMap, Rig};
-use prt_baker::sampling::Sampling;
+use prt_baker::math::sampling::Sampling;
 use prt_baker::scene::{Texture, Up};
 use prt_baker::trace::Backend;
-use prt_baker::transfer::{Aux, Mode};
 use prt_baker::{Location, Scene};
 
 /// Mutants per parser in `make test`.
@@ -738,7 +738,7 @@ const TABLE_END: &str = "<!-- fuzz-table:end -->";
 
 #[test]
 fn every_parser_survives_its_mutants() {
-    prt_baker::limits::set_max_memory(MAX_MEMORY);
+    prt_baker::support::limits::set_max_memory(MAX_MEMORY);
     let cases: usize = std::env::var("PRT_FUZZ_CASES")
         .ok()
         .and_then(|v| v.parse().ok())

@@ -22,11 +22,11 @@ pub mod ray_sets;
 pub mod referee;
 
 use glam::{DVec3, Vec2, Vec3};
-use prt_baker::sampling::{Frame, Pcg32};
+use prt_baker::bake::transfer::{Estimator, Scratch, Visibility};
+use prt_baker::math::sampling::{Frame, Pcg32};
+use prt_baker::math::sh;
 use prt_baker::scene::{Material, Mesh, Scene};
-use prt_baker::sh;
 use prt_baker::trace::{EmbreeMode, EmbreeOptions, EmbreeTracer};
-use prt_baker::transfer::{Estimator, Scratch, Visibility};
 use prt_baker::{BakeOptions, Mode};
 
 /// Standard errors allowed.
@@ -412,7 +412,7 @@ pub fn bake_selected(
         .iter()
         .map(|&v| {
             let mut out = vec![0.0f32; n];
-            let visibility = estimator.vertex_transfer(v, tracer, &mut scratch, &mut out, None);
+            let visibility = estimator.receiver_transfer(v, tracer, &mut scratch, &mut out, None);
             (out.into_iter().map(f64::from).collect(), visibility)
         })
         .collect()
@@ -450,7 +450,13 @@ pub fn embree_tracer(scene: &Scene, mode: EmbreeMode) -> EmbreeTracer {
 
 pub fn bake_scene(scene: &Scene, options: &BakeOptions) -> prt_baker::Transfer {
     let tracer = EmbreeTracer::new(scene, EmbreeOptions::default()).expect("embree scene");
-    prt_baker::bake(scene, Some(&tracer), options, &prt_baker::progress::Silent).expect("bake")
+    prt_baker::bake(
+        scene,
+        Some(&tracer),
+        options,
+        &prt_baker::support::progress::Silent,
+    )
+    .expect("bake")
 }
 
 pub fn shadowed(order: usize, samples: u32) -> BakeOptions {

@@ -3,9 +3,9 @@
 //! surfaces, aimed at thin slivers.
 
 use glam::Vec3;
-use prt_baker::sampling::{Pcg32, uniform_sphere};
+use prt_baker::bake::transfer::Estimator;
+use prt_baker::math::sampling::{Pcg32, uniform_sphere};
 use prt_baker::trace::{Ray, offset_distance, ray_origins};
-use prt_baker::transfer::Estimator;
 use prt_baker::{BakeOptions, Scene};
 
 pub fn random_point(rng: &mut Pcg32) -> Vec3 {

@@ -8,7 +8,7 @@
 
 use std::path::{Path, PathBuf};
 
-use prt_baker::coefficient_file::LightmapBlock;
+use prt_baker::formats::coefficient_file::LightmapBlock;
 use prt_baker::scene::Up;
 use prt_baker::{CoefficientFile, Scene};
 

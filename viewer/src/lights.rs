@@ -20,8 +20,8 @@ use std::path::Path;
 
 use glam::{DVec3, Vec3};
 use prt_baker::light::{Light, LightCoefficients, Rig, SteerableLight, Window};
+use prt_baker::math::sh;
 use prt_baker::scene::Up;
-use prt_baker::sh;
 
 use crate::error::Result;
 

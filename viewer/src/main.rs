@@ -7,7 +7,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, ValueEnum};
 use prt_baker::light::Rig;
-use prt_baker::output::Output;
+use prt_baker::support::output::Output;
 use prt_viewer::bench::{self, BenchOptions};
 use prt_viewer::lights::{Lights, MAX_LIGHTS};
 use prt_viewer::offscreen;
@@ -110,8 +110,8 @@ fn parse_key(text: &str) -> Result<Key, String> {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     // A panic is a bug, but still ends with one clear line and exit code 1; a screenshot's
-    // temporary file is removed as the panic unwinds (prt_baker::output).
-    prt_baker::output::install_panic_hook("prt-view");
+    // temporary file is removed as the panic unwinds (prt_baker::support::output).
+    prt_baker::support::output::install_panic_hook("prt-view");
     let Ok(result) = std::panic::catch_unwind(|| run(cli)) else {
         return ExitCode::from(EXIT_FAILURE);
     };

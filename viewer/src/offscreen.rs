@@ -49,11 +49,14 @@ pub fn render_image(
 /// Writes an image as PNG, atomically (a temporary file renamed over `path`), so a failed
 /// run never leaves half a screenshot.
 pub fn save_png(image: &image::RgbaImage, path: &Path) -> Result<()> {
-    save_png_to(image, &prt_baker::output::Output::new(path, &[])?)
+    save_png_to(image, &prt_baker::support::output::Output::new(path, &[])?)
 }
 
 /// As [`save_png`], to an output already checked against the run's inputs.
-pub fn save_png_to(image: &image::RgbaImage, output: &prt_baker::output::Output) -> Result<()> {
+pub fn save_png_to(
+    image: &image::RgbaImage,
+    output: &prt_baker::support::output::Output,
+) -> Result<()> {
     let path = output.path();
     let mut bytes = Vec::new();
     image

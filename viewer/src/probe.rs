@@ -1,5 +1,5 @@
 //! Reading back what the PRT vertex shader computes, vertex by vertex, so tests can compare
-//! it with the CPU reference (`prt_baker::relight::vertex_radiance`).
+//! it with the CPU reference (`prt_baker::export::relight::vertex_radiance`).
 //!
 //! A debug pipeline draws vertex v as a single point at pixel (v mod 256, v div 256) of a
 //! 32-bit float target, coloured with `prt_radiance(v)` — the same WGSL function the PRT

@@ -6,7 +6,7 @@
 //! that moves with every step of the camera (and differs between rasterisers, which the
 //! golden-image tests would feel). The levels are box-filtered in linear light on the CPU.
 
-use prt_baker::relight::display_colour;
+use prt_baker::export::relight::display_colour;
 use prt_baker::scene::{Texture, srgb_to_linear};
 
 use crate::resources::texture_2d;

@@ -12,9 +12,9 @@ use std::path::Path;
 use std::process::Command;
 
 use glam::{Vec2, Vec3};
-use prt_baker::lightmap::{self, Atlas};
-use prt_baker::progress::Silent;
+use prt_baker::bake::lightmap::{self, Atlas};
 use prt_baker::scene::{Material, Mesh};
+use prt_baker::support::progress::Silent;
 use prt_baker::trace::{EmbreeOptions, EmbreeTracer};
 use prt_baker::{BakeOptions, CoefficientFile, Mode, Scene};
 use prt_viewer::lights::Lights;

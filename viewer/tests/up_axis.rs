@@ -6,7 +6,7 @@ mod common;
 
 use std::path::Path;
 
-use prt_baker::gltf_export::{Contents, glb_bytes};
+use prt_baker::export::gltf::{Contents, glb_bytes};
 use prt_baker::scene::Up;
 use prt_baker::{BakeOptions, Mode, Scene};
 use prt_viewer::lights::Lights;

@@ -3,7 +3,7 @@
 mod common;
 
 use glam::Vec3;
-use prt_baker::relight::{display_colour, vertex_radiance};
+use prt_baker::export::relight::{display_colour, vertex_radiance};
 use prt_baker::{BakeOptions, Mode};
 use prt_viewer::lights::Lights;
 use prt_viewer::{Camera, FrameInputs, Renderer, View, offscreen, probe};

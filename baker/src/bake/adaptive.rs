@@ -51,10 +51,10 @@
 use glam::{Mat3, Vec3};
 use serde::Serialize;
 
-use crate::options::BakeOptions;
-pub use crate::options::{MIN_POINTS, REPLICATES};
-use crate::sampling::{OwenSobol, cosine_hemisphere, hilbert_index, vertex_seed};
-use crate::sh::Basis;
+use crate::bake::options::BakeOptions;
+pub use crate::bake::options::{MIN_POINTS, REPLICATES};
+use crate::math::sampling::{OwenSobol, cosine_hemisphere, hilbert_index, vertex_seed};
+use crate::math::sh::Basis;
 use crate::trace::Tracer;
 
 /// Rays per tracer call.
@@ -155,7 +155,7 @@ pub struct AdaptiveScratch {
 /// Estimates vertex `v`'s local-frame transfer into `local` (n² values): rays from `origin`
 /// along `frame` × the table's directions, round after round, until the estimated RMS error
 /// is at most the target or the last round is done. With no tracer nothing is blocked.
-pub fn vertex_transfer(
+pub fn receiver_transfer(
     tables: &Tables,
     n: usize,
     origin: Vec3,
@@ -289,9 +289,9 @@ impl Summary {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::error::Error;
-    use crate::options::Mode;
-    use crate::sampling::Sampling;
+    use crate::bake::options::Mode;
+    use crate::math::sampling::Sampling;
+    use crate::support::error::Error;
 
     #[test]
     fn the_schedule_doubles_from_the_first_round_to_the_cap() {

@@ -1,7 +1,7 @@
 //! Bounce rows: each receiver's first hits folded into a sparse row of weights over the
 //! *slots* the previous bounce's transfer is read from ([`BounceTargets`]: vertices with
 //! barycentric weights, or lightmap texels with bilinear ones). See
-//! [`crate::interreflection`] for what the rows are for and why they pay.
+//! [`crate::bake::interreflection`] for what the rows are for and why they pay.
 
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
@@ -11,7 +11,7 @@ use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 use glam::{Vec2, Vec3};
 
-use crate::receivers::{BounceTargets, RECEIVERS_PER_JOB};
+use crate::bake::receivers::{BounceTargets, RECEIVERS_PER_JOB};
 use crate::scene::Scene;
 use crate::trace::Hit;
 

@@ -1,7 +1,7 @@
 //! The per-receiver estimator of the shadowed transfer
 //! T_j = (1/π) ∫ V(x, s) max(n·s, 0) y_j(s) ds, shared by vertex and texel bakes, and the
 //! direct pass that runs it over a range of receivers. In interreflected mode the same rays
-//! also record each receiver's bounce row ([`crate::bounce_rows`]).
+//! also record each receiver's bounce row ([`crate::bake::bounce_rows`]).
 //!
 //! # How the default estimator is organised
 //!
@@ -11,7 +11,7 @@
 //! y_j precomputed at every point. A vertex turns the set by its own random angle about its
 //! normal (so neighbouring vertices do not share sample directions), casts the rays, adds the
 //! table rows of the unblocked ones, and rotates the local coefficients into world space once
-//! ([`crate::sh::RecurrenceRotator`], exact). Per ray that is a 3×3 transform and a row sum:
+//! ([`crate::math::sh::RecurrenceRotator`], exact). Per ray that is a 3×3 transform and a row sum:
 //! the cost of a bake is the cost of its rays. Each row also holds the local direction, so the
 //! same sums give the bent normal; and a batch of rays most of which are unblocked is summed
 //! as the batch's precomputed total minus its blocked rows (on an open surface, most rays are
@@ -24,17 +24,17 @@
 use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 
-use crate::bounce_rows::{HitRecorder, JobRows, RowBuilder};
-use crate::error::Result;
-use crate::options::BakeOptions;
-use crate::progress::Progress;
-use crate::receivers::{RECEIVERS_PER_JOB, Receivers};
-use crate::sampling::{
+use crate::bake::bounce_rows::{HitRecorder, JobRows, RowBuilder};
+use crate::bake::options::BakeOptions;
+use crate::bake::receivers::{RECEIVERS_PER_JOB, Receivers};
+use crate::math::sampling::{
     Frame, OwenSobol, Pcg32, Sampling, cosine_hemisphere, hilbert_index, to_unit_float,
     uniform_sphere, vertex_seed,
 };
+use crate::math::sh::{Basis, RecurrenceRotator, RotationScratch};
 use crate::scene::Scene;
-use crate::sh::{Basis, RecurrenceRotator, RotationScratch};
+use crate::support::error::Result;
+use crate::support::progress::Progress;
 use crate::trace::Tracer;
 
 /// What a vertex's rays tell besides its transfer: the thesis's ambient-occlusion
@@ -50,7 +50,7 @@ pub struct Visibility {
     /// Rays the vertex cast: `samples` (0 with no tracer), or fewer in an adaptive bake.
     pub rays: u32,
     /// Adaptive bakes: the estimated RMS coefficient error of the vertex's transfer
-    /// ([`crate::adaptive`]); 0 otherwise.
+    /// ([`crate::bake::adaptive`]); 0 otherwise.
     pub error_estimate: f32,
 }
 
@@ -58,8 +58,6 @@ pub struct Visibility {
 const BATCH: usize = 256;
 /// The columns after the n² coefficients in the estimator's rows: the local direction.
 const DIR_COLUMNS: usize = 3;
-/// Receivers per parallel work item (the name predates texel receivers).
-pub(crate) const VERTICES_PER_JOB: usize = RECEIVERS_PER_JOB;
 
 /// The result of the shadowed (or unshadowed) pass over every vertex.
 pub(crate) struct DirectPass {
@@ -89,17 +87,17 @@ pub(crate) fn direct_pass(
     let mut coefficients = vec![0.0f32; vertex_count * n];
     let mut visibility = vec![Visibility::default(); vertex_count];
     coefficients
-        .par_chunks_mut(VERTICES_PER_JOB * n)
-        .zip(visibility.par_chunks_mut(VERTICES_PER_JOB))
+        .par_chunks_mut(RECEIVERS_PER_JOB * n)
+        .zip(visibility.par_chunks_mut(RECEIVERS_PER_JOB))
         .enumerate()
         .for_each_init(
             || Scratch::new(n),
             |scratch, (job, (out, vis))| {
-                let first = vertices.start + job * VERTICES_PER_JOB;
+                let first = vertices.start + job * RECEIVERS_PER_JOB;
                 let mut hits = recorder.map(|r| r.job());
                 for (k, (out, vis)) in out.chunks_mut(n).zip(vis.iter_mut()).enumerate() {
                     *vis =
-                        estimator.vertex_transfer(first + k, tracer, scratch, out, hits.as_mut());
+                        estimator.receiver_transfer(first + k, tracer, scratch, out, hits.as_mut());
                 }
                 if let (Some(recorder), Some(hits)) = (recorder, hits) {
                     recorder.finish_job(job, hits);
@@ -167,7 +165,7 @@ pub struct Estimator {
     /// which fewer rays are blocked than not is summed as this total minus its blocked rows.
     batch_totals: Vec<f32>,
     /// Adaptive bakes (`--target-error`): the replicate point sets, instead of the table above.
-    adaptive: Option<crate::adaptive::Tables>,
+    adaptive: Option<crate::bake::adaptive::Tables>,
 }
 
 impl Estimator {
@@ -176,7 +174,7 @@ impl Estimator {
         Estimator::for_receivers(Receivers::vertices(scene), options)
     }
 
-    /// The estimator for any receivers (vertices, or lightmap texels: [`crate::lightmap`]);
+    /// The estimator for any receivers (vertices, or lightmap texels: [`crate::bake::lightmap`]);
     /// receiver `i` plays the part of vertex `i` everywhere below.
     pub fn for_receivers(receivers: Receivers, options: &BakeOptions) -> Result<Estimator> {
         options.validate()?;
@@ -186,7 +184,7 @@ impl Estimator {
             (Vec::new(), Vec::new(), Vec::new());
         let adaptive = options
             .target_error
-            .map(|_| crate::adaptive::Tables::new(options, &basis));
+            .map(|_| crate::bake::adaptive::Tables::new(options, &basis));
         if options.sampling == Sampling::OwenSobol && adaptive.is_none() {
             let points = OwenSobol::new(vertex_seed(options.seed, u64::MAX));
             let mut uv: Vec<(u32, f32, f32)> = (0..options.samples)
@@ -381,7 +379,7 @@ impl Estimator {
     /// The shadowed (or unshadowed, with no tracer) transfer of vertex `v` into `out`, and
     /// its [`Visibility`]. With `hits` (interreflected mode), the bounce samples are traced
     /// with closest-hit rays and their front hits recorded for the bounce passes.
-    pub fn vertex_transfer(
+    pub fn receiver_transfer(
         &self,
         v: usize,
         tracer: Option<&dyn Tracer>,
@@ -486,19 +484,19 @@ impl Estimator {
         }
     }
 
-    /// [`Estimator::vertex_transfer`] of an adaptive bake: rounds of rays until the estimated
-    /// error is at most the target ([`crate::adaptive`]).
+    /// [`Estimator::receiver_transfer`] of an adaptive bake: rounds of rays until the estimated
+    /// error is at most the target ([`crate::bake::adaptive`]).
     fn adaptive_vertex_transfer(
         &self,
         v: usize,
-        tables: &crate::adaptive::Tables,
+        tables: &crate::bake::adaptive::Tables,
         tracer: Option<&dyn Tracer>,
         s: &mut Scratch,
         out: &mut [f32],
     ) -> Visibility {
         let n = self.basis.coeff_count();
         let frame = self.vertex_frame(v);
-        let result = crate::adaptive::vertex_transfer(
+        let result = crate::bake::adaptive::receiver_transfer(
             tables,
             n,
             self.origins[v],
@@ -540,7 +538,7 @@ pub struct Scratch {
     world: Vec<f64>,
     /// The current receiver's SH rotation blocks.
     rotation: RotationScratch,
-    adaptive: crate::adaptive::AdaptiveScratch,
+    adaptive: crate::bake::adaptive::AdaptiveScratch,
 }
 
 impl Scratch {

@@ -11,7 +11,7 @@
 //! where ρ(h) is the hit surface's albedo (Kd × texture at the hit's uv, per channel) and
 //! T̃_{k−1}(h) the previous bounce's transfer at the hit: interpolated with the hit's
 //! barycentrics in a vertex bake, sampled bilinearly at the hit's lightmap UV in a texel bake
-//! ([`crate::receivers::BounceTargets`]);
+//! ([`crate::bake::receivers::BounceTargets`]);
 //! T_0 is the shadowed transfer and the result is T_0 + T_1 + … + T_B. The SH basis never
 //! appears in a bounce: it is carried by T_0, so a bounce is a weighted gather of vertex
 //! transfers over the first hits.
@@ -36,7 +36,7 @@
 //! bilinear weight), and the previous bounce's values are those of the whole lightmap: the
 //! valid texels' values put in place and dilated, as the final lightmap is, so that a hit
 //! near a chart's edge reads what a renderer would read there
-//! ([`crate::receivers::BounceTargets::slot_values`]). Rows, caching, re-tracing and
+//! ([`crate::bake::receivers::BounceTargets::slot_values`]). Rows, caching, re-tracing and
 //! determinism are the same code as for vertices.
 //!
 //! # Bounce samples
@@ -55,16 +55,17 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::bounce_rows::{HitRecorder, JobRows};
-use crate::estimator::{Estimator, Scratch, VERTICES_PER_JOB, Visibility, direct_pass};
-use crate::options::BakeOptions;
-use crate::progress::Progress;
-use crate::receivers::BounceTargets;
+use crate::bake::bounce_rows::{HitRecorder, JobRows};
+use crate::bake::estimator::{Estimator, Scratch, Visibility, direct_pass};
+use crate::bake::options::BakeOptions;
+use crate::bake::receivers::BounceTargets;
+use crate::bake::receivers::RECEIVERS_PER_JOB;
+use crate::math::sh;
 use crate::scene::Scene;
-use crate::sh;
+use crate::support::progress::Progress;
 use crate::trace::Tracer;
 
-pub use crate::bounce_rows::{BYTES_PER_ENTRY, Rows};
+pub use crate::bake::bounce_rows::{BYTES_PER_ENTRY, Rows};
 
 /// What an interreflected bake produces.
 pub(crate) struct Bounced {
@@ -134,7 +135,7 @@ pub(crate) fn bake(
 
 /// Where a bounce pass finds each receiver's bounce row.
 pub(crate) enum RowSource<'a> {
-    /// The direct pass's rows, job by job ([`VERTICES_PER_JOB`] receivers each).
+    /// The direct pass's rows, job by job ([`RECEIVERS_PER_JOB`] receivers each).
     Jobs(&'a [JobRows<'a>]),
     /// Rows in memory, one per receiver in order (checkpoint blocks joined, or a shard part
     /// the merge has read).
@@ -242,12 +243,12 @@ pub(crate) fn bounce_pass(
     progress: &dyn Progress,
 ) {
     let width = channels * n;
-    next.par_chunks_mut(VERTICES_PER_JOB * width)
+    next.par_chunks_mut(RECEIVERS_PER_JOB * width)
         .enumerate()
         .for_each_init(
             || Scratch::new(n),
             |scratch, (job, out)| {
-                let first = job * VERTICES_PER_JOB;
+                let first = job * RECEIVERS_PER_JOB;
                 for (k, out) in out.chunks_mut(width).enumerate() {
                     let gather = |vertices: &[u32], weights: &[[f32; 3]], out: &mut [f32]| {
                         gather(

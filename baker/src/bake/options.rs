@@ -1,48 +1,11 @@
 //! What a bake is asked for: the transfer's mode, SH order, samples, seed, bounces and the
 //! arrays kept beside it. Every other bake module reads these; none of them is read here.
 
-use crate::error::{Error, Result};
-use crate::sampling::Sampling;
-use crate::sh;
+use crate::math::sampling::Sampling;
+use crate::math::sh;
+use crate::support::error::{Error, Result};
 
-/// What the transfer function includes.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Mode {
-    Unshadowed,
-    #[default]
-    Shadowed,
-    Interreflected,
-}
-
-impl Mode {
-    pub fn name(self) -> &'static str {
-        match self {
-            Mode::Unshadowed => "unshadowed",
-            Mode::Shadowed => "shadowed",
-            Mode::Interreflected => "interreflected",
-        }
-    }
-
-    /// Whether the mode casts rays (and so needs a tracer).
-    pub fn casts_rays(self) -> bool {
-        self != Mode::Unshadowed
-    }
-}
-
-/// Optional per-vertex arrays stored beside the coefficients (`--aux`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Aux {
-    /// Ambient accessibility, [`crate::estimator::Visibility::accessibility`].
-    pub ao: bool,
-    /// [`crate::estimator::Visibility::bent_normal`].
-    pub bent_normal: bool,
-}
-
-impl Aux {
-    pub fn any(self) -> bool {
-        self.ao || self.bent_normal
-    }
-}
+pub use crate::formats::header::{Aux, Mode};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct BakeOptions {
@@ -67,7 +30,7 @@ pub struct BakeOptions {
     pub hit_cache_limit: u64,
     /// `--target-error E`: cast rays in rounds until each vertex's estimated RMS coefficient
     /// error is at most E (`samples` becomes the cap); `None` casts `samples` rays everywhere.
-    /// See [`crate::adaptive`].
+    /// See [`crate::bake::adaptive`].
     pub target_error: Option<f32>,
 }
 
@@ -148,12 +111,12 @@ impl BakeOptions {
     }
 }
 
-/// Adaptive bakes ([`crate::adaptive`]): independent scrambles (replicates) per bake.
+/// Adaptive bakes ([`crate::bake::adaptive`]): independent scrambles (replicates) per bake.
 pub const REPLICATES: usize = 16;
 /// Adaptive bakes: points per replicate in the first round, at least.
 pub const MIN_POINTS: u32 = 16;
 
-/// Refuses what adaptive sampling ([`crate::adaptive`]) does not support, with the reason.
+/// Refuses what adaptive sampling ([`crate::bake::adaptive`]) does not support, with the reason.
 fn check_adaptive(options: &BakeOptions) -> Result<()> {
     let Some(target) = options.target_error else {
         return Ok(());

@@ -2,7 +2,7 @@
 //! finds its way back to them.
 //!
 //! A receiver is a point a ray leaves from and a shading normal: a scene vertex, or a
-//! lightmap texel ([`crate::lightmap`]). The estimator ([`crate::estimator`]) treats both
+//! lightmap texel ([`crate::bake::lightmap`]). The estimator ([`crate::bake::estimator`]) treats both
 //! alike, so they share sampling, tracing and determinism (receiver `i` seeds its frame as
 //! vertex `i` does).
 //!
@@ -17,9 +17,9 @@ use std::borrow::Cow;
 
 use glam::{Vec2, Vec3};
 
-use crate::lightmap::atlas::Atlas;
-use crate::lightmap::dilation;
-use crate::lightmap::texels::Texels;
+use crate::bake::lightmap::atlas::Atlas;
+use crate::bake::lightmap::dilation;
+use crate::bake::lightmap::texels::Texels;
 use crate::scene::Scene;
 use crate::trace::ray_origins;
 

@@ -4,7 +4,7 @@
 //!   the directions are the same as for `shadowed`.
 //! * `shadowed`: V is 0 where an occlusion ray from the vertex is blocked.
 //! * `interreflected`: shadowed plus light that reaches the vertex after bouncing off other
-//!   surfaces, in colour ([`crate::interreflection`]).
+//!   surfaces, in colour ([`crate::bake::interreflection`]).
 //!
 //! The rays of the shadowed pass also give the thesis's ambient-occlusion quantities for free
 //! ([`Visibility`]): the cosine-weighted accessibility and the bent normal.
@@ -15,29 +15,29 @@
 //! # How a receiver is baked
 //!
 //! [`bake_receivers`] is the one place: a vertex bake ([`bake`]) and a texel bake
-//! ([`crate::lightmap::bake`]) both build an [`Estimator`] over their receivers and call it,
+//! ([`crate::bake::lightmap::bake`]) both build an [`Estimator`] over their receivers and call it,
 //! with the way bounce hits read transfer back ([`BounceTargets`]: vertices, or texels).
-//! Shard parts ([`crate::shard`]) run its first half, the direct pass, on a vertex range.
+//! Shard parts ([`crate::distribute::shard`]) run its first half, the direct pass, on a vertex range.
 //!
-//! The pieces, in the order data flows through them: [`crate::options`] (what is asked),
-//! [`crate::receivers`] (what is baked at, and how bounce hits map back to it),
-//! [`crate::estimator`] (the per-receiver estimator and the direct pass),
-//! [`crate::bounce_rows`] and [`crate::interreflection`] (the bounces), and this module:
+//! The pieces, in the order data flows through them: [`crate::bake::options`] (what is asked),
+//! [`crate::bake::receivers`] (what is baked at, and how bounce hits map back to it),
+//! [`crate::bake::estimator`] (the per-receiver estimator and the direct pass),
+//! [`crate::bake::bounce_rows`] and [`crate::bake::interreflection`] (the bounces), and this module:
 //! the [`Transfer`] a bake returns and [`bake`], the entry point that dispatches.
 
 use std::time::Instant;
 
-use crate::error::{Error, Result};
-use crate::progress::Progress;
+use crate::math::sh;
 use crate::scene::Scene;
-use crate::sh;
+use crate::support::error::{Error, Result};
+use crate::support::progress::Progress;
 use crate::trace::{Backend, Tracer};
 
-pub(crate) use crate::estimator::direct_pass;
-pub use crate::estimator::{Estimator, Scratch, Visibility};
-pub use crate::options::{Aux, BakeOptions, DEFAULT_HIT_CACHE_LIMIT, Mode};
-pub use crate::receivers::BounceTargets;
-pub use crate::receivers::Receivers;
+pub(crate) use crate::bake::estimator::direct_pass;
+pub use crate::bake::estimator::{Estimator, Scratch, Visibility};
+pub use crate::bake::options::{Aux, BakeOptions, DEFAULT_HIT_CACHE_LIMIT, Mode};
+pub use crate::bake::receivers::BounceTargets;
+pub use crate::bake::receivers::Receivers;
 
 /// The result of a bake: `coefficients[(v · channels + c) · n² + j]`.
 #[derive(Clone, Debug)]
@@ -45,7 +45,8 @@ pub struct Transfer {
     /// The options the bake ran with.
     pub options: BakeOptions,
     pub channels: usize,
-    pub vertex_count: usize,
+    /// Receivers baked: the scene's vertices, or a lightmap's W·H texels.
+    pub receiver_count: usize,
     pub coefficients: Vec<f32>,
     /// Per-vertex accessibility and bent normal (all vertices; what is stored is chosen by
     /// `options.aux`). Empty for unshadowed bakes, which cast no rays.
@@ -75,25 +76,24 @@ pub struct Baked {
 }
 
 impl Transfer {
-    /// The one constructor: `baked` as the transfer of `vertex_count` receivers (vertices,
-    /// or a lightmap's W·H texels), baked with `options` on `backend` in `seconds`. A shard
-    /// header's "shape" passes empty arrays.
+    /// The one constructor: `baked` as the transfer of `receiver_count` receivers (vertices,
+    /// or a lightmap's W·H texels), baked with `options` on `backend` in `seconds`.
     pub fn from_direct(
         options: &BakeOptions,
         backend: Backend,
-        vertex_count: usize,
+        receiver_count: usize,
         baked: Baked,
         seconds: f64,
     ) -> Transfer {
         let n = sh::coeff_count(options.order);
         debug_assert!(
             baked.coefficients.is_empty()
-                || baked.coefficients.len() == vertex_count * baked.channels * n
+                || baked.coefficients.len() == receiver_count * baked.channels * n
         );
         Transfer {
             options: options.clone(),
             channels: baked.channels,
-            vertex_count,
+            receiver_count,
             coefficients: baked.coefficients,
             visibility: baked.visibility,
             backend,
@@ -167,7 +167,8 @@ pub fn bake_receivers(
     let receivers = estimator.receiver_count();
     let mut baked = match tracer {
         Some(tracer) if options.mode == Mode::Interreflected => {
-            let bounced = crate::interreflection::bake(scene, tracer, estimator, targets, progress);
+            let bounced =
+                crate::bake::interreflection::bake(scene, tracer, estimator, targets, progress);
             Baked {
                 coefficients: bounced.coefficients,
                 channels: bounced.channels,

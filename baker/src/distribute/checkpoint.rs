@@ -1,8 +1,8 @@
 //! `--checkpoint DIR`: a bake in blocks of consecutive vertices, each written into DIR (through
-//! [`crate::atomic::write`]) as soon as it is done, so that a bake that is killed continues
+//! [`crate::support::atomic::write`]) as soon as it is done, so that a bake that is killed continues
 //! where it stopped when it is started again with the same command.
 //!
-//! A block is a shard part ([`crate::shard`]) of the range being baked: the whole scene, or
+//! A block is a shard part ([`crate::distribute::shard`]) of the range being baked: the whole scene, or
 //! the shard of `--shard`. Finishing joins the blocks as the merge joins parts, so the file is
 //! byte-identical to an uninterrupted bake. A block whose header is not this bake's (another
 //! scene, other options, seed or backend) or whose vertices are not this bake's block (another
@@ -11,12 +11,12 @@
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-use crate::error::{Error, Result};
-use crate::estimator::VERTICES_PER_JOB;
-use crate::options::BakeOptions;
-use crate::progress::Progress;
+use crate::bake::options::BakeOptions;
+use crate::bake::receivers::RECEIVERS_PER_JOB;
+use crate::distribute::shard::{Part, PartId, ShardId, bake_header, bake_part, header_difference};
 use crate::scene::Scene;
-use crate::shard::{Part, PartId, ShardId, bake_header, bake_part, header_difference};
+use crate::support::error::{Error, Result};
+use crate::support::progress::Progress;
 use crate::trace::{Backend, Tracer};
 
 /// Rays per block by default: about a second and a half on this project's 2-core machine, a
@@ -27,7 +27,7 @@ pub const BLOCK_RAYS: u64 = 1 << 26;
 /// [`BLOCK_RAYS`] rays, whole parallel jobs, at least 64 vertices.
 pub fn default_block_vertices(options: &BakeOptions) -> usize {
     let vertices = (BLOCK_RAYS / u64::from(options.samples.max(1))).max(64) as usize;
-    vertices.next_multiple_of(VERTICES_PER_JOB)
+    vertices.next_multiple_of(RECEIVERS_PER_JOB)
 }
 
 /// What a checkpointed bake produced.

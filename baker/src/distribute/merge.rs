@@ -12,12 +12,12 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use crate::CoefficientFile;
-use crate::error::{Error, Result};
-use crate::interreflection::{self, RowSource};
-use crate::progress::Progress;
-use crate::sh;
-use crate::shard::{Part, PartId, header_difference, options_of, shard_range};
-use crate::transfer::{Estimator, Mode};
+use crate::bake::interreflection::{self, RowSource};
+use crate::bake::transfer::{Estimator, Mode};
+use crate::distribute::shard::{Part, PartId, header_difference, options_of, shard_range};
+use crate::math::sh;
+use crate::support::error::{Error, Result};
+use crate::support::progress::Progress;
 
 /// Reads, checks and merges the parts at `paths` (in any order).
 pub fn merge(paths: &[PathBuf], progress: &dyn Progress) -> Result<CoefficientFile> {

@@ -1,6 +1,6 @@
 //! Shards: one bake split into parts that bake on different machines (a Slurm job array, a
 //! Kubernetes Indexed Job) and are merged into the file one machine would have written
-//! ([`crate::merge`]). A checkpoint block ([`crate::checkpoint`]) is the same kind of part.
+//! ([`crate::distribute::merge`]). A checkpoint block ([`crate::distribute::checkpoint`]) is the same kind of part.
 //!
 //! A part is a range of consecutive vertices. Every vertex casts `--samples` rays in every mode
 //! (the interreflected mode's bounce samples are among them), so ranges of equal length are
@@ -12,37 +12,22 @@
 //! its direct (shadowed) transfer and bounce rows instead of the final transfer, because a
 //! bounce gathers from every vertex of the scene. `docs/coefficient-format.md` specifies it.
 
-use std::fmt;
 use std::ops::Range;
 use std::path::Path;
 
 use glam::Vec3;
-use serde::Serialize;
 
-use crate::bounce_rows::HitRecorder;
-use crate::coefficient_file::{self, CoefficientFile, HEADER_SIZE, Header};
-use crate::error::{Error, Result};
-use crate::interreflection::{self, RowSource, Rows};
-use crate::progress::Progress;
+use crate::bake::bounce_rows::HitRecorder;
+use crate::bake::interreflection::{self, RowSource, Rows};
+use crate::bake::transfer::{BakeOptions, BounceTargets, Estimator, Mode, direct_pass, tracer_for};
+use crate::formats::coefficient_file::{self, CoefficientFile};
+use crate::formats::header::{self, HEADER_SIZE, Header};
+pub use crate::formats::part_id::{PartId, ShardId};
+use crate::math::sh;
 use crate::scene::Scene;
-use crate::sh;
+use crate::support::error::{Error, Result};
+use crate::support::progress::Progress;
 use crate::trace::{Backend, Tracer};
-use crate::transfer::{
-    BakeOptions, Baked, BounceTargets, Estimator, Mode, Transfer, direct_pass, tracer_for,
-};
-
-/// Which of how many shards: `index` in 0..`count`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-pub struct ShardId {
-    pub index: u32,
-    pub count: u32,
-}
-
-impl fmt::Display for ShardId {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "shard {} of {}", self.index, self.count)
-    }
-}
 
 /// The environment variable that gives the shard count to `--shard auto` in a Kubernetes
 /// Indexed Job (which sets only the index, `JOB_COMPLETION_INDEX`).
@@ -132,65 +117,6 @@ pub fn shard_range(vertex_count: usize, shard: ShardId) -> Range<usize> {
     at(shard.index)..at(shard.index + 1)
 }
 
-/// What header bytes 88..108 say: which shard a part belongs to and which vertices it holds
-/// (a shard's range, or a checkpoint block of it). All zero in a whole bake.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-pub struct PartId {
-    pub shard: ShardId,
-    /// First vertex held.
-    pub first_vertex: u64,
-    /// Vertices held.
-    pub vertices: u32,
-}
-
-impl fmt::Display for PartId {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let range = self.range();
-        write!(f, "{}, vertices {}..{}", self.shard, range.start, range.end)
-    }
-}
-
-/// Offset of the shard identity in the header.
-const ID_OFFSET: usize = 88;
-
-impl PartId {
-    pub fn range(&self) -> Range<usize> {
-        let first = self.first_vertex as usize;
-        first..first + self.vertices as usize
-    }
-
-    /// The 20 header bytes: u32 shard count (never 0), u32 shard index, u64 first vertex,
-    /// u32 vertex count.
-    fn to_bytes(self) -> [u8; 20] {
-        let mut bytes = [0; 20];
-        bytes[0..4].copy_from_slice(&self.shard.count.to_le_bytes());
-        bytes[4..8].copy_from_slice(&self.shard.index.to_le_bytes());
-        bytes[8..16].copy_from_slice(&self.first_vertex.to_le_bytes());
-        bytes[16..20].copy_from_slice(&self.vertices.to_le_bytes());
-        bytes
-    }
-
-    /// The identity in a file's header (at least 128 bytes): `None` for a whole bake.
-    pub fn from_header_bytes(bytes: &[u8]) -> std::result::Result<Option<PartId>, String> {
-        let id = &bytes[ID_OFFSET..ID_OFFSET + 20];
-        if id.iter().all(|&b| b == 0) {
-            return Ok(None);
-        }
-        let u32_at = |o: usize| u32::from_le_bytes(id[o..o + 4].try_into().expect("4 bytes"));
-        let (count, index) = (u32_at(0), u32_at(4));
-        if index >= count {
-            return Err(format!(
-                "shard identity {index} of {count}: the index must be below the count"
-            ));
-        }
-        Ok(Some(PartId {
-            shard: ShardId { index, count },
-            first_vertex: u64::from_le_bytes(id[8..16].try_into().expect("8 bytes")),
-            vertices: u32_at(16),
-        }))
-    }
-}
-
 /// A shard part (or checkpoint block) in memory.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Part {
@@ -240,8 +166,8 @@ impl Part {
 
     /// Parses and validates a part file's bytes; the error is a sentence for the user.
     pub fn from_bytes(bytes: &[u8]) -> std::result::Result<Part, String> {
-        let (header, payload_bytes, header_size) = coefficient_file::parse_header(bytes)?;
-        if header_size != coefficient_file::HEADER_SIZE {
+        let (header, payload_bytes, header_size) = header::parse_header(bytes)?;
+        if header_size != HEADER_SIZE {
             return Err("a lightmap (texel) file, which has no shard parts".into());
         }
         let id = PartId::from_header_bytes(bytes)?
@@ -318,7 +244,7 @@ impl Part {
 
     /// Writes the part atomically.
     pub fn write(&self, path: &Path) -> Result<()> {
-        crate::atomic::write(path, &self.to_bytes())
+        crate::support::atomic::write(path, &self.to_bytes())
     }
 
     /// Joins parts of one bake that hold consecutive ranges, in order, into one part with
@@ -441,17 +367,7 @@ pub fn bake_header(scene: &Scene, backend: Backend, options: &BakeOptions) -> He
         Mode::Interreflected if !interreflection::albedo_is_grey(scene) => 3,
         _ => 1,
     };
-    let shape = Transfer::from_direct(
-        options,
-        backend,
-        scene.vertex_count(),
-        Baked {
-            channels,
-            ..Baked::default()
-        },
-        0.0,
-    );
-    CoefficientFile::from_bake(scene, &shape).header
+    Header::for_bake(scene, options, backend, channels, scene.vertex_count(), 0)
 }
 
 /// How two headers of parts differ (fields by name), or `None` if they belong to one bake.
@@ -574,14 +490,14 @@ mod tests {
             samples: 32,
             mode: Mode::Interreflected,
             bounces: 1,
-            aux: crate::transfer::Aux {
+            aux: crate::bake::transfer::Aux {
                 ao: true,
                 bent_normal: true,
             },
             ..BakeOptions::default()
         };
         let shard = ShardId { index: 1, count: 3 };
-        let silent = crate::progress::Silent;
+        let silent = crate::support::progress::Silent;
         bake_part(&scene, Some(&*tracer), &options, shard, 100..140, &silent)
             .unwrap()
             .0

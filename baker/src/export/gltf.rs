@@ -26,11 +26,11 @@ use std::path::Path;
 use glam::{DMat3, Vec2, Vec3};
 use serde_json::{Value, json};
 
-use crate::coefficient_file::CoefficientFile;
-use crate::error::{Error, Result};
+use crate::formats::coefficient_file::CoefficientFile;
 use crate::light::{LightCoefficients, Rig};
+use crate::math::sh::{self, rotation::ShRotation};
 use crate::scene::{Scene, Texture, Up};
-use crate::sh::{self, rotation::ShRotation};
+use crate::support::error::{Error, Result};
 
 /// What to put beside the geometry.
 pub struct Contents<'a> {
@@ -87,7 +87,7 @@ pub fn export_glb(
     let mut inputs = scene.input_files();
     inputs.push(coefficients.to_path_buf());
     inputs.extend(rig.iter().flat_map(Rig::input_files));
-    let output = crate::output::Output::new(output, &inputs)?;
+    let output = crate::support::output::Output::new(output, &inputs)?;
     let up = file.header.up;
     let light = rig.map(|rig| rig.project(file.header.order as usize).in_scene_frame(up));
     if file.lightmap.is_some() {
@@ -123,10 +123,10 @@ fn lightmap_glb_bytes(
     let image = match light {
         None => None,
         Some(light) => {
-            let radiance = crate::relight::lightmap_radiance(file, light);
+            let radiance = crate::export::relight::lightmap_radiance(file, light);
             let (w, h) = (block.width as usize, block.height as usize);
-            let rows = crate::openexr::image_rows(&radiance, w, h);
-            Some(crate::relight::png_bytes(
+            let rows = crate::formats::openexr::image_rows(&radiance, w, h);
+            Some(crate::export::relight::png_bytes(
                 &rows,
                 block.width,
                 block.height,
@@ -339,7 +339,7 @@ fn glb_bytes_with(
         }
         if let Some(light) = contents.light {
             let ones = vec![Vec3::ONE; scene.vertex_count()];
-            let shading = crate::relight::vertex_radiance(file, &ones, light);
+            let shading = crate::export::relight::vertex_radiance(file, &ones, light);
             colour = Some(
                 shading
                     .iter()

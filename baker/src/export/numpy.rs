@@ -3,11 +3,11 @@
 
 use std::path::Path;
 
-use crate::coefficient_file::CoefficientFile;
-use crate::error::Result;
-use crate::npz::{self, Array};
+use crate::formats::coefficient_file::CoefficientFile;
+use crate::formats::npz::{self, Array};
+use crate::math::sh;
 use crate::scene::Scene;
-use crate::sh;
+use crate::support::error::Result;
 
 /// Writes `positions` (V,3), `normals` (V,3), `albedo` (V,3, linear Kd × texture),
 /// `transfer` (V, channels, n²), `uv` (V,2, v up from the image's bottom, as OBJ) where the
@@ -26,7 +26,7 @@ pub fn export_npz(coefficients: &Path, scene: &Path, output: &Path) -> Result<()
     file.check_scene(coefficients, &scene)?;
     let mut inputs = scene.input_files();
     inputs.push(coefficients.to_path_buf());
-    let output = crate::output::Output::new(output, &inputs)?;
+    let output = crate::support::output::Output::new(output, &inputs)?;
     let v = scene.vertex_count();
     let receivers = Receivers::new(&scene.positions, &scene.normals, &file);
     let (geometry, aux) = receivers.arrays(&[v], ["positions", "normals"]);
@@ -101,16 +101,16 @@ fn export_lightmap_npz(
     let block = file.check_lightmap_scene(path, scene)?;
     let mut inputs = scene.input_files();
     inputs.push(path.to_path_buf());
-    let output = crate::output::Output::new(output, &inputs)?;
+    let output = crate::support::output::Output::new(output, &inputs)?;
     let (w, h) = (block.width as usize, block.height as usize);
-    let atlas = crate::lightmap::Atlas {
+    let atlas = crate::bake::lightmap::Atlas {
         width: block.width,
         height: block.height,
         uv1: block.uv1.clone(),
         source: block.source,
         texel_size: (block.texel_size > 0.0).then_some(block.texel_size),
     };
-    let texels = crate::lightmap::Texels::rasterise(scene, &atlas);
+    let texels = crate::bake::lightmap::Texels::rasterise(scene, &atlas);
     let receivers = Receivers::new(&texels.positions, &texels.normals, file);
     let (geometry, aux) = receivers.arrays(&[h, w], ["texel_positions", "texel_normals"]);
     let uv1: Vec<f32> = block
@@ -246,7 +246,7 @@ pub fn exr_transfer_names(order: usize, channels: usize) -> Vec<(usize, usize, S
 }
 
 /// A texel bake's coefficients as OpenEXR images in `dir` (created if missing), W×H each,
-/// rows as [`crate::openexr`] states (row 0 at the top: texel row H−1): per colour channel
+/// rows as [`crate::formats::openexr`] states (row 0 at the top: texel row H−1): per colour channel
 /// c and k, coefficients 4k..4k+3 in R, G, B, A of `transfer_[c_]AA-BB.exr` (the last
 /// zero-padded); `texel_state.exr` (Y: 1 baked, 0.5 dilated, 0 empty); where stored `ao.exr`
 /// (Y) and `bent_normal.exr` (RGB = x, y, z in the bake's frame); and `manifest.json` saying
@@ -256,9 +256,9 @@ pub fn export_exr(
     coefficients: &Path,
     scene: &Path,
     dir: &Path,
-    pixel_type: crate::openexr::PixelType,
+    pixel_type: crate::formats::openexr::PixelType,
 ) -> Result<ExrWritten> {
-    use crate::openexr::{encode, image_rows};
+    use crate::formats::openexr::{encode, image_rows};
     use serde_json::json;
     let file = CoefficientFile::read(coefficients)?;
     if file.lightmap.is_none() {
@@ -392,7 +392,7 @@ pub fn export_exr(
     // Every path checked before any is written: a refusal leaves the directory as it was.
     let outputs = images
         .iter()
-        .map(|(name, _)| crate::output::Output::new(&dir.join(name), &inputs))
+        .map(|(name, _)| crate::support::output::Output::new(&dir.join(name), &inputs))
         .collect::<Result<Vec<_>>>()?;
     for (output, (_, bytes)) in outputs.iter().zip(&images) {
         output.write(bytes)?;

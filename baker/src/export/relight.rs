@@ -16,11 +16,11 @@ use std::path::Path;
 
 use glam::Vec3;
 
-use crate::coefficient_file::CoefficientFile;
-use crate::error::Result;
+use crate::formats::coefficient_file::CoefficientFile;
+use crate::formats::ply::ColouredMesh;
 use crate::light::{LightCoefficients, Rig};
-use crate::ply::ColouredMesh;
 use crate::scene::Scene;
+use crate::support::error::Result;
 
 /// Per-vertex linear RGB radiance of a bake lit by `light` (of the file's order).
 pub fn vertex_radiance(
@@ -81,7 +81,7 @@ pub struct Relit {
 }
 
 /// Lights the bake `coefficients` of `scene` with the rig and writes `output` (PLY, see
-/// [`crate::ply`]) atomically. Refuses a coefficient file baked for another scene.
+/// [`crate::formats::ply`]) atomically. Refuses a coefficient file baked for another scene.
 pub fn relight(
     scene: &Path,
     coefficients: &Path,
@@ -106,7 +106,7 @@ pub fn relight(
     let mut inputs = scene.input_files();
     inputs.push(coefficients.to_path_buf());
     inputs.extend(rig.input_files());
-    let output = crate::output::Output::new(output, &inputs)?;
+    let output = crate::support::output::Output::new(output, &inputs)?;
     let order = file.header.order as usize;
     // Rigs are written for a z-up world; a y-up bake gets them turned to its up axis.
     let light = rig.project(order).in_scene_frame(file.header.up);
@@ -165,7 +165,7 @@ fn image_format(output: &Path) -> Option<ImageFormat> {
 /// renderer multiplies by its albedo). A `.png` gets [`display_colour`]'s tone mapping; an
 /// `.exr` the linear values as they are (f32 RGBA, no exposure, no clamp, no sRGB curve;
 /// A = 1 where the texel holds transfer, baked or dilated, 0 where it is empty). Rows as
-/// [`crate::openexr`] states: image row r is texel row H−1−r (the top row is v = 1 of the
+/// [`crate::formats::openexr`] states: image row r is texel row H−1−r (the top row is v = 1 of the
 /// file's UVs, v = 0 of glTF's TEXCOORD_1). Empty texels are black.
 fn relight_lightmap(
     file: &CoefficientFile,
@@ -185,12 +185,12 @@ fn relight_lightmap(
     let mut inputs = scene.input_files();
     inputs.push(coefficients.to_path_buf());
     inputs.extend(rig.input_files());
-    let output_policy = crate::output::Output::new(output, &inputs)?;
+    let output_policy = crate::support::output::Output::new(output, &inputs)?;
     let order = file.header.order as usize;
     let light = rig.project(order).in_scene_frame(file.header.up);
     let (w, h) = (block.width as usize, block.height as usize);
     let radiance = lightmap_radiance(file, &light);
-    let rows = crate::openexr::image_rows(&radiance, w, h);
+    let rows = crate::formats::openexr::image_rows(&radiance, w, h);
     let bytes = match format {
         ImageFormat::Png => png_bytes(&rows, block.width, block.height, exposure, output)?,
         ImageFormat::Exr => {
@@ -198,7 +198,7 @@ fn relight_lightmap(
                 .map(|t| f32::from(u8::from(block.valid[t] || block.dilated[t])))
                 .collect();
             let channel = |c: usize| rows.iter().map(|r| r[c]).collect::<Vec<f32>>();
-            crate::openexr::encode(
+            crate::formats::openexr::encode(
                 output,
                 w,
                 h,
@@ -206,9 +206,9 @@ fn relight_lightmap(
                     ("R", channel(0)),
                     ("G", channel(1)),
                     ("B", channel(2)),
-                    ("A", crate::openexr::image_rows(&filled, w, h)),
+                    ("A", crate::formats::openexr::image_rows(&filled, w, h)),
                 ],
-                crate::openexr::PixelType::F32,
+                crate::formats::openexr::PixelType::F32,
             )?
         }
     };
@@ -257,13 +257,13 @@ pub fn lightmap_radiance(file: &CoefficientFile, light: &LightCoefficients) -> V
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::coefficient_file::Header;
+    use crate::formats::coefficient_file::Header;
 
     /// A file of order 1 (one coefficient per channel) holding `coefficients`.
     fn file(channels: u32, coefficients: Vec<f32>) -> CoefficientFile {
         CoefficientFile {
             header: Header {
-                version: crate::coefficient_file::VERSION,
+                version: crate::formats::coefficient_file::VERSION,
                 order: 1,
                 channels,
                 vertex_count: (coefficients.len() / channels as usize) as u64,
@@ -272,10 +272,10 @@ mod tests {
                 bounces: 0,
                 bounce_samples: 0,
                 backend: crate::trace::Backend::None,
-                sampling: crate::sampling::Sampling::OwenSobol,
+                sampling: crate::math::sampling::Sampling::OwenSobol,
                 seed: 0,
                 scene_fingerprint: 0,
-                aux: crate::transfer::Aux::default(),
+                aux: crate::bake::transfer::Aux::default(),
                 up: crate::scene::Up::Z,
                 checksum: 0,
                 adaptive: None,

@@ -4,7 +4,7 @@
 use std::io::{Cursor, Write};
 use std::path::Path;
 
-use crate::error::{Error, Result};
+use crate::support::error::{Error, Result};
 
 /// A named float32 array of the given shape (C order).
 pub struct Array<'a> {
@@ -77,7 +77,7 @@ fn npy_encode(descr: &str, shape: &[usize], data: &[u8]) -> Vec<u8> {
 
 /// Writes the arrays into `path` atomically.
 pub fn write(path: &Path, arrays: &[Array<'_>]) -> Result<()> {
-    crate::atomic::write(
+    crate::support::atomic::write(
         path,
         &to_bytes(arrays, &[], &[]).map_err(|err| match err {
             Error::Io { source, .. } => Error::io(path, source),

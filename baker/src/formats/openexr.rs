@@ -15,7 +15,7 @@ use exr::prelude::{
     WritableImage, f16,
 };
 
-use crate::error::{Error, Result};
+use crate::support::error::{Error, Result};
 
 /// How samples are stored.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -11,7 +11,7 @@ use std::path::Path;
 
 use glam::Vec3;
 
-use crate::error::Result;
+use crate::support::error::Result;
 
 /// A mesh to write: every per-vertex slice has the same length.
 pub struct ColouredMesh<'a> {
@@ -76,7 +76,7 @@ impl ColouredMesh<'_> {
 
     /// Writes the file atomically.
     pub fn write(&self, path: &Path) -> Result<()> {
-        crate::atomic::write(path, &self.to_bytes())
+        crate::support::atomic::write(path, &self.to_bytes())
     }
 }
 

@@ -29,8 +29,8 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::LightCoefficients;
-use crate::error::{Error, Location, Result};
-use crate::sh::{self, Basis};
+use crate::math::sh::{self, Basis};
+use crate::support::error::{Error, Location, Result};
 
 /// Longest stretch of θ integrated by one Gauss–Legendre rule: with n + 2 nodes the rule's
 /// error on a degree-n trigonometric polynomial over π/16 is below 1e-15 relative for every
@@ -88,9 +88,9 @@ impl EnvironmentMap {
             .map_err(|err| Error::io(path, err))?
             .into_dimensions()
             .map_err(|err| fail(format!("cannot decode the environment map: {err}")))?;
-        crate::limits::check_image(path, width, height, 40)?;
+        crate::support::limits::check_image(path, width, height, 40)?;
         let mut reader = reader;
-        reader.limits(crate::limits::image_limits());
+        reader.limits(crate::support::limits::image_limits());
         let image = reader
             .decode()
             .map_err(|err| fail(format!("cannot decode the environment map: {err}")))?

@@ -16,6 +16,8 @@
 //! +z, band l scaled by a factor g_l, then turned to their direction, which for a zonal
 //! function is the closed form c_lm = √(4π/(2l+1))·z_l·y_lm(d). [`SteerableLight`] keeps the
 //! unrotated coefficients and the absolute angles, as the thesis's lights do.
+//!
+//! May import: [`crate::support`], [`crate::math`], [`crate::scene`] (the up axis).
 
 mod environment;
 pub mod rig;
@@ -24,8 +26,8 @@ mod window;
 use glam::DVec3;
 use serde::Serialize;
 
-use crate::sh::rotation::ShRotation;
-use crate::sh::{self, Basis};
+use crate::math::sh::rotation::ShRotation;
+use crate::math::sh::{self, Basis};
 
 pub use environment::EnvironmentMap;
 pub use rig::Rig;

@@ -23,7 +23,7 @@ use toml::Spanned;
 use toml::de::{DeTable, DeValue};
 
 use super::{EnvironmentMap, Light, LightCoefficients, Window, project_sum};
-use crate::error::{Error, Location, Result};
+use crate::support::error::{Error, Location, Result};
 
 /// The Sun's mean angular radius (16′), the default of `angular_radius` for a sun.
 pub const SUN_ANGULAR_RADIUS_DEGREES: f64 = 0.2666;
@@ -40,7 +40,7 @@ pub struct Rig {
 impl Rig {
     /// Reads and checks a rig file; environment maps are loaded relative to its folder.
     pub fn load(path: &Path) -> Result<Rig> {
-        let bytes = crate::limits::read_file(path)?;
+        let bytes = crate::support::limits::read_file(path)?;
         let text = String::from_utf8(bytes)
             .map_err(|_| Error::light(Location::file(path), "not a text file (invalid UTF-8)"))?;
         Rig::parse(&text, path)

@@ -17,7 +17,7 @@
 //! e ≈ 2.72 times that of N independent samples (Owen 1997, t = 0, base b ≥ s) and, for the
 //! smooth parts of the integrand, far lower. The tests derive their tolerances from that
 //! bound. How the baker shares one such set between vertices is described in
-//! [`crate::transfer`].
+//! [`crate::bake::transfer`].
 //!
 //! [`Sampling::ThesisRandom`] is the thesis's method, kept as the baseline to beat: independent
 //! uniform directions on the sphere, θ = 2·arccos √(1−X), φ = 2πY, weighted by 4π/N.

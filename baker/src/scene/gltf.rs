@@ -19,7 +19,7 @@ use glam::{Mat3, Mat4, Vec2, Vec3};
 use gltf::mesh::Mode;
 
 use super::{DEFAULT_KD, Material, Mesh, Texture};
-use crate::error::{Error, Location, Result};
+use crate::support::error::{Error, Location, Result};
 
 /// What a glTF file contributes.
 pub struct Loaded {
@@ -41,7 +41,7 @@ const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[];
 pub fn load(path: &Path) -> Result<Loaded> {
     let at = || Location::file(path);
     let fail = |message: String| Error::scene(at(), message);
-    let bytes = crate::limits::read_file(path)?;
+    let bytes = crate::support::limits::read_file(path)?;
     let gltf = gltf::Gltf::from_slice_without_validation(&bytes)
         .map_err(|err| fail(format!("not a readable glTF file: {err}")))?;
     let unsupported: Vec<&str> = gltf
@@ -383,7 +383,7 @@ fn images_fit_in_memory(
             "{}#image{i}",
             path.file_name().unwrap_or_default().to_string_lossy()
         ));
-        crate::limits::check_image(&name, width, height, 16)?;
+        crate::support::limits::check_image(&name, width, height, 16)?;
     }
     Ok(())
 }

@@ -11,6 +11,8 @@
 //! A vertex is a unique (position, normal, uv) combination, as OBJ faces reference them.
 //! Normals come from the file, or are computed (angle-weighted, welded by position within a
 //! mesh) where the file has none.
+//!
+//! May import: [`crate::support`], [`crate::math`].
 
 mod gltf;
 mod normals;
@@ -24,7 +26,7 @@ use std::path::{Path, PathBuf};
 
 use glam::{Vec2, Vec3};
 
-use crate::error::{Error, Location, Result};
+use crate::support::error::{Error, Location, Result};
 
 pub use normals::angle_weighted_normals;
 pub use scene_file::{SceneEntry, parse_scene_file};
@@ -203,7 +205,7 @@ impl Scene {
     }
 
     /// Every file the scene was read from: the scene file, OBJs, material libraries,
-    /// textures. An output must not replace any of them ([`crate::output::Output`]).
+    /// textures. An output must not replace any of them ([`crate::support::output::Output`]).
     pub fn input_files(&self) -> Vec<PathBuf> {
         let mut files = vec![self.path.clone()];
         files.extend(self.sources.iter().cloned());

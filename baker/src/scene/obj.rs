@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use glam::{Vec2, Vec3};
 
 use super::{DEFAULT_KD, Material, Mesh, Texture};
-use crate::error::{Error, Location, Result};
+use crate::support::error::{Error, Location, Result};
 
 /// What one OBJ file contributes: its meshes and the textures they index (from 0).
 pub struct Loaded {
@@ -27,7 +27,7 @@ pub struct Loaded {
 /// `map_Kd` of its materials; objects with no material then get Kd = 1 so the texture is the
 /// albedo, as in the thesis's scenes.
 pub fn load(path: &Path, override_texture: Option<Texture>) -> Result<Loaded> {
-    let bytes = crate::limits::read_file(path)?;
+    let bytes = crate::support::limits::read_file(path)?;
     let dir = path.parent().unwrap_or(Path::new(""));
     let files = RefCell::new(vec![path.to_path_buf()]);
 
@@ -166,7 +166,7 @@ fn load_mtl(
     at_mtllib: &Location,
     texture_refs: &mut HashMap<String, (PathBuf, usize)>,
 ) -> Result<(Vec<tobj::Material>, HashMap<String, usize>)> {
-    let bytes = crate::limits::read_file(mtl_path).map_err(|err| match err {
+    let bytes = crate::support::limits::read_file(mtl_path).map_err(|err| match err {
         Error::Io { source, .. } => Error::scene(
             at_mtllib.clone(),
             format!(

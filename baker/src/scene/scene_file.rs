@@ -10,7 +10,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::error::{Error, Location, Result};
+use crate::support::error::{Error, Location, Result};
 
 /// One line of a scene file.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -22,7 +22,7 @@ pub struct SceneEntry {
 }
 
 pub fn parse_scene_file(path: &Path) -> Result<Vec<SceneEntry>> {
-    let bytes = crate::limits::read_file(path)?;
+    let bytes = crate::support::limits::read_file(path)?;
     let text = String::from_utf8(bytes).map_err(|_| {
         Error::scene(
             Location::file(path),

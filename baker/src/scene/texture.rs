@@ -12,7 +12,7 @@ use std::sync::LazyLock;
 
 use glam::{Vec2, Vec3};
 
-use crate::error::{Error, Location, Result};
+use crate::support::error::{Error, Location, Result};
 
 #[derive(Clone, Debug)]
 pub struct Texture {
@@ -56,10 +56,10 @@ impl Texture {
         // The header's size first: decoding (up to 8 bytes a pixel), the RGBA copy and the
         // kept sRGB pixels (4 each) must fit before a byte of pixels is allocated.
         let (width, height) = open()?.into_dimensions().map_err(|err| cannot_read(&err))?;
-        crate::limits::check_image(path, width, height, 16)
+        crate::support::limits::check_image(path, width, height, 16)
             .map_err(|err| Error::scene(referenced_at.clone(), format!("texture {err}")))?;
         let mut reader = open()?;
-        reader.limits(crate::limits::image_limits());
+        reader.limits(crate::support::limits::image_limits());
         let image = reader.decode().map_err(|err| cannot_read(&err))?;
         let rgba = image.to_rgba8();
         let (width, height) = rgba.dimensions();
@@ -201,7 +201,7 @@ mod tests {
             let bottom = texel(x0, y0 + 1).lerp(texel(x0 + 1, y0 + 1), fx);
             top.lerp(bottom, fy)
         };
-        let mut rng = crate::sampling::Pcg32::new(1, 2);
+        let mut rng = crate::math::sampling::Pcg32::new(1, 2);
         for _ in 0..10_000 {
             let uv = Vec2::new(rng.next_f32() * 8.0 - 4.0, rng.next_f32() * 8.0 - 4.0);
             let (fast, slow) = (t.sample(uv), reference(uv));

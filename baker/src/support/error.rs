@@ -62,12 +62,12 @@ pub enum Error {
     SceneMismatch { path: PathBuf, message: String },
 
     /// An output path the output policy refuses (an input of the run, a directory, a block
-    /// device…; see [`crate::output`]): a bad command line.
+    /// device…; see [`crate::support::output`]): a bad command line.
     #[error("{}: {message}", path.display())]
     Output { path: PathBuf, message: String },
 
     /// Input or work larger than the memory limit allows (`--max-memory`; see
-    /// [`crate::limits`]): refused before anything is allocated.
+    /// [`crate::support::limits`]): refused before anything is allocated.
     #[error("{what}: {message}")]
     TooLarge { what: String, message: String },
 

@@ -11,9 +11,7 @@ use std::io::Read;
 use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use crate::error::{Error, Result};
-use crate::options::{BakeOptions, Mode};
-use crate::sh;
+use crate::support::error::{Error, Result};
 
 /// The limit when the physical memory cannot be read (not Linux): 4 GiB.
 const FALLBACK_MAX_MEMORY: u64 = 4 << 30;
@@ -133,74 +131,6 @@ pub fn image_limits() -> image::Limits {
     let mut limits = image::Limits::default();
     limits.max_alloc = Some(max_memory());
     limits
-}
-
-/// An upper bound of a bake's memory: the scene, the tracer's acceleration structure, the
-/// sample tables, the coefficients (computed, packed and written) and, interreflected, the
-/// bounce buffers, each thread's row accumulator and the hit cache at most at its limit.
-/// `vertices` counts receivers and slots: a texel bake passes its W·H texels plus the
-/// scene's vertices. None if it overflows.
-pub fn bake_bytes(options: &BakeOptions, vertices: u64, triangles: u64) -> Option<u64> {
-    let n = sh::coeff_count(options.order) as u64;
-    let tables = table_bytes(options)?;
-    // Positions, normals, uvs, material, ray origins; triangles and a BVH of ~3 nodes each.
-    let scene = vertices
-        .checked_mul(64)?
-        .checked_add(triangles.checked_mul(12 + 3 * 64)?)?;
-    let channels = if options.mode == Mode::Interreflected {
-        3
-    } else {
-        1
-    };
-    // The coefficients three times over: the bake's, the file's copy and its bytes.
-    let coefficients = vertices.checked_mul(channels * n * 4)?.checked_mul(3)?;
-    let bounce = match options.mode {
-        Mode::Interreflected => {
-            // Hit-cache rows: up to three (vertex) or four (texel) (slot, weight) entries of
-            // 16 bytes per bounce ray, dropped beyond the cache's limit.
-            let rows = vertices
-                .checked_mul(u64::from(options.effective_bounce_samples()))?
-                .checked_mul(4 * crate::bounce_rows::BYTES_PER_ENTRY)?;
-            // Each thread accumulates one row at a time, sparsely: a slot, an RGB weight and
-            // a hash-map entry (≤ 32 bytes) for each of up to four entries per bounce ray.
-            let builders = u64::from(options.effective_bounce_samples())
-                .checked_mul(4 * 32 * rayon::current_num_threads() as u64)?;
-            // Previous bounce, next bounce, total; a texel bake's previous bounce is also
-            // spread over its lightmap, and its total placed there.
-            vertices
-                .checked_mul(3 * n * 4 * 5)?
-                .checked_add(builders)?
-                .checked_add(rows.min(options.hit_cache_limit))?
-        }
-        _ => 0,
-    };
-    tables
-        .checked_add(scene)?
-        .checked_add(coefficients)?
-        .checked_add(bounce)
-}
-
-/// The estimator's sample tables: per sample its local direction (12 bytes), its row of n² SH
-/// values and the direction again (4 n² + 12 bytes), and the sort key while they are built
-/// (12 bytes). None if it overflows.
-fn table_bytes(options: &BakeOptions) -> Option<u64> {
-    let n = sh::coeff_count(options.order) as u64;
-    u64::from(options.samples).checked_mul(36 + 4 * n)
-}
-
-/// Refuses `--samples` and `--order` whose sample tables alone cannot fit, before the scene
-/// is even read (a bad command line: [`Error::InvalidOption`]).
-pub fn check_bake_options(options: &BakeOptions) -> Result<()> {
-    let n = sh::coeff_count(options.order) as u64;
-    check(
-        "--samples",
-        &format!(
-            "{} samples at order {} ({n} SH values per sample)",
-            options.samples, options.order
-        ),
-        table_bytes(options),
-    )
-    .map_err(|err| Error::InvalidOption(err.to_string()))
 }
 
 #[cfg(test)]

@@ -20,7 +20,7 @@ use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use crate::error::{Error, Result};
+use crate::support::error::{Error, Result};
 
 /// Where a command's bytes go, checked against the policy above.
 #[derive(Clone, Debug)]

@@ -8,8 +8,8 @@ use embree_sys::{BuildQuality, CommittedScene, Device, SceneBuilder, SceneFlags}
 
 use super::seams::{seam_points, seam_vertices};
 use super::{Backend, Hit, Ray, Tracer, ray_origins};
-use crate::error::{Error, Result};
 use crate::scene::Scene;
+use crate::support::error::{Error, Result};
 
 /// Rays handed to Embree per stream call: large enough for Embree to form full packets and
 /// amortise the call, small enough to stay in L1 (48 bytes each).

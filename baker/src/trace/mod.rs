@@ -5,6 +5,8 @@
 //! Every backend answers the same two questions for batches of rays, with the same semantics:
 //! is the segment blocked, and what does it hit first. Batches let a backend use its fast
 //! paths (Embree's ray streams). `tests/agreement.rs` checks that the two agree.
+//!
+//! May import: [`crate::support`], [`crate::math`], [`crate::scene`].
 
 #[cfg(feature = "embree")]
 mod embree;
@@ -22,8 +24,8 @@ pub use offset::{offset_distance, ray_origins};
 
 use glam::Vec3;
 
-use crate::error::{Error, Result};
 use crate::scene::Scene;
+use crate::support::error::{Error, Result};
 
 /// A ray segment `origin + t·dir`, t in `[0, tfar]`. (A hit at exactly t = 0 — an origin on a
 /// surface — counts for obvhs and Embree's robust mode, not for Embree's default mode.)

@@ -186,7 +186,7 @@ pub fn seam_vertices(scene: &Scene, origins: &[Vec3]) -> Vec<bool> {
 }
 
 /// `seam[i]`: whether the ray origin `origins[i]` of a point on triangle `own[i]` (a texel,
-/// [`crate::lightmap::texels`]) lies near an edge of any other triangle. The same test as
+/// [`crate::bake::lightmap::texels`]) lies near an edge of any other triangle. The same test as
 /// [`seam_vertices`] with the triangles that touch the point's triangle (share a vertex with
 /// it) as its own, just as a vertex's own triangles are those that touch it: what lies near a
 /// point of a mesh's interior is its own mesh, whose triangles its rays leave on their open

@@ -6,7 +6,7 @@
 
 use std::path::{Path, PathBuf};
 
-use prt_baker::progress::Silent;
+use prt_baker::support::progress::Silent;
 use prt_baker::trace::{EmbreeOptions, EmbreeTracer};
 use prt_baker::{BakeOptions, CoefficientFile, Mode, Scene};
 use prt_viewer::{Bake, Gpu};

@@ -27,38 +27,14 @@ pub use planar::{Chart, planar_charts};
 
 use glam::Vec2;
 
-use crate::error::{Error, Result};
+pub use crate::formats::header::AtlasSource;
+
 use crate::scene::Scene;
+use crate::support::error::{Error, Result};
 
 /// Empty texels left between charts, so bilinear filtering of one chart does not read its
 /// neighbour.
 pub const PADDING: u32 = 2;
-
-/// Where the atlas came from (stored in texel files).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum AtlasSource {
-    /// Unwrapped here ([`Atlas::generate`]).
-    Generated,
-    /// The scene's own lightmap UVs (glTF TEXCOORD_1), given to [`Atlas::from_vertex_uvs`].
-    SceneUvs,
-}
-
-impl AtlasSource {
-    pub fn code(self) -> u32 {
-        match self {
-            AtlasSource::Generated => 0,
-            AtlasSource::SceneUvs => 1,
-        }
-    }
-
-    pub fn from_code(code: u32) -> Option<AtlasSource> {
-        match code {
-            0 => Some(AtlasSource::Generated),
-            1 => Some(AtlasSource::SceneUvs),
-            _ => None,
-        }
-    }
-}
 
 /// A lightmap parameterisation of a scene.
 #[derive(Clone, Debug, PartialEq)]

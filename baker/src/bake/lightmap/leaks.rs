@@ -23,9 +23,9 @@ use rayon::prelude::*;
 
 use super::atlas::Atlas;
 use super::texels::Texels;
-use crate::error::Result;
-use crate::sampling::{Frame, Pcg32, cosine_hemisphere, vertex_seed};
+use crate::math::sampling::{Frame, Pcg32, cosine_hemisphere, vertex_seed};
 use crate::scene::Scene;
+use crate::support::error::Result;
 use crate::trace::{Hit, Tracer, offset_distance};
 
 /// Closest-hit rays per texel for the test (cosine-weighted over its hemisphere).

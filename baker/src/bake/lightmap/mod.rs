@@ -4,6 +4,8 @@
 //! charts unwrapped by `uvunwrap` or planar projection), [`texels`] turns covered texels into
 //! sample points, and the bake runs the same estimator as vertex bakes over those points as
 //! [`Receivers`]: same directions, tracing, sums and determinism. `docs/lightmaps.md` describes what exists and what not.
+//!
+//! Part of [`crate::bake`]: may import what it may.
 
 pub mod atlas;
 pub mod dilation;
@@ -15,12 +17,12 @@ use std::time::Instant;
 pub use atlas::{Atlas, AtlasSource};
 pub use texels::Texels;
 
-use crate::error::Result;
-use crate::progress::Progress;
-use crate::trace::{Backend, Tracer};
-use crate::transfer::{
+use crate::bake::transfer::{
     BakeOptions, Baked, BounceTargets, Estimator, Receivers, Transfer, Visibility, bake_receivers,
 };
+use crate::support::error::Result;
+use crate::support::progress::Progress;
+use crate::trace::{Backend, Tracer};
 
 pub use dilation::DILATION;
 
@@ -42,7 +44,7 @@ pub struct LightmapBake {
 }
 
 /// Bakes the transfer of every texel of `atlas` that a triangle covers, in any mode: the
-/// valid texels are the receivers of [`crate::transfer::bake_receivers`], and in
+/// valid texels are the receivers of [`crate::bake::transfer::bake_receivers`], and in
 /// interreflected mode a bounce hit reads the previous bounce from the lightmap around its
 /// lightmap UV ([`BounceTargets::texels`]).
 pub fn bake(
@@ -52,7 +54,7 @@ pub fn bake(
     atlas: Atlas,
     progress: &dyn Progress,
 ) -> Result<LightmapBake> {
-    let tracer = crate::transfer::tracer_for(options, tracer)?;
+    let tracer = crate::bake::transfer::tracer_for(options, tracer)?;
     let started = Instant::now();
     let mut texels = Texels::rasterise(scene, &atlas);
     let mut settled = leaks::Settled::default();
@@ -72,7 +74,7 @@ pub fn bake(
     let targets = BounceTargets::texels(&atlas, &texels);
     let baked = bake_receivers(scene, tracer, &estimator, &targets, progress);
     // In place in the W×H lightmap.
-    let width = baked.channels * crate::sh::coeff_count(options.order);
+    let width = baked.channels * crate::math::sh::coeff_count(options.order);
     let texel_count = texels.valid.len();
     let mut coefficients = vec![0.0f32; texel_count * width];
     let mut visibility = Vec::new();

@@ -12,8 +12,8 @@
 use glam::{Vec2, Vec3};
 
 use super::atlas::Atlas;
-use crate::error::Result;
 use crate::scene::Scene;
+use crate::support::error::Result;
 use crate::trace::{Tracer, offset_distance};
 
 /// Texel sample points of an atlas; every array is row-major, index `y · width + x`.

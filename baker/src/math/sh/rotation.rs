@@ -17,7 +17,7 @@
 //!   1996, 100, 6342, with the 1998 erratum), which builds band l from band l−1 and the 3×3
 //!   matrix. It supplies the X_+90 blocks of the first construction, the baker rotates every
 //!   receiver's transfer with it ([`RecurrenceRotator`]), and the tests use it and the
-//!   projection method [`crate::sh::Rotator`] to check the ZYZ path.
+//!   projection method [`crate::math::sh::Rotator`] to check the ZYZ path.
 //!
 //! The recurrence is stated for real harmonics without the Condon–Shortley phase; this
 //! project's harmonics carry (−1)^m on every m ≠ 0 function, so its blocks are conjugated by
@@ -465,7 +465,7 @@ fn matmul(a: &[f64], b: &[f64], w: usize) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sh::{Basis, Rotator};
+    use crate::math::sh::{Basis, Rotator};
     use glam::DVec3;
 
     /// Rounding of a few hundred f64 products per entry: far below any real error.

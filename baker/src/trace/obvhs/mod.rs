@@ -155,7 +155,7 @@ mod tests {
     use std::path::Path;
 
     use super::*;
-    use crate::sampling::{Pcg32, uniform_sphere};
+    use crate::math::sampling::{Pcg32, uniform_sphere};
     use crate::scene::{Material, Mesh};
 
     fn scene(positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Scene {
@@ -250,7 +250,7 @@ mod tests {
             for ordered in [false, true] {
                 if ordered {
                     dirs.sort_by_key(|d| {
-                        crate::sampling::hilbert_index(d.x * 0.5 + 0.5, d.y * 0.5 + 0.5)
+                        crate::math::sampling::hilbert_index(d.x * 0.5 + 0.5, d.y * 0.5 + 0.5)
                     });
                 }
                 let mut occluded = vec![false; dirs.len()];

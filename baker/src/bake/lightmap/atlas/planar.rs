@@ -6,8 +6,8 @@
 use glam::Vec2;
 
 use super::{PADDING, Placed};
-use crate::error::{Error, Result};
 use crate::scene::Scene;
+use crate::support::error::{Error, Result};
 
 /// Planar charts of `scene`, packed into a `resolution`² atlas ([`Placed`]: per triangle its
 /// corners in texels and its chart).
@@ -82,7 +82,7 @@ pub fn planar_charts(scene: &Scene) -> Vec<Chart> {
         if assigned[seed] {
             continue;
         }
-        let frame = crate::sampling::Frame::from_normal(normal);
+        let frame = crate::math::sampling::Frame::from_normal(normal);
         let mut chart = Chart {
             triangles: Vec::new(),
             local: Vec::new(),

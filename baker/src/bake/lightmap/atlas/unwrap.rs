@@ -10,8 +10,8 @@
 use glam::Vec2;
 
 use super::{PADDING, Placed};
-use crate::error::{Error, Result};
 use crate::scene::Scene;
+use crate::support::error::{Error, Result};
 
 /// uvunwrap's `padding` keeps charts `2 × padding` texels apart (and `padding` from the
 /// page's edges), measured between its conservative rasterisations, which cover every texel

@@ -1,0 +1,18 @@
+//! The bake: what is asked ([`options`]), where transfer is baked ([`receivers`]: vertices or
+//! lightmap texels), the per-receiver [`estimator`] and its [`adaptive`] variant, the bounces
+//! ([`bounce_rows`], [`interreflection`]), the entry points ([`transfer`], [`lightmap`]),
+//! the memory a bake needs ([`memory`]) and the coefficient file it fills ([`file`]).
+//!
+//! May import: [`crate::support`], [`crate::math`], [`crate::scene`], [`crate::trace`],
+//! [`crate::formats`].
+
+pub mod adaptive;
+pub mod bounce_rows;
+pub mod estimator;
+pub mod file;
+pub mod interreflection;
+pub mod lightmap;
+pub mod memory;
+pub mod options;
+pub mod receivers;
+pub mod transfer;

@@ -1,0 +1,466 @@
+//! `prt-bake bake`: a scene's transfer, per vertex or per lightmap texel, whole or in shard
+//! parts and checkpoint blocks.
+
+use std::path::PathBuf;
+
+use clap::ValueEnum;
+use prt_baker::bake::lightmap::{self, Atlas};
+use prt_baker::bake::memory;
+use prt_baker::bake::options::Aux;
+use prt_baker::distribute::checkpoint;
+use prt_baker::distribute::shard::{self, ShardId, shard_range};
+use prt_baker::math::sampling::Sampling;
+use prt_baker::support::limits;
+use prt_baker::support::output::Output;
+use prt_baker::support::progress::Progress;
+use prt_baker::trace::{self, Backend, Tracer, TracerOptions};
+use prt_baker::{BakeOptions, CoefficientFile, Error, Mode, Scene, Transfer};
+
+use super::UpArg;
+
+#[derive(clap::Args)]
+pub struct BakeArgs {
+    /// A scene file (one `"object.obj" "texture.tga"` per line), a bare .obj, or a glTF 2.0
+    /// file (.gltf, .glb).
+    scene: PathBuf,
+    /// The scene's up axis, recorded in the file: rigs, skies and the viewer turn to it.
+    /// Default: y for glTF (its specification's axis), z for OBJ and scene files.
+    #[arg(long, value_enum)]
+    up: Option<UpArg>,
+    /// Output coefficient file.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// SH order n: bands 0..n-1, n² coefficients per vertex.
+    #[arg(long, default_value_t = 4)]
+    order: usize,
+    /// Rays cast per vertex (directions per vertex in unshadowed mode).
+    #[arg(long, default_value_t = 1024)]
+    samples: u32,
+    #[arg(long, value_enum, default_value_t = ModeArg::Shadowed)]
+    mode: ModeArg,
+    /// Seed of the sample directions; the same seed gives a bit-identical file.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Worker threads (default: all cores). The output does not depend on it.
+    #[arg(long)]
+    threads: Option<usize>,
+    /// How directions are drawn.
+    #[arg(long, value_enum, default_value_t = SamplingArg::OwenSobol)]
+    sampling: SamplingArg,
+    /// Interreflection bounces (interreflected mode; default 1 there).
+    #[arg(long)]
+    bounces: Option<u32>,
+    /// Rays per vertex whose hits feed the bounces (interreflected mode; default a quarter of
+    /// --samples): closest-hit rays cost 2–4 times occlusion rays, bounced light needs fewer.
+    #[arg(long)]
+    bounce_samples: Option<u32>,
+    /// Per-vertex arrays to store beside the coefficients: ambient accessibility and the
+    /// bent normal (comma-separated).
+    #[arg(long, value_enum, value_delimiter = ',')]
+    aux: Vec<AuxArg>,
+    /// Memory (MiB) the interreflected mode may use to cache first hits; beyond it the
+    /// bounces re-trace (slower, same result).
+    #[arg(long, default_value_t = 1024)]
+    hit_cache_mb: u64,
+    /// Ray-tracing backend: Embree, or obvhs (pure Rust, watertight, about a quarter of
+    /// Embree's speed; the only one in a build without Embree). Recorded in the file.
+    #[arg(long, value_enum, default_value_t = BackendArg::DEFAULT)]
+    backend: BackendArg,
+    /// Embree's robust mode for every ray (about 30 % slower). Without it, only the rays of
+    /// vertices near another surface's edge use it, which already makes the answers
+    /// watertight. Applies to --backend embree only.
+    #[arg(long)]
+    robust: bool,
+    /// Adaptive sampling: cast rays in rounds until each vertex's estimated RMS coefficient
+    /// error is at most this (--samples becomes the most a vertex may cast). The error is
+    /// estimated from 16 independently scrambled point sets; shadowed, owen-sobol only.
+    #[arg(long, conflicts_with_all = ["shard", "checkpoint"])]
+    target_error: Option<f32>,
+    /// No progress bar (the summary line is still printed).
+    #[arg(long)]
+    quiet: bool,
+    /// Bake only part K of N (0 ≤ K < N), a range of vertices, into a part file for
+    /// `prt-bake merge`. `auto` reads K and N from a Slurm array task; `auto/N` takes K from
+    /// a Kubernetes Indexed Job's JOB_COMPLETION_INDEX (or set PRT_SHARD_COUNT and use `auto`).
+    #[arg(long, value_name = "K/N|auto|auto/N")]
+    shard: Option<String>,
+    /// Write completed blocks of vertices into DIR as the bake goes; the same command run
+    /// again after a crash or a kill continues from them (same file as an uninterrupted bake).
+    #[arg(long, value_name = "DIR")]
+    checkpoint: Option<PathBuf>,
+    /// Vertices per checkpoint block (default: about 67 million rays' worth).
+    #[arg(long, requires = "checkpoint")]
+    checkpoint_vertices: Option<usize>,
+    /// Bake per texel of a RES×RES lightmap atlas instead of per vertex (docs/lightmaps.md):
+    /// the scene's lightmap UVs (glTF TEXCOORD_1) where it has them and no --texel-size is
+    /// given, else an atlas unwrapped here (--atlas). Unshadowed and shadowed modes.
+    #[arg(long, value_name = "RES", conflicts_with_all = ["shard", "checkpoint", "target_error"])]
+    lightmap: Option<u32>,
+    /// With --lightmap: the world size of a texel (default: the charts fill the atlas).
+    #[arg(long, value_name = "S", requires = "lightmap")]
+    texel_size: Option<f32>,
+    /// With --lightmap: unwrap the atlas here (even where the scene has lightmap UVs) with
+    /// `unwrap` (the default: few large charts, curved meshes too) or `planar` (flat charts,
+    /// shelf-packed; no distortion, but one chart per few triangles on curved meshes).
+    #[arg(long, value_enum, requires = "lightmap")]
+    atlas: Option<AtlasArg>,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum ModeArg {
+    /// Cosine-weighted reflectance only (no rays).
+    Unshadowed,
+    /// With occlusion rays.
+    Shadowed,
+    /// Shadowed plus light bounced off other surfaces, in colour.
+    Interreflected,
+}
+
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
+enum AuxArg {
+    /// Ambient accessibility: cosine-weighted fraction of the sky seen.
+    Ao,
+    /// Cosine-weighted mean unoccluded direction.
+    BentNormal,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum BackendArg {
+    /// Intel Embree (needs a build with the `embree` feature, the default).
+    Embree,
+    /// obvhs, a pure-Rust BVH.
+    Obvhs,
+}
+
+impl BackendArg {
+    const DEFAULT: BackendArg = match Backend::DEFAULT {
+        Backend::Obvhs => BackendArg::Obvhs,
+        _ => BackendArg::Embree,
+    };
+
+    fn backend(self) -> Backend {
+        match self {
+            BackendArg::Embree => Backend::Embree,
+            BackendArg::Obvhs => Backend::Obvhs,
+        }
+    }
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum SamplingArg {
+    /// Owen-scrambled Sobol points, cosine-weighted (lower error).
+    OwenSobol,
+    /// The thesis's independent uniform directions (the baseline).
+    ThesisRandom,
+}
+
+/// `bake --atlas`: which unwrapper makes a generated lightmap atlas.
+#[derive(Clone, Copy, ValueEnum)]
+enum AtlasArg {
+    Unwrap,
+    Planar,
+}
+
+impl AtlasArg {
+    fn method(self) -> prt_baker::bake::lightmap::atlas::AtlasMethod {
+        match self {
+            AtlasArg::Unwrap => prt_baker::bake::lightmap::atlas::AtlasMethod::Unwrap,
+            AtlasArg::Planar => prt_baker::bake::lightmap::atlas::AtlasMethod::Planar,
+        }
+    }
+}
+
+/// The library's options for the arguments (their values are checked by
+/// [`BakeOptions::validate`] and against the memory limit).
+fn options(args: &BakeArgs) -> BakeOptions {
+    let mode = match args.mode {
+        ModeArg::Unshadowed => Mode::Unshadowed,
+        ModeArg::Shadowed => Mode::Shadowed,
+        ModeArg::Interreflected => Mode::Interreflected,
+    };
+    BakeOptions {
+        order: args.order,
+        samples: args.samples,
+        mode,
+        seed: args.seed,
+        sampling: match args.sampling {
+            SamplingArg::OwenSobol => Sampling::OwenSobol,
+            SamplingArg::ThesisRandom => Sampling::ThesisRandom,
+        },
+        bounces: args
+            .bounces
+            .unwrap_or(if mode == Mode::Interreflected { 1 } else { 0 }),
+        bounce_samples: args.bounce_samples,
+        aux: Aux {
+            ao: args.aux.contains(&AuxArg::Ao),
+            bent_normal: args.aux.contains(&AuxArg::BentNormal),
+        },
+        hit_cache_limit: args.hit_cache_mb.saturating_mul(1 << 20),
+        target_error: args.target_error,
+    }
+}
+
+pub fn run(args: BakeArgs) -> Result<(), Error> {
+    let options = options(&args);
+    options.validate()?;
+    memory::check_bake_options(&options)?;
+    let shard = match &args.shard {
+        Some(spec) => Some(ShardId::parse(spec, &|name| std::env::var(name).ok())?),
+        None => None,
+    };
+    let tracer_options = TracerOptions {
+        threads: args.threads,
+        robust: args.robust,
+    };
+    if options.mode.casts_rays() {
+        trace::check(args.backend.backend(), tracer_options)?;
+    }
+    Output::new(&args.output, std::slice::from_ref(&args.scene))?;
+    if let Some(threads) = args.threads {
+        start_threads(threads)?;
+    }
+
+    let mut scene = Scene::load(&args.scene)?;
+    // --up overrides the format's axis; whole files, parts and checkpoints all record it.
+    if let Some(up) = args.up {
+        scene.up = up.up();
+    }
+    let output = Output::new(&args.output, &scene.input_files())?;
+    check_memory(&args, &options, &scene)?;
+    let tracer = match options.mode.casts_rays() {
+        false => None,
+        true => Some(trace::build(
+            args.backend.backend(),
+            &scene,
+            tracer_options,
+        )?),
+    };
+    let progress = super::progress(args.quiet);
+    if shard.is_some() || args.checkpoint.is_some() {
+        let tracer = tracer.as_deref();
+        return bake_in_parts(&args, &scene, tracer, &options, shard, progress.as_ref());
+    }
+    let (transfer, file, what) = match args.lightmap {
+        None => {
+            let transfer = prt_baker::bake(&scene, tracer.as_deref(), &options, progress.as_ref())?;
+            let file = CoefficientFile::from_bake(&scene, &transfer);
+            let what = format!("{} vertices", transfer.receiver_count);
+            (transfer, file, what)
+        }
+        Some(resolution) => {
+            let tracer = tracer.as_deref();
+            bake_texels(
+                &args,
+                &scene,
+                tracer,
+                &options,
+                resolution,
+                progress.as_ref(),
+            )?
+        }
+    };
+    output.write(&file.to_bytes().0)?;
+    println!("{}", summary(&args, &options, &transfer, &what));
+    Ok(())
+}
+
+/// `--threads`: the process's one pool. (A pool of our own entered with `install` measured
+/// 14 % slower on the demo bake, for no benefit in a single-bake process.)
+fn start_threads(threads: usize) -> Result<(), Error> {
+    if threads == 0 {
+        return Err(Error::InvalidOption("--threads must be at least 1".into()));
+    }
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build_global()
+        .map_err(|err| Error::InvalidOption(format!("cannot start {threads} threads: {err}")))
+}
+
+/// Refuses a bake whose memory estimate exceeds `--max-memory`, and says so when it is large.
+fn check_memory(args: &BakeArgs, options: &BakeOptions, scene: &Scene) -> Result<(), Error> {
+    // A texel bake's receivers are the atlas's texels, besides the scene's own vertices.
+    let (receivers, what) = match args.lightmap {
+        Some(res) => {
+            let texels = u64::from(res) * u64::from(res);
+            (
+                texels + scene.vertex_count() as u64,
+                format!("{texels} texels"),
+            )
+        }
+        None => (
+            scene.vertex_count() as u64,
+            format!("{} vertices", scene.vertex_count()),
+        ),
+    };
+    let needed = memory::bake_bytes(options, receivers, scene.triangles.len() as u64);
+    limits::check(
+        args.scene.display().to_string(),
+        &format!(
+            "baking {what} at order {} with {} samples",
+            options.order, options.samples
+        ),
+        needed,
+    )?;
+    if !args.quiet && needed.is_some_and(|n| n >= 1 << 30) {
+        eprintln!(
+            "prt-bake: this bake needs up to {} of memory (limit {})",
+            limits::human(needed.unwrap_or(0)),
+            limits::human(limits::max_memory())
+        );
+    }
+    Ok(())
+}
+
+/// `--lightmap RES`: the atlas (the scene's lightmap UVs, or generated), then the texel bake.
+fn bake_texels(
+    args: &BakeArgs,
+    scene: &Scene,
+    tracer: Option<&dyn Tracer>,
+    options: &BakeOptions,
+    resolution: u32,
+    progress: &dyn Progress,
+) -> Result<(Transfer, CoefficientFile, String), Error> {
+    let atlas = match (&scene.lightmap_uvs, args.texel_size, args.atlas) {
+        (Some(uvs), None, None) => Atlas::from_vertex_uvs(scene, uvs, resolution, resolution)?,
+        (_, texel_size, method) => {
+            let method = method.map_or(Default::default(), AtlasArg::method);
+            // The unwrap reports no progress of its own (seconds on the demo): a bar
+            // with its elapsed time shows that it runs.
+            progress.begin("atlas", 0, 0);
+            let generated = lightmap::atlas::generate(scene, resolution, texel_size, method);
+            progress.finish();
+            generated?.atlas
+        }
+    };
+    let bake = lightmap::bake(scene, tracer, options, atlas, progress)?;
+    let file = CoefficientFile::from_lightmap_bake(scene, &bake);
+    let what = format!(
+        "{} of {}×{} texels ({} moved out, {} left out as leaking)",
+        bake.texels.valid_count(),
+        bake.texels.width,
+        bake.texels.height,
+        bake.moved,
+        bake.leaking
+    );
+    Ok((bake.transfer, file, what))
+}
+
+/// The line printed after a whole bake: what, how many rays, how fast, how.
+fn summary(args: &BakeArgs, options: &BakeOptions, transfer: &Transfer, what: &str) -> String {
+    let rays = match transfer.rays_cast {
+        0 => String::from("no rays"),
+        rays => format!(
+            "{rays} rays, {:.2} Mrays/s",
+            rays as f64 / transfer.seconds.max(1e-9) / 1e6
+        ),
+    };
+    let mode = match (options.mode, transfer.hit_cache_bytes) {
+        (Mode::Interreflected, Some(bytes)) => format!(
+            "interreflected, {} from {} rays, {} channels, hit cache {:.0} MiB",
+            bounces(options.bounces),
+            options.effective_bounce_samples(),
+            transfer.channels,
+            bytes as f64 / f64::from(1 << 20)
+        ),
+        (Mode::Interreflected, None) => format!(
+            "interreflected, {} from {} rays, {} channels, re-traced (hit cache over {} MiB)",
+            bounces(options.bounces),
+            options.effective_bounce_samples(),
+            transfer.channels,
+            args.hit_cache_mb
+        ),
+        (mode, _) => mode.name().to_string(),
+    };
+    let mode = match options.target_error {
+        Some(target) => format!(
+            "{mode}, adaptive to {target:e}: {:.0} rays per vertex on average",
+            transfer.rays_cast as f64 / transfer.receiver_count.max(1) as f64
+        ),
+        None => mode,
+    };
+    format!(
+        "baked {what}, {rays}, {:.2} s (order {}, {mode}, {} samples, {}) -> {}",
+        transfer.seconds,
+        options.order,
+        options.samples,
+        transfer.backend.name(),
+        args.output.display()
+    )
+}
+
+/// A bake with `--shard` or `--checkpoint`: a part file, or the whole file from checkpoint
+/// blocks.
+fn bake_in_parts(
+    args: &BakeArgs,
+    scene: &Scene,
+    tracer: Option<&dyn Tracer>,
+    options: &BakeOptions,
+    shard: Option<ShardId>,
+    progress: &dyn Progress,
+) -> Result<(), Error> {
+    let started = std::time::Instant::now();
+    let vertex_count = scene.vertex_count();
+    let (id, vertices) = match shard {
+        Some(shard) => (shard, shard_range(vertex_count, shard)),
+        None => (ShardId { index: 0, count: 1 }, 0..vertex_count),
+    };
+    let (part, rays, blocks) = match &args.checkpoint {
+        Some(dir) => {
+            let block_vertices = args
+                .checkpoint_vertices
+                .unwrap_or_else(|| checkpoint::default_block_vertices(options));
+            let done = checkpoint::bake(
+                scene,
+                tracer,
+                options,
+                id,
+                vertices.clone(),
+                dir,
+                block_vertices,
+                progress,
+            )?;
+            let blocks = format!(
+                ", {} blocks ({} resumed from {})",
+                done.blocks,
+                done.reused,
+                dir.display()
+            );
+            (done.part, done.rays, blocks)
+        }
+        None => {
+            let (part, rays) =
+                shard::bake_part(scene, tracer, options, id, vertices.clone(), progress)?;
+            (part, rays, String::new())
+        }
+    };
+    let what = match shard {
+        Some(shard) => {
+            part.write(&args.output)?;
+            format!(
+                "{shard} (vertices {}..{} of {vertex_count})",
+                vertices.start, vertices.end
+            )
+        }
+        None => {
+            part.finish(progress).write(&args.output)?;
+            format!("{vertex_count} vertices")
+        }
+    };
+    let seconds = started.elapsed().as_secs_f64();
+    println!(
+        "baked {what}, {rays} rays, {seconds:.2} s (order {}, {}, {} samples{blocks}) -> {}",
+        options.order,
+        options.mode.name(),
+        options.samples,
+        args.output.display()
+    );
+    Ok(())
+}
+
+/// "1 bounce", "2 bounces".
+fn bounces(count: u32) -> String {
+    match count {
+        1 => String::from("1 bounce"),
+        n => format!("{n} bounces"),
+    }
+}

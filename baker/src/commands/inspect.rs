@@ -1,0 +1,62 @@
+//! `prt-bake inspect`: a coefficient file's (or a shard part's) header as JSON.
+
+use std::path::Path;
+
+use prt_baker::bake::adaptive::Summary;
+use prt_baker::distribute::shard::{Part, PartId};
+use prt_baker::formats::coefficient_file::LightmapBlock;
+use prt_baker::formats::header::{AtlasSource, HEADER_SIZE};
+use prt_baker::support::limits;
+use prt_baker::{CoefficientFile, Error};
+
+pub fn run(path: &Path) -> Result<(), Error> {
+    let bytes = limits::read_file(path)?;
+    let is_part =
+        bytes.len() >= HEADER_SIZE && matches!(PartId::from_header_bytes(&bytes), Ok(Some(_)));
+    let json = if is_part {
+        // A shard part: its header, plus which shard and vertices it holds.
+        let part = Part::read(path)?;
+        let mut json = serde_json::to_value(&part.header).expect("the header serialises");
+        json["shard"] = serde_json::to_value(part.id).expect("the identity serialises");
+        json
+    } else {
+        file_json(&CoefficientFile::read(path)?)
+    };
+    let json = serde_json::to_string_pretty(&json).expect("JSON serialises");
+    println!("{json}");
+    Ok(())
+}
+
+/// A whole file's header, with summaries of its per-vertex arrays and its lightmap block.
+fn file_json(file: &CoefficientFile) -> serde_json::Value {
+    let mut json = serde_json::to_value(&file.header).expect("the header serialises");
+    // Adaptive bakes: how the per-vertex rays and estimated errors are distributed.
+    if let (Some(adaptive), Some(rays), Some(errors)) =
+        (file.header.adaptive, &file.rays, &file.error_estimate)
+    {
+        let summary = Summary::new(adaptive.target_error, rays, errors);
+        json["per_vertex"] = serde_json::to_value(summary).expect("the summary serialises");
+    }
+    if let Some(l) = &file.lightmap {
+        json["lightmap"] = lightmap_json(l);
+    }
+    json
+}
+
+/// Texel bakes: the lightmap block.
+fn lightmap_json(l: &LightmapBlock) -> serde_json::Value {
+    let texels = |flags: &[bool]| flags.iter().filter(|&&f| f).count();
+    serde_json::json!({
+        "width": l.width,
+        "height": l.height,
+        "baked_texels": texels(&l.valid),
+        "dilated_texels": texels(&l.dilated),
+        "texel_size": l.texel_size,
+        "atlas": match l.source {
+            AtlasSource::Generated => "generated",
+            AtlasSource::SceneUvs => "scene-uvs",
+        },
+        "scene_vertex_count": l.scene_vertex_count,
+        "scene_triangle_count": l.scene_triangle_count,
+    })
+}

@@ -1,0 +1,37 @@
+//! `prt-bake merge`: shard parts joined into the file one machine would have baked.
+
+use std::path::PathBuf;
+
+use prt_baker::Error;
+use prt_baker::distribute::merge::merge;
+use prt_baker::support::output::Output;
+
+#[derive(clap::Args)]
+pub struct MergeArgs {
+    /// Every part of the bake, in any order.
+    #[arg(required = true)]
+    parts: Vec<PathBuf>,
+    /// Output coefficient file.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// No progress bar.
+    #[arg(long)]
+    quiet: bool,
+}
+
+pub fn run(args: MergeArgs) -> Result<(), Error> {
+    let (parts, output) = (args.parts.as_slice(), args.output.as_path());
+    let output_policy = Output::new(output, parts)?;
+    let started = std::time::Instant::now();
+    let progress = super::progress(args.quiet);
+    let file = merge(parts, progress.as_ref())?;
+    output_policy.write(&file.to_bytes().0)?;
+    println!(
+        "merged {} parts, {} vertices, {:.2} s -> {}",
+        parts.len(),
+        file.header.vertex_count,
+        started.elapsed().as_secs_f64(),
+        output.display()
+    );
+    Ok(())
+}

@@ -1,0 +1,41 @@
+//! The subcommands of `prt-bake`, one file each. Every file holds the command's arguments
+//! (clap declares their ranges and which flags need or exclude which), one function that turns
+//! them into the library's options, and `run`, which calls the library and prints a summary.
+
+pub mod bake;
+pub mod export;
+pub mod inspect;
+pub mod light;
+pub mod merge;
+pub mod relight;
+
+use clap::ValueEnum;
+use prt_baker::scene::Up;
+use prt_baker::support::progress::{Progress, ProgressBar, Silent};
+
+/// A progress bar on standard error, or nothing with `--quiet`.
+pub fn progress(quiet: bool) -> Box<dyn Progress> {
+    if quiet {
+        Box::new(Silent)
+    } else {
+        Box::new(ProgressBar::new())
+    }
+}
+
+/// `--up`: a scene's up axis.
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
+pub enum UpArg {
+    /// +z is up.
+    Z,
+    /// +y is up.
+    Y,
+}
+
+impl UpArg {
+    pub fn up(self) -> Up {
+        match self {
+            UpArg::Z => Up::Z,
+            UpArg::Y => Up::Y,
+        }
+    }
+}

@@ -1,0 +1,10 @@
+//! A bake for other tools: [`numpy`] arrays for analysis, [`gltf`] files for engines and DCC
+//! tools, and [`relight`], the CPU reference a viewer must match (coloured PLY meshes or lit
+//! lightmap images).
+//!
+//! May import: [`crate::support`], [`crate::math`], [`crate::scene`], [`crate::light`],
+//! [`crate::formats`], [`crate::bake`] (the atlas of a texel bake).
+
+pub mod gltf;
+pub mod numpy;
+pub mod relight;

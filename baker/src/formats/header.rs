@@ -1,0 +1,466 @@
+//! The coefficient file's header: the fields `prt-bake inspect` prints, their binary layout
+//! (bytes 0..128, `docs/coefficient-format.md`) and the checks a reader makes of them. The
+//! header describes a bake (mode, order, samples, seed, backend…) without knowing how one is
+//! made: the bake fills it ([`Header::for_bake`]).
+
+use serde::Serialize;
+
+use crate::math::sampling::Sampling;
+use crate::math::sh;
+use crate::scene::Up;
+use crate::trace::Backend;
+
+/// First 8 bytes. Like PNG's: a non-ASCII byte, CR LF and ^Z catch text-mode mangling.
+pub const MAGIC: [u8; 8] = *b"\x89PRT\r\n\x1a\n";
+pub const VERSION: u32 = 1;
+pub const HEADER_SIZE: usize = 128;
+/// The header size of a lightmap (texel) bake: the 128 bytes, then the texel block.
+pub const LIGHTMAP_HEADER_SIZE: usize = 160;
+/// Offset of the CRC-32 (the last 4 bytes of the header).
+pub(crate) const CHECKSUM_OFFSET: usize = 124;
+
+/// What the transfer function includes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Mode {
+    Unshadowed,
+    #[default]
+    Shadowed,
+    Interreflected,
+}
+
+impl Mode {
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Unshadowed => "unshadowed",
+            Mode::Shadowed => "shadowed",
+            Mode::Interreflected => "interreflected",
+        }
+    }
+
+    /// Whether the mode casts rays (and so needs a tracer).
+    pub fn casts_rays(self) -> bool {
+        self != Mode::Unshadowed
+    }
+}
+
+/// Optional per-vertex arrays stored beside the coefficients (`--aux`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Aux {
+    /// Ambient accessibility, `Visibility::accessibility` of the bake's estimator.
+    pub ao: bool,
+    /// The bent normal, `Visibility::bent_normal` of the bake's estimator.
+    pub bent_normal: bool,
+}
+
+impl Aux {
+    pub fn any(self) -> bool {
+        self.ao || self.bent_normal
+    }
+}
+
+/// Where the atlas came from (stored in texel files).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AtlasSource {
+    /// Unwrapped here (the bake's `Atlas::generate`).
+    Generated,
+    /// The scene's own lightmap UVs (glTF TEXCOORD_1), used as the atlas.
+    SceneUvs,
+}
+
+impl AtlasSource {
+    pub fn code(self) -> u32 {
+        match self {
+            AtlasSource::Generated => 0,
+            AtlasSource::SceneUvs => 1,
+        }
+    }
+
+    pub fn from_code(code: u32) -> Option<AtlasSource> {
+        match code {
+            0 => Some(AtlasSource::Generated),
+            1 => Some(AtlasSource::SceneUvs),
+            _ => None,
+        }
+    }
+}
+
+/// The header, as `prt-bake inspect` prints it.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Header {
+    pub version: u32,
+    pub order: u32,
+    pub channels: u32,
+    pub vertex_count: u64,
+    pub samples_per_vertex: u32,
+    #[serde(serialize_with = "as_name::mode")]
+    pub mode: Mode,
+    pub bounces: u32,
+    /// Rays per vertex whose hits fed the bounces (interreflected mode; 0 otherwise).
+    pub bounce_samples: u32,
+    #[serde(serialize_with = "as_name::backend")]
+    pub backend: Backend,
+    #[serde(serialize_with = "as_name::sampling")]
+    pub sampling: Sampling,
+    pub seed: u64,
+    #[serde(serialize_with = "as_name::hex64")]
+    pub scene_fingerprint: u64,
+    /// Optional per-vertex arrays stored after the coefficients (header bit flags: 1 = AO,
+    /// 2 = bent normal).
+    #[serde(serialize_with = "as_name::aux")]
+    pub aux: Aux,
+    /// The scene's up axis (bytes 84..88: 0 = +z, 1 = +y): how rigs and skies are turned
+    /// to light it.
+    #[serde(serialize_with = "as_name::up")]
+    pub up: Up,
+    #[serde(serialize_with = "as_name::hex32")]
+    pub checksum: u32,
+    /// Adaptive sampling (`--target-error`, bytes 108..124); `None` for fixed-sample bakes.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub adaptive: Option<Adaptive>,
+}
+
+/// How an adaptive bake sampled (header bytes 108..124; all zero for fixed sampling). Its
+/// files carry two per-vertex arrays, rays cast and estimated error (aux bits 2 and 3).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Adaptive {
+    /// The RMS coefficient error each vertex was sampled to (f32 at 108; > 0).
+    pub target_error: f32,
+    /// Independently scrambled point sets the error was estimated from (u32 at 112).
+    pub replicates: u32,
+    /// Rays cast by all vertices together (u64 at 116).
+    pub rays_cast: u64,
+}
+
+mod as_name {
+    use serde::Serializer;
+
+    pub fn mode<S: Serializer>(m: &super::Mode, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(m.name())
+    }
+    pub fn backend<S: Serializer>(b: &crate::trace::Backend, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(b.name())
+    }
+    pub fn aux<S: Serializer>(a: &super::Aux, s: S) -> Result<S::Ok, S::Error> {
+        let names = [(a.ao, "ao"), (a.bent_normal, "bent-normal")];
+        s.collect_seq(names.iter().filter(|(on, _)| *on).map(|(_, name)| name))
+    }
+    pub fn sampling<S: Serializer>(
+        m: &crate::math::sampling::Sampling,
+        s: S,
+    ) -> Result<S::Ok, S::Error> {
+        s.serialize_str(m.name())
+    }
+    pub fn hex64<S: Serializer>(x: &u64, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(&format!("{x:016x}"))
+    }
+    pub fn up<S: Serializer>(u: &crate::scene::Up, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(u.name())
+    }
+    pub fn hex32<S: Serializer>(x: &u32, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(&format!("{x:08x}"))
+    }
+}
+
+/// Aux flag bits in the header.
+const AUX_AO: u32 = 1;
+const AUX_BENT_NORMAL: u32 = 2;
+/// Adaptive bakes: per-vertex rays cast (u32) and estimated error (f32), both always.
+const AUX_RAYS: u32 = 4;
+const AUX_ERROR_ESTIMATE: u32 = 8;
+const AUX_ADAPTIVE: u32 = AUX_RAYS | AUX_ERROR_ESTIMATE;
+
+fn aux_flags(aux: Aux) -> u32 {
+    (if aux.ao { AUX_AO } else { 0 }) | (if aux.bent_normal { AUX_BENT_NORMAL } else { 0 })
+}
+
+impl Header {
+    pub fn coefficients_per_vertex(&self) -> usize {
+        self.channels as usize * sh::coeff_count(self.order as usize)
+    }
+
+    /// Floats per vertex in the aux arrays.
+    pub(crate) fn aux_floats_per_vertex(&self) -> usize {
+        usize::from(self.aux.ao)
+            + 3 * usize::from(self.aux.bent_normal)
+            + 2 * usize::from(self.adaptive.is_some())
+    }
+
+    pub(crate) fn aux_flags(&self) -> u32 {
+        aux_flags(self.aux)
+            | if self.adaptive.is_some() {
+                AUX_ADAPTIVE
+            } else {
+                0
+            }
+    }
+
+    pub(crate) fn payload_bytes(&self) -> u64 {
+        self.vertex_count
+            * (self.coefficients_per_vertex() + self.aux_floats_per_vertex()) as u64
+            * 4
+    }
+}
+
+impl Header {
+    /// The first 128 header bytes as a file of `header_size` header bytes and `payload_bytes`
+    /// after them stores them, with the shard identity and the checksum zero.
+    pub(crate) fn encode(&self, header_size: usize, payload_bytes: u64) -> Vec<u8> {
+        let h = self;
+        let mut bytes = Vec::with_capacity(HEADER_SIZE);
+        bytes.extend(MAGIC);
+        bytes.extend(h.version.to_le_bytes());
+        bytes.extend((header_size as u32).to_le_bytes());
+        bytes.extend(h.order.to_le_bytes());
+        bytes.extend(h.channels.to_le_bytes());
+        bytes.extend(h.vertex_count.to_le_bytes());
+        bytes.extend(h.samples_per_vertex.to_le_bytes());
+        bytes.extend(mode_code(h.mode).to_le_bytes());
+        bytes.extend(h.bounces.to_le_bytes());
+        bytes.extend(backend_code(h.backend).to_le_bytes());
+        bytes.extend(h.seed.to_le_bytes());
+        bytes.extend(h.scene_fingerprint.to_le_bytes());
+        bytes.extend(sampling_code(h.sampling).to_le_bytes());
+        bytes.extend(h.aux_flags().to_le_bytes());
+        bytes.extend(payload_bytes.to_le_bytes());
+        bytes.extend(h.bounce_samples.to_le_bytes());
+        bytes.extend(h.up.code().to_le_bytes());
+        bytes.resize(108, 0); // the shard identity 88..108: zero in a whole file
+        let adaptive = h.adaptive.unwrap_or(Adaptive {
+            target_error: 0.0,
+            replicates: 0,
+            rays_cast: 0,
+        });
+        bytes.extend(adaptive.target_error.to_le_bytes());
+        bytes.extend(adaptive.replicates.to_le_bytes());
+        bytes.extend(adaptive.rays_cast.to_le_bytes());
+        bytes.resize(HEADER_SIZE, 0); // the checksum slot
+        bytes
+    }
+}
+
+fn mode_code(mode: Mode) -> u32 {
+    match mode {
+        Mode::Unshadowed => 0,
+        Mode::Shadowed => 1,
+        Mode::Interreflected => 2,
+    }
+}
+
+fn backend_code(backend: Backend) -> u32 {
+    match backend {
+        Backend::None => 0,
+        Backend::Embree => 1,
+        Backend::Obvhs => 2,
+    }
+}
+
+fn sampling_code(sampling: Sampling) -> u32 {
+    match sampling {
+        Sampling::OwenSobol => 0,
+        Sampling::ThesisRandom => 1,
+    }
+}
+
+/// Checks the header of a whole file or a shard part (everything but the payload's layout):
+/// size, magic, version, checksum and every field. Returns the header and the payload length
+/// it announces.
+pub(crate) fn parse_header(bytes: &[u8]) -> std::result::Result<(Header, u64, usize), String> {
+    let (version, header_size, payload) = check_framing(bytes)?;
+    let header = parse_fields(bytes, version)?;
+    Ok((header, payload, header_size))
+}
+
+/// The checks that need no field: magic, version, sizes and checksum. Returns the version,
+/// the header size and the payload length.
+fn check_framing(bytes: &[u8]) -> std::result::Result<(u32, usize, u64), String> {
+    if bytes.len() < MAGIC.len() || bytes[..MAGIC.len()] != MAGIC {
+        return Err("not a PRT coefficient file (wrong magic bytes)".into());
+    }
+    if bytes.len() < HEADER_SIZE {
+        return Err(format!(
+            "truncated: {} bytes, but the header alone is {HEADER_SIZE} bytes",
+            bytes.len()
+        ));
+    }
+    let u32_at = |o: usize| u32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes"));
+    let u64_at = |o: usize| u64::from_le_bytes(bytes[o..o + 8].try_into().expect("8 bytes"));
+    let version = u32_at(8);
+    if version != VERSION {
+        return Err(format!(
+            "unsupported format version {version} (this build reads version {VERSION})"
+        ));
+    }
+    let header_size = u32_at(12) as usize;
+    if header_size != HEADER_SIZE && header_size != LIGHTMAP_HEADER_SIZE {
+        return Err(format!(
+            "header size {header_size} (version {VERSION} headers are {HEADER_SIZE} bytes, \
+             {LIGHTMAP_HEADER_SIZE} for lightmap bakes)"
+        ));
+    }
+    if bytes.len() < header_size {
+        return Err(format!(
+            "truncated: {} bytes, but the header alone is {header_size} bytes",
+            bytes.len()
+        ));
+    }
+    let payload = u64_at(72);
+    let found = (bytes.len() - header_size) as u64;
+    if found < payload {
+        return Err(format!(
+            "truncated: the header announces {payload} bytes of coefficients, the file holds {found}"
+        ));
+    }
+    if found > payload {
+        return Err(format!(
+            "{} unexpected bytes after the {payload} bytes of coefficients",
+            found - payload
+        ));
+    }
+    let stored = u32_at(CHECKSUM_OFFSET);
+    let computed = checksum(bytes);
+    if stored != computed {
+        return Err(format!(
+            "checksum mismatch (stored {stored:08x}, computed {computed:08x}): the file is corrupted"
+        ));
+    }
+    Ok((version, header_size, payload))
+}
+
+/// Every field of a header whose framing [`check_framing`] accepted.
+fn parse_fields(bytes: &[u8], version: u32) -> std::result::Result<Header, String> {
+    let u32_at = |o: usize| u32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes"));
+    let u64_at = |o: usize| u64::from_le_bytes(bytes[o..o + 8].try_into().expect("8 bytes"));
+    let order = u32_at(16);
+    if !(1..=sh::MAX_ORDER as u32).contains(&order) {
+        return Err(format!("SH order {order} is outside 1..={}", sh::MAX_ORDER));
+    }
+    let channels = u32_at(20);
+    if channels != 1 && channels != 3 {
+        return Err(format!("{channels} channels (1 or 3 are defined)"));
+    }
+    let mode = match u32_at(36) {
+        0 => Mode::Unshadowed,
+        1 => Mode::Shadowed,
+        2 => Mode::Interreflected,
+        other => return Err(format!("unknown transfer mode {other}")),
+    };
+    let bounces = u32_at(40);
+    if (mode == Mode::Interreflected) != (bounces > 0) {
+        return Err(format!("{bounces} bounces in a {} file", mode.name()));
+    }
+    let backend = match u32_at(44) {
+        0 => Backend::None,
+        1 => Backend::Embree,
+        2 => Backend::Obvhs,
+        other => return Err(format!("unknown backend {other}")),
+    };
+    let sampling = match u32_at(64) {
+        0 => Sampling::OwenSobol,
+        1 => Sampling::ThesisRandom,
+        other => return Err(format!("unknown sampling method {other}")),
+    };
+    let aux_flags = u32_at(68);
+    if aux_flags & !(AUX_AO | AUX_BENT_NORMAL | AUX_ADAPTIVE) != 0 {
+        return Err(format!("unknown auxiliary-array flags {aux_flags:#x}"));
+    }
+    let aux = Aux {
+        ao: aux_flags & AUX_AO != 0,
+        bent_normal: aux_flags & AUX_BENT_NORMAL != 0,
+    };
+    let bounce_samples = u32_at(80);
+    let samples_per_vertex = u32_at(32);
+    let bounce_samples_valid = match mode {
+        Mode::Interreflected => (1..=samples_per_vertex).contains(&bounce_samples),
+        _ => bounce_samples == 0,
+    };
+    if !bounce_samples_valid {
+        return Err(format!(
+            "{bounce_samples} bounce samples in a {} file of {samples_per_vertex} samples",
+            mode.name()
+        ));
+    }
+    let up = match Up::from_code(u32_at(84)) {
+        Some(up) => up,
+        None => return Err(format!("unknown up axis {} (0 = +z, 1 = +y)", u32_at(84))),
+    };
+    // 88..108 is the shard identity ([`crate::formats::part_id::PartId`]); 108..124 the adaptive fields.
+    let adaptive = read_adaptive(bytes, aux_flags, mode, sampling)?;
+    let header = Header {
+        version,
+        order,
+        channels,
+        vertex_count: u64_at(24),
+        samples_per_vertex,
+        mode,
+        bounces,
+        bounce_samples,
+        backend,
+        sampling,
+        seed: u64_at(48),
+        scene_fingerprint: u64_at(56),
+        aux,
+        up,
+        checksum: u32_at(CHECKSUM_OFFSET),
+        adaptive,
+    };
+    Ok(header)
+}
+
+/// Header bytes 108..124 and aux bits 2–3: all zero, or a consistent adaptive bake.
+fn read_adaptive(
+    bytes: &[u8],
+    aux_flags: u32,
+    mode: Mode,
+    sampling: Sampling,
+) -> std::result::Result<Option<Adaptive>, String> {
+    let target_error = f32::from_le_bytes(bytes[108..112].try_into().expect("4 bytes"));
+    let replicates = u32::from_le_bytes(bytes[112..116].try_into().expect("4 bytes"));
+    let rays_cast = u64::from_le_bytes(bytes[116..124].try_into().expect("8 bytes"));
+    let flags = aux_flags & AUX_ADAPTIVE;
+    if target_error.to_bits() == 0 {
+        if replicates != 0 || rays_cast != 0 || flags != 0 {
+            return Err(
+                "adaptive-sampling fields (bytes 112..124, aux bits 2-3) set without a target error"
+                    .into(),
+            );
+        }
+        return Ok(None);
+    }
+    if !(target_error.is_finite() && target_error > 0.0) {
+        return Err(format!(
+            "target error {target_error} is not a positive number"
+        ));
+    }
+    if replicates < 2 {
+        return Err(format!(
+            "{replicates} replicates cannot estimate an error (at least 2)"
+        ));
+    }
+    if flags != AUX_ADAPTIVE {
+        return Err(
+            "an adaptive bake without its per-vertex rays and errors (aux bits 2 and 3)".into(),
+        );
+    }
+    if mode != Mode::Shadowed || sampling != Sampling::OwenSobol {
+        return Err(format!(
+            "a target error in a file of mode {}, sampling {} (adaptive bakes are shadowed, \
+             owen-sobol)",
+            mode.name(),
+            sampling.name()
+        ));
+    }
+    Ok(Some(Adaptive {
+        target_error,
+        replicates,
+        rays_cast,
+    }))
+}
+
+/// CRC-32 (IEEE, as zlib's `crc32`) of the whole file with the checksum field read as zero.
+pub(crate) fn checksum(bytes: &[u8]) -> u32 {
+    let mut hasher = crc32fast::Hasher::new();
+    hasher.update(&bytes[..CHECKSUM_OFFSET]);
+    hasher.update(&[0; 4]);
+    hasher.update(&bytes[HEADER_SIZE..]);
+    hasher.finalize()
+}

@@ -1,0 +1,14 @@
+//! The files the baker reads and writes, and nothing of how their contents are made: the
+//! `.prt` coefficient file (a plain [`coefficient_file::Header`] and arrays), NumPy `.npz`,
+//! OpenEXR and PLY. The bake fills them ([`crate::bake::file`]); these modules only encode,
+//! decode and validate.
+//!
+//! May import: [`crate::support`], [`crate::math`], [`crate::scene`] (the up axis and the
+//! scene fingerprint), [`crate::trace`] (the backend recorded in a header).
+
+pub mod coefficient_file;
+pub mod header;
+pub mod npz;
+pub mod openexr;
+pub mod part_id;
+pub mod ply;

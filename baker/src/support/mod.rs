@@ -1,0 +1,10 @@
+//! What every layer leans on: the crate's error type, memory limits and bounded file reads,
+//! progress reporting, and the output policy (atomic writes that never destroy an input).
+//!
+//! May import: std and external crates only.
+
+pub mod atomic;
+pub mod error;
+pub mod limits;
+pub mod output;
+pub mod progress;
