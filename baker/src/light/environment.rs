@@ -28,7 +28,7 @@ use std::path::Path;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::LightCoefficients;
+use super::coefficients::LightCoefficients;
 use crate::math::sh::{self, Basis};
 use crate::support::error::{Error, Location, Result};
 

@@ -22,7 +22,10 @@ use glam::{DMat3, DVec3};
 use toml::Spanned;
 use toml::de::{DeTable, DeValue};
 
-use super::{EnvironmentMap, Light, LightCoefficients, Window, project_sum};
+use super::coefficients::LightCoefficients;
+use super::environment::EnvironmentMap;
+use super::projection::{Light, project_sum};
+use super::window::Window;
 use crate::support::error::{Error, Location, Result};
 
 /// The Sun's mean angular radius (16′), the default of `angular_radius` for a sun.

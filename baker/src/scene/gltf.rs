@@ -18,7 +18,8 @@ use std::path::Path;
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use gltf::mesh::Mode;
 
-use super::{DEFAULT_KD, Material, Mesh, Texture};
+use super::mesh::{DEFAULT_KD, Material, Mesh};
+use super::texture::Texture;
 use crate::support::error::{Error, Location, Result};
 
 /// What a glTF file contributes.

@@ -14,7 +14,9 @@
 //!
 //! May import: [`crate::support`], [`crate::math`].
 
+mod format;
 mod gltf;
+mod mesh;
 mod normals;
 mod obj;
 mod scene_file;
@@ -28,56 +30,13 @@ use glam::{Vec2, Vec3};
 
 use crate::support::error::{Error, Location, Result};
 
+pub use format::FORMATS;
+use format::OTHER_FORMATS;
+pub use mesh::{DEFAULT_KD, Material, Mesh};
 pub use normals::angle_weighted_normals;
 pub use scene_file::{SceneEntry, parse_scene_file};
 pub use texture::{Texture, srgb_to_linear};
 pub use up::Up;
-
-/// The scene formats [`Scene::load`] reads, for the error about any other.
-pub const FORMATS: &str =
-    "scene files (.scene or .txt), Wavefront OBJ (.obj), glTF 2.0 (.gltf, .glb)";
-
-/// Extensions of formats that are recognisably something else than a scene file (which has no
-/// fixed extension), refused with the list of [`FORMATS`].
-const OTHER_FORMATS: &[&str] = &[
-    "ply", "stl", "fbx", "dae", "3ds", "blend", "usd", "usda", "usdc", "usdz", "abc", "x3d", "wrl",
-    "off", "prt", "npz", "png", "jpg", "jpeg", "tga", "hdr", "exr", "toml",
-];
-
-/// Diffuse reflectance of surfaces whose material sets no `Kd` and that have no texture.
-pub const DEFAULT_KD: Vec3 = Vec3::splat(0.8);
-
-/// A diffuse material: albedo = `kd` × texture (sRGB-decoded) at the surface's uv.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Material {
-    pub name: String,
-    pub kd: Vec3,
-    /// Index into [`Scene::textures`].
-    pub texture: Option<usize>,
-}
-
-impl Default for Material {
-    fn default() -> Material {
-        Material {
-            name: String::from("default"),
-            kd: DEFAULT_KD,
-            texture: None,
-        }
-    }
-}
-
-/// One mesh handed to [`Scene::from_meshes`]: what a loader (or a test) produces.
-#[derive(Clone, Debug, Default)]
-pub struct Mesh {
-    pub name: String,
-    pub positions: Vec<Vec3>,
-    /// Per-vertex normals; computed when `None`.
-    pub normals: Option<Vec<Vec3>>,
-    /// Per-vertex texture coordinates; (0, 0) when `None`.
-    pub uvs: Option<Vec<Vec2>>,
-    pub triangles: Vec<[u32; 3]>,
-    pub material: Material,
-}
 
 /// A named part of a scene (one line of a scene file, or one OBJ object) and its ranges in
 /// the scene's vertex and triangle arrays.

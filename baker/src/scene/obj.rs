@@ -12,7 +12,8 @@ use std::path::{Path, PathBuf};
 
 use glam::{Vec2, Vec3};
 
-use super::{DEFAULT_KD, Material, Mesh, Texture};
+use super::mesh::{DEFAULT_KD, Material, Mesh};
+use super::texture::Texture;
 use crate::support::error::{Error, Location, Result};
 
 /// What one OBJ file contributes: its meshes and the textures they index (from 0).

@@ -28,7 +28,7 @@ pub fn parse_scene_file(path: &Path) -> Result<Vec<SceneEntry>> {
             Location::file(path),
             format!(
                 "not a text file (invalid UTF-8), so not a scene file; the formats read are {}",
-                super::FORMATS
+                super::format::FORMATS
             ),
         )
     })?;

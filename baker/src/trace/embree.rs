@@ -6,8 +6,9 @@ use std::sync::{Arc, OnceLock};
 
 use embree_sys::{BuildQuality, CommittedScene, Device, SceneBuilder, SceneFlags};
 
+use super::offset::ray_origins;
 use super::seams::{seam_points, seam_vertices};
-use super::{Backend, Hit, Ray, Tracer, ray_origins};
+use super::tracer::{Backend, Hit, Ray, Tracer};
 use crate::scene::Scene;
 use crate::support::error::{Error, Result};
 

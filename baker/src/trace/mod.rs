@@ -13,6 +13,7 @@ mod embree;
 mod obvhs;
 mod offset;
 pub mod seams;
+mod tracer;
 
 pub use self::obvhs::{ObvhsOptions, ObvhsTracer};
 #[cfg(feature = "embree")]
@@ -21,126 +22,10 @@ pub use embree::{EmbreeMode, EmbreeOptions, EmbreePoints, EmbreeTracer};
 #[cfg(feature = "embree")]
 pub use embree_sys;
 pub use offset::{offset_distance, ray_origins};
-
-use glam::Vec3;
+pub use tracer::{Backend, Hit, Ray, Tracer, TracerOptions};
 
 use crate::scene::Scene;
 use crate::support::error::{Error, Result};
-
-/// A ray segment `origin + t·dir`, t in `[0, tfar]`. (A hit at exactly t = 0 — an origin on a
-/// surface — counts for obvhs and Embree's robust mode, not for Embree's default mode.)
-/// Self-intersection is avoided by where the origin is put ([`ray_origins`]), not by a
-/// minimum t.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Ray {
-    pub origin: Vec3,
-    pub dir: Vec3,
-    pub tfar: f32,
-}
-
-impl Ray {
-    /// Unbounded rays from `origin` along each of `dirs`: a vertex's rays.
-    pub fn fan(origin: Vec3, dirs: &[Vec3]) -> Vec<Ray> {
-        dirs.iter()
-            .map(|&dir| Ray {
-                origin,
-                dir,
-                tfar: f32::INFINITY,
-            })
-            .collect()
-    }
-}
-
-/// The closest hit of a ray.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Hit {
-    /// Index into `Scene::triangles`.
-    pub triangle: u32,
-    /// Barycentrics: hit = (1 − u − v)·v0 + u·v1 + v·v2.
-    pub u: f32,
-    pub v: f32,
-    /// Distance along the ray in units of `dir`'s length.
-    pub t: f32,
-    /// Unnormalised geometric normal (v1 − v0) × (v2 − v0): it tells front from back faces.
-    pub ng: Vec3,
-}
-
-/// Which tracer produced a bake (recorded in the coefficient file).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Backend {
-    /// No rays were cast (unshadowed transfer).
-    None,
-    Embree,
-    Obvhs,
-}
-
-impl Backend {
-    /// The backend a bake uses unless told otherwise: Embree where this build has it (it is
-    /// about three times faster), obvhs otherwise.
-    pub const DEFAULT: Backend = if cfg!(feature = "embree") {
-        Backend::Embree
-    } else {
-        Backend::Obvhs
-    };
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Backend::None => "none",
-            Backend::Embree => "embree",
-            Backend::Obvhs => "obvhs",
-        }
-    }
-}
-
-/// A ray caster over one static scene. Implementations are shared by all bake threads.
-pub trait Tracer: Send + Sync {
-    fn backend(&self) -> Backend;
-
-    /// `occluded[i]` = whether anything blocks `rays[i]`. The slices have equal lengths.
-    fn occluded(&self, rays: &[Ray], occluded: &mut [bool]);
-
-    /// Occlusion of unbounded rays that share one origin (all of a vertex's rays do), so a
-    /// backend can skip building general rays. Same answers as [`Tracer::occluded`].
-    fn occluded_from(&self, origin: Vec3, dirs: &[Vec3], occluded: &mut [bool]) {
-        self.occluded(&Ray::fan(origin, dirs), occluded);
-    }
-
-    /// `hits[i]` = the closest hit of `rays[i]`, if any. The slices have equal lengths.
-    fn intersect(&self, rays: &[Ray], hits: &mut [Option<Hit>]);
-
-    /// Closest hits of unbounded rays that share one origin. Same answers as
-    /// [`Tracer::intersect`].
-    fn intersect_from(&self, origin: Vec3, dirs: &[Vec3], hits: &mut [Option<Hit>]) {
-        self.intersect(&Ray::fan(origin, dirs), hits);
-    }
-
-    /// A tracer for rays from receivers that are not `scene`'s vertices (texels):
-    /// `origins[i]`, the ray origin of a point on triangle `own[i]`. Embree's watertight mode
-    /// picks robust mode by ray origin ([`seams`]), so it needs to know which of these are
-    /// seam points; backends whose answers do not depend on the origin answer `None` (trace
-    /// with `self`).
-    fn for_points<'s>(
-        &'s self,
-        scene: &Scene,
-        origins: &[Vec3],
-        own: &[u32],
-    ) -> Result<Option<Box<dyn Tracer + 's>>> {
-        let _ = (scene, origins, own);
-        Ok(None)
-    }
-}
-
-/// Settings a backend may honour when it builds its acceleration structure.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct TracerOptions {
-    /// Limits the backend's own worker threads (Embree's BVH build); obvhs builds on the
-    /// calling thread.
-    pub threads: Option<usize>,
-    /// Embree's robust mode for every ray (by default only the rays of seam vertices, where
-    /// the default mode leaks, use it: [`EmbreeMode::Watertight`]). Only Embree has one:
-    /// asking another backend for it is an error rather than a silent no-op.
-    pub robust: bool,
-}
 
 /// Refuses what [`build`] would refuse without looking at a scene: [`Backend::None`], Embree in
 /// a build without the `embree` feature, `robust` with a backend that has no robust mode. The

@@ -32,7 +32,7 @@ use obvhs::bvh2::builder::build_bvh2;
 use obvhs::{Boundable, BvhBuildParams};
 use rayon::prelude::*;
 
-use super::offset_distance;
+use super::offset::offset_distance;
 use crate::scene::Scene;
 
 /// A vertex is a seam vertex if its ray origin is within this fraction of the longer of its

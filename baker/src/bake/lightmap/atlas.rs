@@ -20,9 +20,11 @@
 //! of it. (xatlas itself was the plan; the crate `xatlas-rs` 0.1.3 links only on Windows:
 //! its bindings name MSVC-mangled symbols. docs/lightmaps.md, "Atlas".)
 
+mod placed;
 mod planar;
 mod unwrap;
 
+pub use placed::PADDING;
 pub use planar::{Chart, planar_charts};
 
 use glam::Vec2;
@@ -31,10 +33,6 @@ pub use crate::formats::header::AtlasSource;
 
 use crate::scene::Scene;
 use crate::support::error::{Error, Result};
-
-/// Empty texels left between charts, so bilinear filtering of one chart does not read its
-/// neighbour.
-pub const PADDING: u32 = 2;
 
 /// A lightmap parameterisation of a scene.
 #[derive(Clone, Debug, PartialEq)]
@@ -116,24 +114,6 @@ pub struct Generated {
     /// Per triangle, its chart (`u32::MAX` for a triangle left out).
     pub chart: Vec<u32>,
     pub chart_count: usize,
-}
-
-/// What an unwrapper returns: per triangle its corners in texels of the `resolution`²
-/// atlas (`None`: left out) and its chart.
-struct Placed {
-    texels: Vec<Option<[Vec2; 3]>>,
-    chart: Vec<u32>,
-    chart_count: usize,
-}
-
-impl Placed {
-    fn empty(triangles: usize, chart_count: usize) -> Placed {
-        Placed {
-            texels: vec![None; triangles],
-            chart: vec![u32::MAX; triangles],
-            chart_count,
-        }
-    }
 }
 
 /// Unwraps `scene` with `method` into a `resolution`² atlas ([`Atlas::generate`]).

@@ -25,7 +25,7 @@
 
 use glam::{DMat3, DQuat};
 
-use super::coeff_count;
+use super::basis::coeff_count;
 
 /// The block-diagonal SH matrix of one rotation, for one order.
 #[derive(Clone, Debug, PartialEq)]

@@ -35,7 +35,7 @@ use obvhs::traverse;
 
 use self::node::{BoxRay, ChildBoxes, traversal_mask};
 use self::triangle::{ScaledHit, Triangle};
-use super::{Backend, Hit, Ray, Tracer};
+use super::tracer::{Backend, Hit, Ray, Tracer};
 use crate::scene::Scene;
 
 /// How the obvhs BVH is built.

@@ -5,7 +5,7 @@
 
 use glam::Vec2;
 
-use super::{PADDING, Placed};
+use super::placed::{PADDING, Placed};
 use crate::scene::Scene;
 use crate::support::error::{Error, Result};
 
