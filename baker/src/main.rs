@@ -55,7 +55,10 @@ enum Command {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(err) => return usage_error(err),
+    };
     if let Some(mib) = cli.max_memory {
         limits::set_max_memory(mib.saturating_mul(1 << 20));
     }
@@ -78,6 +81,33 @@ fn main() -> ExitCode {
         }
         Err(_panic) => ExitCode::from(EXIT_FAILURE),
     }
+}
+
+/// A command line clap refuses: one line, as every other error (help and version print as
+/// clap prints them). Its rules (ranges, `requires`, `conflicts_with`) are declared on the
+/// arguments; this only formats what it says.
+fn usage_error(err: clap::Error) -> ExitCode {
+    use clap::error::ErrorKind;
+    if matches!(
+        err.kind(),
+        ErrorKind::DisplayHelp | ErrorKind::DisplayVersion
+    ) || matches!(
+        err.kind(),
+        ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+    ) {
+        err.exit();
+    }
+    let text = err.render().to_string();
+    let message: Vec<&str> = text
+        .lines()
+        .take_while(|line| !line.starts_with("Usage:") && !line.starts_with("For more information"))
+        .map(str::trim)
+        .filter(|line| !line.is_empty())
+        .collect();
+    let message = message.join(" ");
+    let message = message.strip_prefix("error: ").unwrap_or(&message);
+    eprintln!("prt-bake: error: {message} (see prt-bake --help)");
+    ExitCode::from(EXIT_BAD_COMMAND_LINE)
 }
 
 /// Option values clap accepts but the bake cannot honour (`--samples 0`), and outputs the

@@ -192,136 +192,9 @@ impl Renderer {
         size: (u32, u32),
     ) -> Result<Renderer> {
         let scene = &bake.scene;
-        let order = bake.order();
-        let n2 = order * order;
-        let lightmap = bake.lightmap();
-        let transfer_bytes = match lightmap {
-            Some(_) => 0,
-            None => std::mem::size_of_val(bake.file.coefficients.as_slice()) as u64,
-        };
-        let limits = device.limits();
-        let limit = limits
-            .max_storage_buffer_binding_size
-            .min(limits.max_buffer_size);
-        if transfer_bytes > limit {
-            return Err(Error::Device(format!(
-                "{}: the transfer takes {transfer_bytes} bytes, more than the device's largest storage buffer ({limit} bytes)",
-                bake.file_path.display()
-            )));
-        }
-
-        let vertex = |v: usize, uv1: glam::Vec2| Vertex {
-            position: scene.positions[v].to_array(),
-            normal: scene.normals[v].to_array(),
-            uv: scene.uvs[v].to_array(),
-            uv1: uv1.to_array(),
-        };
-        let (vertices, indices): (Vec<Vertex>, Vec<u32>) = match lightmap {
-            None => (
-                (0..scene.vertex_count())
-                    .map(|v| vertex(v, glam::Vec2::ZERO))
-                    .collect(),
-                scene.triangles.iter().flatten().copied().collect(),
-            ),
-            Some(l) => (
-                scene
-                    .triangles
-                    .iter()
-                    .zip(&l.uv1)
-                    .flat_map(|(t, uv1)| (0..3).map(move |k| (t[k] as usize, uv1[k])))
-                    .map(|(v, uv1)| vertex(v, uv1))
-                    .collect(),
-                (0..3 * scene.triangles.len() as u32).collect(),
-            ),
-        };
-        let buffer = |label, contents: &[u8], usage| {
-            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents,
-                usage,
-            })
-        };
-        let vertex_buffer = buffer(
-            "vertices",
-            bytemuck::cast_slice(&vertices),
-            wgpu::BufferUsages::VERTEX,
-        );
-        let index_buffer = buffer(
-            "indices",
-            bytemuck::cast_slice(&indices),
-            wgpu::BufferUsages::INDEX,
-        );
-        // A texel bake's transfer goes to the texture array; the storage buffer then holds
-        // unread zeros (a binding cannot be empty).
-        let transfer = buffer(
-            "transfer",
-            match lightmap {
-                Some(_) => bytemuck::bytes_of(&[0.0f32; 4]),
-                None => bytemuck::cast_slice(&bake.file.coefficients),
-            },
-            wgpu::BufferUsages::STORAGE,
-        );
-        let texel_transfer = match lightmap {
-            Some(l) => texel_transfer::upload(
-                device,
-                queue,
-                &bake.file_path,
-                (l.width, l.height),
-                &bake.file.coefficients,
-                bake.channels() * n2,
-            )?,
-            None => texel_transfer::placeholder(device),
-        };
-        let light_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("light"),
-            // Padded with zeros to a multiple of 4 coefficients for the texel shader's grey
-            // path, which reads them four at a time.
-            size: (n2.next_multiple_of(4) * 16) as u64,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let frame_buffer = uniform_buffer(device, "frame", std::mem::size_of::<FrameUniform>());
-
-        let vertex_and_fragment = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
-        let storage = |binding, visibility| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only: true },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let frame_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("frame"),
-            entries: &[
-                uniform_entry(0, vertex_and_fragment),
-                storage(1, wgpu::ShaderStages::VERTEX),
-                storage(2, vertex_and_fragment),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 3,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                        view_dimension: wgpu::TextureViewDimension::D2Array,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
-            ],
-        });
-        let frame_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("frame"),
-            layout: &frame_layout,
-            entries: &[
-                buffer_binding(0, &frame_buffer),
-                buffer_binding(1, &transfer),
-                buffer_binding(2, &light_buffer),
-                view_binding(3, &texel_transfer),
-            ],
-        });
-
+        check_transfer_size(device, bake)?;
+        let (vertices, indices) = mesh_buffers(device, bake);
+        let frame = FrameResources::new(device, queue, bake)?;
         let (material_layout, materials) = materials(device, queue, scene);
         let draws = scene
             .objects
@@ -332,108 +205,37 @@ impl Renderer {
                 material: scene.vertex_material[o.vertices.start as usize] as usize,
             })
             .collect();
-
-        let scene_module = scene_shader(device, "scene", include_str!("shaders/scene.wgsl"));
-        let vertex_layout = wgpu::VertexBufferLayout {
-            array_stride: std::mem::size_of::<Vertex>() as u64,
-            step_mode: wgpu::VertexStepMode::Vertex,
-            attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x2, 3 => Float32x2],
-        };
-        let scene_pipeline = |vs, fs| {
-            pipeline(
-                device,
-                PipelineSpec {
-                    label: vs,
-                    bind_group_layouts: &[Some(&frame_layout), Some(&material_layout)],
-                    module: &scene_module,
-                    entry_points: (vs, fs),
-                    buffers: &[Some(vertex_layout.clone())],
-                    topology: wgpu::PrimitiveTopology::TriangleList,
-                    format,
-                    depth_test: true,
-                    blend: None,
-                },
-            )
-        };
-        let prt = match lightmap {
-            Some(_) => scene_pipeline("vs_prt_texel", "fs_prt_texel"),
-            None => scene_pipeline("vs_prt", "fs_prt"),
-        };
-        let phong = scene_pipeline("vs_phong", "fs_phong");
-
+        let layouts = [&frame.layout, &material_layout];
+        let (prt, phong) = scene_pipelines(device, layouts, format, bake.lightmap().is_some());
         let (centre, radius) = {
             let (lo, hi) = scene.bounds();
             (0.5 * (lo + hi), (0.5 * (hi - lo).length()).max(1e-6))
         };
-        let normal_lines: Vec<LineVertex> = (0..scene.vertex_count())
-            .flat_map(|v| {
-                let (p, n) = (scene.positions[v], scene.normals[v]);
-                let colour = (0.5 * n + Vec3::splat(0.5)).extend(1.0).to_array();
-                [p, p + n * NORMAL_LENGTH * radius].map(|q| LineVertex {
-                    position: q.to_array(),
-                    colour,
-                })
-            })
-            .collect();
-        let normal_lines = buffer(
-            "normals",
-            bytemuck::cast_slice(&normal_lines),
-            wgpu::BufferUsages::VERTEX,
-        );
-        let light_lines = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("light vectors"),
-            size: (LIGHT_VECTOR_CAPACITY * 2 * std::mem::size_of::<LineVertex>()) as u64,
-            usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let lines_module = scene_shader(device, "lines", include_str!("shaders/lines.wgsl"));
-        let line_vertex_layout = wgpu::VertexBufferLayout {
-            array_stride: std::mem::size_of::<LineVertex>() as u64,
-            step_mode: wgpu::VertexStepMode::Vertex,
-            attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x4],
-        };
-        let line_pipeline = |depth_test| {
-            pipeline(
-                device,
-                PipelineSpec {
-                    label: "lines",
-                    bind_group_layouts: &[Some(&frame_layout)],
-                    module: &lines_module,
-                    entry_points: ("vs_line", "fs_line"),
-                    buffers: &[Some(line_vertex_layout.clone())],
-                    topology: wgpu::PrimitiveTopology::LineList,
-                    format,
-                    depth_test,
-                    blend: None,
-                },
-            )
-        };
-        let lines_depth_tested = line_pipeline(true);
-        let lines_on_top = line_pipeline(false);
+        let lines = LineResources::new(device, &frame.layout, format, bake, radius);
         Ok(Renderer {
             format,
             size,
             depth: depth_view(device, size),
-            order,
+            order: bake.order(),
             channels: bake.channels(),
             vertex_count: scene.vertex_count() as u32,
             centre,
             radius,
-            frame_layout,
-            frame_buffer,
-            light_buffer,
-            frame_bind_group,
-            vertices: vertex_buffer,
-            indices: index_buffer,
+            frame_layout: frame.layout,
+            frame_buffer: frame.frame_buffer,
+            light_buffer: frame.light_buffer,
+            frame_bind_group: frame.bind_group,
+            vertices,
+            indices,
             draws,
             materials,
             prt,
             phong,
-            normal_lines,
-            light_lines,
+            normal_lines: lines.normals,
+            light_lines: lines.light_vectors,
             light_line_vertices: 0,
-            lines_depth_tested,
-            lines_on_top,
+            lines_depth_tested: lines.depth_tested,
+            lines_on_top: lines.on_top,
             overlay: Overlay::new(device, queue, format),
             mode: Mode::Prt,
             normals: false,
@@ -596,6 +398,292 @@ impl Renderer {
 
 /// The materials' bind group layout, and one bind group per material: Kd, the texture
 /// (white where there is none) and a trilinear, repeating sampler.
+/// Refuses a vertex bake whose transfer does not fit in the device's largest storage buffer.
+fn check_transfer_size(device: &wgpu::Device, bake: &Bake) -> Result<()> {
+    let lightmap = bake.lightmap();
+    let transfer_bytes = match lightmap {
+        Some(_) => 0,
+        None => std::mem::size_of_val(bake.file.coefficients.as_slice()) as u64,
+    };
+    let limits = device.limits();
+    let limit = limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size);
+    if transfer_bytes > limit {
+        return Err(Error::Device(format!(
+            "{}: the transfer takes {transfer_bytes} bytes, more than the device's largest storage buffer ({limit} bytes)",
+            bake.file_path.display()
+        )));
+    }
+
+    Ok(())
+}
+
+/// The scene's vertices and indices; a texel bake's are split per triangle corner, each
+/// with its lightmap UV.
+fn mesh_buffers(device: &wgpu::Device, bake: &Bake) -> (wgpu::Buffer, wgpu::Buffer) {
+    let scene = &bake.scene;
+    let lightmap = bake.lightmap();
+    let vertex = |v: usize, uv1: glam::Vec2| Vertex {
+        position: scene.positions[v].to_array(),
+        normal: scene.normals[v].to_array(),
+        uv: scene.uvs[v].to_array(),
+        uv1: uv1.to_array(),
+    };
+    let (vertices, indices): (Vec<Vertex>, Vec<u32>) = match lightmap {
+        None => (
+            (0..scene.vertex_count())
+                .map(|v| vertex(v, glam::Vec2::ZERO))
+                .collect(),
+            scene.triangles.iter().flatten().copied().collect(),
+        ),
+        Some(l) => (
+            scene
+                .triangles
+                .iter()
+                .zip(&l.uv1)
+                .flat_map(|(t, uv1)| (0..3).map(move |k| (t[k] as usize, uv1[k])))
+                .map(|(v, uv1)| vertex(v, uv1))
+                .collect(),
+            (0..3 * scene.triangles.len() as u32).collect(),
+        ),
+    };
+    let buffer = |label, contents: &[u8], usage| {
+        device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents,
+            usage,
+        })
+    };
+    let vertex_buffer = buffer(
+        "vertices",
+        bytemuck::cast_slice(&vertices),
+        wgpu::BufferUsages::VERTEX,
+    );
+    let index_buffer = buffer(
+        "indices",
+        bytemuck::cast_slice(&indices),
+        wgpu::BufferUsages::INDEX,
+    );
+    (vertex_buffer, index_buffer)
+}
+
+/// Group 0 of every pipeline: the frame's uniforms, the transfer (a storage buffer, or a
+/// texture array for texel bakes) and the light's coefficients.
+struct FrameResources {
+    layout: wgpu::BindGroupLayout,
+    frame_buffer: wgpu::Buffer,
+    light_buffer: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
+}
+
+impl FrameResources {
+    fn new(device: &wgpu::Device, queue: &wgpu::Queue, bake: &Bake) -> Result<FrameResources> {
+        let n2 = bake.order() * bake.order();
+        let lightmap = bake.lightmap();
+        let buffer = |label, contents: &[u8], usage| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage,
+            })
+        };
+        // A texel bake's transfer goes to the texture array; the storage buffer then holds
+        // unread zeros (a binding cannot be empty).
+        let transfer = buffer(
+            "transfer",
+            match lightmap {
+                Some(_) => bytemuck::bytes_of(&[0.0f32; 4]),
+                None => bytemuck::cast_slice(&bake.file.coefficients),
+            },
+            wgpu::BufferUsages::STORAGE,
+        );
+        let texel_transfer = match lightmap {
+            Some(l) => texel_transfer::upload(
+                device,
+                queue,
+                &bake.file_path,
+                (l.width, l.height),
+                &bake.file.coefficients,
+                bake.channels() * n2,
+            )?,
+            None => texel_transfer::placeholder(device),
+        };
+        let light_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("light"),
+            // Padded with zeros to a multiple of 4 coefficients for the texel shader's grey
+            // path, which reads them four at a time.
+            size: (n2.next_multiple_of(4) * 16) as u64,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let frame_buffer = uniform_buffer(device, "frame", std::mem::size_of::<FrameUniform>());
+
+        let vertex_and_fragment = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
+        let storage = |binding, visibility| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only: true },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("frame"),
+            entries: &[
+                uniform_entry(0, vertex_and_fragment),
+                storage(1, wgpu::ShaderStages::VERTEX),
+                storage(2, vertex_and_fragment),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 3,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                        view_dimension: wgpu::TextureViewDimension::D2Array,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+            ],
+        });
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("frame"),
+            layout: &layout,
+            entries: &[
+                buffer_binding(0, &frame_buffer),
+                buffer_binding(1, &transfer),
+                buffer_binding(2, &light_buffer),
+                view_binding(3, &texel_transfer),
+            ],
+        });
+
+        Ok(FrameResources {
+            layout,
+            frame_buffer,
+            light_buffer,
+            bind_group,
+        })
+    }
+}
+
+/// The PRT pipeline (per vertex, or per texel) and the Blinn-Phong one.
+fn scene_pipelines(
+    device: &wgpu::Device,
+    [frame_layout, material_layout]: [&wgpu::BindGroupLayout; 2],
+    format: wgpu::TextureFormat,
+    texels: bool,
+) -> (wgpu::RenderPipeline, wgpu::RenderPipeline) {
+    let scene_module = scene_shader(device, "scene", include_str!("shaders/scene.wgsl"));
+    let vertex_layout = wgpu::VertexBufferLayout {
+        array_stride: std::mem::size_of::<Vertex>() as u64,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x2, 3 => Float32x2],
+    };
+    let scene_pipeline = |vs, fs| {
+        pipeline(
+            device,
+            PipelineSpec {
+                label: vs,
+                bind_group_layouts: &[Some(frame_layout), Some(material_layout)],
+                module: &scene_module,
+                entry_points: (vs, fs),
+                buffers: &[Some(vertex_layout.clone())],
+                topology: wgpu::PrimitiveTopology::TriangleList,
+                format,
+                depth_test: true,
+                blend: None,
+            },
+        )
+    };
+    let prt = match texels {
+        true => scene_pipeline("vs_prt_texel", "fs_prt_texel"),
+        false => scene_pipeline("vs_prt", "fs_prt"),
+    };
+    let phong = scene_pipeline("vs_phong", "fs_phong");
+
+    (prt, phong)
+}
+
+/// The normals and light vectors drawn as lines (the thesis's debugging views).
+struct LineResources {
+    normals: wgpu::Buffer,
+    light_vectors: wgpu::Buffer,
+    depth_tested: wgpu::RenderPipeline,
+    on_top: wgpu::RenderPipeline,
+}
+
+impl LineResources {
+    fn new(
+        device: &wgpu::Device,
+        frame_layout: &wgpu::BindGroupLayout,
+        format: wgpu::TextureFormat,
+        bake: &Bake,
+        radius: f32,
+    ) -> LineResources {
+        let scene = &bake.scene;
+        let buffer = |label, contents: &[u8], usage| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage,
+            })
+        };
+        let normal_lines: Vec<LineVertex> = (0..scene.vertex_count())
+            .flat_map(|v| {
+                let (p, n) = (scene.positions[v], scene.normals[v]);
+                let colour = (0.5 * n + Vec3::splat(0.5)).extend(1.0).to_array();
+                [p, p + n * NORMAL_LENGTH * radius].map(|q| LineVertex {
+                    position: q.to_array(),
+                    colour,
+                })
+            })
+            .collect();
+        let normal_lines = buffer(
+            "normals",
+            bytemuck::cast_slice(&normal_lines),
+            wgpu::BufferUsages::VERTEX,
+        );
+        let light_lines = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("light vectors"),
+            size: (LIGHT_VECTOR_CAPACITY * 2 * std::mem::size_of::<LineVertex>()) as u64,
+            usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let lines_module = scene_shader(device, "lines", include_str!("shaders/lines.wgsl"));
+        let line_vertex_layout = wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<LineVertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x4],
+        };
+        let line_pipeline = |depth_test| {
+            pipeline(
+                device,
+                PipelineSpec {
+                    label: "lines",
+                    bind_group_layouts: &[Some(frame_layout)],
+                    module: &lines_module,
+                    entry_points: ("vs_line", "fs_line"),
+                    buffers: &[Some(line_vertex_layout.clone())],
+                    topology: wgpu::PrimitiveTopology::LineList,
+                    format,
+                    depth_test,
+                    blend: None,
+                },
+            )
+        };
+        let lines_depth_tested = line_pipeline(true);
+        let lines_on_top = line_pipeline(false);
+        LineResources {
+            normals: normal_lines,
+            light_vectors: light_lines,
+            depth_tested: lines_depth_tested,
+            on_top: lines_on_top,
+        }
+    }
+}
+
 fn materials(
     device: &wgpu::Device,
     queue: &wgpu::Queue,

@@ -204,6 +204,9 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
     let options = options(&args);
     options.validate()?;
     memory::check_bake_options(&options)?;
+    if let Some(resolution) = args.lightmap {
+        lightmap::atlas::check_resolution(resolution)?;
+    }
     let shard = match &args.shard {
         Some(spec) => Some(ShardId::parse(spec, &|name| std::env::var(name).ok())?),
         None => None,

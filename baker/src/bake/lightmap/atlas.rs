@@ -168,13 +168,18 @@ pub fn generate(
 
 /// The largest lightmap side accepted: 16,384 texels (268 M texels).
 pub const MAX_RESOLUTION: u32 = 16_384;
+/// The smallest lightmap: a chart with its padding on both sides needs more than 2 × 2
+/// texels (below it the unwrapper refuses with a message of its own).
+pub const MIN_RESOLUTION: u32 = 8;
 
-fn check_resolution(r: u32) -> Result<()> {
-    if (1..=MAX_RESOLUTION).contains(&r) {
+/// Refuses a `--lightmap` resolution outside [`MIN_RESOLUTION`]..=[`MAX_RESOLUTION`]: a
+/// usage error, checked before the scene is read or its memory estimated.
+pub fn check_resolution(r: u32) -> Result<()> {
+    if (MIN_RESOLUTION..=MAX_RESOLUTION).contains(&r) {
         Ok(())
     } else {
         Err(Error::InvalidOption(format!(
-            "--lightmap {r} is outside 1..={MAX_RESOLUTION}"
+            "--lightmap {r} is outside {MIN_RESOLUTION}..={MAX_RESOLUTION}"
         )))
     }
 }

@@ -21,9 +21,9 @@ pub(super) fn generate(scene: &Scene, resolution: u32, texel_size: Option<f32>) 
     let (scale, offsets) = match texel_size {
         Some(s) => pack(&charts, 1.0 / s, resolution).ok_or_else(|| {
             Error::InvalidOption(format!(
-                "--texel-size {s}: the scene's {} charts do not fit a {resolution}² \
+                "--texel-size {s}: the scene's {} do not fit a {resolution}² \
                  lightmap; use a larger texel or --lightmap",
-                charts.len()
+                chart_count(charts.len())
             ))
         })?,
         None => fill(&charts, resolution)?,
@@ -181,10 +181,18 @@ fn fill(charts: &[Chart], resolution: u32) -> Result<(f32, Vec<Vec2>)> {
     }
     best.ok_or_else(|| {
         Error::InvalidOption(format!(
-            "the scene's {} charts do not fit a {resolution}² lightmap even at the smallest \
+            "the scene's {} do not fit a {resolution}² lightmap even at the smallest \
              scale (each needs {} texels of padding): use a larger --lightmap",
-            charts.len(),
+            chart_count(charts.len()),
             1 + PADDING
         ))
     })
+}
+
+/// "1 chart", "14 charts".
+fn chart_count(n: usize) -> String {
+    match n {
+        1 => String::from("1 chart"),
+        n => format!("{n} charts"),
+    }
 }
