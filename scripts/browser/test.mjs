@@ -145,6 +145,17 @@ try {
     failures += sensitive ? 0 : 1;
     console.log(`browser: ${sensitive ? 'ok  ' : 'FAIL'} ${c.name}: the turned rig changes ${changed} pixels by more than ${3 * c.tolerance} codes`);
   }
+  // The example page: it loads a bake and a light, relights, and a right drag turns the light.
+  await page.goto(`${base}/runtime/three/example.html?glb=/data/cornell-rgb.glb&light=/data/light-4.json`);
+  await page.waitForFunction(() => window.prtExample?.handle?.meshes.length > 0, null, { timeout: 30000 });
+  await page.mouse.move(400, 300);
+  await page.mouse.down({ button: 'right' });
+  await page.mouse.move(460, 330, { steps: 5 });
+  await page.mouse.up({ button: 'right' });
+  const turned = await page.evaluate(() => window.prtExample.turn);
+  const exampleOk = Math.abs(turned[0] - 1) > 1e-3;
+  failures += exampleOk ? 0 : 1;
+  console.log(`browser: ${exampleOk ? 'ok  ' : 'FAIL'} example.html relights ${await page.evaluate(() => window.prtExample.handle.meshes.length)} meshes; a right drag turns the light`);
 } finally {
   await context.close();
   server.close();
