@@ -5,7 +5,8 @@
 # (scripts/browser/test.mjs says how). playwright-core and three are npm packages installed
 # into target/node at pinned versions, as scripts/gltf/validate.sh installs gltf-validator;
 # the page gets three.js from there through a static server on 127.0.0.1, and no other
-# address is reached. Also checks prt.js's SH rotation against prt-bake light --up.
+# address is reached. Also checks prt.js's SH rotation against prt-bake light --up, and
+# compiles docs/gltf.md's GLSL ES snippets with glslangValidator.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/../.."
 NODE_DIR=target/node
@@ -27,5 +28,7 @@ fi
 cargo build --release -p prt-baker
 rm -rf "$OUT"
 mkdir -p "$OUT"
+command -v glslangValidator >/dev/null || { echo "browser: glslangValidator is missing (scripts/install-deps.sh installs glslang-tools)" >&2; exit 2; }
+node scripts/browser/glsl-snippets.mjs docs/gltf.md "$OUT/glsl"
 node scripts/browser/sh-test.mjs target/release/prt-bake "$OUT"
 node scripts/browser/test.mjs "$NODE_DIR/node_modules" target/release/prt-bake "$OUT"
