@@ -63,6 +63,55 @@ pub struct Written {
     pub ao: bool,
 }
 
+/// `export --quantize`: the transfer attributes as normalized signed integers, each attribute
+/// scaled by its largest magnitude (in `asset.extras.prt.quantization.scales`): a shader
+/// multiplies the attribute (in [−1, 1]) by its scale, or folds the scale into the light.
+/// glTF core allows any component type but unsigned int for custom attributes, so no
+/// extension is required (KHR_mesh_quantization would be needed only for POSITION etc.).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Quantize {
+    /// BYTE, normalized: 4 bytes per VEC4 (float: 16).
+    Bits8,
+    /// SHORT, normalized: 8 bytes per VEC4.
+    Bits16,
+}
+
+impl Quantize {
+    /// `--quantize BITS`: 8, 16, or none.
+    pub fn from_bits(bits: Option<u32>) -> Result<Option<Quantize>> {
+        match bits {
+            None => Ok(None),
+            Some(8) => Ok(Some(Quantize::Bits8)),
+            Some(16) => Ok(Some(Quantize::Bits16)),
+            Some(other) => Err(Error::InvalidOption(format!(
+                "--quantize {other}: the transfer quantizes to 16 or 8 bits"
+            ))),
+        }
+    }
+
+    /// The largest code, 2^(bits−1) − 1.
+    fn max_code(self) -> f32 {
+        match self {
+            Quantize::Bits8 => 127.0,
+            Quantize::Bits16 => 32767.0,
+        }
+    }
+
+    fn bits(self) -> u32 {
+        match self {
+            Quantize::Bits8 => 8,
+            Quantize::Bits16 => 16,
+        }
+    }
+
+    fn component_type(self) -> u32 {
+        match self {
+            Quantize::Bits8 => BYTE,
+            Quantize::Bits16 => SHORT,
+        }
+    }
+}
+
 /// Names of the VEC4 transfer attributes of a bake of `order` with `channels` (1 or 3).
 pub fn prt_attribute_names(order: usize, channels: usize) -> Vec<String> {
     let per_channel = sh::coeff_count(order).div_ceil(4);
@@ -82,6 +131,18 @@ pub fn export_glb(
     scene: &Path,
     output: &Path,
     rig: Option<&Path>,
+) -> Result<Written> {
+    export_glb_quantized(coefficients, scene, output, rig, None)
+}
+
+/// [`export_glb`] with the transfer attributes quantized (vertex bakes; a texel bake's file
+/// has none, and `quantize` changes nothing there).
+pub fn export_glb_quantized(
+    coefficients: &Path,
+    scene: &Path,
+    output: &Path,
+    rig: Option<&Path>,
+    quantize: Option<Quantize>,
 ) -> Result<Written> {
     let rig = rig.map(Rig::load).transpose()?;
     let file = CoefficientFile::read(coefficients)?;
@@ -104,7 +165,7 @@ pub fn export_glb(
         light: light.as_ref(),
         up,
     };
-    let (bytes, written) = glb_bytes(&scene, &contents)?;
+    let (bytes, written) = glb_bytes_with(&scene, &contents, None, quantize)?;
     output.write(&bytes)?;
     Ok(written)
 }
@@ -153,7 +214,7 @@ fn lightmap_glb_bytes(
         png: image,
         ao_png,
     };
-    glb_bytes_with(&split, &contents, Some(&lightmap))
+    glb_bytes_with(&split, &contents, Some(&lightmap), None)
 }
 
 /// The scene with one vertex per distinct (vertex, lightmap UV) pair of its triangle corners
@@ -226,6 +287,10 @@ struct Builder {
 // sampler fields).
 /// `componentType` of f32.
 const FLOAT: u32 = 5126;
+/// `componentType` of i8 (quantized transfer).
+const BYTE: u32 = 5120;
+/// `componentType` of i16 (quantized transfer).
+const SHORT: u32 = 5122;
 /// `componentType` of u32 (indices).
 const UNSIGNED_INT: u32 = 5125;
 /// `bufferView.target` of vertex attributes.
@@ -300,6 +365,27 @@ impl Builder {
         self.accessors.len() - 1
     }
 
+    /// A normalized signed-integer VEC4 accessor of `values` / `scale` (|values| ≤ scale).
+    fn quantized(&mut self, values: &[f32], scale: f32, quantize: Quantize) -> usize {
+        let max = quantize.max_code();
+        let codes = values
+            .iter()
+            .map(|x| (x / scale * max).round().clamp(-max, max));
+        let bytes: Vec<u8> = match quantize {
+            Quantize::Bits8 => codes.map(|c| (c as i8).to_le_bytes()[0]).collect(),
+            Quantize::Bits16 => codes.flat_map(|c| (c as i16).to_le_bytes()).collect(),
+        };
+        let view = self.view(&bytes, Some(ARRAY_BUFFER));
+        self.accessors.push(json!({
+            "bufferView": view,
+            "componentType": quantize.component_type(),
+            "normalized": true,
+            "count": values.len() / 4,
+            "type": "VEC4",
+        }));
+        self.accessors.len() - 1
+    }
+
     fn indices(&mut self, indices: &[u32]) -> usize {
         let bytes: Vec<u8> = indices.iter().flat_map(|i| i.to_le_bytes()).collect();
         let view = self.view(&bytes, Some(ELEMENT_ARRAY_BUFFER));
@@ -315,7 +401,7 @@ impl Builder {
 
 /// The `.glb` bytes of `scene` and what they hold.
 pub fn glb_bytes(scene: &Scene, contents: &Contents<'_>) -> Result<(Vec<u8>, Written)> {
-    glb_bytes_with(scene, contents, None)
+    glb_bytes_with(scene, contents, None, None)
 }
 
 /// The scene's per-vertex arrays in glTF's frame and conventions, flattened.
@@ -362,6 +448,8 @@ struct VertexTransfer {
     arrays: Vec<Vec<f32>>,
     colour: Option<Vec<f32>>,
     ao: Option<Vec<f32>>,
+    /// With `export --quantize`: the bits and per attribute its scale (largest magnitude).
+    quantized: Option<(Quantize, Vec<f32>)>,
 }
 
 /// Step 2: the transfer turned like the geometry (its SH coefficients rotated), as
@@ -370,6 +458,7 @@ fn vertex_transfer(
     scene: &Scene,
     contents: &Contents<'_>,
     arrays: &VertexArrays,
+    quantize: Option<Quantize>,
 ) -> VertexTransfer {
     let Some(file) = contents.file else {
         return VertexTransfer::default();
@@ -400,11 +489,20 @@ fn vertex_transfer(
             .flat_map(|rgb| rgb.map(|x| x.clamp(0.0, 1.0)))
             .collect()
     });
+    let quantized = quantize.map(|q| {
+        let scales = prt
+            .iter()
+            .map(|a| a.iter().fold(0.0f32, |m, x| m.max(x.abs())))
+            .map(|m| if m > 0.0 { m } else { 1.0 })
+            .collect();
+        (q, scales)
+    });
     VertexTransfer {
         names,
         arrays: prt,
         colour,
         ao: file.ao.clone(),
+        quantized,
     }
 }
 
@@ -517,24 +615,34 @@ fn meshes(
     for object in &scene.objects {
         let (v0, v1) = (object.vertices.start as usize, object.vertices.end as usize);
         let mut attributes = serde_json::Map::new();
-        let mut add = |b: &mut Builder, name: &str, values: &[f32], n: usize, bounds: bool| {
-            let accessor = b.floats(&values[n * v0..n * v1], n, bounds);
+        let slice = |values: &[f32], n: usize| values[n * v0..n * v1].to_vec();
+        let mut add = |name: &str, accessor: usize| {
             attributes.insert(name.into(), json!(accessor));
         };
-        add(b, "POSITION", &arrays.positions, 3, true);
-        add(b, "NORMAL", &arrays.normals, 3, false);
-        add(b, "TEXCOORD_0", &arrays.texcoords, 2, false);
+        add("POSITION", b.floats(&slice(&arrays.positions, 3), 3, true));
+        add("NORMAL", b.floats(&slice(&arrays.normals, 3), 3, false));
+        add(
+            "TEXCOORD_0",
+            b.floats(&slice(&arrays.texcoords, 2), 2, false),
+        );
         if let Some(lightmap) = &arrays.lightmap {
-            add(b, "TEXCOORD_1", lightmap, 2, false);
+            add("TEXCOORD_1", b.floats(&slice(lightmap, 2), 2, false));
         }
         if let Some(colour) = &transfer.colour {
-            add(b, "COLOR_0", colour, 3, false);
+            add("COLOR_0", b.floats(&slice(colour, 3), 3, false));
         }
-        for (name, array) in transfer.names.iter().zip(&transfer.arrays) {
-            add(b, name, array, 4, false);
+        for (i, (name, array)) in transfer.names.iter().zip(&transfer.arrays).enumerate() {
+            let values = slice(array, 4);
+            add(
+                name,
+                match &transfer.quantized {
+                    None => b.floats(&values, 4, false),
+                    Some((q, scales)) => b.quantized(&values, scales[i], *q),
+                },
+            );
         }
         if let Some(ao) = &transfer.ao {
-            add(b, "_AO", ao, 1, false);
+            add("_AO", b.floats(&slice(ao, 1), 1, false));
         }
         let local: Vec<u32> = scene.triangles
             [object.triangles.start as usize..object.triangles.end as usize]
@@ -578,6 +686,19 @@ fn asset_extras(
         });
         if transfer.ao.is_some() {
             prt["ao"] = json!("_AO: SCALAR float, the ambient accessibility per vertex");
+        }
+        if let Some((q, scales)) = &transfer.quantized {
+            let scales: serde_json::Map<String, Value> = transfer
+                .names
+                .iter()
+                .zip(scales)
+                .map(|(name, scale)| (name.clone(), json!(scale)))
+                .collect();
+            prt["quantization"] = json!({
+                "bits": q.bits(),
+                "scales": scales,
+                "decode": "transfer = attribute (normalized signed integer, in [-1, 1]) x its scale",
+            });
         }
         return Some(json!({ "prt": prt }));
     }
@@ -704,9 +825,10 @@ fn glb_bytes_with(
     scene: &Scene,
     contents: &Contents<'_>,
     lightmap: Option<&LightmapContents<'_>>,
+    quantize: Option<Quantize>,
 ) -> Result<(Vec<u8>, Written)> {
     let arrays = vertex_arrays(scene, contents.up);
-    let transfer = vertex_transfer(scene, contents, &arrays);
+    let transfer = vertex_transfer(scene, contents, &arrays, quantize);
     let mut b = Builder {
         bin: Vec::new(),
         buffer_views: Vec::new(),

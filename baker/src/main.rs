@@ -101,6 +101,10 @@ struct ExportArgs {
     /// or into an embedded lightmap texture (lightmap bakes).
     #[arg(long, requires = "gltf")]
     lights: Option<PathBuf>,
+    /// With --gltf: the transfer attributes as normalized 16- or 8-bit integers, a scale per
+    /// attribute (docs/gltf.md); float without it.
+    #[arg(long, value_name = "BITS", requires = "gltf")]
+    quantize: Option<u32>,
     /// Output directory (created if missing) for a lightmap bake's coefficients as OpenEXR
     /// images, 4 per RGBA image, with the texel mask, AO, bent normals and a manifest.json
     /// (docs/lightmaps.md).
@@ -689,11 +693,12 @@ fn export(args: ExportArgs) -> Result<(), Error> {
         );
     }
     if let Some(glb) = &args.gltf {
-        let written = prt_baker::gltf_export::export_glb(
+        let written = prt_baker::gltf_export::export_glb_quantized(
             &args.file,
             &args.scene,
             glb,
             args.lights.as_deref(),
+            prt_baker::gltf_export::Quantize::from_bits(args.quantize)?,
         )?;
         let prt = match written.prt_attributes.as_slice() {
             [] if written.lightmap.is_some() => {

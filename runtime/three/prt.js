@@ -75,17 +75,31 @@ export async function loadLightmapTransfer(manifestUrl) {
   return { order, channels, up: manifest.up, groups, textures, manifest };
 }
 
-// The uniform layout: per colour channel c and group k, vec4 prtLight[c * groups + k].
-function lightUniform(light, order, groups) {
+// The uniform layout: per colour channel c and group k, vec4 prtLight[c * groups + k], times
+// the attribute's scale where the transfer is quantized (export --quantize: the attribute
+// arrives normalized to [−1, 1]; dot(a·s, L) = dot(a, s·L)).
+function lightUniform(light, order, groups, scales = null) {
   const fitted = lightOfOrder(light, order);
   const values = [];
   for (let c = 0; c < 3; c++) {
     for (let k = 0; k < groups; k++) {
-      const v = [0, 1, 2, 3].map((i) => fitted.rgb[c][4 * k + i] ?? 0);
+      const s = scales ? scales[c * groups + k] : 1;
+      const v = [0, 1, 2, 3].map((i) => (fitted.rgb[c][4 * k + i] ?? 0) * s);
       values.push(new THREE.Vector4(...v));
     }
   }
   return values;
+}
+
+// Per (channel, group) the scale of a quantized transfer's attribute, or null for float.
+function attributeScales(transfer, quantization) {
+  if (!quantization?.scales) return null;
+  const byName = new Map(Object.entries(quantization.scales).map(([name, s]) => [name.toLowerCase(), s]));
+  return transfer.channels.flatMap((names) => names.map((name) => {
+    const s = byName.get(name);
+    if (!Number.isFinite(s)) throw new Error(`prt: quantized transfer without a scale for ${name}`);
+    return s;
+  }));
 }
 
 function vertexShaderPatch(transfer) {
@@ -133,7 +147,8 @@ function albedoMaterial(source) {
 }
 
 /**
- * Gives every mesh under `root` that carries PRT data a relighting material (a
+ * Gives every mesh under `root` (an Object3D, or GLTFLoader's result, whose
+ * asset.extras.prt.quantization then gives a quantized transfer's scales) that carries PRT data a relighting material (a
  * MeshBasicMaterial whose colour is multiplied by Σ_j T_j·L_j per channel) and returns a
  * handle: setLight(light), setExposure(ev), restore() (the as-exported materials back), and
  * meshes. Per-vertex meshes are found by their `_PRT_k` attributes; texel meshes (those with
@@ -144,8 +159,14 @@ function albedoMaterial(source) {
  *   clampShading   clamp Σ T·L to [0, 1] before the albedo, as COLOR_0 and the embedded
  *                  lightmap of an export are (default false: prt-bake relight's radiance)
  *   exposure       EV, radiance × 2^exposure (default 0)
+ *   quantization   asset.extras.prt.quantization of a file exported with --quantize, when
+ *                  `root` is not the GLTFLoader result
  */
-export function applyPRT(root, light, options = {}) {
+export function applyPRT(rootOrGltf, light, options = {}) {
+  // A GLTFLoader result brings its asset.extras.prt (the quantization scales) along.
+  const isGltf = Boolean(rootOrGltf?.scene && rootOrGltf?.asset);
+  const root = isGltf ? rootOrGltf.scene : rootOrGltf;
+  const quantization = options.quantization ?? (isGltf ? rootOrGltf.asset.extras?.prt?.quantization : null);
   const entries = [];
   const order = options.order ?? light.order;
   const lightmap = options.lightmap ?? null;
@@ -165,7 +186,11 @@ export function applyPRT(root, light, options = {}) {
     }
     const original = object.material;
     const sources = Array.isArray(original) ? original : [original];
-    const uniforms = { prtLight: { value: lightUniform(light, transferOrder, groups) }, ...common };
+    const scales = transfer ? attributeScales(transfer, quantization) : null;
+    if (transfer && !scales && geometry.attributes[transfer.channels[0][0]].normalized) {
+      throw new Error(`prt: mesh '${object.name}': quantized transfer, but no scales: pass the GLTFLoader result, or options.quantization`);
+    }
+    const uniforms = { prtLight: { value: lightUniform(light, transferOrder, groups, scales) }, ...common };
     if (texel) {
       for (let c = 0; c < 3; c++) for (let k = 0; k < groups; k++) uniforms[`prtT${c}_${k}`] = { value: lightmap.textures[c][k] };
     }
@@ -195,7 +220,7 @@ export function applyPRT(root, light, options = {}) {
       return material;
     });
     object.material = Array.isArray(original) ? made : made[0];
-    entries.push({ object, original, made, uniforms, groups, order: transferOrder, texel: Boolean(texel) });
+    entries.push({ object, original, made, uniforms, groups, scales, order: transferOrder, texel: Boolean(texel) });
   });
   const handle = {
     meshes: entries.map((e) => e.object),
@@ -204,7 +229,7 @@ export function applyPRT(root, light, options = {}) {
         // The texel transfer is in the bake's own frame (manifest.up): a z-up bake gets the
         // glTF-frame light turned back to z-up.
         const framed = e.texel && lightmap.up === 'z' ? rotateLight(next, GLTF_TO_Z_UP) : next;
-        e.uniforms.prtLight.value = lightUniform(framed, e.order, e.groups);
+        e.uniforms.prtLight.value = lightUniform(framed, e.order, e.groups, e.scales);
       }
     },
     setExposure(ev) {

@@ -67,7 +67,7 @@ window.prtTest = {
       if (rotation) l = rotateLight(l, rotation);
       const options = { clampShading: true };
       if (lightmap) options.lightmap = await loadLightmapTransfer(lightmap);
-      const handle = applyPRT(scene, l, options);
+      const handle = applyPRT(gltf, l, options);
       if (handle.meshes.length === 0) throw new Error(`${glb}: no mesh carries PRT data`);
     } else if (mode === 'basic') {
       scene.traverse((o) => {

@@ -63,6 +63,11 @@ for (const c of cases) {
     run('export', prt, '--scene', path.join(repo, c.scene), '--glb', path.join(out, `${c.name}${suffix}.glb`), '--lights', path.join(out, lights));
   }
   if (c.texel) run('export', prt, '--scene', path.join(repo, c.scene), '--exr', path.join(out, `${c.name}-exr`), '--exr-type', 'f16');
+  else {
+    for (const bits of [16, 8]) {
+      run('export', prt, '--scene', path.join(repo, c.scene), '--glb', path.join(out, `${c.name}-q${bits}.glb`), '--quantize', String(bits), '--lights', path.join(out, 'rig.toml'));
+    }
+  }
 }
 run('light', path.join(out, 'rig.toml'), '--order', '3', '--up', 'y', '-o', path.join(out, 'light-3.json'));
 run('light', path.join(out, 'rig.toml'), '--order', '4', '--up', 'y', '-o', path.join(out, 'light-4.json'));
@@ -92,6 +97,21 @@ const context = await chromium.launchPersistentContext(userDataDir, {
   args: ['--headless', '--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader',
     '--disable-background-networking', '--disable-component-update', '--disable-sync', '--no-first-run'],
 });
+// Over the pixels either render covers: the share within `tolerance` codes in every channel.
+function compare(a, b, tolerance) {
+  let covered = 0;
+  let close = 0;
+  let worst = 0;
+  for (let i = 0; i < a.length; i += 4) {
+    if (a[i + 3] === 0 && b[i + 3] === 0) continue;
+    covered += 1;
+    const d = Math.max(Math.abs(a[i] - b[i]), Math.abs(a[i + 1] - b[i + 1]), Math.abs(a[i + 2] - b[i + 2]), Math.abs(a[i + 3] - b[i + 3]));
+    worst = Math.max(worst, d);
+    if (d <= tolerance) close += 1;
+  }
+  return { share: covered ? close / covered : 0, covered, worst };
+}
+
 const errors = [];
 let failures = 0;
 try {
@@ -116,23 +136,29 @@ try {
       const a = Buffer.from(reference.pixels, 'base64');
       const b = Buffer.from(relit.pixels, 'base64');
       exported[label] = a;
-      let covered = 0;
-      let close = 0;
-      let worst = 0;
-      for (let i = 0; i < a.length; i += 4) {
-        if (a[i + 3] === 0 && b[i + 3] === 0) continue;
-        covered += 1;
-        const d = Math.max(Math.abs(a[i] - b[i]), Math.abs(a[i + 1] - b[i + 1]), Math.abs(a[i + 2] - b[i + 2]), Math.abs(a[i + 3] - b[i + 3]));
-        worst = Math.max(worst, d);
-        if (d <= c.tolerance) close += 1;
-      }
-      const share = covered ? close / covered : 0;
+      const { share, covered, worst } = compare(a, b, c.tolerance);
       const ok = covered > 1000 && share >= 0.99;
       failures += ok ? 0 : 1;
       const timing = frames ? `; frame ${relit.ms.toFixed(2)} ms PRT, ${reference.ms.toFixed(2)} ms as exported (MeshBasicMaterial)` : '';
       console.log(`browser: ${ok ? 'ok  ' : 'FAIL'} ${c.name} ${label}: ${(100 * share).toFixed(2)} % of ${covered} covered pixels within ${c.tolerance} codes (worst ${worst})${timing}`);
       for (const [which, r] of [['exported', reference], ['prt', relit]]) {
         fs.writeFileSync(path.join(out, `${c.name}-${label}-${which}.rgba`), Buffer.from(r.pixels, 'base64'));
+      }
+    }
+    // export --quantize: the relit render of the 16-bit transfer must match the float
+    // COLOR_0 as closely as the float transfer does, the 8-bit one within twice the codes.
+    if (!c.texel) {
+      const reference = Buffer.from((await render({ glb: `/data/${c.name}.glb`, mode: 'exported', view: c.view })).pixels, 'base64');
+      const float = fs.statSync(path.join(out, `${c.name}.glb`)).size;
+      for (const bits of [16, 8]) {
+        const relit = await render({ glb: `/data/${c.name}-q${bits}.glb`, mode: 'prt', light: light(order), view: c.view });
+        const b = Buffer.from(relit.pixels, 'base64');
+        const tolerance = bits === 8 ? 2 * c.tolerance : c.tolerance;
+        const { share, covered, worst } = compare(reference, b, tolerance);
+        const ok = covered > 1000 && share >= 0.99;
+        failures += ok ? 0 : 1;
+        const size = fs.statSync(path.join(out, `${c.name}-q${bits}.glb`)).size;
+        console.log(`browser: ${ok ? 'ok  ' : 'FAIL'} ${c.name} --quantize ${bits}: ${(100 * share).toFixed(2)} % within ${tolerance} codes of the float COLOR_0 (worst ${worst}); ${size} bytes, ${(100 * size / float).toFixed(1)} % of float's ${float}`);
       }
     }
     // The turn must change the picture, or the turned comparison proves nothing.
