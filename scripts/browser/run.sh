@@ -22,7 +22,7 @@ installed() { # package version: whether target/node holds exactly that version
 }
 if ! installed three "$THREE_VERSION" || ! installed playwright-core "$PLAYWRIGHT_VERSION"; then
     mkdir -p "$NODE_DIR"
-    npm install --silent --no-audit --no-fund --prefix "$NODE_DIR" \
+    npm install --silent --no-audit --no-fund --save-exact --prefix "$NODE_DIR" \
         "three@$THREE_VERSION" "playwright-core@$PLAYWRIGHT_VERSION"
 fi
 cargo build --release -p prt-baker
