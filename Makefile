@@ -19,7 +19,7 @@ SCENE := scenes/torus/torus.scene
 NO_EMBREE := target/no-embree
 NO_EMBREE_BAKE := $(NO_EMBREE)/release/prt-bake
 
-.PHONY: demo test bench bench-view deps build lint unit no-embree embree4 reference interop scenes slurm fuzz
+.PHONY: demo test bench bench-view deps build lint unit no-embree embree4 reference interop scenes slurm fuzz browser
 
 deps:
 	@scripts/install-deps.sh
@@ -83,12 +83,19 @@ interop: build
 	scripts/gltf/validate.sh
 	scripts/python/run-tests.sh
 
+# The web runtime (runtime/three/prt.js) in Debian's chromium (headless, SwiftShader): its
+# renders of a grey and an RGB vertex bake and a texel bake match the as-exported .glb, at the
+# rig and with the light turned in JavaScript; the GLSL ES and WGSL snippets of docs/gltf.md
+# compile (glslangValidator; naga in prt-view's tests). About a minute.
+browser: build
+	scripts/browser/run.sh
+
 # A single-node Slurm cluster (slurmctld, slurmd, munged) started and stopped by the test:
 # scripts/slurm/submit.sh bakes in 4 shards, the merge must equal the single-machine bake.
 slurm: build
 	scripts/slurm/test-cluster.sh $(BAKE)
 
-test: lint unit no-embree embree4 reference interop slurm
+test: lint unit no-embree embree4 reference interop slurm browser
 
 bench: deps
 	$(CARGO) bench -p prt-baker --bench bake

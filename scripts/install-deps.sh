@@ -15,11 +15,15 @@
 #                       the sharded-bake test starts a single-node cluster of its own
 #                       (scripts/slurm/test-cluster.sh) on its own ports and munge socket, so
 #                       it does not need or disturb the packages' own services
+#   chromium            the browser test of the web runtime (scripts/browser/run.sh), headless
+#                       with SwiftShader: no GPU or display needed
+#   glslang-tools       glslangValidator, which compiles docs/gltf.md's GLSL ES snippets
 # The Rust toolchain itself is expected (rustup); python3 for the reference check.
 set -euo pipefail
 
 packages=(libembree-dev libclang-dev mesa-vulkan-drivers libvulkan1 xvfb xauth
-    libx11-6 libxcursor1 libxrandr2 libxi6 libxkbcommon-x11-0 slurm-wlm munge)
+    libx11-6 libxcursor1 libxrandr2 libxi6 libxkbcommon-x11-0 slurm-wlm munge
+    chromium glslang-tools)
 command -v npm >/dev/null 2>&1 || packages+=(npm)
 packages+=(python3-venv)
 missing=()

@@ -1,5 +1,8 @@
 // Validates glTF files with the Khronos glTF-Validator (npm package `gltf-validator`) and
-// exits 1 if any has an error. Usage: node validate.mjs VALIDATOR_MODULE_DIR FILE.glb...
+// exits 1 if any has an error. Also checks prt-bake's own promises (docs/gltf.md): every
+// texture is named by a material slot; a texel bake's relit lightmap is every material's
+// unlit baseColorTexture on TEXCOORD_1; AO is an occlusionTexture on TEXCOORD_1 or `_AO`.
+// Usage: node validate.mjs VALIDATOR_MODULE_DIR FILE.glb...
 import { createRequire } from "node:module";
 import { readFileSync } from "node:fs";
 import path from "node:path";
@@ -24,5 +27,51 @@ for (const file of files) {
     console.log(`  ${m.severity === 0 ? "error" : "warning"} ${m.code} at ${m.pointer}: ${m.message}`);
   }
   if (numErrors > 0) failed = true;
+  for (const problem of layoutProblems(readFileSync(file))) {
+    console.log(`  layout: ${problem}`);
+    failed = true;
+  }
+}
+
+// The JSON chunk of a .glb.
+function glbJson(bytes) {
+  const length = bytes.readUInt32LE(12);
+  return JSON.parse(bytes.subarray(20, 20 + length).toString("utf8"));
+}
+
+function layoutProblems(bytes) {
+  const root = glbJson(bytes);
+  const problems = [];
+  const materials = root.materials ?? [];
+  const slots = (m) => [m.pbrMetallicRoughness?.baseColorTexture, m.occlusionTexture, m.emissiveTexture,
+    m.normalTexture, m.pbrMetallicRoughness?.metallicRoughnessTexture].filter(Boolean);
+  const named = new Set(materials.flatMap((m) => slots(m).map((s) => s.index)));
+  (root.textures ?? []).forEach((t, i) => {
+    // A texel bake's albedo texture under a relit lightmap is only in extras (docs/gltf.md).
+    const albedoOnly = materials.some((m) => m.extras?.prt_albedo_texture?.index === i);
+    if (!named.has(i) && !albedoOnly) problems.push(`texture ${i} (${t.name ?? "unnamed"}) is in no material slot`);
+  });
+  const lightmap = root.asset?.extras?.prt?.lightmap;
+  if (lightmap && Number.isInteger(lightmap.texture)) {
+    materials.forEach((m, i) => {
+      const base = m.pbrMetallicRoughness?.baseColorTexture;
+      if (base?.index !== lightmap.texture || base?.texCoord !== 1 || !m.extensions?.KHR_materials_unlit) {
+        problems.push(`material ${i}: not unlit with the relit lightmap as baseColorTexture on TEXCOORD_1`);
+      }
+    });
+  }
+  if (lightmap && Number.isInteger(lightmap.ao_texture)) {
+    materials.forEach((m, i) => {
+      if (m.occlusionTexture?.index !== lightmap.ao_texture || m.occlusionTexture?.texCoord !== 1) {
+        problems.push(`material ${i}: the AO is not its occlusionTexture on TEXCOORD_1`);
+      }
+    });
+  }
+  if (root.asset?.extras?.prt?.ao) {
+    root.meshes.forEach((mesh) => {
+      if (!mesh.primitives.every((p) => Number.isInteger(p.attributes._AO))) problems.push(`mesh ${mesh.name}: no _AO`);
+    });
+  }
+  return problems;
 }
 process.exit(failed ? 1 : 0);

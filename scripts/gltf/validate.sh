@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Exports the demo bake as .glb (grey and RGB transfer, with and without a rig's COLOR_0, and a
-# lightmap bake with TEXCOORD_1 and its relit lightmap embedded) and
+# lightmap bake with TEXCOORD_1 and its relit lightmap embedded, AO per vertex and per texel) and
 # runs the Khronos glTF-Validator on the files: any error fails. The validator (npm package
 # `gltf-validator`) is installed into target/node on first use.
 set -euo pipefail
@@ -24,11 +24,22 @@ $BAKE export "$OUT/cornell.prt" --scene scenes/cornell/cornell.scene --gltf "$OU
 $BAKE bake scenes/cornell/cornell.scene -o "$OUT/cornell-lm.prt" --lightmap 64 --samples 16 --quiet
 $BAKE export "$OUT/cornell-lm.prt" --scene scenes/cornell/cornell.scene --glb "$OUT/cornell-lm.glb" \
     --lights viewer/src/default-rig.toml
+# AO: a texel bake's as occlusionTexture on TEXCOORD_1 beside the relit lightmap, a vertex
+# bake's as the _AO attribute.
+$BAKE bake scenes/cornell/cornell.scene -o "$OUT/cornell-lm-ao.prt" --lightmap 64 --samples 16 --aux ao --quiet
+$BAKE export "$OUT/cornell-lm-ao.prt" --scene scenes/cornell/cornell.scene --glb "$OUT/cornell-lm-ao.glb" \
+    --lights viewer/src/default-rig.toml
+$BAKE bake scenes/torus/torus.scene -o "$OUT/torus-ao.prt" --samples 16 --order 3 --aux ao --quiet
+$BAKE export "$OUT/torus-ao.prt" --scene scenes/torus/torus.scene --glb "$OUT/torus-ao.glb"
+# The texel bake without a rig: plain PBR materials, what a re-bake reads (the rig's export
+# has the relit lightmap as its base colour texture).
+$BAKE export "$OUT/cornell-lm.prt" --scene scenes/cornell/cornell.scene --glb "$OUT/cornell-lm-plain.glb"
 # The exported file read back as a scene: the round trip.
 $BAKE bake "$OUT/torus.glb" -o "$OUT/torus-from-glb.prt" --samples 16 --order 3 --quiet
 $BAKE export "$OUT/torus-from-glb.prt" --scene "$OUT/torus.glb" --gltf "$OUT/torus-again.glb"
 # The texel bake's glb as a scene: its TEXCOORD_1 is the atlas of a new texel bake.
-$BAKE bake "$OUT/cornell-lm.glb" -o "$OUT/cornell-lm-from-glb.prt" --lightmap 64 --samples 16 --quiet
-$BAKE export "$OUT/cornell-lm-from-glb.prt" --scene "$OUT/cornell-lm.glb" --glb "$OUT/cornell-lm-again.glb"
+$BAKE bake "$OUT/cornell-lm-plain.glb" -o "$OUT/cornell-lm-from-glb.prt" --lightmap 64 --samples 16 --quiet
+$BAKE export "$OUT/cornell-lm-from-glb.prt" --scene "$OUT/cornell-lm-plain.glb" --glb "$OUT/cornell-lm-again.glb"
 node scripts/gltf/validate.mjs "$NODE_DIR/node_modules" "$OUT/torus.glb" "$OUT/cornell.glb" "$OUT/torus-again.glb" \
-    "$OUT/cornell-lm.glb" "$OUT/cornell-lm-again.glb"
+    "$OUT/cornell-lm.glb" "$OUT/cornell-lm-again.glb" "$OUT/cornell-lm-ao.glb" "$OUT/torus-ao.glb" \
+    "$OUT/cornell-lm-plain.glb"

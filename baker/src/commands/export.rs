@@ -26,6 +26,10 @@ pub struct ExportArgs {
     /// or into an embedded lightmap texture (lightmap bakes).
     #[arg(long, requires = "gltf")]
     lights: Option<PathBuf>,
+    /// With --gltf: the transfer attributes as normalized 16- or 8-bit integers, a scale per
+    /// attribute (docs/gltf.md); float without it.
+    #[arg(long, value_name = "BITS", requires = "gltf")]
+    quantize: Option<u32>,
     /// Output directory (created if missing) for a lightmap bake's coefficients as OpenEXR
     /// images, 4 per RGBA image, with the texel mask, AO, bent normals and a manifest.json
     /// (docs/lightmaps.md).

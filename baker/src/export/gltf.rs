@@ -59,6 +59,57 @@ pub struct Written {
     pub lightmap: Option<[u32; 2]>,
     /// Whether the relit lightmap is embedded (texel bakes with a rig).
     pub lightmap_texture: bool,
+    /// Whether the bake's AO is in the file (`_AO` per vertex, or an occlusionTexture).
+    pub ao: bool,
+}
+
+/// `export --quantize`: the transfer attributes as normalized signed integers, each attribute
+/// scaled by its largest magnitude (in `asset.extras.prt.quantization.scales`): a shader
+/// multiplies the attribute (in [−1, 1]) by its scale, or folds the scale into the light.
+/// glTF core allows any component type but unsigned int for custom attributes, so no
+/// extension is required (KHR_mesh_quantization would be needed only for POSITION etc.).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Quantize {
+    /// BYTE, normalized: 4 bytes per VEC4 (float: 16).
+    Bits8,
+    /// SHORT, normalized: 8 bytes per VEC4.
+    Bits16,
+}
+
+impl Quantize {
+    /// `--quantize BITS`: 8, 16, or none.
+    pub fn from_bits(bits: Option<u32>) -> Result<Option<Quantize>> {
+        match bits {
+            None => Ok(None),
+            Some(8) => Ok(Some(Quantize::Bits8)),
+            Some(16) => Ok(Some(Quantize::Bits16)),
+            Some(other) => Err(Error::InvalidOption(format!(
+                "--quantize {other}: the transfer quantizes to 16 or 8 bits"
+            ))),
+        }
+    }
+
+    /// The largest code, 2^(bits−1) − 1.
+    fn max_code(self) -> f32 {
+        match self {
+            Quantize::Bits8 => 127.0,
+            Quantize::Bits16 => 32767.0,
+        }
+    }
+
+    fn bits(self) -> u32 {
+        match self {
+            Quantize::Bits8 => 8,
+            Quantize::Bits16 => 16,
+        }
+    }
+
+    fn component_type(self) -> u32 {
+        match self {
+            Quantize::Bits8 => BYTE,
+            Quantize::Bits16 => SHORT,
+        }
+    }
 }
 
 /// Names of the VEC4 transfer attributes of a bake of `order` with `channels` (1 or 3).
@@ -81,6 +132,18 @@ pub fn export_glb(
     output: &Path,
     rig: Option<&Path>,
 ) -> Result<Written> {
+    export_glb_quantized(coefficients, scene, output, rig, None)
+}
+
+/// [`export_glb`] with the transfer attributes quantized (vertex bakes; a texel bake's file
+/// has none, and `quantize` changes nothing there).
+pub fn export_glb_quantized(
+    coefficients: &Path,
+    scene: &Path,
+    output: &Path,
+    rig: Option<&Path>,
+    quantize: Option<Quantize>,
+) -> Result<Written> {
     let rig = rig.map(Rig::load).transpose()?;
     let file = CoefficientFile::read(coefficients)?;
     let scene = Scene::load(scene)?;
@@ -102,7 +165,7 @@ pub fn export_glb(
         light: light.as_ref(),
         up,
     };
-    let (bytes, written) = glb_bytes(&scene, &contents)?;
+    let (bytes, written) = glb_bytes_with(&scene, &contents, None, quantize)?;
     output.write(&bytes)?;
     Ok(written)
 }
@@ -140,13 +203,18 @@ fn lightmap_glb_bytes(
         light: None,
         up: file.header.up,
     };
+    let ao_png = match &file.ao {
+        None => None,
+        Some(ao) => Some(ao_png_bytes(ao, block.width, block.height, output)?),
+    };
     let lightmap = LightmapContents {
         width: block.width,
         height: block.height,
         file,
         png: image,
+        ao_png,
     };
-    glb_bytes_with(&split, &contents, Some(&lightmap))
+    glb_bytes_with(&split, &contents, Some(&lightmap), None)
 }
 
 /// The scene with one vertex per distinct (vertex, lightmap UV) pair of its triangle corners
@@ -202,7 +270,10 @@ struct LightmapContents<'a> {
     width: u32,
     height: u32,
     file: &'a CoefficientFile,
+    /// The relit lightmap (sRGB PNG), with a light.
     png: Option<Vec<u8>>,
+    /// The AO (linear grey PNG), where the bake has it.
+    ao_png: Option<Vec<u8>>,
 }
 
 /// A growing binary chunk and the JSON objects that index it.
@@ -212,10 +283,35 @@ struct Builder {
     accessors: Vec<Value>,
 }
 
+// glTF's numbers for OpenGL enums (the specification's accessor, buffer view, primitive and
+// sampler fields).
+/// `componentType` of f32.
 const FLOAT: u32 = 5126;
+/// `componentType` of i8 (quantized transfer).
+const BYTE: u32 = 5120;
+/// `componentType` of i16 (quantized transfer).
+const SHORT: u32 = 5122;
+/// `componentType` of u32 (indices).
 const UNSIGNED_INT: u32 = 5125;
+/// `bufferView.target` of vertex attributes.
 const ARRAY_BUFFER: u32 = 34962;
+/// `bufferView.target` of indices.
 const ELEMENT_ARRAY_BUFFER: u32 = 34963;
+/// `primitive.mode` of a triangle list.
+const TRIANGLES: u32 = 4;
+/// Sampler filter: linear.
+const LINEAR: u32 = 9729;
+/// Sampler minification filter: linear between linear mipmaps (trilinear).
+const LINEAR_MIPMAP_LINEAR: u32 = 9987;
+/// Sampler wrap mode: repeat.
+const REPEAT: u32 = 10497;
+/// Sampler wrap mode: clamp to edge.
+const CLAMP_TO_EDGE: u32 = 33071;
+
+/// Sampler 0: albedo textures, repeat wrapping as the baker samples them, trilinear.
+const ALBEDO_SAMPLER: usize = 0;
+/// Sampler 1: lightmaps (relit light, AO), clamped to the edge, linear without mipmaps.
+const LIGHTMAP_SAMPLER: usize = 1;
 
 impl Builder {
     /// Appends bytes as a buffer view (4-byte aligned) and returns its index.
@@ -236,12 +332,13 @@ impl Builder {
         self.buffer_views.len() - 1
     }
 
-    /// A float accessor of `kind` ("VEC2", "VEC3", "VEC4") over `floats`; `bounds` adds the
-    /// min and max the specification requires for POSITION.
+    /// A float accessor of 1 to 4 `components` ("SCALAR", "VEC2", "VEC3", "VEC4") over
+    /// `floats`; `bounds` adds the min and max the specification requires for POSITION.
     fn floats(&mut self, floats: &[f32], components: usize, bounds: bool) -> usize {
         let bytes: Vec<u8> = floats.iter().flat_map(|f| f.to_le_bytes()).collect();
         let view = self.view(&bytes, Some(ARRAY_BUFFER));
         let kind = match components {
+            1 => "SCALAR",
             2 => "VEC2",
             3 => "VEC3",
             _ => "VEC4",
@@ -268,6 +365,27 @@ impl Builder {
         self.accessors.len() - 1
     }
 
+    /// A normalized signed-integer VEC4 accessor of `values` / `scale` (|values| ≤ scale).
+    fn quantized(&mut self, values: &[f32], scale: f32, quantize: Quantize) -> usize {
+        let max = quantize.max_code();
+        let codes = values
+            .iter()
+            .map(|x| (x / scale * max).round().clamp(-max, max));
+        let bytes: Vec<u8> = match quantize {
+            Quantize::Bits8 => codes.map(|c| (c as i8).to_le_bytes()[0]).collect(),
+            Quantize::Bits16 => codes.flat_map(|c| (c as i16).to_le_bytes()).collect(),
+        };
+        let view = self.view(&bytes, Some(ARRAY_BUFFER));
+        self.accessors.push(json!({
+            "bufferView": view,
+            "componentType": quantize.component_type(),
+            "normalized": true,
+            "count": values.len() / 4,
+            "type": "VEC4",
+        }));
+        self.accessors.len() - 1
+    }
+
     fn indices(&mut self, indices: &[u32]) -> usize {
         let bytes: Vec<u8> = indices.iter().flat_map(|i| i.to_le_bytes()).collect();
         let view = self.view(&bytes, Some(ELEMENT_ARRAY_BUFFER));
@@ -283,79 +401,133 @@ impl Builder {
 
 /// The `.glb` bytes of `scene` and what they hold.
 pub fn glb_bytes(scene: &Scene, contents: &Contents<'_>) -> Result<(Vec<u8>, Written)> {
-    glb_bytes_with(scene, contents, None)
+    glb_bytes_with(scene, contents, None, None)
 }
 
-fn glb_bytes_with(
-    scene: &Scene,
-    contents: &Contents<'_>,
-    lightmap_contents: Option<&LightmapContents<'_>>,
-) -> Result<(Vec<u8>, Written)> {
+/// The scene's per-vertex arrays in glTF's frame and conventions, flattened.
+struct VertexArrays {
+    /// Scene coordinates → glTF's y-up frame.
+    turn: DMat3,
+    turned: bool,
+    positions: Vec<f32>,
+    normals: Vec<f32>,
+    texcoords: Vec<f32>,
+    lightmap: Option<Vec<f32>>,
+}
+
+/// Step 1: positions, normals and UVs turned to +y up, UVs with v flipped to glTF's.
+fn vertex_arrays(scene: &Scene, up: Up) -> VertexArrays {
     // Scene coordinates → the rig's z-up frame → glTF's y-up frame.
-    let turn: DMat3 = Up::Y.from_z_up() * contents.up.from_z_up().transpose();
-    let turned = contents.up != Up::Y;
+    let turn: DMat3 = Up::Y.from_z_up() * up.from_z_up().transpose();
     let turn_f32 = turn.as_mat3();
-    let vec3s = |values: &[Vec3]| -> Vec<f32> {
-        values
-            .iter()
-            .flat_map(|v| (turn_f32 * *v).to_array())
-            .collect()
-    };
     let uvs =
         |values: &[Vec2]| -> Vec<f32> { values.iter().flat_map(|uv| [uv.x, 1.0 - uv.y]).collect() };
-    let positions = vec3s(&scene.positions);
-    let normals: Vec<f32> = scene
-        .normals
-        .iter()
-        .flat_map(|n| (turn_f32 * *n).normalize().to_array())
-        .collect();
-    let texcoords = uvs(&scene.uvs);
-    let lightmap = scene.lightmap_uvs.as_deref().map(uvs);
+    VertexArrays {
+        turn,
+        turned: up != Up::Y,
+        positions: scene
+            .positions
+            .iter()
+            .flat_map(|v| (turn_f32 * *v).to_array())
+            .collect(),
+        normals: scene
+            .normals
+            .iter()
+            .flat_map(|n| (turn_f32 * *n).normalize().to_array())
+            .collect(),
+        texcoords: uvs(&scene.uvs),
+        lightmap: scene.lightmap_uvs.as_deref().map(uvs),
+    }
+}
 
-    // Transfer, turned like the geometry, as per-attribute VEC4 arrays over all vertices.
-    let mut prt_names = Vec::new();
-    let mut prt_arrays: Vec<Vec<f32>> = Vec::new();
-    let mut colour: Option<Vec<f32>> = None;
-    if let Some(file) = contents.file {
-        let order = file.header.order as usize;
-        let channels = file.header.channels as usize;
-        let n = sh::coeff_count(order);
-        let per_channel = n.div_ceil(4);
-        let rotation = ShRotation::from_matrix(order, turn);
-        prt_names = prt_attribute_names(order, channels);
-        prt_arrays = vec![vec![0.0; scene.vertex_count() * 4]; prt_names.len()];
-        for v in 0..scene.vertex_count() {
-            for c in 0..channels {
-                let original: Vec<f64> = file.vertex(v, c).iter().map(|&t| f64::from(t)).collect();
-                let rotated = if turned {
-                    rotation.rotate(&original)
-                } else {
-                    original
-                };
-                for (j, t) in rotated.iter().enumerate() {
-                    prt_arrays[c * per_channel + j / 4][v * 4 + j % 4] = *t as f32;
-                }
+/// A vertex bake's own attributes: the transfer, COLOR_0 and `_AO`.
+#[derive(Default)]
+struct VertexTransfer {
+    names: Vec<String>,
+    /// Per attribute, VEC4s over all vertices.
+    arrays: Vec<Vec<f32>>,
+    colour: Option<Vec<f32>>,
+    ao: Option<Vec<f32>>,
+    /// With `export --quantize`: the bits and per attribute its scale (largest magnitude).
+    quantized: Option<(Quantize, Vec<f32>)>,
+}
+
+/// Step 2: the transfer turned like the geometry (its SH coefficients rotated), as
+/// per-attribute VEC4 arrays; COLOR_0 with a light; the AO where the file has it.
+fn vertex_transfer(
+    scene: &Scene,
+    contents: &Contents<'_>,
+    arrays: &VertexArrays,
+    quantize: Option<Quantize>,
+) -> VertexTransfer {
+    let Some(file) = contents.file else {
+        return VertexTransfer::default();
+    };
+    let order = file.header.order as usize;
+    let channels = file.header.channels as usize;
+    let per_channel = sh::coeff_count(order).div_ceil(4);
+    let rotation = ShRotation::from_matrix(order, arrays.turn);
+    let names = prt_attribute_names(order, channels);
+    let mut prt = vec![vec![0.0; scene.vertex_count() * 4]; names.len()];
+    for v in 0..scene.vertex_count() {
+        for c in 0..channels {
+            let original: Vec<f64> = file.vertex(v, c).iter().map(|&t| f64::from(t)).collect();
+            let rotated = if arrays.turned {
+                rotation.rotate(&original)
+            } else {
+                original
+            };
+            for (j, t) in rotated.iter().enumerate() {
+                prt[c * per_channel + j / 4][v * 4 + j % 4] = *t as f32;
             }
         }
-        if let Some(light) = contents.light {
-            let ones = vec![Vec3::ONE; scene.vertex_count()];
-            let shading = crate::export::relight::vertex_radiance(file, &ones, light);
-            colour = Some(
-                shading
-                    .iter()
-                    .flat_map(|rgb| rgb.map(|x| x.clamp(0.0, 1.0)))
-                    .collect(),
-            );
-        }
     }
+    let colour = contents.light.map(|light| {
+        let ones = vec![Vec3::ONE; scene.vertex_count()];
+        crate::export::relight::vertex_radiance(file, &ones, light)
+            .iter()
+            .flat_map(|rgb| rgb.map(|x| x.clamp(0.0, 1.0)))
+            .collect()
+    });
+    let quantized = quantize.map(|q| {
+        let scales = prt
+            .iter()
+            .map(|a| a.iter().fold(0.0f32, |m, x| m.max(x.abs())))
+            .map(|m| if m > 0.0 { m } else { 1.0 })
+            .collect();
+        (q, scales)
+    });
+    VertexTransfer {
+        names,
+        arrays: prt,
+        colour,
+        ao: file.ao.clone(),
+        quantized,
+    }
+}
 
-    let mut b = Builder {
-        bin: Vec::new(),
-        buffer_views: Vec::new(),
-        accessors: Vec::new(),
-    };
+/// Images, textures and materials, and which textures are the lightmap's.
+struct Materials {
+    images: Vec<Value>,
+    textures: Vec<Value>,
+    materials: Vec<Value>,
+    /// The relit lightmap's texture index.
+    lightmap_texture: Option<usize>,
+    /// The texel AO's texture index (occlusionTexture).
+    occlusion_texture: Option<usize>,
+    unlit: bool,
+}
 
-    // Textures as PNG, then materials (one per scene material).
+/// Step 3: albedo textures as PNG, a texel bake's relit lightmap and AO, and one material
+/// per scene material. Unlit (`KHR_materials_unlit`) where the file carries the relit light:
+/// COLOR_0 of a vertex bake, or a texel bake's relit lightmap as the base colour texture on
+/// TEXCOORD_1 (docs/gltf.md says why).
+fn materials(
+    b: &mut Builder,
+    scene: &Scene,
+    vertex_lit: bool,
+    lightmap: Option<&LightmapContents<'_>>,
+) -> Result<Materials> {
     let mut images = Vec::new();
     for texture in &scene.textures {
         let png = png_bytes(texture)?;
@@ -363,79 +535,114 @@ fn glb_bytes_with(
         images.push(json!({"bufferView": view, "mimeType": "image/png"}));
     }
     let mut textures: Vec<Value> = (0..scene.textures.len())
-        .map(|i| json!({"source": i, "sampler": 0}))
+        .map(|i| json!({"source": i, "sampler": ALBEDO_SAMPLER}))
         .collect();
-    // The relit lightmap: clamped to its edge, linear filtering without mipmaps (sampler 1).
-    let lightmap_texture = match lightmap_contents.and_then(|l| l.png.as_deref()) {
-        None => None,
-        Some(png) => {
+    let mut embed = |png: Option<&[u8]>, name: &str| {
+        png.map(|png| {
             let view = b.view(png, None);
-            images
-                .push(json!({"bufferView": view, "mimeType": "image/png", "name": "prt_lightmap"}));
-            textures
-                .push(json!({"source": images.len() - 1, "sampler": 1, "name": "prt_lightmap"}));
-            Some(textures.len() - 1)
-        }
+            images.push(json!({"bufferView": view, "mimeType": "image/png", "name": name}));
+            textures.push(
+                json!({"source": images.len() - 1, "sampler": LIGHTMAP_SAMPLER, "name": name}),
+            );
+            textures.len() - 1
+        })
     };
-    let unlit = colour.is_some();
-    let materials: Vec<Value> = scene
+    let lightmap_texture = embed(lightmap.and_then(|l| l.png.as_deref()), "prt_lightmap");
+    let occlusion_texture = embed(lightmap.and_then(|l| l.ao_png.as_deref()), "prt_ao");
+    let unlit = vertex_lit || lightmap_texture.is_some();
+    let materials = scene
         .materials
         .iter()
-        .map(|m| {
-            // glTF's factor is at most 1 (a reflectance); an OBJ's Kd may exceed it.
-            let kd = m.kd.clamp(Vec3::ZERO, Vec3::ONE);
-            let mut pbr = json!({
-                "baseColorFactor": [kd.x, kd.y, kd.z, 1.0],
-                "metallicFactor": 0.0,
-                "roughnessFactor": 1.0,
-            });
-            if let Some(t) = m.texture {
-                pbr["baseColorTexture"] = json!({"index": t});
-            }
-            let mut material = json!({"name": m.name, "pbrMetallicRoughness": pbr});
-            if unlit {
-                material["extensions"] = json!({"KHR_materials_unlit": {}});
-            }
-            if let Some(t) = lightmap_texture {
-                material["extras"] = json!({"prt_lightmap": {"index": t, "texCoord": 1}});
-            }
-            material
-        })
+        .map(|m| material(m, unlit, lightmap_texture, occlusion_texture))
         .collect();
+    Ok(Materials {
+        images,
+        textures,
+        materials,
+        lightmap_texture,
+        occlusion_texture,
+        unlit,
+    })
+}
 
+/// One material: base colour Kd (× its texture), metallic 0, roughness 1; unlit when the
+/// file carries the relit light. A texel bake's relit lightmap takes the base colour texture
+/// slot on TEXCOORD_1 (the albedo texture, if any, is then named in
+/// `extras.prt_albedo_texture`), its AO the occlusion slot on TEXCOORD_1.
+fn material(
+    m: &crate::scene::Material,
+    unlit: bool,
+    lightmap_texture: Option<usize>,
+    occlusion_texture: Option<usize>,
+) -> Value {
+    // glTF's factor is at most 1 (a reflectance); an OBJ's Kd may exceed it.
+    let kd = m.kd.clamp(Vec3::ZERO, Vec3::ONE);
+    let mut pbr = json!({
+        "baseColorFactor": [kd.x, kd.y, kd.z, 1.0],
+        "metallicFactor": 0.0,
+        "roughnessFactor": 1.0,
+    });
+    match (lightmap_texture, m.texture) {
+        (Some(t), _) => pbr["baseColorTexture"] = json!({"index": t, "texCoord": 1}),
+        (None, Some(t)) => pbr["baseColorTexture"] = json!({"index": t}),
+        (None, None) => {}
+    }
+    let mut material = json!({"name": m.name, "pbrMetallicRoughness": pbr});
+    if unlit {
+        material["extensions"] = json!({"KHR_materials_unlit": {}});
+    }
+    if let Some(t) = occlusion_texture {
+        material["occlusionTexture"] = json!({"index": t, "texCoord": 1});
+    }
+    if let Some(t) = lightmap_texture {
+        material["extras"] = json!({"prt_lightmap": {"index": t, "texCoord": 1}});
+        if let Some(albedo) = m.texture {
+            material["extras"]["prt_albedo_texture"] = json!({"index": albedo, "texCoord": 0});
+        }
+    }
+    material
+}
+
+/// Step 4: one mesh of one triangle-list primitive per scene object, its attributes sliced
+/// from the arrays.
+fn meshes(
+    b: &mut Builder,
+    scene: &Scene,
+    arrays: &VertexArrays,
+    transfer: &VertexTransfer,
+) -> Vec<Value> {
     let mut meshes = Vec::new();
     for object in &scene.objects {
         let (v0, v1) = (object.vertices.start as usize, object.vertices.end as usize);
         let mut attributes = serde_json::Map::new();
-        attributes.insert(
-            "POSITION".into(),
-            json!(b.floats(&positions[3 * v0..3 * v1], 3, true)),
+        let slice = |values: &[f32], n: usize| values[n * v0..n * v1].to_vec();
+        let mut add = |name: &str, accessor: usize| {
+            attributes.insert(name.into(), json!(accessor));
+        };
+        add("POSITION", b.floats(&slice(&arrays.positions, 3), 3, true));
+        add("NORMAL", b.floats(&slice(&arrays.normals, 3), 3, false));
+        add(
+            "TEXCOORD_0",
+            b.floats(&slice(&arrays.texcoords, 2), 2, false),
         );
-        attributes.insert(
-            "NORMAL".into(),
-            json!(b.floats(&normals[3 * v0..3 * v1], 3, false)),
-        );
-        attributes.insert(
-            "TEXCOORD_0".into(),
-            json!(b.floats(&texcoords[2 * v0..2 * v1], 2, false)),
-        );
-        if let Some(lightmap) = &lightmap {
-            attributes.insert(
-                "TEXCOORD_1".into(),
-                json!(b.floats(&lightmap[2 * v0..2 * v1], 2, false)),
+        if let Some(lightmap) = &arrays.lightmap {
+            add("TEXCOORD_1", b.floats(&slice(lightmap, 2), 2, false));
+        }
+        if let Some(colour) = &transfer.colour {
+            add("COLOR_0", b.floats(&slice(colour, 3), 3, false));
+        }
+        for (i, (name, array)) in transfer.names.iter().zip(&transfer.arrays).enumerate() {
+            let values = slice(array, 4);
+            add(
+                name,
+                match &transfer.quantized {
+                    None => b.floats(&values, 4, false),
+                    Some((q, scales)) => b.quantized(&values, scales[i], *q),
+                },
             );
         }
-        if let Some(colour) = &colour {
-            attributes.insert(
-                "COLOR_0".into(),
-                json!(b.floats(&colour[3 * v0..3 * v1], 3, false)),
-            );
-        }
-        for (name, array) in prt_names.iter().zip(&prt_arrays) {
-            attributes.insert(
-                name.clone(),
-                json!(b.floats(&array[4 * v0..4 * v1], 4, false)),
-            );
+        if let Some(ao) = &transfer.ao {
+            add("_AO", b.floats(&slice(ao, 1), 1, false));
         }
         let local: Vec<u32> = scene.triangles
             [object.triangles.start as usize..object.triangles.end as usize]
@@ -444,96 +651,158 @@ fn glb_bytes_with(
             .map(|i| i - object.vertices.start)
             .collect();
         let indices = b.indices(&local);
-        let material = scene.vertex_material[v0];
         meshes.push(json!({
             "name": object.name,
             "primitives": [{
                 "attributes": attributes,
                 "indices": indices,
-                "material": material,
-                "mode": 4,
+                "material": scene.vertex_material[v0],
+                "mode": TRIANGLES,
             }],
         }));
     }
+    meshes
+}
 
+/// Step 5: `asset.extras.prt`, the conventions and what the file holds.
+fn asset_extras(
+    contents: &Contents<'_>,
+    transfer: &VertexTransfer,
+    lightmap: Option<&LightmapContents<'_>>,
+    materials: &Materials,
+) -> Option<Value> {
+    if let Some(file) = contents.file {
+        let h = &file.header;
+        let mut prt = json!({
+            "order": h.order,
+            "channels": h.channels,
+            "attributes": transfer.names,
+            "coefficients_per_channel": sh::coeff_count(h.order as usize),
+            "convention": "real orthonormal SH, index l(l+1)+m, Condon-Shortley phase, of \
+                directions in this file's coordinates (theta from +z, phi from +x towards +y); \
+                transfer excludes the albedo (the base colour)",
+            "mode": h.mode.name(),
+            "colour_0": if transfer.colour.is_some() { "transfer . light per channel, clamped to [0, 1]; times the base colour it is the relit radiance" } else { "absent" },
+        });
+        if transfer.ao.is_some() {
+            prt["ao"] = json!("_AO: SCALAR float, the ambient accessibility per vertex");
+        }
+        if let Some((q, scales)) = &transfer.quantized {
+            let scales: serde_json::Map<String, Value> = transfer
+                .names
+                .iter()
+                .zip(scales)
+                .map(|(name, scale)| (name.clone(), json!(scale)))
+                .collect();
+            prt["quantization"] = json!({
+                "bits": q.bits(),
+                "scales": scales,
+                "decode": "transfer = attribute (normalized signed integer, in [-1, 1]) x its scale",
+            });
+        }
+        return Some(json!({ "prt": prt }));
+    }
+    let l = lightmap?;
+    let h = &l.file.header;
+    let mut lightmap_json = json!({
+        "width": l.width,
+        "height": l.height,
+        "texCoord": 1,
+        "uv_convention": "glTF's: v down from the image's top; row 0 of the \
+            lightmap images prt-bake writes (export --exr, relight) is v = 0",
+        "transfer": "per texel, not in this file: prt-bake export --exr writes it \
+            as images (manifest.json)",
+        "texture": materials.lightmap_texture,
+        "texture_holds": if materials.lightmap_texture.is_some() { "transfer . light per channel (albedo 1), clamped to [0, 1], sRGB-encoded; times the base colour it is the relit radiance" } else { "absent" },
+    });
+    if let Some(t) = materials.lightmap_texture {
+        lightmap_json["material_slot"] = json!(format!(
+            "every material's baseColorTexture (texCoord 1), unlit (KHR_materials_unlit): texture {t}"
+        ));
+    }
+    if let Some(t) = materials.occlusion_texture {
+        lightmap_json["ao_texture"] = json!(t);
+    }
+    Some(json!({
+        "prt": {
+            "order": h.order,
+            "channels": h.channels,
+            "mode": h.mode.name(),
+            "lightmap": lightmap_json,
+        }
+    }))
+}
+
+/// Step 6: the glTF JSON document.
+fn document(
+    scene: &Scene,
+    b: Builder,
+    meshes: Vec<Value>,
+    materials: Materials,
+    extras: Option<Value>,
+) -> (Value, Vec<u8>) {
+    let Builder {
+        mut bin,
+        buffer_views,
+        accessors,
+    } = b;
+    while bin.len() % 4 != 0 {
+        bin.push(0);
+    }
     let nodes: Vec<Value> = scene
         .objects
         .iter()
         .enumerate()
         .map(|(i, o)| json!({"name": o.name, "mesh": i}))
         .collect();
-    while b.bin.len() % 4 != 0 {
-        b.bin.push(0);
-    }
     let mut root = json!({
         "asset": {"version": "2.0", "generator": concat!("prt-bake ", env!("CARGO_PKG_VERSION"))},
         "scene": 0,
         "scenes": [{"nodes": (0..nodes.len()).collect::<Vec<_>>()}],
         "nodes": nodes,
         "meshes": meshes,
-        "materials": materials,
-        "accessors": b.accessors,
-        "bufferViews": b.buffer_views,
-        "buffers": [{"byteLength": b.bin.len()}],
+        "materials": materials.materials,
+        "accessors": accessors,
+        "bufferViews": buffer_views,
+        "buffers": [{"byteLength": bin.len()}],
     });
-    if !images.is_empty() {
-        root["images"] = json!(images);
-        root["textures"] = json!(textures);
-        // Repeat wrapping, as the baker samples textures; linear filtering with mipmaps.
-        root["samplers"] =
-            json!([{"magFilter": 9729, "minFilter": 9987, "wrapS": 10497, "wrapT": 10497}]);
-        if lightmap_texture.is_some() {
-            root["samplers"].as_array_mut().expect("an array").push(
-                json!({"magFilter": 9729, "minFilter": 9729, "wrapS": 33071, "wrapT": 33071}),
-            );
+    if !materials.images.is_empty() {
+        let mut samplers = vec![json!({
+            "magFilter": LINEAR,
+            "minFilter": LINEAR_MIPMAP_LINEAR,
+            "wrapS": REPEAT,
+            "wrapT": REPEAT,
+        })];
+        if materials.lightmap_texture.is_some() || materials.occlusion_texture.is_some() {
+            samplers.push(json!({
+                "magFilter": LINEAR,
+                "minFilter": LINEAR,
+                "wrapS": CLAMP_TO_EDGE,
+                "wrapT": CLAMP_TO_EDGE,
+            }));
         }
+        root["images"] = json!(materials.images);
+        root["textures"] = json!(materials.textures);
+        root["samplers"] = json!(samplers);
     }
-    if unlit {
+    if materials.unlit {
         root["extensionsUsed"] = json!(["KHR_materials_unlit"]);
     }
-    if let Some(file) = contents.file {
-        let h = &file.header;
-        root["asset"]["extras"] = json!({
-            "prt": {
-                "order": h.order,
-                "channels": h.channels,
-                "attributes": prt_names,
-                "coefficients_per_channel": sh::coeff_count(h.order as usize),
-                "convention": "real orthonormal SH, index l(l+1)+m, Condon-Shortley phase, of \
-                    directions in this file's coordinates (theta from +z, phi from +x towards +y); \
-                    transfer excludes the albedo (the base colour)",
-                "mode": h.mode.name(),
-                "colour_0": if colour.is_some() { "transfer . light per channel, clamped to [0, 1]; times the base colour it is the relit radiance" } else { "absent" },
-            }
-        });
+    if let Some(extras) = extras {
+        root["asset"]["extras"] = extras;
     }
+    (root, bin)
+}
 
-    if let Some(l) = lightmap_contents {
-        let h = &l.file.header;
-        root["asset"]["extras"] = json!({
-            "prt": {
-                "order": h.order,
-                "channels": h.channels,
-                "mode": h.mode.name(),
-                "lightmap": {
-                    "width": l.width,
-                    "height": l.height,
-                    "texCoord": 1,
-                    "uv_convention": "glTF's: v down from the image's top; row 0 of the \
-                        lightmap images prt-bake writes (export --exr, relight) is v = 0",
-                    "transfer": "per texel, not in this file: prt-bake export --exr writes it \
-                        as images (manifest.json)",
-                    "texture": lightmap_texture,
-                    "texture_holds": if lightmap_texture.is_some() { "transfer . light per channel (albedo 1), clamped to [0, 1], sRGB-encoded; times the base colour it is the relit radiance" } else { "absent" },
-                },
-            }
-        });
-    }
-    let mut json_bytes = serde_json::to_vec(&root).expect("plain JSON serialises");
+/// Step 7: the binary container: header, JSON chunk (space-padded), BIN chunk.
+fn glb_container(root: &Value, bin: &[u8]) -> Result<Vec<u8>> {
+    let mut json_bytes = serde_json::to_vec(root).map_err(|err| {
+        Error::InvalidOption(format!("the glTF's JSON does not serialise: {err}"))
+    })?;
     while json_bytes.len() % 4 != 0 {
         json_bytes.push(b' ');
     }
-    let total = 12 + 8 + json_bytes.len() + 8 + b.bin.len();
+    let total = 12 + 8 + json_bytes.len() + 8 + bin.len();
     let total_u32 = u32::try_from(total).map_err(|_| {
         Error::InvalidOption(format!(
             "the glTF would be {total} bytes, over the 4 GiB a .glb can hold"
@@ -546,23 +815,72 @@ fn glb_bytes_with(
     bytes.extend((json_bytes.len() as u32).to_le_bytes());
     bytes.extend(b"JSON");
     bytes.extend(&json_bytes);
-    bytes.extend((b.bin.len() as u32).to_le_bytes());
+    bytes.extend((bin.len() as u32).to_le_bytes());
     bytes.extend(b"BIN\0");
-    bytes.extend(&b.bin);
+    bytes.extend(bin);
+    Ok(bytes)
+}
 
+fn glb_bytes_with(
+    scene: &Scene,
+    contents: &Contents<'_>,
+    lightmap: Option<&LightmapContents<'_>>,
+    quantize: Option<Quantize>,
+) -> Result<(Vec<u8>, Written)> {
+    let arrays = vertex_arrays(scene, contents.up);
+    let transfer = vertex_transfer(scene, contents, &arrays, quantize);
+    let mut b = Builder {
+        bin: Vec::new(),
+        buffer_views: Vec::new(),
+        accessors: Vec::new(),
+    };
+    let materials = materials(&mut b, scene, transfer.colour.is_some(), lightmap)?;
+    let meshes = meshes(&mut b, scene, &arrays, &transfer);
+    let extras = asset_extras(contents, &transfer, lightmap, &materials);
+    let textures = materials.textures.len();
+    let lightmap_texture = materials.lightmap_texture.is_some();
+    let ao = transfer.ao.is_some() || materials.occlusion_texture.is_some();
+    let (root, bin) = document(scene, b, meshes, materials, extras);
+    let bytes = glb_container(&root, &bin)?;
     let written = Written {
         vertex_count: scene.vertex_count(),
         triangle_count: scene.triangles.len(),
         materials: scene.materials.len(),
-        textures: scene.textures.len(),
-        prt_attributes: prt_names,
-        colour: colour.is_some(),
+        textures,
+        prt_attributes: transfer.names,
+        colour: transfer.colour.is_some(),
         bytes: bytes.len(),
-        turned_to_y_up: turned,
-        lightmap: lightmap_contents.map(|l| [l.width, l.height]),
-        lightmap_texture: lightmap_texture.is_some(),
+        turned_to_y_up: arrays.turned,
+        lightmap: lightmap.map(|l| [l.width, l.height]),
+        lightmap_texture,
+        ao,
     };
     Ok((bytes, written))
+}
+
+/// A texel bake's AO as an 8-bit grey PNG, linear (glTF's occlusion is linear, read from R),
+/// rows as the relit lightmap's (row 0 is v = 0 of TEXCOORD_1).
+fn ao_png_bytes(ao: &[f32], width: u32, height: u32, output: &Path) -> Result<Vec<u8>> {
+    let rows = crate::formats::openexr::image_rows(ao, width as usize, height as usize);
+    let pixels: Vec<u8> = rows
+        .iter()
+        .map(|a| (a.clamp(0.0, 1.0) * 255.0).round() as u8)
+        .collect();
+    let mut png = Vec::new();
+    image::ImageEncoder::write_image(
+        image::codecs::png::PngEncoder::new(&mut png),
+        &pixels,
+        width,
+        height,
+        image::ExtendedColorType::L8,
+    )
+    .map_err(|err| {
+        Error::io(
+            output,
+            std::io::Error::other(format!("cannot encode the AO as PNG: {err}")),
+        )
+    })?;
+    Ok(png)
 }
 
 /// A texture's sRGB pixels as PNG.
@@ -596,5 +914,45 @@ mod tests {
         assert_eq!(prt_attribute_names(4, 1).len(), 4);
         assert_eq!(prt_attribute_names(2, 3), ["_PRT_R0", "_PRT_G0", "_PRT_B0"]);
         assert_eq!(prt_attribute_names(5, 3).len(), 21);
+    }
+
+    #[test]
+    fn quantized_transfer_decodes_within_half_a_step() {
+        let values = [0.5f32, -1.25, 0.0, 1.25, 0.3, -0.7, 0.01, -0.01];
+        let scale = 1.25;
+        for q in [Quantize::Bits8, Quantize::Bits16] {
+            let mut b = Builder {
+                bin: Vec::new(),
+                buffer_views: Vec::new(),
+                accessors: Vec::new(),
+            };
+            b.quantized(&values, scale, q);
+            let max = q.max_code();
+            // glTF's decoding of normalized signed integers: max(c / max, −1).
+            let decoded: Vec<f32> = match q {
+                Quantize::Bits8 => b.bin.iter().map(|&c| f32::from(c as i8)).collect(),
+                Quantize::Bits16 => b
+                    .bin
+                    .chunks_exact(2)
+                    .map(|c| f32::from(i16::from_le_bytes([c[0], c[1]])))
+                    .collect(),
+            };
+            assert_eq!(decoded.len(), values.len());
+            for (v, code) in values.iter().zip(&decoded) {
+                let d = (code / max).max(-1.0) * scale;
+                assert!(
+                    (v - d).abs() <= scale / (2.0 * max) * 1.0001,
+                    "{q:?}: {v} decodes to {d}"
+                );
+            }
+            assert_eq!(b.accessors[0]["normalized"], true);
+            assert_eq!(b.accessors[0]["count"], 2);
+        }
+        assert_eq!(Quantize::from_bits(None).ok(), Some(None));
+        assert_eq!(
+            Quantize::from_bits(Some(8)).ok(),
+            Some(Some(Quantize::Bits8))
+        );
+        assert!(Quantize::from_bits(Some(12)).is_err());
     }
 }

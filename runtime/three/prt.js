@@ -1,0 +1,252 @@
+// prt.js: relight prt-bake's glTF exports in three.js (docs/gltf.md, "Relighting in three.js").
+//
+// An ES module with no build step; `three` is imported by its bare name (an import map in the
+// page names the file). Per vertex or per texel, grey or RGB transfer, any order:
+//
+//   import { lightFromJSON, rotateLight, applyPRT, loadLightmapTransfer } from './prt.js';
+//   const light = lightFromJSON(await (await fetch('light.json')).json()); // prt-bake light --up y
+//   const prt = applyPRT(gltf.scene, light);                   // vertex bakes (_PRT_k)
+//   const prt = applyPRT(gltf.scene, light, { lightmap: await loadLightmapTransfer('exr/manifest.json') });
+//   prt.setLight(rotateLight(light, m));                       // m: row-major 3×3, glTF frame
+//
+// Shading is `prt-bake relight`'s: radiance_c = albedo_c · Σ_j T_j·L_c,j with albedo the
+// material's base colour (factor × texture), written out like any three.js colour (linear,
+// encoded by the renderer's output colour space). The light is in the glTF file's frame
+// (+Y up): `prt-bake light RIG --up y` writes exactly that.
+
+import * as THREE from 'three';
+import { EXRLoader } from 'three/addons/loaders/EXRLoader.js';
+import { GLTF_TO_Z_UP, coeffCount, lightOfOrder, rotateLight } from './sh.js';
+
+export { lightFromJSON, rotateLight, shRotation, axisAngle, multiply3, Z_UP_TO_GLTF, GLTF_TO_Z_UP } from './sh.js';
+
+/** The `_PRT_k` attribute names of a geometry (three.js lower-cases them), per channel. */
+function vertexTransfer(geometry) {
+  const names = Object.keys(geometry.attributes);
+  const grey = [];
+  const rgb = [[], [], []];
+  for (const name of names) {
+    let match = /^_prt_(\d+)$/.exec(name);
+    if (match) grey[Number(match[1])] = name;
+    match = /^_prt_([rgb])(\d+)$/.exec(name);
+    if (match) rgb['rgb'.indexOf(match[1])][Number(match[2])] = name;
+  }
+  const dense = (list) => list.length > 0 && list.every(Boolean) && list.length === Object.keys(list).length;
+  if (dense(grey)) return { channels: [grey, grey, grey], groups: grey.length };
+  if (rgb.every(dense) && rgb[0].length === rgb[1].length && rgb[1].length === rgb[2].length) {
+    return { channels: rgb, groups: rgb[0].length };
+  }
+  return null;
+}
+
+/**
+ * A texel bake's transfer from `prt-bake export LM.prt --scene S --exr DIR`: reads
+ * DIR/manifest.json and its `transfer_*.exr` images (three's EXRLoader, half float, linear
+ * filtering, clamp to edge). Resolves to { order, channels, up, textures: [[tex…] × 3] }.
+ */
+export async function loadLightmapTransfer(manifestUrl) {
+  const url = new URL(manifestUrl, document.baseURI);
+  const response = await fetch(url);
+  if (!response.ok) throw new Error(`prt: ${url}: HTTP ${response.status}`);
+  const manifest = await response.json();
+  const { order, channels } = manifest;
+  if (!Number.isInteger(order) || ![1, 3].includes(channels) || !Array.isArray(manifest.transfer)) {
+    throw new Error(`prt: ${url}: not a prt-bake lightmap manifest (order, channels, transfer)`);
+  }
+  const loader = new EXRLoader();
+  loader.setDataType(THREE.HalfFloatType);
+  const groups = Math.ceil(coeffCount(order) / 4);
+  const textures = [[], [], []];
+  await Promise.all(manifest.transfer.map(async (entry, i) => {
+    const texture = await loader.loadAsync(new URL(entry.file, url).href);
+    texture.magFilter = THREE.LinearFilter;
+    texture.minFilter = THREE.LinearFilter;
+    texture.generateMipmaps = false;
+    texture.wrapS = THREE.ClampToEdgeWrapping;
+    texture.wrapT = THREE.ClampToEdgeWrapping;
+    texture.colorSpace = THREE.NoColorSpace;
+    const channel = channels === 1 ? 0 : Math.floor(i / groups);
+    textures[channel][i % groups] = texture;
+  }));
+  if (channels === 1) {
+    textures[1] = textures[0];
+    textures[2] = textures[0];
+  }
+  return { order, channels, up: manifest.up, groups, textures, manifest };
+}
+
+// The uniform layout: per colour channel c and group k, vec4 prtLight[c * groups + k], times
+// the attribute's scale where the transfer is quantized (export --quantize: the attribute
+// arrives normalized to [−1, 1]; dot(a·s, L) = dot(a, s·L)).
+function lightUniform(light, order, groups, scales = null) {
+  const fitted = lightOfOrder(light, order);
+  const values = [];
+  for (let c = 0; c < 3; c++) {
+    for (let k = 0; k < groups; k++) {
+      const s = scales ? scales[c * groups + k] : 1;
+      const v = [0, 1, 2, 3].map((i) => (fitted.rgb[c][4 * k + i] ?? 0) * s);
+      values.push(new THREE.Vector4(...v));
+    }
+  }
+  return values;
+}
+
+// Per (channel, group) the scale of a quantized transfer's attribute, or null for float.
+function attributeScales(transfer, quantization) {
+  if (!quantization?.scales) return null;
+  const byName = new Map(Object.entries(quantization.scales).map(([name, s]) => [name.toLowerCase(), s]));
+  return transfer.channels.flatMap((names) => names.map((name) => {
+    const s = byName.get(name);
+    if (!Number.isFinite(s)) throw new Error(`prt: quantized transfer without a scale for ${name}`);
+    return s;
+  }));
+}
+
+function vertexShaderPatch(transfer) {
+  const { channels, groups } = transfer;
+  const declared = [...new Set(channels.flat())];
+  const sum = (c) => channels[c].map((name, k) => `dot(${name}, prtLight[${c * groups + k}])`).join(' + ');
+  return {
+    declarations: declared.map((name) => `attribute vec4 ${name};`).join('\n')
+      + `\nuniform vec4 prtLight[${3 * groups}];\nvarying vec3 vPrtShading;\n`,
+    body: `vPrtShading = vec3(${sum(0)}, ${sum(1)}, ${sum(2)});\n`,
+  };
+}
+
+function texelShaderPatch(groups) {
+  const lines = [];
+  const fetches = [];
+  for (let c = 0; c < 3; c++) {
+    const terms = [];
+    for (let k = 0; k < groups; k++) {
+      lines.push(`uniform sampler2D prtT${c}_${k};`);
+      terms.push(`dot(texture2D(prtT${c}_${k}, prtUv), prtLight[${c * groups + k}])`);
+    }
+    fetches.push(terms.join(' + '));
+  }
+  return {
+    declarations: `${lines.join('\n')}\nuniform vec4 prtLight[${3 * groups}];\nvarying vec2 vPrtUv;\n`,
+    // The EXR's top row is v = 0 of TEXCOORD_1, and EXRLoader puts it at t = 1.
+    body: `vec2 prtUv = vec2(vPrtUv.x, 1.0 - vPrtUv.y);\nvec3 prtShading = vec3(${fetches.join(', ')});\n`,
+  };
+}
+
+function albedoMaterial(source) {
+  const material = new THREE.MeshBasicMaterial({
+    color: source.color ? source.color.clone() : new THREE.Color(1, 1, 1),
+    side: source.side,
+    transparent: source.transparent,
+    opacity: source.opacity ?? 1,
+  });
+  // The base colour texture on TEXCOORD_0; a texel bake's exported material shows the relit
+  // lightmap there (on TEXCOORD_1) instead, which is not albedo.
+  const map = source.map && source.map.channel === 0 && !source.userData?.prt_lightmap ? source.map : null;
+  if (map) material.map = map;
+  material.name = `${source.name || 'material'} (PRT)`;
+  return material;
+}
+
+/**
+ * Gives every mesh under `root` (an Object3D, or GLTFLoader's result, whose
+ * asset.extras.prt.quantization then gives a quantized transfer's scales) that carries PRT data a relighting material (a
+ * MeshBasicMaterial whose colour is multiplied by Σ_j T_j·L_j per channel) and returns a
+ * handle: setLight(light), setExposure(ev), restore() (the as-exported materials back), and
+ * meshes. Per-vertex meshes are found by their `_PRT_k` attributes; texel meshes (those with
+ * TEXCOORD_1) need `options.lightmap` from `loadLightmapTransfer`. Options:
+ *   lightmap       a texel bake's transfer (loadLightmapTransfer)
+ *   order          the transfer's order (default: the light's; the file's asset.extras.prt
+ *                  says it); the light is cut or zero-padded to it
+ *   clampShading   clamp Σ T·L to [0, 1] before the albedo, as COLOR_0 and the embedded
+ *                  lightmap of an export are (default false: prt-bake relight's radiance)
+ *   exposure       EV, radiance × 2^exposure (default 0)
+ *   quantization   asset.extras.prt.quantization of a file exported with --quantize, when
+ *                  `root` is not the GLTFLoader result
+ */
+export function applyPRT(rootOrGltf, light, options = {}) {
+  // A GLTFLoader result brings its asset.extras.prt (the quantization scales) along.
+  const isGltf = Boolean(rootOrGltf?.scene && rootOrGltf?.asset);
+  const root = isGltf ? rootOrGltf.scene : rootOrGltf;
+  const quantization = options.quantization ?? (isGltf ? rootOrGltf.asset.extras?.prt?.quantization : null);
+  const entries = [];
+  const order = options.order ?? light.order;
+  const lightmap = options.lightmap ?? null;
+  const common = {
+    prtExposure: { value: 2 ** (options.exposure ?? 0) },
+  };
+  root.traverse((object) => {
+    if (!object.isMesh) return;
+    const geometry = object.geometry;
+    const transfer = vertexTransfer(geometry);
+    const texel = !transfer && lightmap && geometry.attributes.uv1;
+    if (!transfer && !texel) return;
+    const groups = transfer ? transfer.groups : lightmap.groups;
+    const transferOrder = lightmap && texel ? lightmap.order : order;
+    if (Math.ceil(coeffCount(transferOrder) / 4) !== groups) {
+      throw new Error(`prt: mesh '${object.name}': ${groups} VEC4 groups of transfer, but order ${transferOrder} needs ${Math.ceil(coeffCount(transferOrder) / 4)} (pass options.order)`);
+    }
+    const original = object.material;
+    const sources = Array.isArray(original) ? original : [original];
+    const scales = transfer ? attributeScales(transfer, quantization) : null;
+    if (transfer && !scales && geometry.attributes[transfer.channels[0][0]].normalized) {
+      throw new Error(`prt: mesh '${object.name}': quantized transfer, but no scales: pass the GLTFLoader result, or options.quantization`);
+    }
+    const uniforms = { prtLight: { value: lightUniform(light, transferOrder, groups, scales) }, ...common };
+    if (texel) {
+      for (let c = 0; c < 3; c++) for (let k = 0; k < groups; k++) uniforms[`prtT${c}_${k}`] = { value: lightmap.textures[c][k] };
+    }
+    const patch = transfer ? vertexShaderPatch(transfer) : texelShaderPatch(groups);
+    const clamp = options.clampShading ? 'clamp(prtShading, 0.0, 1.0)' : 'prtShading';
+    const made = sources.map((source) => {
+      const material = albedoMaterial(source);
+      material.onBeforeCompile = (shader) => {
+        Object.assign(shader.uniforms, uniforms);
+        if (transfer) {
+          shader.vertexShader = shader.vertexShader
+            .replace('#include <common>', `#include <common>\n${patch.declarations}`)
+            .replace('#include <begin_vertex>', `#include <begin_vertex>\n${patch.body}`);
+          shader.fragmentShader = shader.fragmentShader
+            .replace('#include <common>', '#include <common>\nvarying vec3 vPrtShading;\nuniform float prtExposure;')
+            .replace('#include <color_fragment>', `#include <color_fragment>\nvec3 prtShading = vPrtShading;\ndiffuseColor.rgb *= ${clamp} * prtExposure;`);
+        } else {
+          shader.vertexShader = shader.vertexShader
+            .replace('#include <common>', '#include <common>\n#ifndef USE_UV1\nattribute vec2 uv1;\n#endif\nvarying vec2 vPrtUv;')
+            .replace('#include <begin_vertex>', '#include <begin_vertex>\nvPrtUv = uv1;');
+          shader.fragmentShader = shader.fragmentShader
+            .replace('#include <common>', `#include <common>\n${patch.declarations}\nuniform float prtExposure;`)
+            .replace('#include <color_fragment>', `#include <color_fragment>\n${patch.body}diffuseColor.rgb *= ${clamp} * prtExposure;`);
+        }
+      };
+      material.customProgramCacheKey = () => `prt:${transfer ? 'v' : 't'}:${groups}:${transfer ? transfer.channels.flat().join(',') : ''}:${clamp}`;
+      return material;
+    });
+    object.material = Array.isArray(original) ? made : made[0];
+    entries.push({ object, original, made, uniforms, groups, scales, order: transferOrder, texel: Boolean(texel) });
+  });
+  const handle = {
+    meshes: entries.map((e) => e.object),
+    setLight(next) {
+      for (const e of entries) {
+        // The texel transfer is in the bake's own frame (manifest.up): a z-up bake gets the
+        // glTF-frame light turned back to z-up.
+        const framed = e.texel && lightmap.up === 'z' ? rotateLight(next, GLTF_TO_Z_UP) : next;
+        e.uniforms.prtLight.value = lightUniform(framed, e.order, e.groups, e.scales);
+      }
+    },
+    setExposure(ev) {
+      common.prtExposure.value = 2 ** ev;
+    },
+    /** The as-exported materials back (and again the PRT ones with `enable`). */
+    restore() {
+      for (const e of entries) e.object.material = e.original;
+    },
+    enable() {
+      for (const e of entries) e.object.material = Array.isArray(e.original) ? e.made : e.made[0];
+    },
+    dispose() {
+      handle.restore();
+      for (const e of entries) e.made.forEach((m) => m.dispose());
+    },
+  };
+  handle.setLight(light);
+  return handle;
+}

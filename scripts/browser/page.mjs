@@ -1,0 +1,83 @@
+// The browser test's page module: window.prtTest.render(...) loads a .glb, renders it as
+// exported or relit by prt.js, and returns the canvas's RGBA pixels (base64, top row first).
+import * as THREE from 'three';
+import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
+import { applyPRT, lightFromJSON, loadLightmapTransfer, rotateLight } from '/runtime/three/prt.js';
+
+const canvas = document.getElementById('view');
+const renderer = new THREE.WebGLRenderer({ canvas, antialias: false, preserveDrawingBuffer: true, alpha: true });
+renderer.setPixelRatio(1);
+renderer.setClearColor(0x000000, 0);
+const gl = renderer.getContext();
+
+async function loadGLB(url) {
+  return new GLTFLoader().loadAsync(url);
+}
+
+// One camera for every render of a scene: from its bounding box, looking at its centre.
+function frame(root, view) {
+  const box = new THREE.Box3().setFromObject(root);
+  const centre = box.getCenter(new THREE.Vector3());
+  const radius = box.getSize(new THREE.Vector3()).length() / 2;
+  const camera = new THREE.PerspectiveCamera(40, canvas.width / canvas.height, radius / 100, radius * 10);
+  const dir = new THREE.Vector3(...view).normalize();
+  camera.position.copy(centre).addScaledVector(dir, radius * 2.4);
+  camera.lookAt(centre);
+  return camera;
+}
+
+function pixels() {
+  const { width, height } = canvas;
+  const data = new Uint8Array(width * height * 4);
+  gl.readPixels(0, 0, width, height, gl.RGBA, gl.UNSIGNED_BYTE, data);
+  // Bottom row first in GL: flip to top first.
+  const flipped = new Uint8Array(data.length);
+  for (let y = 0; y < height; y++) flipped.set(data.subarray((height - 1 - y) * width * 4, (height - y) * width * 4), y * width * 4);
+  let text = '';
+  for (let i = 0; i < flipped.length; i += 0x8000) text += String.fromCharCode(...flipped.subarray(i, i + 0x8000));
+  return btoa(text);
+}
+
+// Milliseconds per frame over `frames` renders, each waited for by reading one pixel back
+// (gl.finish returns before Chromium's GPU process has drawn).
+function frameTime(scene, camera, frames) {
+  const probe = new Uint8Array(4);
+  renderer.render(scene, camera);
+  gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, probe);
+  const start = performance.now();
+  for (let i = 0; i < frames; i++) {
+    renderer.render(scene, camera);
+    gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, probe);
+  }
+  return (performance.now() - start) / frames;
+}
+
+window.prtTest = {
+  /**
+   * glb: url; mode: 'exported' | 'prt' | 'basic'; light: JSON (prt-bake light --up y);
+   * rotation: row-major 3×3 or null; lightmap: manifest url for texel bakes; view: [x, y, z]
+   * the camera's direction from the centre; frames: also time this many frames.
+   */
+  async render({ glb, mode, light, rotation, lightmap, view, frames }) {
+    const gltf = await loadGLB(glb);
+    const scene = gltf.scene;
+    const camera = frame(scene, view);
+    if (mode === 'prt') {
+      let l = lightFromJSON(light);
+      if (rotation) l = rotateLight(l, rotation);
+      const options = { clampShading: true };
+      if (lightmap) options.lightmap = await loadLightmapTransfer(lightmap);
+      const handle = applyPRT(gltf, l, options);
+      if (handle.meshes.length === 0) throw new Error(`${glb}: no mesh carries PRT data`);
+    } else if (mode === 'basic') {
+      scene.traverse((o) => {
+        if (o.isMesh) o.material = new THREE.MeshBasicMaterial({ color: o.material.color, map: o.material.map });
+      });
+    }
+    renderer.render(scene, camera);
+    const result = { width: canvas.width, height: canvas.height, pixels: pixels() };
+    if (frames) result.ms = frameTime(scene, camera, frames);
+    return result;
+  },
+};
+window.prtReady = true;

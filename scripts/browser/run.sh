@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# The browser test of runtime/three/prt.js (make browser, part of make test): Debian's
+# chromium (scripts/install-deps.sh installs it) driven by playwright-core renders prt-bake's
+# .glb exports with three.js, as exported and relit by prt.js, and compares them
+# (scripts/browser/test.mjs says how). playwright-core and three are npm packages installed
+# into target/node at pinned versions, as scripts/gltf/validate.sh installs gltf-validator;
+# the page gets three.js from there through a static server on 127.0.0.1, and no other
+# address is reached. Also checks prt.js's SH rotation against prt-bake light --up, and
+# compiles docs/gltf.md's GLSL ES snippets with glslangValidator.
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/../.."
+NODE_DIR=target/node
+OUT=target/browser
+THREE_VERSION=0.187.0
+PLAYWRIGHT_VERSION=1.65.1
+[ -x /usr/bin/chromium ] || { echo "browser: /usr/bin/chromium is missing (scripts/install-deps.sh installs it)" >&2; exit 2; }
+command -v npm >/dev/null || { echo "browser: npm is missing (scripts/install-deps.sh installs it)" >&2; exit 2; }
+installed() { # package version: whether target/node holds exactly that version
+    [ -f "$NODE_DIR/node_modules/$1/package.json" ] &&
+        node -e "process.exit(require(process.argv[1]).version === process.argv[2] ? 0 : 1)" \
+            "$PWD/$NODE_DIR/node_modules/$1/package.json" "$2"
+}
+if ! installed three "$THREE_VERSION" || ! installed playwright-core "$PLAYWRIGHT_VERSION"; then
+    mkdir -p "$NODE_DIR"
+    npm install --silent --no-audit --no-fund --save-exact --prefix "$NODE_DIR" \
+        "three@$THREE_VERSION" "playwright-core@$PLAYWRIGHT_VERSION"
+fi
+cargo build --release -p prt-baker
+rm -rf "$OUT"
+mkdir -p "$OUT"
+command -v glslangValidator >/dev/null || { echo "browser: glslangValidator is missing (scripts/install-deps.sh installs glslang-tools)" >&2; exit 2; }
+node scripts/browser/glsl-snippets.mjs docs/gltf.md "$OUT/glsl"
+node scripts/browser/sh-test.mjs target/release/prt-bake "$OUT"
+node scripts/browser/test.mjs "$NODE_DIR/node_modules" target/release/prt-bake "$OUT"

@@ -1,0 +1,195 @@
+// The browser test (make browser): Debian's chromium, driven by playwright-core, renders
+// prt-bake's .glb exports with three.js as exported (COLOR_0, or the relit lightmap) and
+// relit by runtime/three/prt.js, at the rig and with the light turned in JavaScript (against
+// an export of the turned rig). Every pair must agree within 2 codes (4 for texel bakes) on
+// at least 99 % of the covered pixels, with no console error. Frame times of both are printed.
+//
+//   node scripts/browser/test.mjs NODE_MODULES BAKE OUT
+import { execFileSync } from 'node:child_process';
+import fs from 'node:fs';
+import http from 'node:http';
+import os from 'node:os';
+import path from 'node:path';
+import { fileURLToPath } from 'node:url';
+
+const [nodeModules, bake, out] = process.argv.slice(2).map((p) => path.resolve(p));
+const repo = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '../..');
+const { chromium } = await import(path.join(nodeModules, 'playwright-core/index.mjs'));
+const sh = await import(path.join(repo, 'runtime/three/sh.js'));
+fs.mkdirSync(out, { recursive: true });
+
+function run(...args) {
+  execFileSync(bake, args, { stdio: ['ignore', 'ignore', 'inherit'] });
+}
+
+// The rig and its turned twin. The turn is given in glTF's frame (+Y up) as prt.js takes it;
+// rigs are written in the baker's z-up world, so the twin's directions are turned by
+// Aᵀ·m·A with A = (x, y, z) ↦ (x, z, −y).
+const turn = sh.axisAngle([0.36, 0.8, 0.48], (50 * Math.PI) / 180);
+const turnZUp = sh.multiply3(sh.multiply3(sh.GLTF_TO_Z_UP, turn), sh.Z_UP_TO_GLTF);
+const apply = (m, v) => [0, 1, 2].map((i) => m[3 * i] * v[0] + m[3 * i + 1] * v[1] + m[3 * i + 2] * v[2]);
+const sun = [Math.sin(1.134) * Math.cos(0.524), Math.sin(1.134) * Math.sin(0.524), Math.cos(1.134)];
+function rig(file, m) {
+  const d = (v) => `[${apply(m, v).map((x) => x.toFixed(15)).join(', ')}]`;
+  fs.writeFileSync(file, `[[light]]
+kind = "sun"
+direction = ${d(sun)}
+color = [1.0, 0.92, 0.8]
+intensity = 2.5
+
+[[light]]
+kind = "hemisphere"
+direction = ${d([0, 0, 1])}
+color = [0.35, 0.4, 0.5]
+ground_color = [0.05, 0.045, 0.04]
+`);
+}
+const identity = [1, 0, 0, 0, 1, 0, 0, 0, 1];
+rig(path.join(out, 'rig.toml'), identity);
+rig(path.join(out, 'rig-turned.toml'), turnZUp);
+
+// The bakes: grey per vertex (textured torus), RGB interreflected per vertex (Cornell box),
+// and a texel bake of the Cornell box.
+const cases = [
+  { name: 'torus', scene: 'scenes/torus/torus.scene', bake: ['--order', '3'], tolerance: 2, view: [0.6, 0.9, 1] },
+  { name: 'cornell-rgb', scene: 'scenes/cornell/cornell.scene', bake: ['--mode', 'interreflected'], tolerance: 2, view: [0.15, 0.2, 1] },
+  { name: 'cornell-texel', scene: 'scenes/cornell/cornell.scene', bake: ['--lightmap', '128'], tolerance: 4, view: [0.15, 0.2, 1], texel: true },
+];
+const started = Date.now();
+for (const c of cases) {
+  const prt = path.join(out, `${c.name}.prt`);
+  run('bake', path.join(repo, c.scene), '-o', prt, '--samples', '64', '--quiet', ...c.bake);
+  for (const [suffix, lights] of [['', 'rig.toml'], ['-turned', 'rig-turned.toml']]) {
+    run('export', prt, '--scene', path.join(repo, c.scene), '--glb', path.join(out, `${c.name}${suffix}.glb`), '--lights', path.join(out, lights));
+  }
+  if (c.texel) run('export', prt, '--scene', path.join(repo, c.scene), '--exr', path.join(out, `${c.name}-exr`), '--exr-type', 'f16');
+  else {
+    for (const bits of [16, 8]) {
+      run('export', prt, '--scene', path.join(repo, c.scene), '--glb', path.join(out, `${c.name}-q${bits}.glb`), '--quantize', String(bits), '--lights', path.join(out, 'rig.toml'));
+    }
+  }
+}
+run('light', path.join(out, 'rig.toml'), '--order', '3', '--up', 'y', '-o', path.join(out, 'light-3.json'));
+run('light', path.join(out, 'rig.toml'), '--order', '4', '--up', 'y', '-o', path.join(out, 'light-4.json'));
+console.log(`browser: baked and exported in ${((Date.now() - started) / 1000).toFixed(1)} s`);
+
+// A static server on loopback: /three/ from node_modules, /data/ the outputs, else the repo.
+const types = { '.html': 'text/html', '.js': 'text/javascript', '.mjs': 'text/javascript', '.json': 'application/json', '.glb': 'model/gltf-binary', '.exr': 'image/x-exr' };
+const server = http.createServer((request, response) => {
+  const url = decodeURIComponent(new URL(request.url, 'http://127.0.0.1').pathname);
+  const [root, rest] = url.startsWith('/three/') ? [path.join(nodeModules, 'three'), url.slice(7)]
+    : url.startsWith('/data/') ? [out, url.slice(6)] : [repo, url.slice(1)];
+  const file = path.resolve(root, rest);
+  if (!file.startsWith(root + path.sep) || !fs.existsSync(file) || !fs.statSync(file).isFile()) {
+    response.writeHead(404).end();
+    return;
+  }
+  response.writeHead(200, { 'content-type': types[path.extname(file)] ?? 'application/octet-stream' });
+  fs.createReadStream(file).pipe(response);
+});
+await new Promise((resolve) => server.listen(0, '127.0.0.1', resolve));
+const base = `http://127.0.0.1:${server.address().port}`;
+
+const userDataDir = fs.mkdtempSync(path.join(os.tmpdir(), 'prt-chromium-'));
+const context = await chromium.launchPersistentContext(userDataDir, {
+  executablePath: '/usr/bin/chromium',
+  headless: true,
+  args: ['--headless', '--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader',
+    '--disable-background-networking', '--disable-component-update', '--disable-sync', '--no-first-run'],
+});
+// Over the pixels either render covers: the share within `tolerance` codes in every channel.
+function compare(a, b, tolerance) {
+  let covered = 0;
+  let close = 0;
+  let worst = 0;
+  for (let i = 0; i < a.length; i += 4) {
+    if (a[i + 3] === 0 && b[i + 3] === 0) continue;
+    covered += 1;
+    const d = Math.max(Math.abs(a[i] - b[i]), Math.abs(a[i + 1] - b[i + 1]), Math.abs(a[i + 2] - b[i + 2]), Math.abs(a[i + 3] - b[i + 3]));
+    worst = Math.max(worst, d);
+    if (d <= tolerance) close += 1;
+  }
+  return { share: covered ? close / covered : 0, covered, worst };
+}
+
+const errors = [];
+let failures = 0;
+try {
+  const page = context.pages()[0] ?? await context.newPage();
+  page.on('console', (message) => { if (message.type() === 'error') errors.push(message.text()); });
+  page.on('pageerror', (error) => errors.push(String(error)));
+  // Nothing but loopback.
+  await page.route('**/*', (route) => (route.request().url().startsWith(base) ? route.continue() : route.abort()));
+  await page.goto(`${base}/scripts/browser/page.html`);
+  await page.waitForFunction(() => window.prtReady === true);
+  const render = (args) => page.evaluate((a) => window.prtTest.render(a), args);
+  const light = (order) => JSON.parse(fs.readFileSync(path.join(out, `light-${order}.json`), 'utf8'));
+
+  for (const c of cases) {
+    const order = c.name === 'torus' ? 3 : 4;
+    const lightmap = c.texel ? `/data/${c.name}-exr/manifest.json` : null;
+    const exported = {};
+    for (const [label, glb, rotation] of [['rig', `${c.name}.glb`, null], ['turned', `${c.name}-turned.glb`, turn]]) {
+      const frames = label === 'rig' ? 30 : 0;
+      const reference = await render({ glb: `/data/${glb}`, mode: 'exported', view: c.view, frames });
+      const relit = await render({ glb: `/data/${c.name}.glb`, mode: 'prt', light: light(order), rotation, lightmap, view: c.view, frames });
+      const a = Buffer.from(reference.pixels, 'base64');
+      const b = Buffer.from(relit.pixels, 'base64');
+      exported[label] = a;
+      const { share, covered, worst } = compare(a, b, c.tolerance);
+      const ok = covered > 1000 && share >= 0.99;
+      failures += ok ? 0 : 1;
+      const timing = frames ? `; frame ${relit.ms.toFixed(2)} ms PRT, ${reference.ms.toFixed(2)} ms as exported (MeshBasicMaterial)` : '';
+      console.log(`browser: ${ok ? 'ok  ' : 'FAIL'} ${c.name} ${label}: ${(100 * share).toFixed(2)} % of ${covered} covered pixels within ${c.tolerance} codes (worst ${worst})${timing}`);
+      for (const [which, r] of [['exported', reference], ['prt', relit]]) {
+        fs.writeFileSync(path.join(out, `${c.name}-${label}-${which}.rgba`), Buffer.from(r.pixels, 'base64'));
+      }
+    }
+    // export --quantize: the relit render of the 16-bit transfer must match the float
+    // COLOR_0 as closely as the float transfer does, the 8-bit one within twice the codes.
+    if (!c.texel) {
+      const reference = Buffer.from((await render({ glb: `/data/${c.name}.glb`, mode: 'exported', view: c.view })).pixels, 'base64');
+      const float = fs.statSync(path.join(out, `${c.name}.glb`)).size;
+      for (const bits of [16, 8]) {
+        const relit = await render({ glb: `/data/${c.name}-q${bits}.glb`, mode: 'prt', light: light(order), view: c.view });
+        const b = Buffer.from(relit.pixels, 'base64');
+        const tolerance = bits === 8 ? 2 * c.tolerance : c.tolerance;
+        const { share, covered, worst } = compare(reference, b, tolerance);
+        const ok = covered > 1000 && share >= 0.99;
+        failures += ok ? 0 : 1;
+        const size = fs.statSync(path.join(out, `${c.name}-q${bits}.glb`)).size;
+        console.log(`browser: ${ok ? 'ok  ' : 'FAIL'} ${c.name} --quantize ${bits}: ${(100 * share).toFixed(2)} % within ${tolerance} codes of the float COLOR_0 (worst ${worst}); ${size} bytes, ${(100 * size / float).toFixed(1)} % of float's ${float}`);
+      }
+    }
+    // The turn must change the picture, or the turned comparison proves nothing.
+    const { rig: r, turned: t } = exported;
+    let changed = 0;
+    for (let i = 0; i < r.length; i += 4) {
+      if (Math.max(Math.abs(r[i] - t[i]), Math.abs(r[i + 1] - t[i + 1]), Math.abs(r[i + 2] - t[i + 2])) > 3 * c.tolerance) changed += 1;
+    }
+    const sensitive = changed > 0.2 * (r.length / 4) * 0.5;
+    failures += sensitive ? 0 : 1;
+    console.log(`browser: ${sensitive ? 'ok  ' : 'FAIL'} ${c.name}: the turned rig changes ${changed} pixels by more than ${3 * c.tolerance} codes`);
+  }
+  // The example page: it loads a bake and a light, relights, and a right drag turns the light.
+  await page.goto(`${base}/runtime/three/example.html?glb=/data/cornell-rgb.glb&light=/data/light-4.json`);
+  await page.waitForFunction(() => window.prtExample?.handle?.meshes.length > 0, null, { timeout: 30000 });
+  await page.mouse.move(400, 300);
+  await page.mouse.down({ button: 'right' });
+  await page.mouse.move(460, 330, { steps: 5 });
+  await page.mouse.up({ button: 'right' });
+  const turned = await page.evaluate(() => window.prtExample.turn);
+  const exampleOk = Math.abs(turned[0] - 1) > 1e-3;
+  failures += exampleOk ? 0 : 1;
+  console.log(`browser: ${exampleOk ? 'ok  ' : 'FAIL'} example.html relights ${await page.evaluate(() => window.prtExample.handle.meshes.length)} meshes; a right drag turns the light`);
+} finally {
+  await context.close();
+  server.close();
+  fs.rmSync(userDataDir, { recursive: true, force: true });
+}
+for (const e of errors) console.log(`browser: console error: ${e}`);
+if (errors.length > 0 || failures > 0) {
+  console.log(`browser: FAILED (${failures} comparison(s), ${errors.length} console error(s))`);
+  process.exit(1);
+}
+console.log('browser: every render matches, no console errors');
