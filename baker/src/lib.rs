@@ -19,6 +19,7 @@ pub mod error;
 pub mod estimator;
 pub mod export;
 pub mod gltf_export;
+pub mod input_path;
 pub mod interreflection;
 pub mod light;
 pub mod lightmap;

@@ -116,6 +116,41 @@ pub fn read_file(path: &Path) -> Result<Vec<u8>> {
     Ok(bytes)
 }
 
+/// Reads a file an input names (a glTF buffer or image, a material library, a texture, an
+/// environment map): only a regular file, and never more than `bound` + 1 bytes of it, so a
+/// file that grew after it was checked cannot make the read unbounded. `bound` is a declared
+/// length (a glTF buffer's byteLength) or the memory limit; it is checked against the limit
+/// first. The file is opened without blocking, so a FIFO put in its place cannot hang the
+/// open; it is then refused as not a regular file.
+pub fn read_regular(path: &Path, bound: u64) -> Result<Vec<u8>> {
+    check(path.display().to_string(), "reading the file", Some(bound))?;
+    let mut open = std::fs::OpenOptions::new();
+    open.read(true);
+    #[cfg(unix)]
+    std::os::unix::fs::OpenOptionsExt::custom_flags(&mut open, libc::O_NONBLOCK);
+    let file = open.open(path).map_err(|err| Error::io(path, err))?;
+    let metadata = file.metadata().map_err(|err| Error::io(path, err))?;
+    if !metadata.is_file() {
+        return Err(Error::InputPath {
+            location: crate::error::Location::file(path),
+            message: format!(
+                "{}; only regular files are read",
+                crate::input_path::file_kind(&metadata)
+            ),
+        });
+    }
+    check(
+        path.display().to_string(),
+        "reading the file",
+        Some(metadata.len().min(bound)),
+    )?;
+    let mut bytes = Vec::with_capacity(metadata.len().min(bound) as usize);
+    file.take(bound.saturating_add(1))
+        .read_to_end(&mut bytes)
+        .map_err(|err| Error::io(path, err))?;
+    Ok(bytes)
+}
+
 /// Refuses an image whose header declares more pixels than fit, before it is decoded:
 /// `bytes_per_pixel` is what decoding and keeping one pixel costs in all.
 pub fn check_image(path: &Path, width: u32, height: u32, bytes_per_pixel: u64) -> Result<()> {

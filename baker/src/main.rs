@@ -34,6 +34,10 @@ struct Cli {
     /// bakes that need more are refused before anything is allocated.
     #[arg(long, global = true, value_name = "MIB")]
     max_memory: Option<u64>,
+    /// Let inputs (glTF uris, OBJ mtllib and map_Kd, scene-file entries, rig maps) name files
+    /// outside their own folder, or by absolute path.
+    #[arg(long, global = true)]
+    allow_outside_uris: bool,
 }
 
 #[derive(Subcommand)]
@@ -295,6 +299,7 @@ fn main() -> ExitCode {
     if let Some(mib) = cli.max_memory {
         limits::set_max_memory(mib.saturating_mul(1 << 20));
     }
+    prt_baker::input_path::set_allow_outside(cli.allow_outside_uris);
     // A panic is a bug, but still ends with one clear line and exit code 1; the output's
     // temporary file is removed as the panic unwinds (prt_baker::output).
     prt_baker::output::install_panic_hook("prt-bake");
