@@ -251,6 +251,22 @@ mod tests {
     }
 
     #[test]
+    fn a_referenced_file_is_read_one_byte_past_its_bound_at_most() {
+        let dir = std::env::temp_dir().join(format!("prt-read-regular-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("ten.bin");
+        std::fs::write(&file, [7u8; 10]).unwrap();
+        assert_eq!(read_regular(&file, 4).unwrap().len(), 5);
+        assert_eq!(read_regular(&file, 64).unwrap().len(), 10);
+        // Devices and directories are refused, not read.
+        let err = read_regular(Path::new("/dev/zero"), 4).unwrap_err();
+        assert!(err.to_string().contains("a character device"), "{err}");
+        let err = read_regular(&dir, 4).unwrap_err();
+        assert!(err.to_string().contains("a directory"), "{err}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
     fn human_sizes() {
         assert_eq!(human(512), "512 bytes");
         assert_eq!(human(3 << 20), "3.0 MiB");
