@@ -839,8 +839,8 @@ fn structured_gltf(seed: &serde_json::Value, bin: &[u8], rng: &mut Rng) -> Vec<u
                     0 => nodes[rng.below(n)]["children"] = json!([rng.below(n)]),
                     1 => {
                         // A cycle through every node, from the root.
-                        for i in 0..n {
-                            nodes[i]["children"] = json!([(i + 1) % n]);
+                        for (i, node) in nodes.iter_mut().enumerate() {
+                            node["children"] = json!([(i + 1) % n]);
                         }
                     }
                     2 => {
