@@ -38,7 +38,7 @@
 mod common;
 
 use std::alloc::{GlobalAlloc, Layout, System};
-use std::io::Cursor;
+use std::io::{Cursor, Write};
 use std::panic::AssertUnwindSafe;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
@@ -1158,7 +1158,12 @@ fn every_parser_survives_its_mutants() {
         .and_then(|v| v.parse().ok())
         .unwrap_or(DEFAULT_CASES);
     let seed = run_seed();
-    eprintln!("fuzz: seed {seed:#x} (replay this run with PRT_FUZZ_SEED={seed:#x})");
+    // Written to the standard error itself, not through `eprintln!`, which the test harness
+    // captures: the seed of every run is logged, passing or not.
+    let _ = writeln!(
+        std::io::stderr(),
+        "fuzz: seed {seed:#x} (replay this run with PRT_FUZZ_SEED={seed:#x})"
+    );
     // A panic is caught and counted per case; the default hook's report would only be noise.
     std::panic::set_hook(Box::new(|_| {}));
     // SAFETY: installs a handler that makes only async-signal-safe calls.
