@@ -133,10 +133,20 @@ impl AssetFolder {
 pub fn read(path: &Path) -> Result<Vec<u8>> {
     let limit = crate::limits::max_memory();
     let bytes = crate::limits::read_regular(path, limit)?;
+    within_limit(path, bytes, limit)
+}
+
+/// Refuses what [`crate::limits::read_regular`] read past `limit` (the file grew after it
+/// was checked).
+pub fn within_limit(path: &Path, bytes: Vec<u8>, limit: u64) -> Result<Vec<u8>> {
     if bytes.len() as u64 > limit {
-        // It grew past the limit while it was read.
-        return crate::limits::check(path.display().to_string(), "reading the file", None)
-            .map(|()| bytes);
+        return Err(Error::TooLarge {
+            what: path.display().to_string(),
+            message: format!(
+                "grew past the memory limit of {} while it was read",
+                crate::limits::human(limit)
+            ),
+        });
     }
     Ok(bytes)
 }
@@ -144,6 +154,22 @@ pub fn read(path: &Path) -> Result<Vec<u8>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_file_that_grew_past_the_limit_while_read_is_refused() {
+        let err = within_limit(Path::new("big.png"), vec![0; 5], 4).unwrap_err();
+        assert!(
+            err.to_string()
+                .starts_with("big.png: grew past the memory limit of 4 bytes"),
+            "{err}"
+        );
+        assert_eq!(
+            within_limit(Path::new("ok.png"), vec![0; 4], 4)
+                .unwrap()
+                .len(),
+            4
+        );
+    }
 
     #[test]
     fn kinds_of_special_files_are_named() {

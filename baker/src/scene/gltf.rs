@@ -506,13 +506,8 @@ fn read_images(
                         let what = format!("image {i}'s uri");
                         let limit = crate::limits::max_memory();
                         let bytes = read_uri_file(path, folder, &what, uri, &reference, limit)?;
-                        if bytes.len() as u64 > limit {
-                            crate::limits::check(
-                                part_name(path, &format!("image{i}")).display().to_string(),
-                                "reading the file",
-                                None,
-                            )?;
-                        }
+                        let name = part_name(path, &format!("image{i}"));
+                        let bytes = crate::input_path::within_limit(&name, bytes, limit)?;
                         let format = match mime_type {
                             Some(_) => by_media_type(mime_type),
                             None => by_extension(),
