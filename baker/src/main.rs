@@ -8,7 +8,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use prt_baker::Error;
-use prt_baker::support::{limits, output};
+use prt_baker::support::{input_path, limits, output};
 
 use commands::{bake, export, inspect, light, merge, relight};
 
@@ -30,6 +30,10 @@ struct Cli {
     /// bakes that need more are refused before anything is allocated.
     #[arg(long, global = true, value_name = "MIB")]
     max_memory: Option<u64>,
+    /// Let inputs (glTF uris, OBJ mtllib and map_Kd, scene-file entries, rig maps) name files
+    /// outside their own folder, or by absolute path.
+    #[arg(long, global = true)]
+    allow_outside_uris: bool,
 }
 
 #[derive(Subcommand)]
@@ -62,6 +66,8 @@ fn main() -> ExitCode {
     if let Some(mib) = cli.max_memory {
         limits::set_max_memory(mib.saturating_mul(1 << 20));
     }
+    input_path::set_allow_outside(cli.allow_outside_uris);
+    prt_baker::support::input_path::set_allow_outside(cli.allow_outside_uris);
     // A panic is a bug, but still ends with one clear line and exit code 1; the output's
     // temporary file is removed as the panic unwinds (prt_baker::support::output).
     output::install_panic_hook("prt-bake");

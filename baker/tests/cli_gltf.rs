@@ -884,3 +884,345 @@ fn gltf_uris_that_do_not_percent_decode_are_bad_input() {
         .fails_with_bad_input(&["image.gltf", "image 0's uri"]);
     s.assert_out_holds(&[]);
 }
+
+// ---------------------------------------------------------------------------------------
+// Hostile assets (docs/robustness.md): hierarchies that loop or nest deep, and paths inside
+// an input that name devices, FIFOs or files outside the asset's folder.
+
+/// Runs `prt-bake` in the scratch folder, failing the test if it runs past 10 s: the cases
+/// below used to hang (a device read to its end) or abort (a stack overflow).
+fn run_within_seconds(s: &Scratch, args: &[&str]) -> Run {
+    use std::process::{Command, Stdio};
+    use std::time::{Duration, Instant};
+    let mut child = Command::new(env!("CARGO_BIN_EXE_prt-bake"))
+        .args(args)
+        .current_dir(s.path("."))
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start prt-bake");
+    let start = Instant::now();
+    while child.try_wait().expect("wait for prt-bake").is_none() {
+        if start.elapsed() > Duration::from_secs(10) {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("prt-bake {} ran for over 10 s", args.join(" "));
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let output = child.wait_with_output().expect("read prt-bake's output");
+    Run {
+        args: args.join(" "),
+        code: output.status.code(),
+        stdout: String::from_utf8(output.stdout).expect("stdout is UTF-8"),
+        stderr: String::from_utf8(output.stderr).expect("stderr is UTF-8"),
+    }
+}
+
+/// The floor as a glTF document and its buffer's bytes (the buffer without a uri: a `.glb`'s).
+fn floor_gltf(nodes: Value) -> (Value, Vec<u8>) {
+    let ((floor, floor_triangles), _) = floor_and_cube();
+    let indices: Vec<u32> = floor_triangles.iter().flatten().copied().collect();
+    let mut b = GltfBuilder::new();
+    b.mesh("floor", &floor, None, &indices, 4);
+    (b.document(nodes, None), b.bin)
+}
+
+fn make_fifo(path: &Path) {
+    use std::os::unix::ffi::OsStrExt;
+    let name = std::ffi::CString::new(path.as_os_str().as_bytes()).unwrap();
+    // SAFETY: a plain system call on a NUL-terminated path.
+    assert_eq!(unsafe { libc::mkfifo(name.as_ptr(), 0o644) }, 0, "mkfifo");
+}
+
+#[test]
+fn gltf_node_cycles_are_bad_input_naming_the_node() {
+    let s = Scratch::new();
+    let cases = [
+        (
+            json!([{"mesh": 0, "children": [0]}]),
+            "self.glb: invalid glTF: node 0 is its own child (a cycle)",
+        ),
+        (
+            json!([{"mesh": 0, "children": [1]}, {"children": [0]}]),
+            "self.glb: invalid glTF: node 0 is its own ancestor (a cycle: 0 → 1 → 0)",
+        ),
+        (
+            json!([{"mesh": 0, "children": [1, 2]}, {"children": [2]}, {}]),
+            "self.glb: invalid glTF: node 2 is a child of both node 0 and node 1",
+        ),
+    ];
+    for (nodes, message) in cases {
+        let (document, bin) = floor_gltf(nodes);
+        s.write("self.glb", glb(&document, &bin));
+        run_within_seconds(&s, &["bake", "self.glb", "-o", "out/x.prt"])
+            .fails_with_bad_input(&[message]);
+    }
+    s.assert_out_holds(&[]);
+}
+
+/// Nesting is walked without recursion: 20,000 levels bake (the recursive walk overflowed
+/// the stack), and only a depth past the reader's bound is refused.
+#[test]
+fn a_deep_gltf_hierarchy_bakes_and_an_absurd_one_is_refused() {
+    let s = Scratch::new();
+    let chain = |depth: usize| {
+        let mut nodes: Vec<Value> = (1..depth)
+            .map(|child| json!({"children": [child], "translation": [0.0, 0.0, 1e-4]}))
+            .collect();
+        nodes.push(json!({"mesh": 0}));
+        Value::Array(nodes)
+    };
+    let (document, bin) = floor_gltf(chain(20_000));
+    s.write("deep.glb", glb(&document, &bin));
+    run_within_seconds(&s, &["bake", "deep.glb", "-o", "out/deep.prt", "--quiet"]).success();
+    let deep = Scene::load(&s.path("deep.glb")).unwrap();
+    // Every level's translation applied once.
+    let z = deep.positions.iter().map(|p| p.z).fold(f32::NAN, f32::max);
+    assert!((z - 2.0).abs() < 0.01, "{z}");
+
+    let (document, bin) = floor_gltf(chain(100_001));
+    s.write("deeper.glb", glb(&document, &bin));
+    run_within_seconds(&s, &["bake", "deeper.glb", "-o", "out/x.prt"]).fails_with_bad_input(&[
+        "deeper.glb: node 100000 is nested 100001 levels deep, deeper than the 100000",
+    ]);
+    s.assert_out_holds(&["deep.prt"]);
+}
+
+/// A glTF's buffer and image uris may only name regular files inside its folder: devices,
+/// FIFOs, directories, escapes (`..`, percent-encoded, symbolic links) and absolute paths are
+/// refused in a second, naming the file and the uri, and nothing is written;
+/// `--allow-outside-uris` lets a regular file elsewhere be read, never a device.
+#[test]
+fn gltf_uris_naming_devices_or_files_outside_the_folder_are_refused() {
+    let s = Scratch::new();
+    std::fs::create_dir(s.path("asset")).unwrap();
+    let (mut document, bin) = floor_gltf(json!([{"mesh": 0}]));
+    s.write("asset/floor.bin", &bin);
+    s.write("secret.bin", &bin);
+    make_fifo(&s.path("asset/fifo.bin"));
+    std::os::unix::fs::symlink(s.path("secret.bin"), s.path("asset/link.bin")).unwrap();
+    std::fs::create_dir(s.path("asset/folder.bin")).unwrap();
+    let outside = "--allow-outside-uris allows it";
+    let cases: [(&str, &[&str]); 10] = [
+        (
+            "/dev/zero",
+            &["buffer 0's uri \"/dev/zero\" is an absolute path", outside],
+        ),
+        (
+            "file:///dev/zero",
+            &["buffer 0's uri \"file:///dev/zero\" is an absolute path"],
+        ),
+        (
+            "../../../../../../../../dev/zero",
+            &["resolves to /dev/zero, outside the asset's folder", outside],
+        ),
+        (
+            "../secret.bin",
+            &["buffer 0's uri \"../secret.bin\" resolves to", outside],
+        ),
+        (
+            "%2E%2E/secret.bin",
+            &["buffer 0's uri \"%2E%2E/secret.bin\" resolves to"],
+        ),
+        ("%2Fdev%2Fzero", &["is an absolute path"]),
+        (
+            "link.bin",
+            &["buffer 0's uri \"link.bin\" resolves to", outside],
+        ),
+        (
+            "fifo.bin",
+            &["a FIFO (named pipe); only regular files are read"],
+        ),
+        ("folder.bin", &["a directory; only regular files are read"]),
+        ("/etc/passwd", &["is an absolute path"]),
+    ];
+    for (uri, needles) in cases {
+        document["buffers"][0]["uri"] = json!(uri);
+        s.write("asset/s.gltf", serde_json::to_vec(&document).unwrap());
+        let run = run_within_seconds(&s, &["bake", "asset/s.gltf", "-o", "out/x.prt"]);
+        run.fails_with_bad_input(&["asset/s.gltf: "]);
+        run.fails_with_bad_input(needles);
+    }
+
+    // The option lets a regular file elsewhere be read, not a device or a FIFO.
+    document["buffers"][0]["uri"] = json!("../secret.bin");
+    s.write("asset/s.gltf", serde_json::to_vec(&document).unwrap());
+    let allow = ["bake", "asset/s.gltf", "-o", "out/x.prt", "--quiet"];
+    run_within_seconds(&s, &[&allow[..], &["--allow-outside-uris"]].concat()).success();
+    for (uri, kind) in [("/dev/zero", "a character device"), ("fifo.bin", "a FIFO")] {
+        document["buffers"][0]["uri"] = json!(uri);
+        s.write("asset/s.gltf", serde_json::to_vec(&document).unwrap());
+        run_within_seconds(&s, &[&allow[..], &["--allow-outside-uris"]].concat())
+            .fails_with_bad_input(&[kind, "only regular files are read"]);
+    }
+
+    // A buffer file shorter than its byteLength, and a byteLength over --max-memory.
+    document["buffers"][0]["uri"] = json!("floor.bin");
+    document["buffers"][0]["byteLength"] = json!(bin.len() + 4);
+    s.write("asset/s.gltf", serde_json::to_vec(&document).unwrap());
+    run_within_seconds(&s, &["bake", "asset/s.gltf", "-o", "out/y.prt"]).fails_with_bad_input(&[
+        &format!(
+            "buffer 0 has {} bytes, fewer than its byteLength of {}",
+            bin.len(),
+            bin.len() + 4
+        ),
+    ]);
+    document["buffers"][0]["byteLength"] = json!(1u64 << 40);
+    s.write("asset/s.gltf", serde_json::to_vec(&document).unwrap());
+    run_within_seconds(&s, &["bake", "asset/s.gltf", "-o", "out/y.prt"]).fails_with_bad_input(&[
+        "asset/s.gltf#buffer0: its declared byteLength of 1099511627776 needs 1.0 TiB, over the memory limit",
+    ]);
+
+    // Image uris: the same rules, for export too.
+    document["buffers"][0]["byteLength"] = json!(bin.len());
+    document["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = json!({"index": 0});
+    document["textures"] = json!([{"source": 0}]);
+    for (uri, needle) in [
+        (
+            "/dev/zero",
+            "image 0's uri \"/dev/zero\" is an absolute path",
+        ),
+        (
+            "../secret.png",
+            "image 0's uri \"../secret.png\" resolves to",
+        ),
+        ("fifo.bin", "image 0's uri \"fifo.bin\" names"),
+    ] {
+        s.write("secret.png", b"not a png");
+        document["images"] = json!([{"uri": uri, "mimeType": "image/png"}]);
+        s.write("asset/s.gltf", serde_json::to_vec(&document).unwrap());
+        run_within_seconds(&s, &["bake", "asset/s.gltf", "-o", "out/y.prt"])
+            .fails_with_bad_input(&["asset/s.gltf: ", needle]);
+        run_within_seconds(
+            &s,
+            &[
+                "export",
+                "out/x.prt",
+                "--scene",
+                "asset/s.gltf",
+                "--npz",
+                "out/y.npz",
+            ],
+        )
+        .fails_with_bad_input(&["asset/s.gltf: ", needle]);
+    }
+    s.assert_out_holds(&["x.prt"]);
+}
+
+/// The same rules for the paths of OBJ (`mtllib`), MTL (`map_Kd`), scene files and light
+/// rigs (environment maps), in every command that reads them.
+#[test]
+fn obj_mtl_scene_and_rig_paths_follow_the_same_rules() {
+    let s = Scratch::new();
+    std::fs::create_dir(s.path("asset")).unwrap();
+    s.write("outside.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    s.write("outside.mtl", "newmtl m\nKd 1 1 1\n");
+    make_fifo(&s.path("asset/fifo.tga"));
+    let triangle = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+    let cases: [(&str, &str, &[&str]); 8] = [
+        (
+            "asset/a.obj",
+            &format!("mtllib ../outside.mtl\n{triangle}f 1 2 3\n"),
+            &[
+                "asset/a.obj:1: material library \"../outside.mtl\" resolves to",
+                "--allow-outside-uris",
+            ],
+        ),
+        (
+            "asset/a.obj",
+            &format!("mtllib /dev/zero\n{triangle}f 1 2 3\n"),
+            &["asset/a.obj:1: material library \"/dev/zero\" is an absolute path"],
+        ),
+        (
+            "asset/a.mtl",
+            "newmtl m\nmap_Kd /dev/zero\n",
+            &["asset/a.mtl:2: texture \"/dev/zero\" is an absolute path"],
+        ),
+        (
+            "asset/a.mtl",
+            "newmtl m\nmap_Kd ../../../../../../../../dev/zero\n",
+            &["resolves to /dev/zero"],
+        ),
+        (
+            "asset/a.mtl",
+            "newmtl m\nmap_Kd fifo.tga\n",
+            &["asset/a.mtl:2: texture \"fifo.tga\" names", "a FIFO"],
+        ),
+        (
+            "asset/a.scene",
+            "\"../outside.obj\"\n",
+            &["asset/a.scene:1: object \"../outside.obj\" resolves to"],
+        ),
+        (
+            "asset/a.scene",
+            "\"/dev/zero\"\n",
+            &["asset/a.scene:1: object \"/dev/zero\" is an absolute path"],
+        ),
+        (
+            "asset/a.scene",
+            "\"b.obj\" \"fifo.tga\"\n",
+            &["asset/a.scene:1: texture \"fifo.tga\" names", "a FIFO"],
+        ),
+    ];
+    s.write(
+        "asset/b.obj",
+        format!("mtllib a.mtl\n{triangle}usemtl m\nf 1 2 3\n"),
+    );
+    s.write("asset/a.mtl", "newmtl m\nKd 1 1 1\n");
+    for (file, text, needles) in cases {
+        s.write(file, text);
+        let scene = if file.ends_with(".mtl") {
+            "asset/b.obj"
+        } else {
+            file
+        };
+        run_within_seconds(&s, &["bake", scene, "-o", "out/x.prt"]).fails_with_bad_input(needles);
+        s.write("asset/a.mtl", "newmtl m\nKd 1 1 1\n");
+    }
+    // With the option, the scene file's object outside its folder bakes.
+    s.write("asset/a.scene", "\"../outside.obj\"\n");
+    let bake = ["bake", "asset/a.scene", "-o", "out/x.prt", "--quiet"];
+    run_within_seconds(&s, &[&bake[..], &["--allow-outside-uris"]].concat()).success();
+
+    // A rig's environment map, through `light` and `relight`.
+    s.write("outside.hdr", b"not an hdr");
+    s.write(
+        "asset/rig.toml",
+        "[[light]]\nkind = \"environment\"\npath = \"../outside.hdr\"\n",
+    );
+    let light = ["light", "asset/rig.toml", "-o", "out/l.json"];
+    let refused = [
+        "asset/rig.toml:3: light 1, key `path`: environment map \"../outside.hdr\" resolves to",
+        "--allow-outside-uris allows it",
+    ];
+    run_within_seconds(&s, &light).fails_with_bad_input(&refused);
+    run_within_seconds(
+        &s,
+        &[
+            "relight",
+            "asset/b.obj",
+            "out/x.prt",
+            "--lights",
+            "asset/rig.toml",
+            "-o",
+            "out/r.ply",
+        ],
+    )
+    .fails_with_bad_input(&refused);
+    // Allowed, the map is read (and is no HDR).
+    run_within_seconds(&s, &[&light[..], &["--allow-outside-uris"]].concat()).fails_with_bad_input(
+        &[
+            "cannot use ../outside.hdr",
+            "cannot decode the environment map",
+        ],
+    );
+    s.write(
+        "asset/rig.toml",
+        "[[light]]\nkind = \"environment\"\npath = \"/dev/zero\"\n",
+    );
+    run_within_seconds(&s, &[&light[..], &["--allow-outside-uris"]].concat())
+        .fails_with_bad_input(&["asset/rig.toml:3: light 1, key `path`: environment map \"/dev/zero\" names /dev/zero, a character device"]);
+    s.assert_out_holds(&["x.prt"]);
+}

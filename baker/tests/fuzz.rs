@@ -18,14 +18,27 @@
 //!   accepted is counted and fails the test); with the checksum repaired, what is accepted
 //!   must read back to the same bytes.
 //!
-//! The counts are the table of `docs/robustness.md`, which this test checks (run it with
-//! `PRT_FUZZ_BLESS=1` to rewrite the table after a parser changed). `PRT_FUZZ_CASES=N` sets the
-//! mutants per parser (`make fuzz`: longer runs, not compared with the table).
+//! Besides byte mutants, a quarter of the glTF cases and an eighth of the OBJ, MTL, scene and
+//! rig cases are made by structure-aware generators ([`structured_case`]): node hierarchies
+//! with cycles, shared children and deep chains; buffer and image uris naming special files
+//! (devices, a FIFO, a directory, symbolic links to them and out of the folder, `..` escapes
+//! plain and percent-encoded, absolute and `file:` paths); byteLength, byteOffset, byteStride,
+//! count and component types at interesting values; and OBJ `mtllib`, MTL `map_Kd`, scene
+//! entries and rig maps naming the same special files. Half of those run with
+//! `--allow-outside-uris`, so the device and FIFO refusal is reached behind the folder check.
+//!
+//! Every run draws its cases from a new seed, printed first (`fuzz: seed 0x…`);
+//! `PRT_FUZZ_SEED=0x…` replays a run. The counts of a run with [`TABLE_SEED`] are the table of
+//! `docs/robustness.md`, which this test checks when run with that seed (with
+//! `PRT_FUZZ_BLESS=1` it rewrites the table after a parser changed); any other seed checks
+//! everything else (no panic, hang, over-allocation or accepted corruption) and prints its
+//! table. `PRT_FUZZ_CASES=N` sets the mutants per parser (`make fuzz`: longer runs, not
+//! compared with the table).
 
 mod common;
 
 use std::alloc::{GlobalAlloc, Layout, System};
-use std::io::Cursor;
+use std::io::{Cursor, Write};
 use std::panic::AssertUnwindSafe;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
@@ -49,6 +62,26 @@ const MAX_MEMORY: u64 = 64 << 20;
 const ALLOCATION_CAP: usize = 256 << 20;
 /// Longer than any case takes on a loaded machine (they take well under 10 ms).
 const CASE_TIME_LIMIT: Duration = Duration::from_secs(10);
+/// The seed of the table in `docs/robustness.md` (the seed every run used before runs drew
+/// their own, so the parsers without structured cases keep their counts).
+const TABLE_SEED: u64 = 0x5eed_0000;
+
+/// This run's seed: `PRT_FUZZ_SEED` (decimal or `0x` hex) to replay one, else drawn from the
+/// clock and the process id.
+fn run_seed() -> u64 {
+    if let Ok(text) = std::env::var("PRT_FUZZ_SEED") {
+        let text = text.trim();
+        let parsed = match text.strip_prefix("0x").or_else(|| text.strip_prefix("0X")) {
+            Some(hex) => u64::from_str_radix(hex, 16),
+            None => text.parse(),
+        };
+        return parsed.unwrap_or_else(|_| panic!("PRT_FUZZ_SEED={text:?} is not a number"));
+    }
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos() as u64);
+    Rng(nanos ^ (u64::from(std::process::id()) << 32)).next()
+}
 
 // ---------------------------------------------------------------------------------------
 // The counting allocator.
@@ -133,6 +166,42 @@ unsafe impl GlobalAlloc for Counting {
 
 #[global_allocator]
 static ALLOCATOR: Counting = Counting;
+
+/// Where [`on_abort`] saves the case running when the process aborts: a stack overflow (a
+/// node hierarchy walked recursively) cannot be caught as a panic. Set per parser, to its
+/// corpus folder's `crash-aborted`, before its cases run.
+static ABORT_PATH: std::sync::atomic::AtomicPtr<libc::c_char> =
+    std::sync::atomic::AtomicPtr::new(std::ptr::null_mut());
+/// The folder of [`ABORT_PATH`], made by the handler if missing.
+static ABORT_FOLDER: std::sync::atomic::AtomicPtr<libc::c_char> =
+    std::sync::atomic::AtomicPtr::new(std::ptr::null_mut());
+
+/// SIGABRT handler: saves the running case (raw system calls only), then returns, and the
+/// abort ends the process as it would have.
+extern "C" fn on_abort(_: libc::c_int) {
+    let message = b"fuzz: the process aborted (a stack overflow?); the case is saved as crash-aborted in the parser's corpus folder\n";
+    // SAFETY: plain system calls on a NUL-terminated path that lives for the whole run and
+    // on the case's live buffer.
+    unsafe {
+        libc::write(2, message.as_ptr().cast(), message.len());
+        let path = ABORT_PATH.load(Ordering::SeqCst);
+        let (ptr, len) = (
+            CASE_PTR.load(Ordering::SeqCst),
+            CASE_LEN.load(Ordering::SeqCst),
+        );
+        let folder = ABORT_FOLDER.load(Ordering::SeqCst);
+        if !folder.is_null() {
+            libc::mkdir(folder, 0o755);
+        }
+        if !path.is_null() && ptr != 0 {
+            let fd = libc::open(path, libc::O_CREAT | libc::O_WRONLY | libc::O_TRUNC, 0o644);
+            if fd >= 0 {
+                libc::write(fd, ptr as *const libc::c_void, len);
+                libc::close(fd);
+            }
+        }
+    }
+}
 
 // ---------------------------------------------------------------------------------------
 // The deterministic mutator.
@@ -587,7 +656,296 @@ fn case_folder() -> tempfile::TempDir {
         b"mtllib case.mtl\nusemtl m\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
     );
     write("sky.hdr", &image_bytes(rgbf(4, 2), image::ImageFormat::Hdr));
+    // What the structured cases name: special files, and links to them and out of the folder.
+    let path = |name: &str| dir.path().join(name);
+    let fifo = std::ffi::CString::new(path("fifo").into_os_string().into_encoded_bytes()).unwrap();
+    // SAFETY: a plain system call on a NUL-terminated path.
+    assert_eq!(unsafe { libc::mkfifo(fifo.as_ptr(), 0o644) }, 0, "mkfifo");
+    std::fs::create_dir(path("sub")).unwrap();
+    for (link, target) in [
+        ("link-zero", "/dev/zero"),
+        ("link-fifo", "fifo"),
+        ("link-out", "/etc/passwd"),
+        ("link-sub", "sub"),
+        ("link-loop", "link-loop"),
+    ] {
+        std::os::unix::fs::symlink(target, path(link)).unwrap();
+    }
     dir
+}
+
+/// Paths the structured cases put in uris, `mtllib`, `map_Kd`, scene entries and rig maps.
+const SPECIAL_PATHS: [&str; 32] = [
+    "/dev/zero",
+    "/dev/null",
+    "/dev/urandom",
+    "/dev/stdin",
+    "/proc/self/fd/0",
+    "file:///dev/zero",
+    "file:/dev/zero",
+    "../../../../../../../../dev/zero",
+    "../../../../../../../../etc/passwd",
+    "/etc/passwd",
+    "%2E%2E/%2E%2E/%2E%2E/%2E%2E/%2E%2E/%2E%2E/%2E%2E/%2E%2E/dev/zero",
+    "%2Fdev%2Fzero",
+    "..%2F..%2F..%2F..%2F..%2F..%2F..%2F..%2Fetc%2Fpasswd",
+    "%2e%2e",
+    "fifo",
+    "sub",
+    ".",
+    "..",
+    "",
+    "link-zero",
+    "link-fifo",
+    "link-out",
+    "link-sub",
+    "link-loop",
+    "nothere.bin",
+    "buf.bin",
+    "tex.tga",
+    "té.png",
+    "t%C3%A9.png",
+    "sub/../buf.bin",
+    "sub/../../buf.bin",
+    "buf.bin%00.png",
+];
+
+fn special_path(rng: &mut Rng) -> &'static str {
+    SPECIAL_PATHS[rng.below(SPECIAL_PATHS.len())]
+}
+
+/// Special paths that name a device, FIFO or directory (directly, through a link or an
+/// escape): a case naming one is refused, `--allow-outside-uris` or not.
+const NEVER_READ: [&str; 16] = [
+    "/dev/zero",
+    "/dev/null",
+    "/dev/urandom",
+    "file:///dev/zero",
+    "file:/dev/zero",
+    "../../../../../../../../dev/zero",
+    "%2E%2E/%2E%2E/%2E%2E/%2E%2E/%2E%2E/%2E%2E/%2E%2E/%2E%2E/dev/zero",
+    "%2Fdev%2Fzero",
+    "%2e%2e",
+    "fifo",
+    "sub",
+    ".",
+    "..",
+    "link-zero",
+    "link-fifo",
+    "link-sub",
+];
+
+/// Special paths outside the case folder or absolute: refused without the option.
+const OUTSIDE: [&str; 5] = [
+    "../../../../../../../../etc/passwd",
+    "/etc/passwd",
+    "..%2F..%2F..%2F..%2F..%2F..%2F..%2F..%2Fetc%2Fpasswd",
+    "link-out",
+    "sub/../../buf.bin",
+];
+
+/// Whether a structured case must be refused: it names (in a uri, `mtllib`, `map_Kd`, a
+/// scene entry or a rig map) a special file that is never read, or one outside the folder
+/// while `--allow-outside-uris` is off. An accepted one is an escape, and fails the test.
+fn must_be_refused(target: Target, bytes: &[u8], allow_outside: bool) -> bool {
+    let refused =
+        |path: &str| NEVER_READ.contains(&path) || (!allow_outside && OUTSIDE.contains(&path));
+    let text = String::from_utf8_lossy(bytes);
+    match target {
+        Target::Gltf => {
+            let Ok(doc) = serde_json::from_slice::<serde_json::Value>(bytes) else {
+                return false;
+            };
+            let uris = [&doc["buffers"][0]["uri"], &doc["images"][0]["uri"]];
+            uris.iter().filter_map(|uri| uri.as_str()).any(refused)
+        }
+        Target::SceneFile | Target::Rig => text.split('"').any(refused),
+        _ => text
+            .lines()
+            .filter_map(|line| line.split_once(' '))
+            .filter(|(key, _)| matches!(*key, "mtllib" | "map_Kd"))
+            .any(|(_, path)| refused(path)),
+    }
+}
+
+/// A number glTF sizes and offsets are set to: around the data's real sizes, zero, past 2³²,
+/// negative, fractional, huge.
+fn interesting_json_number(rng: &mut Rng, near: u64) -> serde_json::Value {
+    use serde_json::json;
+    match rng.below(10) {
+        0 => json!(0),
+        1 => json!(near.saturating_sub(1 + rng.below(4) as u64)),
+        2 => json!(near + 1 + rng.below(4) as u64),
+        3 => json!(near),
+        4 => json!(INTERESTING_INTS[rng.below(INTERESTING_INTS.len())]),
+        5 => json!(-1),
+        6 => json!(1.5),
+        7 => json!(1e300),
+        8 => json!(rng.below(64)),
+        _ => json!(1u64 << 53),
+    }
+}
+
+/// One structure-aware case of `target` (see the module's comment), in the case folder whose
+/// `buf.bin` holds `bin`; `gltf` is the `.gltf` seed with a data-URI buffer.
+fn structured_case(target: Target, gltf: &serde_json::Value, bin: &[u8], rng: &mut Rng) -> Vec<u8> {
+    let triangle = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+    match target {
+        Target::Obj => format!(
+            "mtllib {}\nusemtl m\n{triangle}f 1 2 3\n",
+            special_path(rng)
+        )
+        .into_bytes(),
+        Target::Mtl => format!("newmtl m\nKd 1 1 1\nmap_Kd {}\n", special_path(rng)).into_bytes(),
+        Target::SceneFile => {
+            let mut text = String::new();
+            for _ in 0..1 + rng.below(2) {
+                let object = match rng.below(3) {
+                    0 => "mesh.obj",
+                    _ => special_path(rng),
+                };
+                match rng.below(3) {
+                    0 => text += &format!("\"{object}\"\n"),
+                    1 => text += &format!("\"{object}\" \"{}\"\n", special_path(rng)),
+                    _ => text += &format!("\"{object}\" tex.tga\n"),
+                }
+            }
+            text.into_bytes()
+        }
+        Target::Rig => format!(
+            "[[light]]\nkind = \"environment\"\npath = \"{}\"\n",
+            special_path(rng)
+        )
+        .into_bytes(),
+        Target::Gltf => structured_gltf(gltf, bin, rng),
+        _ => unreachable!("no structured cases for {}", target.name()),
+    }
+}
+
+/// A `.gltf` seed with one to three structural edits: a hierarchy, a uri, sizes.
+fn structured_gltf(seed: &serde_json::Value, bin: &[u8], rng: &mut Rng) -> Vec<u8> {
+    use serde_json::{Value, json};
+    let mut doc = seed.clone();
+    for _ in 0..1 + rng.below(3) {
+        match rng.below(4) {
+            0 => {
+                // The mesh node plus a few more, wired up by a hierarchy of some shape.
+                let extra = 1 + rng.below(4);
+                let mut nodes: Vec<Value> = vec![json!({"mesh": 0})];
+                nodes.extend((0..extra).map(|_| json!({})));
+                let n = nodes.len();
+                let mut roots = vec![json!(0)];
+                match rng.below(7) {
+                    0 => nodes[rng.below(n)]["children"] = json!([rng.below(n)]),
+                    1 => {
+                        // A cycle through every node, from the root.
+                        for (i, node) in nodes.iter_mut().enumerate() {
+                            node["children"] = json!([(i + 1) % n]);
+                        }
+                    }
+                    2 => {
+                        // A child shared by two parents (a diamond).
+                        let child = n - 1;
+                        for node in nodes.iter_mut().take(n - 1) {
+                            node["children"] = json!([child]);
+                        }
+                    }
+                    3 => {
+                        // A chain: mostly shallow, sometimes at the reader's depth bound.
+                        let depth = match rng.below(40) {
+                            0 => 99_990 + rng.below(20),
+                            _ => 1 + rng.below(200),
+                        };
+                        nodes = (1..depth)
+                            .map(|child| json!({"children": [child], "translation": [0.0, 1e-3, 0.0]}))
+                            .collect();
+                        nodes.push(json!({"mesh": 0}));
+                    }
+                    4 => roots = vec![json!(0), json!(0)],
+                    5 => {
+                        nodes[0]["children"] = json!([1]);
+                        roots = vec![json!(0), json!(1)];
+                    }
+                    _ => {
+                        // Random children lists, out-of-range indices included.
+                        for node in nodes.iter_mut() {
+                            let count = rng.below(3);
+                            let children: Vec<usize> =
+                                (0..count).map(|_| rng.below(n + 1)).collect();
+                            node["children"] = json!(children);
+                        }
+                        if rng.below(2) == 0 {
+                            roots = vec![json!(rng.below(n + 1))];
+                        }
+                    }
+                }
+                doc["nodes"] = Value::Array(nodes);
+                doc["scenes"] = json!([{"nodes": roots}]);
+            }
+            1 => {
+                let uri = special_path(rng);
+                if rng.below(2) == 0 {
+                    doc["buffers"][0]["uri"] = json!(uri);
+                } else if let Some(image) = doc["images"].get_mut(0) {
+                    *image = json!({"uri": uri});
+                    if rng.below(2) == 0 {
+                        image["mimeType"] = json!("image/png");
+                    }
+                }
+            }
+            2 => {
+                // The buffer as the file `buf.bin`, its byteLength around the file's size.
+                doc["buffers"][0]["uri"] = json!("buf.bin");
+                doc["buffers"][0]["byteLength"] = interesting_json_number(rng, bin.len() as u64);
+            }
+            _ => {
+                let near = bin.len() as u64;
+                let views = doc["bufferViews"].as_array().map_or(0, Vec::len);
+                let accessors = doc["accessors"].as_array().map_or(0, Vec::len);
+                match rng.below(8) {
+                    0 => doc["buffers"][0]["byteLength"] = interesting_json_number(rng, near),
+                    1 if views > 0 => {
+                        let key = ["byteLength", "byteOffset", "byteStride"][rng.below(3)];
+                        doc["bufferViews"][rng.below(views)][key] =
+                            interesting_json_number(rng, near);
+                    }
+                    2 if accessors > 0 => {
+                        let key = ["count", "byteOffset", "bufferView"][rng.below(3)];
+                        doc["accessors"][rng.below(accessors)][key] =
+                            interesting_json_number(rng, 4);
+                    }
+                    3 if accessors > 0 => {
+                        let types = [5120, 5121, 5122, 5123, 5125, 5126, 5124, 0];
+                        doc["accessors"][rng.below(accessors)]["componentType"] =
+                            json!(types[rng.below(types.len())]);
+                    }
+                    4 if accessors > 0 => {
+                        let kinds = [
+                            "SCALAR", "VEC2", "VEC3", "VEC4", "MAT2", "MAT3", "MAT4", "X",
+                        ];
+                        doc["accessors"][rng.below(accessors)]["type"] =
+                            json!(kinds[rng.below(kinds.len())]);
+                    }
+                    5 if accessors > 0 => {
+                        let index_type = [5121, 5123, 5125, 5126][rng.below(4)];
+                        doc["accessors"][rng.below(accessors)]["sparse"] = json!({
+                            "count": interesting_json_number(rng, 3),
+                            "indices": {"bufferView": rng.below(views + 1), "componentType": index_type},
+                            "values": {"bufferView": rng.below(views + 1)},
+                        });
+                    }
+                    6 if views > 0 => {
+                        doc["bufferViews"][rng.below(views)]["buffer"] = json!(rng.below(3));
+                    }
+                    _ => {
+                        doc["meshes"][0]["primitives"][0]["indices"] =
+                            json!(rng.below(accessors + 1));
+                    }
+                }
+            }
+        }
+    }
+    serde_json::to_vec(&doc).unwrap()
 }
 
 /// What happened to one parser's cases.
@@ -601,6 +959,9 @@ struct Tally {
     accepted_corruptions: usize,
     /// `.prt` mutants with a repaired checksum, accepted, that read back to other bytes.
     unfaithful: usize,
+    /// Structured cases naming a file the input-path policy refuses that were accepted anyway
+    /// (must be none), saved as `escape-*`.
+    escapes: Vec<String>,
     peak_bytes: usize,
     slowest: Duration,
 }
@@ -622,7 +983,8 @@ fn watchdog(start: Instant, current: std::sync::Arc<std::sync::Mutex<(String, Ve
                 let _ = std::fs::create_dir_all(path.parent().unwrap());
                 let _ = std::fs::write(&path, &bytes);
                 eprintln!(
-                    "fuzz: a {name} case ran past {CASE_TIME_LIMIT:?} (a hang); saved as {}",
+                    "fuzz: a {name} case ran past {CASE_TIME_LIMIT:?} (a hang); saved as {} \
+                     (the run's seed is printed at its start)",
                     path.display()
                 );
                 std::process::exit(1);
@@ -656,25 +1018,68 @@ fn repair_checksum(bytes: &mut [u8]) {
     bytes[124..128].copy_from_slice(&crc.to_le_bytes());
 }
 
+/// Whether a target gets structured cases, and how often (one mutant in this many).
+fn structured_every(target: Target) -> Option<usize> {
+    match target {
+        Target::Gltf => Some(4),
+        Target::Obj | Target::Mtl | Target::SceneFile | Target::Rig => Some(8),
+        _ => None,
+    }
+}
+
 fn fuzz(
     target: Target,
     cases: usize,
+    seed: u64,
     start: Instant,
     current: &std::sync::Mutex<(String, Vec<u8>)>,
 ) -> Tally {
     let folder = case_folder();
+    // The structured glTF cases start from the `.gltf` seed (a data-URI buffer), whose
+    // buffer is also written as the case folder's `buf.bin`.
+    let gltf_seeds = generated_seeds(Target::Gltf);
+    let gltf_seed: serde_json::Value = serde_json::from_slice(&gltf_seeds[1]).unwrap();
+    let bin = gltf::Glb::from_slice(&gltf_seeds[0])
+        .unwrap()
+        .bin
+        .unwrap()
+        .into_owned();
+    std::fs::write(folder.path().join("buf.bin"), &bin).unwrap();
     let mut seeds = generated_seeds(target);
-    seeds.extend(corpus(target).into_iter().map(|(_, bytes)| bytes));
+    let first_corpus_seed = seeds.len();
+    let corpus = corpus(target);
+    // The escapes found so far are regressions of the input-path policy: still refused.
+    let escape_seeds: Vec<bool> = corpus
+        .iter()
+        .map(|(name, _)| name.starts_with("escape-"))
+        .collect();
+    seeds.extend(corpus.into_iter().map(|(_, bytes)| bytes));
+    let c_path = |path: PathBuf| {
+        // Leaked: the handler may read it until the process ends.
+        std::ffi::CString::new(path.into_os_string().into_encoded_bytes())
+            .unwrap()
+            .into_raw()
+    };
+    ABORT_FOLDER.store(c_path(corpus_folder(target)), Ordering::SeqCst);
+    ABORT_PATH.store(
+        c_path(corpus_folder(target).join("crash-aborted")),
+        Ordering::SeqCst,
+    );
     let mut tally = Tally {
         seeds: seeds.len(),
         ..Tally::default()
     };
-    let mut rng = Rng(0x5eed_0000 + target as u64);
+    let mut rng = Rng(seed.wrapping_add(target as u64));
     let total = seeds.len() + cases;
     for k in 0..total {
         // Seeds first, as they are (the regressions among them), then mutants.
+        let structured =
+            k >= seeds.len() && structured_every(target).is_some_and(|every| k % every == 1);
+        let allow_outside = structured && rng.below(2) == 0;
+        prt_baker::support::input_path::set_allow_outside(allow_outside);
         let (mut bytes, repaired) = match k < seeds.len() {
             true => (seeds[k].clone(), false),
+            false if structured => (structured_case(target, &gltf_seed, &bin, &mut rng), false),
             false => {
                 let seed = &seeds[rng.below(seeds.len())];
                 let mut bytes = mutate(seed, &seeds, target.is_text(), &mut rng);
@@ -715,6 +1120,15 @@ fn fuzz(
             Ok(false) => {}
             Ok(true) => {
                 tally.accepted += 1;
+                let escape_seed = k >= first_corpus_seed
+                    && escape_seeds.get(k - first_corpus_seed) == Some(&true);
+                if escape_seed || (structured && must_be_refused(target, &bytes, allow_outside)) {
+                    let name = format!("escape-{:016x}", hash(&bytes));
+                    let path = corpus_folder(target).join(name);
+                    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+                    std::fs::write(&path, &bytes).unwrap();
+                    tally.escapes.push(path.display().to_string());
+                }
                 if target == Target::Prt && k >= seeds.len() {
                     let is_a_seed = seeds.contains(&bytes);
                     if !repaired && !is_a_seed {
@@ -743,8 +1157,17 @@ fn every_parser_survives_its_mutants() {
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(DEFAULT_CASES);
+    let seed = run_seed();
+    // Written to the standard error itself, not through `eprintln!`, which the test harness
+    // captures: the seed of every run is logged, passing or not.
+    let _ = writeln!(
+        std::io::stderr(),
+        "fuzz: seed {seed:#x} (replay this run with PRT_FUZZ_SEED={seed:#x})"
+    );
     // A panic is caught and counted per case; the default hook's report would only be noise.
     std::panic::set_hook(Box::new(|_| {}));
+    // SAFETY: installs a handler that makes only async-signal-safe calls.
+    unsafe { libc::signal(libc::SIGABRT, on_abort as *const () as libc::sighandler_t) };
     let start = Instant::now();
     let current = std::sync::Arc::new(std::sync::Mutex::new((String::new(), Vec::new())));
     watchdog(start, current.clone());
@@ -755,7 +1178,7 @@ fn every_parser_survives_its_mutants() {
     let mut failures = Vec::new();
     for target in TARGETS {
         let began = Instant::now();
-        let t = fuzz(target, cases, start, &current);
+        let t = fuzz(target, cases, seed, start, &current);
         eprintln!(
             "fuzz {:5}: {} cases in {:.2} s, slowest {:.1} ms, most held {:.1} MiB, {} accepted",
             target.name(),
@@ -792,6 +1215,14 @@ fn every_parser_survives_its_mutants() {
                 saved[0]
             ));
         }
+        if !t.escapes.is_empty() {
+            failures.push(format!(
+                "{}: {} cases naming a device, FIFO, directory or outside file were accepted (first: {})",
+                target.name(),
+                t.escapes.len(),
+                t.escapes[0]
+            ));
+        }
         if t.peak_bytes > ALLOCATION_CAP {
             failures.push(format!(
                 "{}: a case held {} bytes",
@@ -810,8 +1241,12 @@ fn every_parser_survives_its_mutants() {
     let _ = std::panic::take_hook();
     let table = rows.join("\n");
     eprintln!("{table}");
-    assert!(failures.is_empty(), "{}", failures.join("\n"));
-    if cases == DEFAULT_CASES {
+    assert!(
+        failures.is_empty(),
+        "seed {seed:#x} (replay with PRT_FUZZ_SEED={seed:#x}):\n{}",
+        failures.join("\n")
+    );
+    if cases == DEFAULT_CASES && seed == TABLE_SEED {
         check_docs_table(&table);
     }
 }

@@ -160,6 +160,30 @@ fn a_panic_mid_write_keeps_the_old_output_and_leaves_no_temporary_file() {
     scratch.assert_out_holds(&["a.prt"]);
 }
 
+/// Starts the child with `signal` at its default action and unblocked, whatever this test
+/// inherited: started in the background (`make test &` in a script, `nohup`), a shell has
+/// SIGINT ignored, the child inherits that, and the baker rightly keeps an ignored signal
+/// ignored (as `nohup` means it), so it would not die of the SIGINT sent below.
+fn with_default_disposition(command: &mut Command, signal: libc::c_int) {
+    use std::os::unix::process::CommandExt;
+    // SAFETY: between fork and exec only async-signal-safe calls (signal, sigemptyset,
+    // sigaddset, sigprocmask), on the child's own state.
+    unsafe {
+        command.pre_exec(move || {
+            if libc::signal(signal, libc::SIG_DFL) == libc::SIG_ERR {
+                return Err(std::io::Error::last_os_error());
+            }
+            let mut set: libc::sigset_t = std::mem::zeroed();
+            libc::sigemptyset(&mut set);
+            libc::sigaddset(&mut set, signal);
+            if libc::sigprocmask(libc::SIG_UNBLOCK, &set, std::ptr::null_mut()) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            Ok(())
+        });
+    }
+}
+
 #[test]
 fn a_signal_mid_write_keeps_the_old_output_and_leaves_no_temporary_file() {
     for signal in [libc::SIGTERM, libc::SIGINT] {
@@ -167,14 +191,15 @@ fn a_signal_mid_write_keeps_the_old_output_and_leaves_no_temporary_file() {
         scratch.write("t.obj", TRIANGLE);
         scratch.bake("t.obj", "a.prt", &[]);
         let before = scratch.read("out/a.prt");
-        let mut child = Command::new(env!("CARGO_BIN_EXE_prt-bake"))
+        let mut command = Command::new(env!("CARGO_BIN_EXE_prt-bake"));
+        command
             .args(["bake", "t.obj", "-o", "out/a.prt", "--quiet", "--seed", "7"])
             .current_dir(scratch.path("."))
             .env("PRT_TEST_FAULT", "pause-mid-write")
             .stderr(Stdio::piped())
-            .stdout(Stdio::null())
-            .spawn()
-            .unwrap();
+            .stdout(Stdio::null());
+        with_default_disposition(&mut command, signal);
+        let mut child = command.spawn().unwrap();
         let mut stderr = BufReader::new(child.stderr.take().unwrap());
         let mut line = String::new();
         stderr.read_line(&mut line).unwrap();

@@ -69,9 +69,18 @@ impl EnvironmentMap {
             location: Location::file(path),
             message,
         };
-        let reader = image::ImageReader::open(path)
-            .and_then(|r| r.with_guessed_format())
-            .map_err(|err| Error::io(path, err))?;
+        // Only a regular file, no larger than the memory limit (crate::support::input_path).
+        let bytes = crate::support::input_path::read(path)?;
+        let open = || {
+            let mut reader = image::ImageReader::new(std::io::Cursor::new(&bytes[..]));
+            if let Ok(format) = image::ImageFormat::from_path(path) {
+                reader.set_format(format);
+            }
+            reader
+                .with_guessed_format()
+                .map_err(|err| Error::io(path, err))
+        };
+        let reader = open()?;
         match reader.format() {
             Some(image::ImageFormat::Hdr | image::ImageFormat::OpenExr) => {}
             other => {
@@ -83,9 +92,7 @@ impl EnvironmentMap {
         }
         // The header's size first: decoding (up to 16 bytes a pixel), the RGB float copy and
         // the kept pixels (12 each) must fit before a byte of pixels is allocated.
-        let (width, height) = image::ImageReader::open(path)
-            .and_then(|r| r.with_guessed_format())
-            .map_err(|err| Error::io(path, err))?
+        let (width, height) = open()?
             .into_dimensions()
             .map_err(|err| fail(format!("cannot decode the environment map: {err}")))?;
         crate::support::limits::check_image(path, width, height, 40)?;

@@ -27,6 +27,7 @@ use super::environment::EnvironmentMap;
 use super::projection::{Light, project_sum};
 use super::window::Window;
 use crate::support::error::{Error, Location, Result};
+use crate::support::input_path::AssetFolder;
 
 /// The Sun's mean angular radius (16′), the default of `angular_radius` for a sun.
 pub const SUN_ANGULAR_RADIUS_DEGREES: f64 = 0.2666;
@@ -420,8 +421,16 @@ impl Table<'_> {
         let Some(file) = self.string("path")? else {
             return Err(self.missing("path", "the .hdr or .exr map"));
         };
+        // The map must lie in the rig's folder, and be a regular file (crate::support::input_path).
         let folder = self.source.path.parent().unwrap_or(Path::new(""));
-        let map = EnvironmentMap::load(&folder.join(file))
+        let at = Location::file(self.source.path);
+        let map_path = AssetFolder::of(self.source.path)
+            .admit(&at, "environment map", file, Path::new(file), folder)
+            .map_err(|err| match err {
+                Error::InputPath { message, .. } => self.key_error("path", message),
+                other => other,
+            })?;
+        let map = EnvironmentMap::load(&map_path)
             .map_err(|err| self.key_error("path", format!("cannot use {file}: {err}")))?;
         let rotation = match self.vector3("rotation")? {
             None => DMat3::IDENTITY,

@@ -21,6 +21,7 @@ use gltf::mesh::Mode;
 use super::mesh::{DEFAULT_KD, Material, Mesh};
 use super::texture::Texture;
 use crate::support::error::{Error, Location, Result};
+use crate::support::input_path::AssetFolder;
 
 /// What a glTF file contributes.
 pub struct Loaded {
@@ -68,10 +69,9 @@ pub fn load(path: &Path) -> Result<Loaded> {
             .unwrap_or_default(),
         None => bytes.clone(),
     };
-    let base = path.parent().unwrap_or(Path::new(""));
+    let folder = AssetFolder::of(path);
     uris_are_readable(document.as_json()).map_err(fail)?;
-    let buffers = gltf::import_buffers(&document, Some(base), blob)
-        .map_err(|err| fail(format!("cannot read a buffer: {err}")))?;
+    let buffers = read_buffers(path, &folder, &document, blob)?;
 
     let mut digest = xxhash_rust::xxh3::Xxh3::new();
     digest.update(&json_bytes);
@@ -89,10 +89,7 @@ pub fn load(path: &Path) -> Result<Loaded> {
         .default_scene()
         .or_else(|| document.scenes().next())
         .ok_or_else(|| fail("the file has no scene".into()))?;
-    let mut placed = Vec::new();
-    for node in scene.nodes() {
-        flatten(node, Mat4::IDENTITY, &mut placed);
-    }
+    let placed = flatten(&document, &scene).map_err(fail)?;
 
     let mut loaded = Loaded {
         meshes: Vec::new(),
@@ -178,9 +175,7 @@ pub fn load(path: &Path) -> Result<Loaded> {
                     } else {
                         if decoded.is_none() {
                             images_are_readable(&document, &buffers).map_err(fail)?;
-                            images_fit_in_memory(path, base, &document, &buffers)?;
-                            let images = gltf::import_images(&document, Some(base), &buffers)
-                                .map_err(|err| fail(format!("cannot read an image: {err}")))?;
+                            let images = read_images(path, &folder, &document, &buffers)?;
                             for image in &images {
                                 digest.update(&image.pixels);
                             }
@@ -290,28 +285,6 @@ fn relative_path(
     (!uri.contains(':')).then(|| urlencoding::decode(uri))
 }
 
-/// Where a `uri` image's bytes are, as `gltf` 1.4 reads them: a `data:` URI's payload (after
-/// `;base64,`, or all of it), a `file:` path, or a path relative to the glTF (percent-decoded).
-/// `None` for other schemes (which `gltf` refuses itself).
-fn uri_image_dimensions(base: &Path, uri: &str) -> Option<(u32, u32)> {
-    use std::io::{BufReader, Cursor};
-    if let Some(rest) = uri.strip_prefix("data:") {
-        let payload = rest.split(";base64,").nth(1).unwrap_or(rest);
-        // The base64 text is already in memory; its bytes take three quarters of it.
-        let bytes = base64::decode(payload).ok()?;
-        return header_dimensions(Cursor::new(bytes));
-    }
-    let path = match uri
-        .strip_prefix("file://")
-        .or_else(|| uri.strip_prefix("file:"))
-    {
-        Some(path) => std::path::PathBuf::from(path),
-        None => base.join(&*relative_path(uri)?.ok()?),
-    };
-    let file = std::fs::File::open(path).ok()?;
-    header_dimensions(BufReader::new(file))
-}
-
 /// Guards panics of `gltf` 1.4's `import_images` (found by `baker/tests/fuzz.rs`): it unwraps
 /// an image's `mimeType` where it has a `bufferView`, and its `uri` where it has none, and it
 /// slices the view out of its buffer without checking that it fits.
@@ -352,47 +325,256 @@ fn images_are_readable(
     Ok(())
 }
 
-/// Refuses, before `gltf::import_images` decodes every image of the file, an image whose
-/// header declares more pixels than fit under `--max-memory` (as OBJ textures are checked:
-/// up to 16 bytes a pixel for decoding, the RGBA copy and the kept pixels). Embedded
-/// (`bufferView`), `data:` URI and file images are all checked. Headers that cannot be read
-/// are left to `import_images` to report.
-fn images_fit_in_memory(
-    path: &Path,
-    base: &Path,
-    document: &gltf::Document,
-    buffers: &[gltf::buffer::Data],
-) -> Result<()> {
-    use std::io::Cursor;
-    let json = document.as_json();
-    for (i, image) in json.images.iter().enumerate() {
-        let dimensions = match (&image.buffer_view, &image.uri) {
-            (Some(view), _) => {
-                // In bounds: checked by `images_are_readable`.
-                let view = &json.buffer_views[view.value()];
-                let offset = view.byte_offset.map_or(0, |o| o.0) as usize;
-                let bytes = &buffers[view.buffer.value()][offset..][..view.byte_length.0 as usize];
-                header_dimensions(Cursor::new(bytes))
-            }
-            (None, Some(uri)) => uri_image_dimensions(base, uri),
-            (None, None) => None,
-        };
-        let Some((width, height)) = dimensions else {
-            continue;
-        };
-        let name = path.with_file_name(format!(
-            "{}#image{i}",
-            path.file_name().unwrap_or_default().to_string_lossy()
-        ));
-        crate::support::limits::check_image(&name, width, height, 16)?;
-    }
-    Ok(())
+/// The name of one of the file's buffers or images in errors: `scene.gltf#buffer0`.
+fn part_name(path: &Path, part: &str) -> std::path::PathBuf {
+    path.with_file_name(format!(
+        "{}#{part}",
+        path.file_name().unwrap_or_default().to_string_lossy()
+    ))
 }
 
-/// An image's size from its header, without decoding its pixels.
-fn header_dimensions(reader: impl std::io::BufRead + std::io::Seek) -> Option<(u32, u32)> {
-    let reader = image::ImageReader::new(reader).with_guessed_format().ok()?;
-    reader.into_dimensions().ok()
+/// Where a uri's bytes are, as `gltf` 1.4 tells them apart (a colon means a scheme): a
+/// `data:` URI's media type and payload, or a file (`file:` or a relative, percent-decoded
+/// path).
+enum UriSource<'a> {
+    Data {
+        media_type: Option<&'a str>,
+        base64: &'a str,
+    },
+    File(std::path::PathBuf),
+    Unsupported,
+}
+
+fn uri_source(uri: &str) -> UriSource<'_> {
+    if let Some(rest) = uri.strip_prefix("data:") {
+        let mut parts = rest.split(";base64,");
+        return match (parts.next(), parts.next()) {
+            (media_type, Some(base64)) => UriSource::Data { media_type, base64 },
+            _ => UriSource::Data {
+                media_type: None,
+                base64: rest,
+            },
+        };
+    }
+    if let Some(rest) = uri
+        .strip_prefix("file://")
+        .or_else(|| uri.strip_prefix("file:"))
+    {
+        return UriSource::File(rest.into());
+    }
+    match relative_path(uri) {
+        Some(Ok(decoded)) => UriSource::File(decoded.into_owned().into()),
+        // Refused by `uris_are_readable` before.
+        Some(Err(_)) | None => UriSource::Unsupported,
+    }
+}
+
+/// Reads a file a uri names, through the input-path policy, at most `bound` (+ 1) bytes.
+fn read_uri_file(
+    path: &Path,
+    folder: &AssetFolder,
+    what: &str,
+    uri: &str,
+    reference: &Path,
+    bound: u64,
+) -> Result<Vec<u8>> {
+    let base = path.parent().unwrap_or(Path::new(""));
+    let file = folder.admit(&Location::file(path), what, uri, reference, base)?;
+    crate::support::limits::read_regular(&file, bound).map_err(|err| match err {
+        Error::Io { source, .. } => Error::scene(
+            Location::file(path),
+            format!("cannot read {what} {uri:?}: {source}"),
+        ),
+        other => other,
+    })
+}
+
+/// The file's buffers, read as `gltf::import_buffers` reads them (padded to 4 bytes), but
+/// each checked first against its declared byteLength and the memory limit, and never read
+/// past byteLength + 1 bytes: a buffer file longer than declared is cut to its byteLength
+/// (the rest is not the buffer's), a shorter one is refused. Files go through the input-path
+/// policy ([`AssetFolder::admit`]): `/dev/zero` or `../../etc/passwd` are refused.
+fn read_buffers(
+    path: &Path,
+    folder: &AssetFolder,
+    document: &gltf::Document,
+    mut blob: Option<Vec<u8>>,
+) -> Result<Vec<gltf::buffer::Data>> {
+    let fail = |message: String| Error::scene(Location::file(path), message);
+    let mut buffers = Vec::new();
+    for buffer in document.buffers() {
+        let i = buffer.index();
+        let declared = buffer.length() as u64;
+        crate::support::limits::check(
+            part_name(path, &format!("buffer{i}")).display().to_string(),
+            &format!("its declared byteLength of {declared}"),
+            Some(declared),
+        )?;
+        let mut data = match buffer.source() {
+            gltf::buffer::Source::Bin => blob
+                .take()
+                .ok_or_else(|| fail(format!("cannot read a buffer: buffer {i} refers to a binary chunk the file does not have")))?,
+            gltf::buffer::Source::Uri(uri) => match uri_source(uri) {
+                UriSource::Data { base64, .. } => base64::decode(base64).map_err(|err| {
+                    fail(format!("cannot read a buffer: buffer {i}'s data URI: {err}"))
+                })?,
+                UriSource::File(reference) => {
+                    let what = format!("buffer {i}'s uri");
+                    let mut bytes = read_uri_file(path, folder, &what, uri, &reference, declared)?;
+                    bytes.truncate(declared as usize);
+                    bytes
+                }
+                UriSource::Unsupported => {
+                    return Err(fail(format!(
+                        "cannot read a buffer: buffer {i}'s uri {uri:?} has a scheme other than data: or file:"
+                    )));
+                }
+            },
+        };
+        if (data.len() as u64) < declared {
+            return Err(fail(format!(
+                "cannot read a buffer: buffer {i} has {} bytes, fewer than its byteLength of {declared}",
+                data.len()
+            )));
+        }
+        while data.len() % 4 != 0 {
+            data.push(0);
+        }
+        buffers.push(gltf::buffer::Data(data));
+    }
+    Ok(buffers)
+}
+
+/// Every image of the file decoded, as `gltf::import_images` decodes them (PNG or JPEG, by
+/// media type or uri extension), but with the bytes read here: files through the input-path
+/// policy and no larger than the memory limit, and each image's declared size checked against
+/// `--max-memory` before it is decoded (up to 16 bytes a pixel for decoding, the RGBA copy and
+/// the kept pixels, as OBJ textures are checked).
+fn read_images(
+    path: &Path,
+    folder: &AssetFolder,
+    document: &gltf::Document,
+    buffers: &[gltf::buffer::Data],
+) -> Result<Vec<gltf::image::Data>> {
+    use image::ImageFormat::{Jpeg, Png};
+    let fail = |message: String| Error::scene(Location::file(path), message);
+    let by_media_type = |media_type: Option<&str>| match media_type {
+        Some("image/png") => Some(Png),
+        Some("image/jpeg") => Some(Jpeg),
+        _ => None,
+    };
+    let mut images = Vec::new();
+    for image in document.images() {
+        let i = image.index();
+        let unsupported = || {
+            fail(format!(
+                "cannot read an image: image {i} is neither PNG nor JPEG"
+            ))
+        };
+        let (bytes, format): (std::borrow::Cow<'_, [u8]>, _) = match image.source() {
+            gltf::image::Source::View { view, mime_type } => {
+                // In bounds: checked by `images_are_readable`.
+                let bytes = &buffers[view.buffer().index()].0[view.offset()..][..view.length()];
+                let format = by_media_type(Some(mime_type)).ok_or_else(unsupported)?;
+                (bytes.into(), format)
+            }
+            gltf::image::Source::Uri { uri, mime_type } => {
+                let by_extension = || match uri.rsplit('.').next() {
+                    Some("png") => Some(Png),
+                    Some("jpg" | "jpeg") => Some(Jpeg),
+                    _ => None,
+                };
+                match uri_source(uri) {
+                    // gltf reads such a payload only by guessing its format, which is off.
+                    UriSource::Data {
+                        media_type: Some(media_type),
+                        ..
+                    } if !matches!(media_type, "image/png" | "image/jpeg") => {
+                        return Err(unsupported());
+                    }
+                    UriSource::Data { media_type, base64 } => {
+                        let bytes = base64::decode(base64).map_err(|err| {
+                            fail(format!("cannot read an image: image {i}'s data URI: {err}"))
+                        })?;
+                        let format = match media_type {
+                            Some(_) => by_media_type(media_type),
+                            None if mime_type.is_some() => by_media_type(mime_type),
+                            None => by_extension(),
+                        };
+                        (bytes.into(), format.ok_or_else(unsupported)?)
+                    }
+                    UriSource::File(reference) => {
+                        let what = format!("image {i}'s uri");
+                        let limit = crate::support::limits::max_memory();
+                        let bytes = read_uri_file(path, folder, &what, uri, &reference, limit)?;
+                        let name = part_name(path, &format!("image{i}"));
+                        let bytes = crate::support::input_path::within_limit(&name, bytes, limit)?;
+                        let format = match mime_type {
+                            Some(_) => by_media_type(mime_type),
+                            None => by_extension(),
+                        };
+                        (bytes.into(), format.ok_or_else(unsupported)?)
+                    }
+                    UriSource::Unsupported => {
+                        return Err(fail(format!(
+                            "cannot read an image: image {i}'s uri {uri:?} has a scheme other than data: or file:"
+                        )));
+                    }
+                }
+            }
+        };
+        images.push(decode_image(path, i, &bytes, format)?);
+    }
+    Ok(images)
+}
+
+/// One image decoded into gltf's image data (the same formats and bytes as
+/// `gltf::image::Data`), its declared size checked against the memory limit first.
+fn decode_image(
+    path: &Path,
+    index: usize,
+    bytes: &[u8],
+    format: image::ImageFormat,
+) -> Result<gltf::image::Data> {
+    use gltf::image::Format;
+    use image::DynamicImage;
+    let fail = |err: &dyn std::fmt::Display| {
+        Error::scene(
+            Location::file(path),
+            format!("cannot read an image: image {index}: {err}"),
+        )
+    };
+    let reader = || image::ImageReader::with_format(std::io::Cursor::new(bytes), format);
+    let (width, height) = reader().into_dimensions().map_err(|err| fail(&err))?;
+    crate::support::limits::check_image(
+        &part_name(path, &format!("image{index}")),
+        width,
+        height,
+        16,
+    )?;
+    let mut reader = reader();
+    reader.limits(crate::support::limits::image_limits());
+    let decoded = reader.decode().map_err(|err| fail(&err))?;
+    let format = match decoded {
+        DynamicImage::ImageLuma8(_) => Format::R8,
+        DynamicImage::ImageLumaA8(_) => Format::R8G8,
+        DynamicImage::ImageRgb8(_) => Format::R8G8B8,
+        DynamicImage::ImageRgba8(_) => Format::R8G8B8A8,
+        DynamicImage::ImageLuma16(_) => Format::R16,
+        DynamicImage::ImageLumaA16(_) => Format::R16G16,
+        DynamicImage::ImageRgb16(_) => Format::R16G16B16,
+        DynamicImage::ImageRgba16(_) => Format::R16G16B16A16,
+        DynamicImage::ImageRgb32F(_) => Format::R32G32B32FLOAT,
+        DynamicImage::ImageRgba32F(_) => Format::R32G32B32A32FLOAT,
+        _ => return Err(fail(&"an image format gltf does not read")),
+    };
+    let (width, height) = (decoded.width(), decoded.height());
+    Ok(gltf::image::Data {
+        pixels: decoded.into_bytes(),
+        format,
+        width,
+        height,
+    })
 }
 
 /// Guards panics of `gltf` 1.4's typed readers (found by `baker/tests/fuzz.rs`): they reach
@@ -468,15 +650,101 @@ fn readable_accessors(
     Ok(())
 }
 
-/// Every node under `node` with a mesh, and its node-to-world matrix.
-fn flatten<'a>(node: gltf::Node<'a>, parent: Mat4, out: &mut Vec<(gltf::Mesh<'a>, Mat4)>) {
-    let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
-    if let Some(mesh) = node.mesh() {
-        out.push((mesh, world));
+/// The deepest node hierarchy read: far beyond any real asset (tens of levels), and reached
+/// only by a file made to be hostile; the walk is iterative, so this bounds its memory, not
+/// the stack.
+pub const MAX_NODE_DEPTH: usize = 100_000;
+
+/// Every node of `scene` with a mesh, and its node-to-world matrix, walked without recursion.
+/// glTF requires the nodes to form disjoint trees (§3.5.3: no cycles, one parent at most, the
+/// scene's nodes roots); a file that breaks this is refused, naming the node: a node that is
+/// its own child or ancestor would loop forever (it overflowed the stack of a recursive
+/// walk), and a node with two parents repeated below each would make shared subtrees grow
+/// exponentially.
+fn flatten<'a>(
+    document: &'a gltf::Document,
+    scene: &gltf::Scene<'a>,
+) -> std::result::Result<Vec<(gltf::Mesh<'a>, Mat4)>, String> {
+    let json = document.as_json();
+    // Indices were validated by `Document::from_json`.
+    let mut parent: Vec<Option<usize>> = vec![None; json.nodes.len()];
+    for (p, node) in json.nodes.iter().enumerate() {
+        for child in node.children.iter().flatten().map(|c| c.value()) {
+            if child == p {
+                return Err(format!("invalid glTF: node {p} is its own child (a cycle)"));
+            }
+            if let Some(first) = parent[child] {
+                return Err(format!(
+                    "invalid glTF: node {child} is a child of both node {first} and node {p} (a node has one parent at most)"
+                ));
+            }
+            parent[child] = Some(p);
+        }
     }
-    for child in node.children() {
-        flatten(child, world, out);
+    let mut listed = vec![false; json.nodes.len()];
+    let mut stack: Vec<(gltf::Node<'a>, Mat4, usize)> = Vec::new();
+    for root in scene.nodes() {
+        let r = root.index();
+        if let Some(p) = parent[r] {
+            return Err(match cycle_through(&parent, r) {
+                Some(cycle) => {
+                    format!("invalid glTF: node {r} is its own ancestor (a cycle: {cycle})")
+                }
+                None => format!(
+                    "invalid glTF: scene {} lists node {r} as a root, but it is a child of node {p}",
+                    scene.index()
+                ),
+            });
+        }
+        if std::mem::replace(&mut listed[r], true) {
+            return Err(format!(
+                "invalid glTF: scene {} lists node {r} twice",
+                scene.index()
+            ));
+        }
+        stack.push((root, Mat4::IDENTITY, 1));
     }
+    // Popped last first: reversed, the meshes come out in the order a recursive walk visits
+    // them (which orders the scene's vertices and textures).
+    stack.reverse();
+    // Every node below a root has exactly one parent and the roots have none, so the walk
+    // meets each node once: no cycle is reachable.
+    let mut out = Vec::new();
+    while let Some((node, parent_world, depth)) = stack.pop() {
+        if depth > MAX_NODE_DEPTH {
+            return Err(format!(
+                "node {} is nested {depth} levels deep, deeper than the {MAX_NODE_DEPTH} this reader follows",
+                node.index()
+            ));
+        }
+        let world = parent_world * Mat4::from_cols_array_2d(&node.transform().matrix());
+        if let Some(mesh) = node.mesh() {
+            out.push((mesh, world));
+        }
+        // Reversed, for the same order.
+        let children: Vec<_> = node.children().collect();
+        for child in children.into_iter().rev() {
+            stack.push((child, world, depth + 1));
+        }
+    }
+    Ok(out)
+}
+
+/// The cycle `node` lies on, following parents (`0 → 1 → 0`), if it does.
+fn cycle_through(parent: &[Option<usize>], node: usize) -> Option<String> {
+    let mut path = vec![node];
+    let mut at = node;
+    // A cycle through `node` has at most as many nodes as the file.
+    for _ in 0..parent.len() {
+        at = parent[at]?;
+        path.push(at);
+        if at == node {
+            path.reverse();
+            let names: Vec<String> = path.iter().map(usize::to_string).collect();
+            return Some(names.join(" → "));
+        }
+    }
+    None
 }
 
 /// Triangles of a list, strip or fan (glTF 2.0 §3.7.2.1); degenerate ones (repeated indices,

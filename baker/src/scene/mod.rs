@@ -29,6 +29,7 @@ use std::path::{Path, PathBuf};
 use glam::{Vec2, Vec3};
 
 use crate::support::error::{Error, Location, Result};
+use crate::support::input_path::AssetFolder;
 
 pub use format::FORMATS;
 use format::OTHER_FORMATS;
@@ -124,12 +125,15 @@ impl Scene {
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("obj"));
         if is_obj {
-            let loaded = obj::load(path, None)?;
+            let loaded = obj::load(path, None, &AssetFolder::of(path))?;
             let mut scene = Scene::from_meshes(path, loaded.meshes, loaded.textures)?;
             scene.sources = loaded.files;
             return Ok(scene);
         }
         let entries = parse_scene_file(path)?;
+        // Everything the scene names, the OBJs' material libraries and textures too, must lie
+        // in the scene file's folder.
+        let folder = AssetFolder::of(path);
         let mut meshes = Vec::new();
         let mut textures: Vec<Texture> = Vec::new();
         let mut sources = Vec::new();
@@ -143,13 +147,14 @@ impl Scene {
             };
             // An object that cannot be read is reported at the scene-file line that names it, as a
             // missing texture or material library is.
-            let loaded = obj::load(&entry.obj, override_texture).map_err(|err| match err {
-                Error::Io { path: obj, source } if obj == entry.obj => Error::scene(
-                    Location::line(path, entry.line),
-                    format!("cannot read object {}: {source}", obj.display()),
-                ),
-                other => other,
-            })?;
+            let loaded =
+                obj::load(&entry.obj, override_texture, &folder).map_err(|err| match err {
+                    Error::Io { path: obj, source } if obj == entry.obj => Error::scene(
+                        Location::line(path, entry.line),
+                        format!("cannot read object {}: {source}", obj.display()),
+                    ),
+                    other => other,
+                })?;
             let offset = textures.len();
             sources.extend(loaded.files);
             textures.extend(loaded.textures);

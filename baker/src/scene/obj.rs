@@ -15,6 +15,7 @@ use glam::{Vec2, Vec3};
 use super::mesh::{DEFAULT_KD, Material, Mesh};
 use super::texture::Texture;
 use crate::support::error::{Error, Location, Result};
+use crate::support::input_path::AssetFolder;
 
 /// What one OBJ file contributes: its meshes and the textures they index (from 0).
 pub struct Loaded {
@@ -26,8 +27,13 @@ pub struct Loaded {
 
 /// Loads an OBJ. `override_texture` (the scene file's texture for this object) replaces any
 /// `map_Kd` of its materials; objects with no material then get Kd = 1 so the texture is the
-/// albedo, as in the thesis's scenes.
-pub fn load(path: &Path, override_texture: Option<Texture>) -> Result<Loaded> {
+/// albedo, as in the thesis's scenes. The material libraries and textures it names must lie
+/// in `folder` (that of the file given on the command line; see [`crate::support::input_path`]).
+pub fn load(
+    path: &Path,
+    override_texture: Option<Texture>,
+    folder: &AssetFolder,
+) -> Result<Loaded> {
     let bytes = crate::support::limits::read_file(path)?;
     let dir = path.parent().unwrap_or(Path::new(""));
     let files = RefCell::new(vec![path.to_path_buf()]);
@@ -48,10 +54,19 @@ pub fn load(path: &Path, override_texture: Option<Texture>) -> Result<Loaded> {
         position: &obj_lines,
     };
     let loaded = tobj::load_obj_buf(&mut reader, &options, |mtl_name| {
-        let mtl_path = dir.join(mtl_name);
-        files.borrow_mut().push(mtl_path.clone());
         let at_mtllib = Location::line(path, obj_lines.get().current());
-        let result = load_mtl(&mtl_path, &at_mtllib, &mut texture_refs.borrow_mut());
+        let result = folder
+            .admit(
+                &at_mtllib,
+                "material library",
+                &mtl_name.to_string_lossy(),
+                mtl_name,
+                dir,
+            )
+            .and_then(|mtl_path| {
+                files.borrow_mut().push(mtl_path.clone());
+                load_mtl(&mtl_path, &at_mtllib, &mut texture_refs.borrow_mut())
+            });
         result.map_err(|err| {
             mtl_error.borrow_mut().get_or_insert(err);
             tobj::LoadError::OpenFileFailed
@@ -86,12 +101,18 @@ pub fn load(path: &Path, override_texture: Option<Texture>) -> Result<Loaded> {
                     .get(&m.name)
                     .cloned()
                     .unwrap_or_else(|| (path.to_path_buf(), 0));
-                let texture_path = mtl_path.parent().unwrap_or(Path::new("")).join(name.trim());
                 let at = if line > 0 {
                     Location::line(&mtl_path, line)
                 } else {
                     Location::file(&mtl_path)
                 };
+                let texture_path = folder.admit(
+                    &at,
+                    "texture",
+                    name.trim(),
+                    Path::new(name.trim()),
+                    mtl_path.parent().unwrap_or(Path::new("")),
+                )?;
                 textures.push(Texture::load(&texture_path, &at)?);
                 Some(textures.len() - 1)
             }
@@ -167,7 +188,7 @@ fn load_mtl(
     at_mtllib: &Location,
     texture_refs: &mut HashMap<String, (PathBuf, usize)>,
 ) -> Result<(Vec<tobj::Material>, HashMap<String, usize>)> {
-    let bytes = crate::support::limits::read_file(mtl_path).map_err(|err| match err {
+    let bytes = crate::support::input_path::read(mtl_path).map_err(|err| match err {
         Error::Io { source, .. } => Error::scene(
             at_mtllib.clone(),
             format!(

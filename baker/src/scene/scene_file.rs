@@ -6,7 +6,9 @@
 //! floor.obj                       # texture optional, quotes optional without spaces
 //! ```
 //!
-//! Paths are relative to the scene file's folder. Objects are already placed in world space.
+//! Paths are relative to the scene file's folder, and must lie inside it unless
+//! `--allow-outside-uris` is given ([`crate::support::input_path`]). Objects are already placed in
+//! world space.
 
 use std::path::{Path, PathBuf};
 
@@ -33,20 +35,22 @@ pub fn parse_scene_file(path: &Path) -> Result<Vec<SceneEntry>> {
         )
     })?;
     let base = path.parent().unwrap_or(Path::new(""));
+    let folder = crate::support::input_path::AssetFolder::of(path);
     let mut entries = Vec::new();
     for (index, line) in text.lines().enumerate() {
         let at = || Location::line(path, index + 1);
         let words = split_words(line).map_err(|message| Error::scene(at(), message))?;
+        let admit = |what: &str, word: &str| folder.admit(&at(), what, word, Path::new(word), base);
         match words.as_slice() {
             [] => {}
             [obj] => entries.push(SceneEntry {
-                obj: base.join(obj),
+                obj: admit("object", obj)?,
                 texture: None,
                 line: index + 1,
             }),
             [obj, texture] => entries.push(SceneEntry {
-                obj: base.join(obj),
-                texture: Some(base.join(texture)),
+                obj: admit("object", obj)?,
+                texture: Some(admit("texture", texture)?),
                 line: index + 1,
             }),
             more => {

@@ -39,20 +39,37 @@ static DECODE: LazyLock<[f32; 256]> =
 
 impl Texture {
     /// Loads an image. `referenced_at` is where the scene named it, for the error message.
+    /// Only a regular file is read, no larger than the memory limit: a device or FIFO would
+    /// hang the decoder ([`crate::support::input_path`]).
     pub fn load(path: &Path, referenced_at: &Location) -> Result<Texture> {
-        if !path.is_file() {
-            return Err(Error::scene(
-                referenced_at.clone(),
-                format!("texture {} does not exist", path.display()),
-            ));
-        }
         let cannot_read = |err: &dyn std::fmt::Display| {
             Error::scene(
                 referenced_at.clone(),
                 format!("cannot read texture {}: {err}", path.display()),
             )
         };
-        let open = || image::ImageReader::open(path).map_err(|err| cannot_read(&err));
+        let bytes = crate::support::input_path::read(path).map_err(|err| match err {
+            Error::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound => {
+                Error::scene(
+                    referenced_at.clone(),
+                    format!("texture {} does not exist", path.display()),
+                )
+            }
+            Error::Io { source, .. } => cannot_read(&source),
+            Error::InputPath { message, .. } => Error::InputPath {
+                location: referenced_at.clone(),
+                message: format!("texture {}: {message}", path.display()),
+            },
+            other => other,
+        })?;
+        // The format by the extension, as `ImageReader::open` takes it (a TGA has no magic).
+        let open = || {
+            let mut reader = image::ImageReader::new(std::io::Cursor::new(&bytes[..]));
+            if let Ok(format) = image::ImageFormat::from_path(path) {
+                reader.set_format(format);
+            }
+            Ok::<_, Error>(reader)
+        };
         // The header's size first: decoding (up to 8 bytes a pixel), the RGBA copy and the
         // kept sRGB pixels (4 each) must fit before a byte of pixels is allocated.
         let (width, height) = open()?.into_dimensions().map_err(|err| cannot_read(&err))?;

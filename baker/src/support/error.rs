@@ -53,6 +53,12 @@ pub enum Error {
     #[error("{location}: {message}")]
     Light { location: Location, message: String },
 
+    /// A path an input names that the input-path policy refuses: outside the asset's folder
+    /// or absolute (without `--allow-outside-uris`), or not a regular file (a device, FIFO,
+    /// socket or directory); see [`crate::support::input_path`].
+    #[error("{location}: {message}")]
+    InputPath { location: Location, message: String },
+
     /// A coefficient file that is truncated, corrupted or of an unknown kind.
     #[error("{}: {message}", path.display())]
     CoefficientFile { path: PathBuf, message: String },
@@ -124,6 +130,7 @@ impl Error {
             self,
             Error::Scene { .. }
                 | Error::Light { .. }
+                | Error::InputPath { .. }
                 | Error::CoefficientFile { .. }
                 | Error::SceneMismatch { .. }
                 | Error::TooLarge { .. }

@@ -114,6 +114,41 @@ pub fn read_file(path: &Path) -> Result<Vec<u8>> {
     Ok(bytes)
 }
 
+/// Reads a file an input names (a glTF buffer or image, a material library, a texture, an
+/// environment map): only a regular file, and never more than `bound` + 1 bytes of it, so a
+/// file that grew after it was checked cannot make the read unbounded. `bound` is a declared
+/// length (a glTF buffer's byteLength) or the memory limit; it is checked against the limit
+/// first. The file is opened without blocking, so a FIFO put in its place cannot hang the
+/// open; it is then refused as not a regular file.
+pub fn read_regular(path: &Path, bound: u64) -> Result<Vec<u8>> {
+    check(path.display().to_string(), "reading the file", Some(bound))?;
+    let mut open = std::fs::OpenOptions::new();
+    open.read(true);
+    #[cfg(unix)]
+    std::os::unix::fs::OpenOptionsExt::custom_flags(&mut open, libc::O_NONBLOCK);
+    let file = open.open(path).map_err(|err| Error::io(path, err))?;
+    let metadata = file.metadata().map_err(|err| Error::io(path, err))?;
+    if !metadata.is_file() {
+        return Err(Error::InputPath {
+            location: crate::support::error::Location::file(path),
+            message: format!(
+                "{}; only regular files are read",
+                crate::support::input_path::file_kind(&metadata)
+            ),
+        });
+    }
+    check(
+        path.display().to_string(),
+        "reading the file",
+        Some(metadata.len().min(bound)),
+    )?;
+    let mut bytes = Vec::with_capacity(metadata.len().min(bound) as usize);
+    file.take(bound.saturating_add(1))
+        .read_to_end(&mut bytes)
+        .map_err(|err| Error::io(path, err))?;
+    Ok(bytes)
+}
+
 /// Refuses an image whose header declares more pixels than fit, before it is decoded:
 /// `bytes_per_pixel` is what decoding and keeping one pixel costs in all.
 pub fn check_image(path: &Path, width: u32, height: u32, bytes_per_pixel: u64) -> Result<()> {
@@ -143,6 +178,22 @@ mod tests {
             let err = read_file(Path::new("/dev/zero")).unwrap_err();
             assert!(err.to_string().contains("not a regular file"), "{err}");
         }
+    }
+
+    #[test]
+    fn a_referenced_file_is_read_one_byte_past_its_bound_at_most() {
+        let dir = std::env::temp_dir().join(format!("prt-read-regular-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("ten.bin");
+        std::fs::write(&file, [7u8; 10]).unwrap();
+        assert_eq!(read_regular(&file, 4).unwrap().len(), 5);
+        assert_eq!(read_regular(&file, 64).unwrap().len(), 10);
+        // Devices and directories are refused, not read.
+        let err = read_regular(Path::new("/dev/zero"), 4).unwrap_err();
+        assert!(err.to_string().contains("a character device"), "{err}");
+        let err = read_regular(&dir, 4).unwrap_err();
+        assert!(err.to_string().contains("a directory"), "{err}");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

@@ -5,6 +5,7 @@
 
 pub mod atomic;
 pub mod error;
+pub mod input_path;
 pub mod limits;
 pub mod output;
 pub mod progress;
