@@ -55,7 +55,9 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::bounce_rows::{HitRecorder, JobRows};
+use std::sync::Arc;
+
+use crate::bounce_rows::{Embedded, HitRecorder, JobRows};
 use crate::estimator::{Estimator, Scratch, VERTICES_PER_JOB, Visibility, direct_pass};
 use crate::options::BakeOptions;
 use crate::progress::Progress;
@@ -105,6 +107,7 @@ pub(crate) fn bake(
         0..receivers,
         progress,
     );
+    let embedded = recorder.embedded();
     let cache = recorder.into_cache();
     let hit_cache_bytes = cache.as_ref().map(|(_, bytes)| *bytes);
     let cache = cache.map(|(jobs, _)| jobs);
@@ -115,6 +118,7 @@ pub(crate) fn bake(
             tracer,
             estimator,
             targets,
+            embedded: &embedded,
         },
     };
     Bounced {
@@ -145,6 +149,8 @@ pub(crate) enum RowSource<'a> {
         tracer: &'a dyn Tracer,
         estimator: &'a Estimator,
         targets: &'a BounceTargets<'a>,
+        /// The direct pass's embedded vertices ([`Embedded`]), shared.
+        embedded: &'a Arc<Embedded>,
     },
 }
 
@@ -275,9 +281,10 @@ pub(crate) fn bounce_pass(
                             tracer,
                             estimator,
                             targets,
+                            embedded,
                         } => {
                             // Same rays as the direct pass, so the same row.
-                            let mut fresh = JobRows::new(scene, targets);
+                            let mut fresh = JobRows::new(scene, targets, Arc::clone(embedded));
                             estimator.bounce_row(first + k, *tracer, scratch, &mut fresh);
                             gather(&fresh.vertices, &fresh.weights, out);
                         }
