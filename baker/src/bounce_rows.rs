@@ -100,18 +100,37 @@ pub const EMBEDDING_SCREEN_RAYS: usize = 16;
 pub struct Embedded {
     /// Per slot: 0 untested, 1 open, 2 embedded. Empty for texel targets.
     state: Vec<AtomicU8>,
+    /// Per triangle: 0 untested, 1 every corner open (most: a hit then costs one load), 2 some
+    /// corner embedded. Empty for texel targets.
+    triangles: Vec<AtomicU8>,
 }
 
 impl Embedded {
     /// Untested state for every vertex of `scene` if `targets` are its vertices; nothing
     /// otherwise (texels have their own leak test, before the bake).
     pub(crate) fn new(scene: &Scene, targets: &BounceTargets) -> Embedded {
-        let count = match targets {
-            BounceTargets::Vertices => scene.vertex_count(),
-            BounceTargets::Texels(_) => 0,
+        let (vertices, triangles) = match targets {
+            BounceTargets::Vertices => (scene.vertex_count(), scene.triangles.len()),
+            BounceTargets::Texels(_) => (0, 0),
         };
+        let untested = |count| (0..count).map(|_| AtomicU8::new(0)).collect();
         Embedded {
-            state: (0..count).map(|_| AtomicU8::new(0)).collect(),
+            state: untested(vertices),
+            triangles: untested(triangles),
+        }
+    }
+
+    /// Whether a corner of `triangle` (with corners `corners`) is embedded.
+    fn has_embedded_corner(&self, triangle: u32, corners: [u32; 3], probe: &CornerProbe) -> bool {
+        let state = &self.triangles[triangle as usize];
+        match state.load(Ordering::Relaxed) {
+            1 => false,
+            2 => true,
+            _ => {
+                let any = corners.iter().any(|&v| self.is_embedded(v, probe));
+                state.store(if any { 2 } else { 1 }, Ordering::Relaxed);
+                any
+            }
         }
     }
 
@@ -233,7 +252,9 @@ impl<'a> JobRows<'a> {
         let count = self
             .targets
             .lookup(scene, hit.triangle, barycentric, &mut slots);
-        if let BounceTargets::Vertices = self.targets {
+        if let BounceTargets::Vertices = self.targets
+            && self.embedded.has_embedded_corner(hit.triangle, tri, probe)
+        {
             self.skip_embedded(&mut slots[..count], probe);
         }
         for &(slot, b) in &slots[..count] {
