@@ -10,8 +10,9 @@
 //!
 //! where ρ(h) is the hit surface's albedo (Kd × texture at the hit's uv, per channel) and
 //! T̃_{k−1}(h) the previous bounce's transfer at the hit: interpolated with the hit's
-//! barycentrics in a vertex bake, sampled bilinearly at the hit's lightmap UV in a texel bake
-//! ([`crate::receivers::BounceTargets`]);
+//! barycentrics in a vertex bake (over the triangle's corners that are not embedded in other
+//! geometry, renormalised: [`crate::bounce_rows::Embedded`]), sampled bilinearly at the hit's
+//! lightmap UV in a texel bake ([`crate::receivers::BounceTargets`]);
 //! T_0 is the shadowed transfer and the result is T_0 + T_1 + … + T_B. The SH basis never
 //! appears in a bounce: it is carried by T_0, so a bounce is a weighted gather of vertex
 //! transfers over the first hits.
