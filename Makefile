@@ -6,7 +6,7 @@
 #   make interop     glTF export checked by the Khronos glTF-Validator, the Python .prt reader
 #                    against the npz export, the EXR export against it (part of make test)
 #   make mitsuba     interreflected vertex and texel bakes against Mitsuba 3, a path tracer
-#                    (part of make test, about a minute; docs/lightmaps.md)
+#                    (part of make test, 30 s to 2 min; docs/lightmaps.md)
 #   make bench       the bake benchmark: Embree and obvhs against the raw Embree rate
 #                    (docs/performance.md)
 #   make fuzz        the parsers' mutation fuzzing at 20 times make test's mutants (docs/robustness.md)
