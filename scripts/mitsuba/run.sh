@@ -4,8 +4,8 @@
 # builds the release baker and runs the comparison. Extra arguments go to the script.
 #
 # Mitsuba's llvm_ad_rgb variant needs an LLVM shared library at run time (Debian 12:
-# libllvm14 or libllvm15; installed by scripts/install-deps.sh, or here with apt-get when
-# missing and root or sudo is available). DRJIT_LIBLLVM_PATH picks another one.
+# libllvm15, which mesa-vulkan-drivers from scripts/install-deps.sh pulls in; installed here
+# with apt-get when no libLLVM is found). DRJIT_LIBLLVM_PATH picks another one.
 #
 # Usage: scripts/mitsuba/run.sh [--paths N] [--points N] [--only cornell|room] ...
 # Environment: PYTHON (default python3) picks the interpreter the environment is made from.
