@@ -5,6 +5,8 @@
 #                    check, the independent reference, a sharded bake on a real Slurm cluster
 #   make interop     glTF export checked by the Khronos glTF-Validator, the Python .prt reader
 #                    against the npz export, the EXR export against it (part of make test)
+#   make mitsuba     interreflected vertex and texel bakes against Mitsuba 3, a path tracer
+#                    (part of make test, 30 s to 2 min; docs/lightmaps.md)
 #   make bench       the bake benchmark: Embree and obvhs against the raw Embree rate
 #                    (docs/performance.md)
 #   make fuzz        the parsers' mutation fuzzing at 20 times make test's mutants (docs/robustness.md)
@@ -19,7 +21,7 @@ SCENE := scenes/torus/torus.scene
 NO_EMBREE := target/no-embree
 NO_EMBREE_BAKE := $(NO_EMBREE)/release/prt-bake
 
-.PHONY: demo test bench bench-view deps build lint unit no-embree embree4 reference interop scenes slurm fuzz browser
+.PHONY: demo test bench bench-view deps build lint unit no-embree embree4 reference interop scenes slurm fuzz browser mitsuba
 
 deps:
 	@scripts/install-deps.sh
@@ -95,7 +97,13 @@ browser: build
 slurm: build
 	scripts/slurm/test-cluster.sh $(BAKE)
 
-test: lint unit no-embree embree4 reference interop slurm browser
+# Interreflection against an independent path tracer: Mitsuba 3 (PyPI, in a venv under
+# target/) traces diffuse paths at the Cornell room's box bases and in a room of overlapping
+# boards; vertex and texel bakes, 1-4 bounces, RGB, must agree within its standard error.
+mitsuba: build
+	scripts/mitsuba/run.sh
+
+test: lint unit no-embree embree4 reference interop slurm browser mitsuba
 
 bench: deps
 	$(CARGO) bench -p prt-baker --bench bake

@@ -305,3 +305,85 @@ fn white_floor_near_the_red_wall_turns_red() {
         "{near_red} and {near_green} vertices checked"
     );
 }
+
+/// A room's floor running out past its wall, as boards often do, with or without an overhang
+/// outside: the floor (12 × 12 cells over x ∈ [−1.5, 1.5]) crosses the wall x = −1.1 mid-cell,
+/// so triangles inside the room have corners outside. `outside` adds a board above the outer
+/// strip (z = 0.3, facing down), hidden from every point inside by the wall (height 2).
+fn floor_past_a_wall(outside: bool) -> Scene {
+    let rho = 0.5;
+    let mut meshes = vec![
+        with_albedo(
+            grid(
+                "floor",
+                Vec3::new(-1.5, -1.0, 0.0),
+                Vec3::X * 3.0,
+                Vec3::Y * 2.0,
+                12,
+            ),
+            rho,
+        ),
+        with_albedo(
+            grid(
+                "wall",
+                Vec3::new(-1.1, -1.0, 0.0),
+                Vec3::Y * 2.0,
+                Vec3::Z * 2.0,
+                8,
+            ),
+            rho,
+        ),
+    ];
+    if outside {
+        meshes.push(with_albedo(
+            grid(
+                "overhang",
+                Vec3::new(-1.15, -1.0, 0.3),
+                -Vec3::X * 0.35,
+                Vec3::Y * 2.0,
+                4,
+            ),
+            rho,
+        ));
+    }
+    scene(meshes)
+}
+
+#[test]
+fn light_outside_the_room_does_not_reach_in_through_the_floors_corners() {
+    // The floor's vertices beyond the wall are embedded (their rays see the wall's back):
+    // their own transfer (the sky's light, or the overhang's shadow) must not leak into the
+    // bounces of the room, which cannot see outside. So every vertex inside the room bakes
+    // the same with and without the overhang: the rays are the same (the overhang is the
+    // last mesh, every earlier vertex keeps its index) and none of them reaches it.
+    let options = interreflected(2, 1024, 2);
+    let open = bake_scene(&floor_past_a_wall(false), &options);
+    let covered = bake_scene(&floor_past_a_wall(true), &options);
+    let scene = floor_past_a_wall(false);
+    let n = sh::coeff_count(2);
+    let (mut inside, mut worst) = (0, 0.0f32);
+    for v in 0..scene.vertex_count() {
+        if scene.positions[v].x <= -1.1 + 1e-3 && scene.normals[v].z > 0.5 {
+            continue; // the floor outside (and at the wall's foot)
+        }
+        inside += 1;
+        for (a, b) in open.vertex(v, 0).iter().zip(covered.vertex(v, 0)) {
+            worst = worst.max((a - b).abs());
+        }
+    }
+    // Floor vertex (i, j) = (1, 6): x = −1.25, y = 0, under the middle of the overhang.
+    let outside_dc = |t: &prt_baker::Transfer| f64::from(t.vertex(6 * 13 + 1, 0)[0]);
+    eprintln!(
+        "{inside} vertices inside, {n} coefficients: largest difference {worst:.2e}; T00 outside {:.4} open, {:.4} under the overhang",
+        outside_dc(&open),
+        outside_dc(&covered)
+    );
+    assert!(
+        outside_dc(&open) > outside_dc(&covered) + 0.05,
+        "the overhang darkens the floor outside"
+    );
+    assert!(
+        worst <= 1e-6,
+        "a vertex inside the room changed by {worst:.3e} when only the outside did"
+    );
+}

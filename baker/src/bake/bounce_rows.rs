@@ -6,14 +6,15 @@
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
 use std::ops::Range;
-use std::sync::Mutex;
-use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU8, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
 
 use glam::{Vec2, Vec3};
 
 use crate::bake::receivers::{BounceTargets, RECEIVERS_PER_JOB};
+use crate::math::sampling::{Frame, Pcg32, cosine_hemisphere, vertex_seed};
 use crate::scene::Scene;
-use crate::trace::Hit;
+use crate::trace::{Hit, Tracer};
 
 /// Bytes per bounce-row entry: vertex index and RGB weight.
 pub const BYTES_PER_ENTRY: u64 = 4 + 3 * 4;
@@ -70,10 +71,131 @@ impl Hasher for SlotHasher {
     }
 }
 
+/// Closest-hit rays of a vertex's embedding test (cosine-weighted over its hemisphere), as
+/// many as a texel's leak test casts (`lightmap::leaks`).
+pub const EMBEDDING_RAYS: usize = 64;
+/// A vertex is embedded when more than this fraction of its test rays hit back faces.
+pub const EMBEDDING_FRACTION: f32 = 0.1;
+/// The first rays of the test, traced alone: a vertex none of whose first 16 rays hits a
+/// back face is taken to be open without the other 48 (most vertices).
+pub const EMBEDDING_SCREEN_RAYS: usize = 16;
+
+/// Vertex bakes: which vertices are **embedded** — inside or behind other geometry (a floor
+/// vertex under a box, a wall board's corner beyond the wall it meets), so that their own
+/// transfer is not the light at the surface a bounce hit near them lands on. Like a leaking
+/// texel (`lightmap::leaks`), a vertex is embedded when more than [`EMBEDDING_FRACTION`] of
+/// [`EMBEDDING_RAYS`] cosine-weighted closest-hit rays from its ray origin hit back faces.
+///
+/// A bounce hit on a triangle reads the previous bounce at the triangle's corners; an
+/// embedded corner's value (0 inside a box, the sky's light outside a room) is left out and
+/// the open corners' barycentric weights are renormalised to sum to 1 (where all three are
+/// embedded, the hit reads them as before: nothing better is known). Without this, a floor
+/// triangle running under a box read the box's inside (zero) along the lit strip in front of
+/// it, and overlapping boards read the sky from outside the room.
+///
+/// Each vertex is tested the first time a hit needs it (most vertices never are: only the
+/// corners of hit triangles), from its own random stream, so the answer is a pure function of
+/// (seed, vertex) and the bake stays bit-identical for any thread count, shard split or
+/// re-trace; racing threads compute the same answer.
+pub struct Embedded {
+    /// Per slot: 0 untested, 1 open, 2 embedded. Empty for texel targets.
+    state: Vec<AtomicU8>,
+    /// Per triangle: 0 untested, 1 every corner open (most: a hit then costs one load), 2 some
+    /// corner embedded. Empty for texel targets.
+    triangles: Vec<AtomicU8>,
+}
+
+impl Embedded {
+    /// Untested state for every vertex of `scene` if `targets` are its vertices; nothing
+    /// otherwise (texels have their own leak test, before the bake).
+    pub(crate) fn new(scene: &Scene, targets: &BounceTargets) -> Embedded {
+        let (vertices, triangles) = match targets {
+            BounceTargets::Vertices => (scene.vertex_count(), scene.triangles.len()),
+            BounceTargets::Texels(_) => (0, 0),
+        };
+        let untested = |count| (0..count).map(|_| AtomicU8::new(0)).collect();
+        Embedded {
+            state: untested(vertices),
+            triangles: untested(triangles),
+        }
+    }
+
+    /// Whether a corner of `triangle` (with corners `corners`) is embedded.
+    fn has_embedded_corner(&self, triangle: u32, corners: [u32; 3], probe: &CornerProbe) -> bool {
+        let state = &self.triangles[triangle as usize];
+        match state.load(Ordering::Relaxed) {
+            1 => false,
+            2 => true,
+            _ => {
+                let any = corners.iter().any(|&v| self.is_embedded(v, probe));
+                state.store(if any { 2 } else { 1 }, Ordering::Relaxed);
+                any
+            }
+        }
+    }
+
+    /// Whether vertex `v` is embedded, testing it with `probe` on first use.
+    fn is_embedded(&self, v: u32, probe: &CornerProbe) -> bool {
+        let state = &self.state[v as usize];
+        match state.load(Ordering::Relaxed) {
+            1 => false,
+            2 => true,
+            _ => {
+                let embedded = probe.embedded(v as usize);
+                state.store(if embedded { 2 } else { 1 }, Ordering::Relaxed);
+                embedded
+            }
+        }
+    }
+}
+
+/// What the embedding test of a vertex needs: the tracer, and the vertices' ray origins and
+/// normals (the estimator's receivers, in a vertex bake).
+pub(crate) struct CornerProbe<'t> {
+    pub tracer: &'t dyn Tracer,
+    pub origins: &'t [Vec3],
+    pub normals: &'t [Vec3],
+    pub seed: u64,
+}
+
+impl CornerProbe<'_> {
+    /// Whether more than [`EMBEDDING_FRACTION`] of [`EMBEDDING_RAYS`] cosine-distributed rays
+    /// from vertex `v`'s origin hit back faces (by the geometric normal, as the texel leak
+    /// test decides). Directions come from the vertex's own stream, apart from its samples.
+    fn embedded(&self, v: usize) -> bool {
+        let mut rng = Pcg32::new(vertex_seed(self.seed, v as u64), 0xc0_1eaf);
+        let frame = Frame::from_normal(self.normals[v]);
+        let mut dirs = [Vec3::ZERO; EMBEDDING_RAYS];
+        let mut hits: [Option<Hit>; EMBEDDING_RAYS] = [None; EMBEDDING_RAYS];
+        let mut back = 0;
+        for range in [
+            0..EMBEDDING_SCREEN_RAYS,
+            EMBEDDING_SCREEN_RAYS..EMBEDDING_RAYS,
+        ] {
+            let (dirs, hits) = (&mut dirs[range.clone()], &mut hits[range]);
+            for d in dirs.iter_mut() {
+                *d = frame.to_world(cosine_hemisphere(rng.next_f32(), rng.next_f32()));
+            }
+            self.tracer.intersect_from(self.origins[v], dirs, hits);
+            back += hits
+                .iter()
+                .zip(dirs.iter())
+                .filter(|(hit, dir)| hit.as_ref().is_some_and(|h| h.ng.dot(**dir) > 0.0))
+                .count();
+            if back == 0 {
+                return false;
+            }
+        }
+        back as f32 > EMBEDDING_FRACTION * EMBEDDING_RAYS as f32
+    }
+}
+
 /// The bounce rows of a run of consecutive receivers.
 pub struct JobRows<'a> {
     scene: &'a Scene,
     targets: &'a BounceTargets<'a>,
+    /// Vertex targets: which corners a hit must not read ([`Embedded`]).
+    embedded: Arc<Embedded>,
     /// Index of each begun receiver's first entry.
     starts: Vec<u32>,
     /// Slot of each entry.
@@ -82,10 +204,15 @@ pub struct JobRows<'a> {
 }
 
 impl<'a> JobRows<'a> {
-    pub(crate) fn new(scene: &'a Scene, targets: &'a BounceTargets<'a>) -> JobRows<'a> {
+    pub(crate) fn new(
+        scene: &'a Scene,
+        targets: &'a BounceTargets<'a>,
+        embedded: Arc<Embedded>,
+    ) -> JobRows<'a> {
         JobRows {
             scene,
             targets,
+            embedded,
             starts: Vec::new(),
             vertices: Vec::new(),
             weights: Vec::new(),
@@ -98,8 +225,15 @@ impl<'a> JobRows<'a> {
     }
 
     /// Adds a closest hit of a ray along `dir` with estimator weight `weight`, if the ray
-    /// reached a front face.
-    pub(crate) fn record(&mut self, hit: &Hit, dir: Vec3, weight: f32, builder: &mut RowBuilder) {
+    /// reached a front face. `probe` tests vertex targets' corners for [`Embedded`].
+    pub(crate) fn record(
+        &mut self,
+        hit: &Hit,
+        dir: Vec3,
+        weight: f32,
+        builder: &mut RowBuilder,
+        probe: &CornerProbe,
+    ) {
         let scene = self.scene;
         let tri = scene.triangles[hit.triangle as usize];
         let corner = |i: u32| i as usize;
@@ -118,11 +252,44 @@ impl<'a> JobRows<'a> {
         let count = self
             .targets
             .lookup(scene, hit.triangle, barycentric, &mut slots);
+        if let BounceTargets::Vertices = self.targets
+            && self.embedded.has_embedded_corner(hit.triangle, tri, probe)
+        {
+            self.skip_embedded(&mut slots[..count], probe);
+        }
         for &(slot, b) in &slots[..count] {
             let w = albedo * b;
             if w != Vec3::ZERO {
                 builder.add(slot, w);
             }
+        }
+    }
+
+    /// A vertex hit's corner weights with the embedded corners left out and the others
+    /// renormalised to sum to 1 (equal, if the hit lies on the embedded corners' edge);
+    /// unchanged where no corner or every corner is embedded.
+    fn skip_embedded(&self, slots: &mut [(u32, f32)], probe: &CornerProbe) {
+        let mut open = [true; 4];
+        for (open, &(vertex, _)) in open.iter_mut().zip(slots.iter()) {
+            *open = !self.embedded.is_embedded(vertex, probe);
+        }
+        let open = &open[..slots.len()];
+        let count = open.iter().filter(|&&o| o).count();
+        if count == 0 || count == slots.len() {
+            return;
+        }
+        let sum: f32 = slots
+            .iter()
+            .zip(open)
+            .filter(|(_, o)| **o)
+            .map(|(s, _)| s.1)
+            .sum();
+        for (slot, &o) in slots.iter_mut().zip(open) {
+            slot.1 = match (o, sum > 0.0) {
+                (false, _) => 0.0,
+                (true, true) => slot.1 / sum,
+                (true, false) => 1.0 / count as f32,
+            };
         }
     }
 
@@ -212,6 +379,7 @@ impl Rows {
 pub(crate) struct HitRecorder<'a> {
     scene: &'a Scene,
     targets: &'a BounceTargets<'a>,
+    embedded: Arc<Embedded>,
     jobs: Vec<Mutex<Option<JobRows<'a>>>>,
     bytes: AtomicU64,
     limit: u64,
@@ -230,6 +398,7 @@ impl<'a> HitRecorder<'a> {
         HitRecorder {
             scene,
             targets,
+            embedded: Arc::new(Embedded::new(scene, targets)),
             jobs: (0..jobs).map(|_| Mutex::new(None)).collect(),
             bytes: AtomicU64::new(0),
             limit,
@@ -239,7 +408,12 @@ impl<'a> HitRecorder<'a> {
 
     /// An empty set of rows for the next job.
     pub(crate) fn job(&self) -> JobRows<'a> {
-        JobRows::new(self.scene, self.targets)
+        JobRows::new(self.scene, self.targets, self.embedded.clone())
+    }
+
+    /// The embedded vertices found so far, shared (re-traced bounce rows test the rest).
+    pub(crate) fn embedded(&self) -> Arc<Embedded> {
+        self.embedded.clone()
     }
 
     /// Keeps a finished job's rows, unless the budget is (or would be) exceeded.

@@ -24,7 +24,7 @@
 use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 
-use crate::bake::bounce_rows::{HitRecorder, JobRows, RowBuilder};
+use crate::bake::bounce_rows::{CornerProbe, HitRecorder, JobRows, RowBuilder};
 use crate::bake::options::BakeOptions;
 use crate::bake::receivers::{RECEIVERS_PER_JOB, Receivers};
 use crate::math::sampling::{
@@ -343,6 +343,12 @@ impl Estimator {
         let hits = &mut s.hits[..len];
         tracer.intersect_from(origin, &s.dirs, hits);
         let scale = self.options.samples as f32 / self.options.effective_bounce_samples() as f32;
+        let probe = CornerProbe {
+            tracer,
+            origins: &self.origins,
+            normals: &self.normals,
+            seed: self.options.seed,
+        };
         for (((blocked, hit), dir), weight) in s
             .occluded
             .iter_mut()
@@ -352,7 +358,7 @@ impl Estimator {
         {
             *blocked = hit.is_some();
             if let Some(hit) = hit {
-                rows.record(hit, *dir, weight * scale, &mut s.rows);
+                rows.record(hit, *dir, weight * scale, &mut s.rows, &probe);
             }
         }
     }

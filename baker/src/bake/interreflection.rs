@@ -10,8 +10,9 @@
 //!
 //! where ρ(h) is the hit surface's albedo (Kd × texture at the hit's uv, per channel) and
 //! T̃_{k−1}(h) the previous bounce's transfer at the hit: interpolated with the hit's
-//! barycentrics in a vertex bake, sampled bilinearly at the hit's lightmap UV in a texel bake
-//! ([`crate::bake::receivers::BounceTargets`]);
+//! barycentrics in a vertex bake (over the triangle's corners that are not embedded in other
+//! geometry, renormalised: [`crate::bake::bounce_rows::Embedded`]), sampled bilinearly at the hit's
+//! lightmap UV in a texel bake ([`crate::bake::receivers::BounceTargets`]);
 //! T_0 is the shadowed transfer and the result is T_0 + T_1 + … + T_B. The SH basis never
 //! appears in a bounce: it is carried by T_0, so a bounce is a weighted gather of vertex
 //! transfers over the first hits.
@@ -55,7 +56,9 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use crate::bake::bounce_rows::{HitRecorder, JobRows};
+use std::sync::Arc;
+
+use crate::bake::bounce_rows::{Embedded, HitRecorder, JobRows};
 use crate::bake::estimator::{Estimator, Scratch, Visibility, direct_pass};
 use crate::bake::options::BakeOptions;
 use crate::bake::receivers::BounceTargets;
@@ -106,6 +109,7 @@ pub(crate) fn bake(
         0..receivers,
         progress,
     );
+    let embedded = recorder.embedded();
     let cache = recorder.into_cache();
     let hit_cache_bytes = cache.as_ref().map(|(_, bytes)| *bytes);
     let cache = cache.map(|(jobs, _)| jobs);
@@ -116,6 +120,7 @@ pub(crate) fn bake(
             tracer,
             estimator,
             targets,
+            embedded: &embedded,
         },
     };
     Bounced {
@@ -146,6 +151,8 @@ pub(crate) enum RowSource<'a> {
         tracer: &'a dyn Tracer,
         estimator: &'a Estimator,
         targets: &'a BounceTargets<'a>,
+        /// The direct pass's embedded vertices ([`Embedded`]), shared.
+        embedded: &'a Arc<Embedded>,
     },
 }
 
@@ -276,9 +283,10 @@ pub(crate) fn bounce_pass(
                             tracer,
                             estimator,
                             targets,
+                            embedded,
                         } => {
                             // Same rays as the direct pass, so the same row.
-                            let mut fresh = JobRows::new(scene, targets);
+                            let mut fresh = JobRows::new(scene, targets, Arc::clone(embedded));
                             estimator.bounce_row(first + k, *tracer, scratch, &mut fresh);
                             gather(&fresh.vertices, &fresh.weights, out);
                         }
