@@ -49,7 +49,10 @@ demo: out/torus.prt
 		echo "      out/demo-phong.png  Blinn-Phong, the same lights"; \
 	fi
 
+# The crate's architecture: no import cycles between its files, no layer importing one above
+# it (the order of baker/src/lib.rs), no file over 700 lines, main.rs at most 200.
 lint: deps
+	python3 scripts/check-layers.py baker/src support,math,scene,trace,light,formats,bake,distribute,export,commands
 	$(CARGO) fmt --all --check
 	$(CARGO) clippy --workspace --all-targets --release -- -D warnings
 

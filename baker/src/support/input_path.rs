@@ -19,6 +19,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use crate::support::error::{Error, Location, Result};
+use crate::support::limits::file_kind;
 
 /// The option that lets inputs name files outside their folder.
 pub const ALLOW_OPTION: &str = "--allow-outside-uris";
@@ -33,31 +34,6 @@ pub fn set_allow_outside(allow: bool) {
 /// Whether `--allow-outside-uris` was given.
 pub fn allow_outside() -> bool {
     ALLOW_OUTSIDE.load(Ordering::Relaxed)
-}
-
-/// What a file is, for a refusal: "a character device", "a FIFO", …
-pub fn file_kind(metadata: &std::fs::Metadata) -> &'static str {
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::FileTypeExt;
-        let kind = metadata.file_type();
-        if kind.is_char_device() {
-            return "a character device";
-        } else if kind.is_block_device() {
-            return "a block device";
-        } else if kind.is_fifo() {
-            return "a FIFO (named pipe)";
-        } else if kind.is_socket() {
-            return "a socket";
-        }
-    }
-    if metadata.is_dir() {
-        "a directory"
-    } else if metadata.is_file() {
-        "a regular file"
-    } else {
-        "not a regular file"
-    }
 }
 
 /// The folder an asset's references must stay in: that of the file the user named, with

@@ -131,10 +131,7 @@ pub fn read_regular(path: &Path, bound: u64) -> Result<Vec<u8>> {
     if !metadata.is_file() {
         return Err(Error::InputPath {
             location: crate::support::error::Location::file(path),
-            message: format!(
-                "{}; only regular files are read",
-                crate::support::input_path::file_kind(&metadata)
-            ),
+            message: format!("{}; only regular files are read", file_kind(&metadata)),
         });
     }
     check(
@@ -166,6 +163,31 @@ pub fn image_limits() -> image::Limits {
     let mut limits = image::Limits::default();
     limits.max_alloc = Some(max_memory());
     limits
+}
+
+/// What a file is, for a refusal: "a character device", "a FIFO", …
+pub fn file_kind(metadata: &std::fs::Metadata) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        let kind = metadata.file_type();
+        if kind.is_char_device() {
+            return "a character device";
+        } else if kind.is_block_device() {
+            return "a block device";
+        } else if kind.is_fifo() {
+            return "a FIFO (named pipe)";
+        } else if kind.is_socket() {
+            return "a socket";
+        }
+    }
+    if metadata.is_dir() {
+        "a directory"
+    } else if metadata.is_file() {
+        "a regular file"
+    } else {
+        "not a regular file"
+    }
 }
 
 #[cfg(test)]

@@ -21,6 +21,9 @@
 //! atlas (vertices split at chart seams) and, with a rig, the relit lightmap as a texture the
 //! materials name in `extras.prt_lightmap` ([`split_at_lightmap_seams`], docs/gltf.md).
 
+mod builder;
+mod seams;
+
 use std::path::Path;
 
 use glam::{DMat3, Vec2, Vec3};
@@ -29,8 +32,13 @@ use serde_json::{Value, json};
 use crate::formats::coefficient_file::CoefficientFile;
 use crate::light::{LightCoefficients, Rig};
 use crate::math::sh::{self, rotation::ShRotation};
-use crate::scene::{Scene, Texture, Up};
-use crate::support::error::{Error, Result};
+use crate::scene::{Scene, Up};
+use crate::support::error::Result;
+
+pub use builder::Quantize;
+use builder::*;
+use seams::ao_png_bytes;
+pub use seams::split_at_lightmap_seams;
 
 /// What to put beside the geometry.
 pub struct Contents<'a> {
@@ -61,55 +69,6 @@ pub struct Written {
     pub lightmap_texture: bool,
     /// Whether the bake's AO is in the file (`_AO` per vertex, or an occlusionTexture).
     pub ao: bool,
-}
-
-/// `export --quantize`: the transfer attributes as normalized signed integers, each attribute
-/// scaled by its largest magnitude (in `asset.extras.prt.quantization.scales`): a shader
-/// multiplies the attribute (in [−1, 1]) by its scale, or folds the scale into the light.
-/// glTF core allows any component type but unsigned int for custom attributes, so no
-/// extension is required (KHR_mesh_quantization would be needed only for POSITION etc.).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Quantize {
-    /// BYTE, normalized: 4 bytes per VEC4 (float: 16).
-    Bits8,
-    /// SHORT, normalized: 8 bytes per VEC4.
-    Bits16,
-}
-
-impl Quantize {
-    /// `--quantize BITS`: 8, 16, or none.
-    pub fn from_bits(bits: Option<u32>) -> Result<Option<Quantize>> {
-        match bits {
-            None => Ok(None),
-            Some(8) => Ok(Some(Quantize::Bits8)),
-            Some(16) => Ok(Some(Quantize::Bits16)),
-            Some(other) => Err(Error::InvalidOption(format!(
-                "--quantize {other}: the transfer quantizes to 16 or 8 bits"
-            ))),
-        }
-    }
-
-    /// The largest code, 2^(bits−1) − 1.
-    fn max_code(self) -> f32 {
-        match self {
-            Quantize::Bits8 => 127.0,
-            Quantize::Bits16 => 32767.0,
-        }
-    }
-
-    fn bits(self) -> u32 {
-        match self {
-            Quantize::Bits8 => 8,
-            Quantize::Bits16 => 16,
-        }
-    }
-
-    fn component_type(self) -> u32 {
-        match self {
-            Quantize::Bits8 => BYTE,
-            Quantize::Bits16 => SHORT,
-        }
-    }
 }
 
 /// Names of the VEC4 transfer attributes of a bake of `order` with `channels` (1 or 3).
@@ -217,53 +176,6 @@ fn lightmap_glb_bytes(
     glb_bytes_with(&split, &contents, Some(&lightmap), None)
 }
 
-/// The scene with one vertex per distinct (vertex, lightmap UV) pair of its triangle corners
-/// and `lightmap_uvs` set to those UVs; triangles keep their order, each object's new
-/// vertices are contiguous and in order of first use. Vertices no triangle uses are dropped.
-pub fn split_at_lightmap_seams(scene: &Scene, uv1: &[[Vec2; 3]]) -> Scene {
-    let mut split = Scene {
-        positions: Vec::new(),
-        normals: Vec::new(),
-        uvs: Vec::new(),
-        vertex_material: Vec::new(),
-        triangles: Vec::with_capacity(scene.triangles.len()),
-        objects: Vec::with_capacity(scene.objects.len()),
-        lightmap_uvs: None,
-        ..scene.clone()
-    };
-    let mut lightmap = Vec::new();
-    for object in &scene.objects {
-        let first = split.positions.len() as u32;
-        let mut index = std::collections::HashMap::new();
-        let range = object.triangles.start as usize..object.triangles.end as usize;
-        for (vertices, uvs) in scene.triangles[range.clone()].iter().zip(&uv1[range]) {
-            let triangle = std::array::from_fn(|corner| {
-                let v = vertices[corner];
-                let uv = uvs[corner];
-                *index
-                    .entry((v, uv.x.to_bits(), uv.y.to_bits()))
-                    .or_insert_with(|| {
-                        let v = v as usize;
-                        split.positions.push(scene.positions[v]);
-                        split.normals.push(scene.normals[v]);
-                        split.uvs.push(scene.uvs[v]);
-                        split.vertex_material.push(scene.vertex_material[v]);
-                        lightmap.push(uv);
-                        split.positions.len() as u32 - 1
-                    })
-            });
-            split.triangles.push(triangle);
-        }
-        split.objects.push(crate::scene::Object {
-            name: object.name.clone(),
-            vertices: first..split.positions.len() as u32,
-            triangles: object.triangles.clone(),
-        });
-    }
-    split.lightmap_uvs = Some(lightmap);
-    split
-}
-
 /// A texel bake's part of a `.glb`: its size and header for `asset.extras.prt`, and the relit
 /// lightmap to embed.
 struct LightmapContents<'a> {
@@ -274,129 +186,6 @@ struct LightmapContents<'a> {
     png: Option<Vec<u8>>,
     /// The AO (linear grey PNG), where the bake has it.
     ao_png: Option<Vec<u8>>,
-}
-
-/// A growing binary chunk and the JSON objects that index it.
-struct Builder {
-    bin: Vec<u8>,
-    buffer_views: Vec<Value>,
-    accessors: Vec<Value>,
-}
-
-// glTF's numbers for OpenGL enums (the specification's accessor, buffer view, primitive and
-// sampler fields).
-/// `componentType` of f32.
-const FLOAT: u32 = 5126;
-/// `componentType` of i8 (quantized transfer).
-const BYTE: u32 = 5120;
-/// `componentType` of i16 (quantized transfer).
-const SHORT: u32 = 5122;
-/// `componentType` of u32 (indices).
-const UNSIGNED_INT: u32 = 5125;
-/// `bufferView.target` of vertex attributes.
-const ARRAY_BUFFER: u32 = 34962;
-/// `bufferView.target` of indices.
-const ELEMENT_ARRAY_BUFFER: u32 = 34963;
-/// `primitive.mode` of a triangle list.
-const TRIANGLES: u32 = 4;
-/// Sampler filter: linear.
-const LINEAR: u32 = 9729;
-/// Sampler minification filter: linear between linear mipmaps (trilinear).
-const LINEAR_MIPMAP_LINEAR: u32 = 9987;
-/// Sampler wrap mode: repeat.
-const REPEAT: u32 = 10497;
-/// Sampler wrap mode: clamp to edge.
-const CLAMP_TO_EDGE: u32 = 33071;
-
-/// Sampler 0: albedo textures, repeat wrapping as the baker samples them, trilinear.
-const ALBEDO_SAMPLER: usize = 0;
-/// Sampler 1: lightmaps (relit light, AO), clamped to the edge, linear without mipmaps.
-const LIGHTMAP_SAMPLER: usize = 1;
-
-impl Builder {
-    /// Appends bytes as a buffer view (4-byte aligned) and returns its index.
-    fn view(&mut self, bytes: &[u8], target: Option<u32>) -> usize {
-        while self.bin.len() % 4 != 0 {
-            self.bin.push(0);
-        }
-        let mut view = json!({
-            "buffer": 0,
-            "byteOffset": self.bin.len(),
-            "byteLength": bytes.len(),
-        });
-        if let Some(target) = target {
-            view["target"] = json!(target);
-        }
-        self.bin.extend_from_slice(bytes);
-        self.buffer_views.push(view);
-        self.buffer_views.len() - 1
-    }
-
-    /// A float accessor of 1 to 4 `components` ("SCALAR", "VEC2", "VEC3", "VEC4") over
-    /// `floats`; `bounds` adds the min and max the specification requires for POSITION.
-    fn floats(&mut self, floats: &[f32], components: usize, bounds: bool) -> usize {
-        let bytes: Vec<u8> = floats.iter().flat_map(|f| f.to_le_bytes()).collect();
-        let view = self.view(&bytes, Some(ARRAY_BUFFER));
-        let kind = match components {
-            1 => "SCALAR",
-            2 => "VEC2",
-            3 => "VEC3",
-            _ => "VEC4",
-        };
-        let mut accessor = json!({
-            "bufferView": view,
-            "componentType": FLOAT,
-            "count": floats.len() / components,
-            "type": kind,
-        });
-        if bounds {
-            let mut lo = vec![f32::INFINITY; components];
-            let mut hi = vec![f32::NEG_INFINITY; components];
-            for chunk in floats.chunks_exact(components) {
-                for (i, x) in chunk.iter().enumerate() {
-                    lo[i] = lo[i].min(*x);
-                    hi[i] = hi[i].max(*x);
-                }
-            }
-            accessor["min"] = json!(lo);
-            accessor["max"] = json!(hi);
-        }
-        self.accessors.push(accessor);
-        self.accessors.len() - 1
-    }
-
-    /// A normalized signed-integer VEC4 accessor of `values` / `scale` (|values| ≤ scale).
-    fn quantized(&mut self, values: &[f32], scale: f32, quantize: Quantize) -> usize {
-        let max = quantize.max_code();
-        let codes = values
-            .iter()
-            .map(|x| (x / scale * max).round().clamp(-max, max));
-        let bytes: Vec<u8> = match quantize {
-            Quantize::Bits8 => codes.map(|c| (c as i8).to_le_bytes()[0]).collect(),
-            Quantize::Bits16 => codes.flat_map(|c| (c as i16).to_le_bytes()).collect(),
-        };
-        let view = self.view(&bytes, Some(ARRAY_BUFFER));
-        self.accessors.push(json!({
-            "bufferView": view,
-            "componentType": quantize.component_type(),
-            "normalized": true,
-            "count": values.len() / 4,
-            "type": "VEC4",
-        }));
-        self.accessors.len() - 1
-    }
-
-    fn indices(&mut self, indices: &[u32]) -> usize {
-        let bytes: Vec<u8> = indices.iter().flat_map(|i| i.to_le_bytes()).collect();
-        let view = self.view(&bytes, Some(ELEMENT_ARRAY_BUFFER));
-        self.accessors.push(json!({
-            "bufferView": view,
-            "componentType": UNSIGNED_INT,
-            "count": indices.len(),
-            "type": "SCALAR",
-        }));
-        self.accessors.len() - 1
-    }
 }
 
 /// The `.glb` bytes of `scene` and what they hold.
@@ -794,33 +583,6 @@ fn document(
     (root, bin)
 }
 
-/// Step 7: the binary container: header, JSON chunk (space-padded), BIN chunk.
-fn glb_container(root: &Value, bin: &[u8]) -> Result<Vec<u8>> {
-    let mut json_bytes = serde_json::to_vec(root).map_err(|err| {
-        Error::InvalidOption(format!("the glTF's JSON does not serialise: {err}"))
-    })?;
-    while json_bytes.len() % 4 != 0 {
-        json_bytes.push(b' ');
-    }
-    let total = 12 + 8 + json_bytes.len() + 8 + bin.len();
-    let total_u32 = u32::try_from(total).map_err(|_| {
-        Error::InvalidOption(format!(
-            "the glTF would be {total} bytes, over the 4 GiB a .glb can hold"
-        ))
-    })?;
-    let mut bytes = Vec::with_capacity(total);
-    bytes.extend(b"glTF");
-    bytes.extend(2u32.to_le_bytes());
-    bytes.extend(total_u32.to_le_bytes());
-    bytes.extend((json_bytes.len() as u32).to_le_bytes());
-    bytes.extend(b"JSON");
-    bytes.extend(&json_bytes);
-    bytes.extend((bin.len() as u32).to_le_bytes());
-    bytes.extend(b"BIN\0");
-    bytes.extend(bin);
-    Ok(bytes)
-}
-
 fn glb_bytes_with(
     scene: &Scene,
     contents: &Contents<'_>,
@@ -856,51 +618,6 @@ fn glb_bytes_with(
         ao,
     };
     Ok((bytes, written))
-}
-
-/// A texel bake's AO as an 8-bit grey PNG, linear (glTF's occlusion is linear, read from R),
-/// rows as the relit lightmap's (row 0 is v = 0 of TEXCOORD_1).
-fn ao_png_bytes(ao: &[f32], width: u32, height: u32, output: &Path) -> Result<Vec<u8>> {
-    let rows = crate::formats::openexr::image_rows(ao, width as usize, height as usize);
-    let pixels: Vec<u8> = rows
-        .iter()
-        .map(|a| (a.clamp(0.0, 1.0) * 255.0).round() as u8)
-        .collect();
-    let mut png = Vec::new();
-    image::ImageEncoder::write_image(
-        image::codecs::png::PngEncoder::new(&mut png),
-        &pixels,
-        width,
-        height,
-        image::ExtendedColorType::L8,
-    )
-    .map_err(|err| {
-        Error::io(
-            output,
-            std::io::Error::other(format!("cannot encode the AO as PNG: {err}")),
-        )
-    })?;
-    Ok(png)
-}
-
-/// A texture's sRGB pixels as PNG.
-fn png_bytes(texture: &Texture) -> Result<Vec<u8>> {
-    let mut png = Vec::new();
-    let pixels: Vec<u8> = texture.srgb8.iter().flatten().copied().collect();
-    image::ImageEncoder::write_image(
-        image::codecs::png::PngEncoder::new(&mut png),
-        &pixels,
-        texture.width,
-        texture.height,
-        image::ExtendedColorType::Rgba8,
-    )
-    .map_err(|err| {
-        Error::io(
-            &texture.path,
-            std::io::Error::other(format!("cannot encode as PNG: {err}")),
-        )
-    })?;
-    Ok(png)
 }
 
 #[cfg(test)]

@@ -1,0 +1,129 @@
+#!/usr/bin/env python3
+"""The architecture check of `make lint`: prt-baker's module import graph has no cycle, no
+layer imports a layer above it, and no source file outgrows the size a reader can hold.
+
+Usage: scripts/check-layers.py baker/src LAYER,LAYER,... (lowest first)   [IMPORTS_V=-v lists
+every file's imports]. A module's imports are its `use` paths and `crate::`/`super::` paths
+outside comments, strings and its test module, resolved to the file that defines them; a
+folder's mod.rs depends on a child it names. Exits 1 with the offenders listed.
+"""
+import os, re, sys, collections
+root = sys.argv[1]
+layers = sys.argv[2].split(",") if len(sys.argv) > 2 else None
+files = {}
+for d, _, fs in os.walk(root):
+    for f in fs:
+        if f.endswith(".rs"):
+            p = os.path.join(d, f)
+            rel = os.path.relpath(p, root)[:-3]
+            parts = rel.split(os.sep)
+            if parts[-1] == "mod": parts = parts[:-1]
+            if parts in (["lib"], ["main"]): parts = [] if parts == ["lib"] else ["<main>"]
+            files[tuple(parts)] = p
+def resolve(path):
+    for n in range(len(path), -1, -1):
+        if tuple(path[:n]) in files: return tuple(path[:n])
+    return None
+def strip(src):
+    out=[]
+    for line in src.split("\n"):
+        s=line.strip()
+        if s.startswith("//"): continue
+        out.append(line)
+    src="\n".join(out)
+    src=re.sub(r'"(\\.|[^"\\])*"','""',src)
+    # drop #[cfg(test)] mod tests { ... } roughly: cut from '#[cfg(test)]\nmod tests' to end
+    m=re.search(r'#\[cfg\(test\)\]\s*mod tests', src)
+    if m: src=src[:m.start()]
+    return src
+edges=collections.defaultdict(set)
+def expand_use(body):
+    # expand brace groups: a::{b, c::{d}} -> a::b, a::c::d
+    body=re.sub(r'\s+','',body)
+    res=[]
+    def rec(prefix, s):
+        # split top-level commas
+        depth=0; cur=''; items=[]
+        for ch in s:
+            if ch=='{': depth+=1
+            if ch=='}': depth-=1
+            if ch==',' and depth==0: items.append(cur); cur=''
+            else: cur+=ch
+        if cur: items.append(cur)
+        for it in items:
+            if '{' in it:
+                i=it.index('{'); rec(prefix+it[:i], it[i+1:-1])
+            else: res.append(prefix+it)
+    rec('', body)
+    return res
+for mod, p in files.items():
+    src=strip(open(p).read())
+    paths=[]
+    for m in re.finditer(r'\buse\s+([^;]+);', src):
+        for u in expand_use(m.group(1)):
+            u=u.split(' as ')[0].split('as')[0] if False else re.sub(r'as\w+$','',u)
+            paths.append(u)
+    for m in re.finditer(r'(?<![\w:])((?:crate|super|self)(?:::\w+)+)', src):
+        paths.append(m.group(1))
+    is_modrs = p.endswith("mod.rs") or p.endswith("lib.rs")
+    for cm in re.finditer(r'^\s*(?:pub(?:\([^)]*\))?\s+)?mod\s+(\w+)\s*;', src, re.M):
+        child = cm.group(1)
+        if re.search(r'(?<![\w:])' + child + r'::', src):
+            paths.append('self::' + child if is_modrs else 'CHILD::' + child)
+    for u in paths:
+        segs=u.split("::")
+        if segs[0]=='crate': base=[]; segs=segs[1:]
+        elif segs[0]=='CHILD': base=list(mod); segs=segs[1:]
+        elif segs[0] in ('super','self'):
+            base=list(mod)
+            while segs and segs[0] in ('super','self'):
+                if segs[0]=='super': base=base[:-1]
+                segs=segs[1:]
+        else: continue
+        tgt=resolve(base+segs)
+        if tgt is None or tgt==mod: continue
+        if mod and tgt==mod[:len(tgt)] and len(tgt)<len(mod) and tgt!=(): 
+            pass
+        if tgt==(): continue  # crate root re-exports
+        edges[mod].add(tgt)
+# SCCs (Tarjan)
+idx={}; low={}; st=[]; on=set(); sccs=[]; c=[0]
+sys.setrecursionlimit(10000)
+def sc(v):
+    idx[v]=low[v]=c[0]; c[0]+=1; st.append(v); on.add(v)
+    for w in edges.get(v,()):
+        if w not in idx: sc(w); low[v]=min(low[v],low[w])
+        elif w in on: low[v]=min(low[v],idx[w])
+    if low[v]==idx[v]:
+        comp=[]
+        while True:
+            w=st.pop(); on.discard(w); comp.append(w)
+            if w==v: break
+        sccs.append(comp)
+for v in files:
+    if v not in idx: sc(v)
+cyc=[s for s in sccs if len(s)>1]
+name=lambda m: "/".join(m) or "lib"
+print(f"files: {len(files)}  cycles: {len(cyc)}")
+for s in cyc: print("  cycle:", " ".join(sorted(name(m) for m in s)))
+if layers:
+    rank={l:i for i,l in enumerate(layers)}
+    up=[]
+    for a,ts in edges.items():
+        for b in ts:
+            la=a[0] if a else None; lb=b[0]
+            if la in rank and lb in rank and rank[lb]>rank[la]: up.append((name(a),name(b)))
+    print(f"upward imports: {len(up)}")
+    for a,b in sorted(up): print(f"  {a} -> {b}")
+MAX_LINES = 700
+long_files = [(p, n) for p in files.values() if (n := sum(1 for _ in open(p))) > MAX_LINES]
+for p, n in long_files:
+    print(f"  {p}: {n} lines (at most {MAX_LINES})")
+main = os.path.join(root, "main.rs")
+main_lines = sum(1 for _ in open(main)) if os.path.exists(main) else 0
+if main_lines > 200:
+    print(f"  {main}: {main_lines} lines (main.rs parses, dispatches and maps errors: at most 200)")
+failed = bool(cyc) or bool(layers and up) or bool(long_files) or main_lines > 200
+if "-v" in os.environ.get("IMPORTS_V",""):
+    for a in sorted(edges): print(name(a),"->",", ".join(sorted(name(b) for b in edges[a])))
+sys.exit(1 if failed else 0)
