@@ -416,42 +416,9 @@ impl Estimator {
                 }
                 (None, _) => s.occluded[..len].fill(false),
             }
-            let occluded = &s.occluded[..len];
             match self.options.sampling {
-                Sampling::OwenSobol => {
-                    // Every weight is 1: the count, and the bent normal from the rows.
-                    let blocked = occluded.iter().filter(|&&b| b).count();
-                    unblocked += (len - blocked) as f64;
-                    let width = n + DIR_COLUMNS;
-                    let rows = self.local_rows[start * width..end * width].chunks_exact(width);
-                    if 2 * blocked <= len {
-                        s.batch_sum
-                            .copy_from_slice(&self.batch_totals[b * width..(b + 1) * width]);
-                        for (row, _) in rows.zip(occluded).filter(|(_, blocked)| **blocked) {
-                            sub_row(&mut s.batch_sum, row);
-                        }
-                    } else {
-                        s.batch_sum.fill(0.0);
-                        for (row, _) in rows.zip(occluded).filter(|(_, blocked)| !**blocked) {
-                            add_row(&mut s.batch_sum, row);
-                        }
-                    }
-                }
-                Sampling::ThesisRandom => {
-                    s.batch_sum.fill(0.0);
-                    for ((dir, &blocked), &weight) in
-                        s.dirs.iter().zip(occluded.iter()).zip(&s.weights)
-                    {
-                        if !blocked {
-                            self.basis.eval(*dir, &mut s.y);
-                            for (acc, y) in s.batch_sum.iter_mut().zip(&s.y) {
-                                *acc += weight * y;
-                            }
-                            unblocked += f64::from(weight);
-                            bent += *dir * weight;
-                        }
-                    }
-                }
+                Sampling::OwenSobol => self.sum_owen_sobol_batch(b, start..end, s, &mut unblocked),
+                Sampling::ThesisRandom => self.sum_thesis_batch(len, s, &mut unblocked, &mut bent),
             }
             for (total, b) in s.total.iter_mut().zip(&s.batch_sum) {
                 *total += f64::from(*b);
@@ -487,6 +454,56 @@ impl Estimator {
                 0
             },
             error_estimate: 0.0,
+        }
+    }
+
+    /// Owen–Sobol batch `b` (rays `rays`): every weight is 1, so the sum of the unblocked
+    /// rows, formed as the batch's precomputed total minus its blocked rows when fewer are
+    /// blocked; the rows' last columns carry the local direction, so the same sum gives the
+    /// bent normal. Adds the unblocked count to `unblocked`.
+    fn sum_owen_sobol_batch(
+        &self,
+        b: usize,
+        rays: std::ops::Range<usize>,
+        s: &mut Scratch,
+        unblocked: &mut f64,
+    ) {
+        let (start, end) = (rays.start, rays.end);
+        let len = end - start;
+        let occluded = &s.occluded[..len];
+        let blocked = occluded.iter().filter(|&&b| b).count();
+        *unblocked += (len - blocked) as f64;
+        let width = self.basis.coeff_count() + DIR_COLUMNS;
+        let rows = self.local_rows[start * width..end * width].chunks_exact(width);
+        if 2 * blocked <= len {
+            s.batch_sum
+                .copy_from_slice(&self.batch_totals[b * width..(b + 1) * width]);
+            for (row, _) in rows.zip(occluded).filter(|(_, blocked)| **blocked) {
+                sub_row(&mut s.batch_sum, row);
+            }
+        } else {
+            s.batch_sum.fill(0.0);
+            for (row, _) in rows.zip(occluded).filter(|(_, blocked)| !**blocked) {
+                add_row(&mut s.batch_sum, row);
+            }
+        }
+    }
+
+    /// The thesis's estimator over a batch of `len` rays: the basis evaluated at each
+    /// unblocked world direction, times its weight; accessibility and bent normal summed
+    /// as it goes.
+    fn sum_thesis_batch(&self, len: usize, s: &mut Scratch, unblocked: &mut f64, bent: &mut Vec3) {
+        s.batch_sum.fill(0.0);
+        let occluded = &s.occluded[..len];
+        for ((dir, &blocked), &weight) in s.dirs.iter().zip(occluded.iter()).zip(&s.weights) {
+            if !blocked {
+                self.basis.eval(*dir, &mut s.y);
+                for (acc, y) in s.batch_sum.iter_mut().zip(&s.y) {
+                    *acc += weight * y;
+                }
+                *unblocked += f64::from(weight);
+                *bent += *dir * weight;
+            }
         }
     }
 

@@ -157,66 +157,81 @@ impl CoefficientFile {
                 "a shard part ({shard}) of a bake, not a whole bake: combine the parts with `prt-bake merge`"
             ));
         }
-        let mut lightmap = None;
-        if header_size == LIGHTMAP_HEADER_SIZE {
-            let u32_at =
-                |o: usize| u32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes"));
-            let u64_at =
-                |o: usize| u64::from_le_bytes(bytes[o..o + 8].try_into().expect("8 bytes"));
-            let (width, height) = (u32_at(128), u32_at(132));
-            if u64::from(width) * u64::from(height) != header.vertex_count {
-                return Err(format!(
-                    "a {width}×{height} lightmap in a file of {} texels",
-                    header.vertex_count
-                ));
-            }
-            let source = AtlasSource::from_code(u32_at(156))
-                .ok_or_else(|| format!("unknown atlas source {}", u32_at(156)))?;
-            let texel_size = f32::from_le_bytes(bytes[152..156].try_into().expect("4 bytes"));
-            if !(texel_size.is_finite() && texel_size >= 0.0) {
-                return Err(format!("texel size {texel_size} is not a size"));
-            }
-            lightmap = Some(LightmapBlock {
-                width,
-                height,
-                scene_vertex_count: u64_at(136),
-                scene_triangle_count: u64_at(144),
-                texel_size,
-                source,
-                valid: Vec::new(),
-                dilated: Vec::new(),
-                uv1: Vec::new(),
-            });
-        }
-        // Checked: a corrupted count must not wrap around to the payload's size.
-        let needed = header
-            .vertex_count
-            .checked_mul(
-                (header.coefficients_per_vertex() + header.aux_floats_per_vertex()) as u64 * 4,
-            )
-            .and_then(|n| match &lightmap {
-                Some(l) => l.checked_payload_bytes().and_then(|m| n.checked_add(m)),
-                None => Some(n),
-            });
-        if needed != Some(payload) {
-            return Err(format!(
-                "{} vertices × {} coefficients need {} bytes, the header announces {payload}",
-                header.vertex_count,
-                header.coefficients_per_vertex(),
-                needed.map_or_else(|| "more than 2^64".into(), |n| n.to_string())
-            ));
-        }
-        let aux = header.aux;
+        let mut lightmap = match header_size == LIGHTMAP_HEADER_SIZE {
+            true => Some(LightmapBlock::from_header_bytes(bytes, &header)?),
+            false => None,
+        };
+        check_payload_size(&header, lightmap.as_ref(), payload)?;
         let mut floats = bytes[header_size..]
             .chunks_exact(4)
             .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")));
+        let arrays = Arrays::read(&header, &mut floats)?;
+        if let Some(l) = lightmap.as_mut() {
+            let mask = &bytes[bytes.len() - header.vertex_count as usize..];
+            l.read_payload(&mut floats, mask)?;
+        }
+        Ok(CoefficientFile {
+            header,
+            coefficients: arrays.coefficients,
+            ao: arrays.ao,
+            bent_normal: arrays.bent_normal,
+            rays: arrays.rays,
+            error_estimate: arrays.error_estimate,
+            lightmap,
+        })
+    }
+}
+
+/// Refuses a payload whose length is not what the header's counts need. Checked: a
+/// corrupted count must not wrap around to the payload's size.
+fn check_payload_size(
+    header: &Header,
+    lightmap: Option<&LightmapBlock>,
+    payload: u64,
+) -> std::result::Result<(), String> {
+    let needed = header
+        .vertex_count
+        .checked_mul((header.coefficients_per_vertex() + header.aux_floats_per_vertex()) as u64 * 4)
+        .and_then(|n| match lightmap {
+            Some(l) => l.checked_payload_bytes().and_then(|m| n.checked_add(m)),
+            None => Some(n),
+        });
+    if needed != Some(payload) {
+        return Err(format!(
+            "{} vertices × {} coefficients need {} bytes, the header announces {payload}",
+            header.vertex_count,
+            header.coefficients_per_vertex(),
+            needed.map_or_else(|| "more than 2^64".into(), |n| n.to_string())
+        ));
+    }
+    Ok(())
+}
+
+/// A file's per-vertex arrays, in the order they are stored.
+struct Arrays {
+    coefficients: Vec<f32>,
+    ao: Option<Vec<f32>>,
+    bent_normal: Option<Vec<Vec3>>,
+    rays: Option<Vec<u32>>,
+    error_estimate: Option<Vec<f32>>,
+}
+
+impl Arrays {
+    /// Reads and checks the arrays `header` announces from `floats`.
+    fn read(
+        header: &Header,
+        floats: &mut impl Iterator<Item = f32>,
+    ) -> std::result::Result<Arrays, String> {
         let vertices = header.vertex_count as usize;
         let coefficients: Vec<f32> = floats
             .by_ref()
             .take(vertices * header.coefficients_per_vertex())
             .collect();
-        let ao: Option<Vec<f32>> = aux.ao.then(|| floats.by_ref().take(vertices).collect());
-        let bent_normal: Option<Vec<Vec3>> = aux.bent_normal.then(|| {
+        let ao: Option<Vec<f32>> = header
+            .aux
+            .ao
+            .then(|| floats.by_ref().take(vertices).collect());
+        let bent_normal: Option<Vec<Vec3>> = header.aux.bent_normal.then(|| {
             let flat: Vec<f32> = floats.by_ref().take(3 * vertices).collect();
             flat.chunks_exact(3).map(Vec3::from_slice).collect()
         });
@@ -228,73 +243,119 @@ impl CoefficientFile {
         let error_estimate: Option<Vec<f32>> = header
             .adaptive
             .map(|_| floats.by_ref().take(vertices).collect());
-        if let (Some(adaptive), Some(rays)) = (header.adaptive, &rays) {
-            if let Some(v) = rays
-                .iter()
-                .position(|r| !(1..=header.samples_per_vertex).contains(r))
-            {
-                return Err(format!(
-                    "vertex {v} cast {} rays, outside 1..={} (the samples per vertex)",
-                    rays[v], header.samples_per_vertex
-                ));
-            }
-            let total: u64 = rays.iter().map(|&r| u64::from(r)).sum();
-            if total != adaptive.rays_cast {
-                return Err(format!(
-                    "the per-vertex rays add up to {total}, the header says {} were cast",
-                    adaptive.rays_cast
-                ));
-            }
-        }
-        if let Some(v) = error_estimate
-            .iter()
-            .flatten()
-            .position(|e| !(e.is_finite() && *e >= 0.0))
-        {
-            return Err(format!(
-                "estimated error of vertex {v} is not a non-negative number"
-            ));
-        }
-        check_floats(
-            &header,
-            &coefficients,
-            ao.as_deref(),
-            bent_normal.as_deref(),
-        )?;
-        if let Some(l) = lightmap.as_mut() {
-            let uv: Vec<f32> = floats
-                .by_ref()
-                .take(l.scene_triangle_count as usize * 6)
-                .collect();
-            if let Some(i) = uv.iter().position(|x| !x.is_finite()) {
-                return Err(format!("lightmap UV of triangle {} is not finite", i / 6));
-            }
-            l.uv1 = uv
-                .chunks_exact(6)
-                .map(|c| {
-                    [
-                        Vec2::new(c[0], c[1]),
-                        Vec2::new(c[2], c[3]),
-                        Vec2::new(c[4], c[5]),
-                    ]
-                })
-                .collect();
-            let mask = &bytes[bytes.len() - header.vertex_count as usize..];
-            if let Some(i) = mask.iter().position(|&b| b > 2) {
-                return Err(format!("state of texel {i} is {} (0, 1 or 2)", mask[i]));
-            }
-            l.valid = mask.iter().map(|&b| b == 1).collect();
-            l.dilated = mask.iter().map(|&b| b == 2).collect();
-        }
-        Ok(CoefficientFile {
-            header,
+        check_adaptive_arrays(header, rays.as_deref(), error_estimate.as_deref())?;
+        check_floats(header, &coefficients, ao.as_deref(), bent_normal.as_deref())?;
+        Ok(Arrays {
             coefficients,
             ao,
             bent_normal,
             rays,
             error_estimate,
-            lightmap,
         })
+    }
+}
+
+/// An adaptive bake's per-vertex rays (within the samples, adding up to the header's total)
+/// and estimated errors (non-negative).
+fn check_adaptive_arrays(
+    header: &Header,
+    rays: Option<&[u32]>,
+    error_estimate: Option<&[f32]>,
+) -> std::result::Result<(), String> {
+    if let (Some(adaptive), Some(rays)) = (header.adaptive, rays) {
+        if let Some(v) = rays
+            .iter()
+            .position(|r| !(1..=header.samples_per_vertex).contains(r))
+        {
+            return Err(format!(
+                "vertex {v} cast {} rays, outside 1..={} (the samples per vertex)",
+                rays[v], header.samples_per_vertex
+            ));
+        }
+        let total: u64 = rays.iter().map(|&r| u64::from(r)).sum();
+        if total != adaptive.rays_cast {
+            return Err(format!(
+                "the per-vertex rays add up to {total}, the header says {} were cast",
+                adaptive.rays_cast
+            ));
+        }
+    }
+    if let Some(v) = error_estimate
+        .iter()
+        .copied()
+        .flatten()
+        .position(|e| !(e.is_finite() && *e >= 0.0))
+    {
+        return Err(format!(
+            "estimated error of vertex {v} is not a non-negative number"
+        ));
+    }
+    Ok(())
+}
+
+impl LightmapBlock {
+    /// The texel block of a lightmap header (bytes 128..160), its arrays still empty.
+    fn from_header_bytes(
+        bytes: &[u8],
+        header: &Header,
+    ) -> std::result::Result<LightmapBlock, String> {
+        let u32_at = |o: usize| u32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes"));
+        let u64_at = |o: usize| u64::from_le_bytes(bytes[o..o + 8].try_into().expect("8 bytes"));
+        let (width, height) = (u32_at(128), u32_at(132));
+        if u64::from(width) * u64::from(height) != header.vertex_count {
+            return Err(format!(
+                "a {width}×{height} lightmap in a file of {} texels",
+                header.vertex_count
+            ));
+        }
+        let source = AtlasSource::from_code(u32_at(156))
+            .ok_or_else(|| format!("unknown atlas source {}", u32_at(156)))?;
+        let texel_size = f32::from_le_bytes(bytes[152..156].try_into().expect("4 bytes"));
+        if !(texel_size.is_finite() && texel_size >= 0.0) {
+            return Err(format!("texel size {texel_size} is not a size"));
+        }
+        Ok(LightmapBlock {
+            width,
+            height,
+            scene_vertex_count: u64_at(136),
+            scene_triangle_count: u64_at(144),
+            texel_size,
+            source,
+            valid: Vec::new(),
+            dilated: Vec::new(),
+            uv1: Vec::new(),
+        })
+    }
+
+    /// The block's arrays after the aux arrays: the triangles' UVs, then the texel states.
+    fn read_payload(
+        &mut self,
+        floats: &mut impl Iterator<Item = f32>,
+        mask: &[u8],
+    ) -> std::result::Result<(), String> {
+        let uv: Vec<f32> = floats
+            .by_ref()
+            .take(self.scene_triangle_count as usize * 6)
+            .collect();
+        if let Some(i) = uv.iter().position(|x| !x.is_finite()) {
+            return Err(format!("lightmap UV of triangle {} is not finite", i / 6));
+        }
+        self.uv1 = uv
+            .chunks_exact(6)
+            .map(|c| {
+                [
+                    Vec2::new(c[0], c[1]),
+                    Vec2::new(c[2], c[3]),
+                    Vec2::new(c[4], c[5]),
+                ]
+            })
+            .collect();
+        if let Some(i) = mask.iter().position(|&b| b > 2) {
+            return Err(format!("state of texel {i} is {} (0, 1 or 2)", mask[i]));
+        }
+        self.valid = mask.iter().map(|&b| b == 1).collect();
+        self.dilated = mask.iter().map(|&b| b == 2).collect();
+        Ok(())
     }
 }
 
