@@ -14,6 +14,7 @@ use std::path::{Path, PathBuf};
 use crate::bake::options::BakeOptions;
 use crate::bake::receivers::RECEIVERS_PER_JOB;
 use crate::distribute::shard::{Part, PartId, ShardId, bake_header, bake_part, header_difference};
+use crate::formats::header::Header;
 use crate::scene::Scene;
 use crate::support::error::{Error, Result};
 use crate::support::progress::Progress;
@@ -79,6 +80,52 @@ pub fn bake(
         // A shard of no vertices (more shards than vertices) is one empty block.
         blocks.push(vertices.clone());
     }
+    let mut done = reuse_blocks(dir, &header, shard, &vertices, &blocks, block_vertices)?;
+
+    let reused = done.iter().flatten().count();
+    let remaining: usize = blocks
+        .iter()
+        .zip(&done)
+        .filter(|(_, d)| d.is_none())
+        .map(|(b, _)| b.len())
+        .sum();
+    let rays_per_vertex = if backend == Backend::None {
+        0
+    } else {
+        u64::from(options.samples)
+    };
+    progress.begin("direct", remaining as u64, rays_per_vertex);
+    let rays = bake_missing_blocks(
+        scene, tracer, options, shard, &blocks, &mut done, dir, progress,
+    )?;
+    progress.finish();
+    let id = PartId {
+        shard,
+        first_vertex: vertices.start as u64,
+        vertices: vertices.len() as u32,
+    };
+    let parts = done
+        .into_iter()
+        .map(|d| d.expect("every block done"))
+        .collect();
+    Ok(Checkpointed {
+        part: Part::join(parts, id),
+        blocks: blocks.len(),
+        reused,
+        rays,
+    })
+}
+
+/// The blocks already in `dir`, by index: each must belong to this bake (`header`) and be
+/// the block its name says, or the folder is refused (it is another bake's).
+fn reuse_blocks(
+    dir: &Path,
+    header: &Header,
+    shard: ShardId,
+    vertices: &Range<usize>,
+    blocks: &[Range<usize>],
+    block_vertices: usize,
+) -> Result<Vec<Option<Part>>> {
     let expected_id = |block: &Range<usize>| PartId {
         shard,
         first_vertex: block.start as u64,
@@ -97,7 +144,7 @@ pub fn bake(
             continue;
         };
         let part = Part::read(&path)?;
-        if let Some(difference) = header_difference(&header, &part.header) {
+        if let Some(difference) = header_difference(header, &part.header) {
             return Err(Error::Shards(format!(
                 "{}: a checkpoint of another bake: {difference}; use another --checkpoint folder",
                 path.display()
@@ -120,19 +167,22 @@ pub fn bake(
         }
     }
 
-    let reused = done.iter().flatten().count();
-    let remaining: usize = blocks
-        .iter()
-        .zip(&done)
-        .filter(|(_, d)| d.is_none())
-        .map(|(b, _)| b.len())
-        .sum();
-    let rays_per_vertex = if backend == Backend::None {
-        0
-    } else {
-        u64::from(options.samples)
-    };
-    progress.begin("direct", remaining as u64, rays_per_vertex);
+    Ok(done)
+}
+
+/// Bakes the blocks not yet `done`, writing each into `dir` as it finishes, and stops when
+/// the bounce rows held so far exceed the hit-cache limit. Returns the rays cast.
+#[allow(clippy::too_many_arguments)]
+fn bake_missing_blocks(
+    scene: &Scene,
+    tracer: Option<&dyn Tracer>,
+    options: &BakeOptions,
+    shard: ShardId,
+    blocks: &[Range<usize>],
+    done: &mut [Option<Part>],
+    dir: &Path,
+    progress: &dyn Progress,
+) -> Result<u64> {
     let quiet = OnePass(progress);
     let (mut rays, mut row_bytes) = (0, 0);
     for (i, block) in blocks.iter().enumerate() {
@@ -156,22 +206,7 @@ pub fn bake(
             )));
         }
     }
-    progress.finish();
-    let id = PartId {
-        shard,
-        first_vertex: vertices.start as u64,
-        vertices: vertices.len() as u32,
-    };
-    let parts = done
-        .into_iter()
-        .map(|d| d.expect("every block done"))
-        .collect();
-    Ok(Checkpointed {
-        part: Part::join(parts, id),
-        blocks: blocks.len(),
-        reused,
-        rays,
-    })
+    Ok(rays)
 }
 
 /// Forwards a block's progress to one pass over every block.

@@ -15,6 +15,7 @@ use crate::CoefficientFile;
 use crate::bake::interreflection::{self, RowSource};
 use crate::bake::transfer::{Estimator, Mode};
 use crate::distribute::shard::{Part, PartId, header_difference, options_of, shard_range};
+use crate::formats::header::Header;
 use crate::math::sh;
 use crate::support::error::{Error, Result};
 use crate::support::progress::Progress;
@@ -31,10 +32,32 @@ pub fn merge(paths: &[PathBuf], progress: &dyn Progress) -> Result<CoefficientFi
         parts.push((path.as_path(), part));
     }
     let (header, first_shard) = (parts[0].1.header.clone(), parts[0].1.id.shard);
-    let count = first_shard.count;
+    let by_index = index_parts(parts, &header, first_path)?;
+    let id = PartId {
+        shard: first_shard,
+        first_vertex: 0,
+        vertices: header.vertex_count as u32,
+    };
+    let order: Vec<(&Path, PartId)> = by_index.values().map(|(p, part)| (*p, part.id)).collect();
+    let parts = by_index.into_values().map(|(_, part)| part).collect();
+    let whole = Part::join(parts, id);
+    if header.mode != Mode::Interreflected {
+        return Ok(whole.finish(progress));
+    }
+    merge_bounces(&header, &order, whole, progress)
+}
+
+/// The parts by shard index, each checked to be of the bake of `header` (the first part's),
+/// split the same number of ways, a whole shard's range, and given once; none missing.
+fn index_parts<'a>(
+    parts: Vec<(&'a Path, Part)>,
+    header: &Header,
+    first_path: &Path,
+) -> Result<BTreeMap<u32, (&'a Path, Part)>> {
+    let count = parts[0].1.id.shard.count;
     let mut by_index: BTreeMap<u32, (&Path, Part)> = BTreeMap::new();
     for (path, part) in parts {
-        if let Some(difference) = header_difference(&header, &part.header) {
+        if let Some(difference) = header_difference(header, &part.header) {
             return Err(refuse(format!(
                 "{}: a part of another bake than {}: {difference}",
                 path.display(),
@@ -88,26 +111,25 @@ pub fn merge(paths: &[PathBuf], progress: &dyn Progress) -> Result<CoefficientFi
                 .join(", ")
         )));
     }
-    let id = PartId {
-        shard: first_shard,
-        first_vertex: 0,
-        vertices: header.vertex_count as u32,
-    };
-    let order: Vec<(&Path, PartId)> = by_index.values().map(|(p, part)| (*p, part.id)).collect();
-    let parts = by_index.into_values().map(|(_, part)| part).collect();
-    let mut whole = Part::join(parts, id);
-    if header.mode != Mode::Interreflected {
-        return Ok(whole.finish(progress));
-    }
-    // The bounces, as interreflection::add_bounces gathers them, one part's rows at a time.
-    let options = options_of(&header);
+    Ok(by_index)
+}
+
+/// An interreflected merge: the bounces, as `interreflection::add_bounces` gathers them, one
+/// part's rows at a time (re-read from `order`'s paths, so the merge never holds them all).
+fn merge_bounces(
+    header: &Header,
+    order: &[(&Path, PartId)],
+    mut whole: Part,
+    progress: &dyn Progress,
+) -> Result<CoefficientFile> {
+    let options = options_of(header);
     let n = sh::coeff_count(options.order);
     let channels = header.channels as usize;
     let norm = Estimator::norm_of(&options) as f32;
     let pass = |previous: &[f32], previous_channels: usize, next: &mut [f32]| {
-        for &(path, id) in &order {
+        for &(path, id) in order {
             let part = Part::read(path)?;
-            if header_difference(&header, &part.header).is_some() || part.id != id {
+            if header_difference(header, &part.header).is_some() || part.id != id {
                 return Err(refuse(format!(
                     "{}: changed while it was being merged",
                     path.display()
