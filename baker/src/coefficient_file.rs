@@ -391,6 +391,10 @@ impl CoefficientFile {
 
     /// Parses and validates a file's bytes; the error is a sentence for the user.
     pub fn from_bytes(bytes: &[u8]) -> std::result::Result<CoefficientFile, String> {
+        // Version 2 (CPCA-compressed): read as the version-1 file it reconstructs.
+        if crate::cpca_block::is_compressed(bytes) {
+            return crate::cpca_block::from_bytes(bytes).map(|c| c.file);
+        }
         let (header, payload, header_size) = parse_header(bytes)?;
         if let Some(shard) = crate::shard::PartId::from_header_bytes(bytes)? {
             return Err(format!(

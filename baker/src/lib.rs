@@ -15,6 +15,8 @@ pub mod atomic;
 pub mod bounce_rows;
 pub mod checkpoint;
 pub mod coefficient_file;
+pub mod cpca;
+pub mod cpca_block;
 pub mod error;
 pub mod estimator;
 pub mod export;

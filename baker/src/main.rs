@@ -66,6 +66,21 @@ enum Command {
     },
     /// Light a bake with a rig on the CPU and write per-vertex radiance as a PLY mesh.
     Relight(RelightArgs),
+    /// Compress a bake by clustered PCA (Sloan et al. 2003) into a version-2 .prt file that
+    /// `relight`, `export` and the viewer read as its reconstruction.
+    Compress {
+        /// The .prt file (a whole bake, vertex or texel).
+        file: PathBuf,
+        /// Output coefficient file.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Clusters K.
+        #[arg(long, default_value_t = 64)]
+        clusters: usize,
+        /// Principal components per cluster M.
+        #[arg(long, default_value_t = 4)]
+        pcs: usize,
+    },
     /// Merge the shard parts of a bake (`bake --shard`) into the file one machine would have
     /// baked, byte for byte; refuses missing, duplicated or foreign parts (docs/distributed.md).
     Merge {
@@ -309,6 +324,12 @@ fn main() -> ExitCode {
             output,
         } => light(&rig, order, up, &output),
         Command::Relight(args) => relight(args),
+        Command::Compress {
+            file,
+            output,
+            clusters,
+            pcs,
+        } => compress(&file, &output, clusters, pcs),
         Command::Merge {
             parts,
             output,
@@ -648,6 +669,20 @@ fn merge(parts: &[PathBuf], output: &Path, quiet: bool) -> Result<(), Error> {
     Ok(())
 }
 
+fn compress(file: &Path, output: &Path, clusters: usize, pcs: usize) -> Result<(), Error> {
+    let s = prt_baker::cpca::compress_file(file, output, clusters, pcs)?;
+    println!(
+        "compressed to {} clusters × {} components: {:.2} floats per vertex (from {}), rms error {:.3e} -> {}",
+        s.clusters,
+        s.pcs,
+        s.floats_per_vertex,
+        s.uncompressed_floats_per_vertex,
+        s.rms_error,
+        output.display()
+    );
+    Ok(())
+}
+
 /// "1 bounce", "2 bounces".
 fn bounces(count: u32) -> String {
     match count {
@@ -757,6 +792,7 @@ fn inspect(path: &Path) -> Result<(), Error> {
             let summary = prt_baker::adaptive::Summary::new(adaptive.target_error, rays, errors);
             json["per_vertex"] = serde_json::to_value(summary).expect("the summary serialises");
         }
+        prt_baker::cpca_block::annotate_inspect(&bytes, &mut json);
         if let Some(l) = &file.lightmap {
             // Texel bakes: the lightmap block.
             let texels = |flags: &[bool]| flags.iter().filter(|&&f| f).count();
