@@ -238,6 +238,14 @@ struct BakeArgs {
     /// shelf-packed; no distortion, but one chart per few triangles on curved meshes).
     #[arg(long, value_enum)]
     atlas: Option<AtlasArg>,
+    /// Write the bake compressed by clustered PCA into K clusters, as `prt-bake compress`
+    /// would (default 64 where only --pcs is given).
+    #[arg(long, value_name = "K")]
+    clusters: Option<usize>,
+    /// With compression: M principal components per cluster (default 4 where only
+    /// --clusters is given).
+    #[arg(long, value_name = "M")]
+    pcs: Option<usize>,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -390,6 +398,16 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
         Some(spec) => Some(ShardId::parse(spec, &|name| std::env::var(name).ok())?),
         None => None,
     };
+    prt_baker::cpca::check_bake_options(args.clusters, args.pcs, options.order)?;
+    if (args.clusters.is_some() || args.pcs.is_some())
+        && (shard.is_some() || args.checkpoint.is_some())
+    {
+        return Err(Error::InvalidOption(
+            "--clusters and --pcs cannot be combined with --shard or --checkpoint: compress \
+             the merged file with `prt-bake compress`"
+                .into(),
+        ));
+    }
     // Parts and checkpoint blocks do not carry an adaptive bake's per-vertex rays and errors.
     if options.target_error.is_some() && (shard.is_some() || args.checkpoint.is_some()) {
         return Err(Error::InvalidOption(
@@ -536,7 +554,8 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
             (bake.transfer, file, what)
         }
     };
-    output.write(&file.to_bytes().0)?;
+    let (bytes, compressed) = prt_baker::cpca::bake_output(&file, args.clusters, args.pcs)?;
+    output.write(&bytes)?;
 
     let rays = match transfer.rays_cast {
         0 => String::from("no rays"),
@@ -577,6 +596,12 @@ fn bake(args: BakeArgs) -> Result<(), Error> {
         transfer.backend.name(),
         args.output.display()
     );
+    if let Some(c) = compressed {
+        println!(
+            "compressed to {} clusters × {} components: {:.2} floats per vertex (from {}), rms error {:.3e}",
+            c.clusters, c.pcs, c.floats_per_vertex, c.uncompressed_floats_per_vertex, c.rms_error
+        );
+    }
     Ok(())
 }
 
