@@ -52,11 +52,7 @@ pub struct Cpca {
 
 impl Cpca {
     pub fn clusters(&self) -> usize {
-        if self.dim == 0 {
-            0
-        } else {
-            self.means.len() / self.dim
-        }
+        self.means.len().checked_div(self.dim).unwrap_or(0)
     }
 
     pub fn receivers(&self) -> usize {
