@@ -10,7 +10,7 @@ use clap::{Parser, Subcommand};
 use prt_baker::Error;
 use prt_baker::support::{input_path, limits, output};
 
-use commands::{bake, export, inspect, light, merge, relight};
+use commands::{bake, compress, export, inspect, light, merge, relight};
 
 /// Exit codes: 0 success, 1 failure (I/O, backend), 2 bad command line, 3 bad input files.
 const EXIT_FAILURE: u8 = 1;
@@ -53,6 +53,9 @@ enum Command {
     Light(light::LightArgs),
     /// Light a bake with a rig on the CPU and write per-vertex radiance as a PLY mesh.
     Relight(relight::RelightArgs),
+    /// Compress a bake by clustered PCA (Sloan et al. 2003) into a version-2 .prt file that
+    /// `relight`, `export` and the viewer read as its reconstruction.
+    Compress(compress::CompressArgs),
     /// Merge the shard parts of a bake (`bake --shard`) into the file one machine would have
     /// baked, byte for byte; refuses missing, duplicated or foreign parts (docs/distributed.md).
     Merge(merge::MergeArgs),
@@ -77,6 +80,7 @@ fn main() -> ExitCode {
         Command::Export(args) => export::run(args),
         Command::Light(args) => light::run(args),
         Command::Relight(args) => relight::run(args),
+        Command::Compress(args) => compress::run(args),
         Command::Merge(args) => merge::run(args),
     });
     match result {

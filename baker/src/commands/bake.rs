@@ -9,6 +9,7 @@ use prt_baker::bake::memory;
 use prt_baker::bake::options::Aux;
 use prt_baker::distribute::checkpoint;
 use prt_baker::distribute::shard::{self, ShardId, shard_range};
+use prt_baker::export::compress;
 use prt_baker::math::sampling::Sampling;
 use prt_baker::support::limits;
 use prt_baker::support::output::Output;
@@ -104,6 +105,15 @@ pub struct BakeArgs {
     /// shelf-packed; no distortion, but one chart per few triangles on curved meshes).
     #[arg(long, value_enum, requires = "lightmap")]
     atlas: Option<AtlasArg>,
+    /// Write the bake compressed by clustered PCA into K clusters, as `prt-bake compress`
+    /// would (default 64 where only --pcs is given). Not with --shard or --checkpoint:
+    /// compress the merged file with `prt-bake compress`.
+    #[arg(long, value_name = "K", conflicts_with_all = ["shard", "checkpoint"])]
+    clusters: Option<usize>,
+    /// With compression: M principal components per cluster (default 4 where only
+    /// --clusters is given).
+    #[arg(long, value_name = "M", conflicts_with_all = ["shard", "checkpoint"])]
+    pcs: Option<usize>,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -204,6 +214,7 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
     let options = options(&args);
     options.validate()?;
     memory::check_bake_options(&options)?;
+    compress::check_bake_options(args.clusters, args.pcs, options.order)?;
     if let Some(resolution) = args.lightmap {
         lightmap::atlas::check_resolution(resolution)?;
     }
@@ -262,8 +273,15 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
             )?
         }
     };
-    output.write(&file.to_bytes().0)?;
+    let (bytes, compressed) = compress::bake_output(&file, args.clusters, args.pcs)?;
+    output.write(&bytes)?;
     println!("{}", summary(&args, &options, &transfer, &what));
+    if let Some(c) = compressed {
+        println!(
+            "compressed to {} clusters × {} components: {:.2} floats per vertex (from {}), rms error {:.3e}",
+            c.clusters, c.pcs, c.floats_per_vertex, c.uncompressed_floats_per_vertex, c.rms_error
+        );
+    }
     Ok(())
 }
 

@@ -5,6 +5,7 @@ use std::path::Path;
 use prt_baker::bake::adaptive::Summary;
 use prt_baker::distribute::shard::{Part, PartId};
 use prt_baker::formats::coefficient_file::LightmapBlock;
+use prt_baker::formats::cpca_block::annotate_inspect;
 use prt_baker::formats::header::{AtlasSource, HEADER_SIZE};
 use prt_baker::support::limits;
 use prt_baker::{CoefficientFile, Error};
@@ -20,7 +21,10 @@ pub fn run(path: &Path) -> Result<(), Error> {
         json["shard"] = serde_json::to_value(part.id).expect("the identity serialises");
         json
     } else {
-        file_json(&CoefficientFile::read(path)?)
+        let mut json = file_json(&CoefficientFile::read(path)?);
+        // Version-2 files: how they were compressed.
+        annotate_inspect(&bytes, &mut json);
+        json
     };
     let json = serde_json::to_string_pretty(&json).expect("JSON serialises");
     println!("{json}");

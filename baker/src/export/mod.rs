@@ -5,6 +5,7 @@
 //! May import: [`crate::support`], [`crate::math`], [`crate::scene`], [`crate::light`],
 //! [`crate::formats`], [`crate::bake`] (the atlas of a texel bake).
 
+pub mod compress;
 pub mod gltf;
 pub mod numpy;
 pub mod relight;

@@ -143,14 +143,9 @@ impl CoefficientFile {
         Ok(())
     }
 
-    pub fn read(path: &Path) -> Result<CoefficientFile> {
-        let bytes = crate::support::limits::read_file(path)?;
-        CoefficientFile::from_bytes(&bytes)
-            .map_err(|message| Error::coefficient_file(path, message))
-    }
-
-    /// Parses and validates a file's bytes; the error is a sentence for the user.
-    pub fn from_bytes(bytes: &[u8]) -> std::result::Result<CoefficientFile, String> {
+    /// Parses and validates a version-1 file's bytes; the error is a sentence for the user.
+    /// [`CoefficientFile::from_bytes`] reads every version.
+    pub fn from_version1_bytes(bytes: &[u8]) -> std::result::Result<CoefficientFile, String> {
         let (header, payload, header_size) = parse_header(bytes)?;
         if let Some(shard) = PartId::from_header_bytes(bytes)? {
             return Err(format!(

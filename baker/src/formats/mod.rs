@@ -7,8 +7,10 @@
 //! scene fingerprint), [`crate::trace`] (the backend recorded in a header).
 
 pub mod coefficient_file;
+pub mod cpca_block;
 pub mod header;
 pub mod npz;
 pub mod openexr;
 pub mod part_id;
 pub mod ply;
+pub mod versions;

@@ -4,5 +4,6 @@
 //!
 //! May import: [`crate::support`].
 
+pub mod cpca;
 pub mod sampling;
 pub mod sh;

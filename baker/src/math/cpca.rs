@@ -1,0 +1,618 @@
+//! Clustered principal component analysis (CPCA) of transfer vectors, after Sloan, Hall, Hart
+//! & Snyder 2003, "Clustered Principal Components for Precomputed Radiance Transfer".
+//!
+//! Each receiver's transfer vector x (all of its channels × n² coefficients concatenated: one
+//! RGB vector, so a receiver stores one cluster index and M weights whatever its channel
+//! count) is approximated as `x ≈ μ_k + Σ_i w_i · b_ki`: the mean of its cluster k plus M
+//! weights on that cluster's first M principal components. The fit is deterministic:
+//! k-means++ seeding from a fixed seed, Lloyd iterations, per-cluster PCA (a cyclic Jacobi
+//! eigen-decomposition of the covariance, written here because the workspace has no linear
+//! algebra crate and the matrices are small: 16 or 48 rows at order 4), then Sloan's
+//! refinement: each receiver moves to the cluster whose mean and PCs reconstruct it with the
+//! least error, and means and PCs are recomputed, which never increases the total error.
+//! [`crate::formats::cpca_block`] stores the result in a version-2 `.prt` file.
+
+use rayon::prelude::*;
+
+use crate::support::error::{Error, Result};
+
+/// The seed of the k-means++ seeding: fixed, so the same input gives the same file.
+pub const SEED: u64 = 0x5107_2003_c9ca_0001;
+/// Lloyd iterations at most (they stop earlier when no receiver changes cluster).
+const LLOYD_ITERATIONS: usize = 30;
+/// Sloan 2003's CPCA refinement iterations at most: it stops earlier at a fixed point or once
+/// an iteration lowers the total squared error by less than [`CPCA_TOLERANCE`] of it (on the
+/// demo scenes 8 iterations were still gaining a few per cent each).
+const CPCA_ITERATIONS: usize = 30;
+const CPCA_TOLERANCE: f64 = 1e-3;
+
+/// A clustered-PCA approximation of V vectors of `dim` floats.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Cpca {
+    /// D: floats per receiver (channels × n²).
+    pub dim: usize,
+    /// M: principal components per cluster.
+    pub pcs: usize,
+    /// K × D cluster means.
+    pub means: Vec<f32>,
+    /// K × M × D: cluster k's i-th component at `(k·M + i)·D`. Orthonormal where the cluster
+    /// has that many directions of spread; zero rows are allowed (they carry no weight).
+    pub bases: Vec<f32>,
+    /// V cluster indices, each below K.
+    pub cluster: Vec<u32>,
+    /// V × M weights: receiver v's projections on its cluster's components.
+    pub weights: Vec<f32>,
+    /// Refinement iterations the fit ran (recorded in the file, for information).
+    pub iterations: u32,
+}
+
+impl Cpca {
+    pub fn clusters(&self) -> usize {
+        self.means.len().checked_div(self.dim).unwrap_or(0)
+    }
+
+    pub fn receivers(&self) -> usize {
+        self.cluster.len()
+    }
+
+    /// Receiver v's reconstructed vector, into `out` (D floats).
+    pub fn reconstruct_into(&self, v: usize, out: &mut [f32]) {
+        let (d, m) = (self.dim, self.pcs);
+        let k = self.cluster[v] as usize;
+        let mut acc: Vec<f64> = self.means[k * d..(k + 1) * d]
+            .iter()
+            .map(|&x| f64::from(x))
+            .collect();
+        for i in 0..m {
+            let w = f64::from(self.weights[v * m + i]);
+            if w == 0.0 {
+                continue; // so a mean of −0 stays −0: K = V is bit-exact
+            }
+            let b = &self.bases[(k * m + i) * d..(k * m + i + 1) * d];
+            for (a, &x) in acc.iter_mut().zip(b) {
+                *a += w * f64::from(x);
+            }
+        }
+        for (o, a) in out.iter_mut().zip(acc) {
+            *o = a as f32;
+        }
+    }
+
+    /// All receivers' reconstructed vectors, V × D.
+    pub fn reconstruct(&self) -> Vec<f32> {
+        let d = self.dim;
+        let mut out = vec![0.0f32; self.receivers() * d];
+        out.par_chunks_mut(d.max(1))
+            .enumerate()
+            .for_each(|(v, chunk)| {
+                if d > 0 {
+                    self.reconstruct_into(v, chunk)
+                }
+            });
+        out
+    }
+
+    /// Floats stored per receiver, the cluster data shared out: M weights and the index (one
+    /// 4-byte value) each, plus K·(M + 1)·D for the means and bases over V receivers.
+    pub fn floats_per_vertex(&self) -> f64 {
+        let v = self.receivers().max(1) as f64;
+        let shared = (self.clusters() * (self.pcs + 1) * self.dim) as f64;
+        (self.pcs + 1) as f64 + shared / v
+    }
+}
+
+/// RMS difference of two equally long arrays (0 for empty ones).
+pub fn rms_error(a: &[f32], b: &[f32]) -> f64 {
+    if a.is_empty() {
+        return 0.0;
+    }
+    let sum: f64 = a
+        .iter()
+        .zip(b)
+        .map(|(&x, &y)| (f64::from(x) - f64::from(y)).powi(2))
+        .sum();
+    (sum / a.len() as f64).sqrt()
+}
+
+/// Clustered PCA of `data` (V × `dim` floats, receiver-major) with at most `clusters`
+/// clusters and `pcs` components each. With K ≥ V every receiver is its own cluster's mean:
+/// exact. Clusters that end up empty are dropped, so the result may hold fewer than K.
+pub fn compress(data: &[f32], dim: usize, clusters: usize, pcs: usize) -> Result<Cpca> {
+    if clusters == 0 {
+        return Err(Error::InvalidOption("--clusters must be at least 1".into()));
+    }
+    if dim == 0 || data.len() % dim != 0 {
+        return Err(Error::InvalidOption(format!(
+            "{} floats are not whole vectors of {dim}",
+            data.len()
+        )));
+    }
+    if pcs > dim {
+        return Err(Error::InvalidOption(format!(
+            "--pcs {pcs} is more than the {dim} floats of a receiver's transfer"
+        )));
+    }
+    let v = data.len() / dim;
+    if v == 0 {
+        return Err(Error::InvalidOption("no receivers to compress".into()));
+    }
+    if clusters >= v {
+        // Every receiver its own cluster: the means are the data, exactly.
+        return Ok(Cpca {
+            dim,
+            pcs,
+            means: data.to_vec(),
+            bases: vec![0.0; v * pcs * dim],
+            cluster: (0..v as u32).collect(),
+            weights: vec![0.0; v * pcs],
+            iterations: 0,
+        });
+    }
+    let x = |i: usize| &data[i * dim..(i + 1) * dim];
+
+    // k-means++ seeding.
+    let mut rng = SplitMix64(SEED);
+    let mut centres: Vec<Vec<f64>> = vec![to_f64(x((rng.next() % v as u64) as usize))];
+    let mut d2: Vec<f64> = (0..v)
+        .into_par_iter()
+        .map(|i| dist2(x(i), &centres[0]))
+        .collect();
+    while centres.len() < clusters {
+        let total: f64 = d2.iter().sum();
+        if total <= 0.0 {
+            break; // fewer distinct vectors than clusters
+        }
+        let target = rng.unit() * total;
+        let mut acc = 0.0;
+        let mut pick = None;
+        for (i, &d) in d2.iter().enumerate() {
+            acc += d;
+            if d > 0.0 {
+                pick = Some(i);
+                if acc > target {
+                    break;
+                }
+            }
+        }
+        let Some(pick) = pick else { break };
+        let centre = to_f64(x(pick));
+        d2.par_iter_mut().enumerate().for_each(|(i, d)| {
+            *d = d.min(dist2(x(i), &centre));
+        });
+        centres.push(centre);
+    }
+
+    // Lloyd iterations.
+    let mut assignment = nearest(data, dim, &centres);
+    for _ in 0..LLOYD_ITERATIONS {
+        centres = cluster_means(data, dim, &assignment, &centres);
+        let next = nearest(data, dim, &centres);
+        let changed = next != assignment;
+        assignment = next;
+        if !changed {
+            break;
+        }
+    }
+
+    // PCA per cluster, then Sloan's refinement: reassign by reconstruction error, refit.
+    let mut model = fit(data, dim, pcs, &assignment, &centres);
+    let mut error = total_error(data, dim, &model, &assignment);
+    let mut iterations = 0;
+    for _ in 0..CPCA_ITERATIONS {
+        let next = best_clusters(data, dim, &model);
+        if next == assignment {
+            break;
+        }
+        let means = cluster_means(data, dim, &next, &model.means);
+        let next_model = fit(data, dim, pcs, &next, &means);
+        let next_error = total_error(data, dim, &next_model, &next);
+        iterations += 1;
+        if next_error > error {
+            break; // rounding only: reassignment and refit each never increase the error
+        }
+        let gain = error - next_error;
+        (model, assignment, error) = (next_model, next, next_error);
+        if gain <= CPCA_TOLERANCE * error {
+            break;
+        }
+    }
+    Ok(finish(data, dim, pcs, model, &assignment, iterations))
+}
+
+/// Means and components of every cluster, f64 while fitting.
+struct Model {
+    means: Vec<Vec<f64>>,
+    /// Per cluster, M components of D floats.
+    bases: Vec<Vec<Vec<f64>>>,
+}
+
+fn to_f64(x: &[f32]) -> Vec<f64> {
+    x.iter().map(|&a| f64::from(a)).collect()
+}
+
+fn dist2(a: &[f32], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(&x, &y)| (f64::from(x) - y).powi(2))
+        .sum()
+}
+
+/// Each receiver's nearest centre (ties: the lower index).
+fn nearest(data: &[f32], dim: usize, centres: &[Vec<f64>]) -> Vec<u32> {
+    data.par_chunks(dim)
+        .map(|x| {
+            let mut best = (f64::INFINITY, 0u32);
+            for (k, c) in centres.iter().enumerate() {
+                let d = dist2(x, c);
+                if d < best.0 {
+                    best = (d, k as u32);
+                }
+            }
+            best.1
+        })
+        .collect()
+}
+
+/// The mean of each cluster's members; an empty cluster keeps `previous`.
+fn cluster_means(
+    data: &[f32],
+    dim: usize,
+    assignment: &[u32],
+    previous: &[Vec<f64>],
+) -> Vec<Vec<f64>> {
+    let mut sums = vec![vec![0.0f64; dim]; previous.len()];
+    let mut counts = vec![0usize; previous.len()];
+    for (x, &k) in data.chunks_exact(dim).zip(assignment) {
+        counts[k as usize] += 1;
+        for (s, &a) in sums[k as usize].iter_mut().zip(x) {
+            *s += f64::from(a);
+        }
+    }
+    sums.into_iter()
+        .zip(counts)
+        .zip(previous)
+        .map(|((s, n), old)| match n {
+            0 => old.clone(),
+            n => s.into_iter().map(|a| a / n as f64).collect(),
+        })
+        .collect()
+}
+
+/// Members of each of `clusters` clusters, in receiver order.
+fn members(assignment: &[u32], clusters: usize) -> Vec<Vec<usize>> {
+    let mut members = vec![Vec::new(); clusters];
+    for (v, &k) in assignment.iter().enumerate() {
+        members[k as usize].push(v);
+    }
+    members
+}
+
+/// Each cluster's first M principal components about `means`.
+fn fit(data: &[f32], dim: usize, pcs: usize, assignment: &[u32], means: &[Vec<f64>]) -> Model {
+    let members = members(assignment, means.len());
+    let bases = members
+        .par_iter()
+        .zip(means)
+        .map(|(members, mean)| principal_components(data, dim, pcs, members, mean))
+        .collect();
+    Model {
+        means: means.to_vec(),
+        bases,
+    }
+}
+
+/// The M eigenvectors of largest eigenvalue of the members' scatter matrix about `mean`.
+/// A cluster with fewer than M + 1 members spreads in fewer than M directions: the rest are
+/// eigenvectors of eigenvalue 0, harmless (its members' weights on them are 0).
+fn principal_components(
+    data: &[f32],
+    dim: usize,
+    pcs: usize,
+    members: &[usize],
+    mean: &[f64],
+) -> Vec<Vec<f64>> {
+    if pcs == 0 || members.is_empty() {
+        return vec![vec![0.0; dim]; pcs];
+    }
+    let mut scatter = vec![0.0f64; dim * dim];
+    let mut centred = vec![0.0f64; dim];
+    for &v in members {
+        for (c, (&x, &m)) in centred
+            .iter_mut()
+            .zip(data[v * dim..(v + 1) * dim].iter().zip(mean))
+        {
+            *c = f64::from(x) - m;
+        }
+        for p in 0..dim {
+            let cp = centred[p];
+            if cp == 0.0 {
+                continue;
+            }
+            let row = &mut scatter[p * dim..(p + 1) * dim];
+            for q in p..dim {
+                row[q] += cp * centred[q];
+            }
+        }
+    }
+    for p in 0..dim {
+        for q in 0..p {
+            scatter[p * dim + q] = scatter[q * dim + p];
+        }
+    }
+    let (values, vectors) = symmetric_eigen(scatter, dim);
+    let mut order: Vec<usize> = (0..dim).collect();
+    // Largest first; ties by index, so the result does not depend on the sort.
+    order.sort_by(|&a, &b| values[b].total_cmp(&values[a]).then(a.cmp(&b)));
+    order
+        .into_iter()
+        .take(pcs)
+        .map(|j| (0..dim).map(|i| vectors[i * dim + j]).collect())
+        .collect()
+}
+
+/// Eigenvalues and eigenvectors (the columns of the returned row-major matrix) of a symmetric
+/// `n`×`n` matrix, by cyclic Jacobi rotations: slow for large n, but exact to rounding and
+/// orthonormal, which the weights (plain projections) rely on.
+pub fn symmetric_eigen(mut a: Vec<f64>, n: usize) -> (Vec<f64>, Vec<f64>) {
+    let mut v = vec![0.0f64; n * n];
+    for i in 0..n {
+        v[i * n + i] = 1.0;
+    }
+    let norm: f64 = a.iter().map(|x| x * x).sum();
+    for _sweep in 0..60 {
+        let mut off = 0.0;
+        for p in 0..n {
+            for q in p + 1..n {
+                off += a[p * n + q] * a[p * n + q];
+            }
+        }
+        if off <= 1e-30 * norm || off == 0.0 {
+            break;
+        }
+        for p in 0..n {
+            for q in p + 1..n {
+                let apq = a[p * n + q];
+                if apq == 0.0 {
+                    continue;
+                }
+                let theta = (a[q * n + q] - a[p * n + p]) / (2.0 * apq);
+                let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+                let c = 1.0 / (t * t + 1.0).sqrt();
+                let s = t * c;
+                // A ← Jᵀ A J with J the rotation in the (p, q) plane.
+                for k in 0..n {
+                    let (akp, akq) = (a[k * n + p], a[k * n + q]);
+                    a[k * n + p] = c * akp - s * akq;
+                    a[k * n + q] = s * akp + c * akq;
+                }
+                for k in 0..n {
+                    let (apk, aqk) = (a[p * n + k], a[q * n + k]);
+                    a[p * n + k] = c * apk - s * aqk;
+                    a[q * n + k] = s * apk + c * aqk;
+                }
+                for k in 0..n {
+                    let (vkp, vkq) = (v[k * n + p], v[k * n + q]);
+                    v[k * n + p] = c * vkp - s * vkq;
+                    v[k * n + q] = s * vkp + c * vkq;
+                }
+            }
+        }
+    }
+    ((0..n).map(|i| a[i * n + i]).collect(), v)
+}
+
+/// Squared reconstruction error of `x` by cluster k's mean and components.
+fn cluster_error(x: &[f32], mean: &[f64], basis: &[Vec<f64>], centred: &mut [f64]) -> f64 {
+    for (c, (&a, &m)) in centred.iter_mut().zip(x.iter().zip(mean)) {
+        *c = f64::from(a) - m;
+    }
+    let mut e: f64 = centred.iter().map(|c| c * c).sum();
+    for b in basis {
+        let w: f64 = b.iter().zip(centred.iter()).map(|(b, c)| b * c).sum();
+        e -= w * w;
+    }
+    e
+}
+
+/// Each receiver's cluster of least reconstruction error (ties: the lower index).
+fn best_clusters(data: &[f32], dim: usize, model: &Model) -> Vec<u32> {
+    data.par_chunks(dim)
+        .map_init(
+            || vec![0.0f64; dim],
+            |centred, x| {
+                let mut best = (f64::INFINITY, 0u32);
+                for (k, (mean, basis)) in model.means.iter().zip(&model.bases).enumerate() {
+                    let e = cluster_error(x, mean, basis, centred);
+                    if e < best.0 {
+                        best = (e, k as u32);
+                    }
+                }
+                best.1
+            },
+        )
+        .collect()
+}
+
+fn total_error(data: &[f32], dim: usize, model: &Model, assignment: &[u32]) -> f64 {
+    let errors: Vec<f64> = data
+        .par_chunks(dim)
+        .zip(assignment)
+        .map_init(
+            || vec![0.0f64; dim],
+            |centred, (x, &k)| {
+                let k = k as usize;
+                cluster_error(x, &model.means[k], &model.bases[k], centred).max(0.0)
+            },
+        )
+        .collect();
+    errors.iter().sum()
+}
+
+/// The stored form: empty clusters dropped, f32 values, weights projected in f64.
+fn finish(
+    data: &[f32],
+    dim: usize,
+    pcs: usize,
+    model: Model,
+    assignment: &[u32],
+    iterations: u32,
+) -> Cpca {
+    let members = members(assignment, model.means.len());
+    let mut renumber = vec![u32::MAX; model.means.len()];
+    let mut means = Vec::new();
+    let mut bases = Vec::new();
+    for (k, m) in members.iter().enumerate() {
+        if m.is_empty() {
+            continue;
+        }
+        renumber[k] = (means.len() / dim) as u32;
+        means.extend(model.means[k].iter().map(|&x| x as f32));
+        for b in &model.bases[k] {
+            bases.extend(b.iter().map(|&x| x as f32));
+        }
+    }
+    let weights: Vec<f32> = data
+        .par_chunks(dim)
+        .zip(assignment)
+        .flat_map_iter(|(x, &k)| {
+            let k = k as usize;
+            let centred: Vec<f64> = x
+                .iter()
+                .zip(&model.means[k])
+                .map(|(&a, &m)| f64::from(a) - m)
+                .collect();
+            model.bases[k]
+                .iter()
+                .map(move |b| b.iter().zip(&centred).map(|(b, c)| b * c).sum::<f64>() as f32)
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    Cpca {
+        dim,
+        pcs,
+        means,
+        bases,
+        cluster: assignment.iter().map(|&k| renumber[k as usize]).collect(),
+        weights,
+        iterations,
+    }
+}
+
+/// A deterministic 64-bit generator (Steele, Lea & Flood's SplitMix64): enough for seeding,
+/// and no dependency.
+struct SplitMix64(u64);
+
+impl SplitMix64 {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [0, 1).
+    fn unit(&mut self) -> f64 {
+        (self.next() >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// V pseudo-random vectors of `dim` floats with a few dominant directions, as transfer
+    /// vectors have.
+    fn data(v: usize, dim: usize) -> Vec<f32> {
+        let mut rng = SplitMix64(7);
+        let dirs: Vec<Vec<f64>> = (0..6)
+            .map(|_| (0..dim).map(|_| rng.unit() - 0.5).collect())
+            .collect();
+        (0..v)
+            .flat_map(|_| {
+                let w: Vec<f64> = (0..6)
+                    .map(|j| (rng.unit() - 0.5) / (1 + j) as f64)
+                    .collect();
+                let noise: Vec<f64> = (0..dim).map(|_| 0.01 * (rng.unit() - 0.5)).collect();
+                (0..dim)
+                    .map(|i| (noise[i] + (0..6).map(|j| w[j] * dirs[j][i]).sum::<f64>()) as f32)
+                    .collect::<Vec<_>>()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn jacobi_diagonalises() {
+        let n = 5;
+        let mut a = vec![0.0; n * n];
+        for p in 0..n {
+            for q in 0..n {
+                a[p * n + q] = 1.0 / (1 + p + q) as f64 + if p == q { 1.0 } else { 0.0 };
+            }
+        }
+        let (values, vectors) = symmetric_eigen(a.clone(), n);
+        for j in 0..n {
+            for i in 0..n {
+                let av: f64 = (0..n).map(|k| a[i * n + k] * vectors[k * n + j]).sum();
+                assert!((av - values[j] * vectors[i * n + j]).abs() < 1e-12);
+            }
+        }
+    }
+
+    #[test]
+    fn as_many_clusters_as_receivers_is_exact() {
+        let x = data(50, 16);
+        for k in [50, 80] {
+            let c = compress(&x, 16, k, 2).unwrap();
+            assert_eq!(c.clusters(), 50);
+            assert_eq!(c.reconstruct(), x);
+        }
+    }
+
+    #[test]
+    fn clusters_smaller_than_the_components_are_exact() {
+        // Four far-apart groups of three: each spans a plane about its mean, so two components
+        // (or five, more than the group has directions) reconstruct it exactly.
+        let mut x = Vec::new();
+        for g in 0..4 {
+            for i in 0..3 {
+                x.extend((0..8).map(|j| (100 * g) as f32 + ((i * 7 + j * 3) % 5) as f32));
+            }
+        }
+        for m in [2, 5] {
+            let c = compress(&x, 8, 4, m).unwrap();
+            assert_eq!(c.clusters(), 4);
+            assert!(rms_error(&x, &c.reconstruct()) < 1e-4, "M = {m}");
+        }
+    }
+
+    #[test]
+    fn error_falls_with_clusters_and_components() {
+        let x = data(2000, 16);
+        let error = |k, m| rms_error(&x, &compress(&x, 16, k, m).unwrap().reconstruct());
+        let by_k: Vec<f64> = [1, 4, 16, 64].map(|k| error(k, 2)).to_vec();
+        let by_m: Vec<f64> = [0, 1, 2, 4].map(|m| error(8, m)).to_vec();
+        for w in by_k.windows(2).chain(by_m.windows(2)) {
+            assert!(w[1] < w[0], "{by_k:?} {by_m:?}");
+        }
+        // Six directions and 1 % noise: six components leave only the noise.
+        assert!(error(1, 6) < 0.01, "{}", error(1, 6));
+    }
+
+    #[test]
+    fn deterministic_and_refinement_does_not_hurt() {
+        let x = data(1500, 16);
+        let a = compress(&x, 16, 32, 3).unwrap();
+        assert_eq!(a, compress(&x, 16, 32, 3).unwrap());
+        assert!(a.cluster.iter().all(|&k| (k as usize) < a.clusters()));
+        assert_eq!(a.weights.len(), 1500 * 3);
+    }
+
+    #[test]
+    fn identical_receivers_drop_empty_clusters() {
+        let x = vec![0.5f32; 16 * 30];
+        let c = compress(&x, 16, 8, 2).unwrap();
+        assert_eq!(c.clusters(), 1);
+        assert_eq!(c.reconstruct(), x);
+    }
+}
