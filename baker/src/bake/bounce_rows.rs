@@ -11,8 +11,9 @@ use std::sync::{Arc, Mutex};
 
 use glam::{Vec2, Vec3};
 
+use crate::bake::lightmap::leaks::{LEAK_FRACTION, LEAK_RAYS, SCREEN_RAYS, leaks_at};
 use crate::bake::receivers::{BounceTargets, RECEIVERS_PER_JOB};
-use crate::math::sampling::{Frame, Pcg32, cosine_hemisphere, vertex_seed};
+use crate::math::sampling::{Pcg32, vertex_seed};
 use crate::scene::Scene;
 use crate::trace::{Hit, Tracer};
 
@@ -73,12 +74,12 @@ impl Hasher for SlotHasher {
 
 /// Closest-hit rays of a vertex's embedding test (cosine-weighted over its hemisphere), as
 /// many as a texel's leak test casts (`lightmap::leaks`).
-pub const EMBEDDING_RAYS: usize = 64;
+pub const EMBEDDING_RAYS: usize = LEAK_RAYS;
 /// A vertex is embedded when more than this fraction of its test rays hit back faces.
-pub const EMBEDDING_FRACTION: f32 = 0.1;
+pub const EMBEDDING_FRACTION: f32 = LEAK_FRACTION;
 /// The first rays of the test, traced alone: a vertex none of whose first 16 rays hits a
 /// back face is taken to be open without the other 48 (most vertices).
-pub const EMBEDDING_SCREEN_RAYS: usize = 16;
+pub const EMBEDDING_SCREEN_RAYS: usize = SCREEN_RAYS;
 
 /// Vertex bakes: which vertices are **embedded** — inside or behind other geometry (a floor
 /// vertex under a box, a wall board's corner beyond the wall it meets), so that their own
@@ -164,29 +165,7 @@ impl CornerProbe<'_> {
     /// test decides). Directions come from the vertex's own stream, apart from its samples.
     fn embedded(&self, v: usize) -> bool {
         let mut rng = Pcg32::new(vertex_seed(self.seed, v as u64), 0xc0_1eaf);
-        let frame = Frame::from_normal(self.normals[v]);
-        let mut dirs = [Vec3::ZERO; EMBEDDING_RAYS];
-        let mut hits: [Option<Hit>; EMBEDDING_RAYS] = [None; EMBEDDING_RAYS];
-        let mut back = 0;
-        for range in [
-            0..EMBEDDING_SCREEN_RAYS,
-            EMBEDDING_SCREEN_RAYS..EMBEDDING_RAYS,
-        ] {
-            let (dirs, hits) = (&mut dirs[range.clone()], &mut hits[range]);
-            for d in dirs.iter_mut() {
-                *d = frame.to_world(cosine_hemisphere(rng.next_f32(), rng.next_f32()));
-            }
-            self.tracer.intersect_from(self.origins[v], dirs, hits);
-            back += hits
-                .iter()
-                .zip(dirs.iter())
-                .filter(|(hit, dir)| hit.as_ref().is_some_and(|h| h.ng.dot(**dir) > 0.0))
-                .count();
-            if back == 0 {
-                return false;
-            }
-        }
-        back as f32 > EMBEDDING_FRACTION * EMBEDDING_RAYS as f32
+        leaks_at(self.origins[v], self.normals[v], self.tracer, &mut rng)
     }
 }
 

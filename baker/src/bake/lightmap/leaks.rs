@@ -125,7 +125,7 @@ pub fn find_leaks(texels: &Texels, tracer: &dyn Tracer, seed: u64) -> Vec<bool> 
 /// around `normal` hit back faces. The directions are drawn in order from `rng`, the last
 /// [`LEAK_RAYS`] − [`SCREEN_RAYS`] only when the screen finds a back face (most texels stop
 /// there, and drawing a direction costs a sine and a cosine).
-fn leaks_at(origin: Vec3, normal: Vec3, tracer: &dyn Tracer, rng: &mut Pcg32) -> bool {
+pub(crate) fn leaks_at(origin: Vec3, normal: Vec3, tracer: &dyn Tracer, rng: &mut Pcg32) -> bool {
     let frame = Frame::from_normal(normal);
     let mut dirs = [Vec3::ZERO; LEAK_RAYS];
     let mut hits: [Option<Hit>; LEAK_RAYS] = [None; LEAK_RAYS];
