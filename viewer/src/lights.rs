@@ -58,104 +58,33 @@ pub struct SceneLight {
 impl SceneLight {
     /// Splits a rig light into its coefficients about +z and its direction.
     pub fn new(light: &Light, order: usize) -> SceneLight {
-        let about_z = |direction: DVec3, light: Light| {
-            let (theta, phi) = sh::angles(direction);
-            SteerableLight::new(light.project(order), theta, phi)
+        let Some((kind, phong)) = analytic_shape(light) else {
+            return SceneLight::environment(light, order);
         };
-        let (kind, steerable, phong) = match light {
-            Light::Constant { radiance } => (
-                "constant",
-                SteerableLight::new(light.project(order), 0.0, 0.0),
-                PhongShape::Ambient {
-                    radiance: radiance.as_vec3(),
-                },
-            ),
-            Light::Directional {
-                direction,
-                irradiance,
-            } => (
-                "directional",
-                about_z(
-                    *direction,
-                    Light::Directional {
-                        direction: DVec3::Z,
-                        irradiance: *irradiance,
-                    },
-                ),
-                PhongShape::Directional {
-                    irradiance: irradiance.as_vec3(),
-                },
-            ),
-            Light::Sun {
-                direction,
-                irradiance,
-                angular_radius,
-            } => (
-                "sun",
-                about_z(
-                    *direction,
-                    Light::Sun {
-                        direction: DVec3::Z,
-                        irradiance: *irradiance,
-                        angular_radius: *angular_radius,
-                    },
-                ),
-                PhongShape::Directional {
-                    irradiance: irradiance.as_vec3(),
-                },
-            ),
-            Light::Sphere {
-                direction,
-                radiance,
-                angular_radius,
-            } => (
-                "sphere",
-                about_z(
-                    *direction,
-                    Light::Sphere {
-                        direction: DVec3::Z,
-                        radiance: *radiance,
-                        angular_radius: *angular_radius,
-                    },
-                ),
-                PhongShape::Directional {
-                    irradiance: (*radiance * (std::f64::consts::PI * angular_radius.sin().powi(2)))
-                        .as_vec3(),
-                },
-            ),
-            Light::Hemisphere { up, sky, ground } => (
-                "hemisphere",
-                about_z(
-                    *up,
-                    Light::Hemisphere {
-                        up: DVec3::Z,
-                        sky: *sky,
-                        ground: *ground,
-                    },
-                ),
-                PhongShape::Hemisphere {
-                    sky: sky.as_vec3(),
-                    ground: ground.as_vec3(),
-                },
-            ),
-            Light::Environment { .. } => {
-                let coefficients = light.project(order);
-                // y_00 = 1/√(4π), so the mean radiance is c_00/√(4π).
-                let mean = |c: usize| {
-                    (coefficients.rgb[c][0] / (4.0 * std::f64::consts::PI).sqrt()) as f32
-                };
-                let radiance = Vec3::new(mean(0), mean(1), mean(2));
-                (
-                    "environment",
-                    SteerableLight::new(coefficients, 0.0, 0.0),
-                    PhongShape::Ambient { radiance },
-                )
+        let steerable = match along_z(light) {
+            Some((direction, about_z)) => {
+                let (theta, phi) = sh::angles(direction);
+                SteerableLight::new(about_z.project(order), theta, phi)
             }
+            None => SteerableLight::new(light.project(order), 0.0, 0.0),
         };
         SceneLight {
             kind,
             steerable,
             phong,
+        }
+    }
+
+    /// An environment map: projected once, its Phong stand-in the map's mean radiance.
+    fn environment(light: &Light, order: usize) -> SceneLight {
+        let coefficients = light.project(order);
+        // y_00 = 1/√(4π), so the mean radiance is c_00/√(4π).
+        let mean = |c: usize| (coefficients.rgb[c][0] / (4.0 * std::f64::consts::PI).sqrt()) as f32;
+        let radiance = Vec3::new(mean(0), mean(1), mean(2));
+        SceneLight {
+            kind: "environment",
+            steerable: SteerableLight::new(coefficients, 0.0, 0.0),
+            phong: PhongShape::Ambient { radiance },
         }
     }
 
@@ -178,6 +107,100 @@ impl SceneLight {
         };
         c / c.max_element().max(f32::MIN_POSITIVE)
     }
+}
+
+/// The kind and Phong stand-in of an analytic light; `None` for an environment map, whose
+/// stand-in needs its projection ([`SceneLight::environment`]).
+fn analytic_shape(light: &Light) -> Option<(&'static str, PhongShape)> {
+    Some(match light {
+        Light::Constant { radiance } => (
+            "constant",
+            PhongShape::Ambient {
+                radiance: radiance.as_vec3(),
+            },
+        ),
+        Light::Directional { irradiance, .. } => (
+            "directional",
+            PhongShape::Directional {
+                irradiance: irradiance.as_vec3(),
+            },
+        ),
+        Light::Sun { irradiance, .. } => (
+            "sun",
+            PhongShape::Directional {
+                irradiance: irradiance.as_vec3(),
+            },
+        ),
+        Light::Sphere {
+            radiance,
+            angular_radius,
+            ..
+        } => (
+            "sphere",
+            PhongShape::Directional {
+                irradiance: (*radiance * (std::f64::consts::PI * angular_radius.sin().powi(2)))
+                    .as_vec3(),
+            },
+        ),
+        Light::Hemisphere { sky, ground, .. } => (
+            "hemisphere",
+            PhongShape::Hemisphere {
+                sky: sky.as_vec3(),
+                ground: ground.as_vec3(),
+            },
+        ),
+        Light::Environment { .. } => return None,
+    })
+}
+
+/// A directed light's direction and the same light shining about +z, which is projected
+/// once and then steered; `None` for lights that are not turned (constant, environment).
+fn along_z(light: &Light) -> Option<(DVec3, Light)> {
+    Some(match light {
+        Light::Constant { .. } | Light::Environment { .. } => return None,
+        Light::Directional {
+            direction,
+            irradiance,
+        } => (
+            *direction,
+            Light::Directional {
+                direction: DVec3::Z,
+                irradiance: *irradiance,
+            },
+        ),
+        Light::Sun {
+            direction,
+            irradiance,
+            angular_radius,
+        } => (
+            *direction,
+            Light::Sun {
+                direction: DVec3::Z,
+                irradiance: *irradiance,
+                angular_radius: *angular_radius,
+            },
+        ),
+        Light::Sphere {
+            direction,
+            radiance,
+            angular_radius,
+        } => (
+            *direction,
+            Light::Sphere {
+                direction: DVec3::Z,
+                radiance: *radiance,
+                angular_radius: *angular_radius,
+            },
+        ),
+        Light::Hemisphere { up, sky, ground } => (
+            *up,
+            Light::Hemisphere {
+                up: DVec3::Z,
+                sky: *sky,
+                ground: *ground,
+            },
+        ),
+    })
 }
 
 /// The unit vector at (θ, φ): θ from +z, φ from +x towards +y.

@@ -2,7 +2,7 @@
 //! controls; renders screenshots without a display; measures frame rates.
 //! Everything it does is a library call; this file parses arguments and reports.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::{Parser, ValueEnum};
@@ -147,7 +147,41 @@ fn run(cli: Cli) -> Result<(), Error> {
         Some(path) => Rig::load(path)?,
         None => Lights::default_rig(),
     };
-    let lights = Lights::from_rig(&rig, bake.order()).for_up(bake.up());
+    let view = initial_view(&cli, &bake, &rig)?;
+
+    if cli.bench {
+        let gpu = Gpu::headless()?;
+        let options = BenchOptions {
+            size: cli.size,
+            frames: cli.bench_frames,
+        };
+        println!("{}", bench::run(&gpu, &bake, options)?.table());
+        return Ok(());
+    }
+    if let Some(path) = &cli.screenshot {
+        return screenshot(&cli, path, &bake, &view, &rig, named_inputs);
+    }
+    let options = WindowOptions {
+        size: cli.size,
+        frames: cli.frames,
+        keys: cli.keys,
+    };
+    let stats = window::run(bake, view, options)?;
+    println!(
+        "prt-view: {} frames in {:.2} s ({:.1} fps{})",
+        stats.frames,
+        stats.seconds,
+        stats.frames as f64 / stats.seconds.max(1e-9),
+        stats.backend.map_or(String::new(), |b| format!(", {b:?}"))
+    );
+    Ok(())
+}
+
+/// The view the command line asks for: the rig's lights turned to the scene's up, the
+/// camera given or framing the scene, and the display options. Warns when Blinn-Phong mode
+/// cannot show every light.
+fn initial_view(cli: &Cli, bake: &Bake, rig: &Rig) -> Result<View, Error> {
+    let lights = Lights::from_rig(rig, bake.order()).for_up(bake.up());
     let dropped = lights.phong().dropped;
     if dropped > 0 {
         eprintln!(
@@ -168,52 +202,38 @@ fn run(cli: Cli) -> Result<(), Error> {
     view.normals = cli.normals;
     view.light_vectors = cli.light_vectors;
     view.exposure = cli.exposure;
+    Ok(view)
+}
 
-    if cli.bench {
-        let gpu = Gpu::headless()?;
-        let options = BenchOptions {
-            size: cli.size,
-            frames: cli.bench_frames,
-        };
-        println!("{}", bench::run(&gpu, &bake, options)?.table());
-        return Ok(());
+/// Renders one frame offscreen to `path`, which must not overwrite any input (the scene's
+/// files, those named on the command line, the rig's).
+fn screenshot(
+    cli: &Cli,
+    path: &Path,
+    bake: &Bake,
+    view: &View,
+    rig: &Rig,
+    named_inputs: Vec<PathBuf>,
+) -> Result<(), Error> {
+    let mut inputs = bake.scene.input_files();
+    inputs.extend(named_inputs);
+    if cli.lights.is_some() {
+        inputs.extend(rig.input_files());
     }
-    if let Some(path) = &cli.screenshot {
-        let mut inputs = bake.scene.input_files();
-        inputs.extend(named_inputs);
-        if cli.lights.is_some() {
-            inputs.extend(rig.input_files());
-        }
-        let output = Output::new(path, &inputs)?;
-        let gpu = Gpu::headless()?;
-        let mut renderer =
-            Renderer::new(&gpu.device, &gpu.queue, &bake, offscreen::FORMAT, cli.size)?;
-        let inputs = FrameInputs::from_view(&view, None);
-        let image = offscreen::render_image(&gpu.device, &gpu.queue, &mut renderer, &inputs)?;
-        offscreen::save_png_to(&image, &output)?;
-        println!(
-            "prt-view: wrote {} ({}×{}, {}, camera {}; {})",
-            path.display(),
-            cli.size.0,
-            cli.size.1,
-            view.mode.name(),
-            view.camera.to_argument(),
-            gpu.description()
-        );
-        return Ok(());
-    }
-    let options = WindowOptions {
-        size: cli.size,
-        frames: cli.frames,
-        keys: cli.keys,
-    };
-    let stats = window::run(bake, view, options)?;
+    let output = Output::new(path, &inputs)?;
+    let gpu = Gpu::headless()?;
+    let mut renderer = Renderer::new(&gpu.device, &gpu.queue, bake, offscreen::FORMAT, cli.size)?;
+    let inputs = FrameInputs::from_view(view, None);
+    let image = offscreen::render_image(&gpu.device, &gpu.queue, &mut renderer, &inputs)?;
+    offscreen::save_png_to(&image, &output)?;
     println!(
-        "prt-view: {} frames in {:.2} s ({:.1} fps{})",
-        stats.frames,
-        stats.seconds,
-        stats.frames as f64 / stats.seconds.max(1e-9),
-        stats.backend.map_or(String::new(), |b| format!(", {b:?}"))
+        "prt-view: wrote {} ({}×{}, {}, camera {}; {})",
+        path.display(),
+        cli.size.0,
+        cli.size.1,
+        view.mode.name(),
+        view.camera.to_argument(),
+        gpu.description()
     );
     Ok(())
 }

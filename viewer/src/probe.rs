@@ -27,6 +27,24 @@ pub fn vertex_radiance(
     let rows = count.div_ceil(WIDTH).max(1);
     let (target, view) = readable_target(device, "probe", (WIDTH, rows), FORMAT);
     let (frame_layout, frame_bind_group) = renderer.frame_bindings();
+    let pipeline = probe_pipeline(device, frame_layout, rows);
+    draw_points(device, queue, &pipeline, frame_bind_group, &view, count);
+    let bytes = read_texture(device, queue, &target, 16)?;
+    // Copied into f32s: the byte vector need not be 4-aligned.
+    let texels: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&bytes);
+    Ok(texels[..count as usize]
+        .iter()
+        .map(|[r, g, b, _]| [*r, *g, *b])
+        .collect())
+}
+
+/// The debug pipeline: probe.wgsl's points, one per vertex, into a `rows`-row float target
+/// with no blending, so each texel is exactly one vertex's `prt_radiance`.
+fn probe_pipeline(
+    device: &wgpu::Device,
+    frame_layout: &wgpu::BindGroupLayout,
+    rows: u32,
+) -> wgpu::RenderPipeline {
     let module = scene_shader(device, "probe", include_str!("shaders/probe.wgsl"));
     let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some("probe"),
@@ -34,7 +52,7 @@ pub fn vertex_radiance(
         immediate_size: 0,
     });
     let constants = [("PROBE_ROWS", f64::from(rows))];
-    let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
         label: Some("probe"),
         layout: Some(&layout),
         vertex: wgpu::VertexState {
@@ -64,7 +82,18 @@ pub fn vertex_radiance(
         }),
         multiview_mask: None,
         cache: None,
-    });
+    })
+}
+
+/// Draws the `count` points into `view`, cleared to NaN first, and submits the work.
+fn draw_points(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    pipeline: &wgpu::RenderPipeline,
+    frame_bind_group: &wgpu::BindGroup,
+    view: &wgpu::TextureView,
+    count: u32,
+) {
     let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
         label: Some("probe"),
     });
@@ -72,7 +101,7 @@ pub fn vertex_radiance(
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("probe"),
             color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: &view,
+                view,
                 depth_slice: None,
                 resolve_target: None,
                 ops: wgpu::Operations {
@@ -91,16 +120,9 @@ pub fn vertex_radiance(
             occlusion_query_set: None,
             multiview_mask: None,
         });
-        pass.set_pipeline(&pipeline);
+        pass.set_pipeline(pipeline);
         pass.set_bind_group(0, frame_bind_group, &[]);
         pass.draw(0..count, 0..1);
     }
     queue.submit([encoder.finish()]);
-    let bytes = read_texture(device, queue, &target, 16)?;
-    // Copied into f32s: the byte vector need not be 4-aligned.
-    let texels: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&bytes);
-    Ok(texels[..count as usize]
-        .iter()
-        .map(|[r, g, b, _]| [*r, *g, *b])
-        .collect())
 }

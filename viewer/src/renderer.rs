@@ -519,35 +519,7 @@ impl FrameResources {
         });
         let frame_buffer = uniform_buffer(device, "frame", std::mem::size_of::<FrameUniform>());
 
-        let vertex_and_fragment = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
-        let storage = |binding, visibility| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only: true },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("frame"),
-            entries: &[
-                uniform_entry(0, vertex_and_fragment),
-                storage(1, wgpu::ShaderStages::VERTEX),
-                storage(2, vertex_and_fragment),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 3,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                        view_dimension: wgpu::TextureViewDimension::D2Array,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
-            ],
-        });
+        let layout = frame_layout(device);
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("frame"),
             layout: &layout,
@@ -566,6 +538,41 @@ impl FrameResources {
             bind_group,
         })
     }
+}
+
+/// Group 0's layout: the frame's uniforms (0), the transfer's storage buffer (1, read per
+/// vertex), the light's coefficients (2) and the texel bake's transfer array (3, read per
+/// fragment).
+fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+    let vertex_and_fragment = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
+    let storage = |binding, visibility| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only: true },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    };
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("frame"),
+        entries: &[
+            uniform_entry(0, vertex_and_fragment),
+            storage(1, wgpu::ShaderStages::VERTEX),
+            storage(2, vertex_and_fragment),
+            wgpu::BindGroupLayoutEntry {
+                binding: 3,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                    view_dimension: wgpu::TextureViewDimension::D2Array,
+                    multisampled: false,
+                },
+                count: None,
+            },
+        ],
+    })
 }
 
 /// The PRT pipeline (per vertex, or per texel) and the Blinn-Phong one.

@@ -160,10 +160,33 @@ impl EnvironmentMap {
 
     /// The exact coefficients of the piecewise-constant map (see the module documentation).
     pub fn project(&self, order: usize) -> LightCoefficients {
-        let n = sh::coeff_count(order);
-        // Per column and m ≥ 0: ∫ cos mφ dφ and ∫ sin mφ dφ over the column, written as
-        // products (2 cos(mφ̄) sin(mΔ/2)/m …) so narrow columns lose no digits.
-        let columns: Vec<(Vec<f64>, Vec<f64>)> = (0..self.width)
+        let columns = self.column_integrals(order);
+        let basis = Basis::new(order);
+        let (nodes, weights) = sh::gauss_legendre(order + 2);
+        // One contribution per row, summed in row order afterwards: the same bits whatever
+        // the number of threads.
+        let rows: Vec<[Vec<f64>; 3]> = (0..self.height)
+            .into_par_iter()
+            .map(|y| {
+                let theta_part = self.row_theta_integrals(y, &basis, &nodes, &weights);
+                self.row_contribution(y, order, &columns, &theta_part)
+            })
+            .collect();
+        let mut sum = LightCoefficients::zero(order);
+        for row in &rows {
+            for (acc, add) in sum.rgb.iter_mut().zip(row) {
+                for (a, b) in acc.iter_mut().zip(add) {
+                    *a += b;
+                }
+            }
+        }
+        sum
+    }
+
+    /// Per column and m ≥ 0: ∫ cos mφ dφ and ∫ sin mφ dφ over the column, written as
+    /// products (2 cos(mφ̄) sin(mΔ/2)/m …) so narrow columns lose no digits.
+    fn column_integrals(&self, order: usize) -> Vec<(Vec<f64>, Vec<f64>)> {
+        (0..self.width)
             .map(|x| {
                 let (lo, hi) = self.column_phi(x);
                 let (mid, half) = (0.5 * (lo + hi), 0.5 * (hi - lo));
@@ -181,67 +204,69 @@ impl EnvironmentMap {
                     .collect();
                 (cos, sin)
             })
-            .collect();
-        let basis = Basis::new(order);
-        let (nodes, weights) = sh::gauss_legendre(order + 2);
-        // One contribution per row, summed in row order afterwards: the same bits whatever
-        // the number of threads.
-        let rows: Vec<[Vec<f64>; 3]> = (0..self.height)
-            .into_par_iter()
-            .map(|y| {
-                // ∫ y_l^{|m|}(θ, 0) sin θ dθ over the row, at index(l, |m|).
-                let mut theta_part = vec![0.0; n];
-                let mut values = vec![0.0; n];
-                let (top, bottom) = self.row_theta(y);
-                let spans = ((bottom - top) / MAX_QUADRATURE_SPAN).ceil().max(1.0) as usize;
-                let span = (bottom - top) / spans as f64;
-                for s in 0..spans {
-                    let mid = top + (s as f64 + 0.5) * span;
-                    for (t, w) in nodes.iter().zip(&weights) {
-                        let theta = mid + 0.5 * span * t;
-                        let weight = 0.5 * span * w * theta.sin();
-                        basis.eval_recurrence(
-                            DVec3::new(theta.sin(), 0.0, theta.cos()),
-                            &mut values,
-                        );
-                        for (acc, v) in theta_part.iter_mut().zip(&values) {
-                            *acc += weight * v;
-                        }
-                    }
-                }
-                // Σ over the row's pixels of radiance × φ integral, per channel and m.
-                let mut cos_sums = vec![[0.0f64; 3]; order];
-                let mut sin_sums = vec![[0.0f64; 3]; order];
-                for (x, (cos, sin)) in columns.iter().enumerate() {
-                    let p = self.pixel(x, y).map(f64::from);
-                    for m in 0..order {
-                        for c in 0..3 {
-                            cos_sums[m][c] += p[c] * cos[m];
-                            sin_sums[m][c] += p[c] * sin[m];
-                        }
-                    }
-                }
-                [0, 1, 2].map(|c| {
-                    (0..n)
-                        .map(|j| {
-                            let (l, m) = sh::band_and_m(j);
-                            let am = m.unsigned_abs() as usize;
-                            let phi_sums = if m >= 0 { &cos_sums[am] } else { &sin_sums[am] };
-                            theta_part[sh::index(l, am as i32)] * phi_sums[c]
-                        })
-                        .collect::<Vec<f64>>()
-                })
-            })
-            .collect();
-        let mut sum = LightCoefficients::zero(order);
-        for row in &rows {
-            for (acc, add) in sum.rgb.iter_mut().zip(row) {
-                for (a, b) in acc.iter_mut().zip(add) {
-                    *a += b;
+            .collect()
+    }
+
+    /// ∫ y_l^{|m|}(θ, 0) sin θ dθ over row y, at index(l, |m|): Gauss–Legendre on spans no
+    /// wider than [`MAX_QUADRATURE_SPAN`].
+    fn row_theta_integrals(
+        &self,
+        y: usize,
+        basis: &Basis,
+        nodes: &[f64],
+        weights: &[f64],
+    ) -> Vec<f64> {
+        let n = sh::coeff_count(basis.order());
+        let mut theta_part = vec![0.0; n];
+        let mut values = vec![0.0; n];
+        let (top, bottom) = self.row_theta(y);
+        let spans = ((bottom - top) / MAX_QUADRATURE_SPAN).ceil().max(1.0) as usize;
+        let span = (bottom - top) / spans as f64;
+        for s in 0..spans {
+            let mid = top + (s as f64 + 0.5) * span;
+            for (t, w) in nodes.iter().zip(weights) {
+                let theta = mid + 0.5 * span * t;
+                let weight = 0.5 * span * w * theta.sin();
+                basis.eval_recurrence(DVec3::new(theta.sin(), 0.0, theta.cos()), &mut values);
+                for (acc, v) in theta_part.iter_mut().zip(&values) {
+                    *acc += weight * v;
                 }
             }
         }
-        sum
+        theta_part
+    }
+
+    /// Row y's coefficients per channel: the θ integrals times Σ over the row's pixels of
+    /// radiance × φ integral, per channel and m.
+    fn row_contribution(
+        &self,
+        y: usize,
+        order: usize,
+        columns: &[(Vec<f64>, Vec<f64>)],
+        theta_part: &[f64],
+    ) -> [Vec<f64>; 3] {
+        let n = sh::coeff_count(order);
+        let mut cos_sums = vec![[0.0f64; 3]; order];
+        let mut sin_sums = vec![[0.0f64; 3]; order];
+        for (x, (cos, sin)) in columns.iter().enumerate() {
+            let p = self.pixel(x, y).map(f64::from);
+            for m in 0..order {
+                for c in 0..3 {
+                    cos_sums[m][c] += p[c] * cos[m];
+                    sin_sums[m][c] += p[c] * sin[m];
+                }
+            }
+        }
+        [0, 1, 2].map(|c| {
+            (0..n)
+                .map(|j| {
+                    let (l, m) = sh::band_and_m(j);
+                    let am = m.unsigned_abs() as usize;
+                    let phi_sums = if m >= 0 { &cos_sums[am] } else { &sin_sums[am] };
+                    theta_part[sh::index(l, am as i32)] * phi_sums[c]
+                })
+                .collect::<Vec<f64>>()
+        })
     }
 }
 

@@ -196,94 +196,11 @@ impl Scene {
             lightmap_uvs: None,
             content_digest: None,
         };
-        for mesh in meshes {
-            let vertex_count = mesh.positions.len();
-            if let Some((i, p)) = mesh
-                .positions
-                .iter()
-                .enumerate()
-                .find(|(_, p)| !p.is_finite())
-            {
-                return Err(Error::scene(
-                    at(),
-                    format!(
-                        "mesh '{}': vertex {i} has a non-finite position {p}",
-                        mesh.name
-                    ),
-                ));
-            }
-            if let Some((t, tri)) = mesh
-                .triangles
-                .iter()
-                .enumerate()
-                .find(|(_, tri)| tri.iter().any(|&i| i as usize >= vertex_count))
-            {
-                return Err(Error::scene(
-                    at(),
-                    format!(
-                        "mesh '{}': triangle {t} uses vertex {tri:?} but the mesh has {vertex_count} vertices",
-                        mesh.name
-                    ),
-                ));
-            }
-            if mesh
-                .material
-                .texture
-                .is_some_and(|t| t >= scene.textures.len())
-            {
-                return Err(Error::scene(
-                    at(),
-                    format!("mesh '{}': texture index out of range", mesh.name),
-                ));
-            }
-            let computed = angle_weighted_normals(&mesh.positions, &mesh.triangles, true);
-            let normals = match mesh.normals {
-                Some(given) if given.len() == vertex_count => {
-                    if given.iter().any(|n| !n.is_finite()) {
-                        return Err(Error::scene(
-                            at(),
-                            format!("mesh '{}': non-finite normal", mesh.name),
-                        ));
-                    }
-                    // A zero normal (exporters write them for degenerate faces) takes the
-                    // computed one.
-                    given
-                        .iter()
-                        .zip(&computed)
-                        .map(|(n, c)| n.try_normalize().unwrap_or(*c))
-                        .collect()
-                }
-                _ => computed,
-            };
-            let uvs = match mesh.uvs {
-                Some(uvs) if uvs.len() == vertex_count => uvs,
-                _ => vec![Vec2::ZERO; vertex_count],
-            };
-            if uvs.iter().any(|uv| !uv.is_finite()) {
-                return Err(Error::scene(
-                    at(),
-                    format!("mesh '{}': non-finite texture coordinate", mesh.name),
-                ));
-            }
-
-            let base = scene.positions.len() as u32;
-            let first_triangle = scene.triangles.len() as u32;
-            let material = scene.materials.len() as u32;
-            scene.materials.push(mesh.material);
-            scene.positions.extend(&mesh.positions);
-            scene.normals.extend(normals);
-            scene.uvs.extend(uvs);
-            scene
-                .vertex_material
-                .extend(std::iter::repeat_n(material, vertex_count));
-            scene
-                .triangles
-                .extend(mesh.triangles.iter().map(|t| t.map(|i| i + base)));
-            scene.objects.push(Object {
-                name: mesh.name,
-                vertices: base..scene.positions.len() as u32,
-                triangles: first_triangle..scene.triangles.len() as u32,
-            });
+        for mut mesh in meshes {
+            check_mesh(&mesh, scene.textures.len()).map_err(|m| Error::scene(at(), m))?;
+            let (normals, uvs) =
+                shading_attributes(&mut mesh).map_err(|m| Error::scene(at(), m))?;
+            scene.append(mesh, normals, uvs);
         }
         if scene.triangles.is_empty() {
             return Err(Error::scene(at(), "the scene has no triangles"));
@@ -292,6 +209,28 @@ impl Scene {
             return Err(Error::scene(at(), "more than 2^32 vertices"));
         }
         Ok(scene)
+    }
+
+    /// Appends a checked mesh as one object, its vertices and triangles after those already
+    /// there (indices offset by the vertex count so far) and its material as a new one.
+    fn append(&mut self, mesh: Mesh, normals: Vec<Vec3>, uvs: Vec<Vec2>) {
+        let vertex_count = mesh.positions.len();
+        let base = self.positions.len() as u32;
+        let first_triangle = self.triangles.len() as u32;
+        let material = self.materials.len() as u32;
+        self.materials.push(mesh.material);
+        self.positions.extend(&mesh.positions);
+        self.normals.extend(normals);
+        self.uvs.extend(uvs);
+        self.vertex_material
+            .extend(std::iter::repeat_n(material, vertex_count));
+        self.triangles
+            .extend(mesh.triangles.iter().map(|t| t.map(|i| i + base)));
+        self.objects.push(Object {
+            name: mesh.name,
+            vertices: base..self.positions.len() as u32,
+            triangles: first_triangle..self.triangles.len() as u32,
+        });
     }
 
     pub fn vertex_count(&self) -> usize {
@@ -357,4 +296,70 @@ impl Scene {
         }
         xxhash_rust::xxh3::xxh3_64(&bytes)
     }
+}
+
+/// Refuses a mesh whose positions are not finite or whose triangle or texture indices point
+/// past what exists: everything after indexes with them unchecked.
+fn check_mesh(mesh: &Mesh, texture_count: usize) -> std::result::Result<(), String> {
+    let vertex_count = mesh.positions.len();
+    if let Some((i, p)) = mesh
+        .positions
+        .iter()
+        .enumerate()
+        .find(|(_, p)| !p.is_finite())
+    {
+        return Err(format!(
+            "mesh '{}': vertex {i} has a non-finite position {p}",
+            mesh.name
+        ));
+    }
+    if let Some((t, tri)) = mesh
+        .triangles
+        .iter()
+        .enumerate()
+        .find(|(_, tri)| tri.iter().any(|&i| i as usize >= vertex_count))
+    {
+        return Err(format!(
+            "mesh '{}': triangle {t} uses vertex {tri:?} but the mesh has {vertex_count} vertices",
+            mesh.name
+        ));
+    }
+    if mesh.material.texture.is_some_and(|t| t >= texture_count) {
+        return Err(format!("mesh '{}': texture index out of range", mesh.name));
+    }
+    Ok(())
+}
+
+/// The mesh's normals and texture coordinates, one per vertex: given ones where there are
+/// as many as vertices, else computed normals and zero coordinates. Takes them out of the
+/// mesh; refuses non-finite ones.
+fn shading_attributes(mesh: &mut Mesh) -> std::result::Result<(Vec<Vec3>, Vec<Vec2>), String> {
+    let vertex_count = mesh.positions.len();
+    let computed = angle_weighted_normals(&mesh.positions, &mesh.triangles, true);
+    let normals = match mesh.normals.take() {
+        Some(given) if given.len() == vertex_count => {
+            if given.iter().any(|n| !n.is_finite()) {
+                return Err(format!("mesh '{}': non-finite normal", mesh.name));
+            }
+            // A zero normal (exporters write them for degenerate faces) takes the
+            // computed one.
+            given
+                .iter()
+                .zip(&computed)
+                .map(|(n, c)| n.try_normalize().unwrap_or(*c))
+                .collect()
+        }
+        _ => computed,
+    };
+    let uvs = match mesh.uvs.take() {
+        Some(uvs) if uvs.len() == vertex_count => uvs,
+        _ => vec![Vec2::ZERO; vertex_count],
+    };
+    if uvs.iter().any(|uv| !uv.is_finite()) {
+        return Err(format!(
+            "mesh '{}': non-finite texture coordinate",
+            mesh.name
+        ));
+    }
+    Ok((normals, uvs))
 }

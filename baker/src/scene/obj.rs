@@ -35,12 +35,56 @@ pub fn load(
     folder: &AssetFolder,
 ) -> Result<Loaded> {
     let bytes = crate::support::limits::read_file(path)?;
+    let parsed = parse(path, &bytes, folder)?;
+
+    let text = String::from_utf8_lossy(&bytes);
+    lint(path, &text)?;
+
+    let (material_table, no_material, textures) = resolve_materials(
+        path,
+        folder,
+        &parsed.materials,
+        &parsed.texture_refs,
+        override_texture,
+    )?;
+
+    let meshes: Vec<Mesh> = parsed
+        .models
+        .into_iter()
+        .filter(|model| !model.mesh.indices.is_empty())
+        .map(|model| to_mesh(model, &material_table, &no_material))
+        .collect();
+    if meshes.is_empty() {
+        return Err(Error::scene(
+            Location::file(path),
+            "no faces: the file defines no triangles",
+        ));
+    }
+    Ok(Loaded {
+        meshes,
+        textures,
+        files: parsed.files,
+    })
+}
+
+/// What tobj read from an OBJ and its material libraries.
+struct Parsed {
+    models: Vec<tobj::Model>,
+    materials: Vec<tobj::Material>,
+    /// The OBJ and the material libraries it read.
+    files: Vec<PathBuf>,
+    /// Material name → (MTL file, line of its map_Kd), to resolve and report textures.
+    texture_refs: HashMap<String, (PathBuf, usize)>,
+}
+
+/// Runs tobj over the OBJ, admitting each material library it names through `folder`. The
+/// first error wins: a material library's own, else tobj's at the line it stopped on.
+fn parse(path: &Path, bytes: &[u8], folder: &AssetFolder) -> Result<Parsed> {
     let dir = path.parent().unwrap_or(Path::new(""));
     let files = RefCell::new(vec![path.to_path_buf()]);
 
     let obj_lines = Cell::new(LinePosition::default());
     let mtl_error: RefCell<Option<Error>> = RefCell::new(None);
-    // Material name → (MTL file, line of its map_Kd), to resolve and report textures.
     let texture_refs: RefCell<HashMap<String, (PathBuf, usize)>> = RefCell::new(HashMap::new());
 
     let options = tobj::LoadOptions {
@@ -50,7 +94,7 @@ pub fn load(
         ignore_lines: true,
     };
     let mut reader = LineCounter {
-        inner: &bytes[..],
+        inner: bytes,
         position: &obj_lines,
     };
     let loaded = tobj::load_obj_buf(&mut reader, &options, |mtl_name| {
@@ -82,18 +126,31 @@ pub fn load(
         )
     })?;
     let materials = materials.map_err(|err| Error::scene(Location::file(path), describe(&err)))?;
+    Ok(Parsed {
+        models,
+        materials,
+        files: files.into_inner(),
+        texture_refs: texture_refs.into_inner(),
+    })
+}
 
-    let text = String::from_utf8_lossy(&bytes);
-    lint(path, &text)?;
-
+/// The scene's materials for tobj's, plus the one for faces without a material, and the
+/// textures they index: the override (index 0) where given, else each `map_Kd`, admitted
+/// through `folder` and loaded with its MTL line as the place to report.
+fn resolve_materials(
+    path: &Path,
+    folder: &AssetFolder,
+    materials: &[tobj::Material],
+    texture_refs: &HashMap<String, (PathBuf, usize)>,
+    override_texture: Option<Texture>,
+) -> Result<(Vec<Material>, Material, Vec<Texture>)> {
     let mut textures = Vec::new();
     let override_index = override_texture.map(|t| {
         textures.push(t);
         0
     });
     let mut material_table = Vec::with_capacity(materials.len());
-    let texture_refs = texture_refs.into_inner();
-    for m in &materials {
+    for m in materials {
         let texture = match (override_index, &m.diffuse_texture) {
             (Some(index), _) => Some(index),
             (None, Some(name)) => {
@@ -133,23 +190,7 @@ pub fn load(
         },
         texture: override_index,
     };
-
-    let meshes: Vec<Mesh> = models
-        .into_iter()
-        .filter(|model| !model.mesh.indices.is_empty())
-        .map(|model| to_mesh(model, &material_table, &no_material))
-        .collect();
-    if meshes.is_empty() {
-        return Err(Error::scene(
-            Location::file(path),
-            "no faces: the file defines no triangles",
-        ));
-    }
-    Ok(Loaded {
-        meshes,
-        textures,
-        files: files.into_inner(),
-    })
+    Ok((material_table, no_material, textures))
 }
 
 fn to_mesh(model: tobj::Model, materials: &[Material], no_material: &Material) -> Mesh {

@@ -44,34 +44,9 @@ pub struct Loaded {
 const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[];
 
 pub fn load(path: &Path) -> Result<Loaded> {
-    let at = || Location::file(path);
-    let fail = |message: String| Error::scene(at(), message);
+    let fail = |message: String| Error::scene(Location::file(path), message);
     let bytes = crate::support::limits::read_file(path)?;
-    let gltf = gltf::Gltf::from_slice_without_validation(&bytes)
-        .map_err(|err| fail(format!("not a readable glTF file: {err}")))?;
-    let unsupported: Vec<&str> = gltf
-        .extensions_required()
-        .filter(|e| !SUPPORTED_REQUIRED_EXTENSIONS.contains(e))
-        .collect();
-    if !unsupported.is_empty() {
-        return Err(fail(format!(
-            "requires glTF extension{} {} which this reader does not support (re-export without {})",
-            if unsupported.len() > 1 { "s" } else { "" },
-            unsupported.join(", "),
-            if unsupported.len() > 1 { "them" } else { "it" }
-        )));
-    }
-    let gltf::Gltf { document, blob } = gltf;
-    let json = document.into_json();
-    positions_exist(&json).map_err(fail)?;
-    let document =
-        gltf::Document::from_json(json).map_err(|err| fail(format!("invalid glTF: {err}")))?;
-    let json_bytes = match blob {
-        Some(_) => gltf::Glb::from_slice(&bytes)
-            .map(|glb| glb.json.into_owned())
-            .unwrap_or_default(),
-        None => bytes.clone(),
-    };
+    let (document, blob, json_bytes) = parse(path, &bytes)?;
     let folder = AssetFolder::of(path);
     uris_are_readable(document.as_json()).map_err(fail)?;
     let buffers = read_buffers(path, &folder, &document, blob)?;
@@ -83,17 +58,22 @@ pub fn load(path: &Path) -> Result<Loaded> {
         digest.update(buffer);
     }
 
-    // Images are decoded only when a material uses them as its base colour.
-    let mut textures = Vec::new();
-    let mut texture_of_image: HashMap<usize, usize> = HashMap::new();
-    let mut decoded: Option<Vec<gltf::image::Data>> = None;
-
     let scene = document
         .default_scene()
         .or_else(|| document.scenes().next())
         .ok_or_else(|| fail("the file has no scene".into()))?;
     let placed = flatten(&document, &scene).map_err(fail)?;
 
+    let mut reader = PrimitiveReader {
+        path,
+        folder: &folder,
+        document: &document,
+        buffers: &buffers,
+        digest,
+        textures: Vec::new(),
+        texture_of_image: HashMap::new(),
+        decoded: None,
+    };
     let mut loaded = Loaded {
         meshes: Vec::new(),
         textures: Vec::new(),
@@ -113,117 +93,7 @@ pub fn load(path: &Path) -> Result<Loaded> {
             } else {
                 mesh_name.clone()
             };
-            let mode = primitive.mode();
-            if !matches!(
-                mode,
-                Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
-            ) {
-                loaded.warnings.push(format!(
-                    "mesh '{name}': skipped a primitive of {mode:?} (only triangles are baked)"
-                ));
-                continue;
-            }
-            let pbr = primitive.material().pbr_metallic_roughness();
-            let base_colour = pbr.base_color_texture();
-            let uv_set = base_colour.as_ref().map_or(0, |info| info.tex_coord());
-            readable_accessors(&document, &primitive, uv_set)
-                .map_err(|problem| fail(format!("mesh '{name}': {problem}")))?;
-            let reader = primitive.reader(|b| Some(&buffers[b.index()]));
-            let Some(positions) = reader.read_positions() else {
-                return Err(fail(format!("mesh '{name}': a primitive has no POSITION")));
-            };
-            let positions: Vec<Vec3> = positions.map(Vec3::from_array).collect();
-            let normals: Option<Vec<Vec3>> = reader
-                .read_normals()
-                .map(|n| n.map(Vec3::from_array).collect());
-            let read_uvs = |set: u32| {
-                reader.read_tex_coords(set).map(|uv| {
-                    uv.into_f32()
-                        .map(|[u, v]| Vec2::new(u, 1.0 - v))
-                        .collect::<Vec<Vec2>>()
-                })
-            };
-            let indices: Vec<u32> = match reader.read_indices() {
-                Some(indices) => indices.into_u32().collect(),
-                None => (0..positions.len() as u32).collect(),
-            };
-            let mut triangles = assemble(mode, &indices);
-
-            // World space: positions by the matrix, normals by its inverse transpose; a
-            // mirror reverses the winding.
-            let linear = Mat3::from_mat4(world);
-            let normal_matrix = linear.inverse().transpose();
-            let positions: Vec<Vec3> = positions
-                .iter()
-                .map(|p| world.transform_point3(*p))
-                .collect();
-            let normals = normals.map(|normals| {
-                normals
-                    .iter()
-                    .map(|n| (normal_matrix * *n).normalize_or_zero())
-                    .collect()
-            });
-            if linear.determinant() < 0.0 {
-                for t in &mut triangles {
-                    t.swap(1, 2);
-                }
-            }
-
-            let texture = match &base_colour {
-                None => None,
-                Some(info) => {
-                    let image = info.texture().source().index();
-                    if let Some(&t) = texture_of_image.get(&image) {
-                        Some(t)
-                    } else {
-                        if decoded.is_none() {
-                            images_are_readable(&document, &buffers).map_err(fail)?;
-                            let images = read_images(path, &folder, &document, &buffers)?;
-                            for image in &images {
-                                digest.update(&image.pixels);
-                            }
-                            decoded = Some(images);
-                        }
-                        let data = &decoded.as_ref().expect("decoded above")[image];
-                        let texture = to_texture(path, image, data)
-                            .ok_or_else(|| fail(format!(
-                                "image {image}: {:?} pixels cannot be a base colour (8-bit RGB or RGBA needed)",
-                                data.format
-                            )))?;
-                        textures.push(texture);
-                        texture_of_image.insert(image, textures.len() - 1);
-                        Some(textures.len() - 1)
-                    }
-                }
-            };
-            let material = match primitive.material().index() {
-                None => Material {
-                    name: String::from("default"),
-                    kd: DEFAULT_KD,
-                    texture: None,
-                },
-                Some(index) => {
-                    let [r, g, b, _] = pbr.base_color_factor();
-                    Material {
-                        name: primitive
-                            .material()
-                            .name()
-                            .map(str::to_string)
-                            .unwrap_or_else(|| format!("material {index}")),
-                        kd: Vec3::new(r, g, b),
-                        texture,
-                    }
-                }
-            };
-            loaded.lightmap_uvs.push(read_uvs(1));
-            loaded.meshes.push(Mesh {
-                name,
-                positions,
-                normals,
-                uvs: read_uvs(uv_set),
-                triangles,
-                material,
-            });
+            reader.read(&primitive, name, world, &mut loaded)?;
         }
     }
     if loaded.meshes.is_empty() {
@@ -231,9 +101,199 @@ pub fn load(path: &Path) -> Result<Loaded> {
             "no triangles: the default scene has no triangle primitives".into(),
         ));
     }
-    loaded.textures = textures;
-    loaded.digest = digest.digest();
+    loaded.textures = reader.textures;
+    loaded.digest = reader.digest.digest();
     Ok(loaded)
+}
+
+/// Parses the file and refuses required extensions this reader does not know, before any
+/// buffer is read. Returns the document, the GLB binary chunk if any, and the JSON's bytes
+/// (which the digest starts with).
+fn parse(path: &Path, bytes: &[u8]) -> Result<(gltf::Document, Option<Vec<u8>>, Vec<u8>)> {
+    let fail = |message: String| Error::scene(Location::file(path), message);
+    let gltf = gltf::Gltf::from_slice_without_validation(bytes)
+        .map_err(|err| fail(format!("not a readable glTF file: {err}")))?;
+    let unsupported: Vec<&str> = gltf
+        .extensions_required()
+        .filter(|e| !SUPPORTED_REQUIRED_EXTENSIONS.contains(e))
+        .collect();
+    if !unsupported.is_empty() {
+        return Err(fail(format!(
+            "requires glTF extension{} {} which this reader does not support (re-export without {})",
+            if unsupported.len() > 1 { "s" } else { "" },
+            unsupported.join(", "),
+            if unsupported.len() > 1 { "them" } else { "it" }
+        )));
+    }
+    let gltf::Gltf { document, blob } = gltf;
+    let json = document.into_json();
+    positions_exist(&json).map_err(fail)?;
+    let document =
+        gltf::Document::from_json(json).map_err(|err| fail(format!("invalid glTF: {err}")))?;
+    let json_bytes = match blob {
+        Some(_) => gltf::Glb::from_slice(bytes)
+            .map(|glb| glb.json.into_owned())
+            .unwrap_or_default(),
+        None => bytes.to_vec(),
+    };
+    Ok((document, blob, json_bytes))
+}
+
+/// Turns primitives into meshes, carrying what is shared between them: the digest, and the
+/// base-colour textures, decoded lazily (images are decoded only when a material uses one)
+/// and once per image.
+struct PrimitiveReader<'a> {
+    path: &'a Path,
+    folder: &'a AssetFolder,
+    document: &'a gltf::Document,
+    buffers: &'a [gltf::buffer::Data],
+    digest: xxhash_rust::xxh3::Xxh3,
+    textures: Vec<Texture>,
+    texture_of_image: HashMap<usize, usize>,
+    decoded: Option<Vec<gltf::image::Data>>,
+}
+
+impl PrimitiveReader<'_> {
+    fn fail(&self, message: String) -> Error {
+        Error::scene(Location::file(self.path), message)
+    }
+
+    /// Reads one primitive placed by `world` into `loaded`; a primitive of points or lines
+    /// adds a warning instead.
+    fn read(
+        &mut self,
+        primitive: &gltf::Primitive,
+        name: String,
+        world: Mat4,
+        loaded: &mut Loaded,
+    ) -> Result<()> {
+        let mode = primitive.mode();
+        if !matches!(
+            mode,
+            Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+        ) {
+            loaded.warnings.push(format!(
+                "mesh '{name}': skipped a primitive of {mode:?} (only triangles are baked)"
+            ));
+            return Ok(());
+        }
+        let pbr = primitive.material().pbr_metallic_roughness();
+        let base_colour = pbr.base_color_texture();
+        let uv_set = base_colour.as_ref().map_or(0, |info| info.tex_coord());
+        readable_accessors(self.document, primitive, uv_set)
+            .map_err(|problem| self.fail(format!("mesh '{name}': {problem}")))?;
+        let buffers = self.buffers;
+        let reader = primitive.reader(|b| Some(&buffers[b.index()]));
+        let Some(positions) = reader.read_positions() else {
+            return Err(self.fail(format!("mesh '{name}': a primitive has no POSITION")));
+        };
+        let positions: Vec<Vec3> = positions.map(Vec3::from_array).collect();
+        let normals: Option<Vec<Vec3>> = reader
+            .read_normals()
+            .map(|n| n.map(Vec3::from_array).collect());
+        let read_uvs = |set: u32| {
+            reader.read_tex_coords(set).map(|uv| {
+                uv.into_f32()
+                    .map(|[u, v]| Vec2::new(u, 1.0 - v))
+                    .collect::<Vec<Vec2>>()
+            })
+        };
+        let indices: Vec<u32> = match reader.read_indices() {
+            Some(indices) => indices.into_u32().collect(),
+            None => (0..positions.len() as u32).collect(),
+        };
+        let triangles = assemble(mode, &indices);
+        let (positions, normals, triangles) = to_world(world, positions, normals, triangles);
+
+        let texture = match &base_colour {
+            None => None,
+            Some(info) => Some(self.texture(info.texture().source().index())?),
+        };
+        let material = match primitive.material().index() {
+            None => Material {
+                name: String::from("default"),
+                kd: DEFAULT_KD,
+                texture: None,
+            },
+            Some(index) => {
+                let [r, g, b, _] = pbr.base_color_factor();
+                Material {
+                    name: primitive
+                        .material()
+                        .name()
+                        .map(str::to_string)
+                        .unwrap_or_else(|| format!("material {index}")),
+                    kd: Vec3::new(r, g, b),
+                    texture,
+                }
+            }
+        };
+        loaded.lightmap_uvs.push(read_uvs(1));
+        loaded.meshes.push(Mesh {
+            name,
+            positions,
+            normals,
+            uvs: read_uvs(uv_set),
+            triangles,
+            material,
+        });
+        Ok(())
+    }
+
+    /// The texture of `image`: decodes every image on first use (adding their pixels to the
+    /// digest), and makes one texture per image however many materials share it.
+    fn texture(&mut self, image: usize) -> Result<usize> {
+        if let Some(&t) = self.texture_of_image.get(&image) {
+            return Ok(t);
+        }
+        if self.decoded.is_none() {
+            images_are_readable(self.document, self.buffers).map_err(|m| self.fail(m))?;
+            let images = read_images(self.path, self.folder, self.document, self.buffers)?;
+            for image in &images {
+                self.digest.update(&image.pixels);
+            }
+            self.decoded = Some(images);
+        }
+        let data = &self.decoded.as_ref().expect("decoded above")[image];
+        let texture = to_texture(self.path, image, data).ok_or_else(|| {
+            self.fail(format!(
+                "image {image}: {:?} pixels cannot be a base colour (8-bit RGB or RGBA needed)",
+                data.format
+            ))
+        })?;
+        self.textures.push(texture);
+        self.texture_of_image.insert(image, self.textures.len() - 1);
+        Ok(self.textures.len() - 1)
+    }
+}
+
+/// World space: positions by the matrix, normals by its inverse transpose; a mirror
+/// reverses the winding so faces keep facing out.
+#[allow(clippy::type_complexity)]
+fn to_world(
+    world: Mat4,
+    positions: Vec<Vec3>,
+    normals: Option<Vec<Vec3>>,
+    mut triangles: Vec<[u32; 3]>,
+) -> (Vec<Vec3>, Option<Vec<Vec3>>, Vec<[u32; 3]>) {
+    let linear = Mat3::from_mat4(world);
+    let normal_matrix = linear.inverse().transpose();
+    let positions: Vec<Vec3> = positions
+        .iter()
+        .map(|p| world.transform_point3(*p))
+        .collect();
+    let normals = normals.map(|normals| {
+        normals
+            .iter()
+            .map(|n| (normal_matrix * *n).normalize_or_zero())
+            .collect()
+    });
+    if linear.determinant() < 0.0 {
+        for t in &mut triangles {
+            t.swap(1, 2);
+        }
+    }
+    (positions, normals, triangles)
 }
 
 /// Guards a panic of `gltf-json` 1.4: its validation of a primitive indexes the accessor list

@@ -67,15 +67,7 @@ impl ObvhsTracer {
             }
             let node = &self.bvh.nodes[index as usize];
             let boxes = ChildBoxes::new(node);
-            let children = if AVX {
-                children_entered_avx(&boxes, &lanes, open)
-            } else {
-                let mut entered = [0u8; PACKET];
-                for i in bits(open) {
-                    entered[i] = boxes.entered_by(&rays[i]) as u8;
-                }
-                by_child(&entered)
-            };
+            let children = children_entered::<AVX>(&boxes, &lanes, rays, open);
             // Leaves first, front to back.
             for k in (0..8).rev() {
                 let c = k ^ flip;
@@ -83,31 +75,14 @@ impl ObvhsTracer {
                 if node.imask & (1 << c) != 0 || meta == 0 {
                     continue;
                 }
-                let first = node.primitive_base_idx + u32::from(meta & 0b1_1111);
-                let count = (meta & 0b1110_0000).count_ones();
-                for slot in first..first + count {
-                    let open = children[c] & !blocked;
-                    if open == 0 {
-                        break;
-                    }
-                    let triangle = &self.triangles[slot as usize];
-                    if let Some(o) = origin {
-                        let shared = triangle.seen_from(o);
-                        for (g, group) in groups.iter().enumerate() {
-                            let lanes = open >> (4 * g) & 0xf;
-                            if lanes != 0 {
-                                blocked |= (triangle.hits_from(&shared, group) & lanes) << (4 * g);
-                            }
-                        }
-                    } else {
-                        for (g, group) in groups.iter().enumerate() {
-                            let lanes = open >> (4 * g) & 0xf;
-                            if lanes != 0 {
-                                blocked |= (triangle.hits(group) & lanes) << (4 * g);
-                            }
-                        }
-                    }
-                }
+                blocked = self.block_in_leaf(
+                    node.primitive_base_idx,
+                    meta,
+                    children[c],
+                    blocked,
+                    &groups,
+                    origin,
+                );
                 if blocked == all {
                     return blocked;
                 }
@@ -119,6 +94,48 @@ impl ObvhsTracer {
                 if node.imask & (1 << c) != 0 && children[c] != 0 {
                     let before = (u32::from(node.imask) & ((1 << c) - 1)).count_ones();
                     stack.push((node.child_base_idx + before, children[c]));
+                }
+            }
+        }
+        blocked
+    }
+
+    /// `blocked` with the rays of `entered` that hit a triangle of the leaf `meta` (obvhs's
+    /// child metadata: first triangle past `primitive_base` and count) added; stops early
+    /// once all of them are blocked. Kept apart from the traversal so each reads alone;
+    /// inlined, so the AVX2 compilation still covers it.
+    #[inline(always)]
+    fn block_in_leaf(
+        &self,
+        primitive_base: u32,
+        meta: u8,
+        entered: u32,
+        mut blocked: u32,
+        groups: &[RayGroup; GROUPS],
+        origin: Option<Vec3A>,
+    ) -> u32 {
+        let first = primitive_base + u32::from(meta & 0b1_1111);
+        let count = (meta & 0b1110_0000).count_ones();
+        for slot in first..first + count {
+            let open = entered & !blocked;
+            if open == 0 {
+                break;
+            }
+            let triangle = &self.triangles[slot as usize];
+            if let Some(o) = origin {
+                let shared = triangle.seen_from(o);
+                for (g, group) in groups.iter().enumerate() {
+                    let lanes = open >> (4 * g) & 0xf;
+                    if lanes != 0 {
+                        blocked |= (triangle.hits_from(&shared, group) & lanes) << (4 * g);
+                    }
+                }
+            } else {
+                for (g, group) in groups.iter().enumerate() {
+                    let lanes = open >> (4 * g) & 0xf;
+                    if lanes != 0 {
+                        blocked |= (triangle.hits(group) & lanes) << (4 * g);
+                    }
                 }
             }
         }
@@ -194,6 +211,26 @@ impl ObvhsTracer {
                 *o = blocked & (1 << i) != 0;
             }
         }
+    }
+}
+
+/// The rays of `open` that enter each child: eight rays per AVX test with `AVX`, else each
+/// ray against the node's boxes and the answers transposed ([`by_child`]).
+#[inline(always)]
+fn children_entered<const AVX: bool>(
+    boxes: &ChildBoxes,
+    lanes: &[RayLanes; PACKET / 8],
+    rays: &[BoxRay],
+    open: u32,
+) -> [u32; 8] {
+    if AVX {
+        children_entered_avx(boxes, lanes, open)
+    } else {
+        let mut entered = [0u8; PACKET];
+        for i in bits(open) {
+            entered[i] = boxes.entered_by(&rays[i]) as u8;
+        }
+        by_child(&entered)
     }
 }
 
