@@ -71,6 +71,7 @@ impl EnvironmentMap {
         };
         // Only a regular file, no larger than the memory limit (crate::support::input_path).
         let bytes = crate::support::input_path::read(path)?;
+        crate::support::limits::check_exr(path, &bytes)?;
         let open = || {
             let mut reader = image::ImageReader::new(std::io::Cursor::new(&bytes[..]));
             if let Ok(format) = image::ImageFormat::from_path(path) {

@@ -190,6 +190,32 @@ pub fn file_kind(metadata: &std::fs::Metadata) -> &'static str {
     }
 }
 
+/// Refuses an OpenEXR file whose layers would make the `exr` crate allocate more than
+/// `--max-memory` before `image`'s own limits apply: it sizes a block's buffer by the size
+/// the header allows (a mutated tile or line size asks for gigabytes from a 500-byte file),
+/// and its offset tables by the header's chunk count. Other files, and headers `exr` cannot
+/// read (decoding reports those), pass.
+pub fn check_exr(path: &Path, bytes: &[u8]) -> Result<()> {
+    const EXR_MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
+    if !bytes.starts_with(&EXR_MAGIC) {
+        return Ok(());
+    }
+    let Ok(meta) = exr::meta::MetaData::read_from_buffered(std::io::Cursor::new(bytes), false)
+    else {
+        return Ok(());
+    };
+    for (i, header) in meta.headers.iter().enumerate() {
+        let block = header.max_block_byte_size() as u64;
+        let offsets = (header.chunk_count as u64).saturating_mul(8);
+        check(
+            path.display().to_string(),
+            &format!("decoding OpenEXR layer {i}"),
+            block.checked_add(offsets),
+        )?;
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
