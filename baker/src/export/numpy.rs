@@ -3,8 +3,11 @@
 
 use std::path::Path;
 
-use crate::formats::coefficient_file::CoefficientFile;
+use serde_json::json;
+
+use crate::formats::coefficient_file::{CoefficientFile, LightmapBlock};
 use crate::formats::npz::{self, Array};
+use crate::formats::openexr::{PixelType, encode, image_rows};
 use crate::math::sh;
 use crate::scene::Scene;
 use crate::support::error::Result;
@@ -258,8 +261,6 @@ pub fn export_exr(
     dir: &Path,
     pixel_type: crate::formats::openexr::PixelType,
 ) -> Result<ExrWritten> {
-    use crate::formats::openexr::{encode, image_rows};
-    use serde_json::json;
     let file = CoefficientFile::read(coefficients)?;
     if file.lightmap.is_none() {
         return Err(crate::Error::InvalidOption(format!(
@@ -281,11 +282,44 @@ pub fn export_exr(
     std::fs::create_dir_all(dir).map_err(|err| crate::Error::io(dir, err))?;
 
     let (w, h) = (block.width as usize, block.height as usize);
-    let header = &file.header;
-    let (order, channels) = (header.order as usize, header.channels as usize);
+    let (mut images, transfer_entries) = exr_transfer_images(&file, w, h, dir, pixel_type)?;
+    images.extend(exr_aux_images(&file, block, dir, pixel_type)?);
+    let manifest = exr_manifest(coefficients, &file, pixel_type, transfer_entries);
+    let mut manifest_bytes = serde_json::to_vec_pretty(&manifest).expect("plain JSON serialises");
+    manifest_bytes.push(b'\n');
+    images.push(("manifest.json".into(), manifest_bytes));
+
+    // Every path checked before any is written: a refusal leaves the directory as it was.
+    let outputs = images
+        .iter()
+        .map(|(name, _)| crate::support::output::Output::new(&dir.join(name), &inputs))
+        .collect::<Result<Vec<_>>>()?;
+    for (output, (_, bytes)) in outputs.iter().zip(&images) {
+        output.write(bytes)?;
+    }
+    let mut files: Vec<std::path::PathBuf> =
+        outputs.iter().map(|o| o.path().to_path_buf()).collect();
+    let manifest = files.pop().expect("the manifest");
+    Ok(ExrWritten {
+        width: block.width,
+        height: block.height,
+        files,
+        manifest,
+    })
+}
+
+/// (file name, EXR bytes) of every transfer image, four coefficients each, and their
+/// manifest entries.
+fn exr_transfer_images(
+    file: &CoefficientFile,
+    w: usize,
+    h: usize,
+    dir: &Path,
+    pixel_type: PixelType,
+) -> Result<(Vec<(String, Vec<u8>)>, Vec<serde_json::Value>)> {
+    let (order, channels) = (file.header.order as usize, file.header.channels as usize);
     let n = sh::coeff_count(order);
     let rows = |texels: Vec<f32>| image_rows(&texels, w, h);
-    // (file name, EXR bytes) of every image, then the manifest's entries.
     let mut images: Vec<(String, Vec<u8>)> = Vec::new();
     let mut transfer_entries = Vec::new();
     for (c, k, name) in exr_transfer_names(order, channels) {
@@ -316,6 +350,19 @@ pub fn export_exr(
             encode(&dir.join(&name), w, h, rgba, pixel_type)?,
         ));
     }
+    Ok((images, transfer_entries))
+}
+
+/// The texel states, and the AO and bent normals where the bake stored them.
+fn exr_aux_images(
+    file: &CoefficientFile,
+    block: &LightmapBlock,
+    dir: &Path,
+    pixel_type: PixelType,
+) -> Result<Vec<(String, Vec<u8>)>> {
+    let (w, h) = (block.width as usize, block.height as usize);
+    let rows = |texels: Vec<f32>| image_rows(&texels, w, h);
+    let mut images = Vec::new();
     let state: Vec<f32> = (0..w * h)
         .map(|t| match (block.valid[t], block.dilated[t]) {
             (true, _) => 1.0,
@@ -358,7 +405,22 @@ pub fn export_exr(
             )?,
         ));
     }
-    let manifest = json!({
+    Ok(images)
+}
+
+/// `manifest.json`: what every image holds, and the conventions to read it by.
+fn exr_manifest(
+    coefficients: &Path,
+    file: &CoefficientFile,
+    pixel_type: PixelType,
+    transfer_entries: Vec<serde_json::Value>,
+) -> serde_json::Value {
+    let header = &file.header;
+    let block = file.lightmap.as_ref().expect("a texel bake");
+    let (w, h) = (block.width as usize, block.height as usize);
+    let (order, channels) = (header.order as usize, header.channels as usize);
+    let n = sh::coeff_count(order);
+    json!({
         "generator": concat!("prt-bake ", env!("CARGO_PKG_VERSION")),
         "source": coefficients.display().to_string(),
         "width": w,
@@ -384,26 +446,5 @@ pub fn export_exr(
             "file": "bent_normal.exr",
             "channels": {"R": "x", "G": "y", "B": "z"},
         })),
-    });
-    let mut manifest_bytes = serde_json::to_vec_pretty(&manifest).expect("plain JSON serialises");
-    manifest_bytes.push(b'\n');
-    images.push(("manifest.json".into(), manifest_bytes));
-
-    // Every path checked before any is written: a refusal leaves the directory as it was.
-    let outputs = images
-        .iter()
-        .map(|(name, _)| crate::support::output::Output::new(&dir.join(name), &inputs))
-        .collect::<Result<Vec<_>>>()?;
-    for (output, (_, bytes)) in outputs.iter().zip(&images) {
-        output.write(bytes)?;
-    }
-    let mut files: Vec<std::path::PathBuf> =
-        outputs.iter().map(|o| o.path().to_path_buf()).collect();
-    let manifest = files.pop().expect("the manifest");
-    Ok(ExrWritten {
-        width: block.width,
-        height: block.height,
-        files,
-        manifest,
     })
 }
