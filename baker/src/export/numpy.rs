@@ -308,6 +308,9 @@ pub fn export_exr(
     })
 }
 
+/// A file of the export: its name in the directory and its bytes.
+type NamedFile = (String, Vec<u8>);
+
 /// (file name, EXR bytes) of every transfer image, four coefficients each, and their
 /// manifest entries.
 fn exr_transfer_images(
@@ -316,11 +319,11 @@ fn exr_transfer_images(
     h: usize,
     dir: &Path,
     pixel_type: PixelType,
-) -> Result<(Vec<(String, Vec<u8>)>, Vec<serde_json::Value>)> {
+) -> Result<(Vec<NamedFile>, Vec<serde_json::Value>)> {
     let (order, channels) = (file.header.order as usize, file.header.channels as usize);
     let n = sh::coeff_count(order);
     let rows = |texels: Vec<f32>| image_rows(&texels, w, h);
-    let mut images: Vec<(String, Vec<u8>)> = Vec::new();
+    let mut images: Vec<NamedFile> = Vec::new();
     let mut transfer_entries = Vec::new();
     for (c, k, name) in exr_transfer_names(order, channels) {
         let rgba: Vec<(&str, Vec<f32>)> = ["R", "G", "B", "A"]
@@ -359,7 +362,7 @@ fn exr_aux_images(
     block: &LightmapBlock,
     dir: &Path,
     pixel_type: PixelType,
-) -> Result<Vec<(String, Vec<u8>)>> {
+) -> Result<Vec<NamedFile>> {
     let (w, h) = (block.width as usize, block.height as usize);
     let rows = |texels: Vec<f32>| image_rows(&texels, w, h);
     let mut images = Vec::new();
