@@ -155,9 +155,10 @@ try {
         const b = Buffer.from(relit.pixels, 'base64');
         const tolerance = bits === 8 ? 2 * c.tolerance : c.tolerance;
         const { share, covered, worst } = compare(reference, b, tolerance);
-        const ok = covered > 1000 && share >= 0.99;
-        failures += ok ? 0 : 1;
         const size = fs.statSync(path.join(out, `${c.name}-q${bits}.glb`)).size;
+        // The quantized file must be smaller: an export that ignored --quantize matched too.
+        const ok = covered > 1000 && share >= 0.99 && size < float;
+        failures += ok ? 0 : 1;
         console.log(`browser: ${ok ? 'ok  ' : 'FAIL'} ${c.name} --quantize ${bits}: ${(100 * share).toFixed(2)} % within ${tolerance} codes of the float COLOR_0 (worst ${worst}); ${size} bytes, ${(100 * size / float).toFixed(1)} % of float's ${float}`);
       }
     }

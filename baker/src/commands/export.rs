@@ -94,8 +94,13 @@ fn exr(args: &ExportArgs, dir: &Path) -> Result<(), Error> {
 
 /// `--gltf OUT.glb`: the scene and the bake as binary glTF, and a summary line.
 fn gltf(args: &ExportArgs, glb: &Path) -> Result<(), Error> {
-    let written =
-        prt_baker::export::gltf::export_glb(&args.file, &args.scene, glb, args.lights.as_deref())?;
+    let written = prt_baker::export::gltf::export_glb_quantized(
+        &args.file,
+        &args.scene,
+        glb,
+        args.lights.as_deref(),
+        prt_baker::export::gltf::Quantize::from_bits(args.quantize)?,
+    )?;
     let prt = match written.prt_attributes.as_slice() {
         [] if written.lightmap.is_some() => {
             let [w, h] = written.lightmap.unwrap_or_default();
