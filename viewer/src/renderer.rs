@@ -448,19 +448,14 @@ fn mesh_buffers(device: &wgpu::Device, bake: &Bake) -> (wgpu::Buffer, wgpu::Buff
             (0..3 * scene.triangles.len() as u32).collect(),
         ),
     };
-    let buffer = |label, contents: &[u8], usage| {
-        device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some(label),
-            contents,
-            usage,
-        })
-    };
-    let vertex_buffer = buffer(
+    let vertex_buffer = buffer_init(
+        device,
         "vertices",
         bytemuck::cast_slice(&vertices),
         wgpu::BufferUsages::VERTEX,
     );
-    let index_buffer = buffer(
+    let index_buffer = buffer_init(
+        device,
         "indices",
         bytemuck::cast_slice(&indices),
         wgpu::BufferUsages::INDEX,
@@ -481,16 +476,10 @@ impl FrameResources {
     fn new(device: &wgpu::Device, queue: &wgpu::Queue, bake: &Bake) -> Result<FrameResources> {
         let n2 = bake.order() * bake.order();
         let lightmap = bake.lightmap();
-        let buffer = |label, contents: &[u8], usage| {
-            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents,
-                usage,
-            })
-        };
         // A texel bake's transfer goes to the texture array; the storage buffer then holds
         // unread zeros (a binding cannot be empty).
-        let transfer = buffer(
+        let transfer = buffer_init(
+            device,
             "transfer",
             match lightmap {
                 Some(_) => bytemuck::bytes_of(&[0.0f32; 4]),
@@ -630,13 +619,6 @@ impl LineResources {
         radius: f32,
     ) -> LineResources {
         let scene = &bake.scene;
-        let buffer = |label, contents: &[u8], usage| {
-            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents,
-                usage,
-            })
-        };
         let normal_lines: Vec<LineVertex> = (0..scene.vertex_count())
             .flat_map(|v| {
                 let (p, n) = (scene.positions[v], scene.normals[v]);
@@ -647,7 +629,8 @@ impl LineResources {
                 })
             })
             .collect();
-        let normal_lines = buffer(
+        let normal_lines = buffer_init(
+            device,
             "normals",
             bytemuck::cast_slice(&normal_lines),
             wgpu::BufferUsages::VERTEX,
@@ -689,6 +672,20 @@ impl LineResources {
             on_top: lines_on_top,
         }
     }
+}
+
+/// A buffer created holding `contents`.
+fn buffer_init(
+    device: &wgpu::Device,
+    label: &str,
+    contents: &[u8],
+    usage: wgpu::BufferUsages,
+) -> wgpu::Buffer {
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents,
+        usage,
+    })
 }
 
 fn materials(

@@ -235,16 +235,8 @@ pub fn png_bytes(
         .iter()
         .flat_map(|r| display_colour(*r, exposure))
         .collect();
-    let mut png = Vec::new();
-    image::ImageEncoder::write_image(
-        image::codecs::png::PngEncoder::new(&mut png),
-        &pixels,
-        width,
-        height,
-        image::ExtendedColorType::Rgb8,
-    )
-    .map_err(|err| crate::Error::io(path, std::io::Error::other(err)))?;
-    Ok(png)
+    crate::formats::png::encode(&pixels, width, height, image::ExtendedColorType::Rgb8)
+        .map_err(|err| crate::Error::io(path, std::io::Error::other(err)))
 }
 
 /// Per texel (texel order) Σ_j T_j·L_cj: the linear light a surface of albedo 1 reflects.

@@ -13,4 +13,5 @@ pub mod npz;
 pub mod openexr;
 pub mod part_id;
 pub mod ply;
+pub mod png;
 pub mod versions;

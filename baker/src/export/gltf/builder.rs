@@ -207,20 +207,14 @@ pub(super) fn glb_container(root: &Value, bin: &[u8]) -> Result<Vec<u8>> {
 
 /// A texture's sRGB pixels as PNG.
 pub(super) fn png_bytes(texture: &Texture) -> Result<Vec<u8>> {
-    let mut png = Vec::new();
     let pixels: Vec<u8> = texture.srgb8.iter().flatten().copied().collect();
-    image::ImageEncoder::write_image(
-        image::codecs::png::PngEncoder::new(&mut png),
-        &pixels,
-        texture.width,
-        texture.height,
-        image::ExtendedColorType::Rgba8,
+    let (width, height) = (texture.width, texture.height);
+    crate::formats::png::encode(&pixels, width, height, image::ExtendedColorType::Rgba8).map_err(
+        |err| {
+            Error::io(
+                &texture.path,
+                std::io::Error::other(format!("cannot encode as PNG: {err}")),
+            )
+        },
     )
-    .map_err(|err| {
-        Error::io(
-            &texture.path,
-            std::io::Error::other(format!("cannot encode as PNG: {err}")),
-        )
-    })?;
-    Ok(png)
 }

@@ -63,19 +63,12 @@ pub(super) fn ao_png_bytes(ao: &[f32], width: u32, height: u32, output: &Path) -
         .iter()
         .map(|a| (a.clamp(0.0, 1.0) * 255.0).round() as u8)
         .collect();
-    let mut png = Vec::new();
-    image::ImageEncoder::write_image(
-        image::codecs::png::PngEncoder::new(&mut png),
-        &pixels,
-        width,
-        height,
-        image::ExtendedColorType::L8,
+    crate::formats::png::encode(&pixels, width, height, image::ExtendedColorType::L8).map_err(
+        |err| {
+            Error::io(
+                output,
+                std::io::Error::other(format!("cannot encode the AO as PNG: {err}")),
+            )
+        },
     )
-    .map_err(|err| {
-        Error::io(
-            output,
-            std::io::Error::other(format!("cannot encode the AO as PNG: {err}")),
-        )
-    })?;
-    Ok(png)
 }
