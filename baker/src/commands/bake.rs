@@ -8,7 +8,8 @@ use prt_baker::bake::lightmap::{self, Atlas};
 use prt_baker::bake::memory;
 use prt_baker::bake::options::Aux;
 use prt_baker::distribute::checkpoint;
-use prt_baker::distribute::shard::{self, ShardId, shard_range};
+use prt_baker::distribute::part_baker::PartBaker;
+use prt_baker::distribute::shard::{ShardId, shard_range};
 use prt_baker::export::compress;
 use prt_baker::math::sampling::Sampling;
 use prt_baker::support::limits;
@@ -80,8 +81,8 @@ pub struct BakeArgs {
     /// No progress bar (the summary line is still printed).
     #[arg(long)]
     quiet: bool,
-    /// Bake only part K of N (0 ≤ K < N), a range of vertices, into a part file for
-    /// `prt-bake merge`. `auto` reads K and N from a Slurm array task; `auto/N` takes K from
+    /// Bake only part K of N (0 ≤ K < N), a range of vertices (with --lightmap: of baked
+    /// texels, so every part casts the same rays), into a part file for `prt-bake merge`. `auto` reads K and N from a Slurm array task; `auto/N` takes K from
     /// a Kubernetes Indexed Job's JOB_COMPLETION_INDEX (or set PRT_SHARD_COUNT and use `auto`).
     #[arg(long, value_name = "K/N|auto|auto/N")]
     shard: Option<String>,
@@ -89,13 +90,15 @@ pub struct BakeArgs {
     /// again after a crash or a kill continues from them (same file as an uninterrupted bake).
     #[arg(long, value_name = "DIR")]
     checkpoint: Option<PathBuf>,
-    /// Vertices per checkpoint block (default: about 67 million rays' worth).
+    /// Vertices (with --lightmap: baked texels) per checkpoint block (default: about 67
+    /// million rays' worth).
     #[arg(long, requires = "checkpoint")]
     checkpoint_vertices: Option<usize>,
     /// Bake per texel of a RES×RES lightmap atlas instead of per vertex (docs/lightmaps.md):
     /// the scene's lightmap UVs (glTF TEXCOORD_1) where it has them and no --texel-size is
-    /// given, else an atlas unwrapped here (--atlas). Unshadowed and shadowed modes.
-    #[arg(long, value_name = "RES", conflicts_with_all = ["shard", "checkpoint", "target_error"])]
+    /// given, else an atlas unwrapped here (--atlas). Every mode; --shard and --checkpoint
+    /// too (every part computes the same atlas and records its fingerprint).
+    #[arg(long, value_name = "RES", conflicts_with_all = ["target_error"])]
     lightmap: Option<u32>,
     /// With --lightmap: the world size of a texel (default: the charts fill the atlas).
     #[arg(long, value_name = "S", requires = "lightmap")]
@@ -341,18 +344,7 @@ fn bake_texels(
     resolution: u32,
     progress: &dyn Progress,
 ) -> Result<(Transfer, CoefficientFile, String), Error> {
-    let atlas = match (&scene.lightmap_uvs, args.texel_size, args.atlas) {
-        (Some(uvs), None, None) => Atlas::from_vertex_uvs(scene, uvs, resolution, resolution)?,
-        (_, texel_size, method) => {
-            let method = method.map_or(Default::default(), AtlasArg::method);
-            // The unwrap reports no progress of its own (seconds on the demo): a bar
-            // with its elapsed time shows that it runs.
-            progress.begin("atlas", 0, 0);
-            let generated = lightmap::atlas::generate(scene, resolution, texel_size, method);
-            progress.finish();
-            generated?.atlas
-        }
-    };
+    let atlas = atlas(args, scene, resolution, progress)?;
     let bake = lightmap::bake(scene, tracer, options, atlas, progress)?;
     let file = CoefficientFile::from_lightmap_bake(scene, &bake);
     let what = format!(
@@ -364,6 +356,27 @@ fn bake_texels(
         bake.leaking
     );
     Ok((bake.transfer, file, what))
+}
+
+/// `--lightmap RES`'s atlas: the scene's lightmap UVs, or generated.
+fn atlas(
+    args: &BakeArgs,
+    scene: &Scene,
+    resolution: u32,
+    progress: &dyn Progress,
+) -> Result<Atlas, Error> {
+    Ok(match (&scene.lightmap_uvs, args.texel_size, args.atlas) {
+        (Some(uvs), None, None) => Atlas::from_vertex_uvs(scene, uvs, resolution, resolution)?,
+        (_, texel_size, method) => {
+            let method = method.map_or(Default::default(), AtlasArg::method);
+            // The unwrap reports no progress of its own (seconds on the demo): a bar
+            // with its elapsed time shows that it runs.
+            progress.begin("atlas", 0, 0);
+            let generated = lightmap::atlas::generate(scene, resolution, texel_size, method);
+            progress.finish();
+            generated?.atlas
+        }
+    })
 }
 
 /// The line printed after a whole bake: what, how many rays, how fast, how.
@@ -420,7 +433,24 @@ fn bake_in_parts(
     progress: &dyn Progress,
 ) -> Result<(), Error> {
     let started = std::time::Instant::now();
-    let vertex_count = scene.vertex_count();
+    // A texel bake's parts split its baked texels: every shard computes the same atlas and
+    // leak test, and bakes through a tracer watertight for the texels, as a whole bake does.
+    let (prepared, watertight);
+    let (baker, noun) = match args.lightmap {
+        None => (PartBaker::vertices(scene, tracer, options)?, "vertices"),
+        Some(resolution) => {
+            let atlas = atlas(args, scene, resolution, progress)?;
+            prepared = lightmap::prepare(scene, tracer, options.seed, atlas)?;
+            watertight = match tracer {
+                Some(t) => prepared.texels.watertight(scene, t)?,
+                None => None,
+            };
+            let tracer = watertight.as_deref().or(tracer);
+            let baker = PartBaker::texels(scene, tracer, options, &prepared)?;
+            (baker, "baked texels")
+        }
+    };
+    let vertex_count = baker.receivers();
     let (id, vertices) = match shard {
         Some(shard) => (shard, shard_range(vertex_count, shard)),
         None => (ShardId { index: 0, count: 1 }, 0..vertex_count),
@@ -431,8 +461,7 @@ fn bake_in_parts(
                 .checkpoint_vertices
                 .unwrap_or_else(|| checkpoint::default_block_vertices(options));
             let done = checkpoint::bake(
-                scene,
-                tracer,
+                &baker,
                 options,
                 id,
                 vertices.clone(),
@@ -449,8 +478,7 @@ fn bake_in_parts(
             (done.part, done.rays, blocks)
         }
         None => {
-            let (part, rays) =
-                shard::bake_part(scene, tracer, options, id, vertices.clone(), progress)?;
+            let (part, rays) = baker.bake(id, vertices.clone(), progress)?;
             (part, rays, String::new())
         }
     };
@@ -458,13 +486,13 @@ fn bake_in_parts(
         Some(shard) => {
             part.write(&args.output)?;
             format!(
-                "{shard} (vertices {}..{} of {vertex_count})",
+                "{shard} ({noun} {}..{} of {vertex_count})",
                 vertices.start, vertices.end
             )
         }
         None => {
             part.finish(progress).write(&args.output)?;
-            format!("{vertex_count} vertices")
+            format!("{vertex_count} {noun}")
         }
     };
     let seconds = started.elapsed().as_secs_f64();

@@ -19,6 +19,15 @@ pub fn run(path: &Path) -> Result<(), Error> {
         let part = Part::read(path)?;
         let mut json = serde_json::to_value(&part.header).expect("the header serialises");
         json["shard"] = serde_json::to_value(part.id).expect("the identity serialises");
+        if let Some(l) = &part.lightmap {
+            // A texel bake's part: its "vertices" are baked texels of this lightmap.
+            json["lightmap"] = serde_json::json!({
+                "width": l.width,
+                "height": l.height,
+                "baked_texels": l.receivers,
+                "atlas_fingerprint": format!("{:016x}", l.fingerprint),
+            });
+        }
         json
     } else {
         let mut json = file_json(&CoefficientFile::read(path)?);

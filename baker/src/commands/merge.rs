@@ -26,10 +26,13 @@ pub fn run(args: MergeArgs) -> Result<(), Error> {
     let progress = super::progress(args.quiet);
     let file = merge(parts, progress.as_ref())?;
     output_policy.write(&file.to_bytes().0)?;
+    let what = match &file.lightmap {
+        Some(l) => format!("{}×{} texels", l.width, l.height),
+        None => format!("{} vertices", file.header.vertex_count),
+    };
     println!(
-        "merged {} parts, {} vertices, {:.2} s -> {}",
+        "merged {} parts, {what}, {:.2} s -> {}",
         parts.len(),
-        file.header.vertex_count,
         started.elapsed().as_secs_f64(),
         output.display()
     );

@@ -13,12 +13,11 @@ use std::path::{Path, PathBuf};
 
 use crate::bake::options::BakeOptions;
 use crate::bake::receivers::RECEIVERS_PER_JOB;
-use crate::distribute::shard::{Part, PartId, ShardId, bake_header, bake_part, header_difference};
-use crate::formats::header::Header;
-use crate::scene::Scene;
+use crate::distribute::part_baker::PartBaker;
+use crate::distribute::shard::{Part, PartId, ShardId, header_difference};
 use crate::support::error::{Error, Result};
 use crate::support::progress::Progress;
-use crate::trace::{Backend, Tracer};
+use crate::trace::Backend;
 
 /// Rays per block by default: about a second and a half on this project's 2-core machine, a
 /// fraction of that on a cluster node, and few enough files for a large bake.
@@ -47,12 +46,10 @@ fn block_path(dir: &Path, index: usize) -> PathBuf {
     dir.join(format!("block-{index:06}.prt"))
 }
 
-/// Bakes `vertices` (shard `shard`'s, or every vertex as shard 0 of 1) in blocks of
-/// `block_vertices`, reusing the blocks already in `dir`.
-#[allow(clippy::too_many_arguments)]
+/// Bakes `vertices` (shard `shard`'s receivers — vertices or baked texels — or all of them
+/// as shard 0 of 1) in blocks of `block_vertices`, reusing the blocks already in `dir`.
 pub fn bake(
-    scene: &Scene,
-    tracer: Option<&dyn Tracer>,
+    baker: &PartBaker,
     options: &BakeOptions,
     shard: ShardId,
     vertices: Range<usize>,
@@ -66,11 +63,6 @@ pub fn bake(
         ));
     }
     std::fs::create_dir_all(dir).map_err(|err| Error::io(dir, err))?;
-    let backend = match (options.mode.casts_rays(), tracer) {
-        (true, Some(tracer)) => tracer.backend(),
-        _ => Backend::None,
-    };
-    let header = bake_header(scene, backend, options);
     let mut blocks: Vec<Range<usize>> = vertices
         .clone()
         .step_by(block_vertices)
@@ -80,7 +72,7 @@ pub fn bake(
         // A shard of no vertices (more shards than vertices) is one empty block.
         blocks.push(vertices.clone());
     }
-    let mut done = reuse_blocks(dir, &header, shard, &vertices, &blocks, block_vertices)?;
+    let mut done = reuse_blocks(dir, baker, shard, &vertices, &blocks, block_vertices)?;
 
     let reused = done.iter().flatten().count();
     let remaining: usize = blocks
@@ -89,15 +81,13 @@ pub fn bake(
         .filter(|(_, d)| d.is_none())
         .map(|(b, _)| b.len())
         .sum();
-    let rays_per_vertex = if backend == Backend::None {
+    let rays_per_vertex = if baker.header().backend == Backend::None {
         0
     } else {
         u64::from(options.samples)
     };
     progress.begin("direct", remaining as u64, rays_per_vertex);
-    let rays = bake_missing_blocks(
-        scene, tracer, options, shard, &blocks, &mut done, dir, progress,
-    )?;
+    let rays = bake_missing_blocks(baker, options, shard, &blocks, &mut done, dir, progress)?;
     progress.finish();
     let id = PartId {
         shard,
@@ -116,11 +106,12 @@ pub fn bake(
     })
 }
 
-/// The blocks already in `dir`, by index: each must belong to this bake (`header`) and be
-/// the block its name says, or the folder is refused (it is another bake's).
+/// The blocks already in `dir`, by index: each must belong to this bake (`baker`'s header,
+/// and lightmap for texel bakes) and be the block its name says, or the folder is refused
+/// (it is another bake's).
 fn reuse_blocks(
     dir: &Path,
-    header: &Header,
+    baker: &PartBaker,
     shard: ShardId,
     vertices: &Range<usize>,
     blocks: &[Range<usize>],
@@ -144,7 +135,14 @@ fn reuse_blocks(
             continue;
         };
         let part = Part::read(&path)?;
-        if let Some(difference) = header_difference(header, &part.header) {
+        let lightmap_difference = match (baker.lightmap(), &part.lightmap) {
+            (None, None) => None,
+            (Some(a), Some(b)) => a.difference(b),
+            _ => Some("a vertex bake and a lightmap bake".to_string()),
+        };
+        if let Some(difference) =
+            header_difference(baker.header(), &part.header).or(lightmap_difference)
+        {
             return Err(Error::Shards(format!(
                 "{}: a checkpoint of another bake: {difference}; use another --checkpoint folder",
                 path.display()
@@ -172,10 +170,8 @@ fn reuse_blocks(
 
 /// Bakes the blocks not yet `done`, writing each into `dir` as it finishes, and stops when
 /// the bounce rows held so far exceed the hit-cache limit. Returns the rays cast.
-#[allow(clippy::too_many_arguments)]
 fn bake_missing_blocks(
-    scene: &Scene,
-    tracer: Option<&dyn Tracer>,
+    baker: &PartBaker,
     options: &BakeOptions,
     shard: ShardId,
     blocks: &[Range<usize>],
@@ -187,8 +183,7 @@ fn bake_missing_blocks(
     let (mut rays, mut row_bytes) = (0, 0);
     for (i, block) in blocks.iter().enumerate() {
         if done[i].is_none() {
-            let (part, block_rays) =
-                bake_part(scene, tracer, options, shard, block.clone(), &quiet)?;
+            let (part, block_rays) = baker.bake(shard, block.clone(), &quiet)?;
             part.write(&block_path(dir, i))?;
             rays += block_rays;
             done[i] = Some(part);

@@ -13,7 +13,8 @@ use std::path::{Path, PathBuf};
 
 use crate::CoefficientFile;
 use crate::bake::interreflection::{self, RowSource};
-use crate::bake::transfer::{Estimator, Mode};
+use crate::bake::transfer::{BounceTargets, Estimator, Mode};
+use crate::distribute::lightmap_parts::Lookup;
 use crate::distribute::shard::{Part, PartId, header_difference, options_of, shard_range};
 use crate::formats::header::Header;
 use crate::math::sh;
@@ -29,22 +30,56 @@ pub fn merge(paths: &[PathBuf], progress: &dyn Progress) -> Result<CoefficientFi
     for path in paths {
         let mut part = Part::read(path)?;
         part.rows = None; // read again, one part at a time, by each bounce
+        if let Some((_, first)) = parts.first() {
+            check_same_bake(first, &part, path, first_path)?;
+            // One lightmap's arrays are enough (the others are checked equal by fingerprint).
+            if let Some(l) = part.lightmap.as_mut() {
+                l.uv1 = Vec::new();
+                l.valid = Vec::new();
+            }
+        }
         parts.push((path.as_path(), part));
     }
     let (header, first_shard) = (parts[0].1.header.clone(), parts[0].1.id.shard);
+    let receivers = parts[0].1.receiver_count();
+    // The one lightmap whose arrays were kept (texel bakes), for the whole file.
+    let lightmap = parts[0].1.lightmap.clone();
     let by_index = index_parts(parts, &header, first_path)?;
     let id = PartId {
         shard: first_shard,
         first_vertex: 0,
-        vertices: header.vertex_count as u32,
+        vertices: receivers as u32,
     };
     let order: Vec<(&Path, PartId)> = by_index.values().map(|(p, part)| (*p, part.id)).collect();
     let parts = by_index.into_values().map(|(_, part)| part).collect();
-    let whole = Part::join(parts, id);
+    let mut whole = Part::join(parts, id);
+    whole.lightmap = lightmap;
     if header.mode != Mode::Interreflected {
         return Ok(whole.finish(progress));
     }
     merge_bounces(&header, &order, whole, progress)
+}
+
+/// Refuses `part` (at `path`) unless it is of the bake of `first`: the same header (scene,
+/// options, seed, backend), the same kind (vertex or texel bake) and, for texels, the same
+/// lightmap: atlas, resolution, baked texels and their fingerprint.
+fn check_same_bake(first: &Part, part: &Part, path: &Path, first_path: &Path) -> Result<()> {
+    let difference = header_difference(&first.header, &part.header).or_else(|| {
+        match (&first.lightmap, &part.lightmap) {
+            (None, None) => None,
+            (Some(a), Some(b)) => a.difference(b),
+            (Some(_), None) => Some("a vertex bake's part, not a lightmap bake's".to_string()),
+            (None, Some(_)) => Some("a lightmap bake's part, not a vertex bake's".to_string()),
+        }
+    });
+    match difference {
+        Some(difference) => Err(refuse(format!(
+            "{}: a part of another bake than {}: {difference}",
+            path.display(),
+            first_path.display()
+        ))),
+        None => Ok(()),
+    }
 }
 
 /// The parts by shard index, each checked to be of the bake of `header` (the first part's),
@@ -73,7 +108,7 @@ fn index_parts<'a>(
                 first_path.display()
             )));
         }
-        let expected = shard_range(header.vertex_count as usize, part.id.shard);
+        let expected = shard_range(part.receiver_count(), part.id.shard);
         if part.range() != expected {
             return Err(refuse(format!(
                 "{}: holds vertices {}..{}, but {} is vertices {}..{} (a checkpoint block, not a part)",
@@ -126,10 +161,21 @@ fn merge_bounces(
     let n = sh::coeff_count(options.order);
     let channels = header.channels as usize;
     let norm = Estimator::norm_of(&options) as f32;
+    let lookup = whole.lightmap.as_ref().map(Lookup::new);
+    let fingerprint = whole.lightmap.as_ref().map(|l| l.fingerprint);
+    let targets = lookup
+        .as_ref()
+        .map_or(BounceTargets::Vertices, Lookup::targets);
     let pass = |previous: &[f32], previous_channels: usize, next: &mut [f32]| {
+        // Texel bakes: the previous bounce in the lightmap, dilated, as the bake reads it.
+        let previous = targets.slot_values(previous, previous_channels * n);
         for &(path, id) in order {
             let part = Part::read(path)?;
-            if header_difference(header, &part.header).is_some() || part.id != id {
+            let part_fingerprint = part.lightmap.as_ref().map(|l| l.fingerprint);
+            if header_difference(header, &part.header).is_some()
+                || part.id != id
+                || part_fingerprint != fingerprint
+            {
                 return Err(refuse(format!(
                     "{}: changed while it was being merged",
                     path.display()
@@ -141,7 +187,7 @@ fn merge_bounces(
                 &RowSource::Flat(&rows),
                 norm,
                 n,
-                previous,
+                &previous,
                 previous_channels,
                 channels,
                 out,

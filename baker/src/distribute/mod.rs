@@ -1,10 +1,12 @@
-//! Bakes that outgrow one run: [`shard`] parts baked on many machines, [`checkpoint`] blocks
-//! that survive a kill, and the [`merge`] that joins parts into the very file one machine
-//! would have written.
+//! Bakes that outgrow one run: [`shard`] parts baked on many machines ([`part_baker`]),
+//! [`checkpoint`] blocks that survive a kill, and the [`merge`] that joins parts into the very
+//! file one machine would have written; vertex and texel bakes alike ([`lightmap_parts`]).
 //!
 //! May import: [`crate::support`], [`crate::math`], [`crate::scene`], [`crate::trace`],
 //! [`crate::formats`], [`crate::bake`].
 
 pub mod checkpoint;
+pub mod lightmap_parts;
 pub mod merge;
+pub mod part_baker;
 pub mod shard;

@@ -17,17 +17,15 @@ use std::path::Path;
 
 use glam::Vec3;
 
-use crate::bake::bounce_rows::HitRecorder;
 use crate::bake::interreflection::{self, RowSource, Rows};
-use crate::bake::transfer::{BakeOptions, BounceTargets, Estimator, Mode, direct_pass, tracer_for};
+use crate::bake::transfer::{BakeOptions, BounceTargets, Mode};
+use crate::distribute::lightmap_parts::{self, Lookup, PartLightmap};
 use crate::formats::coefficient_file::{self, CoefficientFile};
-use crate::formats::header::{self, HEADER_SIZE, Header};
+use crate::formats::header::{self, HEADER_SIZE, Header, LIGHTMAP_PART_HEADER_SIZE};
 pub use crate::formats::part_id::{PartId, ShardId};
 use crate::math::sh;
-use crate::scene::Scene;
 use crate::support::error::{Error, Result};
 use crate::support::progress::Progress;
-use crate::trace::{Backend, Tracer};
 
 /// The environment variable that gives the shard count to `--shard auto` in a Kubernetes
 /// Indexed Job (which sets only the index, `JOB_COMPLETION_INDEX`).
@@ -130,6 +128,9 @@ pub struct Part {
     pub bent_normal: Option<Vec<Vec3>>,
     /// Interreflected mode: the part's bounce rows.
     pub rows: Option<Rows>,
+    /// Texel bakes: the lightmap (atlas, baked texels, fingerprint). The part's "vertices"
+    /// are then the baked texels, in row-major order.
+    pub lightmap: Option<PartLightmap>,
 }
 
 impl Part {
@@ -161,23 +162,61 @@ impl Part {
                 payload.extend(weight.iter().flat_map(|w| w.to_le_bytes()));
             }
         }
-        coefficient_file::bytes_with_payload(&self.header, &self.id.to_bytes(), &payload)
+        match &self.lightmap {
+            None => {
+                coefficient_file::bytes_with_payload(&self.header, &self.id.to_bytes(), &payload)
+            }
+            Some(lightmap) => {
+                payload.extend(lightmap.tail_bytes());
+                let bytes = coefficient_file::bytes_with_payload(
+                    &self.header,
+                    &self.id.to_bytes(),
+                    &payload,
+                );
+                lightmap_parts::with_block(bytes, &lightmap.block_bytes())
+            }
+        }
+    }
+
+    /// The receivers of the whole bake the part is of: the scene's vertices, or the baked
+    /// texels of a texel bake.
+    pub fn receiver_count(&self) -> usize {
+        match &self.lightmap {
+            Some(l) => l.receivers as usize,
+            None => self.header.vertex_count as usize,
+        }
     }
 
     /// Parses and validates a part file's bytes; the error is a sentence for the user.
     pub fn from_bytes(bytes: &[u8]) -> std::result::Result<Part, String> {
         let (header, payload_bytes, header_size) = header::parse_header(bytes)?;
-        if header_size != HEADER_SIZE {
-            return Err("a lightmap (texel) file, which has no shard parts".into());
-        }
         let id = PartId::from_header_bytes(bytes)?
             .ok_or("a whole bake, not a shard part (nothing to merge)")?;
-        if id.first_vertex + u64::from(id.vertices) > header.vertex_count {
-            return Err(format!(
-                "{id}: beyond the scene's {} vertices",
-                header.vertex_count
-            ));
+        let mut lightmap = match header_size {
+            HEADER_SIZE => None,
+            LIGHTMAP_PART_HEADER_SIZE => Some(PartLightmap::from_block(bytes, &header)?),
+            _ => return Err(format!("header size {header_size} in a shard part")),
+        };
+        let limit = lightmap
+            .as_ref()
+            .map_or(header.vertex_count, |l| l.receivers);
+        if id.first_vertex + u64::from(id.vertices) > limit {
+            let what = match lightmap {
+                Some(_) => "baked texels",
+                None => "vertices",
+            };
+            return Err(format!("{id}: beyond the scene's {limit} {what}"));
         }
+        let tail = match &lightmap {
+            Some(l) => l
+                .tail_len()
+                .filter(|&t| t <= payload_bytes)
+                .ok_or(format!(
+                    "{id}: the payload is {payload_bytes} bytes, too few for the lightmap's UVs and mask"
+                ))?,
+            None => 0,
+        };
+        let payload_bytes = payload_bytes - tail;
         let count = id.vertices as usize;
         let width = Part::coefficient_width(&header);
         let aux_floats = usize::from(header.aux.ao) + 3 * usize::from(header.aux.bent_normal);
@@ -189,7 +228,11 @@ impl Part {
                 "{id}: the payload is {payload_bytes} bytes, its arrays need at least {fixed}"
             ));
         }
-        let payload = &bytes[HEADER_SIZE..];
+        let payload = &bytes[header_size..bytes.len() - tail as usize];
+        if let Some(l) = lightmap.as_mut() {
+            l.read_tail(&bytes[bytes.len() - tail as usize..])
+                .map_err(|message| format!("{id}: {message}"))?;
+        }
         let mut words = payload.chunks_exact(4);
         let mut f32s = |n: usize| -> Vec<f32> {
             words
@@ -234,6 +277,7 @@ impl Part {
             ao,
             bent_normal,
             rows,
+            lightmap,
         })
     }
 
@@ -271,13 +315,17 @@ impl Part {
     /// The whole bake from a part that holds every vertex: in interreflected mode the
     /// bounces are gathered here (no rays), exactly as a single-machine bake gathers them.
     pub fn finish(mut self, progress: &dyn Progress) -> CoefficientFile {
+        let lookup = self.lightmap.as_ref().map(Lookup::new);
+        let targets = lookup
+            .as_ref()
+            .map_or(BounceTargets::Vertices, Lookup::targets);
         let coefficients = match self.rows.take() {
             Some(rows) => interreflection::add_bounces(
                 std::mem::take(&mut self.coefficients),
                 self.header.channels as usize,
                 &options_of(&self.header),
                 &RowSource::Flat(&rows),
-                &BounceTargets::Vertices,
+                &targets,
                 progress,
             ),
             None => std::mem::take(&mut self.coefficients),
@@ -286,12 +334,17 @@ impl Part {
     }
 
     /// The whole file of a part that holds every vertex, with the final `coefficients`.
+    /// Texel bakes: `coefficients` are the baked texels', placed in the lightmap and dilated
+    /// here.
     pub(crate) fn into_file(self, coefficients: Vec<f32>) -> CoefficientFile {
         assert_eq!(
             self.id.range(),
-            0..self.header.vertex_count as usize,
+            0..self.receiver_count(),
             "a whole file needs every vertex"
         );
+        if let Some(lightmap) = self.lightmap {
+            return lightmap.into_file(self.header, &coefficients, self.ao, self.bent_normal);
+        }
         CoefficientFile {
             header: Header {
                 checksum: 0,
@@ -361,15 +414,6 @@ pub(crate) fn options_of(header: &Header) -> BakeOptions {
     }
 }
 
-/// The header a bake of `scene` with `options` writes (the same code as a whole bake's).
-pub fn bake_header(scene: &Scene, backend: Backend, options: &BakeOptions) -> Header {
-    let channels = match options.mode {
-        Mode::Interreflected if !interreflection::albedo_is_grey(scene) => 3,
-        _ => 1,
-    };
-    Header::for_bake(scene, options, backend, channels, scene.vertex_count(), 0)
-}
-
 /// How two headers of parts differ (fields by name), or `None` if they belong to one bake.
 pub fn header_difference(a: &Header, b: &Header) -> Option<String> {
     let fields = |h: &Header| match serde_json::to_value(Header {
@@ -395,77 +439,6 @@ pub fn header_difference(a: &Header, b: &Header) -> Option<String> {
     (!differences.is_empty()).then(|| differences.join(", "))
 }
 
-/// Bakes the vertices `vertices` into a part of `shard`. In interreflected mode the part
-/// carries its bounce rows, so they must fit in `options.hit_cache_limit`; otherwise the
-/// bake stops with an error (a part cannot fall back to re-tracing: the merge casts no rays).
-/// Also returns the rays cast.
-pub fn bake_part(
-    scene: &Scene,
-    tracer: Option<&dyn Tracer>,
-    options: &BakeOptions,
-    shard: ShardId,
-    vertices: Range<usize>,
-    progress: &dyn Progress,
-) -> Result<(Part, u64)> {
-    let tracer = tracer_for(options, tracer)?;
-    let estimator = Estimator::new(scene, options)?;
-    let header = bake_header(
-        scene,
-        tracer.map_or(Backend::None, |t| t.backend()),
-        options,
-    );
-    let recorder = (options.mode == Mode::Interreflected).then(|| {
-        HitRecorder::new(
-            scene,
-            &BounceTargets::Vertices,
-            vertices.len(),
-            options.hit_cache_limit,
-        )
-    });
-    let direct = direct_pass(
-        &estimator,
-        tracer,
-        recorder.as_ref(),
-        vertices.clone(),
-        progress,
-    );
-    let rows = match recorder {
-        Some(recorder) => match recorder.into_cache() {
-            Some((jobs, _)) => Some(Rows::from_jobs(jobs)),
-            None => {
-                return Err(Error::InvalidOption(format!(
-                    "the bounce rows of vertices {}..{} exceed --hit-cache-mb {}; a part carries \
-                     its rows (the merge casts no rays): use more shards or a larger --hit-cache-mb",
-                    vertices.start,
-                    vertices.end,
-                    options.hit_cache_limit >> 20
-                )));
-            }
-        },
-        None => None,
-    };
-    let rays = tracer.map_or(0, |_| u64::from(options.samples) * vertices.len() as u64);
-    let part = Part {
-        id: PartId {
-            shard,
-            first_vertex: vertices.start as u64,
-            vertices: vertices.len() as u32,
-        },
-        coefficients: direct.coefficients,
-        ao: header
-            .aux
-            .ao
-            .then(|| direct.visibility.iter().map(|v| v.accessibility).collect()),
-        bent_normal: header
-            .aux
-            .bent_normal
-            .then(|| direct.visibility.iter().map(|v| v.bent_normal).collect()),
-        rows,
-        header,
-    };
-    Ok((part, rays))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -476,77 +449,6 @@ mod tests {
                 .find(|(n, _)| *n == name)
                 .map(|(_, v)| v.to_string())
         }
-    }
-
-    /// An interreflected part of the Cornell room's vertices 100..140 (shard 1 of 3 in name).
-    fn cornell_part() -> Part {
-        let path = concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../scenes/cornell/cornell.scene"
-        );
-        let scene = Scene::load(Path::new(path)).unwrap();
-        let tracer = crate::trace::build(Backend::DEFAULT, &scene, Default::default()).unwrap();
-        let options = BakeOptions {
-            samples: 32,
-            mode: Mode::Interreflected,
-            bounces: 1,
-            aux: crate::bake::transfer::Aux {
-                ao: true,
-                bent_normal: true,
-            },
-            ..BakeOptions::default()
-        };
-        let shard = ShardId { index: 1, count: 3 };
-        let silent = crate::support::progress::Silent;
-        bake_part(&scene, Some(&*tracer), &options, shard, 100..140, &silent)
-            .unwrap()
-            .0
-    }
-
-    #[test]
-    fn parts_round_trip_and_bad_rows_or_sizes_are_refused() {
-        let part = cornell_part();
-        let rows = part.rows.as_ref().unwrap();
-        assert_eq!(rows.vertex_count(), 40);
-        assert!(!rows.vertices.is_empty());
-        let bytes = part.to_bytes();
-        let mut read = Part::from_bytes(&bytes).unwrap();
-        assert_ne!(read.header.checksum, 0);
-        read.header.checksum = 0; // the bake's header has none until written
-        assert!(
-            read == part,
-            "a part read back differs from the one written"
-        );
-        // A whole-file reader refuses it, naming what it is.
-        let err = CoefficientFile::from_bytes(&bytes).unwrap_err();
-        assert!(
-            err.contains("a shard part (shard 1 of 3, vertices 100..140)"),
-            "{err}"
-        );
-
-        // A row entry naming a vertex beyond the scene (checksum recomputed).
-        let mut bad = part.clone();
-        bad.rows.as_mut().unwrap().vertices[0] = part.header.vertex_count as u32;
-        let err = Part::from_bytes(&bad.to_bytes()).unwrap_err();
-        assert!(err.contains("bounce-row entry 0"), "{err}");
-        // Row lengths that do not add up to the entries.
-        let mut bad = part.clone();
-        bad.rows.as_mut().unwrap().starts[40] -= 1;
-        let err = Part::from_bytes(&bad.to_bytes()).unwrap_err();
-        assert!(err.contains("the bounce rows announce"), "{err}");
-        // A range beyond the scene.
-        let mut bad = part.clone();
-        bad.id.first_vertex = part.header.vertex_count - 10;
-        let err = Part::from_bytes(&bad.to_bytes()).unwrap_err();
-        assert!(err.contains("beyond the scene"), "{err}");
-        // A non-finite coefficient.
-        let mut bad = part;
-        bad.coefficients[17] = f32::NAN;
-        let err = Part::from_bytes(&bad.to_bytes()).unwrap_err();
-        assert!(
-            err.contains("coefficient 1 of vertex 1 is not finite"),
-            "{err}"
-        );
     }
 
     #[test]

@@ -18,7 +18,7 @@ use crate::support::error::{Error, Result};
 
 /// The header is the file's own part: its fields and sizes are named here too.
 pub use crate::formats::header::{
-    Adaptive, HEADER_SIZE, Header, LIGHTMAP_HEADER_SIZE, MAGIC, VERSION,
+    Adaptive, HEADER_SIZE, Header, LIGHTMAP_HEADER_SIZE, LIGHTMAP_PART_HEADER_SIZE, MAGIC, VERSION,
 };
 
 /// A coefficient file in memory.
@@ -150,6 +150,12 @@ impl CoefficientFile {
         if let Some(shard) = PartId::from_header_bytes(bytes)? {
             return Err(format!(
                 "a shard part ({shard}) of a bake, not a whole bake: combine the parts with `prt-bake merge`"
+            ));
+        }
+        if header_size == LIGHTMAP_PART_HEADER_SIZE {
+            return Err(format!(
+                "header size {header_size} without a shard identity (only lightmap shard parts \
+                 have {header_size}-byte headers)"
             ));
         }
         let mut lightmap = match header_size == LIGHTMAP_HEADER_SIZE {

@@ -16,6 +16,9 @@ pub const VERSION: u32 = 1;
 pub const HEADER_SIZE: usize = 128;
 /// The header size of a lightmap (texel) bake: the 128 bytes, then the texel block.
 pub const LIGHTMAP_HEADER_SIZE: usize = 160;
+/// The header size of a lightmap bake's shard part: the texel block, then the part's atlas
+/// block (`docs/coefficient-format.md`, "Shard parts"); never a whole file's.
+pub const LIGHTMAP_PART_HEADER_SIZE: usize = 192;
 /// Offset of the CRC-32 (the last 4 bytes of the header).
 pub(crate) const CHECKSUM_OFFSET: usize = 124;
 
@@ -291,10 +294,10 @@ fn check_framing(bytes: &[u8]) -> std::result::Result<(u32, usize, u64), String>
         ));
     }
     let header_size = u32_at(12) as usize;
-    if header_size != HEADER_SIZE && header_size != LIGHTMAP_HEADER_SIZE {
+    if ![HEADER_SIZE, LIGHTMAP_HEADER_SIZE, LIGHTMAP_PART_HEADER_SIZE].contains(&header_size) {
         return Err(format!(
             "header size {header_size} (version {VERSION} headers are {HEADER_SIZE} bytes, \
-             {LIGHTMAP_HEADER_SIZE} for lightmap bakes)"
+             {LIGHTMAP_HEADER_SIZE} for lightmap bakes, {LIGHTMAP_PART_HEADER_SIZE} for their shard parts)"
         ));
     }
     if bytes.len() < header_size {

@@ -43,6 +43,38 @@ pub struct LightmapBake {
     pub leaking: usize,
 }
 
+/// A texel bake's receivers before any transfer is baked: the atlas, and its texels after
+/// the leak test moved leaking texels out or left them out ([`leaks::settle`]). It is a pure
+/// function of the scene, the atlas, the tracer's backend and the seed, so every shard of a
+/// texel bake computes the same one ([`crate::distribute`] checks it by fingerprint).
+#[derive(Clone, Debug)]
+pub struct Prepared {
+    pub atlas: Atlas,
+    pub texels: Texels,
+    pub settled: leaks::Settled,
+}
+
+/// Rasterises `atlas` and, when rays are cast (`tracer`), settles leaking texels.
+pub fn prepare(
+    scene: &crate::Scene,
+    tracer: Option<&dyn Tracer>,
+    seed: u64,
+    atlas: Atlas,
+) -> Result<Prepared> {
+    let mut texels = Texels::rasterise(scene, &atlas);
+    let mut settled = leaks::Settled::default();
+    if let Some(tracer) = tracer {
+        let watertight = texels.watertight(scene, tracer)?;
+        let tracer = watertight.as_deref().unwrap_or(tracer);
+        settled = leaks::settle(scene, &atlas, &mut texels, tracer, seed)?;
+    }
+    Ok(Prepared {
+        atlas,
+        texels,
+        settled,
+    })
+}
+
 /// Bakes the transfer of every texel of `atlas` that a triangle covers, in any mode: the
 /// valid texels are the receivers of [`crate::bake::transfer::bake_receivers`], and in
 /// interreflected mode a bounce hit reads the previous bounce from the lightmap around its
@@ -56,13 +88,11 @@ pub fn bake(
 ) -> Result<LightmapBake> {
     let tracer = crate::bake::transfer::tracer_for(options, tracer)?;
     let started = Instant::now();
-    let mut texels = Texels::rasterise(scene, &atlas);
-    let mut settled = leaks::Settled::default();
-    if let Some(tracer) = tracer {
-        let watertight = texels.watertight(scene, tracer)?;
-        let tracer = watertight.as_deref().unwrap_or(tracer);
-        settled = leaks::settle(scene, &atlas, &mut texels, tracer, options.seed)?;
-    }
+    let Prepared {
+        atlas,
+        texels,
+        settled,
+    } = prepare(scene, tracer, options.seed, atlas)?;
     // Watertight for the final texel origins (moved-out ones included).
     let watertight = match tracer {
         Some(t) => texels.watertight(scene, t)?,
@@ -73,12 +103,54 @@ pub fn bake(
     let estimator = Estimator::for_receivers(receivers, options)?;
     let targets = BounceTargets::texels(&atlas, &texels);
     let baked = bake_receivers(scene, tracer, &estimator, &targets, progress);
-    // In place in the W×H lightmap.
     let width = baked.channels * crate::math::sh::coeff_count(options.order);
+    let visibility = tracer.map(|_| baked.visibility.as_slice());
+    let placed = place(&texels, width, &baked.coefficients, visibility);
+    let transfer = Transfer::from_direct(
+        options,
+        tracer.map_or(Backend::None, |t| t.backend()),
+        texels.valid.len(),
+        Baked {
+            coefficients: placed.coefficients,
+            visibility: placed.visibility,
+            ..baked
+        },
+        started.elapsed().as_secs_f64(),
+    );
+    Ok(LightmapBake {
+        atlas,
+        dilated: placed.dilated,
+        moved: settled.moved,
+        leaking: settled.leaking,
+        texels,
+        transfer,
+    })
+}
+
+/// The valid texels' values put in place in the W×H lightmap and dilated.
+pub struct Placed {
+    /// `width` floats per texel, W·H texels; empty texels hold zeros.
+    pub coefficients: Vec<f32>,
+    /// Per texel (empty where no visibility was given); empty texels hold accessibility 0
+    /// and a +z bent normal.
+    pub visibility: Vec<Visibility>,
+    /// Per texel: filled by dilation.
+    pub dilated: Vec<bool>,
+}
+
+/// Places the receivers' values (`width` floats each, in row-major order of the valid
+/// texels) and their visibility (if any) in the W×H lightmap of `texels`, and dilates them:
+/// what a whole bake, the merge of its shard parts and a checkpointed bake all end with.
+pub fn place(
+    texels: &Texels,
+    width: usize,
+    receivers: &[f32],
+    receiver_visibility: Option<&[Visibility]>,
+) -> Placed {
     let texel_count = texels.valid.len();
     let mut coefficients = vec![0.0f32; texel_count * width];
     let mut visibility = Vec::new();
-    if tracer.is_some() {
+    if receiver_visibility.is_some() {
         visibility = vec![
             Visibility {
                 accessibility: 0.0,
@@ -96,31 +168,17 @@ pub fn bake(
         .map(|(i, _)| i);
     for (k, i) in valid_indices.enumerate() {
         coefficients[i * width..(i + 1) * width]
-            .copy_from_slice(&baked.coefficients[k * width..(k + 1) * width]);
-        if tracer.is_some() {
-            visibility[i] = baked.visibility[k];
+            .copy_from_slice(&receivers[k * width..(k + 1) * width]);
+        if let Some(from) = receiver_visibility {
+            visibility[i] = from[k];
         }
     }
-    let dilated = dilate(&texels, width, &mut coefficients, &mut visibility);
-    let transfer = Transfer::from_direct(
-        options,
-        tracer.map_or(Backend::None, |t| t.backend()),
-        texel_count,
-        Baked {
-            coefficients,
-            visibility,
-            ..baked
-        },
-        started.elapsed().as_secs_f64(),
-    );
-    Ok(LightmapBake {
-        atlas,
+    let dilated = dilate(texels, width, &mut coefficients, &mut visibility);
+    Placed {
+        coefficients,
+        visibility,
         dilated,
-        moved: settled.moved,
-        leaking: settled.leaking,
-        texels,
-        transfer,
-    })
+    }
 }
 
 /// Spreads baked texels' coefficients (`n` per texel) and visibility (if any) into the

@@ -107,6 +107,38 @@ impl Texels {
         texels
     }
 
+    /// Texels known only by which are baked (no points): what the merge of a texel bake's
+    /// shard parts needs to place, dilate and look up values, which depend on nothing else.
+    pub fn mask(width: u32, height: u32, valid: Vec<bool>) -> Texels {
+        debug_assert_eq!(valid.len(), width as usize * height as usize);
+        Texels {
+            width,
+            height,
+            valid,
+            positions: Vec::new(),
+            normals: Vec::new(),
+            origins: Vec::new(),
+            triangle: Vec::new(),
+        }
+    }
+
+    /// A 64-bit fingerprint (xxh3) of everything a texel bake's receivers are: the size,
+    /// which texels are baked, and each baked texel's point, normal, ray origin and triangle
+    /// (after leaking texels were moved out). Two shards of one bake must agree on it.
+    pub fn fingerprint(&self) -> u64 {
+        let mut bytes = Vec::with_capacity(16 + self.valid.len() + 40 * self.valid_count());
+        bytes.extend(self.width.to_le_bytes());
+        bytes.extend(self.height.to_le_bytes());
+        bytes.extend(self.valid.iter().map(|&v| u8::from(v)));
+        for (i, _) in self.valid.iter().enumerate().filter(|(_, v)| **v) {
+            for v in [self.positions[i], self.normals[i], self.origins[i]] {
+                bytes.extend(v.to_array().iter().flat_map(|x| x.to_le_bytes()));
+            }
+            bytes.extend(self.triangle[i].to_le_bytes());
+        }
+        xxhash_rust::xxh3::xxh3_64(&bytes)
+    }
+
     pub fn valid_count(&self) -> usize {
         self.valid.iter().filter(|&&v| v).count()
     }

@@ -1,0 +1,340 @@
+//! Texel (lightmap) bakes in shard parts and checkpoint blocks.
+//!
+//! A texel bake's receivers are the lightmap's *baked* texels (covered, not leaking) in
+//! row-major order; a part holds a range of them, so shards of equal length cast equal rays
+//! (every baked texel casts `--samples` rays, `--bounce-samples` of them closest-hit) while
+//! empty texels cost nothing. Which texels are baked, and where, is computed by every shard
+//! from the scene (the atlas, then the leak test, [`crate::bake::lightmap::prepare`]), so
+//! every part records a fingerprint of it, and the merge refuses parts that disagree.
+//!
+//! Every part also carries the atlas (the triangles' lightmap UVs) and the baked-texel mask:
+//! the merge has no scene, and needs them to place the texels' values in the W×H lightmap,
+//! dilate it, and read the previous bounce at the texels the bounce rows name (the same
+//! [`crate::bake::lightmap::place`] and [`BounceTargets::slot_values`] a whole bake uses, so
+//! the merged file is the whole bake's byte for byte).
+
+use glam::{Vec2, Vec3};
+
+use crate::bake::lightmap::{Atlas, AtlasSource, Prepared, Texels, place};
+use crate::bake::transfer::{BounceTargets, Visibility};
+use crate::formats::coefficient_file::{CoefficientFile, LightmapBlock};
+use crate::formats::header::{CHECKSUM_OFFSET, HEADER_SIZE, Header, checksum};
+use crate::math::sh;
+use crate::scene::Scene;
+
+/// Bytes 128..192 of a texel part: the texel block of a whole texel file (128..160), then
+/// the part's atlas block (160..192).
+pub const BLOCK_BYTES: usize = 64;
+
+/// What a texel part holds besides a vertex part's arrays: the lightmap's size and atlas,
+/// which texels are baked, and the fingerprint that ties all shards of one bake together.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PartLightmap {
+    pub width: u32,
+    pub height: u32,
+    pub scene_vertex_count: u64,
+    pub scene_triangle_count: u64,
+    /// `--texel-size`, or 0 where the charts were scaled to fill the atlas.
+    pub texel_size: f32,
+    pub source: AtlasSource,
+    /// Baked texels in the whole lightmap: the receivers that the shards split.
+    pub receivers: u64,
+    /// xxh3 of the atlas (UVs, size, texel size, source) and of the baked texels (mask,
+    /// points, normals, ray origins, triangles: [`Texels::fingerprint`]).
+    pub fingerprint: u64,
+    /// Per scene triangle, its corners' lightmap UVs.
+    pub uv1: Vec<[Vec2; 3]>,
+    /// Per texel (row-major): baked.
+    pub valid: Vec<bool>,
+}
+
+impl PartLightmap {
+    /// The lightmap of a texel bake of `scene` over `prepared`.
+    pub fn new(scene: &Scene, prepared: &Prepared) -> PartLightmap {
+        let atlas = &prepared.atlas;
+        let texel_size = atlas.texel_size.unwrap_or(0.0);
+        let mut bytes = Vec::with_capacity(16 + atlas.uv1.len() * 24);
+        bytes.extend(prepared.texels.fingerprint().to_le_bytes());
+        bytes.extend(texel_size.to_le_bytes());
+        bytes.extend(atlas.source.code().to_le_bytes());
+        let uv = atlas.uv1.iter().flatten().flat_map(|p| p.to_array());
+        bytes.extend(uv.flat_map(f32::to_le_bytes));
+        PartLightmap {
+            width: atlas.width,
+            height: atlas.height,
+            scene_vertex_count: scene.vertex_count() as u64,
+            scene_triangle_count: scene.triangles.len() as u64,
+            texel_size,
+            source: atlas.source,
+            receivers: prepared.texels.valid_count() as u64,
+            fingerprint: xxhash_rust::xxh3::xxh3_64(&bytes),
+            uv1: atlas.uv1.clone(),
+            valid: prepared.texels.valid.clone(),
+        }
+    }
+
+    /// Header bytes 128..192.
+    pub(crate) fn block_bytes(&self) -> [u8; BLOCK_BYTES] {
+        let mut b = Vec::with_capacity(BLOCK_BYTES);
+        b.extend(self.width.to_le_bytes());
+        b.extend(self.height.to_le_bytes());
+        b.extend(self.scene_vertex_count.to_le_bytes());
+        b.extend(self.scene_triangle_count.to_le_bytes());
+        b.extend(self.texel_size.to_le_bytes());
+        b.extend(self.source.code().to_le_bytes());
+        b.extend(self.fingerprint.to_le_bytes());
+        b.extend(self.receivers.to_le_bytes());
+        b.resize(BLOCK_BYTES, 0); // reserved
+        b.try_into().expect("64 bytes")
+    }
+
+    /// The bytes after a part's other arrays: the UVs (f32), then the mask (u8, 1 = baked).
+    pub(crate) fn tail_bytes(&self) -> Vec<u8> {
+        let uv = self.uv1.iter().flatten().flat_map(|p| p.to_array());
+        let mut bytes: Vec<u8> = uv.flat_map(f32::to_le_bytes).collect();
+        bytes.extend(self.valid.iter().map(|&v| u8::from(v)));
+        bytes
+    }
+
+    /// Length of [`PartLightmap::tail_bytes`]; `None` where a corrupted count overflows.
+    pub(crate) fn tail_len(&self) -> Option<u64> {
+        self.scene_triangle_count
+            .checked_mul(24)?
+            .checked_add(u64::from(self.width) * u64::from(self.height))
+    }
+
+    /// The block of a part's header bytes (at least 192), its arrays still empty.
+    pub(crate) fn from_block(
+        bytes: &[u8],
+        header: &Header,
+    ) -> std::result::Result<PartLightmap, String> {
+        let b = &bytes[HEADER_SIZE..HEADER_SIZE + BLOCK_BYTES];
+        let u32_at = |o: usize| u32::from_le_bytes(b[o..o + 4].try_into().expect("4 bytes"));
+        let u64_at = |o: usize| u64::from_le_bytes(b[o..o + 8].try_into().expect("8 bytes"));
+        let (width, height) = (u32_at(0), u32_at(4));
+        let texels = u64::from(width) * u64::from(height);
+        if texels != header.vertex_count {
+            return Err(format!(
+                "a {width}×{height} lightmap in a part of a bake of {} texels",
+                header.vertex_count
+            ));
+        }
+        let source = AtlasSource::from_code(u32_at(28))
+            .ok_or_else(|| format!("unknown atlas source {}", u32_at(28)))?;
+        let texel_size = f32::from_le_bytes(b[24..28].try_into().expect("4 bytes"));
+        if !(texel_size.is_finite() && texel_size >= 0.0) {
+            return Err(format!("texel size {texel_size} is not a size"));
+        }
+        let receivers = u64_at(40);
+        if receivers > texels {
+            return Err(format!(
+                "{receivers} baked texels in a lightmap of {texels}"
+            ));
+        }
+        if b[48..].iter().any(|&x| x != 0) {
+            return Err("reserved bytes 176..192 are not zero".into());
+        }
+        Ok(PartLightmap {
+            width,
+            height,
+            scene_vertex_count: u64_at(8),
+            scene_triangle_count: u64_at(16),
+            texel_size,
+            source,
+            receivers,
+            fingerprint: u64_at(32),
+            uv1: Vec::new(),
+            valid: Vec::new(),
+        })
+    }
+
+    /// Reads [`PartLightmap::tail_bytes`] (exactly [`PartLightmap::tail_len`] bytes).
+    pub(crate) fn read_tail(&mut self, tail: &[u8]) -> std::result::Result<(), String> {
+        let uv_bytes = self.scene_triangle_count as usize * 24;
+        let (uv, mask) = tail.split_at(uv_bytes);
+        let floats: Vec<f32> = uv
+            .chunks_exact(4)
+            .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")))
+            .collect();
+        if let Some(i) = floats.iter().position(|x| !x.is_finite()) {
+            return Err(format!("lightmap UV of triangle {} is not finite", i / 6));
+        }
+        self.uv1 = floats
+            .chunks_exact(6)
+            .map(|c| {
+                [
+                    Vec2::new(c[0], c[1]),
+                    Vec2::new(c[2], c[3]),
+                    Vec2::new(c[4], c[5]),
+                ]
+            })
+            .collect();
+        if let Some(i) = mask.iter().position(|&b| b > 1) {
+            return Err(format!("texel {i}'s mask byte is {} (0 or 1)", mask[i]));
+        }
+        self.valid = mask.iter().map(|&b| b == 1).collect();
+        let baked = self.valid.iter().filter(|&&v| v).count() as u64;
+        if baked != self.receivers {
+            return Err(format!(
+                "the mask holds {baked} baked texels, the header says {}",
+                self.receivers
+            ));
+        }
+        Ok(())
+    }
+
+    /// How the lightmaps of two parts differ (another atlas, resolution, leak test, scene),
+    /// or `None` where they are one bake's.
+    pub fn difference(&self, other: &PartLightmap) -> Option<String> {
+        let fields = [
+            ("width", self.width.to_string(), other.width.to_string()),
+            ("height", self.height.to_string(), other.height.to_string()),
+            (
+                "scene vertices",
+                self.scene_vertex_count.to_string(),
+                other.scene_vertex_count.to_string(),
+            ),
+            (
+                "scene triangles",
+                self.scene_triangle_count.to_string(),
+                other.scene_triangle_count.to_string(),
+            ),
+            (
+                "texel size",
+                self.texel_size.to_string(),
+                other.texel_size.to_string(),
+            ),
+            (
+                "atlas source",
+                format!("{:?}", self.source),
+                format!("{:?}", other.source),
+            ),
+            (
+                "baked texels",
+                self.receivers.to_string(),
+                other.receivers.to_string(),
+            ),
+            (
+                "atlas fingerprint",
+                format!("{:016x}", self.fingerprint),
+                format!("{:016x}", other.fingerprint),
+            ),
+        ];
+        let differences: Vec<String> = fields
+            .iter()
+            .filter(|(_, a, b)| a != b)
+            .map(|(name, a, b)| format!("{name} {b} instead of {a}"))
+            .collect();
+        (!differences.is_empty()).then(|| {
+            format!(
+                "another lightmap atlas or set of baked texels: {}",
+                differences.join(", ")
+            )
+        })
+    }
+
+    /// The baked texels, by mask only (no points): enough to place, dilate and look up.
+    pub fn texels(&self) -> Texels {
+        Texels::mask(self.width, self.height, self.valid.clone())
+    }
+
+    /// The atlas the UVs describe.
+    pub fn atlas(&self) -> Atlas {
+        Atlas {
+            width: self.width,
+            height: self.height,
+            uv1: self.uv1.clone(),
+            source: self.source,
+            texel_size: (self.texel_size > 0.0).then_some(self.texel_size),
+        }
+    }
+
+    /// The whole texel file of a bake with `header` (the texel count as its vertex count) from
+    /// every receiver's final transfer (`header.channels` × n² floats each) and aux arrays:
+    /// placed in the lightmap and dilated, as [`crate::bake::lightmap::bake`] does.
+    pub(crate) fn into_file(
+        self,
+        header: Header,
+        receivers: &[f32],
+        ao: Option<Vec<f32>>,
+        bent_normal: Option<Vec<Vec3>>,
+    ) -> CoefficientFile {
+        let width = header.coefficients_per_vertex();
+        debug_assert_eq!(
+            receivers.len(),
+            self.receivers as usize
+                * header.channels as usize
+                * sh::coeff_count(header.order as usize)
+        );
+        // A whole bake dilates the visibility of every bake that casts rays.
+        let visibility: Option<Vec<Visibility>> = header.mode.casts_rays().then(|| {
+            (0..self.receivers as usize)
+                .map(|k| Visibility {
+                    accessibility: ao.as_ref().map_or(0.0, |a| a[k]),
+                    bent_normal: bent_normal.as_ref().map_or(Vec3::Z, |b| b[k]),
+                    ..Default::default()
+                })
+                .collect()
+        });
+        let texels = self.texels();
+        let placed = place(&texels, width, receivers, visibility.as_deref());
+        let aux = header.aux;
+        CoefficientFile {
+            header: Header {
+                checksum: 0,
+                ..header
+            },
+            coefficients: placed.coefficients,
+            ao: aux
+                .ao
+                .then(|| placed.visibility.iter().map(|v| v.accessibility).collect()),
+            bent_normal: aux
+                .bent_normal
+                .then(|| placed.visibility.iter().map(|v| v.bent_normal).collect()),
+            rays: None,
+            error_estimate: None,
+            lightmap: Some(LightmapBlock {
+                width: self.width,
+                height: self.height,
+                scene_vertex_count: self.scene_vertex_count,
+                scene_triangle_count: self.scene_triangle_count,
+                texel_size: self.texel_size,
+                source: self.source,
+                valid: self.valid,
+                dilated: placed.dilated,
+                uv1: self.uv1,
+            }),
+        }
+    }
+}
+
+/// The lookup of a texel bake's bounces from a part's lightmap (the merge's, with no scene):
+/// only [`BounceTargets::slot_values`] is used there, which needs the mask alone.
+pub(crate) struct Lookup {
+    atlas: Atlas,
+    texels: Texels,
+}
+
+impl Lookup {
+    pub(crate) fn new(lightmap: &PartLightmap) -> Lookup {
+        Lookup {
+            atlas: lightmap.atlas(),
+            texels: lightmap.texels(),
+        }
+    }
+
+    pub(crate) fn targets(&self) -> BounceTargets<'_> {
+        BounceTargets::texels(&self.atlas, &self.texels)
+    }
+}
+
+/// A vertex part's bytes (header size 128) made a texel part's: header size 192, the block
+/// inserted at 128, the checksum recomputed.
+pub(crate) fn with_block(mut bytes: Vec<u8>, block: &[u8; BLOCK_BYTES]) -> Vec<u8> {
+    let size = (HEADER_SIZE + BLOCK_BYTES) as u32;
+    bytes[12..16].copy_from_slice(&size.to_le_bytes());
+    bytes.splice(HEADER_SIZE..HEADER_SIZE, block.iter().copied());
+    let sum = checksum(&bytes);
+    bytes[CHECKSUM_OFFSET..HEADER_SIZE].copy_from_slice(&sum.to_le_bytes());
+    bytes
+}

@@ -1,0 +1,260 @@
+//! Baking a part: the direct pass over a range of a bake's receivers (the scene's vertices,
+//! or a lightmap's baked texels), with its bounce rows in interreflected mode. A shard part
+//! and a checkpoint block are both baked here, by one [`PartBaker`] built once per run.
+
+use std::ops::Range;
+
+use crate::bake::bounce_rows::HitRecorder;
+use crate::bake::interreflection::{self, Rows};
+use crate::bake::lightmap::Prepared;
+use crate::bake::transfer::{
+    BakeOptions, BounceTargets, Estimator, Mode, Receivers, direct_pass, tracer_for,
+};
+use crate::distribute::lightmap_parts::PartLightmap;
+use crate::distribute::shard::{Part, PartId, ShardId};
+use crate::formats::header::Header;
+use crate::scene::Scene;
+use crate::support::error::{Error, Result};
+use crate::support::progress::Progress;
+use crate::trace::{Backend, Tracer};
+
+/// The header a bake of `scene` with `options` writes (the same code as a whole bake's).
+pub fn bake_header(scene: &Scene, backend: Backend, options: &BakeOptions) -> Header {
+    let channels = match options.mode {
+        Mode::Interreflected if !interreflection::albedo_is_grey(scene) => 3,
+        _ => 1,
+    };
+    Header::for_bake(scene, options, backend, channels, scene.vertex_count(), 0)
+}
+
+/// What every part of one run shares: the estimator over all the bake's receivers, the way
+/// bounce hits map back to them, and the header the parts carry.
+pub struct PartBaker<'a> {
+    scene: &'a Scene,
+    tracer: Option<&'a dyn Tracer>,
+    estimator: Estimator,
+    targets: BounceTargets<'a>,
+    header: Header,
+    lightmap: Option<PartLightmap>,
+}
+
+impl<'a> PartBaker<'a> {
+    /// Parts of a vertex bake.
+    pub fn vertices(
+        scene: &'a Scene,
+        tracer: Option<&'a dyn Tracer>,
+        options: &BakeOptions,
+    ) -> Result<PartBaker<'a>> {
+        let tracer = tracer_for(options, tracer)?;
+        let backend = tracer.map_or(Backend::None, |t| t.backend());
+        Ok(PartBaker {
+            scene,
+            tracer,
+            estimator: Estimator::new(scene, options)?,
+            targets: BounceTargets::Vertices,
+            header: bake_header(scene, backend, options),
+            lightmap: None,
+        })
+    }
+
+    /// Parts of a texel bake over `prepared` (its atlas and settled texels). `tracer` must be
+    /// watertight for the texels' ray origins, as a whole texel bake's is
+    /// ([`crate::bake::lightmap::Texels::watertight`]).
+    pub fn texels(
+        scene: &'a Scene,
+        tracer: Option<&'a dyn Tracer>,
+        options: &BakeOptions,
+        prepared: &'a Prepared,
+    ) -> Result<PartBaker<'a>> {
+        let tracer = tracer_for(options, tracer)?;
+        let backend = tracer.map_or(Backend::None, |t| t.backend());
+        let texels = &prepared.texels;
+        let estimator = Estimator::for_receivers(Receivers::texels(texels), options)?;
+        let mut header = bake_header(scene, backend, options);
+        header.vertex_count = texels.valid.len() as u64;
+        Ok(PartBaker {
+            scene,
+            tracer,
+            estimator,
+            targets: BounceTargets::texels(&prepared.atlas, texels),
+            header,
+            lightmap: Some(PartLightmap::new(scene, prepared)),
+        })
+    }
+
+    /// The receivers the parts split: the scene's vertices, or the baked texels.
+    pub fn receivers(&self) -> usize {
+        self.estimator.receiver_count()
+    }
+
+    /// The header every part of this bake carries.
+    pub fn header(&self) -> &Header {
+        &self.header
+    }
+
+    /// Texel bakes: the lightmap every part carries.
+    pub fn lightmap(&self) -> Option<&PartLightmap> {
+        self.lightmap.as_ref()
+    }
+
+    /// Bakes `receivers` into a part of `shard`. In interreflected mode the part carries its
+    /// bounce rows, so they must fit in `options.hit_cache_limit`; otherwise the bake stops
+    /// with an error (a part cannot fall back to re-tracing: the merge casts no rays). Also
+    /// returns the rays cast.
+    pub fn bake(
+        &self,
+        shard: ShardId,
+        receivers: Range<usize>,
+        progress: &dyn Progress,
+    ) -> Result<(Part, u64)> {
+        let options = &self.estimator.options;
+        let recorder = (options.mode == Mode::Interreflected).then(|| {
+            HitRecorder::new(
+                self.scene,
+                &self.targets,
+                receivers.len(),
+                options.hit_cache_limit,
+            )
+        });
+        let direct = direct_pass(
+            &self.estimator,
+            self.tracer,
+            recorder.as_ref(),
+            receivers.clone(),
+            progress,
+        );
+        let what = match self.lightmap {
+            Some(_) => "baked texels",
+            None => "vertices",
+        };
+        let rows = match recorder {
+            Some(recorder) => match recorder.into_cache() {
+                Some((jobs, _)) => Some(Rows::from_jobs(jobs)),
+                None => {
+                    return Err(Error::InvalidOption(format!(
+                        "the bounce rows of {what} {}..{} exceed --hit-cache-mb {}; a part \
+                         carries its rows (the merge casts no rays): use more shards or a larger \
+                         --hit-cache-mb",
+                        receivers.start,
+                        receivers.end,
+                        options.hit_cache_limit >> 20
+                    )));
+                }
+            },
+            None => None,
+        };
+        let rays = self
+            .tracer
+            .map_or(0, |_| u64::from(options.samples) * receivers.len() as u64);
+        let aux = self.header.aux;
+        let part = Part {
+            id: PartId {
+                shard,
+                first_vertex: receivers.start as u64,
+                vertices: receivers.len() as u32,
+            },
+            coefficients: direct.coefficients,
+            ao: aux
+                .ao
+                .then(|| direct.visibility.iter().map(|v| v.accessibility).collect()),
+            bent_normal: aux
+                .bent_normal
+                .then(|| direct.visibility.iter().map(|v| v.bent_normal).collect()),
+            rows,
+            header: self.header.clone(),
+            lightmap: self.lightmap.clone(),
+        };
+        Ok((part, rays))
+    }
+}
+
+/// Bakes the vertices `vertices` into a part of `shard` ([`PartBaker::bake`] of a vertex
+/// bake). Also returns the rays cast.
+pub fn bake_part(
+    scene: &Scene,
+    tracer: Option<&dyn Tracer>,
+    options: &BakeOptions,
+    shard: ShardId,
+    vertices: Range<usize>,
+    progress: &dyn Progress,
+) -> Result<(Part, u64)> {
+    PartBaker::vertices(scene, tracer, options)?.bake(shard, vertices, progress)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::formats::coefficient_file::CoefficientFile;
+    use std::path::Path;
+
+    /// An interreflected part of the Cornell room's vertices 100..140 (shard 1 of 3 in name).
+    fn cornell_part() -> Part {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../scenes/cornell/cornell.scene"
+        );
+        let scene = Scene::load(Path::new(path)).unwrap();
+        let tracer = crate::trace::build(Backend::DEFAULT, &scene, Default::default()).unwrap();
+        let options = BakeOptions {
+            samples: 32,
+            mode: Mode::Interreflected,
+            bounces: 1,
+            aux: crate::bake::transfer::Aux {
+                ao: true,
+                bent_normal: true,
+            },
+            ..BakeOptions::default()
+        };
+        let shard = ShardId { index: 1, count: 3 };
+        let silent = crate::support::progress::Silent;
+        bake_part(&scene, Some(&*tracer), &options, shard, 100..140, &silent)
+            .unwrap()
+            .0
+    }
+
+    #[test]
+    fn parts_round_trip_and_bad_rows_or_sizes_are_refused() {
+        let part = cornell_part();
+        let rows = part.rows.as_ref().unwrap();
+        assert_eq!(rows.vertex_count(), 40);
+        assert!(!rows.vertices.is_empty());
+        let bytes = part.to_bytes();
+        let mut read = Part::from_bytes(&bytes).unwrap();
+        assert_ne!(read.header.checksum, 0);
+        read.header.checksum = 0; // the bake's header has none until written
+        assert!(
+            read == part,
+            "a part read back differs from the one written"
+        );
+        // A whole-file reader refuses it, naming what it is.
+        let err = CoefficientFile::from_bytes(&bytes).unwrap_err();
+        assert!(
+            err.contains("a shard part (shard 1 of 3, vertices 100..140)"),
+            "{err}"
+        );
+
+        // A row entry naming a vertex beyond the scene (checksum recomputed).
+        let mut bad = part.clone();
+        bad.rows.as_mut().unwrap().vertices[0] = part.header.vertex_count as u32;
+        let err = Part::from_bytes(&bad.to_bytes()).unwrap_err();
+        assert!(err.contains("bounce-row entry 0"), "{err}");
+        // Row lengths that do not add up to the entries.
+        let mut bad = part.clone();
+        bad.rows.as_mut().unwrap().starts[40] -= 1;
+        let err = Part::from_bytes(&bad.to_bytes()).unwrap_err();
+        assert!(err.contains("the bounce rows announce"), "{err}");
+        // A range beyond the scene.
+        let mut bad = part.clone();
+        bad.id.first_vertex = part.header.vertex_count - 10;
+        let err = Part::from_bytes(&bad.to_bytes()).unwrap_err();
+        assert!(err.contains("beyond the scene"), "{err}");
+        // A non-finite coefficient.
+        let mut bad = part;
+        bad.coefficients[17] = f32::NAN;
+        let err = Part::from_bytes(&bad.to_bytes()).unwrap_err();
+        assert!(
+            err.contains("coefficient 1 of vertex 1 is not finite"),
+            "{err}"
+        );
+    }
+}

@@ -1,0 +1,313 @@
+//! Texel (lightmap) bakes in shards and checkpoints (docs/distributed.md, "Lightmap bakes"):
+//! `bake --lightmap RES --shard K/N`, `merge`, and `bake --lightmap RES --checkpoint DIR`,
+//! through the real `prt-bake` binary. The oracle is the whole bake: the merge of the parts,
+//! and a checkpointed bake killed with SIGKILL and run again, must give its file byte for byte.
+
+mod common;
+
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use common::*;
+use prt_baker::distribute::shard::Part;
+
+const CORNELL: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../scenes/cornell/cornell.scene"
+);
+const TORUS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/torus/torus.scene");
+
+/// Bakes the Cornell room's 40² lightmap whole and in 3 shards (shard k on k % 2 + 1 threads,
+/// merged from the parts in reverse order), and checks the merge is the whole bake's file.
+fn assert_texel_merge_is_the_whole_bake(s: &Scratch, name: &str, extra: &[&str]) {
+    let base = [&["--lightmap", "40"], extra].concat();
+    s.bake(CORNELL, &format!("{name}.prt"), &base);
+    let mut parts = Vec::new();
+    for k in 0..3 {
+        let part = format!("{name}-{k}.part.prt");
+        let (shard, threads) = (format!("{k}/3"), format!("{}", k % 2 + 1));
+        let args = [&base[..], &["--shard", &shard, "--threads", &threads]].concat();
+        let run = s.bake(CORNELL, &part, &args);
+        assert!(
+            run.stdout
+                .contains(&format!("shard {k} of 3 (baked texels ")),
+            "{}",
+            run.stdout
+        );
+        parts.push(format!("out/{part}"));
+    }
+    parts.reverse();
+    let merged = format!("out/{name}.merged.prt");
+    let mut args = vec!["merge", "--quiet", "-o", &merged];
+    args.extend(parts.iter().map(String::as_str));
+    let run = s.run(&args).success();
+    assert!(run.stdout.contains("40×40 texels"), "{}", run.stdout);
+    assert!(
+        s.read(&format!("out/{name}.prt")) == s.read(&merged),
+        "{name}: the merge of 3 texel parts differs from the whole texel bake"
+    );
+}
+
+#[test]
+fn merged_texel_shards_equal_the_whole_texel_bake() {
+    let s = Scratch::new();
+    assert_texel_merge_is_the_whole_bake(&s, "shadowed", &[]);
+    assert_texel_merge_is_the_whole_bake(&s, "aux", &["--aux", "ao,bent-normal"]);
+    assert_texel_merge_is_the_whole_bake(&s, "unshadowed", &["--mode", "unshadowed"]);
+    // Coloured walls: 3 channels, two bounces gathered by the merge over the dilated lightmap.
+    let interreflected = ["--mode", "interreflected", "--bounces", "2", "--aux", "ao"];
+    assert_texel_merge_is_the_whole_bake(&s, "rgb", &interreflected);
+    let header = s.run(&["inspect", "out/rgb.merged.prt"]).success().stdout;
+    assert!(header.contains("\"channels\": 3"), "{header}");
+    assert!(header.contains("\"width\": 40"), "{header}");
+
+    // Shards are balanced by baked texels (rays), not by objects or lightmap rows: each of
+    // the 3 parts holds a third of the baked texels (±1).
+    let mut counts = Vec::new();
+    for k in 0..3 {
+        let part = Part::read(&s.path(&format!("out/rgb-{k}.part.prt"))).unwrap();
+        let lightmap = part.lightmap.as_ref().expect("a texel part");
+        counts.push((part.id.vertices as u64, lightmap.receivers));
+    }
+    let total = counts[0].1;
+    assert_eq!(counts.iter().map(|c| c.0).sum::<u64>(), total);
+    for (held, _) in &counts {
+        assert!(held.abs_diff(total / 3) <= 1, "{counts:?}");
+    }
+}
+
+#[test]
+fn a_texel_merge_without_rays_equals_a_whole_bake_that_re_traced_its_bounces() {
+    let s = Scratch::new();
+    let options = [
+        "--lightmap",
+        "40",
+        "--mode",
+        "interreflected",
+        "--bounces",
+        "2",
+    ];
+    let retraced = [&options[..], &["--hit-cache-mb", "0"]].concat();
+    let run = s.bake(CORNELL, "retraced.prt", &retraced);
+    assert!(run.stdout.contains("re-traced"), "{}", run.stdout);
+    for k in 0..2 {
+        let shard = format!("{k}/2");
+        let args = [&options[..], &["--shard", &shard]].concat();
+        s.bake(CORNELL, &format!("p{k}.prt"), &args);
+    }
+    s.run(&["merge", "out/p1.prt", "out/p0.prt", "-o", "out/merged.prt"])
+        .success();
+    assert!(s.read("out/retraced.prt") == s.read("out/merged.prt"));
+}
+
+#[test]
+fn texel_merges_refuse_parts_of_other_atlases_scenes_and_options() {
+    let s = Scratch::new();
+    let lm = ["--lightmap", "40"];
+    for k in 0..3 {
+        let shard = format!("{k}/3");
+        s.bake(
+            CORNELL,
+            &format!("p{k}.prt"),
+            &[&lm[..], &["--shard", &shard]].concat(),
+        );
+    }
+    let other = |name: &str, extra: &[&str]| {
+        let args = [&extra[..], &["--shard", "2/3"]].concat();
+        s.bake(CORNELL, name, &args);
+    };
+    other("planar.prt", &["--lightmap", "40", "--atlas", "planar"]);
+    other("res.prt", &["--lightmap", "48"]);
+    other("seed.prt", &["--lightmap", "40", "--seed", "3"]);
+    other("vertex.prt", &[]);
+    s.bake(TORUS, "torus.prt", &["--lightmap", "40", "--shard", "2/3"]);
+    // The same part with only its atlas fingerprint changed (what two shards that computed
+    // different atlases or leak tests would write).
+    let mut forged = Part::read(&s.path("out/p2.prt")).unwrap();
+    forged.lightmap.as_mut().unwrap().fingerprint ^= 1;
+    s.write("out/forged.prt", forged.to_bytes());
+
+    let cases: [(&str, &[&str]); 6] = [
+        (
+            "planar",
+            &[
+                "a part of another bake than out/p0.prt",
+                "atlas fingerprint",
+            ],
+        ),
+        ("res", &["vertex_count 2304 instead of 1600"]),
+        ("seed", &["seed 3 instead of 0"]),
+        (
+            "vertex",
+            &["a part of another bake than out/p0.prt", "vertex_count"],
+        ),
+        ("torus", &["scene fingerprint (another scene)"]),
+        (
+            "forged",
+            &[
+                "out/forged.prt: a part of another bake than out/p0.prt",
+                "another lightmap atlas or set of baked texels: atlas fingerprint",
+            ],
+        ),
+    ];
+    for (name, needles) in cases {
+        let path = format!("out/{name}.prt");
+        s.run(&[
+            "merge",
+            "out/p0.prt",
+            "out/p1.prt",
+            &path,
+            "-o",
+            "out/m.prt",
+        ])
+        .fails_with_bad_input(needles);
+        assert!(
+            !s.path("out/m.prt").exists(),
+            "{name}: a refused merge wrote"
+        );
+    }
+    s.run(&["merge", "out/p0.prt", "out/p2.prt", "-o", "out/m.prt"])
+        .fails_with_bad_input(&["shard 1 of 3 missing"]);
+    // A texel part is not a bake, and inspect says what it holds.
+    s.run(&[
+        "export",
+        "out/p0.prt",
+        "--scene",
+        CORNELL,
+        "--npz",
+        "out/p0.npz",
+    ])
+    .fails_with_bad_input(&["a shard part (shard 0 of 3", "prt-bake merge"]);
+    let run = s.run(&["inspect", "out/p1.prt"]).success();
+    for needle in ["\"atlas_fingerprint\"", "\"baked_texels\"", "\"count\": 3"] {
+        assert!(run.stdout.contains(needle), "{needle}: {}", run.stdout);
+    }
+    // Lightmap bakes still refuse adaptive sampling.
+    s.run(&[
+        "bake",
+        CORNELL,
+        "-o",
+        "out/a.prt",
+        "--lightmap",
+        "40",
+        "--target-error",
+        "0.01",
+    ])
+    .fails_with(EXIT_BAD_COMMAND_LINE, &["--target-error"]);
+}
+
+fn blocks_in(dir: &Path) -> usize {
+    std::fs::read_dir(dir).map_or(0, |entries| {
+        entries
+            .filter(|e| {
+                let name = e.as_ref().unwrap().file_name();
+                let name = name.to_string_lossy();
+                name.starts_with("block-") && name.ends_with(".prt")
+            })
+            .count()
+    })
+}
+
+#[test]
+fn a_checkpointed_texel_bake_killed_with_sigkill_resumes_to_the_same_file() {
+    let s = Scratch::new();
+    // About 12,000 baked texels in blocks of 128 on one thread, interreflected: the kill
+    // lands mid-bake.
+    let args = [
+        "bake",
+        CORNELL,
+        "-o",
+        "out/resumed.prt",
+        "--quiet",
+        "--lightmap",
+        "128",
+        "--samples",
+        "256",
+        "--threads",
+        "1",
+        "--mode",
+        "interreflected",
+        "--bounces",
+        "2",
+        "--aux",
+        "ao,bent-normal",
+        "--checkpoint",
+        "out/checkpoint",
+        "--checkpoint-vertices",
+        "128",
+    ];
+    let mut child = Command::new(env!("CARGO_BIN_EXE_prt-bake"))
+        .args(args)
+        .current_dir(s.path(""))
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("start prt-bake");
+    let checkpoint = s.path("out/checkpoint");
+    let started = Instant::now();
+    while blocks_in(&checkpoint) < 3 {
+        assert!(
+            started.elapsed() < Duration::from_secs(120),
+            "no checkpoint blocks after two minutes"
+        );
+        assert!(
+            child.try_wait().unwrap().is_none(),
+            "the bake ended before it was killed"
+        );
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    child.kill().expect("SIGKILL the bake");
+    child.wait().unwrap();
+    let kept = blocks_in(&checkpoint);
+    assert!(
+        !s.path("out/resumed.prt").exists(),
+        "a killed bake left an output"
+    );
+
+    let run = s.run(&args).success();
+    let resumed = format!(" blocks ({kept} resumed from out/checkpoint)");
+    assert!(
+        run.stdout.contains(&resumed),
+        "expected {resumed:?} in {}",
+        run.stdout
+    );
+    let total: usize = run
+        .stdout
+        .split(" blocks (")
+        .next()
+        .unwrap()
+        .rsplit(' ')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!((3..total).contains(&kept), "{kept} of {total} blocks");
+
+    let whole: Vec<&str> = args[..args.len() - 4]
+        .iter()
+        .map(|a| match *a {
+            "out/resumed.prt" => "out/whole.prt",
+            a => a,
+        })
+        .collect();
+    s.run(&whole).success();
+    assert!(
+        s.read("out/resumed.prt") == s.read("out/whole.prt"),
+        "the resumed texel bake differs from the uninterrupted one"
+    );
+
+    // A checkpoint folder of another atlas is refused, never overwritten.
+    let mut planar: Vec<&str> = args
+        .iter()
+        .map(|a| match *a {
+            "out/resumed.prt" => "out/planar.prt",
+            a => a,
+        })
+        .collect();
+    planar.extend(["--atlas", "planar"]);
+    s.run(&planar).fails_with_bad_input(&[
+        "a checkpoint of another bake",
+        "use another --checkpoint folder",
+    ]);
+}
