@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # A real single-node Slurm cluster (Debian 12's slurm-wlm 22.05 and munge), started for one
-# test and stopped again: scripts/slurm/submit.sh bakes the demo scene in 4 shards and merges
-# them, and the merged file must equal the single-machine bake byte for byte.
+# test and stopped again: scripts/slurm/submit.sh bakes the Cornell room in 4 shards and merges
+# them, then its 64² lightmap (a texel bake, interreflected) in 3 shards, and each merged file
+# must equal the single-machine bake byte for byte.
 #
 #   scripts/slurm/test-cluster.sh [PRT_BAKE]
 #
@@ -15,6 +16,8 @@ root=$(cd "$(dirname "$0")/../.." && pwd)
 bake=$(realpath "${1:-$root/target/release/prt-bake}")
 scene=$root/scenes/cornell/cornell.scene
 bake_options=(--samples 256 --mode interreflected --bounces 2 --aux ao)
+# The texel bake: small and few rays, so it adds seconds, not minutes.
+texel_options=(--lightmap 64 --samples 64 --mode interreflected --bounces 2 --aux ao,bent-normal)
 
 if [ "$(id -u)" -ne 0 ]; then
     echo "slurm test: SKIPPED: the test's Slurm and munge daemons must run as root (run make test as root)"
@@ -128,3 +131,16 @@ done
 timeout 120 "$bake" bake "$scene" -o "$tmp/single.prt" --quiet "${bake_options[@]}" >/dev/null
 cmp "$tmp/merged.prt" "$tmp/single.prt"
 echo "slurm test: 4 shards on Slurm, merged by a dependent job in ${slurm_seconds}s: identical to the single-machine bake"
+
+# A texel (lightmap) bake: its shards split the baked texels; the merge places, dilates and
+# gathers the bounces over the lightmap.
+SECONDS=0
+timeout 120 "$root/scripts/slurm/submit.sh" --wait "$scene" "$tmp/texels.prt" 3 "${texel_options[@]}"
+slurm_seconds=$SECONDS
+for k in 0 1 2; do
+    grep -q "shard $k of 3 (baked texels" "$tmp/texels.prt.parts/shard-$k.log" ||
+        { echo "slurm test: texel shard $k's log does not say it baked shard $k of 3's texels" >&2; exit 1; }
+done
+timeout 120 "$bake" bake "$scene" -o "$tmp/texels-single.prt" --quiet "${texel_options[@]}" >/dev/null
+cmp "$tmp/texels.prt" "$tmp/texels-single.prt"
+echo "slurm test: a 64² lightmap in 3 shards on Slurm, merged in ${slurm_seconds}s: identical to the single-machine texel bake"
