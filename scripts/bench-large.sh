@@ -1,0 +1,48 @@
+#!/usr/bin/env bash
+# The large-scene benchmark (issue 22; not part of `make test`): a generated terrain of about a
+# million triangles with its own lightmap UVs (scripts/bench/large_scene.py), baked as a 2048²
+# interreflected lightmap whole and in N shards run one after the other, then merged and
+# compared byte for byte with the whole bake. Prints wall time, peak memory (/usr/bin/time -v)
+# and the bake's ray rate per run. docs/performance.md records the figures.
+#
+#   scripts/bench-large.sh [N]        (default 4 shards)
+#
+# Environment: PRT_BAKE (binary), LARGE_QUADS (terrain quads per side, default 708: 1,002,528
+# triangles), LARGE_RES (2048), LARGE_SAMPLES (16), LARGE_BOUNCES (2), LARGE_ORDER (3),
+# LARGE_OUT (folder, default target/bench-large; the scene and the bakes, ~1 GB).
+set -euo pipefail
+
+root=$(cd "$(dirname "$0")/.." && pwd)
+bake=$(realpath "${PRT_BAKE:-$root/target/release/prt-bake}")
+shards=${1:-4}
+quads=${LARGE_QUADS:-708}
+out=${LARGE_OUT:-$root/target/bench-large}
+[ -x "$bake" ] || { echo "bench-large: $bake is missing (cargo build --release)" >&2; exit 1; }
+[ -x /usr/bin/time ] || { echo "bench-large: /usr/bin/time is missing (apt-get install time)" >&2; exit 1; }
+mkdir -p "$out"
+scene=$out/terrain-$quads.gltf
+[ -f "$scene" ] || python3 "$root/scripts/bench/large_scene.py" "$scene" "$quads"
+options=(--lightmap "${LARGE_RES:-2048}" --samples "${LARGE_SAMPLES:-16}" --mode interreflected
+         --bounces "${LARGE_BOUNCES:-2}" --order "${LARGE_ORDER:-3}" --hit-cache-mb 8192 --quiet)
+echo "bench-large: $scene, ${options[*]}, $shards shards, $(nproc) cores, load $(cut -d' ' -f1-3 /proc/loadavg)"
+
+# Runs a command under /usr/bin/time -v; prints its last output line, wall time and peak RSS.
+timed() {
+    local name=$1
+    shift
+    /usr/bin/time -v "$@" >"$out/$name.out" 2>"$out/$name.time"
+    local wall rss
+    wall=$(grep 'Elapsed (wall clock)' "$out/$name.time" | awk '{print $NF}')
+    rss=$(grep 'Maximum resident' "$out/$name.time" | awk '{print $NF}')
+    printf '%-8s wall %8s  peak %6d MB  %s\n' "$name" "$wall" $((rss / 1024)) "$(tail -n 1 "$out/$name.out")"
+}
+
+timed whole "$bake" bake "$scene" -o "$out/whole.prt" "${options[@]}"
+parts=()
+for ((k = 0; k < shards; k++)); do
+    timed "shard-$k" "$bake" bake "$scene" -o "$out/part-$k.prt" --shard "$k/$shards" "${options[@]}"
+    parts+=("$out/part-$k.prt")
+done
+timed merge "$bake" merge "${parts[@]}" -o "$out/merged.prt" --quiet
+cmp "$out/whole.prt" "$out/merged.prt"
+echo "bench-large: the merge of $shards shards equals the whole bake byte for byte ($(du -h "$out/whole.prt" | cut -f1), parts $(du -ch "${parts[@]}" | tail -n 1 | cut -f1))"
