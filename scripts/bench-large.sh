@@ -8,7 +8,7 @@
 #   scripts/bench-large.sh [N]        (default 4 shards)
 #
 # Environment: PRT_BAKE (binary), LARGE_QUADS (terrain quads per side, default 708: 1,002,528
-# triangles), LARGE_RES (2048), LARGE_SAMPLES (16), LARGE_BOUNCES (2), LARGE_ORDER (3),
+# triangles), LARGE_RELIEF (height scale, 4), LARGE_RES (2048), LARGE_SAMPLES (16), LARGE_BOUNCES (2), LARGE_ORDER (3),
 # LARGE_OUT (folder, default target/bench-large; the scene and the bakes, ~1 GB).
 set -euo pipefail
 
@@ -20,8 +20,9 @@ out=${LARGE_OUT:-$root/target/bench-large}
 [ -x "$bake" ] || { echo "bench-large: $bake is missing (cargo build --release)" >&2; exit 1; }
 [ -x /usr/bin/time ] || { echo "bench-large: /usr/bin/time is missing (apt-get install time)" >&2; exit 1; }
 mkdir -p "$out"
-scene=$out/terrain-$quads.gltf
-[ -f "$scene" ] || python3 "$root/scripts/bench/large_scene.py" "$scene" "$quads"
+relief=${LARGE_RELIEF:-4}
+scene=$out/terrain-$quads-$relief.gltf
+[ -f "$scene" ] || python3 "$root/scripts/bench/large_scene.py" "$scene" "$quads" "$relief"
 options=(--lightmap "${LARGE_RES:-2048}" --samples "${LARGE_SAMPLES:-16}" --mode interreflected
          --bounces "${LARGE_BOUNCES:-2}" --order "${LARGE_ORDER:-3}" --hit-cache-mb 8192 --quiet)
 echo "bench-large: $scene, ${options[*]}, $shards shards, $(nproc) cores, load $(cut -d' ' -f1-3 /proc/loadavg)"

@@ -4,7 +4,9 @@ N×N quads (2·N² triangles; N = 708 gives 1,002,528) with hills and pits, so i
 and light each other, and its own lightmap UVs (TEXCOORD_1: the terrain's plane, one chart
 filling the atlas), so the bake needs no unwrap of a million triangles.
 
-    large_scene.py OUT.gltf [N]
+    large_scene.py OUT.gltf [N [RELIEF]]
+
+RELIEF scales the heights (default 4: slopes of several units, so many bounce rays hit).
 
 Writes OUT.gltf and OUT.bin beside it. Standard library only (no NumPy on a fresh machine).
 """
@@ -16,16 +18,21 @@ from array import array
 from pathlib import Path
 
 
+RELIEF = 4.0
+
+
 def height(x, y):
-    """Hills and pits over [0, 1]²: a few octaves of sines, up to about 0.08 high."""
-    return 0.04 * math.sin(11.0 * x) * math.cos(9.0 * y) + 0.025 * math.sin(
+    """Hills and pits over [0, 1]²: a few octaves of sines, up to about 0.08 × RELIEF high."""
+    return RELIEF * 0.04 * math.sin(11.0 * x) * math.cos(9.0 * y) + 0.025 * math.sin(
         37.0 * x + 3.0 * y
-    ) * math.sin(29.0 * y) + 0.012 * math.cos(91.0 * x) * math.sin(83.0 * y)
+    ) * math.sin(29.0 * y) * RELIEF + RELIEF * 0.012 * math.cos(91.0 * x) * math.sin(83.0 * y)
 
 
 def main():
     out = Path(sys.argv[1])
+    global RELIEF
     n = int(sys.argv[2]) if len(sys.argv) > 2 else 708
+    RELIEF = float(sys.argv[3]) if len(sys.argv) > 3 else RELIEF
     m = n + 1
     positions, normals, uv0, uv1 = array("f"), array("f"), array("f"), array("f")
     eps = 1.0 / n
@@ -50,7 +57,7 @@ def main():
             a = j * m + i
             b, c, d = a + 1, a + m, a + m + 1
             # Counter-clockwise seen from above (+y).
-            indices.extend((a, c, b, b, c, d))
+            indices.extend((a, b, c, b, d, c))
     blobs = [positions.tobytes(), normals.tobytes(), uv0.tobytes(), uv1.tobytes(), indices.tobytes()]
     offsets, at = [], 0
     for blob in blobs:
