@@ -114,7 +114,7 @@ fn texel_merges_refuse_parts_of_other_atlases_scenes_and_options() {
         );
     }
     let other = |name: &str, extra: &[&str]| {
-        let args = [&extra[..], &["--shard", "2/3"]].concat();
+        let args = [extra, &["--shard", "2/3"]].concat();
         s.bake(CORNELL, name, &args);
     };
     other("planar.prt", &["--lightmap", "40", "--atlas", "planar"]);

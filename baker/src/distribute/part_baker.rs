@@ -257,4 +257,70 @@ mod tests {
             "{err}"
         );
     }
+
+    #[test]
+    fn texel_parts_round_trip_and_bad_masks_or_blocks_are_refused() {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../scenes/cornell/cornell.scene"
+        );
+        let scene = Scene::load(Path::new(path)).unwrap();
+        let tracer = crate::trace::build(Backend::DEFAULT, &scene, Default::default()).unwrap();
+        let options = BakeOptions {
+            samples: 16,
+            mode: Mode::Interreflected,
+            bounces: 1,
+            aux: crate::bake::transfer::Aux {
+                ao: true,
+                bent_normal: false,
+            },
+            ..BakeOptions::default()
+        };
+        let atlas = crate::bake::lightmap::Atlas::generate(&scene, 24, None).unwrap();
+        let prepared =
+            crate::bake::lightmap::prepare(&scene, Some(&*tracer), options.seed, atlas).unwrap();
+        let baker = PartBaker::texels(&scene, Some(&*tracer), &options, &prepared).unwrap();
+        let baked = baker.receivers();
+        assert_eq!(baked, prepared.texels.valid_count());
+        let shard = ShardId { index: 1, count: 2 };
+        let silent = crate::support::progress::Silent;
+        let (part, _) = baker.bake(shard, 10..30, &silent).unwrap();
+        let bytes = part.to_bytes();
+        assert_eq!(u32::from_le_bytes(bytes[12..16].try_into().unwrap()), 192);
+        let mut read = Part::from_bytes(&bytes).unwrap();
+        read.header.checksum = 0;
+        assert!(read == part, "a texel part read back differs");
+        assert_eq!(read.receiver_count(), baked);
+        // Readers of whole files refuse it.
+        let err = CoefficientFile::from_bytes(&bytes).unwrap_err();
+        assert!(err.contains("a shard part (shard 1 of 2"), "{err}");
+
+        // A mask that does not hold the announced baked texels.
+        let mut bad = part.clone();
+        let l = bad.lightmap.as_mut().unwrap();
+        let first_empty = l.valid.iter().position(|v| !v).unwrap();
+        l.valid[first_empty] = true;
+        let err = Part::from_bytes(&bad.to_bytes()).unwrap_err();
+        assert!(err.contains("the mask holds"), "{err}");
+        // Baked texels beyond the lightmap, and a range beyond the baked texels.
+        let mut bad = part.clone();
+        bad.lightmap.as_mut().unwrap().receivers = 24 * 24 + 1;
+        let err = Part::from_bytes(&bad.to_bytes()).unwrap_err();
+        assert!(err.contains("baked texels in a lightmap of 576"), "{err}");
+        let mut bad = part.clone();
+        bad.id.first_vertex = baked as u64 - 5;
+        let err = Part::from_bytes(&bad.to_bytes()).unwrap_err();
+        assert!(err.contains("beyond the scene's"), "{err}");
+        // A truncated tail: the file's payload no longer matches.
+        let mut short = part.to_bytes();
+        short.truncate(short.len() - 1);
+        assert!(Part::from_bytes(&short).is_err());
+        // A row entry naming a texel beyond the lightmap.
+        let mut bad = part;
+        let rows = bad.rows.as_mut().unwrap();
+        assert!(!rows.vertices.is_empty(), "no bounce hits recorded");
+        rows.vertices[0] = 24 * 24;
+        let err = Part::from_bytes(&bad.to_bytes()).unwrap_err();
+        assert!(err.contains("bounce-row entry 0"), "{err}");
+    }
 }
