@@ -21,7 +21,10 @@ use rayon::prelude::*;
 use timing::cpu_time;
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with("--")).collect();
+    let args: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with("--"))
+        .collect();
     let [scene, res, samples, rest @ ..] = args.as_slice() else {
         panic!("usage: large SCENE RES SAMPLES [BOUNCE_SAMPLES]");
     };
@@ -29,7 +32,10 @@ fn main() {
     let samples: u32 = samples.parse().expect("SAMPLES");
     let bounce_samples: Option<u32> = rest.first().map(|s| s.parse().expect("BOUNCE_SAMPLES"));
     let scene = Scene::load(std::path::Path::new(scene)).expect("the scene");
-    let uvs = scene.lightmap_uvs.as_ref().expect("a scene with TEXCOORD_1");
+    let uvs = scene
+        .lightmap_uvs
+        .as_ref()
+        .expect("a scene with TEXCOORD_1");
     let atlas = Atlas::from_vertex_uvs(&scene, uvs, resolution, resolution).expect("atlas");
     let options = BakeOptions {
         order: 3,
@@ -54,7 +60,14 @@ fn main() {
     let embree = tracer.embree_scene();
     let run = |trace: bool| {
         (0..texels).into_par_iter().for_each_init(
-            || (Vec::new(), Vec::new(), Vec::<embree_sys::Ray>::new(), Vec::new()),
+            || {
+                (
+                    Vec::new(),
+                    Vec::new(),
+                    Vec::<embree_sys::Ray>::new(),
+                    Vec::new(),
+                )
+            },
             |(dirs, weights, stream, hits), v| {
                 let frame = estimator.vertex_frame(v);
                 estimator.directions(v, &frame, 0..samples as usize, dirs, weights);
