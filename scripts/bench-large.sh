@@ -3,7 +3,8 @@
 # million triangles with its own lightmap UVs (scripts/bench/large_scene.py), baked as a 2048²
 # interreflected lightmap whole and in N shards run one after the other, then merged and
 # compared byte for byte with the whole bake. Prints wall time, peak memory (/usr/bin/time -v)
-# and the bake's ray rate per run. docs/performance.md records the figures.
+# the bake's ray rate and CPU time per run, and the raw Embree rate of the same rays
+# (baker/benches/large.rs). docs/performance.md records the figures.
 #
 #   scripts/bench-large.sh [N]        (default 4 shards)
 #
@@ -47,3 +48,13 @@ done
 timed merge "$bake" merge "${parts[@]}" -o "$out/merged.prt" --quiet
 cmp "$out/whole.prt" "$out/merged.prt"
 echo "bench-large: the merge of $shards shards equals the whole bake byte for byte ($(du -h "$out/whole.prt" | cut -f1), parts $(du -ch "${parts[@]}" | tail -n 1 | cut -f1))"
+
+# The raw Embree rate of the same rays (benches/large.rs: bounce samples as closest-hit
+# streams, the rest as occlusion streams) and the texel preparation alone; LARGE_RAW=0 skips it.
+if [ "${LARGE_RAW:-1}" != 0 ]; then
+    cargo bench -q -p prt-baker --bench large -- "$scene" "${LARGE_RES:-2048}" "${LARGE_SAMPLES:-16}" 2>&1 | grep '^raw Embree'
+fi
+echo "bench-large: CPU seconds (user + system) per run:"
+for f in "$out"/*.time; do
+    printf '  %-8s %s\n' "$(basename "$f" .time)" "$(awk -F': ' '/User time|System time/ {s += $2} END {print s}' "$f")"
+done
