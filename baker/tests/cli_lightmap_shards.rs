@@ -70,6 +70,31 @@ fn merged_texel_shards_equal_the_whole_texel_bake() {
         let lightmap = part.lightmap.as_ref().expect("a texel part");
         counts.push((part.id.vertices as u64, lightmap.receivers));
     }
+    // More shards than baked texels: most parts are empty, and the merge is still the bake.
+    s.write(
+        "tri.obj",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1\n",
+    );
+    let tiny = ["--lightmap", "8", "--mode", "interreflected"];
+    s.bake("tri.obj", "tiny.prt", &tiny);
+    let mut args = vec![
+        "merge".to_string(),
+        "-o".into(),
+        "out/tiny.merged.prt".into(),
+    ];
+    for k in 0..16 {
+        let shard = format!("{k}/16");
+        s.bake(
+            "tri.obj",
+            &format!("tiny-{k}.prt"),
+            &[&tiny[..], &["--shard", &shard]].concat(),
+        );
+        args.push(format!("out/tiny-{k}.prt"));
+    }
+    s.run(&args.iter().map(String::as_str).collect::<Vec<_>>())
+        .success();
+    assert!(s.read("out/tiny.prt") == s.read("out/tiny.merged.prt"));
+
     let total = counts[0].1;
     assert_eq!(counts.iter().map(|c| c.0).sum::<u64>(), total);
     for (held, _) in &counts {
