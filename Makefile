@@ -10,6 +10,7 @@
 #   make bench       the bake benchmark: Embree and obvhs against the raw Embree rate
 #                    (docs/performance.md)
 #   make fuzz        the parsers' mutation fuzzing at 20 times make test's mutants (docs/robustness.md)
+#   make web GLB=F   serve the three.js example page for a prt-bake .glb and print its address
 #   make bench-view  the viewer's frame rates, Blinn-Phong and PRT with 1 and 8 lights (docs/performance.md)
 
 CARGO ?= cargo
@@ -21,7 +22,7 @@ SCENE := scenes/torus/torus.scene
 NO_EMBREE := target/no-embree
 NO_EMBREE_BAKE := $(NO_EMBREE)/release/prt-bake
 
-.PHONY: demo test bench bench-view deps build lint unit no-embree embree4 reference interop scenes slurm fuzz browser mitsuba
+.PHONY: demo test bench bench-view deps build lint unit no-embree embree4 reference interop scenes slurm fuzz browser mitsuba web
 
 deps:
 	@scripts/install-deps.sh
@@ -94,6 +95,13 @@ interop: build
 # compile (glslangValidator; naga in prt-view's tests). About a minute.
 browser: build
 	scripts/browser/run.sh
+
+# The web round trip's last step: serve the repository and print the three.js example page's
+# address for GLB (a prt-bake export --glb … --lights RIG file); Ctrl-C stops it.
+GLB ?=
+PORT ?= 8000
+web: deps
+	scripts/browser/serve.sh "$(GLB)" "$(PORT)"
 
 # A single-node Slurm cluster (slurmctld, slurmd, munged) started and stopped by the test:
 # scripts/slurm/submit.sh bakes in 4 shards, the merge must equal the single-machine bake.

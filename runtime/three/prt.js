@@ -3,8 +3,9 @@
 // An ES module with no build step; `three` is imported by its bare name (an import map in the
 // page names the file). Per vertex or per texel, grey or RGB transfer, any order:
 //
-//   import { lightFromJSON, rotateLight, applyPRT, loadLightmapTransfer } from './prt.js';
+//   import { lightFromJSON, lightFromGLTF, rotateLight, applyPRT, loadLightmapTransfer } from './prt.js';
 //   const light = lightFromJSON(await (await fetch('light.json')).json()); // prt-bake light --up y
+//   const light = lightFromGLTF(gltf);       // or the rig the .glb was exported with (--lights)
 //   const prt = applyPRT(gltf.scene, light);                   // vertex bakes (_PRT_k)
 //   const prt = applyPRT(gltf.scene, light, { lightmap: await loadLightmapTransfer('exr/manifest.json') });
 //   prt.setLight(rotateLight(light, m));                       // m: row-major 3×3, glTF frame
@@ -16,9 +17,19 @@
 
 import * as THREE from 'three';
 import { EXRLoader } from 'three/addons/loaders/EXRLoader.js';
-import { GLTF_TO_Z_UP, coeffCount, lightOfOrder, rotateLight } from './sh.js';
+import { GLTF_TO_Z_UP, coeffCount, lightFromJSON, lightOfOrder, rotateLight } from './sh.js';
 
 export { lightFromJSON, rotateLight, shRotation, axisAngle, multiply3, Z_UP_TO_GLTF, GLTF_TO_Z_UP } from './sh.js';
+
+/**
+ * The light a `.glb` was exported with (`prt-bake export … --lights RIG`): its
+ * `asset.extras.prt.light`, which is `prt-bake light RIG --up y`'s JSON, in the file's frame.
+ * `gltf` is GLTFLoader's result. Returns null when the file carries no light.
+ */
+export function lightFromGLTF(gltf) {
+  const light = gltf?.parser?.json?.asset?.extras?.prt?.light;
+  return light === undefined ? null : lightFromJSON(light);
+}
 
 /** The `_PRT_k` attribute names of a geometry (three.js lower-cases them), per channel. */
 function vertexTransfer(geometry) {

@@ -132,7 +132,10 @@ try {
     for (const [label, glb, rotation] of [['rig', `${c.name}.glb`, null], ['turned', `${c.name}-turned.glb`, turn]]) {
       const frames = label === 'rig' ? 30 : 0;
       const reference = await render({ glb: `/data/${glb}`, mode: 'exported', view: c.view, frames });
-      const relit = await render({ glb: `/data/${c.name}.glb`, mode: 'prt', light: light(order), rotation, lightmap, view: c.view, frames });
+      // At the rig, the light is the one the .glb carries (export --lights puts it in
+      // asset.extras.prt.light); turned, it is prt-bake light's JSON turned by prt.js.
+      const relitLight = label === 'rig' ? 'embedded' : light(order);
+      const relit = await render({ glb: `/data/${c.name}.glb`, mode: 'prt', light: relitLight, rotation, lightmap, view: c.view, frames });
       const a = Buffer.from(reference.pixels, 'base64');
       const b = Buffer.from(relit.pixels, 'base64');
       exported[label] = a;
@@ -145,6 +148,14 @@ try {
         fs.writeFileSync(path.join(out, `${c.name}-${label}-${which}.rgba`), Buffer.from(r.pixels, 'base64'));
       }
     }
+    // The light in the .glb is prt-bake light --up y's, to rounding.
+    const embedded = await page.evaluate((glb) => window.prtTest.embeddedLight(glb), `/data/${c.name}.glb`);
+    const json = light(order);
+    const lightError = embedded && embedded.order === json.order
+      ? Math.max(...embedded.rgb.flatMap((channel, i) => channel.map((x, j) => Math.abs(x - json.coefficients[i][j]))))
+      : Infinity;
+    failures += lightError <= 1e-9 ? 0 : 1;
+    console.log(`browser: ${lightError <= 1e-9 ? 'ok  ' : 'FAIL'} ${c.name}: the .glb's light (asset.extras.prt.light) is prt-bake light --up y's (largest difference ${lightError.toExponential(1)})`);
     // export --quantize: the relit render of the 16-bit transfer must match the float
     // COLOR_0 as closely as the float transfer does, the 8-bit one within twice the codes.
     if (!c.texel) {
@@ -172,7 +183,12 @@ try {
     failures += sensitive ? 0 : 1;
     console.log(`browser: ${sensitive ? 'ok  ' : 'FAIL'} ${c.name}: the turned rig changes ${changed} pixels by more than ${3 * c.tolerance} codes`);
   }
-  // The example page: it loads a bake and a light, relights, and a right drag turns the light.
+  // The example page given only a .glb relights it with the rig the file carries (the README's
+  // web round trip), ...
+  await page.goto(`${base}/runtime/three/example.html?glb=/data/cornell-rgb.glb`);
+  await page.waitForFunction(() => window.prtExample?.handle?.meshes.length > 0, null, { timeout: 30000 });
+  console.log('browser: ok   example.html relights a .glb with its own light (no light file)');
+  // ... and given a light, it loads that; a right drag turns the light.
   await page.goto(`${base}/runtime/three/example.html?glb=/data/cornell-rgb.glb&light=/data/light-4.json`);
   await page.waitForFunction(() => window.prtExample?.handle?.meshes.length > 0, null, { timeout: 30000 });
   await page.mouse.move(400, 300);

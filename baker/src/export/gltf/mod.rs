@@ -22,6 +22,7 @@
 //! materials name in `extras.prt_lightmap` ([`split_at_lightmap_seams`], docs/gltf.md).
 
 mod builder;
+mod light;
 mod seams;
 
 use std::path::Path;
@@ -37,6 +38,7 @@ use crate::support::error::Result;
 
 pub use builder::Quantize;
 use builder::*;
+use light::{light_in_gltf_frame, light_json};
 use seams::ao_png_bytes;
 pub use seams::split_at_lightmap_seams;
 
@@ -162,6 +164,7 @@ fn lightmap_glb_bytes(
         light: None,
         up: file.header.up,
     };
+    let light = light.map(|l| light_in_gltf_frame(l, file.header.up));
     let ao_png = match &file.ao {
         None => None,
         Some(ao) => Some(ao_png_bytes(ao, block.width, block.height, output)?),
@@ -172,6 +175,7 @@ fn lightmap_glb_bytes(
         file,
         png: image,
         ao_png,
+        light,
     };
     glb_bytes_with(&split, &contents, Some(&lightmap), None)
 }
@@ -186,6 +190,8 @@ struct LightmapContents<'a> {
     png: Option<Vec<u8>>,
     /// The AO (linear grey PNG), where the bake has it.
     ao_png: Option<Vec<u8>>,
+    /// The rig's light in glTF's frame, for `asset.extras.prt.light`.
+    light: Option<LightCoefficients>,
 }
 
 /// The `.glb` bytes of `scene` and what they hold.
@@ -476,6 +482,9 @@ fn asset_extras(
         if transfer.ao.is_some() {
             prt["ao"] = json!("_AO: SCALAR float, the ambient accessibility per vertex");
         }
+        if let Some(light) = contents.light {
+            prt["light"] = light_json(&light_in_gltf_frame(light, contents.up));
+        }
         if let Some((q, scales)) = &transfer.quantized {
             let scales: serde_json::Map<String, Value> = transfer
                 .names
@@ -512,14 +521,16 @@ fn asset_extras(
     if let Some(t) = materials.occlusion_texture {
         lightmap_json["ao_texture"] = json!(t);
     }
-    Some(json!({
-        "prt": {
-            "order": h.order,
-            "channels": h.channels,
-            "mode": h.mode.name(),
-            "lightmap": lightmap_json,
-        }
-    }))
+    let mut prt = json!({
+        "order": h.order,
+        "channels": h.channels,
+        "mode": h.mode.name(),
+        "lightmap": lightmap_json,
+    });
+    if let Some(light) = &l.light {
+        prt["light"] = light_json(light);
+    }
+    Some(json!({ "prt": prt }))
 }
 
 /// Step 6: the glTF JSON document.
