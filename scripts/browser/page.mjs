@@ -2,7 +2,7 @@
 // exported or relit by prt.js, and returns the canvas's RGBA pixels (base64, top row first).
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
-import { applyPRT, lightFromGLTF, lightFromJSON, loadLightmapTransfer, rotateLight } from '/runtime/three/prt.js';
+import { applyPRT, lightFromGLTF, lightFromJSON, loadCompressedTransfer, loadLightmapTransfer, rotateLight } from '/runtime/three/prt.js';
 
 const canvas = document.getElementById('view');
 const renderer = new THREE.WebGLRenderer({ canvas, antialias: false, preserveDrawingBuffer: true, alpha: true });
@@ -69,6 +69,8 @@ window.prtTest = {
       if (rotation) l = rotateLight(l, rotation);
       const options = { clampShading: true };
       if (lightmap) options.lightmap = await loadLightmapTransfer(lightmap);
+      // A compressed bake's clusters (null for the others).
+      options.cpca = await loadCompressedTransfer(gltf);
       const handle = applyPRT(gltf, l, options);
       if (handle.meshes.length === 0) throw new Error(`${glb}: no mesh carries PRT data`);
     } else if (mode === 'basic') {
