@@ -20,16 +20,18 @@
 //! of it. (xatlas itself was the plan; the crate `xatlas-rs` 0.1.3 links only on Windows:
 //! its bindings name MSVC-mangled symbols. docs/lightmaps.md, "Atlas".)
 
+pub mod objects;
 mod placed;
 mod planar;
 mod unwrap;
 
+pub use objects::{UvCheck, from_scene_uvs, shared_texels};
 pub use placed::PADDING;
 pub use planar::{Chart, planar_charts};
 
 use glam::Vec2;
 
-pub use crate::formats::header::AtlasSource;
+pub use crate::formats::header::{AtlasSource, ObjectPlacement, ObjectUvs};
 
 use crate::scene::Scene;
 use crate::support::error::{Error, Result};
@@ -45,6 +47,9 @@ pub struct Atlas {
     pub source: AtlasSource,
     /// World size of a texel asked for (`--texel-size`); `None`: the charts fill the atlas.
     pub texel_size: Option<f32>,
+    /// [`AtlasSource::PerObject`] only: per scene object, where its own UVs went
+    /// ([`objects`]); empty otherwise.
+    pub objects: Vec<ObjectPlacement>,
 }
 
 impl Atlas {
@@ -70,6 +75,7 @@ impl Atlas {
                 .collect(),
             source: AtlasSource::SceneUvs,
             texel_size: None,
+            objects: Vec::new(),
         })
     }
 
@@ -160,6 +166,7 @@ pub fn generate(
             uv1,
             source: AtlasSource::Generated,
             texel_size,
+            objects: Vec::new(),
         },
         chart: placed.chart,
         chart_count: placed.chart_count,

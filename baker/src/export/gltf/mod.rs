@@ -22,6 +22,7 @@
 //! materials name in `extras.prt_lightmap` ([`split_at_lightmap_seams`], docs/gltf.md).
 
 mod builder;
+mod objects;
 mod seams;
 
 use std::path::Path;
@@ -602,7 +603,10 @@ fn glb_bytes_with(
     let textures = materials.textures.len();
     let lightmap_texture = materials.lightmap_texture.is_some();
     let ao = transfer.ao.is_some() || materials.occlusion_texture.is_some();
-    let (root, bin) = document(scene, b, meshes, materials, extras);
+    let (mut root, bin) = document(scene, b, meshes, materials, extras);
+    if let Some(l) = lightmap {
+        objects::add_placements(&mut root, l.file);
+    }
     let bytes = glb_container(&root, &bin)?;
     let written = Written {
         vertex_count: scene.vertex_count(),
