@@ -1,12 +1,13 @@
 """Compares prt-bake's texel AO of the Blender scene with Cycles' own AO bake, and counts
 the texels that triangles of two objects share in prt-bake's atlas.
 
-    python compare_ao.py OUT_DIR BAKE.prt [--objects Floor,Suzanne] [--before BEFORE.prt]
-        [--max-mean 0.01] [--max-rms-ratio 1.5]
+    python compare_ao.py OUT_DIR BAKE.prt [--objects Floor,Suzanne] [--max-mean 0.01]
+        [--max-rms-ratio 1.5]
 
 OUT_DIR is make_scene.py's (scene.glb, ao_<Name>.f32, cycles.json). Objects are found in
 the GLB (default scene's nodes depth first, as prt-bake orders them); their triangles' atlas
-UVs are BAKE.prt's. For every baked texel whose centre lies inside a triangle of the object
+UVs are BAKE.prt's; the texels shared are counted in that atlas and, for the "before"
+figure, in the GLB's TEXCOORD_1 used as one atlas, as prt-bake used it before issue 23. For every baked texel whose centre lies inside a triangle of the object
 (so prt-bake's sample point is the centre), the object's own lightmap UV there is
 (atlas uv - offset) / scale (the file's per-object placement), and Cycles' image is read
 bilinearly at it (Blender's image row 0 is v = 0, as the .prt's UVs). Reported per object:
@@ -30,10 +31,21 @@ from prt import read_prt  # noqa: E402
 
 
 def glb_objects(path):
-    """(name, triangle count) per object, in prt-bake's scene order."""
+    """(name, triangle count, TEXCOORD_1 per triangle corner with v up) per object, in
+    prt-bake's scene order."""
     b = Path(path).read_bytes()
     n = struct.unpack("<I", b[12:16])[0]
     j = json.loads(b[20:20 + n])
+    bin_start = 20 + n + 8
+
+    def accessor(i):
+        a = j["accessors"][i]
+        view = j["bufferViews"][a["bufferView"]]
+        start = bin_start + view.get("byteOffset", 0) + a.get("byteOffset", 0)
+        dtype = {5121: "<u1", 5123: "<u2", 5125: "<u4", 5126: "<f4"}[a["componentType"]]
+        width = {"SCALAR": 1, "VEC2": 2, "VEC3": 3}[a["type"]]
+        return np.frombuffer(b, dtype, a["count"] * width, start).reshape(a["count"], width)
+
     out = []
     stack = list(reversed(j["scenes"][j.get("scene", 0)]["nodes"]))
     while stack:
@@ -43,9 +55,10 @@ def glb_objects(path):
             mesh = j["meshes"][node["mesh"]]
             prims = mesh["primitives"]
             for k, p in enumerate(prims):
-                count = j["accessors"][p["indices"]]["count"] // 3
+                indices = accessor(p["indices"]).reshape(-1, 3)
+                uv = accessor(p["attributes"]["TEXCOORD_1"]).astype(np.float64) * [1, -1] + [0, 1]
                 name = node.get("name") or mesh.get("name") or f"node {i}"
-                out.append((name if len(prims) == 1 else f"{name}/{k}", count))
+                out.append((name if len(prims) == 1 else f"{name}/{k}", len(indices), uv[indices]))
         stack.extend(reversed(node.get("children", [])))
     return out
 
@@ -90,15 +103,14 @@ def overlaps(tri, w, h):
     return (y[ok].astype(int) * w + x[ok].astype(int))
 
 
-def shared_texels(f, objects):
+def shared_texels(uv1, w, h, objects):
     """Texels overlapped (positive area) by triangles of two or more objects."""
-    w, h = f.lightmap.width, f.lightmap.height
     owner = np.zeros(w * h, int)
     shared = np.zeros(w * h, bool)
     t = 0
-    for k, (_, count) in enumerate(objects):
+    for k, (_, count, _) in enumerate(objects):
         mine = np.zeros(w * h, bool)
-        for tri in f.lightmap.uv1[t:t + count]:
+        for tri in uv1[t:t + count]:
             if np.any(tri < 0):
                 continue
             mine[overlaps(tri.astype(np.float64) * [w, h], w, h)] = True
@@ -125,7 +137,6 @@ def main():
     p.add_argument("out")
     p.add_argument("bake")
     p.add_argument("--objects", default="Floor,Suzanne")
-    p.add_argument("--before")
     p.add_argument("--max-mean", type=float, default=0.01)
     p.add_argument("--max-rms-ratio", type=float, default=1.5)
     a = p.parse_args()
@@ -134,20 +145,19 @@ def main():
     objects = glb_objects(out / "scene.glb")
     f = read_prt(a.bake)
     lm = f.lightmap
-    assert sum(c for _, c in objects) == lm.scene_triangle_count, "the GLB's triangles are not the bake's"
-    report = {"objects": [n for n, _ in objects], "atlas": lm.source,
+    assert sum(c for _, c, _ in objects) == lm.scene_triangle_count, "the GLB's triangles are not the bake's"
+    own = np.concatenate([uv for _, _, uv in objects])
+    report = {"objects": [n for n, _, _ in objects], "atlas": lm.source,
               "resolution": lm.width, "samples_prt": f.header["samples_per_vertex"],
               "samples_cycles": info["samples"], "cycles_resolution": info["resolution"],
-              "shared_texels": shared_texels(f, objects)}
-    if a.before:
-        before = read_prt(a.before)
-        report["shared_texels_before"] = shared_texels(before, objects)
+              "shared_texels_as_one_atlas": shared_texels(own, lm.width, lm.height, objects),
+              "shared_texels": shared_texels(lm.uv1, lm.width, lm.height, objects)}
     ok = report["shared_texels"] == 0
     w, h = lm.width, lm.height
     ao = f.ao.ravel()
     valid = lm.valid.ravel()
-    starts = np.cumsum([0] + [c for _, c in objects])
-    for k, (name, count) in enumerate(objects):
+    starts = np.cumsum([0] + [c for _, c, _ in objects])
+    for k, (name, count, _) in enumerate(objects):
         if name not in a.objects.split(","):
             continue
         cycles_path = out / f"ao_{name}.f32"
