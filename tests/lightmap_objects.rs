@@ -5,7 +5,7 @@
 //! were. docs/lightmaps.md, "Per-object lightmap UVs".
 
 use glam::{Vec2, Vec3};
-use prt_baker::bake::lightmap::atlas::objects::{check, from_scene_uvs, shared_texels};
+use prt_baker::bake::lightmap::objects::{check, from_scene_uvs, shared_texels};
 use prt_baker::bake::lightmap::{self, Atlas, AtlasSource};
 use prt_baker::formats::header::ObjectUvs;
 use prt_baker::support::progress::Silent;
@@ -251,9 +251,11 @@ fn clean_scene_uvs_stay_the_atlas() {
     assert!(atlas.objects.is_empty());
 }
 
-/// A `.glb` of `meshes` (name, positions, TEXCOORD_1 in glTF's convention, triangles) under
-/// `nodes` (glTF JSON).
-fn glb(meshes: &[(&str, Vec<Vec3>, Vec<Vec2>, Vec<u32>)], nodes: serde_json::Value) -> Vec<u8> {
+/// A glTF mesh: name, positions, TEXCOORD_1 in glTF's convention, triangle indices.
+type GltfMesh<'a> = (&'a str, Vec<Vec3>, Vec<Vec2>, Vec<u32>);
+
+/// A `.glb` of `meshes` under `nodes` (glTF JSON).
+fn glb(meshes: &[GltfMesh], nodes: serde_json::Value) -> Vec<u8> {
     use serde_json::json;
     let (mut bin, mut views, mut accessors, mut json_meshes) = (vec![], vec![], vec![], vec![]);
     let mut add = |bytes: Vec<u8>, count: usize, kind: &str, component: u32, bin: &mut Vec<u8>| {

@@ -349,7 +349,7 @@ fn bake_texels(
     let atlas = match (&scene.lightmap_uvs, args.texel_size, args.atlas) {
         (Some(uvs), None, None) => {
             let (atlas, _, notes) =
-                lightmap::atlas::from_scene_uvs(scene, uvs, resolution, args.strict_uvs)?;
+                lightmap::objects::from_scene_uvs(scene, uvs, resolution, args.strict_uvs)?;
             notes.iter().for_each(|n| eprintln!("prt-bake: {n}"));
             atlas
         }

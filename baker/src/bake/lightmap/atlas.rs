@@ -20,12 +20,10 @@
 //! of it. (xatlas itself was the plan; the crate `xatlas-rs` 0.1.3 links only on Windows:
 //! its bindings name MSVC-mangled symbols. docs/lightmaps.md, "Atlas".)
 
-pub mod objects;
 mod placed;
 mod planar;
 mod unwrap;
 
-pub use objects::{UvCheck, from_scene_uvs, shared_texels};
 pub use placed::PADDING;
 pub use planar::{Chart, planar_charts};
 
@@ -48,7 +46,7 @@ pub struct Atlas {
     /// World size of a texel asked for (`--texel-size`); `None`: the charts fill the atlas.
     pub texel_size: Option<f32>,
     /// [`AtlasSource::PerObject`] only: per scene object, where its own UVs went
-    /// ([`objects`]); empty otherwise.
+    /// ([`super::objects`]); empty otherwise.
     pub objects: Vec<ObjectPlacement>,
 }
 

@@ -8,13 +8,14 @@
 //! offset of its own (Unity's `lightmapScaleOffset`), in rectangles proportional to the
 //! object's surface (the same texel density everywhere) with [`PADDING`] texels between
 //! them; an object whose own UVs overlap themselves, or that has none, gets a chart set
-//! unwrapped for it alone ([`super::generate`]) instead. docs/lightmaps.md, "Per-object
+//! unwrapped for it alone ([`generate`]) instead. docs/lightmaps.md, "Per-object
 //! lightmap UVs".
 
 use glam::Vec2;
 
-use super::placed::PADDING;
-use super::{Atlas, AtlasMethod, AtlasSource, ObjectPlacement, ObjectUvs};
+use super::atlas::{
+    Atlas, AtlasMethod, AtlasSource, MIN_RESOLUTION, ObjectPlacement, ObjectUvs, PADDING, generate,
+};
 use crate::scene::{Object, Scene};
 use crate::support::error::{Error, Result};
 
@@ -357,7 +358,7 @@ fn object_scene(scene: &Scene, object: &Object) -> Scene {
 /// An object unwrapped alone into a `page`² chart set, its UVs in [0, 1] of that page.
 fn unwrap_alone(scene: &Scene, object: &Object, page: u32) -> Result<Vec<[Vec2; 3]>> {
     let alone = object_scene(scene, object);
-    let generated = super::generate(&alone, page, None, AtlasMethod::Unwrap).map_err(|e| {
+    let generated = generate(&alone, page, None, AtlasMethod::Unwrap).map_err(|e| {
         Error::InvalidOption(format!(
             "unwrapping '{}' for the lightmap: {e}",
             object.name
@@ -510,7 +511,7 @@ fn pack(scene: &Scene, mut own: Vec<Own>, resolution: u32) -> Result<Atlas> {
             (s, corner / r - boxes[n].min * s)
         } else {
             // Again at the rectangle's size: its charts' padding is then in atlas texels.
-            let page = sizes[n][0].min(sizes[n][1]).max(super::MIN_RESOLUTION);
+            let page = sizes[n][0].min(sizes[n][1]).max(MIN_RESOLUTION);
             match unwrap_alone(scene, object, page) {
                 Ok(uv1) if page <= sizes[n][0].min(sizes[n][1]) => {
                     own[i].uv1 = uv1;
