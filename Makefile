@@ -7,6 +7,8 @@
 #                    against the npz export, the EXR export against it (part of make test)
 #   make mitsuba     interreflected vertex and texel bakes against Mitsuba 3, a path tracer
 #                    (part of make test, 30 s to 2 min; docs/lightmaps.md)
+#   make blender     a Blender glTF with per-object lightmap UVs against Cycles' AO bake
+#                    (part of make test, about 30 s after a 373 MB install; docs/lightmaps.md)
 #   make bench       the bake benchmark: Embree and obvhs against the raw Embree rate
 #                    (docs/performance.md)
 #   make fuzz        the parsers' mutation fuzzing at 20 times make test's mutants (docs/robustness.md)
@@ -22,7 +24,7 @@ SCENE := scenes/torus/torus.scene
 NO_EMBREE := target/no-embree
 NO_EMBREE_BAKE := $(NO_EMBREE)/release/prt-bake
 
-.PHONY: demo test bench bench-view deps build lint unit no-embree embree4 reference interop scenes slurm fuzz browser mitsuba web
+.PHONY: demo test bench bench-view deps build lint unit no-embree embree4 reference interop scenes slurm fuzz browser mitsuba blender web
 
 deps:
 	@scripts/install-deps.sh
@@ -114,7 +116,14 @@ slurm: build
 mitsuba: build
 	scripts/mitsuba/run.sh
 
-test: lint unit no-embree embree4 reference interop slurm browser mitsuba
+# A Blender-made glTF with per-object lightmap UVs (Suzanne, a cube, a floor; Smart UV Project)
+# baked per texel: no texel shared between objects, AO within Cycles' noise of Blender's own
+# AO bake. Blender 4.5 LTS comes from PyPI (bpy, a 373 MB wheel) into target/blender/venv;
+# about 30 s once installed (docs/lightmaps.md, "Against Blender Cycles").
+blender: build
+	scripts/blender/run.sh
+
+test: lint unit no-embree embree4 reference interop slurm browser mitsuba blender
 
 bench: deps
 	$(CARGO) bench -p prt-baker --bench bake

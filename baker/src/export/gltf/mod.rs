@@ -24,6 +24,7 @@
 mod builder;
 mod cpca;
 mod light;
+mod objects;
 mod seams;
 
 use std::path::Path;
@@ -655,7 +656,10 @@ fn glb_bytes_with(
     let textures = materials.textures.len();
     let lightmap_texture = materials.lightmap_texture.is_some();
     let ao = transfer.ao.is_some() || materials.occlusion_texture.is_some();
-    let (root, bin) = document(scene, b, meshes, materials, extras);
+    let (mut root, bin) = document(scene, b, meshes, materials, extras);
+    if let Some(l) = lightmap {
+        objects::add_placements(&mut root, l.file);
+    }
     let bytes = glb_container(&root, &bin)?;
     let written = Written {
         vertex_count: scene.vertex_count(),
