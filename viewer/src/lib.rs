@@ -45,6 +45,7 @@ mod overlay;
 pub mod probe;
 pub mod renderer;
 mod resources;
+pub mod texel_radiance;
 pub mod texel_transfer;
 pub mod textures;
 pub mod window;
