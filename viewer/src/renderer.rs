@@ -31,7 +31,7 @@ use crate::resources::{
     uniform_buffer, uniform_entry, view_binding,
 };
 use crate::texel_radiance::RadianceMap;
-use crate::texel_transfer::TexelTransfer;
+use crate::texel_transfer::{TexelStorage, TexelTransfer};
 use crate::textures;
 
 /// Behind the scene: a dark grey, linear.
@@ -199,10 +199,22 @@ impl Renderer {
         format: wgpu::TextureFormat,
         size: (u32, u32),
     ) -> Result<Renderer> {
+        Renderer::with_texel_storage(device, queue, bake, format, size, TexelStorage::Fit)
+    }
+
+    /// As [`Renderer::new`], with a texel bake's transfer stored as `storage` asks.
+    pub fn with_texel_storage(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        bake: &Bake,
+        format: wgpu::TextureFormat,
+        size: (u32, u32),
+        storage: TexelStorage,
+    ) -> Result<Renderer> {
         let scene = &bake.scene;
         check_transfer_size(device, bake)?;
         let (vertices, indices) = mesh_buffers(device, bake);
-        let frame = FrameResources::new(device, queue, bake)?;
+        let frame = FrameResources::new(device, queue, bake, storage)?;
         let (material_layout, materials) = materials(device, queue, scene);
         let draws = scene
             .objects
@@ -502,7 +514,12 @@ struct FrameResources {
 }
 
 impl FrameResources {
-    fn new(device: &wgpu::Device, queue: &wgpu::Queue, bake: &Bake) -> Result<FrameResources> {
+    fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        bake: &Bake,
+        storage: TexelStorage,
+    ) -> Result<FrameResources> {
         let n2 = bake.order() * bake.order();
         let lightmap = bake.lightmap();
         // A texel bake's transfer goes to its own buffer or texture array (texel_transfer.rs);
@@ -524,6 +541,7 @@ impl FrameResources {
                 (l.width, l.height),
                 &bake.file.coefficients,
                 (bake.channels(), n2),
+                storage,
             )?,
             None => TexelTransfer::placeholder(device),
         };

@@ -7,8 +7,7 @@
 //! runs shaders on the CPU, a pass reading them as vec4s from a buffer ran 1.7 × faster than
 //! one reading the texture array below (docs/performance.md).
 //!
-//! **A 2D texture array** otherwise (and where `PRT_VIEW_TEXEL_ARRAY` is set, for tests and
-//! comparisons): the same vec4s packed four coefficients per RGBA texel, vec4 l of channel c
+//! **A 2D texture array** otherwise (or when asked for, [`TexelStorage::Array`]): the same vec4s packed four coefficients per RGBA texel, vec4 l of channel c
 //! at layer c·⌈n²/4⌉ + l, texel (x, y), so C·⌈n²/4⌉ layers; row y of every layer is the
 //! file's texel row y (row 0 is v = 0, no flip). The device's texture limits bound it (the
 //! viewer asks for the adapter's own; wgpu's defaults allow 8,192² texels and 256 layers).
@@ -25,9 +24,14 @@ use crate::error::{Error, Result};
 /// The format of the coefficient texture array.
 pub const FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 
-/// Set (to anything) in the environment, makes texel bakes use the texture array even where
-/// the buffer would fit.
-pub const FORCE_ARRAY_VARIABLE: &str = "PRT_VIEW_TEXEL_ARRAY";
+/// Where a texel bake's transfer goes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TexelStorage {
+    /// The storage buffer where it fits the device's limits (faster), else the texture array.
+    Fit,
+    /// The texture array (tests compare the two).
+    Array,
+}
 
 /// How many RGBA layers (or vec4s per texel) hold `channels` channels of `n2` coefficients.
 pub fn layer_count(channels: usize, n2: usize) -> usize {
@@ -93,8 +97,8 @@ impl TexelTransfer {
     }
 
     /// Uploads a W×H lightmap's transfer (`channels` channels of `n2` coefficients per
-    /// texel): to the buffer where it fits, else to the texture array; an error naming the
-    /// file where neither fits the device's limits.
+    /// texel): to the buffer where it fits and `storage` allows, else to the texture array;
+    /// an error naming the file where neither fits the device's limits.
     pub fn upload(
         device: &wgpu::Device,
         queue: &wgpu::Queue,
@@ -102,6 +106,7 @@ impl TexelTransfer {
         (width, height): (u32, u32),
         coefficients: &[f32],
         (channels, n2): (usize, usize),
+        storage: TexelStorage,
     ) -> Result<TexelTransfer> {
         let texels = (width * height) as usize;
         let layers = layer_count(channels, n2);
@@ -110,7 +115,7 @@ impl TexelTransfer {
             .max_storage_buffer_binding_size
             .min(limits.max_buffer_size);
         let bytes = (texels * layers * 16) as u64;
-        if bytes <= buffer_limit && std::env::var_os(FORCE_ARRAY_VARIABLE).is_none() {
+        if bytes <= buffer_limit && storage == TexelStorage::Fit {
             let packed = pack_texel_major(coefficients, texels, channels, n2);
             let buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("texel transfer"),
