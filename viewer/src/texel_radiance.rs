@@ -16,8 +16,9 @@
 //!
 //! The map is `Rgba16Float`, filterable on every device (32-bit floats need wgpu's
 //! `FLOAT32_FILTERABLE`), so a pixel takes one hardware bilinear sample. Half floats keep 11
-//! significant bits: the radiance is rounded by at most 2⁻¹¹ of itself, less than a tenth of
-//! an 8-bit display code (tests/lightmap.rs bounds it against `relight`). The transfer it is
+//! significant bits: the radiance is rounded by less than 2⁻¹⁰ of itself (lavapipe truncates),
+//! at most a tenth of an 8-bit display code (tests/lightmap.rs bounds it against `relight`).
+//! The transfer it is
 //! computed from stays f32 ([`crate::texel_transfer`]), read exactly.
 
 use crate::resources::{scene_shader, texture_2d, texture_entry};
