@@ -13,7 +13,8 @@
 #                    (docs/performance.md)
 #   make fuzz        the parsers' mutation fuzzing at 20 times make test's mutants (docs/robustness.md)
 #   make web GLB=F   serve the three.js example page for a prt-bake .glb and print its address
-#   make bench-view  the viewer's frame rates, Blinn-Phong and PRT with 1 and 8 lights (docs/performance.md)
+#   make bench-view  the viewer's frame rates, Blinn-Phong and PRT with 1 and 8 lights, per vertex
+#                    and per pixel (a texel bake) (docs/performance.md)
 
 CARGO ?= cargo
 BAKE := target/release/prt-bake
@@ -133,8 +134,15 @@ bench: deps
 fuzz: deps
 	PRT_FUZZ_CASES=400000 $(CARGO) test --release -p prt-baker --test fuzz -- --nocapture
 
-bench-view: out/torus.prt
+# The Cornell box's 512² interreflected lightmap (RGB transfer, order 4): per-pixel PRT.
+out/cornell-lightmap-512.prt: build
+	@mkdir -p out
+	$(BAKE) bake scenes/cornell/cornell.scene -o out/cornell-lightmap-512.prt --lightmap 512 \
+		--mode interreflected --samples 64 --seed 1
+
+bench-view: out/torus.prt out/cornell-lightmap-512.prt
 	$(VIEW) $(SCENE) out/torus.prt --bench
+	$(VIEW) scenes/cornell/cornell.scene out/cornell-lightmap-512.prt --bench
 
 # Regenerates the committed demo scenes (a test checks they match the generator).
 scenes:
