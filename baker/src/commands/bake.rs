@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use clap::ValueEnum;
-use prt_baker::bake::lightmap::{self, Atlas};
+use prt_baker::bake::lightmap;
 use prt_baker::bake::memory;
 use prt_baker::bake::options::Aux;
 use prt_baker::distribute::checkpoint;
@@ -108,6 +108,11 @@ pub struct BakeArgs {
     /// shelf-packed; no distortion, but one chart per few triangles on curved meshes).
     #[arg(long, value_enum, requires = "lightmap")]
     atlas: Option<AtlasArg>,
+    /// With --lightmap on the scene's own lightmap UVs: refuse (exit 3) an object whose UVs
+    /// overlap themselves instead of warning and unwrapping it here. Objects that overlap
+    /// one another are packed per object either way (docs/lightmaps.md).
+    #[arg(long, requires = "lightmap")]
+    strict_uvs: bool,
     /// Write the bake compressed by clustered PCA into K clusters, as `prt-bake compress`
     /// would (default 64 where only --pcs is given). Not with --shard or --checkpoint:
     /// compress the merged file with `prt-bake compress`.
@@ -364,9 +369,14 @@ fn atlas(
     scene: &Scene,
     resolution: u32,
     progress: &dyn Progress,
-) -> Result<Atlas, Error> {
+) -> Result<lightmap::Atlas, Error> {
     Ok(match (&scene.lightmap_uvs, args.texel_size, args.atlas) {
-        (Some(uvs), None, None) => Atlas::from_vertex_uvs(scene, uvs, resolution, resolution)?,
+        (Some(uvs), None, None) => {
+            let (atlas, _, notes) =
+                lightmap::objects::from_scene_uvs(scene, uvs, resolution, args.strict_uvs)?;
+            notes.iter().for_each(|n| eprintln!("prt-bake: {n}"));
+            atlas
+        }
         (_, texel_size, method) => {
             let method = method.map_or(Default::default(), AtlasArg::method);
             // The unwrap reports no progress of its own (seconds on the demo): a bar
@@ -440,6 +450,14 @@ fn bake_in_parts(
         None => (PartBaker::vertices(scene, tracer, options)?, "vertices"),
         Some(resolution) => {
             let atlas = atlas(args, scene, resolution, progress)?;
+            if atlas.source == lightmap::AtlasSource::PerObject {
+                // Parts carry the atlas's UVs but not yet its per-object placements.
+                return Err(Error::InvalidOption(String::from(
+                    "--shard and --checkpoint do not yet support a lightmap whose objects' own \
+                     UVs overlap each other and are packed per object; bake it whole, or give \
+                     the scene one atlas of non-overlapping lightmap UVs",
+                )));
+            }
             prepared = lightmap::prepare(scene, tracer, options.seed, atlas)?;
             watertight = match tracer {
                 Some(t) => prepared.texels.watertight(scene, t)?,

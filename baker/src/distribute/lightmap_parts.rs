@@ -246,6 +246,8 @@ impl PartLightmap {
             uv1: self.uv1.clone(),
             source: self.source,
             texel_size: (self.texel_size > 0.0).then_some(self.texel_size),
+            // Parts of per-object atlases are refused when baked (commands/bake.rs).
+            objects: Vec::new(),
         }
     }
 
@@ -303,6 +305,7 @@ impl PartLightmap {
                 valid: self.valid,
                 dilated: placed.dilated,
                 uv1: self.uv1,
+                objects: Vec::new(),
             }),
         }
     }
