@@ -357,6 +357,7 @@ pub(crate) fn options_of(header: &Header) -> BakeOptions {
         bounces: header.bounces,
         bounce_samples: (header.mode == Mode::Interreflected).then_some(header.bounce_samples),
         aux: header.aux,
+        transfer: header.transfer,
         ..BakeOptions::default()
     }
 }
@@ -408,6 +409,11 @@ pub fn bake_part(
     progress: &dyn Progress,
 ) -> Result<(Part, u64)> {
     let tracer = tracer_for(options, tracer)?;
+    if options.transfer == crate::bake::options::TransferKind::Matrix {
+        return Err(Error::InvalidOption(
+            "--transfer matrix with --shard or --checkpoint is not supported yet".into(),
+        ));
+    }
     let estimator = Estimator::new(scene, options)?;
     let header = bake_header(
         scene,

@@ -503,6 +503,7 @@ mod tests {
                 vertex_count: 2,
                 samples_per_vertex: 4096,
                 mode: Mode::Shadowed,
+                transfer: Default::default(),
                 bounces: 0,
                 bounce_samples: 0,
                 backend: Backend::Embree,

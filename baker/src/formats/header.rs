@@ -43,6 +43,42 @@ impl Mode {
     }
 }
 
+/// What each receiver stores per channel (`bake --transfer`; header bytes 38..40).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TransferKind {
+    /// The diffuse transfer vector: n² coefficients (every file before matrix bakes).
+    #[default]
+    Vector,
+    /// The transfer matrix M_ij = ∫ V(s) y_i(s) y_j(s) ds over the receiver's hemisphere
+    /// (Sloan, Kautz & Snyder 2002): n² × n² floats, row-major, symmetric.
+    Matrix,
+}
+
+impl TransferKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            TransferKind::Vector => "vector",
+            TransferKind::Matrix => "matrix",
+        }
+    }
+
+    /// Floats per channel at SH order `order`: n², or n⁴ for a matrix.
+    pub fn floats_per_channel(self, order: usize) -> usize {
+        let n = sh::coeff_count(order);
+        match self {
+            TransferKind::Vector => n,
+            TransferKind::Matrix => n * n,
+        }
+    }
+
+    fn code(self) -> u16 {
+        match self {
+            TransferKind::Vector => 0,
+            TransferKind::Matrix => 1,
+        }
+    }
+}
+
 /// Optional per-vertex arrays stored beside the coefficients (`--aux`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Aux {
@@ -94,6 +130,9 @@ pub struct Header {
     pub samples_per_vertex: u32,
     #[serde(serialize_with = "as_name::mode")]
     pub mode: Mode,
+    /// Transfer vectors or matrices (bytes 38..40; 0 = vector in every older file).
+    #[serde(serialize_with = "as_name::transfer")]
+    pub transfer: TransferKind,
     pub bounces: u32,
     /// Rays per vertex whose hits fed the bounces (interreflected mode; 0 otherwise).
     pub bounce_samples: u32,
@@ -137,6 +176,9 @@ mod as_name {
     pub fn mode<S: Serializer>(m: &super::Mode, s: S) -> Result<S::Ok, S::Error> {
         s.serialize_str(m.name())
     }
+    pub fn transfer<S: Serializer>(t: &super::TransferKind, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(t.name())
+    }
     pub fn backend<S: Serializer>(b: &crate::trace::Backend, s: S) -> Result<S::Ok, S::Error> {
         s.serialize_str(b.name())
     }
@@ -174,8 +216,10 @@ fn aux_flags(aux: Aux) -> u32 {
 }
 
 impl Header {
+    /// Floats per vertex (or texel) in the coefficient array: channels × n², or channels × n⁴
+    /// for a matrix bake.
     pub fn coefficients_per_vertex(&self) -> usize {
-        self.channels as usize * sh::coeff_count(self.order as usize)
+        self.channels as usize * self.transfer.floats_per_channel(self.order as usize)
     }
 
     /// Floats per vertex in the aux arrays.
@@ -214,7 +258,10 @@ impl Header {
         bytes.extend(h.channels.to_le_bytes());
         bytes.extend(h.vertex_count.to_le_bytes());
         bytes.extend(h.samples_per_vertex.to_le_bytes());
+        // Bytes 36..40: the mode (u16), then the transfer kind (u16, 0 for vectors), so a
+        // vector file's bytes are those of a file written before matrix bakes existed.
         bytes.extend(mode_code(h.mode).to_le_bytes());
+        bytes.extend(h.transfer.code().to_le_bytes());
         bytes.extend(h.bounces.to_le_bytes());
         bytes.extend(backend_code(h.backend).to_le_bytes());
         bytes.extend(h.seed.to_le_bytes());
@@ -238,7 +285,7 @@ impl Header {
     }
 }
 
-fn mode_code(mode: Mode) -> u32 {
+fn mode_code(mode: Mode) -> u16 {
     match mode {
         Mode::Unshadowed => 0,
         Mode::Shadowed => 1,
@@ -338,12 +385,29 @@ fn parse_fields(bytes: &[u8], version: u32) -> std::result::Result<Header, Strin
     if channels != 1 && channels != 3 {
         return Err(format!("{channels} channels (1 or 3 are defined)"));
     }
-    let mode = match u32_at(36) {
+    let u16_at = |o: usize| u16::from_le_bytes(bytes[o..o + 2].try_into().expect("2 bytes"));
+    let mode = match u16_at(36) {
         0 => Mode::Unshadowed,
         1 => Mode::Shadowed,
         2 => Mode::Interreflected,
         other => return Err(format!("unknown transfer mode {other}")),
     };
+    let transfer = match u16_at(38) {
+        0 => TransferKind::Vector,
+        1 => TransferKind::Matrix,
+        other => {
+            return Err(format!(
+                "unknown transfer kind {other} (0 = vector, 1 = matrix)"
+            ));
+        }
+    };
+    if transfer == TransferKind::Matrix && mode == Mode::Interreflected {
+        return Err(
+            "an interreflected transfer-matrix file (matrix bakes are unshadowed or \
+                    shadowed)"
+                .into(),
+        );
+    }
     let bounces = u32_at(40);
     if (mode == Mode::Interreflected) != (bounces > 0) {
         return Err(format!("{bounces} bounces in a {} file", mode.name()));
@@ -385,6 +449,11 @@ fn parse_fields(bytes: &[u8], version: u32) -> std::result::Result<Header, Strin
     };
     // 88..108 is the shard identity ([`crate::formats::part_id::PartId`]); 108..124 the adaptive fields.
     let adaptive = read_adaptive(bytes, aux_flags, mode, sampling)?;
+    if adaptive.is_some() && transfer == TransferKind::Matrix {
+        return Err(
+            "a target error in a transfer-matrix file (matrix bakes are not adaptive)".into(),
+        );
+    }
     let header = Header {
         version,
         order,
@@ -392,6 +461,7 @@ fn parse_fields(bytes: &[u8], version: u32) -> std::result::Result<Header, Strin
         vertex_count: u64_at(24),
         samples_per_vertex,
         mode,
+        transfer,
         bounces,
         bounce_samples,
         backend,
