@@ -219,6 +219,17 @@ pub(crate) fn matrix_pass(
     }
 }
 
+/// The matrices of the receivers `receivers` alone, n⁴ floats each, row-major (the oracle
+/// tests bake one vertex of a large scene): [`matrix_pass`] without progress.
+pub fn receiver_matrices(
+    estimator: &Estimator,
+    tracer: Option<&dyn Tracer>,
+    receivers: std::ops::Range<usize>,
+) -> Vec<f32> {
+    let silent = crate::support::progress::Silent;
+    matrix_pass(estimator, tracer, receivers, &silent).coefficients
+}
+
 /// Receiver `v`'s matrix into `out` (n⁴ floats, row-major), and its visibility quantities.
 fn receiver_matrix(
     estimator: &Estimator,

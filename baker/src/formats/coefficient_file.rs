@@ -12,7 +12,6 @@ use glam::{Vec2, Vec3};
 
 use crate::formats::header::{AtlasSource, CHECKSUM_OFFSET, checksum, parse_header};
 use crate::formats::part_id::PartId;
-use crate::math::sh;
 use crate::scene::Scene;
 use crate::support::error::{Error, Result};
 
@@ -89,9 +88,12 @@ impl CoefficientFile {
         }
     }
 
-    /// Coefficients of vertex `v`, channel `c`.
+    /// Coefficients of vertex `v`, channel `c` (a matrix bake's n⁴, row-major).
     pub fn vertex(&self, v: usize, c: usize) -> &[f32] {
-        let n = sh::coeff_count(self.header.order as usize);
+        let n = self
+            .header
+            .transfer
+            .floats_per_channel(self.header.order as usize);
         let start = (v * self.header.channels as usize + c) * n;
         &self.coefficients[start..start + n]
     }
@@ -392,8 +394,29 @@ pub(crate) fn check_floats(
 }
 
 impl CoefficientFile {
-    /// Refuses a file baked for a different scene (or a changed version of this one).
+    /// Refuses a file baked for a different scene (or a changed version of this one), and a
+    /// transfer-matrix bake: every reader of transfer vectors (relight, glTF, the viewer)
+    /// checks its file here, so none of them misreads a matrix as vectors.
     pub fn check_scene(&self, path: &Path, scene: &Scene) -> Result<()> {
+        self.refuse_matrix(path)?;
+        self.check_scene_of_any_transfer(path, scene)
+    }
+
+    /// Refuses a transfer-matrix bake (`bake --transfer matrix`) with the reason.
+    pub fn refuse_matrix(&self, path: &Path) -> Result<()> {
+        if self.header.transfer == crate::formats::header::TransferKind::Matrix {
+            return Err(Error::SceneMismatch {
+                path: path.to_path_buf(),
+                message: "a transfer-matrix bake (--transfer matrix), which this command does \
+                          not read yet (`export --npz` and `inspect` do)"
+                    .into(),
+            });
+        }
+        Ok(())
+    }
+
+    /// [`CoefficientFile::check_scene`] for readers of both transfer vectors and matrices.
+    pub fn check_scene_of_any_transfer(&self, path: &Path, scene: &Scene) -> Result<()> {
         let mismatch = |message: String| {
             Err(Error::SceneMismatch {
                 path: path.to_path_buf(),
@@ -412,6 +435,7 @@ impl CoefficientFile {
 
     /// Refuses a lightmap bake made for a different scene, or a vertex bake.
     pub fn check_lightmap_scene(&self, path: &Path, scene: &Scene) -> Result<&LightmapBlock> {
+        self.refuse_matrix(path)?;
         let Some(l) = &self.lightmap else {
             return Err(Error::SceneMismatch {
                 path: path.to_path_buf(),
