@@ -186,3 +186,38 @@ fn the_clamped_cosine_through_the_matrix_is_the_diffuse_bake() {
         );
     }
 }
+
+#[test]
+fn matrix_bakes_are_bit_identical_for_any_thread_count() {
+    let scene = disk_scene();
+    let options = BakeOptions {
+        samples: 1024,
+        ..matrix_options(Mode::Shadowed)
+    };
+    let bake_with = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("thread pool");
+        pool.install(|| bake_scene(&scene, &options))
+    };
+    let one = bake_with(1);
+    let three = bake_with(3);
+    let n = sh::coeff_count(ORDER);
+    assert_eq!(one.coefficients.len(), scene.vertex_count() * n * n);
+    let bits = |t: &prt_baker::Transfer| {
+        t.coefficients
+            .iter()
+            .map(|c| c.to_bits())
+            .collect::<Vec<_>>()
+    };
+    assert!(bits(&one) == bits(&three), "1 and 3 threads differ");
+    // Every matrix is symmetric, exactly.
+    for m in one.coefficients.chunks_exact(n * n) {
+        for i in 0..n {
+            for j in 0..n {
+                assert_eq!(m[i * n + j].to_bits(), m[j * n + i].to_bits());
+            }
+        }
+    }
+}
