@@ -134,7 +134,7 @@ fn outer_products() {
         }
     });
     let layout = TileLayout::new(n);
-    let mut tiled = vec![0.0f32; layout.len()];
+    let mut tiled = vec![0.0f32; layout.floats()];
     let all: Vec<u32> = (0..256).collect();
     let tiled_seconds = time(&mut || {
         for _ in 0..count / 256 {

@@ -123,7 +123,7 @@ impl TileLayout {
     }
 
     /// Floats in the tiled triangle.
-    pub fn len(&self) -> usize {
+    pub fn floats(&self) -> usize {
         self.tiles.len() * TILE
     }
 
@@ -212,7 +212,7 @@ impl MatrixTables {
             .iter()
             .map(|d| [d.z, d.x * d.z, d.y * d.z, d.z * d.z])
             .collect();
-        let width = layout.len() + EXTRA;
+        let width = layout.floats() + EXTRA;
         let batches = local_dirs.len().div_ceil(BATCH);
         let mut batch_totals = Vec::new();
         if batches * width * 4 <= TOTALS_BUDGET {
@@ -221,8 +221,8 @@ impl MatrixTables {
                 let mut total = vec![0.0f32; width];
                 let all: Vec<u32> = (start as u32..end as u32).collect();
                 layout.accumulate(&rows, &all, &mut total[..width - EXTRA]);
-                for r in start..end {
-                    add_extras(&mut total[width - EXTRA..], &extras[r], 1.0);
+                for e in &extras[start..end] {
+                    add_extras(&mut total[width - EXTRA..], e, 1.0);
                 }
                 batch_totals.extend(total);
             }
@@ -263,8 +263,8 @@ impl MatrixScratch {
             dirs: Vec::with_capacity(BATCH),
             occluded: vec![false; BATCH],
             selected: Vec::with_capacity(BATCH),
-            batch_sum: vec![0.0; layout.len() + EXTRA],
-            total: vec![0.0; layout.len() + EXTRA],
+            batch_sum: vec![0.0; layout.floats() + EXTRA],
+            total: vec![0.0; layout.floats() + EXTRA],
             local: vec![0.0; n * n],
             column: vec![0.0; n],
             rotated: vec![0.0; n],
@@ -343,7 +343,7 @@ fn receiver_matrix(
     out: &mut [f32],
 ) -> Visibility {
     let n = tables.n;
-    let packed = tables.layout.len();
+    let packed = tables.layout.floats();
     let frame: Mat3 = estimator.vertex_frame(v);
     let origin = estimator.origin(v);
     s.total.fill(0.0);
@@ -455,7 +455,7 @@ mod tests {
                     }
                 })
                 .collect();
-            let mut tiled = vec![0.0f32; layout.len()];
+            let mut tiled = vec![0.0f32; layout.floats()];
             layout.accumulate(&rows, &[0, 2], &mut tiled);
             let tiled: Vec<f64> = tiled.iter().map(|&x| f64::from(x)).collect();
             let mut full = vec![f64::NAN; n * n];

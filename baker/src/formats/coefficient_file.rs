@@ -602,51 +602,6 @@ mod tests {
         assert_eq!((read.header.adaptive, read.rays), (None, None));
     }
 
-    #[test]
-    fn matrix_files_record_their_kind_and_size() {
-        use crate::formats::header::TransferKind;
-        let vector = CoefficientFile {
-            header: Header {
-                adaptive: None,
-                ..adaptive_file().header
-            },
-            rays: None,
-            error_estimate: None,
-            ..adaptive_file()
-        };
-        let (vector_bytes, _) = vector.to_bytes();
-        // Mode 1 (shadowed) as the u32 every older reader reads: the kind's bytes are zero.
-        assert_eq!(vector_bytes[36..40], [1, 0, 0, 0]);
-        // Order 2: a 4×4 matrix, 16 floats per vertex.
-        let matrix = CoefficientFile {
-            header: Header {
-                order: 2,
-                transfer: TransferKind::Matrix,
-                ..vector.header.clone()
-            },
-            coefficients: (0..32).map(|i| i as f32).collect(),
-            ..vector.clone()
-        };
-        let (bytes, sum) = matrix.to_bytes();
-        assert_eq!(bytes[36..40], [1, 0, 1, 0]);
-        assert_eq!(bytes.len(), HEADER_SIZE + (2 * 16 + 2) * 4);
-        let read = CoefficientFile::from_bytes(&bytes).unwrap();
-        assert_eq!(read.header.transfer, TransferKind::Matrix);
-        assert_eq!(read.vertex(1, 0), &matrix.coefficients[16..32]);
-        assert_eq!(read.header.checksum, sum);
-        // An unknown kind, and an interreflected matrix, are refused.
-        let mut unknown = bytes.clone();
-        unknown[38] = 2;
-        let m = CoefficientFile::from_bytes(&resealed(unknown)).unwrap_err();
-        assert!(m.contains("unknown transfer kind 2"), "{m}");
-        let mut bounced = bytes;
-        bounced[36] = 2;
-        bounced[40] = 1;
-        bounced[80] = 1;
-        let m = CoefficientFile::from_bytes(&resealed(bounced)).unwrap_err();
-        assert!(m.contains("interreflected transfer-matrix"), "{m}");
-    }
-
     /// A change to a file's bytes.
     type Corruption = Box<dyn Fn(&mut Vec<u8>)>;
 

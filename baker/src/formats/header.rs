@@ -534,3 +534,81 @@ pub(crate) fn checksum(bytes: &[u8]) -> u32 {
     hasher.update(&bytes[HEADER_SIZE..]);
     hasher.finalize()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::formats::coefficient_file::CoefficientFile;
+
+    /// `bytes` with a new checksum, so only the change under test is wrong.
+    fn resealed(mut bytes: Vec<u8>) -> Vec<u8> {
+        let sum = checksum(&bytes);
+        bytes[CHECKSUM_OFFSET..HEADER_SIZE].copy_from_slice(&sum.to_le_bytes());
+        bytes
+    }
+
+    #[test]
+    fn matrix_files_record_their_kind_and_size() {
+        let vector = CoefficientFile {
+            header: Header {
+                version: VERSION,
+                order: 1,
+                channels: 1,
+                vertex_count: 2,
+                samples_per_vertex: 64,
+                mode: Mode::Shadowed,
+                transfer: TransferKind::Vector,
+                bounces: 0,
+                bounce_samples: 0,
+                backend: Backend::Embree,
+                sampling: Sampling::OwenSobol,
+                seed: 3,
+                scene_fingerprint: 0x1234,
+                up: crate::scene::Up::Z,
+                aux: Aux {
+                    ao: true,
+                    bent_normal: false,
+                },
+                checksum: 0,
+                adaptive: None,
+            },
+            coefficients: vec![0.25, 0.5],
+            ao: Some(vec![0.75, 1.0]),
+            bent_normal: None,
+            rays: None,
+            error_estimate: None,
+            lightmap: None,
+        };
+        let (vector_bytes, _) = vector.to_bytes();
+        // Mode 1 (shadowed) as the u32 every older reader reads: the kind's bytes are zero.
+        assert_eq!(vector_bytes[36..40], [1, 0, 0, 0]);
+        // Order 2: a 4×4 matrix, 16 floats per vertex.
+        let matrix = CoefficientFile {
+            header: Header {
+                order: 2,
+                transfer: TransferKind::Matrix,
+                ..vector.header.clone()
+            },
+            coefficients: (0..32).map(|i| i as f32).collect(),
+            ..vector.clone()
+        };
+        let (bytes, sum) = matrix.to_bytes();
+        assert_eq!(bytes[36..40], [1, 0, 1, 0]);
+        assert_eq!(bytes.len(), HEADER_SIZE + (2 * 16 + 2) * 4);
+        let read = CoefficientFile::from_bytes(&bytes).unwrap();
+        assert_eq!(read.header.transfer, TransferKind::Matrix);
+        assert_eq!(read.vertex(1, 0), &matrix.coefficients[16..32]);
+        assert_eq!(read.header.checksum, sum);
+        // An unknown kind, and an interreflected matrix, are refused.
+        let mut unknown = bytes.clone();
+        unknown[38] = 2;
+        let m = CoefficientFile::from_bytes(&resealed(unknown)).unwrap_err();
+        assert!(m.contains("unknown transfer kind 2"), "{m}");
+        let mut bounced = bytes;
+        bounced[36] = 2;
+        bounced[40] = 1;
+        bounced[80] = 1;
+        let m = CoefficientFile::from_bytes(&resealed(bounced)).unwrap_err();
+        assert!(m.contains("interreflected transfer-matrix"), "{m}");
+    }
+}
