@@ -55,6 +55,10 @@ pub enum TransferKind {
 }
 
 impl TransferKind {
+    fn is_vector(&self) -> bool {
+        *self == TransferKind::Vector
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             TransferKind::Vector => "vector",
@@ -130,8 +134,13 @@ pub struct Header {
     pub samples_per_vertex: u32,
     #[serde(serialize_with = "as_name::mode")]
     pub mode: Mode,
-    /// Transfer vectors or matrices (bytes 38..40; 0 = vector in every older file).
-    #[serde(serialize_with = "as_name::transfer")]
+    /// Transfer vectors or matrices (bytes 38..40; 0 = vector in every older file). `inspect`
+    /// shows it for matrix files only, as it shows `adaptive` for adaptive bakes only, so the
+    /// output for every vector file is what it was.
+    #[serde(
+        serialize_with = "as_name::transfer",
+        skip_serializing_if = "TransferKind::is_vector"
+    )]
     pub transfer: TransferKind,
     pub bounces: u32,
     /// Rays per vertex whose hits fed the bounces (interreflected mode; 0 otherwise).
