@@ -7,10 +7,14 @@
 #                    against the npz export, the EXR export against it (part of make test)
 #   make mitsuba     interreflected vertex and texel bakes against Mitsuba 3, a path tracer
 #                    (part of make test, 30 s to 2 min; docs/lightmaps.md)
+#   make blender     a Blender glTF with per-object lightmap UVs against Cycles' AO bake
+#                    (part of make test, about 30 s after a 373 MB install; docs/lightmaps.md)
 #   make bench       the bake benchmark: Embree and obvhs against the raw Embree rate
 #                    (docs/performance.md)
 #   make fuzz        the parsers' mutation fuzzing at 20 times make test's mutants (docs/robustness.md)
-#   make bench-view  the viewer's frame rates, Blinn-Phong and PRT with 1 and 8 lights (docs/performance.md)
+#   make web GLB=F   serve the three.js example page for a prt-bake .glb and print its address
+#   make bench-view  the viewer's frame rates, Blinn-Phong and PRT with 1 and 8 lights, per vertex
+#                    and per pixel (a texel bake) (docs/performance.md)
 
 CARGO ?= cargo
 BAKE := target/release/prt-bake
@@ -21,7 +25,7 @@ SCENE := scenes/torus/torus.scene
 NO_EMBREE := target/no-embree
 NO_EMBREE_BAKE := $(NO_EMBREE)/release/prt-bake
 
-.PHONY: demo test bench bench-view deps build lint unit no-embree embree4 reference interop scenes slurm fuzz browser mitsuba
+.PHONY: demo test bench bench-view deps build lint unit no-embree embree4 reference interop scenes slurm fuzz browser mitsuba blender web
 
 deps:
 	@scripts/install-deps.sh
@@ -95,6 +99,13 @@ interop: build
 browser: build
 	scripts/browser/run.sh
 
+# The web round trip's last step: serve the repository and print the three.js example page's
+# address for GLB (a prt-bake export --glb … --lights RIG file); Ctrl-C stops it.
+GLB ?=
+PORT ?= 8000
+web: deps
+	scripts/browser/serve.sh "$(GLB)" "$(PORT)"
+
 # A single-node Slurm cluster (slurmctld, slurmd, munged) started and stopped by the test:
 # scripts/slurm/submit.sh bakes in 4 shards, the merge must equal the single-machine bake.
 slurm: build
@@ -106,7 +117,14 @@ slurm: build
 mitsuba: build
 	scripts/mitsuba/run.sh
 
-test: lint unit no-embree embree4 reference interop slurm browser mitsuba
+# A Blender-made glTF with per-object lightmap UVs (Suzanne, a cube, a floor; Smart UV Project)
+# baked per texel: no texel shared between objects, AO within Cycles' noise of Blender's own
+# AO bake. Blender 4.5 LTS comes from PyPI (bpy, a 373 MB wheel) into target/blender/venv;
+# about 30 s once installed (docs/lightmaps.md, "Against Blender Cycles").
+blender: build
+	scripts/blender/run.sh
+
+test: lint unit no-embree embree4 reference interop slurm browser mitsuba blender
 
 bench: deps
 	$(CARGO) bench -p prt-baker --bench bake
@@ -116,8 +134,15 @@ bench: deps
 fuzz: deps
 	PRT_FUZZ_CASES=400000 $(CARGO) test --release -p prt-baker --test fuzz -- --nocapture
 
-bench-view: out/torus.prt
+# The Cornell box's 512² interreflected lightmap (RGB transfer, order 4): per-pixel PRT.
+out/cornell-lightmap-512.prt: build
+	@mkdir -p out
+	$(BAKE) bake scenes/cornell/cornell.scene -o out/cornell-lightmap-512.prt --lightmap 512 \
+		--mode interreflected --samples 64 --seed 1
+
+bench-view: out/torus.prt out/cornell-lightmap-512.prt
 	$(VIEW) $(SCENE) out/torus.prt --bench
+	$(VIEW) scenes/cornell/cornell.scene out/cornell-lightmap-512.prt --bench
 
 # Regenerates the committed demo scenes (a test checks they match the generator).
 scenes:

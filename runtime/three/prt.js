@@ -3,10 +3,12 @@
 // An ES module with no build step; `three` is imported by its bare name (an import map in the
 // page names the file). Per vertex or per texel, grey or RGB transfer, any order:
 //
-//   import { lightFromJSON, rotateLight, applyPRT, loadLightmapTransfer } from './prt.js';
+//   import { lightFromJSON, lightFromGLTF, rotateLight, applyPRT, loadLightmapTransfer } from './prt.js';
 //   const light = lightFromJSON(await (await fetch('light.json')).json()); // prt-bake light --up y
+//   const light = lightFromGLTF(gltf);       // or the rig the .glb was exported with (--lights)
 //   const prt = applyPRT(gltf.scene, light);                   // vertex bakes (_PRT_k)
 //   const prt = applyPRT(gltf.scene, light, { lightmap: await loadLightmapTransfer('exr/manifest.json') });
+//   const prt = applyPRT(gltf, light, { cpca: await loadCompressedTransfer(gltf) }); // compressed
 //   prt.setLight(rotateLight(light, m));                       // m: row-major 3×3, glTF frame
 //
 // Shading is `prt-bake relight`'s: radiance_c = albedo_c · Σ_j T_j·L_c,j with albedo the
@@ -16,9 +18,19 @@
 
 import * as THREE from 'three';
 import { EXRLoader } from 'three/addons/loaders/EXRLoader.js';
-import { GLTF_TO_Z_UP, coeffCount, lightOfOrder, rotateLight } from './sh.js';
+import { GLTF_TO_Z_UP, coeffCount, lightFromJSON, lightOfOrder, rotateLight } from './sh.js';
 
 export { lightFromJSON, rotateLight, shRotation, axisAngle, multiply3, Z_UP_TO_GLTF, GLTF_TO_Z_UP } from './sh.js';
+
+/**
+ * The light a `.glb` was exported with (`prt-bake export … --lights RIG`): its
+ * `asset.extras.prt.light`, which is `prt-bake light RIG --up y`'s JSON, in the file's frame.
+ * `gltf` is GLTFLoader's result. Returns null when the file carries no light.
+ */
+export function lightFromGLTF(gltf) {
+  const light = gltf?.parser?.json?.asset?.extras?.prt?.light;
+  return light === undefined ? null : lightFromJSON(light);
+}
 
 /** The `_PRT_k` attribute names of a geometry (three.js lower-cases them), per channel. */
 function vertexTransfer(geometry) {
@@ -73,6 +85,81 @@ export async function loadLightmapTransfer(manifestUrl) {
     textures[2] = textures[0];
   }
   return { order, channels, up: manifest.up, groups, textures, manifest };
+}
+
+/**
+ * A CPCA-compressed bake's clusters (the export of a `prt-bake compress` file): the means and
+ * principal components that `asset.extras.prt.cpca` names, read from the file's buffer.
+ * `gltf` is GLTFLoader's result. Resolves to { clusters, pcs, dim, order, channels, means,
+ * bases } (Float32Arrays, layout as docs/gltf.md says), or null when the file has none.
+ */
+export async function loadCompressedTransfer(gltf) {
+  const cpca = gltf?.parser?.json?.asset?.extras?.prt?.cpca;
+  if (!cpca) return null;
+  const { clusters, pcs, dim, order, channels } = cpca;
+  if (![clusters, pcs, dim, order].every(Number.isInteger) || ![1, 3].includes(channels) || dim !== channels * coeffCount(order)) {
+    throw new Error('prt: asset.extras.prt.cpca: clusters, pcs, dim, order and channels do not fit together');
+  }
+  const [means, bases] = await Promise.all([cpca.means, cpca.bases].map((i) => gltf.parser.getDependency('accessor', i)));
+  if (means.array.length !== clusters * dim || bases.array.length !== clusters * pcs * dim) {
+    throw new Error(`prt: asset.extras.prt.cpca: ${means.array.length} mean and ${bases.array.length} component floats, expected ${clusters * dim} and ${clusters * pcs * dim}`);
+  }
+  return { clusters, pcs, dim, order, channels, means: means.array, bases: bases.array };
+}
+
+// Texels of the per-cluster light texture per row.
+const CLUSTER_ROW = 1024;
+
+// The light dotted into every cluster's mean and components, per channel: texel
+// k·(M + 1) + r holds, in RGB, cluster k's mean (r = 0) or component r − 1 dotted with the
+// light. Written into `texture` (a DataTexture) or a new one.
+function clusterLight(cpca, light, texture = null) {
+  const { clusters, pcs, dim, order, channels, means, bases } = cpca;
+  const n = coeffCount(order);
+  const fitted = lightOfOrder(light, order);
+  const count = clusters * (pcs + 1);
+  const width = Math.min(count, CLUSTER_ROW);
+  const height = Math.ceil(count / width);
+  const data = texture ? texture.image.data : new Float32Array(4 * width * height);
+  for (let k = 0; k < clusters; k++) {
+    for (let r = 0; r <= pcs; r++) {
+      const vector = r === 0 ? means.subarray(k * dim, (k + 1) * dim) : bases.subarray(((k * pcs) + r - 1) * dim, ((k * pcs) + r) * dim);
+      const texel = 4 * (k * (pcs + 1) + r);
+      for (let c = 0; c < 3; c++) {
+        const offset = channels === 1 ? 0 : c * n;
+        let sum = 0;
+        for (let j = 0; j < n; j++) sum += vector[offset + j] * fitted.rgb[c][j];
+        data[texel + c] = sum;
+      }
+      data[texel + 3] = 1;
+    }
+  }
+  if (texture) {
+    texture.needsUpdate = true;
+    return texture;
+  }
+  const made = new THREE.DataTexture(data, width, height, THREE.RGBAFormat, THREE.FloatType);
+  made.magFilter = THREE.NearestFilter;
+  made.minFilter = THREE.NearestFilter;
+  made.generateMipmaps = false;
+  made.needsUpdate = true;
+  return made;
+}
+
+function compressedShaderPatch(cpca, weights) {
+  const width = Math.min(cpca.clusters * (cpca.pcs + 1), CLUSTER_ROW);
+  const lines = [];
+  for (let i = 0; i < cpca.pcs; i++) {
+    lines.push(`vPrtShading += ${weights[Math.floor(i / 4)]}.${'xyzw'[i % 4]} * prtCluster(prtBase + ${i + 1});`);
+  }
+  return {
+    declarations: `attribute float _prt_cluster;\n${weights.map((w) => `attribute vec4 ${w};`).join('\n')}
+uniform highp sampler2D prtClusterLight;
+varying vec3 vPrtShading;
+vec3 prtCluster(int i) { return texelFetch(prtClusterLight, ivec2(i % ${width}, i / ${width}), 0).rgb; }
+`,
+    body: `int prtBase = int(_prt_cluster + 0.5) * ${cpca.pcs + 1};\nvPrtShading = prtCluster(prtBase);\n${lines.join('\n')}\n`,
+  };
 }
 
 // The uniform layout: per colour channel c and group k, vec4 prtLight[c * groups + k], times
@@ -161,6 +248,8 @@ function albedoMaterial(source) {
  *   exposure       EV, radiance × 2^exposure (default 0)
  *   quantization   asset.extras.prt.quantization of a file exported with --quantize, when
  *                  `root` is not the GLTFLoader result
+ *   cpca           a compressed bake's clusters (loadCompressedTransfer): meshes with
+ *                  _PRT_CLUSTER and _PRT_Wk attributes are relit from them
  */
 export function applyPRT(rootOrGltf, light, options = {}) {
   // A GLTFLoader result brings its asset.extras.prt (the quantization scales) along.
@@ -170,12 +259,27 @@ export function applyPRT(rootOrGltf, light, options = {}) {
   const entries = [];
   const order = options.order ?? light.order;
   const lightmap = options.lightmap ?? null;
+  const cpca = options.cpca ?? null;
+  // One per-cluster light texture, shared by every compressed mesh.
+  const clusterTexture = cpca ? { value: clusterLight(cpca, light) } : null;
+  const clamp = options.clampShading ? 'clamp(prtShading, 0.0, 1.0)' : 'prtShading';
   const common = {
     prtExposure: { value: 2 ** (options.exposure ?? 0) },
   };
   root.traverse((object) => {
     if (!object.isMesh) return;
     const geometry = object.geometry;
+    if (geometry.attributes._prt_cluster) {
+      if (!cpca) throw new Error(`prt: mesh '${object.name}': compressed transfer (_PRT_CLUSTER): pass options.cpca = await loadCompressedTransfer(gltf)`);
+      const weights = Array.from({ length: Math.ceil(cpca.pcs / 4) }, (_, k) => `_prt_w${k}`);
+      const missing = weights.find((w) => !geometry.attributes[w]);
+      if (missing) throw new Error(`prt: mesh '${object.name}': compressed transfer without its ${missing} attribute`);
+      const uniforms = { prtClusterLight: clusterTexture, ...common };
+      const patch = compressedShaderPatch(cpca, weights);
+      const made = relitMaterials(object, uniforms, patch, true, `c:${cpca.clusters}:${cpca.pcs}:${clamp}`, clamp);
+      entries.push({ object, ...made, uniforms, compressed: true });
+      return;
+    }
     const transfer = vertexTransfer(geometry);
     const texel = !transfer && lightmap && geometry.attributes.uv1;
     if (!transfer && !texel) return;
@@ -184,8 +288,6 @@ export function applyPRT(rootOrGltf, light, options = {}) {
     if (Math.ceil(coeffCount(transferOrder) / 4) !== groups) {
       throw new Error(`prt: mesh '${object.name}': ${groups} VEC4 groups of transfer, but order ${transferOrder} needs ${Math.ceil(coeffCount(transferOrder) / 4)} (pass options.order)`);
     }
-    const original = object.material;
-    const sources = Array.isArray(original) ? original : [original];
     const scales = transfer ? attributeScales(transfer, quantization) : null;
     if (transfer && !scales && geometry.attributes[transfer.channels[0][0]].normalized) {
       throw new Error(`prt: mesh '${object.name}': quantized transfer, but no scales: pass the GLTFLoader result, or options.quantization`);
@@ -195,37 +297,16 @@ export function applyPRT(rootOrGltf, light, options = {}) {
       for (let c = 0; c < 3; c++) for (let k = 0; k < groups; k++) uniforms[`prtT${c}_${k}`] = { value: lightmap.textures[c][k] };
     }
     const patch = transfer ? vertexShaderPatch(transfer) : texelShaderPatch(groups);
-    const clamp = options.clampShading ? 'clamp(prtShading, 0.0, 1.0)' : 'prtShading';
-    const made = sources.map((source) => {
-      const material = albedoMaterial(source);
-      material.onBeforeCompile = (shader) => {
-        Object.assign(shader.uniforms, uniforms);
-        if (transfer) {
-          shader.vertexShader = shader.vertexShader
-            .replace('#include <common>', `#include <common>\n${patch.declarations}`)
-            .replace('#include <begin_vertex>', `#include <begin_vertex>\n${patch.body}`);
-          shader.fragmentShader = shader.fragmentShader
-            .replace('#include <common>', '#include <common>\nvarying vec3 vPrtShading;\nuniform float prtExposure;')
-            .replace('#include <color_fragment>', `#include <color_fragment>\nvec3 prtShading = vPrtShading;\ndiffuseColor.rgb *= ${clamp} * prtExposure;`);
-        } else {
-          shader.vertexShader = shader.vertexShader
-            .replace('#include <common>', '#include <common>\n#ifndef USE_UV1\nattribute vec2 uv1;\n#endif\nvarying vec2 vPrtUv;')
-            .replace('#include <begin_vertex>', '#include <begin_vertex>\nvPrtUv = uv1;');
-          shader.fragmentShader = shader.fragmentShader
-            .replace('#include <common>', `#include <common>\n${patch.declarations}\nuniform float prtExposure;`)
-            .replace('#include <color_fragment>', `#include <color_fragment>\n${patch.body}diffuseColor.rgb *= ${clamp} * prtExposure;`);
-        }
-      };
-      material.customProgramCacheKey = () => `prt:${transfer ? 'v' : 't'}:${groups}:${transfer ? transfer.channels.flat().join(',') : ''}:${clamp}`;
-      return material;
-    });
-    object.material = Array.isArray(original) ? made : made[0];
-    entries.push({ object, original, made, uniforms, groups, scales, order: transferOrder, texel: Boolean(texel) });
+    const key = `${transfer ? 'v' : 't'}:${groups}:${transfer ? transfer.channels.flat().join(',') : ''}:${clamp}`;
+    const made = relitMaterials(object, uniforms, patch, Boolean(transfer), key, clamp);
+    entries.push({ object, ...made, uniforms, groups, scales, order: transferOrder, texel: Boolean(texel) });
   });
   const handle = {
     meshes: entries.map((e) => e.object),
     setLight(next) {
+      if (clusterTexture) clusterLight(cpca, next, clusterTexture.value);
       for (const e of entries) {
+        if (e.compressed) continue;
         // The texel transfer is in the bake's own frame (manifest.up): a z-up bake gets the
         // glTF-frame light turned back to z-up.
         const framed = e.texel && lightmap.up === 'z' ? rotateLight(next, GLTF_TO_Z_UP) : next;
@@ -245,8 +326,42 @@ export function applyPRT(rootOrGltf, light, options = {}) {
     dispose() {
       handle.restore();
       for (const e of entries) e.made.forEach((m) => m.dispose());
+      clusterTexture?.value.dispose();
     },
   };
   handle.setLight(light);
   return handle;
+}
+
+// The relighting materials of `object`, one per material it has: the shading computed per
+// vertex (`perVertex`: the patch goes into the vertex shader, vPrtShading to the fragment) or
+// per texel (the patch goes into the fragment shader). Puts them on the object.
+function relitMaterials(object, uniforms, patch, perVertex, key, clamp) {
+  const original = object.material;
+  const sources = Array.isArray(original) ? original : [original];
+  const made = sources.map((source) => {
+    const material = albedoMaterial(source);
+    material.onBeforeCompile = (shader) => {
+      Object.assign(shader.uniforms, uniforms);
+      if (perVertex) {
+        shader.vertexShader = shader.vertexShader
+          .replace('#include <common>', `#include <common>\n${patch.declarations}`)
+          .replace('#include <begin_vertex>', `#include <begin_vertex>\n${patch.body}`);
+        shader.fragmentShader = shader.fragmentShader
+          .replace('#include <common>', '#include <common>\nvarying vec3 vPrtShading;\nuniform float prtExposure;')
+          .replace('#include <color_fragment>', `#include <color_fragment>\nvec3 prtShading = vPrtShading;\ndiffuseColor.rgb *= ${clamp} * prtExposure;`);
+      } else {
+        shader.vertexShader = shader.vertexShader
+          .replace('#include <common>', '#include <common>\n#ifndef USE_UV1\nattribute vec2 uv1;\n#endif\nvarying vec2 vPrtUv;')
+          .replace('#include <begin_vertex>', '#include <begin_vertex>\nvPrtUv = uv1;');
+        shader.fragmentShader = shader.fragmentShader
+          .replace('#include <common>', `#include <common>\n${patch.declarations}\nuniform float prtExposure;`)
+          .replace('#include <color_fragment>', `#include <color_fragment>\n${patch.body}diffuseColor.rgb *= ${clamp} * prtExposure;`);
+      }
+    };
+    material.customProgramCacheKey = () => `prt:${key}`;
+    return material;
+  });
+  object.material = Array.isArray(original) ? made : made[0];
+  return { original, made };
 }

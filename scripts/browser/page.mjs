@@ -2,7 +2,7 @@
 // exported or relit by prt.js, and returns the canvas's RGBA pixels (base64, top row first).
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
-import { applyPRT, lightFromJSON, loadLightmapTransfer, rotateLight } from '/runtime/three/prt.js';
+import { applyPRT, lightFromGLTF, lightFromJSON, loadCompressedTransfer, loadLightmapTransfer, rotateLight } from '/runtime/three/prt.js';
 
 const canvas = document.getElementById('view');
 const renderer = new THREE.WebGLRenderer({ canvas, antialias: false, preserveDrawingBuffer: true, alpha: true });
@@ -54,7 +54,8 @@ function frameTime(scene, camera, frames) {
 
 window.prtTest = {
   /**
-   * glb: url; mode: 'exported' | 'prt' | 'basic'; light: JSON (prt-bake light --up y);
+   * glb: url; mode: 'exported' | 'prt' | 'basic'; light: JSON (prt-bake light --up y), or
+   * 'embedded' for the rig the .glb was exported with (lightFromGLTF);
    * rotation: row-major 3×3 or null; lightmap: manifest url for texel bakes; view: [x, y, z]
    * the camera's direction from the centre; frames: also time this many frames.
    */
@@ -63,10 +64,13 @@ window.prtTest = {
     const scene = gltf.scene;
     const camera = frame(scene, view);
     if (mode === 'prt') {
-      let l = lightFromJSON(light);
+      let l = light === 'embedded' ? lightFromGLTF(gltf) : lightFromJSON(light);
+      if (!l) throw new Error(`${glb}: no light in asset.extras.prt.light`);
       if (rotation) l = rotateLight(l, rotation);
       const options = { clampShading: true };
       if (lightmap) options.lightmap = await loadLightmapTransfer(lightmap);
+      // A compressed bake's clusters (null for the others).
+      options.cpca = await loadCompressedTransfer(gltf);
       const handle = applyPRT(gltf, l, options);
       if (handle.meshes.length === 0) throw new Error(`${glb}: no mesh carries PRT data`);
     } else if (mode === 'basic') {
@@ -79,5 +83,10 @@ window.prtTest = {
     if (frames) result.ms = frameTime(scene, camera, frames);
     return result;
   },
+};
+/** The light a .glb carries (lightFromGLTF), as plain arrays, or null. */
+window.prtTest.embeddedLight = async (glb) => {
+  const l = lightFromGLTF(await loadGLB(glb));
+  return l && { order: l.order, rgb: l.rgb.map((c) => Array.from(c)) };
 };
 window.prtReady = true;

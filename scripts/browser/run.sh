@@ -9,22 +9,12 @@
 # compiles docs/gltf.md's GLSL ES snippets with glslangValidator.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/../.."
-NODE_DIR=target/node
+# shellcheck source=scripts/browser/node-deps.sh
+. scripts/browser/node-deps.sh
 OUT=target/browser
-THREE_VERSION=0.187.0
 PLAYWRIGHT_VERSION=1.65.1
 [ -x /usr/bin/chromium ] || { echo "browser: /usr/bin/chromium is missing (scripts/install-deps.sh installs it)" >&2; exit 2; }
-command -v npm >/dev/null || { echo "browser: npm is missing (scripts/install-deps.sh installs it)" >&2; exit 2; }
-installed() { # package version: whether target/node holds exactly that version
-    [ -f "$NODE_DIR/node_modules/$1/package.json" ] &&
-        node -e "process.exit(require(process.argv[1]).version === process.argv[2] ? 0 : 1)" \
-            "$PWD/$NODE_DIR/node_modules/$1/package.json" "$2"
-}
-if ! installed three "$THREE_VERSION" || ! installed playwright-core "$PLAYWRIGHT_VERSION"; then
-    mkdir -p "$NODE_DIR"
-    npm install --silent --no-audit --no-fund --save-exact --prefix "$NODE_DIR" \
-        "three@$THREE_VERSION" "playwright-core@$PLAYWRIGHT_VERSION"
-fi
+node_deps "three@$THREE_VERSION" "playwright-core@$PLAYWRIGHT_VERSION"
 cargo build --release -p prt-baker
 rm -rf "$OUT"
 mkdir -p "$OUT"

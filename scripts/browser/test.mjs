@@ -54,6 +54,9 @@ const cases = [
   { name: 'torus', scene: 'scenes/torus/torus.scene', bake: ['--order', '3'], tolerance: 2, view: [0.6, 0.9, 1] },
   { name: 'cornell-rgb', scene: 'scenes/cornell/cornell.scene', bake: ['--mode', 'interreflected'], tolerance: 2, view: [0.15, 0.2, 1] },
   { name: 'cornell-texel', scene: 'scenes/cornell/cornell.scene', bake: ['--lightmap', '128'], tolerance: 4, view: [0.15, 0.2, 1], texel: true },
+  // CPCA-compressed (64 clusters × 4 components, Sloan 2003): the .glb carries a cluster index
+  // and 4 weights per vertex, and prt.js dots the light into each cluster once per frame.
+  { name: 'cornell-cpca', scene: 'scenes/cornell/cornell.scene', bake: ['--mode', 'interreflected', '--clusters', '64', '--pcs', '4'], tolerance: 2, view: [0.15, 0.2, 1], cpca: true },
 ];
 const started = Date.now();
 for (const c of cases) {
@@ -63,7 +66,7 @@ for (const c of cases) {
     run('export', prt, '--scene', path.join(repo, c.scene), '--glb', path.join(out, `${c.name}${suffix}.glb`), '--lights', path.join(out, lights));
   }
   if (c.texel) run('export', prt, '--scene', path.join(repo, c.scene), '--exr', path.join(out, `${c.name}-exr`), '--exr-type', 'f16');
-  else {
+  else if (!c.cpca) {
     for (const bits of [16, 8]) {
       run('export', prt, '--scene', path.join(repo, c.scene), '--glb', path.join(out, `${c.name}-q${bits}.glb`), '--quantize', String(bits), '--lights', path.join(out, 'rig.toml'));
     }
@@ -132,7 +135,10 @@ try {
     for (const [label, glb, rotation] of [['rig', `${c.name}.glb`, null], ['turned', `${c.name}-turned.glb`, turn]]) {
       const frames = label === 'rig' ? 30 : 0;
       const reference = await render({ glb: `/data/${glb}`, mode: 'exported', view: c.view, frames });
-      const relit = await render({ glb: `/data/${c.name}.glb`, mode: 'prt', light: light(order), rotation, lightmap, view: c.view, frames });
+      // At the rig, the light is the one the .glb carries (export --lights puts it in
+      // asset.extras.prt.light); turned, it is prt-bake light's JSON turned by prt.js.
+      const relitLight = label === 'rig' ? 'embedded' : light(order);
+      const relit = await render({ glb: `/data/${c.name}.glb`, mode: 'prt', light: relitLight, rotation, lightmap, view: c.view, frames });
       const a = Buffer.from(reference.pixels, 'base64');
       const b = Buffer.from(relit.pixels, 'base64');
       exported[label] = a;
@@ -145,9 +151,17 @@ try {
         fs.writeFileSync(path.join(out, `${c.name}-${label}-${which}.rgba`), Buffer.from(r.pixels, 'base64'));
       }
     }
+    // The light in the .glb is prt-bake light --up y's, to rounding.
+    const embedded = await page.evaluate((glb) => window.prtTest.embeddedLight(glb), `/data/${c.name}.glb`);
+    const json = light(order);
+    const lightError = embedded && embedded.order === json.order
+      ? Math.max(...embedded.rgb.flatMap((channel, i) => channel.map((x, j) => Math.abs(x - json.coefficients[i][j]))))
+      : Infinity;
+    failures += lightError <= 1e-9 ? 0 : 1;
+    console.log(`browser: ${lightError <= 1e-9 ? 'ok  ' : 'FAIL'} ${c.name}: the .glb's light (asset.extras.prt.light) is prt-bake light --up y's (largest difference ${lightError.toExponential(1)})`);
     // export --quantize: the relit render of the 16-bit transfer must match the float
     // COLOR_0 as closely as the float transfer does, the 8-bit one within twice the codes.
-    if (!c.texel) {
+    if (!c.texel && !c.cpca) {
       const reference = Buffer.from((await render({ glb: `/data/${c.name}.glb`, mode: 'exported', view: c.view })).pixels, 'base64');
       const float = fs.statSync(path.join(out, `${c.name}.glb`)).size;
       for (const bits of [16, 8]) {
@@ -162,6 +176,17 @@ try {
         console.log(`browser: ${ok ? 'ok  ' : 'FAIL'} ${c.name} --quantize ${bits}: ${(100 * share).toFixed(2)} % within ${tolerance} codes of the float COLOR_0 (worst ${worst}); ${size} bytes, ${(100 * size / float).toFixed(1)} % of float's ${float}`);
       }
     }
+    // What the transfer costs in vertex attributes (WebGL 2 guarantees 16), and bytes.
+    if (!c.texel) {
+      const bytes = fs.readFileSync(path.join(out, `${c.name}.glb`));
+      const doc = JSON.parse(bytes.subarray(20, 20 + bytes.readUInt32LE(12)).toString('utf8'));
+      const counts = doc.meshes.map((m) => Object.keys(m.primitives[0].attributes));
+      const all = Math.max(...counts.map((a) => a.length));
+      const prtCount = Math.max(...counts.map((a) => a.filter((n) => n.startsWith('_PRT')).length));
+      const ok = !c.cpca || all <= 6;
+      failures += ok ? 0 : 1;
+      console.log(`browser: ${ok ? 'ok  ' : 'FAIL'} ${c.name}: ${all} vertex attributes per primitive, ${prtCount} of them transfer; ${bytes.length} bytes`);
+    }
     // The turn must change the picture, or the turned comparison proves nothing.
     const { rig: r, turned: t } = exported;
     let changed = 0;
@@ -172,7 +197,12 @@ try {
     failures += sensitive ? 0 : 1;
     console.log(`browser: ${sensitive ? 'ok  ' : 'FAIL'} ${c.name}: the turned rig changes ${changed} pixels by more than ${3 * c.tolerance} codes`);
   }
-  // The example page: it loads a bake and a light, relights, and a right drag turns the light.
+  // The example page given only a .glb relights it with the rig the file carries (the README's
+  // web round trip), ...
+  await page.goto(`${base}/runtime/three/example.html?glb=/data/cornell-rgb.glb`);
+  await page.waitForFunction(() => window.prtExample?.handle?.meshes.length > 0, null, { timeout: 30000 });
+  console.log('browser: ok   example.html relights a .glb with its own light (no light file)');
+  // ... and given a light, it loads that; a right drag turns the light.
   await page.goto(`${base}/runtime/three/example.html?glb=/data/cornell-rgb.glb&light=/data/light-4.json`);
   await page.waitForFunction(() => window.prtExample?.handle?.meshes.length > 0, null, { timeout: 30000 });
   await page.mouse.move(400, 300);

@@ -40,6 +40,11 @@ $BAKE export "$OUT/torus-from-glb.prt" --scene "$OUT/torus.glb" --gltf "$OUT/tor
 # The texel bake's glb as a scene: its TEXCOORD_1 is the atlas of a new texel bake.
 $BAKE bake "$OUT/cornell-lm-plain.glb" -o "$OUT/cornell-lm-from-glb.prt" --lightmap 64 --samples 16 --quiet
 $BAKE export "$OUT/cornell-lm-from-glb.prt" --scene "$OUT/cornell-lm-plain.glb" --glb "$OUT/cornell-lm-again.glb"
+# A CPCA-compressed bake: _PRT_CLUSTER and _PRT_W0 per vertex, the clusters in the buffer.
+$BAKE bake scenes/cornell/cornell.scene -o "$OUT/cornell-cpca.prt" --samples 16 --mode interreflected \
+    --clusters 16 --pcs 4 --quiet
+$BAKE export "$OUT/cornell-cpca.prt" --scene scenes/cornell/cornell.scene --glb "$OUT/cornell-cpca.glb" \
+    --lights viewer/src/default-rig.toml
 node scripts/gltf/validate.mjs "$NODE_DIR/node_modules" "$OUT/torus.glb" "$OUT/cornell.glb" "$OUT/torus-again.glb" \
     "$OUT/cornell-lm.glb" "$OUT/cornell-lm-again.glb" "$OUT/cornell-lm-ao.glb" "$OUT/torus-ao.glb" \
-    "$OUT/cornell-lm-plain.glb"
+    "$OUT/cornell-lm-plain.glb" "$OUT/cornell-cpca.glb"

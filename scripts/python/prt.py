@@ -13,8 +13,9 @@
 A texel (lightmap) bake of a W×H lightmap stores its texels as the vertices, row-major; this
 reader shapes its arrays as `prt-bake export --npz` does: transfer (H, W, channels, n²), ao
 (H, W), bent_normal (H, W, 3) (and rays, error_estimate (H, W)), with f.lightmap.width,
-.height, .scene_vertex_count, .scene_triangle_count, .texel_size, .source ("generated" or
-"scene-uvs"), .uv1 (triangles, 3, 2) float32 lightmap UVs per triangle corner, and .valid,
+.height, .scene_vertex_count, .scene_triangle_count, .texel_size, .source ("generated",
+"scene-uvs" or "per-object", with .objects: per object its scale, offset and UVs), .uv1
+(triangles, 3, 2) float32 lightmap UVs per triangle corner, and .valid,
 .dilated (H, W) bool texel states (baked; padding dilated from baked neighbours).
 
 Every variant of version 1 is read: grey or RGB transfer, any order 1..45, the auxiliary
@@ -38,7 +39,7 @@ MODES = {0: "unshadowed", 1: "shadowed", 2: "interreflected"}
 BACKENDS = {0: "none", 1: "embree", 2: "obvhs"}
 SAMPLINGS = {0: "owen-sobol", 1: "thesis-random"}
 UP_AXES = {0: "z", 1: "y"}
-ATLAS_SOURCES = {0: "generated", 1: "scene-uvs"}
+ATLAS_SOURCES = {0: "generated", 1: "scene-uvs", 2: "per-object"}
 AUX_AO, AUX_BENT_NORMAL, AUX_RAYS, AUX_ERROR = 1, 2, 4, 8
 AUX_ADAPTIVE = AUX_RAYS | AUX_ERROR  # adaptive bakes: both or neither
 
@@ -58,6 +59,9 @@ class Lightmap:
     uv1: np.ndarray  # (triangles, 3, 2) float32; (-1, -1) at the corners of a left-out triangle
     valid: np.ndarray  # (H, W) bool: baked
     dilated: np.ndarray  # (H, W) bool: padding dilated from baked neighbours
+    # source "per-object" only: per scene object {"scale": (sx, sy), "offset": (ox, oy), "uvs":
+    # "own" | "generated-overlapping" | "generated-missing"}: atlas uv = own uv * scale + offset
+    objects: "list | None" = None
 
 
 @dataclass
@@ -150,8 +154,13 @@ def parse_prt(b):
     aux_floats = ((1 if aux & AUX_AO else 0) + (3 if aux & AUX_BENT_NORMAL else 0)
                   + (2 if adaptive else 0))
     needed = vertices * (channels * n2 + aux_floats) * 4
+    object_section = 0
     if lightmap is not None:
         needed += lightmap.scene_triangle_count * 6 * 4 + vertices
+        # A per-object atlas ends with a u32 count and 20 bytes per object.
+        if lightmap.source == "per-object" and payload >= needed + 4 and (payload - needed - 4) % 20 == 0:
+            object_section = payload - needed
+            needed = payload
     if needed != payload:
         raise PrtError("the payload size does not match the vertex count, order, channels, aux arrays"
                        + (" and lightmap" if lightmap is not None else ""))
@@ -207,6 +216,18 @@ def parse_prt(b):
         shape = (lightmap.height, lightmap.width)
         lightmap.uv1 = uv1
         lightmap.valid, lightmap.dilated = (states == 1).reshape(shape), (states == 2).reshape(shape)
+        if object_section:
+            count = int(take("<u4", 1)[0])
+            if count != (object_section - 4) // 20:
+                raise PrtError(f"the per-object section's count {count} does not match its size")
+            lightmap.objects = []
+            for i in range(count):
+                floats, kind = take("<f4", 4), int(take("<u4", 1)[0])
+                if kind > 2 or not (np.all(np.isfinite(floats)) and np.all(floats[:2] > 0)):
+                    raise PrtError(f"object {i}: not a lightmap placement")
+                lightmap.objects.append({"scale": tuple(map(float, floats[:2])),
+                                         "offset": tuple(map(float, floats[2:])),
+                                         "uvs": ("own", "generated-overlapping", "generated-missing")[kind]})
         transfer = transfer.reshape(*shape, channels, n2)
         ao = None if ao is None else ao.reshape(shape)
         bent_normal = None if bent_normal is None else bent_normal.reshape(*shape, 3)

@@ -13,9 +13,11 @@
 //! multiplies the interpolated radiance by Kd × texture per pixel and tone-maps it exactly as
 //! `prt-bake relight` does (× 2^exposure, clamp to [0, 1], sRGB encoding by the framebuffer).
 //!
-//! A lightmap (texel) bake is shaded per pixel instead: its transfer goes to a texture array
-//! ([`texel_transfer`]), and the fragment shader filters it bilinearly at the fragment's
-//! lightmap uv and dots it with the same summed light.
+//! A lightmap (texel) bake is shaded per pixel instead: its transfer goes to a storage buffer
+//! or a texture array ([`texel_transfer`]), a pass dots every texel with the same summed light
+//! once per frame into a radiance map ([`texel_radiance`]), and the fragment shader samples
+//! it bilinearly at the fragment's lightmap uv (equal, by linearity, to filtering the
+//! transfer per pixel and dotting it).
 //!
 //! # Structure
 //!
@@ -45,6 +47,7 @@ mod overlay;
 pub mod probe;
 pub mod renderer;
 mod resources;
+pub mod texel_radiance;
 pub mod texel_transfer;
 pub mod textures;
 pub mod window;

@@ -7,8 +7,9 @@
 //! readout are drawn on top.
 //!
 //! A lightmap (texel) bake instead puts its transfer in a texture array
-//! ([`crate::texel_transfer`]) that the PRT fragment shader filters at the fragment's
-//! lightmap uv, with the same light buffer. Its lightmap UVs are per triangle corner, so the
+//! ([`crate::texel_transfer`]); each PRT frame first dots every texel with the same light
+//! buffer into a radiance map ([`crate::texel_radiance`]), which the PRT fragment shader
+//! samples at the fragment's lightmap uv. Its lightmap UVs are per triangle corner, so the
 //! vertex buffer then holds one vertex per corner (indices 0, 1, 2, …), and objects are drawn
 //! by the same triangle ranges.
 
@@ -29,7 +30,9 @@ use crate::resources::{
     DEPTH_FORMAT, PipelineSpec, buffer_binding, pipeline, scene_shader, texture_2d, texture_entry,
     uniform_buffer, uniform_entry, view_binding,
 };
-use crate::{texel_transfer, textures};
+use crate::texel_radiance::RadianceMap;
+use crate::texel_transfer::{TexelStorage, TexelTransfer};
+use crate::textures;
 
 /// Behind the scene: a dark grey, linear.
 const BACKGROUND: wgpu::Color = wgpu::Color {
@@ -80,7 +83,9 @@ struct FrameUniform {
     use_textures: u32,
     exposure_scale: f32,
     light_count: u32,
-    pad: [u32; 3],
+    /// A texel bake's lightmap width (the radiance pass's texel index is y·W + x).
+    lightmap_width: u32,
+    pad: [u32; 2],
     ambient: [f32; 4],
     lights: [PhongLightUniform; MAX_LIGHTS],
 }
@@ -152,6 +157,7 @@ pub struct Renderer {
     depth: wgpu::TextureView,
     order: usize,
     channels: usize,
+    lightmap_width: u32,
     vertex_count: u32,
     centre: Vec3,
     radius: f32,
@@ -166,6 +172,8 @@ pub struct Renderer {
     materials: Vec<wgpu::BindGroup>,
     prt: wgpu::RenderPipeline,
     phong: wgpu::RenderPipeline,
+    /// A texel bake's radiance map, refilled before every PRT frame.
+    texel_radiance: Option<RadianceMap>,
 
     normal_lines: wgpu::Buffer,
     light_lines: wgpu::Buffer,
@@ -191,10 +199,22 @@ impl Renderer {
         format: wgpu::TextureFormat,
         size: (u32, u32),
     ) -> Result<Renderer> {
+        Renderer::with_texel_storage(device, queue, bake, format, size, TexelStorage::Fit)
+    }
+
+    /// As [`Renderer::new`], with a texel bake's transfer stored as `storage` asks.
+    pub fn with_texel_storage(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        bake: &Bake,
+        format: wgpu::TextureFormat,
+        size: (u32, u32),
+        storage: TexelStorage,
+    ) -> Result<Renderer> {
         let scene = &bake.scene;
         check_transfer_size(device, bake)?;
         let (vertices, indices) = mesh_buffers(device, bake);
-        let frame = FrameResources::new(device, queue, bake)?;
+        let frame = FrameResources::new(device, queue, bake, storage)?;
         let (material_layout, materials) = materials(device, queue, scene);
         let draws = scene
             .objects
@@ -205,8 +225,13 @@ impl Renderer {
                 material: scene.vertex_material[o.vertices.start as usize] as usize,
             })
             .collect();
+        let texel_radiance = bake.lightmap().map(|l| {
+            let size = (l.width, l.height);
+            RadianceMap::new(device, &frame.layout, size, frame.texel_transfer_in_buffer)
+        });
         let layouts = [&frame.layout, &material_layout];
-        let (prt, phong) = scene_pipelines(device, layouts, format, bake.lightmap().is_some());
+        let radiance_layout = texel_radiance.as_ref().map(|r| &r.layout);
+        let (prt, phong) = scene_pipelines(device, layouts, format, radiance_layout);
         let (centre, radius) = {
             let (lo, hi) = scene.bounds();
             (0.5 * (lo + hi), (0.5 * (hi - lo).length()).max(1e-6))
@@ -218,6 +243,7 @@ impl Renderer {
             depth: depth_view(device, size),
             order: bake.order(),
             channels: bake.channels(),
+            lightmap_width: bake.lightmap().map_or(0, |l| l.width),
             vertex_count: scene.vertex_count() as u32,
             centre,
             radius,
@@ -231,6 +257,7 @@ impl Renderer {
             materials,
             prt,
             phong,
+            texel_radiance,
             normal_lines: lines.normals,
             light_lines: lines.light_vectors,
             light_line_vertices: 0,
@@ -291,7 +318,8 @@ impl Renderer {
             use_textures: u32::from(inputs.textures),
             exposure_scale: inputs.exposure.exp2(),
             light_count: inputs.phong.lights.len().min(MAX_LIGHTS) as u32,
-            pad: [0; 3],
+            lightmap_width: self.lightmap_width,
+            pad: [0; 2],
             ambient: inputs.phong.ambient.extend(0.0).to_array(),
             lights,
         };
@@ -335,6 +363,9 @@ impl Renderer {
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("frame"),
         });
+        if let (Mode::Prt, Some(radiance)) = (self.mode, &self.texel_radiance) {
+            radiance.encode(&mut encoder, &self.frame_bind_group);
+        }
         {
             let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("frame"),
@@ -364,6 +395,9 @@ impl Renderer {
                 Mode::Phong => &self.phong,
             });
             pass.set_bind_group(0, &self.frame_bind_group, &[]);
+            if let (Mode::Prt, Some(radiance)) = (self.mode, &self.texel_radiance) {
+                pass.set_bind_group(2, &radiance.bind_group, &[]);
+            }
             pass.set_vertex_buffer(0, self.vertices.slice(..));
             pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
             for draw in &self.draws {
@@ -393,6 +427,11 @@ impl Renderer {
 
     pub fn vertex_count(&self) -> u32 {
         self.vertex_count
+    }
+
+    /// A texel bake's radiance map as the last PRT frame left it (None for vertex bakes).
+    pub fn texel_radiance(&self) -> Option<&wgpu::Texture> {
+        self.texel_radiance.as_ref().map(RadianceMap::texture)
     }
 }
 
@@ -470,14 +509,21 @@ struct FrameResources {
     frame_buffer: wgpu::Buffer,
     light_buffer: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
+    /// Whether a texel bake's transfer is in the buffer (binding 4) or the array (3).
+    texel_transfer_in_buffer: bool,
 }
 
 impl FrameResources {
-    fn new(device: &wgpu::Device, queue: &wgpu::Queue, bake: &Bake) -> Result<FrameResources> {
+    fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        bake: &Bake,
+        storage: TexelStorage,
+    ) -> Result<FrameResources> {
         let n2 = bake.order() * bake.order();
         let lightmap = bake.lightmap();
-        // A texel bake's transfer goes to the texture array; the storage buffer then holds
-        // unread zeros (a binding cannot be empty).
+        // A texel bake's transfer goes to its own buffer or texture array (texel_transfer.rs);
+        // the vertex transfer's buffer then holds unread zeros (a binding cannot be empty).
         let transfer = buffer_init(
             device,
             "transfer",
@@ -488,15 +534,16 @@ impl FrameResources {
             wgpu::BufferUsages::STORAGE,
         );
         let texel_transfer = match lightmap {
-            Some(l) => texel_transfer::upload(
+            Some(l) => TexelTransfer::upload(
                 device,
                 queue,
                 &bake.file_path,
                 (l.width, l.height),
                 &bake.file.coefficients,
-                bake.channels() * n2,
+                (bake.channels(), n2),
+                storage,
             )?,
-            None => texel_transfer::placeholder(device),
+            None => TexelTransfer::placeholder(device),
         };
         let light_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("light"),
@@ -516,7 +563,8 @@ impl FrameResources {
                 buffer_binding(0, &frame_buffer),
                 buffer_binding(1, &transfer),
                 buffer_binding(2, &light_buffer),
-                view_binding(3, &texel_transfer),
+                view_binding(3, &texel_transfer.array),
+                buffer_binding(4, &texel_transfer.buffer),
             ],
         });
 
@@ -525,13 +573,14 @@ impl FrameResources {
             frame_buffer,
             light_buffer,
             bind_group,
+            texel_transfer_in_buffer: texel_transfer.in_buffer,
         })
     }
 }
 
 /// Group 0's layout: the frame's uniforms (0), the transfer's storage buffer (1, read per
-/// vertex), the light's coefficients (2) and the texel bake's transfer array (3, read per
-/// fragment).
+/// vertex), the light's coefficients (2) and a texel bake's transfer, as a texture array (3)
+/// or a buffer (4), read by the radiance map's pass.
 fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     let vertex_and_fragment = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
     let storage = |binding, visibility| wgpu::BindGroupLayoutEntry {
@@ -560,16 +609,18 @@ fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
                 },
                 count: None,
             },
+            storage(4, wgpu::ShaderStages::FRAGMENT),
         ],
     })
 }
 
-/// The PRT pipeline (per vertex, or per texel) and the Blinn-Phong one.
+/// The PRT pipeline (per vertex, or per texel from a radiance map, whose layout is then
+/// group 2) and the Blinn-Phong one.
 fn scene_pipelines(
     device: &wgpu::Device,
     [frame_layout, material_layout]: [&wgpu::BindGroupLayout; 2],
     format: wgpu::TextureFormat,
-    texels: bool,
+    radiance_layout: Option<&wgpu::BindGroupLayout>,
 ) -> (wgpu::RenderPipeline, wgpu::RenderPipeline) {
     let scene_module = scene_shader(device, "scene", include_str!("shaders/scene.wgsl"));
     let vertex_layout = wgpu::VertexBufferLayout {
@@ -577,12 +628,14 @@ fn scene_pipelines(
         step_mode: wgpu::VertexStepMode::Vertex,
         attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x2, 3 => Float32x2],
     };
-    let scene_pipeline = |vs, fs| {
+    let scene_pipeline = |vs, fs, radiance: Option<&wgpu::BindGroupLayout>| {
+        let mut layouts = vec![Some(frame_layout), Some(material_layout)];
+        layouts.extend(radiance.map(Some));
         pipeline(
             device,
             PipelineSpec {
                 label: vs,
-                bind_group_layouts: &[Some(frame_layout), Some(material_layout)],
+                bind_group_layouts: &layouts,
                 module: &scene_module,
                 entry_points: (vs, fs),
                 buffers: &[Some(vertex_layout.clone())],
@@ -593,11 +646,11 @@ fn scene_pipelines(
             },
         )
     };
-    let prt = match texels {
-        true => scene_pipeline("vs_prt_texel", "fs_prt_texel"),
-        false => scene_pipeline("vs_prt", "fs_prt"),
+    let prt = match radiance_layout {
+        Some(radiance) => scene_pipeline("vs_prt_texel", "fs_prt_texel", Some(radiance)),
+        None => scene_pipeline("vs_prt", "fs_prt", None),
     };
-    let phong = scene_pipeline("vs_phong", "fs_phong");
+    let phong = scene_pipeline("vs_phong", "fs_phong", None);
 
     (prt, phong)
 }

@@ -18,6 +18,7 @@ use prt_baker::support::progress::Silent;
 use prt_baker::trace::{EmbreeOptions, EmbreeTracer};
 use prt_baker::{BakeOptions, CoefficientFile, Mode, Scene};
 use prt_viewer::lights::Lights;
+use prt_viewer::texel_transfer::TexelStorage;
 use prt_viewer::{Bake, Camera, FrameInputs, View};
 
 const SIZE: (u32, u32) = (192, 192);
@@ -503,4 +504,107 @@ fn the_window_runs_every_control_on_a_texel_file() {
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(output.status.success(), "{stdout}\n{stderr}");
     assert!(stdout.contains("prt-view: 40 frames in"), "{stdout}");
+}
+
+/// A half float's value (the radiance map is `Rgba16Float`).
+fn from_f16(bits: u16) -> f32 {
+    let sign = if bits & 0x8000 != 0 { -1.0 } else { 1.0 };
+    let exponent = i32::from((bits >> 10) & 0x1f);
+    let mantissa = f32::from(bits & 0x3ff);
+    sign * match exponent {
+        0 => mantissa * 2f32.powi(-24),
+        31 => f32::INFINITY,
+        _ => (1.0 + mantissa / 1024.0) * 2f32.powi(exponent - 15),
+    }
+}
+
+/// The radiance map a PRT frame of `frame` left, texel by texel (row-major), RGB.
+fn radiance_map(
+    gpu: &prt_viewer::Gpu,
+    bake: &Bake,
+    frame: &FrameInputs,
+    storage: TexelStorage,
+) -> (Vec<[f32; 3]>, image::RgbaImage) {
+    let mut renderer = prt_viewer::Renderer::with_texel_storage(
+        &gpu.device,
+        &gpu.queue,
+        bake,
+        prt_viewer::offscreen::FORMAT,
+        SIZE,
+        storage,
+    )
+    .expect("the renderer takes the bake");
+    let image = prt_viewer::offscreen::render_image(&gpu.device, &gpu.queue, &mut renderer, frame)
+        .expect("the frame reads back");
+    let texture = renderer
+        .texel_radiance()
+        .expect("a texel bake has a radiance map");
+    let bytes = prt_viewer::offscreen::read_texture(&gpu.device, &gpu.queue, texture, 8).unwrap();
+    let halves: Vec<u16> = bytes
+        .chunks_exact(2)
+        .map(|b| u16::from_le_bytes([b[0], b[1]]))
+        .collect();
+    let texels = halves
+        .chunks_exact(4)
+        .map(|t| [from_f16(t[0]), from_f16(t[1]), from_f16(t[2])])
+        .collect();
+    (texels, image)
+}
+
+#[test]
+fn the_radiance_map_is_relight_s_lightmap_radiance_in_both_storages() {
+    // Per-pixel PRT samples a radiance map that a pass fills once per frame: Σ_j T_j·L_j per
+    // texel and channel, in half floats. Against `relight`'s lightmap radiance (f64 sums of
+    // the file's f32 coefficients), every texel must agree to the half float's rounding,
+    // 2⁻¹⁰ of itself (one unit in the last place: lavapipe truncates to half rather than
+    // rounding to nearest), plus 10⁻⁵ of the largest value for f32 sums: with the transfer in the
+    // storage buffer and in the texture array, order 3 (an odd order pads each channel) RGB
+    // transfer whose channels hold different coefficients (channel c's T_j is the grey file's
+    // T_{(j + 2c) mod 9}, times 1, −0.5, 2), under a coloured sun and sky. The two storages
+    // also render the same screenshot.
+    let Some(gpu) = common::gpu() else { return };
+    let folder = tempfile::tempdir().unwrap();
+    let (_, _, grey) = dense_floor_under_a_disk();
+    let n2 = grey.order() * grey.order();
+    let mut rgb = grey.clone();
+    rgb.file.header.channels = 3;
+    rgb.file.coefficients = grey
+        .file
+        .coefficients
+        .chunks_exact(n2)
+        .flat_map(|t| {
+            (0..3).flat_map(move |c| {
+                let scale = [1.0, -0.5, 2.0][c];
+                (0..n2).map(move |j| scale * t[(j + 2 * c) % n2])
+            })
+        })
+        .collect();
+    let light = "[[light]]\nkind = \"sun\"\ndirection = [0.3, 0.2, 1.0]\ncolor = [1.0, 0.5, 0.25]\nintensity = 2.0\n\n\
+                 [[light]]\nkind = \"constant\"\ncolor = [0.1, 0.3, 0.2]\n";
+    let frame = dense_floor_frame(folder.path(), light);
+    let want = prt_baker::export::relight::lightmap_radiance(&rgb.file, &frame.prt_light);
+    let largest = want.iter().flatten().fold(0.0f32, |m, x| m.max(x.abs()));
+    let mut images = Vec::new();
+    for storage in [TexelStorage::Fit, TexelStorage::Array] {
+        let (got, image) = radiance_map(&gpu, &rgb, &frame, storage);
+        assert_eq!(got.len(), want.len(), "one value per texel");
+        let (mut worst, mut at) = (0.0f32, (0.0, 0.0));
+        for (g, w) in got.iter().flatten().zip(want.iter().flatten()) {
+            let bound = 2f32.powi(-10) * w.abs() + 1e-5 * largest;
+            if (g - w).abs() / bound > worst {
+                (worst, at) = ((g - w).abs() / bound, (*g, *w));
+            }
+        }
+        eprintln!(
+            "{storage:?}: {} texels, largest radiance {largest:.3}, worst error {worst:.3} of the bound (got {}, want {})",
+            got.len(),
+            at.0,
+            at.1
+        );
+        assert!(worst <= 1.0, "{storage:?}: {worst} × the bound");
+        images.push(image);
+    }
+    let difference = common::difference(&images[0], &images[1], 0);
+    eprintln!("buffer against array: {difference:?}");
+    assert_eq!(difference.max, 0, "the two storages render alike");
 }

@@ -102,6 +102,7 @@ impl CoefficientFile {
             valid: bake.texels.valid.clone(),
             dilated: bake.dilated.clone(),
             uv1: bake.atlas.uv1.clone(),
+            objects: bake.atlas.objects.clone(),
         });
         file
     }

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use clap::ValueEnum;
-use prt_baker::bake::lightmap::{self, Atlas};
+use prt_baker::bake::lightmap;
 use prt_baker::bake::memory;
 use prt_baker::bake::options::Aux;
 use prt_baker::distribute::checkpoint;
@@ -109,6 +109,11 @@ pub struct BakeArgs {
     /// shelf-packed; no distortion, but one chart per few triangles on curved meshes).
     #[arg(long, value_enum, requires = "lightmap")]
     atlas: Option<AtlasArg>,
+    /// With --lightmap on the scene's own lightmap UVs: refuse (exit 3) an object whose UVs
+    /// overlap themselves instead of warning and unwrapping it here. Objects that overlap
+    /// one another are packed per object either way (docs/lightmaps.md).
+    #[arg(long, requires = "lightmap")]
+    strict_uvs: bool,
     /// Write the bake compressed by clustered PCA into K clusters, as `prt-bake compress`
     /// would (default 64 where only --pcs is given). Not with --shard or --checkpoint:
     /// compress the merged file with `prt-bake compress`.
@@ -356,7 +361,12 @@ fn bake_texels(
     progress: &dyn Progress,
 ) -> Result<(Transfer, CoefficientFile, String), Error> {
     let atlas = match (&scene.lightmap_uvs, args.texel_size, args.atlas) {
-        (Some(uvs), None, None) => Atlas::from_vertex_uvs(scene, uvs, resolution, resolution)?,
+        (Some(uvs), None, None) => {
+            let (atlas, _, notes) =
+                lightmap::objects::from_scene_uvs(scene, uvs, resolution, args.strict_uvs)?;
+            notes.iter().for_each(|n| eprintln!("prt-bake: {n}"));
+            atlas
+        }
         (_, texel_size, method) => {
             let method = method.map_or(Default::default(), AtlasArg::method);
             // The unwrap reports no progress of its own (seconds on the demo): a bar

@@ -114,6 +114,14 @@ fn gltf(args: &ExportArgs, glb: &Path) -> Result<(), Error> {
             )
         }
         [] => String::from("no transfer"),
+        _ if written.cpca.is_some() => {
+            let (k, m) = written.cpca.unwrap_or_default();
+            format!(
+                "CPCA transfer ({k} clusters, {m} components) in _PRT_CLUSTER and {} VEC4 \
+                 weight attribute(s), the clusters in asset.extras.prt.cpca",
+                written.prt_attributes.len()
+            )
+        }
         [only] => format!("transfer in {only}"),
         [first, .., last] => format!(
             "transfer in {} VEC4 attributes {first}..{last}",

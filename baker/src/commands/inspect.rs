@@ -50,17 +50,28 @@ fn file_json(file: &CoefficientFile) -> serde_json::Value {
 /// Texel bakes: the lightmap block.
 fn lightmap_json(l: &LightmapBlock) -> serde_json::Value {
     let texels = |flags: &[bool]| flags.iter().filter(|&&f| f).count();
-    serde_json::json!({
+    let mut json = serde_json::json!({
         "width": l.width,
         "height": l.height,
         "baked_texels": texels(&l.valid),
         "dilated_texels": texels(&l.dilated),
         "texel_size": l.texel_size,
-        "atlas": match l.source {
-            AtlasSource::Generated => "generated",
-            AtlasSource::SceneUvs => "scene-uvs",
-        },
+        "atlas": l.source.name(),
         "scene_vertex_count": l.scene_vertex_count,
         "scene_triangle_count": l.scene_triangle_count,
-    })
+    });
+    // Per-object atlases: where each object's own UVs went (atlas uv = uv × scale + offset,
+    // v up), in the scene's object order.
+    if l.source == AtlasSource::PerObject {
+        let objects: Vec<serde_json::Value> = l
+            .objects
+            .iter()
+            .enumerate()
+            .map(|(i, o)| {
+                serde_json::json!({"object": i, "scale": o.scale, "offset": o.offset, "uvs": o.uvs.name()})
+            })
+            .collect();
+        json["objects"] = serde_json::json!(objects);
+    }
+    json
 }

@@ -128,6 +128,7 @@ fn export_lightmap_npz(
         uv1: block.uv1.clone(),
         source: block.source,
         texel_size: (block.texel_size > 0.0).then_some(block.texel_size),
+        objects: block.objects.clone(),
     };
     let texels = crate::bake::lightmap::Texels::rasterise(scene, &atlas);
     let receivers = Receivers::new(&texels.positions, &texels.normals, file);

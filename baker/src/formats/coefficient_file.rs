@@ -10,7 +10,10 @@ use std::path::Path;
 
 use glam::{Vec2, Vec3};
 
-use crate::formats::header::{AtlasSource, CHECKSUM_OFFSET, checksum, parse_header};
+use crate::formats::header::{
+    AtlasSource, CHECKSUM_OFFSET, OBJECT_PLACEMENT_BYTES, ObjectPlacement, checksum, parse_header,
+};
+use crate::formats::object_placements;
 use crate::formats::part_id::PartId;
 use crate::scene::Scene;
 use crate::support::error::{Error, Result};
@@ -58,12 +61,19 @@ pub struct LightmapBlock {
     /// Per scene triangle, its corners' lightmap UVs in [0, 1] ((−1, −1) for a triangle left
     /// out of the atlas).
     pub uv1: Vec<[Vec2; 3]>,
+    /// [`AtlasSource::PerObject`] atlases only: per scene object, where its own UVs went.
+    pub objects: Vec<ObjectPlacement>,
 }
 
 impl LightmapBlock {
-    /// Bytes after the aux arrays: the UVs (f32) then the mask (u8).
+    /// Bytes after the aux arrays: the UVs (f32), the mask (u8), and for a per-object atlas
+    /// the object count (u32) and placements.
     fn payload_bytes(&self) -> u64 {
-        self.scene_triangle_count * 6 * 4 + u64::from(self.width) * u64::from(self.height)
+        let objects = match self.source {
+            AtlasSource::PerObject => 4 + (OBJECT_PLACEMENT_BYTES * self.objects.len()) as u64,
+            _ => 0,
+        };
+        self.scene_triangle_count * 6 * 4 + u64::from(self.width) * u64::from(self.height) + objects
     }
 
     /// [`LightmapBlock::payload_bytes`] of a block read from a file: `None` where a corrupted
@@ -127,6 +137,9 @@ impl CoefficientFile {
                 (false, false) => 0,
             };
             bytes.extend(l.valid.iter().zip(&l.dilated).map(state));
+            if l.source == AtlasSource::PerObject {
+                bytes.extend(object_placements::encode(&l.objects));
+            }
         }
         debug_assert_eq!(
             bytes.len() as u64,
@@ -158,14 +171,16 @@ impl CoefficientFile {
             true => Some(LightmapBlock::from_header_bytes(bytes, &header)?),
             false => None,
         };
-        check_payload_size(&header, lightmap.as_ref(), payload)?;
+        let section = check_payload_size(&header, lightmap.as_ref(), payload)? as usize;
         let mut floats = bytes[header_size..]
             .chunks_exact(4)
             .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")));
         let arrays = Arrays::read(&header, &mut floats)?;
         if let Some(l) = lightmap.as_mut() {
-            let mask = &bytes[bytes.len() - header.vertex_count as usize..];
+            let end = bytes.len() - section;
+            let mask = &bytes[end - header.vertex_count as usize..end];
             l.read_payload(&mut floats, mask)?;
+            l.read_objects(&bytes[end..])?;
         }
         Ok(CoefficientFile {
             header,
@@ -180,12 +195,14 @@ impl CoefficientFile {
 }
 
 /// Refuses a payload whose length is not what the header's counts need. Checked: a
-/// corrupted count must not wrap around to the payload's size.
+/// corrupted count must not wrap around to the payload's size. Returns the length of a
+/// per-object atlas's trailing section (the rest of the payload: a count and whole
+/// placements), 0 for other files.
 fn check_payload_size(
     header: &Header,
     lightmap: Option<&LightmapBlock>,
     payload: u64,
-) -> std::result::Result<(), String> {
+) -> std::result::Result<u64, String> {
     let needed = header
         .vertex_count
         .checked_mul((header.coefficients_per_vertex() + header.aux_floats_per_vertex()) as u64 * 4)
@@ -193,15 +210,8 @@ fn check_payload_size(
             Some(l) => l.checked_payload_bytes().and_then(|m| n.checked_add(m)),
             None => Some(n),
         });
-    if needed != Some(payload) {
-        return Err(format!(
-            "{} vertices × {} coefficients need {} bytes, the header announces {payload}",
-            header.vertex_count,
-            header.coefficients_per_vertex(),
-            needed.map_or_else(|| "more than 2^64".into(), |n| n.to_string())
-        ));
-    }
-    Ok(())
+    let per_object = lightmap.is_some_and(|l| l.source == AtlasSource::PerObject);
+    object_placements::section_bytes(header, needed, payload, per_object)
 }
 
 /// A file's per-vertex arrays, in the order they are stored.
@@ -321,7 +331,14 @@ impl LightmapBlock {
             valid: Vec::new(),
             dilated: Vec::new(),
             uv1: Vec::new(),
+            objects: Vec::new(),
         })
+    }
+
+    /// A per-object atlas's placements (empty section: none).
+    fn read_objects(&mut self, section: &[u8]) -> std::result::Result<(), String> {
+        self.objects = object_placements::decode(section)?;
+        Ok(())
     }
 
     /// The block's arrays after the aux arrays: the triangles' UVs, then the texel states.
@@ -454,6 +471,17 @@ impl CoefficientFile {
             });
         }
         self.check_fingerprint(path, scene, l.scene_vertex_count)?;
+        if l.source == AtlasSource::PerObject && l.objects.len() != scene.objects.len() {
+            return Err(Error::SceneMismatch {
+                path: path.to_path_buf(),
+                message: format!(
+                    "its atlas places {} objects, but {} has {}",
+                    l.objects.len(),
+                    scene.path.display(),
+                    scene.objects.len()
+                ),
+            });
+        }
         Ok(l)
     }
 

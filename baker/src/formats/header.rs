@@ -105,6 +105,11 @@ pub enum AtlasSource {
     Generated,
     /// The scene's own lightmap UVs (glTF TEXCOORD_1), used as the atlas.
     SceneUvs,
+    /// Each object's own lightmap UVs (or, where they overlap themselves or are missing, a
+    /// chart set unwrapped for that object alone), packed into the atlas with a scale and an
+    /// offset per object ([`ObjectPlacement`]): the scene's TEXCOORD_1 charts of different
+    /// objects overlapped, as when every object has its own [0, 1] lightmap UVs.
+    PerObject,
 }
 
 impl AtlasSource {
@@ -112,6 +117,7 @@ impl AtlasSource {
         match self {
             AtlasSource::Generated => 0,
             AtlasSource::SceneUvs => 1,
+            AtlasSource::PerObject => 2,
         }
     }
 
@@ -119,10 +125,72 @@ impl AtlasSource {
         match code {
             0 => Some(AtlasSource::Generated),
             1 => Some(AtlasSource::SceneUvs),
+            2 => Some(AtlasSource::PerObject),
             _ => None,
         }
     }
+
+    /// The name `inspect` prints.
+    pub fn name(self) -> &'static str {
+        match self {
+            AtlasSource::Generated => "generated",
+            AtlasSource::SceneUvs => "scene-uvs",
+            AtlasSource::PerObject => "per-object",
+        }
+    }
 }
+
+/// Where one object's own lightmap UVs went in a [`AtlasSource::PerObject`] atlas, as
+/// Unity's `lightmapScaleOffset`: atlas uv = own uv × `scale` + `offset` (the file's
+/// convention, v up from the bottom).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ObjectPlacement {
+    pub scale: [f32; 2],
+    pub offset: [f32; 2],
+    pub uvs: ObjectUvs,
+}
+
+/// Which UVs of an object a placement maps.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ObjectUvs {
+    /// The scene's own (TEXCOORD_1).
+    Own,
+    /// Unwrapped by prt-bake for this object alone: its own overlapped themselves.
+    GeneratedOverlapping,
+    /// Unwrapped by prt-bake for this object alone: it had no lightmap UVs.
+    GeneratedMissing,
+}
+
+impl ObjectUvs {
+    pub fn code(self) -> u32 {
+        match self {
+            ObjectUvs::Own => 0,
+            ObjectUvs::GeneratedOverlapping => 1,
+            ObjectUvs::GeneratedMissing => 2,
+        }
+    }
+
+    pub fn from_code(code: u32) -> Option<ObjectUvs> {
+        match code {
+            0 => Some(ObjectUvs::Own),
+            1 => Some(ObjectUvs::GeneratedOverlapping),
+            2 => Some(ObjectUvs::GeneratedMissing),
+            _ => None,
+        }
+    }
+
+    /// The name `inspect` prints.
+    pub fn name(self) -> &'static str {
+        match self {
+            ObjectUvs::Own => "own",
+            ObjectUvs::GeneratedOverlapping => "generated (own UVs overlap themselves)",
+            ObjectUvs::GeneratedMissing => "generated (no lightmap UVs)",
+        }
+    }
+}
+
+/// Bytes per object of the per-object section (scale, offset: 4 × f32; uvs: u32).
+pub const OBJECT_PLACEMENT_BYTES: usize = 20;
 
 /// The header, as `prt-bake inspect` prints it.
 #[derive(Clone, Debug, PartialEq, Serialize)]

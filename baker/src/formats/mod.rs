@@ -10,6 +10,7 @@ pub mod coefficient_file;
 pub mod cpca_block;
 pub mod header;
 pub mod npz;
+pub(crate) mod object_placements;
 pub mod openexr;
 pub mod part_id;
 pub mod ply;

@@ -25,7 +25,8 @@ struct Frame {
     // 2^exposure.
     exposure_scale: f32,
     light_count: u32,
-    pad0: u32,
+    // A texel bake's lightmap width W.
+    lightmap_width: u32,
     pad1: u32,
     pad2: u32,
     // Blinn-Phong: radiance from every direction (constant skies, environment means).
@@ -47,9 +48,12 @@ struct Material {
 @group(0) @binding(1) var<storage, read> transfer: array<f32>;
 // The summed, rotated light: coefficient j's (R, G, B) at j.
 @group(0) @binding(2) var<storage, read> light: array<vec4<f32>>;
-// A lightmap (texel) bake's transfer (texel_transfer.rs): coefficient i = c·n² + j of texel
-// (x, y) at layer i / 4, component i mod 4. Vertex bakes bind a 1×1 placeholder.
+// A lightmap (texel) bake's transfer (texel_transfer.rs), in one of two layouts (the other
+// binding, and both for vertex bakes, a placeholder). With m = ⌈n²/4⌉, channel c's
+// coefficients 4l..4l + 3 of texel (x, y) (p = y·W + x) are at: layer c·m + l, texel (x, y)
+// of the array; vec4 (p·C + c)·m + l of the buffer.
 @group(0) @binding(3) var transfer_texels: texture_2d_array<f32>;
+@group(0) @binding(4) var<storage, read> transfer_texel_vec4s: array<vec4<f32>>;
 
 @group(1) @binding(0) var<uniform> material: Material;
 @group(1) @binding(1) var albedo_texture: texture_2d<f32>;
@@ -75,72 +79,55 @@ fn prt_radiance(v: u32) -> vec3<f32> {
     return radiance;
 }
 
-// Where the bilinear filter of the lightmap reads, and with what weights. Texel (x, y) covers
-// uv·(W, H) ∈ [x, x+1] × [y, y+1], so its value sits at its centre; outside the outermost
-// centres the edge texels are held (clamp to edge). Charts are dilated 2 texels deep, so the
-// four texels read at a chart's edge all hold the chart's values. Computed once per pixel,
-// then read for every layer.
-struct Bilinear {
-    lo: vec2<i32>,
-    hi: vec2<i32>,
-    f: vec2<f32>,
+// Σ_j T_j·L_j per channel of lightmap texel (x, y): prt_radiance for a texel bake, computed
+// once per texel and frame into the radiance map (texel_radiance.wgsl) that the PRT
+// fragment shader samples. Layer c·⌈n²/4⌉ + l holds channel c's coefficients 4l..4l + 3
+// (texel_transfer.rs; the light buffer is padded with zeros to a multiple of four), so every
+// vector is indexed by constants: CPU rasterisers run a vector indexed by a variable as
+// scalar code.
+// Σ_j T_j·L_j per channel of lightmap texel (x, y): prt_radiance for a texel bake, computed
+// once per texel and frame into the radiance map (texel_radiance.wgsl) that the PRT
+// fragment shader samples. Each vec4 holds four coefficients of one channel (the light
+// buffer is padded with zeros to a multiple of four), so no vector is indexed by a variable:
+// CPU rasterisers run that as scalar code. Grey transfer: one vec4 serves all three channels.
+fn texel_dot(r: vec4<f32>, g: vec4<f32>, b: vec4<f32>, j: u32) -> vec3<f32> {
+    return vec3<f32>(r.x, g.x, b.x) * light[j].rgb + vec3<f32>(r.y, g.y, b.y) * light[j + 1u].rgb
+        + vec3<f32>(r.z, g.z, b.z) * light[j + 2u].rgb + vec3<f32>(r.w, g.w, b.w) * light[j + 3u].rgb;
 }
 
-fn bilinear(uv1: vec2<f32>) -> Bilinear {
-    let size = vec2<i32>(textureDimensions(transfer_texels));
-    let p = uv1 * vec2<f32>(size) - vec2<f32>(0.5);
-    let corner = floor(p);
-    let last = size - vec2<i32>(1);
-    var b: Bilinear;
-    b.lo = clamp(vec2<i32>(corner), vec2<i32>(0), last);
-    b.hi = clamp(vec2<i32>(corner) + vec2<i32>(1), vec2<i32>(0), last);
-    b.f = p - corner;
-    return b;
-}
-
-// The lightmap's packed coefficients of `layer`, filtered bilinearly by hand (Rgba32Float is
-// not filterable everywhere).
-fn texel_coefficients(b: Bilinear, layer: u32) -> vec4<f32> {
-    let t00 = textureLoad(transfer_texels, vec2<i32>(b.lo.x, b.lo.y), layer, 0);
-    let t10 = textureLoad(transfer_texels, vec2<i32>(b.hi.x, b.lo.y), layer, 0);
-    let t01 = textureLoad(transfer_texels, vec2<i32>(b.lo.x, b.hi.y), layer, 0);
-    let t11 = textureLoad(transfer_texels, vec2<i32>(b.hi.x, b.hi.y), layer, 0);
-    return mix(mix(t00, t10, b.f.x), mix(t01, t11, b.f.x), b.f.y);
-}
-
-// Σ_j T_j·L_j per channel at lightmap coordinate uv1: prt_radiance for a texel bake, with the
-// transfer filtered per pixel. A triangle left out of the atlas (uv1 = (−1, −1)) has no
-// transfer and is black. Grey transfer takes four coefficients per layer at once (the light
-// buffer is padded with zeros to a multiple of four); RGB walks (c, j) along the packing,
-// without a division per coefficient (slow on CPU rasterisers).
-fn prt_radiance_texel(uv1: vec2<f32>) -> vec3<f32> {
-    if any(uv1 < vec2<f32>(0.0)) {
-        return vec3<f32>(0.0);
-    }
-    let b = bilinear(uv1);
-    let n2 = frame.coefficient_count;
+// From the buffer (texel_transfer.rs: texel-major, contiguous per texel).
+fn prt_radiance_texel_buffer(texel: vec2<u32>) -> vec3<f32> {
+    let m = (frame.coefficient_count + 3u) / 4u;
+    let base = (texel.y * frame.lightmap_width + texel.x) * frame.channels * m;
+    let step = select(0u, m, frame.channels == 3u);
     var radiance = vec3<f32>(0.0);
-    if frame.channels != 3u {
-        for (var layer = 0u; 4u * layer < n2; layer++) {
-            let t = texel_coefficients(b, layer);
-            let j = 4u * layer;
-            radiance += t.x * light[j].rgb + t.y * light[j + 1u].rgb + t.z * light[j + 2u].rgb
-                + t.w * light[j + 3u].rgb;
+    for (var l = 0u; l < m; l++) {
+        let r = transfer_texel_vec4s[base + l];
+        var g = r;
+        var b = r;
+        if step != 0u {
+            g = transfer_texel_vec4s[base + step + l];
+            b = transfer_texel_vec4s[base + 2u * step + l];
         }
-        return radiance;
+        radiance += texel_dot(r, g, b, 4u * l);
     }
-    var c = 0u;
-    var j = 0u;
-    for (var layer = 0u; 4u * layer < 3u * n2; layer++) {
-        let t = texel_coefficients(b, layer);
-        for (var k = 0u; k < 4u && c < 3u; k++) {
-            radiance[c] += t[k] * light[j][c];
-            j++;
-            if j == n2 {
-                j = 0u;
-                c++;
-            }
+    return radiance;
+}
+
+// From the texture array (where the buffer would exceed the device's limit).
+fn prt_radiance_texel_array(texel: vec2<u32>) -> vec3<f32> {
+    let m = (frame.coefficient_count + 3u) / 4u;
+    let step = select(0u, m, frame.channels == 3u);
+    var radiance = vec3<f32>(0.0);
+    for (var l = 0u; l < m; l++) {
+        let r = textureLoad(transfer_texels, texel, l, 0);
+        var g = r;
+        var b = r;
+        if step != 0u {
+            g = textureLoad(transfer_texels, texel, step + l, 0);
+            b = textureLoad(transfer_texels, texel, 2u * step + l, 0);
         }
+        radiance += texel_dot(r, g, b, 4u * l);
     }
     return radiance;
 }

@@ -35,8 +35,14 @@ struct PrtTexelOut {
     @location(1) uv1: vec2<f32>,
 }
 
-// PRT from a lightmap (texel) bake: the transfer filtered at the pixel's lightmap uv, dotted
-// with the light, times the albedo.
+// A texel bake's radiance map (texel_radiance.rs): Σ_j T_j·L_j per texel for this frame's
+// light, sampled bilinearly (texel centres at (x + ½, y + ½)/(W, H), held at the edges).
+@group(2) @binding(0) var texel_radiance: texture_2d<f32>;
+@group(2) @binding(1) var texel_radiance_sampler: sampler;
+
+// PRT from a lightmap (texel) bake: the radiance map filtered at the pixel's lightmap uv
+// (equal, by linearity, to the filtered transfer dotted with the light), times the albedo. A
+// triangle left out of the atlas (uv1 = (−1, −1)) has no transfer and is black.
 @vertex
 fn vs_prt_texel(in: VertexIn) -> PrtTexelOut {
     var out: PrtTexelOut;
@@ -48,7 +54,11 @@ fn vs_prt_texel(in: VertexIn) -> PrtTexelOut {
 
 @fragment
 fn fs_prt_texel(in: PrtTexelOut) -> @location(0) vec4<f32> {
-    return tone_map(prt_radiance_texel(in.uv1) * albedo(in.uv));
+    var radiance = vec3<f32>(0.0);
+    if all(in.uv1 >= vec2<f32>(0.0)) {
+        radiance = textureSampleLevel(texel_radiance, texel_radiance_sampler, in.uv1, 0.0).rgb;
+    }
+    return tone_map(radiance * albedo(in.uv));
 }
 
 struct PhongOut {

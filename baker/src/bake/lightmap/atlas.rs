@@ -29,7 +29,7 @@ pub use planar::{Chart, planar_charts};
 
 use glam::Vec2;
 
-pub use crate::formats::header::AtlasSource;
+pub use crate::formats::header::{AtlasSource, ObjectPlacement, ObjectUvs};
 
 use crate::scene::Scene;
 use crate::support::error::{Error, Result};
@@ -45,6 +45,9 @@ pub struct Atlas {
     pub source: AtlasSource,
     /// World size of a texel asked for (`--texel-size`); `None`: the charts fill the atlas.
     pub texel_size: Option<f32>,
+    /// [`AtlasSource::PerObject`] only: per scene object, where its own UVs went
+    /// ([`super::objects`]); empty otherwise.
+    pub objects: Vec<ObjectPlacement>,
 }
 
 impl Atlas {
@@ -70,6 +73,7 @@ impl Atlas {
                 .collect(),
             source: AtlasSource::SceneUvs,
             texel_size: None,
+            objects: Vec::new(),
         })
     }
 
@@ -160,6 +164,7 @@ pub fn generate(
             uv1,
             source: AtlasSource::Generated,
             texel_size,
+            objects: Vec::new(),
         },
         chart: placed.chart,
         chart_count: placed.chart_count,

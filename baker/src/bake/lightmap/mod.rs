@@ -10,6 +10,7 @@
 pub mod atlas;
 pub mod dilation;
 pub mod leaks;
+pub mod objects;
 pub mod texels;
 
 use std::time::Instant;

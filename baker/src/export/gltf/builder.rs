@@ -144,6 +144,20 @@ impl Builder {
         self.accessors.len() - 1
     }
 
+    /// A SCALAR float accessor over `floats` that no primitive reads (data a runtime reads from
+    /// the buffer, such as CPCA's cluster means): its buffer view has no target.
+    pub(super) fn data_floats(&mut self, floats: &[f32]) -> usize {
+        let bytes: Vec<u8> = floats.iter().flat_map(|f| f.to_le_bytes()).collect();
+        let view = self.view(&bytes, None);
+        self.accessors.push(json!({
+            "bufferView": view,
+            "componentType": FLOAT,
+            "count": floats.len(),
+            "type": "SCALAR",
+        }));
+        self.accessors.len() - 1
+    }
+
     /// A normalized signed-integer VEC4 accessor of `values` / `scale` (|values| ≤ scale).
     pub(super) fn quantized(&mut self, values: &[f32], scale: f32, quantize: Quantize) -> usize {
         let max = quantize.max_code();
@@ -217,4 +231,49 @@ pub(super) fn png_bytes(texture: &Texture) -> Result<Vec<u8>> {
             )
         },
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quantized_transfer_decodes_within_half_a_step() {
+        let values = [0.5f32, -1.25, 0.0, 1.25, 0.3, -0.7, 0.01, -0.01];
+        let scale = 1.25;
+        for q in [Quantize::Bits8, Quantize::Bits16] {
+            let mut b = Builder {
+                bin: Vec::new(),
+                buffer_views: Vec::new(),
+                accessors: Vec::new(),
+            };
+            b.quantized(&values, scale, q);
+            let max = q.max_code();
+            // glTF's decoding of normalized signed integers: max(c / max, −1).
+            let decoded: Vec<f32> = match q {
+                Quantize::Bits8 => b.bin.iter().map(|&c| f32::from(c as i8)).collect(),
+                Quantize::Bits16 => b
+                    .bin
+                    .chunks_exact(2)
+                    .map(|c| f32::from(i16::from_le_bytes([c[0], c[1]])))
+                    .collect(),
+            };
+            assert_eq!(decoded.len(), values.len());
+            for (v, code) in values.iter().zip(&decoded) {
+                let d = (code / max).max(-1.0) * scale;
+                assert!(
+                    (v - d).abs() <= scale / (2.0 * max) * 1.0001,
+                    "{q:?}: {v} decodes to {d}"
+                );
+            }
+            assert_eq!(b.accessors[0]["normalized"], true);
+            assert_eq!(b.accessors[0]["count"], 2);
+        }
+        assert_eq!(Quantize::from_bits(None).ok(), Some(None));
+        assert_eq!(
+            Quantize::from_bits(Some(8)).ok(),
+            Some(Some(Quantize::Bits8))
+        );
+        assert!(Quantize::from_bits(Some(12)).is_err());
+    }
 }

@@ -22,6 +22,9 @@
 //! materials name in `extras.prt_lightmap` ([`split_at_lightmap_seams`], docs/gltf.md).
 
 mod builder;
+mod cpca;
+mod light;
+mod objects;
 mod seams;
 
 use std::path::Path;
@@ -31,12 +34,15 @@ use serde_json::{Value, json};
 
 use crate::formats::coefficient_file::CoefficientFile;
 use crate::light::{LightCoefficients, Rig};
+use crate::math::cpca::Cpca;
 use crate::math::sh::{self, rotation::ShRotation};
 use crate::scene::{Scene, Up};
 use crate::support::error::Result;
 
 pub use builder::Quantize;
 use builder::*;
+use cpca::{CLUSTER_ATTRIBUTE, CompressedTransfer, compressed_transfer, read_maybe_compressed};
+use light::{light_in_gltf_frame, light_json};
 use seams::ao_png_bytes;
 pub use seams::split_at_lightmap_seams;
 
@@ -69,6 +75,9 @@ pub struct Written {
     pub lightmap_texture: bool,
     /// Whether the bake's AO is in the file (`_AO` per vertex, or an occlusionTexture).
     pub ao: bool,
+    /// A compressed bake's (clusters, components): the transfer is `_PRT_CLUSTER` and the
+    /// `_PRT_Wk` weights of `prt_attributes` (docs/gltf.md).
+    pub cpca: Option<(usize, usize)>,
 }
 
 /// Names of the VEC4 transfer attributes of a bake of `order` with `channels` (1 or 3).
@@ -104,7 +113,14 @@ pub fn export_glb_quantized(
     quantize: Option<Quantize>,
 ) -> Result<Written> {
     let rig = rig.map(Rig::load).transpose()?;
-    let file = CoefficientFile::read(coefficients)?;
+    let (file, cpca) = read_maybe_compressed(coefficients)?;
+    if cpca.is_some() && quantize.is_some() && file.lightmap.is_none() {
+        return Err(crate::support::error::Error::InvalidOption(format!(
+            "--quantize: {} is CPCA-compressed, and its export carries cluster weights, \
+             not transfer to quantize (export the uncompressed bake to quantize it)",
+            coefficients.display()
+        )));
+    }
     let scene = Scene::load(scene)?;
     let mut inputs = scene.input_files();
     inputs.push(coefficients.to_path_buf());
@@ -124,7 +140,7 @@ pub fn export_glb_quantized(
         light: light.as_ref(),
         up,
     };
-    let (bytes, written) = glb_bytes_with(&scene, &contents, None, quantize)?;
+    let (bytes, written) = glb_bytes_with(&scene, &contents, None, quantize, cpca.as_ref())?;
     output.write(&bytes)?;
     Ok(written)
 }
@@ -162,6 +178,7 @@ fn lightmap_glb_bytes(
         light: None,
         up: file.header.up,
     };
+    let light = light.map(|l| light_in_gltf_frame(l, file.header.up));
     let ao_png = match &file.ao {
         None => None,
         Some(ao) => Some(ao_png_bytes(ao, block.width, block.height, output)?),
@@ -172,8 +189,9 @@ fn lightmap_glb_bytes(
         file,
         png: image,
         ao_png,
+        light,
     };
-    glb_bytes_with(&split, &contents, Some(&lightmap), None)
+    glb_bytes_with(&split, &contents, Some(&lightmap), None, None)
 }
 
 /// A texel bake's part of a `.glb`: its size and header for `asset.extras.prt`, and the relit
@@ -186,11 +204,13 @@ struct LightmapContents<'a> {
     png: Option<Vec<u8>>,
     /// The AO (linear grey PNG), where the bake has it.
     ao_png: Option<Vec<u8>>,
+    /// The rig's light in glTF's frame, for `asset.extras.prt.light`.
+    light: Option<LightCoefficients>,
 }
 
 /// The `.glb` bytes of `scene` and what they hold.
 pub fn glb_bytes(scene: &Scene, contents: &Contents<'_>) -> Result<(Vec<u8>, Written)> {
-    glb_bytes_with(scene, contents, None, None)
+    glb_bytes_with(scene, contents, None, None, None)
 }
 
 /// The scene's per-vertex arrays in glTF's frame and conventions, flattened.
@@ -237,6 +257,9 @@ struct VertexTransfer {
     arrays: Vec<Vec<f32>>,
     colour: Option<Vec<f32>>,
     ao: Option<Vec<f32>>,
+    /// A compressed bake: its cluster index per vertex and per-cluster arrays (`names` and
+    /// `arrays` are then its weights).
+    cpca: Option<CompressedTransfer>,
     /// With `export --quantize`: the bits and per attribute its scale (largest magnitude).
     quantized: Option<(Quantize, Vec<f32>)>,
 }
@@ -248,6 +271,7 @@ fn vertex_transfer(
     contents: &Contents<'_>,
     arrays: &VertexArrays,
     quantize: Option<Quantize>,
+    cpca: Option<&Cpca>,
 ) -> VertexTransfer {
     let Some(file) = contents.file else {
         return VertexTransfer::default();
@@ -256,6 +280,25 @@ fn vertex_transfer(
     let channels = file.header.channels as usize;
     let per_channel = sh::coeff_count(order).div_ceil(4);
     let rotation = ShRotation::from_matrix(order, arrays.turn);
+    let colour = contents.light.map(|light| {
+        let ones = vec![Vec3::ONE; scene.vertex_count()];
+        crate::export::relight::vertex_radiance(file, &ones, light)
+            .iter()
+            .flat_map(|rgb| rgb.map(|x| x.clamp(0.0, 1.0)))
+            .collect()
+    });
+    if let Some(cpca) = cpca {
+        let mut compressed =
+            compressed_transfer(cpca, order, channels, arrays.turned.then_some(&rotation));
+        return VertexTransfer {
+            names: compressed.names.clone(),
+            arrays: std::mem::take(&mut compressed.weights),
+            colour,
+            ao: file.ao.clone(),
+            cpca: Some(compressed),
+            quantized: None,
+        };
+    }
     let names = prt_attribute_names(order, channels);
     let mut prt = vec![vec![0.0; scene.vertex_count() * 4]; names.len()];
     for v in 0..scene.vertex_count() {
@@ -271,13 +314,6 @@ fn vertex_transfer(
             }
         }
     }
-    let colour = contents.light.map(|light| {
-        let ones = vec![Vec3::ONE; scene.vertex_count()];
-        crate::export::relight::vertex_radiance(file, &ones, light)
-            .iter()
-            .flat_map(|rgb| rgb.map(|x| x.clamp(0.0, 1.0)))
-            .collect()
-    });
     let quantized = quantize.map(|q| {
         let scales = prt
             .iter()
@@ -291,6 +327,7 @@ fn vertex_transfer(
         arrays: prt,
         colour,
         ao: file.ao.clone(),
+        cpca: None,
         quantized,
     }
 }
@@ -430,6 +467,12 @@ fn meshes(
                 },
             );
         }
+        if let Some(cpca) = &transfer.cpca {
+            add(
+                CLUSTER_ATTRIBUTE,
+                b.floats(&slice(&cpca.cluster, 1), 1, false),
+            );
+        }
         if let Some(ao) = &transfer.ao {
             add("_AO", b.floats(&slice(ao, 1), 1, false));
         }
@@ -459,6 +502,7 @@ fn asset_extras(
     transfer: &VertexTransfer,
     lightmap: Option<&LightmapContents<'_>>,
     materials: &Materials,
+    cpca: Option<Value>,
 ) -> Option<Value> {
     if let Some(file) = contents.file {
         let h = &file.header;
@@ -475,6 +519,12 @@ fn asset_extras(
         });
         if transfer.ao.is_some() {
             prt["ao"] = json!("_AO: SCALAR float, the ambient accessibility per vertex");
+        }
+        if let Some(light) = contents.light {
+            prt["light"] = light_json(&light_in_gltf_frame(light, contents.up));
+        }
+        if let Some(cpca) = cpca {
+            prt["cpca"] = cpca;
         }
         if let Some((q, scales)) = &transfer.quantized {
             let scales: serde_json::Map<String, Value> = transfer
@@ -512,14 +562,16 @@ fn asset_extras(
     if let Some(t) = materials.occlusion_texture {
         lightmap_json["ao_texture"] = json!(t);
     }
-    Some(json!({
-        "prt": {
-            "order": h.order,
-            "channels": h.channels,
-            "mode": h.mode.name(),
-            "lightmap": lightmap_json,
-        }
-    }))
+    let mut prt = json!({
+        "order": h.order,
+        "channels": h.channels,
+        "mode": h.mode.name(),
+        "lightmap": lightmap_json,
+    });
+    if let Some(light) = &l.light {
+        prt["light"] = light_json(light);
+    }
+    Some(json!({ "prt": prt }))
 }
 
 /// Step 6: the glTF JSON document.
@@ -588,9 +640,10 @@ fn glb_bytes_with(
     contents: &Contents<'_>,
     lightmap: Option<&LightmapContents<'_>>,
     quantize: Option<Quantize>,
+    cpca: Option<&Cpca>,
 ) -> Result<(Vec<u8>, Written)> {
     let arrays = vertex_arrays(scene, contents.up);
-    let transfer = vertex_transfer(scene, contents, &arrays, quantize);
+    let transfer = vertex_transfer(scene, contents, &arrays, quantize, cpca);
     let mut b = Builder {
         bin: Vec::new(),
         buffer_views: Vec::new(),
@@ -598,11 +651,15 @@ fn glb_bytes_with(
     };
     let materials = materials(&mut b, scene, transfer.colour.is_some(), lightmap)?;
     let meshes = meshes(&mut b, scene, &arrays, &transfer);
-    let extras = asset_extras(contents, &transfer, lightmap, &materials);
+    let clusters = transfer.cpca.as_ref().map(|c| c.write_clusters(&mut b));
+    let extras = asset_extras(contents, &transfer, lightmap, &materials, clusters);
     let textures = materials.textures.len();
     let lightmap_texture = materials.lightmap_texture.is_some();
     let ao = transfer.ao.is_some() || materials.occlusion_texture.is_some();
-    let (root, bin) = document(scene, b, meshes, materials, extras);
+    let (mut root, bin) = document(scene, b, meshes, materials, extras);
+    if let Some(l) = lightmap {
+        objects::add_placements(&mut root, l.file);
+    }
     let bytes = glb_container(&root, &bin)?;
     let written = Written {
         vertex_count: scene.vertex_count(),
@@ -616,6 +673,7 @@ fn glb_bytes_with(
         lightmap: lightmap.map(|l| [l.width, l.height]),
         lightmap_texture,
         ao,
+        cpca: cpca.map(|c| (c.clusters(), c.pcs)),
     };
     Ok((bytes, written))
 }
@@ -631,45 +689,5 @@ mod tests {
         assert_eq!(prt_attribute_names(4, 1).len(), 4);
         assert_eq!(prt_attribute_names(2, 3), ["_PRT_R0", "_PRT_G0", "_PRT_B0"]);
         assert_eq!(prt_attribute_names(5, 3).len(), 21);
-    }
-
-    #[test]
-    fn quantized_transfer_decodes_within_half_a_step() {
-        let values = [0.5f32, -1.25, 0.0, 1.25, 0.3, -0.7, 0.01, -0.01];
-        let scale = 1.25;
-        for q in [Quantize::Bits8, Quantize::Bits16] {
-            let mut b = Builder {
-                bin: Vec::new(),
-                buffer_views: Vec::new(),
-                accessors: Vec::new(),
-            };
-            b.quantized(&values, scale, q);
-            let max = q.max_code();
-            // glTF's decoding of normalized signed integers: max(c / max, −1).
-            let decoded: Vec<f32> = match q {
-                Quantize::Bits8 => b.bin.iter().map(|&c| f32::from(c as i8)).collect(),
-                Quantize::Bits16 => b
-                    .bin
-                    .chunks_exact(2)
-                    .map(|c| f32::from(i16::from_le_bytes([c[0], c[1]])))
-                    .collect(),
-            };
-            assert_eq!(decoded.len(), values.len());
-            for (v, code) in values.iter().zip(&decoded) {
-                let d = (code / max).max(-1.0) * scale;
-                assert!(
-                    (v - d).abs() <= scale / (2.0 * max) * 1.0001,
-                    "{q:?}: {v} decodes to {d}"
-                );
-            }
-            assert_eq!(b.accessors[0]["normalized"], true);
-            assert_eq!(b.accessors[0]["count"], 2);
-        }
-        assert_eq!(Quantize::from_bits(None).ok(), Some(None));
-        assert_eq!(
-            Quantize::from_bits(Some(8)).ok(),
-            Some(Some(Quantize::Bits8))
-        );
-        assert!(Quantize::from_bits(Some(12)).is_err());
     }
 }

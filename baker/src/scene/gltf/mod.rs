@@ -81,18 +81,10 @@ pub fn load(path: &Path) -> Result<Loaded> {
         digest: 0,
         warnings: Vec::new(),
     };
-    for (mesh, world) in placed {
-        let mesh_name = mesh
-            .name()
-            .map(str::to_string)
-            .unwrap_or_else(|| format!("mesh {}", mesh.index()));
+    for (node, mesh, world) in placed {
         let primitive_count = mesh.primitives().len();
         for primitive in mesh.primitives() {
-            let name = if primitive_count > 1 {
-                format!("{mesh_name}/{}", primitive.index())
-            } else {
-                mesh_name.clone()
-            };
+            let name = object_name(&node, &mesh, primitive.index(), primitive_count);
             reader.read(&primitive, name, world, &mut loaded)?;
         }
     }
@@ -137,6 +129,26 @@ fn parse(path: &Path, bytes: &[u8]) -> Result<(gltf::Document, Option<Vec<u8>>, 
         None => bytes.to_vec(),
     };
     Ok((document, blob, json_bytes))
+}
+
+/// An object's name: its node's, as DCC tools and engines name objects (Blender's object
+/// name; its mesh datablock may be called something else, "Plane" for a floor), else its
+/// mesh's, else "node N"; a primitive's index is appended where the mesh has several.
+fn object_name(
+    node: &gltf::Node,
+    mesh: &gltf::Mesh,
+    primitive: usize,
+    primitives: usize,
+) -> String {
+    let base = node
+        .name()
+        .or(mesh.name())
+        .map(str::to_string)
+        .unwrap_or_else(|| format!("node {}", node.index()));
+    match primitives {
+        1 => base,
+        _ => format!("{base}/{primitive}"),
+    }
 }
 
 /// Turns primitives into meshes, carrying what is shared between them: the digest, and the
@@ -393,7 +405,8 @@ fn readable_accessors(
 /// the stack.
 pub const MAX_NODE_DEPTH: usize = 100_000;
 
-/// Every node of `scene` with a mesh, and its node-to-world matrix, walked without recursion.
+/// Every node of `scene` with a mesh, its mesh and its node-to-world matrix, walked without
+/// recursion.
 /// glTF requires the nodes to form disjoint trees (§3.5.3: no cycles, one parent at most, the
 /// scene's nodes roots); a file that breaks this is refused, naming the node: a node that is
 /// its own child or ancestor would loop forever (it overflowed the stack of a recursive
@@ -402,7 +415,7 @@ pub const MAX_NODE_DEPTH: usize = 100_000;
 fn flatten<'a>(
     document: &'a gltf::Document,
     scene: &gltf::Scene<'a>,
-) -> std::result::Result<Vec<(gltf::Mesh<'a>, Mat4)>, String> {
+) -> std::result::Result<Vec<(gltf::Node<'a>, gltf::Mesh<'a>, Mat4)>, String> {
     let json = document.as_json();
     // Indices were validated by `Document::from_json`.
     let mut parent: Vec<Option<usize>> = vec![None; json.nodes.len()];
@@ -457,7 +470,7 @@ fn flatten<'a>(
         }
         let world = parent_world * Mat4::from_cols_array_2d(&node.transform().matrix());
         if let Some(mesh) = node.mesh() {
-            out.push((mesh, world));
+            out.push((node.clone(), mesh, world));
         }
         // Reversed, for the same order.
         let children: Vec<_> = node.children().collect();
