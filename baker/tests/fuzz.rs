@@ -488,6 +488,7 @@ fn prt_seeds() -> Vec<Vec<u8>> {
         vertex_count,
         samples_per_vertex: 64,
         mode,
+        transfer: Default::default(),
         bounces: u32::from(mode == Mode::Interreflected),
         bounce_samples: if mode == Mode::Interreflected { 16 } else { 0 },
         backend: if mode == Mode::Unshadowed {

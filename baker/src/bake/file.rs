@@ -30,6 +30,7 @@ impl Header {
             vertex_count: receivers as u64,
             samples_per_vertex: options.samples,
             mode: options.mode,
+            transfer: options.transfer,
             bounces: options.bounces,
             bounce_samples: options.effective_bounce_samples(),
             backend,

@@ -26,7 +26,11 @@ pub fn bake_bytes(options: &BakeOptions, vertices: u64, triangles: u64) -> Optio
         1
     };
     // The coefficients three times over: the bake's, the file's copy and its bytes.
-    let coefficients = vertices.checked_mul(channels * n * 4)?.checked_mul(3)?;
+    // A matrix bake stores n² × n² floats per channel.
+    let per_channel = options.transfer.floats_per_channel(options.order) as u64;
+    let coefficients = vertices
+        .checked_mul(channels * per_channel * 4)?
+        .checked_mul(3)?;
     let bounce = match options.mode {
         Mode::Interreflected => {
             // Hit-cache rows: up to three (vertex) or four (texel) (slot, weight) entries of

@@ -5,7 +5,7 @@ use crate::math::sampling::Sampling;
 use crate::math::sh;
 use crate::support::error::{Error, Result};
 
-pub use crate::formats::header::{Aux, Mode};
+pub use crate::formats::header::{Aux, Mode, TransferKind};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct BakeOptions {
@@ -32,6 +32,9 @@ pub struct BakeOptions {
     /// error is at most E (`samples` becomes the cap); `None` casts `samples` rays everywhere.
     /// See [`crate::bake::adaptive`].
     pub target_error: Option<f32>,
+    /// `--transfer`: a transfer vector per receiver (diffuse), or a transfer matrix
+    /// ([`crate::bake::matrix`]: glossy and other view-dependent BRDFs).
+    pub transfer: TransferKind,
 }
 
 /// The default hit-cache budget: 1 GiB.
@@ -50,6 +53,7 @@ impl Default for BakeOptions {
             aux: Aux::default(),
             hit_cache_limit: DEFAULT_HIT_CACHE_LIMIT,
             target_error: None,
+            transfer: TransferKind::Vector,
         }
     }
 }
@@ -107,8 +111,34 @@ impl BakeOptions {
                 "--aux needs rays: use --mode shadowed or interreflected".into(),
             ));
         }
-        check_adaptive(self)
+        check_adaptive(self)?;
+        check_matrix(self)
     }
+}
+
+/// Refuses what matrix bakes ([`crate::bake::matrix`]) do not support yet, with the reason.
+fn check_matrix(options: &BakeOptions) -> Result<()> {
+    if options.transfer != TransferKind::Matrix {
+        return Ok(());
+    }
+    let refuse = |what: &str| Err(Error::InvalidOption(format!("--transfer matrix {what}")));
+    if options.mode == Mode::Interreflected {
+        return refuse(
+            "with --mode interreflected is not implemented yet: use --mode shadowed or \
+             unshadowed (the interreflected matrix, Sloan 2002's bounces, is future work)",
+        );
+    }
+    if options.target_error.is_some() {
+        return refuse("with --target-error is not supported: matrix bakes use fixed --samples");
+    }
+    if options.sampling != Sampling::OwenSobol {
+        return refuse(&format!(
+            "needs --sampling owen-sobol (sampling is {}): its uniform hemisphere points are \
+             the stratified set",
+            options.sampling.name()
+        ));
+    }
+    Ok(())
 }
 
 /// Adaptive bakes ([`crate::bake::adaptive`]): independent scrambles (replicates) per bake.

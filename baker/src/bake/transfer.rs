@@ -27,7 +27,6 @@
 
 use std::time::Instant;
 
-use crate::math::sh;
 use crate::scene::Scene;
 use crate::support::error::{Error, Result};
 use crate::support::progress::Progress;
@@ -35,11 +34,12 @@ use crate::trace::{Backend, Tracer};
 
 pub(crate) use crate::bake::estimator::direct_pass;
 pub use crate::bake::estimator::{Estimator, Scratch, Visibility};
-pub use crate::bake::options::{Aux, BakeOptions, DEFAULT_HIT_CACHE_LIMIT, Mode};
+pub use crate::bake::options::{Aux, BakeOptions, DEFAULT_HIT_CACHE_LIMIT, Mode, TransferKind};
 pub use crate::bake::receivers::BounceTargets;
 pub use crate::bake::receivers::Receivers;
 
-/// The result of a bake: `coefficients[(v · channels + c) · n² + j]`.
+/// The result of a bake: `coefficients[(v · channels + c) · n² + j]`; for a matrix bake
+/// (`options.transfer`), `coefficients[((v · channels + c) · n² + i) · n² + j]`.
 #[derive(Clone, Debug)]
 pub struct Transfer {
     /// The options the bake ran with.
@@ -85,7 +85,7 @@ impl Transfer {
         baked: Baked,
         seconds: f64,
     ) -> Transfer {
-        let n = sh::coeff_count(options.order);
+        let n = options.transfer.floats_per_channel(options.order);
         debug_assert!(
             baked.coefficients.is_empty()
                 || baked.coefficients.len() == receiver_count * baked.channels * n
@@ -103,9 +103,9 @@ impl Transfer {
         }
     }
 
-    /// Coefficients of vertex `v`, channel `c`.
+    /// Coefficients of vertex `v`, channel `c` (a matrix bake's n⁴, row-major).
     pub fn vertex(&self, v: usize, c: usize) -> &[f32] {
-        let n = sh::coeff_count(self.options.order);
+        let n = self.options.transfer.floats_per_channel(self.options.order);
         let start = (v * self.channels + c) * n;
         &self.coefficients[start..start + n]
     }
@@ -178,7 +178,14 @@ pub fn bake_receivers(
             }
         }
         _ => {
-            let direct = direct_pass(estimator, tracer, None, 0..receivers, progress);
+            let direct = match options.transfer {
+                TransferKind::Vector => {
+                    direct_pass(estimator, tracer, None, 0..receivers, progress)
+                }
+                TransferKind::Matrix => {
+                    crate::bake::matrix::matrix_pass(estimator, tracer, 0..receivers, progress)
+                }
+            };
             Baked {
                 coefficients: direct.coefficients,
                 channels: 1,

@@ -40,6 +40,10 @@ pub struct BakeArgs {
     samples: u32,
     #[arg(long, value_enum, default_value_t = ModeArg::Shadowed)]
     mode: ModeArg,
+    /// What is stored per vertex: the diffuse transfer vector (n² floats per channel), or the
+    /// transfer matrix (n²×n², for glossy BRDFs; unshadowed or shadowed, per vertex).
+    #[arg(long, value_enum, default_value_t = TransferArg::Vector)]
+    transfer: TransferArg,
     /// Seed of the sample directions; the same seed gives a bit-identical file.
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -122,6 +126,12 @@ pub struct BakeArgs {
     /// --clusters is given).
     #[arg(long, value_name = "M", conflicts_with_all = ["shard", "checkpoint"])]
     pcs: Option<usize>,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum TransferArg {
+    Vector,
+    Matrix,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -215,6 +225,10 @@ fn options(args: &BakeArgs) -> BakeOptions {
         },
         hit_cache_limit: args.hit_cache_mb.saturating_mul(1 << 20),
         target_error: args.target_error,
+        transfer: match args.transfer {
+            TransferArg::Vector => prt_baker::bake::options::TransferKind::Vector,
+            TransferArg::Matrix => prt_baker::bake::options::TransferKind::Matrix,
+        },
     }
 }
 

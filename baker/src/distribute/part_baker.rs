@@ -46,6 +46,11 @@ impl<'a> PartBaker<'a> {
         options: &BakeOptions,
     ) -> Result<PartBaker<'a>> {
         let tracer = tracer_for(options, tracer)?;
+        if options.transfer == crate::bake::options::TransferKind::Matrix {
+            return Err(Error::InvalidOption(
+                "--transfer matrix with --shard or --checkpoint is not supported yet".into(),
+            ));
+        }
         let backend = tracer.map_or(Backend::None, |t| t.backend());
         Ok(PartBaker {
             scene,

@@ -410,6 +410,7 @@ pub(crate) fn options_of(header: &Header) -> BakeOptions {
         bounces: header.bounces,
         bounce_samples: (header.mode == Mode::Interreflected).then_some(header.bounce_samples),
         aux: header.aux,
+        transfer: header.transfer,
         ..BakeOptions::default()
     }
 }

@@ -13,7 +13,7 @@ use crate::scene::Scene;
 use crate::support::error::Result;
 
 /// Writes `positions` (V,3), `normals` (V,3), `albedo` (V,3, linear Kd × texture),
-/// `transfer` (V, channels, n²), `uv` (V,2, v up from the image's bottom, as OBJ) where the
+/// `transfer` (V, channels, n²) (a matrix bake: `transfer_matrix` (V, channels, n², n²)), `uv` (V,2, v up from the image's bottom, as OBJ) where the
 /// scene has texture coordinates, and, where the file has them, `ao` (V,) and `bent_normal`
 /// (V,3), and for adaptive bakes `rays` (V,; per-vertex rays cast, exact below 2^24) and
 /// `error_estimate` (V,), all float32 in the file's vertex order; and `triangles` (F,3)
@@ -26,7 +26,7 @@ pub fn export_npz(coefficients: &Path, scene: &Path, output: &Path) -> Result<()
     if file.lightmap.is_some() {
         return export_lightmap_npz(coefficients, &file, &scene, output);
     }
-    file.check_scene(coefficients, &scene)?;
+    file.check_scene_of_any_transfer(coefficients, &scene)?;
     let mut inputs = scene.input_files();
     inputs.push(coefficients.to_path_buf());
     let output = crate::support::output::Output::new(output, &inputs)?;
@@ -42,15 +42,7 @@ pub fn export_npz(coefficients: &Path, scene: &Path, output: &Path) -> Result<()
             shape: vec![v, 3],
             data: &albedo,
         },
-        npz::Array {
-            name: "transfer",
-            shape: vec![
-                v,
-                header.channels as usize,
-                sh::coeff_count(header.order as usize),
-            ],
-            data: &file.coefficients,
-        },
+        transfer_array(header, v, &file.coefficients),
     ]);
     arrays.extend(aux);
     let rays: Option<Vec<f32>> = file
@@ -87,6 +79,30 @@ pub fn export_npz(coefficients: &Path, scene: &Path, output: &Path) -> Result<()
         data: &triangles,
     }];
     output.write(&npz::to_bytes(&arrays, &indices, &[])?)
+}
+
+/// The coefficients as `transfer` (V, channels, n²), or for a matrix bake as
+/// `transfer_matrix` (V, channels, n², n²), row i of a matrix mapping light coefficients to
+/// incident-radiance coefficient i.
+fn transfer_array<'a>(
+    header: &crate::formats::header::Header,
+    v: usize,
+    data: &'a [f32],
+) -> Array<'a> {
+    let n = sh::coeff_count(header.order as usize);
+    let channels = header.channels as usize;
+    match header.transfer {
+        crate::formats::header::TransferKind::Vector => Array {
+            name: "transfer",
+            shape: vec![v, channels, n],
+            data,
+        },
+        crate::formats::header::TransferKind::Matrix => Array {
+            name: "transfer_matrix",
+            shape: vec![v, channels, n, n],
+            data,
+        },
+    }
 }
 
 /// A texel bake of a W×H lightmap: `texel_positions` (H,W,3), `texel_normals` (H,W,3) (the

@@ -261,6 +261,7 @@ mod tests {
                 vertex_count: (coefficients.len() / channels as usize) as u64,
                 samples_per_vertex: 1,
                 mode: crate::Mode::Unshadowed,
+                transfer: Default::default(),
                 bounces: 0,
                 bounce_samples: 0,
                 backend: crate::trace::Backend::None,

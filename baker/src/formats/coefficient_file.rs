@@ -15,9 +15,7 @@ use crate::formats::header::{
 };
 use crate::formats::object_placements;
 use crate::formats::part_id::PartId;
-use crate::math::sh;
-use crate::scene::Scene;
-use crate::support::error::{Error, Result};
+use crate::support::error::Result;
 
 /// The header is the file's own part: its fields and sizes are named here too.
 pub use crate::formats::header::{
@@ -99,9 +97,12 @@ impl CoefficientFile {
         }
     }
 
-    /// Coefficients of vertex `v`, channel `c`.
+    /// Coefficients of vertex `v`, channel `c` (a matrix bake's n⁴, row-major).
     pub fn vertex(&self, v: usize, c: usize) -> &[f32] {
-        let n = sh::coeff_count(self.header.order as usize);
+        let n = self
+            .header
+            .transfer
+            .floats_per_channel(self.header.order as usize);
         let start = (v * self.header.channels as usize + c) * n;
         &self.coefficients[start..start + n]
     }
@@ -414,86 +415,6 @@ pub(crate) fn check_floats(
     Ok(())
 }
 
-impl CoefficientFile {
-    /// Refuses a file baked for a different scene (or a changed version of this one).
-    pub fn check_scene(&self, path: &Path, scene: &Scene) -> Result<()> {
-        let mismatch = |message: String| {
-            Err(Error::SceneMismatch {
-                path: path.to_path_buf(),
-                message,
-            })
-        };
-        if let Some(l) = &self.lightmap {
-            return mismatch(format!(
-                "a lightmap bake ({}×{} texels), which this reader does not read (only \
-                 `export` reads lightmap bakes so far)",
-                l.width, l.height
-            ));
-        }
-        self.check_fingerprint(path, scene, self.header.vertex_count)
-    }
-
-    /// Refuses a lightmap bake made for a different scene, or a vertex bake.
-    pub fn check_lightmap_scene(&self, path: &Path, scene: &Scene) -> Result<&LightmapBlock> {
-        let Some(l) = &self.lightmap else {
-            return Err(Error::SceneMismatch {
-                path: path.to_path_buf(),
-                message: "a per-vertex bake, not a lightmap bake".into(),
-            });
-        };
-        if l.scene_triangle_count != scene.triangles.len() as u64 {
-            return Err(Error::SceneMismatch {
-                path: path.to_path_buf(),
-                message: format!(
-                    "baked for a scene with {} triangles, but {} has {}",
-                    l.scene_triangle_count,
-                    scene.path.display(),
-                    scene.triangles.len()
-                ),
-            });
-        }
-        self.check_fingerprint(path, scene, l.scene_vertex_count)?;
-        if l.source == AtlasSource::PerObject && l.objects.len() != scene.objects.len() {
-            return Err(Error::SceneMismatch {
-                path: path.to_path_buf(),
-                message: format!(
-                    "its atlas places {} objects, but {} has {}",
-                    l.objects.len(),
-                    scene.path.display(),
-                    scene.objects.len()
-                ),
-            });
-        }
-        Ok(l)
-    }
-
-    fn check_fingerprint(&self, path: &Path, scene: &Scene, vertex_count: u64) -> Result<()> {
-        let mismatch = |message: String| {
-            Err(Error::SceneMismatch {
-                path: path.to_path_buf(),
-                message,
-            })
-        };
-        if vertex_count != scene.vertex_count() as u64 {
-            return mismatch(format!(
-                "baked for a scene with {} vertices, but {} has {}",
-                vertex_count,
-                scene.path.display(),
-                scene.vertex_count()
-            ));
-        }
-        let fingerprint = scene.fingerprint();
-        if self.header.scene_fingerprint != fingerprint {
-            return mismatch(format!(
-                "baked for another scene: fingerprint {:016x}, but {} has {fingerprint:016x}",
-                self.header.scene_fingerprint,
-                scene.path.display()
-            ));
-        }
-        Ok(())
-    }
-}
-
 /// The bytes of a file with `header`'s fields but another payload (a shard part's): the
 /// header exactly as [`CoefficientFile::to_bytes`] writes it, with the payload length, the
 /// shard identity `shard` (bytes 88..108) and the checksum set for `payload`.
@@ -537,6 +458,7 @@ mod tests {
                 vertex_count: 2,
                 samples_per_vertex: 4096,
                 mode: Mode::Shadowed,
+                transfer: Default::default(),
                 bounces: 0,
                 bounce_samples: 0,
                 backend: Backend::Embree,

@@ -155,7 +155,12 @@ pub fn from_bytes(bytes: &[u8]) -> Result<CompressedFile, String> {
     if channels != 1 && channels != 3 {
         return Err(format!("{channels} channels (1 or 3 are defined)"));
     }
-    let dim = channels as u64 * sh::coeff_count(order as usize) as u64;
+    // A matrix bake (transfer kind 1 at bytes 38..40) compresses its n⁴ floats per channel.
+    let per_channel = match u16::from_le_bytes([bytes[38], bytes[39]]) {
+        1 => sh::coeff_count(order as usize).pow(2),
+        _ => sh::coeff_count(order as usize),
+    };
+    let dim = channels as u64 * per_channel as u64;
     let vertices = u64_at(bytes, 24);
     let clusters = u64::from(u32_at(bytes, base));
     let pcs = u64::from(u32_at(bytes, base + 4));
@@ -330,6 +335,7 @@ mod tests {
                 vertex_count: v as u64,
                 samples_per_vertex: 64,
                 mode: Mode::Shadowed,
+                transfer: Default::default(),
                 bounces: 0,
                 bounce_samples: 0,
                 backend: Backend::Embree,

@@ -46,6 +46,46 @@ impl Mode {
     }
 }
 
+/// What each receiver stores per channel (`bake --transfer`; header bytes 38..40).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TransferKind {
+    /// The diffuse transfer vector: n² coefficients (every file before matrix bakes).
+    #[default]
+    Vector,
+    /// The transfer matrix M_ij = ∫ V(s) y_i(s) y_j(s) ds over the receiver's hemisphere
+    /// (Sloan, Kautz & Snyder 2002): n² × n² floats, row-major, symmetric.
+    Matrix,
+}
+
+impl TransferKind {
+    fn is_vector(&self) -> bool {
+        *self == TransferKind::Vector
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            TransferKind::Vector => "vector",
+            TransferKind::Matrix => "matrix",
+        }
+    }
+
+    /// Floats per channel at SH order `order`: n², or n⁴ for a matrix.
+    pub fn floats_per_channel(self, order: usize) -> usize {
+        let n = sh::coeff_count(order);
+        match self {
+            TransferKind::Vector => n,
+            TransferKind::Matrix => n * n,
+        }
+    }
+
+    fn code(self) -> u16 {
+        match self {
+            TransferKind::Vector => 0,
+            TransferKind::Matrix => 1,
+        }
+    }
+}
+
 /// Optional per-vertex arrays stored beside the coefficients (`--aux`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Aux {
@@ -165,6 +205,14 @@ pub struct Header {
     pub samples_per_vertex: u32,
     #[serde(serialize_with = "as_name::mode")]
     pub mode: Mode,
+    /// Transfer vectors or matrices (bytes 38..40; 0 = vector in every older file). `inspect`
+    /// shows it for matrix files only, as it shows `adaptive` for adaptive bakes only, so the
+    /// output for every vector file is what it was.
+    #[serde(
+        serialize_with = "as_name::transfer",
+        skip_serializing_if = "TransferKind::is_vector"
+    )]
+    pub transfer: TransferKind,
     pub bounces: u32,
     /// Rays per vertex whose hits fed the bounces (interreflected mode; 0 otherwise).
     pub bounce_samples: u32,
@@ -208,6 +256,9 @@ mod as_name {
     pub fn mode<S: Serializer>(m: &super::Mode, s: S) -> Result<S::Ok, S::Error> {
         s.serialize_str(m.name())
     }
+    pub fn transfer<S: Serializer>(t: &super::TransferKind, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(t.name())
+    }
     pub fn backend<S: Serializer>(b: &crate::trace::Backend, s: S) -> Result<S::Ok, S::Error> {
         s.serialize_str(b.name())
     }
@@ -245,8 +296,10 @@ fn aux_flags(aux: Aux) -> u32 {
 }
 
 impl Header {
+    /// Floats per vertex (or texel) in the coefficient array: channels × n², or channels × n⁴
+    /// for a matrix bake.
     pub fn coefficients_per_vertex(&self) -> usize {
-        self.channels as usize * sh::coeff_count(self.order as usize)
+        self.channels as usize * self.transfer.floats_per_channel(self.order as usize)
     }
 
     /// Floats per vertex in the aux arrays.
@@ -285,7 +338,10 @@ impl Header {
         bytes.extend(h.channels.to_le_bytes());
         bytes.extend(h.vertex_count.to_le_bytes());
         bytes.extend(h.samples_per_vertex.to_le_bytes());
+        // Bytes 36..40: the mode (u16), then the transfer kind (u16, 0 for vectors), so a
+        // vector file's bytes are those of a file written before matrix bakes existed.
         bytes.extend(mode_code(h.mode).to_le_bytes());
+        bytes.extend(h.transfer.code().to_le_bytes());
         bytes.extend(h.bounces.to_le_bytes());
         bytes.extend(backend_code(h.backend).to_le_bytes());
         bytes.extend(h.seed.to_le_bytes());
@@ -309,7 +365,7 @@ impl Header {
     }
 }
 
-fn mode_code(mode: Mode) -> u32 {
+fn mode_code(mode: Mode) -> u16 {
     match mode {
         Mode::Unshadowed => 0,
         Mode::Shadowed => 1,
@@ -409,12 +465,29 @@ fn parse_fields(bytes: &[u8], version: u32) -> std::result::Result<Header, Strin
     if channels != 1 && channels != 3 {
         return Err(format!("{channels} channels (1 or 3 are defined)"));
     }
-    let mode = match u32_at(36) {
+    let u16_at = |o: usize| u16::from_le_bytes(bytes[o..o + 2].try_into().expect("2 bytes"));
+    let mode = match u16_at(36) {
         0 => Mode::Unshadowed,
         1 => Mode::Shadowed,
         2 => Mode::Interreflected,
         other => return Err(format!("unknown transfer mode {other}")),
     };
+    let transfer = match u16_at(38) {
+        0 => TransferKind::Vector,
+        1 => TransferKind::Matrix,
+        other => {
+            return Err(format!(
+                "unknown transfer kind {other} (0 = vector, 1 = matrix)"
+            ));
+        }
+    };
+    if transfer == TransferKind::Matrix && mode == Mode::Interreflected {
+        return Err(
+            "an interreflected transfer-matrix file (matrix bakes are unshadowed or \
+                    shadowed)"
+                .into(),
+        );
+    }
     let bounces = u32_at(40);
     if (mode == Mode::Interreflected) != (bounces > 0) {
         return Err(format!("{bounces} bounces in a {} file", mode.name()));
@@ -456,6 +529,11 @@ fn parse_fields(bytes: &[u8], version: u32) -> std::result::Result<Header, Strin
     };
     // 88..108 is the shard identity ([`crate::formats::part_id::PartId`]); 108..124 the adaptive fields.
     let adaptive = read_adaptive(bytes, aux_flags, mode, sampling)?;
+    if adaptive.is_some() && transfer == TransferKind::Matrix {
+        return Err(
+            "a target error in a transfer-matrix file (matrix bakes are not adaptive)".into(),
+        );
+    }
     let header = Header {
         version,
         order,
@@ -463,6 +541,7 @@ fn parse_fields(bytes: &[u8], version: u32) -> std::result::Result<Header, Strin
         vertex_count: u64_at(24),
         samples_per_vertex,
         mode,
+        transfer,
         bounces,
         bounce_samples,
         backend,
@@ -534,4 +613,82 @@ pub(crate) fn checksum(bytes: &[u8]) -> u32 {
     hasher.update(&[0; 4]);
     hasher.update(&bytes[HEADER_SIZE..]);
     hasher.finalize()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::formats::coefficient_file::CoefficientFile;
+
+    /// `bytes` with a new checksum, so only the change under test is wrong.
+    fn resealed(mut bytes: Vec<u8>) -> Vec<u8> {
+        let sum = checksum(&bytes);
+        bytes[CHECKSUM_OFFSET..HEADER_SIZE].copy_from_slice(&sum.to_le_bytes());
+        bytes
+    }
+
+    #[test]
+    fn matrix_files_record_their_kind_and_size() {
+        let vector = CoefficientFile {
+            header: Header {
+                version: VERSION,
+                order: 1,
+                channels: 1,
+                vertex_count: 2,
+                samples_per_vertex: 64,
+                mode: Mode::Shadowed,
+                transfer: TransferKind::Vector,
+                bounces: 0,
+                bounce_samples: 0,
+                backend: Backend::Embree,
+                sampling: Sampling::OwenSobol,
+                seed: 3,
+                scene_fingerprint: 0x1234,
+                up: crate::scene::Up::Z,
+                aux: Aux {
+                    ao: true,
+                    bent_normal: false,
+                },
+                checksum: 0,
+                adaptive: None,
+            },
+            coefficients: vec![0.25, 0.5],
+            ao: Some(vec![0.75, 1.0]),
+            bent_normal: None,
+            rays: None,
+            error_estimate: None,
+            lightmap: None,
+        };
+        let (vector_bytes, _) = vector.to_bytes();
+        // Mode 1 (shadowed) as the u32 every older reader reads: the kind's bytes are zero.
+        assert_eq!(vector_bytes[36..40], [1, 0, 0, 0]);
+        // Order 2: a 4×4 matrix, 16 floats per vertex.
+        let matrix = CoefficientFile {
+            header: Header {
+                order: 2,
+                transfer: TransferKind::Matrix,
+                ..vector.header.clone()
+            },
+            coefficients: (0..32).map(|i| i as f32).collect(),
+            ..vector.clone()
+        };
+        let (bytes, sum) = matrix.to_bytes();
+        assert_eq!(bytes[36..40], [1, 0, 1, 0]);
+        assert_eq!(bytes.len(), HEADER_SIZE + (2 * 16 + 2) * 4);
+        let read = CoefficientFile::from_bytes(&bytes).unwrap();
+        assert_eq!(read.header.transfer, TransferKind::Matrix);
+        assert_eq!(read.vertex(1, 0), &matrix.coefficients[16..32]);
+        assert_eq!(read.header.checksum, sum);
+        // An unknown kind, and an interreflected matrix, are refused.
+        let mut unknown = bytes.clone();
+        unknown[38] = 2;
+        let m = CoefficientFile::from_bytes(&resealed(unknown)).unwrap_err();
+        assert!(m.contains("unknown transfer kind 2"), "{m}");
+        let mut bounced = bytes;
+        bounced[36] = 2;
+        bounced[40] = 1;
+        bounced[80] = 1;
+        let m = CoefficientFile::from_bytes(&resealed(bounced)).unwrap_err();
+        assert!(m.contains("interreflected transfer-matrix"), "{m}");
+    }
 }

@@ -15,4 +15,5 @@ pub mod openexr;
 pub mod part_id;
 pub mod ply;
 pub mod png;
+pub mod scene_check;
 pub mod versions;

@@ -88,6 +88,13 @@ pub fn bake(
     progress: &dyn Progress,
 ) -> Result<LightmapBake> {
     let tracer = crate::bake::transfer::tracer_for(options, tracer)?;
+    if options.transfer == crate::bake::options::TransferKind::Matrix {
+        return Err(crate::Error::InvalidOption(
+            "--transfer matrix with --lightmap is not supported yet: texel bakes store \
+             transfer vectors"
+                .into(),
+        ));
+    }
     let started = Instant::now();
     let Prepared {
         atlas,

@@ -1,0 +1,483 @@
+//! Transfer matrices (`bake --transfer matrix`, Sloan, Kautz & Snyder 2002, §5): per receiver
+//! the n²×n² matrix
+//!
+//! ```text
+//! M_ij = ∫ V(x, s) y_i(s) y_j(s) ds        (V = 0 below the receiver's tangent plane)
+//! ```
+//!
+//! that maps a distant light's SH coefficients L to those of the receiver's shadowed incident
+//! radiance, L′ = M·L. A glossy (or any view-dependent) BRDF is then convolved with L′ at
+//! render time; the diffuse transfer vector is the special case T = (1/π) M·ĉ, ĉ the clamped
+//! cosine's coefficients about the normal.
+//!
+//! # Why uniform hemisphere sampling
+//!
+//! The vector estimator draws cosine-weighted directions because its integrand carries the
+//! cosine. M has no cosine: with cosine-weighted samples every ray would be weighted by
+//! π / cos θ, unbounded at grazing angles (the estimator's variance, ∫ (y_i y_j)² / cos θ ds,
+//! diverges logarithmically). With uniform directions over the hemisphere (density 1/2π) each
+//! unblocked ray adds (2π/N)·y(s)·y(s)ᵀ, a bounded integrand, so the error falls as for the
+//! vector bake. The directions are the vector bake's: the same Owen-scrambled Sobol points of
+//! the same seed, in the same Hilbert order, the same per-receiver turn about the normal, the
+//! same ray origins and batches — only the map from the unit square to the hemisphere
+//! differs (z = 1 − u₁ instead of √(1 − u₁)).
+//!
+//! # How it is organised
+//!
+//! As in [`crate::bake::estimator`]: y(s) is tabled once per bake in the local frame (z along
+//! the normal), each receiver sums the outer products of its unblocked rows in f32 per batch
+//! of [`BATCH`] rays and in f64 across batches, and rotates the local matrix into world space
+//! once: M_world = R · M_local · Rᵀ, with R the SH rotation of the receiver's frame (exact).
+//! Only the upper triangle is summed, cut into 4×8 tiles ([`TileLayout`]) whose 32 sums stay
+//! in registers while the batch's rows stream past: 192 multiply-adds per ray at order 4 (the
+//! triangle is n²(n²+1)/2 = 136, the square 256), all in full vectors, and the lower triangle
+//! mirrored at the end. In isolation that is 3–4 times faster than adding each ray's outer
+//! product into memory (docs/performance.md, "Transfer matrices"). A batch in which most rays are
+//! unblocked is summed as its precomputed total minus its blocked rays (on an open surface,
+//! most are unblocked). Every quantity is a pure function of (seed, receiver, sample
+//! index) summed in a fixed order: bit-identical for any thread count.
+
+use glam::{Mat3, Vec3};
+use rayon::prelude::*;
+
+use crate::bake::estimator::{DirectPass, Estimator, Visibility};
+use crate::bake::receivers::RECEIVERS_PER_JOB;
+use crate::math::sampling::{OwenSobol, hilbert_index, vertex_seed};
+use crate::math::sh::RecurrenceRotator;
+use crate::math::sh::rotation::ShRotation;
+use crate::support::progress::Progress;
+use crate::trace::Tracer;
+
+/// Rays per tracer call, as in the vector estimator.
+const BATCH: usize = 256;
+/// The most bytes the per-batch totals may take (64 MiB: order 16 at a million rays).
+const TOTALS_BUDGET: usize = 64 << 20;
+/// Columns summed beside the outer products: cos θ (for the accessibility) and the local
+/// direction times cos θ (for the bent normal).
+const EXTRA: usize = 4;
+
+/// Maps [0, 1)² to the uniform hemisphere around +z (density 1/2π): z = 1 − u₁, the
+/// counterpart of [`crate::math::sampling::cosine_hemisphere`]'s √(1 − u₁).
+#[inline]
+pub fn uniform_hemisphere(u1: f32, u2: f32) -> Vec3 {
+    let z = 1.0 - u1;
+    let r = (u1 * (2.0 - u1)).max(0.0).sqrt();
+    let (s, c) = (std::f32::consts::TAU * u2).sin_cos();
+    Vec3::new(r * c, r * s, z)
+}
+
+/// Length of the packed upper triangle of an n×n symmetric matrix.
+#[inline]
+pub fn packed_len(n: usize) -> usize {
+    n * (n + 1) / 2
+}
+
+/// `acc += sign · y yᵀ` over the packed upper triangle (row i holds columns i..n), ray by ray:
+/// the straightforward accumulation, which `benches/matrix.rs` times against
+/// [`TileLayout::accumulate`] (the bake's). Each row is one contiguous multiply-add of
+/// `y[i..]` scaled by `y[i]`, but every sum is loaded and stored once per ray.
+#[inline]
+pub fn add_outer(acc: &mut [f32], y: &[f32], sign: f32) {
+    let mut rest = acc;
+    for (i, &yi) in y.iter().enumerate() {
+        let (row, tail) = rest.split_at_mut(y.len() - i);
+        let s = sign * yi;
+        for (a, &yj) in row.iter_mut().zip(&y[i..]) {
+            *a += s * yj;
+        }
+        rest = tail;
+    }
+}
+
+/// Rows of a tile: the y_i broadcast against one column chunk.
+const TILE_ROWS: usize = 4;
+/// Columns of a tile (two SSE or one AVX register of f32).
+const TILE_LANES: usize = 8;
+/// Floats in one tile.
+const TILE: usize = TILE_ROWS * TILE_LANES;
+
+/// The upper triangle of an n×n symmetric matrix cut into 4×8 tiles (rows i0..i0+4, columns
+/// j0..j0+8) that cover every (i, j ≥ i) exactly once: row block i0 takes the column chunks
+/// from the one holding its diagonal on. Rows of y are padded with zeros to `width`, a
+/// multiple of 8, so every tile is full: at order 4, 6 tiles, 192 multiply-adds per ray (the
+/// triangle itself is 136), all in full vectors.
+pub struct TileLayout {
+    pub n: usize,
+    /// n rounded up to a multiple of [`TILE_LANES`]: the stride of a padded row.
+    pub width: usize,
+    /// Each tile's (first row, first column).
+    pub tiles: Vec<(usize, usize)>,
+}
+
+impl TileLayout {
+    pub fn new(n: usize) -> TileLayout {
+        let width = n.div_ceil(TILE_LANES) * TILE_LANES;
+        let tiles = (0..n)
+            .step_by(TILE_ROWS)
+            .flat_map(|i0| {
+                let first = i0 / TILE_LANES * TILE_LANES;
+                (first..width).step_by(TILE_LANES).map(move |j0| (i0, j0))
+            })
+            .collect();
+        TileLayout { n, width, tiles }
+    }
+
+    /// Floats in the tiled triangle.
+    pub fn floats(&self) -> usize {
+        self.tiles.len() * TILE
+    }
+
+    /// `out += Σ_{k ∈ selected} y_k y_kᵀ` over the tiles, y_k being row k of `rows` (padded
+    /// rows of [`TileLayout::width`]). Per tile the 32 sums stay in registers while the rows
+    /// stream past (a batch's rows fit in L1): 4 broadcasts and 32 multiply-adds per row
+    /// and tile, where summing ray by ray into memory loads and stores every sum per ray.
+    pub fn accumulate(&self, rows: &[f32], selected: &[u32], out: &mut [f32]) {
+        let w = self.width;
+        for (&(i0, j0), out) in self.tiles.iter().zip(out.chunks_exact_mut(TILE)) {
+            let mut acc = [[0.0f32; TILE_LANES]; TILE_ROWS];
+            for &k in selected {
+                let row = &rows[k as usize * w..(k as usize + 1) * w];
+                let yj: &[f32; TILE_LANES] = row[j0..j0 + TILE_LANES].try_into().expect("8");
+                let yi: &[f32; TILE_ROWS] = row[i0..i0 + TILE_ROWS].try_into().expect("4");
+                for (a, &y) in acc.iter_mut().zip(yi) {
+                    for (a, &x) in a.iter_mut().zip(yj) {
+                        *a += y * x;
+                    }
+                }
+            }
+            for (o, a) in out.iter_mut().zip(acc.iter().flatten()) {
+                *o += a;
+            }
+        }
+    }
+
+    /// The full n×n matrix, times `scale`, from tiled sums.
+    fn unpack(&self, tiled: &[f64], scale: f64, out: &mut [f64]) {
+        let n = self.n;
+        for (&(i0, j0), tile) in self.tiles.iter().zip(tiled.chunks_exact(TILE)) {
+            for ii in 0..TILE_ROWS {
+                for jj in 0..TILE_LANES {
+                    let (i, j) = (i0 + ii, j0 + jj);
+                    if i < n && j < n && j >= i {
+                        let x = tile[ii * TILE_LANES + jj] * scale;
+                        out[i * n + j] = x;
+                        out[j * n + i] = x;
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// The directions every receiver traces, in its local frame (z along the normal), in the
+/// order they are traced: the vector bake's point set of the seed, in its Hilbert order
+/// ([`Estimator::for_receivers`]), mapped to the uniform hemisphere.
+pub fn local_directions(options: &crate::bake::options::BakeOptions) -> Vec<Vec3> {
+    let points = OwenSobol::new(vertex_seed(options.seed, u64::MAX));
+    let mut uv: Vec<(f32, f32)> = (0..options.samples).map(|i| points.point(i)).collect();
+    uv.sort_by_key(|&(u1, u2)| hilbert_index(u1, u2));
+    uv.iter()
+        .map(|&(u1, u2)| uniform_hemisphere(u1, u2))
+        .collect()
+}
+
+/// The bake's tables: the local directions, y at each, the extra columns, and per batch the
+/// sum of its outer products and extras.
+pub(crate) struct MatrixTables {
+    n: usize,
+    local_dirs: Vec<Vec3>,
+    layout: TileLayout,
+    /// Row r (padded to `layout.width`): y_j(local_dirs[r]), then zeros.
+    rows: Vec<f32>,
+    /// Row r: cos θ, then the local direction times cos θ.
+    extras: Vec<[f32; EXTRA]>,
+    /// Per batch: the tiled sum of its rows' outer products, then its extras' sum; empty
+    /// where that would take more than [`TOTALS_BUDGET`] bytes (very high orders), and then
+    /// every batch sums its unblocked rays.
+    batch_totals: Vec<f32>,
+}
+
+impl MatrixTables {
+    pub(crate) fn new(estimator: &Estimator) -> MatrixTables {
+        let options = &estimator.options;
+        let basis = &estimator.basis;
+        let n = basis.coeff_count();
+        let local_dirs = local_directions(options);
+        let layout = TileLayout::new(n);
+        let mut rows = vec![0.0f32; local_dirs.len() * layout.width];
+        for (row, d) in rows.chunks_mut(layout.width).zip(&local_dirs) {
+            basis.eval(*d, &mut row[..n]);
+        }
+        let extras: Vec<[f32; EXTRA]> = local_dirs
+            .iter()
+            .map(|d| [d.z, d.x * d.z, d.y * d.z, d.z * d.z])
+            .collect();
+        let width = layout.floats() + EXTRA;
+        let batches = local_dirs.len().div_ceil(BATCH);
+        let mut batch_totals = Vec::new();
+        if batches * width * 4 <= TOTALS_BUDGET {
+            for start in (0..local_dirs.len()).step_by(BATCH) {
+                let end = (start + BATCH).min(local_dirs.len());
+                let mut total = vec![0.0f32; width];
+                let all: Vec<u32> = (start as u32..end as u32).collect();
+                layout.accumulate(&rows, &all, &mut total[..width - EXTRA]);
+                for e in &extras[start..end] {
+                    add_extras(&mut total[width - EXTRA..], e, 1.0);
+                }
+                batch_totals.extend(total);
+            }
+        }
+        MatrixTables {
+            n,
+            layout,
+            local_dirs,
+            rows,
+            extras,
+            batch_totals,
+        }
+    }
+}
+
+#[inline]
+fn add_extras(acc: &mut [f32], e: &[f32; EXTRA], sign: f32) {
+    for (a, x) in acc.iter_mut().zip(e) {
+        *a += sign * x;
+    }
+}
+
+/// Per-thread buffers, reused across receivers.
+struct MatrixScratch {
+    dirs: Vec<Vec3>,
+    occluded: Vec<bool>,
+    selected: Vec<u32>,
+    batch_sum: Vec<f32>,
+    total: Vec<f64>,
+    local: Vec<f64>,
+    column: Vec<f64>,
+    rotated: Vec<f64>,
+}
+
+impl MatrixScratch {
+    fn new(n: usize, layout: &TileLayout) -> MatrixScratch {
+        MatrixScratch {
+            dirs: Vec::with_capacity(BATCH),
+            occluded: vec![false; BATCH],
+            selected: Vec::with_capacity(BATCH),
+            batch_sum: vec![0.0; layout.floats() + EXTRA],
+            total: vec![0.0; layout.floats() + EXTRA],
+            local: vec![0.0; n * n],
+            column: vec![0.0; n],
+            rotated: vec![0.0; n],
+        }
+    }
+}
+
+/// The transfer matrices of the receivers `receivers` (results indexed from its start):
+/// `coefficients[(r · n² + i) · n² + j]`, one channel. `tracer` is `None` in unshadowed mode
+/// (V = 1 over the hemisphere).
+pub(crate) fn matrix_pass(
+    estimator: &Estimator,
+    tracer: Option<&dyn Tracer>,
+    receivers: std::ops::Range<usize>,
+    progress: &dyn Progress,
+) -> DirectPass {
+    let tables = MatrixTables::new(estimator);
+    let n = tables.n;
+    let width = n * n;
+    let rotator = RecurrenceRotator::new(estimator.options.order);
+    let rays_per_receiver = match tracer {
+        Some(_) => u64::from(estimator.options.samples),
+        None => 0,
+    };
+    progress.begin("matrix", receivers.len() as u64, rays_per_receiver);
+    let mut coefficients = vec![0.0f32; receivers.len() * width];
+    let mut visibility = vec![Visibility::default(); receivers.len()];
+    coefficients
+        .par_chunks_mut(RECEIVERS_PER_JOB * width)
+        .zip(visibility.par_chunks_mut(RECEIVERS_PER_JOB))
+        .enumerate()
+        .for_each_init(
+            || MatrixScratch::new(n, &tables.layout),
+            |scratch, (job, (out, vis))| {
+                let first = receivers.start + job * RECEIVERS_PER_JOB;
+                for (k, (out, vis)) in out.chunks_mut(width).zip(vis.iter_mut()).enumerate() {
+                    *vis = receiver_matrix(
+                        estimator,
+                        &tables,
+                        &rotator,
+                        first + k,
+                        tracer,
+                        scratch,
+                        out,
+                    );
+                }
+                progress.advance(vis.len() as u64);
+            },
+        );
+    progress.finish();
+    DirectPass {
+        coefficients,
+        visibility,
+    }
+}
+
+/// The matrices of the receivers `receivers` alone, n⁴ floats each, row-major (the oracle
+/// tests bake one vertex of a large scene): [`matrix_pass`] without progress.
+pub fn receiver_matrices(
+    estimator: &Estimator,
+    tracer: Option<&dyn Tracer>,
+    receivers: std::ops::Range<usize>,
+) -> Vec<f32> {
+    let silent = crate::support::progress::Silent;
+    matrix_pass(estimator, tracer, receivers, &silent).coefficients
+}
+
+/// Receiver `v`'s matrix into `out` (n⁴ floats, row-major), and its visibility quantities.
+fn receiver_matrix(
+    estimator: &Estimator,
+    tables: &MatrixTables,
+    rotator: &RecurrenceRotator,
+    v: usize,
+    tracer: Option<&dyn Tracer>,
+    s: &mut MatrixScratch,
+    out: &mut [f32],
+) -> Visibility {
+    let n = tables.n;
+    let packed = tables.layout.floats();
+    let frame: Mat3 = estimator.vertex_frame(v);
+    let origin = estimator.origin(v);
+    s.total.fill(0.0);
+    let samples = tables.local_dirs.len();
+    for (b, start) in (0..samples).step_by(BATCH).enumerate() {
+        let end = (start + BATCH).min(samples);
+        let len = end - start;
+        let occluded = &mut s.occluded[..len];
+        match tracer {
+            Some(tracer) => {
+                s.dirs.clear();
+                s.dirs
+                    .extend(tables.local_dirs[start..end].iter().map(|d| frame * *d));
+                tracer.occluded_from(origin, &s.dirs, occluded);
+            }
+            None => occluded.fill(false),
+        }
+        let blocked = occluded.iter().filter(|&&b| b).count();
+        // The total minus the blocked rays, or the sum of the unblocked ones: the fewer terms.
+        let subtract = !tables.batch_totals.is_empty() && 2 * blocked <= len;
+        s.selected.clear();
+        s.selected.extend(
+            (start as u32..end as u32)
+                .zip(occluded.iter())
+                .filter(|(_, b)| **b == subtract)
+                .map(|(r, _)| r),
+        );
+        s.batch_sum.fill(0.0);
+        let (outer, extra) = s.batch_sum.split_at_mut(packed);
+        tables.layout.accumulate(&tables.rows, &s.selected, outer);
+        for &r in &s.selected {
+            add_extras(extra, &tables.extras[r as usize], 1.0);
+        }
+        if subtract {
+            let total = &tables.batch_totals[b * (packed + EXTRA)..(b + 1) * (packed + EXTRA)];
+            for (t, (all, selected)) in s.total.iter_mut().zip(total.iter().zip(&s.batch_sum)) {
+                *t += f64::from(all - selected);
+            }
+        } else {
+            for (t, selected) in s.total.iter_mut().zip(&s.batch_sum) {
+                *t += f64::from(*selected);
+            }
+        }
+    }
+    // Uniform over the hemisphere: each ray stands for 2π/N steradians.
+    let norm = std::f64::consts::TAU / samples as f64;
+    tables.layout.unpack(&s.total[..packed], norm, &mut s.local);
+    let rotation = rotator.rotation(frame.as_dmat3());
+    rotate_symmetric(&rotation, n, s);
+    for (o, w) in out.iter_mut().zip(&s.local) {
+        *o = *w as f32;
+    }
+    let extra = &s.total[packed..];
+    // (1/π) ∫ V cos θ ds and the cosine-weighted mean unblocked direction, from the same rays.
+    let local_bent = glam::DVec3::new(extra[1], extra[2], extra[3]).as_vec3();
+    Visibility {
+        accessibility: ((extra[0] * norm / std::f64::consts::PI) as f32).clamp(0.0, 1.0),
+        bent_normal: (frame * local_bent)
+            .try_normalize()
+            .unwrap_or(estimator.normals[v]),
+        rays: if tracer.is_some() { samples as u32 } else { 0 },
+        error_estimate: 0.0,
+    }
+}
+
+/// `s.local` ← R · `s.local` · Rᵀ (symmetric in, symmetric out: the result's two halves are
+/// averaged, so it is exactly symmetric).
+fn rotate_symmetric(rotation: &ShRotation, n: usize, s: &mut MatrixScratch) {
+    let m = &mut s.local;
+    // Rows: B = M·Rᵀ, row i of B being R applied to row i of M.
+    for i in 0..n {
+        rotation.apply(&m[i * n..(i + 1) * n], &mut s.rotated);
+        m[i * n..(i + 1) * n].copy_from_slice(&s.rotated);
+    }
+    // Columns: R·B, column j being R applied to column j of B.
+    for j in 0..n {
+        for i in 0..n {
+            s.column[i] = m[i * n + j];
+        }
+        rotation.apply(&s.column, &mut s.rotated);
+        for i in 0..n {
+            m[i * n + j] = s.rotated[i];
+        }
+    }
+    for i in 0..n {
+        for j in i + 1..n {
+            let mean = 0.5 * (m[i * n + j] + m[j * n + i]);
+            m[i * n + j] = mean;
+            m[j * n + i] = mean;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tiled_outer_products_match_the_full_ones() {
+        for n in [1, 4, 9, 16, 25] {
+            let layout = TileLayout::new(n);
+            let mut rng = crate::math::sampling::Pcg32::new(3, n as u64);
+            let rows: Vec<f32> = (0..3 * layout.width)
+                .map(|k| {
+                    if k % layout.width < n {
+                        rng.next_f32() - 0.5
+                    } else {
+                        0.0
+                    }
+                })
+                .collect();
+            let mut tiled = vec![0.0f32; layout.floats()];
+            layout.accumulate(&rows, &[0, 2], &mut tiled);
+            let tiled: Vec<f64> = tiled.iter().map(|&x| f64::from(x)).collect();
+            let mut full = vec![f64::NAN; n * n];
+            layout.unpack(&tiled, 2.0, &mut full);
+            let y = |k: usize, i: usize| f64::from(rows[k * layout.width + i]);
+            for i in 0..n {
+                for j in 0..n {
+                    let expected = 2.0 * (y(0, i) * y(0, j) + y(2, i) * y(2, j));
+                    assert!(
+                        (full[i * n + j] - expected).abs() < 1e-6,
+                        "n {n} ({i}, {j})"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn uniform_hemisphere_points_are_unit_and_above_the_horizon() {
+        for (u1, u2) in [(0.0, 0.0), (0.999_999, 0.5), (0.5, 0.25), (1e-7, 0.9)] {
+            let d = uniform_hemisphere(u1, u2);
+            assert!((d.length() - 1.0).abs() < 1e-6 && d.z > 0.0, "{d}");
+        }
+    }
+}

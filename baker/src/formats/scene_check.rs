@@ -1,0 +1,112 @@
+//! Whether a coefficient file belongs to a scene: its vertex (or texel) count and the scene's
+//! fingerprint, and the transfer kind its reader understands. Every consumer of a file with a
+//! scene (relight, export, the viewer) asks here before it reads a coefficient.
+
+use std::path::Path;
+
+use crate::formats::coefficient_file::{CoefficientFile, LightmapBlock};
+use crate::formats::header::AtlasSource;
+use crate::scene::Scene;
+use crate::support::error::{Error, Result};
+
+impl CoefficientFile {
+    /// Refuses a file baked for a different scene (or a changed version of this one), and a
+    /// transfer-matrix bake: every reader of transfer vectors (relight, glTF, the viewer)
+    /// checks its file here, so none of them misreads a matrix as vectors.
+    pub fn check_scene(&self, path: &Path, scene: &Scene) -> Result<()> {
+        self.refuse_matrix(path)?;
+        self.check_scene_of_any_transfer(path, scene)
+    }
+
+    /// Refuses a transfer-matrix bake (`bake --transfer matrix`) with the reason.
+    pub fn refuse_matrix(&self, path: &Path) -> Result<()> {
+        if self.header.transfer == crate::formats::header::TransferKind::Matrix {
+            return Err(Error::SceneMismatch {
+                path: path.to_path_buf(),
+                message: "a transfer-matrix bake (--transfer matrix), which this command does \
+                          not read yet (`export --npz` and `inspect` do)"
+                    .into(),
+            });
+        }
+        Ok(())
+    }
+
+    /// [`CoefficientFile::check_scene`] for readers of both transfer vectors and matrices.
+    pub fn check_scene_of_any_transfer(&self, path: &Path, scene: &Scene) -> Result<()> {
+        let mismatch = |message: String| {
+            Err(Error::SceneMismatch {
+                path: path.to_path_buf(),
+                message,
+            })
+        };
+        if let Some(l) = &self.lightmap {
+            return mismatch(format!(
+                "a lightmap bake ({}×{} texels), which this reader does not read (only \
+                 `export` reads lightmap bakes so far)",
+                l.width, l.height
+            ));
+        }
+        self.check_fingerprint(path, scene, self.header.vertex_count)
+    }
+
+    /// Refuses a lightmap bake made for a different scene, or a vertex bake.
+    pub fn check_lightmap_scene(&self, path: &Path, scene: &Scene) -> Result<&LightmapBlock> {
+        self.refuse_matrix(path)?;
+        let Some(l) = &self.lightmap else {
+            return Err(Error::SceneMismatch {
+                path: path.to_path_buf(),
+                message: "a per-vertex bake, not a lightmap bake".into(),
+            });
+        };
+        if l.scene_triangle_count != scene.triangles.len() as u64 {
+            return Err(Error::SceneMismatch {
+                path: path.to_path_buf(),
+                message: format!(
+                    "baked for a scene with {} triangles, but {} has {}",
+                    l.scene_triangle_count,
+                    scene.path.display(),
+                    scene.triangles.len()
+                ),
+            });
+        }
+        self.check_fingerprint(path, scene, l.scene_vertex_count)?;
+        if l.source == AtlasSource::PerObject && l.objects.len() != scene.objects.len() {
+            return Err(Error::SceneMismatch {
+                path: path.to_path_buf(),
+                message: format!(
+                    "its atlas places {} objects, but {} has {}",
+                    l.objects.len(),
+                    scene.path.display(),
+                    scene.objects.len()
+                ),
+            });
+        }
+        Ok(l)
+    }
+
+    fn check_fingerprint(&self, path: &Path, scene: &Scene, vertex_count: u64) -> Result<()> {
+        let mismatch = |message: String| {
+            Err(Error::SceneMismatch {
+                path: path.to_path_buf(),
+                message,
+            })
+        };
+        if vertex_count != scene.vertex_count() as u64 {
+            return mismatch(format!(
+                "baked for a scene with {} vertices, but {} has {}",
+                vertex_count,
+                scene.path.display(),
+                scene.vertex_count()
+            ));
+        }
+        let fingerprint = scene.fingerprint();
+        if self.header.scene_fingerprint != fingerprint {
+            return mismatch(format!(
+                "baked for another scene: fingerprint {:016x}, but {} has {fingerprint:016x}",
+                self.header.scene_fingerprint,
+                scene.path.display()
+            ));
+        }
+        Ok(())
+    }
+}
