@@ -362,3 +362,34 @@ fn texels_inside_a_sphere_are_left_out_as_leaking_and_filled() {
     // The ring just inside the sphere's edge is filled from outside texels.
     assert!(bake.dilated.iter().any(|&d| d));
 }
+
+/// Chart seams are stitched (issue 23): the demo torus unwrapped into 64², where the
+/// unwrapper cuts the smooth surface into charts, must read the same on both sides of every
+/// seam after the bake, to a small part of the step it had before, and the texels the seams do
+/// not read keep their baked values (`baker/src/bake/lightmap/stitch.rs`).
+#[test]
+fn chart_seams_are_stitched() {
+    let torus =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/torus/torus.scene");
+    let scene = Scene::load(&torus).expect("the demo torus");
+    let options = shadowed(4, 256);
+    let atlas = Atlas::generate(&scene, 64, None).unwrap();
+    let bake = bake_lightmap(&scene, atlas, &options);
+    let seams = bake.seams;
+    eprintln!(
+        "seams: {} samples, step {:.2e} before, {:.2e} after",
+        seams.samples, seams.step_before, seams.step_after
+    );
+    assert!(
+        seams.samples > 100,
+        "the torus's charts meet at seams: {seams:?}"
+    );
+    assert!(
+        seams.step_before > 1e-3,
+        "the unstitched bake steps: {seams:?}"
+    );
+    assert!(
+        seams.step_after < seams.step_before / 10.0,
+        "the seams still step: {seams:?}"
+    );
+}

@@ -21,14 +21,19 @@ const TORUS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/torus/torus.
 /// Bakes the Cornell room's 40² lightmap whole and in 3 shards (shard k on k % 2 + 1 threads,
 /// merged from the parts in reverse order), and checks the merge is the whole bake's file.
 fn assert_texel_merge_is_the_whole_bake(s: &Scratch, name: &str, extra: &[&str]) {
+    assert_merge_of(s, CORNELL, name, extra);
+}
+
+/// [`assert_texel_merge_is_the_whole_bake`] of `scene`.
+fn assert_merge_of(s: &Scratch, scene: &str, name: &str, extra: &[&str]) {
     let base = [&["--lightmap", "40"], extra].concat();
-    s.bake(CORNELL, &format!("{name}.prt"), &base);
+    s.bake(scene, &format!("{name}.prt"), &base);
     let mut parts = Vec::new();
     for k in 0..3 {
         let part = format!("{name}-{k}.part.prt");
         let (shard, threads) = (format!("{k}/3"), format!("{}", k % 2 + 1));
         let args = [&base[..], &["--shard", &shard, "--threads", &threads]].concat();
-        let run = s.bake(CORNELL, &part, &args);
+        let run = s.bake(scene, &part, &args);
         assert!(
             run.stdout
                 .contains(&format!("shard {k} of 3 (baked texels ")),
@@ -55,6 +60,27 @@ fn merged_texel_shards_equal_the_whole_texel_bake() {
     assert_texel_merge_is_the_whole_bake(&s, "shadowed", &[]);
     assert_texel_merge_is_the_whole_bake(&s, "aux", &["--aux", "ao,bent-normal"]);
     assert_texel_merge_is_the_whole_bake(&s, "unshadowed", &["--mode", "unshadowed"]);
+    // The torus's unwrapped charts meet at smooth seams, which the merge stitches as the
+    // whole bake does (the room's boards meet at creases only).
+    let stitched = ["--atlas", "unwrap", "--aux", "ao", "--samples", "256"];
+    assert_merge_of(&s, TORUS, "torus-seams", &stitched);
+    let run = s
+        .run(
+            &[
+                &[
+                    "bake",
+                    TORUS,
+                    "-o",
+                    "out/torus-seams-again.prt",
+                    "--lightmap",
+                    "40",
+                ][..],
+                &stitched[..],
+            ]
+            .concat(),
+        )
+        .success();
+    assert!(run.stdout.contains("seams stitched at "), "{}", run.stdout);
     // Coloured walls: 3 channels, two bounces gathered by the merge over the dilated lightmap.
     let interreflected = ["--mode", "interreflected", "--bounces", "2", "--aux", "ao"];
     assert_texel_merge_is_the_whole_bake(&s, "rgb", &interreflected);

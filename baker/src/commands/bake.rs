@@ -366,8 +366,15 @@ fn bake_texels(
     let atlas = atlas(args, scene, resolution, progress)?;
     let bake = lightmap::bake(scene, tracer, options, atlas, progress)?;
     let file = CoefficientFile::from_lightmap_bake(scene, &bake);
+    let seams = match bake.seams.samples {
+        0 => String::new(),
+        n => format!(
+            "; seams stitched at {n} points, step {:.1e} -> {:.1e}",
+            bake.seams.step_before, bake.seams.step_after
+        ),
+    };
     let what = format!(
-        "{} of {}×{} texels ({} moved out, {} left out as leaking)",
+        "{} of {}×{} texels ({} moved out, {} left out as leaking{seams})",
         bake.texels.valid_count(),
         bake.texels.width,
         bake.texels.height,

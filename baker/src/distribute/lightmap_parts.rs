@@ -15,7 +15,8 @@
 
 use glam::{Vec2, Vec3};
 
-use crate::bake::lightmap::{Atlas, AtlasSource, Prepared, Texels, place};
+use crate::bake::lightmap::stitch::NO_PARTNER;
+use crate::bake::lightmap::{Atlas, AtlasSource, Prepared, Stitching, Texels, place};
 use crate::bake::transfer::{BounceTargets, Visibility};
 use crate::formats::coefficient_file::{CoefficientFile, LightmapBlock};
 use crate::formats::header::{CHECKSUM_OFFSET, HEADER_SIZE, Header, checksum};
@@ -46,6 +47,9 @@ pub struct PartLightmap {
     pub uv1: Vec<[Vec2; 3]>,
     /// Per texel (row-major): baked.
     pub valid: Vec<bool>,
+    /// Per scene triangle and edge, its seam partner
+    /// ([`crate::bake::lightmap::stitch::seam_partners`]): the merge stitches with them.
+    pub seams: Vec<[u32; 3]>,
 }
 
 impl PartLightmap {
@@ -59,6 +63,13 @@ impl PartLightmap {
         bytes.extend(atlas.source.code().to_le_bytes());
         let uv = atlas.uv1.iter().flatten().flat_map(|p| p.to_array());
         bytes.extend(uv.flat_map(f32::to_le_bytes));
+        bytes.extend(
+            prepared
+                .seams
+                .iter()
+                .flatten()
+                .flat_map(|c| c.to_le_bytes()),
+        );
         PartLightmap {
             width: atlas.width,
             height: atlas.height,
@@ -70,6 +81,7 @@ impl PartLightmap {
             fingerprint: xxhash_rust::xxh3::xxh3_64(&bytes),
             uv1: atlas.uv1.clone(),
             valid: prepared.texels.valid.clone(),
+            seams: prepared.seams.clone(),
         }
     }
 
@@ -88,18 +100,20 @@ impl PartLightmap {
         b.try_into().expect("64 bytes")
     }
 
-    /// The bytes after a part's other arrays: the UVs (f32), then the mask (u8, 1 = baked).
+    /// The bytes after a part's other arrays: the UVs (f32), the mask (u8, 1 = baked), then
+    /// per triangle and edge its seam partner (u32).
     pub(crate) fn tail_bytes(&self) -> Vec<u8> {
         let uv = self.uv1.iter().flatten().flat_map(|p| p.to_array());
         let mut bytes: Vec<u8> = uv.flat_map(f32::to_le_bytes).collect();
         bytes.extend(self.valid.iter().map(|&v| u8::from(v)));
+        bytes.extend(self.seams.iter().flatten().flat_map(|c| c.to_le_bytes()));
         bytes
     }
 
     /// Length of [`PartLightmap::tail_bytes`]; `None` where a corrupted count overflows.
     pub(crate) fn tail_len(&self) -> Option<u64> {
         self.scene_triangle_count
-            .checked_mul(24)?
+            .checked_mul(24 + 12)?
             .checked_add(u64::from(self.width) * u64::from(self.height))
     }
 
@@ -145,13 +159,31 @@ impl PartLightmap {
             fingerprint: u64_at(32),
             uv1: Vec::new(),
             valid: Vec::new(),
+            seams: Vec::new(),
         })
     }
 
     /// Reads [`PartLightmap::tail_bytes`] (exactly [`PartLightmap::tail_len`] bytes).
     pub(crate) fn read_tail(&mut self, tail: &[u8]) -> std::result::Result<(), String> {
         let uv_bytes = self.scene_triangle_count as usize * 24;
-        let (uv, mask) = tail.split_at(uv_bytes);
+        let mask_bytes = self.width as usize * self.height as usize;
+        let (uv, rest) = tail.split_at(uv_bytes);
+        let (mask, seams) = rest.split_at(mask_bytes);
+        let codes: Vec<u32> = seams
+            .chunks_exact(4)
+            .map(|c| u32::from_le_bytes(c.try_into().expect("4 bytes")))
+            .collect();
+        let edges = 3 * self.scene_triangle_count as usize;
+        if let Some(i) = codes
+            .iter()
+            .position(|&c| c != NO_PARTNER && c as usize / 2 >= edges)
+        {
+            return Err(format!(
+                "seam partner {} of edge {i} is not an edge",
+                codes[i]
+            ));
+        }
+        self.seams = codes.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
         let floats: Vec<f32> = uv
             .chunks_exact(4)
             .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")))
@@ -279,7 +311,11 @@ impl PartLightmap {
                 .collect()
         });
         let texels = self.texels();
-        let placed = place(&texels, width, receivers, visibility.as_deref());
+        let stitching = Stitching {
+            partners: &self.seams,
+            uv1: &self.uv1,
+        };
+        let placed = place(&texels, width, receivers, visibility.as_deref(), &stitching);
         let aux = header.aux;
         CoefficientFile {
             header: Header {

@@ -11,6 +11,7 @@ pub mod atlas;
 pub mod dilation;
 pub mod leaks;
 pub mod objects;
+pub mod stitch;
 pub mod texels;
 
 use std::time::Instant;
@@ -42,6 +43,8 @@ pub struct LightmapBake {
     pub moved: usize,
     /// Covered texels left out as leaking ([`leaks`]; shadowed mode only).
     pub leaking: usize,
+    /// The chart seams stitched ([`stitch`]).
+    pub seams: SeamReport,
 }
 
 /// A texel bake's receivers before any transfer is baked: the atlas, and its texels after
@@ -53,6 +56,8 @@ pub struct Prepared {
     pub atlas: Atlas,
     pub texels: Texels,
     pub settled: leaks::Settled,
+    /// The atlas's smooth seams, to stitch ([`stitch::seam_partners`]).
+    pub seams: Vec<[u32; 3]>,
 }
 
 /// Rasterises `atlas` and, when rays are cast (`tracer`), settles leaking texels.
@@ -69,10 +74,12 @@ pub fn prepare(
         let tracer = watertight.as_deref().unwrap_or(tracer);
         settled = leaks::settle(scene, &atlas, &mut texels, tracer, seed)?;
     }
+    let seams = stitch::seam_partners(scene, &atlas);
     Ok(Prepared {
         atlas,
         texels,
         settled,
+        seams,
     })
 }
 
@@ -100,6 +107,7 @@ pub fn bake(
         atlas,
         texels,
         settled,
+        seams,
     } = prepare(scene, tracer, options.seed, atlas)?;
     // Watertight for the final texel origins (moved-out ones included).
     let watertight = match tracer {
@@ -113,7 +121,11 @@ pub fn bake(
     let baked = bake_receivers(scene, tracer, &estimator, &targets, progress);
     let width = baked.channels * crate::math::sh::coeff_count(options.order);
     let visibility = tracer.map(|_| baked.visibility.as_slice());
-    let placed = place(&texels, width, &baked.coefficients, visibility);
+    let stitching = Stitching {
+        partners: &seams,
+        uv1: &atlas.uv1,
+    };
+    let placed = place(&texels, width, &baked.coefficients, visibility, &stitching);
     let transfer = Transfer::from_direct(
         options,
         tracer.map_or(Backend::None, |t| t.backend()),
@@ -128,6 +140,7 @@ pub fn bake(
     Ok(LightmapBake {
         atlas,
         dilated: placed.dilated,
+        seams: placed.seams,
         moved: settled.moved,
         leaking: settled.leaking,
         texels,
@@ -144,16 +157,36 @@ pub struct Placed {
     pub visibility: Vec<Visibility>,
     /// Per texel: filled by dilation.
     pub dilated: Vec<bool>,
+    /// What stitching the seams did.
+    pub seams: SeamReport,
+}
+
+/// The seams [`place`] stitches: per triangle and edge its partner
+/// ([`stitch::seam_partners`]), and the atlas's UVs per triangle.
+pub struct Stitching<'a> {
+    pub partners: &'a [[u32; 3]],
+    pub uv1: &'a [[glam::Vec2; 3]],
+}
+
+/// What [`stitch`] did to a lightmap: its seam samples, and the step across them (RMS over
+/// the samples of the first coefficient's difference) before and after.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SeamReport {
+    pub samples: usize,
+    pub step_before: f64,
+    pub step_after: f64,
 }
 
 /// Places the receivers' values (`width` floats each, in row-major order of the valid
-/// texels) and their visibility (if any) in the W×H lightmap of `texels`, and dilates them:
-/// what a whole bake, the merge of its shard parts and a checkpointed bake all end with.
+/// texels) and their visibility (if any) in the W×H lightmap of `texels`, dilates them and
+/// stitches the seams ([`stitch`]): what a whole bake, the merge of its shard parts and a
+/// checkpointed bake all end with.
 pub fn place(
     texels: &Texels,
     width: usize,
     receivers: &[f32],
     receiver_visibility: Option<&[Visibility]>,
+    stitching: &Stitching<'_>,
 ) -> Placed {
     let texel_count = texels.valid.len();
     let mut coefficients = vec![0.0f32; texel_count * width];
@@ -182,10 +215,38 @@ pub fn place(
         }
     }
     let dilated = dilate(texels, width, &mut coefficients, &mut visibility);
+    let filled: Vec<bool> = texels
+        .valid
+        .iter()
+        .zip(&dilated)
+        .map(|(v, d)| *v || *d)
+        .collect();
+    let samples = stitch::seam_samples(
+        stitching.partners,
+        stitching.uv1,
+        texels.width,
+        texels.height,
+        &filled,
+    );
+    let step_before = stitch::seam_step(&samples, &coefficients, width, 0).0;
+    stitch::stitch(&samples, &mut coefficients, width);
+    if !visibility.is_empty() {
+        let mut ao: Vec<f32> = visibility.iter().map(|v| v.accessibility).collect();
+        stitch::stitch(&samples, &mut ao, 1);
+        for (v, a) in visibility.iter_mut().zip(ao) {
+            v.accessibility = a;
+        }
+    }
+    let seams = SeamReport {
+        samples: samples.len(),
+        step_before,
+        step_after: stitch::seam_step(&samples, &coefficients, width, 0).0,
+    };
     Placed {
         coefficients,
         visibility,
         dilated,
+        seams,
     }
 }
 
