@@ -188,19 +188,7 @@ impl PartLightmap {
             .chunks_exact(4)
             .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")))
             .collect();
-        if let Some(i) = floats.iter().position(|x| !x.is_finite()) {
-            return Err(format!("lightmap UV of triangle {} is not finite", i / 6));
-        }
-        self.uv1 = floats
-            .chunks_exact(6)
-            .map(|c| {
-                [
-                    Vec2::new(c[0], c[1]),
-                    Vec2::new(c[2], c[3]),
-                    Vec2::new(c[4], c[5]),
-                ]
-            })
-            .collect();
+        self.uv1 = crate::formats::coefficient_file::triangle_uvs(&floats)?;
         if let Some(i) = mask.iter().position(|&b| b > 1) {
             return Err(format!("texel {i}'s mask byte is {} (0 or 1)", mask[i]));
         }

@@ -356,19 +356,7 @@ impl LightmapBlock {
             .by_ref()
             .take(self.scene_triangle_count as usize * 6)
             .collect();
-        if let Some(i) = uv.iter().position(|x| !x.is_finite()) {
-            return Err(format!("lightmap UV of triangle {} is not finite", i / 6));
-        }
-        self.uv1 = uv
-            .chunks_exact(6)
-            .map(|c| {
-                [
-                    Vec2::new(c[0], c[1]),
-                    Vec2::new(c[2], c[3]),
-                    Vec2::new(c[4], c[5]),
-                ]
-            })
-            .collect();
+        self.uv1 = triangle_uvs(&uv)?;
         if let Some(i) = mask.iter().position(|&b| b > 2) {
             return Err(format!("state of texel {i} is {} (0, 1 or 2)", mask[i]));
         }
@@ -413,6 +401,24 @@ pub(crate) fn check_floats(
         ));
     }
     Ok(())
+}
+
+/// Per triangle its 3 corners' lightmap UVs, from 6 floats a triangle (a texel file's or a
+/// texel part's UV array), every one finite.
+pub(crate) fn triangle_uvs(floats: &[f32]) -> std::result::Result<Vec<[Vec2; 3]>, String> {
+    if let Some(i) = floats.iter().position(|x| !x.is_finite()) {
+        return Err(format!("lightmap UV of triangle {} is not finite", i / 6));
+    }
+    Ok(floats
+        .chunks_exact(6)
+        .map(|c| {
+            [
+                Vec2::new(c[0], c[1]),
+                Vec2::new(c[2], c[3]),
+                Vec2::new(c[4], c[5]),
+            ]
+        })
+        .collect())
 }
 
 /// The bytes of a file with `header`'s fields but another payload (a shard part's): the

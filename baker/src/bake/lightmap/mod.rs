@@ -233,8 +233,9 @@ pub fn place(
     if !visibility.is_empty() {
         let mut ao: Vec<f32> = visibility.iter().map(|v| v.accessibility).collect();
         stitch::stitch(&samples, &mut ao, 1);
+        // Least squares may overshoot a little; accessibility is a fraction.
         for (v, a) in visibility.iter_mut().zip(ao) {
-            v.accessibility = a;
+            v.accessibility = a.clamp(0.0, 1.0);
         }
     }
     let seams = SeamReport {
