@@ -396,3 +396,61 @@ fn gltf_objects_keep_their_node_names_and_placements_through_the_export() {
         }
     }
 }
+
+/// The node hierarchy survives the export (issue 23): groups without meshes are written as
+/// group nodes, each object's node keeps its place under its parent, and nodes with nothing
+/// below them are left out. Transforms are identities: the geometry is in world space.
+#[test]
+fn the_gltf_node_hierarchy_survives_the_export() {
+    use serde_json::json;
+    let dir = tempfile::tempdir().unwrap();
+    let (fp, ft, fi) = gltf_grid(Vec3::new(-2.0, 0.0, 2.0), Vec3::X * 4.0, Vec3::Z * -4.0);
+    let (bp, bt, bi) = gltf_grid(Vec3::new(-1.0, 0.0, 0.0), Vec3::X * 2.0, Vec3::Y);
+    // Room ─ Floor (mesh 0)
+    //      ─ Lamp ─ Shade (mesh 1)
+    //             ─ Bulb (no mesh: left out)
+    let nodes = json!([
+        {"name": "Room", "children": [1, 2], "translation": [0.0, 1.0, 0.0]},
+        {"name": "Floor", "mesh": 0},
+        {"name": "Lamp", "children": [3, 4]},
+        {"name": "Shade", "mesh": 1},
+        {"name": "Bulb"},
+    ]);
+    let path = dir.path().join("room.glb");
+    let sources = [("Plane", fp, ft, fi), ("Box", bp, bt, bi)];
+    std::fs::write(&path, glb(&sources, nodes)).unwrap();
+    let scene = Scene::load(&path).expect("the glb");
+    let contents = prt_baker::export::gltf::Contents {
+        file: None,
+        light: None,
+        up: scene.up,
+    };
+    let (bytes, _) = prt_baker::export::gltf::glb_bytes(&scene, &contents).expect("export");
+    let length = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    let doc: serde_json::Value = serde_json::from_slice(&bytes[20..20 + length]).unwrap();
+    let names: Vec<&str> = doc["nodes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|n| n["name"].as_str().unwrap())
+        .collect();
+    // Objects first (their indices are the objects'), then the groups.
+    assert_eq!(names, ["Floor", "Shade", "Room", "Lamp"]);
+    assert_eq!(doc["scenes"][0]["nodes"], json!([2]));
+    assert_eq!(doc["nodes"][2]["children"], json!([0, 3]));
+    assert_eq!(doc["nodes"][3]["children"], json!([1]));
+    assert!(doc["nodes"][0].get("children").is_none());
+    // World space: no node carries a transform.
+    for node in doc["nodes"].as_array().unwrap() {
+        for key in ["translation", "rotation", "scale", "matrix"] {
+            assert!(node.get(key).is_none(), "{node}");
+        }
+    }
+    // The exported file reads back as the same objects.
+    let again = dir.path().join("again.glb");
+    std::fs::write(&again, &bytes).unwrap();
+    let reread = Scene::load(&again).expect("the export");
+    let names: Vec<&str> = reread.objects.iter().map(|o| o.name.as_str()).collect();
+    assert_eq!(names, ["Floor", "Shade"]);
+    assert_eq!(reread.positions.len(), scene.positions.len());
+}

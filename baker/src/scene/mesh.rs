@@ -37,3 +37,21 @@ pub struct Mesh {
     pub triangles: Vec<[u32; 3]>,
     pub material: Material,
 }
+
+/// Where a glTF scene's objects sat in its node hierarchy. The bake flattens the hierarchy
+/// into world space (transfer is baked in world directions); the glTF export writes the
+/// nodes back as groups with identity transforms, so names and nesting survive.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Hierarchy {
+    /// Every node of the scene's trees, parents before their children.
+    pub nodes: Vec<HierarchyNode>,
+    /// Per object, the node whose mesh it came from.
+    pub object_node: Vec<u32>,
+}
+
+/// A node of [`Hierarchy`]: its name (or "node N") and its parent's index there.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HierarchyNode {
+    pub name: String,
+    pub parent: Option<u32>,
+}

@@ -33,7 +33,7 @@ use crate::support::input_path::AssetFolder;
 
 pub use format::FORMATS;
 use format::OTHER_FORMATS;
-pub use mesh::{DEFAULT_KD, Material, Mesh};
+pub use mesh::{DEFAULT_KD, Hierarchy, HierarchyNode, Material, Mesh};
 pub use normals::angle_weighted_normals;
 pub use scene_file::{SceneEntry, parse_scene_file};
 pub use texture::{Texture, srgb_to_linear};
@@ -54,6 +54,8 @@ pub struct Scene {
     /// The file the scene came from; errors and reports name it.
     pub path: PathBuf,
     pub objects: Vec<Object>,
+    /// glTF scenes: the node hierarchy the objects came from.
+    pub hierarchy: Option<Hierarchy>,
     pub positions: Vec<Vec3>,
     /// Unit shading normals.
     pub normals: Vec<Vec3>,
@@ -99,6 +101,7 @@ impl Scene {
                 let mut scene = Scene::from_meshes(path, loaded.meshes, loaded.textures)?;
                 scene.up = Up::Y;
                 scene.content_digest = Some(loaded.digest);
+                scene.hierarchy = Some(loaded.hierarchy);
                 if loaded.lightmap_uvs.iter().any(Option::is_some) {
                     let mut uvs = Vec::with_capacity(scene.vertex_count());
                     for (object, lightmap) in scene.objects.iter().zip(&loaded.lightmap_uvs) {
@@ -184,6 +187,7 @@ impl Scene {
         let mut scene = Scene {
             path: path.to_path_buf(),
             objects: Vec::new(),
+            hierarchy: None,
             positions: Vec::new(),
             normals: Vec::new(),
             uvs: Vec::new(),

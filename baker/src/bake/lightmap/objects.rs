@@ -338,6 +338,7 @@ fn object_scene(scene: &Scene, object: &Object) -> Scene {
             vertices: 0..object.vertices.len() as u32,
             triangles: 0..object.triangles.len() as u32,
         }],
+        hierarchy: None,
         positions: scene.positions[v0..v1].to_vec(),
         normals: scene.normals[v0..v1].to_vec(),
         uvs: scene.uvs[v0..v1].to_vec(),

@@ -590,16 +590,17 @@ fn document(
     while bin.len() % 4 != 0 {
         bin.push(0);
     }
-    let nodes: Vec<Value> = scene
+    let mut nodes: Vec<Value> = scene
         .objects
         .iter()
         .enumerate()
         .map(|(i, o)| json!({"name": o.name, "mesh": i}))
         .collect();
+    let roots = objects::hierarchy_roots(scene.hierarchy.as_ref(), &mut nodes);
     let mut root = json!({
         "asset": {"version": "2.0", "generator": concat!("prt-bake ", env!("CARGO_PKG_VERSION"))},
         "scene": 0,
-        "scenes": [{"nodes": (0..nodes.len()).collect::<Vec<_>>()}],
+        "scenes": [{"nodes": roots}],
         "nodes": nodes,
         "meshes": meshes,
         "materials": materials.materials,

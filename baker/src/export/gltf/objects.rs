@@ -13,6 +13,7 @@ use serde_json::{Value, json};
 
 use crate::formats::coefficient_file::CoefficientFile;
 use crate::formats::header::{AtlasSource, ObjectUvs};
+use crate::scene::Hierarchy;
 
 /// Adds every node's placement to `root` where `file`'s atlas is per object.
 pub(super) fn add_placements(root: &mut Value, file: &CoefficientFile) {
@@ -40,4 +41,58 @@ pub(super) fn add_placements(root: &mut Value, file: &CoefficientFile) {
         "TEXCOORD_1 addresses the packed atlas; each node's extras.prt_lightmap_scale_offset \
          [sx, sy, ox, oy] maps its own lightmap UVs (v down) into it: atlas = own * s + o"
     );
+}
+
+/// The glTF scene's root nodes, after adding the source file's node hierarchy to `nodes`
+/// (which holds one node per object, object i at index i, and keeps them there: placements
+/// and readers index them so). A source node with exactly one object becomes that object's
+/// node; one with several, or none but objects below it, becomes a group node appended
+/// after them. Transforms are identities: the geometry is written in world space, as it was
+/// baked. Nodes with no object below them (cameras, lights, empty groups) are left out.
+pub(super) fn hierarchy_roots(hierarchy: Option<&Hierarchy>, nodes: &mut Vec<Value>) -> Vec<usize> {
+    let objects = nodes.len();
+    let Some(h) = hierarchy.filter(|h| h.object_node.len() == objects) else {
+        return (0..objects).collect();
+    };
+    let mut objects_of = vec![Vec::new(); h.nodes.len()];
+    for (o, &n) in h.object_node.iter().enumerate() {
+        objects_of[n as usize].push(o);
+    }
+    // Parents come before children, so one pass from the end marks every ancestor.
+    let mut keep: Vec<bool> = objects_of.iter().map(|o| !o.is_empty()).collect();
+    for n in (0..h.nodes.len()).rev() {
+        if let (true, Some(p)) = (keep[n], h.nodes[n].parent) {
+            keep[p as usize] = true;
+        }
+    }
+    let mut index = vec![usize::MAX; h.nodes.len()];
+    let mut roots = Vec::new();
+    for (n, node) in h.nodes.iter().enumerate() {
+        if !keep[n] {
+            continue;
+        }
+        index[n] = match objects_of[n][..] {
+            [only] => only,
+            _ => {
+                let children: Vec<usize> = objects_of[n].clone();
+                let mut group = json!({ "name": node.name });
+                if !children.is_empty() {
+                    group["children"] = json!(children);
+                }
+                nodes.push(group);
+                nodes.len() - 1
+            }
+        };
+        match node.parent {
+            Some(p) => {
+                let parent = &mut nodes[index[p as usize]];
+                match parent["children"].as_array_mut() {
+                    Some(children) => children.push(json!(index[n])),
+                    None => parent["children"] = json!([index[n]]),
+                }
+            }
+            None => roots.push(index[n]),
+        }
+    }
+    roots
 }

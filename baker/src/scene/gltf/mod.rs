@@ -21,7 +21,7 @@ use std::path::Path;
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use gltf::mesh::Mode;
 
-use crate::scene::mesh::{DEFAULT_KD, Material, Mesh};
+use crate::scene::mesh::{DEFAULT_KD, Hierarchy, HierarchyNode, Material, Mesh};
 use crate::scene::texture::Texture;
 use crate::support::error::{Error, Location, Result};
 use crate::support::input_path::AssetFolder;
@@ -36,6 +36,8 @@ pub struct Loaded {
     pub digest: u64,
     /// Things skipped (points, lines), one sentence each.
     pub warnings: Vec<String>,
+    /// The scene's node trees, and which node each mesh came from.
+    pub hierarchy: Hierarchy,
 }
 
 /// Extensions a file may *require* and still be read correctly. None yet: a required
@@ -62,7 +64,20 @@ pub fn load(path: &Path) -> Result<Loaded> {
         .default_scene()
         .or_else(|| document.scenes().next())
         .ok_or_else(|| fail("the file has no scene".into()))?;
-    let placed = flatten(&document, &scene).map_err(fail)?;
+    let (placed, visited, parent) = flatten(&document, &scene).map_err(fail)?;
+    // Nodes in visiting order (parents first), by their index in the file.
+    let mut at = vec![u32::MAX; document.nodes().len()];
+    let mut hierarchy = Hierarchy::default();
+    for &n in &visited {
+        let node = document.nodes().nth(n).expect("a visited node exists");
+        at[n] = hierarchy.nodes.len() as u32;
+        hierarchy.nodes.push(HierarchyNode {
+            name: node
+                .name()
+                .map_or_else(|| format!("node {n}"), str::to_owned),
+            parent: parent[n].map(|p| at[p]),
+        });
+    }
 
     let mut reader = PrimitiveReader {
         path,
@@ -80,12 +95,17 @@ pub fn load(path: &Path) -> Result<Loaded> {
         lightmap_uvs: Vec::new(),
         digest: 0,
         warnings: Vec::new(),
+        hierarchy,
     };
     for (node, mesh, world) in placed {
         let primitive_count = mesh.primitives().len();
         for primitive in mesh.primitives() {
             let name = object_name(&node, &mesh, primitive.index(), primitive_count);
+            let before = loaded.meshes.len();
             reader.read(&primitive, name, world, &mut loaded)?;
+            for _ in before..loaded.meshes.len() {
+                loaded.hierarchy.object_node.push(at[node.index()]);
+            }
         }
     }
     if loaded.meshes.is_empty() {
@@ -415,7 +435,7 @@ pub const MAX_NODE_DEPTH: usize = 100_000;
 fn flatten<'a>(
     document: &'a gltf::Document,
     scene: &gltf::Scene<'a>,
-) -> std::result::Result<Vec<(gltf::Node<'a>, gltf::Mesh<'a>, Mat4)>, String> {
+) -> std::result::Result<Flattened<'a>, String> {
     let json = document.as_json();
     // Indices were validated by `Document::from_json`.
     let mut parent: Vec<Option<usize>> = vec![None; json.nodes.len()];
@@ -461,7 +481,9 @@ fn flatten<'a>(
     // Every node below a root has exactly one parent and the roots have none, so the walk
     // meets each node once: no cycle is reachable.
     let mut out = Vec::new();
+    let mut visited = Vec::new();
     while let Some((node, parent_world, depth)) = stack.pop() {
+        visited.push(node.index());
         if depth > MAX_NODE_DEPTH {
             return Err(format!(
                 "node {} is nested {depth} levels deep, deeper than the {MAX_NODE_DEPTH} this reader follows",
@@ -478,8 +500,16 @@ fn flatten<'a>(
             stack.push((child, world, depth + 1));
         }
     }
-    Ok(out)
+    Ok((out, visited, parent))
 }
+
+/// What [`flatten`] returns: the mesh nodes with their world transforms, every node visited
+/// (parents first), and each node's parent (by index in the file).
+type Flattened<'a> = (
+    Vec<(gltf::Node<'a>, gltf::Mesh<'a>, Mat4)>,
+    Vec<usize>,
+    Vec<Option<usize>>,
+);
 
 /// The cycle `node` lies on, following parents (`0 → 1 → 0`), if it does.
 fn cycle_through(parent: &[Option<usize>], node: usize) -> Option<String> {
