@@ -158,7 +158,10 @@ def parse_prt(b):
     if lightmap is not None:
         needed += lightmap.scene_triangle_count * 6 * 4 + vertices
         # A per-object atlas ends with a u32 count and 20 bytes per object.
-        if lightmap.source == "per-object" and payload >= needed + 4 and (payload - needed - 4) % 20 == 0:
+        if lightmap.source == "per-object":
+            if not (payload >= needed + 4 and (payload - needed - 4) % 20 == 0):
+                raise PrtError("a per-object atlas without its per-object section: the payload size "
+                               "does not match")
             object_section = payload - needed
             needed = payload
     if needed != payload:

@@ -184,7 +184,9 @@ for broken, reason in (
         (patched(data, 128, np.uint32(W + 1)), "lightmap in a file"),
         (patched(data, 144, np.uint64(T - 1)), "payload size"),
         (patched(data, 152, np.float32(-1)), "texel size"),
-        (patched(data, 156, np.uint32(2)), "atlas source"),
+        (patched(data, 156, np.uint32(3)), "atlas source"),
+        # Source 2 (per object) needs its trailing per-object section, which this file lacks.
+        (patched(data, 156, np.uint32(2)), "per-object section"),
         (patched(data, 12, np.uint32(128)), "announces"),
         (patched(data, 12, np.uint32(144)), "header size"),
         (patched(data, 160, np.float32(np.nan)), "coefficient")):
