@@ -9,6 +9,9 @@
 use std::path::{Path, PathBuf};
 
 use prt_baker::formats::coefficient_file::LightmapBlock;
+use prt_baker::formats::cpca_block;
+use prt_baker::formats::header::TransferKind;
+use prt_baker::math::cpca::Cpca;
 use prt_baker::scene::Up;
 use prt_baker::{CoefficientFile, Scene};
 
@@ -21,6 +24,10 @@ pub struct Bake {
     pub file: CoefficientFile,
     /// Where the coefficient file came from, for messages.
     pub file_path: PathBuf,
+    /// A compressed (version 2) file's clusters, bases and weights, as stored; `file` then
+    /// holds their reconstruction. The glossy path renders a compressed matrix bake from
+    /// these (the light projected per cluster, not per vertex).
+    pub cpca: Option<Cpca>,
 }
 
 impl Bake {
@@ -28,9 +35,18 @@ impl Bake {
     /// was baked in) and the coefficient file, and refuses a file whose vertex count or
     /// geometry fingerprint is not the scene's.
     pub fn load(scene: &Path, coefficients: &Path) -> Result<Bake> {
-        let file = CoefficientFile::read(coefficients)?;
+        let bytes = prt_baker::support::limits::read_file(coefficients)?;
+        let parsed = if cpca_block::is_compressed(&bytes) {
+            cpca_block::from_bytes(&bytes).map(|c| (c.file, Some(c.cpca)))
+        } else {
+            CoefficientFile::from_bytes(&bytes).map(|file| (file, None))
+        };
+        let (file, cpca) =
+            parsed.map_err(|message| prt_baker::Error::coefficient_file(coefficients, message))?;
         let scene = Scene::load(scene)?;
-        Bake::new(scene, file, coefficients)
+        let mut bake = Bake::new(scene, file, coefficients)?;
+        bake.cpca = cpca;
+        Ok(bake)
     }
 
     /// A bake already in memory (tests), with the same check as [`Bake::load`]; the scene is
@@ -41,7 +57,8 @@ impl Bake {
         if file.lightmap.is_some() {
             file.check_lightmap_scene(file_path, &scene)?;
         } else {
-            file.check_scene(file_path, &scene)?;
+            // Transfer vectors (diffuse PRT) and matrices (glossy PRT) both render.
+            file.check_scene_of_any_transfer(file_path, &scene)?;
         }
         let up = file.header.up;
         if up != Up::Z {
@@ -57,7 +74,13 @@ impl Bake {
             scene,
             file,
             file_path: file_path.to_path_buf(),
+            cpca: None,
         })
+    }
+
+    /// A transfer-matrix bake (`prt-bake bake --transfer matrix`): rendered as glossy PRT.
+    pub fn is_matrix(&self) -> bool {
+        self.file.header.transfer == TransferKind::Matrix
     }
 
     /// The SH order n of the transfer (n² coefficients per channel).

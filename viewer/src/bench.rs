@@ -7,6 +7,11 @@
 //! time runs from the start of its update to the GPU's completion of it (waited for), so it is
 //! the frame's full cost, not its submission.
 //!
+//! Further coefficient files of the same scene (`--bench-also`: a transfer-matrix bake,
+//! uncompressed or CPCA-compressed, shown as glossy PRT) add PRT rows to the same run, each
+//! with its own renderer, in the same turns: a glossy frame re-evaluates every vertex's lobe
+//! in its reflected view direction, which the camera's arc changes every frame.
+//!
 //! The configurations take turns in blocks of [`BLOCK`] frames, round after round, and each
 //! reports the median of its frame times. The machines are shared, so taking turns spreads
 //! whatever disturbs the run over every configuration alike, and the median ignores the
@@ -57,6 +62,10 @@ pub struct BenchOptions {
 pub struct Measurement {
     pub mode: Mode,
     pub lights: usize,
+    /// Which bake: 0 the main one, i the i-th of `--bench-also`.
+    pub bake: usize,
+    /// The table's row: the model and, for PRT, the transfer.
+    pub label: String,
     /// Seconds per frame, in frame order.
     pub frame_seconds: Vec<f64>,
 }
@@ -93,10 +102,16 @@ pub struct BenchReport {
 }
 
 impl BenchReport {
+    /// The main bake's frame rate in `mode` with `lights` lights.
     pub fn fps(&self, mode: Mode, lights: usize) -> f64 {
+        self.fps_of(0, mode, lights)
+    }
+
+    /// Bake `bake`'s (0 the main one, i the i-th of `--bench-also`).
+    pub fn fps_of(&self, bake: usize, mode: Mode, lights: usize) -> f64 {
         self.measurements
             .iter()
-            .find(|m| m.mode == mode && m.lights == lights)
+            .find(|m| m.bake == bake && m.mode == mode && m.lights == lights)
             .map_or(f64::NAN, Measurement::fps)
     }
 
@@ -123,12 +138,16 @@ impl BenchReport {
              | model | 1 light | 8 lights |\n|---|---:|---:|\n",
             self.vertices, self.triangles, self.options.frames, self.device
         );
-        for mode in [Mode::Phong, Mode::Prt] {
+        for m in self
+            .measurements
+            .iter()
+            .filter(|m| m.lights == LIGHT_COUNTS[0])
+        {
             text += &format!(
                 "| {} | {:.1} | {:.1} |\n",
-                mode.name(),
-                self.fps(mode, 1),
-                self.fps(mode, 8)
+                m.label,
+                self.fps_of(m.bake, m.mode, 1),
+                self.fps_of(m.bake, m.mode, 8)
             );
         }
         let verdict = |ok: bool| if ok { "met" } else { "NOT MET" };
@@ -139,6 +158,23 @@ impl BenchReport {
             verdict(a >= PRT_LIGHT_RATIO_TARGET),
             verdict(b >= PRT_OVER_PHONG_TARGET)
         );
+        let extra = self
+            .measurements
+            .iter()
+            .filter(|m| m.bake > 0 && m.lights == 1);
+        for m in extra {
+            let (one, eight) = (
+                self.fps_of(m.bake, m.mode, 1),
+                self.fps_of(m.bake, m.mode, 8),
+            );
+            text += &format!(
+                "\n{}: 8 lights / 1 light {:.3}; / Blinn-Phong, 8 lights {:.3}; / PRT, 8 lights {:.3}",
+                m.label,
+                eight / one,
+                eight / self.fps(Mode::Phong, 8),
+                eight / self.fps(Mode::Prt, 8)
+            );
+        }
         text
     }
 }
@@ -152,34 +188,78 @@ fn camera_on_path(framing: &Camera, centre: Vec3, k: u32, frames: u32) -> Camera
     Camera::looking_at(centre + offset, centre, framing.scale)
 }
 
+/// The PRT row's name for a bake: diffuse PRT, or glossy PRT from matrices, uncompressed or
+/// CPCA-compressed.
+fn prt_label(bake: &Bake) -> String {
+    match (bake.is_matrix(), &bake.cpca) {
+        (false, None) => "PRT".into(),
+        (false, Some(c)) => format!("PRT, CPCA {}×{}", c.clusters(), c.pcs),
+        (true, None) => "glossy PRT, matrix".into(),
+        (true, Some(c)) => format!("glossy PRT, matrix CPCA {}×{}", c.clusters(), c.pcs),
+    }
+}
+
 /// Runs the benchmark on `gpu`.
 pub fn run(gpu: &Gpu, bake: &Bake, options: BenchOptions) -> Result<BenchReport> {
+    run_with(gpu, bake, &[], options)
+}
+
+/// Runs the benchmark on `gpu` with PRT rows for `also` (further bakes of the same scene:
+/// the same vertices, so the same camera path and frames).
+pub fn run_with(
+    gpu: &Gpu,
+    bake: &Bake,
+    also: &[Bake],
+    options: BenchOptions,
+) -> Result<BenchReport> {
+    if let Some(other) = also
+        .iter()
+        .find(|b| b.scene.vertex_count() != bake.scene.vertex_count() || b.lightmap().is_some())
+    {
+        return Err(Error::InvalidOption(format!(
+            "--bench-also {}: not a per-vertex bake of the same scene as {}",
+            other.file_path.display(),
+            bake.file_path.display()
+        )));
+    }
     if options.frames == 0 {
         return Err(Error::InvalidOption(
             "--bench-frames must be at least 1".into(),
         ));
     }
     let (device, queue) = (&gpu.device, &gpu.queue);
-    let mut renderer = Renderer::new(device, queue, bake, offscreen::FORMAT, options.size)?;
+    let bakes: Vec<&Bake> = std::iter::once(bake).chain(also).collect();
+    let mut renderers = bakes
+        .iter()
+        .map(|b| Renderer::new(device, queue, b, offscreen::FORMAT, options.size))
+        .collect::<Result<Vec<_>>>()?;
     let target = Offscreen::new(device, options.size);
     let (w, h) = options.size;
     let framing = Camera::framing(&bake.scene.positions, w as f32 / h as f32);
     let bounds = bake.scene.bounds();
     let centre = 0.5 * (bounds.0 + bounds.1);
-    let mut views: Vec<View> = [Mode::Phong, Mode::Prt]
+    let configurations = [(0, Mode::Phong), (0, Mode::Prt)]
         .into_iter()
-        .flat_map(|mode| {
+        .chain((1..bakes.len()).map(|b| (b, Mode::Prt)));
+    let mut views: Vec<(usize, String, View)> = configurations
+        .flat_map(|(b, mode)| {
+            let label = match mode {
+                Mode::Phong => mode.name().to_string(),
+                Mode::Prt => prt_label(bakes[b]),
+            };
             LIGHT_COUNTS.map(|count| {
-                let mut view = View::new(framing, Lights::suns(count, bake.order()));
+                let lights = Lights::suns(count, bakes[b].order()).for_up(bakes[b].up());
+                let mut view = View::new(framing, lights);
                 view.mode = mode;
-                view
+                (b, label.clone(), view)
             })
         })
         .collect();
     let mut times = vec![Vec::with_capacity(options.frames as usize); views.len()];
     let frames = WARM_UP_FRAMES + options.frames;
     for first in (0..frames).step_by(BLOCK as usize) {
-        for (view, times) in views.iter_mut().zip(&mut times) {
+        for ((b, _, view), times) in views.iter_mut().zip(&mut times) {
+            let renderer = &mut renderers[*b];
             for k in first..(first + BLOCK).min(frames) {
                 let started = Instant::now();
                 view.camera = camera_on_path(&framing, centre, k, frames);
@@ -198,11 +278,13 @@ pub fn run(gpu: &Gpu, bake: &Bake, options: BenchOptions) -> Result<BenchReport>
         }
     }
     let measurements = views
-        .iter()
+        .into_iter()
         .zip(times)
-        .map(|(view, frame_seconds)| Measurement {
+        .map(|((bake, label, view), frame_seconds)| Measurement {
             mode: view.mode,
             lights: view.lights.len(),
+            bake,
+            label,
             frame_seconds,
         })
         .collect();
@@ -226,6 +308,8 @@ mod tests {
         let m = |frame_seconds: Vec<f64>| Measurement {
             mode: Mode::Prt,
             lights: 1,
+            bake: 0,
+            label: "PRT".into(),
             frame_seconds,
         };
         // One frame interrupted by another process does not move the median.

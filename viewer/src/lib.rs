@@ -40,6 +40,7 @@ pub mod camera;
 pub mod controls;
 pub mod error;
 pub mod font;
+pub mod glossy;
 pub mod gpu;
 pub mod lights;
 pub mod offscreen;

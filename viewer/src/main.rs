@@ -80,6 +80,10 @@ struct Cli {
     /// Bench: timed frames per configuration.
     #[arg(long, value_name = "N", default_value_t = 240)]
     bench_frames: u32,
+    /// With --bench: another coefficient file of the same scene (e.g. a transfer-matrix bake,
+    /// uncompressed or compressed, shown as glossy PRT) whose PRT rows join the same run.
+    #[arg(long, value_name = "FILE.prt", requires = "bench")]
+    bench_also: Vec<PathBuf>,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -155,7 +159,12 @@ fn run(cli: Cli) -> Result<(), Error> {
             size: cli.size,
             frames: cli.bench_frames,
         };
-        println!("{}", bench::run(&gpu, &bake, options)?.table());
+        let also = cli
+            .bench_also
+            .iter()
+            .map(|file| Bake::load(&cli.scene, file))
+            .collect::<Result<Vec<_>, _>>()?;
+        println!("{}", bench::run_with(&gpu, &bake, &also, options)?.table());
         return Ok(());
     }
     if let Some(path) = &cli.screenshot {

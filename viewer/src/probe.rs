@@ -126,3 +126,117 @@ fn draw_points(
     }
     queue.submit([encoder.finish()]);
 }
+
+/// A glossy (transfer-matrix) bake's two per-vertex sums as the glossy vertex shader computes
+/// them for the frame last given to [`Renderer::update`] (its camera and light): per vertex,
+/// Σ ĝ_l(1) L′ y(n) (the diffuse term per unit albedo, before the diffuse weight) and
+/// Σ ĝ_l(s) L′ y(r) (the glossy term before Ks), s the vertex's material's exponent. `None`
+/// for a vector bake.
+pub fn glossy_vertex_terms(
+    renderer: &Renderer,
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+) -> Result<Option<Vec<([f32; 3], [f32; 3])>>> {
+    let Some((vertices, draws, layouts, [frame, glossy])) = renderer.glossy_bindings() else {
+        return Ok(None);
+    };
+    let count = renderer.vertex_count();
+    let rows = count.div_ceil(WIDTH).max(1);
+    let (diffuse_target, diffuse_view) = readable_target(device, "probe", (WIDTH, rows), FORMAT);
+    let (glossy_target, glossy_view) = readable_target(device, "probe", (WIDTH, rows), FORMAT);
+    let module = scene_shader(device, "glossy probe", include_str!("shaders/glossy.wgsl"));
+    let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("glossy probe"),
+        bind_group_layouts: &layouts.map(Some),
+        immediate_size: 0,
+    });
+    let constants = [("PROBE_ROWS", f64::from(rows))];
+    let target = Some(wgpu::ColorTargetState {
+        format: FORMAT,
+        blend: None,
+        write_mask: wgpu::ColorWrites::ALL,
+    });
+    let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some("glossy probe"),
+        layout: Some(&layout),
+        vertex: wgpu::VertexState {
+            module: &module,
+            entry_point: Some("vs_glossy_probe"),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants: &constants,
+                zero_initialize_workgroup_memory: false,
+            },
+            buffers: &[Some(crate::renderer::vertex_layout())],
+        },
+        primitive: wgpu::PrimitiveState {
+            topology: wgpu::PrimitiveTopology::PointList,
+            ..Default::default()
+        },
+        depth_stencil: None,
+        multisample: wgpu::MultisampleState::default(),
+        fragment: Some(wgpu::FragmentState {
+            module: &module,
+            entry_point: Some("fs_glossy_probe"),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants: &constants,
+                zero_initialize_workgroup_memory: false,
+            },
+            targets: &[target.clone(), target],
+        }),
+        multiview_mask: None,
+        cache: None,
+    });
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+        label: Some("glossy probe"),
+    });
+    {
+        let attachment = |view| {
+            Some(wgpu::RenderPassColorAttachment {
+                view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    // A vertex that drew no point reads back as NaN and fails any comparison.
+                    load: wgpu::LoadOp::Clear(wgpu::Color {
+                        r: f64::NAN,
+                        g: f64::NAN,
+                        b: f64::NAN,
+                        a: f64::NAN,
+                    }),
+                    store: wgpu::StoreOp::Store,
+                },
+            })
+        };
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("glossy probe"),
+            color_attachments: &[attachment(&diffuse_view), attachment(&glossy_view)],
+            depth_stencil_attachment: None,
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, frame, &[]);
+        pass.set_bind_group(2, glossy, &[]);
+        pass.set_vertex_buffer(0, vertices.slice(..));
+        for (range, material) in draws {
+            pass.set_bind_group(1, material, &[]);
+            pass.draw(range, 0..1);
+        }
+    }
+    queue.submit([encoder.finish()]);
+    let read = |target| -> Result<Vec<[f32; 4]>> {
+        Ok(bytemuck::pod_collect_to_vec(&read_texture(
+            device, queue, target, 16,
+        )?))
+    };
+    let (diffuse, glossy) = (read(&diffuse_target)?, read(&glossy_target)?);
+    Ok(Some(
+        diffuse
+            .iter()
+            .zip(&glossy)
+            .take(count as usize)
+            .map(|([a, b, c, _], [d, e, f, _])| ([*a, *b, *c], [*d, *e, *f]))
+            .collect(),
+    ))
+}

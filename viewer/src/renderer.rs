@@ -24,6 +24,7 @@ use crate::bake::Bake;
 use crate::camera::Camera;
 use crate::controls::{Mode, View};
 use crate::error::{Error, Result};
+use crate::glossy::{GlossyResources, material_lobe};
 use crate::lights::{MAX_LIGHTS, PhongLights, PhongShape};
 use crate::overlay::Overlay;
 use crate::resources::{
@@ -97,6 +98,10 @@ struct MaterialUniform {
     kd: [f32; 4],
     has_texture: u32,
     pad: [u32; 3],
+    /// Glossy PRT: rgb Ks, w the diffuse weight.
+    ks: [f32; 4],
+    /// ĝ_l(s), band l at [l / 4][l % 4].
+    glossy_bands: [[f32; 4]; 2],
 }
 
 /// Everything one frame shows, taken from a [`View`] (or built by a test).
@@ -169,8 +174,15 @@ pub struct Renderer {
     vertices: wgpu::Buffer,
     indices: wgpu::Buffer,
     draws: Vec<Draw>,
+    /// Each object's vertex range and material (the glossy probe draws vertices as points).
+    vertex_draws: Vec<(Range<u32>, usize)>,
     materials: Vec<wgpu::BindGroup>,
+    material_layout: wgpu::BindGroupLayout,
+    /// The PRT pipeline: diffuse PRT, per texel for a lightmap bake, or glossy PRT for a
+    /// transfer-matrix bake.
     prt: wgpu::RenderPipeline,
+    /// A transfer-matrix bake's glossy resources (group 2 of the PRT pipeline).
+    glossy: Option<GlossyResources>,
     phong: wgpu::RenderPipeline,
     /// A texel bake's radiance map, refilled before every PRT frame.
     texel_radiance: Option<RadianceMap>,
@@ -212,10 +224,19 @@ impl Renderer {
         storage: TexelStorage,
     ) -> Result<Renderer> {
         let scene = &bake.scene;
-        check_transfer_size(device, bake)?;
+        let glossy = if bake.is_matrix() {
+            Some(GlossyResources::new(device, bake)?)
+        } else {
+            None
+        };
+        // A compressed matrix bake is drawn from its clusters, not its reconstruction.
+        let upload_transfer = glossy.as_ref().is_none_or(GlossyResources::needs_matrices);
+        if upload_transfer {
+            check_transfer_size(device, bake)?;
+        }
         let (vertices, indices) = mesh_buffers(device, bake);
-        let frame = FrameResources::new(device, queue, bake, storage)?;
-        let (material_layout, materials) = materials(device, queue, scene);
+        let frame = FrameResources::new(device, queue, bake, storage, upload_transfer)?;
+        let (material_layout, materials) = materials(device, queue, scene, bake.order());
         let draws = scene
             .objects
             .iter()
@@ -229,9 +250,22 @@ impl Renderer {
             let size = (l.width, l.height);
             RadianceMap::new(device, &frame.layout, size, frame.texel_transfer_in_buffer)
         });
+        let vertex_draws = scene
+            .objects
+            .iter()
+            .filter(|o| !o.vertices.is_empty())
+            .map(|o| {
+                let material = scene.vertex_material[o.vertices.start as usize] as usize;
+                (o.vertices.start..o.vertices.end, material)
+            })
+            .collect();
         let layouts = [&frame.layout, &material_layout];
-        let radiance_layout = texel_radiance.as_ref().map(|r| &r.layout);
-        let (prt, phong) = scene_pipelines(device, layouts, format, radiance_layout);
+        let group_2 = match (&texel_radiance, &glossy) {
+            (Some(r), _) => Group2::TexelRadiance(&r.layout),
+            (None, Some(g)) => Group2::Glossy(&g.layout),
+            (None, None) => Group2::None,
+        };
+        let (prt, phong) = scene_pipelines(device, layouts, format, group_2);
         let (centre, radius) = {
             let (lo, hi) = scene.bounds();
             (0.5 * (lo + hi), (0.5 * (hi - lo).length()).max(1e-6))
@@ -254,8 +288,11 @@ impl Renderer {
             vertices,
             indices,
             draws,
+            vertex_draws,
             materials,
+            material_layout,
             prt,
+            glossy,
             phong,
             texel_radiance,
             normal_lines: lines.normals,
@@ -329,6 +366,9 @@ impl Renderer {
             0,
             bytemuck::cast_slice(&light_vectors(&inputs.prt_light)),
         );
+        if let (Mode::Prt, Some(glossy)) = (inputs.mode, &self.glossy) {
+            glossy.update(queue, &inputs.prt_light);
+        }
 
         let lines: Vec<LineVertex> = inputs
             .light_lines
@@ -398,6 +438,9 @@ impl Renderer {
             if let (Mode::Prt, Some(radiance)) = (self.mode, &self.texel_radiance) {
                 pass.set_bind_group(2, &radiance.bind_group, &[]);
             }
+            if let (Mode::Prt, Some(glossy)) = (self.mode, &self.glossy) {
+                pass.set_bind_group(2, &glossy.bind_group, &[]);
+            }
             pass.set_vertex_buffer(0, self.vertices.slice(..));
             pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
             for draw in &self.draws {
@@ -427,6 +470,37 @@ impl Renderer {
 
     pub fn vertex_count(&self) -> u32 {
         self.vertex_count
+    }
+
+    /// Whether the bake is a transfer-matrix bake, shown as glossy PRT.
+    pub fn is_glossy(&self) -> bool {
+        self.glossy.is_some()
+    }
+
+    /// What the glossy probe draws with: the vertex buffer, each object's vertex range and
+    /// material bind group, and the bind group layouts of groups 0–2 with their groups 0 and
+    /// 2 (None for a vector bake).
+    #[allow(clippy::type_complexity)]
+    pub(crate) fn glossy_bindings(
+        &self,
+    ) -> Option<(
+        &wgpu::Buffer,
+        Vec<(Range<u32>, &wgpu::BindGroup)>,
+        [&wgpu::BindGroupLayout; 3],
+        [&wgpu::BindGroup; 2],
+    )> {
+        let glossy = self.glossy.as_ref()?;
+        let draws = self
+            .vertex_draws
+            .iter()
+            .map(|(range, m)| (range.clone(), &self.materials[*m]))
+            .collect();
+        Some((
+            &self.vertices,
+            draws,
+            [&self.frame_layout, &self.material_layout, &glossy.layout],
+            [&self.frame_bind_group, &glossy.bind_group],
+        ))
     }
 
     /// A texel bake's radiance map as the last PRT frame left it (None for vertex bakes).
@@ -519,6 +593,7 @@ impl FrameResources {
         queue: &wgpu::Queue,
         bake: &Bake,
         storage: TexelStorage,
+        upload_transfer: bool,
     ) -> Result<FrameResources> {
         let n2 = bake.order() * bake.order();
         let lightmap = bake.lightmap();
@@ -528,8 +603,8 @@ impl FrameResources {
             device,
             "transfer",
             match lightmap {
-                Some(_) => bytemuck::bytes_of(&[0.0f32; 4]),
-                None => bytemuck::cast_slice(&bake.file.coefficients),
+                None if upload_transfer => bytemuck::cast_slice(&bake.file.coefficients),
+                _ => bytemuck::bytes_of(&[0.0f32; 4]),
             },
             wgpu::BufferUsages::STORAGE,
         );
@@ -614,29 +689,56 @@ fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     })
 }
 
-/// The PRT pipeline (per vertex, or per texel from a radiance map, whose layout is then
-/// group 2) and the Blinn-Phong one.
+/// The scene's vertex buffer layout (position, normal, uv, lightmap uv).
+pub(crate) fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
+    const ATTRIBUTES: [wgpu::VertexAttribute; 4] =
+        wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x2, 3 => Float32x2];
+    wgpu::VertexBufferLayout {
+        array_stride: std::mem::size_of::<Vertex>() as u64,
+        step_mode: wgpu::VertexStepMode::Vertex,
+        attributes: &ATTRIBUTES,
+    }
+}
+
+/// What the PRT pipeline's group 2 holds.
+enum Group2<'a> {
+    None,
+    /// A texel bake's radiance map.
+    TexelRadiance(&'a wgpu::BindGroupLayout),
+    /// A matrix bake's glossy parameters and compressed arrays.
+    Glossy(&'a wgpu::BindGroupLayout),
+}
+
+/// The PRT pipeline (per vertex, per texel from a radiance map, or glossy from transfer
+/// matrices) and the Blinn-Phong one.
 fn scene_pipelines(
     device: &wgpu::Device,
     [frame_layout, material_layout]: [&wgpu::BindGroupLayout; 2],
     format: wgpu::TextureFormat,
-    radiance_layout: Option<&wgpu::BindGroupLayout>,
+    group_2: Group2,
 ) -> (wgpu::RenderPipeline, wgpu::RenderPipeline) {
     let scene_module = scene_shader(device, "scene", include_str!("shaders/scene.wgsl"));
-    let vertex_layout = wgpu::VertexBufferLayout {
-        array_stride: std::mem::size_of::<Vertex>() as u64,
-        step_mode: wgpu::VertexStepMode::Vertex,
-        attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32x2, 3 => Float32x2],
+    let vertex_layout = vertex_layout();
+    let glossy_module = match group_2 {
+        Group2::Glossy(_) => Some(scene_shader(
+            device,
+            "glossy",
+            include_str!("shaders/glossy.wgsl"),
+        )),
+        _ => None,
     };
-    let scene_pipeline = |vs, fs, radiance: Option<&wgpu::BindGroupLayout>| {
+    let scene_pipeline = |vs, fs, group_2: Option<&wgpu::BindGroupLayout>| {
         let mut layouts = vec![Some(frame_layout), Some(material_layout)];
-        layouts.extend(radiance.map(Some));
+        layouts.extend(group_2.map(Some));
         pipeline(
             device,
             PipelineSpec {
                 label: vs,
                 bind_group_layouts: &layouts,
-                module: &scene_module,
+                module: glossy_module
+                    .as_ref()
+                    .filter(|_| vs == "vs_glossy")
+                    .unwrap_or(&scene_module),
                 entry_points: (vs, fs),
                 buffers: &[Some(vertex_layout.clone())],
                 topology: wgpu::PrimitiveTopology::TriangleList,
@@ -646,9 +748,12 @@ fn scene_pipelines(
             },
         )
     };
-    let prt = match radiance_layout {
-        Some(radiance) => scene_pipeline("vs_prt_texel", "fs_prt_texel", Some(radiance)),
-        None => scene_pipeline("vs_prt", "fs_prt", None),
+    let prt = match group_2 {
+        Group2::TexelRadiance(radiance) => {
+            scene_pipeline("vs_prt_texel", "fs_prt_texel", Some(radiance))
+        }
+        Group2::Glossy(glossy) => scene_pipeline("vs_glossy", "fs_glossy", Some(glossy)),
+        Group2::None => scene_pipeline("vs_prt", "fs_prt", None),
     };
     let phong = scene_pipeline("vs_phong", "fs_phong", None);
 
@@ -745,11 +850,13 @@ fn materials(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
     scene: &prt_baker::Scene,
+    order: usize,
 ) -> (wgpu::BindGroupLayout, Vec<wgpu::BindGroup>) {
     let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("material"),
         entries: &[
-            uniform_entry(0, wgpu::ShaderStages::FRAGMENT),
+            // The glossy vertex shader reads the lobe's band factors.
+            uniform_entry(0, wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT),
             texture_entry(1, true),
             wgpu::BindGroupLayoutEntry {
                 binding: 2,
@@ -778,10 +885,13 @@ fn materials(
         .materials
         .iter()
         .map(|m| {
+            let lobe = material_lobe(m, order);
             let uniform = MaterialUniform {
                 kd: m.kd.extend(1.0).to_array(),
                 has_texture: u32::from(m.texture.is_some()),
                 pad: [0; 3],
+                ks: lobe.ks,
+                glossy_bands: lobe.bands,
             };
             let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("material"),

@@ -40,6 +40,11 @@ struct Material {
     pad0: u32,
     pad1: u32,
     pad2: u32,
+    // Glossy PRT (matrix bakes, glossy.wgsl): rgb Ks, w the diffuse term's weight (1 for a
+    // material without a glossy layer, whose Ks is 0).
+    ks: vec4<f32>,
+    // ĝ_l(s) of the material's Phong lobe, band l at [l / 4][l % 4] (orders up to 8).
+    glossy_bands: array<vec4<f32>, 2>,
 }
 
 @group(0) @binding(0) var<uniform> frame: Frame;
