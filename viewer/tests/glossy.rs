@@ -186,8 +186,21 @@ fn glossy_vertex_terms_equal_the_cpu_reference() {
     compare(&gpu, &bake, orbit(&bake, 10.0, 1.0), "CPCA 3×2");
 }
 
-/// The brightest pixel of the highlight alone (the glossy render minus the same render with
-/// the lobe taken off the material) moves across the screen when the camera orbits.
+/// Where a vertex lands on screen, in pixels (x right, y down).
+fn to_screen(camera: &Camera, size: (u32, u32), p: Vec3) -> (f32, f32) {
+    let clip = camera.view_projection(size.0 as f32 / size.1 as f32) * p.extend(1.0);
+    let (x, y) = (clip.x / clip.w, clip.y / clip.w);
+    (
+        (0.5 * x + 0.5) * size.0 as f32,
+        (0.5 - 0.5 * y) * size.1 as f32,
+    )
+}
+
+/// The highlight on screen is where the CPU puts it, from two camera positions on an orbit,
+/// and it travels over the torus between them. On screen: the brightest pixel of the
+/// highlight alone (the glossy render minus the same render with the lobe taken off the
+/// material). Expected: the torus vertex, facing the camera, with the CPU's brightest glossy
+/// term, projected. A lobe that ignored the eye would stay on the same part of the torus.
 #[test]
 fn the_highlight_moves_with_the_camera() {
     let Some(gpu) = common::gpu() else { return };
@@ -196,33 +209,59 @@ fn the_highlight_moves_with_the_camera() {
     for m in &mut matte.scene.materials {
         m.glossy = None;
     }
-    let size = (160, 120);
+    let scene = &bake.scene;
+    // The torus is the glossy object, and the scene's first.
+    assert_eq!(scene.objects[0].name, "torus");
+    let torus = scene.objects[0].vertices.start as usize..scene.objects[0].vertices.end as usize;
+    let size = (240, 180);
     let aspect = size.0 as f32 / size.1 as f32;
     let highlight = |degrees: f32| {
         let camera = orbit(&bake, degrees, aspect);
+        // Two stops down, so that no pixel of the highlight clips at white.
+        let mut view = view(&bake, camera);
+        view.exposure = -2.0;
         let render = |b: &Bake| {
             let mut renderer =
                 Renderer::new(&gpu.device, &gpu.queue, b, offscreen::FORMAT, size).unwrap();
-            let inputs = FrameInputs::from_view(&view(b, camera), None);
+            let inputs = FrameInputs::from_view(&view, None);
             offscreen::render_image(&gpu.device, &gpu.queue, &mut renderer, &inputs).unwrap()
         };
         let (glossy, diffuse) = (render(&bake), render(&matte));
-        let mut best = (0i32, (0u32, 0u32));
+        let mut best = (0i32, (0.0f32, 0.0f32));
         for (x, y, p) in glossy.enumerate_pixels() {
             let q = diffuse.get_pixel(x, y);
             let excess: i32 = (0..3).map(|k| i32::from(p[k]) - i32::from(q[k])).sum();
             if excess > best.0 {
-                best = (excess, (x, y));
+                best = (excess, (x as f32 + 0.5, y as f32 + 0.5));
             }
         }
         assert!(
-            best.0 > 30,
+            best.0 > 15,
             "camera at {degrees}°: no visible highlight ({best:?})"
         );
-        best.1
+        let light = FrameInputs::from_view(&view, None).prt_light;
+        let cpu = cpu_terms(&bake, &light, camera.position);
+        let expected = torus
+            .clone()
+            .filter(|&v| scene.normals[v].dot(camera.position - scene.positions[v]) > 0.0)
+            .max_by(|&a, &b| cpu[a].1[0].total_cmp(&cpu[b].1[0]))
+            .expect("the torus faces the camera");
+        let at = to_screen(&camera, size, scene.positions[expected]);
+        let off = ((at.0 - best.1.0).powi(2) + (at.1 - best.1.1).powi(2)).sqrt();
+        eprintln!(
+            "camera at {degrees}°: brightest highlight pixel {:?}, the CPU's brightest vertex {expected} at {at:?}, {off:.1} px apart",
+            best.1
+        );
+        assert!(
+            off < 8.0,
+            "camera at {degrees}°: the highlight is {off:.1} px from where the CPU puts it"
+        );
+        scene.positions[expected]
     };
-    let (a, b) = (highlight(-30.0), highlight(30.0));
-    let shift = ((a.0 as f32 - b.0 as f32).powi(2) + (a.1 as f32 - b.1 as f32).powi(2)).sqrt();
-    eprintln!("brightest highlight pixel: {a:?} at −30°, {b:?} at +30°, {shift:.1} px apart");
-    assert!(shift > 5.0, "the highlight stayed at {a:?} / {b:?}");
+    let moved = highlight(-30.0).distance(highlight(30.0));
+    eprintln!("the highlight moved {moved:.3} over the torus");
+    assert!(
+        moved > 0.3,
+        "the highlight moved only {moved:.3} over the torus"
+    );
 }
