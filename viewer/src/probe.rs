@@ -127,6 +127,9 @@ fn draw_points(
     queue.submit([encoder.finish()]);
 }
 
+/// One vertex's (diffuse, glossy) sums, RGB.
+pub type GlossyTerms = ([f32; 3], [f32; 3]);
+
 /// A glossy (transfer-matrix) bake's two per-vertex sums as the glossy vertex shader computes
 /// them for the frame last given to [`Renderer::update`] (its camera and light): per vertex,
 /// Σ ĝ_l(1) L′ y(n) (the diffuse term per unit albedo, before the diffuse weight) and
@@ -136,7 +139,7 @@ pub fn glossy_vertex_terms(
     renderer: &Renderer,
     device: &wgpu::Device,
     queue: &wgpu::Queue,
-) -> Result<Option<Vec<([f32; 3], [f32; 3])>>> {
+) -> Result<Option<Vec<GlossyTerms>>> {
     let Some((vertices, draws, layouts, [frame, glossy])) = renderer.glossy_bindings() else {
         return Ok(None);
     };
