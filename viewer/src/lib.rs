@@ -19,6 +19,11 @@
 //! it bilinearly at the fragment's lightmap uv (equal, by linearity, to filtering the
 //! transfer per pixel and dotting it).
 //!
+//! A transfer-matrix bake is shown as glossy PRT ([`glossy`]): per vertex and frame, the
+//! shadowed incident radiance L′ = M·L (from the matrix, or for a CPCA-compressed file from the
+//! light projected per cluster on the CPU), then the diffuse term at the normal and each
+//! material's Phong lobe at the reflected view direction.
+//!
 //! # Structure
 //!
 //! * [`Bake`] loads a scene through the baker's loader and its coefficient file, refusing a

@@ -23,6 +23,12 @@ pub fn vertex_radiance(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
 ) -> Result<Vec<[f32; 3]>> {
+    if renderer.is_glossy() {
+        return Err(crate::error::Error::InvalidOption(
+            "a transfer-matrix bake has no transfer vectors: read it with glossy_vertex_terms"
+                .into(),
+        ));
+    }
     let count = renderer.vertex_count();
     let rows = count.div_ceil(WIDTH).max(1);
     let (target, view) = readable_target(device, "probe", (WIDTH, rows), FORMAT);
