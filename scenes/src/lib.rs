@@ -5,7 +5,8 @@
 //! * `torus/`: the thesis's demo. A torus of exactly 10,800 unique vertices (119 × 89 quads
 //!   plus the texture seams: 120 × 90 vertices), tilted and resting on a floor, in a corner of
 //!   two walls; the three planes have 30 × 30 vertices each, 2,700 in all. Thesis scene-file
-//!   format, TGA textures.
+//!   format, TGA textures. `torus/glossy.scene` is the same scene with the torus glossy
+//!   (`torus-glossy.obj`, the same mesh with an MTL Phong layer: issue 20's glossy demo).
 //! * `cornell/`: a Cornell-box-like room open at the front and the top (so distant light gets
 //!   in): white floor and back wall, red left wall, green right wall (the original box's
 //!   reflectances), a short and a tall white box. Materials in MTL, no textures.
