@@ -265,3 +265,48 @@ fn the_highlight_moves_with_the_camera() {
         "the highlight moved only {moved:.3} over the torus"
     );
 }
+
+/// The command line reads a matrix bake and a compressed one from disk (version 2: the
+/// clusters are kept, not only the reconstruction) and writes headless screenshots of both.
+#[test]
+fn the_command_line_shows_matrix_and_compressed_files() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let folder = tempfile::tempdir().unwrap();
+    let mut bake = matrix_bake();
+    let matrix_path = folder.path().join("m.prt");
+    bake.file.write(&matrix_path).unwrap();
+    let compressed_bake = compressed(bake.clone());
+    let cpca = compressed_bake.cpca.clone().unwrap();
+    let bytes = prt_baker::formats::cpca_block::to_bytes(&bake.file, &cpca, 0.0);
+    let compressed_path = folder.path().join("c.prt");
+    std::fs::write(&compressed_path, bytes).unwrap();
+
+    let loaded = Bake::load(&glossy_scene(), &compressed_path).unwrap();
+    assert_eq!(loaded.cpca.as_ref(), Some(&cpca));
+    assert!(loaded.is_matrix());
+    assert_eq!(
+        loaded.file.coefficients.len(),
+        compressed_bake.file.coefficients.len()
+    );
+
+    for (input, name) in [(&matrix_path, "m.png"), (&compressed_path, "c.png")] {
+        let png = folder.path().join(name);
+        let output = std::process::Command::new(env!("CARGO_BIN_EXE_prt-view"))
+            .arg(glossy_scene())
+            .arg(input)
+            .args(["--headless", "--size", "96x64", "--screenshot"])
+            .arg(&png)
+            .output()
+            .unwrap();
+        assert!(
+            output.status.success(),
+            "{}: {}",
+            input.display(),
+            String::from_utf8_lossy(&output.stderr)
+        );
+        let image = image::open(&png).unwrap().to_rgba8();
+        assert_eq!(image.dimensions(), (96, 64));
+    }
+}
