@@ -183,13 +183,14 @@ fn main() {
     // reference (so over-optimistic: it selects on noise).
     for &target in &targets {
         let c = f64::from(target);
-        let mut total = 0.0;
-        for v in 0..vertices.len() {
-            let i = (0..fixed.len())
-                .find(|&i| per_vertex[i][v] <= c)
-                .unwrap_or(fixed.len() - 1);
-            total += f64::from(fixed[i]);
-        }
+        let total: f64 = (0..vertices.len())
+            .map(|v| {
+                let i = (0..fixed.len())
+                    .find(|&i| per_vertex[i][v] <= c)
+                    .unwrap_or(fixed.len() - 1);
+                f64::from(fixed[i])
+            })
+            .sum();
         let mean = total / vertices.len() as f64;
         let beaten = rows.iter().find(|f| f.p99 <= c);
         println!(
@@ -253,7 +254,7 @@ fn main() {
             })
         });
         println!(
-            "    true/estimate p50 {:.2} p90 {:.2} p99 {:.2}; equivalent fixed {:.0} rays (ratio {:.2})",
+            "  adaptive {target:.1e}: true/estimate p50 {:.2} p90 {:.2} p99 {:.2}; equivalent fixed {:.0} rays (ratio {:.2})",
             quantile(&ratios, 0.5),
             quantile(&ratios, 0.9),
             quantile(&ratios, 0.99),
