@@ -931,6 +931,22 @@ fn adaptive_bake_is_deterministic_and_inspect_reports_its_rays_and_errors() {
     let run = s.run(&["inspect", "out/t1.prt"]).success();
     let json: serde_json::Value = serde_json::from_str(&run.stdout).expect("inspect prints JSON");
     assert_eq!(json["per_texel"]["rays_per_vertex"]["min"], 256.0);
+    // The reader refuses rays at a texel that was not baked (the total kept).
+    let mut bad = file.clone();
+    let rays = bad.rays.as_mut().expect("rays");
+    let (empty, baked) = (
+        valid.iter().position(|&v| !v).expect("an empty texel"),
+        valid.iter().position(|&v| v).expect("a baked texel"),
+    );
+    rays[empty] = 5;
+    rays[baked] -= 5;
+    bad.write(&s.path("out/bad.prt")).unwrap();
+    let err = CoefficientFile::read(&s.path("out/bad.prt")).unwrap_err();
+    assert!(
+        err.to_string()
+            .contains(&format!("texel {empty} cast 5 rays but is not baked")),
+        "{err}"
+    );
 }
 
 #[test]
