@@ -234,7 +234,7 @@ fn texel_merges_refuse_parts_of_other_atlases_scenes_and_options() {
     for needle in ["\"atlas_fingerprint\"", "\"baked_texels\"", "\"count\": 3"] {
         assert!(run.stdout.contains(needle), "{needle}: {}", run.stdout);
     }
-    // Lightmap bakes still refuse adaptive sampling.
+    // Adaptive texel bakes are whole bakes: no shards.
     s.run(&[
         "bake",
         CORNELL,
@@ -244,6 +244,8 @@ fn texel_merges_refuse_parts_of_other_atlases_scenes_and_options() {
         "40",
         "--target-error",
         "0.01",
+        "--shard",
+        "0/3",
     ])
     .fails_with(EXIT_BAD_COMMAND_LINE, &["--target-error"]);
 }

@@ -193,9 +193,11 @@ def parse_prt(b):
     rays = error_estimate = None
     if adaptive:
         rays, error_estimate = take("<u4", vertices), take("<f4", vertices)
-        if np.any((rays < 1) | (rays > samples)):
-            v = int(np.argmax((rays < 1) | (rays > samples)))
-            raise PrtError(f"vertex {v} cast {rays[v]} rays, outside 1..={samples} (the samples per vertex)")
+        # Texel bakes: the texels not baked cast none (checked against the mask below).
+        least, what = (0, "texel") if lightmap is not None else (1, "vertex")
+        if np.any((rays < least) | (rays > samples)):
+            v = int(np.argmax((rays < least) | (rays > samples)))
+            raise PrtError(f"{what} {v} cast {rays[v]} rays, outside {least}..={samples} (the samples per {what})")
         total = int(rays.sum(dtype=np.uint64))
         if total != adaptive["rays_cast"]:
             raise PrtError(f"the per-vertex rays add up to {total}, the header says {adaptive['rays_cast']} were cast")
@@ -219,6 +221,9 @@ def parse_prt(b):
         shape = (lightmap.height, lightmap.width)
         lightmap.uv1 = uv1
         lightmap.valid, lightmap.dilated = (states == 1).reshape(shape), (states == 2).reshape(shape)
+        if rays is not None and np.any((rays > 0) != (states == 1)):
+            t = int(np.argmax((rays > 0) != (states == 1)))
+            raise PrtError(f"texel {t} cast {rays[t]} rays but is {'' if states[t] == 1 else 'not '}baked")
         if object_section:
             count = int(take("<u4", 1)[0])
             if count != (object_section - 4) // 20:

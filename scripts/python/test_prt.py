@@ -30,6 +30,7 @@ VARIANTS = {
     # Adaptive bakes are shadowed; --target-error needs --samples >= 256. 3e-3 spreads the
     # per-vertex rays over 256..1024 on the Cornell box.
     "adaptive-aux": (cornell, ["--samples", "4096", "--target-error", "3e-3", "--aux", "ao,bent-normal"]),
+    "adaptive-lightmap16": (cornell, ["--lightmap", "16", "--samples", "4096", "--target-error", "3e-3"]),
     "lightmap16-aux": (cornell, ["--lightmap", "16", "--samples", "16", "--aux", "ao,bent-normal"]),
     # 21² = 441 state bytes: the payload is not a whole number of floats.
     "lightmap21-texel-size-unshadowed": (cornell, ["--lightmap", "21", "--texel-size", "1", "--order", "3",
@@ -84,10 +85,12 @@ for name, (scene, extra) in VARIANTS.items():
         assert arrays["triangles"].dtype == np.uint32 and arrays["triangles"].max() < f.header["vertex_count"]
     if f.rays is not None:
         assert f.rays.dtype == np.uint32 and len(np.unique(f.rays)) > 1, (name, "rays do not vary")
-        per_vertex = inspected["per_vertex"]
-        assert same_summary(nearest_rank_summary(f.rays), per_vertex["rays_per_vertex"]), name
-        assert same_summary(nearest_rank_summary(f.error_estimate), per_vertex["estimated_error"]), name
-        above = int(np.sum(f.error_estimate > np.float32(f.header["adaptive"]["target_error"])))
+        # Texel bakes summarise the baked texels only.
+        baked = np.ones(f.rays.shape, bool) if f.lightmap is None else f.lightmap.valid
+        per_vertex = inspected["per_vertex" if f.lightmap is None else "per_texel"]
+        assert same_summary(nearest_rank_summary(f.rays[baked]), per_vertex["rays_per_vertex"]), name
+        assert same_summary(nearest_rank_summary(f.error_estimate[baked]), per_vertex["estimated_error"]), name
+        above = int(np.sum(f.error_estimate[baked] > np.float32(f.header["adaptive"]["target_error"])))
         assert above == per_vertex["vertices_above_target"], name
     lightmap = f.lightmap
     assert (lightmap is None) == ("lightmap" not in inspected), name
