@@ -53,7 +53,8 @@ pub enum TransferKind {
     #[default]
     Vector,
     /// The transfer matrix M_ij = ∫ V(s) y_i(s) y_j(s) ds over the receiver's hemisphere
-    /// (Sloan, Kautz & Snyder 2002): n² × n² floats, row-major, symmetric.
+    /// (Sloan, Kautz & Snyder 2002): n² × n² floats, row-major; symmetric unless
+    /// interreflected (which adds the light bounced off the surfaces the rays hit).
     Matrix,
 }
 
@@ -481,13 +482,6 @@ fn parse_fields(bytes: &[u8], version: u32) -> std::result::Result<Header, Strin
             ));
         }
     };
-    if transfer == TransferKind::Matrix && mode == Mode::Interreflected {
-        return Err(
-            "an interreflected transfer-matrix file (matrix bakes are unshadowed or \
-                    shadowed)"
-                .into(),
-        );
-    }
     let bounces = u32_at(40);
     if (mode == Mode::Interreflected) != (bounces > 0) {
         return Err(format!("{bounces} bounces in a {} file", mode.name()));
