@@ -313,7 +313,10 @@ fn floor_and_wall(floor: Vec3, wall: Vec3) -> (Scene, usize) {
         with_albedo(floor_mesh, floor),
         with_albedo(wall_mesh, wall),
     ]);
-    let ix = xs.iter().position(|&x| x > 0.7).expect("a coordinate near 1");
+    let ix = xs
+        .iter()
+        .position(|&x| x > 0.7)
+        .expect("a coordinate near 1");
     let iy = ys.iter().position(|&y| y == 0.0).expect("y = 0");
     (scene, iy * xs.len() + ix)
 }
@@ -371,7 +374,11 @@ fn beside_a_coloured_wall_the_matrix_is_the_closed_form_per_channel() {
         let expected: Vec<f64> = (0..n * n)
             .map(|k| exact.q[k] + rho * exact.p[k / n] * exact.w[k % n])
             .collect();
-        assert_close(&format!("floor beside the wall, channel {c}"), got, &expected);
+        assert_close(
+            &format!("floor beside the wall, channel {c}"),
+            got,
+            &expected,
+        );
     }
     // The wall's colour: the bounced part (M − Q) of the red channel is 8 times the blue's.
     let bounced = |c: usize, k: usize| got[c][k] - exact.q[k];
@@ -390,8 +397,9 @@ fn the_clamped_cosine_through_the_interreflected_matrix_is_the_interreflected_ba
     // two bounces. They differ by (1/π)∫ r·f_j over the hemisphere, f_j the incident radiance
     // of light y_j (y_j where unblocked, ρ·W_j on the wall) and r the clamped cosine above band
     // n − 1: at most ‖r‖/π · (1 + ρ·|W_j|·√π) (Cauchy–Schwarz, the wall's quarter being π sr),
-    // and quadrature gives the difference itself.
-    let rho = 0.5;
+    // and quadrature gives the difference itself. ρ = 0.8: bright enough that a third bounce
+    // (or a missing second) would show beyond 0.01.
+    let rho = 0.8;
     let (scene, v) = floor_and_wall(Vec3::splat(rho), Vec3::splat(rho));
     let got = bake_interreflected_matrix(&scene, 2, v);
     assert_eq!(got.len(), 1, "grey albedos make one channel");
@@ -453,9 +461,10 @@ fn at_the_bottom_of_a_bowl_the_dc_column_is_the_bounce_series() {
     // bounces is T^k_0 = (y_0/2)·Σ_{m≤k} (ρ/2)^m everywhere. The bottom point sees the sky in
     // the 45° cone and the bowl below it; so column 0 of its two-bounce matrix is
     // M_i0 = y_0 ∫_cone y_i + ρ·T¹_0 ∫_rest y_i. The faceted bowl departs from the sphere by
-    // a bias first-order in the facet size: worst entry 7.2e-3 off at 24 × 48 cells, 3.6e-3
-    // at 48 × 96 (used here).
-    let rho = 0.6f32;
+    // a bias first-order in the facet size (at ρ = 0.6 the worst entry was 7.2e-3 off at
+    // 24 × 48 cells, 3.6e-3 at 48 × 96); here, 48 × 96 and ρ = 0.9, 6.0e-3.
+    // ρ = 0.9, so that a bounce too many or too few is seen (0.03 in M_00).
+    let rho = 0.9f32;
     let bowl = with_albedo(
         spherical_cap(Vec3::Z, 1.0, std::f32::consts::FRAC_PI_2, 48, 96, false),
         Vec3::splat(rho),

@@ -114,7 +114,9 @@ pub(crate) fn direct_pass(
 
 /// The batches of sample indices a vertex traces: at most [`BATCH`] long, and split at the
 /// bounce samples' end, so each batch is all bounce samples or none.
-pub(crate) fn batch_ranges(options: &BakeOptions) -> impl Iterator<Item = std::ops::Range<usize>> + use<> {
+pub(crate) fn batch_ranges(
+    options: &BakeOptions,
+) -> impl Iterator<Item = std::ops::Range<usize>> + use<> {
     let samples = options.samples as usize;
     let bounce = options.effective_bounce_samples() as usize;
     let mut start = 0;

@@ -379,8 +379,7 @@ fn receiver_matrix(
                 s.dirs
                     .extend(tables.local_dirs[start..end].iter().map(|d| frame * *d));
                 match (bounce, &mut s.bounce) {
-                    (Some(light), Some(bs)) if start < light.bounce_samples => {
-                        bs.trace_batch(
+                    (Some(light), Some(bs)) if start < light.bounce_samples => bs.trace_batch(
                         light,
                         (&tables.rows, tables.layout.width),
                         tracer,
@@ -388,8 +387,7 @@ fn receiver_matrix(
                         start,
                         &s.dirs,
                         occluded,
-                    )
-                    }
+                    ),
                     _ => tracer.occluded_from(origin, &s.dirs, occluded),
                 }
             }
@@ -428,9 +426,14 @@ fn receiver_matrix(
     let rotation = rotator.rotation(frame.as_dmat3());
     rotate_symmetric(&rotation, n, s);
     match (bounce, &mut s.bounce) {
-        (Some(light), Some(bs)) => {
-            bs.finish(light, &rotation, &s.local, out, &mut s.column, &mut s.rotated)
-        }
+        (Some(light), Some(bs)) => bs.finish(
+            light,
+            &rotation,
+            &s.local,
+            out,
+            &mut s.column,
+            &mut s.rotated,
+        ),
         _ => {
             for (o, w) in out.iter_mut().zip(&s.local) {
                 *o = *w as f32;

@@ -192,4 +192,3 @@ fn accumulate_general(
         }
     }
 }
-

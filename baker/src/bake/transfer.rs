@@ -207,15 +207,13 @@ pub fn bake_receivers(
                 TransferKind::Vector => {
                     direct_pass(estimator, tracer, None, 0..receivers, progress)
                 }
-                TransferKind::Matrix => {
-                    crate::bake::matrix::matrix_pass(
-                        estimator,
-                        tracer,
-                        None,
-                        0..receivers,
-                        progress,
-                    )
-                }
+                TransferKind::Matrix => crate::bake::matrix::matrix_pass(
+                    estimator,
+                    tracer,
+                    None,
+                    0..receivers,
+                    progress,
+                ),
             };
             Baked {
                 coefficients: direct.coefficients,

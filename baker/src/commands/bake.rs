@@ -41,7 +41,7 @@ pub struct BakeArgs {
     #[arg(long, value_enum, default_value_t = ModeArg::Shadowed)]
     mode: ModeArg,
     /// What is stored per vertex: the diffuse transfer vector (n² floats per channel), or the
-    /// transfer matrix (n²×n², for glossy BRDFs; unshadowed or shadowed, per vertex).
+    /// transfer matrix (n²×n², for glossy BRDFs; any mode, per vertex).
     #[arg(long, value_enum, default_value_t = TransferArg::Vector)]
     transfer: TransferArg,
     /// Seed of the sample directions; the same seed gives a bit-identical file.
