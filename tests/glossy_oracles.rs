@@ -261,14 +261,14 @@ fn a_glossy_floors_highlight_matches_the_band_limited_lobe() {
             for (v, (g, e)) in got.iter().zip(&expected).enumerate() {
                 // f32 storage of M and of the radiance: a few units of 1e-7 of the peak.
                 let bound = tolerance(e.variance, FLOOR_SAMPLES) + 1e-5 * peak;
-                for c in 0..3 {
-                    let error = (f64::from(g[c]) - e.radiance).abs();
+                for (c, &value) in g.iter().enumerate() {
+                    let error = (f64::from(value) - e.radiance).abs();
                     assert!(
                         error <= bound && error <= 0.01 * peak,
                         "Ns {ns}, eye {eye}, vertex {v} at {}, channel {c}: {} against {} \
                          (Monte Carlo bound {bound:.2e}, 1 % of the peak {:.2e})",
                         scene.positions[v],
-                        g[c],
+                        value,
                         e.radiance,
                         0.01 * peak
                     );
