@@ -394,5 +394,18 @@ mod tests {
                 got[c]
             );
         }
+        // An RGB file: channel c's own matrix, (c + 1)·I, lights channel c.
+        let mut rgb = matrix_file(order as u32, 3, 1);
+        rgb.coefficients = (0..3 * n2 * n2)
+            .map(|k| ((k / (n2 * n2)) as f32 + 1.0) * f32::from(u8::from(k / n2 % n2 == k % n2)))
+            .collect();
+        let coloured = matrix_vertex_radiance(&rgb, None, &r, &light, Some(eye))[0];
+        for c in 0..3 {
+            let want = (c as f32 + 1.0) * got[c];
+            assert!(
+                (coloured[c] - want).abs() < 1e-5,
+                "{c}: {coloured:?} {got:?}"
+            );
+        }
     }
 }
