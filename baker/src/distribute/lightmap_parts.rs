@@ -146,22 +146,10 @@ impl PartLightmap {
         header: &Header,
     ) -> std::result::Result<PartLightmap, String> {
         let b = &bytes[HEADER_SIZE..HEADER_SIZE + BLOCK_BYTES];
+        let block = LightmapBlock::from_block_bytes(&b[..32], header, "a part of a bake")?;
         let u32_at = |o: usize| u32::from_le_bytes(b[o..o + 4].try_into().expect("4 bytes"));
         let u64_at = |o: usize| u64::from_le_bytes(b[o..o + 8].try_into().expect("8 bytes"));
-        let (width, height) = (u32_at(0), u32_at(4));
-        let texels = u64::from(width) * u64::from(height);
-        if texels != header.vertex_count {
-            return Err(format!(
-                "a {width}×{height} lightmap in a part of a bake of {} texels",
-                header.vertex_count
-            ));
-        }
-        let source = AtlasSource::from_code(u32_at(28))
-            .ok_or_else(|| format!("unknown atlas source {}", u32_at(28)))?;
-        let texel_size = f32::from_le_bytes(b[24..28].try_into().expect("4 bytes"));
-        if !(texel_size.is_finite() && texel_size >= 0.0) {
-            return Err(format!("texel size {texel_size} is not a size"));
-        }
+        let texels = header.vertex_count;
         let receivers = u64_at(40);
         if receivers > texels {
             return Err(format!(
@@ -169,19 +157,20 @@ impl PartLightmap {
             ));
         }
         let objects = u32_at(48);
-        if objects > 0 && source != AtlasSource::PerObject {
+        if objects > 0 && block.source != AtlasSource::PerObject {
+            let source = block.source;
             return Err(format!("{objects} object placements in a {source:?} atlas"));
         }
         if b[52..].iter().any(|&x| x != 0) {
             return Err("reserved bytes 180..192 are not zero".into());
         }
         Ok(PartLightmap {
-            width,
-            height,
-            scene_vertex_count: u64_at(8),
-            scene_triangle_count: u64_at(16),
-            texel_size,
-            source,
+            width: block.width,
+            height: block.height,
+            scene_vertex_count: block.scene_vertex_count,
+            scene_triangle_count: block.scene_triangle_count,
+            texel_size: block.texel_size,
+            source: block.source,
             receivers,
             fingerprint: u64_at(32),
             uv1: Vec::new(),
