@@ -471,14 +471,6 @@ fn bake_in_parts(
         None => (PartBaker::vertices(scene, tracer, options)?, "vertices"),
         Some(resolution) => {
             let atlas = atlas(args, scene, resolution, progress)?;
-            if atlas.source == lightmap::AtlasSource::PerObject {
-                // Parts carry the atlas's UVs but not yet its per-object placements.
-                return Err(Error::InvalidOption(String::from(
-                    "--shard and --checkpoint do not yet support a lightmap whose objects' own \
-                     UVs overlap each other and are packed per object; bake it whole, or give \
-                     the scene one atlas of non-overlapping lightmap UVs",
-                )));
-            }
             prepared = lightmap::prepare(scene, tracer, options.seed, atlas)?;
             watertight = match tracer {
                 Some(t) => prepared.texels.watertight(scene, t)?,
