@@ -230,7 +230,7 @@ fn with_albedo(mut mesh: prt_baker::scene::Mesh, kd: Vec3) -> prt_baker::scene::
     mesh.material = prt_baker::scene::Material {
         name: format!("kd {kd}"),
         kd,
-        texture: None,
+        ..Default::default()
     };
     mesh
 }
