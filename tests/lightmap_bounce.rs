@@ -33,6 +33,7 @@ fn with_albedo(mut mesh: Mesh, albedo: Vec3) -> Mesh {
         name: "paint".into(),
         kd: albedo,
         texture: None,
+        glossy: None,
     };
     mesh
 }

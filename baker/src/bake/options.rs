@@ -122,12 +122,6 @@ fn check_matrix(options: &BakeOptions) -> Result<()> {
         return Ok(());
     }
     let refuse = |what: &str| Err(Error::InvalidOption(format!("--transfer matrix {what}")));
-    if options.mode == Mode::Interreflected {
-        return refuse(
-            "with --mode interreflected is not implemented yet: use --mode shadowed or \
-             unshadowed (the interreflected matrix, Sloan 2002's bounces, is future work)",
-        );
-    }
     if options.target_error.is_some() {
         return refuse("with --target-error is not supported: matrix bakes use fixed --samples");
     }

@@ -41,7 +41,7 @@ pub struct BakeArgs {
     #[arg(long, value_enum, default_value_t = ModeArg::Shadowed)]
     mode: ModeArg,
     /// What is stored per vertex: the diffuse transfer vector (n² floats per channel), or the
-    /// transfer matrix (n²×n², for glossy BRDFs; unshadowed or shadowed, per vertex).
+    /// transfer matrix (n²×n², for glossy BRDFs; any mode, per vertex).
     #[arg(long, value_enum, default_value_t = TransferArg::Vector)]
     transfer: TransferArg,
     /// Seed of the sample directions; the same seed gives a bit-identical file.
@@ -481,14 +481,6 @@ fn bake_in_parts(
         None => (PartBaker::vertices(scene, tracer, options)?, "vertices"),
         Some(resolution) => {
             let atlas = atlas(args, scene, resolution, progress)?;
-            if atlas.source == lightmap::AtlasSource::PerObject {
-                // Parts carry the atlas's UVs but not yet its per-object placements.
-                return Err(Error::InvalidOption(String::from(
-                    "--shard and --checkpoint do not yet support a lightmap whose objects' own \
-                     UVs overlap each other and are packed per object; bake it whole, or give \
-                     the scene one atlas of non-overlapping lightmap UVs",
-                )));
-            }
             prepared = lightmap::prepare(scene, tracer, options.seed, atlas)?;
             watertight = match tracer {
                 Some(t) => prepared.texels.watertight(scene, t)?,

@@ -329,26 +329,36 @@ impl LightmapBlock {
         bytes: &[u8],
         header: &Header,
     ) -> std::result::Result<LightmapBlock, String> {
-        let u32_at = |o: usize| u32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes"));
-        let u64_at = |o: usize| u64::from_le_bytes(bytes[o..o + 8].try_into().expect("8 bytes"));
-        let (width, height) = (u32_at(128), u32_at(132));
+        LightmapBlock::from_block_bytes(&bytes[128..160], header, "a file")
+    }
+
+    /// The 32 bytes of a texel block, where a whole texel file (at 128) and a texel part
+    /// (at 128, followed by its atlas block) keep them; `holder` names which, for the error.
+    pub(crate) fn from_block_bytes(
+        block: &[u8],
+        header: &Header,
+        holder: &str,
+    ) -> std::result::Result<LightmapBlock, String> {
+        let u32_at = |o: usize| u32::from_le_bytes(block[o..o + 4].try_into().expect("4 bytes"));
+        let u64_at = |o: usize| u64::from_le_bytes(block[o..o + 8].try_into().expect("8 bytes"));
+        let (width, height) = (u32_at(0), u32_at(4));
         if u64::from(width) * u64::from(height) != header.vertex_count {
             return Err(format!(
-                "a {width}×{height} lightmap in a file of {} texels",
+                "a {width}×{height} lightmap in {holder} of {} texels",
                 header.vertex_count
             ));
         }
-        let source = AtlasSource::from_code(u32_at(156))
-            .ok_or_else(|| format!("unknown atlas source {}", u32_at(156)))?;
-        let texel_size = f32::from_le_bytes(bytes[152..156].try_into().expect("4 bytes"));
+        let source = AtlasSource::from_code(u32_at(28))
+            .ok_or_else(|| format!("unknown atlas source {}", u32_at(28)))?;
+        let texel_size = f32::from_le_bytes(block[24..28].try_into().expect("4 bytes"));
         if !(texel_size.is_finite() && texel_size >= 0.0) {
             return Err(format!("texel size {texel_size} is not a size"));
         }
         Ok(LightmapBlock {
             width,
             height,
-            scene_vertex_count: u64_at(136),
-            scene_triangle_count: u64_at(144),
+            scene_vertex_count: u64_at(8),
+            scene_triangle_count: u64_at(16),
             texel_size,
             source,
             valid: Vec::new(),

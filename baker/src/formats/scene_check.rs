@@ -24,7 +24,7 @@ impl CoefficientFile {
             return Err(Error::SceneMismatch {
                 path: path.to_path_buf(),
                 message: "a transfer-matrix bake (--transfer matrix), which this command does \
-                          not read yet (`export --npz` and `inspect` do)"
+                          not read yet (`export --npz`, `inspect` and `relight` do)"
                     .into(),
             });
         }

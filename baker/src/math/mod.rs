@@ -5,5 +5,6 @@
 //! May import: [`crate::support`].
 
 pub mod cpca;
+pub mod glossy;
 pub mod sampling;
 pub mod sh;

@@ -6,13 +6,33 @@ use glam::{Vec2, Vec3};
 /// Diffuse reflectance of surfaces whose material sets no `Kd` and that have no texture.
 pub const DEFAULT_KD: Vec3 = Vec3::splat(0.8);
 
-/// A diffuse material: albedo = `kd` × texture (sRGB-decoded) at the surface's uv.
+/// A material: albedo = `kd` × texture (sRGB-decoded) at the surface's uv, and an optional
+/// glossy layer.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
     pub name: String,
     pub kd: Vec3,
     /// Index into [`super::Scene::textures`].
     pub texture: Option<usize>,
+    /// The glossy layer, if the material has one. Bakes never read it (vector transfer is
+    /// diffuse, and matrix transfer is the incident radiance, whatever the BRDF); renderers of
+    /// matrix bakes apply it (`crate::math::glossy`).
+    pub glossy: Option<Glossy>,
+}
+
+/// A glossy layer over the diffuse one: a normalised Phong lobe about the mirror direction
+/// ([`crate::math::glossy`] has the formula and the exponent mappings).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Glossy {
+    /// The fraction of light the lobe reflects, per channel: MTL `Ks`; for glTF the
+    /// reflectance at normal incidence, mix(0.04, base colour, metallic).
+    pub ks: Vec3,
+    /// The Phong exponent: MTL `Ns`, or mapped from glTF's roughness.
+    pub exponent: f32,
+    /// The factor on the diffuse term when the layer is rendered: 1 for MTL, and
+    /// 1 − metallic for glTF (a metal has no diffuse reflection). A diffuse render (vector
+    /// bakes) ignores it, so existing bakes do not change.
+    pub diffuse_weight: f32,
 }
 
 impl Default for Material {
@@ -21,6 +41,7 @@ impl Default for Material {
             name: String::from("default"),
             kd: DEFAULT_KD,
             texture: None,
+            glossy: None,
         }
     }
 }

@@ -33,7 +33,7 @@ use crate::support::input_path::AssetFolder;
 
 pub use format::FORMATS;
 use format::OTHER_FORMATS;
-pub use mesh::{DEFAULT_KD, Hierarchy, HierarchyNode, Material, Mesh};
+pub use mesh::{DEFAULT_KD, Glossy, Hierarchy, HierarchyNode, Material, Mesh};
 pub use normals::angle_weighted_normals;
 pub use scene_file::{SceneEntry, parse_scene_file};
 pub use texture::{Texture, srgb_to_linear};

@@ -12,8 +12,9 @@ use std::path::{Path, PathBuf};
 
 use glam::{Vec2, Vec3};
 
-use super::mesh::{DEFAULT_KD, Material, Mesh};
+use super::mesh::{DEFAULT_KD, Glossy, Material, Mesh};
 use super::texture::Texture;
+use crate::math::glossy;
 use crate::support::error::{Error, Location, Result};
 use crate::support::input_path::AssetFolder;
 
@@ -179,6 +180,7 @@ fn resolve_materials(
             name: m.name.clone(),
             kd: m.diffuse.map(Vec3::from_array).unwrap_or(DEFAULT_KD),
             texture,
+            glossy: mtl_glossy(m),
         });
     }
     let no_material = Material {
@@ -189,8 +191,23 @@ fn resolve_materials(
             DEFAULT_KD
         },
         texture: override_index,
+        glossy: None,
     };
     Ok((material_table, no_material, textures))
+}
+
+/// An MTL material is glossy when it gives a non-zero `Ks`; its `Ns` is the Phong exponent
+/// (absent: 0, a lobe as wide as the hemisphere).
+fn mtl_glossy(m: &tobj::Material) -> Option<Glossy> {
+    let ks = Vec3::from_array(m.specular?);
+    if !ks.is_finite() || ks.max_element() <= 0.0 {
+        return None;
+    }
+    Some(Glossy {
+        ks: ks.clamp(Vec3::ZERO, Vec3::ONE),
+        exponent: glossy::exponent_from_ns(m.shininess.unwrap_or(0.0)),
+        diffuse_weight: 1.0,
+    })
 }
 
 fn to_mesh(model: tobj::Model, materials: &[Material], no_material: &Material) -> Mesh {
@@ -369,5 +386,41 @@ impl BufRead for LineCounter<'_> {
             self.position.set(position);
         }
         self.inner = rest;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::Scene;
+
+    /// `Ks` and `Ns` make a glossy layer; a material without `Ks` (or with a black one)
+    /// stays diffuse.
+    #[test]
+    fn mtl_ks_and_ns_make_a_glossy_layer() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(
+            dir.path().join("m.mtl"),
+            "newmtl shiny\nKd 0.2 0.3 0.4\nKs 0.5 0.5 0.25\nNs 96\n\
+             newmtl matte\nKd 0.5 0.5 0.5\nKs 0 0 0\nNs 10\n",
+        )
+        .unwrap();
+        std::fs::write(
+            dir.path().join("s.obj"),
+            "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n\
+             usemtl shiny\nf 1 2 3\nusemtl matte\nf 2 4 3\n",
+        )
+        .unwrap();
+        let scene = Scene::load(&dir.path().join("s.obj")).unwrap();
+        let shiny = scene.triangle_material(0);
+        assert_eq!(
+            shiny.glossy,
+            Some(Glossy {
+                ks: Vec3::new(0.5, 0.5, 0.25),
+                exponent: 96.0,
+                diffuse_weight: 1.0,
+            })
+        );
+        assert_eq!(scene.triangle_material(1).glossy, None);
     }
 }

@@ -21,7 +21,8 @@ use std::path::Path;
 use glam::{Mat3, Mat4, Vec2, Vec3};
 use gltf::mesh::Mode;
 
-use crate::scene::mesh::{DEFAULT_KD, Hierarchy, HierarchyNode, Material, Mesh};
+use crate::math::glossy;
+use crate::scene::mesh::{DEFAULT_KD, Glossy, Hierarchy, HierarchyNode, Material, Mesh};
 use crate::scene::texture::Texture;
 use crate::support::error::{Error, Location, Result};
 use crate::support::input_path::AssetFolder;
@@ -246,6 +247,7 @@ impl PrimitiveReader<'_> {
                 name: String::from("default"),
                 kd: DEFAULT_KD,
                 texture: None,
+                glossy: None,
             },
             Some(index) => {
                 let [r, g, b, _] = pbr.base_color_factor();
@@ -257,6 +259,7 @@ impl PrimitiveReader<'_> {
                         .unwrap_or_else(|| format!("material {index}")),
                     kd: Vec3::new(r, g, b),
                     texture,
+                    glossy: gltf_glossy(&pbr),
                 }
             }
         };
@@ -584,6 +587,26 @@ fn to_texture(path: &Path, index: usize, data: &gltf::image::Data) -> Option<Tex
         width: data.width,
         height: data.height,
         srgb8,
+    })
+}
+
+/// A glTF material is glossy when it sets a roughness below 1: the lobe's exponent follows
+/// from the roughness ([`glossy::exponent_from_roughness`]), its reflectance is the
+/// metallic-roughness model's F0 = mix(0.04, base colour, metallic), and the diffuse term is
+/// scaled by 1 − metallic. Roughness and metallic textures are not read: the factors apply
+/// to the whole material.
+fn gltf_glossy(pbr: &gltf::material::PbrMetallicRoughness) -> Option<Glossy> {
+    let roughness = pbr.roughness_factor();
+    if roughness.is_nan() || roughness >= 1.0 {
+        return None;
+    }
+    let metallic = pbr.metallic_factor().clamp(0.0, 1.0);
+    let [r, g, b, _] = pbr.base_color_factor();
+    let base = Vec3::new(r, g, b).clamp(Vec3::ZERO, Vec3::ONE);
+    Some(Glossy {
+        ks: Vec3::splat(0.04).lerp(base, metallic),
+        exponent: glossy::exponent_from_roughness(roughness),
+        diffuse_weight: 1.0 - metallic,
     })
 }
 
