@@ -1,16 +1,23 @@
-//! Adaptive sampling (`--target-error E`, `baker/src/adaptive.rs`) held to the analytic oracles
-//! of `oracles.md`: a vertex stops when its *estimated* RMS coefficient error is ≤ E, so its
-//! *true* RMS coefficient error √((1/n²) Σ_j (T̂_j − T_j)²), measured against the closed-form
-//! transfer, must be ≤ 1.5 E at ≥ 95 % of the vertices (the issue's requirement). A smaller E
-//! must cost more rays and give a smaller true error.
+//! Adaptive sampling (`--target-error E`, `baker/src/bake/adaptive.rs`) held to the analytic
+//! oracles of `oracles.md`: a vertex stops when its *estimated* RMS coefficient error is ≤ E, so
+//! its *true* RMS coefficient error √((1/n²) Σ_j (T̂_j − T_j)²), measured against the
+//! closed-form transfer, must be ≤ 1.5 E at ≥ 95 % of the vertices (the issue's requirement),
+//! and the RMS estimate must be close to the RMS true error (honest, not only safe). A smaller E
+//! must cost more rays and give a smaller true error. Fixed bakes of the same trials measure
+//! what the adaptive bake pays (issue 22: a win is ≤ 0.8 × the rays of the smallest fixed bake
+//! whose p99 true error is at most the adaptive bake's; not met yet, docs/performance.md).
+//! Texels of a lightmap are trials of the same estimator.
 //!
 //! The oracle vertices: every floor vertex of a grid next to an infinitely long wall (at
 //! distances 0.05 to 4 wall heights: k = H/d from 20 to 1/4), the point under a coaxial disk and
 //! the bottom of a hemispherical bowl. Each is baked under several seeds: a seed draws new
 //! scrambles and a new frame, so each (vertex, seed) is an independent trial of the estimate.
 
-use glam::{DVec3, Vec3};
+use glam::{DVec3, Vec2, Vec3};
+use prt_baker::bake::lightmap::{self, Atlas};
 use prt_baker::math::sh;
+use prt_baker::support::progress::Silent;
+use prt_baker::trace::{EmbreeOptions, EmbreeTracer};
 use prt_baker::{BakeOptions, Mode, Scene};
 use prt_tests::*;
 
@@ -20,6 +27,15 @@ const CAP: u32 = 1 << 17;
 /// Seeds per scene: the wall grid's 121 floor vertices, the disk's and the bowl's one vertex.
 const WALL_SEEDS: u64 = 3;
 const POINT_SEEDS: u64 = 16;
+/// The fixed bakes adaptive sampling is measured against: powers of two and 1.5× between.
+const FIXED: [u32; 13] = [
+    256, 384, 512, 768, 1024, 1536, 2048, 3072, 4096, 6144, 8192, 12_288, 16_384,
+];
+/// Adaptive sampling wins when it casts at most this share of the rays of the smallest fixed
+/// bake whose p99 true error is at most its own (issue 22).
+const WIN: f64 = 0.8;
+/// What the test requires of that share today: adaptive sampling does not win yet.
+const AT_MOST: f64 = 1.4;
 
 fn adaptive(target: f32, seed: u64) -> BakeOptions {
     BakeOptions {
@@ -120,6 +136,11 @@ impl Scenes {
 
     /// Every oracle vertex under every seed, baked to `target`.
     fn trials(&self, target: f32) -> Vec<Trial> {
+        self.trials_with(&|seed| adaptive(target, seed))
+    }
+
+    /// Every oracle vertex under every seed, baked with `options(seed)`.
+    fn trials_with(&self, options: &dyn Fn(u64) -> BakeOptions) -> Vec<Trial> {
         let mut trials = Vec::new();
         let floor: Vec<usize> = (0..self.wall.vertex_count())
             .filter(|&v| self.wall.normals[v] == Vec3::Z && self.wall.positions[v].x < 1.0)
@@ -138,9 +159,11 @@ impl Scenes {
             .collect();
         for seed in 0..WALL_SEEDS {
             // The whole scene through the library entry point (threads, rounds, rays count).
-            let bake = bake_scene(&self.wall, &adaptive(target, seed));
-            let rays: u64 = bake.visibility.iter().map(|v| u64::from(v.rays)).sum();
-            assert_eq!(bake.rays_cast, rays);
+            let bake = bake_scene(&self.wall, &options(seed));
+            if bake.options.target_error.is_some() {
+                let rays: u64 = bake.visibility.iter().map(|v| u64::from(v.rays)).sum();
+                assert_eq!(bake.rays_cast, rays);
+            }
             for (&v, exact) in floor.iter().zip(&exact) {
                 let got: Vec<f64> = bake.vertex(v, 0).iter().map(|&c| f64::from(c)).collect();
                 let visibility = bake.visibility[v];
@@ -159,7 +182,7 @@ impl Scenes {
             (&self.bowl, band_moments(ORDER, DVec3::Z, cos45, 1.0).mean),
         ] {
             for seed in 0..POINT_SEEDS {
-                let (got, visibility) = bake_selected(scene, &adaptive(target, seed), &[0])
+                let (got, visibility) = bake_selected(scene, &options(seed), &[0])
                     .pop()
                     .expect("one vertex");
                 trials.push(Trial {
@@ -177,6 +200,14 @@ impl Scenes {
 struct Outcome {
     mean_rays: f64,
     rms_true_error: f64,
+    p99: f64,
+}
+
+/// The `q` quantile (nearest rank) of the trials' true errors.
+fn quantile(trials: &[Trial], q: f64) -> f64 {
+    let mut e: Vec<f64> = trials.iter().map(|t| t.true_error).collect();
+    e.sort_by(f64::total_cmp);
+    e[((q * e.len() as f64).ceil() as usize).clamp(1, e.len()) - 1]
 }
 
 fn judge(target: f32, trials: &[Trial]) -> Outcome {
@@ -189,6 +220,8 @@ fn judge(target: f32, trials: &[Trial]) -> Outcome {
     let rms_true_error = (mean_square(|t| t.true_error) / count).sqrt();
     let rms_estimate = (mean_square(|t| t.estimate) / count).sqrt();
     let worst = trials.iter().map(|t| t.true_error).fold(0.0, f64::max);
+    // The estimate is honest, not only safe: its RMS is close to the RMS true error.
+    let honesty = rms_estimate / rms_true_error;
     eprintln!(
         "E = {target:.1e}: true error <= 1.5 E at {within} of {} trials ({:.1} %), worst {:.2} E; \
          RMS true error {:.2} E, RMS estimate {:.2} E; {converged} reached E; rays per vertex \
@@ -208,6 +241,11 @@ fn judge(target: f32, trials: &[Trial]) -> Outcome {
         "E = {target:e}: some oracle vertices reached --samples {CAP} above the target"
     );
     assert!(
+        (0.67..=1.5).contains(&honesty),
+        "E = {target:e}: RMS estimate {rms_estimate:.2e} against an RMS true error of \
+         {rms_true_error:.2e}"
+    );
+    assert!(
         within as f64 >= 0.95 * count,
         "E = {target:e}: the true error is within 1.5 E at only {within} of {} trials",
         trials.len()
@@ -215,6 +253,7 @@ fn judge(target: f32, trials: &[Trial]) -> Outcome {
     Outcome {
         mean_rays,
         rms_true_error,
+        p99: quantile(trials, 0.99),
     }
 }
 
@@ -227,6 +266,45 @@ fn the_true_error_stays_within_one_and_a_half_targets_and_converges() {
         .into_iter()
         .map(|target| judge(target, &scenes.trials(target)))
         .collect();
+    // Fixed Owen–Sobol bakes of the same trials: the smallest count whose p99 true error is at
+    // most the adaptive bake's, and the ratio of rays (issue 22: adaptive wins at ≤ 0.8).
+    let fixed: Vec<(u32, f64)> = FIXED
+        .iter()
+        .map(|&samples| {
+            let trials = scenes.trials_with(&|seed| BakeOptions {
+                samples,
+                target_error: None,
+                ..adaptive(1.0, seed)
+            });
+            (samples, quantile(&trials, 0.99))
+        })
+        .collect();
+    let fixed_line: Vec<String> = fixed.iter().map(|(n, p)| format!("{n}: {p:.2e}")).collect();
+    eprintln!("fixed bakes, p99 true error: {}", fixed_line.join(", "));
+    for (target, outcome) in [4e-3, 1e-3, 2.5e-4].iter().zip(&outcomes) {
+        let beaten = fixed.iter().find(|(_, p99)| *p99 <= outcome.p99);
+        let ratio = beaten.map(|&(n, _)| outcome.mean_rays / f64::from(n));
+        eprintln!(
+            "E = {target:.1e}: adaptive {:.0} rays, p99 {:.2e}; smallest fixed with p99 <= it: {}; \
+             ratio {}",
+            outcome.mean_rays,
+            outcome.p99,
+            beaten.map_or("none".into(), |(n, p)| format!("{n} (p99 {p:.2e})")),
+            ratio.map_or("-".into(), |r| format!(
+                "{r:.2} ({})",
+                if r <= WIN { "wins" } else { "does not win" }
+            )),
+        );
+        // Not met yet (docs/performance.md): the guard keeps the gain over the 16-replicate
+        // design, which cast 1.9 × the rays of the fixed bake it matched at E = 10⁻³.
+        assert!(
+            ratio.is_some_and(|r| r <= AT_MOST),
+            "E = {target:e}: adaptive sampling cast {:.0} rays per vertex for a p99 error of \
+             {:.2e}; fixed sampling: {fixed_line:?}",
+            outcome.mean_rays,
+            outcome.p99
+        );
+    }
     for pair in outcomes.windows(2) {
         assert!(
             pair[1].mean_rays > 2.0 * pair[0].mean_rays,
@@ -241,4 +319,69 @@ fn the_true_error_stays_within_one_and_a_half_targets_and_converges() {
             pair[0].rms_true_error
         );
     }
+}
+
+/// Texels (`--target-error` with `--lightmap`): every texel of a 17² lightmap on the floor
+/// [−1, 1]² next to the wall, under 2 seeds, is a trial of the same estimator against the
+/// wall's exact transfer at the texel's distance; the bake records each baked texel's rays and
+/// estimate (and none for the texels it did not bake).
+#[test]
+fn texel_estimates_are_honest_too() {
+    // Wound to face the floor (normal −x): leak detection takes back faces for insides.
+    let wall = grid(
+        "wall",
+        Vec3::new(1.0, -1000.0, 0.0),
+        Vec3::Z,
+        Vec3::Y * 2000.0,
+        1,
+    );
+    let floor = grid(
+        "floor",
+        Vec3::new(-1.0, -1.0, 0.0),
+        Vec3::X * 2.0,
+        Vec3::Y * 2.0,
+        1,
+    );
+    let scene = scene(vec![floor, wall]);
+    let uvs: Vec<Vec2> = scene
+        .positions
+        .iter()
+        .zip(&scene.normals)
+        .map(|(p, n)| match p.z == 0.0 && n.z > 0.99 {
+            true => Vec2::new(p.x, p.y) / 2.0 + Vec2::splat(0.5),
+            false => Vec2::splat(-1.0),
+        })
+        .collect();
+    let atlas = Atlas::from_vertex_uvs(&scene, &uvs, 17, 17).unwrap();
+    let tracer = EmbreeTracer::new(&scene, EmbreeOptions::default()).expect("embree scene");
+    let target = 1e-3;
+    let n = sh::coeff_count(ORDER);
+    let mut trials = Vec::new();
+    for seed in 0..2 {
+        let options = adaptive(target, seed);
+        let bake = lightmap::bake(&scene, Some(&tracer), &options, atlas.clone(), &Silent)
+            .expect("an adaptive texel bake");
+        let visibility = &bake.transfer.visibility;
+        let rays: u64 = visibility.iter().map(|v| u64::from(v.rays)).sum();
+        assert_eq!(bake.transfer.rays_cast, rays);
+        for (i, &valid) in bake.texels.valid.iter().enumerate() {
+            assert_eq!(visibility[i].rays > 0, valid, "texel {i}");
+            let d = 1.0 - f64::from(bake.texels.positions[i].x);
+            // Texel centres lie 1/17 or more from the wall; keep clear of its foot anyway.
+            if !valid || d < 0.05 {
+                continue;
+            }
+            let got: Vec<f64> = bake.transfer.coefficients[i * n..(i + 1) * n]
+                .iter()
+                .map(|&c| f64::from(c))
+                .collect();
+            trials.push(Trial {
+                true_error: rms_difference(&got, &wall_transfer(1.0 / d)),
+                estimate: f64::from(visibility[i].error_estimate),
+                rays: visibility[i].rays,
+            });
+        }
+    }
+    assert_eq!(trials.len(), 2 * 17 * 17);
+    judge(target, &trials);
 }

@@ -2,7 +2,10 @@
 //! (`--transfer matrix`) against the vector bake and against Embree alone tracing the matrix
 //! bake's very rays (same origins, same directions, same batches of 256, through the
 //! `Tracer` trait as the bake calls it); and the outer-product accumulation alone, packed
-//! upper triangle (what the bake does) against the full n²×n² square. CPU time per thread,
+//! upper triangle (what the bake does) against the full n²×n² square. Then the interreflected
+//! matrix (`--mode interreflected --bounces 2`: the vector bake with one bounce, then the
+//! matrix pass whose first quarter of rays are closest-hit rays) against the interreflected
+//! vector bakes and against Embree alone tracing both passes' rays. CPU time per thread,
 //! best of three (`timing`), so other tenants of a shared machine count less.
 
 mod timing;
@@ -70,7 +73,117 @@ fn main() {
     );
     row("vector bake (cosine-weighted)", vector_seconds);
     row("matrix bake (uniform hemisphere)", matrix_seconds);
+    interreflected(&scene, &tracer, &vector);
     outer_products();
+}
+
+/// The interreflected matrix with 2 bounces against the vector bakes with 1 and 2 bounces and
+/// Embree alone on the rays of its two passes (the vector bake's with 1 bounce, the matrix
+/// pass's); rates count both passes' rays.
+fn interreflected(scene: &Scene, tracer: &EmbreeTracer, shadowed: &BakeOptions) {
+    let vector = |bounces| BakeOptions {
+        mode: Mode::Interreflected,
+        bounces,
+        ..shadowed.clone()
+    };
+    let matrix = BakeOptions {
+        transfer: TransferKind::Matrix,
+        ..vector(2)
+    };
+    let bake = |options: &BakeOptions| {
+        best_of(|| {
+            cpu_time(|| {
+                prt_baker::bake(scene, Some(tracer), options, &Silent).expect("bake");
+            })
+        })
+    };
+    let vector1 = bake(&vector(1));
+    let vector2 = bake(&vector(2));
+    let matrix2 = bake(&matrix);
+    let vector_estimator = Estimator::new(scene, &vector(1)).expect("options");
+    let raw_vector = raw_rays(scene, tracer, &vector(1), |v, frame, range, dirs| {
+        let mut weights = Vec::new();
+        vector_estimator.directions(v, frame, range, dirs, &mut weights);
+    });
+    let local = local_directions(&matrix);
+    let raw_matrix = raw_rays(scene, tracer, &matrix, |_, frame, range, dirs| {
+        dirs.clear();
+        dirs.extend(local[range].iter().map(|d| *frame * *d));
+    });
+    let raw = raw_vector + raw_matrix;
+    let rays = 2.0 * scene.vertex_count() as f64 * f64::from(shadowed.samples);
+    println!("interreflected (rates count both passes' rays, the vector's and the matrix's):");
+    let row = |what: &str, seconds: f64| {
+        println!(
+            "{what:<52} {seconds:>8.3} s {:>8.2} Mrays/s {:>6.3} x raw",
+            rays / seconds / 1e6,
+            raw / seconds
+        );
+    };
+    row("raw embree, both passes' rays (1/4 closest-hit)", raw);
+    println!("{:<52} {raw_vector:>8.3} s", "  of which the vector pass's");
+    println!(
+        "{:<52} {vector1:>8.3} s",
+        "vector bake, interreflected, 1 bounce"
+    );
+    println!(
+        "{:<52} {vector2:>8.3} s",
+        "vector bake, interreflected, 2 bounces"
+    );
+    row(
+        "matrix bake, interreflected, 2 bounces (both passes)",
+        matrix2,
+    );
+    println!(
+        "{:<52} {:>8.3} s {:>15} {:>6.3} x raw",
+        "  of which the matrix pass",
+        matrix2 - vector1,
+        "",
+        raw_matrix / (matrix2 - vector1)
+    );
+}
+
+/// CPU seconds per thread Embree takes for the rays of a pass: per vertex, batches split at
+/// the bounce samples' end as the bake splits them, the bounce samples traced for their
+/// closest hits and the rest for occlusion; the run that traces them minus the run that only
+/// generates them. `directions(v, frame, range, dirs)` gives vertex v's world directions.
+fn raw_rays(
+    scene: &Scene,
+    tracer: &EmbreeTracer,
+    options: &BakeOptions,
+    directions: impl Fn(usize, &glam::Mat3, std::ops::Range<usize>, &mut Vec<glam::Vec3>) + Sync,
+) -> f64 {
+    let estimator = Estimator::new(scene, options).expect("options");
+    let (samples, bounce) = (
+        options.samples as usize,
+        options.effective_bounce_samples() as usize,
+    );
+    let run = |trace: bool| {
+        (0..scene.vertex_count()).into_par_iter().for_each_init(
+            || (Vec::with_capacity(256), vec![false; 256], vec![None; 256]),
+            |(dirs, occluded, hits), v| {
+                let frame = estimator.vertex_frame(v);
+                let mut start = 0;
+                while start < samples {
+                    let limit = if start < bounce { bounce } else { samples };
+                    let end = (start + 256).min(limit);
+                    directions(v, &frame, start..end, dirs);
+                    if trace && start < bounce {
+                        tracer.intersect_from(estimator.origin(v), dirs, &mut hits[..end - start]);
+                    } else if trace {
+                        tracer.occluded_from(
+                            estimator.origin(v),
+                            dirs,
+                            &mut occluded[..end - start],
+                        );
+                    }
+                    start = end;
+                }
+            },
+        )
+    };
+    let generate = best_of(|| cpu_time(|| run(false)));
+    best_of(|| cpu_time(|| run(true))) - generate
 }
 
 /// CPU seconds per thread that Embree takes for the matrix bake's rays: the run that traces

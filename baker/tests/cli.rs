@@ -849,15 +849,15 @@ fn adaptive_bake_is_deterministic_and_inspect_reports_its_rays_and_errors() {
     let file = CoefficientFile::read(&s.path("out/one.prt")).unwrap();
     let adaptive = file.header.adaptive.expect("an adaptive header");
     assert_eq!(adaptive.target_error, 2e-3);
-    assert_eq!(adaptive.replicates, 16);
+    assert_eq!(adaptive.replicates, 4);
     let rays = file.rays.as_deref().expect("per-vertex rays");
     let errors = file.error_estimate.as_deref().expect("per-vertex errors");
     assert_eq!(
         rays.iter().map(|&r| u64::from(r)).sum::<u64>(),
         adaptive.rays_cast
     );
-    // Open walls stop after the first round (16 replicates × 16 points); contact shadows
-    // cast more; every vertex stops at or below the target or at --samples.
+    // Open walls stop after the pilot (4 replicates × 64 points); contact shadows cast a net
+    // of more; every vertex stops at or below the target or at --samples.
     assert_eq!(rays.iter().min(), Some(&256));
     assert!(rays.iter().any(|&r| r > 1024), "no vertex needed more rays");
     for (&r, &e) in rays.iter().zip(errors) {
@@ -867,7 +867,7 @@ fn adaptive_bake_is_deterministic_and_inspect_reports_its_rays_and_errors() {
     let run = s.run(&["inspect", "out/one.prt"]).success();
     let json: serde_json::Value = serde_json::from_str(&run.stdout).expect("inspect prints JSON");
     assert_eq!(json["adaptive"]["rays_cast"], adaptive.rays_cast);
-    assert_eq!(json["adaptive"]["replicates"], 16);
+    assert_eq!(json["adaptive"]["replicates"], 4);
     let per_vertex = &json["per_vertex"];
     assert_eq!(per_vertex["rays_per_vertex"]["min"], 256.0);
     for quantity in ["rays_per_vertex", "estimated_error"] {
@@ -894,6 +894,61 @@ fn adaptive_bake_is_deterministic_and_inspect_reports_its_rays_and_errors() {
     let exported: Vec<u32> = arrays["rays"].data.iter().map(|&r| r as u32).collect();
     assert_eq!(exported, rays);
     assert_bits_eq("error_estimate", &arrays["error_estimate"].data, errors);
+
+    // Texels: the same estimator per baked texel, deterministic too; inspect summarises the
+    // baked texels only.
+    let texels = |output: &str, threads: &str| {
+        let args = [
+            "--samples",
+            "4096",
+            "--target-error",
+            "2e-3",
+            "--lightmap",
+            "32",
+        ];
+        let run = s.bake(
+            CORNELL,
+            output,
+            &[&args[..], &["--threads", threads]].concat(),
+        );
+        assert!(
+            run.stdout.contains("rays per texel on average"),
+            "summary: {}",
+            run.stdout
+        );
+        s.read(&format!("out/{output}"))
+    };
+    assert!(
+        texels("t1.prt", "1") == texels("t2.prt", "2"),
+        "--threads 1 and --threads 2 gave different adaptive texel files"
+    );
+    let file = CoefficientFile::read(&s.path("out/t1.prt")).unwrap();
+    let valid = &file.lightmap.as_ref().expect("a texel file").valid;
+    let rays = file.rays.as_deref().expect("per-texel rays");
+    for (&r, &v) in rays.iter().zip(valid) {
+        assert_eq!(r > 0, v, "rays {r}, baked {v}");
+    }
+    let run = s.run(&["inspect", "out/t1.prt"]).success();
+    let json: serde_json::Value = serde_json::from_str(&run.stdout).expect("inspect prints JSON");
+    assert_eq!(json["per_texel"]["rays_per_vertex"]["min"], 256.0);
+    // The reader refuses rays at a texel that was not baked (the total kept).
+    let mut bad = file.clone();
+    let rays = bad.rays.as_mut().expect("rays");
+    let (empty, baked) = (
+        valid.iter().position(|&v| !v).expect("an empty texel"),
+        valid.iter().position(|&v| v).expect("a baked texel"),
+    );
+    rays[empty] = 5;
+    rays[baked] -= 5;
+    bad.write(&s.path("out/bad.prt")).unwrap();
+    let Err(err) = CoefficientFile::read(&s.path("out/bad.prt")) else {
+        panic!("rays at texel {empty}, which was not baked, were accepted");
+    };
+    assert!(
+        err.to_string()
+            .contains(&format!("texel {empty} cast 5 rays but is not baked")),
+        "{err}"
+    );
 }
 
 #[test]

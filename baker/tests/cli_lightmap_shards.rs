@@ -234,7 +234,7 @@ fn texel_merges_refuse_parts_of_other_atlases_scenes_and_options() {
     for needle in ["\"atlas_fingerprint\"", "\"baked_texels\"", "\"count\": 3"] {
         assert!(run.stdout.contains(needle), "{needle}: {}", run.stdout);
     }
-    // Lightmap bakes still refuse adaptive sampling.
+    // Adaptive texel bakes are whole bakes: no shards.
     s.run(&[
         "bake",
         CORNELL,
@@ -244,6 +244,8 @@ fn texel_merges_refuse_parts_of_other_atlases_scenes_and_options() {
         "40",
         "--target-error",
         "0.01",
+        "--shard",
+        "0/3",
     ])
     .fails_with(EXIT_BAD_COMMAND_LINE, &["--target-error"]);
 }
@@ -361,4 +363,98 @@ fn a_checkpointed_texel_bake_killed_with_sigkill_resumes_to_the_same_file() {
         "a checkpoint of another bake",
         "use another --checkpoint folder",
     ]);
+}
+
+/// A `.gltf` of two objects whose lightmap UVs (TEXCOORD_1) both cover [0, 1]: a 4×4 floor
+/// and a 2×1 wall standing on it, 6×6 cells each. The bake packs them per object.
+fn overlapping_objects_gltf() -> String {
+    use serde_json::json;
+    let (mut bin, mut views, mut accessors, mut meshes) = (vec![], vec![], vec![], vec![]);
+    let mut add = |bytes: Vec<u8>, count: usize, kind: &str, component: u32| {
+        views.push(json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": bytes.len()}));
+        bin.extend(bytes);
+        let mut accessor = json!({"bufferView": views.len() - 1, "count": count, "type": kind, "componentType": component});
+        if kind == "VEC3" {
+            accessor["min"] = json!([-2.0, 0.0, -2.0]);
+            accessor["max"] = json!([2.0, 1.0, 2.0]);
+        }
+        accessors.push(accessor);
+        accessors.len() - 1
+    };
+    let cells = 6;
+    let walls: [([f32; 3], [f32; 3], [f32; 3]); 2] = [
+        ([-2.0, 0.0, 2.0], [4.0, 0.0, 0.0], [0.0, 0.0, -4.0]),
+        ([-1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 1.0, 0.0]),
+    ];
+    for (name, (origin, u, v)) in ["Floor", "Wall"].iter().zip(walls) {
+        let (mut positions, mut uv1, mut indices) = (vec![], vec![], vec![]);
+        for j in 0..=cells {
+            for i in 0..=cells {
+                let (a, b) = (i as f32 / cells as f32, j as f32 / cells as f32);
+                positions.extend((0..3).map(|k| origin[k] + a * u[k] + b * v[k]));
+                uv1.extend([a, 1.0 - b]);
+            }
+        }
+        for j in 0..cells {
+            for i in 0..cells {
+                let at = |i: u32, j: u32| j * (cells + 1) + i;
+                indices.extend([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+                indices.extend([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+            }
+        }
+        let count = positions.len() / 3;
+        let floats = |x: &[f32]| x.iter().flat_map(|f| f.to_le_bytes()).collect::<Vec<u8>>();
+        let p = add(floats(&positions), count, "VEC3", 5126);
+        let t = add(floats(&uv1), count, "VEC2", 5126);
+        let i = add(
+            indices.iter().flat_map(|i| i.to_le_bytes()).collect(),
+            indices.len(),
+            "SCALAR",
+            5125,
+        );
+        meshes.push(json!({"name": name, "primitives": [{"attributes": {"POSITION": p, "TEXCOORD_1": t}, "indices": i}]}));
+    }
+    json!({
+        "asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0, 1]}],
+        "nodes": [{"name": "Floor", "mesh": 0}, {"name": "Wall", "mesh": 1}],
+        "meshes": meshes, "accessors": accessors, "bufferViews": views,
+        "buffers": [{"byteLength": bin.len(), "uri": format!("data:application/octet-stream;base64,{}", base64(&bin))}],
+    })
+    .to_string()
+}
+
+/// Objects whose own lightmap UVs overlap each other are packed per object; their parts
+/// carry the placements, so shards merge, and a checkpointed bake resumes, to the whole
+/// bake's file (placements included), shadowed and interreflected.
+#[test]
+fn per_object_atlases_shard_and_checkpoint_like_whole_bakes() {
+    let s = Scratch::new();
+    s.write("objects.gltf", overlapping_objects_gltf());
+    assert_merge_of(&s, "objects.gltf", "objects", &["--aux", "ao"]);
+    let bounces = ["--mode", "interreflected", "--bounces", "2"];
+    assert_merge_of(&s, "objects.gltf", "objects-rgb", &bounces);
+    let inspected = s.run(&["inspect", "out/objects.merged.prt"]).success();
+    let placements = inspected.stdout.matches("\"scale\"").count();
+    assert_eq!(placements, 2, "{}", inspected.stdout);
+
+    // A checkpointed bake over blocks of 64 texels, run to the end, is the whole bake.
+    s.run(&[
+        "bake",
+        "objects.gltf",
+        "-o",
+        "out/checkpointed.prt",
+        "--quiet",
+        "--lightmap",
+        "40",
+        "--samples",
+        "64",
+        "--aux",
+        "ao",
+        "--checkpoint",
+        "out/objects-checkpoint",
+        "--checkpoint-vertices",
+        "64",
+    ])
+    .success();
+    assert!(s.read("out/checkpointed.prt") == s.read("out/objects.prt"));
 }

@@ -12,10 +12,6 @@ const CORNELL: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
     "/../scenes/cornell/cornell.scene"
 );
-const RIG: &str = concat!(
-    env!("CARGO_MANIFEST_DIR"),
-    "/../viewer/src/default-rig.toml"
-);
 
 /// The shape and data of array `name` of an npz export (little-endian float32).
 fn npz_array(s: &Scratch, file: &str, name: &str) -> Option<(String, Vec<f32>)> {
@@ -69,17 +65,8 @@ fn a_matrix_bake_is_inspected_exported_and_refused_where_unsupported() {
         }
     }
 
+    // `relight` reads matrix bakes (tests/cli_glossy.rs); glTF export does not yet.
     let refusal = "a transfer-matrix bake (--transfer matrix)";
-    s.run(&[
-        "relight",
-        CORNELL,
-        "out/m.prt",
-        "--lights",
-        RIG,
-        "-o",
-        "out/m.ply",
-    ])
-    .fails_with_bad_input(&[refusal]);
     s.run(&[
         "export",
         "out/m.prt",
@@ -90,6 +77,53 @@ fn a_matrix_bake_is_inspected_exported_and_refused_where_unsupported() {
     ])
     .fails_with_bad_input(&[refusal]);
     s.assert_out_holds(&["m.npz", "m.prt", "v.prt"]);
+}
+
+#[test]
+fn an_interreflected_matrix_bake_has_a_matrix_per_channel() {
+    // The Cornell room's red and green walls: three channels, each a full n² × n² matrix,
+    // no longer symmetric (the bounced light is not), and the red wall's bounce tints it.
+    let s = Scratch::new();
+    s.bake(
+        CORNELL,
+        "m.prt",
+        &[
+            "--transfer",
+            "matrix",
+            "--mode",
+            "interreflected",
+            "--bounces",
+            "2",
+        ],
+    );
+    let inspect: serde_json::Value =
+        serde_json::from_str(&s.run(&["inspect", "out/m.prt"]).success().stdout).unwrap();
+    assert_eq!(inspect["transfer"], "matrix");
+    assert_eq!(inspect["mode"], "interreflected");
+    assert_eq!(inspect["bounces"], 2);
+    assert_eq!(inspect["channels"], 3);
+    s.run(&[
+        "export",
+        "out/m.prt",
+        "--scene",
+        CORNELL,
+        "--npz",
+        "out/m.npz",
+    ])
+    .success();
+    let (header, matrices) = npz_array(&s, "out/m.npz", "transfer_matrix").expect("an array");
+    assert!(header.contains("(2944, 3, 16, 16)"), "{header}");
+    let asymmetric = matrices
+        .chunks_exact(256)
+        .filter(|m| (0..16).any(|i| (0..16).any(|j| m[i * 16 + j] != m[j * 16 + i])))
+        .count();
+    assert!(asymmetric > 1000, "{asymmetric} asymmetric matrices");
+    let tinted = matrices
+        .chunks_exact(3 * 256)
+        .filter(|rgb| rgb[0] != rgb[256] || rgb[256] != rgb[512])
+        .count();
+    assert!(tinted > 1000, "{tinted} vertices with coloured matrices");
+    s.assert_out_holds(&["m.npz", "m.prt"]);
 }
 
 #[test]
@@ -108,10 +142,6 @@ fn unsupported_matrix_bakes_are_usage_errors() {
         args.extend(extra);
         s.run(&args)
     };
-    bake(&["--transfer", "matrix", "--mode", "interreflected"]).fails_with(
-        EXIT_BAD_COMMAND_LINE,
-        &["--mode interreflected is not implemented yet"],
-    );
     bake(&["--transfer", "matrix", "--lightmap", "32"]).fails_with(
         EXIT_BAD_COMMAND_LINE,
         &["--transfer matrix with --lightmap"],

@@ -2,12 +2,15 @@
 
     from prt import read_prt
     f = read_prt("out/torus.prt")
-    f.transfer          # (V, channels, n²) float32: T[v, c, j], j = l(l+1)+m
+    f.transfer          # (V, channels, n²) float32: T[v, c, j], j = l(l+1)+m; for a
+                        # transfer-matrix bake (f.header["transfer"] == "matrix") the
+                        # (V, channels, n², n²) matrices M[v, c, i, j] (export's transfer_matrix)
     f.ao, f.bent_normal # (V,) and (V, 3) where the bake stored them (--aux), else None
     f.rays              # adaptive bakes (--target-error): (V,) uint32 rays cast, else None
     f.error_estimate    # adaptive bakes: (V,) float32 estimated RMS coefficient error, else None
     f.lightmap          # texel bakes (--lightmap): a Lightmap (below), else None
-    f.header            # dict: order, channels, vertex_count, mode, up, ..., and for
+    f.header            # dict: order, channels, vertex_count, mode, transfer ("vector" or
+                        # "matrix"), up, ..., and for
                         # adaptive bakes "adaptive": {target_error, replicates, rays_cast}
 
 A texel (lightmap) bake of a W×H lightmap stores its texels as the vertices, row-major; this
@@ -18,8 +21,10 @@ reader shapes its arrays as `prt-bake export --npz` does: transfer (H, W, channe
 (triangles, 3, 2) float32 lightmap UVs per triangle corner, and .valid,
 .dilated (H, W) bool texel states (baked; padding dilated from baked neighbours).
 
-Every variant of version 1 is read: grey or RGB transfer, any order 1..45, the auxiliary
-arrays, z- or y-up, adaptive bakes and texel bakes. A shard part (`prt-bake bake --shard`)
+Every variant of version 1 is read: grey or RGB transfer, vectors or matrices (`bake
+--transfer matrix`), any order 1..45, the auxiliary arrays, z- or y-up, adaptive bakes and
+texel bakes. Compressed (version 2) files are not read: `prt-bake export --npz` reconstructs
+them. A shard part (`prt-bake bake --shard`)
 is refused: combine the parts with `prt-bake merge` first. The checks are
 docs/coefficient-format.md's ("What a reader must check"), in the reference reader's
 order (baker/src/coefficient_file.rs); a file that fails one raises PrtError with the
@@ -39,6 +44,7 @@ MODES = {0: "unshadowed", 1: "shadowed", 2: "interreflected"}
 BACKENDS = {0: "none", 1: "embree", 2: "obvhs"}
 SAMPLINGS = {0: "owen-sobol", 1: "thesis-random"}
 UP_AXES = {0: "z", 1: "y"}
+TRANSFER_KINDS = {0: "vector", 1: "matrix"}
 ATLAS_SOURCES = {0: "generated", 1: "scene-uvs", 2: "per-object"}
 AUX_AO, AUX_BENT_NORMAL, AUX_RAYS, AUX_ERROR = 1, 2, 4, 8
 AUX_ADAPTIVE = AUX_RAYS | AUX_ERROR  # adaptive bakes: both or neither
@@ -116,11 +122,17 @@ def parse_prt(b):
         raise PrtError(f"SH order {order} is outside 1..=45")
     if channels not in (1, 3):
         raise PrtError(f"{channels} channels (1 or 3 are defined)")
-    for value, table, what in ((u32(36), MODES, "mode"), (u32(44), BACKENDS, "backend"),
+    # Bytes 36..40: the mode (u16) and the transfer kind (u16; 0 in every vector file, so a
+    # reader of the old u32 mode refuses a matrix file).
+    mode_code, kind = int(np.frombuffer(b, "<u2", 1, 36)[0]), int(np.frombuffer(b, "<u2", 1, 38)[0])
+    if kind not in TRANSFER_KINDS:
+        raise PrtError(f"unknown transfer kind {kind} (0 = vector, 1 = matrix)")
+    transfer_kind = TRANSFER_KINDS[kind]
+    for value, table, what in ((mode_code, MODES, "mode"), (u32(44), BACKENDS, "backend"),
                                (u32(64), SAMPLINGS, "sampling method"), (u32(84), UP_AXES, "up axis")):
         if value not in table:
             raise PrtError(f"unknown {what} {value}")
-    mode, samples, bounces, bounce_samples = MODES[u32(36)], u32(32), u32(40), u32(80)
+    mode, samples, bounces, bounce_samples = MODES[mode_code], u32(32), u32(40), u32(80)
     if (mode == "interreflected") != (bounces > 0):
         raise PrtError(f"{bounces} bounces in a {mode} file")
     if not (1 <= bounce_samples <= samples if mode == "interreflected" else bounce_samples == 0):
@@ -130,6 +142,8 @@ def parse_prt(b):
     if aux & ~(AUX_AO | AUX_BENT_NORMAL | AUX_ADAPTIVE):
         raise PrtError(f"unknown auxiliary-array flags {aux:#x}")
     adaptive = _read_adaptive(b, aux, mode, SAMPLINGS[u32(64)])
+    if adaptive and transfer_kind == "matrix":
+        raise PrtError("a target error in a transfer-matrix file (matrix bakes are not adaptive)")
     shard = b[88:108]
     if any(shard):
         count, index, first, part_vertices = u32(88), u32(92), u64(96), u32(104)
@@ -151,9 +165,11 @@ def parse_prt(b):
         lightmap = Lightmap(width, height, u64(136), u64(144), float(texel_size),
                             ATLAS_SOURCES[u32(156)], None, None, None)
     n2 = order * order
+    # Floats per vertex and channel, and their shape: a vector of n², or an n² × n² matrix.
+    per_channel, shape_of_channel = (n2, (n2,)) if transfer_kind == "vector" else (n2 * n2, (n2, n2))
     aux_floats = ((1 if aux & AUX_AO else 0) + (3 if aux & AUX_BENT_NORMAL else 0)
                   + (2 if adaptive else 0))
-    needed = vertices * (channels * n2 + aux_floats) * 4
+    needed = vertices * (channels * per_channel + aux_floats) * 4
     object_section = 0
     if lightmap is not None:
         needed += lightmap.scene_triangle_count * 6 * 4 + vertices
@@ -174,7 +190,7 @@ def parse_prt(b):
         "backend": BACKENDS[u32(44)], "seed": u64(48), "scene_fingerprint": f"{u64(56):016x}",
         "sampling": SAMPLINGS[u32(64)], "bounce_samples": bounce_samples, "up": UP_AXES[u32(84)],
         "aux": [name for bit, name in ((AUX_AO, "ao"), (AUX_BENT_NORMAL, "bent-normal")) if aux & bit],
-        "checksum": f"{u32(CHECKSUM_OFFSET):08x}",
+        "checksum": f"{u32(CHECKSUM_OFFSET):08x}", "transfer": transfer_kind,
     }
     if adaptive:
         header["adaptive"] = adaptive
@@ -187,15 +203,17 @@ def parse_prt(b):
         offset += array.nbytes
         return array
 
-    transfer = take("<f4", vertices * channels * n2).reshape(vertices, channels, n2)
+    transfer = take("<f4", vertices * channels * per_channel).reshape(vertices, channels, *shape_of_channel)
     ao = take("<f4", vertices) if aux & AUX_AO else None
     bent_normal = take("<f4", 3 * vertices).reshape(vertices, 3) if aux & AUX_BENT_NORMAL else None
     rays = error_estimate = None
     if adaptive:
         rays, error_estimate = take("<u4", vertices), take("<f4", vertices)
-        if np.any((rays < 1) | (rays > samples)):
-            v = int(np.argmax((rays < 1) | (rays > samples)))
-            raise PrtError(f"vertex {v} cast {rays[v]} rays, outside 1..={samples} (the samples per vertex)")
+        # Texel bakes: the texels not baked cast none (checked against the mask below).
+        least, what = (0, "texel") if lightmap is not None else (1, "vertex")
+        if np.any((rays < least) | (rays > samples)):
+            v = int(np.argmax((rays < least) | (rays > samples)))
+            raise PrtError(f"{what} {v} cast {rays[v]} rays, outside {least}..={samples} (the samples per {what})")
         total = int(rays.sum(dtype=np.uint64))
         if total != adaptive["rays_cast"]:
             raise PrtError(f"the per-vertex rays add up to {total}, the header says {adaptive['rays_cast']} were cast")
@@ -219,6 +237,9 @@ def parse_prt(b):
         shape = (lightmap.height, lightmap.width)
         lightmap.uv1 = uv1
         lightmap.valid, lightmap.dilated = (states == 1).reshape(shape), (states == 2).reshape(shape)
+        if rays is not None and np.any((rays > 0) != (states == 1)):
+            t = int(np.argmax((rays > 0) != (states == 1)))
+            raise PrtError(f"texel {t} cast {rays[t]} rays but is {'' if states[t] == 1 else 'not '}baked")
         if object_section:
             count = int(take("<u4", 1)[0])
             if count != (object_section - 4) // 20:
@@ -231,7 +252,7 @@ def parse_prt(b):
                 lightmap.objects.append({"scale": tuple(map(float, floats[:2])),
                                          "offset": tuple(map(float, floats[2:])),
                                          "uvs": ("own", "generated-overlapping", "generated-missing")[kind]})
-        transfer = transfer.reshape(*shape, channels, n2)
+        transfer = transfer.reshape(*shape, channels, *shape_of_channel)
         ao = None if ao is None else ao.reshape(shape)
         bent_normal = None if bent_normal is None else bent_normal.reshape(*shape, 3)
         rays = None if rays is None else rays.reshape(shape)

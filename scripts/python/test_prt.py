@@ -1,5 +1,6 @@
 """Tests prt.py against `prt-bake export --npz` and `prt-bake inspect` on every variant:
 grey and RGB transfer, orders 1, 3, 4 and 5, with and without the aux arrays, z- and y-up,
+transfer matrices (orders 2 and 3, shadowed and unshadowed, y-up),
 an adaptive bake (rays cast, estimated errors) and texel (lightmap) bakes; that a shard part
 is refused; and that corrupted or truncated files of each kind are refused with the reason.
 Usage: test_prt.py PRT_BAKE OUT_DIR."""
@@ -30,10 +31,14 @@ VARIANTS = {
     # Adaptive bakes are shadowed; --target-error needs --samples >= 256. 3e-3 spreads the
     # per-vertex rays over 256..1024 on the Cornell box.
     "adaptive-aux": (cornell, ["--samples", "4096", "--target-error", "3e-3", "--aux", "ao,bent-normal"]),
+    "adaptive-lightmap16": (cornell, ["--lightmap", "16", "--samples", "4096", "--target-error", "3e-3"]),
     "lightmap16-aux": (cornell, ["--lightmap", "16", "--samples", "16", "--aux", "ao,bent-normal"]),
     # 21² = 441 state bytes: the payload is not a whole number of floats.
     "lightmap21-texel-size-unshadowed": (cornell, ["--lightmap", "21", "--texel-size", "1", "--order", "3",
                                                    "--mode", "unshadowed"]),
+    "matrix-order3-aux": (torus, ["--transfer", "matrix", "--order", "3", "--aux", "ao"]),
+    "matrix-order2-unshadowed-y-up": (cornell, ["--transfer", "matrix", "--order", "2", "--mode", "unshadowed",
+                                                "--up", "y"]),
 }
 # What export writes from the scene rather than from the file.
 SCENE_ARRAYS = {"positions", "normals", "albedo", "uv", "triangles", "texel_positions", "texel_normals"}
@@ -45,7 +50,7 @@ def run(*args):
 
 def arrays_of(f):
     """prt.py's arrays under the names export --npz gives them."""
-    ours = {"transfer": f.transfer, "ao": f.ao, "bent_normal": f.bent_normal, "rays": f.rays,
+    ours = {"transfer_matrix" if f.header["transfer"] == "matrix" else "transfer": f.transfer, "ao": f.ao, "bent_normal": f.bent_normal, "rays": f.rays,
             "error_estimate": f.error_estimate}
     if f.lightmap is not None:
         ours.update(uv1=f.lightmap.uv1, texel_valid=f.lightmap.valid, texel_dilated=f.lightmap.dilated)
@@ -70,7 +75,9 @@ for name, (scene, extra) in VARIANTS.items():
     run("export", str(prt), "--scene", scene, "--npz", str(npz))
     f, arrays = read_prt(prt), np.load(npz)
     inspected = json.loads(run("inspect", str(prt)))
-    assert all(inspected[key] == value for key, value in f.header.items()), (name, f.header, inspected)
+    # inspect names the transfer kind of matrix files only.
+    assert all(inspected.get(key, "vector" if key == "transfer" else None) == value
+               for key, value in f.header.items()), (name, f.header, inspected)
     assert ("adaptive" in f.header) == ("adaptive" in inspected), name
     # Every array of the file, and only those, equal to the export's, shape and values.
     ours = arrays_of(f)
@@ -84,10 +91,12 @@ for name, (scene, extra) in VARIANTS.items():
         assert arrays["triangles"].dtype == np.uint32 and arrays["triangles"].max() < f.header["vertex_count"]
     if f.rays is not None:
         assert f.rays.dtype == np.uint32 and len(np.unique(f.rays)) > 1, (name, "rays do not vary")
-        per_vertex = inspected["per_vertex"]
-        assert same_summary(nearest_rank_summary(f.rays), per_vertex["rays_per_vertex"]), name
-        assert same_summary(nearest_rank_summary(f.error_estimate), per_vertex["estimated_error"]), name
-        above = int(np.sum(f.error_estimate > np.float32(f.header["adaptive"]["target_error"])))
+        # Texel bakes summarise the baked texels only.
+        baked = np.ones(f.rays.shape, bool) if f.lightmap is None else f.lightmap.valid
+        per_vertex = inspected["per_vertex" if f.lightmap is None else "per_texel"]
+        assert same_summary(nearest_rank_summary(f.rays[baked]), per_vertex["rays_per_vertex"]), name
+        assert same_summary(nearest_rank_summary(f.error_estimate[baked]), per_vertex["estimated_error"]), name
+        above = int(np.sum(f.error_estimate[baked] > np.float32(f.header["adaptive"]["target_error"])))
         assert above == per_vertex["vertices_above_target"], name
     lightmap = f.lightmap
     assert (lightmap is None) == ("lightmap" not in inspected), name
@@ -144,6 +153,18 @@ for broken, reason in ((data[:-4], "announces"), (data[:200] + b"\0" + data[201:
                        (patched(data, 40, np.uint32(1)), "bounces")):
     refused(broken, reason, "vertex file")
 print("test_prt.py: truncated, corrupted and foreign files are refused by prt.py and by prt-bake inspect")
+
+# A matrix file: the transfer kind is the u16 at 38 (the mode the u16 at 36).
+data = (out / "matrix-order3-aux.prt").read_bytes()
+f = parse_prt(data)
+V = f.header["vertex_count"]
+assert f.transfer.shape == (V, 1, 9, 9) and np.array_equal(f.transfer, f.transfer.transpose(0, 1, 3, 2))
+for broken, reason in ((patched(data, 38, np.uint16(2)), "unknown transfer kind 2"),
+                       (patched(data, 38, np.uint16(0)), "payload size"),
+                       (patched(data, 36, np.uint16(3)), "unknown mode 3"),
+                       (patched(data, 128 + 4 * 80, np.float32(np.inf)), "coefficient")):
+    refused(broken, reason, "matrix file")
+print("test_prt.py: corrupted matrix files are refused by prt.py and by prt-bake inspect")
 
 # Adaptive: payload after 128 + V*(16 + 1 + 3)*4 bytes: rays (V u32), then errors (V f32).
 data = (out / "adaptive-aux.prt").read_bytes()

@@ -1,58 +1,61 @@
 //! Adaptive sampling to a stated accuracy (`--target-error E`).
 //!
-//! Each vertex casts rays in rounds and stops when its **estimated RMS coefficient error**
-//! (the root mean square, over its n² coefficients, of the error of its transfer) is at most E,
-//! or when it has cast `--samples` rays.
+//! Each receiver (vertex or texel) casts a small **pilot**, predicts from it how many points
+//! **one** Owen-scrambled Sobol net needs for its RMS coefficient error (the root mean square,
+//! over its n² coefficients, of the error of its transfer) to be at most E, and casts that net,
+//! which extends the pilot's first replicate (nested: no point is cast twice). `--samples` caps
+//! the rays.
 //!
-//! # Where the error estimate comes from: independent Owen scrambles
+//! # Why one net, and why a pilot of replicates
 //!
-//! An Owen-scrambled Sobol point set is far from a set of independent samples: its error is
-//! much smaller than σ/√N for smooth parts of the integrand, so the per-sample variance
-//! (σ²/N) overstates it, often by an order of magnitude, and would make vertices cast rays they
-//! do not need. The standard honest route is *randomised QMC replicates* (Owen 1997; L'Ecuyer
-//! and Lemieux 2000): the bake draws [`REPLICATES`] = K independently scrambled Sobol point
-//! sets. Each of them alone gives an unbiased estimate T̂_k of the vertex's transfer, the K
-//! estimates are independent (given the vertex's frame), so
+//! An Owen-scrambled Sobol net is far more accurate than independent samples: its variance
+//! falls as N^-1.5 where the integrand has edges (shadows) and faster where it is smooth, so
+//! the per-sample variance σ²/N overstates its error. Its error can be estimated honestly only
+//! from *independent replicates* (Owen 1997; L'Ecuyer and Lemieux 2000): K independently
+//! scrambled sets, each giving an unbiased T̂_k, with
 //!
 //! ```text
-//!     T̄ = (1/K) Σ_k T̂_k,      Var̂(T̄_j) = Σ_k (T̂_k,j − T̄_j)² / (K (K − 1))
+//!     T̄ = (1/K) Σ_k T̂_k,      Var̂(T̄_j) = Σ_k (T̂_k,j − T̄_j)² / (K (K − 1)).
 //! ```
 //!
-//! is an unbiased estimate of the variance of the mean, whatever the points' correlations
-//! within a replicate. The estimated RMS error is √((1/n²) Σ_j Var̂(T̄_j)); the SH rotation
-//! into world space is orthogonal band by band, so it is the same in the local and the world
-//! frame. The stored transfer is T̄, the plain average of every ray the vertex cast.
+//! But K nets of m points are much less accurate than one net of K·m (variance K^-1 against
+//! K^-1.5): the previous design, 16 replicates doubling to the end, cast 1.8 × the rays of the
+//! fixed bake it matched. Here only the pilot is replicated:
 //!
-//! # Rounds
+//! 1. **Pilot**: [`REPLICATES`] = 4 scrambles of m = [`MIN_POINTS`] = 64 points (256 rays).
+//!    Their spread gives one replicate's RMS error s (√K × the replicate error above; the SH
+//!    rotation into world space is orthogonal band by band, so local and world agree). If
+//!    their mean is within E (s/√K ≤ E), the receiver stops: the stored transfer is T̄ and the
+//!    stored estimate s/√K, exactly the replicate estimate.
+//! 2. **Net**: otherwise the first replicate is extended to the smallest N = m·2^r with
+//!    [`predicted_error`] s·(m/N)^(RATE/2) ≤ E, RATE = 1.5; the stored transfer is that net's
+//!    mean, and the stored estimate the predicted error at N. The other replicates' 3m rays
+//!    are not used in the transfer (they would change it by a few per cent of its variance).
+//! 3. **Features**: every receiver casts at least 1/(√(4π)·E) rays ([`feature_rays`]): a
+//!    feature that no ray hits then changes its coefficients by at most E in RMS. Without this
+//!    floor, a demo-scene vertex with an unseen sliver of sky stopped at the pilot with an
+//!    estimate of 0 and a true error of 2.4e-3.
 //!
-//! In each round every replicate adds points, doubling its count (so each replicate is a
-//! whole (0,m,2)-net after each round but the last, which the `--samples` cap may cut): the
-//! vertex casts K·m rays in all after a round of m points per replicate.
+//! The prediction's rate is a model; the oracle test (`tests/adaptive.rs`) holds it to the
+//! truth (true error ≤ 1.5 E at ≥ 95 % of trials, RMS estimate close to the RMS true error),
+//! and `examples/adaptive_vs_fixed.rs` measures it against fixed bakes (docs/performance.md).
 //!
-//! The first round is large enough that a vertex does not stop early by luck:
-//! * at least [`MIN_POINTS`] points per replicate, so the K-sample variance has K − 1 = 15
-//!   degrees of freedom per coefficient (with 15, an estimate below 1/1.5 of the true error
-//!   happens with probability ≈ 3 %, before pooling the n² coefficients);
-//! * at least 1/(√(4π)·E) rays, so that a feature the first round misses entirely (one the
-//!   stratified points can miss has a cosine-weighted measure p below 1/N) changes the
-//!   vertex's coefficients by p·y_j(s), whose RMS over j is p/√(4π) (the addition theorem:
-//!   Σ_j y_j(s)² = n²/4π) ≤ E.
-//!
-//! Every quantity is a pure function of (seed, vertex, sample index), and sums are formed in a
-//! fixed order, so an adaptive bake is bit-identical for any number of threads.
+//! Every quantity is a pure function of (seed, receiver, sample index), and sums are formed in
+//! a fixed order, so an adaptive bake is bit-identical for any number of threads.
 //!
 //! # Scope
 //!
-//! Shadowed mode with Owen–Sobol sampling only; the options refuse the rest
-//! ([`BakeOptions::validate`]): unshadowed bakes cast no rays, the thesis's random sampling is the
-//! baseline adaptive sampling is measured against, and in interreflected mode the bounce rows
-//! would be built from a number of rays that differs per vertex (not supported yet).
+//! Shadowed mode with Owen–Sobol sampling only, vertices or lightmap texels; the options
+//! refuse the rest ([`BakeOptions::validate`]): unshadowed bakes cast no rays, the thesis's
+//! random sampling is the baseline adaptive sampling is measured against, and in
+//! interreflected mode the bounce rows would be built from a number of rays that differs per
+//! receiver (not supported yet).
 
 use glam::{Mat3, Vec3};
 use serde::Serialize;
 
 use crate::bake::options::BakeOptions;
-pub use crate::bake::options::{MIN_POINTS, REPLICATES};
+pub use crate::bake::options::{MIN_POINTS, RATE, REPLICATES};
 use crate::math::sampling::{OwenSobol, cosine_hemisphere, hilbert_index, vertex_seed};
 use crate::math::sh::Basis;
 use crate::trace::Tracer;
@@ -60,74 +63,113 @@ use crate::trace::Tracer;
 /// Rays per tracer call.
 const BATCH: usize = 256;
 
-/// Points per replicate after each round (cumulative): doubling from the first round's
-/// count to the cap of ⌊samples / K⌋.
-pub fn schedule(target: f32, samples: u32) -> Vec<u32> {
-    let cap = samples / REPLICATES as u32;
-    let feature_rays = (1.0 / ((4.0 * std::f64::consts::PI).sqrt() * f64::from(target))).ceil();
-    let feature_points = (feature_rays / REPLICATES as f64).min(f64::from(cap)) as u32;
-    let mut points = feature_points.max(MIN_POINTS).next_power_of_two().min(cap);
-    let mut rounds = vec![points];
-    while points < cap {
-        points = (points * 2).min(cap);
-        rounds.push(points);
-    }
-    rounds
+/// The pilot's points per replicate: [`MIN_POINTS`], or what the cap leaves each replicate.
+pub fn pilot_points(samples: u32) -> u32 {
+    MIN_POINTS.min(samples / REPLICATES as u32)
 }
 
-/// The bake's K scrambled point sets, cosine-weighted in the local frame, with y_j at every
-/// point, laid out round by round: round r's rows hold every replicate's new points, sorted
-/// along a Hilbert curve (close directions trace faster; the sums do not depend on the order).
+/// Rays that see any feature worth more than E: a feature no ray hits (one whose
+/// cosine-weighted measure p is below 1/N for N stratified points) changes the receiver's
+/// coefficients by p·y_j(s), whose RMS over j is p/√(4π) (the addition theorem:
+/// Σ_j y_j(s)² = n²/4π), so N ≥ 1/(√(4π)·E) keeps it ≤ E.
+pub fn feature_rays(target: f32) -> u32 {
+    (1.0 / ((4.0 * std::f64::consts::PI).sqrt() * f64::from(target))).ceil() as u32
+}
+
+/// The bake's point sets, cosine-weighted in the local frame, with y_j at every point: first
+/// the pilot (K replicates of m points, independently scrambled), then the extension of
+/// replicate 0 round by round (its points m..2m, 2m..4m, …, up to the cap), each block sorted
+/// along a Hilbert curve (close directions trace faster; sums do not depend on the order).
 pub struct Tables {
     pub target: f32,
-    /// Points per replicate after each round.
+    /// Points of each pilot replicate (m).
+    pub pilot: u32,
+    /// Points of replicate 0 (the net) after each block: m, 2m, 4m, …, the cap.
     pub rounds: Vec<u32>,
+    /// The least net: with the pilot's other replicates, 1/(√(4π)·E) rays in all.
+    pub feature_net: u32,
     dirs: Vec<Vec3>,
     /// y_j(dirs[i]) at `[i·n² + j]`.
     sh: Vec<f32>,
-    /// The replicate each row belongs to.
+    /// The replicate each pilot row belongs to.
     replicate: Vec<u8>,
 }
 
 impl Tables {
     pub fn new(options: &BakeOptions, basis: &Basis) -> Tables {
         let target = options.target_error.expect("an adaptive bake");
-        let rounds = schedule(target, options.samples);
-        let sets: Vec<OwenSobol> = (0..REPLICATES as u64)
-            .map(|k| OwenSobol::new(vertex_seed(options.seed, u64::MAX - 1 - k)))
+        let k = REPLICATES;
+        let m = pilot_points(options.samples);
+        let net_cap = options.samples - (k as u32 - 1) * m;
+        let mut rounds = vec![m];
+        while *rounds.last().unwrap() < net_cap {
+            rounds.push((rounds.last().unwrap() * 2).min(net_cap));
+        }
+        let sets: Vec<OwenSobol> = (0..k as u64)
+            .map(|r| OwenSobol::new(vertex_seed(options.seed, u64::MAX - 1 - r)))
             .collect();
         let (mut dirs, mut replicate) = (Vec::new(), Vec::new());
-        let mut done = 0;
-        for &points in &rounds {
-            let mut round: Vec<(u64, u8, f32, f32)> = Vec::new();
-            for (k, set) in sets.iter().enumerate() {
-                for i in done..points {
-                    let (u1, u2) = set.point(i);
-                    round.push((hilbert_index(u1, u2), k as u8, u1, u2));
-                }
+        let mut block: Vec<(u64, u8, f32, f32)> = Vec::new();
+        for (r, set) in sets.iter().enumerate() {
+            for i in 0..m {
+                let (u1, u2) = set.point(i);
+                block.push((hilbert_index(u1, u2), r as u8, u1, u2));
             }
-            round.sort_by_key(|&(h, k, _, _)| (h, k));
+        }
+        let mut push = |block: &mut Vec<(u64, u8, f32, f32)>| {
+            block.sort_by_key(|&(h, r, _, _)| (h, r));
             dirs.extend(
-                round
+                block
                     .iter()
                     .map(|&(_, _, u1, u2)| cosine_hemisphere(u1, u2)),
             );
-            replicate.extend(round.iter().map(|&(_, k, _, _)| k));
-            done = points;
+            replicate.extend(block.iter().map(|&(_, r, _, _)| r));
+            block.clear();
+        };
+        push(&mut block);
+        for pair in rounds.windows(2) {
+            for i in pair[0]..pair[1] {
+                let (u1, u2) = sets[0].point(i);
+                block.push((hilbert_index(u1, u2), 0, u1, u2));
+            }
+            push(&mut block);
         }
         let n = basis.coeff_count();
         let mut sh = vec![0.0; dirs.len() * n];
         for (row, d) in sh.chunks_mut(n).zip(&dirs) {
             basis.eval(*d, row);
         }
+        let feature_net = feature_rays(target).saturating_sub((k as u32 - 1) * m);
         Tables {
             target,
+            pilot: m,
             rounds,
+            feature_net,
             dirs,
             sh,
             replicate,
         }
     }
+
+    /// The net size (an entry of `rounds`) predicted to reach the target from the pilot's
+    /// per-replicate RMS error `spread` at m points: the smallest m·2^r of at least
+    /// `feature_net` points with [`predicted_error`] ≤ E, or the cap.
+    pub fn net_points(&self, spread: f64) -> u32 {
+        for &points in &self.rounds {
+            if predicted_error(spread, self.pilot, points) <= f64::from(self.target)
+                && self.feature_net <= points
+            {
+                return points;
+            }
+        }
+        *self.rounds.last().expect("at least the pilot")
+    }
+}
+
+/// The RMS error of one net of `points` points predicted from the RMS error `spread` of one
+/// replicate of `pilot` points: spread·(pilot/points)^(RATE/2).
+pub fn predicted_error(spread: f64, pilot: u32, points: u32) -> f64 {
+    spread * (f64::from(pilot) / f64::from(points)).powf(0.5 * RATE)
 }
 
 /// What one vertex's adaptive estimate gives besides its coefficients.
@@ -152,9 +194,55 @@ pub struct AdaptiveScratch {
     totals: Vec<f64>,
 }
 
-/// Estimates vertex `v`'s local-frame transfer into `local` (n² values): rays from `origin`
-/// along `frame` × the table's directions, round after round, until the estimated RMS error
-/// is at most the target or the last round is done. With no tracer nothing is blocked.
+/// Casts rows `rows` of the tables from `origin` along `frame`, adding each unblocked row's
+/// y_j to its replicate's totals.
+#[allow(clippy::too_many_arguments)]
+fn cast(
+    tables: &Tables,
+    n: usize,
+    rows: std::ops::Range<usize>,
+    origin: Vec3,
+    frame: &Mat3,
+    tracer: Option<&dyn Tracer>,
+    s: &mut AdaptiveScratch,
+    unblocked: &mut u32,
+    bent: &mut Vec3,
+) {
+    for batch in rows.clone().step_by(BATCH) {
+        let batch = batch..(batch + BATCH).min(rows.end);
+        let len = batch.len();
+        s.dirs.clear();
+        s.dirs
+            .extend(tables.dirs[batch.clone()].iter().map(|d| *frame * *d));
+        match tracer {
+            Some(tracer) => tracer.occluded_from(origin, &s.dirs, &mut s.occluded[..len]),
+            None => s.occluded[..len].fill(false),
+        }
+        s.batch.fill(0.0);
+        let sh = tables.sh[batch.start * n..batch.end * n].chunks_exact(n);
+        for (((row, &blocked), &r), dir) in sh
+            .zip(&s.occluded[..len])
+            .zip(&tables.replicate[batch.clone()])
+            .zip(&s.dirs)
+        {
+            if !blocked {
+                let sums = &mut s.batch[usize::from(r) * n..][..n];
+                for (acc, y) in sums.iter_mut().zip(row) {
+                    *acc += y;
+                }
+                *unblocked += 1;
+                *bent += *dir;
+            }
+        }
+        for (total, b) in s.totals.iter_mut().zip(&s.batch) {
+            *total += f64::from(*b);
+        }
+    }
+}
+
+/// Estimates vertex `v`'s local-frame transfer into `local` (n² values): the pilot, then, if
+/// its mean is not yet within the target, one net of the predicted size. With no tracer
+/// nothing is blocked.
 pub fn receiver_transfer(
     tables: &Tables,
     n: usize,
@@ -165,58 +253,58 @@ pub fn receiver_transfer(
     local: &mut [f64],
 ) -> VertexResult {
     let k = REPLICATES;
+    let m = tables.pilot;
     s.totals.clear();
     s.totals.resize(k * n, 0.0);
     s.batch.resize(k * n, 0.0);
     s.occluded.resize(BATCH, false);
     let (mut unblocked, mut bent) = (0u32, Vec3::ZERO);
-    let (mut start, mut points, mut error) = (0usize, 0u32, f64::INFINITY);
-    for &round_points in &tables.rounds {
-        let end = start + k * (round_points - points) as usize;
-        for batch in (start..end).step_by(BATCH) {
-            let batch = batch..(batch + BATCH).min(end);
-            let len = batch.len();
-            s.dirs.clear();
-            s.dirs
-                .extend(tables.dirs[batch.clone()].iter().map(|d| *frame * *d));
-            match tracer {
-                Some(tracer) => tracer.occluded_from(origin, &s.dirs, &mut s.occluded[..len]),
-                None => s.occluded[..len].fill(false),
-            }
-            s.batch.fill(0.0);
-            let rows = tables.sh[batch.start * n..batch.end * n].chunks_exact(n);
-            for (((row, &blocked), &r), dir) in rows
-                .zip(&s.occluded[..len])
-                .zip(&tables.replicate[batch.clone()])
-                .zip(&s.dirs)
-            {
-                if !blocked {
-                    let sums = &mut s.batch[usize::from(r) * n..][..n];
-                    for (acc, y) in sums.iter_mut().zip(row) {
-                        *acc += y;
-                    }
-                    unblocked += 1;
-                    bent += *dir;
-                }
-            }
-            for (total, b) in s.totals.iter_mut().zip(&s.batch) {
-                *total += f64::from(*b);
-            }
+    let pilot_rows = k * m as usize;
+    cast(
+        tables,
+        n,
+        0..pilot_rows,
+        origin,
+        frame,
+        tracer,
+        s,
+        &mut unblocked,
+        &mut bent,
+    );
+    let mean_error = replicate_error(&s.totals, n, m);
+    let spread = mean_error * (k as f64).sqrt();
+    let net = tables.net_points(spread);
+    if (mean_error <= f64::from(tables.target) && tables.feature_net <= m) || net == m {
+        let norm = 1.0 / (k as f64 * f64::from(m));
+        for (j, out) in local.iter_mut().enumerate() {
+            *out = (0..k).map(|r| s.totals[r * n + j]).sum::<f64>() * norm;
         }
-        start = end;
-        points = round_points;
-        error = replicate_error(&s.totals, n, points);
-        if error <= f64::from(tables.target) {
-            break;
-        }
+        return VertexResult {
+            rays: k as u32 * m,
+            error: mean_error,
+            unblocked,
+            bent,
+        };
     }
-    let norm = 1.0 / (k as f64 * f64::from(points));
-    for (j, out) in local.iter_mut().enumerate() {
-        *out = (0..k).map(|r| s.totals[r * n + j]).sum::<f64>() * norm;
+    let end = pilot_rows + (net - m) as usize;
+    cast(
+        tables,
+        n,
+        pilot_rows..end,
+        origin,
+        frame,
+        tracer,
+        s,
+        &mut unblocked,
+        &mut bent,
+    );
+    let norm = 1.0 / f64::from(net);
+    for (out, total) in local.iter_mut().zip(&s.totals[..n]) {
+        *out = total * norm;
     }
     VertexResult {
-        rays: k as u32 * points,
-        error,
+        rays: (k as u32 - 1) * m + net,
+        error: predicted_error(spread, m, net),
         unblocked,
         bent,
     }
@@ -294,15 +382,28 @@ mod tests {
     use crate::support::error::Error;
 
     #[test]
-    fn the_schedule_doubles_from_the_first_round_to_the_cap() {
-        // E = 0.01: 1/(√(4π)·0.01) = 29 rays, below the 16 × 16 minimum.
-        assert_eq!(schedule(0.01, 10_000), [16, 32, 64, 128, 256, 512, 625]);
-        assert_eq!(schedule(0.01, 4096), [16, 32, 64, 128, 256]);
-        // E = 1e-4: 2,821 rays, 177 per replicate, so the first round has 256 per replicate.
-        assert_eq!(schedule(1e-4, 1 << 16), [256, 512, 1024, 2048, 4096]);
-        // The cap wins over the first round's size.
-        assert_eq!(schedule(1e-6, 1000), [62]);
-        assert_eq!(schedule(0.5, 256), [16]);
+    fn the_net_is_the_smallest_round_predicted_to_reach_the_target() {
+        let options = BakeOptions {
+            target_error: Some(1e-3),
+            samples: 4096,
+            ..BakeOptions::default()
+        };
+        let tables = Tables::new(&options, &Basis::new(4));
+        // 64-point pilot replicates; the net doubles from 64 to 4096 − 3·64 = 3904.
+        assert_eq!(tables.pilot, 64);
+        assert_eq!(tables.rounds, [64, 128, 256, 512, 1024, 2048, 3904]);
+        // 1/(√(4π)·10⁻³) = 283 rays, 91 of them beyond the other replicates' 192.
+        assert_eq!(feature_rays(1e-3), 283);
+        assert_eq!(tables.feature_net, 91);
+        // s at 64 points = 4E: (64/N)^0.75 ≤ 1/4 at N ≥ 64·4^(4/3) = 406, so 512.
+        assert_eq!(tables.net_points(4e-3), 512);
+        assert!((predicted_error(4e-3, 64, 512) - 4e-3 / 8f64.powf(0.75)).abs() < 1e-15);
+        // A quiet pilot still casts the feature floor's net; a noisy one stops at the cap.
+        assert_eq!(tables.net_points(0.0), 128);
+        assert_eq!(tables.net_points(1.0), 3904);
+        // The pilot shrinks to what the cap allows.
+        assert_eq!(pilot_points(256), 64);
+        assert_eq!(pilot_points(1 << 20), 64);
     }
 
     #[test]

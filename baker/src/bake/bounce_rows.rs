@@ -213,6 +213,27 @@ impl<'a> JobRows<'a> {
         builder: &mut RowBuilder,
         probe: &CornerProbe,
     ) {
+        let mut slots = [(0, Vec3::ZERO); 4];
+        let count = self.front_hit_slots(hit, dir, weight, probe, &mut slots);
+        for &(slot, w) in &slots[..count] {
+            if w != Vec3::ZERO {
+                builder.add(slot, w);
+            }
+        }
+    }
+
+    /// The slots a closest hit along `dir` reads the previous bounce from, with their RGB
+    /// weights (`weight` × the hit's albedo × the slot's interpolation weight, embedded
+    /// corners left out): what [`JobRows::record`] adds to a row, and what an interreflected
+    /// transfer-matrix ray gathers ([`crate::bake::matrix_bounce`]). None (0) for a back face.
+    pub(crate) fn front_hit_slots(
+        &self,
+        hit: &Hit,
+        dir: Vec3,
+        weight: f32,
+        probe: &CornerProbe,
+        out: &mut [(u32, Vec3); 4],
+    ) -> usize {
         let scene = self.scene;
         let tri = scene.triangles[hit.triangle as usize];
         let corner = |i: u32| i as usize;
@@ -221,7 +242,7 @@ impl<'a> JobRows<'a> {
             .map(|k| scene.normals[corner(tri[k])] * barycentric[k])
             .sum();
         if normal.dot(dir) >= 0.0 {
-            return; // a back face: blocks, reflects nothing
+            return 0; // a back face: blocks, reflects nothing
         }
         let uv: Vec2 = (0..3)
             .map(|k| scene.uvs[corner(tri[k])] * barycentric[k])
@@ -236,12 +257,10 @@ impl<'a> JobRows<'a> {
         {
             self.skip_embedded(&mut slots[..count], probe);
         }
-        for &(slot, b) in &slots[..count] {
-            let w = albedo * b;
-            if w != Vec3::ZERO {
-                builder.add(slot, w);
-            }
+        for (out, &(slot, b)) in out.iter_mut().zip(&slots[..count]) {
+            *out = (slot, albedo * b);
         }
+        count
     }
 
     /// A vertex hit's corner weights with the embedded corners left out and the others

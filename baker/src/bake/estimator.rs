@@ -114,7 +114,9 @@ pub(crate) fn direct_pass(
 
 /// The batches of sample indices a vertex traces: at most [`BATCH`] long, and split at the
 /// bounce samples' end, so each batch is all bounce samples or none.
-fn batch_ranges(options: &BakeOptions) -> impl Iterator<Item = std::ops::Range<usize>> + use<> {
+pub(crate) fn batch_ranges(
+    options: &BakeOptions,
+) -> impl Iterator<Item = std::ops::Range<usize>> + use<> {
     let samples = options.samples as usize;
     let bounce = options.effective_bounce_samples() as usize;
     let mut start = 0;
@@ -343,12 +345,7 @@ impl Estimator {
         let hits = &mut s.hits[..len];
         tracer.intersect_from(origin, &s.dirs, hits);
         let scale = self.options.samples as f32 / self.options.effective_bounce_samples() as f32;
-        let probe = CornerProbe {
-            tracer,
-            origins: &self.origins,
-            normals: &self.normals,
-            seed: self.options.seed,
-        };
+        let probe = self.corner_probe(tracer);
         for (((blocked, hit), dir), weight) in s
             .occluded
             .iter_mut()
@@ -360,6 +357,17 @@ impl Estimator {
             if let Some(hit) = hit {
                 rows.record(hit, *dir, weight * scale, &mut s.rows, &probe);
             }
+        }
+    }
+
+    /// What tests a hit triangle's corners for embedding (the same answers in every pass
+    /// of a bake: a pure function of the seed and the vertex).
+    pub(crate) fn corner_probe<'t>(&'t self, tracer: &'t dyn Tracer) -> CornerProbe<'t> {
+        CornerProbe {
+            tracer,
+            origins: &self.origins,
+            normals: &self.normals,
+            seed: self.options.seed,
         }
     }
 

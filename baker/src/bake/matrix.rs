@@ -40,7 +40,8 @@
 use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 
-use crate::bake::estimator::{DirectPass, Estimator, Visibility};
+use crate::bake::estimator::{DirectPass, Estimator, Visibility, batch_ranges};
+use crate::bake::matrix_hits::{BounceLight, BounceScratch};
 use crate::bake::receivers::RECEIVERS_PER_JOB;
 use crate::math::sampling::{OwenSobol, hilbert_index, vertex_seed};
 use crate::math::sh::RecurrenceRotator;
@@ -171,13 +172,21 @@ impl TileLayout {
 
 /// The directions every receiver traces, in its local frame (z along the normal), in the
 /// order they are traced: the vector bake's point set of the seed, in its Hilbert order
-/// ([`Estimator::for_receivers`]), mapped to the uniform hemisphere.
+/// ([`Estimator::for_receivers`]), mapped to the uniform hemisphere. In interreflected mode
+/// the bounce samples (the sequence's first M points, a stratified set of their own) come
+/// first, in their own Hilbert order, as in the vector bake.
 pub fn local_directions(options: &crate::bake::options::BakeOptions) -> Vec<Vec3> {
     let points = OwenSobol::new(vertex_seed(options.seed, u64::MAX));
-    let mut uv: Vec<(f32, f32)> = (0..options.samples).map(|i| points.point(i)).collect();
-    uv.sort_by_key(|&(u1, u2)| hilbert_index(u1, u2));
+    let bounce = options.effective_bounce_samples();
+    let mut uv: Vec<(u32, f32, f32)> = (0..options.samples)
+        .map(|i| {
+            let (u1, u2) = points.point(i);
+            (i, u1, u2)
+        })
+        .collect();
+    uv.sort_by_key(|&(i, u1, u2)| (i >= bounce, hilbert_index(u1, u2)));
     uv.iter()
-        .map(|&(u1, u2)| uniform_hemisphere(u1, u2))
+        .map(|&(_, u1, u2)| uniform_hemisphere(u1, u2))
         .collect()
 }
 
@@ -186,9 +195,12 @@ pub fn local_directions(options: &crate::bake::options::BakeOptions) -> Vec<Vec3
 pub(crate) struct MatrixTables {
     n: usize,
     local_dirs: Vec<Vec3>,
-    layout: TileLayout,
+    /// The batches of sample indices traced together ([`batch_ranges`]: 256 rays, split at
+    /// the end of the bounce samples).
+    batches: Vec<std::ops::Range<usize>>,
+    pub(crate) layout: TileLayout,
     /// Row r (padded to `layout.width`): y_j(local_dirs[r]), then zeros.
-    rows: Vec<f32>,
+    pub(crate) rows: Vec<f32>,
     /// Row r: cos θ, then the local direction times cos θ.
     extras: Vec<[f32; EXTRA]>,
     /// Per batch: the tiled sum of its rows' outer products, then its extras' sum; empty
@@ -213,11 +225,10 @@ impl MatrixTables {
             .map(|d| [d.z, d.x * d.z, d.y * d.z, d.z * d.z])
             .collect();
         let width = layout.floats() + EXTRA;
-        let batches = local_dirs.len().div_ceil(BATCH);
+        let batches: Vec<_> = batch_ranges(options).collect();
         let mut batch_totals = Vec::new();
-        if batches * width * 4 <= TOTALS_BUDGET {
-            for start in (0..local_dirs.len()).step_by(BATCH) {
-                let end = (start + BATCH).min(local_dirs.len());
+        if batches.len() * width * 4 <= TOTALS_BUDGET {
+            for &std::ops::Range { start, end } in &batches {
                 let mut total = vec![0.0f32; width];
                 let all: Vec<u32> = (start as u32..end as u32).collect();
                 layout.accumulate(&rows, &all, &mut total[..width - EXTRA]);
@@ -230,6 +241,7 @@ impl MatrixTables {
         MatrixTables {
             n,
             layout,
+            batches,
             local_dirs,
             rows,
             extras,
@@ -255,11 +267,14 @@ struct MatrixScratch {
     local: Vec<f64>,
     column: Vec<f64>,
     rotated: Vec<f64>,
+    /// Interreflected mode: the bounce rays' hits and sums.
+    bounce: Option<BounceScratch>,
 }
 
 impl MatrixScratch {
-    fn new(n: usize, layout: &TileLayout) -> MatrixScratch {
+    fn new(n: usize, layout: &TileLayout, bounce: Option<&BounceLight>) -> MatrixScratch {
         MatrixScratch {
+            bounce: bounce.map(|b| BounceScratch::new(b, BATCH)),
             dirs: Vec::with_capacity(BATCH),
             occluded: vec![false; BATCH],
             selected: Vec::with_capacity(BATCH),
@@ -273,17 +288,19 @@ impl MatrixScratch {
 }
 
 /// The transfer matrices of the receivers `receivers` (results indexed from its start):
-/// `coefficients[(r · n² + i) · n² + j]`, one channel. `tracer` is `None` in unshadowed mode
-/// (V = 1 over the hemisphere).
+/// `coefficients[((r · channels + c) · n² + i) · n² + j]`, one channel unless `bounce`
+/// (interreflected mode: [`crate::bake::matrix_bounce`]) has three. `tracer` is `None` in
+/// unshadowed mode (V = 1 over the hemisphere).
 pub(crate) fn matrix_pass(
     estimator: &Estimator,
     tracer: Option<&dyn Tracer>,
+    bounce: Option<&BounceLight>,
     receivers: std::ops::Range<usize>,
     progress: &dyn Progress,
 ) -> DirectPass {
     let tables = MatrixTables::new(estimator);
     let n = tables.n;
-    let width = n * n;
+    let width = bounce.map_or(1, |b| b.channels) * n * n;
     let rotator = RecurrenceRotator::new(estimator.options.order);
     let rays_per_receiver = match tracer {
         Some(_) => u64::from(estimator.options.samples),
@@ -297,7 +314,7 @@ pub(crate) fn matrix_pass(
         .zip(visibility.par_chunks_mut(RECEIVERS_PER_JOB))
         .enumerate()
         .for_each_init(
-            || MatrixScratch::new(n, &tables.layout),
+            || MatrixScratch::new(n, &tables.layout, bounce),
             |scratch, (job, (out, vis))| {
                 let first = receivers.start + job * RECEIVERS_PER_JOB;
                 for (k, (out, vis)) in out.chunks_mut(width).zip(vis.iter_mut()).enumerate() {
@@ -306,7 +323,7 @@ pub(crate) fn matrix_pass(
                         &tables,
                         &rotator,
                         first + k,
-                        tracer,
+                        (tracer, bounce),
                         scratch,
                         out,
                     );
@@ -329,16 +346,18 @@ pub fn receiver_matrices(
     receivers: std::ops::Range<usize>,
 ) -> Vec<f32> {
     let silent = crate::support::progress::Silent;
-    matrix_pass(estimator, tracer, receivers, &silent).coefficients
+    matrix_pass(estimator, tracer, None, receivers, &silent).coefficients
 }
 
-/// Receiver `v`'s matrix into `out` (n⁴ floats, row-major), and its visibility quantities.
+/// Receiver `v`'s matrix into `out` (n⁴ floats per channel, row-major), and its visibility
+/// quantities. With a [`BounceLight`], the bounce samples are traced for their closest hits
+/// and the light the hit surfaces reflect is added ([`crate::bake::matrix_bounce`]).
 fn receiver_matrix(
     estimator: &Estimator,
     tables: &MatrixTables,
     rotator: &RecurrenceRotator,
     v: usize,
-    tracer: Option<&dyn Tracer>,
+    (tracer, bounce): (Option<&dyn Tracer>, Option<&BounceLight>),
     s: &mut MatrixScratch,
     out: &mut [f32],
 ) -> Visibility {
@@ -347,9 +366,11 @@ fn receiver_matrix(
     let frame: Mat3 = estimator.vertex_frame(v);
     let origin = estimator.origin(v);
     s.total.fill(0.0);
+    if let Some(bs) = &mut s.bounce {
+        bs.begin();
+    }
     let samples = tables.local_dirs.len();
-    for (b, start) in (0..samples).step_by(BATCH).enumerate() {
-        let end = (start + BATCH).min(samples);
+    for (b, &std::ops::Range { start, end }) in tables.batches.iter().enumerate() {
         let len = end - start;
         let occluded = &mut s.occluded[..len];
         match tracer {
@@ -357,7 +378,18 @@ fn receiver_matrix(
                 s.dirs.clear();
                 s.dirs
                     .extend(tables.local_dirs[start..end].iter().map(|d| frame * *d));
-                tracer.occluded_from(origin, &s.dirs, occluded);
+                match (bounce, &mut s.bounce) {
+                    (Some(light), Some(bs)) if start < light.bounce_samples => bs.trace_batch(
+                        light,
+                        (&tables.rows, tables.layout.width),
+                        tracer,
+                        origin,
+                        start,
+                        &s.dirs,
+                        occluded,
+                    ),
+                    _ => tracer.occluded_from(origin, &s.dirs, occluded),
+                }
             }
             None => occluded.fill(false),
         }
@@ -393,8 +425,20 @@ fn receiver_matrix(
     tables.layout.unpack(&s.total[..packed], norm, &mut s.local);
     let rotation = rotator.rotation(frame.as_dmat3());
     rotate_symmetric(&rotation, n, s);
-    for (o, w) in out.iter_mut().zip(&s.local) {
-        *o = *w as f32;
+    match (bounce, &mut s.bounce) {
+        (Some(light), Some(bs)) => bs.finish(
+            light,
+            &rotation,
+            &s.local,
+            out,
+            &mut s.column,
+            &mut s.rotated,
+        ),
+        _ => {
+            for (o, w) in out.iter_mut().zip(&s.local) {
+                *o = *w as f32;
+            }
+        }
     }
     let extra = &s.total[packed..];
     // (1/π) ∫ V cos θ ds and the cosine-weighted mean unblocked direction, from the same rays.

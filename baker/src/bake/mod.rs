@@ -1,5 +1,5 @@
 //! The bake: what is asked ([`options`]), where transfer is baked ([`receivers`]: vertices or
-//! lightmap texels), the per-receiver [`estimator`], its [`adaptive`] variant and the [`matrix`] one, the bounces
+//! lightmap texels), the per-receiver [`estimator`], its [`adaptive`] variant and the [`matrix`] one (with bounces: [`matrix_bounce`]), the bounces
 //! ([`bounce_rows`], [`interreflection`]), the entry points ([`transfer`], [`lightmap`]),
 //! the memory a bake needs ([`memory`]) and the coefficient file it fills ([`file`]).
 //!
@@ -13,6 +13,8 @@ pub mod file;
 pub mod interreflection;
 pub mod lightmap;
 pub mod matrix;
+pub mod matrix_bounce;
+pub mod matrix_hits;
 pub mod memory;
 pub mod options;
 pub mod receivers;

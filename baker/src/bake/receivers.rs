@@ -19,7 +19,7 @@ use glam::{Vec2, Vec3};
 
 use crate::bake::lightmap::atlas::Atlas;
 use crate::bake::lightmap::dilation;
-use crate::bake::lightmap::texels::Texels;
+use crate::bake::lightmap::texels::{Texels, bilinear_taps};
 use crate::scene::Scene;
 use crate::trace::ray_origins;
 
@@ -166,36 +166,7 @@ impl TexelTargets<'_> {
     fn bilinear(&self, triangle: u32, barycentric: [f32; 3], out: &mut [(u32, f32); 4]) -> usize {
         let c = self.corners[triangle as usize];
         let p = c[0] * barycentric[0] + c[1] * barycentric[1] + c[2] * barycentric[2];
-        let p = p - Vec2::splat(0.5);
-        let (x0, y0) = (p.x.floor(), p.y.floor());
-        let (fx, fy) = (p.x - x0, p.y - y0);
-        if !(x0.is_finite() && y0.is_finite()) {
-            return 0;
-        }
-        let (w, h) = (self.texels.width as i64, self.texels.height as i64);
-        let (x0, y0) = (x0 as i64, y0 as i64);
-        let taps = [
-            (x0, y0, (1.0 - fx) * (1.0 - fy)),
-            (x0 + 1, y0, fx * (1.0 - fy)),
-            (x0, y0 + 1, (1.0 - fx) * fy),
-            (x0 + 1, y0 + 1, fx * fy),
-        ];
-        let (mut count, mut sum) = (0, 0.0);
-        for (x, y, weight) in taps {
-            if x < 0 || y < 0 || x >= w || y >= h || weight <= 0.0 {
-                continue;
-            }
-            let i = (y * w + x) as usize;
-            if self.filled[i] {
-                out[count] = (i as u32, weight);
-                sum += weight;
-                count += 1;
-            }
-        }
-        for slot in &mut out[..count] {
-            slot.1 /= sum;
-        }
-        count
+        bilinear_taps(p, self.texels.width, self.texels.height, &self.filled, out)
     }
 
     /// The valid texels' values (`width` floats each, in row-major order of the valid

@@ -137,13 +137,34 @@ pub fn bake(
     let tracer = tracer_for(options, tracer)?;
     let started = Instant::now();
     let estimator = Estimator::new(scene, options)?;
-    let baked = bake_receivers(
-        scene,
-        tracer,
-        &estimator,
-        &BounceTargets::Vertices,
-        progress,
-    );
+    let baked = match tracer {
+        // The interreflected matrix reads a vector bake's bounces at its hits.
+        Some(tracer)
+            if options.mode == Mode::Interreflected && options.transfer == TransferKind::Matrix =>
+        {
+            let m = crate::bake::matrix_bounce::bake_range(
+                scene,
+                tracer,
+                &estimator,
+                0..scene.vertex_count(),
+                progress,
+            )?;
+            Baked {
+                coefficients: m.coefficients,
+                channels: m.channels,
+                visibility: m.visibility,
+                rays_cast: m.rays_cast,
+                hit_cache_bytes: m.hit_cache_bytes,
+            }
+        }
+        _ => bake_receivers(
+            scene,
+            tracer,
+            &estimator,
+            &BounceTargets::Vertices,
+            progress,
+        ),
+    };
     Ok(Transfer::from_direct(
         options,
         tracer.map_or(Backend::None, |t| t.backend()),
@@ -164,6 +185,10 @@ pub fn bake_receivers(
     progress: &dyn Progress,
 ) -> Baked {
     let options = &estimator.options;
+    debug_assert!(
+        !(options.mode == Mode::Interreflected && options.transfer == TransferKind::Matrix),
+        "interreflected matrices are baked by bake::matrix_bounce"
+    );
     let receivers = estimator.receiver_count();
     let mut baked = match tracer {
         Some(tracer) if options.mode == Mode::Interreflected => {
@@ -182,9 +207,13 @@ pub fn bake_receivers(
                 TransferKind::Vector => {
                     direct_pass(estimator, tracer, None, 0..receivers, progress)
                 }
-                TransferKind::Matrix => {
-                    crate::bake::matrix::matrix_pass(estimator, tracer, 0..receivers, progress)
-                }
+                TransferKind::Matrix => crate::bake::matrix::matrix_pass(
+                    estimator,
+                    tracer,
+                    None,
+                    0..receivers,
+                    progress,
+                ),
             };
             Baked {
                 coefficients: direct.coefficients,

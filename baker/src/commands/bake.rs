@@ -41,7 +41,7 @@ pub struct BakeArgs {
     #[arg(long, value_enum, default_value_t = ModeArg::Shadowed)]
     mode: ModeArg,
     /// What is stored per vertex: the diffuse transfer vector (n² floats per channel), or the
-    /// transfer matrix (n²×n², for glossy BRDFs; unshadowed or shadowed, per vertex).
+    /// transfer matrix (n²×n², for glossy BRDFs; any mode, per vertex).
     #[arg(long, value_enum, default_value_t = TransferArg::Vector)]
     transfer: TransferArg,
     /// Seed of the sample directions; the same seed gives a bit-identical file.
@@ -77,9 +77,10 @@ pub struct BakeArgs {
     /// watertight. Applies to --backend embree only.
     #[arg(long)]
     robust: bool,
-    /// Adaptive sampling: cast rays in rounds until each vertex's estimated RMS coefficient
-    /// error is at most this (--samples becomes the most a vertex may cast). The error is
-    /// estimated from 16 independently scrambled point sets; shadowed, owen-sobol only.
+    /// Adaptive sampling: each vertex (with --lightmap: texel) casts rays until its estimated
+    /// RMS coefficient error is at most this (--samples becomes the most it may cast): a pilot
+    /// of 4 independently scrambled point sets, then one net of the predicted size; shadowed,
+    /// owen-sobol only.
     #[arg(long, conflicts_with_all = ["shard", "checkpoint"])]
     target_error: Option<f32>,
     /// No progress bar (the summary line is still printed).
@@ -102,7 +103,7 @@ pub struct BakeArgs {
     /// the scene's lightmap UVs (glTF TEXCOORD_1) where it has them and no --texel-size is
     /// given, else an atlas unwrapped here (--atlas). Every mode; --shard and --checkpoint
     /// too (every part computes the same atlas and records its fingerprint).
-    #[arg(long, value_name = "RES", conflicts_with_all = ["target_error"])]
+    #[arg(long, value_name = "RES")]
     lightmap: Option<u32>,
     /// With --lightmap: the world size of a texel (default: the charts fill the atlas).
     #[arg(long, value_name = "S", requires = "lightmap")]
@@ -437,10 +438,19 @@ fn summary(args: &BakeArgs, options: &BakeOptions, transfer: &Transfer, what: &s
         (mode, _) => mode.name().to_string(),
     };
     let mode = match options.target_error {
-        Some(target) => format!(
-            "{mode}, adaptive to {target:e}: {:.0} rays per vertex on average",
-            transfer.rays_cast as f64 / transfer.receiver_count.max(1) as f64
-        ),
+        Some(target) => {
+            // Texel bakes: the baked texels only (the others cast no rays).
+            let baked = transfer.visibility.iter().filter(|v| v.rays > 0).count();
+            format!(
+                "{mode}, adaptive to {target:e}: {:.0} rays per {} on average",
+                transfer.rays_cast as f64 / baked.max(1) as f64,
+                if args.lightmap.is_some() {
+                    "texel"
+                } else {
+                    "vertex"
+                }
+            )
+        }
         None => mode,
     };
     format!(
@@ -471,14 +481,6 @@ fn bake_in_parts(
         None => (PartBaker::vertices(scene, tracer, options)?, "vertices"),
         Some(resolution) => {
             let atlas = atlas(args, scene, resolution, progress)?;
-            if atlas.source == lightmap::AtlasSource::PerObject {
-                // Parts carry the atlas's UVs but not yet its per-object placements.
-                return Err(Error::InvalidOption(String::from(
-                    "--shard and --checkpoint do not yet support a lightmap whose objects' own \
-                     UVs overlap each other and are packed per object; bake it whole, or give \
-                     the scene one atlas of non-overlapping lightmap UVs",
-                )));
-            }
             prepared = lightmap::prepare(scene, tracer, options.seed, atlas)?;
             watertight = match tracer {
                 Some(t) => prepared.texels.watertight(scene, t)?,

@@ -43,12 +43,27 @@ pub fn run(path: &Path) -> Result<(), Error> {
 /// A whole file's header, with summaries of its per-vertex arrays and its lightmap block.
 fn file_json(file: &CoefficientFile) -> serde_json::Value {
     let mut json = serde_json::to_value(&file.header).expect("the header serialises");
-    // Adaptive bakes: how the per-vertex rays and estimated errors are distributed.
+    // Adaptive bakes: how the per-vertex (per baked texel) rays and estimated errors are
+    // distributed.
     if let (Some(adaptive), Some(rays), Some(errors)) =
         (file.header.adaptive, &file.rays, &file.error_estimate)
     {
-        let summary = Summary::new(adaptive.target_error, rays, errors);
-        json["per_vertex"] = serde_json::to_value(summary).expect("the summary serialises");
+        let (key, summary) = match &file.lightmap {
+            Some(l) => {
+                let baked = |t: &usize| l.valid[*t];
+                let rays: Vec<u32> = (0..rays.len()).filter(baked).map(|t| rays[t]).collect();
+                let errors: Vec<f32> = (0..errors.len()).filter(baked).map(|t| errors[t]).collect();
+                (
+                    "per_texel",
+                    Summary::new(adaptive.target_error, &rays, &errors),
+                )
+            }
+            None => (
+                "per_vertex",
+                Summary::new(adaptive.target_error, rays, errors),
+            ),
+        };
+        json[key] = serde_json::to_value(summary).expect("the summary serialises");
     }
     if let Some(l) = &file.lightmap {
         json["lightmap"] = lightmap_json(l);

@@ -21,6 +21,25 @@ pub struct RelightArgs {
     /// (the float radiance is written unscaled).
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     exposure: f64,
+    /// Camera position X,Y,Z in the scene's coordinates: a transfer-matrix bake is then
+    /// rendered with its materials' glossy layers (docs/glossy.md). Without it a matrix bake
+    /// is rendered diffuse; vector bakes take no view.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_view, allow_hyphen_values = true)]
+    view: Option<glam::Vec3>,
+}
+
+/// Three finite numbers separated by commas.
+fn parse_view(text: &str) -> Result<glam::Vec3, String> {
+    let numbers: Vec<f32> = text
+        .split(',')
+        .map(|x| x.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("`{text}` is not three numbers X,Y,Z"))?;
+    match numbers[..] {
+        [x, y, z] if numbers.iter().all(|v| v.is_finite()) => Ok(glam::Vec3::new(x, y, z)),
+        [_, _, _] => Err(format!("`{text}`: the position must be finite")),
+        _ => Err(format!("`{text}` is not three numbers X,Y,Z")),
+    }
 }
 
 pub fn run(args: RelightArgs) -> Result<(), Error> {
@@ -29,15 +48,21 @@ pub fn run(args: RelightArgs) -> Result<(), Error> {
     }
     let inputs = [args.scene.clone(), args.file.clone(), args.lights.clone()];
     Output::new(&args.output, &inputs)?;
-    let relit = prt_baker::export::relight::relight(
+    let relit = prt_baker::export::relight::relight_from(
         &args.scene,
         &args.file,
         &args.lights,
         &args.output,
         args.exposure,
+        args.view,
     )?;
+    let how = match (relit.matrix, args.view) {
+        (true, Some(_)) => " (transfer matrices, glossy)",
+        (true, None) => " (transfer matrices, diffuse)",
+        _ => "",
+    };
     println!(
-        "relit {} {} with {} light(s) at order {}, largest radiance {:.4} -> {}",
+        "relit {} {}{how} with {} light(s) at order {}, largest radiance {:.4} -> {}",
         relit.vertex_count,
         if relit.lightmap { "texels" } else { "vertices" },
         relit.light_count,

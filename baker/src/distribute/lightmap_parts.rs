@@ -11,7 +11,9 @@
 //! the merge has no scene, and needs them to place the texels' values in the W×H lightmap,
 //! dilate it, and read the previous bounce at the texels the bounce rows name (the same
 //! [`crate::bake::lightmap::place`] and [`BounceTargets::slot_values`] a whole bake uses, so
-//! the merged file is the whole bake's byte for byte).
+//! the merged file is the whole bake's byte for byte). A per-object atlas's parts also carry
+//! its placements (each object's scale and offset), which the merged file stores as the
+//! whole bake's does.
 
 use glam::{Vec2, Vec3};
 
@@ -19,7 +21,10 @@ use crate::bake::lightmap::stitch::NO_PARTNER;
 use crate::bake::lightmap::{Atlas, AtlasSource, Prepared, Stitching, Texels, place};
 use crate::bake::transfer::{BounceTargets, Visibility};
 use crate::formats::coefficient_file::{CoefficientFile, LightmapBlock};
-use crate::formats::header::{CHECKSUM_OFFSET, HEADER_SIZE, Header, checksum};
+use crate::formats::header::{
+    CHECKSUM_OFFSET, HEADER_SIZE, Header, OBJECT_PLACEMENT_BYTES, ObjectPlacement, checksum,
+};
+use crate::formats::object_placements;
 use crate::math::sh;
 use crate::scene::Scene;
 
@@ -40,8 +45,8 @@ pub struct PartLightmap {
     pub source: AtlasSource,
     /// Baked texels in the whole lightmap: the receivers that the shards split.
     pub receivers: u64,
-    /// xxh3 of the atlas (UVs, size, texel size, source) and of the baked texels (mask,
-    /// points, normals, ray origins, triangles: [`Texels::fingerprint`]).
+    /// xxh3 of the atlas (UVs, size, texel size, source, per-object placements) and of the
+    /// baked texels (mask, points, normals, ray origins, triangles: [`Texels::fingerprint`]).
     pub fingerprint: u64,
     /// Per scene triangle, its corners' lightmap UVs.
     pub uv1: Vec<[Vec2; 3]>,
@@ -50,6 +55,11 @@ pub struct PartLightmap {
     /// Per scene triangle and edge, its seam partner
     /// ([`crate::bake::lightmap::stitch::seam_partners`]): the merge stitches with them.
     pub seams: Vec<[u32; 3]>,
+    /// A per-object atlas's placements, in object order (empty for other atlases).
+    pub objects: Vec<ObjectPlacement>,
+    /// How many placements the block announces: what [`PartLightmap::tail_len`] counts
+    /// before [`PartLightmap::read_tail`] has read them.
+    announced_objects: u32,
 }
 
 impl PartLightmap {
@@ -70,6 +80,7 @@ impl PartLightmap {
                 .flatten()
                 .flat_map(|c| c.to_le_bytes()),
         );
+        bytes.extend(objects_section(atlas.source, &atlas.objects));
         PartLightmap {
             width: atlas.width,
             height: atlas.height,
@@ -82,6 +93,8 @@ impl PartLightmap {
             uv1: atlas.uv1.clone(),
             valid: prepared.texels.valid.clone(),
             seams: prepared.seams.clone(),
+            objects: atlas.objects.clone(),
+            announced_objects: atlas.objects.len() as u32,
         }
     }
 
@@ -96,25 +109,35 @@ impl PartLightmap {
         b.extend(self.source.code().to_le_bytes());
         b.extend(self.fingerprint.to_le_bytes());
         b.extend(self.receivers.to_le_bytes());
+        b.extend((self.objects.len() as u32).to_le_bytes());
         b.resize(BLOCK_BYTES, 0); // reserved
         b.try_into().expect("64 bytes")
     }
 
-    /// The bytes after a part's other arrays: the UVs (f32), the mask (u8, 1 = baked), then
-    /// per triangle and edge its seam partner (u32).
+    /// The bytes after a part's other arrays: the UVs (f32), the mask (u8, 1 = baked), per
+    /// triangle and edge its seam partner (u32), then for a per-object atlas the placements
+    /// (the texel file's per-object section, [`object_placements`]).
     pub(crate) fn tail_bytes(&self) -> Vec<u8> {
         let uv = self.uv1.iter().flatten().flat_map(|p| p.to_array());
         let mut bytes: Vec<u8> = uv.flat_map(f32::to_le_bytes).collect();
         bytes.extend(self.valid.iter().map(|&v| u8::from(v)));
         bytes.extend(self.seams.iter().flatten().flat_map(|c| c.to_le_bytes()));
+        bytes.extend(objects_section(self.source, &self.objects));
         bytes
     }
 
     /// Length of [`PartLightmap::tail_bytes`]; `None` where a corrupted count overflows.
     pub(crate) fn tail_len(&self) -> Option<u64> {
+        let objects = match self.source {
+            AtlasSource::PerObject => {
+                4 + OBJECT_PLACEMENT_BYTES as u64 * u64::from(self.announced_objects)
+            }
+            _ => 0,
+        };
         self.scene_triangle_count
             .checked_mul(24 + 12)?
-            .checked_add(u64::from(self.width) * u64::from(self.height))
+            .checked_add(u64::from(self.width) * u64::from(self.height))?
+            .checked_add(objects)
     }
 
     /// The block of a part's header bytes (at least 192), its arrays still empty.
@@ -123,43 +146,38 @@ impl PartLightmap {
         header: &Header,
     ) -> std::result::Result<PartLightmap, String> {
         let b = &bytes[HEADER_SIZE..HEADER_SIZE + BLOCK_BYTES];
+        let block = LightmapBlock::from_block_bytes(&b[..32], header, "a part of a bake")?;
         let u32_at = |o: usize| u32::from_le_bytes(b[o..o + 4].try_into().expect("4 bytes"));
         let u64_at = |o: usize| u64::from_le_bytes(b[o..o + 8].try_into().expect("8 bytes"));
-        let (width, height) = (u32_at(0), u32_at(4));
-        let texels = u64::from(width) * u64::from(height);
-        if texels != header.vertex_count {
-            return Err(format!(
-                "a {width}×{height} lightmap in a part of a bake of {} texels",
-                header.vertex_count
-            ));
-        }
-        let source = AtlasSource::from_code(u32_at(28))
-            .ok_or_else(|| format!("unknown atlas source {}", u32_at(28)))?;
-        let texel_size = f32::from_le_bytes(b[24..28].try_into().expect("4 bytes"));
-        if !(texel_size.is_finite() && texel_size >= 0.0) {
-            return Err(format!("texel size {texel_size} is not a size"));
-        }
+        let texels = header.vertex_count;
         let receivers = u64_at(40);
         if receivers > texels {
             return Err(format!(
                 "{receivers} baked texels in a lightmap of {texels}"
             ));
         }
-        if b[48..].iter().any(|&x| x != 0) {
-            return Err("reserved bytes 176..192 are not zero".into());
+        let objects = u32_at(48);
+        if objects > 0 && block.source != AtlasSource::PerObject {
+            let source = block.source;
+            return Err(format!("{objects} object placements in a {source:?} atlas"));
+        }
+        if b[52..].iter().any(|&x| x != 0) {
+            return Err("reserved bytes 180..192 are not zero".into());
         }
         Ok(PartLightmap {
-            width,
-            height,
-            scene_vertex_count: u64_at(8),
-            scene_triangle_count: u64_at(16),
-            texel_size,
-            source,
+            width: block.width,
+            height: block.height,
+            scene_vertex_count: block.scene_vertex_count,
+            scene_triangle_count: block.scene_triangle_count,
+            texel_size: block.texel_size,
+            source: block.source,
             receivers,
             fingerprint: u64_at(32),
             uv1: Vec::new(),
             valid: Vec::new(),
             seams: Vec::new(),
+            objects: Vec::new(),
+            announced_objects: objects,
         })
     }
 
@@ -167,8 +185,13 @@ impl PartLightmap {
     pub(crate) fn read_tail(&mut self, tail: &[u8]) -> std::result::Result<(), String> {
         let uv_bytes = self.scene_triangle_count as usize * 24;
         let mask_bytes = self.width as usize * self.height as usize;
+        let seam_bytes = self.scene_triangle_count as usize * 12;
         let (uv, rest) = tail.split_at(uv_bytes);
-        let (mask, seams) = rest.split_at(mask_bytes);
+        let (mask, rest) = rest.split_at(mask_bytes);
+        let (seams, objects) = rest.split_at(seam_bytes);
+        if self.source == AtlasSource::PerObject {
+            self.objects = object_placements::decode(objects)?;
+        }
         let codes: Vec<u32> = seams
             .chunks_exact(4)
             .map(|c| u32::from_le_bytes(c.try_into().expect("4 bytes")))
@@ -266,8 +289,7 @@ impl PartLightmap {
             uv1: self.uv1.clone(),
             source: self.source,
             texel_size: (self.texel_size > 0.0).then_some(self.texel_size),
-            // Parts of per-object atlases are refused when baked (commands/bake.rs).
-            objects: Vec::new(),
+            objects: self.objects.clone(),
         }
     }
 
@@ -329,7 +351,7 @@ impl PartLightmap {
                 valid: self.valid,
                 dilated: placed.dilated,
                 uv1: self.uv1,
-                objects: Vec::new(),
+                objects: self.objects,
             }),
         }
     }
@@ -364,4 +386,13 @@ pub(crate) fn with_block(mut bytes: Vec<u8>, block: &[u8; BLOCK_BYTES]) -> Vec<u
     let sum = checksum(&bytes);
     bytes[CHECKSUM_OFFSET..HEADER_SIZE].copy_from_slice(&sum.to_le_bytes());
     bytes
+}
+
+/// The per-object section of an atlas's placements, or nothing for other atlases (whose
+/// parts are what they were before per-object atlases could be sharded).
+fn objects_section(source: AtlasSource, objects: &[ObjectPlacement]) -> Vec<u8> {
+    match source {
+        AtlasSource::PerObject => object_placements::encode(objects),
+        _ => Vec::new(),
+    }
 }

@@ -1,6 +1,6 @@
 //! A bake for other tools: [`numpy`] arrays for analysis, [`gltf`] files for engines and DCC
-//! tools, and [`relight`], the CPU reference a viewer must match (coloured PLY meshes or lit
-//! lightmap images).
+//! tools, and [`relight`] (with [`relight_glossy`] for transfer matrices), the CPU reference a
+//! viewer must match (coloured PLY meshes or lit lightmap images).
 //!
 //! May import: [`crate::support`], [`crate::math`], [`crate::scene`], [`crate::light`],
 //! [`crate::formats`], [`crate::bake`] (the atlas of a texel bake).
@@ -9,3 +9,4 @@ pub mod compress;
 pub mod gltf;
 pub mod numpy;
 pub mod relight;
+pub mod relight_glossy;

@@ -45,24 +45,8 @@ pub fn export_npz(coefficients: &Path, scene: &Path, output: &Path) -> Result<()
         transfer_array(header, v, &file.coefficients),
     ]);
     arrays.extend(aux);
-    let rays: Option<Vec<f32>> = file
-        .rays
-        .as_ref()
-        .map(|r| r.iter().map(|&r| r as f32).collect());
-    if let Some(rays) = &rays {
-        arrays.push(npz::Array {
-            name: "rays",
-            shape: vec![v],
-            data: rays,
-        });
-    }
-    if let Some(errors) = &file.error_estimate {
-        arrays.push(npz::Array {
-            name: "error_estimate",
-            shape: vec![v],
-            data: errors,
-        });
-    }
+    let rays = rays_f32(&file);
+    arrays.extend(adaptive_arrays(&file, rays.as_deref(), &[v]));
     // A scene whose every uv is (0, 0) has none (OBJ without `vt`, glTF without TEXCOORD_0).
     let uv: Vec<f32> = scene.uvs.iter().flat_map(|uv| uv.to_array()).collect();
     if uv.iter().any(|&x| x != 0.0) {
@@ -110,7 +94,8 @@ fn transfer_array<'a>(
 /// `texel_valid` (H,W, bool: baked), `texel_dilated` (H,W, bool: padding filled from baked
 /// neighbours), `transfer` (H,W,channels,n²), `uv1` (triangles,3,2: each
 /// triangle corner's lightmap UV in [0, 1]) and, where stored, `ao` (H,W) and
-/// `bent_normal` (H,W,3). Row y of the arrays is v ∈ [y/H, (y+1)/H].
+/// `bent_normal` (H,W,3), and for adaptive bakes `rays` and `error_estimate` (H,W; 0 where a
+/// texel was not baked). Row y of the arrays is v ∈ [y/H, (y+1)/H].
 fn export_lightmap_npz(
     path: &Path,
     file: &CoefficientFile,
@@ -159,6 +144,8 @@ fn export_lightmap_npz(
         },
     ]);
     arrays.extend(aux);
+    let rays = rays_f32(file);
+    arrays.extend(adaptive_arrays(file, rays.as_deref(), &[h, w]));
     let masks = [
         npz::BoolArray {
             name: "texel_valid",
@@ -175,6 +162,36 @@ fn export_lightmap_npz(
 }
 
 /// Vectors as a flat float32 array (x, y, z of each in turn).
+/// Adaptive bakes' rays as float32 (exact below 2^24).
+fn rays_f32(file: &CoefficientFile) -> Option<Vec<f32>> {
+    file.rays
+        .as_ref()
+        .map(|r| r.iter().map(|&r| r as f32).collect())
+}
+
+/// Adaptive bakes: `rays` (from [`rays_f32`]) and `error_estimate`, of leading shape `lead`
+/// ((V,) for vertices, (H, W) for texels, 0 rays where a texel was not baked).
+fn adaptive_arrays<'a>(
+    file: &'a CoefficientFile,
+    rays: Option<&'a [f32]>,
+    lead: &[usize],
+) -> Vec<Array<'a>> {
+    let named = [
+        ("rays", rays),
+        ("error_estimate", file.error_estimate.as_deref()),
+    ];
+    named
+        .into_iter()
+        .filter_map(|(name, data)| {
+            data.map(|data| Array {
+                name,
+                shape: lead.to_vec(),
+                data,
+            })
+        })
+        .collect()
+}
+
 fn flat3(values: &[glam::Vec3]) -> Vec<f32> {
     values.iter().flat_map(|x| x.to_array()).collect()
 }

@@ -11,14 +11,20 @@
 //! untouched: scale by 2^exposure, clamp to [0, 1] (negative SH ringing shows black, anything
 //! above 1 white), and encode with the sRGB transfer curve. The float radiance beside it is
 //! not tone-mapped.
+//!
+//! Transfer-matrix bakes (plain or CPCA-compressed) are rendered by
+//! [`crate::export::relight_glossy`]: diffuse without a view, glossy with one.
 
 use std::path::Path;
 
 use glam::Vec3;
 
 use crate::formats::coefficient_file::CoefficientFile;
+use crate::formats::cpca_block;
+use crate::formats::header::TransferKind;
 use crate::formats::ply::ColouredMesh;
 use crate::light::{LightCoefficients, Rig};
+use crate::math::cpca::Cpca;
 use crate::scene::Scene;
 use crate::support::error::Result;
 
@@ -78,6 +84,8 @@ pub struct Relit {
     pub light_count: usize,
     /// The largest radiance of any channel at any vertex.
     pub max_radiance: f32,
+    /// Whether the file held transfer matrices.
+    pub matrix: bool,
 }
 
 /// Lights the bake `coefficients` of `scene` with the rig and writes `output` (PLY, see
@@ -89,14 +97,40 @@ pub fn relight(
     output: &Path,
     exposure: f64,
 ) -> Result<Relit> {
+    relight_from(scene, coefficients, rig, output, exposure, None)
+}
+
+/// [`relight`], seen from `eye` (a camera position in the scene's coordinates) if given: a
+/// transfer-matrix bake then adds each material's glossy layer
+/// ([`crate::export::relight_glossy`]). A view is refused for a vector bake, which has no
+/// view dependence to render.
+pub fn relight_from(
+    scene: &Path,
+    coefficients: &Path,
+    rig: &Path,
+    output: &Path,
+    exposure: f64,
+    eye: Option<Vec3>,
+) -> Result<Relit> {
     let rig = Rig::load(rig)?;
-    let file = CoefficientFile::read(coefficients)?;
+    let (file, cpca) = read_with_cpca(coefficients)?;
+    let matrix = file.header.transfer == TransferKind::Matrix;
+    if eye.is_some() && !matrix {
+        return Err(crate::Error::InvalidOption(format!(
+            "{}: --view renders the glossy layer of a transfer-matrix bake (bake --transfer \
+             matrix); this file holds diffuse transfer vectors",
+            coefficients.display()
+        )));
+    }
     let scene_path = scene;
     let scene = Scene::load(scene)?;
     if file.lightmap.is_some() {
         return relight_lightmap(&file, coefficients, &scene, &rig, output, exposure);
     }
-    file.check_scene(coefficients, &scene)?;
+    match matrix {
+        true => file.check_scene_of_any_transfer(coefficients, &scene)?,
+        false => file.check_scene(coefficients, &scene)?,
+    }
     if image_format(output).is_some() {
         return Err(crate::Error::InvalidOption(format!(
             "{}: a per-vertex bake relights to a .ply mesh; images are for lightmap bakes",
@@ -110,7 +144,25 @@ pub fn relight(
     let order = file.header.order as usize;
     // Rigs are written for a z-up world; a y-up bake gets them turned to its up axis.
     let light = rig.project(order).in_scene_frame(file.header.up);
-    let radiance = vertex_radiance(&file, &scene.vertex_albedo(), &light);
+    let albedo = scene.vertex_albedo();
+    let radiance = match matrix {
+        true => {
+            let receivers = crate::export::relight_glossy::Receivers::of_scene(&scene, &albedo);
+            crate::export::relight_glossy::matrix_vertex_radiance(
+                &file,
+                cpca.as_ref(),
+                &receivers,
+                &light,
+                eye,
+            )
+        }
+        false => vertex_radiance(&file, &albedo, &light),
+    };
+    let view = match eye {
+        Some(e) => format!(", seen from ({}, {}, {})", e.x, e.y, e.z),
+        None if matrix => ", diffuse (no --view)".into(),
+        None => String::new(),
+    };
     let colours: Vec<[u8; 3]> = radiance
         .iter()
         .map(|r| display_colour(*r, exposure))
@@ -123,7 +175,7 @@ pub fn relight(
         triangles: &scene.triangles,
         comments: vec![
             format!(
-                "prt-bake relight: scene {}, transfer {}, lights {} (order {order}, window {})",
+                "prt-bake relight: scene {}, transfer {}, lights {} (order {order}, window {}){view}",
                 scene_path.display(),
                 coefficients.display(),
                 rig.path.display(),
@@ -141,7 +193,24 @@ pub fn relight(
         order,
         light_count: rig.lights.len(),
         max_radiance: radiance.iter().flatten().fold(0.0, |a, &b| a.max(b)),
+        matrix,
     })
+}
+
+/// A coefficient file of any version, and for a compressed matrix file its CPCA form too
+/// (rendered by projecting the light per cluster; compressed vector files are relit from
+/// their reconstruction, as before).
+fn read_with_cpca(path: &Path) -> Result<(CoefficientFile, Option<Cpca>)> {
+    let bytes = crate::support::limits::read_file(path)?;
+    if !cpca_block::is_compressed(&bytes) {
+        let file = CoefficientFile::from_bytes(&bytes)
+            .map_err(|message| crate::Error::coefficient_file(path, message))?;
+        return Ok((file, None));
+    }
+    let compressed = cpca_block::from_bytes(&bytes)
+        .map_err(|message| crate::Error::coefficient_file(path, message))?;
+    let matrix = compressed.file.header.transfer == TransferKind::Matrix;
+    Ok((compressed.file, matrix.then_some(compressed.cpca)))
 }
 
 /// The lightmap image formats `relight` writes, by the output's extension.
@@ -219,6 +288,7 @@ fn relight_lightmap(
         order,
         light_count: rig.lights.len(),
         max_radiance: radiance.iter().flatten().fold(0.0, |a, &b| a.max(b)),
+        matrix: false,
     })
 }
 

@@ -180,12 +180,24 @@ impl CoefficientFile {
         let mut floats = bytes[header_size..]
             .chunks_exact(4)
             .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")));
-        let arrays = Arrays::read(&header, &mut floats)?;
+        let arrays = Arrays::read(&header, &mut floats, lightmap.is_some())?;
         if let Some(l) = lightmap.as_mut() {
             let end = bytes.len() - section;
             let mask = &bytes[end - header.vertex_count as usize..end];
             l.read_payload(&mut floats, mask)?;
             l.read_objects(&bytes[end..])?;
+            // Adaptive texel bakes: the baked texels cast rays, the others none.
+            if let Some(t) = arrays
+                .rays
+                .as_ref()
+                .and_then(|rays| (0..rays.len()).find(|&t| (rays[t] > 0) != l.valid[t]))
+            {
+                return Err(format!(
+                    "texel {t} cast {} rays but is {}baked",
+                    arrays.rays.as_ref().expect("rays")[t],
+                    if l.valid[t] { "" } else { "not " }
+                ));
+            }
         }
         Ok(CoefficientFile {
             header,
@@ -233,6 +245,7 @@ impl Arrays {
     fn read(
         header: &Header,
         floats: &mut impl Iterator<Item = f32>,
+        texels: bool,
     ) -> std::result::Result<Arrays, String> {
         let vertices = header.vertex_count as usize;
         let coefficients: Vec<f32> = floats
@@ -255,7 +268,7 @@ impl Arrays {
         let error_estimate: Option<Vec<f32>> = header
             .adaptive
             .map(|_| floats.by_ref().take(vertices).collect());
-        check_adaptive_arrays(header, rays.as_deref(), error_estimate.as_deref())?;
+        check_adaptive_arrays(header, rays.as_deref(), error_estimate.as_deref(), texels)?;
         check_floats(header, &coefficients, ao.as_deref(), bent_normal.as_deref())?;
         Ok(Arrays {
             coefficients,
@@ -268,20 +281,25 @@ impl Arrays {
 }
 
 /// An adaptive bake's per-vertex rays (within the samples, adding up to the header's total)
-/// and estimated errors (non-negative).
+/// and estimated errors (non-negative). In a texel bake (`texels`) the texels no triangle
+/// covers cast none.
 fn check_adaptive_arrays(
     header: &Header,
     rays: Option<&[u32]>,
     error_estimate: Option<&[f32]>,
+    texels: bool,
 ) -> std::result::Result<(), String> {
     if let (Some(adaptive), Some(rays)) = (header.adaptive, rays) {
+        let least = u32::from(!texels);
         if let Some(v) = rays
             .iter()
-            .position(|r| !(1..=header.samples_per_vertex).contains(r))
+            .position(|r| !(least..=header.samples_per_vertex).contains(r))
         {
             return Err(format!(
-                "vertex {v} cast {} rays, outside 1..={} (the samples per vertex)",
-                rays[v], header.samples_per_vertex
+                "{} {v} cast {} rays, outside {least}..={} (the samples per {0})",
+                if texels { "texel" } else { "vertex" },
+                rays[v],
+                header.samples_per_vertex
             ));
         }
         let total: u64 = rays.iter().map(|&r| u64::from(r)).sum();
@@ -311,26 +329,36 @@ impl LightmapBlock {
         bytes: &[u8],
         header: &Header,
     ) -> std::result::Result<LightmapBlock, String> {
-        let u32_at = |o: usize| u32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes"));
-        let u64_at = |o: usize| u64::from_le_bytes(bytes[o..o + 8].try_into().expect("8 bytes"));
-        let (width, height) = (u32_at(128), u32_at(132));
+        LightmapBlock::from_block_bytes(&bytes[128..160], header, "a file")
+    }
+
+    /// The 32 bytes of a texel block, where a whole texel file (at 128) and a texel part
+    /// (at 128, followed by its atlas block) keep them; `holder` names which, for the error.
+    pub(crate) fn from_block_bytes(
+        block: &[u8],
+        header: &Header,
+        holder: &str,
+    ) -> std::result::Result<LightmapBlock, String> {
+        let u32_at = |o: usize| u32::from_le_bytes(block[o..o + 4].try_into().expect("4 bytes"));
+        let u64_at = |o: usize| u64::from_le_bytes(block[o..o + 8].try_into().expect("8 bytes"));
+        let (width, height) = (u32_at(0), u32_at(4));
         if u64::from(width) * u64::from(height) != header.vertex_count {
             return Err(format!(
-                "a {width}×{height} lightmap in a file of {} texels",
+                "a {width}×{height} lightmap in {holder} of {} texels",
                 header.vertex_count
             ));
         }
-        let source = AtlasSource::from_code(u32_at(156))
-            .ok_or_else(|| format!("unknown atlas source {}", u32_at(156)))?;
-        let texel_size = f32::from_le_bytes(bytes[152..156].try_into().expect("4 bytes"));
+        let source = AtlasSource::from_code(u32_at(28))
+            .ok_or_else(|| format!("unknown atlas source {}", u32_at(28)))?;
+        let texel_size = f32::from_le_bytes(block[24..28].try_into().expect("4 bytes"));
         if !(texel_size.is_finite() && texel_size >= 0.0) {
             return Err(format!("texel size {texel_size} is not a size"));
         }
         Ok(LightmapBlock {
             width,
             height,
-            scene_vertex_count: u64_at(136),
-            scene_triangle_count: u64_at(144),
+            scene_vertex_count: u64_at(8),
+            scene_triangle_count: u64_at(16),
             texel_size,
             source,
             valid: Vec::new(),

@@ -53,7 +53,8 @@ pub enum TransferKind {
     #[default]
     Vector,
     /// The transfer matrix M_ij = ∫ V(s) y_i(s) y_j(s) ds over the receiver's hemisphere
-    /// (Sloan, Kautz & Snyder 2002): n² × n² floats, row-major, symmetric.
+    /// (Sloan, Kautz & Snyder 2002): n² × n² floats, row-major; symmetric unless
+    /// interreflected (which adds the light bounced off the surfaces the rays hit).
     Matrix,
 }
 
@@ -481,13 +482,6 @@ fn parse_fields(bytes: &[u8], version: u32) -> std::result::Result<Header, Strin
             ));
         }
     };
-    if transfer == TransferKind::Matrix && mode == Mode::Interreflected {
-        return Err(
-            "an interreflected transfer-matrix file (matrix bakes are unshadowed or \
-                    shadowed)"
-                .into(),
-        );
-    }
     let bounces = u32_at(40);
     if (mode == Mode::Interreflected) != (bounces > 0) {
         return Err(format!("{bounces} bounces in a {} file", mode.name()));
@@ -679,7 +673,7 @@ mod tests {
         assert_eq!(read.header.transfer, TransferKind::Matrix);
         assert_eq!(read.vertex(1, 0), &matrix.coefficients[16..32]);
         assert_eq!(read.header.checksum, sum);
-        // An unknown kind, and an interreflected matrix, are refused.
+        // An unknown kind is refused; an interreflected matrix reads.
         let mut unknown = bytes.clone();
         unknown[38] = 2;
         let m = CoefficientFile::from_bytes(&resealed(unknown)).unwrap_err();
@@ -688,7 +682,8 @@ mod tests {
         bounced[36] = 2;
         bounced[40] = 1;
         bounced[80] = 1;
-        let m = CoefficientFile::from_bytes(&resealed(bounced)).unwrap_err();
-        assert!(m.contains("interreflected transfer-matrix"), "{m}");
+        let read = CoefficientFile::from_bytes(&resealed(bounced)).unwrap();
+        assert_eq!(read.header.mode, Mode::Interreflected);
+        assert_eq!(read.header.transfer, TransferKind::Matrix);
     }
 }

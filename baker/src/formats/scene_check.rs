@@ -11,8 +11,9 @@ use crate::support::error::{Error, Result};
 
 impl CoefficientFile {
     /// Refuses a file baked for a different scene (or a changed version of this one), and a
-    /// transfer-matrix bake: every reader of transfer vectors (relight, glTF, the viewer)
-    /// checks its file here, so none of them misreads a matrix as vectors.
+    /// transfer-matrix bake: every reader of transfer vectors only (the glTF and EXR exports,
+    /// the viewer's per-texel path) checks its file here, so none of them misreads a matrix as
+    /// vectors; readers of both kinds call [`CoefficientFile::check_scene_of_any_transfer`].
     pub fn check_scene(&self, path: &Path, scene: &Scene) -> Result<()> {
         self.refuse_matrix(path)?;
         self.check_scene_of_any_transfer(path, scene)
@@ -24,7 +25,7 @@ impl CoefficientFile {
             return Err(Error::SceneMismatch {
                 path: path.to_path_buf(),
                 message: "a transfer-matrix bake (--transfer matrix), which this command does \
-                          not read yet (`export --npz` and `inspect` do)"
+                          not read yet (`export --npz`, `inspect`, `relight` and `prt-view` do)"
                     .into(),
             });
         }

@@ -26,6 +26,7 @@ use std::collections::HashMap;
 use glam::Vec2;
 
 use super::atlas::Atlas;
+use super::texels::bilinear_taps;
 use crate::scene::Scene;
 
 /// Weight of keeping a texel's baked value against making the seams agree: small, so the
@@ -164,34 +165,11 @@ pub fn seam_samples(
     samples
 }
 
-/// Bilinear taps at texel-space point `p` (texel centres at half-integers, as a GPU samples),
-/// over the filled texels, weights renormalised.
+/// [`bilinear_taps`] as a list.
 fn taps(p: Vec2, width: u32, height: u32, filled: &[bool]) -> Vec<(u32, f32)> {
-    let p = p - Vec2::splat(0.5);
-    let (x0, y0) = (p.x.floor(), p.y.floor());
-    let (fx, fy) = (p.x - x0, p.y - y0);
-    let (w, h) = (i64::from(width), i64::from(height));
-    let (x0, y0) = (x0 as i64, y0 as i64);
-    let mut out = Vec::with_capacity(4);
-    for (x, y, weight) in [
-        (x0, y0, (1.0 - fx) * (1.0 - fy)),
-        (x0 + 1, y0, fx * (1.0 - fy)),
-        (x0, y0 + 1, (1.0 - fx) * fy),
-        (x0 + 1, y0 + 1, fx * fy),
-    ] {
-        if x < 0 || y < 0 || x >= w || y >= h || weight <= 0.0 {
-            continue;
-        }
-        let i = (y * w + x) as usize;
-        if filled[i] {
-            out.push((i as u32, weight));
-        }
-    }
-    let sum: f32 = out.iter().map(|t| t.1).sum();
-    for t in &mut out {
-        t.1 /= sum;
-    }
-    out
+    let mut out = [(0, 0.0); 4];
+    let count = bilinear_taps(p, width, height, filled, &mut out);
+    out[..count].to_vec()
 }
 
 /// The step across the seams, column `column` of `values` (`width` floats a texel): the

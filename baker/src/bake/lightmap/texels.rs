@@ -248,6 +248,50 @@ fn polygon_centroid(poly: &[Vec2]) -> Vec2 {
     poly.iter().copied().sum::<Vec2>() / poly.len() as f32
 }
 
+/// Bilinear taps at texel-space point `p` (texel centres at half-integers, as a GPU samples a
+/// lightmap) over the `filled` texels of a `width`×`height` lightmap: texels outside it or
+/// not filled are left out and the others' weights renormalised. Writes (texel, weight) to
+/// `out` and returns how many; 0 where `p` is not finite or no tap is filled. The bounce
+/// gather and the seam stitching read a lightmap with it, so both read what a GPU shows.
+pub(crate) fn bilinear_taps(
+    p: Vec2,
+    width: u32,
+    height: u32,
+    filled: &[bool],
+    out: &mut [(u32, f32); 4],
+) -> usize {
+    let p = p - Vec2::splat(0.5);
+    let (x0, y0) = (p.x.floor(), p.y.floor());
+    let (fx, fy) = (p.x - x0, p.y - y0);
+    if !(x0.is_finite() && y0.is_finite()) {
+        return 0;
+    }
+    let (w, h) = (i64::from(width), i64::from(height));
+    let (x0, y0) = (x0 as i64, y0 as i64);
+    let taps = [
+        (x0, y0, (1.0 - fx) * (1.0 - fy)),
+        (x0 + 1, y0, fx * (1.0 - fy)),
+        (x0, y0 + 1, (1.0 - fx) * fy),
+        (x0 + 1, y0 + 1, fx * fy),
+    ];
+    let (mut count, mut sum) = (0, 0.0);
+    for (x, y, weight) in taps {
+        if x < 0 || y < 0 || x >= w || y >= h || weight <= 0.0 {
+            continue;
+        }
+        let i = (y * w + x) as usize;
+        if filled[i] {
+            out[count] = (i as u32, weight);
+            sum += weight;
+            count += 1;
+        }
+    }
+    for slot in &mut out[..count] {
+        slot.1 /= sum;
+    }
+    count
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
