@@ -5,15 +5,15 @@
 //! RGB vector, so a receiver stores one cluster index and M weights whatever its channel
 //! count) is approximated as `x ≈ μ_k + Σ_i w_i · b_ki`: the mean of its cluster k plus M
 //! weights on that cluster's first M principal components. The fit is deterministic:
-//! k-means++ seeding from a fixed seed, Lloyd iterations, per-cluster PCA (a cyclic Jacobi
-//! eigen-decomposition of the covariance, written here because the workspace has no linear
-//! algebra crate and the matrices are small: 16 or 48 rows at order 4), then Sloan's
+//! k-means++ seeding from a fixed seed, Lloyd iterations, per-cluster PCA (the leading
+//! eigenvectors of the scatter matrix, [`crate::math::eigen`]), then Sloan's
 //! refinement: each receiver moves to the cluster whose mean and PCs reconstruct it with the
 //! least error, and means and PCs are recomputed, which never increases the total error.
 //! [`crate::formats::cpca_block`] stores the result in a version-2 `.prt` file.
 
 use rayon::prelude::*;
 
+use crate::math::eigen;
 use crate::support::error::{Error, Result};
 
 /// The seed of the k-means++ seeding: fixed, so the same input gives the same file.
@@ -339,66 +339,7 @@ fn principal_components(
             scatter[p * dim + q] = scatter[q * dim + p];
         }
     }
-    let (values, vectors) = symmetric_eigen(scatter, dim);
-    let mut order: Vec<usize> = (0..dim).collect();
-    // Largest first; ties by index, so the result does not depend on the sort.
-    order.sort_by(|&a, &b| values[b].total_cmp(&values[a]).then(a.cmp(&b)));
-    order
-        .into_iter()
-        .take(pcs)
-        .map(|j| (0..dim).map(|i| vectors[i * dim + j]).collect())
-        .collect()
-}
-
-/// Eigenvalues and eigenvectors (the columns of the returned row-major matrix) of a symmetric
-/// `n`×`n` matrix, by cyclic Jacobi rotations: slow for large n, but exact to rounding and
-/// orthonormal, which the weights (plain projections) rely on.
-pub fn symmetric_eigen(mut a: Vec<f64>, n: usize) -> (Vec<f64>, Vec<f64>) {
-    let mut v = vec![0.0f64; n * n];
-    for i in 0..n {
-        v[i * n + i] = 1.0;
-    }
-    let norm: f64 = a.iter().map(|x| x * x).sum();
-    for _sweep in 0..60 {
-        let mut off = 0.0;
-        for p in 0..n {
-            for q in p + 1..n {
-                off += a[p * n + q] * a[p * n + q];
-            }
-        }
-        if off <= 1e-30 * norm || off == 0.0 {
-            break;
-        }
-        for p in 0..n {
-            for q in p + 1..n {
-                let apq = a[p * n + q];
-                if apq == 0.0 {
-                    continue;
-                }
-                let theta = (a[q * n + q] - a[p * n + p]) / (2.0 * apq);
-                let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
-                let c = 1.0 / (t * t + 1.0).sqrt();
-                let s = t * c;
-                // A ← Jᵀ A J with J the rotation in the (p, q) plane.
-                for k in 0..n {
-                    let (akp, akq) = (a[k * n + p], a[k * n + q]);
-                    a[k * n + p] = c * akp - s * akq;
-                    a[k * n + q] = s * akp + c * akq;
-                }
-                for k in 0..n {
-                    let (apk, aqk) = (a[p * n + k], a[q * n + k]);
-                    a[p * n + k] = c * apk - s * aqk;
-                    a[q * n + k] = s * apk + c * aqk;
-                }
-                for k in 0..n {
-                    let (vkp, vkq) = (v[k * n + p], v[k * n + q]);
-                    v[k * n + p] = c * vkp - s * vkq;
-                    v[k * n + q] = s * vkp + c * vkq;
-                }
-            }
-        }
-    }
-    ((0..n).map(|i| a[i * n + i]).collect(), v)
+    eigen::leading_eigenvectors(&scatter, dim, pcs)
 }
 
 /// Squared reconstruction error of `x` by cluster k's mean and components.
@@ -539,24 +480,6 @@ mod tests {
                     .collect::<Vec<_>>()
             })
             .collect()
-    }
-
-    #[test]
-    fn jacobi_diagonalises() {
-        let n = 5;
-        let mut a = vec![0.0; n * n];
-        for p in 0..n {
-            for q in 0..n {
-                a[p * n + q] = 1.0 / (1 + p + q) as f64 + if p == q { 1.0 } else { 0.0 };
-            }
-        }
-        let (values, vectors) = symmetric_eigen(a.clone(), n);
-        for j in 0..n {
-            for i in 0..n {
-                let av: f64 = (0..n).map(|k| a[i * n + k] * vectors[k * n + j]).sum();
-                assert!((av - values[j] * vectors[i * n + j]).abs() < 1e-12);
-            }
-        }
     }
 
     #[test]

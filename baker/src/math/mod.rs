@@ -5,6 +5,7 @@
 //! May import: [`crate::support`].
 
 pub mod cpca;
+pub mod eigen;
 pub mod glossy;
 pub mod sampling;
 pub mod sh;
