@@ -92,7 +92,8 @@ fn previous_bounces(
             transfer: direct.coefficients,
             channels: 1,
             rays,
-            hit_cache_bytes: None,
+            // No bounce rows: nothing was cached, and nothing re-traced.
+            hit_cache_bytes: Some(0),
         }
     } else {
         let bounced = crate::bake::interreflection::bake(
@@ -127,7 +128,7 @@ pub(crate) struct MatrixBounced {
     pub visibility: Vec<Visibility>,
     /// Rays cast: the vector pass's (re-traced bounces included) and the matrix pass's.
     pub rays_cast: u64,
-    /// The vector pass's hit cache, `None` if its bounces re-traced (or it had none).
+    /// The vector pass's hit cache: `None` if its bounces re-traced, 0 bytes if it had none.
     pub hit_cache_bytes: Option<u64>,
 }
 

@@ -421,6 +421,13 @@ fn summary(args: &BakeArgs, options: &BakeOptions, transfer: &Transfer, what: &s
         ),
     };
     let mode = match (options.mode, transfer.hit_cache_bytes) {
+        // A one-bounce matrix bake: its vector pass has no bounces, so no rows to cache.
+        (Mode::Interreflected, Some(0)) => format!(
+            "interreflected, {} from {} rays, {} channels",
+            bounces(options.bounces),
+            options.effective_bounce_samples(),
+            transfer.channels,
+        ),
         (Mode::Interreflected, Some(bytes)) => format!(
             "interreflected, {} from {} rays, {} channels, hit cache {:.0} MiB",
             bounces(options.bounces),
