@@ -24,7 +24,7 @@ use wgpu::util::DeviceExt;
 
 use crate::bake::Bake;
 use crate::error::{Error, Result};
-use crate::resources::{buffer_binding, uniform_entry};
+use crate::resources::{buffer_binding, storage_entry, uniform_entry};
 
 /// The largest order shown as glossy PRT: n² ≤ 64 (`MAX_N2` in glossy.wgsl); a matrix is n⁴
 /// floats per vertex, 4,096 at order 8.
@@ -244,23 +244,13 @@ pub fn project(
 /// Group 2: the parameters (0, read by the vertex shader), cluster indices (1), weights (2)
 /// and projected light (3).
 fn layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
-    let storage = |binding| wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::VERTEX,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only: true },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    };
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("glossy"),
         entries: &[
             uniform_entry(0, wgpu::ShaderStages::VERTEX),
-            storage(1),
-            storage(2),
-            storage(3),
+            storage_entry(1, wgpu::ShaderStages::VERTEX),
+            storage_entry(2, wgpu::ShaderStages::VERTEX),
+            storage_entry(3, wgpu::ShaderStages::VERTEX),
         ],
     })
 }

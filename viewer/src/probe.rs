@@ -106,21 +106,7 @@ fn draw_points(
     {
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("probe"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    // A vertex that drew no point reads back as NaN and fails any comparison.
-                    load: wgpu::LoadOp::Clear(wgpu::Color {
-                        r: f64::NAN,
-                        g: f64::NAN,
-                        b: f64::NAN,
-                        a: f64::NAN,
-                    }),
-                    store: wgpu::StoreOp::Store,
-                },
-            })],
+            color_attachments: &[nan_cleared(view)],
             depth_stencil_attachment: None,
             timestamp_writes: None,
             occlusion_query_set: None,
@@ -199,26 +185,9 @@ pub fn glossy_vertex_terms(
         label: Some("glossy probe"),
     });
     {
-        let attachment = |view| {
-            Some(wgpu::RenderPassColorAttachment {
-                view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    // A vertex that drew no point reads back as NaN and fails any comparison.
-                    load: wgpu::LoadOp::Clear(wgpu::Color {
-                        r: f64::NAN,
-                        g: f64::NAN,
-                        b: f64::NAN,
-                        a: f64::NAN,
-                    }),
-                    store: wgpu::StoreOp::Store,
-                },
-            })
-        };
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("glossy probe"),
-            color_attachments: &[attachment(&diffuse_view), attachment(&glossy_view)],
+            color_attachments: &[nan_cleared(&diffuse_view), nan_cleared(&glossy_view)],
             depth_stencil_attachment: None,
             timestamp_writes: None,
             occlusion_query_set: None,
@@ -248,4 +217,23 @@ pub fn glossy_vertex_terms(
             .map(|([a, b, c, _], [d, e, f, _])| ([*a, *b, *c], [*d, *e, *f]))
             .collect(),
     ))
+}
+
+/// A probe target cleared to NaN: a vertex that drew no point reads back as NaN and fails any
+/// comparison.
+fn nan_cleared(view: &wgpu::TextureView) -> Option<wgpu::RenderPassColorAttachment<'_>> {
+    Some(wgpu::RenderPassColorAttachment {
+        view,
+        depth_slice: None,
+        resolve_target: None,
+        ops: wgpu::Operations {
+            load: wgpu::LoadOp::Clear(wgpu::Color {
+                r: f64::NAN,
+                g: f64::NAN,
+                b: f64::NAN,
+                a: f64::NAN,
+            }),
+            store: wgpu::StoreOp::Store,
+        },
+    })
 }

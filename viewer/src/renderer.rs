@@ -28,8 +28,8 @@ use crate::glossy::{GlossyResources, material_lobe};
 use crate::lights::{MAX_LIGHTS, PhongLights, PhongShape};
 use crate::overlay::Overlay;
 use crate::resources::{
-    DEPTH_FORMAT, PipelineSpec, buffer_binding, pipeline, scene_shader, texture_2d, texture_entry,
-    uniform_buffer, uniform_entry, view_binding,
+    DEPTH_FORMAT, PipelineSpec, buffer_binding, pipeline, scene_shader, storage_entry, texture_2d,
+    texture_entry, uniform_buffer, uniform_entry, view_binding,
 };
 use crate::texel_radiance::RadianceMap;
 use crate::texel_transfer::{TexelStorage, TexelTransfer};
@@ -658,22 +658,12 @@ impl FrameResources {
 /// or a buffer (4), read by the radiance map's pass.
 fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
     let vertex_and_fragment = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
-    let storage = |binding, visibility| wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only: true },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    };
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("frame"),
         entries: &[
             uniform_entry(0, vertex_and_fragment),
-            storage(1, wgpu::ShaderStages::VERTEX),
-            storage(2, vertex_and_fragment),
+            storage_entry(1, wgpu::ShaderStages::VERTEX),
+            storage_entry(2, vertex_and_fragment),
             wgpu::BindGroupLayoutEntry {
                 binding: 3,
                 visibility: wgpu::ShaderStages::FRAGMENT,
@@ -684,7 +674,7 @@ fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
                 },
                 count: None,
             },
-            storage(4, wgpu::ShaderStages::FRAGMENT),
+            storage_entry(4, wgpu::ShaderStages::FRAGMENT),
         ],
     })
 }
