@@ -96,8 +96,10 @@ fn cpu_terms(bake: &Bake, light: &LightCoefficients, eye: Vec3) -> Vec<([f32; 3]
                             .sum::<f64>() as f32
                     })
                     .collect();
-                out.0[c] = prt_baker::math::glossy::convolve_at(&incident, &diffuse_bands, &yn);
-                out.1[c] = prt_baker::math::glossy::convolve_at(&incident, &glossy_bands, &yr);
+                out.0[c] =
+                    prt_baker::math::glossy::convolve_at(&incident, &diffuse_bands, &yn) as f32;
+                out.1[c] =
+                    prt_baker::math::glossy::convolve_at(&incident, &glossy_bands, &yr) as f32;
             }
             out
         })

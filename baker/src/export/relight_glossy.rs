@@ -25,7 +25,7 @@ use rayon::prelude::*;
 use crate::formats::coefficient_file::CoefficientFile;
 use crate::light::LightCoefficients;
 use crate::math::cpca::Cpca;
-use crate::math::glossy::{lobe_bands, reflect};
+use crate::math::glossy::{convolve_at, lobe_bands, reflect};
 use crate::math::sh::{self, Basis};
 use crate::scene::{Glossy, Scene};
 
@@ -192,12 +192,12 @@ impl<'a> Shader<'a> {
                     let albedo = self.receivers.albedo[v];
                     std::array::from_fn(|c| {
                         incident(v, c, l);
-                        let diffuse = convolve(l, &self.diffuse_bands, y_n);
+                        let diffuse = convolve_at(l, &self.diffuse_bands, y_n);
                         let value = match glossy {
                             None => f64::from(albedo[c]) * diffuse,
                             Some((layer, g)) => {
                                 f64::from(albedo[c] * layer.diffuse_weight) * diffuse
-                                    + f64::from(layer.ks[c]) * convolve(l, g, y_r)
+                                    + f64::from(layer.ks[c]) * convolve_at(l, g, y_r)
                             }
                         };
                         value as f32
@@ -214,17 +214,6 @@ fn bands(exponent: f32, order: usize) -> Vec<f64> {
         .into_iter()
         .map(f64::from)
         .collect()
-}
-
-/// Σ_lm g_l · l_lm · y_lm ([`crate::math::glossy::convolve_at`] in f64).
-fn convolve(l: &[f64], g: &[f64], y: &[f64]) -> f64 {
-    g.iter()
-        .enumerate()
-        .map(|(band, &gl)| {
-            let range = band * band..(band + 1) * (band + 1);
-            gl * range.map(|i| l[i] * y[i]).sum::<f64>()
-        })
-        .sum()
 }
 
 #[cfg(test)]

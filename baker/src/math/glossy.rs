@@ -82,14 +82,15 @@ pub fn lobe_bands(exponent: f32, order: usize) -> Vec<f32> {
 
 /// Σ_lm bands[l] · radiance_lm · sh_lm: the lobe whose band factors are `bands`, convolved
 /// with `radiance` (SH coefficients, l(l+1)+m order) and evaluated where `sh` (the basis at
-/// the lobe's axis) was evaluated.
-pub fn convolve_at(radiance: &[f32], bands: &[f32], sh: &[f32]) -> f32 {
+/// the lobe's axis) was evaluated. Summed in f64, for f32 inputs (a renderer's) or f64 ones
+/// (the CPU reference's).
+pub fn convolve_at<T: Copy + Into<f64>>(radiance: &[T], bands: &[T], sh: &[T]) -> f64 {
     let mut sum = 0.0;
     for (l, &g) in bands.iter().enumerate() {
-        let band: f32 = (l * l..(l + 1) * (l + 1))
-            .map(|i| radiance[i] * sh[i])
+        let band: f64 = (l * l..(l + 1) * (l + 1))
+            .map(|i| radiance[i].into() * sh[i].into())
             .sum();
-        sum += g * band;
+        sum += g.into() * band;
     }
     sum
 }
