@@ -8,11 +8,14 @@
 //! k-means++ seeding from a fixed seed, Lloyd iterations, per-cluster PCA (the leading
 //! eigenvectors of the scatter matrix, [`crate::math::eigen`]), then Sloan's
 //! refinement: each receiver moves to the cluster whose mean and PCs reconstruct it with the
-//! least error, and means and PCs are recomputed, which never increases the total error.
+//! least error, and means and PCs are recomputed, which never increases the total error;
+//! last, split-and-delete moves ([`crate::math::cpca_moves`]) take it out of the refinement's
+//! local optimum, again never increasing the error.
 //! [`crate::formats::cpca_block`] stores the result in a version-2 `.prt` file.
 
 use rayon::prelude::*;
 
+use crate::math::cpca_moves::{self, Fit, Model, members, scatter};
 use crate::math::eigen;
 use crate::support::error::{Error, Result};
 
@@ -25,6 +28,9 @@ const LLOYD_ITERATIONS: usize = 30;
 /// demo scenes 8 iterations were still gaining a few per cent each).
 const CPCA_ITERATIONS: usize = 30;
 const CPCA_TOLERANCE: f64 = 1e-3;
+/// Split-and-delete moves tried at most per cluster ([`cpca_moves`]); they stop earlier,
+/// once several in a row fail (the demo torus, RGB, 64 × 4: 26 tried, 20 kept).
+const MOVES_PER_CLUSTER: usize = 4;
 
 /// A clustered-PCA approximation of V vectors of `dim` floats.
 #[derive(Clone, Debug, PartialEq)]
@@ -42,7 +48,8 @@ pub struct Cpca {
     pub cluster: Vec<u32>,
     /// V × M weights: receiver v's projections on its cluster's components.
     pub weights: Vec<f32>,
-    /// Refinement iterations the fit ran (recorded in the file, for information).
+    /// Refinement iterations the fit ran before the moves, plus the moves kept (recorded in
+    /// the file, for information).
     pub iterations: u32,
 }
 
@@ -118,6 +125,18 @@ pub fn rms_error(a: &[f32], b: &[f32]) -> f64 {
 /// clusters and `pcs` components each. With K ≥ V every receiver is its own cluster's mean:
 /// exact. Clusters that end up empty are dropped, so the result may hold fewer than K.
 pub fn compress(data: &[f32], dim: usize, clusters: usize, pcs: usize) -> Result<Cpca> {
+    compress_with(data, dim, clusters, pcs, MOVES_PER_CLUSTER * clusters)
+}
+
+/// [`compress`] trying at most `max_moves` split-and-delete moves (0: Sloan's refinement
+/// alone, as the tests compare).
+fn compress_with(
+    data: &[f32],
+    dim: usize,
+    clusters: usize,
+    pcs: usize,
+    max_moves: usize,
+) -> Result<Cpca> {
     if clusters == 0 {
         return Err(Error::InvalidOption("--clusters must be at least 1".into()));
     }
@@ -194,36 +213,20 @@ pub fn compress(data: &[f32], dim: usize, clusters: usize, pcs: usize) -> Result
         }
     }
 
-    // PCA per cluster, then Sloan's refinement: reassign by reconstruction error, refit.
-    let mut model = fit(data, dim, pcs, &assignment, &centres);
-    let mut error = total_error(data, dim, &model, &assignment);
-    let mut iterations = 0;
-    for _ in 0..CPCA_ITERATIONS {
-        let next = best_clusters(data, dim, &model);
-        if next == assignment {
-            break;
-        }
-        let means = cluster_means(data, dim, &next, &model.means);
-        let next_model = fit(data, dim, pcs, &next, &means);
-        let next_error = total_error(data, dim, &next_model, &next);
-        iterations += 1;
-        if next_error > error {
-            break; // rounding only: reassignment and refit each never increase the error
-        }
-        let gain = error - next_error;
-        (model, assignment, error) = (next_model, next, next_error);
-        if gain <= CPCA_TOLERANCE * error {
-            break;
-        }
-    }
-    Ok(finish(data, dim, pcs, model, &assignment, iterations))
-}
-
-/// Means and components of every cluster, f64 while fitting.
-struct Model {
-    means: Vec<Vec<f64>>,
-    /// Per cluster, M components of D floats.
-    bases: Vec<Vec<Vec<f64>>>,
+    // PCA per cluster, then Sloan's refinement: reassign by reconstruction error, refit;
+    // then split-and-delete moves out of its local optimum.
+    let model = fit(data, dim, pcs, &assignment, &centres);
+    let mut state = Fit::new(data, dim, model, assignment);
+    let iterations = state.refine(data, dim, pcs, CPCA_ITERATIONS, CPCA_TOLERANCE);
+    let (_, moves) = cpca_moves::improve(data, dim, pcs, &mut state, max_moves);
+    Ok(finish(
+        data,
+        dim,
+        pcs,
+        state.model,
+        &state.assignment,
+        iterations + moves as u32,
+    ))
 }
 
 fn to_f64(x: &[f32]) -> Vec<f64> {
@@ -278,15 +281,6 @@ fn cluster_means(
         .collect()
 }
 
-/// Members of each of `clusters` clusters, in receiver order.
-fn members(assignment: &[u32], clusters: usize) -> Vec<Vec<usize>> {
-    let mut members = vec![Vec::new(); clusters];
-    for (v, &k) in assignment.iter().enumerate() {
-        members[k as usize].push(v);
-    }
-    members
-}
-
 /// Each cluster's first M principal components about `means`.
 fn fit(data: &[f32], dim: usize, pcs: usize, assignment: &[u32], means: &[Vec<f64>]) -> Model {
     let members = members(assignment, means.len());
@@ -314,79 +308,7 @@ fn principal_components(
     if pcs == 0 || members.is_empty() {
         return vec![vec![0.0; dim]; pcs];
     }
-    let mut scatter = vec![0.0f64; dim * dim];
-    let mut centred = vec![0.0f64; dim];
-    for &v in members {
-        for (c, (&x, &m)) in centred
-            .iter_mut()
-            .zip(data[v * dim..(v + 1) * dim].iter().zip(mean))
-        {
-            *c = f64::from(x) - m;
-        }
-        for p in 0..dim {
-            let cp = centred[p];
-            if cp == 0.0 {
-                continue;
-            }
-            let row = &mut scatter[p * dim..(p + 1) * dim];
-            for q in p..dim {
-                row[q] += cp * centred[q];
-            }
-        }
-    }
-    for p in 0..dim {
-        for q in 0..p {
-            scatter[p * dim + q] = scatter[q * dim + p];
-        }
-    }
-    eigen::leading_eigenvectors(&scatter, dim, pcs)
-}
-
-/// Squared reconstruction error of `x` by cluster k's mean and components.
-fn cluster_error(x: &[f32], mean: &[f64], basis: &[Vec<f64>], centred: &mut [f64]) -> f64 {
-    for (c, (&a, &m)) in centred.iter_mut().zip(x.iter().zip(mean)) {
-        *c = f64::from(a) - m;
-    }
-    let mut e: f64 = centred.iter().map(|c| c * c).sum();
-    for b in basis {
-        let w: f64 = b.iter().zip(centred.iter()).map(|(b, c)| b * c).sum();
-        e -= w * w;
-    }
-    e
-}
-
-/// Each receiver's cluster of least reconstruction error (ties: the lower index).
-fn best_clusters(data: &[f32], dim: usize, model: &Model) -> Vec<u32> {
-    data.par_chunks(dim)
-        .map_init(
-            || vec![0.0f64; dim],
-            |centred, x| {
-                let mut best = (f64::INFINITY, 0u32);
-                for (k, (mean, basis)) in model.means.iter().zip(&model.bases).enumerate() {
-                    let e = cluster_error(x, mean, basis, centred);
-                    if e < best.0 {
-                        best = (e, k as u32);
-                    }
-                }
-                best.1
-            },
-        )
-        .collect()
-}
-
-fn total_error(data: &[f32], dim: usize, model: &Model, assignment: &[u32]) -> f64 {
-    let errors: Vec<f64> = data
-        .par_chunks(dim)
-        .zip(assignment)
-        .map_init(
-            || vec![0.0f64; dim],
-            |centred, (x, &k)| {
-                let k = k as usize;
-                cluster_error(x, &model.means[k], &model.bases[k], centred).max(0.0)
-            },
-        )
-        .collect();
-    errors.iter().sum()
+    eigen::leading_eigenvectors(&scatter(data, dim, members, mean), dim, pcs)
 }
 
 /// The stored form: empty clusters dropped, f32 values, weights projected in f64.
@@ -529,6 +451,62 @@ mod tests {
         assert_eq!(a, compress(&x, 16, 32, 3).unwrap());
         assert!(a.cluster.iter().all(|&k| (k as usize) < a.clusters()));
         assert_eq!(a.weights.len(), 1500 * 3);
+    }
+
+    /// A straight segment, which k-means cuts into several clusters though any one of their
+    /// lines reconstructs all of it, beside a circle, which needs many lines.
+    fn segment_and_circle() -> Vec<f32> {
+        let mut x = Vec::new();
+        for i in 0..400 {
+            x.extend([i as f32 / 10.0 - 20.0, 0.0, 0.0]);
+        }
+        for i in 0..400 {
+            let a = i as f32 / 400.0 * std::f32::consts::TAU;
+            x.extend([0.0, 10.0 + a.cos(), a.sin()]);
+        }
+        x
+    }
+
+    #[test]
+    fn moves_beat_the_refinement_alone() {
+        // The refinement keeps the segment's spare clusters (they reconstruct it exactly); the
+        // moves split the circle's clusters and delete the spares.
+        let x = segment_and_circle();
+        let error = |moves| {
+            rms_error(
+                &x,
+                &compress_with(&x, 3, 6, 1, moves).unwrap().reconstruct(),
+            )
+        };
+        let (plain, moved) = (error(0), error(100));
+        assert!(
+            moved < 0.5 * plain,
+            "refinement alone {plain}, with moves {moved}"
+        );
+    }
+
+    #[test]
+    fn moves_never_increase_the_error() {
+        // The same moves are tried in the same order whatever the budget, so each budget's
+        // result is the previous one's after one more move, kept or not.
+        for (x, dim, k, m) in [
+            (data(1500, 16), 16, 16, 2),
+            (data(800, 16), 16, 8, 1),
+            (segment_and_circle(), 3, 6, 1),
+        ] {
+            let mut previous = f64::INFINITY;
+            for moves in 0..10 {
+                let e = rms_error(
+                    &x,
+                    &compress_with(&x, dim, k, m, moves).unwrap().reconstruct(),
+                );
+                assert!(
+                    e <= previous * (1.0 + 1e-5),
+                    "{moves} moves: {e} > {previous}"
+                );
+                previous = e;
+            }
+        }
     }
 
     #[test]

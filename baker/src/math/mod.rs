@@ -5,6 +5,7 @@
 //! May import: [`crate::support`].
 
 pub mod cpca;
+mod cpca_moves;
 pub mod eigen;
 pub mod glossy;
 pub mod sampling;
