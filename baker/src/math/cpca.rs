@@ -9,7 +9,7 @@
 //! eigenvectors of the scatter matrix, [`crate::math::eigen`]), then Sloan's
 //! refinement: each receiver moves to the cluster whose mean and PCs reconstruct it with the
 //! least error, and means and PCs are recomputed, which never increases the total error;
-//! last, split-and-delete moves ([`crate::math::cpca_moves`]) take it out of the refinement's
+//! last, split-and-delete moves (`math::cpca_moves`) take it out of the refinement's
 //! local optimum, again never increasing the error.
 //! [`crate::formats::cpca_block`] stores the result in a version-2 `.prt` file.
 

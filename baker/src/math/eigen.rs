@@ -37,7 +37,7 @@ pub fn leading_eigenvectors(a: &[f64], n: usize, k: usize) -> Vec<Vec<f64>> {
 /// from `start`: an orthogonal n×n matrix, row-major with the vectors in its columns, as
 /// this returns every eigenvector for the next call. Jacobi then runs on SᵀAS, nearly
 /// diagonal when S diagonalises a nearby matrix (a CPCA cluster that gained or lost a few
-/// members), so it needs a few sweeps instead of about eight; the result is as exact.
+/// members), so it needs fewer sweeps; the result is as exact.
 pub fn leading_eigenvectors_from(
     a: &[f64],
     n: usize,
