@@ -4,8 +4,8 @@
 //! closed-form transfer, must be ≤ 1.5 E at ≥ 95 % of the vertices (the issue's requirement),
 //! and the RMS estimate must be close to the RMS true error (honest, not only safe). A smaller E
 //! must cost more rays and give a smaller true error. Fixed bakes of the same trials measure
-//! what the adaptive bake pays (issue 22: a win is ≤ 0.8 × the rays of the smallest fixed bake
-//! whose p99 true error is at most the adaptive bake's; not met yet, docs/performance.md).
+//! what the adaptive bake pays (issue 22: a win is ≤ 0.8 × the rays of the fixed bakes, interpolated
+//! log-log, at the adaptive bake's p99 true error; docs/performance.md).
 //! Texels of a lightmap are trials of the same estimator, and a vertex that stopped at N rays
 //! holds exactly what the fixed N-ray bake holds for it.
 //!
@@ -35,8 +35,10 @@ const FIXED: [u32; 13] = [
 /// Adaptive sampling wins when it casts at most this share of the rays of the fixed bake with
 /// its p99 true error (issue 22; the fixed bakes interpolated log-log).
 const WIN: f64 = 0.8;
-/// What the test requires of that share today: adaptive sampling does not win yet.
-const AT_MOST: f64 = 1.4;
+/// What the test requires of that share at each target: a win where the target asks more than
+/// the pilot gives; at 4 × 10⁻³ every trial stops at the 256-point pilot, which is the fixed
+/// 256-ray bake.
+const AT_MOST: [f64; 3] = [1.05, WIN, WIN];
 
 fn adaptive(target: f32, seed: u64) -> BakeOptions {
     BakeOptions {
@@ -282,7 +284,7 @@ fn the_true_error_stays_within_one_and_a_half_targets_and_converges() {
         .collect();
     let fixed_line: Vec<String> = fixed.iter().map(|(n, p)| format!("{n}: {p:.2e}")).collect();
     eprintln!("fixed bakes, p99 true error: {}", fixed_line.join(", "));
-    for (target, outcome) in [4e-3, 1e-3, 2.5e-4].iter().zip(&outcomes) {
+    for ((target, outcome), at_most) in [4e-3, 1e-3, 2.5e-4].iter().zip(&outcomes).zip(AT_MOST) {
         // The fixed rays with the adaptive bake's p99, interpolated log-log between the fixed
         // bakes around it: a ratio to the smallest fixed bake of the grid would move with
         // where the grid's steps fall (a bake a hair better than fixed 4,096 "beat" 6,144).
@@ -310,11 +312,8 @@ fn the_true_error_stays_within_one_and_a_half_targets_and_converges() {
                 if r <= WIN { "wins" } else { "does not win" }
             )),
         );
-        // Not met at every target yet (docs/performance.md): the guard keeps the gain over the
-        // 16-replicate design, which cast 1.9 × the rays of the fixed bake it matched at
-        // E = 10⁻³.
         assert!(
-            ratio.is_some_and(|r| r <= AT_MOST),
+            ratio.is_some_and(|r| r <= at_most),
             "E = {target:e}: adaptive sampling cast {:.0} rays per vertex for a p99 error of \
              {:.2e}; fixed sampling: {fixed_line:?}",
             outcome.mean_rays,
@@ -322,8 +321,10 @@ fn the_true_error_stays_within_one_and_a_half_targets_and_converges() {
         );
     }
     for pair in outcomes.windows(2) {
+        // Not 2 ×: inferred answers cost no rays, and at 4 × 10⁻³ every trial stops at the
+        // pilot.
         assert!(
-            pair[1].mean_rays > 2.0 * pair[0].mean_rays,
+            pair[1].mean_rays > 1.2 * pair[0].mean_rays,
             "a 4× smaller target cast {:.0} rays per vertex against {:.0}",
             pair[1].mean_rays,
             pair[0].mean_rays
@@ -403,43 +404,58 @@ fn texel_estimates_are_honest_too() {
     judge(target, &trials);
 }
 
-/// A vertex that stopped at N rays holds what the fixed N-ray bake of the same seed holds for
-/// it: the adaptive bake casts a prefix of the fixed bake's sequence in the same frame, so the
-/// two differ only by the order of the sums.
+/// A vertex that stopped at N points holds what the fixed N-ray bake of the same seed holds
+/// for it: the adaptive bake sums a prefix of the fixed bake's sequence in the same frame, with
+/// the answers of the rays it did not cast inferred from their neighbours. Where every
+/// inference is right the two differ only by the order of the sums; on the wall, whose shadow
+/// edge is a straight line, that is every vertex but a rare few.
 #[test]
-fn a_vertex_that_stopped_at_n_rays_holds_the_fixed_n_ray_bake() {
+fn a_vertex_that_stopped_at_n_points_holds_the_fixed_n_ray_bake() {
     let scene = wall_scene();
-    let adaptive_bake = bake_scene(&scene, &adaptive(1e-3, 7));
-    let mut sizes: Vec<u32> = adaptive_bake.visibility.iter().map(|v| v.rays).collect();
-    sizes.sort_unstable();
-    sizes.dedup();
-    assert!(
-        sizes.len() >= 3,
-        "the wall's vertices stop at several sizes: {sizes:?}"
-    );
+    let options = adaptive(1e-3, 7);
+    let adaptive_bake = bake_scene(&scene, &options);
     let n = sh::coeff_count(ORDER);
-    for &samples in &sizes {
-        let fixed = bake_scene(
-            &scene,
-            &BakeOptions {
+    let sizes = prt_baker::bake::adaptive::Tables::new(&options, &sh::Basis::new(ORDER)).rounds;
+    let fixed: Vec<prt_baker::Transfer> = sizes
+        .iter()
+        .take_while(|&&samples| samples <= 4096)
+        .map(|&samples| {
+            let options = BakeOptions {
                 samples,
                 target_error: None,
                 ..adaptive(1.0, 7)
-            },
-        );
-        for v in 0..scene.vertex_count() {
-            if adaptive_bake.visibility[v].rays != samples {
-                continue;
-            }
-            let (a, f) = (adaptive_bake.vertex(v, 0), fixed.vertex(v, 0));
-            for j in 0..n {
-                assert!(
-                    (a[j] - f[j]).abs() <= 2e-6,
-                    "vertex {v} at {samples} rays, coefficient {j}: adaptive {} fixed {}",
-                    a[j],
-                    f[j]
-                );
-            }
+            };
+            bake_scene(&scene, &options)
+        })
+        .collect();
+    let (mut matched, mut inferred_some) = (0, 0);
+    for v in 0..scene.vertex_count() {
+        let a = adaptive_bake.vertex(v, 0);
+        let closest = fixed
+            .iter()
+            .map(|f| {
+                let f = f.vertex(v, 0);
+                (0..n).map(|j| (a[j] - f[j]).abs()).fold(0.0f32, f32::max)
+            })
+            .fold(f32::INFINITY, f32::min);
+        if closest <= 2e-6 {
+            matched += 1;
+        }
+        let visibility = adaptive_bake.visibility[v];
+        if !sizes.contains(&visibility.rays) {
+            inferred_some += 1;
         }
     }
+    let vertices = scene.vertex_count();
+    eprintln!(
+        "{matched} of {vertices} vertices hold a fixed bake's value; {inferred_some} cast fewer rays than they summed"
+    );
+    assert!(
+        inferred_some * 2 > vertices,
+        "only {inferred_some} of {vertices} vertices inferred any answer"
+    );
+    assert!(
+        matched * 100 >= vertices * 99,
+        "only {matched} of {vertices} vertices hold a fixed bake's value"
+    );
 }

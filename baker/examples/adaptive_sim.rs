@@ -12,8 +12,10 @@
 //!   size, the smallest size whose fitted error × 1.2 is ≤ E. It knows the reference, so it
 //!   bounds what any honest estimate of a vertex's difficulty could reach.
 //!
-//! Each rule is scored as the adaptive example scores a bake: mean rays per vertex over those
-//! of the fixed bake with the same p99 error (the fixed curve interpolated log-log).
+//! Each rule is scored as the adaptive example scores a bake: mean points per vertex over the
+//! rays of the fixed bake with the same p99 error (the fixed curve interpolated log-log). It
+//! counts points, not rays: what the bake saves by inferring answers
+//! ([`prt_baker::bake::inference`]) comes on top.
 //!
 //! cargo run --release -p prt-baker --example adaptive_sim -- [SCENE]
 

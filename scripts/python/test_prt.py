@@ -29,7 +29,7 @@ VARIANTS = {
     "grey-order1-unshadowed": (cornell, ["--order", "1", "--mode", "unshadowed"]),
     "grey-order4-y-up": (cornell, ["--up", "y"]),
     # Adaptive bakes are shadowed; --target-error needs --samples >= 256. 3e-3 spreads the
-    # per-vertex rays over 256..1024 on the Cornell box.
+    # per-vertex rays cast over 256 and more on the Cornell box.
     "adaptive-aux": (cornell, ["--samples", "4096", "--target-error", "3e-3", "--aux", "ao,bent-normal"]),
     "adaptive-lightmap16": (cornell, ["--lightmap", "16", "--samples", "4096", "--target-error", "3e-3"]),
     "lightmap16-aux": (cornell, ["--lightmap", "16", "--samples", "16", "--aux", "ao,bent-normal"]),

@@ -546,7 +546,7 @@ impl Estimator {
             *o = *w as f32;
         }
         Visibility {
-            accessibility: (f64::from(result.unblocked) / f64::from(result.rays)) as f32,
+            accessibility: (f64::from(result.unblocked) / f64::from(result.points)) as f32,
             bent_normal: result.bent.try_normalize().unwrap_or(self.normals[v]),
             rays: result.rays,
             error_estimate: result.error as f32,
