@@ -19,6 +19,9 @@
 //!
 //! cargo run --release -p prt-baker --example adaptive_sim -- [SCENE]
 
+#[path = "common/reference.rs"]
+mod reference;
+
 use std::path::{Path, PathBuf};
 
 use prt_baker::bake::adaptive::{PILOT_BLOCKS, Tables, block_spread};
@@ -79,27 +82,14 @@ fn main() {
         ..BakeOptions::default()
     };
     // The reference of adaptive_vs_fixed (the same cache file).
-    let cache = root.join(format!(
-        "target/adaptive-reference-{:016x}-1-65536.f32",
-        scene.fingerprint()
-    ));
-    let reference: Vec<f32> = match std::fs::read(&cache) {
-        Ok(bytes) => bytes
-            .chunks_exact(4)
-            .map(|b| f32::from_le_bytes(b.try_into().expect("4 bytes")))
-            .collect(),
-        Err(_) => {
-            let options = BakeOptions {
-                samples: 1 << 16,
-                seed: 12_345,
-                ..base.clone()
-            };
-            let reference = bake(&scene, &tracer, &options);
-            let bytes: Vec<u8> = reference.iter().flat_map(|c| c.to_le_bytes()).collect();
-            std::fs::write(&cache, bytes).expect("write the reference cache");
-            reference
-        }
-    };
+    let reference = reference::cached(&root, &scene, 1, 1 << 16, || {
+        let options = BakeOptions {
+            samples: 1 << 16,
+            seed: 12_345,
+            ..base.clone()
+        };
+        bake(&scene, &tracer, &options)
+    });
     let vertices = scene.vertex_count();
 
     // The pilot's blocks (64, 128, 192 points) and every size a vertex may stop at.

@@ -11,6 +11,9 @@
 //!
 //! `--stride S` bakes every S-th vertex only (a quicker, scaled-down run).
 
+#[path = "common/reference.rs"]
+mod reference;
+
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -128,37 +131,14 @@ fn main() {
         scene.vertex_count()
     );
 
-    let cache = root.join(format!(
-        "target/adaptive-reference-{:016x}-{stride}-{reference_rays}.f32",
-        scene.fingerprint()
-    ));
-    let reference: Vec<f32> = match std::fs::read(&cache) {
-        Ok(bytes) => bytes
-            .chunks_exact(4)
-            .map(|b| f32::from_le_bytes(b.try_into().expect("4 bytes")))
-            .collect(),
-        Err(_) => {
-            let started = Instant::now();
-            let reference = bake(
-                &scene,
-                &tracer,
-                &BakeOptions {
-                    samples: reference_rays,
-                    seed: 12_345,
-                    ..base.clone()
-                },
-                &vertices,
-            )
-            .coefficients;
-            let bytes: Vec<u8> = reference.iter().flat_map(|c| c.to_le_bytes()).collect();
-            std::fs::write(&cache, bytes).expect("write the reference cache");
-            println!(
-                "reference baked in {:.1} s",
-                started.elapsed().as_secs_f64()
-            );
-            reference
-        }
-    };
+    let reference = reference::cached(&root, &scene, stride, reference_rays, || {
+        let options = BakeOptions {
+            samples: reference_rays,
+            seed: 12_345,
+            ..base.clone()
+        };
+        bake(&scene, &tracer, &options, &vertices).coefficients
+    });
 
     let mut rows = Vec::new();
     let mut per_vertex: Vec<Vec<f64>> = Vec::new();
