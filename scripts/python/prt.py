@@ -53,6 +53,18 @@ AUX_AO, AUX_BENT_NORMAL, AUX_RAYS, AUX_ERROR = 1, 2, 4, 8
 AUX_ADAPTIVE = AUX_RAYS | AUX_ERROR  # adaptive bakes: both or neither
 
 
+class _Cursor:
+    """Reads arrays one after another from the bytes of a file."""
+
+    def __init__(self, b, offset):
+        self.b, self.offset = b, offset
+
+    def take(self, dtype, count):
+        array = np.frombuffer(self.b, dtype, count, self.offset)
+        self.offset += array.nbytes
+        return array
+
+
 class PrtError(ValueError):
     """A file that is not a valid version-1 coefficient file (or is a shard part)."""
 
@@ -111,24 +123,8 @@ def parse_prt(b):
         return _parse_compressed(b)
     if u32(8) != 1:
         raise PrtError(f"unsupported format version {u32(8)}")
-    header_size = u32(12)
-    if header_size not in (HEADER_SIZE, LIGHTMAP_HEADER_SIZE):
-        raise PrtError(f"header size {header_size} (128 bytes, 160 for lightmap bakes)")
-    if len(b) < header_size:
-        raise PrtError(f"truncated: {len(b)} bytes, the header alone is {header_size}")
-    payload = u64(72)
-    if len(b) - header_size != payload:
-        raise PrtError(f"the header announces {payload} bytes of coefficients, the file holds {len(b) - header_size}")
-    # The checksum covers every byte but its own 4 (the texel block included).
-    crc = zlib.crc32(b[HEADER_SIZE:], zlib.crc32(bytes(4), zlib.crc32(b[:CHECKSUM_OFFSET])))
-    if crc != u32(CHECKSUM_OFFSET):
-        raise PrtError("checksum mismatch: the file is corrupted")
-
-    order, channels, vertices = u32(16), u32(20), u64(24)
-    if not 1 <= order <= 45:
-        raise PrtError(f"SH order {order} is outside 1..=45")
-    if channels not in (1, 3):
-        raise PrtError(f"{channels} channels (1 or 3 are defined)")
+    header_size, payload, order, channels, vertices = _checked_frame(
+        b, (HEADER_SIZE, LIGHTMAP_HEADER_SIZE), "128 bytes, 160 for lightmap bakes", "coefficients")
     # Bytes 36..40: the mode (u16) and the transfer kind (u16; 0 in every vector file, so a
     # reader of the old u32 mode refuses a matrix file).
     mode_code, kind = int(np.frombuffer(b, "<u2", 1, 36)[0]), int(np.frombuffer(b, "<u2", 1, 38)[0])
@@ -202,13 +198,8 @@ def parse_prt(b):
     if adaptive:
         header["adaptive"] = adaptive
 
-    offset = header_size
-
-    def take(dtype, count):
-        nonlocal offset
-        array = np.frombuffer(b, dtype, count, offset)
-        offset += array.nbytes
-        return array
+    cursor = _Cursor(b, header_size)
+    take = cursor.take
 
     transfer = take("<f4", vertices * channels * per_channel).reshape(vertices, channels, *shape_of_channel)
     ao = take("<f4", vertices) if aux & AUX_AO else None
@@ -264,7 +255,7 @@ def parse_prt(b):
         bent_normal = None if bent_normal is None else bent_normal.reshape(*shape, 3)
         rays = None if rays is None else rays.reshape(shape)
         error_estimate = None if error_estimate is None else error_estimate.reshape(shape)
-    assert offset == len(b)
+    assert cursor.offset == len(b)
     return PrtFile(header, transfer, ao, bent_normal, rays, error_estimate, lightmap)
 
 
@@ -293,6 +284,32 @@ def _read_adaptive(b, aux, mode, sampling):
 CPCA_BLOCK_SIZE = 32
 
 
+def _checked_frame(b, header_sizes, sizes_said, payload_said):
+    """The checks every version shares: the header size, the payload size, the checksum, the
+    order and the channels. Returns (header size, payload, order, channels, vertices)."""
+
+    def u32(offset):
+        return int(np.frombuffer(b, "<u4", 1, offset)[0])
+
+    header_size, payload = u32(12), int(np.frombuffer(b, "<u8", 1, 72)[0])
+    if header_size not in header_sizes:
+        raise PrtError(f"header size {header_size} ({sizes_said})")
+    if len(b) < header_size:
+        raise PrtError(f"truncated: {len(b)} bytes, the header alone is {header_size}")
+    if len(b) - header_size != payload:
+        raise PrtError(f"the header announces {payload} bytes of {payload_said}, the file holds {len(b) - header_size}")
+    # The checksum covers every byte but its own 4 (the texel and CPCA blocks included).
+    crc = zlib.crc32(b[HEADER_SIZE:], zlib.crc32(bytes(4), zlib.crc32(b[:CHECKSUM_OFFSET])))
+    if crc != u32(CHECKSUM_OFFSET):
+        raise PrtError("checksum mismatch: the file is corrupted")
+    order, channels = u32(16), u32(20)
+    if not 1 <= order <= 45:
+        raise PrtError(f"SH order {order} is outside 1..=45")
+    if channels not in (1, 3):
+        raise PrtError(f"{channels} channels (1 or 3 are defined)")
+    return header_size, payload, order, channels, int(np.frombuffer(b, "<u8", 1, 24)[0])
+
+
 def _parse_compressed(b):
     """A version-2 file: the CPCA block and arrays checked, the transfer reconstructed (in float64,
     each component's term added in order and skipped where its weight is 0, then rounded to float32,
@@ -304,24 +321,10 @@ def _parse_compressed(b):
     def u64(offset):
         return int(np.frombuffer(b, "<u8", 1, offset)[0])
 
-    header_size = u32(12)
+    header_size, payload, order, channels, vertices = _checked_frame(
+        b, (HEADER_SIZE + CPCA_BLOCK_SIZE, LIGHTMAP_HEADER_SIZE + CPCA_BLOCK_SIZE),
+        "version 2 headers are 160 bytes, 192 for lightmap bakes", "compressed coefficients")
     base = header_size - CPCA_BLOCK_SIZE
-    if base not in (HEADER_SIZE, LIGHTMAP_HEADER_SIZE):
-        raise PrtError(f"header size {header_size} (version 2 headers are 160 bytes, 192 for lightmap bakes)")
-    if len(b) < header_size:
-        raise PrtError(f"truncated: {len(b)} bytes, the header alone is {header_size}")
-    payload = u64(72)
-    if len(b) - header_size != payload:
-        raise PrtError(f"the header announces {payload} bytes of compressed coefficients, "
-                       f"the file holds {len(b) - header_size}")
-    crc = zlib.crc32(b[HEADER_SIZE:], zlib.crc32(bytes(4), zlib.crc32(b[:CHECKSUM_OFFSET])))
-    if crc != u32(CHECKSUM_OFFSET):
-        raise PrtError("checksum mismatch: the file is corrupted")
-    order, channels, vertices = u32(16), u32(20), u64(24)
-    if not 1 <= order <= 45:
-        raise PrtError(f"SH order {order} is outside 1..=45")
-    if channels not in (1, 3):
-        raise PrtError(f"{channels} channels (1 or 3 are defined)")
     n2 = order * order
     dim = channels * (n2 * n2 if int(np.frombuffer(b, "<u2", 1, 38)[0]) == 1 else n2)
     clusters, pcs, layout, iterations, seed = u32(base), u32(base + 4), u32(base + 8), u32(base + 12), u64(base + 16)
@@ -340,13 +343,8 @@ def _parse_compressed(b):
     if arrays > payload:
         raise PrtError(f"{clusters} clusters of {pcs} components for {vertices} receivers need more than "
                        f"the {payload} bytes the header announces")
-    offset = header_size
-
-    def take(dtype, count):
-        nonlocal offset
-        array = np.frombuffer(b, dtype, count, offset)
-        offset += array.nbytes
-        return array
+    cursor = _Cursor(b, header_size)
+    take = cursor.take
 
     means = take("<f4", clusters * dim).reshape(clusters, dim)
     bases = take("<f4", clusters * pcs * dim).reshape(clusters, pcs, dim)
@@ -367,7 +365,7 @@ def _parse_compressed(b):
     v1[8:12] = np.uint32(1).tobytes()
     v1[12:16] = np.uint32(base).tobytes()
     v1[72:80] = np.uint64(vertices * dim * 4 + payload - arrays).tobytes()
-    v1 += acc.astype("<f4").tobytes() + b[offset:]
+    v1 += acc.astype("<f4").tobytes() + b[cursor.offset:]
     v1[CHECKSUM_OFFSET:HEADER_SIZE] = bytes(4)
     crc = zlib.crc32(bytes(v1[HEADER_SIZE:]), zlib.crc32(bytes(4), zlib.crc32(bytes(v1[:CHECKSUM_OFFSET]))))
     v1[CHECKSUM_OFFSET:HEADER_SIZE] = np.uint32(crc).tobytes()
