@@ -4,9 +4,10 @@
 //! closed-form transfer, must be ≤ 1.5 E at ≥ 95 % of the vertices (the issue's requirement),
 //! and the RMS estimate must be close to the RMS true error (honest, not only safe). A smaller E
 //! must cost more rays and give a smaller true error. Fixed bakes of the same trials measure
-//! what the adaptive bake pays (issue 22: a win is ≤ 0.8 × the rays of the smallest fixed bake
-//! whose p99 true error is at most the adaptive bake's; not met yet, docs/performance.md).
-//! Texels of a lightmap are trials of the same estimator.
+//! what the adaptive bake pays (issue 22: a win is ≤ 0.8 × the rays of the fixed bakes, interpolated
+//! log-log, at the adaptive bake's p99 true error; docs/performance.md).
+//! Texels of a lightmap are trials of the same estimator, and a vertex that stopped at N rays
+//! holds exactly what the fixed N-ray bake holds for it.
 //!
 //! The oracle vertices: every floor vertex of a grid next to an infinitely long wall (at
 //! distances 0.05 to 4 wall heights: k = H/d from 20 to 1/4), the point under a coaxial disk and
@@ -31,11 +32,13 @@ const POINT_SEEDS: u64 = 16;
 const FIXED: [u32; 13] = [
     256, 384, 512, 768, 1024, 1536, 2048, 3072, 4096, 6144, 8192, 12_288, 16_384,
 ];
-/// Adaptive sampling wins when it casts at most this share of the rays of the smallest fixed
-/// bake whose p99 true error is at most its own (issue 22).
+/// Adaptive sampling wins when it casts at most this share of the rays of the fixed bake with
+/// its p99 true error (issue 22; the fixed bakes interpolated log-log).
 const WIN: f64 = 0.8;
-/// What the test requires of that share today: adaptive sampling does not win yet.
-const AT_MOST: f64 = 1.4;
+/// What the test requires of that share at each target: a win where the target asks more than
+/// the pilot gives; at 4 × 10⁻³ every trial stops at the 256-point pilot, which is the fixed
+/// 256-ray bake.
+const AT_MOST: [f64; 3] = [1.05, WIN, WIN];
 
 fn adaptive(target: f32, seed: u64) -> BakeOptions {
     BakeOptions {
@@ -266,8 +269,8 @@ fn the_true_error_stays_within_one_and_a_half_targets_and_converges() {
         .into_iter()
         .map(|target| judge(target, &scenes.trials(target)))
         .collect();
-    // Fixed Owen–Sobol bakes of the same trials: the smallest count whose p99 true error is at
-    // most the adaptive bake's, and the ratio of rays (issue 22: adaptive wins at ≤ 0.8).
+    // Fixed Owen–Sobol bakes of the same trials: the rays that reach the adaptive bake's p99
+    // true error, and the ratio of rays (issue 22: adaptive wins at ≤ 0.8).
     let fixed: Vec<(u32, f64)> = FIXED
         .iter()
         .map(|&samples| {
@@ -281,24 +284,36 @@ fn the_true_error_stays_within_one_and_a_half_targets_and_converges() {
         .collect();
     let fixed_line: Vec<String> = fixed.iter().map(|(n, p)| format!("{n}: {p:.2e}")).collect();
     eprintln!("fixed bakes, p99 true error: {}", fixed_line.join(", "));
-    for (target, outcome) in [4e-3, 1e-3, 2.5e-4].iter().zip(&outcomes) {
-        let beaten = fixed.iter().find(|(_, p99)| *p99 <= outcome.p99);
-        let ratio = beaten.map(|&(n, _)| outcome.mean_rays / f64::from(n));
+    for ((target, outcome), at_most) in [4e-3, 1e-3, 2.5e-4].iter().zip(&outcomes).zip(AT_MOST) {
+        // The fixed rays with the adaptive bake's p99, interpolated log-log between the fixed
+        // bakes around it: a ratio to the smallest fixed bake of the grid would move with
+        // where the grid's steps fall (a bake a hair better than fixed 4,096 "beat" 6,144).
+        let equivalent = fixed.windows(2).find_map(|w| {
+            let ((n0, p0), (n1, p1)) = (w[0], w[1]);
+            (p0 >= outcome.p99 && p1 <= outcome.p99).then(|| {
+                let t = (p0 / outcome.p99).ln() / (p0 / p1).ln();
+                f64::from(n0) * (f64::from(n1) / f64::from(n0)).powf(t)
+            })
+        });
+        let equivalent = equivalent.or_else(|| {
+            // At or below the smallest fixed bake's p99 (a loose target stops at its pilot).
+            let (n0, p0) = fixed[0];
+            (outcome.p99 >= p0 * (1.0 - 1e-3)).then_some(f64::from(n0))
+        });
+        let ratio = equivalent.map(|n| outcome.mean_rays / n);
         eprintln!(
-            "E = {target:.1e}: adaptive {:.0} rays, p99 {:.2e}; smallest fixed with p99 <= it: {}; \
+            "E = {target:.1e}: adaptive {:.0} rays, p99 {:.2e}; fixed rays at that p99: {}; \
              ratio {}",
             outcome.mean_rays,
             outcome.p99,
-            beaten.map_or("none".into(), |(n, p)| format!("{n} (p99 {p:.2e})")),
+            equivalent.map_or("-".into(), |n| format!("{n:.0}")),
             ratio.map_or("-".into(), |r| format!(
                 "{r:.2} ({})",
                 if r <= WIN { "wins" } else { "does not win" }
             )),
         );
-        // Not met yet (docs/performance.md): the guard keeps the gain over the 16-replicate
-        // design, which cast 1.9 × the rays of the fixed bake it matched at E = 10⁻³.
         assert!(
-            ratio.is_some_and(|r| r <= AT_MOST),
+            ratio.is_some_and(|r| r <= at_most),
             "E = {target:e}: adaptive sampling cast {:.0} rays per vertex for a p99 error of \
              {:.2e}; fixed sampling: {fixed_line:?}",
             outcome.mean_rays,
@@ -306,14 +321,17 @@ fn the_true_error_stays_within_one_and_a_half_targets_and_converges() {
         );
     }
     for pair in outcomes.windows(2) {
+        // Not 2 ×: inferred answers cost no rays, and at 4 × 10⁻³ every trial stops at the
+        // pilot.
         assert!(
-            pair[1].mean_rays > 2.0 * pair[0].mean_rays,
+            pair[1].mean_rays > 1.2 * pair[0].mean_rays,
             "a 4× smaller target cast {:.0} rays per vertex against {:.0}",
             pair[1].mean_rays,
             pair[0].mean_rays
         );
+        // Not 0.5: at 4 × 10⁻³ every trial stops at the 256-point pilot, well inside E.
         assert!(
-            pair[1].rms_true_error < 0.5 * pair[0].rms_true_error,
+            pair[1].rms_true_error < 0.6 * pair[0].rms_true_error,
             "a 4× smaller target left an RMS true error of {:.2e} against {:.2e}",
             pair[1].rms_true_error,
             pair[0].rms_true_error
@@ -384,4 +402,60 @@ fn texel_estimates_are_honest_too() {
     }
     assert_eq!(trials.len(), 2 * 17 * 17);
     judge(target, &trials);
+}
+
+/// A vertex that stopped at N points holds what the fixed N-ray bake of the same seed holds
+/// for it: the adaptive bake sums a prefix of the fixed bake's sequence in the same frame, with
+/// the answers of the rays it did not cast inferred from their neighbours. Where every
+/// inference is right the two differ only by the order of the sums; on the wall, whose shadow
+/// edge is a straight line, that is every vertex but a rare few.
+#[test]
+fn a_vertex_that_stopped_at_n_points_holds_the_fixed_n_ray_bake() {
+    let scene = wall_scene();
+    let options = adaptive(1e-3, 7);
+    let adaptive_bake = bake_scene(&scene, &options);
+    let n = sh::coeff_count(ORDER);
+    let sizes = prt_baker::bake::adaptive::Tables::new(&options, &sh::Basis::new(ORDER)).rounds;
+    let fixed: Vec<prt_baker::Transfer> = sizes
+        .iter()
+        .take_while(|&&samples| samples <= 4096)
+        .map(|&samples| {
+            let options = BakeOptions {
+                samples,
+                target_error: None,
+                ..adaptive(1.0, 7)
+            };
+            bake_scene(&scene, &options)
+        })
+        .collect();
+    let (mut matched, mut inferred_some) = (0, 0);
+    for v in 0..scene.vertex_count() {
+        let a = adaptive_bake.vertex(v, 0);
+        let closest = fixed
+            .iter()
+            .map(|f| {
+                let f = f.vertex(v, 0);
+                (0..n).map(|j| (a[j] - f[j]).abs()).fold(0.0f32, f32::max)
+            })
+            .fold(f32::INFINITY, f32::min);
+        if closest <= 2e-6 {
+            matched += 1;
+        }
+        let visibility = adaptive_bake.visibility[v];
+        if !sizes.contains(&visibility.rays) {
+            inferred_some += 1;
+        }
+    }
+    let vertices = scene.vertex_count();
+    eprintln!(
+        "{matched} of {vertices} vertices hold a fixed bake's value; {inferred_some} cast fewer rays than they summed"
+    );
+    assert!(
+        inferred_some * 2 > vertices,
+        "only {inferred_some} of {vertices} vertices inferred any answer"
+    );
+    assert!(
+        matched * 100 >= vertices * 99,
+        "only {matched} of {vertices} vertices hold a fixed bake's value"
+    );
 }

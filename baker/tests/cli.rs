@@ -856,10 +856,11 @@ fn adaptive_bake_is_deterministic_and_inspect_reports_its_rays_and_errors() {
         rays.iter().map(|&r| u64::from(r)).sum::<u64>(),
         adaptive.rays_cast
     );
-    // Open walls stop after the pilot (4 replicates × 64 points); contact shadows cast a net
-    // of more; every vertex stops at or below the target or at --samples.
+    // Open walls stop after the pilot (4 blocks × 64 points); contact shadows cast more
+    // (only near their edges: the other answers are inferred); every vertex stops at or
+    // below the target or at --samples.
     assert_eq!(rays.iter().min(), Some(&256));
-    assert!(rays.iter().any(|&r| r > 1024), "no vertex needed more rays");
+    assert!(rays.iter().any(|&r| r > 384), "no vertex needed more rays");
     for (&r, &e) in rays.iter().zip(errors) {
         assert!(e <= 2e-3 || r == 4096, "stopped at {r} rays with error {e}");
     }

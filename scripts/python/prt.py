@@ -23,8 +23,11 @@ reader shapes its arrays as `prt-bake export --npz` does: transfer (H, W, channe
 
 Every variant of version 1 is read: grey or RGB transfer, vectors or matrices (`bake
 --transfer matrix`), any order 1..45, the auxiliary arrays, z- or y-up, adaptive bakes and
-texel bakes. Compressed (version 2) files are not read: `prt-bake export --npz` reconstructs
-them. A shard part (`prt-bake bake --shard`)
+texel bakes; and compressed files (version 2, `prt-bake compress`), whose transfer is
+reconstructed exactly as `prt-bake export --npz` reconstructs it (f.header["compression"]
+holds what `inspect` prints, f.cpca the stored means (K, D), bases (K, M, D), cluster
+indices (V,) and weights (V, M), D = channels × n² floats per receiver, n⁴ for matrices).
+A shard part (`prt-bake bake --shard`)
 is refused: combine the parts with `prt-bake merge` first. The checks are
 docs/coefficient-format.md's ("What a reader must check"), in the reference reader's
 order (baker/src/coefficient_file.rs); a file that fails one raises PrtError with the
@@ -48,6 +51,18 @@ TRANSFER_KINDS = {0: "vector", 1: "matrix"}
 ATLAS_SOURCES = {0: "generated", 1: "scene-uvs", 2: "per-object"}
 AUX_AO, AUX_BENT_NORMAL, AUX_RAYS, AUX_ERROR = 1, 2, 4, 8
 AUX_ADAPTIVE = AUX_RAYS | AUX_ERROR  # adaptive bakes: both or neither
+
+
+class _Cursor:
+    """Reads arrays one after another from the bytes of a file."""
+
+    def __init__(self, b, offset):
+        self.b, self.offset = b, offset
+
+    def take(self, dtype, count):
+        array = np.frombuffer(self.b, dtype, count, self.offset)
+        self.offset += array.nbytes
+        return array
 
 
 class PrtError(ValueError):
@@ -79,6 +94,8 @@ class PrtFile:
     rays: "np.ndarray | None" = None
     error_estimate: "np.ndarray | None" = None
     lightmap: "Lightmap | None" = None
+    # Compressed (version 2) files: {"means", "bases", "cluster", "weights"} as stored.
+    cpca: "dict | None" = None
 
 
 def read_prt(path):
@@ -102,26 +119,12 @@ def parse_prt(b):
     def f32(offset):
         return np.frombuffer(b, "<f4", 1, offset)[0]
 
+    if u32(8) == 2:
+        return _parse_compressed(b)
     if u32(8) != 1:
         raise PrtError(f"unsupported format version {u32(8)}")
-    header_size = u32(12)
-    if header_size not in (HEADER_SIZE, LIGHTMAP_HEADER_SIZE):
-        raise PrtError(f"header size {header_size} (128 bytes, 160 for lightmap bakes)")
-    if len(b) < header_size:
-        raise PrtError(f"truncated: {len(b)} bytes, the header alone is {header_size}")
-    payload = u64(72)
-    if len(b) - header_size != payload:
-        raise PrtError(f"the header announces {payload} bytes of coefficients, the file holds {len(b) - header_size}")
-    # The checksum covers every byte but its own 4 (the texel block included).
-    crc = zlib.crc32(b[HEADER_SIZE:], zlib.crc32(bytes(4), zlib.crc32(b[:CHECKSUM_OFFSET])))
-    if crc != u32(CHECKSUM_OFFSET):
-        raise PrtError("checksum mismatch: the file is corrupted")
-
-    order, channels, vertices = u32(16), u32(20), u64(24)
-    if not 1 <= order <= 45:
-        raise PrtError(f"SH order {order} is outside 1..=45")
-    if channels not in (1, 3):
-        raise PrtError(f"{channels} channels (1 or 3 are defined)")
+    header_size, payload, order, channels, vertices = _checked_frame(
+        b, (HEADER_SIZE, LIGHTMAP_HEADER_SIZE), "128 bytes, 160 for lightmap bakes", "coefficients")
     # Bytes 36..40: the mode (u16) and the transfer kind (u16; 0 in every vector file, so a
     # reader of the old u32 mode refuses a matrix file).
     mode_code, kind = int(np.frombuffer(b, "<u2", 1, 36)[0]), int(np.frombuffer(b, "<u2", 1, 38)[0])
@@ -195,13 +198,8 @@ def parse_prt(b):
     if adaptive:
         header["adaptive"] = adaptive
 
-    offset = header_size
-
-    def take(dtype, count):
-        nonlocal offset
-        array = np.frombuffer(b, dtype, count, offset)
-        offset += array.nbytes
-        return array
+    cursor = _Cursor(b, header_size)
+    take = cursor.take
 
     transfer = take("<f4", vertices * channels * per_channel).reshape(vertices, channels, *shape_of_channel)
     ao = take("<f4", vertices) if aux & AUX_AO else None
@@ -257,7 +255,7 @@ def parse_prt(b):
         bent_normal = None if bent_normal is None else bent_normal.reshape(*shape, 3)
         rays = None if rays is None else rays.reshape(shape)
         error_estimate = None if error_estimate is None else error_estimate.reshape(shape)
-    assert offset == len(b)
+    assert cursor.offset == len(b)
     return PrtFile(header, transfer, ao, bent_normal, rays, error_estimate, lightmap)
 
 
@@ -281,3 +279,101 @@ def _read_adaptive(b, aux, mode, sampling):
         raise PrtError(f"a target error in a file of mode {mode}, sampling {sampling} "
                        "(adaptive bakes are shadowed, owen-sobol)")
     return {"target_error": float(target_error), "replicates": replicates, "rays_cast": rays_cast}
+
+
+CPCA_BLOCK_SIZE = 32
+
+
+def _checked_frame(b, header_sizes, sizes_said, payload_said):
+    """The checks every version shares: the header size, the payload size, the checksum, the
+    order and the channels. Returns (header size, payload, order, channels, vertices)."""
+
+    def u32(offset):
+        return int(np.frombuffer(b, "<u4", 1, offset)[0])
+
+    header_size, payload = u32(12), int(np.frombuffer(b, "<u8", 1, 72)[0])
+    if header_size not in header_sizes:
+        raise PrtError(f"header size {header_size} ({sizes_said})")
+    if len(b) < header_size:
+        raise PrtError(f"truncated: {len(b)} bytes, the header alone is {header_size}")
+    if len(b) - header_size != payload:
+        raise PrtError(f"the header announces {payload} bytes of {payload_said}, the file holds {len(b) - header_size}")
+    # The checksum covers every byte but its own 4 (the texel and CPCA blocks included).
+    crc = zlib.crc32(b[HEADER_SIZE:], zlib.crc32(bytes(4), zlib.crc32(b[:CHECKSUM_OFFSET])))
+    if crc != u32(CHECKSUM_OFFSET):
+        raise PrtError("checksum mismatch: the file is corrupted")
+    order, channels = u32(16), u32(20)
+    if not 1 <= order <= 45:
+        raise PrtError(f"SH order {order} is outside 1..=45")
+    if channels not in (1, 3):
+        raise PrtError(f"{channels} channels (1 or 3 are defined)")
+    return header_size, payload, order, channels, int(np.frombuffer(b, "<u8", 1, 24)[0])
+
+
+def _parse_compressed(b):
+    """A version-2 file: the CPCA block and arrays checked, the transfer reconstructed (in float64,
+    each component's term added in order and skipped where its weight is 0, then rounded to float32,
+    as baker/src/math/cpca.rs does) and the version-1 file it stands for read by parse_prt."""
+
+    def u32(offset):
+        return int(np.frombuffer(b, "<u4", 1, offset)[0])
+
+    def u64(offset):
+        return int(np.frombuffer(b, "<u8", 1, offset)[0])
+
+    header_size, payload, order, channels, vertices = _checked_frame(
+        b, (HEADER_SIZE + CPCA_BLOCK_SIZE, LIGHTMAP_HEADER_SIZE + CPCA_BLOCK_SIZE),
+        "version 2 headers are 160 bytes, 192 for lightmap bakes", "compressed coefficients")
+    base = header_size - CPCA_BLOCK_SIZE
+    n2 = order * order
+    dim = channels * (n2 * n2 if int(np.frombuffer(b, "<u2", 1, 38)[0]) == 1 else n2)
+    clusters, pcs, layout, iterations, seed = u32(base), u32(base + 4), u32(base + 8), u32(base + 12), u64(base + 16)
+    rms_error = np.frombuffer(b, "<f4", 1, base + 24)[0]
+    if layout != 0:
+        raise PrtError(f"unknown CPCA layout {layout}")
+    if u32(base + 28) != 0:
+        raise PrtError("reserved CPCA bytes are not zero")
+    if not (np.isfinite(rms_error) and rms_error >= 0):
+        raise PrtError(f"CPCA error {rms_error} is not a non-negative number")
+    if not 1 <= clusters <= vertices:
+        raise PrtError(f"{clusters} clusters for {vertices} receivers (1 to one per receiver)")
+    if pcs > dim:
+        raise PrtError(f"{pcs} principal components of {dim}-float transfer vectors (at most {dim})")
+    arrays = 4 * (clusters * dim * (pcs + 1) + vertices * (pcs + 1))
+    if arrays > payload:
+        raise PrtError(f"{clusters} clusters of {pcs} components for {vertices} receivers need more than "
+                       f"the {payload} bytes the header announces")
+    cursor = _Cursor(b, header_size)
+    take = cursor.take
+
+    means = take("<f4", clusters * dim).reshape(clusters, dim)
+    bases = take("<f4", clusters * pcs * dim).reshape(clusters, pcs, dim)
+    cluster = take("<u4", vertices)
+    weights = take("<f4", vertices * pcs).reshape(vertices, pcs)
+    for array, what in ((means, "a cluster mean"), (bases, "a principal component"), (weights, "a weight")):
+        if not np.all(np.isfinite(array)):
+            raise PrtError(f"{what} is not finite")
+    if np.any(cluster >= clusters):
+        v = int(np.argmax(cluster >= clusters))
+        raise PrtError(f"receiver {v} is in cluster {cluster[v]}, of {clusters}")
+    acc = means[cluster].astype(np.float64)
+    for i in range(pcs):
+        w = weights[:, i].astype(np.float64)[:, None]
+        acc = np.where(w != 0, acc + w * bases[cluster, i].astype(np.float64), acc)
+    # The version-1 file these arrays stand for, resealed, read by the version-1 reader.
+    v1 = bytearray(b[:base])
+    v1[8:12] = np.uint32(1).tobytes()
+    v1[12:16] = np.uint32(base).tobytes()
+    v1[72:80] = np.uint64(vertices * dim * 4 + payload - arrays).tobytes()
+    v1 += acc.astype("<f4").tobytes() + b[cursor.offset:]
+    v1[CHECKSUM_OFFSET:HEADER_SIZE] = bytes(4)
+    crc = zlib.crc32(bytes(v1[HEADER_SIZE:]), zlib.crc32(bytes(4), zlib.crc32(bytes(v1[:CHECKSUM_OFFSET]))))
+    v1[CHECKSUM_OFFSET:HEADER_SIZE] = np.uint32(crc).tobytes()
+    f = parse_prt(bytes(v1))
+    f.header.update(version=2, checksum=f"{u32(CHECKSUM_OFFSET):08x}", compression={
+        "method": "cpca", "layout": "concatenated-channels", "clusters": clusters, "pcs": pcs,
+        "floats_per_vertex": (pcs + 1) + clusters * (pcs + 1) * dim / vertices,
+        "uncompressed_floats_per_vertex": dim, "rms_error": float(rms_error),
+        "iterations": iterations, "seed": f"{seed:016x}"})
+    f.cpca = {"means": means, "bases": bases, "cluster": cluster, "weights": weights}
+    return f

@@ -29,7 +29,7 @@ VARIANTS = {
     "grey-order1-unshadowed": (cornell, ["--order", "1", "--mode", "unshadowed"]),
     "grey-order4-y-up": (cornell, ["--up", "y"]),
     # Adaptive bakes are shadowed; --target-error needs --samples >= 256. 3e-3 spreads the
-    # per-vertex rays over 256..1024 on the Cornell box.
+    # per-vertex rays cast over 256 and more on the Cornell box.
     "adaptive-aux": (cornell, ["--samples", "4096", "--target-error", "3e-3", "--aux", "ao,bent-normal"]),
     "adaptive-lightmap16": (cornell, ["--lightmap", "16", "--samples", "4096", "--target-error", "3e-3"]),
     "lightmap16-aux": (cornell, ["--lightmap", "16", "--samples", "16", "--aux", "ao,bent-normal"]),
@@ -223,6 +223,41 @@ refused(data, "combine the parts with `prt-bake merge`", "shard part", by_inspec
 refused(data, "shard 1 of 2", "shard part", by_inspect=False)
 refused(patched(data, 92, np.uint32(2)), "the index must be below the count", "shard part")
 print("test_prt.py: a shard part is refused (merge it first)")
+
+# Compressed (version 2) files: vertex and texel, grey and RGB, a matrix file; prt.py's
+# reconstruction equal to the npz export's (which reconstructs), its header to inspect's.
+for name in ("grey-order3-aux", "rgb-order5-ao", "adaptive-aux", "lightmap16-aux", "matrix-order3-aux"):
+    scene = VARIANTS[name][0]
+    packed, npz = out / f"{name}-cpca.prt", out / f"{name}-cpca.npz"
+    run("compress", str(out / f"{name}.prt"), "-o", str(packed), "--clusters", "8", "--pcs", "3")
+    run("export", str(packed), "--scene", scene, "--npz", str(npz))
+    f, arrays = read_prt(packed), np.load(npz)
+    inspected = json.loads(run("inspect", str(packed)))
+    assert f.header["version"] == 2 and f.cpca["weights"].shape[1] == 3, name
+    compression, theirs = f.header.pop("compression"), inspected.pop("compression")
+    assert set(compression) == set(theirs), (name, compression, theirs)
+    for key, value in compression.items():
+        ok = np.isclose(value, theirs[key], rtol=1e-6) if isinstance(value, float) else value == theirs[key]
+        assert ok, (name, key, value, theirs[key])
+    assert all(inspected.get(key, "vector" if key == "transfer" else None) == value
+               for key, value in f.header.items()), (name, f.header, inspected)
+    ours = arrays_of(f)
+    assert set(ours) == set(arrays.files) - SCENE_ARRAYS, (name, set(ours), arrays.files)
+    for key, array in ours.items():
+        assert np.array_equal(array.astype(arrays[key].dtype), arrays[key]), (name, key)
+    uncompressed = read_prt(out / f"{name}.prt").transfer
+    assert f.transfer.shape == uncompressed.shape and not np.array_equal(f.transfer, uncompressed), name
+data = (out / "grey-order3-aux-cpca.prt").read_bytes()
+K, M, D = 8, 3, 9  # grey order 3
+cluster_at = 160 + 4 * (K * D + K * M * D)
+for broken, reason in ((patched(data, 8, np.uint32(3)), "unsupported format version 3"),
+                       (patched(data, 128 + 8, np.uint32(1)), "unknown CPCA layout"),
+                       (patched(data, 160, np.float32(np.nan)), "cluster mean"),
+                       (patched(data, cluster_at + 4 * 5, np.uint32(K)), "receiver 5 is in cluster 8"),
+                       (data[:-4], "announces")):
+    refused(broken, reason, "compressed file")
+print("test_prt.py: compressed files (vertex, texel, RGB, matrix) reconstructed as the npz export "
+      "does; corrupted ones are refused by prt.py and by prt-bake inspect")
 
 # The EXR export of texel bakes (prt-bake export --exr) read with OpenEXR's own Python
 # bindings, against the npz export: f32 images equal the transfer, f16 ones its rounding

@@ -17,6 +17,7 @@
 //! Ks, diffuse weight and band factors ĝ_l(s) are in its material uniform (group 1).
 
 use bytemuck::{Pod, Zeroable};
+use prt_baker::export::relight_glossy::ClusterProjections;
 use prt_baker::light::LightCoefficients;
 use prt_baker::math::cpca::Cpca;
 use prt_baker::math::{glossy, sh};
@@ -206,9 +207,9 @@ impl GlossyResources {
     }
 }
 
-/// Per cluster k and vector p (0 the mean, 1 + i component i), the matrix it stores (per
-/// channel, n² × n² row-major, as the file lays them out) times the light: coefficient i's
-/// (R, G, B, 0) at (k·(M + 1) + p)·n² + i. A grey matrix serves every colour channel.
+/// Per cluster k and vector p (0 the mean, 1 + i component i), the matrix it stores times
+/// the light ([`ClusterProjections`], the CPU relight's, in f64): coefficient i's (R, G, B, 0)
+/// at (k·(M + 1) + p)·n² + i.
 pub fn project(
     cpca: &Cpca,
     light: &LightCoefficients,
@@ -216,25 +217,14 @@ pub fn project(
     channels: usize,
 ) -> Vec<[f32; 4]> {
     let n2 = order * order;
-    let d = cpca.dim;
     let per = cpca.pcs + 1;
+    let projected = ClusterProjections::new(cpca, channels, light);
     let mut out = vec![[0.0f32; 4]; cpca.clusters() * per * n2];
-    let light: Vec<[f32; 3]> = (0..n2)
-        .map(|j| [0, 1, 2].map(|c| light.rgb[c][j] as f32))
-        .collect();
     for (vector, chunk) in out.chunks_exact_mut(n2).enumerate() {
         let (k, p) = (vector / per, vector % per);
-        let stored = if p == 0 {
-            &cpca.means[k * d..(k + 1) * d]
-        } else {
-            let at = (k * cpca.pcs + p - 1) * d;
-            &cpca.bases[at..at + d]
-        };
-        for (i, slot) in chunk.iter_mut().enumerate() {
-            for (rgb, value) in slot.iter_mut().take(3).enumerate() {
-                let c = if channels == 3 { rgb } else { 0 };
-                let row = &stored[(c * n2 + i) * n2..(c * n2 + i + 1) * n2];
-                *value = row.iter().zip(&light).map(|(m, l)| m * l[rgb]).sum();
+        for (c, rgb) in (0..3).map(|c| (c, projected.vector(k, p, c, cpca.pcs))) {
+            for (slot, value) in chunk.iter_mut().zip(rgb) {
+                slot[c] = *value as f32;
             }
         }
     }

@@ -166,7 +166,7 @@ pub struct Estimator {
     /// Per batch of [`Estimator::batches`], the sum of its rows of `local_rows`: a batch in
     /// which fewer rays are blocked than not is summed as this total minus its blocked rows.
     batch_totals: Vec<f32>,
-    /// Adaptive bakes (`--target-error`): the replicate point sets, instead of the table above.
+    /// Adaptive bakes (`--target-error`): the pilot and its extensions, instead of the table above.
     adaptive: Option<crate::bake::adaptive::Tables>,
 }
 
@@ -546,7 +546,7 @@ impl Estimator {
             *o = *w as f32;
         }
         Visibility {
-            accessibility: (f64::from(result.unblocked) / f64::from(result.rays)) as f32,
+            accessibility: (f64::from(result.unblocked) / f64::from(result.points)) as f32,
             bent_normal: result.bent.try_normalize().unwrap_or(self.normals[v]),
             rays: result.rays,
             error_estimate: result.error as f32,

@@ -2,7 +2,7 @@
 //! ([`Header::for_bake`]) and the arrays. The file format ([`crate::formats`]) knows nothing
 //! of bakes; this is where the two meet.
 
-use crate::bake::adaptive::REPLICATES;
+use crate::bake::adaptive::PILOT_BLOCKS;
 use crate::bake::lightmap::LightmapBake;
 use crate::bake::options::BakeOptions;
 use crate::bake::transfer::Transfer;
@@ -42,7 +42,7 @@ impl Header {
             checksum: 0,
             adaptive: options.target_error.map(|target_error| Adaptive {
                 target_error,
-                replicates: REPLICATES as u32,
+                replicates: PILOT_BLOCKS as u32,
                 rays_cast,
             }),
         }

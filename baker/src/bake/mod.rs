@@ -1,5 +1,5 @@
 //! The bake: what is asked ([`options`]), where transfer is baked ([`receivers`]: vertices or
-//! lightmap texels), the per-receiver [`estimator`], its [`adaptive`] variant and the [`matrix`] one (with bounces: [`matrix_bounce`]), the bounces
+//! lightmap texels), the per-receiver [`estimator`], its [`adaptive`] variant (with [`inference`]) and the [`matrix`] one (with bounces: [`matrix_bounce`]), the bounces
 //! ([`bounce_rows`], [`interreflection`]), the entry points ([`transfer`], [`lightmap`]),
 //! the memory a bake needs ([`memory`]) and the coefficient file it fills ([`file`]).
 //!
@@ -10,6 +10,7 @@ pub mod adaptive;
 pub mod bounce_rows;
 pub mod estimator;
 pub mod file;
+pub mod inference;
 pub mod interreflection;
 pub mod lightmap;
 pub mod matrix;

@@ -135,10 +135,11 @@ fn check_matrix(options: &BakeOptions) -> Result<()> {
     Ok(())
 }
 
-/// Adaptive bakes ([`crate::bake::adaptive`]): independently scrambled replicates in the pilot.
-pub const REPLICATES: usize = 4;
-/// Adaptive bakes: points per pilot replicate.
-pub const MIN_POINTS: u32 = 64;
+/// Adaptive bakes ([`crate::bake::adaptive`]): blocks of the pilot, whose spread gives the
+/// error estimate.
+pub const PILOT_BLOCKS: usize = 4;
+/// Adaptive bakes: points per pilot block.
+pub const BLOCK_POINTS: u32 = 64;
 /// Adaptive bakes: the variance of an Owen-scrambled net of N points is taken to fall as
 /// N^-RATE, Owen's rate for integrands with discontinuities in two dimensions (shadow edges;
 /// smooth integrands converge faster, so the prediction errs on the safe side there).
@@ -165,15 +166,15 @@ fn check_adaptive(options: &BakeOptions) -> Result<()> {
     if options.sampling != Sampling::OwenSobol {
         return Err(Error::InvalidOption(format!(
             "--target-error needs --sampling owen-sobol (sampling is {}): its error estimate \
-             comes from independent Owen scrambles",
+             comes from blocks of an Owen-scrambled Sobol sequence",
             options.sampling.name()
         )));
     }
-    let least = REPLICATES as u32 * MIN_POINTS;
+    let least = PILOT_BLOCKS as u32 * BLOCK_POINTS;
     if options.samples < least {
         return Err(Error::InvalidOption(format!(
-            "--target-error needs --samples of at least {least} ({REPLICATES} replicates × \
-             {MIN_POINTS} points, the pilot); it is {}",
+            "--target-error needs --samples of at least {least} ({PILOT_BLOCKS} blocks × \
+             {BLOCK_POINTS} points, the pilot); it is {}",
             options.samples
         )));
     }

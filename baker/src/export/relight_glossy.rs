@@ -88,15 +88,17 @@ fn project(m: &[f32], l: &[f64], out: &mut [f64]) {
     }
 }
 
-/// The light projected through every cluster's mean and components, per colour channel:
-/// `vectors[((k·(M + 1) + i)·3 + c)·n² ..]`, i = 0 the mean, i = 1 + p component p.
-struct ClusterProjections {
+/// The light projected through every cluster's mean and components of a compressed matrix
+/// bake, per colour channel: `vectors[((k·(M + 1) + i)·3 + c)·n² ..]`, i = 0 the mean,
+/// i = 1 + p component p. A GPU renderer does this once per frame (prt-view uploads it); a
+/// grey matrix serves every colour channel.
+pub struct ClusterProjections {
     n2: usize,
     vectors: Vec<f64>,
 }
 
 impl ClusterProjections {
-    fn new(cpca: &Cpca, channels: usize, light: &LightCoefficients) -> ClusterProjections {
+    pub fn new(cpca: &Cpca, channels: usize, light: &LightCoefficients) -> ClusterProjections {
         let n2 = light.rgb[0].len();
         let n4 = n2 * n2;
         assert_eq!(cpca.dim, channels * n4, "CPCA vectors of another size");
@@ -120,6 +122,12 @@ impl ClusterProjections {
                 }
             });
         ClusterProjections { n2, vectors }
+    }
+
+    /// Cluster k's vector i (0 the mean, 1 + p component p) times colour c's light: n² values.
+    pub fn vector(&self, k: usize, i: usize, c: usize, pcs: usize) -> &[f64] {
+        let at = ((k * (pcs + 1) + i) * 3 + c) * self.n2;
+        &self.vectors[at..at + self.n2]
     }
 
     /// Vertex v's L′ for colour c: its cluster's projected mean plus its weights times the

@@ -114,9 +114,18 @@ impl OwenSobol {
     /// Point `i` of the set, in [0, 1)².
     #[inline]
     pub fn point(&self, i: u32) -> (f32, f32) {
-        let x = owen_scramble(i.reverse_bits(), self.seeds[0]);
-        let y = owen_scramble(sobol_dim1(i), self.seeds[1]);
+        let (x, y) = self.bits(i);
         (to_unit_float(x), to_unit_float(y))
+    }
+
+    /// Point `i` as 32-bit fixed-point coordinates (u = bits / 2³²): exact, so the cells of
+    /// the net it belongs to are its leading bits.
+    #[inline]
+    pub fn bits(&self, i: u32) -> (u32, u32) {
+        (
+            owen_scramble(i.reverse_bits(), self.seeds[0]),
+            owen_scramble(sobol_dim1(i), self.seeds[1]),
+        )
     }
 }
 
