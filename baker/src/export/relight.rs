@@ -319,37 +319,11 @@ pub fn lightmap_radiance(file: &CoefficientFile, light: &LightCoefficients) -> V
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::formats::coefficient_file::Header;
 
     /// A file of order 1 (one coefficient per channel) holding `coefficients`.
     fn file(channels: u32, coefficients: Vec<f32>) -> CoefficientFile {
-        CoefficientFile {
-            header: Header {
-                version: crate::formats::coefficient_file::VERSION,
-                order: 1,
-                channels,
-                vertex_count: (coefficients.len() / channels as usize) as u64,
-                samples_per_vertex: 1,
-                mode: crate::Mode::Unshadowed,
-                transfer: Default::default(),
-                bounces: 0,
-                bounce_samples: 0,
-                backend: crate::trace::Backend::None,
-                sampling: crate::math::sampling::Sampling::OwenSobol,
-                seed: 0,
-                scene_fingerprint: 0,
-                aux: crate::bake::transfer::Aux::default(),
-                up: crate::scene::Up::Z,
-                checksum: 0,
-                adaptive: None,
-            },
-            coefficients,
-            ao: None,
-            bent_normal: None,
-            rays: None,
-            error_estimate: None,
-            lightmap: None,
-        }
+        let vertices = (coefficients.len() / channels as usize) as u64;
+        crate::formats::coefficient_file::fixture(1, channels, vertices, coefficients)
     }
 
     #[test]

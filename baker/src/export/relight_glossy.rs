@@ -248,32 +248,19 @@ mod tests {
             }
             coefficients.extend(m);
         }
+        let file = crate::formats::coefficient_file::fixture(
+            order,
+            channels,
+            vertices as u64,
+            coefficients,
+        );
         CoefficientFile {
             header: Header {
-                version: crate::formats::coefficient_file::VERSION,
-                order,
-                channels,
-                vertex_count: vertices as u64,
-                samples_per_vertex: 1,
                 mode: crate::Mode::Shadowed,
                 transfer: TransferKind::Matrix,
-                bounces: 0,
-                bounce_samples: 0,
-                backend: crate::trace::Backend::None,
-                sampling: crate::math::sampling::Sampling::OwenSobol,
-                seed: 0,
-                scene_fingerprint: 0,
-                aux: crate::bake::transfer::Aux::default(),
-                up: crate::scene::Up::Z,
-                checksum: 0,
-                adaptive: None,
+                ..file.header.clone()
             },
-            coefficients,
-            ao: None,
-            bent_normal: None,
-            rays: None,
-            error_estimate: None,
-            lightmap: None,
+            ..file
         }
     }
 

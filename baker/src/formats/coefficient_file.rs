@@ -475,6 +475,45 @@ pub(crate) fn bytes_with_payload(header: &Header, shard: &[u8; 20], payload: &[u
     bytes
 }
 
+/// A test fixture: an unshadowed vector file of `order` and `channels` whose `coefficients`
+/// are `vertex_count` receivers' worth, no aux arrays, z-up, every other field zero; tests set
+/// what they care about with struct update syntax.
+#[cfg(test)]
+pub(crate) fn fixture(
+    order: u32,
+    channels: u32,
+    vertex_count: u64,
+    coefficients: Vec<f32>,
+) -> CoefficientFile {
+    CoefficientFile {
+        header: Header {
+            version: VERSION,
+            order,
+            channels,
+            vertex_count,
+            samples_per_vertex: 1,
+            mode: crate::formats::header::Mode::Unshadowed,
+            transfer: Default::default(),
+            bounces: 0,
+            bounce_samples: 0,
+            backend: crate::trace::Backend::None,
+            sampling: crate::math::sampling::Sampling::OwenSobol,
+            seed: 0,
+            scene_fingerprint: 0,
+            aux: Default::default(),
+            up: crate::scene::Up::Z,
+            checksum: 0,
+            adaptive: None,
+        },
+        coefficients,
+        ao: None,
+        bent_normal: None,
+        rays: None,
+        error_estimate: None,
+        lightmap: None,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
