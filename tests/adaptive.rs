@@ -14,7 +14,7 @@
 //! the bottom of a hemispherical bowl. Each is baked under several seeds: a seed draws new
 //! scrambles and a new frame, so each (vertex, seed) is an independent trial of the estimate.
 
-use glam::{DVec3, Vec2, Vec3};
+use glam::{DVec3, Vec3};
 use prt_baker::bake::lightmap::{self, Atlas};
 use prt_baker::math::sh;
 use prt_baker::support::progress::Silent;
@@ -361,16 +361,7 @@ fn texel_estimates_are_honest_too() {
         1,
     );
     let scene = scene(vec![floor, wall]);
-    let uvs: Vec<Vec2> = scene
-        .positions
-        .iter()
-        .zip(&scene.normals)
-        .map(|(p, n)| match p.z == 0.0 && n.z > 0.99 {
-            true => Vec2::new(p.x, p.y) / 2.0 + Vec2::splat(0.5),
-            false => Vec2::splat(-1.0),
-        })
-        .collect();
-    let atlas = Atlas::from_vertex_uvs(&scene, &uvs, 17, 17).unwrap();
+    let atlas = Atlas::from_vertex_uvs(&scene, &floor_uvs(&scene, 1.0), 17, 17).unwrap();
     let tracer = EmbreeTracer::new(&scene, EmbreeOptions::default()).expect("embree scene");
     let target = 1e-3;
     let n = sh::coeff_count(ORDER);

@@ -58,22 +58,6 @@ fn rand_suffix() -> String {
     format!("r{}", NEXT.fetch_add(1, Ordering::Relaxed))
 }
 
-/// The radiance floats of the vertices of a PLY written by `relight`.
-fn read_ply_radiance(bytes: &[u8], vertices: usize) -> Vec<[f32; 3]> {
-    let end = b"end_header\n";
-    let start = bytes.windows(end.len()).position(|w| w == end).unwrap() + end.len();
-    // Per vertex: x y z nx ny nz (floats), red green blue (bytes), then the radiance.
-    let offset = 6 * 4 + 3;
-    (0..vertices)
-        .map(|v| {
-            let at = start + v * prt_baker::formats::ply::VERTEX_BYTES + offset;
-            std::array::from_fn(|c| {
-                f32::from_le_bytes(bytes[at + 4 * c..at + 4 * c + 4].try_into().unwrap())
-            })
-        })
-        .collect()
-}
-
 /// ĝ_l(s) = (s + 1) ∫₀¹ t^s P_l(t) dt for l < order, by 48-node Gauss–Legendre (exact for
 /// the integer exponents used here: degree s + l ≤ 95).
 fn lobe_by_quadrature(s: f64, order: usize) -> Vec<f64> {

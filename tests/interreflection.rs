@@ -112,18 +112,6 @@ fn bowl_under_a_constant_sky_approaches_the_closed_form() {
     );
 }
 
-/// Graded coordinates from 0 to `far`: fine near the corner, coarse far away.
-fn graded(far: f32) -> Vec<f32> {
-    let mut xs = vec![0.0f32];
-    let mut x = 0.05f32;
-    while x < far {
-        xs.push(x);
-        x *= 1.35;
-    }
-    xs.push(far);
-    xs
-}
-
 #[test]
 // `j` indexes the two oracles and the three bakes, and names the coefficient in messages.
 #[allow(clippy::needless_range_loop)]
@@ -133,7 +121,7 @@ fn floor_meeting_a_wall_at_a_right_angle() {
     let (rho, far) = (0.5f32, 2000.0f32);
     let order = 3;
     let samples = 1 << 14;
-    let xs = graded(far);
+    let xs = graded(far, 1.35);
     let ys: Vec<f32> = xs
         .iter()
         .rev()

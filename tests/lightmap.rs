@@ -18,20 +18,6 @@ fn bake_lightmap(scene: &Scene, atlas: Atlas, options: &BakeOptions) -> Lightmap
     lightmap::bake(scene, Some(&tracer), options, atlas, &Silent).expect("lightmap bake")
 }
 
-/// Lightmap UVs for the floor square [−half, half]² at z = 0 (uv = (x, y)/(2·half) + ½);
-/// every other vertex is left out of the atlas (all its triangles' UVs coincide).
-fn floor_uvs(scene: &Scene, half: f32) -> Vec<Vec2> {
-    scene
-        .positions
-        .iter()
-        .zip(&scene.normals)
-        .map(|(p, n)| match p.z == 0.0 && n.z > 0.99 {
-            true => Vec2::new(p.x, p.y) / (2.0 * half) + Vec2::splat(0.5),
-            false => Vec2::splat(-1.0),
-        })
-        .collect()
-}
-
 /// The 4-vertex floor [−half, half]² at z = 0 (two triangles).
 fn floor(half: f32) -> prt_baker::scene::Mesh {
     grid(

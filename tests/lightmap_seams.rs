@@ -162,20 +162,6 @@ fn demo_path(relative: &str) -> std::path::PathBuf {
         .join(relative)
 }
 
-/// The floor [−1, 1]² at z = 0, and lightmap UVs for it alone ((x, y)/2 + ½; everything else
-/// left out of the atlas).
-fn floor_uvs(scene: &Scene) -> Vec<Vec2> {
-    scene
-        .positions
-        .iter()
-        .zip(&scene.normals)
-        .map(|(p, n)| match p.z == 0.0 && n.z > 0.99 {
-            true => Vec2::new(p.x, p.y) / 2.0 + Vec2::splat(0.5),
-            false => Vec2::splat(-1.0),
-        })
-        .collect()
-}
-
 /// A closed box without a bottom, standing on z = 0: x in [x0, x1], y in [y0, y1], height h,
 /// faces wound outwards.
 fn open_box(x0: f32, x1: f32, y0: f32, y1: f32, h: f32) -> Vec<Mesh> {
@@ -221,7 +207,7 @@ fn floor_texels_half_under_a_wall_move_out() {
     let scene = scene(meshes);
     let options = shadowed(2, 4096);
     let tracer = embree_tracer(&scene, EmbreeMode::Watertight);
-    let atlas = Atlas::from_vertex_uvs(&scene, &floor_uvs(&scene), 33, 33).expect("atlas");
+    let atlas = Atlas::from_vertex_uvs(&scene, &floor_uvs(&scene, 1.0), 33, 33).expect("atlas");
     let baked = bake(&scene, &tracer, atlas, &options);
     let size = 2.0 / 33.0;
     let (mut moved, mut inside) = (0, 0);

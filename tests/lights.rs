@@ -590,19 +590,3 @@ fn relight_of_an_unoccluded_floor_matches_the_analytic_radiance() {
         }
     }
 }
-
-/// The radiance floats of the vertices of a PLY written by `relight`.
-fn read_ply_radiance(bytes: &[u8], vertices: usize) -> Vec<[f32; 3]> {
-    let end = b"end_header\n";
-    let start = bytes.windows(end.len()).position(|w| w == end).unwrap() + end.len();
-    // Per vertex: x y z nx ny nz (floats), red green blue (bytes), then the radiance.
-    let offset = 6 * 4 + 3;
-    (0..vertices)
-        .map(|v| {
-            let at = start + v * prt_baker::formats::ply::VERTEX_BYTES + offset;
-            std::array::from_fn(|c| {
-                f32::from_le_bytes(bytes[at + 4 * c..at + 4 * c + 4].try_into().unwrap())
-            })
-        })
-        .collect()
-}

@@ -261,46 +261,11 @@ fn bake_interreflected_matrix(scene: &Scene, bounces: u32, v: usize) -> Vec<Vec<
         .collect()
 }
 
-/// Visits a Gauss–Legendre quadrature of the quarter of the sphere {normal·s > 0, cut·s > 0}
-/// (`cut` ⊥ `normal`): `visit(solid angle, s·normal, y)`.
-fn quarter_quadrature(normal: DVec3, cut: DVec3, mut visit: impl FnMut(f64, f64, &[f64])) {
-    let n = sh::coeff_count(ORDER);
-    let side = normal.cross(cut);
-    let (nodes, weights) = sh::gauss_legendre(32);
-    let mut y = vec![0.0; n];
-    for (xt, wt) in nodes.iter().zip(&weights) {
-        let t = 0.5 * (xt + 1.0);
-        let r = (1.0 - t * t).sqrt();
-        for (xp, wp) in nodes.iter().zip(&weights) {
-            let phi = 0.5 * std::f64::consts::PI * xp;
-            let d = cut * (r * phi.cos()) + side * (r * phi.sin()) + normal * t;
-            let (theta, az) = sh::angles(d);
-            for (j, value) in y.iter_mut().enumerate() {
-                let (l, m) = sh::band_and_m(j);
-                *value = sh::eval_slow(l, m, theta, az);
-            }
-            visit(0.5 * wt * 0.5 * std::f64::consts::PI * wp, t, &y);
-        }
-    }
-}
-
-/// Coordinates from 0 to `far`, fine near the corner and coarse far away.
-fn graded(far: f32) -> Vec<f32> {
-    let mut xs = vec![0.0f32];
-    let mut x = 0.05f32;
-    while x < far {
-        xs.push(x);
-        x *= 1.6;
-    }
-    xs.push(far);
-    xs
-}
-
 /// A floor (x ≥ 0, normal +z, albedo `floor`) meeting a wall (the plane x = 0, normal +x,
 /// albedo `wall`) at a right angle, both 1000 units long: nearly the infinite planes of
 /// oracles.md. Returns the scene and the floor vertex at (x ≈ 1, 0, 0).
 fn floor_and_wall(floor: Vec3, wall: Vec3) -> (Scene, usize) {
-    let xs = graded(1000.0);
+    let xs = graded(1000.0, 1.6);
     let ys: Vec<f32> = xs
         .iter()
         .rev()
@@ -337,7 +302,7 @@ struct FloorWall {
 fn floor_wall_closed_form(rho_floor: f64) -> FloorWall {
     let n = sh::coeff_count(ORDER);
     let mut q = vec![0.0; n * n];
-    quarter_quadrature(DVec3::Z, DVec3::X, |w, _, y| {
+    quarter_quadrature(ORDER, DVec3::Z, DVec3::X, |w, _, y| {
         for i in 0..n {
             for j in 0..n {
                 q[i * n + j] += w * y[i] * y[j];
@@ -345,7 +310,7 @@ fn floor_wall_closed_form(rho_floor: f64) -> FloorWall {
         }
     });
     let mut p = vec![0.0; n];
-    quarter_quadrature(DVec3::Z, DVec3::NEG_X, |w, _, y| {
+    quarter_quadrature(ORDER, DVec3::Z, DVec3::NEG_X, |w, _, y| {
         for (p, y) in p.iter_mut().zip(y) {
             *p += w * y;
         }

@@ -31,6 +31,20 @@ fn npz_array(s: &Scratch, file: &str, name: &str) -> Option<(String, Vec<f32>)> 
     Some((text, data))
 }
 
+/// `export --npz` of out/m.prt (a Cornell bake): its `transfer_matrix` array's header and values.
+fn exported_matrices(s: &Scratch) -> (String, Vec<f32>) {
+    s.run(&[
+        "export",
+        "out/m.prt",
+        "--scene",
+        CORNELL,
+        "--npz",
+        "out/m.npz",
+    ])
+    .success();
+    npz_array(s, "out/m.npz", "transfer_matrix").expect("an array")
+}
+
 #[test]
 fn a_matrix_bake_is_inspected_exported_and_refused_where_unsupported() {
     let s = Scratch::new();
@@ -43,16 +57,7 @@ fn a_matrix_bake_is_inspected_exported_and_refused_where_unsupported() {
     // Vector files print what they always printed: no "transfer" key.
     assert!(inspect("out/v.prt").get("transfer").is_none());
 
-    s.run(&[
-        "export",
-        "out/m.prt",
-        "--scene",
-        CORNELL,
-        "--npz",
-        "out/m.npz",
-    ])
-    .success();
-    let (header, matrices) = npz_array(&s, "out/m.npz", "transfer_matrix").expect("an array");
+    let (header, matrices) = exported_matrices(&s);
     assert!(header.contains("(2944, 1, 16, 16)"), "{header}");
     assert!(npz_array(&s, "out/m.npz", "transfer").is_none());
     // Symmetric, and M_00 = ∫ V y_0² within the hemisphere's 1/2.
@@ -102,16 +107,7 @@ fn an_interreflected_matrix_bake_has_a_matrix_per_channel() {
     assert_eq!(inspect["mode"], "interreflected");
     assert_eq!(inspect["bounces"], 2);
     assert_eq!(inspect["channels"], 3);
-    s.run(&[
-        "export",
-        "out/m.prt",
-        "--scene",
-        CORNELL,
-        "--npz",
-        "out/m.npz",
-    ])
-    .success();
-    let (header, matrices) = npz_array(&s, "out/m.npz", "transfer_matrix").expect("an array");
+    let (header, matrices) = exported_matrices(&s);
     assert!(header.contains("(2944, 3, 16, 16)"), "{header}");
     let asymmetric = matrices
         .chunks_exact(256)

@@ -116,16 +116,36 @@ pub fn band_moments(order: usize, normal: DVec3, t_lo: f64, t_hi: f64) -> Moment
 
 /// [`Moments`] of the quarter of the sphere {n·s > 0, c·s > 0} (`cut` ⊥ `normal`): a point
 /// on a plane with an infinite perpendicular plane through it blocking the other half.
-/// Gauss–Legendre in n·s and in azimuth over the half-turn.
 pub fn quarter_moments(order: usize, normal: DVec3, cut: DVec3) -> Moments {
     let n = sh::coeff_count(order);
-    let (normal, cut) = (normal.normalize(), cut.normalize());
-    let side = normal.cross(cut);
-    let (nodes, weights) = sh::gauss_legendre(32);
     let mut moments = Moments {
         mean: vec![0.0; n],
         second: vec![0.0; n],
     };
+    quarter_quadrature(order, normal, cut, |solid_angle, t, y| {
+        let weight = solid_angle * t / std::f64::consts::PI;
+        for (j, &y) in y.iter().enumerate() {
+            moments.mean[j] += weight * y;
+            moments.second[j] += weight * y * y;
+        }
+    });
+    moments
+}
+
+/// Visits a Gauss–Legendre quadrature (in n·s and in azimuth over the half-turn) of the
+/// quarter of the sphere {n·s > 0, c·s > 0} (`cut` ⊥ `normal`): `visit(solid angle, s·n, y)`
+/// with y_j(s) for the `order`'s coefficients.
+pub fn quarter_quadrature(
+    order: usize,
+    normal: DVec3,
+    cut: DVec3,
+    mut visit: impl FnMut(f64, f64, &[f64]),
+) {
+    let n = sh::coeff_count(order);
+    let (normal, cut) = (normal.normalize(), cut.normalize());
+    let side = normal.cross(cut);
+    let (nodes, weights) = sh::gauss_legendre(32);
+    let mut y = vec![0.0; n];
     for (xt, wt) in nodes.iter().zip(&weights) {
         let t = 0.5 * (xt + 1.0);
         let r = (1.0 - t * t).sqrt();
@@ -134,16 +154,26 @@ pub fn quarter_moments(order: usize, normal: DVec3, cut: DVec3) -> Moments {
             let phi = 0.5 * std::f64::consts::PI * xp;
             let d = cut * (r * phi.cos()) + side * (r * phi.sin()) + normal * t;
             let (theta, az) = sh::angles(d);
-            let weight = 0.5 * wt * 0.5 * std::f64::consts::PI * wp * t / std::f64::consts::PI;
-            for j in 0..n {
+            for (j, value) in y.iter_mut().enumerate() {
                 let (l, m) = sh::band_and_m(j);
-                let y = sh::eval_slow(l, m, theta, az);
-                moments.mean[j] += weight * y;
-                moments.second[j] += weight * y * y;
+                *value = sh::eval_slow(l, m, theta, az);
             }
+            visit(0.5 * wt * 0.5 * std::f64::consts::PI * wp, t, &y);
         }
     }
-    moments
+}
+
+/// Coordinates from 0 to `far` for a grid meeting a corner: 0, then 0.05 growing by `ratio`
+/// each step, then `far` (fine near the corner, coarse far away).
+pub fn graded(far: f32, ratio: f32) -> Vec<f32> {
+    let mut xs = vec![0.0f32];
+    let mut x = 0.05f32;
+    while x < far {
+        xs.push(x);
+        x *= ratio;
+    }
+    xs.push(far);
+    xs
 }
 
 /// ∫ y_j over the band of directions around `axis` with axis·s in [t_lo, t_hi]: the
@@ -491,4 +521,34 @@ pub fn assert_matches(what: &str, got: &[f64], expected: &Moments, samples: u32)
         "{what}: worst coefficient {} at {:.3} of its tolerance",
         worst.1, worst.0
     );
+}
+
+/// Lightmap UVs for the floor square [−half, half]² at z = 0 (uv = (x, y)/(2·half) + ½);
+/// every other vertex is left out of the atlas (all its triangles' UVs coincide).
+pub fn floor_uvs(scene: &Scene, half: f32) -> Vec<Vec2> {
+    scene
+        .positions
+        .iter()
+        .zip(&scene.normals)
+        .map(|(p, n)| match p.z == 0.0 && n.z > 0.99 {
+            true => Vec2::new(p.x, p.y) / (2.0 * half) + Vec2::splat(0.5),
+            false => Vec2::splat(-1.0),
+        })
+        .collect()
+}
+
+/// The radiance floats of the vertices of a PLY written by `prt-bake relight`.
+pub fn read_ply_radiance(bytes: &[u8], vertices: usize) -> Vec<[f32; 3]> {
+    let end = b"end_header\n";
+    let start = bytes.windows(end.len()).position(|w| w == end).unwrap() + end.len();
+    // Per vertex: x y z nx ny nz (floats), red green blue (bytes), then the radiance.
+    let offset = 6 * 4 + 3;
+    (0..vertices)
+        .map(|v| {
+            let at = start + v * prt_baker::formats::ply::VERTEX_BYTES + offset;
+            std::array::from_fn(|c| {
+                f32::from_le_bytes(bytes[at + 4 * c..at + 4 * c + 4].try_into().unwrap())
+            })
+        })
+        .collect()
 }
