@@ -227,8 +227,10 @@ pub struct AdaptiveScratch {
     totals: Vec<f64>,
     /// Every point's answer so far, by sequence index: 1 unblocked, 0 blocked.
     seen: Vec<u8>,
-    /// The grid the current octave is inferred from.
-    grid: Option<Grid>,
+    /// The grid the current octave is inferred from (its memory reused across receivers).
+    grid: Grid,
+    /// Whether `grid` belongs to the current receiver.
+    grid_current: bool,
     /// Rows of the current segment that must be cast.
     to_cast: Vec<usize>,
 }
@@ -255,11 +257,12 @@ fn cast(
     let infer = rows.start >= tables.cast_prefix as usize && tracer.is_some();
     if infer {
         let level = usize::BITS - 1 - rows.start.leading_zeros();
-        if s.grid.as_ref().is_none_or(|g| g.level() != level) {
-            s.grid = Some(Grid::new(level, &tables.bits, &s.seen));
+        if !s.grid_current || s.grid.level() != level {
+            s.grid.rebuild(level, &tables.bits, &s.seen);
+            s.grid_current = true;
         }
     }
-    let grid = s.grid.as_ref().filter(|_| infer);
+    let grid = Some(&s.grid).filter(|_| infer);
     for row in rows.clone() {
         let i = tables.index[row] as usize;
         match grid.and_then(|g| g.infer(tables.bits[i])) {
@@ -320,7 +323,7 @@ pub fn receiver_transfer(
     s.batch.resize(k * n, 0.0);
     s.occluded.resize(BATCH, false);
     s.seen.clear();
-    s.grid = None;
+    s.grid_current = false;
     let (mut unblocked, mut bent) = (0u32, Vec3::ZERO);
     let pilot_rows = k * m as usize;
     let mut rays = cast(

@@ -20,6 +20,7 @@
 const UNKNOWN: u8 = 2;
 
 /// The answers of the first 2^level points, by cell.
+#[derive(Default)]
 pub struct Grid {
     level: u32,
     /// Bits of u1 and u2 (a + b = level).
@@ -33,18 +34,21 @@ impl Grid {
     /// The grid of points 0..2^level, whose scrambled integer coordinates are `bits[i]` and
     /// answers `seen[i]` (1 unblocked, 0 blocked).
     pub fn new(level: u32, bits: &[(u32, u32)], seen: &[u8]) -> Grid {
-        let (a, b) = (level.div_ceil(2), level / 2);
-        let mut grid = Grid {
-            level,
-            a,
-            b,
-            cells: vec![UNKNOWN; 1 << level],
-        };
-        for (&point, &answer) in bits.iter().zip(seen).take(1 << level) {
-            let (ix, iy) = grid.cell(point);
-            grid.cells[(ix << b) + iy] = answer;
-        }
+        let mut grid = Grid::default();
+        grid.rebuild(level, bits, seen);
         grid
+    }
+
+    /// Makes this the grid of points 0..2^level, reusing its cells' memory (a receiver builds
+    /// one per octave).
+    pub fn rebuild(&mut self, level: u32, bits: &[(u32, u32)], seen: &[u8]) {
+        (self.level, self.a, self.b) = (level, level.div_ceil(2), level / 2);
+        self.cells.clear();
+        self.cells.resize(1 << level, UNKNOWN);
+        for (&point, &answer) in bits.iter().zip(seen).take(1 << level) {
+            let (ix, iy) = self.cell(point);
+            self.cells[(ix << self.b) + iy] = answer;
+        }
     }
 
     pub fn level(&self) -> u32 {
