@@ -341,6 +341,44 @@ fn bake_with_clusters_writes_what_compress_writes() {
     ])
     .success();
     assert_eq!(s.read("out/inline.prt"), s.read("out/z.prt"));
+    // Fitted for lights above the horizon: the same file both ways, another fit.
+    let upper = [
+        "--clusters",
+        "16",
+        "--pcs",
+        "2",
+        "--light-prior",
+        "upper-hemisphere",
+    ];
+    s.bake(
+        CORNELL,
+        "inline-up.prt",
+        &[&["--order", "3"][..], &upper[..]].concat(),
+    );
+    s.run(
+        &[
+            &["compress", "out/c.prt", "-o", "out/z-up.prt"][..],
+            &upper[..],
+        ]
+        .concat(),
+    )
+    .success();
+    assert_eq!(s.read("out/inline-up.prt"), s.read("out/z-up.prt"));
+    assert_ne!(s.read("out/z-up.prt"), s.read("out/z.prt"));
+    // One start fits no better than the default four, and says which seeding it kept.
+    let one = ["--clusters", "16", "--pcs", "2", "--starts", "1"];
+    s.run(
+        &[
+            &["compress", "out/c.prt", "-o", "out/z-one.prt"][..],
+            &one[..],
+        ]
+        .concat(),
+    )
+    .success();
+    let (four, one) = (inspect(&s, "out/z.prt"), inspect(&s, "out/z-one.prt"));
+    let rms = |j: &serde_json::Value| j["compression"]["rms_error"].as_f64().unwrap();
+    assert!(rms(&four) <= rms(&one), "{four} {one}");
+    assert_eq!(one["compression"]["seed"], "51072003c9ca0001");
     for (extra, message) in [
         (&["--clusters", "0"][..], "--clusters must be at least 1"),
         (
@@ -351,10 +389,29 @@ fn bake_with_clusters_writes_what_compress_writes() {
             &["--pcs", "2", "--shard", "0/2"][..],
             "cannot be used with '--shard",
         ),
+        (
+            &["--light-prior", "upper-hemisphere"][..],
+            "--light-prior and --starts are for compressed bakes",
+        ),
+        (
+            &["--starts", "2"][..],
+            "--light-prior and --starts are for compressed bakes",
+        ),
+        (
+            &["--pcs", "2", "--starts", "0"][..],
+            "--starts must be at least 1",
+        ),
     ] {
         let mut args = vec!["bake", CORNELL, "-o", "out/x.prt", "--order", "3"];
         args.extend(extra);
         s.run(&args).fails_with(EXIT_BAD_COMMAND_LINE, &[message]);
     }
-    s.assert_out_holds(&["c.prt", "inline.prt", "z.prt"]);
+    s.assert_out_holds(&[
+        "c.prt",
+        "inline.prt",
+        "inline-up.prt",
+        "z.prt",
+        "z-one.prt",
+        "z-up.prt",
+    ]);
 }

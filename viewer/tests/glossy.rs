@@ -62,6 +62,7 @@ fn compressed(mut bake: Bake) -> Bake {
             .map(|k| ((k * 7919) % 1000) as f32 / 1000.0 - 0.5)
             .collect(),
         iterations: 0,
+        seed: 0,
     };
     bake.file.coefficients = cpca.reconstruct();
     bake.cpca = Some(cpca);

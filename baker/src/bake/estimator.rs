@@ -49,6 +49,9 @@ pub struct Visibility {
     pub bent_normal: Vec3,
     /// Rays the vertex cast: `samples` (0 with no tracer), or fewer in an adaptive bake.
     pub rays: u32,
+    /// Sample points whose answers the transfer sums: `rays`, or more in an adaptive bake,
+    /// where the rest were inferred from their neighbours ([`crate::bake::inference`]).
+    pub points: u32,
     /// Adaptive bakes: the estimated RMS coefficient error of the vertex's transfer
     /// ([`crate::bake::adaptive`]); 0 otherwise.
     pub error_estimate: f32,
@@ -461,6 +464,7 @@ impl Estimator {
             } else {
                 0
             },
+            points: self.options.samples,
             error_estimate: 0.0,
         }
     }
@@ -549,6 +553,7 @@ impl Estimator {
             accessibility: (f64::from(result.unblocked) / f64::from(result.points)) as f32,
             bent_normal: result.bent.try_normalize().unwrap_or(self.normals[v]),
             rays: result.rays,
+            points: result.points,
             error_estimate: result.error as f32,
         }
     }

@@ -449,6 +449,7 @@ fn receiver_matrix(
             .try_normalize()
             .unwrap_or(estimator.normals[v]),
         rays: if tracer.is_some() { samples as u32 } else { 0 },
+        points: samples as u32,
         error_estimate: 0.0,
     }
 }

@@ -127,6 +127,12 @@ pub struct BakeArgs {
     /// --clusters is given).
     #[arg(long, value_name = "M", conflicts_with_all = ["shard", "checkpoint"])]
     pcs: Option<usize>,
+    /// With compression: the lights to fit for, as `prt-bake compress --light-prior`.
+    #[arg(long, value_enum, conflicts_with_all = ["shard", "checkpoint"])]
+    light_prior: Option<super::compress::LightPriorArg>,
+    /// With compression: the seedings to fit from, as `prt-bake compress --starts`.
+    #[arg(long, value_name = "S", conflicts_with_all = ["shard", "checkpoint"])]
+    starts: Option<usize>,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -237,7 +243,13 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
     let options = options(&args);
     options.validate()?;
     memory::check_bake_options(&options)?;
-    compress::check_bake_options(args.clusters, args.pcs, options.order)?;
+    let fit = compress::bake_fit(
+        args.clusters,
+        args.pcs,
+        args.light_prior.map(Into::into),
+        args.starts,
+        options.order,
+    )?;
     if let Some(resolution) = args.lightmap {
         lightmap::atlas::check_resolution(resolution)?;
     }
@@ -296,7 +308,7 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
             )?
         }
     };
-    let (bytes, compressed) = compress::bake_output(&file, args.clusters, args.pcs)?;
+    let (bytes, compressed) = compress::bake_output(&file, fit.as_ref())?;
     output.write(&bytes)?;
     println!("{}", summary(&args, &options, &transfer, &what));
     if let Some(c) = compressed {

@@ -84,7 +84,7 @@ pub fn to_bytes(file: &CoefficientFile, cpca: &Cpca, rms_error: f32) -> Vec<u8> 
     bytes.extend((cpca.pcs as u32).to_le_bytes());
     bytes.extend(LAYOUT_CONCATENATED.to_le_bytes());
     bytes.extend(cpca.iterations.to_le_bytes());
-    bytes.extend(crate::math::cpca::SEED.to_le_bytes());
+    bytes.extend(cpca.seed.to_le_bytes());
     bytes.extend(rms_error.to_le_bytes());
     bytes.extend(0u32.to_le_bytes());
     let floats = cpca.means.iter().chain(&cpca.bases);
@@ -272,6 +272,7 @@ pub fn from_bytes(bytes: &[u8]) -> Result<CompressedFile, String> {
         cluster,
         weights,
         iterations,
+        seed,
     };
     // The version-1 file these arrays stand for, checked by the version-1 reader.
     let coefficients = cpca.reconstruct();

@@ -10,7 +10,9 @@
 //! refinement: each receiver moves to the cluster whose mean and PCs reconstruct it with the
 //! least error, and means and PCs are recomputed, which never increases the total error;
 //! last, split-and-delete moves (`math::cpca_moves`) take it out of the refinement's
-//! local optimum, again never increasing the error.
+//! local optimum, again never increasing the error. The whole fit runs from [`STARTS`]
+//! k-means++ seedings and keeps the one of least total error: with 64 clusters the result
+//! depends on the seeding by ±10 % (RMS error), and the relit error follows it.
 //! [`crate::formats::cpca_block`] stores the result in a version-2 `.prt` file.
 
 use rayon::prelude::*;
@@ -19,8 +21,14 @@ use crate::math::cpca_moves::{self, Fit, Model, members, scatter};
 use crate::math::eigen;
 use crate::support::error::{Error, Result};
 
-/// The seed of the k-means++ seeding: fixed, so the same input gives the same file.
+/// The seed of the first k-means++ seeding: fixed, so the same input gives the same file.
+/// Start s seeds with `SEED ^ s`.
 pub const SEED: u64 = 0x5107_2003_c9ca_0001;
+/// Fits from different seedings, the best kept. On the demo torus (RGB interreflected,
+/// 64 × 4, 12 seedings) the coefficient RMS error ranged 8.2–9.8e-4 and the relit error
+/// averaged over suns in the upper hemisphere followed it in rank (0.95–1.12 %); the best of
+/// four was 6 % below the first seeding's.
+pub const STARTS: usize = 4;
 /// Lloyd iterations at most (they stop earlier when no receiver changes cluster).
 const LLOYD_ITERATIONS: usize = 30;
 /// Sloan 2003's CPCA refinement iterations at most: it stops earlier at a fixed point or once
@@ -51,6 +59,8 @@ pub struct Cpca {
     /// Refinement iterations the fit ran before the moves, plus the moves kept (recorded in
     /// the file, for information).
     pub iterations: u32,
+    /// The seed of the k-means++ seeding the kept fit started from (recorded in the file).
+    pub seed: u64,
 }
 
 impl Cpca {
@@ -125,17 +135,37 @@ pub fn rms_error(a: &[f32], b: &[f32]) -> f64 {
 /// clusters and `pcs` components each. With K ≥ V every receiver is its own cluster's mean:
 /// exact. Clusters that end up empty are dropped, so the result may hold fewer than K.
 pub fn compress(data: &[f32], dim: usize, clusters: usize, pcs: usize) -> Result<Cpca> {
-    compress_with(data, dim, clusters, pcs, MOVES_PER_CLUSTER * clusters)
+    compress_from(data, dim, clusters, pcs, STARTS)
+}
+
+/// [`compress`] from `starts` seedings (at least one) instead of [`STARTS`]: the time is
+/// linear in them.
+pub fn compress_from(
+    data: &[f32],
+    dim: usize,
+    clusters: usize,
+    pcs: usize,
+    starts: usize,
+) -> Result<Cpca> {
+    compress_with(
+        data,
+        dim,
+        clusters,
+        pcs,
+        MOVES_PER_CLUSTER * clusters,
+        starts,
+    )
 }
 
 /// [`compress`] trying at most `max_moves` split-and-delete moves (0: Sloan's refinement
-/// alone, as the tests compare).
+/// alone, as the tests compare) from each of `starts` seedings.
 fn compress_with(
     data: &[f32],
     dim: usize,
     clusters: usize,
     pcs: usize,
     max_moves: usize,
+    starts: usize,
 ) -> Result<Cpca> {
     if clusters == 0 {
         return Err(Error::InvalidOption("--clusters must be at least 1".into()));
@@ -165,12 +195,45 @@ fn compress_with(
             cluster: (0..v as u32).collect(),
             weights: vec![0.0; v * pcs],
             iterations: 0,
+            seed: SEED,
         });
     }
+    // Each start's fit; the first of least error is kept (so one start is the old fit).
+    let mut best: Option<(Fit, u32, u64)> = None;
+    for start in 0..starts.max(1) {
+        let seed = SEED ^ start as u64;
+        let (fit, iterations) = fit_from(data, dim, clusters, pcs, max_moves, seed);
+        if best.as_ref().is_none_or(|b| fit.error < b.0.error) {
+            best = Some((fit, iterations, seed));
+        }
+    }
+    let (fit, iterations, seed) = best.expect("at least one start");
+    Ok(finish(
+        data,
+        dim,
+        pcs,
+        fit.model,
+        &fit.assignment,
+        iterations,
+        seed,
+    ))
+}
+
+/// One fit from the k-means++ seeding of `seed`: the fit and its refinement iterations plus
+/// the moves kept.
+fn fit_from(
+    data: &[f32],
+    dim: usize,
+    clusters: usize,
+    pcs: usize,
+    max_moves: usize,
+    seed: u64,
+) -> (Fit, u32) {
+    let v = data.len() / dim;
     let x = |i: usize| &data[i * dim..(i + 1) * dim];
 
     // k-means++ seeding.
-    let mut rng = SplitMix64(SEED);
+    let mut rng = SplitMix64(seed);
     let mut centres: Vec<Vec<f64>> = vec![to_f64(x((rng.next() % v as u64) as usize))];
     let mut d2: Vec<f64> = (0..v)
         .into_par_iter()
@@ -219,14 +282,7 @@ fn compress_with(
     let mut state = Fit::new(data, dim, model, assignment);
     let iterations = state.refine(data, dim, pcs, CPCA_ITERATIONS, CPCA_TOLERANCE);
     let (_, moves) = cpca_moves::improve(data, dim, pcs, &mut state, max_moves);
-    Ok(finish(
-        data,
-        dim,
-        pcs,
-        state.model,
-        &state.assignment,
-        iterations + moves as u32,
-    ))
+    (state, iterations + moves as u32)
 }
 
 fn to_f64(x: &[f32]) -> Vec<f64> {
@@ -319,6 +375,7 @@ fn finish(
     model: Model,
     assignment: &[u32],
     iterations: u32,
+    seed: u64,
 ) -> Cpca {
     let members = members(assignment, model.means.len());
     let mut renumber = vec![u32::MAX; model.means.len()];
@@ -358,6 +415,7 @@ fn finish(
         cluster: assignment.iter().map(|&k| renumber[k as usize]).collect(),
         weights,
         iterations,
+        seed,
     }
 }
 
@@ -475,7 +533,7 @@ mod tests {
         let error = |moves| {
             rms_error(
                 &x,
-                &compress_with(&x, 3, 6, 1, moves).unwrap().reconstruct(),
+                &compress_with(&x, 3, 6, 1, moves, 1).unwrap().reconstruct(),
             )
         };
         let (plain, moved) = (error(0), error(100));
@@ -498,7 +556,9 @@ mod tests {
             for moves in 0..10 {
                 let e = rms_error(
                     &x,
-                    &compress_with(&x, dim, k, m, moves).unwrap().reconstruct(),
+                    &compress_with(&x, dim, k, m, moves, 1)
+                        .unwrap()
+                        .reconstruct(),
                 );
                 assert!(
                     e <= previous * (1.0 + 1e-5),
@@ -507,6 +567,31 @@ mod tests {
                 previous = e;
             }
         }
+    }
+
+    #[test]
+    fn the_best_of_several_starts_is_kept() {
+        // Each start is the fit of one seeding; the kept one has the least error of all,
+        // and the file records its seed.
+        let x = data(1500, 16);
+        let error = |fit: &Cpca| rms_error(&x, &fit.reconstruct());
+        let single: Vec<f64> = (0..4)
+            .map(|s| {
+                let fit = fit_from(&x, 16, 16, 2, 0, SEED ^ s);
+                let cpca = finish(&x, 16, 2, fit.0.model, &fit.0.assignment, 0, 0);
+                error(&cpca)
+            })
+            .collect();
+        let best = compress_with(&x, 16, 16, 2, 0, 4).unwrap();
+        let least = single.iter().cloned().fold(f64::INFINITY, f64::min);
+        assert!(
+            (error(&best) - least).abs() <= 1e-9 * least,
+            "kept {}, starts {single:?}",
+            error(&best)
+        );
+        assert!(error(&best) < single[0], "starts {single:?}");
+        let winner = single.iter().position(|&e| e == least).unwrap() as u64;
+        assert_eq!(best.seed, SEED ^ winner);
     }
 
     #[test]

@@ -8,5 +8,6 @@ pub mod cpca;
 mod cpca_moves;
 pub mod eigen;
 pub mod glossy;
+pub mod light_prior;
 pub mod sampling;
 pub mod sh;
