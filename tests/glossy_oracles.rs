@@ -423,21 +423,7 @@ fn material_glb() -> Vec<u8> {
         "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": bin.len()}],
         "accessors": [accessor(0), accessor(1), accessor(2)],
     });
-    let mut text = serde_json::to_vec(&json).unwrap();
-    while text.len() % 4 != 0 {
-        text.push(b' ');
-    }
-    let mut out = Vec::new();
-    out.extend(b"glTF");
-    out.extend(2u32.to_le_bytes());
-    out.extend(((12 + 8 + text.len() + 8 + bin.len()) as u32).to_le_bytes());
-    out.extend((text.len() as u32).to_le_bytes());
-    out.extend(b"JSON");
-    out.extend(text);
-    out.extend((bin.len() as u32).to_le_bytes());
-    out.extend(b"BIN\0");
-    out.extend(bin);
-    out
+    prt_tests::glb(&serde_json::to_vec(&json).unwrap(), &bin)
 }
 
 /// glTF roughness 0.5 maps to the exponent 1/(2r⁴) − 1/2 = 7.5; ks is F0 = mix(0.04, base,

@@ -288,21 +288,7 @@ fn glb(meshes: &[GltfMesh], nodes: serde_json::Value) -> Vec<u8> {
         "meshes": json_meshes, "accessors": accessors, "bufferViews": views,
         "buffers": [{"byteLength": bin.len()}],
     });
-    let mut text = serde_json::to_vec(&document).unwrap();
-    while text.len() % 4 != 0 {
-        text.push(b' ');
-    }
-    let mut out = Vec::new();
-    out.extend(b"glTF");
-    out.extend(2u32.to_le_bytes());
-    out.extend(((12 + 8 + text.len() + 8 + bin.len()) as u32).to_le_bytes());
-    out.extend((text.len() as u32).to_le_bytes());
-    out.extend(b"JSON");
-    out.extend(text);
-    out.extend((bin.len() as u32).to_le_bytes());
-    out.extend(b"BIN\0");
-    out.extend(bin);
-    out
+    prt_tests::glb(&serde_json::to_vec(&document).unwrap(), &bin)
 }
 
 /// Positions, TEXCOORD_1 (glTF's v) and indices of a y-up grid with lightmap UVs in [0, 1].

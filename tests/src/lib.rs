@@ -537,6 +537,30 @@ pub fn floor_uvs(scene: &Scene, half: f32) -> Vec<Vec2> {
         .collect()
 }
 
+/// A binary glTF (`.glb`) of the serialized JSON document `json` and the buffer `bin`: the
+/// 12-byte header, the JSON chunk padded with spaces and the BIN chunk (glTF 2.0, §4.4).
+pub fn glb(json: &[u8], bin: &[u8]) -> Vec<u8> {
+    let mut text = json.to_vec();
+    while text.len() % 4 != 0 {
+        text.push(b' ');
+    }
+    let mut bin = bin.to_vec();
+    while bin.len() % 4 != 0 {
+        bin.push(0);
+    }
+    let mut out = Vec::new();
+    out.extend(b"glTF");
+    out.extend(2u32.to_le_bytes());
+    out.extend(((12 + 8 + text.len() + 8 + bin.len()) as u32).to_le_bytes());
+    out.extend((text.len() as u32).to_le_bytes());
+    out.extend(b"JSON");
+    out.extend(text);
+    out.extend((bin.len() as u32).to_le_bytes());
+    out.extend(b"BIN\0");
+    out.extend(bin);
+    out
+}
+
 /// The radiance floats of the vertices of a PLY written by `prt-bake relight`.
 pub fn read_ply_radiance(bytes: &[u8], vertices: usize) -> Vec<[f32; 3]> {
     let end = b"end_header\n";
