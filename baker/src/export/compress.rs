@@ -90,13 +90,15 @@ pub fn compress_coefficients(
     let dim = file.header.coefficients_per_vertex();
     let v = file.header.vertex_count;
     // The fit's working set: the f64 scatter matrices, means and bases, per-receiver indices
-    // and weights, and the reconstruction used to measure the error.
+    // and weights, the reconstruction used to measure the error, and every receiver's f64
+    // error in every cluster (V × K: the refinement's and the moves' bookkeeping).
     let k = (clusters as u64).min(v);
     let (d, m) = (dim as u64, pcs as u64);
     let needed = k
         .checked_mul(d * d + (m + 2) * d)
         .and_then(|n| n.checked_mul(8))
-        .and_then(|n| n.checked_add(v.checked_mul((m + 2 + d) * 8)?));
+        .and_then(|n| n.checked_add(v.checked_mul((m + 2 + d) * 8)?))
+        .and_then(|n| n.checked_add(v.checked_mul(k)?.checked_mul(8)?));
     crate::support::limits::check("compress", "clustered PCA of the transfer", needed)?;
     let cpca = match prior {
         LightPrior::Sphere => compress_from(&file.coefficients, dim, clusters, pcs, starts)?,

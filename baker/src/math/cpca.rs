@@ -198,25 +198,18 @@ fn compress_with(
             seed: SEED,
         });
     }
-    // Each start's fit; the first of least error is kept (so one start is the old fit).
-    let mut best: Option<(Fit, u32, u64)> = None;
+    // Each start's fit; the first of least error is kept (so one start is the old fit). Only
+    // its model and partition are kept, not its V × K errors: one start's memory at a time.
+    let mut best: Option<(f64, Model, Vec<u32>, u32, u64)> = None;
     for start in 0..starts.max(1) {
         let seed = SEED ^ start as u64;
         let (fit, iterations) = fit_from(data, dim, clusters, pcs, max_moves, seed);
-        if best.as_ref().is_none_or(|b| fit.error < b.0.error) {
-            best = Some((fit, iterations, seed));
+        if best.as_ref().is_none_or(|b| fit.error < b.0) {
+            best = Some((fit.error, fit.model, fit.assignment, iterations, seed));
         }
     }
-    let (fit, iterations, seed) = best.expect("at least one start");
-    Ok(finish(
-        data,
-        dim,
-        pcs,
-        fit.model,
-        &fit.assignment,
-        iterations,
-        seed,
-    ))
+    let (_, model, assignment, iterations, seed) = best.expect("at least one start");
+    Ok(finish(data, dim, pcs, model, &assignment, iterations, seed))
 }
 
 /// One fit from the k-means++ seeding of `seed`: the fit and its refinement iterations plus
