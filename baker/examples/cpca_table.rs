@@ -24,19 +24,14 @@ use prt_baker::{CoefficientFile, Scene, light::Rig};
 /// Fibonacci spiral in cos θ.
 fn upper_suns(order: usize, up: DVec3, count: usize) -> Vec<LightCoefficients> {
     let (t1, t2) = up.any_orthonormal_pair();
+    let basis = sh::Basis::new(order);
+    let mut y = vec![0.0f64; order * order];
     (0..count)
         .map(|i| {
             let cos = (i as f64 + 0.5) / count as f64;
             let sin = (1.0 - cos * cos).sqrt();
             let phi = i as f64 * 2.399_963_229_728_653; // the golden angle
-            let d = cos * up + sin * (phi.cos() * t1 + phi.sin() * t2);
-            let (theta, phi) = sh::angles(d);
-            let y: Vec<f64> = (0..order * order)
-                .map(|j| {
-                    let (l, m) = sh::band_and_m(j);
-                    sh::eval_slow(l, m, theta, phi)
-                })
-                .collect();
+            basis.eval_recurrence(cos * up + sin * (phi.cos() * t1 + phi.sin() * t2), &mut y);
             LightCoefficients::tinted(order, &y, DVec3::ONE)
         })
         .collect()
@@ -83,11 +78,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .iter()
         .map(|sun| vertex_radiance(&file, &albedo, sun))
         .collect();
-    let norm: f64 = reference
-        .iter()
-        .flatten()
-        .map(|&r| f64::from(r).powi(2))
-        .sum();
     let (v1, _) = file.to_bytes();
     println!(
         "{} vertices, {} floats per vertex, {} bytes uncompressed",
@@ -113,11 +103,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let bytes = cpca_block::to_bytes(&file, &fit, summary.rms_error as f32);
             let read = CoefficientFile::from_bytes(&bytes)?;
             let relit = vertex_radiance(&read, &albedo, &light);
-            let (mut sum, mut max, mut peak) = (0.0f64, 0.0f64, 0.0f64);
+            let (sum, norm) = relit_sums(&relit, &reference);
+            let (mut max, mut peak) = (0.0f64, 0.0f64);
             for (a, b) in relit.iter().flatten().zip(reference.iter().flatten()) {
-                let d = f64::from(*a) - f64::from(*b);
-                sum += d * d;
-                max = max.max(d.abs());
+                max = max.max((f64::from(*a) - f64::from(*b)).abs());
                 peak = peak.max(f64::from(*b).abs());
             }
             let (mut sun_sum, mut sun_norm) = (0.0, 0.0);

@@ -284,6 +284,12 @@ def _read_adaptive(b, aux, mode, sampling):
 CPCA_BLOCK_SIZE = 32
 
 
+def _checksum(b):
+    """The CRC-32 of every byte of a file but the checksum's own 4 (counted as zeros; the texel
+    and CPCA blocks included)."""
+    return zlib.crc32(b[HEADER_SIZE:], zlib.crc32(bytes(4), zlib.crc32(b[:CHECKSUM_OFFSET])))
+
+
 def _checked_frame(b, header_sizes, sizes_said, payload_said):
     """The checks every version shares: the header size, the payload size, the checksum, the
     order and the channels. Returns (header size, payload, order, channels, vertices)."""
@@ -298,9 +304,7 @@ def _checked_frame(b, header_sizes, sizes_said, payload_said):
         raise PrtError(f"truncated: {len(b)} bytes, the header alone is {header_size}")
     if len(b) - header_size != payload:
         raise PrtError(f"the header announces {payload} bytes of {payload_said}, the file holds {len(b) - header_size}")
-    # The checksum covers every byte but its own 4 (the texel and CPCA blocks included).
-    crc = zlib.crc32(b[HEADER_SIZE:], zlib.crc32(bytes(4), zlib.crc32(b[:CHECKSUM_OFFSET])))
-    if crc != u32(CHECKSUM_OFFSET):
+    if _checksum(b) != u32(CHECKSUM_OFFSET):
         raise PrtError("checksum mismatch: the file is corrupted")
     order, channels = u32(16), u32(20)
     if not 1 <= order <= 45:
@@ -366,9 +370,7 @@ def _parse_compressed(b):
     v1[12:16] = np.uint32(base).tobytes()
     v1[72:80] = np.uint64(vertices * dim * 4 + payload - arrays).tobytes()
     v1 += acc.astype("<f4").tobytes() + b[cursor.offset:]
-    v1[CHECKSUM_OFFSET:HEADER_SIZE] = bytes(4)
-    crc = zlib.crc32(bytes(v1[HEADER_SIZE:]), zlib.crc32(bytes(4), zlib.crc32(bytes(v1[:CHECKSUM_OFFSET]))))
-    v1[CHECKSUM_OFFSET:HEADER_SIZE] = np.uint32(crc).tobytes()
+    v1[CHECKSUM_OFFSET:HEADER_SIZE] = np.uint32(_checksum(bytes(v1))).tobytes()
     f = parse_prt(bytes(v1))
     f.header.update(version=2, checksum=f"{u32(CHECKSUM_OFFSET):08x}", compression={
         "method": "cpca", "layout": "concatenated-channels", "clusters": clusters, "pcs": pcs,

@@ -17,7 +17,7 @@
 
 use rayon::prelude::*;
 
-use crate::math::cpca_moves::{self, Fit, Model, members, scatter};
+use crate::math::cpca_moves::{self, Fit, Model, mean_of, members, scatter};
 use crate::math::eigen;
 use crate::support::error::{Error, Result};
 
@@ -312,20 +312,12 @@ fn cluster_means(
     assignment: &[u32],
     previous: &[Vec<f64>],
 ) -> Vec<Vec<f64>> {
-    let mut sums = vec![vec![0.0f64; dim]; previous.len()];
-    let mut counts = vec![0usize; previous.len()];
-    for (x, &k) in data.chunks_exact(dim).zip(assignment) {
-        counts[k as usize] += 1;
-        for (s, &a) in sums[k as usize].iter_mut().zip(x) {
-            *s += f64::from(a);
-        }
-    }
-    sums.into_iter()
-        .zip(counts)
+    members(assignment, previous.len())
+        .iter()
         .zip(previous)
-        .map(|((s, n), old)| match n {
-            0 => old.clone(),
-            n => s.into_iter().map(|a| a / n as f64).collect(),
+        .map(|(group, old)| match group.is_empty() {
+            true => old.clone(),
+            false => mean_of(data, dim, group),
         })
         .collect()
 }

@@ -62,22 +62,8 @@ pub fn leading_eigenvectors_from(
 
 /// SᵀAS for row-major n×n matrices, made exactly symmetric (as Jacobi expects).
 fn congruence(a: &[f64], s: &[f64], n: usize) -> Vec<f64> {
-    let as_ = product(a, s, n);
-    let mut b = vec![0.0f64; n * n];
-    for k in 0..n {
-        for i in 0..n {
-            let ski = s[k * n + i];
-            if ski == 0.0 {
-                continue;
-            }
-            for (x, &y) in b[i * n..(i + 1) * n]
-                .iter_mut()
-                .zip(&as_[k * n..(k + 1) * n])
-            {
-                *x += ski * y;
-            }
-        }
-    }
+    let transposed: Vec<f64> = (0..n * n).map(|ij| s[(ij % n) * n + ij / n]).collect();
+    let mut b = product(&transposed, &product(a, s, n), n);
     for i in 0..n {
         for j in 0..i {
             let m = 0.5 * (b[i * n + j] + b[j * n + i]);

@@ -99,6 +99,7 @@ pub fn upper_gram(order: usize, up: DVec3) -> Vec<f64> {
     let (nodes, weights) = sh::gauss_legendre(order + 2);
     let azimuths = 4 * order + 4;
     let (t1, t2) = up.any_orthonormal_pair();
+    let basis = sh::Basis::new(order);
     let mut g = vec![0.0f64; n2 * n2];
     let mut y = vec![0.0f64; n2];
     for (t, w) in nodes.iter().zip(&weights) {
@@ -106,12 +107,7 @@ pub fn upper_gram(order: usize, up: DVec3) -> Vec<f64> {
         let sin = (1.0 - cos * cos).max(0.0).sqrt();
         for a in 0..azimuths {
             let phi = std::f64::consts::TAU * a as f64 / azimuths as f64;
-            let d = cos * up + sin * (phi.cos() * t1 + phi.sin() * t2);
-            let (theta, phi) = sh::angles(d);
-            for (i, out) in y.iter_mut().enumerate() {
-                let (l, m) = sh::band_and_m(i);
-                *out = sh::eval_slow(l, m, theta, phi);
-            }
+            basis.eval_recurrence(cos * up + sin * (phi.cos() * t1 + phi.sin() * t2), &mut y);
             let dw = 0.5 * w * std::f64::consts::TAU / azimuths as f64;
             for i in 0..n2 {
                 for j in 0..n2 {
@@ -182,19 +178,25 @@ mod tests {
         }
     }
 
+    /// Every y_i at `d`, from the definition ([`sh::eval_slow`], independent of the metric's
+    /// own evaluation).
+    fn basis_at(order: usize, d: DVec3) -> Vec<f64> {
+        let (theta, phi) = sh::angles(d);
+        (0..order * order)
+            .map(|i| {
+                let (l, m) = sh::band_and_m(i);
+                sh::eval_slow(l, m, theta, phi)
+            })
+            .collect()
+    }
+
     /// Error of a sun at each of `dirs`, relit from the reconstruction, squared and summed.
     fn sun_error(order: usize, x: &[f32], fit: &Cpca, dirs: &[DVec3]) -> f64 {
         let n2 = order * order;
         let recon = fit.reconstruct();
         let mut sum = 0.0;
         for d in dirs {
-            let (theta, phi) = sh::angles(*d);
-            let y: Vec<f64> = (0..n2)
-                .map(|i| {
-                    let (l, m) = sh::band_and_m(i);
-                    sh::eval_slow(l, m, theta, phi)
-                })
-                .collect();
+            let y = basis_at(order, *d);
             for (a, b) in x.chunks(n2).zip(recon.chunks(n2)) {
                 let e: f64 = (0..n2)
                     .map(|i| (f64::from(a[i]) - f64::from(b[i])) * y[i])
@@ -211,15 +213,7 @@ mod tests {
         // components cannot hold both, and the plain fit takes the larger spread below.
         let order = 3;
         let n2 = 9;
-        let at = |d: DVec3| -> Vec<f64> {
-            let (theta, phi) = sh::angles(d);
-            (0..n2)
-                .map(|i| {
-                    let (l, m) = sh::band_and_m(i);
-                    sh::eval_slow(l, m, theta, phi)
-                })
-                .collect()
-        };
+        let at = |d: DVec3| basis_at(order, d);
         let (above, below) = (
             [
                 at(DVec3::new(0.3, 0.0, 0.95)),
