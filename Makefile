@@ -11,7 +11,8 @@
 #                    (part of make test, about 30 s after a 373 MB install; docs/lightmaps.md)
 #   make bench       the bake benchmark: Embree and obvhs against the raw Embree rate
 #                    (docs/performance.md)
-#   make fuzz        the parsers' mutation fuzzing at 20 times make test's mutants (docs/robustness.md)
+#   make fuzz        the parsers' mutation fuzzing from a newly drawn seed at 20 times make test's
+#                    mutants (make test runs fixed seeds: docs/robustness.md)
 #   make web GLB=F   serve the three.js example page for a prt-bake .glb and print its address
 #   make bench-view  the viewer's frame rates, Blinn-Phong and PRT with 1 and 8 lights, per vertex
 #                    and per pixel (a texel bake) (docs/performance.md)
@@ -130,9 +131,12 @@ bench: deps
 	$(CARGO) bench -p prt-baker --bench bake
 	$(CARGO) bench -p prt-baker --bench lightmap
 
-# 400,000 mutants per parser (make test runs 20,000): a few minutes.
+# 400,000 mutants per parser from a new seed (make test runs 20,000 from each of its fixed
+# seeds): a few minutes. FUZZ_SEED=0x… replays a run; FUZZ_CASES=N sets its length.
+FUZZ_SEED ?= random
+FUZZ_CASES ?= 400000
 fuzz: deps
-	PRT_FUZZ_CASES=400000 $(CARGO) test --release -p prt-baker --test fuzz -- --nocapture
+	PRT_FUZZ_SEED=$(FUZZ_SEED) PRT_FUZZ_CASES=$(FUZZ_CASES) $(CARGO) test --release -p prt-baker --test fuzz -- --nocapture
 
 # The Cornell box's 512² interreflected lightmap (RGB transfer, order 4): per-pixel PRT.
 out/cornell-lightmap-512.prt: build

@@ -27,13 +27,17 @@
 //! entries and rig maps naming the same special files. Half of those run with
 //! `--allow-outside-uris`, so the device and FIFO refusal is reached behind the folder check.
 //!
-//! Every run draws its cases from a new seed, printed first (`fuzz: seed 0x…`);
-//! `PRT_FUZZ_SEED=0x…` replays a run. The counts of a run with [`TABLE_SEED`] are the table of
-//! `docs/robustness.md`, which this test checks when run with that seed (with
+//! The gate is reproducible: without `PRT_FUZZ_SEED`, a run draws its cases from the fixed
+//! seeds of [`GATE_SEEDS`], one after another, so the same commit always runs the same cases
+//! (a red `make test` is the change's, never a new draw). `PRT_FUZZ_SEED=0x…` runs one seed
+//! (a replay), and `PRT_FUZZ_SEED=random` draws a new one from the clock and the process id
+//! (`make fuzz`, which also runs 20 times the mutants: the exploring campaign, whose findings
+//! are saved into the corpus and so join the gate). Every seed is printed before its run
+//! (`fuzz: seed 0x…`). The counts of a run with [`TABLE_SEED`] are the table of
+//! `docs/robustness.md`, which this test checks at `make test`'s mutant count (with
 //! `PRT_FUZZ_BLESS=1` it rewrites the table after a parser changed); any other seed checks
 //! everything else (no panic, hang, over-allocation or accepted corruption) and prints its
-//! table. `PRT_FUZZ_CASES=N` sets the mutants per parser (`make fuzz`: longer runs, not
-//! compared with the table).
+//! table. `PRT_FUZZ_CASES=N` sets the mutants per parser and seed.
 
 mod common;
 
@@ -66,21 +70,28 @@ const CASE_TIME_LIMIT: Duration = Duration::from_secs(10);
 /// their own, so the parsers without structured cases keep their counts).
 const TABLE_SEED: u64 = 0x5eed_0000;
 
-/// This run's seed: `PRT_FUZZ_SEED` (decimal or `0x` hex) to replay one, else drawn from the
-/// clock and the process id.
-fn run_seed() -> u64 {
-    if let Ok(text) = std::env::var("PRT_FUZZ_SEED") {
-        let text = text.trim();
-        let parsed = match text.strip_prefix("0x").or_else(|| text.strip_prefix("0X")) {
-            Some(hex) => u64::from_str_radix(hex, 16),
-            None => text.parse(),
-        };
-        return parsed.unwrap_or_else(|_| panic!("PRT_FUZZ_SEED={text:?} is not a number"));
+/// The seeds `make test` runs, in order: the table's seed, the seed of the drawn run that found
+/// the EXR block-size crash (docs/robustness.md), and one more fixed seed.
+const GATE_SEEDS: [u64; 3] = [TABLE_SEED, 0x2d7c_19e3_4b5d_ec1a, 0x5eed_0001];
+
+/// This run's seeds: `PRT_FUZZ_SEED` (decimal or `0x` hex) to replay one, `random` to draw a
+/// new one from the clock and the process id, else [`GATE_SEEDS`].
+fn run_seeds() -> Vec<u64> {
+    let Ok(text) = std::env::var("PRT_FUZZ_SEED") else {
+        return GATE_SEEDS.to_vec();
+    };
+    let text = text.trim();
+    if text == "random" {
+        let nanos = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_nanos() as u64);
+        return vec![Rng(nanos ^ (u64::from(std::process::id()) << 32)).next()];
     }
-    let nanos = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_nanos() as u64);
-    Rng(nanos ^ (u64::from(std::process::id()) << 32)).next()
+    let parsed = match text.strip_prefix("0x").or_else(|| text.strip_prefix("0X")) {
+        Some(hex) => u64::from_str_radix(hex, 16),
+        None => text.parse(),
+    };
+    vec![parsed.unwrap_or_else(|_| panic!("PRT_FUZZ_SEED={text:?} is not a number or `random`"))]
 }
 
 // ---------------------------------------------------------------------------------------
@@ -1158,13 +1169,7 @@ fn every_parser_survives_its_mutants() {
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(DEFAULT_CASES);
-    let seed = run_seed();
-    // Written to the standard error itself, not through `eprintln!`, which the test harness
-    // captures: the seed of every run is logged, passing or not.
-    let _ = writeln!(
-        std::io::stderr(),
-        "fuzz: seed {seed:#x} (replay this run with PRT_FUZZ_SEED={seed:#x})"
-    );
+    let seeds = run_seeds();
     // A panic is caught and counted per case; the default hook's report would only be noise.
     std::panic::set_hook(Box::new(|_| {}));
     // SAFETY: installs a handler that makes only async-signal-safe calls.
@@ -1172,6 +1177,41 @@ fn every_parser_survives_its_mutants() {
     let start = Instant::now();
     let current = std::sync::Arc::new(std::sync::Mutex::new((String::new(), Vec::new())));
     watchdog(start, current.clone());
+    let mut failures = Vec::new();
+    let mut tables = Vec::new();
+    for &seed in &seeds {
+        let (table, seed_failures) = fuzz_every_parser(seed, cases, start, &current);
+        if !seed_failures.is_empty() {
+            failures.push(format!(
+                "seed {seed:#x} (replay with PRT_FUZZ_SEED={seed:#x}):\n{}",
+                seed_failures.join("\n")
+            ));
+        }
+        tables.push((seed, table));
+    }
+    FINISHED.store(true, Ordering::SeqCst);
+    let _ = std::panic::take_hook();
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+    for (seed, table) in tables {
+        if cases == DEFAULT_CASES && seed == TABLE_SEED {
+            check_docs_table(&table);
+        }
+    }
+}
+
+/// One seed's run over every parser: its table and what failed.
+fn fuzz_every_parser(
+    seed: u64,
+    cases: usize,
+    start: Instant,
+    current: &std::sync::Arc<std::sync::Mutex<(String, Vec<u8>)>>,
+) -> (String, Vec<String>) {
+    // Written to the standard error itself, not through `eprintln!`, which the test harness
+    // captures: the seed of every run is logged, passing or not.
+    let _ = writeln!(
+        std::io::stderr(),
+        "fuzz: seed {seed:#x} (replay this run with PRT_FUZZ_SEED={seed:#x})"
+    );
     let mut rows = vec![
         "| parser | seeds | mutants | accepted | rejected | panics | hangs | accepted corruptions |".to_string(),
         "|---|---:|---:|---:|---:|---:|---:|---:|".to_string(),
@@ -1179,7 +1219,7 @@ fn every_parser_survives_its_mutants() {
     let mut failures = Vec::new();
     for target in TARGETS {
         let began = Instant::now();
-        let t = fuzz(target, cases, seed, start, &current);
+        let t = fuzz(target, cases, seed, start, current);
         eprintln!(
             "fuzz {:5}: {} cases in {:.2} s, slowest {:.1} ms, most held {:.1} MiB, {} accepted",
             target.name(),
@@ -1238,18 +1278,9 @@ fn every_parser_survives_its_mutants() {
             ));
         }
     }
-    FINISHED.store(true, Ordering::SeqCst);
-    let _ = std::panic::take_hook();
     let table = rows.join("\n");
     eprintln!("{table}");
-    assert!(
-        failures.is_empty(),
-        "seed {seed:#x} (replay with PRT_FUZZ_SEED={seed:#x}):\n{}",
-        failures.join("\n")
-    );
-    if cases == DEFAULT_CASES && seed == TABLE_SEED {
-        check_docs_table(&table);
-    }
+    (table, failures)
 }
 
 /// The table in docs/robustness.md must be this run's (PRT_FUZZ_BLESS=1 rewrites it).
