@@ -1,0 +1,140 @@
+"""One bake as a background process: write the scene, run `prt-bake bake`, watch its
+progress, and read the transfer back per face corner.
+
+The bake runs with `--checkpoint DIR`: prt-bake writes each finished block of vertices into
+DIR, and the number of blocks there is the progress (prt-bake draws its own progress bar
+only on a terminal). The checkpointed file is byte-identical to an uninterrupted bake's.
+
+Driving it: `start()`, then `poll()` until it returns True (the modal operator polls on a
+timer; a script may call `run()`, which polls until done); `cancel()` stops it. Every
+failure raises PrtError; the temporary folder is removed in every case by `close()`.
+"""
+
+import math
+import os
+import shutil
+import subprocess
+import tempfile
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import glb
+from .errors import PrtError
+from .process import failure, run_prt_bake
+
+PROGRESS_BLOCKS = 40  # checkpoint blocks per bake: the progress bar's steps
+
+
+@dataclass
+class BakeSettings:
+    order: int = 4
+    samples: int = 256
+    mode: str = "shadowed"  # or "interreflected"
+    seed: int = 0
+    threads: int = 0  # 0: all cores
+
+
+class BakeJob:
+    def __init__(self, executable, settings, receivers):
+        self.executable, self.settings, self.receivers = executable, settings, receivers
+        self.folder = None
+        self.process = None
+        self.progress = 0.0
+        self.transfer = None  # per receiver: (loops, channels, n²) float32, once done
+
+    def _path(self, name):
+        return os.path.join(self.folder, name)
+
+    def command(self):
+        s = self.settings
+        vertices = sum(r.vertex_count for r in self.receivers)
+        self.blocks_total = PROGRESS_BLOCKS
+        block = max(64, math.ceil(vertices / PROGRESS_BLOCKS))
+        self.blocks_total = math.ceil(vertices / block)
+        arguments = [
+            "bake", self._path("scene.glb"), "-o", self._path("scene.prt"), "--up", "z",
+            "--order", str(s.order), "--samples", str(s.samples), "--mode", s.mode,
+            "--seed", str(s.seed), "--quiet",
+            "--checkpoint", self._path("blocks"), "--checkpoint-vertices", str(block),
+        ]
+        if s.threads:
+            arguments += ["--threads", str(s.threads)]
+        return [self.executable, *arguments]
+
+    def start(self):
+        self.folder = tempfile.mkdtemp(prefix="prt-bake-")
+        try:
+            glb.write_glb(self._path("scene.glb"),
+                          [p for r in self.receivers for p in r.primitives])
+            os.mkdir(self._path("blocks"))
+            command = self.command()
+            self.log = open(self._path("bake.log"), "w+")
+            self.process = subprocess.Popen(command, stdout=self.log, stderr=subprocess.STDOUT,
+                                            stdin=subprocess.DEVNULL)
+        except OSError as err:
+            self.close()
+            raise PrtError(f"cannot start prt-bake: {err}") from None
+        except BaseException:
+            self.close()
+            raise
+
+    def poll(self):
+        """True once the result is read; False while prt-bake runs (self.progress is the
+        fraction of blocks done)."""
+        code = self.process.poll()
+        if code is None:
+            done = len([n for n in os.listdir(self._path("blocks")) if n.endswith(".prt")])
+            self.progress = min(done / max(self.blocks_total, 1), 0.99)
+            return False
+        if code != 0:
+            self.log.seek(0)
+            raise failure("bake", code, self.log.read())
+        self._read_result()
+        self.progress = 1.0
+        return True
+
+    def run(self, interval=0.05):
+        """Polls to the end (scripts and the operator's non-interactive call)."""
+        while not self.poll():
+            time.sleep(interval)
+
+    def cancel(self):
+        if self.process is not None and self.process.poll() is None:
+            self.process.terminate()
+            try:
+                self.process.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                self.process.kill()
+                self.process.wait()
+        self.close()
+
+    def close(self):
+        if getattr(self, "log", None) is not None:
+            self.log.close()
+            self.log = None
+        if self.folder is not None:
+            shutil.rmtree(self.folder, ignore_errors=True)
+            self.folder = None
+
+    def _read_result(self):
+        npz = self._path("scene.npz")
+        run_prt_bake(self.executable, ["export", self._path("scene.prt"),
+                                       "--scene", self._path("scene.glb"), "--npz", npz])
+        with np.load(npz) as f:
+            transfer = np.asarray(f["transfer"], np.float32)
+            positions = np.asarray(f["positions"], np.float64)
+        if transfer.ndim == 2:  # (V, n²) for a grey bake, should the export ever write it
+            transfer = transfer[:, None, :]
+        expected = sum(r.vertex_count for r in self.receivers)
+        if len(transfer) != expected:
+            raise PrtError(f"prt-bake baked {len(transfer)} vertices, the add-on wrote {expected}")
+        self.transfer, start = [], 0
+        for r in self.receivers:
+            ours = np.concatenate([p["positions"] for p in r.primitives])
+            theirs = positions[start:start + r.vertex_count]
+            if not np.allclose(ours, theirs, rtol=1e-5, atol=1e-4 * (1 + np.abs(ours).max())):
+                raise PrtError(f"{r.obj.name}: prt-bake's vertices are not the add-on's")
+            self.transfer.append(transfer[start:start + r.vertex_count][r.corner_vertex])
+            start += r.vertex_count

@@ -1,0 +1,37 @@
+"""Relighting: the bake's light turned by `scene.prt.light_rotation` about world Z, dotted
+with every baked corner's transfer into the "PRT" colour attribute. No re-bake."""
+
+import json
+
+import numpy as np
+
+from .errors import PrtError
+from .light import rotate_z
+from .results import baked_meshes, relit_colors, store_color
+
+
+def current_light(scene):
+    settings = scene.prt
+    if not settings.light_json:
+        raise PrtError("nothing baked yet: bake first")
+    light = np.array(json.loads(settings.light_json), np.float64)
+    return rotate_z(light, settings.light_rotation)
+
+
+def relight(scene):
+    """Recolours every baked mesh; returns how many."""
+    light = current_light(scene)
+    meshes = baked_meshes(scene)
+    for mesh in meshes:
+        store_color(mesh, relit_colors(mesh, light))
+    return len(meshes)
+
+
+def relight_quietly(scene):
+    """For property updates, which cannot report: the problem goes to the panel's status."""
+    try:
+        relight(scene)
+    except PrtError as err:
+        scene.prt.status = str(err)
+    except Exception as err:  # never a traceback in the UI
+        scene.prt.status = f"relight failed: {err}"

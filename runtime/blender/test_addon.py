@@ -1,0 +1,246 @@
+"""The add-on's test in Blender 4.5 (bpy as a Python module): install from the zip, build
+Suzanne, a cube and a floor, export them with Blender's own glTF exporter (for the CLI's
+bake, test.sh), bake through bpy.ops.prt.bake, relight at the rig and turned 90°, and check
+the errors, the cancel and that nothing but the added attributes changed.
+
+    BLENDER_USER_RESOURCES=DIR python test_addon.py ZIP PRT_BAKE RIG OUT_DIR [--samples N]
+
+Writes OUT_DIR/scene.glb (Blender's export), OUT_DIR/addon.npz (per object: corner world
+positions and normals, albedo, "PRT" at the rig and at 90°) and OUT_DIR/checks.json (every
+check's outcome). Exits through os._exit after flushing: bpy can hang in its exit handlers.
+"""
+
+import argparse
+import json
+import math
+import os
+import stat
+import sys
+import time
+import traceback
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+checks = {}
+
+
+def check(name, ok, detail=""):
+    checks[name] = {"ok": bool(ok), "detail": str(detail)}
+    print(f"{'ok  ' if ok else 'FAIL'} {name} {detail}", flush=True)
+
+
+def install(zip_path):
+    result = bpy.ops.extensions.package_install_files(
+        filepath=zip_path, repo="user_default", enable_on_install=True)
+    check("install from the zip", result == {"FINISHED"} and hasattr(bpy.ops.prt, "bake"))
+    module = next(m for m in sys.modules if m.endswith("prt_bake"))
+    return module
+
+
+def material(name, color):
+    m = bpy.data.materials.new(name)
+    m.use_nodes = True
+    m.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (*color, 1)
+    return m
+
+
+def build():
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=24, y_subdivisions=24, size=6)
+    floor = bpy.context.object
+    floor.name = "Floor"
+    bpy.ops.mesh.primitive_monkey_add(size=2, location=(-0.6, 0, 1.0), rotation=(0, 0, 0.4))
+    suzanne = bpy.context.object
+    suzanne.name = "Suzanne"
+    bpy.ops.object.modifier_add(type="SUBSURF")
+    suzanne.modifiers["Subdivision"].levels = 1
+    bpy.ops.object.modifier_apply(modifier="Subdivision")
+    bpy.ops.object.shade_smooth()
+    bpy.ops.mesh.primitive_cube_add(size=1, location=(1.4, 0.6, 0.5), rotation=(0, 0, 0.3))
+    cube = bpy.context.object
+    cube.name = "Cube"
+    for obj, color in ((floor, (0.7, 0.7, 0.7)), (suzanne, (0.8, 0.45, 0.25)),
+                       (cube, (0.25, 0.5, 0.8))):
+        obj.data.materials.append(material(obj.name + "Material", color))
+    return [floor, suzanne, cube]
+
+
+def snapshot():
+    """What the add-on must not change: per object its transform, geometry, materials and
+    attributes (less its own), and the selection, active object and mode."""
+    out = {"mode": bpy.context.mode,
+           "active": getattr(bpy.context.view_layer.objects.active, "name", None),
+           "objects": sorted(o.name for o in bpy.data.objects),
+           "materials": sorted(m.name for m in bpy.data.materials),
+           "images": sorted(i.name for i in bpy.data.images)}
+    for obj in bpy.data.objects:
+        co = np.zeros(len(obj.data.vertices) * 3)
+        obj.data.vertices.foreach_get("co", co)
+        out[obj.name] = {
+            "matrix": [list(r) for r in obj.matrix_world], "select": obj.select_get(),
+            "co": float(np.abs(co).sum()), "polygons": len(obj.data.polygons),
+            "materials": [m.name if m else None for m in obj.data.materials],
+            "slots": [(s.link, s.material.name if s.material else None)
+                      for s in obj.material_slots],
+            "attributes": sorted(a.name for a in obj.data.attributes
+                                 if not a.name.startswith("prt_T") and a.name != "PRT")}
+    return out
+
+
+def corners(obj):
+    """Per face corner: world position, world normal, albedo, and "PRT" (RGB)."""
+    mesh = obj.data
+    n = len(mesh.loops)
+    vertex = np.zeros(n, np.int64)
+    mesh.loops.foreach_get("vertex_index", vertex)
+    co = np.zeros(len(mesh.vertices) * 3)
+    mesh.vertices.foreach_get("co", co)
+    normal = np.zeros(n * 3)
+    mesh.corner_normals.foreach_get("vector", normal)
+    m = np.array(obj.matrix_world)
+    position = co.reshape(-1, 3)[vertex] @ m[:3, :3].T + m[:3, 3]
+    normal = normal.reshape(n, 3) @ np.linalg.inv(m[:3, :3])
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    rgba = np.zeros(n * 4)
+    mesh.color_attributes["PRT"].data.foreach_get("color", rgba)
+    albedo = np.array(mesh.materials[0].node_tree.nodes["Principled BSDF"]
+                      .inputs["Base Color"].default_value[:3])
+    return position, normal, np.broadcast_to(albedo, (n, 3)), rgba.reshape(n, 4)[:, :3]
+
+
+def prt_colors(obj):
+    rgba = np.zeros(len(obj.data.loops) * 4)
+    obj.data.color_attributes["PRT"].data.foreach_get("color", rgba)
+    return rgba.reshape(-1, 4)[:, :3]
+
+
+def expect_error(name, call, words):
+    """An operator that must fail with an error report (bpy.ops raises it as RuntimeError
+    in a script) and change nothing."""
+    before = snapshot()
+    try:
+        result = call()
+        check(name, False, f"returned {result}, no error reported")
+    except RuntimeError as err:
+        message = str(err)
+        check(name, words in message and "Traceback" not in message, message.strip())
+    check(name + ": nothing changed", snapshot() == before and not any(
+        "PRT" in o.data.color_attributes for o in bpy.data.objects if o.type == "MESH"))
+
+
+def fake_prt_bake(folder, real):
+    """A prt-bake whose `bake` fails as a real failure would (exit 3, an error line)."""
+    path = Path(folder) / "failing-prt-bake"
+    path.write_text("#!/bin/sh\n"
+                    f"if [ \"$1\" = bake ]; then echo 'prt-bake: error: scene.glb: boom' >&2; "
+                    f"exit 3; fi\nexec '{real}' \"$@\"\n")
+    path.chmod(path.stat().st_mode | stat.S_IXUSR)
+    return str(path)
+
+
+def main():
+    p = argparse.ArgumentParser()
+    p.add_argument("zip")
+    p.add_argument("prt_bake")
+    p.add_argument("rig")
+    p.add_argument("out")
+    p.add_argument("--samples", type=int, default=1024)
+    a = p.parse_args()
+    out = Path(a.out)
+    objects = build()  # first: factory settings would disable the add-on again
+    module = install(a.zip)
+    bpy.ops.export_scene.gltf(filepath=str(out / "scene.glb"), export_format="GLB",
+                              export_yup=True, export_apply=True, export_materials="EXPORT")
+    prefs = bpy.context.preferences.addons[module].preferences
+
+    # Errors: reported, nothing changed.
+    prefs.prt_bake = str(out / "no-such-prt-bake")
+    expect_error("no prt-bake", lambda: bpy.ops.prt.bake(rig=a.rig), "prt-bake not found")
+    prefs.prt_bake = fake_prt_bake(out, a.prt_bake)
+    expect_error("a failed bake", lambda: bpy.ops.prt.bake(rig=a.rig, samples=16),
+                 "prt-bake bake failed (exit 3): prt-bake: error: scene.glb: boom")
+    prefs.prt_bake = a.prt_bake
+    expect_error("a bad rig", lambda: bpy.ops.prt.bake(rig=str(out / "none.toml")),
+                 "prt-bake light failed")
+    expect_error("relight before a bake", lambda: bpy.ops.prt.relight(), "nothing baked yet")
+    for obj in objects:
+        obj.hide_set(True)
+    expect_error("no mesh", lambda: bpy.ops.prt.bake(rig=a.rig), "no visible mesh")
+    for obj in objects:
+        obj.hide_set(False)
+
+    # Cancel: a bake driven by its job as the modal operator drives it, stopped mid-way.
+    bake_job = sys.modules[module + ".bake_job"]
+    scene_mesh = sys.modules[module + ".scene_mesh"]
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    receivers = [scene_mesh.receivers_of(o, depsgraph)[0] for o in objects]
+    settings = bake_job.BakeSettings(order=4, samples=1 << 16, mode="shadowed")
+    before = snapshot()
+    job = bake_job.BakeJob(a.prt_bake, settings, receivers)
+    job.start()
+    folder, process = job.folder, job.process
+    started = time.time()
+    while not job.poll() and job.progress == 0 and time.time() - started < 60:
+        time.sleep(0.05)
+    progress = job.progress
+    job.cancel()
+    check("cancel", process.poll() is not None and not os.path.exists(folder)
+          and snapshot() == before and 0 < progress < 1,
+          f"progress {progress:.3f} when cancelled, after {time.time() - started:.1f} s")
+
+    # The bake, through the operator as a script calls it (synchronously).
+    before = snapshot()
+    started = time.time()
+    result = bpy.ops.prt.bake(rig=a.rig, samples=a.samples, order=4)
+    seconds = time.time() - started
+    check("bake", result == {"FINISHED"} and all("PRT" in o.data.color_attributes
+                                                 for o in objects), f"{seconds:.1f} s")
+    check("only attributes added", snapshot() == before)
+    check("transfer attributes", all(
+        all(f"prt_T{j:02d}" in o.data.attributes for j in range(16)) for o in objects))
+    arrays = {}
+    for obj in objects:
+        position, normal, albedo, prt = corners(obj)
+        arrays.update({f"{obj.name}/position": position, f"{obj.name}/normal": normal,
+                       f"{obj.name}/albedo": albedo, f"{obj.name}/prt0": prt})
+    scene = bpy.context.scene
+    scene.prt.light_rotation = math.pi / 2  # the update relights
+    for obj in objects:
+        arrays[f"{obj.name}/prt90"] = prt_colors(obj)
+    changed = not np.allclose(arrays["Suzanne/prt0"], arrays["Suzanne/prt90"])
+    result = bpy.ops.prt.relight()
+    same = all(np.array_equal(prt_colors(o), arrays[f"{o.name}/prt90"]) for o in objects)
+    check("light_rotation relights; prt.relight agrees", changed and same and
+          result == {"FINISHED"})
+    scene.prt.light_rotation = 0.0
+    check("turned back", all(np.allclose(prt_colors(o), arrays[f"{o.name}/prt0"], atol=1e-6)
+                             for o in objects))
+
+    # The material that shows "PRT", and hiding it again.
+    result = bpy.ops.prt.preview_material(show=True)
+    shown = all(s.material and s.material.name == "PRT Relit" and s.link == "OBJECT"
+                for o in objects for s in o.material_slots)
+    nodes = bpy.data.materials["PRT Relit"].node_tree.nodes
+    check("preview material", result == {"FINISHED"} and shown and any(
+        n.type == "VERTEX_COLOR" and n.layer_name == "PRT" for n in nodes))
+    bpy.ops.prt.preview_material(show=False)
+    check("preview material hidden", all(s.link == "DATA" for o in objects
+                                         for s in o.material_slots)
+          and all(o.data.materials[0].name == o.name + "Material" for o in objects))
+    np.savez(out / "addon.npz", **arrays)
+
+
+if __name__ == "__main__":
+    code = 0
+    try:
+        main()
+    except BaseException:
+        traceback.print_exc()
+        checks["test ran"] = {"ok": False, "detail": traceback.format_exc()}
+        code = 1
+    Path(sys.argv[4], "checks.json").write_text(json.dumps(checks, indent=1))
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)
