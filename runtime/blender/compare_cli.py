@@ -102,9 +102,10 @@ def main():
                   and corr >= a.min_correlation)
             failed |= not ok
             results[f"{name}/{turn}"] = {"vertices": total, "matched": len(theirs),
-                                         "cli_mean": theirs.mean(), "addon_mean": ours.mean(),
-                                         "relative_difference": diff, "correlation": corr,
-                                         "ok": ok}
+                                         "cli_mean": float(theirs.mean()),
+                                         "addon_mean": float(ours.mean()),
+                                         "relative_difference": float(diff),
+                                         "correlation": corr, "ok": bool(ok)}
             print(f"{name:<9} {turn + '°':<5} {total:>8} {len(theirs):>8} {theirs.mean():>9.4f} "
                   f"{ours.mean():>9.4f} {100 * diff:>6.2f}% {corr:>7.4f}"
                   f"{'' if ok else '  FAIL'}")
