@@ -74,7 +74,7 @@ def snapshot():
            "active": getattr(bpy.context.view_layer.objects.active, "name", None),
            "objects": sorted(o.name for o in bpy.data.objects),
            "materials": sorted(m.name for m in bpy.data.materials),
-           "images": sorted(i.name for i in bpy.data.images)}
+           "images": sorted(i.name for i in bpy.data.images if not i.name.startswith("PRT "))}
     for obj in bpy.data.objects:
         co = np.zeros(len(obj.data.vertices) * 3)
         obj.data.vertices.foreach_get("co", co)
@@ -230,6 +230,72 @@ def main():
                                          for s in o.material_slots)
           and all(o.data.materials[0].name == o.name + "Material" for o in objects))
     np.savez(out / "addon.npz", **arrays)
+    lightmaps(objects, a, arrays)
+
+
+def lightmap_uvs(obj):
+    """A second UV map, "Lightmap", by Smart UV Project, as a Blender user lays one out."""
+    obj.data.uv_layers.active = obj.data.uv_layers.new(name="Lightmap")
+    bpy.ops.object.select_all(action="DESELECT")
+    obj.select_set(True)
+    bpy.context.view_layer.objects.active = obj
+    bpy.ops.object.mode_set(mode="EDIT")
+    bpy.ops.mesh.select_all(action="SELECT")
+    bpy.ops.uv.smart_project(angle_limit=math.radians(66), island_margin=0.05)
+    bpy.ops.object.mode_set(mode="OBJECT")
+
+
+def sample(image, uv):
+    """Bilinear lookup of an image's RGB at UVs (v up; texel centres at (i + 0.5) / RES)."""
+    w, h = image.size
+    pixels = np.zeros(w * h * 4, np.float32)
+    image.pixels.foreach_get(pixels)
+    pixels = pixels.reshape(h, w, 4)[:, :, :3]
+    x = np.clip(uv[:, 0] * w - 0.5, 0, w - 1)
+    y = np.clip(uv[:, 1] * h - 0.5, 0, h - 1)
+    x0, y0 = np.minimum(x.astype(int), w - 2), np.minimum(y.astype(int), h - 2)
+    fx, fy = (x - x0)[:, None], (y - y0)[:, None]
+    return ((1 - fx) * (1 - fy) * pixels[y0, x0] + fx * (1 - fy) * pixels[y0, x0 + 1]
+            + (1 - fx) * fy * pixels[y0 + 1, x0] + fx * fy * pixels[y0 + 1, x0 + 1])
+
+
+def lightmaps(objects, a, arrays):
+    """A lightmap bake through the operator: its images, sampled at each face corner's
+    lightmap UV, against the vertex bake's "PRT": two estimates of the same radiance, texel
+    points inside the faces against vertices on their edges (the cube's bottom vertices sit
+    on the floor, darker than the texels beside them), so close, not equal: means within 8 %
+    (measured +0.6 to +4.6 %), correlation at least 0.9 (measured 0.93 to 0.99)."""
+    for obj in objects:
+        lightmap_uvs(obj)
+    before = snapshot()
+    started = time.time()
+    result = bpy.ops.prt.bake(rig=a.rig, samples=256, order=4, lightmap=128)
+    seconds = time.time() - started
+    images = [bpy.data.images.get(f"PRT {o.name}") for o in objects]
+    check("lightmap bake", result == {"FINISHED"} and all(
+        i is not None and tuple(i.size) == (128, 128) and i.packed_file is not None
+        for i in images), f"{seconds:.1f} s")
+    check("lightmap: only images added", snapshot() == before)
+    stats = {}
+    for turn in ("0", "90"):
+        bpy.context.scene.prt.light_rotation = math.radians(float(turn))
+        for obj in objects:
+            uv = np.zeros(len(obj.data.loops) * 2)
+            obj.data.uv_layers["Lightmap"].uv.foreach_get("vector", uv)
+            texel = sample(bpy.data.images[f"PRT {obj.name}"], uv.reshape(-1, 2)).mean(1)
+            vertex = arrays[f"{obj.name}/prt{turn}"].mean(1)
+            stats[f"{obj.name}/{turn}"] = (float(texel.mean() / vertex.mean() - 1),
+                                           float(np.corrcoef(texel, vertex)[0, 1]))
+    bpy.context.scene.prt.light_rotation = 0.0
+    detail = ", ".join(f"{k} {100 * d:+.1f} % r {c:.3f}" for k, (d, c) in stats.items())
+    check("lightmap images against the vertex bake",
+          all(abs(d) <= 0.08 and c >= 0.9 for d, c in stats.values()), detail)
+    result = bpy.ops.prt.preview_material(show=True)
+    material = bpy.data.materials.get("PRT Relit Suzanne")
+    check("lightmap preview material", result == {"FINISHED"} and material is not None and any(
+        n.type == "TEX_IMAGE" and n.image.name == "PRT Suzanne"
+        for n in material.node_tree.nodes))
+    bpy.ops.prt.preview_material(show=False)
 
 
 if __name__ == "__main__":

@@ -34,6 +34,8 @@ class BakeSettings:
     mode: str = "shadowed"  # or "interreflected"
     seed: int = 0
     threads: int = 0  # 0: all cores
+    lightmap: int = 0  # texels per side of each object's lightmap; 0: a per-vertex bake
+    lightmap_uv: str = ""  # the UV map (empty: the second, else the only one)
 
 
 class BakeJob:
@@ -47,9 +49,33 @@ class BakeJob:
     def _path(self, name):
         return os.path.join(self.folder, name)
 
+    def tiles(self):
+        """Lightmap bakes: objects side by side in a g × g grid of RES² tiles, each object's
+        own [0, 1] UVs in its tile, so prt-bake's atlas is the tiles and each object's image
+        is its tile. Returns g."""
+        return math.ceil(math.sqrt(len(self.receivers)))
+
+    def _tile_uvs(self):
+        g = self.tiles()
+        for i, r in enumerate(self.receivers):
+            for p in r.primitives:
+                p["atlas_uv"] = (p["uv1"] + [i % g, i // g]) / g
+
+    def _work(self):
+        """Vertices, or (lightmaps) about how many texels the UVs cover."""
+        if not self.settings.lightmap:
+            return sum(r.vertex_count for r in self.receivers)
+        area = 0.0
+        for r in self.receivers:
+            for p in r.primitives:
+                t = p["uv1"][p["triangles"]]
+                e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+                area += 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum()
+        return max(1, round(area * self.settings.lightmap ** 2))
+
     def command(self):
         s = self.settings
-        vertices = sum(r.vertex_count for r in self.receivers)
+        vertices = self._work()
         self.blocks_total = PROGRESS_BLOCKS
         block = max(64, math.ceil(vertices / PROGRESS_BLOCKS))
         self.blocks_total = math.ceil(vertices / block)
@@ -61,13 +87,18 @@ class BakeJob:
         ]
         if s.threads:
             arguments += ["--threads", str(s.threads)]
+        if s.lightmap:
+            arguments += ["--lightmap", str(s.lightmap * self.tiles()), "--strict-uvs"]
         return [self.executable, *arguments]
 
     def start(self):
         self.folder = tempfile.mkdtemp(prefix="prt-bake-")
         try:
-            glb.write_glb(self._path("scene.glb"),
-                          [p for r in self.receivers for p in r.primitives])
+            primitives = [p for r in self.receivers for p in r.primitives]
+            if self.settings.lightmap:
+                self._tile_uvs()
+                primitives = [dict(p, uv1=p["atlas_uv"]) for p in primitives]
+            glb.write_glb(self._path("scene.glb"), primitives)
             os.mkdir(self._path("blocks"))
             command = self.command()
             self.log = open(self._path("bake.log"), "w+")
@@ -122,6 +153,9 @@ class BakeJob:
         npz = self._path("scene.npz")
         run_prt_bake(self.executable, ["export", self._path("scene.prt"),
                                        "--scene", self._path("scene.glb"), "--npz", npz])
+        if self.settings.lightmap:
+            self._read_lightmaps(npz)
+            return
         with np.load(npz) as f:
             transfer = np.asarray(f["transfer"], np.float32)
             positions = np.asarray(f["positions"], np.float64)
@@ -138,3 +172,18 @@ class BakeJob:
                 raise PrtError(f"{r.obj.name}: prt-bake's vertices are not the add-on's")
             self.transfer.append(transfer[start:start + r.vertex_count][r.corner_vertex])
             start += r.vertex_count
+
+    def _read_lightmaps(self, npz):
+        """self.transfer: per receiver its tile, (RES, RES, channels, n²), row 0 at v = 0."""
+        with np.load(npz) as f:
+            transfer = np.asarray(f["transfer"], np.float32)
+            uv1 = np.asarray(f["uv1"], np.float64)
+        ours = np.concatenate([p["atlas_uv"][p["triangles"]]
+                               for r in self.receivers for p in r.primitives])
+        if uv1.shape != ours.shape or not np.allclose(uv1, ours, atol=1e-5):
+            raise PrtError("prt-bake did not bake on the add-on's lightmap UVs")
+        g, res = self.tiles(), self.settings.lightmap
+        self.transfer = []
+        for i, _ in enumerate(self.receivers):
+            x, y = (i % g) * res, (i // g) * res
+            self.transfer.append(transfer[y:y + res, x:x + res])

@@ -18,7 +18,8 @@ def _pad(data, byte):
 
 def write_glb(path, primitives):
     """primitives: a list of dicts {name, positions (V, 3), normals (V, 3), triangles (T, 3),
-    albedo (r, g, b)}, written in order as one node and mesh each."""
+    albedo (r, g, b), and optionally uv1 (V, 2): lightmap UVs, v up as Blender's, written as
+    glTF's TEXCOORD_1 (v down)}, written in order as one node and mesh each."""
     blob = bytearray()
     views, accessors, meshes, nodes, materials = [], [], [], [], []
 
@@ -39,11 +40,15 @@ def write_glb(path, primitives):
         position = add(p["positions"].astype("<f4"), 5126, "VEC3", 34962, bounds=True)
         normal = add(p["normals"].astype("<f4"), 5126, "VEC3", 34962)
         indices = add(p["triangles"].astype("<u4").ravel(), 5125, "SCALAR", 34963)
+        attributes = {"POSITION": position, "NORMAL": normal}
+        if "uv1" in p:
+            flipped = p["uv1"] * [1, -1] + [0, 1]
+            attributes["TEXCOORD_1"] = add(flipped.astype("<f4"), 5126, "VEC2", 34962)
         materials.append({"name": p["name"], "pbrMetallicRoughness": {
             "baseColorFactor": [float(c) for c in p["albedo"]] + [1.0],
             "metallicFactor": 0.0, "roughnessFactor": 1.0}})
         meshes.append({"name": p["name"], "primitives": [{
-            "attributes": {"POSITION": position, "NORMAL": normal}, "indices": indices,
+            "attributes": attributes, "indices": indices,
             "material": len(materials) - 1, "mode": 4}]})
         nodes.append({"name": p["name"], "mesh": len(meshes) - 1})
     document = {

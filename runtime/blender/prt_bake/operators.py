@@ -14,7 +14,8 @@ from .errors import PrtError
 from .process import find_prt_bake
 from .properties import preferences
 from .results import baked_meshes, store_transfer
-from .scene_mesh import receivers_of, visible_meshes
+from .lightmap_images import RELIT, store_lightmap, transfer_images
+from .scene_mesh import lightmap_layer, receivers_of, visible_meshes
 
 PREVIEW_MATERIAL = "PRT Relit"
 
@@ -45,16 +46,25 @@ class PRT_OT_bake(bpy.types.Operator):
                                   description="A rig file (empty: the scene's light)")
     seed: bpy.props.IntProperty(name="Seed", default=-1, min=-1)
     threads: bpy.props.IntProperty(name="Threads", default=0, min=0)
+    lightmap: bpy.props.IntProperty(
+        name="Lightmap", default=-1, min=-1, description="Texels per side of each object's "
+        "lightmap; 0: per vertex; -1: the scene's setting")
 
     _job = None
     _timer = None
+
+    def _lightmap(self, s):
+        if self.lightmap >= 0:
+            return self.lightmap
+        return s.lightmap_resolution if s.target == "LIGHTMAP" else 0
 
     def _prepare(self, context):
         s = context.scene.prt
         settings = BakeSettings(order=self.order or s.order, samples=self.samples or s.samples,
                                 mode=self.mode or s.mode,
                                 seed=s.seed if self.seed < 0 else self.seed,
-                                threads=self.threads)
+                                threads=self.threads,
+                                lightmap=self._lightmap(s), lightmap_uv=s.lightmap_uv)
         if settings.mode not in ("shadowed", "interreflected"):
             raise PrtError(f"unknown mode {settings.mode!r} (shadowed or interreflected)")
         executable = find_prt_bake(preferences(context))
@@ -63,7 +73,8 @@ class PRT_OT_bake(bpy.types.Operator):
         depsgraph = context.evaluated_depsgraph_get()
         receivers = []
         for obj in objects:
-            r, more = receivers_of(obj, depsgraph)
+            r, more = receivers_of(obj, depsgraph,
+                                   settings.lightmap_uv if settings.lightmap else None)
             receivers.append(r)
             warnings += more
         for warning in warnings:
@@ -73,7 +84,11 @@ class PRT_OT_bake(bpy.types.Operator):
 
     def _finish(self, context, job):
         for r, transfer in zip(job.receivers, job.transfer):
-            store_transfer(r.obj.data, transfer)
+            if job.settings.lightmap:
+                uv = lightmap_layer(r.obj.data, job.settings.lightmap_uv).name
+                store_lightmap(r.obj, transfer, uv)
+            else:
+                store_transfer(r.obj.data, transfer)
         s = context.scene.prt
         s.baked_order = self._order
         s.light_json = json.dumps(self._light.tolist())
@@ -179,23 +194,47 @@ class PRT_OT_relight(bpy.types.Operator):
         return {"FINISHED"}
 
 
-def preview_material():
-    """An emission material showing the "PRT" colour as it is (albedo included)."""
-    material = bpy.data.materials.get(PREVIEW_MATERIAL)
+def _emission_material(name, build_color):
+    """An emission material (strength 1) whose colour build_color(nodes) makes."""
+    material = bpy.data.materials.get(name)
     if material is None:
-        material = bpy.data.materials.new(PREVIEW_MATERIAL)
+        material = bpy.data.materials.new(name)
         material.use_nodes = True
         nodes, links = material.node_tree.nodes, material.node_tree.links
         nodes.clear()
-        color = nodes.new("ShaderNodeVertexColor")
-        color.layer_name = "PRT"
+        color = build_color(nodes, links)
         emission = nodes.new("ShaderNodeEmission")
         emission.inputs["Strength"].default_value = 1.0
         output = nodes.new("ShaderNodeOutputMaterial")
-        color.location, emission.location, output.location = (-400, 0), (-150, 0), (100, 0)
-        links.new(color.outputs["Color"], emission.inputs["Color"])
+        emission.location, output.location = (-150, 0), (100, 0)
+        links.new(color, emission.inputs["Color"])
         links.new(emission.outputs["Emission"], output.inputs["Surface"])
     return material
+
+
+def preview_material():
+    """Shows the "PRT" colour attribute as it is (albedo included)."""
+    def color(nodes, links):
+        node = nodes.new("ShaderNodeVertexColor")
+        node.layer_name = "PRT"
+        node.location = (-400, 0)
+        return node.outputs["Color"]
+    return _emission_material(PREVIEW_MATERIAL, color)
+
+
+def lightmap_material(transfer_image):
+    """Shows the object's "PRT <object>" image on its lightmap UVs."""
+    name = transfer_image["prt_object"]
+
+    def color(nodes, links):
+        uv = nodes.new("ShaderNodeUVMap")
+        uv.uv_map = transfer_image["prt_uv"]
+        texture = nodes.new("ShaderNodeTexImage")
+        texture.image = bpy.data.images[RELIT.format(name)]
+        uv.location, texture.location = (-700, 0), (-450, 0)
+        links.new(uv.outputs["UV"], texture.inputs["Vector"])
+        return texture.outputs["Color"]
+    return _emission_material(f"{PREVIEW_MATERIAL} {name}", color)
 
 
 class PRT_OT_preview_material(bpy.types.Operator):
@@ -210,13 +249,19 @@ class PRT_OT_preview_material(bpy.types.Operator):
 
     def execute(self, context):
         meshes = set(m.name for m in baked_meshes(context.scene))
-        if not meshes:
+        lightmaps = {i["prt_object"]: i for i in transfer_images()}
+        if not meshes and not lightmaps:
             self.report({"ERROR"}, "nothing baked yet: bake first")
             return {"CANCELLED"}
-        material = preview_material() if self.show else None
         for obj in context.scene.objects:
-            if obj.type != "MESH" or obj.data.name not in meshes:
+            if obj.type != "MESH" or (obj.data.name not in meshes and obj.name not in lightmaps):
                 continue
+            if not self.show:
+                material = None
+            elif obj.name in lightmaps:
+                material = lightmap_material(lightmaps[obj.name])
+            else:
+                material = preview_material()
             if self.show and not obj.material_slots:
                 obj.data.materials.append(None)
             for slot in obj.material_slots:

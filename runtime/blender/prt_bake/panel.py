@@ -17,6 +17,10 @@ class PRT_PT_panel(bpy.types.Panel):
         column.prop(s, "samples")
         column.prop(s, "mode")
         column.prop(s, "seed")
+        column.prop(s, "target")
+        if s.target == "LIGHTMAP":
+            column.prop(s, "lightmap_resolution")
+            column.prop(s, "lightmap_uv")
         column.prop(s, "rig_source")
         if s.rig_source == "FILE":
             column.prop(s, "rig")

@@ -19,6 +19,17 @@ class PrtSceneSettings(bpy.types.PropertyGroup):
         ("interreflected", "Interreflected", "Shadows and one bounce of coloured light"),
     ], default="shadowed")
     seed: bpy.props.IntProperty(name="Seed", default=0, min=0)
+    target: bpy.props.EnumProperty(name="Bake", items=[
+        ("VERTEX", "Per vertex", "Transfer per face corner, \"PRT\" a colour attribute"),
+        ("LIGHTMAP", "Lightmap", "Transfer per texel of each object's lightmap UVs, "
+         "\"PRT <object>\" an image"),
+    ], default="VERTEX")
+    lightmap_resolution: bpy.props.IntProperty(name="Resolution", default=256, min=8,
+                                               max=4096, description="Texels per side of "
+                                               "each object's lightmap")
+    lightmap_uv: bpy.props.StringProperty(name="UV map", default="", description="The "
+                                          "lightmap's UV map (empty: the second, else the "
+                                          "only one)")
     rig_source: bpy.props.EnumProperty(name="Light", items=[
         ("FILE", "Rig file", "A prt-bake rig (TOML; docs/lights.md)"),
         ("WORLD", "World colour", "The World's uniform background colour as a constant sky"),

@@ -7,6 +7,7 @@ import numpy as np
 
 from .errors import PrtError
 from .light import rotate_z
+from .lightmap_images import relight_lightmap, transfer_images
 from .results import baked_meshes, relit_colors, store_color
 
 
@@ -19,12 +20,15 @@ def current_light(scene):
 
 
 def relight(scene):
-    """Recolours every baked mesh; returns how many."""
+    """Recolours every baked mesh and lightmap; returns how many."""
     light = current_light(scene)
     meshes = baked_meshes(scene)
     for mesh in meshes:
         store_color(mesh, relit_colors(mesh, light))
-    return len(meshes)
+    images = [i for i in transfer_images() if int(i["prt_order"]) ** 2 == light.shape[1]]
+    for image in images:
+        relight_lightmap(image, light)
+    return len(meshes) + len(images)
 
 
 def relight_quietly(scene):

@@ -70,8 +70,23 @@ def visible_meshes(context):
     return objects, warnings
 
 
-def receivers_of(obj, depsgraph):
-    """The object's baked vertices and triangles, one glTF primitive per material used."""
+def lightmap_layer(mesh, name):
+    """The UV map a lightmap bake uses: the one named, else the second, else the only one."""
+    layers = mesh.uv_layers
+    if name:
+        if name not in layers:
+            raise PrtError(f"{mesh.name}: no UV map named {name!r} for the lightmap")
+        return layers[name]
+    if len(layers) == 0:
+        raise PrtError(f"{mesh.name}: no UV map for the lightmap: add one (UV > Smart UV "
+                       "Project into a second UV map)")
+    return layers[1] if len(layers) > 1 else layers[0]
+
+
+def receivers_of(obj, depsgraph, lightmap_uv=None):
+    """The object's baked vertices and triangles, one glTF primitive per material used.
+    With `lightmap_uv` (a UV map's name, or "" for the default), the vertices are split by
+    that map's UVs too and the primitives carry them as "uv1"."""
     mesh = obj.data
     warnings = []
     evaluated = obj.evaluated_get(depsgraph)
@@ -79,13 +94,13 @@ def receivers_of(obj, depsgraph):
     try:
         if len(shaped.loops) != len(mesh.loops) or len(shaped.polygons) != len(mesh.polygons):
             warnings.append(f"{obj.name}: modifiers change its topology; baked without them")
-            return _receivers(obj, mesh, obj.matrix_world), warnings
-        return _receivers(obj, shaped, evaluated.matrix_world), warnings
+            return _receivers(obj, mesh, obj.matrix_world, lightmap_uv), warnings
+        return _receivers(obj, shaped, evaluated.matrix_world, lightmap_uv), warnings
     finally:
         evaluated.to_mesh_clear()
 
 
-def _receivers(obj, mesh, matrix):
+def _receivers(obj, mesh, matrix, lightmap_uv):
     loops = len(mesh.loops)
     if loops == 0 or len(mesh.polygons) == 0:
         raise PrtError(f"{obj.name}: the mesh has no faces")
@@ -99,8 +114,16 @@ def _receivers(obj, mesh, matrix):
     corner_material = np.repeat(polygon_material, _loop_totals(mesh))
     # A baked vertex per distinct (material, vertex, normal bits): materials first, so each
     # material's vertices are one run and become one primitive.
-    key = np.column_stack([corner_material, corner_vertex,
-                           normals.view(np.int32).astype(np.int64)])
+    columns = [corner_material, corner_vertex, normals.view(np.int32).astype(np.int64)]
+    if lightmap_uv is not None:
+        uv = np.zeros(loops * 2, np.float32)
+        lightmap_layer(mesh, lightmap_uv).uv.foreach_get("vector", uv)
+        uv = uv.reshape(loops, 2)
+        if uv.min() < 0 or uv.max() > 1:
+            raise PrtError(f"{obj.name}: lightmap UVs outside [0, 1]: pack them "
+                           "(UV > Pack Islands)")
+        columns.append(uv.view(np.int32).astype(np.int64))
+    key = np.column_stack(columns)
     unique, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
     inverse = inverse.ravel()
 
@@ -126,11 +149,14 @@ def _receivers(obj, mesh, matrix):
     for material in np.unique(unique[:, 0]):
         run = np.flatnonzero(unique[:, 0] == material)
         start = run[0]
-        primitives.append({
+        primitive = {
             "name": obj.name if len(primitives) == 0 else f"{obj.name}.{material}",
             "positions": positions[run],
             "normals": world_normals[run],
             "triangles": triangles[triangle_material == material] - start,
             "albedo": albedos[first[start]],
-        })
+        }
+        if lightmap_uv is not None:
+            primitive["uv1"] = uv[first[run]].astype(np.float64)
+        primitives.append(primitive)
     return Receivers(obj, inverse, len(unique), primitives)
