@@ -2,9 +2,9 @@
 
     python compare_cli.py OUT_DIR [--max-mean 0.03] [--min-correlation 0.98]
 
-OUT_DIR holds test_addon.py's addon.npz and the CLI's cli0.glb and cli90.glb:
+OUT_DIR holds test_addon.py's addon.npz and the CLI's cli0.glb, cli90.glb and cliir.glb:
 `prt-bake export --gltf --lights RIG` of Blender's own glTF export of the scene, lit by the
-rig and by the rig turned 90° about +Z. The CLI's relit radiance is baseColorFactor ×
+rig and by the rig turned 90° about +Z, and an interreflected bake's lit by the rig ("ir"). The CLI's relit radiance is baseColorFactor ×
 COLOR_0 (COLOR_0 = Σ T·L clamped to [0, 1]); the add-on's is "PRT" = albedo × Σ T·L,
 clamped the same way. Each CLI vertex is matched to the add-on's face corners of the same
 world position and normal (the glTF is +Y up: Blender's (x, y, z) is the file's (x, −z, y)).
@@ -78,20 +78,23 @@ def main():
     out = Path(a.out)
     addon = np.load(out / "addon.npz")
     names = sorted({k.split("/")[0] for k in addon.files})
-    results, failed = {}, False
+    results, failed, matches = {}, False, {}
     print(f"{'object':<9} {'light':<5} {'vertices':>8} {'matched':>8} {'CLI mean':>9} "
           f"{'add-on':>9} {'diff':>7} {'corr':>7}")
-    for turn in ("0", "90"):
+    for turn in ("0", "90", "ir"):
         cli = read_glb(out / f"cli{turn}.glb")
         for name in names:
             ours_all = np.clip(addon[f"{name}/prt{turn}"] / addon[f"{name}/albedo"], 0, 1) \
                 * addon[f"{name}/albedo"]
             theirs, ours, total = [], [], 0
-            for position, normal, color, factor in cli[name]:
+            for k, (position, normal, color, factor) in enumerate(cli[name]):
                 blender_position = position[:, [0, 2, 1]] * [1, -1, 1]
                 blender_normal = normal[:, [0, 2, 1]] * [1, -1, 1]
-                corner = match(blender_position, blender_normal,
-                               addon[f"{name}/position"], addon[f"{name}/normal"])
+                # The three files export the same scene.glb: the same vertices, matched once.
+                if (name, k) not in matches:
+                    matches[name, k] = match(blender_position, blender_normal,
+                                             addon[f"{name}/position"], addon[f"{name}/normal"])
+                corner = matches[name, k]
                 total += len(corner)
                 theirs.extend(color[corner >= 0] * factor)
                 ours.extend(ours_all[corner[corner >= 0]])
@@ -106,7 +109,7 @@ def main():
                                          "addon_mean": float(ours.mean()),
                                          "relative_difference": float(diff),
                                          "correlation": corr, "ok": bool(ok)}
-            print(f"{name:<9} {turn + '°':<5} {total:>8} {len(theirs):>8} {theirs.mean():>9.4f} "
+            print(f"{name:<9} {turn + ('' if turn == 'ir' else '°'):<5} {total:>8} {len(theirs):>8} {theirs.mean():>9.4f} "
                   f"{ours.mean():>9.4f} {100 * diff:>6.2f}% {corr:>7.4f}"
                   f"{'' if ok else '  FAIL'}")
     (out / "compare.json").write_text(json.dumps(results, indent=1))

@@ -61,10 +61,14 @@ PY
 addon=$(date +%s.%N)
 
 "$BAKE" bake "$OUT/scene.glb" -o "$OUT/cli.prt" --order 4 --samples "$SAMPLES" --quiet
-for turn in 0 90; do
+"$BAKE" bake "$OUT/scene.glb" -o "$OUT/cli-ir.prt" --order 4 --samples 256 \
+    --mode interreflected --quiet
+for turn in 0 90 ir; do
     rigfile="$OUT/rig.toml"
     [ "$turn" = 90 ] && rigfile="$OUT/rig90.toml"
-    "$BAKE" export "$OUT/cli.prt" --scene "$OUT/scene.glb" --gltf "$OUT/cli$turn.glb" \
+    prt="$OUT/cli.prt"
+    [ "$turn" = ir ] && prt="$OUT/cli-ir.prt"
+    "$BAKE" export "$prt" --scene "$OUT/scene.glb" --gltf "$OUT/cli$turn.glb" \
         --lights "$rigfile" >/dev/null
 done
 "$PY" "$HERE/compare_cli.py" "$OUT"

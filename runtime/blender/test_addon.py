@@ -229,8 +229,45 @@ def main():
     check("preview material hidden", all(s.link == "DATA" for o in objects
                                          for s in o.material_slots)
           and all(o.data.materials[0].name == o.name + "Material" for o in objects))
-    np.savez(out / "addon.npz", **arrays)
     lightmaps(objects, a, arrays)
+    interreflected(objects, a, arrays)
+    world_light(module, a)
+    np.savez(out / "addon.npz", **arrays)
+
+
+def interreflected(objects, a, arrays):
+    """An interreflected (RGB) bake: FLOAT_VECTOR transfer; compare_cli.py holds its "PRT"
+    to the CLI's interreflected bake of Blender's export (albedos from both writers)."""
+    result = bpy.ops.prt.bake(rig=a.rig, samples=256, order=4, lightmap=0,
+                              mode="interreflected")
+    check("interreflected bake", result == {"FINISHED"} and all(
+        o.data.attributes["prt_T00"].data_type == "FLOAT_VECTOR" for o in objects))
+    for obj in objects:
+        arrays[f"{obj.name}/prtir"] = prt_colors(obj)
+
+
+def world_light(module, a):
+    """The World's colour as the light: a constant sky, c_00 = L·sqrt(4π) per channel and
+    nothing else; a World coloured by nodes is refused with a message."""
+    light = sys.modules[module + ".light"]
+    errors = sys.modules[module + ".errors"]
+    world = bpy.data.worlds.new("PRT test world")
+    world.use_nodes = True
+    background = world.node_tree.nodes["Background"]
+    background.inputs["Color"].default_value = (0.2, 0.4, 0.6, 1)
+    background.inputs["Strength"].default_value = 1.5
+    c = light.project_world(a.prt_bake, world, 3)
+    expected = np.zeros((3, 9))
+    expected[:, 0] = np.array([0.2, 0.4, 0.6]) * 1.5 * math.sqrt(4 * math.pi)
+    check("World colour as the light", np.allclose(c, expected, atol=1e-6), c[:, 0])
+    texture = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
+    world.node_tree.links.new(texture.outputs["Color"], background.inputs["Color"])
+    try:
+        light.project_world(a.prt_bake, world, 3)
+        check("a World by nodes refused", False)
+    except errors.PrtError as err:
+        check("a World by nodes refused", "HDRI" in str(err), err)
+    bpy.data.worlds.remove(world)
 
 
 def lightmap_uvs(obj):
