@@ -1,5 +1,5 @@
 """One bake as a background process: write the scene, run `prt-bake bake`, watch its
-progress, and read the transfer back per face corner.
+progress, and read the transfer back: per face corner, or (lightmaps) per object's tile.
 
 The bake runs with `--checkpoint DIR`: prt-bake writes each finished block of vertices into
 DIR, and the number of blocks there is the progress (prt-bake draws its own progress bar
@@ -76,7 +76,6 @@ class BakeJob:
     def command(self):
         s = self.settings
         vertices = self._work()
-        self.blocks_total = PROGRESS_BLOCKS
         block = max(64, math.ceil(vertices / PROGRESS_BLOCKS))
         self.blocks_total = math.ceil(vertices / block)
         arguments = [
@@ -116,7 +115,11 @@ class BakeJob:
         fraction of blocks done)."""
         code = self.process.poll()
         if code is None:
-            done = len([n for n in os.listdir(self._path("blocks")) if n.endswith(".prt")])
+            try:
+                names = os.listdir(self._path("blocks"))
+            except OSError:  # prt-bake is finishing; the next poll sees it done
+                return False
+            done = len([n for n in names if n.startswith("block-") and n.endswith(".prt")])
             self.progress = min(done / max(self.blocks_total, 1), 0.99)
             return False
         if code != 0:
