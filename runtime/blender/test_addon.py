@@ -247,27 +247,55 @@ def interreflected(objects, a, arrays):
 
 
 def world_light(module, a):
-    """The World's colour as the light: a constant sky, c_00 = L·sqrt(4π) per channel and
-    nothing else; a World coloured by nodes is refused with a message."""
+    """The World as the light. A uniform colour: a constant sky, c_00 = L·sqrt(4π) per
+    channel and nothing else. An equirectangular .exr: a bright patch at u = 0.25 (Blender's
+    +Y, docs/lights.md) and 31° above the horizon, whose band-1 coefficients point at it
+    (y_1,-1, y_1,0, y_1,1 ∝ -y, z, -x with the Condon–Shortley phase). Other nodes refused."""
     light = sys.modules[module + ".light"]
     errors = sys.modules[module + ".errors"]
     world = bpy.data.worlds.new("PRT test world")
     world.use_nodes = True
-    background = world.node_tree.nodes["Background"]
+    nodes, links = world.node_tree.nodes, world.node_tree.links
+    background = nodes["Background"]
     background.inputs["Color"].default_value = (0.2, 0.4, 0.6, 1)
     background.inputs["Strength"].default_value = 1.5
     c = light.project_world(a.prt_bake, world, 3)
     expected = np.zeros((3, 9))
     expected[:, 0] = np.array([0.2, 0.4, 0.6]) * 1.5 * math.sqrt(4 * math.pi)
     check("World colour as the light", np.allclose(c, expected, atol=1e-6), c[:, 0])
-    texture = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
-    world.node_tree.links.new(texture.outputs["Color"], background.inputs["Color"])
+
+    w, h = 64, 32
+    pixels = np.zeros((h, w, 4), np.float32)
+    pixels[:, :, 3] = 1
+    # Blender's image row 0 is the bottom (−Z): the patch's rows 8..10 from the top.
+    pixels[h - 1 - 10:h - 1 - 7, 15:18, :3] = 50.0
+    image = bpy.data.images.new("PRT test sky", w, h, float_buffer=True)
+    image.pixels.foreach_set(pixels.ravel())
+    image.filepath_raw = str(Path(a.out) / "sky.exr")
+    image.file_format = "OPEN_EXR"
+    image.save()
+    texture = nodes.new("ShaderNodeTexEnvironment")
+    texture.image = image
+    links.new(texture.outputs["Color"], background.inputs["Color"])
+    c = light.project_world(a.prt_bake, world, 2)[0]
+    direction = np.array([-c[3], -c[1], c[2]]) / np.linalg.norm([c[1], c[2], c[3]])
+    # The patch's first moment, ∫ s dΩ over θ ∈ [8, 11]·π/h, u ∈ [15, 18]/w (φ = π − 2πu).
+    theta = (np.arange(300) + 0.5) / 300 * 3 * math.pi / h + 8 * math.pi / h
+    phi = math.pi - 2 * math.pi * ((np.arange(300) + 0.5) / 300 * 3 + 15) / w
+    t, p = np.meshgrid(theta, phi, indexing="ij")
+    moment = np.array([(np.sin(t) * np.cos(p) * np.sin(t)).sum(),
+                       (np.sin(t) * np.sin(p) * np.sin(t)).sum(), (np.cos(t) * np.sin(t)).sum()])
+    angle = math.degrees(math.acos(min(1.0, float(direction @ moment / np.linalg.norm(moment)))))
+    check("World environment image as the light", angle < 0.5, f"{angle:.3f}° off the patch")
+    noise = nodes.new("ShaderNodeTexNoise")
+    links.new(noise.outputs["Color"], background.inputs["Color"])
     try:
         light.project_world(a.prt_bake, world, 3)
-        check("a World by nodes refused", False)
+        check("a World by other nodes refused", False)
     except errors.PrtError as err:
-        check("a World by nodes refused", "HDRI" in str(err), err)
+        check("a World by other nodes refused", "Environment Texture" in str(err), err)
     bpy.data.worlds.remove(world)
+    bpy.data.images.remove(image)
 
 
 def lightmap_uvs(obj):

@@ -1,5 +1,9 @@
 """The light as SH coefficients in Blender's frame (+Z up, as the rigs' frame): a rig TOML
-file, or the World's uniform colour, projected by `prt-bake light`, and turned about +Z.
+file, or the World (a uniform colour, or an equirectangular .hdr/.exr environment texture),
+projected by `prt-bake light`, and turned about +Z.
+
+prt-bake's environment maps are oriented as Blender maps an equirectangular environment in
+its z-up world (docs/lights.md, "Environment maps"), so a World's image is passed unturned.
 """
 
 import json
@@ -13,8 +17,33 @@ from .errors import PrtError
 from .process import run_prt_bake
 
 
-def world_rig(world):
-    """A rig TOML for the World: its Background colour × strength as a constant sky."""
+def _world_image(node, folder):
+    """The path of an Environment Texture's image as prt-bake reads it (.hdr or .exr): its
+    file, or a packed image written into `folder`."""
+    import bpy
+
+    image = node.image
+    if node.projection != "EQUIRECTANGULAR" or node.inputs["Vector"].is_linked:
+        raise PrtError("the World's Environment Texture must be equirectangular with no "
+                       "Vector input (turn the light with Light rotation instead)")
+    if image is None:
+        raise PrtError("the World's Environment Texture has no image")
+    ext = {"OPEN_EXR": ".exr", "HDR": ".hdr"}.get(image.file_format, "")
+    if image.packed_file is not None and ext:
+        path = os.path.join(folder, "world" + ext)
+        with open(path, "wb") as f:
+            f.write(image.packed_file.data)
+        return path
+    path = bpy.path.abspath(image.filepath) if image.filepath else ""
+    if not path.lower().endswith((".hdr", ".exr")) or not os.path.isfile(path):
+        raise PrtError(f"the World's image {image.name!r} is not an .hdr or .exr file on disk "
+                       "(prt-bake reads radiance maps in those formats)")
+    return path
+
+
+def world_rig(world, folder):
+    """A rig TOML for the World: its Background colour × strength as a constant sky, or its
+    equirectangular environment image × strength."""
     if world is None:
         raise PrtError("the scene has no World to light it with: choose a rig file")
     color, strength = tuple(world.color), 1.0
@@ -22,22 +51,29 @@ def world_rig(world):
         backgrounds = [n for n in world.node_tree.nodes if n.type == "BACKGROUND"]
         if backgrounds:
             node = backgrounds[0]
-            if node.inputs["Color"].is_linked:
-                raise PrtError("the World's colour comes from nodes (an HDRI?): only a uniform "
-                               "World colour is read; use a rig file with kind = \"environment\"")
-            color = tuple(node.inputs["Color"].default_value[:3])
             strength = float(node.inputs["Strength"].default_value)
+            if node.inputs["Color"].is_linked:
+                source = node.inputs["Color"].links[0].from_node
+                if source.type != "TEX_ENVIRONMENT":
+                    raise PrtError("the World's colour comes from nodes other than one "
+                                   "Environment Texture: use a rig file")
+                path = _world_image(source, folder)
+                return ("[[light]]\nkind = \"environment\"\n"
+                        f"path = {json.dumps(path)}\nintensity = {strength:.9g}\n")
+            color = tuple(node.inputs["Color"].default_value[:3])
     return ("[[light]]\nkind = \"constant\"\n"
             f"color = [{color[0]:.9g}, {color[1]:.9g}, {color[2]:.9g}]\n"
             f"intensity = {strength:.9g}\n")
 
 
-def project(executable, rig_path, order):
-    """(3, n²) light coefficients of the rig file at this order, in the z-up frame."""
+def project(executable, rig_path, order, outside=False):
+    """(3, n²) light coefficients of the rig file at this order, in the z-up frame.
+    `outside`: the rig may name a map outside its own folder (the add-on's World rig, in a
+    temporary folder, names the World's image where it is)."""
     with tempfile.TemporaryDirectory(prefix="prt-light-") as folder:
         out = os.path.join(folder, "light.json")
         run_prt_bake(executable, ["light", rig_path, "--order", str(order), "--up", "z",
-                                  "-o", out])
+                                  "-o", out] + (["--allow-outside-uris"] if outside else []))
         with open(out) as f:
             document = json.load(f)
     coefficients = np.array(document["coefficients"], np.float64)
@@ -50,9 +86,10 @@ def project(executable, rig_path, order):
 def project_world(executable, world, order):
     with tempfile.TemporaryDirectory(prefix="prt-world-") as folder:
         rig = os.path.join(folder, "world.toml")
+        text = world_rig(world, folder)
         with open(rig, "w") as f:
-            f.write(world_rig(world))
-        return project(executable, rig, order)
+            f.write(text)
+        return project(executable, rig, order, outside=True)
 
 
 def rotate_z(coefficients, angle):
