@@ -263,6 +263,12 @@ def world_light(module, a):
     expected = np.zeros((3, 9))
     expected[:, 0] = np.array([0.2, 0.4, 0.6]) * 1.5 * math.sqrt(4 * math.pi)
     check("World colour as the light", np.allclose(c, expected, atol=1e-6), c[:, 0])
+    scene = bpy.context.scene
+    scene.world, scene.prt.rig_source = world, "WORLD"
+    result = bpy.ops.prt.relight(reproject=True)  # the panel's "Re-read light"
+    relit = np.array(json.loads(scene.prt.light_json))
+    check("Re-read light from the World", result == {"FINISHED"} and relit.shape == (3, 16)
+          and np.allclose(relit[:, 0], expected[:, 0]) and np.allclose(relit[:, 1:], 0, atol=1e-6))
 
     w, h = 64, 32
     pixels = np.zeros((h, w, 4), np.float32)

@@ -32,7 +32,8 @@ class PrtSceneSettings(bpy.types.PropertyGroup):
                                           "only one)")
     rig_source: bpy.props.EnumProperty(name="Light", items=[
         ("FILE", "Rig file", "A prt-bake rig (TOML; docs/lights.md)"),
-        ("WORLD", "World colour", "The World's uniform background colour as a constant sky"),
+        ("WORLD", "World", "The World: its uniform colour as a constant sky, or its "
+         "equirectangular .hdr/.exr Environment Texture"),
     ], default="FILE")
     rig: bpy.props.StringProperty(name="Rig", subtype="FILE_PATH",
                                   description="A prt-bake rig file (.toml)")
