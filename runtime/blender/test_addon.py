@@ -165,6 +165,10 @@ def main():
     expect_error("a bad rig", lambda: bpy.ops.prt.bake(rig=str(out / "none.toml")),
                  "prt-bake light failed")
     expect_error("relight before a bake", lambda: bpy.ops.prt.relight(), "nothing baked yet")
+    bpy.context.view_layer.objects.active = objects[2]
+    bpy.ops.object.mode_set(mode="EDIT")
+    expect_error("Edit Mode", lambda: bpy.ops.prt.bake(rig=a.rig), "in Edit Mode")
+    bpy.ops.object.mode_set(mode="OBJECT")
     for obj in objects:
         obj.hide_set(True)
     expect_error("no mesh", lambda: bpy.ops.prt.bake(rig=a.rig), "no visible mesh")

@@ -23,6 +23,9 @@ def relight(scene):
     """Recolours every baked mesh and lightmap; returns how many."""
     light = current_light(scene)
     meshes = baked_meshes(scene)
+    editing = [m.name for m in meshes if m.is_editmode]
+    if editing:
+        raise PrtError(f"{', '.join(editing)} in Edit Mode: relight in Object Mode")
     for mesh in meshes:
         store_color(mesh, relit_colors(mesh, light))
     images = [i for i in transfer_images() if int(i["prt_order"]) ** 2 == light.shape[1]]

@@ -67,6 +67,10 @@ def visible_meshes(context):
         objects.append(obj)
     if not objects:
         raise PrtError("no visible mesh to bake")
+    editing = [o.name for o in objects if o.data.is_editmode]
+    if editing:
+        raise PrtError(f"{', '.join(editing)} in Edit Mode: PRT bakes in Object Mode (the "
+                       "results would be lost on leaving Edit Mode)")
     return objects, warnings
 
 
