@@ -4,6 +4,7 @@ bake, test.sh), bake through bpy.ops.prt.bake, relight at the rig and turned 90Â
 the errors, the cancel and that nothing but the added attributes changed.
 
     BLENDER_USER_RESOURCES=DIR python test_addon.py ZIP PRT_BAKE RIG OUT_DIR [--samples N]
+        [--legacy]   (only: install the zip as a legacy add-on, into a fresh DIR)
 
 Writes OUT_DIR/scene.glb (Blender's export), OUT_DIR/addon.npz (per object: corner world
 positions and normals, albedo, "PRT" at the rig and at 90Â°) and OUT_DIR/checks.json (every
@@ -37,6 +38,16 @@ def install(zip_path):
     check("install from the zip", result == {"FINISHED"} and hasattr(bpy.ops.prt, "bake"))
     module = next(m for m in sys.modules if m.endswith("prt_bake"))
     return module
+
+
+def install_legacy(zip_path):
+    """The same zip as a legacy add-on (Preferences > Add-ons > Install from Disk)."""
+    installed = bpy.ops.preferences.addon_install(filepath=zip_path)
+    enabled = bpy.ops.preferences.addon_enable(module="prt_bake")
+    addon = bpy.context.preferences.addons.get("prt_bake")
+    check("install from the zip as a legacy add-on", installed == enabled == {"FINISHED"}
+          and addon is not None and addon.preferences.prt_bake == ""
+          and hasattr(bpy.ops.prt, "bake") and bpy.context.scene.prt.order == 4)
 
 
 def material(name, color):
@@ -147,8 +158,12 @@ def main():
     p.add_argument("rig")
     p.add_argument("out")
     p.add_argument("--samples", type=int, default=1024)
+    p.add_argument("--legacy", action="store_true", help="only install as a legacy add-on")
     a = p.parse_args()
     out = Path(a.out)
+    if a.legacy:
+        install_legacy(a.zip)
+        return
     objects = build()  # first: factory settings would disable the add-on again
     module = install(a.zip)
     bpy.ops.export_scene.gltf(filepath=str(out / "scene.glb"), export_format="GLB",
@@ -381,7 +396,8 @@ if __name__ == "__main__":
         traceback.print_exc()
         checks["test ran"] = {"ok": False, "detail": traceback.format_exc()}
         code = 1
-    Path(sys.argv[4], "checks.json").write_text(json.dumps(checks, indent=1))
+    name = "checks-legacy.json" if "--legacy" in sys.argv else "checks.json"
+    Path(sys.argv[4], name).write_text(json.dumps(checks, indent=1))
     sys.stdout.flush()
     sys.stderr.flush()
     os._exit(code)
