@@ -195,7 +195,7 @@ def main():
     scene_mesh = sys.modules[module + ".scene_mesh"]
     depsgraph = bpy.context.evaluated_depsgraph_get()
     receivers = [scene_mesh.receivers_of(o, depsgraph)[0] for o in objects]
-    settings = bake_job.BakeSettings(order=4, samples=1 << 16, mode="shadowed")
+    settings = bake_job.BakeSettings(order=4, samples=1 << 14, mode="shadowed")
     before = snapshot()
     job = bake_job.BakeJob(a.prt_bake, settings, receivers)
     job.start()
