@@ -11,10 +11,10 @@ import bpy
 from . import light, relight
 from .bake_job import BakeJob, BakeSettings
 from .errors import PrtError
+from .lightmap_images import RELIT, store_lightmap, transfer_images
 from .process import find_prt_bake
 from .properties import preferences
 from .results import baked_meshes, store_transfer
-from .lightmap_images import RELIT, store_lightmap, transfer_images
 from .scene_mesh import lightmap_layer, receivers_of, visible_meshes
 
 PREVIEW_MATERIAL = "PRT Relit"
@@ -179,6 +179,8 @@ class PRT_OT_relight(bpy.types.Operator):
         try:
             s = context.scene.prt
             if self.reproject:
+                if not s.baked_order:
+                    raise PrtError("nothing baked yet: bake first")
                 executable = find_prt_bake(preferences(context))
                 projected = _project_light(context, executable, s, s.baked_order, "")
                 s.light_json = json.dumps(projected.tolist())
