@@ -34,7 +34,7 @@ class PRT_OT_bake(bpy.types.Operator):
 
     bl_idname = "prt.bake"
     bl_label = "Bake PRT"
-    bl_options = {"REGISTER"}
+    bl_options = {"REGISTER", "UNDO"}  # one undo step for what a bake adds
 
     samples: bpy.props.IntProperty(name="Rays", default=0, min=0,
                                    description="Rays per vertex (0: the scene's setting)")
