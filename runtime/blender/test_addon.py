@@ -248,10 +248,73 @@ def main():
     check("preview material hidden", all(s.link == "DATA" for o in objects
                                          for s in o.material_slots)
           and all(o.data.materials[0].name == o.name + "Material" for o in objects))
+    modal(module, objects, a, arrays)
     lightmaps(objects, a, arrays)
     interreflected(objects, a, arrays)
     world_light(module, a)
     np.savez(out / "addon.npz", **arrays)
+
+
+class FakeWindowManager:
+    """What the modal bake calls on the window manager and workspace, recorded (a headless
+    Blender has no window for a modal handler)."""
+
+    def __init__(self):
+        self.calls = []
+
+    def __getattr__(self, name):
+        return lambda *args, **kwargs: self.calls.append((name, *args))
+
+
+def modal(module, objects, a, arrays):
+    """The panel's path: PRT_OT_bake.invoke starts the bake, modal() on TIMER events polls it
+    and moves the progress bar, on ESC cancels. Called on a stand-in operator (its settings
+    and methods) and context (the real scene, a recording window manager), with the timer
+    pumped here. The finished bake must equal the synchronous one bit for bit."""
+    from types import SimpleNamespace
+    operators = sys.modules[module + ".operators"]
+    cls = operators.PRT_OT_bake
+
+    def operator(samples):
+        op = SimpleNamespace(samples=samples, order=4, mode="", rig=a.rig, seed=-1, threads=0,
+                             lightmap=0, reports=[])
+        for name in ("_prepare", "_finish", "_end", "_lightmap"):
+            setattr(op, name, getattr(cls, name).__get__(op))
+        op.report = lambda kind, message: op.reports.append((set(kind), message))
+        return op
+
+    wm = FakeWindowManager()
+    c = bpy.context
+    context = SimpleNamespace(window_manager=wm, workspace=wm, window=None, scene=c.scene,
+                              view_layer=c.view_layer, preferences=c.preferences,
+                              evaluated_depsgraph_get=c.evaluated_depsgraph_get)
+    timer, escape = SimpleNamespace(type="TIMER"), SimpleNamespace(type="ESC")
+
+    before = snapshot()
+    colors_before = [prt_colors(o) for o in objects]
+    op = operator(1 << 14)
+    started = cls.invoke(op, context, None) == {"RUNNING_MODAL"}
+    while cls.modal(op, context, timer) == {"RUNNING_MODAL"} and op._job.progress == 0:
+        time.sleep(0.05)
+    result = cls.modal(op, context, escape)
+    check("modal bake cancelled with Esc", started and result == {"CANCELLED"}
+          and op._job.process.poll() is not None and snapshot() == before
+          and all(np.array_equal(prt_colors(o), c) for o, c in zip(objects, colors_before))
+          and ("progress_end",) in wm.calls, op.reports[-1][1])
+
+    wm.calls.clear()
+    op = operator(a.samples)
+    started = cls.invoke(op, context, None) == {"RUNNING_MODAL"}
+    ticks = 0
+    while (result := cls.modal(op, context, timer)) == {"RUNNING_MODAL"}:
+        ticks += 1
+        time.sleep(0.05)
+    updates = [call[1] for call in wm.calls if call[0] == "progress_update"]
+    same = all(np.array_equal(prt_colors(o), arrays[f"{o.name}/prt0"].astype(np.float32))
+               for o in objects)
+    check("modal bake", started and result == {"FINISHED"} and same
+          and updates == sorted(updates) and wm.calls[-1] == ("status_text_set", None),
+          f"{ticks} timer ticks, progress bar at {sorted(set(updates))} %, {op.reports[-1][1]}")
 
 
 def interreflected(objects, a, arrays):
