@@ -303,6 +303,9 @@ def modal(module, objects, a, arrays):
           and ("progress_end",) in wm.calls, op.reports[-1][1])
 
     wm.calls.clear()
+    for obj in objects:  # so that only the modal bake can bring "PRT" back
+        obj.data.color_attributes["PRT"].data.foreach_set(
+            "color", np.zeros(len(obj.data.loops) * 4, np.float32))
     op = operator(a.samples)
     started = cls.invoke(op, context, None) == {"RUNNING_MODAL"}
     ticks = 0
@@ -314,7 +317,8 @@ def modal(module, objects, a, arrays):
                for o in objects)
     check("modal bake", started and result == {"FINISHED"} and same
           and updates == sorted(updates) and wm.calls[-1] == ("status_text_set", None),
-          f"{ticks} timer ticks, progress bar at {sorted(set(updates))} %, {op.reports[-1][1]}")
+          f"{ticks} timer ticks, progress bar at {sorted(set(updates))} %, "
+          f"{op.reports[-1][1] if op.reports else 'no report'}")
 
 
 def interreflected(objects, a, arrays):
