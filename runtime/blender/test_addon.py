@@ -244,6 +244,7 @@ def main():
     nodes = bpy.data.materials["PRT Relit"].node_tree.nodes
     check("preview material", result == {"FINISHED"} and shown and any(
         n.type == "VERTEX_COLOR" and n.layer_name == "PRT" for n in nodes))
+    render_preview(objects[0], out)
     bpy.ops.prt.preview_material(show=False)
     check("preview material hidden", all(s.link == "DATA" for o in objects
                                          for s in o.material_slots)
@@ -388,6 +389,41 @@ def world_light(module, a):
         check("a World by other nodes refused", "Environment Texture" in str(err), err)
     bpy.data.worlds.remove(world)
     bpy.data.images.remove(image)
+
+
+def render_preview(floor, out):
+    """Cycles renders the preview material as "PRT" itself: an orthographic camera looks
+    straight down at a 0.5 m patch of the floor far from the other objects (where "PRT"
+    is nearly constant), 16 × 16 pixels, 4 samples, written as linear OpenEXR; the mean pixel
+    against the mean "PRT" of the floor's corners in that patch."""
+    scene = bpy.context.scene
+    camera = bpy.data.objects.new("PRT test camera", bpy.data.cameras.new("PRT test camera"))
+    scene.collection.objects.link(camera)
+    camera.data.type, camera.data.ortho_scale = "ORTHO", 0.5
+    camera.location = (2.5, -2.5, 3.0)
+    scene.camera = camera
+    scene.render.engine = "CYCLES"
+    scene.cycles.device, scene.cycles.samples = "CPU", 4
+    scene.cycles.use_denoising = False
+    scene.render.resolution_x = scene.render.resolution_y = 16
+    scene.render.resolution_percentage = 100
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    scene.render.filepath = str(out / "preview.exr")
+    started = time.time()
+    bpy.ops.render.render(write_still=True)
+    seconds = time.time() - started
+    image = bpy.data.images.load(str(out / "preview.exr"))
+    pixels = np.zeros(16 * 16 * 4, np.float32)
+    image.pixels.foreach_get(pixels)
+    rendered = pixels.reshape(-1, 4)[:, :3].mean(0)
+    position, _, _, prt = corners(floor)
+    inside = (np.abs(position[:, 0] - 2.5) <= 0.25) & (np.abs(position[:, 1] + 2.5) <= 0.25)
+    expected = prt[inside].mean(0)
+    check("Cycles renders the preview material as \"PRT\"",
+          inside.any() and np.allclose(rendered, expected, rtol=0.02),
+          f"rendered {np.round(rendered, 4)}, PRT {np.round(expected, 4)}, {seconds:.1f} s")
+    bpy.data.images.remove(image)
+    bpy.data.objects.remove(camera)
 
 
 def lightmap_uvs(obj):
