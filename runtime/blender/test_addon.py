@@ -190,9 +190,26 @@ def main():
     for obj in objects:
         obj.hide_set(False)
 
+    # What is left out of a bake, with a warning: an instance of a mesh already baked (its
+    # attributes would hold the other object's transfer) and a mesh without faces.
+    scene_mesh = sys.modules[module + ".scene_mesh"]
+    twin = bpy.data.objects.new("CubeTwin", objects[2].data)
+    edges = bpy.data.meshes.new("Edges")
+    edges.from_pydata([(0, 0, 0), (1, 0, 0)], [(0, 1)], [])
+    wire = bpy.data.objects.new("Wire", edges)
+    for obj in (twin, wire):
+        bpy.context.scene.collection.objects.link(obj)
+    baked, warnings = scene_mesh.visible_meshes(bpy.context)
+    check("instances and meshes without faces left out",
+          [o.name for o in baked] == [o.name for o in objects] and warnings == [
+              "CubeTwin shares its mesh with Cube: not baked", "Wire has no faces: not baked"],
+          warnings)
+    bpy.data.objects.remove(twin)
+    bpy.data.objects.remove(wire)
+    bpy.data.meshes.remove(edges)
+
     # Cancel: a bake driven by its job as the modal operator drives it, stopped mid-way.
     bake_job = sys.modules[module + ".bake_job"]
-    scene_mesh = sys.modules[module + ".scene_mesh"]
     depsgraph = bpy.context.evaluated_depsgraph_get()
     receivers = [scene_mesh.receivers_of(o, depsgraph)[0] for o in objects]
     settings = bake_job.BakeSettings(order=4, samples=1 << 14, mode="shadowed")

@@ -54,11 +54,15 @@ def _loop_totals(mesh):
 
 
 def visible_meshes(context):
-    """The view layer's visible mesh objects, each mesh data once (an instance that shares
-    another's mesh is left out and named in the returned warnings)."""
+    """The view layer's visible mesh objects with faces, each mesh data once (an instance
+    that shares another's mesh, or a mesh of loose edges, is left out and named in the
+    returned warnings)."""
     objects, seen, warnings = [], {}, []
     for obj in context.view_layer.objects:
         if obj.type != "MESH" or not obj.visible_get():
+            continue
+        if len(obj.data.polygons) == 0:
+            warnings.append(f"{obj.name} has no faces: not baked")
             continue
         if obj.data.name in seen:
             warnings.append(f"{obj.name} shares its mesh with {seen[obj.data.name]}: not baked")
