@@ -397,6 +397,10 @@ def world_light(module, a):
                        (np.sin(t) * np.sin(p) * np.sin(t)).sum(), (np.cos(t) * np.sin(t)).sum()])
     angle = math.degrees(math.acos(min(1.0, float(direction @ moment / np.linalg.norm(moment)))))
     check("World environment image as the light", angle < 0.5, f"{angle:.3f}° off the patch")
+    seen = (world_seen_by_cycles(world, direction, Path(a.out) / "sky-there.exr"),
+            world_seen_by_cycles(world, -direction, Path(a.out) / "sky-opposite.exr"))
+    check("Cycles sees the World's patch where the light's coefficients point",
+          seen[0] > 25 and seen[1] < 1, f"radiance {seen[0]:.1f} there, {seen[1]:.2f} opposite")
     noise = nodes.new("ShaderNodeTexNoise")
     links.new(noise.outputs["Color"], background.inputs["Color"])
     try:
@@ -441,6 +445,35 @@ def render_preview(floor, out):
           f"rendered {np.round(rendered, 4)}, PRT {np.round(expected, 4)}, {seconds:.1f} s")
     bpy.data.images.remove(image)
     bpy.data.objects.remove(camera)
+
+
+def world_seen_by_cycles(world, direction, path):
+    """The mean radiance Cycles renders of the World in a 10° view along `direction`
+    (8 × 8 pixels, linear EXR): Blender's own reading of the equirectangular image."""
+    import mathutils
+    scene = bpy.context.scene
+    camera = bpy.data.objects.new("PRT sky camera", bpy.data.cameras.new("PRT sky camera"))
+    scene.collection.objects.link(camera)
+    camera.data.angle = math.radians(10)
+    camera.rotation_euler = mathutils.Vector(direction).to_track_quat("-Z", "Y").to_euler()
+    hidden = [o for o in scene.objects if o.type == "MESH" and not o.hide_render]
+    for obj in hidden:
+        obj.hide_render = True
+    scene.camera, scene.world = camera, world
+    scene.render.engine = "CYCLES"
+    scene.cycles.device, scene.cycles.samples = "CPU", 4
+    scene.render.resolution_x = scene.render.resolution_y = 8
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    scene.render.filepath = str(path)
+    bpy.ops.render.render(write_still=True)
+    image = bpy.data.images.load(str(path))
+    pixels = np.zeros(8 * 8 * 4, np.float32)
+    image.pixels.foreach_get(pixels)
+    bpy.data.images.remove(image)
+    bpy.data.objects.remove(camera)
+    for obj in hidden:
+        obj.hide_render = False
+    return float(pixels.reshape(-1, 4)[:, :3].mean())
 
 
 def lightmap_uvs(obj):
