@@ -401,6 +401,21 @@ def world_light(module, a):
             world_seen_by_cycles(world, -direction, Path(a.out) / "sky-opposite.exr"))
     check("Cycles sees the World's patch where the light's coefficients point",
           seen[0] > 25 and seen[1] < 1, f"radiance {seen[0]:.1f} there, {seen[1]:.2f} opposite")
+    # A Mapping node turning the map 60° about Z: the light must turn with what Cycles sees.
+    mapping = nodes.new("ShaderNodeMapping")
+    mapping.inputs["Rotation"].default_value = (0, 0, math.radians(60))
+    coordinates = nodes.new("ShaderNodeTexCoord")
+    links.new(coordinates.outputs["Generated"], mapping.inputs["Vector"])
+    links.new(mapping.outputs["Vector"], texture.inputs["Vector"])
+    c = light.project_world(a.prt_bake, world, 2)[0]
+    turned = np.array([-c[3], -c[1], c[2]]) / np.linalg.norm([c[1], c[2], c[3]])
+    seen = (world_seen_by_cycles(world, turned, Path(a.out) / "sky-turned.exr"),
+            world_seen_by_cycles(world, direction, Path(a.out) / "sky-unturned.exr"))
+    angle = math.degrees(math.acos(min(1.0, float(turned @ direction))))
+    check("a World image turned by a Mapping node", seen[0] > 25 and seen[1] < 1
+          and abs(angle - 60 * math.cos(math.radians(31))) < 20,
+          f"light turned {angle:.1f}°; Cycles sees {seen[0]:.1f} there, {seen[1]:.2f} where "
+          "the unturned light points")
     noise = nodes.new("ShaderNodeTexNoise")
     links.new(noise.outputs["Color"], background.inputs["Color"])
     try:

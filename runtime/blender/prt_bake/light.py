@@ -17,15 +17,38 @@ from .errors import PrtError
 from .process import run_prt_bake
 
 
+def _map_rotation(node):
+    """Degrees about +Z that a Mapping node (Point, a rotation about Z alone, fed Texture
+    Coordinate's Generated) feeding the Environment Texture's Vector turns the map by; 0 with
+    no Mapping node. A Point mapping
+    turns the lookup direction by R, so the map appears turned by R's inverse."""
+    if not node.inputs["Vector"].is_linked:
+        return 0.0
+    mapping = node.inputs["Vector"].links[0].from_node
+    ok = mapping.type == "MAPPING" and mapping.vector_type == "POINT"
+    if ok:
+        inputs = mapping.inputs
+        ok = not any(i.is_linked for i in inputs if i.name != "Vector") \
+            and tuple(inputs["Location"].default_value) == (0, 0, 0) \
+            and tuple(inputs["Scale"].default_value) == (1, 1, 1) \
+            and tuple(inputs["Rotation"].default_value)[:2] == (0, 0)
+        link = inputs["Vector"].links[0] if inputs["Vector"].is_linked else None
+        ok = ok and link is not None and link.from_node.type == "TEX_COORD" \
+            and link.from_socket.name == "Generated"
+    if not ok:
+        raise PrtError("the World's Environment Texture is mapped by other than a Mapping "
+                       "node turning it about Z: turn the light with Light rotation instead")
+    return -math.degrees(mapping.inputs["Rotation"].default_value[2])
+
+
 def _world_image(node, folder):
     """The path of an Environment Texture's image as prt-bake reads it (.hdr or .exr): its
     file, or a packed image written into `folder`."""
     import bpy
 
     image = node.image
-    if node.projection != "EQUIRECTANGULAR" or node.inputs["Vector"].is_linked:
-        raise PrtError("the World's Environment Texture must be equirectangular with no "
-                       "Vector input (turn the light with Light rotation instead)")
+    if node.projection != "EQUIRECTANGULAR":
+        raise PrtError("the World's Environment Texture must be equirectangular")
     if image is None:
         raise PrtError("the World's Environment Texture has no image")
     ext = {"OPEN_EXR": ".exr", "HDR": ".hdr"}.get(image.file_format, "")
@@ -57,9 +80,10 @@ def world_rig(world, folder):
                 if source.type != "TEX_ENVIRONMENT":
                     raise PrtError("the World's colour comes from nodes other than one "
                                    "Environment Texture: use a rig file")
-                path = _world_image(source, folder)
+                path, turn = _world_image(source, folder), _map_rotation(source)
                 return ("[[light]]\nkind = \"environment\"\n"
-                        f"path = {json.dumps(path)}\nintensity = {strength:.9g}\n")
+                        f"path = {json.dumps(path)}\nintensity = {strength:.9g}\n"
+                        f"rotation = [{turn:.9g}, 0, 0]\n")
             color = tuple(node.inputs["Color"].default_value[:3])
     return ("[[light]]\nkind = \"constant\"\n"
             f"color = [{color[0]:.9g}, {color[1]:.9g}, {color[2]:.9g}]\n"
