@@ -208,6 +208,22 @@ def main():
     bpy.data.objects.remove(wire)
     bpy.data.meshes.remove(edges)
 
+    # A mirrored object (negative scale): world normals still point out of the cube, and
+    # every triangle's winding agrees with its vertices' normals, as prt-bake expects.
+    mirror = bpy.data.objects.new("Mirror", objects[2].data)
+    mirror.scale = (-1, 1, 1)
+    bpy.context.scene.collection.objects.link(mirror)
+    bpy.context.view_layer.update()
+    r = scene_mesh.receivers_of(mirror, bpy.context.evaluated_depsgraph_get())[0]
+    p = r.primitives[0]
+    outward = ((p["positions"] - p["positions"].mean(0)) * p["normals"]).sum(1)
+    t = p["positions"][p["triangles"]]
+    face = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+    agree = (face * p["normals"][p["triangles"]].sum(1)).sum(1)
+    check("a mirrored object", (outward > 0).all() and (agree > 0).all(),
+          f"{len(p['triangles'])} triangles")
+    bpy.data.objects.remove(mirror)
+
     # Cancel: a bake driven by its job as the modal operator drives it, stopped mid-way.
     bake_job = sys.modules[module + ".bake_job"]
     depsgraph = bpy.context.evaluated_depsgraph_get()
