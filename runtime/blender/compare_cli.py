@@ -23,7 +23,8 @@ import numpy as np
 
 
 def read_glb(path):
-    """Per node name: (positions, normals, COLOR_0, baseColorFactor rgb) of its primitives."""
+    """Per object name: (positions, normals, COLOR_0, baseColorFactor rgb) of its
+    primitives."""
     b = Path(path).read_bytes()
     n = struct.unpack("<I", b[12:16])[0]
     j = json.loads(b[20:20 + n])
@@ -49,7 +50,8 @@ def read_glb(path):
                     accessor(attributes["NORMAL"]).astype(np.float64),
                     accessor(attributes["COLOR_0"])[:, :3].astype(np.float64),
                     np.array(factor[:3]))
-            out.setdefault(node["name"], []).append(part)
+            # prt-bake exports a mesh of several primitives as objects "name/0", "name/1", …
+            out.setdefault(node["name"].split("/")[0], []).append(part)
     return out
 
 

@@ -75,6 +75,10 @@ def build():
     for obj, color in ((floor, (0.7, 0.7, 0.7)), (suzanne, (0.8, 0.45, 0.25)),
                        (cube, (0.25, 0.5, 0.8))):
         obj.data.materials.append(material(obj.name + "Material", color))
+    # A second material on the cube's top face: two primitives, two albedos per object.
+    cube.data.materials.append(material("CubeTop", (0.9, 0.3, 0.2)))
+    top = max(cube.data.polygons, key=lambda p: p.normal.z)
+    top.material_index = 1
     return [floor, suzanne, cube]
 
 
@@ -116,9 +120,14 @@ def corners(obj):
     normal /= np.linalg.norm(normal, axis=1, keepdims=True)
     rgba = np.zeros(n * 4)
     mesh.color_attributes["PRT"].data.foreach_get("color", rgba)
-    albedo = np.array(mesh.materials[0].node_tree.nodes["Principled BSDF"]
-                      .inputs["Base Color"].default_value[:3])
-    return position, normal, np.broadcast_to(albedo, (n, 3)), rgba.reshape(n, 4)[:, :3]
+    albedos = np.array([m.node_tree.nodes["Principled BSDF"].inputs["Base Color"]
+                        .default_value[:3] for m in mesh.materials])
+    corner_polygon = np.zeros(n, np.int64)
+    for polygon in mesh.polygons:
+        corner_polygon[polygon.loop_start:polygon.loop_start + polygon.loop_total] = \
+            polygon.index
+    slot = np.array([p.material_index for p in mesh.polygons])[corner_polygon]
+    return position, normal, albedos[slot], rgba.reshape(n, 4)[:, :3]
 
 
 def prt_colors(obj):
@@ -561,6 +570,16 @@ def lightmaps(objects, a, arrays):
             stats[f"{obj.name}/{turn}"] = (float(texel.mean() / vertex.mean() - 1),
                                            float(np.corrcoef(texel, vertex)[0, 1]))
     bpy.context.scene.prt.light_rotation = 0.0
+    # Each texel's own material: the cube's top face (its second material, red) in the
+    # image at the face's centre against its corners' "PRT", per channel.
+    cube = objects[2]
+    top = max(cube.data.polygons, key=lambda p: p.normal.z)
+    corners_of_top = list(range(top.loop_start, top.loop_start + top.loop_total))
+    uv = np.array([cube.data.uv_layers["Lightmap"].uv[i].vector for i in corners_of_top])
+    texel = sample(bpy.data.images["PRT Cube"], uv.mean(0, keepdims=True))[0]
+    vertex = arrays["Cube/prt0"][corners_of_top].mean(0)
+    check("lightmap: each texel's material", np.allclose(texel, vertex, rtol=0.1),
+          f"top face {np.round(texel, 4)} against its corners {np.round(vertex, 4)}")
     detail = ", ".join(f"{k} {100 * d:+.1f} % r {c:.3f}" for k, (d, c) in stats.items())
     check("lightmap images against the vertex bake",
           all(abs(d) <= 0.08 and c >= 0.9 for d, c in stats.values()), detail)

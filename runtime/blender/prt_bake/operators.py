@@ -11,7 +11,7 @@ import bpy
 from . import light, relight
 from .bake_job import BakeJob, BakeSettings
 from .errors import PrtError
-from .lightmap_images import RELIT, store_lightmap, transfer_images
+from .lightmap_images import RELIT, store_lightmap, texel_materials, transfer_images
 from .process import find_prt_bake
 from .properties import preferences
 from .results import baked_meshes, store_transfer
@@ -86,7 +86,8 @@ class PRT_OT_bake(bpy.types.Operator):
         for r, transfer in zip(job.receivers, job.transfer):
             if job.settings.lightmap:
                 uv = lightmap_layer(r.obj.data, job.settings.lightmap_uv).name
-                store_lightmap(r.obj, transfer, uv)
+                slots = texel_materials(r.primitives, job.settings.lightmap)
+                store_lightmap(r.obj, transfer, uv, slots)
             else:
                 store_transfer(r.obj.data, transfer)
         s = context.scene.prt

@@ -163,6 +163,7 @@ def _receivers(obj, mesh, matrix, lightmap_uv):
             "normals": world_normals[run],
             "triangles": triangles[triangle_material == material] - start,
             "albedo": albedos[first[start]],
+            "material": int(material),
         }
         if lightmap_uv is not None:
             primitive["uv1"] = uv[first[run]].astype(np.float64)
