@@ -11,7 +11,7 @@
 #                    (part of make test, about 30 s after a 373 MB install; docs/lightmaps.md)
 #   make blender-addon  the Blender add-on (runtime/blender/prt_bake): installed from its zip,
 #                    baked through bpy.ops.prt.bake, against the CLI's export of the same scene
-#                    (part of make test, about 20 s after make blender's install; docs/blender.md)
+#                    (part of make test, 20-50 s after make blender; docs/blender.md)
 #   make bench       the bake benchmark: Embree and obvhs against the raw Embree rate
 #                    (docs/performance.md)
 #   make fuzz        the parsers' mutation fuzzing at 20 times make test's mutants (docs/robustness.md)
