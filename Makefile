@@ -9,6 +9,9 @@
 #                    (part of make test, 30 s to 2 min; docs/lightmaps.md)
 #   make blender     a Blender glTF with per-object lightmap UVs against Cycles' AO bake
 #                    (part of make test, about 30 s after a 373 MB install; docs/lightmaps.md)
+#   make blender-addon  the Blender add-on (runtime/blender/prt_bake): installed from its zip,
+#                    baked through bpy.ops.prt.bake, against the CLI's export of the same scene
+#                    (part of make test, 20-50 s after make blender; docs/blender.md)
 #   make bench       the bake benchmark: Embree and obvhs against the raw Embree rate
 #                    (docs/performance.md)
 #   make fuzz        the parsers' mutation fuzzing from a newly drawn seed at 20 times make test's
@@ -125,7 +128,18 @@ mitsuba: build
 blender: build
 	scripts/blender/run.sh
 
+# The Blender add-on (issue 33): packed into a zip, installed into a throw-away Blender user
+# folder, a Suzanne, cube and floor scene baked through bpy.ops.prt.bake and relit at a rig and
+# turned 90°, against prt-bake's own export of Blender's glTF of the scene (per object: mean
+# within 3 %, per-vertex correlation >= 0.98); errors, cancel, the preview material. Uses make
+# blender's bpy (docs/blender.md).
+.PHONY: blender-addon
+blender-addon: blender
+	runtime/blender/test.sh
+
 test: lint unit no-embree embree4 reference interop slurm browser mitsuba blender
+# (a line of its own, so that other additions to make test merge without conflict)
+test: blender-addon
 
 bench: deps
 	$(CARGO) bench -p prt-baker --bench bake

@@ -1,0 +1,280 @@
+"""The operators: prt.bake (in the background with a progress bar, Esc cancels; run
+synchronously when called from a script), prt.relight, prt.preview_material.
+
+Every failure is reported through Blender's report system (self.report), never raised.
+"""
+
+import json
+
+import bpy
+
+from . import light, relight
+from .bake_job import BakeJob, BakeSettings
+from .errors import PrtError
+from .lightmap_images import RELIT, store_lightmap, texel_materials, transfer_images
+from .process import find_prt_bake
+from .properties import preferences
+from .results import baked_meshes, store_transfer
+from .scene_mesh import lightmap_layer, receivers_of, visible_meshes
+
+PREVIEW_MATERIAL = "PRT Relit"
+
+
+def _project_light(context, executable, settings, order, rig):
+    if settings.rig_source == "WORLD" and not rig:
+        return light.project_world(executable, context.scene.world, order)
+    path = bpy.path.abspath(rig or settings.rig)
+    if not path:
+        raise PrtError("no rig file chosen (PRT panel > Rig), and the light is not the World")
+    return light.project(executable, path, order)
+
+
+class PRT_OT_bake(bpy.types.Operator):
+    """Bake the visible meshes' transfer with prt-bake and relight them into "PRT\""""
+
+    bl_idname = "prt.bake"
+    bl_label = "Bake PRT"
+    bl_options = {"REGISTER", "UNDO"}  # one undo step for what a bake adds
+
+    samples: bpy.props.IntProperty(name="Rays", default=0, min=0,
+                                   description="Rays per vertex (0: the scene's setting)")
+    order: bpy.props.IntProperty(name="Order", default=0, min=0, max=8,
+                                 description="SH order (0: the scene's setting)")
+    mode: bpy.props.StringProperty(name="Mode", default="",
+                                   description="shadowed or interreflected (empty: the scene's)")
+    rig: bpy.props.StringProperty(name="Rig", default="", subtype="FILE_PATH",
+                                  description="A rig file (empty: the scene's light)")
+    seed: bpy.props.IntProperty(name="Seed", default=-1, min=-1)
+    threads: bpy.props.IntProperty(name="Threads", default=0, min=0)
+    lightmap: bpy.props.IntProperty(
+        name="Lightmap", default=-1, min=-1, description="Texels per side of each object's "
+        "lightmap; 0: per vertex; -1: the scene's setting")
+
+    _job = None
+    _timer = None
+
+    def _lightmap(self, s):
+        if self.lightmap >= 0:
+            return self.lightmap
+        return s.lightmap_resolution if s.target == "LIGHTMAP" else 0
+
+    def _prepare(self, context):
+        s = context.scene.prt
+        settings = BakeSettings(order=self.order or s.order, samples=self.samples or s.samples,
+                                mode=self.mode or s.mode,
+                                seed=s.seed if self.seed < 0 else self.seed,
+                                threads=self.threads,
+                                lightmap=self._lightmap(s), lightmap_uv=s.lightmap_uv)
+        if settings.mode not in ("shadowed", "interreflected"):
+            raise PrtError(f"unknown mode {settings.mode!r} (shadowed or interreflected)")
+        executable = find_prt_bake(preferences(context))
+        self._light = _project_light(context, executable, s, settings.order, self.rig)
+        objects, warnings = visible_meshes(context)
+        depsgraph = context.evaluated_depsgraph_get()
+        receivers = []
+        for obj in objects:
+            r, more = receivers_of(obj, depsgraph,
+                                   settings.lightmap_uv if settings.lightmap else None)
+            receivers.append(r)
+            warnings += more
+        for warning in warnings:
+            self.report({"WARNING"}, warning)
+        self._order = settings.order
+        return BakeJob(executable, settings, receivers)
+
+    def _finish(self, context, job):
+        for r, transfer in zip(job.receivers, job.transfer):
+            if job.settings.lightmap:
+                uv = lightmap_layer(r.obj.data, job.settings.lightmap_uv).name
+                slots = texel_materials(r.primitives, job.settings.lightmap)
+                store_lightmap(r.obj, transfer, uv, slots)
+            else:
+                store_transfer(r.obj.data, transfer)
+        s = context.scene.prt
+        s.baked_order = self._order
+        s.light_json = json.dumps(self._light.tolist())
+        s.status = ""
+        count = relight.relight(context.scene)
+        self.report({"INFO"}, f"PRT: baked and relit {count} meshes")
+
+    def execute(self, context):
+        job = None
+        try:
+            job = self._prepare(context)
+            job.start()
+            job.run()
+            self._finish(context, job)
+            return {"FINISHED"}
+        except PrtError as err:
+            self.report({"ERROR"}, str(err))
+        except Exception as err:  # never a traceback in the UI
+            self.report({"ERROR"}, f"PRT bake failed: {err}")
+        finally:
+            if job is not None:
+                job.close()
+        return {"CANCELLED"}
+
+    def invoke(self, context, event):
+        try:
+            job = self._prepare(context)
+            job.start()
+        except PrtError as err:
+            self.report({"ERROR"}, str(err))
+            return {"CANCELLED"}
+        except Exception as err:
+            self.report({"ERROR"}, f"PRT bake failed: {err}")
+            return {"CANCELLED"}
+        self._job = job
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(0.2, window=context.window)
+        wm.progress_begin(0, 100)
+        wm.modal_handler_add(self)
+        context.workspace.status_text_set("PRT bake: 0 % (Esc to cancel)")
+        return {"RUNNING_MODAL"}
+
+    def _end(self, context):
+        wm = context.window_manager
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        context.workspace.status_text_set(None)
+        self._job.close()
+
+    def modal(self, context, event):
+        if event.type == "ESC":
+            self._job.cancel()
+            self._end(context)
+            self.report({"INFO"}, "PRT bake cancelled: nothing changed")
+            return {"CANCELLED"}
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        try:
+            if not self._job.poll():
+                percent = round(100 * self._job.progress)
+                context.window_manager.progress_update(percent)
+                context.workspace.status_text_set(f"PRT bake: {percent} % (Esc to cancel)")
+                return {"RUNNING_MODAL"}
+            self._finish(context, self._job)
+            result = {"FINISHED"}
+        except PrtError as err:
+            self.report({"ERROR"}, str(err))
+            result = {"CANCELLED"}
+        except Exception as err:
+            self.report({"ERROR"}, f"PRT bake failed: {err}")
+            result = {"CANCELLED"}
+        self._end(context)
+        return result
+
+
+class PRT_OT_relight(bpy.types.Operator):
+    """Relight the baked meshes ("PRT") under the light turned by Light rotation"""
+
+    bl_idname = "prt.relight"
+    bl_label = "Relight"
+    bl_options = {"REGISTER", "UNDO"}
+
+    reproject: bpy.props.BoolProperty(
+        name="Re-read the light", default=False,
+        description="Project the rig file (or World) again before relighting")
+
+    def execute(self, context):
+        try:
+            s = context.scene.prt
+            if self.reproject:
+                if not s.baked_order:
+                    raise PrtError("nothing baked yet: bake first")
+                executable = find_prt_bake(preferences(context))
+                projected = _project_light(context, executable, s, s.baked_order, "")
+                s.light_json = json.dumps(projected.tolist())
+            count = relight.relight(context.scene)
+            s.status = ""
+        except PrtError as err:
+            self.report({"ERROR"}, str(err))
+            return {"CANCELLED"}
+        except Exception as err:
+            self.report({"ERROR"}, f"PRT relight failed: {err}")
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"PRT: relit {count} meshes")
+        return {"FINISHED"}
+
+
+def _emission_material(name, build_color):
+    """An emission material (strength 1) whose colour build_color(nodes) makes."""
+    material = bpy.data.materials.get(name)
+    if material is None:
+        material = bpy.data.materials.new(name)
+        material.use_nodes = True
+        nodes, links = material.node_tree.nodes, material.node_tree.links
+        nodes.clear()
+        color = build_color(nodes, links)
+        emission = nodes.new("ShaderNodeEmission")
+        emission.inputs["Strength"].default_value = 1.0
+        output = nodes.new("ShaderNodeOutputMaterial")
+        emission.location, output.location = (-150, 0), (100, 0)
+        links.new(color, emission.inputs["Color"])
+        links.new(emission.outputs["Emission"], output.inputs["Surface"])
+    return material
+
+
+def preview_material():
+    """Shows the "PRT" colour attribute as it is (albedo included)."""
+    def color(nodes, links):
+        node = nodes.new("ShaderNodeVertexColor")
+        node.layer_name = "PRT"
+        node.location = (-400, 0)
+        return node.outputs["Color"]
+    return _emission_material(PREVIEW_MATERIAL, color)
+
+
+def lightmap_material(transfer_image):
+    """Shows the object's "PRT <object>" image on its lightmap UVs."""
+    name = transfer_image["prt_object"]
+
+    def color(nodes, links):
+        uv = nodes.new("ShaderNodeUVMap")
+        uv.uv_map = transfer_image["prt_uv"]
+        texture = nodes.new("ShaderNodeTexImage")
+        texture.image = bpy.data.images[RELIT.format(name)]
+        uv.location, texture.location = (-700, 0), (-450, 0)
+        links.new(uv.outputs["UV"], texture.inputs["Vector"])
+        return texture.outputs["Color"]
+    return _emission_material(f"{PREVIEW_MATERIAL} {name}", color)
+
+
+class PRT_OT_preview_material(bpy.types.Operator):
+    """Show "PRT" on the baked objects (Material Preview and renders) through object-linked
+    material slots; the meshes' own materials stay as they are"""
+
+    bl_idname = "prt.preview_material"
+    bl_label = "Show PRT material"
+    bl_options = {"REGISTER", "UNDO"}
+
+    show: bpy.props.BoolProperty(name="Show", default=True)
+
+    def execute(self, context):
+        meshes = set(m.name for m in baked_meshes(context.scene))
+        lightmaps = {i["prt_object"]: i for i in transfer_images()}
+        if not meshes and not lightmaps:
+            self.report({"ERROR"}, "nothing baked yet: bake first")
+            return {"CANCELLED"}
+        for obj in context.scene.objects:
+            if obj.type != "MESH" or (obj.data.name not in meshes and obj.name not in lightmaps):
+                continue
+            if not self.show:
+                material = None
+            elif obj.name in lightmaps:
+                material = lightmap_material(lightmaps[obj.name])
+            else:
+                material = preview_material()
+            if self.show and not obj.material_slots:
+                obj.data.materials.append(None)
+            for slot in obj.material_slots:
+                if self.show:
+                    slot.link = "OBJECT"
+                    slot.material = material
+                elif slot.link == "OBJECT":
+                    slot.material = None
+                    slot.link = "DATA"
+        return {"FINISHED"}
+
+
+classes = (PRT_OT_bake, PRT_OT_relight, PRT_OT_preview_material)

@@ -1,0 +1,63 @@
+"""The add-on's settings: per scene (`scene.prt`) and in the preferences (prt-bake's path)."""
+
+import bpy
+
+from . import relight
+
+
+def _rotation_changed(self, context):
+    relight.relight_quietly(context.scene)
+
+
+class PrtSceneSettings(bpy.types.PropertyGroup):
+    order: bpy.props.IntProperty(name="Order", description="SH order n: n² coefficients "
+                                 "per colour channel", default=4, min=1, max=8)
+    samples: bpy.props.IntProperty(name="Rays", description="Rays per vertex",
+                                   default=256, min=1, max=1 << 20)
+    mode: bpy.props.EnumProperty(name="Mode", items=[
+        ("shadowed", "Shadowed", "Direct light with shadows"),
+        ("interreflected", "Interreflected", "Shadows and one bounce of coloured light"),
+    ], default="shadowed")
+    seed: bpy.props.IntProperty(name="Seed", default=0, min=0)
+    target: bpy.props.EnumProperty(name="Bake", items=[
+        ("VERTEX", "Per vertex", "Transfer per face corner, \"PRT\" a colour attribute"),
+        ("LIGHTMAP", "Lightmap", "Transfer per texel of each object's lightmap UVs, "
+         "\"PRT <object>\" an image"),
+    ], default="VERTEX")
+    lightmap_resolution: bpy.props.IntProperty(name="Resolution", default=256, min=8,
+                                               max=4096, description="Texels per side of "
+                                               "each object's lightmap")
+    lightmap_uv: bpy.props.StringProperty(name="UV map", default="", description="The "
+                                          "lightmap's UV map (empty: the second, else the "
+                                          "only one)")
+    rig_source: bpy.props.EnumProperty(name="Light", items=[
+        ("FILE", "Rig file", "A prt-bake rig (TOML; docs/lights.md)"),
+        ("WORLD", "World", "The World: its uniform colour as a constant sky, or its "
+         "equirectangular .hdr/.exr Environment Texture"),
+    ], default="FILE")
+    rig: bpy.props.StringProperty(name="Rig", subtype="FILE_PATH",
+                                  description="A prt-bake rig file (.toml)")
+    light_rotation: bpy.props.FloatProperty(
+        name="Light rotation", description="The light turned about world Z (relights "
+        "without re-baking)", subtype="ANGLE", unit="ROTATION", default=0.0,
+        update=_rotation_changed)
+    # Written by a bake: the order baked and the light (3 × n², unturned), as JSON.
+    baked_order: bpy.props.IntProperty(default=0, options={"HIDDEN"})
+    light_json: bpy.props.StringProperty(default="", options={"HIDDEN"})
+    status: bpy.props.StringProperty(default="", options={"HIDDEN"})
+
+
+class PrtPreferences(bpy.types.AddonPreferences):
+    bl_idname = __package__
+
+    prt_bake: bpy.props.StringProperty(
+        name="prt-bake", subtype="FILE_PATH",
+        description="The prt-bake binary (empty: found on PATH)")
+
+    def draw(self, context):
+        self.layout.prop(self, "prt_bake")
+
+
+def preferences(context):
+    addon = context.preferences.addons.get(__package__)
+    return addon.preferences.prt_bake if addon is not None else ""

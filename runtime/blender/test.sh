@@ -1,0 +1,81 @@
+#!/usr/bin/env bash
+# make blender-addon: the Blender add-on (runtime/blender/prt_bake, issue 33) in Blender 4.5
+# LTS (bpy in target/blender/venv, installed by `make blender`, scripts/blender/run.sh).
+#
+# Packs the add-on (make_zip.py), installs it from the zip into a throw-away Blender user
+# folder, builds Suzanne, a cube and a floor, bakes them through bpy.ops.prt.bake, relights
+# at the rig and turned 90° (test_addon.py; also the errors, the cancel, the preview
+# material, and that only attributes were added), bakes Blender's own glTF export of the
+# scene with the CLI at the same settings and exports it lit by the rig and by the rig turned
+# 90° (COLOR_0), and compares per object (compare_cli.py: mean within 3 %, per-vertex
+# correlation ≥ 0.98).
+#
+# Environment: BAKE (default target/release/prt-bake), SAMPLES (1024).
+set -euo pipefail
+
+HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+cd "$HERE/../.."
+BAKE="$(realpath "${BAKE:-target/release/prt-bake}")"
+SAMPLES="${SAMPLES:-1024}"
+PY=target/blender/venv/bin/python
+OUT="$(pwd)/target/blender/addon"
+
+[ -x "$BAKE" ] || { echo "test.sh: $BAKE is missing (cargo build --release -p prt-baker)" >&2; exit 2; }
+"$PY" -c 'import bpy' >/dev/null 2>&1 ||
+    { echo "test.sh: no bpy in $PY: run make blender first (it installs Blender 4.5)" >&2; exit 2; }
+
+started=$(date +%s.%N)
+rm -rf "$OUT"
+mkdir -p "$OUT/user" "$OUT/user-legacy"
+python3 "$HERE/make_zip.py" "$OUT/prt_bake.zip"
+# The rig: a directional light and a hemisphere sky; and the same turned 90° about +z
+# ((x, y, z) -> (-y, x, z)), what the add-on's light_rotation = 90° must reproduce.
+rig() {
+    cat <<TOML
+[[light]]
+kind = "directional"
+direction = [$1, $2, 0.8]
+intensity = 1.6
+
+[[light]]
+kind = "hemisphere"
+color = [0.25, 0.3, 0.4]
+ground_color = [0.05, 0.05, 0.05]
+TOML
+}
+rig 0.5 -0.35 >"$OUT/rig.toml"
+rig 0.35 0.5 >"$OUT/rig90.toml"
+
+# bpy can hang in its exit handlers: test_addon.py writes its results to files and leaves
+# through os._exit; the timeout is a guard, and stdout goes to a file, never a pipe.
+timeout 600 env BLENDER_USER_RESOURCES="$OUT/user" "$PY" "$HERE/test_addon.py" \
+    "$OUT/prt_bake.zip" "$BAKE" "$OUT/rig.toml" "$OUT" --samples "$SAMPLES" \
+    >"$OUT/blender.log" 2>&1 || { cat "$OUT/blender.log"; exit 1; }
+# The same zip as a legacy add-on, in a Blender of its own with a fresh user folder.
+timeout 300 env BLENDER_USER_RESOURCES="$OUT/user-legacy" "$PY" "$HERE/test_addon.py" \
+    "$OUT/prt_bake.zip" "$BAKE" "$OUT/rig.toml" "$OUT" --legacy \
+    >"$OUT/blender-legacy.log" 2>&1 || { cat "$OUT/blender-legacy.log"; exit 1; }
+grep -hE '^(ok|FAIL) ' "$OUT/blender.log" "$OUT/blender-legacy.log"
+"$PY" - "$OUT/checks.json" "$OUT/checks-legacy.json" <<'PY'
+import json, sys
+checks = {k: v for path in sys.argv[1:] for k, v in json.load(open(path)).items()}
+bad = [name for name, c in checks.items() if not c["ok"]]
+sys.exit(f"test.sh: add-on checks failed: {', '.join(bad)}" if bad or len(checks) < 2 else 0)
+PY
+addon=$(date +%s.%N)
+
+"$BAKE" bake "$OUT/scene.glb" -o "$OUT/cli.prt" --order 4 --samples "$SAMPLES" --quiet
+"$BAKE" bake "$OUT/scene.glb" -o "$OUT/cli-ir.prt" --order 4 --samples 256 \
+    --mode interreflected --quiet
+for turn in 0 90 ir; do
+    rigfile="$OUT/rig.toml"
+    [ "$turn" = 90 ] && rigfile="$OUT/rig90.toml"
+    prt="$OUT/cli.prt"
+    [ "$turn" = ir ] && prt="$OUT/cli-ir.prt"
+    "$BAKE" export "$prt" --scene "$OUT/scene.glb" --gltf "$OUT/cli$turn.glb" \
+        --lights "$rigfile" >/dev/null
+done
+"$PY" "$HERE/compare_cli.py" "$OUT"
+compared=$(date +%s.%N)
+awk -v a="$started" -v b="$addon" -v c="$compared" 'BEGIN {
+    printf "test.sh: Blender (install, scene, add-on bake, checks) %.1f s, CLI bake and comparison %.1f s\n", b - a, c - b }'
