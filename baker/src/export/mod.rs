@@ -8,5 +8,6 @@
 pub mod compress;
 pub mod gltf;
 pub mod numpy;
+pub mod probe_npz;
 pub mod relight;
 pub mod relight_glossy;

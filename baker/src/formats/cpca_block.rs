@@ -357,6 +357,7 @@ mod tests {
             rays: None,
             error_estimate: None,
             lightmap: None,
+            probes: None,
         }
     }
 
