@@ -28,6 +28,7 @@ use crate::bake::options::{BakeOptions, Mode, TransferKind};
 use crate::bake::receivers::Receivers;
 use crate::bake::transfer::{Baked, Transfer, tracer_for};
 use crate::formats::coefficient_file::CoefficientFile;
+use crate::formats::probe_block::{ProbeBlock, ProbeGrid};
 use crate::scene::Scene;
 use crate::support::error::{Error, Result};
 use crate::support::progress::Progress;
@@ -94,34 +95,31 @@ impl ProbeSpec {
         })
     }
 
-    /// The probes' positions, in the order they are baked and stored.
-    pub fn positions(&self, scene: &Scene) -> Result<Vec<Vec3>> {
-        match self {
-            ProbeSpec::Points(path) => crate::formats::probe_points::read(path),
+    /// The probes, in the order they are baked and stored: a grid's at the centres of its
+    /// cells ([`ProbeGrid`]: centres rather than corners, so a grid over a room's bounds
+    /// keeps off its walls).
+    pub fn probes(&self, scene: &Scene) -> Result<ProbeBlock> {
+        Ok(match self {
+            ProbeSpec::Points(path) => ProbeBlock {
+                positions: crate::formats::probe_points::read(path)?,
+                grid: None,
+                backfaces: Vec::new(),
+            },
             ProbeSpec::Grid { counts, bounds } => {
                 let (lo, hi) = bounds.unwrap_or_else(|| scene.bounds());
-                Ok(grid_positions(*counts, lo, hi))
+                let grid = ProbeGrid {
+                    counts: *counts,
+                    lo,
+                    hi,
+                };
+                ProbeBlock {
+                    positions: grid.positions(),
+                    grid: Some(grid),
+                    backfaces: Vec::new(),
+                }
             }
-        }
+        })
     }
-}
-
-/// The centres of the NX × NY × NZ cells of the box [lo, hi], x fastest, then y, then z:
-/// probe (i, j, k) at lo + (hi − lo)·((i, j, k) + ½)/(NX, NY, NZ). Centres rather than
-/// corners, so a grid over a room's bounds keeps off its walls.
-pub fn grid_positions(counts: [u32; 3], lo: Vec3, hi: Vec3) -> Vec<Vec3> {
-    let [nx, ny, nz] = counts;
-    let size = Vec3::new(nx as f32, ny as f32, nz as f32);
-    let mut out = Vec::with_capacity((nx * ny * nz) as usize);
-    for k in 0..nz {
-        for j in 0..ny {
-            for i in 0..nx {
-                let cell = Vec3::new(i as f32, j as f32, k as f32) + 0.5;
-                out.push(lo + (hi - lo) * cell / size);
-            }
-        }
-    }
-    out
 }
 
 /// Checks the options for a probe bake: matrices, an even number of rays (half per
@@ -159,7 +157,10 @@ pub fn hemisphere_options(options: &BakeOptions) -> BakeOptions {
 fn probe_receivers(positions: &[Vec3]) -> Receivers {
     Receivers {
         origins: positions.iter().flat_map(|&p| [p, p]).collect(),
-        normals: positions.iter().flat_map(|_| [Vec3::Z, Vec3::NEG_Z]).collect(),
+        normals: positions
+            .iter()
+            .flat_map(|_| [Vec3::Z, Vec3::NEG_Z])
+            .collect(),
         streams: Some((0..2 * positions.len() as u64).collect()),
     }
 }
@@ -232,10 +233,19 @@ pub fn bake(
 }
 
 impl CoefficientFile {
-    /// Packages a probe bake of `scene` ([`bake`]) with its probes' positions.
-    pub fn from_probe_bake(scene: &Scene, transfer: &Transfer, positions: &[Vec3]) -> CoefficientFile {
+    /// Packages a probe bake of `scene` ([`bake`]) with its probes, classifying them
+    /// ([`crate::bake::probe_validity`]) with `tracer`.
+    pub fn from_probe_bake(
+        scene: &Scene,
+        transfer: &Transfer,
+        tracer: Option<&dyn Tracer>,
+        mut probes: ProbeBlock,
+    ) -> CoefficientFile {
+        let seed = transfer.options.seed;
+        probes.backfaces =
+            crate::bake::probe_validity::backface_fractions(tracer, seed, &probes.positions);
         let mut file = CoefficientFile::from_bake(scene, transfer);
-        file.probes = Some(positions.to_vec());
+        file.probes = Some(probes);
         file
     }
 }
@@ -253,16 +263,19 @@ mod tests {
                 bounds: None
             }
         );
-        let spec = ProbeSpec::parse("grid:2,1,1:0,0,0,4,2,2").unwrap();
-        let ProbeSpec::Grid { counts, bounds } = spec else {
-            panic!("a grid")
-        };
-        let (lo, hi) = bounds.unwrap();
         assert_eq!(
-            grid_positions(counts, lo, hi),
-            [Vec3::new(1.0, 1.0, 1.0), Vec3::new(3.0, 1.0, 1.0)]
+            ProbeSpec::parse("grid:2,1,1:0,0,0,4,2,2").unwrap(),
+            ProbeSpec::Grid {
+                counts: [2, 1, 1],
+                bounds: Some((Vec3::ZERO, Vec3::new(4.0, 2.0, 2.0)))
+            }
         );
-        for bad in ["grid:2,2", "grid:0,1,1", "grid:1,1,1:0,0,0,1,1", "grid:1,1,1:1,0,0,0,1,1"] {
+        for bad in [
+            "grid:2,2",
+            "grid:0,1,1",
+            "grid:1,1,1:0,0,0,1,1",
+            "grid:1,1,1:1,0,0,0,1,1",
+        ] {
             assert!(ProbeSpec::parse(bad).is_err(), "{bad}");
         }
         assert_eq!(

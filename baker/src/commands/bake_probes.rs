@@ -22,9 +22,10 @@ pub fn bake(
         inputs.push(path.clone());
     }
     let output_file = Output::new(output, &inputs)?;
-    let positions = spec.positions(scene)?;
-    let transfer = probes::bake(scene, tracer, options, &positions, progress)?;
-    let file = CoefficientFile::from_probe_bake(scene, &transfer, &positions);
+    let probes = spec.probes(scene)?;
+    let count = probes.positions.len();
+    let transfer = probes::bake(scene, tracer, options, &probes.positions, progress)?;
+    let file = CoefficientFile::from_probe_bake(scene, &transfer, tracer, probes);
     output_file.write(&file.to_bytes().0)?;
     let rays = match transfer.rays_cast {
         0 => String::from("no rays"),
@@ -35,7 +36,7 @@ pub fn bake(
     };
     println!(
         "baked {} probes, {rays}, {:.2} s (order {}, {}, {} channels, {} samples, {}) -> {}",
-        positions.len(),
+        count,
         transfer.seconds,
         options.order,
         options.mode.name(),

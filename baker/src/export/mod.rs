@@ -8,6 +8,7 @@
 pub mod compress;
 pub mod gltf;
 pub mod numpy;
+pub mod probe_field;
 pub mod probe_npz;
 pub mod relight;
 pub mod relight_glossy;

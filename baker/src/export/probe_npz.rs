@@ -8,11 +8,13 @@ use crate::math::sh;
 use crate::scene::Scene;
 use crate::support::error::Result;
 
-/// Writes `probe_positions` (P, 3) and `probe_transfer` (P, channels, n², n²), float32 in the
+/// Writes `probe_positions` (P, 3), `probe_backface_fraction` (P,: above 0.25 the probe is
+/// inside geometry) and `probe_transfer` (P, channels, n², n²), float32 in the
 /// file's probe order: row i of a probe's matrix maps the light's coefficients to the
 /// incident radiance's coefficient i (L_in = M·L). The file must have been baked in `scene`.
 pub fn export(path: &Path, file: &CoefficientFile, scene: &Scene, output: &Path) -> Result<()> {
-    let positions = file.check_probe_scene(path, scene)?;
+    let probes = file.check_probe_scene(path, scene)?;
+    let positions = &probes.positions;
     let mut inputs = scene.input_files();
     inputs.push(path.to_path_buf());
     let output = crate::support::output::Output::new(output, &inputs)?;
@@ -24,6 +26,11 @@ pub fn export(path: &Path, file: &CoefficientFile, scene: &Scene, output: &Path)
             name: "probe_positions",
             shape: vec![p, 3],
             data: &flat,
+        },
+        Array {
+            name: "probe_backface_fraction",
+            shape: vec![p],
+            data: &probes.backfaces,
         },
         Array {
             name: "probe_transfer",

@@ -14,8 +14,8 @@ use crate::formats::header::{
     AtlasSource, CHECKSUM_OFFSET, OBJECT_PLACEMENT_BYTES, ObjectPlacement, checksum, parse_header,
 };
 use crate::formats::object_placements;
-use crate::formats::probe_block;
 use crate::formats::part_id::PartId;
+use crate::formats::probe_block::ProbeBlock;
 use crate::support::error::Result;
 
 /// The header is the file's own part: its fields and sizes are named here too.
@@ -41,8 +41,8 @@ pub struct CoefficientFile {
     /// Texel bakes only: the lightmap's size, validity mask and UVs. The "vertices" of such
     /// a file are the W×H texels, row-major.
     pub lightmap: Option<LightmapBlock>,
-    /// Probe bakes only: the probes' positions; the "vertices" are the probes.
-    pub probes: Option<Vec<Vec3>>,
+    /// Probe bakes only: the probes' positions and grid; the "vertices" are the probes.
+    pub probes: Option<ProbeBlock>,
 }
 
 /// What a texel bake stores beyond a vertex bake (docs/coefficient-format.md, "Lightmap
@@ -91,8 +91,10 @@ impl LightmapBlock {
 impl CoefficientFile {
     /// Bytes after the header.
     fn payload_bytes(&self) -> u64 {
-        let probes = self.probes.as_deref().map_or(0, probe_block::positions_bytes);
-        self.header.payload_bytes() + self.lightmap.as_ref().map_or(0, |l| l.payload_bytes()) + probes
+        let probes = self.probes.as_ref().map_or(0, ProbeBlock::arrays_bytes);
+        self.header.payload_bytes()
+            + self.lightmap.as_ref().map_or(0, |l| l.payload_bytes())
+            + probes
     }
 
     fn header_size(&self) -> usize {
@@ -126,7 +128,12 @@ impl CoefficientFile {
             bytes.extend(l.texel_size.to_le_bytes());
             bytes.extend(l.source.code().to_le_bytes());
         }
-        bytes.extend(self.probes.as_deref().map(probe_block::encode_block).unwrap_or_default());
+        bytes.extend(
+            self.probes
+                .as_ref()
+                .map(ProbeBlock::encode_block)
+                .unwrap_or_default(),
+        );
         bytes.extend(self.coefficients.iter().flat_map(|c| c.to_le_bytes()));
         let ao = self.ao.iter().flatten().copied();
         let bent = self.bent_normal.iter().flatten().flat_map(|n| n.to_array());
@@ -147,7 +154,7 @@ impl CoefficientFile {
                 bytes.extend(object_placements::encode(&l.objects));
             }
         }
-        bytes.extend(self.probes.iter().flat_map(|p| probe_block::encode_positions(p)));
+        bytes.extend(self.probes.iter().flat_map(ProbeBlock::encode_arrays));
         debug_assert_eq!(
             bytes.len() as u64,
             self.header_size() as u64 + self.payload_bytes()
@@ -184,10 +191,14 @@ impl CoefficientFile {
             true => Some(LightmapBlock::from_header_bytes(bytes, &header)?),
             false => None,
         };
-        let section = match header_size == PROBE_HEADER_SIZE {
-            true => probe_block::check_block(bytes, &header, payload)?,
-            false => check_payload_size(&header, lightmap.as_ref(), payload)?,
-        } as usize;
+        let probes = match header_size == PROBE_HEADER_SIZE {
+            true => Some(ProbeBlock::read(bytes, &header, payload)?),
+            false => None,
+        };
+        let section = match probes {
+            Some(_) => 0,
+            None => check_payload_size(&header, lightmap.as_ref(), payload)? as usize,
+        };
         let mut floats = bytes[header_size..]
             .chunks_exact(4)
             .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")));
@@ -210,9 +221,6 @@ impl CoefficientFile {
                 ));
             }
         }
-        let probes = (header_size == PROBE_HEADER_SIZE)
-            .then(|| probe_block::decode_positions(&bytes[bytes.len() - section..]))
-            .transpose()?;
         Ok(CoefficientFile {
             header,
             coefficients: arrays.coefficients,

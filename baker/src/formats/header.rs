@@ -21,7 +21,7 @@ pub const LIGHTMAP_HEADER_SIZE: usize = 160;
 pub const LIGHTMAP_PART_HEADER_SIZE: usize = 192;
 /// The header size of a probe bake (`bake --probes`): the 128 bytes, then the probe block
 /// (`docs/coefficient-format.md`, "Transfer probes").
-pub const PROBE_HEADER_SIZE: usize = 144;
+pub const PROBE_HEADER_SIZE: usize = 176;
 /// Offset of the CRC-32 (the last 4 bytes of the header).
 pub(crate) const CHECKSUM_OFFSET: usize = 124;
 
@@ -422,7 +422,12 @@ fn check_framing(bytes: &[u8]) -> std::result::Result<(u32, usize, u64), String>
         ));
     }
     let header_size = u32_at(12) as usize;
-    let sizes = [HEADER_SIZE, LIGHTMAP_HEADER_SIZE, LIGHTMAP_PART_HEADER_SIZE, PROBE_HEADER_SIZE];
+    let sizes = [
+        HEADER_SIZE,
+        LIGHTMAP_HEADER_SIZE,
+        LIGHTMAP_PART_HEADER_SIZE,
+        PROBE_HEADER_SIZE,
+    ];
     if !sizes.contains(&header_size) {
         return Err(format!(
             "header size {header_size} (version {VERSION} headers are {HEADER_SIZE} bytes, \

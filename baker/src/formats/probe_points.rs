@@ -11,7 +11,10 @@ use crate::support::error::{Error, Location, Result};
 pub fn read(path: &Path) -> Result<Vec<Vec3>> {
     let text = std::fs::read_to_string(path).map_err(|err| Error::io(path, err))?;
     let points = parse(&text).map_err(|(line, message)| {
-        Error::scene(Location::line(path, line), format!("probe points: {message}"))
+        Error::scene(
+            Location::line(path, line),
+            format!("probe points: {message}"),
+        )
     })?;
     if points.is_empty() {
         return Err(Error::scene(
@@ -32,7 +35,10 @@ pub fn parse(text: &str) -> std::result::Result<Vec<Vec3>, (usize, String)> {
         }
         let fields: Vec<&str> = content.split_whitespace().collect();
         if fields.len() != 3 {
-            return Err((i + 1, format!("{} numbers, expected 3 (x y z)", fields.len())));
+            return Err((
+                i + 1,
+                format!("{} numbers, expected 3 (x y z)", fields.len()),
+            ));
         }
         let mut xyz = [0.0f32; 3];
         for (x, field) in xyz.iter_mut().zip(&fields) {

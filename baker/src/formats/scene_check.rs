@@ -51,15 +51,19 @@ impl CoefficientFile {
             return mismatch(format!(
                 "a probe bake ({} probes), which this reader does not read (`export --npz`, \
                  `inspect` and the probe readers do)",
-                p.len()
+                p.positions.len()
             ));
         }
         self.check_fingerprint(path, scene, self.header.vertex_count)
     }
 
     /// Refuses a probe bake made for a different scene, or a file that is not a probe bake;
-    /// returns the probes' positions.
-    pub fn check_probe_scene(&self, path: &Path, scene: &Scene) -> Result<&[glam::Vec3]> {
+    /// returns its probe block.
+    pub fn check_probe_scene(
+        &self,
+        path: &Path,
+        scene: &Scene,
+    ) -> Result<&crate::formats::probe_block::ProbeBlock> {
         let Some(p) = &self.probes else {
             return Err(Error::SceneMismatch {
                 path: path.to_path_buf(),
