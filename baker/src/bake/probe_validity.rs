@@ -47,7 +47,7 @@ pub fn backface_fractions(tracer: Option<&dyn Tracer>, seed: u64, positions: &[V
             || (Vec::with_capacity(CLASSIFY_RAYS), vec![None; CLASSIFY_RAYS]),
             |(dirs, hits), (p, &origin)| {
                 let angle = std::f32::consts::TAU
-                    * to_unit_float(vertex_seed(seed ^ 0xba_cf_ace, p as u64) as u32);
+                    * to_unit_float(vertex_seed(seed ^ 0x0bac_face, p as u64) as u32);
                 let turn = glam::Quat::from_rotation_z(angle);
                 dirs.clear();
                 dirs.extend(lattice.iter().map(|d| turn * *d));

@@ -12,3 +12,4 @@ pub mod probe_field;
 pub mod probe_npz;
 pub mod relight;
 pub mod relight_glossy;
+pub mod relight_rigid;

@@ -224,6 +224,9 @@ mod tests {
         file
     }
 
+    /// A change to a file's bytes.
+    type Corruption = Box<dyn Fn(&mut Vec<u8>)>;
+
     fn resealed(mut bytes: Vec<u8>) -> Vec<u8> {
         let sum = checksum(&bytes);
         bytes[CHECKSUM_OFFSET..HEADER_SIZE].copy_from_slice(&sum.to_le_bytes());
@@ -250,7 +253,7 @@ mod tests {
     #[test]
     fn inconsistent_probe_files_are_refused() {
         let (good, _) = probe_file().to_bytes();
-        let cases: [(&str, Box<dyn Fn(&mut Vec<u8>)>); 6] = [
+        let cases: [(&str, Corruption); 6] = [
             ("counts 3 probes", Box::new(|b| b[128] = 3)),
             ("reserved bytes 172..176", Box::new(|b| b[174] = 1)),
             ("a probe grid of 2×2×1", Box::new(|b| b[140] = 2)),
