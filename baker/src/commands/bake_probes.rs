@@ -7,6 +7,16 @@ use prt_baker::support::output::Output;
 use prt_baker::trace::Tracer;
 use prt_baker::{BakeOptions, CoefficientFile, Error, Scene};
 
+/// What a memory error names: the points file, or the grid.
+fn spec_name(spec: &ProbeSpec) -> String {
+    match spec {
+        ProbeSpec::Points(path) => path.display().to_string(),
+        ProbeSpec::Grid { counts, .. } => {
+            format!("--probes grid:{},{},{}", counts[0], counts[1], counts[2])
+        }
+    }
+}
+
 /// Bakes the probes `spec` names in `scene` into the probe file `output`, and prints a summary.
 pub fn bake(
     spec: &str,
@@ -24,6 +34,22 @@ pub fn bake(
     let output_file = Output::new(output, &inputs)?;
     let probes = spec.probes(scene)?;
     let count = probes.positions.len();
+    // Two hemisphere matrices per probe in up to 3 channels, beside the vertex bake.
+    let n2 = (options.order * options.order) as u64;
+    let needed = (count as u64)
+        .checked_mul(2 * 3 * n2 * n2 * 4)
+        .and_then(|b| {
+            b.checked_add(prt_baker::bake::memory::bake_bytes(
+                options,
+                scene.vertex_count() as u64,
+                scene.triangles.len() as u64,
+            )?)
+        });
+    prt_baker::support::limits::check(
+        spec_name(&spec),
+        &format!("baking {count} probes at order {}", options.order),
+        needed,
+    )?;
     let transfer = probes::bake(scene, tracer, options, &probes.positions, progress)?;
     let file = CoefficientFile::from_probe_bake(scene, &transfer, tracer, probes);
     output_file.write(&file.to_bytes().0)?;

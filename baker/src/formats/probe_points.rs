@@ -9,7 +9,9 @@ use crate::support::error::{Error, Location, Result};
 
 /// The points of a probe file, in file order.
 pub fn read(path: &Path) -> Result<Vec<Vec3>> {
-    let text = std::fs::read_to_string(path).map_err(|err| Error::io(path, err))?;
+    let bytes = crate::support::limits::read_file(path)?;
+    let text = String::from_utf8(bytes)
+        .map_err(|_| Error::scene(Location::file(path), "probe points: not UTF-8 text"))?;
     let points = parse(&text).map_err(|(line, message)| {
         Error::scene(
             Location::line(path, line),
