@@ -126,12 +126,6 @@ pub fn compress_file(input: &Path, output: &Path, options: &FitOptions) -> Resul
     let pcs = options.pcs;
     let out = crate::support::output::Output::new(output, &[input.to_path_buf()])?;
     let file = CoefficientFile::read(input)?;
-    if file.probes.is_some() {
-        return Err(Error::coefficient_file(
-            input,
-            "a probe bake (bake --probes), which compress does not read yet",
-        ));
-    }
     let dim = file.header.coefficients_per_vertex();
     if pcs > dim {
         return Err(Error::InvalidOption(format!(
