@@ -535,6 +535,7 @@ fn prt_seeds() -> Vec<Vec<u8>> {
             rays: adaptive.then(|| vec![64; v]),
             error_estimate: adaptive.then(|| (0..v).map(|i| 1e-4 * i as f32).collect()),
             lightmap: None,
+            probes: None,
         }
         .to_bytes()
         .0

@@ -21,6 +21,8 @@ import { EXRLoader } from 'three/addons/loaders/EXRLoader.js';
 import { GLTF_TO_Z_UP, coeffCount, lightFromJSON, lightOfOrder, rotateLight } from './sh.js';
 
 export { lightFromJSON, rotateLight, shRotation, axisAngle, multiply3, Z_UP_TO_GLTF, GLTF_TO_Z_UP } from './sh.js';
+// Transfer probes and rigid objects that move through them (docs/probes.md).
+export { parseProbes, loadProbes, probeWeights, probeIncident, probeLightAt, lightProbeCoefficients } from './probes.js';
 
 /**
  * The light a `.glb` was exported with (`prt-bake export … --lights RIG`): its

@@ -21,4 +21,5 @@ mkdir -p "$OUT"
 command -v glslangValidator >/dev/null || { echo "browser: glslangValidator is missing (scripts/install-deps.sh installs glslang-tools)" >&2; exit 2; }
 node scripts/browser/glsl-snippets.mjs docs/gltf.md "$OUT/glsl"
 node scripts/browser/sh-test.mjs target/release/prt-bake "$OUT"
+node scripts/browser/probe-test.mjs target/release/prt-bake "$OUT"
 node scripts/browser/test.mjs "$NODE_DIR/node_modules" target/release/prt-bake "$OUT"

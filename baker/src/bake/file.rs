@@ -86,6 +86,7 @@ impl CoefficientFile {
                     .collect()
             }),
             lightmap: None,
+            probes: None,
         }
     }
 

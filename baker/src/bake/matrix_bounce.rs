@@ -142,8 +142,24 @@ pub(crate) fn bake_range(
     receivers: std::ops::Range<usize>,
     progress: &dyn Progress,
 ) -> Result<MatrixBounced> {
+    let vertices = (estimator, &estimator.options);
+    bake_range_of(scene, tracer, vertices, estimator, receivers, progress)
+}
+
+/// [`bake_range`] for receivers that are not the scene's vertices (transfer probes:
+/// [`crate::bake::probes`]): the vector pass runs over the vertices with `vertex_options`, and
+/// `corners` (an estimator over the vertices with them) tests the corners of hit triangles,
+/// while `estimator` casts the receivers' own rays.
+pub(crate) fn bake_range_of(
+    scene: &Scene,
+    tracer: &dyn Tracer,
+    (corners, vertex_options): (&Estimator, &BakeOptions),
+    estimator: &Estimator,
+    receivers: std::ops::Range<usize>,
+    progress: &dyn Progress,
+) -> Result<MatrixBounced> {
     let options = &estimator.options;
-    let previous = previous_bounces(scene, tracer, options, progress)?;
+    let previous = previous_bounces(scene, tracer, vertex_options, progress)?;
     let targets = BounceTargets::Vertices;
     let n = crate::math::sh::coeff_count(options.order);
     let channels = if albedo_is_grey(scene) { 1 } else { 3 };
@@ -154,7 +170,7 @@ pub(crate) fn bake_range(
             &targets,
             std::sync::Arc::new(Embedded::new(scene, &targets)),
         ),
-        probe: estimator.corner_probe(tracer),
+        probe: corners.corner_probe(tracer),
         previous: previous.transfer,
         previous_channels: previous.channels,
         channels,

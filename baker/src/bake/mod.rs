@@ -18,5 +18,7 @@ pub mod matrix_bounce;
 pub mod matrix_hits;
 pub mod memory;
 pub mod options;
+pub mod probe_validity;
+pub mod probes;
 pub mod receivers;
 pub mod transfer;

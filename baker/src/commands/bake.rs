@@ -133,6 +133,12 @@ pub struct BakeArgs {
     /// With compression: the seedings to fit from, as `prt-bake compress --starts`.
     #[arg(long, value_name = "S", conflicts_with_all = ["shard", "checkpoint"])]
     starts: Option<usize>,
+    /// Bake transfer probes instead of vertices (docs/probes.md): at each point the n²×n²
+    /// matrix of the radiance arriving from the whole sphere, --samples rays per probe.
+    /// POINTS.txt (one `x y z` a line), or grid:NX,NY,NZ over the scene's bounds (cell
+    /// centres), or grid:NX,NY,NZ:X0,Y0,Z0,X1,Y1,Z1 over a box of its own.
+    #[arg(long, value_name = "POINTS.txt|grid:NX,NY,NZ", conflicts_with_all = ["lightmap", "shard", "checkpoint", "clusters", "pcs", "target_error"])]
+    probes: Option<String>,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -285,6 +291,17 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
         )?),
     };
     let progress = super::progress(args.quiet);
+    if let Some(spec) = &args.probes {
+        let tracer = tracer.as_deref();
+        return super::bake_probes::bake(
+            spec,
+            &args.output,
+            &scene,
+            tracer,
+            &options,
+            progress.as_ref(),
+        );
+    }
     if shard.is_some() || args.checkpoint.is_some() {
         let tracer = tracer.as_deref();
         return bake_in_parts(&args, &scene, tracer, &options, shard, progress.as_ref());

@@ -68,6 +68,25 @@ fn file_json(file: &CoefficientFile) -> serde_json::Value {
     if let Some(l) = &file.lightmap {
         json["lightmap"] = lightmap_json(l);
     }
+    if let Some(p) = &file.probes {
+        // Probe bakes: the "vertices" are the probes; their count and the box they fill.
+        let (lo, hi) = p.positions.iter().fold(
+            (glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY),
+            |(lo, hi), x| (lo.min(*x), hi.max(*x)),
+        );
+        json["probes"] = serde_json::json!({
+            "count": p.positions.len(),
+            "min": lo.to_array(),
+            "max": hi.to_array(),
+        });
+        if let Some(g) = &p.grid {
+            json["probes"]["grid"] = serde_json::json!({
+                "counts": g.counts,
+                "lo": g.lo.to_array(),
+                "hi": g.hi.to_array(),
+            });
+        }
+    }
     json
 }
 

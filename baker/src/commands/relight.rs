@@ -26,6 +26,35 @@ pub struct RelightArgs {
     /// is rendered diffuse; vector bakes take no view.
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_view, allow_hyphen_values = true)]
     view: Option<glam::Vec3>,
+    /// A probe bake (`bake --probes grid:…`) of the scene a rigid object moves through: the
+    /// object (SCENE, FILE: baked alone, in its own frame) is lit by the probes' incident
+    /// radiance at --at, turned into its frame by --turn (docs/probes.md).
+    #[arg(long, requires = "at", conflicts_with = "view")]
+    probes: Option<PathBuf>,
+    /// With --probes: the object's position X,Y,Z in the probes' scene.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_view, allow_hyphen_values = true, requires = "probes")]
+    at: Option<glam::Vec3>,
+    /// With --probes: the object's rotation, about the axis X,Y,Z by DEGREES (default none).
+    #[arg(long, value_name = "X,Y,Z,DEGREES", value_parser = parse_turn, allow_hyphen_values = true, requires = "probes")]
+    turn: Option<glam::DQuat>,
+}
+
+/// An axis and an angle in degrees, `X,Y,Z,DEGREES`, as a unit quaternion.
+fn parse_turn(text: &str) -> Result<glam::DQuat, String> {
+    let numbers: Vec<f64> = text
+        .split(',')
+        .map(|x| x.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("`{text}` is not four numbers X,Y,Z,DEGREES"))?;
+    match numbers[..] {
+        [x, y, z, degrees] if numbers.iter().all(|v| v.is_finite()) => {
+            let axis = glam::DVec3::new(x, y, z)
+                .try_normalize()
+                .ok_or_else(|| format!("`{text}`: the axis must not be zero"))?;
+            Ok(glam::DQuat::from_axis_angle(axis, degrees.to_radians()))
+        }
+        _ => Err(format!("`{text}` is not four finite numbers X,Y,Z,DEGREES")),
+    }
 }
 
 /// Three finite numbers separated by commas.
@@ -48,6 +77,34 @@ pub fn run(args: RelightArgs) -> Result<(), Error> {
     }
     let inputs = [args.scene.clone(), args.file.clone(), args.lights.clone()];
     Output::new(&args.output, &inputs)?;
+    if let (Some(probes), Some(position)) = (&args.probes, args.at) {
+        let placement = prt_baker::export::relight_rigid::Placement {
+            probes,
+            position,
+            rotation: args.turn.unwrap_or_default(),
+        };
+        let relit = prt_baker::export::relight_rigid::relight_rigid(
+            (&args.scene, &args.file),
+            &args.lights,
+            &placement,
+            &args.output,
+            args.exposure,
+        )?;
+        println!(
+            "relit {} vertices of a rigid object at ({}, {}, {}) through the probes {} with {} \
+             light(s) at order {}, largest radiance {:.4} -> {}",
+            relit.vertex_count,
+            position.x,
+            position.y,
+            position.z,
+            probes.display(),
+            relit.light_count,
+            relit.order,
+            relit.max_radiance,
+            args.output.display()
+        );
+        return Ok(());
+    }
     let relit = prt_baker::export::relight::relight_from(
         &args.scene,
         &args.file,

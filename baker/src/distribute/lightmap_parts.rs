@@ -353,6 +353,7 @@ impl PartLightmap {
                 uv1: self.uv1,
                 objects: self.objects,
             }),
+            probes: None,
         }
     }
 }

@@ -357,6 +357,7 @@ impl Part {
             rays: None,
             error_estimate: None,
             lightmap: None,
+            probes: None,
         }
     }
 }

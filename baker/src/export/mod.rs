@@ -8,5 +8,8 @@
 pub mod compress;
 pub mod gltf;
 pub mod numpy;
+pub mod probe_field;
+pub mod probe_npz;
 pub mod relight;
 pub mod relight_glossy;
+pub mod relight_rigid;

@@ -26,6 +26,9 @@ pub fn export_npz(coefficients: &Path, scene: &Path, output: &Path) -> Result<()
     if file.lightmap.is_some() {
         return export_lightmap_npz(coefficients, &file, &scene, output);
     }
+    if file.probes.is_some() {
+        return crate::export::probe_npz::export(coefficients, &file, &scene, output);
+    }
     file.check_scene_of_any_transfer(coefficients, &scene)?;
     let mut inputs = scene.input_files();
     inputs.push(coefficients.to_path_buf());

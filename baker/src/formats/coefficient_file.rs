@@ -15,11 +15,13 @@ use crate::formats::header::{
 };
 use crate::formats::object_placements;
 use crate::formats::part_id::PartId;
+use crate::formats::probe_block::ProbeBlock;
 use crate::support::error::Result;
 
 /// The header is the file's own part: its fields and sizes are named here too.
 pub use crate::formats::header::{
-    Adaptive, HEADER_SIZE, Header, LIGHTMAP_HEADER_SIZE, LIGHTMAP_PART_HEADER_SIZE, MAGIC, VERSION,
+    Adaptive, HEADER_SIZE, Header, LIGHTMAP_HEADER_SIZE, LIGHTMAP_PART_HEADER_SIZE, MAGIC,
+    PROBE_HEADER_SIZE, VERSION,
 };
 
 /// A coefficient file in memory.
@@ -39,6 +41,8 @@ pub struct CoefficientFile {
     /// Texel bakes only: the lightmap's size, validity mask and UVs. The "vertices" of such
     /// a file are the W×H texels, row-major.
     pub lightmap: Option<LightmapBlock>,
+    /// Probe bakes only: the probes' positions and grid; the "vertices" are the probes.
+    pub probes: Option<ProbeBlock>,
 }
 
 /// What a texel bake stores beyond a vertex bake (docs/coefficient-format.md, "Lightmap
@@ -87,13 +91,17 @@ impl LightmapBlock {
 impl CoefficientFile {
     /// Bytes after the header.
     fn payload_bytes(&self) -> u64 {
-        self.header.payload_bytes() + self.lightmap.as_ref().map_or(0, |l| l.payload_bytes())
+        let probes = self.probes.as_ref().map_or(0, ProbeBlock::arrays_bytes);
+        self.header.payload_bytes()
+            + self.lightmap.as_ref().map_or(0, |l| l.payload_bytes())
+            + probes
     }
 
     fn header_size(&self) -> usize {
-        match self.lightmap {
-            Some(_) => LIGHTMAP_HEADER_SIZE,
-            None => HEADER_SIZE,
+        match (&self.lightmap, &self.probes) {
+            (Some(_), _) => LIGHTMAP_HEADER_SIZE,
+            (None, Some(_)) => PROBE_HEADER_SIZE,
+            (None, None) => HEADER_SIZE,
         }
     }
 
@@ -120,6 +128,12 @@ impl CoefficientFile {
             bytes.extend(l.texel_size.to_le_bytes());
             bytes.extend(l.source.code().to_le_bytes());
         }
+        bytes.extend(
+            self.probes
+                .as_ref()
+                .map(ProbeBlock::encode_block)
+                .unwrap_or_default(),
+        );
         bytes.extend(self.coefficients.iter().flat_map(|c| c.to_le_bytes()));
         let ao = self.ao.iter().flatten().copied();
         let bent = self.bent_normal.iter().flatten().flat_map(|n| n.to_array());
@@ -140,6 +154,7 @@ impl CoefficientFile {
                 bytes.extend(object_placements::encode(&l.objects));
             }
         }
+        bytes.extend(self.probes.iter().flat_map(ProbeBlock::encode_arrays));
         debug_assert_eq!(
             bytes.len() as u64,
             self.header_size() as u64 + self.payload_bytes()
@@ -176,7 +191,14 @@ impl CoefficientFile {
             true => Some(LightmapBlock::from_header_bytes(bytes, &header)?),
             false => None,
         };
-        let section = check_payload_size(&header, lightmap.as_ref(), payload)? as usize;
+        let probes = match header_size == PROBE_HEADER_SIZE {
+            true => Some(ProbeBlock::read(bytes, &header, payload)?),
+            false => None,
+        };
+        let section = match probes {
+            Some(_) => 0,
+            None => check_payload_size(&header, lightmap.as_ref(), payload)? as usize,
+        };
         let mut floats = bytes[header_size..]
             .chunks_exact(4)
             .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")));
@@ -207,6 +229,7 @@ impl CoefficientFile {
             rays: arrays.rays,
             error_estimate: arrays.error_estimate,
             lightmap,
+            probes,
         })
     }
 }
@@ -464,6 +487,7 @@ pub(crate) fn bytes_with_payload(header: &Header, shard: &[u8; 20], payload: &[u
         rays: header.adaptive.map(|_| Vec::new()),
         error_estimate: header.adaptive.map(|_| Vec::new()),
         lightmap: None,
+        probes: None,
     };
     let (mut bytes, _) = empty.to_bytes();
     bytes[24..32].copy_from_slice(&header.vertex_count.to_le_bytes());
@@ -511,6 +535,7 @@ pub(crate) fn fixture(
         rays: None,
         error_estimate: None,
         lightmap: None,
+        probes: None,
     }
 }
 
@@ -556,6 +581,7 @@ mod tests {
             rays: Some(vec![256, 4096]),
             error_estimate: Some(vec![5e-4, 2e-3]),
             lightmap: None,
+            probes: None,
         }
     }
 

@@ -12,7 +12,9 @@
 
 use serde_json::json;
 
-use crate::formats::coefficient_file::{CoefficientFile, HEADER_SIZE, LIGHTMAP_HEADER_SIZE, MAGIC};
+use crate::formats::coefficient_file::{
+    CoefficientFile, HEADER_SIZE, LIGHTMAP_HEADER_SIZE, MAGIC, PROBE_HEADER_SIZE,
+};
 use crate::math::cpca::Cpca;
 use crate::math::sh;
 
@@ -113,11 +115,13 @@ pub fn from_bytes(bytes: &[u8]) -> Result<CompressedFile, String> {
     }
     let header_size = u32_at(bytes, 12) as usize;
     let base = header_size.wrapping_sub(BLOCK_SIZE);
-    if base != HEADER_SIZE && base != LIGHTMAP_HEADER_SIZE {
+    if ![HEADER_SIZE, LIGHTMAP_HEADER_SIZE, PROBE_HEADER_SIZE].contains(&base) {
         return Err(format!(
-            "header size {header_size} (version 2 headers are {} bytes, {} for lightmap bakes)",
+            "header size {header_size} (version 2 headers are {} bytes, {} for lightmap bakes, \
+             {} for probe bakes)",
             HEADER_SIZE + BLOCK_SIZE,
-            LIGHTMAP_HEADER_SIZE + BLOCK_SIZE
+            LIGHTMAP_HEADER_SIZE + BLOCK_SIZE,
+            PROBE_HEADER_SIZE + BLOCK_SIZE
         ));
     }
     if bytes.len() < header_size {
@@ -357,6 +361,7 @@ mod tests {
             rays: None,
             error_estimate: None,
             lightmap: None,
+            probes: None,
         }
     }
 

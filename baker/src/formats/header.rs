@@ -19,6 +19,9 @@ pub const LIGHTMAP_HEADER_SIZE: usize = 160;
 /// The header size of a lightmap bake's shard part: the texel block, then the part's atlas
 /// block (`docs/coefficient-format.md`, "Shard parts"); never a whole file's.
 pub const LIGHTMAP_PART_HEADER_SIZE: usize = 192;
+/// The header size of a probe bake (`bake --probes`): the 128 bytes, then the probe block
+/// (`docs/coefficient-format.md`, "Transfer probes").
+pub const PROBE_HEADER_SIZE: usize = 176;
 /// Offset of the CRC-32 (the last 4 bytes of the header).
 pub(crate) const CHECKSUM_OFFSET: usize = 124;
 
@@ -419,10 +422,17 @@ fn check_framing(bytes: &[u8]) -> std::result::Result<(u32, usize, u64), String>
         ));
     }
     let header_size = u32_at(12) as usize;
-    if ![HEADER_SIZE, LIGHTMAP_HEADER_SIZE, LIGHTMAP_PART_HEADER_SIZE].contains(&header_size) {
+    let sizes = [
+        HEADER_SIZE,
+        LIGHTMAP_HEADER_SIZE,
+        LIGHTMAP_PART_HEADER_SIZE,
+        PROBE_HEADER_SIZE,
+    ];
+    if !sizes.contains(&header_size) {
         return Err(format!(
             "header size {header_size} (version {VERSION} headers are {HEADER_SIZE} bytes, \
-             {LIGHTMAP_HEADER_SIZE} for lightmap bakes, {LIGHTMAP_PART_HEADER_SIZE} for their shard parts)"
+             {LIGHTMAP_HEADER_SIZE} for lightmap bakes, {LIGHTMAP_PART_HEADER_SIZE} for their shard parts, \
+             {PROBE_HEADER_SIZE} for probe bakes)"
         ));
     }
     if bytes.len() < header_size {
@@ -652,6 +662,7 @@ mod tests {
             rays: None,
             error_estimate: None,
             lightmap: None,
+            probes: None,
         };
         let (vector_bytes, _) = vector.to_bytes();
         // Mode 1 (shadowed) as the u32 every older reader reads: the kind's bytes are zero.

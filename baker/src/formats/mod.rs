@@ -15,5 +15,7 @@ pub mod openexr;
 pub mod part_id;
 pub mod ply;
 pub mod png;
+pub mod probe_block;
+pub mod probe_points;
 pub mod scene_check;
 pub mod versions;

@@ -47,7 +47,31 @@ impl CoefficientFile {
                 l.width, l.height
             ));
         }
+        if let Some(p) = &self.probes {
+            return mismatch(format!(
+                "a probe bake ({} probes), which this reader does not read (`export --npz`, \
+                 `inspect` and the probe readers do)",
+                p.positions.len()
+            ));
+        }
         self.check_fingerprint(path, scene, self.header.vertex_count)
+    }
+
+    /// Refuses a probe bake made for a different scene, or a file that is not a probe bake;
+    /// returns its probe block.
+    pub fn check_probe_scene(
+        &self,
+        path: &Path,
+        scene: &Scene,
+    ) -> Result<&crate::formats::probe_block::ProbeBlock> {
+        let Some(p) = &self.probes else {
+            return Err(Error::SceneMismatch {
+                path: path.to_path_buf(),
+                message: "not a probe bake (bake --probes)".into(),
+            });
+        };
+        self.check_fingerprint(path, scene, scene.vertex_count() as u64)?;
+        Ok(p)
     }
 
     /// Refuses a lightmap bake made for a different scene, or a vertex bake.
