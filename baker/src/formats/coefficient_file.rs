@@ -15,6 +15,7 @@ use crate::formats::header::{
 };
 use crate::formats::object_placements;
 use crate::formats::part_id::PartId;
+use crate::formats::receiver_objects::ReceiverObjects;
 use crate::support::error::Result;
 
 /// The header is the file's own part: its fields and sizes are named here too.
@@ -140,6 +141,9 @@ impl CoefficientFile {
                 bytes.extend(object_placements::encode(&l.objects));
             }
         }
+        if let Some(r) = &h.receivers {
+            bytes.extend(r.encode());
+        }
         debug_assert_eq!(
             bytes.len() as u64,
             self.header_size() as u64 + self.payload_bytes()
@@ -177,6 +181,10 @@ impl CoefficientFile {
             false => None,
         };
         let section = check_payload_size(&header, lightmap.as_ref(), payload)? as usize;
+        let mut header = header;
+        if header.receivers.is_some() {
+            header.receivers = Some(ReceiverObjects::decode(&bytes[bytes.len() - section..])?);
+        }
         let mut floats = bytes[header_size..]
             .chunks_exact(4)
             .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")));
@@ -227,6 +235,18 @@ fn check_payload_size(
             Some(l) => l.checked_payload_bytes().and_then(|m| n.checked_add(m)),
             None => Some(n),
         });
+    if header.receivers.is_some() {
+        // A receiver section ends a vertex file; texel bakes cover every object.
+        return match (lightmap, needed) {
+            (Some(_), _) => Err("a texel bake with a receiver section (aux bit 4)".into()),
+            (None, Some(n)) if n.checked_add(8).is_some_and(|m| payload >= m) => Ok(payload - n),
+            _ => Err(format!(
+                "{} vertices × {} coefficients and a receiver section need more than the {payload} bytes the header announces",
+                header.vertex_count,
+                header.coefficients_per_vertex()
+            )),
+        };
+    }
     let per_object = lightmap.is_some_and(|l| l.source == AtlasSource::PerObject);
     object_placements::section_bytes(header, needed, payload, per_object)
 }
@@ -504,6 +524,7 @@ pub(crate) fn fixture(
             up: crate::scene::Up::Z,
             checksum: 0,
             adaptive: None,
+            receivers: None,
         },
         coefficients,
         ao: None,
@@ -549,6 +570,7 @@ mod tests {
                     replicates: 16,
                     rays_cast: 256 + 4096,
                 }),
+                receivers: None,
             },
             coefficients: vec![0.25, 0.5],
             ao: Some(vec![0.75, 1.0]),

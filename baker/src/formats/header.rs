@@ -5,6 +5,7 @@
 
 use serde::Serialize;
 
+use crate::formats::receiver_objects::ReceiverObjects;
 use crate::math::sampling::Sampling;
 use crate::math::sh;
 use crate::scene::Up;
@@ -237,6 +238,12 @@ pub struct Header {
     /// Adaptive sampling (`--target-error`, bytes 108..124); `None` for fixed-sample bakes.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub adaptive: Option<Adaptive>,
+    /// A bake of some objects only (`bake --receivers`, aux bit 4): which ones; the vertex
+    /// count and arrays cover their vertices. `None` for a file of every object.
+    /// [`parse_header`] sets an empty placeholder where the bit is set; the file's reader
+    /// fills it from the payload's trailing section.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub receivers: Option<ReceiverObjects>,
 }
 
 /// How an adaptive bake sampled (header bytes 108..124; all zero for fixed sampling). Its
@@ -291,6 +298,8 @@ const AUX_BENT_NORMAL: u32 = 2;
 const AUX_RAYS: u32 = 4;
 const AUX_ERROR_ESTIMATE: u32 = 8;
 const AUX_ADAPTIVE: u32 = AUX_RAYS | AUX_ERROR_ESTIMATE;
+/// A bake of some objects only: a receiver section ends the payload.
+const AUX_RECEIVERS: u32 = 16;
 
 fn aux_flags(aux: Aux) -> u32 {
     (if aux.ao { AUX_AO } else { 0 }) | (if aux.bent_normal { AUX_BENT_NORMAL } else { 0 })
@@ -317,12 +326,21 @@ impl Header {
             } else {
                 0
             }
+            | if self.receivers.is_some() {
+                AUX_RECEIVERS
+            } else {
+                0
+            }
     }
 
     pub(crate) fn payload_bytes(&self) -> u64 {
         self.vertex_count
             * (self.coefficients_per_vertex() + self.aux_floats_per_vertex()) as u64
             * 4
+            + self
+                .receivers
+                .as_ref()
+                .map_or(0, ReceiverObjects::section_bytes)
     }
 }
 
@@ -498,7 +516,7 @@ fn parse_fields(bytes: &[u8], version: u32) -> std::result::Result<Header, Strin
         other => return Err(format!("unknown sampling method {other}")),
     };
     let aux_flags = u32_at(68);
-    if aux_flags & !(AUX_AO | AUX_BENT_NORMAL | AUX_ADAPTIVE) != 0 {
+    if aux_flags & !(AUX_AO | AUX_BENT_NORMAL | AUX_ADAPTIVE | AUX_RECEIVERS) != 0 {
         return Err(format!("unknown auxiliary-array flags {aux_flags:#x}"));
     }
     let aux = Aux {
@@ -546,6 +564,7 @@ fn parse_fields(bytes: &[u8], version: u32) -> std::result::Result<Header, Strin
         up,
         checksum: u32_at(CHECKSUM_OFFSET),
         adaptive,
+        receivers: (aux_flags & AUX_RECEIVERS != 0).then(ReceiverObjects::default),
     };
     Ok(header)
 }
@@ -645,6 +664,7 @@ mod tests {
                 },
                 checksum: 0,
                 adaptive: None,
+                receivers: None,
             },
             coefficients: vec![0.25, 0.5],
             ao: Some(vec![0.75, 1.0]),

@@ -15,5 +15,6 @@ pub mod openexr;
 pub mod part_id;
 pub mod ply;
 pub mod png;
+pub mod receiver_objects;
 pub mod scene_check;
 pub mod versions;

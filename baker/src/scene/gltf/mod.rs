@@ -77,6 +77,7 @@ pub fn load(path: &Path) -> Result<Loaded> {
                 .name()
                 .map_or_else(|| format!("node {n}"), str::to_owned),
             parent: parent[n].map(|p| at[p]),
+            receive: prt_receive(node.extras()),
         });
     }
 
@@ -150,6 +151,13 @@ fn parse(path: &Path, bytes: &[u8]) -> Result<(gltf::Document, Option<Vec<u8>>, 
         None => bytes.to_vec(),
     };
     Ok((document, blob, json_bytes))
+}
+
+/// A node's `extras.prt.receive` (`{"prt": {"receive": false}}`), where it is a boolean;
+/// extras are the application's own, so anything else there is ignored.
+fn prt_receive(extras: &gltf::json::Extras) -> Option<bool> {
+    let value: serde_json::Value = serde_json::from_str(extras.as_ref()?.get()).ok()?;
+    value.get("prt")?.get("receive")?.as_bool()
 }
 
 /// An object's name: its node's, as DCC tools and engines name objects (Blender's object
