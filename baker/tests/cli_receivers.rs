@@ -357,3 +357,41 @@ fn gltf_extras_and_node_names_choose_receivers() {
         "ground centre T0 {under}: no shadow from the cube"
     );
 }
+
+/// Hostile scene structure: a glTF of a few megabytes that places one triangle at a million
+/// nodes is refused before it is flattened (its size named against --max-memory), and a file
+/// that uses EXT_mesh_gpu_instancing, which is not read yet, is baked with a warning that
+/// says its instances were left out.
+#[test]
+fn a_million_instances_are_refused_before_flattening_and_gpu_instancing_warns() {
+    let s = Scratch::new();
+    let triangle = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]];
+    let count = 1_000_000;
+    let nodes = Value::Array(vec![json!({"mesh": 0}); count]);
+    let roots: Vec<usize> = (0..count).collect();
+    s.write("million.gltf", gltf(&[(&triangle, &[0, 1, 2])], nodes, &roots));
+    let run = s.run(&["bake", "million.gltf", "-o", "out/x.prt", "--max-memory", "100"]);
+    run.fails_with_bad_input(&[
+        "million.gltf",
+        "flattening 1000000 mesh nodes into 3000000 vertices and 1000000 triangles",
+        "memory limit",
+    ]);
+    assert!(!s.path("out/x.prt").exists());
+
+    let (ground, ground_triangles, _, _) = ground_and_cube();
+    let mut document: Value = serde_json::from_slice(&gltf(
+        &[(&ground, &ground_triangles)],
+        json!([{"name": "Ground", "mesh": 0}]),
+        &[0],
+    ))
+    .unwrap();
+    document["extensionsUsed"] = json!(["EXT_mesh_gpu_instancing"]);
+    s.write("instanced.gltf", serde_json::to_vec(&document).unwrap());
+    let run = s.run(&["bake", "instanced.gltf", "-o", "out/i.prt", "--samples", "16"]);
+    let run = run.success();
+    assert!(
+        run.stderr.contains("EXT_mesh_gpu_instancing is not read yet"),
+        "{}",
+        run.stderr
+    );
+}
