@@ -291,8 +291,11 @@ fn gltf(meshes: &[(&[[f32; 3]], &[u32])], nodes: Value, roots: &[usize]) -> Vec<
     serde_json::to_vec(&document).unwrap()
 }
 
+/// Positions and triangle indices of a mesh.
+type MeshData = (Vec<[f32; 3]>, Vec<u32>);
+
 /// A ground quad (y up; its vertex 4 at the centre) and a unit cube above it.
-fn ground_and_cube() -> (Vec<[f32; 3]>, Vec<u32>, Vec<[f32; 3]>, Vec<u32>) {
+fn ground_and_cube() -> (MeshData, MeshData) {
     let ground = vec![
         [-2.0, 0.0, -2.0],
         [2.0, 0.0, -2.0],
@@ -313,7 +316,7 @@ fn ground_and_cube() -> (Vec<[f32; 3]>, Vec<u32>, Vec<[f32; 3]>, Vec<u32>) {
         0, 1, 3, 0, 3, 2, 4, 6, 7, 4, 7, 5, 0, 4, 5, 0, 5, 1, 2, 3, 7, 2, 7, 6, 0, 2, 6, 0, 6, 4,
         1, 5, 7, 1, 7, 3,
     ];
-    (ground, ground_triangles, cube, cube_triangles)
+    ((ground, ground_triangles), (cube, cube_triangles))
 }
 
 /// glTF: a node marked `"extras": {"prt": {"receive": false}}` leaves its subtree out of a
@@ -322,7 +325,7 @@ fn ground_and_cube() -> (Vec<[f32; 3]>, Vec<u32>, Vec<[f32; 3]>, Vec<u32>) {
 #[test]
 fn gltf_extras_and_node_names_choose_receivers() {
     let s = Scratch::new();
-    let (ground, ground_triangles, cube, cube_triangles) = ground_and_cube();
+    let ((ground, ground_triangles), (cube, cube_triangles)) = ground_and_cube();
     let nodes = json!([
         {"name": "Ground", "mesh": 0},
         {"name": "Props", "children": [2], "extras": {"prt": {"receive": false}}},
@@ -369,8 +372,18 @@ fn a_million_instances_are_refused_before_flattening_and_gpu_instancing_warns() 
     let count = 1_000_000;
     let nodes = Value::Array(vec![json!({"mesh": 0}); count]);
     let roots: Vec<usize> = (0..count).collect();
-    s.write("million.gltf", gltf(&[(&triangle, &[0, 1, 2])], nodes, &roots));
-    let run = s.run(&["bake", "million.gltf", "-o", "out/x.prt", "--max-memory", "100"]);
+    s.write(
+        "million.gltf",
+        gltf(&[(&triangle, &[0, 1, 2])], nodes, &roots),
+    );
+    let run = s.run(&[
+        "bake",
+        "million.gltf",
+        "-o",
+        "out/x.prt",
+        "--max-memory",
+        "100",
+    ]);
     run.fails_with_bad_input(&[
         "million.gltf",
         "flattening 1000000 mesh nodes into 3000000 vertices and 1000000 triangles",
@@ -378,7 +391,7 @@ fn a_million_instances_are_refused_before_flattening_and_gpu_instancing_warns() 
     ]);
     assert!(!s.path("out/x.prt").exists());
 
-    let (ground, ground_triangles, _, _) = ground_and_cube();
+    let ((ground, ground_triangles), _) = ground_and_cube();
     let mut document: Value = serde_json::from_slice(&gltf(
         &[(&ground, &ground_triangles)],
         json!([{"name": "Ground", "mesh": 0}]),
@@ -387,10 +400,18 @@ fn a_million_instances_are_refused_before_flattening_and_gpu_instancing_warns() 
     .unwrap();
     document["extensionsUsed"] = json!(["EXT_mesh_gpu_instancing"]);
     s.write("instanced.gltf", serde_json::to_vec(&document).unwrap());
-    let run = s.run(&["bake", "instanced.gltf", "-o", "out/i.prt", "--samples", "16"]);
+    let run = s.run(&[
+        "bake",
+        "instanced.gltf",
+        "-o",
+        "out/i.prt",
+        "--samples",
+        "16",
+    ]);
     let run = run.success();
     assert!(
-        run.stderr.contains("EXT_mesh_gpu_instancing is not read yet"),
+        run.stderr
+            .contains("EXT_mesh_gpu_instancing is not read yet"),
         "{}",
         run.stderr
     );

@@ -540,7 +540,7 @@ fn prt_seeds() -> Vec<Vec<u8>> {
         file(header(2, 3, Mode::Interreflected, both, 2)),
         // A bake of some objects: its receiver section ends the payload.
         file(Header {
-            receivers: Some(prt_baker::formats::receiver_objects::ReceiverObjects {
+            receivers: Some(prt_baker::formats::receiver_section::ReceiverObjects {
                 object_count: 3,
                 objects: vec![0, 2],
             }),

@@ -18,6 +18,7 @@ pub mod matrix_bounce;
 pub mod matrix_hits;
 pub mod memory;
 pub mod options;
+pub mod receiver_names;
 pub mod receiver_subset;
 pub mod receivers;
 pub mod transfer;

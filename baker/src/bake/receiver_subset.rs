@@ -14,7 +14,7 @@ use crate::bake::options::{BakeOptions, Mode};
 use crate::bake::receivers::{BounceTargets, Receivers};
 use crate::bake::transfer::{Estimator, Transfer, bake, bake_receivers, tracer_for};
 use crate::formats::coefficient_file::CoefficientFile;
-use crate::formats::receiver_objects::ReceiverObjects;
+use crate::formats::receiver_section::ReceiverObjects;
 use crate::scene::Scene;
 use crate::support::error::Result;
 use crate::support::progress::Progress;

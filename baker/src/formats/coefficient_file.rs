@@ -15,7 +15,7 @@ use crate::formats::header::{
 };
 use crate::formats::object_placements;
 use crate::formats::part_id::PartId;
-use crate::formats::receiver_objects::ReceiverObjects;
+use crate::formats::receiver_section::ReceiverObjects;
 use crate::support::error::Result;
 
 /// The header is the file's own part: its fields and sizes are named here too.

@@ -5,7 +5,7 @@
 
 use serde::Serialize;
 
-use crate::formats::receiver_objects::ReceiverObjects;
+use crate::formats::receiver_section::ReceiverObjects;
 use crate::math::sampling::Sampling;
 use crate::math::sh;
 use crate::scene::Up;
@@ -238,10 +238,8 @@ pub struct Header {
     /// Adaptive sampling (`--target-error`, bytes 108..124); `None` for fixed-sample bakes.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub adaptive: Option<Adaptive>,
-    /// A bake of some objects only (`bake --receivers`, aux bit 4): which ones; the vertex
-    /// count and arrays cover their vertices. `None` for a file of every object.
-    /// [`parse_header`] sets an empty placeholder where the bit is set; the file's reader
-    /// fills it from the payload's trailing section.
+    /// A bake of some objects only (`bake --receivers`, aux bit 4; `None`: every object). The
+    /// reader fills it from the payload's end ([`parse_header`] leaves an empty placeholder).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub receivers: Option<ReceiverObjects>,
 }
@@ -258,38 +256,7 @@ pub struct Adaptive {
     pub rays_cast: u64,
 }
 
-mod as_name {
-    use serde::Serializer;
-
-    pub fn mode<S: Serializer>(m: &super::Mode, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(m.name())
-    }
-    pub fn transfer<S: Serializer>(t: &super::TransferKind, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(t.name())
-    }
-    pub fn backend<S: Serializer>(b: &crate::trace::Backend, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(b.name())
-    }
-    pub fn aux<S: Serializer>(a: &super::Aux, s: S) -> Result<S::Ok, S::Error> {
-        let names = [(a.ao, "ao"), (a.bent_normal, "bent-normal")];
-        s.collect_seq(names.iter().filter(|(on, _)| *on).map(|(_, name)| name))
-    }
-    pub fn sampling<S: Serializer>(
-        m: &crate::math::sampling::Sampling,
-        s: S,
-    ) -> Result<S::Ok, S::Error> {
-        s.serialize_str(m.name())
-    }
-    pub fn hex64<S: Serializer>(x: &u64, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(&format!("{x:016x}"))
-    }
-    pub fn up<S: Serializer>(u: &crate::scene::Up, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(u.name())
-    }
-    pub fn hex32<S: Serializer>(x: &u32, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(&format!("{x:08x}"))
-    }
-}
+mod as_name;
 
 /// Aux flag bits in the header.
 const AUX_AO: u32 = 1;
@@ -326,11 +293,7 @@ impl Header {
             } else {
                 0
             }
-            | if self.receivers.is_some() {
-                AUX_RECEIVERS
-            } else {
-                0
-            }
+            | (u32::from(self.receivers.is_some()) * AUX_RECEIVERS)
     }
 
     pub(crate) fn payload_bytes(&self) -> u64 {

@@ -16,5 +16,6 @@ pub mod part_id;
 pub mod ply;
 pub mod png;
 pub mod receiver_objects;
+pub mod receiver_section;
 pub mod scene_check;
 pub mod versions;

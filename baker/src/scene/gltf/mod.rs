@@ -538,7 +538,9 @@ fn check_flattened_size(path: &Path, placed: &[(gltf::Node, gltf::Mesh, Mat4)]) 
     let (mut vertices, mut triangles) = (0u64, 0u64);
     for (_, mesh, _) in placed {
         for primitive in mesh.primitives() {
-            let count = primitive.get(&gltf::Semantic::Positions).map_or(0, |a| a.count()) as u64;
+            let count = primitive
+                .get(&gltf::Semantic::Positions)
+                .map_or(0, |a| a.count()) as u64;
             let indices = primitive.indices().map_or(count, |a| a.count() as u64);
             vertices = vertices.saturating_add(count);
             triangles = triangles.saturating_add(indices / 3);
