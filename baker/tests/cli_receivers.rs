@@ -55,7 +55,7 @@ fn assert_rows_equal(
     }
 }
 
-/// The oracle: shadowed (both backends) and interreflected bakes of the floor and the tall
+/// The oracle: shadowed (both backends, adaptive, matrix) and interreflected bakes of the floor and the tall
 /// box equal the whole bake at their vertices, so every other object occluded (and
 /// reflected) as in the whole scene; the shadowed part casts only its own vertices' rays.
 #[test]
@@ -65,6 +65,11 @@ fn receivers_bake_exactly_the_whole_bakes_transfer_at_their_vertices() {
     let objects = floor_and_tall_box(&scene);
     let mut cases = vec![
         ("obvhs", vec!["--backend", "obvhs"]),
+        (
+            "adaptive",
+            vec!["--target-error", "0.01", "--samples", "256"],
+        ),
+        ("matrix", vec!["--transfer", "matrix", "--order", "3"]),
         (
             "interreflected",
             vec!["--mode", "interreflected", "--aux", "ao,bent-normal"],
@@ -103,7 +108,7 @@ fn receivers_bake_exactly_the_whole_bakes_transfer_at_their_vertices() {
             "{}",
             run.stdout
         );
-        if name != "interreflected" {
+        if !["interreflected", "adaptive"].contains(&name) {
             let rays = format!("{} rays", rows.len() * 64);
             assert!(run.stdout.contains(&rays), "{name}: {}", run.stdout);
         }
@@ -129,8 +134,8 @@ fn npz_array(path: &std::path::Path, name: &str) -> Option<Vec<f32>> {
 
 /// `export --npz` writes every vertex: the baked rows at the receivers, the unshadowed lobe
 /// (1/π)A_l·y_lm(n) elsewhere, and `receives`; `relight` relights the receivers as the
-/// whole bake's; `inspect` shows the receivers; a matrix bake of some objects exports to npz
-/// only as its rows are refused elsewhere; `compress` refuses such a file.
+/// whole bake's; `inspect` shows the receivers; `compress` refuses such a file, and `export`
+/// a transfer-matrix bake of some objects (whose other vertices are not filled in yet).
 #[test]
 fn export_relight_and_inspect_read_a_bake_of_some_objects() {
     let s = Scratch::new();
@@ -226,11 +231,28 @@ fn export_relight_and_inspect_read_a_bake_of_some_objects() {
         "4",
     ])
     .fails_with(EXIT_BAD_COMMAND_LINE, &["--receivers"]);
+    let matrix = [
+        "--receivers",
+        "floor",
+        "--transfer",
+        "matrix",
+        "--order",
+        "3",
+    ];
+    s.bake(CORNELL, "m.prt", &matrix);
+    s.run(&[
+        "export",
+        "out/m.prt",
+        "--scene",
+        CORNELL,
+        "--npz",
+        "out/m.npz",
+    ])
+    .fails_with_bad_input(&["a transfer-matrix bake of some objects"]);
 }
 
 /// A glob that matches nothing names the scene's objects; `--receivers` with a lightmap or
-/// shards is refused by the command line; a file of some objects is refused for another
-/// scene with as many vertices.
+/// shards is refused by the command line.
 #[test]
 fn receiver_globs_that_match_nothing_and_conflicting_options_are_refused() {
     let s = Scratch::new();

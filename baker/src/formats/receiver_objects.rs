@@ -62,7 +62,7 @@ impl CoefficientFile {
             return Err(Error::SceneMismatch {
                 path: path.to_path_buf(),
                 message: "a transfer-matrix bake of some objects (--receivers), which only \
-                          `export --npz` and `inspect` read so far"
+                          `inspect` reads so far"
                     .into(),
             });
         }
