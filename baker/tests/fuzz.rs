@@ -519,6 +519,7 @@ fn prt_seeds() -> Vec<Vec<u8>> {
             replicates: 16,
             rays_cast: 64 * vertex_count,
         }),
+        receivers: None,
     };
     let file = |h: Header| {
         let v = h.vertex_count as usize;
@@ -549,6 +550,14 @@ fn prt_seeds() -> Vec<Vec<u8>> {
         file(header(2, 1, Mode::Unshadowed, none, 3)),
         file(header(3, 1, Mode::Shadowed, both, 4)),
         file(header(2, 3, Mode::Interreflected, both, 2)),
+        // A bake of some objects: its receiver section ends the payload.
+        file(Header {
+            receivers: Some(prt_baker::formats::receiver_section::ReceiverObjects {
+                object_count: 3,
+                objects: vec![0, 2],
+            }),
+            ..header(3, 1, Mode::Shadowed, both, 4)
+        }),
     ]
 }
 

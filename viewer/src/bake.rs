@@ -60,6 +60,8 @@ impl Bake {
             // Transfer vectors (diffuse PRT) and matrices (glossy PRT) both render.
             file.check_scene_of_any_transfer(file_path, &scene)?;
         }
+        // A bake of some objects (`bake --receivers`): the others are drawn unshadowed.
+        let file = file.spread_to_scene(file_path, &scene)?.into_owned();
         let up = file.header.up;
         if up != Up::Z {
             let to_z_up = up.from_z_up().transpose().as_mat3();

@@ -85,3 +85,40 @@ fn gpu_vertex_radiance_equals_the_cpu_relight_for_rgb_transfer() {
     assert_eq!(bake.channels(), 3);
     compare(&gpu, &bake, "cornell, interreflected, order 6");
 }
+
+/// A bake of some objects (`bake --receivers`): the viewer draws every vertex, the baked
+/// ones with their transfer and the others with the unshadowed lobe, and the GPU's radiance
+/// equals `relight`'s CPU reference for it as for a whole bake.
+#[test]
+fn a_bake_of_some_objects_renders_like_the_cpu_relight() {
+    use prt_baker::bake::receiver_subset::bake_objects;
+    use prt_baker::trace::{EmbreeOptions, EmbreeTracer};
+    use prt_baker::{CoefficientFile, Scene};
+
+    let scene = Scene::load(&common::demo_scene_path()).unwrap();
+    assert!(scene.objects.len() >= 2, "the demo has a torus and a floor");
+    let options = BakeOptions {
+        order: 4,
+        samples: 64,
+        mode: Mode::Shadowed,
+        seed: 1,
+        ..BakeOptions::default()
+    };
+    let tracer = EmbreeTracer::new(&scene, EmbreeOptions::default()).unwrap();
+    let objects = [0u32];
+    let silent = prt_baker::support::progress::Silent;
+    let transfer = bake_objects(&scene, Some(&tracer), &options, &objects, &silent).unwrap();
+    let file = CoefficientFile::from_object_bake(&scene, &transfer, &objects);
+    let rows = file.header.receivers.as_ref().unwrap().vertices(&scene);
+    let bake = prt_viewer::Bake::new(scene.clone(), file.clone(), "part.prt".as_ref()).unwrap();
+    assert_eq!(bake.file.header.vertex_count as usize, scene.vertex_count());
+    assert!(bake.file.header.receivers.is_none());
+    for (r, &v) in rows.iter().enumerate() {
+        assert_eq!(bake.file.vertex(v as usize, 0), file.vertex(r, 0));
+    }
+    let other = scene.objects[1].vertices.start as usize;
+    // Unshadowed: band 0 of the clamped cosine, 1/(2√π).
+    assert!((bake.file.vertex(other, 0)[0] - 0.282_094_8).abs() < 1e-5);
+    let Some(gpu) = common::gpu() else { return };
+    compare(&gpu, &bake, "bake of one object");
+}

@@ -45,6 +45,7 @@ impl Header {
                 replicates: PILOT_BLOCKS as u32,
                 rays_cast,
             }),
+            receivers: None,
         }
     }
 }

@@ -20,5 +20,7 @@ pub mod memory;
 pub mod options;
 pub mod probe_validity;
 pub mod probes;
+pub mod receiver_names;
+pub mod receiver_subset;
 pub mod receivers;
 pub mod transfer;

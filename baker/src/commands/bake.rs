@@ -7,6 +7,8 @@ use clap::ValueEnum;
 use prt_baker::bake::lightmap;
 use prt_baker::bake::memory;
 use prt_baker::bake::options::Aux;
+use prt_baker::bake::receiver_names::receiver_objects;
+use prt_baker::bake::receiver_subset::bake_objects;
 use prt_baker::distribute::checkpoint;
 use prt_baker::distribute::part_baker::PartBaker;
 use prt_baker::distribute::shard::{ShardId, shard_range};
@@ -118,6 +120,15 @@ pub struct BakeArgs {
     /// one another are packed per object either way (docs/lightmaps.md).
     #[arg(long, requires = "lightmap")]
     strict_uvs: bool,
+    /// Bake only the objects whose name, or (glTF) whose node's or an ancestor node's name,
+    /// matches one of these globs (`*`, `?`, `[…]`); the others occlude and, interreflected,
+    /// reflect. Default: every object but those a glTF node marks
+    /// `"extras": {"prt": {"receive": false}}`. The file records the receivers
+    /// (docs/coefficient-format.md). Vertex bakes, whole (not with --lightmap, --shard,
+    /// --checkpoint or compression).
+    #[arg(long, value_name = "GLOB", value_delimiter = ',',
+          conflicts_with_all = ["lightmap", "shard", "checkpoint", "clusters", "pcs"])]
+    receivers: Vec<String>,
     /// Write the bake compressed by clustered PCA into K clusters, as `prt-bake compress`
     /// would (default 64 where only --pcs is given). Not with --shard or --checkpoint:
     /// compress the merged file with `prt-bake compress`.
@@ -281,6 +292,13 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
         scene.up = up.up();
     }
     let output = Output::new(&args.output, &scene.input_files())?;
+    // Whole vertex bakes only (clap refuses --receivers with the others; glTF marks are
+    // not applied to them).
+    let whole_vertex_bake = args.lightmap.is_none() && shard.is_none() && args.checkpoint.is_none();
+    let receivers = match whole_vertex_bake {
+        true => receiver_objects(&scene, &args.receivers)?,
+        false => None,
+    };
     check_memory(&args, &options, &scene)?;
     let tracer = match options.mode.casts_rays() {
         false => None,
@@ -306,14 +324,31 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
         let tracer = tracer.as_deref();
         return bake_in_parts(&args, &scene, tracer, &options, shard, progress.as_ref());
     }
-    let (transfer, file, what) = match args.lightmap {
-        None => {
+    let (transfer, file, what) = match (args.lightmap, receivers) {
+        (None, Some(objects)) => {
+            let transfer = bake_objects(
+                &scene,
+                tracer.as_deref(),
+                &options,
+                &objects,
+                progress.as_ref(),
+            )?;
+            let file = CoefficientFile::from_object_bake(&scene, &transfer, &objects);
+            let what = format!(
+                "{} vertices of {} receiving objects (of {})",
+                transfer.receiver_count,
+                objects.len(),
+                scene.objects.len()
+            );
+            (transfer, file, what)
+        }
+        (None, None) => {
             let transfer = prt_baker::bake(&scene, tracer.as_deref(), &options, progress.as_ref())?;
             let file = CoefficientFile::from_bake(&scene, &transfer);
             let what = format!("{} vertices", transfer.receiver_count);
             (transfer, file, what)
         }
-        Some(resolution) => {
+        (Some(resolution), _) => {
             let tracer = tracer.as_deref();
             bake_texels(
                 &args,

@@ -136,6 +136,12 @@ pub fn compress_file(input: &Path, output: &Path, options: &FitOptions) -> Resul
     if file.header.vertex_count == 0 {
         return Err(Error::coefficient_file(input, "no receivers to compress"));
     }
+    if file.header.receivers.is_some() {
+        return Err(Error::InvalidOption(format!(
+            "{}: a bake of some objects (--receivers), which compress does not read yet",
+            input.display()
+        )));
+    }
     let (cpca, summary) = compress_coefficients(&file, options)?;
     let bytes = crate::formats::cpca_block::to_bytes(&file, &cpca, summary.rms_error as f32);
     out.write(&bytes)?;

@@ -17,7 +17,10 @@ use crate::support::error::Result;
 /// scene has texture coordinates, and, where the file has them, `ao` (V,) and `bent_normal`
 /// (V,3), and for adaptive bakes `rays` (V,; per-vertex rays cast, exact below 2^24) and
 /// `error_estimate` (V,), all float32 in the file's vertex order; and `triangles` (F,3)
-/// uint32 vertex indices. The coefficient file must have been baked for this scene.
+/// uint32 vertex indices. The coefficient file must have been baked for this scene. A bake
+/// of some objects (`bake --receivers`) adds `receives` (V,; 1 baked, 0 not) and holds the
+/// unshadowed transfer at the other vertices ([`CoefficientFile::spread_to_scene`]); a
+/// matrix bake of some objects is refused.
 ///
 /// A lightmap (texel) bake is written as [`export_lightmap_npz`] describes.
 pub fn export_npz(coefficients: &Path, scene: &Path, output: &Path) -> Result<()> {
@@ -34,7 +37,11 @@ pub fn export_npz(coefficients: &Path, scene: &Path, output: &Path) -> Result<()
     inputs.push(coefficients.to_path_buf());
     let output = crate::support::output::Output::new(output, &inputs)?;
     let v = scene.vertex_count();
-    let receivers = Receivers::new(&scene.positions, &scene.normals, &file);
+    // A bake of some objects: every vertex, the others unshadowed, and which were baked.
+    let receives = receives_mask(&file, &scene);
+    let spread = file.spread_to_scene(coefficients, &scene)?;
+    let file = &*spread;
+    let receivers = Receivers::new(&scene.positions, &scene.normals, file);
     let (geometry, aux) = receivers.arrays(&[v], ["positions", "normals"]);
     let albedo = flat3(&scene.vertex_albedo());
     let header = &file.header;
@@ -48,8 +55,15 @@ pub fn export_npz(coefficients: &Path, scene: &Path, output: &Path) -> Result<()
         transfer_array(header, v, &file.coefficients),
     ]);
     arrays.extend(aux);
-    let rays = rays_f32(&file);
-    arrays.extend(adaptive_arrays(&file, rays.as_deref(), &[v]));
+    let rays = rays_f32(file);
+    arrays.extend(adaptive_arrays(file, rays.as_deref(), &[v]));
+    if let Some(receives) = &receives {
+        arrays.push(npz::Array {
+            name: "receives",
+            shape: vec![v],
+            data: receives,
+        });
+    }
     // A scene whose every uv is (0, 0) has none (OBJ without `vt`, glTF without TEXCOORD_0).
     let uv: Vec<f32> = scene.uvs.iter().flat_map(|uv| uv.to_array()).collect();
     if uv.iter().any(|&x| x != 0.0) {
@@ -66,6 +80,17 @@ pub fn export_npz(coefficients: &Path, scene: &Path, output: &Path) -> Result<()
         data: &triangles,
     }];
     output.write(&npz::to_bytes(&arrays, &indices, &[])?)
+}
+
+/// A bake of some objects (`bake --receivers`): 1 at the baked vertices, 0 at the others
+/// (whose exported transfer is the unshadowed lobe); `None` for a bake of every object.
+fn receives_mask(file: &CoefficientFile, scene: &Scene) -> Option<Vec<f32>> {
+    let receivers = file.header.receivers.as_ref()?;
+    let mut mask = vec![0.0; scene.vertex_count()];
+    for v in receivers.vertices(scene) {
+        mask[v as usize] = 1.0;
+    }
+    Some(mask)
 }
 
 /// The coefficients as `transfer` (V, channels, n²), or for a matrix bake as

@@ -131,6 +131,8 @@ pub fn relight_from(
         true => file.check_scene_of_any_transfer(coefficients, &scene)?,
         false => file.check_scene(coefficients, &scene)?,
     }
+    // A bake of some objects (`bake --receivers`): the others are relit unshadowed.
+    let file = file.spread_to_scene(coefficients, &scene)?;
     if image_format(output).is_some() {
         return Err(crate::Error::InvalidOption(format!(
             "{}: a per-vertex bake relights to a .ply mesh; images are for lightmap bakes",

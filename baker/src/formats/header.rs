@@ -5,6 +5,7 @@
 
 use serde::Serialize;
 
+use crate::formats::receiver_section::ReceiverObjects;
 use crate::math::sampling::Sampling;
 use crate::math::sh;
 use crate::scene::Up;
@@ -240,6 +241,10 @@ pub struct Header {
     /// Adaptive sampling (`--target-error`, bytes 108..124); `None` for fixed-sample bakes.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub adaptive: Option<Adaptive>,
+    /// A bake of some objects only (`bake --receivers`, aux bit 4; `None`: every object). The
+    /// reader fills it from the payload's end ([`parse_header`] leaves an empty placeholder).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub receivers: Option<ReceiverObjects>,
 }
 
 /// How an adaptive bake sampled (header bytes 108..124; all zero for fixed sampling). Its
@@ -254,38 +259,7 @@ pub struct Adaptive {
     pub rays_cast: u64,
 }
 
-mod as_name {
-    use serde::Serializer;
-
-    pub fn mode<S: Serializer>(m: &super::Mode, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(m.name())
-    }
-    pub fn transfer<S: Serializer>(t: &super::TransferKind, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(t.name())
-    }
-    pub fn backend<S: Serializer>(b: &crate::trace::Backend, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(b.name())
-    }
-    pub fn aux<S: Serializer>(a: &super::Aux, s: S) -> Result<S::Ok, S::Error> {
-        let names = [(a.ao, "ao"), (a.bent_normal, "bent-normal")];
-        s.collect_seq(names.iter().filter(|(on, _)| *on).map(|(_, name)| name))
-    }
-    pub fn sampling<S: Serializer>(
-        m: &crate::math::sampling::Sampling,
-        s: S,
-    ) -> Result<S::Ok, S::Error> {
-        s.serialize_str(m.name())
-    }
-    pub fn hex64<S: Serializer>(x: &u64, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(&format!("{x:016x}"))
-    }
-    pub fn up<S: Serializer>(u: &crate::scene::Up, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(u.name())
-    }
-    pub fn hex32<S: Serializer>(x: &u32, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(&format!("{x:08x}"))
-    }
-}
+mod as_name;
 
 /// Aux flag bits in the header.
 const AUX_AO: u32 = 1;
@@ -294,6 +268,8 @@ const AUX_BENT_NORMAL: u32 = 2;
 const AUX_RAYS: u32 = 4;
 const AUX_ERROR_ESTIMATE: u32 = 8;
 const AUX_ADAPTIVE: u32 = AUX_RAYS | AUX_ERROR_ESTIMATE;
+/// A bake of some objects only: a receiver section ends the payload.
+const AUX_RECEIVERS: u32 = 16;
 
 fn aux_flags(aux: Aux) -> u32 {
     (if aux.ao { AUX_AO } else { 0 }) | (if aux.bent_normal { AUX_BENT_NORMAL } else { 0 })
@@ -320,12 +296,17 @@ impl Header {
             } else {
                 0
             }
+            | (u32::from(self.receivers.is_some()) * AUX_RECEIVERS)
     }
 
     pub(crate) fn payload_bytes(&self) -> u64 {
         self.vertex_count
             * (self.coefficients_per_vertex() + self.aux_floats_per_vertex()) as u64
             * 4
+            + self
+                .receivers
+                .as_ref()
+                .map_or(0, ReceiverObjects::section_bytes)
     }
 }
 
@@ -508,7 +489,7 @@ fn parse_fields(bytes: &[u8], version: u32) -> std::result::Result<Header, Strin
         other => return Err(format!("unknown sampling method {other}")),
     };
     let aux_flags = u32_at(68);
-    if aux_flags & !(AUX_AO | AUX_BENT_NORMAL | AUX_ADAPTIVE) != 0 {
+    if aux_flags & !(AUX_AO | AUX_BENT_NORMAL | AUX_ADAPTIVE | AUX_RECEIVERS) != 0 {
         return Err(format!("unknown auxiliary-array flags {aux_flags:#x}"));
     }
     let aux = Aux {
@@ -556,6 +537,7 @@ fn parse_fields(bytes: &[u8], version: u32) -> std::result::Result<Header, Strin
         up,
         checksum: u32_at(CHECKSUM_OFFSET),
         adaptive,
+        receivers: (aux_flags & AUX_RECEIVERS != 0).then(ReceiverObjects::default),
     };
     Ok(header)
 }
@@ -655,6 +637,7 @@ mod tests {
                 },
                 checksum: 0,
                 adaptive: None,
+                receivers: None,
             },
             coefficients: vec![0.25, 0.5],
             ao: Some(vec![0.75, 1.0]),

@@ -17,5 +17,7 @@ pub mod ply;
 pub mod png;
 pub mod probe_block;
 pub mod probe_points;
+pub mod receiver_objects;
+pub mod receiver_section;
 pub mod scene_check;
 pub mod versions;

@@ -54,7 +54,29 @@ impl CoefficientFile {
                 p.positions.len()
             ));
         }
-        self.check_fingerprint(path, scene, self.header.vertex_count)
+        let Some(receivers) = &self.header.receivers else {
+            return self.check_fingerprint(path, scene, self.header.vertex_count);
+        };
+        // A bake of some objects (`bake --receivers`): the scene's, with as many objects.
+        if receivers.object_count as usize != scene.objects.len() {
+            return mismatch(format!(
+                "baked for a scene with {} objects, but {} has {}",
+                receivers.object_count,
+                scene.path.display(),
+                scene.objects.len()
+            ));
+        }
+        self.check_fingerprint(path, scene, scene.vertex_count() as u64)?;
+        let expected = receivers.vertex_count(scene);
+        if self.header.vertex_count != expected {
+            return mismatch(format!(
+                "holds {} vertices, but its {} receiving objects have {expected} in {}",
+                self.header.vertex_count,
+                receivers.objects.len(),
+                scene.path.display()
+            ));
+        }
+        Ok(())
     }
 
     /// Refuses a probe bake made for a different scene, or a file that is not a probe bake;

@@ -75,4 +75,8 @@ pub struct Hierarchy {
 pub struct HierarchyNode {
     pub name: String,
     pub parent: Option<u32>,
+    /// The node's `extras.prt.receive` where it sets one: whether a bake without
+    /// `--receivers` bakes transfer for the objects at and below it (the nearest node that
+    /// says decides).
+    pub receive: Option<bool>,
 }

@@ -135,6 +135,8 @@ pub fn export_glb_quantized(
         return Ok(written);
     }
     file.check_scene(coefficients, &scene)?;
+    // A bake of some objects: the others carry the unshadowed lobe.
+    let file = file.spread_to_scene(coefficients, &scene)?;
     let contents = Contents {
         file: Some(&file),
         light: light.as_ref(),

@@ -66,6 +66,7 @@ pub fn load(path: &Path) -> Result<Loaded> {
         .or_else(|| document.scenes().next())
         .ok_or_else(|| fail("the file has no scene".into()))?;
     let (placed, visited, parent) = flatten(&document, &scene).map_err(fail)?;
+    check_flattened_size(path, &placed)?;
     // Nodes in visiting order (parents first), by their index in the file.
     let mut at = vec![u32::MAX; document.nodes().len()];
     let mut hierarchy = Hierarchy::default();
@@ -77,6 +78,7 @@ pub fn load(path: &Path) -> Result<Loaded> {
                 .name()
                 .map_or_else(|| format!("node {n}"), str::to_owned),
             parent: parent[n].map(|p| at[p]),
+            receive: prt_receive(node.extras()),
         });
     }
 
@@ -98,6 +100,16 @@ pub fn load(path: &Path) -> Result<Loaded> {
         warnings: Vec::new(),
         hierarchy,
     };
+    if document
+        .extensions_used()
+        .any(|e| e == "EXT_mesh_gpu_instancing")
+    {
+        loaded.warnings.push(
+            "EXT_mesh_gpu_instancing is not read yet: each instanced node bakes its mesh once, \
+             at the node, without the instances"
+                .into(),
+        );
+    }
     for (node, mesh, world) in placed {
         let primitive_count = mesh.primitives().len();
         for primitive in mesh.primitives() {
@@ -150,6 +162,13 @@ fn parse(path: &Path, bytes: &[u8]) -> Result<(gltf::Document, Option<Vec<u8>>, 
         None => bytes.to_vec(),
     };
     Ok((document, blob, json_bytes))
+}
+
+/// A node's `extras.prt.receive` (`{"prt": {"receive": false}}`), where it is a boolean;
+/// extras are the application's own, so anything else there is ignored.
+fn prt_receive(extras: &gltf::json::Extras) -> Option<bool> {
+    let value: serde_json::Value = serde_json::from_str(extras.as_ref()?.get()).ok()?;
+    value.get("prt")?.get("receive")?.as_bool()
 }
 
 /// An object's name: its node's, as DCC tools and engines name objects (Blender's object
@@ -504,6 +523,40 @@ fn flatten<'a>(
         }
     }
     Ok((out, visited, parent))
+}
+
+/// Bytes a flattened vertex and triangle take while a scene loads: position, normal and
+/// uv in the primitive read and again in the scene, the computed normals, the material index;
+/// a triangle's indices, before and after the world transform.
+const FLATTENED_VERTEX_BYTES: u64 = 2 * (12 + 12 + 8) + 12 + 4;
+const FLATTENED_TRIANGLE_BYTES: u64 = 2 * 12;
+
+/// Refuses, before any mesh is read, a scene whose flattened geometry would not fit the
+/// memory limit: every mesh node is a copy of its mesh in world space, so a file of a few
+/// megabytes that places one mesh at a million nodes asks for gigabytes.
+fn check_flattened_size(path: &Path, placed: &[(gltf::Node, gltf::Mesh, Mat4)]) -> Result<()> {
+    let (mut vertices, mut triangles) = (0u64, 0u64);
+    for (_, mesh, _) in placed {
+        for primitive in mesh.primitives() {
+            let count = primitive
+                .get(&gltf::Semantic::Positions)
+                .map_or(0, |a| a.count()) as u64;
+            let indices = primitive.indices().map_or(count, |a| a.count() as u64);
+            vertices = vertices.saturating_add(count);
+            triangles = triangles.saturating_add(indices / 3);
+        }
+    }
+    let needed = vertices
+        .checked_mul(FLATTENED_VERTEX_BYTES)
+        .and_then(|v| v.checked_add(triangles.checked_mul(FLATTENED_TRIANGLE_BYTES)?));
+    crate::support::limits::check(
+        path.display().to_string(),
+        &format!(
+            "flattening {} mesh nodes into {vertices} vertices and {triangles} triangles",
+            placed.len()
+        ),
+        needed,
+    )
 }
 
 /// What [`flatten`] returns: the mesh nodes with their world transforms, every node visited
