@@ -23,6 +23,8 @@
 
 mod builder;
 mod cpca;
+mod extras;
+mod glossy;
 mod light;
 mod objects;
 mod seams;
@@ -33,6 +35,7 @@ use glam::{DMat3, Vec2, Vec3};
 use serde_json::{Value, json};
 
 use crate::formats::coefficient_file::CoefficientFile;
+use crate::formats::header::TransferKind;
 use crate::light::{LightCoefficients, Rig};
 use crate::math::cpca::Cpca;
 use crate::math::sh::{self, rotation::ShRotation};
@@ -42,7 +45,8 @@ use crate::support::error::Result;
 pub use builder::Quantize;
 use builder::*;
 use cpca::{CLUSTER_ATTRIBUTE, CompressedTransfer, compressed_transfer, read_maybe_compressed};
-use light::{light_in_gltf_frame, light_json};
+use extras::asset_extras;
+use light::light_in_gltf_frame;
 use seams::ao_png_bytes;
 pub use seams::split_at_lightmap_seams;
 
@@ -134,7 +138,10 @@ pub fn export_glb_quantized(
         output.write(&bytes)?;
         return Ok(written);
     }
-    file.check_scene(coefficients, &scene)?;
+    if file.header.transfer == TransferKind::Matrix {
+        glossy::check_compressed(&file, coefficients, cpca.as_ref())?;
+    }
+    file.check_scene_of_any_transfer(coefficients, &scene)?;
     let contents = Contents {
         file: Some(&file),
         light: light.as_ref(),
@@ -280,7 +287,11 @@ fn vertex_transfer(
     let channels = file.header.channels as usize;
     let per_channel = sh::coeff_count(order).div_ceil(4);
     let rotation = ShRotation::from_matrix(order, arrays.turn);
+    let matrix = file.header.transfer == TransferKind::Matrix;
     let colour = contents.light.map(|light| {
+        if matrix {
+            return glossy::diffuse_colour(file, cpca, scene, light);
+        }
         let ones = vec![Vec3::ONE; scene.vertex_count()];
         crate::export::relight::vertex_radiance(file, &ones, light)
             .iter()
@@ -288,8 +299,13 @@ fn vertex_transfer(
             .collect()
     });
     if let Some(cpca) = cpca {
-        let mut compressed =
-            compressed_transfer(cpca, order, channels, arrays.turned.then_some(&rotation));
+        let mut compressed = compressed_transfer(
+            cpca,
+            order,
+            channels,
+            arrays.turned.then_some(&rotation),
+            matrix,
+        );
         return VertexTransfer {
             names: compressed.names.clone(),
             arrays: std::mem::take(&mut compressed.weights),
@@ -496,84 +512,6 @@ fn meshes(
     meshes
 }
 
-/// Step 5: `asset.extras.prt`, the conventions and what the file holds.
-fn asset_extras(
-    contents: &Contents<'_>,
-    transfer: &VertexTransfer,
-    lightmap: Option<&LightmapContents<'_>>,
-    materials: &Materials,
-    cpca: Option<Value>,
-) -> Option<Value> {
-    if let Some(file) = contents.file {
-        let h = &file.header;
-        let mut prt = json!({
-            "order": h.order,
-            "channels": h.channels,
-            "attributes": transfer.names,
-            "coefficients_per_channel": sh::coeff_count(h.order as usize),
-            "convention": "real orthonormal SH, index l(l+1)+m, Condon-Shortley phase, of \
-                directions in this file's coordinates (theta from +z, phi from +x towards +y); \
-                transfer excludes the albedo (the base colour)",
-            "mode": h.mode.name(),
-            "colour_0": if transfer.colour.is_some() { "transfer . light per channel, clamped to [0, 1]; times the base colour it is the relit radiance" } else { "absent" },
-        });
-        if transfer.ao.is_some() {
-            prt["ao"] = json!("_AO: SCALAR float, the ambient accessibility per vertex");
-        }
-        if let Some(light) = contents.light {
-            prt["light"] = light_json(&light_in_gltf_frame(light, contents.up));
-        }
-        if let Some(cpca) = cpca {
-            prt["cpca"] = cpca;
-        }
-        if let Some((q, scales)) = &transfer.quantized {
-            let scales: serde_json::Map<String, Value> = transfer
-                .names
-                .iter()
-                .zip(scales)
-                .map(|(name, scale)| (name.clone(), json!(scale)))
-                .collect();
-            prt["quantization"] = json!({
-                "bits": q.bits(),
-                "scales": scales,
-                "decode": "transfer = attribute (normalized signed integer, in [-1, 1]) x its scale",
-            });
-        }
-        return Some(json!({ "prt": prt }));
-    }
-    let l = lightmap?;
-    let h = &l.file.header;
-    let mut lightmap_json = json!({
-        "width": l.width,
-        "height": l.height,
-        "texCoord": 1,
-        "uv_convention": "glTF's: v down from the image's top; row 0 of the \
-            lightmap images prt-bake writes (export --exr, relight) is v = 0",
-        "transfer": "per texel, not in this file: prt-bake export --exr writes it \
-            as images (manifest.json)",
-        "texture": materials.lightmap_texture,
-        "texture_holds": if materials.lightmap_texture.is_some() { "transfer . light per channel (albedo 1), clamped to [0, 1], sRGB-encoded; times the base colour it is the relit radiance" } else { "absent" },
-    });
-    if let Some(t) = materials.lightmap_texture {
-        lightmap_json["material_slot"] = json!(format!(
-            "every material's baseColorTexture (texCoord 1), unlit (KHR_materials_unlit): texture {t}"
-        ));
-    }
-    if let Some(t) = materials.occlusion_texture {
-        lightmap_json["ao_texture"] = json!(t);
-    }
-    let mut prt = json!({
-        "order": h.order,
-        "channels": h.channels,
-        "mode": h.mode.name(),
-        "lightmap": lightmap_json,
-    });
-    if let Some(light) = &l.light {
-        prt["light"] = light_json(light);
-    }
-    Some(json!({ "prt": prt }))
-}
-
 /// Step 6: the glTF JSON document.
 fn document(
     scene: &Scene,
@@ -650,7 +588,10 @@ fn glb_bytes_with(
         buffer_views: Vec::new(),
         accessors: Vec::new(),
     };
-    let materials = materials(&mut b, scene, transfer.colour.is_some(), lightmap)?;
+    let mut materials = materials(&mut b, scene, transfer.colour.is_some(), lightmap)?;
+    if let Some(file) = contents.file {
+        glossy::add_material_extras(&mut materials.materials, scene, &file.header);
+    }
     let meshes = meshes(&mut b, scene, &arrays, &transfer);
     let clusters = transfer.cpca.as_ref().map(|c| c.write_clusters(&mut b));
     let extras = asset_extras(contents, &transfer, lightmap, &materials, clusters);
