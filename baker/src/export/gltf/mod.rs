@@ -23,9 +23,9 @@
 
 mod builder;
 mod cpca;
-mod extras;
 mod glossy;
 mod light;
+mod material;
 mod objects;
 mod seams;
 
@@ -45,8 +45,8 @@ use crate::support::error::Result;
 pub use builder::Quantize;
 use builder::*;
 use cpca::{CLUSTER_ATTRIBUTE, CompressedTransfer, compressed_transfer, read_maybe_compressed};
-use extras::asset_extras;
-use light::light_in_gltf_frame;
+use light::{light_in_gltf_frame, light_json};
+use material::material;
 use seams::ao_png_bytes;
 pub use seams::split_at_lightmap_seams;
 
@@ -407,44 +407,6 @@ fn materials(
     })
 }
 
-/// One material: base colour Kd (× its texture), metallic 0, roughness 1; unlit when the
-/// file carries the relit light. A texel bake's relit lightmap takes the base colour texture
-/// slot on TEXCOORD_1 (the albedo texture, if any, is then named in
-/// `extras.prt_albedo_texture`), its AO the occlusion slot on TEXCOORD_1.
-fn material(
-    m: &crate::scene::Material,
-    unlit: bool,
-    lightmap_texture: Option<usize>,
-    occlusion_texture: Option<usize>,
-) -> Value {
-    // glTF's factor is at most 1 (a reflectance); an OBJ's Kd may exceed it.
-    let kd = m.kd.clamp(Vec3::ZERO, Vec3::ONE);
-    let mut pbr = json!({
-        "baseColorFactor": [kd.x, kd.y, kd.z, 1.0],
-        "metallicFactor": 0.0,
-        "roughnessFactor": 1.0,
-    });
-    match (lightmap_texture, m.texture) {
-        (Some(t), _) => pbr["baseColorTexture"] = json!({"index": t, "texCoord": 1}),
-        (None, Some(t)) => pbr["baseColorTexture"] = json!({"index": t}),
-        (None, None) => {}
-    }
-    let mut material = json!({"name": m.name, "pbrMetallicRoughness": pbr});
-    if unlit {
-        material["extensions"] = json!({"KHR_materials_unlit": {}});
-    }
-    if let Some(t) = occlusion_texture {
-        material["occlusionTexture"] = json!({"index": t, "texCoord": 1});
-    }
-    if let Some(t) = lightmap_texture {
-        material["extras"] = json!({"prt_lightmap": {"index": t, "texCoord": 1}});
-        if let Some(albedo) = m.texture {
-            material["extras"]["prt_albedo_texture"] = json!({"index": albedo, "texCoord": 0});
-        }
-    }
-    material
-}
-
 /// Step 4: one mesh of one triangle-list primitive per scene object, its attributes sliced
 /// from the arrays.
 fn meshes(
@@ -510,6 +472,89 @@ fn meshes(
         }));
     }
     meshes
+}
+
+/// Step 5: `asset.extras.prt`, the conventions and what the file holds.
+fn asset_extras(
+    contents: &Contents<'_>,
+    transfer: &VertexTransfer,
+    lightmap: Option<&LightmapContents<'_>>,
+    materials: &Materials,
+    cpca: Option<Value>,
+) -> Option<Value> {
+    if let Some(file) = contents.file {
+        let h = &file.header;
+        let mut prt = json!({
+            "order": h.order,
+            "channels": h.channels,
+            "attributes": transfer.names,
+            "coefficients_per_channel": sh::coeff_count(h.order as usize),
+            "convention": "real orthonormal SH, index l(l+1)+m, Condon-Shortley phase, of \
+                directions in this file's coordinates (theta from +z, phi from +x towards +y); \
+                transfer excludes the albedo (the base colour)",
+            "mode": h.mode.name(),
+            "transfer": h.transfer.name(),
+            "colour_0": match (transfer.colour.is_some(), h.transfer) {
+                (false, _) => "absent",
+                (true, TransferKind::Vector) => "transfer . light per channel, clamped to [0, 1]; times the base colour it is the relit radiance",
+                (true, TransferKind::Matrix) => "the diffuse render (the glossy layers left out) per channel with albedo 1, clamped to [0, 1]; times the base colour it is the diffuse radiance",
+            },
+        });
+        if transfer.ao.is_some() {
+            prt["ao"] = json!("_AO: SCALAR float, the ambient accessibility per vertex");
+        }
+        if let Some(light) = contents.light {
+            prt["light"] = light_json(&light_in_gltf_frame(light, contents.up));
+        }
+        if let Some(cpca) = cpca {
+            prt["cpca"] = cpca;
+        }
+        if let Some((q, scales)) = &transfer.quantized {
+            let scales: serde_json::Map<String, Value> = transfer
+                .names
+                .iter()
+                .zip(scales)
+                .map(|(name, scale)| (name.clone(), json!(scale)))
+                .collect();
+            prt["quantization"] = json!({
+                "bits": q.bits(),
+                "scales": scales,
+                "decode": "transfer = attribute (normalized signed integer, in [-1, 1]) x its scale",
+            });
+        }
+        return Some(json!({ "prt": prt }));
+    }
+    let l = lightmap?;
+    let h = &l.file.header;
+    let mut lightmap_json = json!({
+        "width": l.width,
+        "height": l.height,
+        "texCoord": 1,
+        "uv_convention": "glTF's: v down from the image's top; row 0 of the \
+            lightmap images prt-bake writes (export --exr, relight) is v = 0",
+        "transfer": "per texel, not in this file: prt-bake export --exr writes it \
+            as images (manifest.json)",
+        "texture": materials.lightmap_texture,
+        "texture_holds": if materials.lightmap_texture.is_some() { "transfer . light per channel (albedo 1), clamped to [0, 1], sRGB-encoded; times the base colour it is the relit radiance" } else { "absent" },
+    });
+    if let Some(t) = materials.lightmap_texture {
+        lightmap_json["material_slot"] = json!(format!(
+            "every material's baseColorTexture (texCoord 1), unlit (KHR_materials_unlit): texture {t}"
+        ));
+    }
+    if let Some(t) = materials.occlusion_texture {
+        lightmap_json["ao_texture"] = json!(t);
+    }
+    let mut prt = json!({
+        "order": h.order,
+        "channels": h.channels,
+        "mode": h.mode.name(),
+        "lightmap": lightmap_json,
+    });
+    if let Some(light) = &l.light {
+        prt["light"] = light_json(light);
+    }
+    Some(json!({ "prt": prt }))
 }
 
 /// Step 6: the glTF JSON document.
