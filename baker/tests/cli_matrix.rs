@@ -70,8 +70,9 @@ fn a_matrix_bake_is_inspected_exported_and_refused_where_unsupported() {
         }
     }
 
-    // `relight` reads matrix bakes (tests/cli_glossy.rs); glTF export does not yet.
-    let refusal = "a transfer-matrix bake (--transfer matrix)";
+    // glTF export takes a matrix bake only compressed (docs/gltf.md, "Glossy transfer"), and
+    // says how to compress it.
+    let refusal = "an uncompressed transfer-matrix bake (256 floats per vertex";
     s.run(&[
         "export",
         "out/m.prt",

@@ -99,14 +99,18 @@ export async function loadCompressedTransfer(gltf) {
   const cpca = gltf?.parser?.json?.asset?.extras?.prt?.cpca;
   if (!cpca) return null;
   const { clusters, pcs, dim, order, channels } = cpca;
-  if (![clusters, pcs, dim, order].every(Number.isInteger) || ![1, 3].includes(channels) || dim !== channels * coeffCount(order)) {
+  // A transfer-matrix (glossy) bake's vectors are n² × n² matrices: applyGlossyPRT.
+  const matrix = cpca.transfer === 'matrix';
+  const perChannel = matrix ? coeffCount(order) ** 2 : coeffCount(order);
+  if (![clusters, pcs, dim, order].every(Number.isInteger) || ![1, 3].includes(channels) || dim !== channels * perChannel) {
     throw new Error('prt: asset.extras.prt.cpca: clusters, pcs, dim, order and channels do not fit together');
   }
   const [means, bases] = await Promise.all([cpca.means, cpca.bases].map((i) => gltf.parser.getDependency('accessor', i)));
   if (means.array.length !== clusters * dim || bases.array.length !== clusters * pcs * dim) {
     throw new Error(`prt: asset.extras.prt.cpca: ${means.array.length} mean and ${bases.array.length} component floats, expected ${clusters * dim} and ${clusters * pcs * dim}`);
   }
-  return { clusters, pcs, dim, order, channels, means: means.array, bases: bases.array };
+  const glossy = matrix ? { transfer: 'matrix', diffuseBands: cpca.diffuse_bands } : {};
+  return { clusters, pcs, dim, order, channels, means: means.array, bases: bases.array, ...glossy };
 }
 
 // Texels of the per-cluster light texture per row.
@@ -254,6 +258,7 @@ function albedoMaterial(source) {
  *                  _PRT_CLUSTER and _PRT_Wk attributes are relit from them
  */
 export function applyPRT(rootOrGltf, light, options = {}) {
+  if (options.cpca?.transfer === 'matrix') return applyGlossyPRT(rootOrGltf, light, options);
   // A GLTFLoader result brings its asset.extras.prt (the quantization scales) along.
   const isGltf = Boolean(rootOrGltf?.scene && rootOrGltf?.asset);
   const root = isGltf ? rootOrGltf.scene : rootOrGltf;
@@ -366,4 +371,230 @@ function relitMaterials(object, uniforms, patch, perVertex, key, clamp) {
   });
   object.material = Array.isArray(original) ? made : made[0];
   return { original, made };
+}
+
+// ---------------------------------------------------------------------------------------------
+// Glossy PRT: a CPCA-compressed transfer-matrix bake (docs/gltf.md, "Glossy transfer";
+// docs/glossy.md for the formula). Per vertex and channel c, with L′ = M·L_c its shadowed
+// incident radiance (n² coefficients),
+//
+//   radiance_c = albedo_c · w · Σ_lm ĝ_l(1) L′_lm y_lm(n)  +  ks_c · Σ_lm ĝ_l(s) L′_lm y_lm(r)
+//
+// r the mirror direction of the unit vector towards the camera about the normal: `prt-bake
+// relight --view`'s formula, evaluated per vertex in the vertex shader (so the highlight
+// moves as the camera does) and interpolated. L′ comes from the clusters: per frame the light
+// is projected through each cluster's mean and components (K·(M + 1) matrix-vector products
+// per channel, on the CPU), and each vertex adds M + 1 of those n²-vectors with its weights.
+
+// The light projected through every cluster's mean and components: n² values per (cluster k,
+// row r, channel c), packed 4 to a texel from texel ((k·(M + 1) + r)·3 + c)·⌈n²/4⌉.
+function glossyClusterLight(cpca, light, texture = null) {
+  const { clusters, pcs, dim, order, channels, means, bases } = cpca;
+  const n = coeffCount(order);
+  const groups = Math.ceil(n / 4);
+  const fitted = lightOfOrder(light, order);
+  const count = clusters * (pcs + 1) * 3 * groups;
+  const width = Math.min(count, CLUSTER_ROW);
+  const height = Math.ceil(count / width);
+  const data = texture ? texture.image.data : new Float32Array(4 * width * height);
+  for (let k = 0; k < clusters; k++) {
+    for (let r = 0; r <= pcs; r++) {
+      const at = r === 0 ? k * dim : ((k * pcs) + r - 1) * dim;
+      for (let c = 0; c < 3; c++) {
+        const matrix = at + (channels === 1 ? 0 : c * n * n);
+        const source = r === 0 ? means : bases;
+        const l = fitted.rgb[c];
+        const texel = 4 * (((k * (pcs + 1) + r) * 3 + c) * groups);
+        for (let i = 0; i < 4 * groups; i++) {
+          let sum = 0;
+          if (i < n) for (let j = 0; j < n; j++) sum += source[matrix + i * n + j] * l[j];
+          data[texel + i] = sum;
+        }
+      }
+    }
+  }
+  if (texture) {
+    texture.needsUpdate = true;
+    return texture;
+  }
+  const made = new THREE.DataTexture(data, width, height, THREE.RGBAFormat, THREE.FloatType);
+  made.magFilter = THREE.NearestFilter;
+  made.minFilter = THREE.NearestFilter;
+  made.generateMipmaps = false;
+  made.needsUpdate = true;
+  return made;
+}
+
+// A GLSL literal of a JS number.
+const glslFloat = (x) => {
+  const text = Number(x).toPrecision(17);
+  return /[.e]/.test(text) ? text : `${text}.0`;
+};
+
+// GLSL of `void prtBasis(vec3 d, out vec4 y[G])`: the real SH y_i(d), i < n², packed 4 to a
+// vec4 (unused lanes 0), by the baker's recurrence (baker/src/math/sh/basis.rs: Q_l^m with
+// the Condon–Shortley phase, times Re/Im (x + iy)^m), unrolled with its constants.
+function shBasisGlsl(order) {
+  const n = coeffCount(order);
+  const groups = Math.ceil(n / 4);
+  const factorial = (k) => (k <= 1 ? 1 : k * factorial(k - 1));
+  const scale = (l, m) => Math.sqrt(((2 * l + 1) / (4 * Math.PI)) * (factorial(l - m) / factorial(l + m))) * (m === 0 ? 1 : Math.SQRT2);
+  const lines = [`void prtBasis(vec3 d, out vec4 y[${groups}]) {`, `  float v[${4 * groups}];`];
+  lines.push(`  for (int i = ${n}; i < ${4 * groups}; i++) v[i] = 0.0;`);
+  lines.push('  float c = 1.0, s = 0.0, t, q, q1, q2;');
+  let qmm = 1;
+  for (let m = 0; m < order; m++) {
+    if (m > 0) {
+      lines.push('  t = c * d.x - s * d.y; s = c * d.y + s * d.x; c = t;');
+      qmm *= -(2 * m - 1);
+    }
+    lines.push(`  q2 = 0.0; q1 = ${glslFloat(qmm)};`);
+    for (let l = m; l < order; l++) {
+      if (l === m) lines.push(`  q = ${glslFloat(qmm)};`);
+      else if (l === m + 1) lines.push(`  q = d.z * ${glslFloat((2 * m + 1) * qmm)};`);
+      else lines.push(`  q = (d.z * ${glslFloat(2 * l - 1)} * q1 - ${glslFloat(l + m - 1)} * q2) / ${glslFloat(l - m)};`);
+      if (l > m) lines.push('  q2 = q1; q1 = q;');
+      const k = glslFloat(scale(l, m));
+      if (m === 0) lines.push(`  v[${l * (l + 1)}] = ${k} * q;`);
+      else lines.push(`  v[${l * (l + 1) + m}] = ${k} * q * c; v[${l * (l + 1) - m}] = ${k} * q * s;`);
+    }
+  }
+  lines.push(`  for (int g = 0; g < ${groups}; g++) y[g] = vec4(v[4 * g], v[4 * g + 1], v[4 * g + 2], v[4 * g + 3]);`, '}');
+  return lines.join('\n');
+}
+
+// Per coefficient i < n², the factor of its band l (⌊√i⌋), as vec4s padded with 0.
+function bandUniform(bands, order) {
+  const n = coeffCount(order);
+  const groups = Math.ceil(n / 4);
+  return Array.from({ length: groups }, (_, g) => new THREE.Vector4(...[0, 1, 2, 3].map((j) => {
+    const i = 4 * g + j;
+    return i < n ? bands[Math.floor(Math.sqrt(i + 0.5))] : 0;
+  })));
+}
+
+function glossyShaderPatch(cpca, weights) {
+  const groups = Math.ceil(coeffCount(cpca.order) / 4);
+  const perRow = 3 * groups;
+  const width = Math.min(cpca.clusters * (cpca.pcs + 1) * perRow, CLUSTER_ROW);
+  const adds = [];
+  for (let i = 0; i < cpca.pcs; i++) {
+    adds.push(`for (int i = 0; i < ${perRow}; i++) prtL[i] += ${weights[Math.floor(i / 4)]}.${'xyzw'[i % 4]} * prtFetch(prtBase + ${(i + 1) * perRow} + i);`);
+  }
+  return {
+    declarations: `attribute float _prt_cluster;\n${weights.map((w) => `attribute vec4 ${w};`).join('\n')}
+uniform highp sampler2D prtClusterLight;
+uniform vec4 prtDiffuseBands[${groups}];
+uniform vec4 prtGlossyBands[${groups}];
+uniform vec3 prtKs;
+uniform float prtDiffuseWeight;
+varying vec3 vPrtDiffuse;
+varying vec3 vPrtGlossy;
+vec4 prtFetch(int i) { return texelFetch(prtClusterLight, ivec2(i % ${width}, i / ${width}), 0); }
+${shBasisGlsl(cpca.order)}
+`,
+    body: `vec4 prtL[${perRow}];
+int prtBase = int(_prt_cluster + 0.5) * ${(cpca.pcs + 1) * perRow};
+for (int i = 0; i < ${perRow}; i++) prtL[i] = prtFetch(prtBase + i);
+${adds.join('\n')}
+vec3 prtN = normalize(normal);
+vec3 prtToEye = normalize(cameraPosition - (modelMatrix * vec4(transformed, 1.0)).xyz);
+vec3 prtR = normalize(2.0 * dot(prtN, prtToEye) * prtN - prtToEye);
+vec4 prtYn[${groups}];
+vec4 prtYr[${groups}];
+prtBasis(prtN, prtYn);
+prtBasis(prtR, prtYr);
+for (int c = 0; c < 3; c++) {
+  float diffuse = 0.0;
+  float glossy = 0.0;
+  for (int g = 0; g < ${groups}; g++) {
+    diffuse += dot(prtL[c * ${groups} + g], prtYn[g] * prtDiffuseBands[g]);
+    glossy += dot(prtL[c * ${groups} + g], prtYr[g] * prtGlossyBands[g]);
+  }
+  vPrtDiffuse[c] = prtDiffuseWeight * diffuse;
+  vPrtGlossy[c] = prtKs[c] * glossy;
+}
+`,
+  };
+}
+
+/**
+ * Glossy PRT for a CPCA-compressed transfer-matrix bake (its export; `applyPRT` hands such a
+ * file here): `options.cpca` from `loadCompressedTransfer(gltf)` is required. Every mesh with
+ * `_PRT_CLUSTER` gets a MeshBasicMaterial (base colour and texture copied) whose colour is
+ * albedo · w · diffuse + ks · glossy, per vertex from the camera's position (three's
+ * `cameraPosition`, each frame), with w, ks and the lobe's band factors from the source
+ * material's `extras.prt_glossy` (a material without it is diffuse: w = 1, ks = 0). The
+ * geometry and the transfer are in the file's frame: move the model, do not turn it (turn
+ * the light instead). Options: `exposure` (EV). Returns the handle `applyPRT` returns.
+ */
+export function applyGlossyPRT(rootOrGltf, light, options = {}) {
+  const isGltf = Boolean(rootOrGltf?.scene && rootOrGltf?.asset);
+  const root = isGltf ? rootOrGltf.scene : rootOrGltf;
+  const cpca = options.cpca;
+  if (cpca?.transfer !== 'matrix') throw new Error('prt: applyGlossyPRT needs options.cpca = await loadCompressedTransfer(gltf) of a transfer-matrix export');
+  if (!Array.isArray(cpca.diffuseBands) || cpca.diffuseBands.length !== cpca.order) throw new Error('prt: asset.extras.prt.cpca.diffuse_bands: not one factor per band');
+  const clusterTexture = { value: glossyClusterLight(cpca, light) };
+  const shared = {
+    prtClusterLight: clusterTexture,
+    prtDiffuseBands: { value: bandUniform(cpca.diffuseBands, cpca.order) },
+    prtExposure: { value: 2 ** (options.exposure ?? 0) },
+  };
+  const weights = Array.from({ length: Math.ceil(cpca.pcs / 4) }, (_, k) => `_prt_w${k}`);
+  const patch = glossyShaderPatch(cpca, weights);
+  const entries = [];
+  root.traverse((object) => {
+    if (!object.isMesh || !object.geometry.attributes._prt_cluster) return;
+    const missing = weights.find((w) => !object.geometry.attributes[w]);
+    if (missing) throw new Error(`prt: mesh '${object.name}': compressed transfer without its ${missing} attribute`);
+    const original = object.material;
+    const sources = Array.isArray(original) ? original : [original];
+    const made = sources.map((source) => {
+      const lobe = source.userData?.prt_glossy;
+      if (lobe && (!Array.isArray(lobe.bands) || lobe.bands.length !== cpca.order || lobe.ks?.length !== 3)) {
+        throw new Error(`prt: material '${source.name}': extras.prt_glossy needs ks (3 numbers) and ${cpca.order} bands`);
+      }
+      const uniforms = {
+        ...shared,
+        prtGlossyBands: { value: bandUniform(lobe ? lobe.bands : new Array(cpca.order).fill(0), cpca.order) },
+        prtKs: { value: new THREE.Vector3(...(lobe ? lobe.ks : [0, 0, 0])) },
+        prtDiffuseWeight: { value: lobe ? lobe.diffuse_weight : 1 },
+      };
+      const material = albedoMaterial(source);
+      material.onBeforeCompile = (shader) => {
+        Object.assign(shader.uniforms, uniforms);
+        shader.vertexShader = shader.vertexShader
+          .replace('#include <common>', `#include <common>\n${patch.declarations}`)
+          .replace('#include <begin_vertex>', `#include <begin_vertex>\n${patch.body}`);
+        shader.fragmentShader = shader.fragmentShader
+          .replace('#include <common>', '#include <common>\nvarying vec3 vPrtDiffuse;\nvarying vec3 vPrtGlossy;\nuniform float prtExposure;')
+          .replace('#include <color_fragment>', '#include <color_fragment>\ndiffuseColor.rgb = (diffuseColor.rgb * vPrtDiffuse + vPrtGlossy) * prtExposure;');
+      };
+      material.customProgramCacheKey = () => `prt-glossy:${cpca.clusters}:${cpca.pcs}:${cpca.order}`;
+      return material;
+    });
+    object.material = Array.isArray(original) ? made : made[0];
+    entries.push({ object, original, made });
+  });
+  const handle = {
+    meshes: entries.map((e) => e.object),
+    setLight(next) {
+      glossyClusterLight(cpca, next, clusterTexture.value);
+    },
+    setExposure(ev) {
+      shared.prtExposure.value = 2 ** ev;
+    },
+    restore() {
+      for (const e of entries) e.object.material = e.original;
+    },
+    enable() {
+      for (const e of entries) e.object.material = Array.isArray(e.original) ? e.made : e.made[0];
+    },
+    dispose() {
+      handle.restore();
+      for (const e of entries) e.made.forEach((m) => m.dispose());
+      clusterTexture.value.dispose();
+    },
+  };
+  return handle;
 }

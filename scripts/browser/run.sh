@@ -23,3 +23,6 @@ node scripts/browser/glsl-snippets.mjs docs/gltf.md "$OUT/glsl"
 node scripts/browser/sh-test.mjs target/release/prt-bake "$OUT"
 node scripts/browser/probe-test.mjs target/release/prt-bake "$OUT"
 node scripts/browser/test.mjs "$NODE_DIR/node_modules" target/release/prt-bake "$OUT"
+# Glossy PRT (issue 33): a CPCA-compressed transfer-matrix export relit by prt.js against
+# prt-bake relight --view from three camera positions.
+node scripts/browser/glossy.mjs "$NODE_DIR/node_modules" target/release/prt-bake "$OUT"

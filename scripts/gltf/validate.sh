@@ -45,6 +45,12 @@ $BAKE bake scenes/cornell/cornell.scene -o "$OUT/cornell-cpca.prt" --samples 16 
     --clusters 16 --pcs 4 --quiet
 $BAKE export "$OUT/cornell-cpca.prt" --scene scenes/cornell/cornell.scene --glb "$OUT/cornell-cpca.glb" \
     --lights viewer/src/default-rig.toml
+# A compressed transfer-matrix (glossy) bake: matrices in the clusters, each material's lobe in
+# extras.prt_glossy (issue 33).
+$BAKE bake scenes/torus/glossy.scene -o "$OUT/glossy-cpca.prt" --transfer matrix --order 2 --samples 16 \
+    --clusters 16 --pcs 4 --quiet
+$BAKE export "$OUT/glossy-cpca.prt" --scene scenes/torus/glossy.scene --glb "$OUT/glossy-cpca.glb" \
+    --lights viewer/src/default-rig.toml
 node scripts/gltf/validate.mjs "$NODE_DIR/node_modules" "$OUT/torus.glb" "$OUT/cornell.glb" "$OUT/torus-again.glb" \
     "$OUT/cornell-lm.glb" "$OUT/cornell-lm-again.glb" "$OUT/cornell-lm-ao.glb" "$OUT/torus-ao.glb" \
-    "$OUT/cornell-lm-plain.glb" "$OUT/cornell-cpca.glb"
+    "$OUT/cornell-lm-plain.glb" "$OUT/cornell-cpca.glb" "$OUT/glossy-cpca.glb"

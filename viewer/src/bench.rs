@@ -17,8 +17,14 @@
 //! whatever disturbs the run over every configuration alike, and the median ignores the
 //! frames that another process interrupted. Blocks rather than single frames, because on
 //! lavapipe the frame after a switch from another configuration runs slower (by about 10 %
-//! after Blinn-Phong with 8 lights, the heaviest); in a block only the first frame pays it,
-//! and the median does not see it.
+//! after Blinn-Phong with 8 lights, the heaviest): the first frame of every block is rendered
+//! but not timed, and every other round takes the configurations in reverse order, so no
+//! configuration always follows the same one.
+//!
+//! Nothing is timed until every configuration is warm: [`WARM_UP_ROUNDS`] whole rounds of
+//! untimed blocks run first, so every pipeline has been compiled and used, every buffer
+//! written and every cache filled, in every configuration, before the first timed frame of
+//! any (issue 33: the first configuration used to be timed while later ones still warmed).
 
 use std::time::Instant;
 
@@ -44,10 +50,10 @@ const LIGHT_DEGREES_PER_FRAME: f64 = 1.0;
 /// The camera path: an arc of this many degrees about the scene's vertical axis.
 const CAMERA_ARC_DEGREES: f32 = 60.0;
 
-/// Frames each configuration renders before the timed ones (pipelines compiled, caches
-/// filled).
-const WARM_UP_FRAMES: u32 = 5;
-/// Frames a configuration renders in a row before the next takes its turn.
+/// Whole rounds of untimed blocks, every configuration in turn, before any frame is timed.
+pub const WARM_UP_ROUNDS: u32 = 2;
+/// Frames a configuration renders in a row before the next takes its turn; the first of each
+/// block (the one after the switch) is not timed.
 pub const BLOCK: u32 = 8;
 
 #[derive(Clone, Copy, Debug)]
@@ -133,7 +139,7 @@ impl BenchReport {
             None => format!("order {}", self.order),
         };
         let mut text = format!(
-            "prt-view --bench: {} vertices, {} triangles, {transfer}, {w}×{h}, {} frames per configuration in turns of {BLOCK} (fps = 1 / median frame time)\n\
+            "prt-view --bench: {} vertices, {} triangles, {transfer}, {w}×{h}, {} frames per configuration in turns of {BLOCK} (the first untimed) after {WARM_UP_ROUNDS} untimed rounds (fps = 1 / median frame time)\n\
              device: {}\n\n\
              | model | 1 light | 8 lights |\n|---|---:|---:|\n",
             self.vertices, self.triangles, self.options.frames, self.device
@@ -199,6 +205,45 @@ fn prt_label(bake: &Bake) -> String {
     }
 }
 
+/// One frame of a run: the configuration that renders it, its index on the camera path, and
+/// whether it is timed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Slot {
+    pub configuration: usize,
+    pub k: u32,
+    pub timed: bool,
+}
+
+/// The run's frames in order, for `configurations` configurations of `frames` timed frames
+/// each, and the camera path's length: [`WARM_UP_ROUNDS`] untimed rounds, then rounds until
+/// every configuration has its frames; a round is one block of [`BLOCK`] frames per
+/// configuration, forwards in even rounds and backwards in odd ones; a block's first frame
+/// is untimed.
+pub fn schedule(configurations: usize, frames: u32) -> (Vec<Slot>, u32) {
+    let rounds = WARM_UP_ROUNDS + frames.div_ceil(BLOCK - 1);
+    let mut timed = vec![0u32; configurations];
+    let mut slots = Vec::new();
+    for round in 0..rounds {
+        let order: Vec<usize> = match round % 2 {
+            0 => (0..configurations).collect(),
+            _ => (0..configurations).rev().collect(),
+        };
+        for configuration in order {
+            for k in round * BLOCK..(round + 1) * BLOCK {
+                let time =
+                    round >= WARM_UP_ROUNDS && k % BLOCK != 0 && timed[configuration] < frames;
+                timed[configuration] += u32::from(time);
+                slots.push(Slot {
+                    configuration,
+                    k,
+                    timed: time,
+                });
+            }
+        }
+    }
+    (slots, rounds * BLOCK)
+}
+
 /// Runs the benchmark on `gpu`.
 pub fn run(gpu: &Gpu, bake: &Bake, options: BenchOptions) -> Result<BenchReport> {
     run_with(gpu, bake, &[], options)
@@ -256,25 +301,22 @@ pub fn run_with(
         })
         .collect();
     let mut times = vec![Vec::with_capacity(options.frames as usize); views.len()];
-    let frames = WARM_UP_FRAMES + options.frames;
-    for first in (0..frames).step_by(BLOCK as usize) {
-        for ((b, _, view), times) in views.iter_mut().zip(&mut times) {
-            let renderer = &mut renderers[*b];
-            for k in first..(first + BLOCK).min(frames) {
-                let started = Instant::now();
-                view.camera = camera_on_path(&framing, centre, k, frames);
-                for light in view.lights.iter_mut() {
-                    light.steerable.phi += LIGHT_DEGREES_PER_FRAME.to_radians();
-                }
-                renderer.update(queue, &FrameInputs::from_view(view, None));
-                renderer.render(&target.view, device, queue);
-                device
-                    .poll(wgpu::PollType::wait_indefinitely())
-                    .map_err(|err| Error::Gpu(format!("waiting for a frame: {err}")))?;
-                if k >= WARM_UP_FRAMES {
-                    times.push(started.elapsed().as_secs_f64());
-                }
-            }
+    let (slots, path_frames) = schedule(views.len(), options.frames);
+    for slot in slots {
+        let (b, _, view) = &mut views[slot.configuration];
+        let renderer = &mut renderers[*b];
+        let started = Instant::now();
+        view.camera = camera_on_path(&framing, centre, slot.k, path_frames);
+        for light in view.lights.iter_mut() {
+            light.steerable.phi += LIGHT_DEGREES_PER_FRAME.to_radians();
+        }
+        renderer.update(queue, &FrameInputs::from_view(view, None));
+        renderer.render(&target.view, device, queue);
+        device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|err| Error::Gpu(format!("waiting for a frame: {err}")))?;
+        if slot.timed {
+            times[slot.configuration].push(started.elapsed().as_secs_f64());
         }
     }
     let measurements = views
@@ -316,5 +358,36 @@ mod tests {
         assert_eq!(m(vec![0.02, 0.5, 0.02]).fps(), 50.0);
         assert_eq!(m(vec![0.01, 0.03]).fps(), 50.0);
         assert!(m(vec![]).fps().is_nan());
+    }
+
+    #[test]
+    fn every_configuration_is_warm_before_any_frame_is_timed() {
+        let (slots, path) = schedule(4, 20);
+        let first_timed = slots.iter().position(|s| s.timed).unwrap();
+        for c in 0..4 {
+            // Every configuration has rendered its warm-up blocks before the first timed frame.
+            let warm = slots[..first_timed]
+                .iter()
+                .filter(|s| s.configuration == c)
+                .count();
+            assert!(
+                warm as u32 >= WARM_UP_ROUNDS * BLOCK,
+                "configuration {c}: {warm}"
+            );
+            // Exactly the frames asked for, none of them a block's first.
+            let timed: Vec<&Slot> = slots
+                .iter()
+                .filter(|s| s.configuration == c && s.timed)
+                .collect();
+            assert_eq!(timed.len(), 20);
+            assert!(timed.iter().all(|s| s.k % BLOCK != 0 && s.k < path));
+        }
+        // Rounds alternate direction: no configuration always follows the same one.
+        let block_starts: Vec<usize> = slots
+            .iter()
+            .filter(|s| s.k % BLOCK == 0)
+            .map(|s| s.configuration)
+            .collect();
+        assert_eq!(&block_starts[..8], &[0, 1, 2, 3, 3, 2, 1, 0]);
     }
 }

@@ -37,22 +37,27 @@ pub(super) struct CompressedTransfer {
     dim: usize,
     order: usize,
     channels: usize,
+    matrix: bool,
 }
 
 /// `cpca`'s arrays for a `.glb` whose SH coefficients are turned by `turn` (None: unturned).
 /// The SH rotation is linear, so turning the means and components turns every reconstructed
-/// vector, and the weights stay as they are.
+/// vector (or, for a `matrix` bake, matrix: R·M·Rᵀ), and the weights stay as they are.
 pub(super) fn compressed_transfer(
     cpca: &Cpca,
     order: usize,
     channels: usize,
     turn: Option<&ShRotation>,
+    matrix: bool,
 ) -> CompressedTransfer {
     let n2 = sh::coeff_count(order);
     let turned = |vectors: &[f32]| -> Vec<f32> {
         let Some(rotation) = turn else {
             return vectors.to_vec();
         };
+        if matrix {
+            return super::glossy::turned_matrices(vectors, rotation);
+        }
         vectors
             .chunks_exact(n2)
             .flat_map(|c| {
@@ -80,13 +85,14 @@ pub(super) fn compressed_transfer(
         dim: cpca.dim,
         order,
         channels,
+        matrix,
     }
 }
 
 impl CompressedTransfer {
     /// Writes the means and components into the buffer and returns `asset.extras.prt.cpca`.
     pub(super) fn write_clusters(&self, b: &mut Builder) -> Value {
-        json!({
+        let mut json = json!({
             "clusters": self.clusters,
             "pcs": self.pcs,
             "dim": self.dim,
@@ -103,7 +109,14 @@ impl CompressedTransfer {
                 k = _PRT_CLUSTER and w_i component i % 4 of _PRT_W(i / 4)",
             "render": "per frame and cluster, dot the light into the mean and each component \
                 (per channel); per vertex, shading_c = s[k, 0]_c + sum_i w_i * s[k, 1 + i]_c",
-        })
+        });
+        if self.matrix {
+            let extra = super::glossy::cpca_extras(self.order);
+            for (key, value) in extra.as_object().into_iter().flatten() {
+                json[key] = value.clone();
+            }
+        }
+        json
     }
 }
 

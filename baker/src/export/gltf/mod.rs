@@ -23,7 +23,9 @@
 
 mod builder;
 mod cpca;
+mod glossy;
 mod light;
+mod material;
 mod objects;
 mod seams;
 
@@ -33,6 +35,7 @@ use glam::{DMat3, Vec2, Vec3};
 use serde_json::{Value, json};
 
 use crate::formats::coefficient_file::CoefficientFile;
+use crate::formats::header::TransferKind;
 use crate::light::{LightCoefficients, Rig};
 use crate::math::cpca::Cpca;
 use crate::math::sh::{self, rotation::ShRotation};
@@ -43,6 +46,7 @@ pub use builder::Quantize;
 use builder::*;
 use cpca::{CLUSTER_ATTRIBUTE, CompressedTransfer, compressed_transfer, read_maybe_compressed};
 use light::{light_in_gltf_frame, light_json};
+use material::material;
 use seams::ao_png_bytes;
 pub use seams::split_at_lightmap_seams;
 
@@ -134,7 +138,10 @@ pub fn export_glb_quantized(
         output.write(&bytes)?;
         return Ok(written);
     }
-    file.check_scene(coefficients, &scene)?;
+    if file.header.transfer == TransferKind::Matrix {
+        glossy::check_compressed(&file, coefficients, cpca.as_ref())?;
+    }
+    file.check_scene_of_any_transfer(coefficients, &scene)?;
     // A bake of some objects: the others carry the unshadowed lobe.
     let file = file.spread_to_scene(coefficients, &scene)?;
     let contents = Contents {
@@ -282,7 +289,11 @@ fn vertex_transfer(
     let channels = file.header.channels as usize;
     let per_channel = sh::coeff_count(order).div_ceil(4);
     let rotation = ShRotation::from_matrix(order, arrays.turn);
+    let matrix = file.header.transfer == TransferKind::Matrix;
     let colour = contents.light.map(|light| {
+        if matrix {
+            return glossy::diffuse_colour(file, cpca, scene, light);
+        }
         let ones = vec![Vec3::ONE; scene.vertex_count()];
         crate::export::relight::vertex_radiance(file, &ones, light)
             .iter()
@@ -290,8 +301,13 @@ fn vertex_transfer(
             .collect()
     });
     if let Some(cpca) = cpca {
-        let mut compressed =
-            compressed_transfer(cpca, order, channels, arrays.turned.then_some(&rotation));
+        let mut compressed = compressed_transfer(
+            cpca,
+            order,
+            channels,
+            arrays.turned.then_some(&rotation),
+            matrix,
+        );
         return VertexTransfer {
             names: compressed.names.clone(),
             arrays: std::mem::take(&mut compressed.weights),
@@ -393,44 +409,6 @@ fn materials(
     })
 }
 
-/// One material: base colour Kd (× its texture), metallic 0, roughness 1; unlit when the
-/// file carries the relit light. A texel bake's relit lightmap takes the base colour texture
-/// slot on TEXCOORD_1 (the albedo texture, if any, is then named in
-/// `extras.prt_albedo_texture`), its AO the occlusion slot on TEXCOORD_1.
-fn material(
-    m: &crate::scene::Material,
-    unlit: bool,
-    lightmap_texture: Option<usize>,
-    occlusion_texture: Option<usize>,
-) -> Value {
-    // glTF's factor is at most 1 (a reflectance); an OBJ's Kd may exceed it.
-    let kd = m.kd.clamp(Vec3::ZERO, Vec3::ONE);
-    let mut pbr = json!({
-        "baseColorFactor": [kd.x, kd.y, kd.z, 1.0],
-        "metallicFactor": 0.0,
-        "roughnessFactor": 1.0,
-    });
-    match (lightmap_texture, m.texture) {
-        (Some(t), _) => pbr["baseColorTexture"] = json!({"index": t, "texCoord": 1}),
-        (None, Some(t)) => pbr["baseColorTexture"] = json!({"index": t}),
-        (None, None) => {}
-    }
-    let mut material = json!({"name": m.name, "pbrMetallicRoughness": pbr});
-    if unlit {
-        material["extensions"] = json!({"KHR_materials_unlit": {}});
-    }
-    if let Some(t) = occlusion_texture {
-        material["occlusionTexture"] = json!({"index": t, "texCoord": 1});
-    }
-    if let Some(t) = lightmap_texture {
-        material["extras"] = json!({"prt_lightmap": {"index": t, "texCoord": 1}});
-        if let Some(albedo) = m.texture {
-            material["extras"]["prt_albedo_texture"] = json!({"index": albedo, "texCoord": 0});
-        }
-    }
-    material
-}
-
 /// Step 4: one mesh of one triangle-list primitive per scene object, its attributes sliced
 /// from the arrays.
 fn meshes(
@@ -517,7 +495,12 @@ fn asset_extras(
                 directions in this file's coordinates (theta from +z, phi from +x towards +y); \
                 transfer excludes the albedo (the base colour)",
             "mode": h.mode.name(),
-            "colour_0": if transfer.colour.is_some() { "transfer . light per channel, clamped to [0, 1]; times the base colour it is the relit radiance" } else { "absent" },
+            "transfer": h.transfer.name(),
+            "colour_0": match (transfer.colour.is_some(), h.transfer) {
+                (false, _) => "absent",
+                (true, TransferKind::Vector) => "transfer . light per channel, clamped to [0, 1]; times the base colour it is the relit radiance",
+                (true, TransferKind::Matrix) => "the diffuse render (the glossy layers left out) per channel with albedo 1, clamped to [0, 1]; times the base colour it is the diffuse radiance",
+            },
         });
         if transfer.ao.is_some() {
             prt["ao"] = json!("_AO: SCALAR float, the ambient accessibility per vertex");
@@ -652,7 +635,10 @@ fn glb_bytes_with(
         buffer_views: Vec::new(),
         accessors: Vec::new(),
     };
-    let materials = materials(&mut b, scene, transfer.colour.is_some(), lightmap)?;
+    let mut materials = materials(&mut b, scene, transfer.colour.is_some(), lightmap)?;
+    if let Some(file) = contents.file {
+        glossy::add_material_extras(&mut materials.materials, scene, &file.header);
+    }
     let meshes = meshes(&mut b, scene, &arrays, &transfer);
     let clusters = transfer.cpca.as_ref().map(|c| c.write_clusters(&mut b));
     let extras = asset_extras(contents, &transfer, lightmap, &materials, clusters);
