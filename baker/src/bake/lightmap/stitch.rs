@@ -35,9 +35,14 @@ const KEEP: f64 = 0.02;
 const SMOOTH: f32 = 0.999;
 /// Seam samples per texel of edge length (on the longer side).
 const SAMPLES_PER_TEXEL: f32 = 2.0;
-/// Conjugate-gradient iterations at most, and the residual (relative) that stops them.
+/// Conjugate-gradient iterations at most, and the residual (relative to the right-hand side
+/// λx̂) that stops them. The error e of a solution with residual r is A⁻¹r, and A's smallest
+/// eigenvalue is at least λ, so |e| ≤ |r|/λ ≤ TOLERANCE·|x̂|: a relative change of the stitched
+/// texels of 10⁻⁴ at most, far below a bake's Monte Carlo noise (a few per cent at 64 rays).
+/// (It was 10⁻⁷, a relative change below f32's rounding, which a 720,000-triangle
+/// heightfield's seams did not reach in 200 iterations.)
 const MAX_ITERATIONS: usize = 200;
-const TOLERANCE: f64 = 1e-7;
+const TOLERANCE: f64 = 1e-4;
 
 /// A point of a seam, read on both sides: up to 4 (texel, weight) taps each, weights summing
 /// to 1 over the filled texels.
@@ -497,17 +502,17 @@ mod tests {
         let texels = side * side;
         let samples = (0..count)
             .map(|_| {
-                let mut side_taps = |base: u32| -> Vec<(u32, f32)> {
-                    let w = [1 + next() % 7, 1 + next() % 7];
+                let side_taps = |base: u32, w: [u32; 2]| -> Vec<(u32, f32)> {
                     let total = (w[0] + w[1]) as f32;
                     vec![(base, w[0] as f32 / total), ((base + 1) % texels, w[1] as f32 / total)]
                 };
                 // Seams link texels within a few rows, so components stay local.
                 let a = next() % texels;
                 let b = (a + side * (1 + next() % 3)) % texels;
+                let weights = [1 + next() % 7, 1 + next() % 7, 1 + next() % 7, 1 + next() % 7];
                 SeamSample {
-                    a: side_taps(a),
-                    b: side_taps(b),
+                    a: side_taps(a, [weights[0], weights[1]]),
+                    b: side_taps(b, [weights[2], weights[3]]),
                 }
             })
             .collect();
@@ -560,10 +565,14 @@ mod tests {
         stitch(&samples, &mut values, 3);
         for column in 0..3 {
             let exact = dense_solution(&samples, &baked, 3, column);
+            // |x − exact| ≤ TOLERANCE·|x̂| (see TOLERANCE), plus f32 rounding.
+            let (mut error, mut norm) = (0.0, 0.0);
             for (i, x) in exact.iter().enumerate() {
-                let got = f64::from(values[i * 3 + column]);
-                assert!((got - x).abs() < 1e-5, "texel {i} column {column}: {got} against {x}");
+                error += (f64::from(values[i * 3 + column]) - x).powi(2);
+                norm += f64::from(baked[i * 3 + column]).powi(2);
             }
+            let (error, bound) = (error.sqrt(), TOLERANCE * norm.sqrt() + 1e-6);
+            assert!(error <= bound, "column {column}: error {error:e} over {bound:e}");
         }
         assert!(seam_step(&samples, &values, 3, 0).0 < 0.2 * seam_step(&samples, &baked, 3, 0).0);
     }
