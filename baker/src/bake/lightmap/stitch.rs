@@ -427,7 +427,13 @@ impl System {
             rr = dots(&r, &r, width);
             let next = dots(&r, &z, width);
             let beta: Vec<f64> = (0..width)
-                .map(|col| if active[col] { next[col] / rz[col] } else { 0.0 })
+                .map(|col| {
+                    if active[col] {
+                        next[col] / rz[col]
+                    } else {
+                        0.0
+                    }
+                })
                 .collect();
             p.par_chunks_mut(width)
                 .zip(z.par_chunks(width))
@@ -496,7 +502,9 @@ mod tests {
     fn synthetic(side: u32, count: usize) -> (Vec<SeamSample>, Vec<f32>) {
         let mut state = 12345u64;
         let mut next = move || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (state >> 33) as u32
         };
         let texels = side * side;
@@ -504,24 +512,39 @@ mod tests {
             .map(|_| {
                 let side_taps = |base: u32, w: [u32; 2]| -> Vec<(u32, f32)> {
                     let total = (w[0] + w[1]) as f32;
-                    vec![(base, w[0] as f32 / total), ((base + 1) % texels, w[1] as f32 / total)]
+                    vec![
+                        (base, w[0] as f32 / total),
+                        ((base + 1) % texels, w[1] as f32 / total),
+                    ]
                 };
                 // Seams link texels within a few rows, so components stay local.
                 let a = next() % texels;
                 let b = (a + side * (1 + next() % 3)) % texels;
-                let weights = [1 + next() % 7, 1 + next() % 7, 1 + next() % 7, 1 + next() % 7];
+                let weights = [
+                    1 + next() % 7,
+                    1 + next() % 7,
+                    1 + next() % 7,
+                    1 + next() % 7,
+                ];
                 SeamSample {
                     a: side_taps(a, [weights[0], weights[1]]),
                     b: side_taps(b, [weights[2], weights[3]]),
                 }
             })
             .collect();
-        let values = (0..texels * 3).map(|_| (next() % 1000) as f32 / 1000.0).collect();
+        let values = (0..texels * 3)
+            .map(|_| (next() % 1000) as f32 / 1000.0)
+            .collect();
         (samples, values)
     }
 
     /// The normal equations of all samples at once, solved densely (Gaussian elimination).
-    fn dense_solution(samples: &[SeamSample], values: &[f32], width: usize, column: usize) -> Vec<f64> {
+    fn dense_solution(
+        samples: &[SeamSample],
+        values: &[f32],
+        width: usize,
+        column: usize,
+    ) -> Vec<f64> {
         let n = values.len() / width;
         let mut a = vec![vec![0.0f64; n + 1]; n];
         for (i, row) in a.iter_mut().enumerate() {
@@ -572,7 +595,10 @@ mod tests {
                 norm += f64::from(baked[i * 3 + column]).powi(2);
             }
             let (error, bound) = (error.sqrt(), TOLERANCE * norm.sqrt() + 1e-6);
-            assert!(error <= bound, "column {column}: error {error:e} over {bound:e}");
+            assert!(
+                error <= bound,
+                "column {column}: error {error:e} over {bound:e}"
+            );
         }
         assert!(seam_step(&samples, &values, 3, 0).0 < 0.2 * seam_step(&samples, &baked, 3, 0).0);
     }

@@ -51,7 +51,11 @@ impl Texels {
         let mut in_band: Vec<Vec<u32>> = vec![Vec::new(); bands];
         for (t, uv) in corners.iter().enumerate() {
             if let Some((_, _, y0, y1)) = texel_bounds(*uv, w, h) {
-                for band in in_band.iter_mut().take(y1.div_ceil(BAND_ROWS)).skip(y0 / BAND_ROWS) {
+                for band in in_band
+                    .iter_mut()
+                    .take(y1.div_ceil(BAND_ROWS))
+                    .skip(y0 / BAND_ROWS)
+                {
                     band.push(t as u32);
                 }
             }
@@ -401,7 +405,11 @@ mod tests {
         let all: Vec<u32> = (0..scene.triangles.len() as u32).collect();
         let one_pass = rasterise_rows(&scene, &corners, &all, 200, 0..200);
         let banded = Texels::rasterise(&scene, &atlas);
-        assert!(banded.valid_count() > 20_000, "{} texels", banded.valid_count());
+        assert!(
+            banded.valid_count() > 20_000,
+            "{} texels",
+            banded.valid_count()
+        );
         assert_eq!(banded.valid, one_pass.valid);
         assert_eq!(banded.triangle, one_pass.triangle);
         assert_eq!(banded.positions, one_pass.positions);
