@@ -566,10 +566,12 @@ mod tests {
             }
         }
         for k in 0..n {
-            for i in k + 1..n {
-                let f = a[i][k] / a[k][k];
-                for j in k..=n {
-                    a[i][j] -= f * a[k][j];
+            let (above, below) = a.split_at_mut(k + 1);
+            let pivot = &above[k];
+            for row in below.iter_mut() {
+                let f = row[k] / pivot[k];
+                for (x, p) in row[k..].iter_mut().zip(&pivot[k..]) {
+                    *x -= f * p;
                 }
             }
         }
