@@ -88,6 +88,10 @@ pub struct BakeArgs {
     /// No progress bar (the summary line is still printed).
     #[arg(long)]
     quiet: bool,
+    /// Print each stage's wall time on stderr (texel bakes: atlas, rasterisation, seam texels,
+    /// leak test, bake, dilation, seam points, stitching).
+    #[arg(long)]
+    verbose: bool,
     /// Bake only part K of N (0 ≤ K < N), a range of vertices (with --lightmap: of baked
     /// texels, so every part casts the same rays), into a part file for `prt-bake merge`. `auto` reads K and N from a Slurm array task; `auto/N` takes K from
     /// a Kubernetes Indexed Job's JOB_COMPLETION_INDEX (or set PRT_SHARD_COUNT and use `auto`).
@@ -360,8 +364,15 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
             )?
         }
     };
-    let (bytes, compressed) = compress::bake_output(&file, fit.as_ref())?;
-    output.write(&bytes)?;
+    let mut stages = lightmap::Stages::default();
+    let compressed = stages.time("writing", || -> Result<_, Error> {
+        let (bytes, compressed) = compress::bake_output(&file, fit.as_ref())?;
+        output.write(&bytes)?;
+        Ok(compressed)
+    })?;
+    if args.verbose {
+        eprintln!("prt-bake: stages: {}", stages.line());
+    }
     println!("{}", summary(&args, &options, &transfer, &what));
     if let Some(c) = compressed {
         println!(
@@ -428,8 +439,17 @@ fn bake_texels(
     resolution: u32,
     progress: &dyn Progress,
 ) -> Result<(Transfer, CoefficientFile, String), Error> {
-    let atlas = atlas(args, scene, resolution, progress)?;
+    let mut stages = lightmap::Stages::default();
+    let atlas = stages.time("atlas", || atlas(args, scene, resolution, progress))?;
     let bake = lightmap::bake(scene, tracer, options, atlas, progress)?;
+    if args.verbose {
+        eprintln!(
+            "prt-bake: stages: {}, {}; stitching took {} iterations",
+            stages.line(),
+            bake.stages.line(),
+            bake.seams.iterations
+        );
+    }
     let file = CoefficientFile::from_lightmap_bake(scene, &bake);
     let seams = match bake.seams.samples {
         0 => String::new(),
@@ -552,11 +572,7 @@ fn bake_in_parts(
         None => (PartBaker::vertices(scene, tracer, options)?, "vertices"),
         Some(resolution) => {
             let atlas = atlas(args, scene, resolution, progress)?;
-            prepared = lightmap::prepare(scene, tracer, options.seed, atlas)?;
-            watertight = match tracer {
-                Some(t) => prepared.texels.watertight(scene, t)?,
-                None => None,
-            };
+            (prepared, watertight) = lightmap::prepare_traced(scene, tracer, options.seed, atlas)?;
             let tracer = watertight.as_deref().or(tracer);
             let baker = PartBaker::texels(scene, tracer, options, &prepared)?;
             (baker, "baked texels")

@@ -325,7 +325,14 @@ impl PartLightmap {
             partners: &self.seams,
             uv1: &self.uv1,
         };
-        let placed = place(&texels, width, receivers, visibility.as_deref(), &stitching);
+        let placed = place(
+            &texels,
+            width,
+            receivers,
+            visibility.as_deref(),
+            &stitching,
+            &mut Default::default(),
+        );
         let aux = header.aux;
         CoefficientFile {
             header: Header {

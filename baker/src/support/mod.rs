@@ -4,6 +4,7 @@
 //! May import: std and external crates only.
 
 pub mod atomic;
+pub mod cpu_time;
 pub mod error;
 pub mod input_path;
 pub mod limits;

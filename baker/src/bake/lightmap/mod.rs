@@ -22,6 +22,7 @@ pub use texels::Texels;
 use crate::bake::transfer::{
     BakeOptions, Baked, BounceTargets, Estimator, Receivers, Transfer, Visibility, bake_receivers,
 };
+use crate::support::cpu_time::process_cpu_seconds;
 use crate::support::error::Result;
 use crate::support::progress::Progress;
 use crate::trace::{Backend, Tracer};
@@ -45,6 +46,38 @@ pub struct LightmapBake {
     pub leaking: usize,
     /// The chart seams stitched ([`stitch`]).
     pub seams: SeamReport,
+    /// Wall seconds of each stage, in order (`prt-bake bake --verbose` prints them).
+    pub stages: Stages,
+}
+
+/// A texel bake's stages in the order they ran: (stage, wall seconds, CPU seconds of all
+/// threads). The CPU time is the process's, so it counts only this bake's work on a shared
+/// machine (0 where it cannot be read).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Stages(pub Vec<(&'static str, f64, f64)>);
+
+impl Stages {
+    /// Runs `f` as stage `name`, recording its wall and CPU time.
+    pub fn time<T>(&mut self, name: &'static str, f: impl FnOnce() -> T) -> T {
+        let (started, cpu) = (Instant::now(), process_cpu_seconds());
+        let out = f();
+        let cpu = match (cpu, process_cpu_seconds()) {
+            (Some(before), Some(after)) => after - before,
+            _ => 0.0,
+        };
+        self.0.push((name, started.elapsed().as_secs_f64(), cpu));
+        out
+    }
+
+    /// One line: "stage 1.23 s (CPU 2.40 s), …".
+    pub fn line(&self) -> String {
+        let parts: Vec<String> = self
+            .0
+            .iter()
+            .map(|(name, wall, cpu)| format!("{name} {wall:.2} s (CPU {cpu:.2} s)"))
+            .collect();
+        parts.join(", ")
+    }
 }
 
 /// A texel bake's receivers before any transfer is baked: the atlas, and its texels after
@@ -58,6 +91,8 @@ pub struct Prepared {
     pub settled: leaks::Settled,
     /// The atlas's smooth seams, to stitch ([`stitch::seam_partners`]).
     pub seams: Vec<[u32; 3]>,
+    /// The preparation's stage times.
+    pub stages: Stages,
 }
 
 /// Rasterises `atlas` and, when rays are cast (`tracer`), settles leaking texels.
@@ -67,20 +102,43 @@ pub fn prepare(
     seed: u64,
     atlas: Atlas,
 ) -> Result<Prepared> {
-    let mut texels = Texels::rasterise(scene, &atlas);
+    Ok(prepare_traced(scene, tracer, seed, atlas)?.0)
+}
+
+/// [`prepare`], and the tracer watertight for the final texels' origins
+/// ([`Texels::watertight`]; `None` where `tracer` already is, or casts no rays). Where the
+/// leak test moved nothing and left nothing out, that is the leak test's own (the origins are
+/// the same), not made twice.
+pub fn prepare_traced<'t>(
+    scene: &crate::Scene,
+    tracer: Option<&'t dyn Tracer>,
+    seed: u64,
+    atlas: Atlas,
+) -> Result<(Prepared, Option<Box<dyn Tracer + 't>>)> {
+    let mut stages = Stages::default();
+    let mut texels = stages.time("rasterise", || Texels::rasterise(scene, &atlas));
     let mut settled = leaks::Settled::default();
+    let mut watertight = None;
     if let Some(tracer) = tracer {
-        let watertight = texels.watertight(scene, tracer)?;
-        let tracer = watertight.as_deref().unwrap_or(tracer);
-        settled = leaks::settle(scene, &atlas, &mut texels, tracer, seed)?;
+        watertight = stages.time("seam texels", || texels.watertight(scene, tracer))?;
+        let view = watertight.as_deref().unwrap_or(tracer);
+        settled = stages.time("leak test", || {
+            leaks::settle(scene, &atlas, &mut texels, view, seed)
+        })?;
+        if settled != leaks::Settled::default() {
+            // Texels moved out or left out: watertight for the final origins.
+            watertight = stages.time("seam texels", || texels.watertight(scene, tracer))?;
+        }
     }
-    let seams = stitch::seam_partners(scene, &atlas);
-    Ok(Prepared {
+    let seams = stages.time("seam partners", || stitch::seam_partners(scene, &atlas));
+    let prepared = Prepared {
         atlas,
         texels,
         settled,
         seams,
-    })
+        stages,
+    };
+    Ok((prepared, watertight))
 }
 
 /// Bakes the transfer of every texel of `atlas` that a triangle covers, in any mode: the
@@ -103,29 +161,36 @@ pub fn bake(
         ));
     }
     let started = Instant::now();
+    let (prepared, watertight) = prepare_traced(scene, tracer, options.seed, atlas)?;
     let Prepared {
         atlas,
         texels,
         settled,
         seams,
-    } = prepare(scene, tracer, options.seed, atlas)?;
+        mut stages,
+    } = prepared;
     // Watertight for the final texel origins (moved-out ones included).
-    let watertight = match tracer {
-        Some(t) => texels.watertight(scene, t)?,
-        None => None,
-    };
     let tracer = watertight.as_deref().or(tracer);
     let receivers: Receivers = Receivers::texels(&texels);
     let estimator = Estimator::for_receivers(receivers, options)?;
     let targets = BounceTargets::texels(&atlas, &texels);
-    let baked = bake_receivers(scene, tracer, &estimator, &targets, progress);
+    let baked = stages.time("bake", || {
+        bake_receivers(scene, tracer, &estimator, &targets, progress)
+    });
     let width = baked.channels * crate::math::sh::coeff_count(options.order);
     let visibility = tracer.map(|_| baked.visibility.as_slice());
     let stitching = Stitching {
         partners: &seams,
         uv1: &atlas.uv1,
     };
-    let placed = place(&texels, width, &baked.coefficients, visibility, &stitching);
+    let placed = place(
+        &texels,
+        width,
+        &baked.coefficients,
+        visibility,
+        &stitching,
+        &mut stages,
+    );
     let transfer = Transfer::from_direct(
         options,
         tracer.map_or(Backend::None, |t| t.backend()),
@@ -145,6 +210,7 @@ pub fn bake(
         leaking: settled.leaking,
         texels,
         transfer,
+        stages,
     })
 }
 
@@ -175,6 +241,8 @@ pub struct SeamReport {
     pub samples: usize,
     pub step_before: f64,
     pub step_after: f64,
+    /// The most conjugate-gradient iterations a column of the solve took.
+    pub iterations: usize,
 }
 
 /// Places the receivers' values (`width` floats each, in row-major order of the valid
@@ -187,6 +255,7 @@ pub fn place(
     receivers: &[f32],
     receiver_visibility: Option<&[Visibility]>,
     stitching: &Stitching<'_>,
+    stages: &mut Stages,
 ) -> Placed {
     let texel_count = texels.valid.len();
     let mut coefficients = vec![0.0f32; texel_count * width];
@@ -214,34 +283,42 @@ pub fn place(
             visibility[i] = from[k];
         }
     }
-    let dilated = dilate(texels, width, &mut coefficients, &mut visibility);
+    let dilated = stages.time("dilate", || {
+        dilate(texels, width, &mut coefficients, &mut visibility)
+    });
     let filled: Vec<bool> = texels
         .valid
         .iter()
         .zip(&dilated)
         .map(|(v, d)| *v || *d)
         .collect();
-    let samples = stitch::seam_samples(
-        stitching.partners,
-        stitching.uv1,
-        texels.width,
-        texels.height,
-        &filled,
-    );
+    let samples = stages.time("seam points", || {
+        stitch::seam_samples(
+            stitching.partners,
+            stitching.uv1,
+            texels.width,
+            texels.height,
+            &filled,
+        )
+    });
     let step_before = stitch::seam_step(&samples, &coefficients, width, 0).0;
-    stitch::stitch(&samples, &mut coefficients, width);
-    if !visibility.is_empty() {
-        let mut ao: Vec<f32> = visibility.iter().map(|v| v.accessibility).collect();
-        stitch::stitch(&samples, &mut ao, 1);
-        // Least squares may overshoot a little; accessibility is a fraction.
-        for (v, a) in visibility.iter_mut().zip(ao) {
-            v.accessibility = a.clamp(0.0, 1.0);
+    let iterations = stages.time("stitch", || {
+        let mut iterations = stitch::stitch(&samples, &mut coefficients, width);
+        if !visibility.is_empty() {
+            let mut ao: Vec<f32> = visibility.iter().map(|v| v.accessibility).collect();
+            iterations = iterations.max(stitch::stitch(&samples, &mut ao, 1));
+            // Least squares may overshoot a little; accessibility is a fraction.
+            for (v, a) in visibility.iter_mut().zip(ao) {
+                v.accessibility = a.clamp(0.0, 1.0);
+            }
         }
-    }
+        iterations
+    });
     let seams = SeamReport {
         samples: samples.len(),
         step_before,
         step_after: stitch::seam_step(&samples, &coefficients, width, 0).0,
+        iterations,
     };
     Placed {
         coefficients,

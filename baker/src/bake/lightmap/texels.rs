@@ -10,6 +10,7 @@
 //! texel: the centre "clipped into the triangle" without leaving the texel.
 
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 
 use super::atlas::Atlas;
 use crate::scene::Scene;
@@ -38,71 +39,50 @@ pub struct Texels {
 }
 
 impl Texels {
-    /// Rasterises every triangle of `scene` into `atlas`.
+    /// Rasterises every triangle of `scene` into `atlas`. Bands of [`BAND_ROWS`] texel rows
+    /// are rasterised in parallel, each from the triangles that reach it in scene order, so
+    /// every texel sees its triangles in the same order as one pass over the scene would: the
+    /// result does not depend on the thread count.
     pub fn rasterise(scene: &Scene, atlas: &Atlas) -> Texels {
         let (w, h) = (atlas.width as usize, atlas.height as usize);
-        let mut coverage = vec![0.0f32; w * h];
+        let corners: Vec<[Vec2; 3]> = atlas.texel_corners().collect();
+        // Each band's triangles, in scene order.
+        let bands = h.div_ceil(BAND_ROWS);
+        let mut in_band: Vec<Vec<u32>> = vec![Vec::new(); bands];
+        for (t, uv) in corners.iter().enumerate() {
+            if let Some((_, _, y0, y1)) = texel_bounds(*uv, w, h) {
+                for band in in_band
+                    .iter_mut()
+                    .take(y1.div_ceil(BAND_ROWS))
+                    .skip(y0 / BAND_ROWS)
+                {
+                    band.push(t as u32);
+                }
+            }
+        }
+        let parts: Vec<Texels> = in_band
+            .par_iter()
+            .enumerate()
+            .map(|(band, triangles)| {
+                let rows = band * BAND_ROWS..((band + 1) * BAND_ROWS).min(h);
+                rasterise_rows(scene, &corners, triangles, w, rows)
+            })
+            .collect();
         let mut texels = Texels {
             width: atlas.width,
             height: atlas.height,
-            valid: vec![false; w * h],
-            positions: vec![Vec3::ZERO; w * h],
-            normals: vec![Vec3::ZERO; w * h],
-            origins: vec![Vec3::ZERO; w * h],
-            triangle: vec![u32::MAX; w * h],
+            valid: Vec::with_capacity(w * h),
+            positions: Vec::with_capacity(w * h),
+            normals: Vec::with_capacity(w * h),
+            origins: Vec::with_capacity(w * h),
+            triangle: Vec::with_capacity(w * h),
         };
-        for (t, (tri, uv)) in scene
-            .triangles
-            .iter()
-            .zip(atlas.texel_corners())
-            .enumerate()
-        {
-            let uv_area = cross(uv[1] - uv[0], uv[2] - uv[0]);
-            if !uv_area.is_finite() || uv_area == 0.0 {
-                continue; // not in the atlas, or degenerate there: no texels
-            }
-            let p = tri.map(|v| scene.positions[v as usize]);
-            let n = tri.map(|v| scene.normals[v as usize]);
-            let face = (p[1] - p[0]).cross(p[2] - p[0]);
-            let Some(face_normal) = face.try_normalize() else {
-                continue; // zero area in space
-            };
-            let longest = p[0]
-                .distance(p[1])
-                .max(p[1].distance(p[2]))
-                .max(p[2].distance(p[0]));
-            let centroid = (p[0] + p[1] + p[2]) / 3.0;
-            let lo = uv[0].min(uv[1]).min(uv[2]).floor().max(Vec2::ZERO);
-            let hi = uv[0].max(uv[1]).max(uv[2]).ceil();
-            let (x1, y1) = ((hi.x as usize).min(w), (hi.y as usize).min(h));
-            for y in lo.y as usize..y1 {
-                for x in lo.x as usize..x1 {
-                    let square = Vec2::new(x as f32, y as f32);
-                    let overlap = clip_to_square(uv, square);
-                    let area = polygon_area(&overlap);
-                    let i = y * w + x;
-                    if area <= coverage[i] || area <= 0.0 {
-                        continue;
-                    }
-                    let centre = square + Vec2::splat(0.5);
-                    let b = match barycentric(uv, centre) {
-                        Some(b) => b,
-                        None => barycentric_clamped(uv, polygon_centroid(&overlap)),
-                    };
-                    let position = p[0] * b[0] + p[1] * b[1] + p[2] * b[2];
-                    let normal = (n[0] * b[0] + n[1] * b[1] + n[2] * b[2])
-                        .try_normalize()
-                        .unwrap_or(face_normal);
-                    coverage[i] = area;
-                    texels.valid[i] = true;
-                    texels.positions[i] = position;
-                    texels.normals[i] = normal;
-                    let delta = offset_distance(position, longest);
-                    texels.origins[i] =
-                        position + face_normal * delta + (centroid - position) * (delta / longest);
-                    texels.triangle[i] = t as u32;
-                }
-            }
+        for part in parts {
+            texels.valid.extend(part.valid);
+            texels.positions.extend(part.positions);
+            texels.normals.extend(part.normals);
+            texels.origins.extend(part.origins);
+            texels.triangle.extend(part.triangle);
         }
         texels
     }
@@ -161,6 +141,90 @@ impl Texels {
             .unzip();
         tracer.for_points(scene, &origins, &own)
     }
+}
+
+/// Texel rows per band of the parallel rasterisation.
+const BAND_ROWS: usize = 16;
+
+/// The texels a triangle's bounding box spans in a `w` × `h` lightmap: x0..x1, y0..y1; `None`
+/// where it is not in the atlas or degenerate there.
+fn texel_bounds(uv: [Vec2; 3], w: usize, h: usize) -> Option<(usize, usize, usize, usize)> {
+    let uv_area = cross(uv[1] - uv[0], uv[2] - uv[0]);
+    if !uv_area.is_finite() || uv_area == 0.0 {
+        return None;
+    }
+    let lo = uv[0].min(uv[1]).min(uv[2]).floor().max(Vec2::ZERO);
+    let hi = uv[0].max(uv[1]).max(uv[2]).ceil();
+    let (x1, y1) = ((hi.x as usize).min(w), (hi.y as usize).min(h));
+    Some((lo.x as usize, x1, lo.y as usize, y1))
+}
+
+/// Rasterises `triangles` (in order) into texel rows `rows` of a `w`-wide lightmap: the
+/// texels of those rows, with the largest overlap winning and the first triangle on a tie.
+fn rasterise_rows(
+    scene: &Scene,
+    corners: &[[Vec2; 3]],
+    triangles: &[u32],
+    w: usize,
+    rows: std::ops::Range<usize>,
+) -> Texels {
+    let n = w * rows.len();
+    let mut coverage = vec![0.0f32; n];
+    let mut texels = Texels {
+        width: w as u32,
+        height: rows.len() as u32,
+        valid: vec![false; n],
+        positions: vec![Vec3::ZERO; n],
+        normals: vec![Vec3::ZERO; n],
+        origins: vec![Vec3::ZERO; n],
+        triangle: vec![u32::MAX; n],
+    };
+    for &t in triangles {
+        let (tri, uv) = (scene.triangles[t as usize], corners[t as usize]);
+        let Some((x0, x1, y0, y1)) = texel_bounds(uv, w, usize::MAX) else {
+            continue;
+        };
+        let p = tri.map(|v| scene.positions[v as usize]);
+        let n = tri.map(|v| scene.normals[v as usize]);
+        let face = (p[1] - p[0]).cross(p[2] - p[0]);
+        let Some(face_normal) = face.try_normalize() else {
+            continue; // zero area in space
+        };
+        let longest = p[0]
+            .distance(p[1])
+            .max(p[1].distance(p[2]))
+            .max(p[2].distance(p[0]));
+        let centroid = (p[0] + p[1] + p[2]) / 3.0;
+        for y in y0.max(rows.start)..y1.min(rows.end) {
+            for x in x0..x1 {
+                let square = Vec2::new(x as f32, y as f32);
+                let overlap = clip_to_square(uv, square);
+                let area = polygon_area(&overlap);
+                let i = (y - rows.start) * w + x;
+                if area <= coverage[i] || area <= 0.0 {
+                    continue;
+                }
+                let centre = square + Vec2::splat(0.5);
+                let b = match barycentric(uv, centre) {
+                    Some(b) => b,
+                    None => barycentric_clamped(uv, polygon_centroid(&overlap)),
+                };
+                let position = p[0] * b[0] + p[1] * b[1] + p[2] * b[2];
+                let normal = (n[0] * b[0] + n[1] * b[1] + n[2] * b[2])
+                    .try_normalize()
+                    .unwrap_or(face_normal);
+                coverage[i] = area;
+                texels.valid[i] = true;
+                texels.positions[i] = position;
+                texels.normals[i] = normal;
+                let delta = offset_distance(position, longest);
+                texels.origins[i] =
+                    position + face_normal * delta + (centroid - position) * (delta / longest);
+                texels.triangle[i] = t;
+            }
+        }
+    }
+    texels
 }
 
 fn cross(a: Vec2, b: Vec2) -> f32 {
@@ -329,5 +393,27 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn banded_rasterisation_equals_one_pass_over_the_scene() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../scenes/cornell/cornell.scene");
+        let scene = Scene::load(&path).unwrap();
+        let atlas = Atlas::generate(&scene, 200, None).unwrap();
+        let corners: Vec<[Vec2; 3]> = atlas.texel_corners().collect();
+        let all: Vec<u32> = (0..scene.triangles.len() as u32).collect();
+        let one_pass = rasterise_rows(&scene, &corners, &all, 200, 0..200);
+        let banded = Texels::rasterise(&scene, &atlas);
+        assert!(
+            banded.valid_count() > 20_000,
+            "{} texels",
+            banded.valid_count()
+        );
+        assert_eq!(banded.valid, one_pass.valid);
+        assert_eq!(banded.triangle, one_pass.triangle);
+        assert_eq!(banded.positions, one_pass.positions);
+        assert_eq!(banded.normals, one_pass.normals);
+        assert_eq!(banded.origins, one_pass.origins);
     }
 }
