@@ -252,3 +252,45 @@ fn a_blended_card_stops_rays_with_its_alpha_as_probability() {
         .fold(0.0f32, f32::max);
     assert!(f64::from(off) > 5.0 * sigma, "{off}");
 }
+
+/// Closest hits (what bounce gathers and leak tests trace) pass the cut-out parts too: rays
+/// from below the card find the card where the stripes' geometry is, on both backends.
+#[test]
+fn closest_hits_pass_through_the_cut_out_parts() {
+    let grey = json!({"name": "grey"});
+    let cut = load(&glb(
+        &[floor(), card_part(-1.0, 1.0, 1)],
+        json!([grey, mask_material("MASK")]),
+    ));
+    let mut rng = prt_baker::math::sampling::Pcg32::new(30, 1);
+    let rays: Vec<prt_baker::trace::Ray> = (0..20_000)
+        .map(|_| {
+            let origin = Vec3::new(rng.next_f32() * 3.0 - 1.5, 0.1, rng.next_f32() * 3.0 - 1.5);
+            let dir = Vec3::new(rng.next_f32() - 0.5, 1.0, rng.next_f32() - 0.5);
+            prt_baker::trace::Ray {
+                origin,
+                dir,
+                tfar: f32::INFINITY,
+            }
+        })
+        .collect();
+    for backend in [Backend::Embree, Backend::Obvhs] {
+        let tracer = build(backend, &cut, TracerOptions::default()).expect("tracer");
+        let mut hits = vec![None; rays.len()];
+        tracer.intersect(&rays, &mut hits);
+        let mut occluded = vec![false; rays.len()];
+        tracer.occluded(&rays, &mut occluded);
+        let (mut wrong, mut on_card, mut wrong_hits) = (0, 0, 0);
+        for ((ray, hit), blocked) in rays.iter().zip(&hits).zip(&occluded) {
+            // Where the ray crosses the card's plane, and whether a stripe is there.
+            let p = ray.origin + ray.dir * ((0.6 - ray.origin.y) / ray.dir.y);
+            let u = (p.x + 1.0) / 2.0;
+            let solid = p.x.abs() < 1.0 && p.z.abs() < 1.0 && (u * 8.0).floor() as i32 % 2 == 0;
+            on_card += usize::from(solid);
+            wrong += usize::from(hit.is_some() != solid || *blocked != solid);
+            wrong_hits += usize::from(hit.is_some() != solid);
+        }
+        eprintln!("{}: {on_card} rays hit a stripe, {wrong} answers wrong ({wrong_hits} closest hits)", backend.name());
+        assert!(on_card > 2_000 && wrong <= 5, "{}: {wrong}", backend.name());
+    }
+}

@@ -121,7 +121,9 @@ impl ObvhsTracer {
             traversal_mask(node, state.oct_inv4, ChildBoxes::new(node).entered_by(&ray)),
             {
                 let slot = state.primitive_id;
-                if let Some(hit) = self.triangles[slot as usize].intersect(&ray) {
+                if let Some(hit) = self.triangles[slot as usize].intersect(&ray)
+                    && self.stops(slot, &hit, &ray)
+                {
                     // Later candidates must come nearer (the test keeps t ≤ tfar), as in
                     // Embree, which shortens the ray to each hit.
                     ray.tfar = hit.t / hit.den;
