@@ -6,8 +6,8 @@
 
 use glam::{Vec2, Vec3};
 use prt_baker::support::progress::Silent;
-use prt_baker::trace::{Tracer, TracerOptions};
 use prt_baker::trace::{Backend, build};
+use prt_baker::trace::{Tracer, TracerOptions};
 use prt_baker::{BakeOptions, Scene, Transfer};
 use prt_tests::*;
 use serde_json::json;
@@ -91,12 +91,18 @@ fn glb(primitives: &[Primitive], materials: serde_json::Value) -> Vec<u8> {
         let base = accessors.len();
         accessors.push(json!({"bufferView": view(floats(&pos), &mut bin), "count": p.positions.len(),
             "type": "VEC3", "componentType": 5126, "min": [-10.0, -10.0, -10.0], "max": [10.0, 10.0, 10.0]}));
-        accessors.push(json!({"bufferView": view(floats(&uv), &mut bin), "count": p.uvs.len(),
-            "type": "VEC2", "componentType": 5126}));
-        accessors.push(json!({"bufferView": view(ind, &mut bin), "count": p.indices.len(),
-            "type": "SCALAR", "componentType": 5125}));
-        meshes.push(json!({"primitives": [{"attributes": {"POSITION": base, "TEXCOORD_0": base + 1},
-            "indices": base + 2, "material": p.material}]}));
+        accessors.push(
+            json!({"bufferView": view(floats(&uv), &mut bin), "count": p.uvs.len(),
+            "type": "VEC2", "componentType": 5126}),
+        );
+        accessors.push(
+            json!({"bufferView": view(ind, &mut bin), "count": p.indices.len(),
+            "type": "SCALAR", "componentType": 5125}),
+        );
+        meshes.push(
+            json!({"primitives": [{"attributes": {"POSITION": base, "TEXCOORD_0": base + 1},
+            "indices": base + 2, "material": p.material}]}),
+        );
     }
     let nodes: Vec<_> = (0..meshes.len()).map(|m| json!({"mesh": m})).collect();
     let document = json!({
@@ -120,8 +126,7 @@ fn load(bytes: &[u8]) -> Scene {
 }
 
 fn bake(scene: &Scene, backend: Backend, options: &BakeOptions) -> Transfer {
-    let tracer: Box<dyn Tracer> =
-        build(backend, scene, TracerOptions::default()).expect("tracer");
+    let tracer: Box<dyn Tracer> = build(backend, scene, TracerOptions::default()).expect("tracer");
     prt_baker::bake(scene, Some(&*tracer), options, &Silent).expect("bake")
 }
 
@@ -143,7 +148,11 @@ fn agreement(a: &[Vec<f32>], b: &[Vec<f32>], tolerance: f32) -> (f64, f32) {
         .iter()
         .zip(b)
         .filter(|(x, y)| {
-            let d = x.iter().zip(*y).map(|(p, q)| (p - q).abs()).fold(0.0, f32::max);
+            let d = x
+                .iter()
+                .zip(*y)
+                .map(|(p, q)| (p - q).abs())
+                .fold(0.0, f32::max);
             worst = worst.max(d);
             d <= tolerance
         })
@@ -243,7 +252,10 @@ fn a_blended_card_stops_rays_with_its_alpha_as_probability() {
     let a = f64::from(alpha);
     let sigma = 0.49 * (a * (1.0 - a) / f64::from(samples)).sqrt();
     eprintln!("blend: rms {rms:.2e}, worst {worst:.2e}, σ bound {sigma:.2e}");
-    assert!(rms < sigma && worst < 5.0 * sigma, "rms {rms}, worst {worst}");
+    assert!(
+        rms < sigma && worst < 5.0 * sigma,
+        "rms {rms}, worst {worst}"
+    );
     // Switched off (the card opaque), the mix is far off.
     let off = solid
         .iter()
@@ -290,7 +302,10 @@ fn closest_hits_pass_through_the_cut_out_parts() {
             wrong += usize::from(hit.is_some() != solid || *blocked != solid);
             wrong_hits += usize::from(hit.is_some() != solid);
         }
-        eprintln!("{}: {on_card} rays hit a stripe, {wrong} answers wrong ({wrong_hits} closest hits)", backend.name());
+        eprintln!(
+            "{}: {on_card} rays hit a stripe, {wrong} answers wrong ({wrong_hits} closest hits)",
+            backend.name()
+        );
         assert!(on_card > 2_000 && wrong <= 5, "{}: {wrong}", backend.name());
     }
 }

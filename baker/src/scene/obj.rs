@@ -190,7 +190,10 @@ fn resolve_materials(
                     at.path.parent().unwrap_or(Path::new("")),
                 )?;
                 textures.push(Texture::load(&alpha_path, &at)?);
-                Some(map_d_alpha(textures.len() - 1, textures.last().expect("pushed")))
+                Some(map_d_alpha(
+                    textures.len() - 1,
+                    textures.last().expect("pushed"),
+                ))
             }
             None => None,
         };

@@ -27,7 +27,9 @@ pub fn material_alpha(
     let pbr = material.pbr_metallic_roughness();
     let factor = pbr.base_color_factor()[3];
     if !(0.0..=1.0).contains(&factor) {
-        return Err(format!("baseColorFactor's alpha {factor} is outside [0, 1]"));
+        return Err(format!(
+            "baseColorFactor's alpha {factor} is outside [0, 1]"
+        ));
     }
     let info = pbr.base_color_texture();
     let sampler = info.as_ref().map(|i| i.texture().sampler());
