@@ -117,8 +117,16 @@ fn glb(primitives: &[Primitive], materials: serde_json::Value) -> Vec<u8> {
     prt_tests::glb(&serde_json::to_vec(&document).unwrap(), &bin)
 }
 
-/// Loads a `.glb` written to a temporary folder.
+/// Loads a `.glb` written to a temporary folder. With `PRT_ALPHA_SCENES=folder`, the
+/// scenes are also kept there as `scene-N.glb` (in the order the tests load them), for
+/// timing bakes with `prt-bake` (docs/performance.md, "Alpha cutouts").
 fn load(bytes: &[u8]) -> Scene {
+    if let Some(folder) = std::env::var_os("PRT_ALPHA_SCENES") {
+        static KEPT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+        let n = KEPT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let path = std::path::Path::new(&folder).join(format!("scene-{n}.glb"));
+        std::fs::write(path, bytes).expect("keep the scene");
+    }
     let folder = tempfile::tempdir().expect("temporary folder");
     let path = folder.path().join("scene.glb");
     std::fs::write(&path, bytes).expect("write glb");

@@ -34,6 +34,8 @@ pub struct SceneBuilder {
     triangle_count: usize,
     /// The filters of filtered geometries, boxed twice so each has a stable thin address
     /// (Embree's user pointer); moved into the committed scene, which outlives every query.
+    #[allow(clippy::vec_box)]
+    // the inner box is a fat pointer: the outer one's address is thin
     filters: Vec<Box<Box<dyn HitFilter>>>,
 }
 
@@ -218,7 +220,7 @@ pub struct CommittedScene {
     triangle_count: usize,
     /// The geometries' hit filters, which Embree calls during queries: dropped after the
     /// scene is released (fields drop after `Drop::drop`).
-    #[allow(dead_code)]
+    #[allow(dead_code, clippy::vec_box)]
     filters: Vec<Box<Box<dyn HitFilter>>>,
 }
 

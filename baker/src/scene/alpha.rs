@@ -10,7 +10,6 @@
 
 use glam::{Vec2, Vec3};
 
-use super::Scene;
 use super::texture::Texture;
 
 /// What a material's coverage decides.
@@ -131,12 +130,20 @@ struct CutTriangle {
 impl Cutouts {
     const OPAQUE: u32 = u32::MAX;
 
-    /// The scene's cut-out triangles, or `None` when every material is opaque.
-    pub fn of(scene: &Scene) -> Option<Cutouts> {
+    /// The cut-out triangles of a scene ([`super::Scene::cutouts`]), or `None` when every
+    /// material is opaque: per material its alpha, per vertex its material, and the scene's
+    /// triangles, texture coordinates and textures.
+    pub fn new(
+        material_alpha: &[Option<&Alpha>],
+        vertex_material: &[u32],
+        triangles: &[[u32; 3]],
+        uvs: &[Vec2],
+        textures: &[Texture],
+    ) -> Option<Cutouts> {
         let mut alphas = Vec::new();
-        let mut alpha_of_material = vec![None; scene.materials.len()];
-        for (m, material) in scene.materials.iter().enumerate() {
-            if let Some(alpha) = material.alpha.as_ref().filter(|a| a.cuts()) {
+        let mut alpha_of_material = vec![None; material_alpha.len()];
+        for (m, alpha) in material_alpha.iter().enumerate() {
+            if let Some(alpha) = alpha.filter(|a| a.cuts()) {
                 alpha_of_material[m] = Some(alphas.len() as u32);
                 alphas.push(alpha.clone());
             }
@@ -144,14 +151,14 @@ impl Cutouts {
         if alphas.is_empty() {
             return None;
         }
-        let mut slot = vec![Self::OPAQUE; scene.triangles.len()];
+        let mut slot = vec![Self::OPAQUE; triangles.len()];
         let mut cut = Vec::new();
-        for (t, tri) in scene.triangles.iter().enumerate() {
-            let material = scene.vertex_material[tri[0] as usize] as usize;
+        for (t, tri) in triangles.iter().enumerate() {
+            let material = vertex_material[tri[0] as usize] as usize;
             if let Some(alpha) = alpha_of_material[material] {
                 slot[t] = cut.len() as u32;
                 cut.push(CutTriangle {
-                    uvs: tri.map(|v| scene.uvs[v as usize]),
+                    uvs: tri.map(|v| uvs[v as usize]),
                     alpha,
                 });
             }
@@ -160,7 +167,7 @@ impl Cutouts {
             slot,
             cut,
             alphas,
-            textures: scene.textures.clone(),
+            textures: textures.to_vec(),
         })
     }
 

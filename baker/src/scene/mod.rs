@@ -265,6 +265,19 @@ impl Scene {
         }
     }
 
+    /// The cut-out triangles the tracers test alpha on, or `None` when every material is
+    /// opaque.
+    pub fn cutouts(&self) -> Option<Cutouts> {
+        let alphas: Vec<Option<&Alpha>> = self.materials.iter().map(|m| m.alpha.as_ref()).collect();
+        Cutouts::new(
+            &alphas,
+            &self.vertex_material,
+            &self.triangles,
+            &self.uvs,
+            &self.textures,
+        )
+    }
+
     /// Linear diffuse albedo at every vertex (Kd × texture at the vertex's uv).
     pub fn vertex_albedo(&self) -> Vec<Vec3> {
         (0..self.vertex_count())

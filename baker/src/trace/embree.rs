@@ -139,7 +139,7 @@ struct Alpha {
 
 impl Alpha {
     fn of(scene: &Scene) -> Alpha {
-        let Some(cutouts) = Cutouts::of(scene) else {
+        let Some(cutouts) = scene.cutouts() else {
             return Alpha::default();
         };
         let (cut, opaque): (Vec<u32>, Vec<u32>) =

@@ -86,7 +86,7 @@ impl ObvhsTracer {
         ObvhsTracer {
             bvh,
             triangles,
-            cutouts: Cutouts::of(scene),
+            cutouts: scene.cutouts(),
         }
     }
 

@@ -106,6 +106,7 @@ impl ObvhsTracer {
     /// once all of them are blocked. Kept apart from the traversal so each reads alone;
     /// inlined, so the AVX2 compilation still covers it.
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)] // the packet's views, each prepared once per packet
     fn block_in_leaf(
         &self,
         primitive_base: u32,
