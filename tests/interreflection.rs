@@ -62,8 +62,7 @@ fn with_albedo(mut mesh: prt_baker::scene::Mesh, albedo: f32) -> prt_baker::scen
     mesh.material = Material {
         name: "grey".into(),
         kd: Vec3::splat(albedo),
-        texture: None,
-        glossy: None,
+        ..Material::default()
     };
     mesh
 }

@@ -32,8 +32,7 @@ fn with_albedo(mut mesh: Mesh, albedo: Vec3) -> Mesh {
     mesh.material = Material {
         name: "paint".into(),
         kd: albedo,
-        texture: None,
-        glossy: None,
+        ..Material::default()
     };
     mesh
 }

@@ -1226,3 +1226,60 @@ fn obj_mtl_scene_and_rig_paths_follow_the_same_rules() {
         .fails_with_bad_input(&["asset/rig.toml:3: light 1, key `path`: environment map \"/dev/zero\" names /dev/zero, a character device"]);
     s.assert_out_holds(&["x.prt"]);
 }
+
+/// Hostile alpha inputs (issue 30): a cutoff outside [0, 1], a missing or corrupt base colour
+/// (alpha) texture in glTF, a missing or corrupt OBJ `map_d`: each a bad-input error that
+/// names the file and the problem, never a crash or an opaque bake.
+#[test]
+fn unusable_alpha_inputs_are_bad_input() {
+    let s = Scratch::new();
+    let ((floor, floor_triangles), _) = floor_and_cube();
+    let indices: Vec<u32> = floor_triangles.iter().flatten().copied().collect();
+    let mut b = GltfBuilder::new();
+    b.mesh("floor", &floor, None, &indices, 4);
+    let base = b.document(json!([{"mesh": 0}]), None);
+    let with_material = |material: Value, images: Option<Value>| {
+        let mut document = base.clone();
+        document["materials"] = json!([material]);
+        if let Some(images) = images {
+            document["images"] = images;
+            document["textures"] = json!([{"source": 0}]);
+        }
+        glb(&document, &b.bin)
+    };
+    for cutoff in [1.5, -0.25] {
+        let material = json!({"name": "leaf", "alphaMode": "MASK", "alphaCutoff": cutoff});
+        s.write("cutoff.glb", with_material(material, None));
+        s.run(&["bake", "cutoff.glb", "-o", "out/x.prt"])
+            .fails_with_bad_input(&[
+                "cutoff.glb",
+                "material 'leaf'",
+                &format!("alphaCutoff {cutoff} is outside [0, 1]"),
+            ]);
+    }
+    let textured = json!({"name": "leaf", "alphaMode": "MASK",
+        "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}});
+    s.write(
+        "missing.glb",
+        with_material(textured.clone(), Some(json!([{"uri": "leaf.png"}]))),
+    );
+    s.run(&["bake", "missing.glb", "-o", "out/x.prt"])
+        .fails_with_bad_input(&["missing.glb", "leaf.png"]);
+    s.write("junk.png", b"\x89PNG\r\n\x1a\nnot really a png");
+    s.write(
+        "corrupt.glb",
+        with_material(textured, Some(json!([{"uri": "junk.png"}]))),
+    );
+    s.run(&["bake", "corrupt.glb", "-o", "out/x.prt"])
+        .fails_with_bad_input(&["corrupt.glb", "image 0", "decoding Png"]);
+
+    let obj = "mtllib leaf.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nusemtl leaf\nf 1/1 2/2 3/3\n";
+    s.write("leaf.obj", obj);
+    s.write("leaf.mtl", "newmtl leaf\nKd 0.5 0.5 0.5\nmap_d gone.png\n");
+    s.run(&["bake", "leaf.obj", "-o", "out/x.prt"])
+        .fails_with_bad_input(&["leaf.mtl:3", "gone.png"]);
+    s.write("leaf.mtl", "newmtl leaf\nKd 0.5 0.5 0.5\nmap_d junk.png\n");
+    s.run(&["bake", "leaf.obj", "-o", "out/x.prt"])
+        .fails_with_bad_input(&["leaf.mtl:3", "junk.png"]);
+    s.assert_out_holds(&[]);
+}

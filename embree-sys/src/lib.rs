@@ -17,6 +17,7 @@
 
 mod device;
 mod error;
+mod filter;
 mod query;
 mod ray;
 mod scene;
@@ -38,6 +39,7 @@ pub mod sys {
 
 pub use device::Device;
 pub use error::{Error, ErrorKind};
+pub use filter::HitFilter;
 pub use ray::{Hit, PACKET_WIDTH, Ray, Ray16, RayHit, RayHit16};
 pub use scene::{BuildQuality, CommittedScene, SceneBuilder, SceneFlags};
 

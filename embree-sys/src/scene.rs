@@ -5,6 +5,7 @@ use std::sync::Arc;
 
 use crate::device::{Device, DeviceInner};
 use crate::error::{Error, ErrorKind};
+use crate::filter::{HitFilter, filter_hits};
 use crate::sys;
 
 /// The BVH builder's trade-off between build time and query speed (`RTCBuildQuality`).
@@ -31,6 +32,11 @@ pub struct SceneBuilder {
     device: Device,
     handle: sys::RTCScene,
     triangle_count: usize,
+    /// The filters of filtered geometries, boxed twice so each has a stable thin address
+    /// (Embree's user pointer); moved into the committed scene, which outlives every query.
+    #[allow(clippy::vec_box)]
+    // the inner box is a fat pointer: the outer one's address is thin
+    filters: Vec<Box<Box<dyn HitFilter>>>,
 }
 
 impl SceneBuilder {
@@ -45,6 +51,7 @@ impl SceneBuilder {
             device: device.clone(),
             handle,
             triangle_count: 0,
+            filters: Vec::new(),
         })
     }
 
@@ -77,6 +84,26 @@ impl SceneBuilder {
         &mut self,
         positions: &[[f32; 3]],
         triangles: &[[u32; 3]],
+    ) -> Result<u32, Error> {
+        self.add_mesh(positions, triangles, None)
+    }
+
+    /// [`SceneBuilder::add_triangle_mesh`] with a [`HitFilter`] that decides, hit by hit,
+    /// whether a ray is stopped by this geometry (for closest-hit and occlusion queries).
+    pub fn add_filtered_triangle_mesh(
+        &mut self,
+        positions: &[[f32; 3]],
+        triangles: &[[u32; 3]],
+        filter: Box<dyn HitFilter>,
+    ) -> Result<u32, Error> {
+        self.add_mesh(positions, triangles, Some(filter))
+    }
+
+    fn add_mesh(
+        &mut self,
+        positions: &[[f32; 3]],
+        triangles: &[[u32; 3]],
+        filter: Option<Box<dyn HitFilter>>,
     ) -> Result<u32, Error> {
         if positions.is_empty() || triangles.is_empty() {
             return Err(Error::new(
@@ -137,6 +164,16 @@ impl SceneBuilder {
                 Ok(()) => {
                     vertices.copy_from_nonoverlapping(positions.as_ptr(), positions.len());
                     indices.copy_from_nonoverlapping(triangles.as_ptr(), triangles.len());
+                    if let Some(filter) = filter {
+                        // The pointer stays valid: the outer box's heap slot never moves and
+                        // is dropped with the committed scene, after every query.
+                        let filter = Box::new(filter);
+                        let user = &*filter as *const Box<dyn HitFilter> as *mut std::ffi::c_void;
+                        self.filters.push(filter);
+                        sys::rtcSetGeometryUserData(geometry, user);
+                        sys::rtcSetGeometryIntersectFilterFunction(geometry, Some(filter_hits));
+                        sys::rtcSetGeometryOccludedFilterFunction(geometry, Some(filter_hits));
+                    }
                     sys::rtcCommitGeometry(geometry);
                     let id = sys::rtcAttachGeometry(self.handle, geometry);
                     self.device.check().map(|()| id)
@@ -150,7 +187,7 @@ impl SceneBuilder {
     }
 
     /// Builds the BVH. Only a committed scene answers queries.
-    pub fn commit(self) -> Result<CommittedScene, Error> {
+    pub fn commit(mut self) -> Result<CommittedScene, Error> {
         // SAFETY: the scene handle is live; commit runs on Embree's thread pool and returns
         // when the BVH is built.
         unsafe { sys::rtcCommitScene(self.handle) };
@@ -159,6 +196,7 @@ impl SceneBuilder {
             handle: self.handle,
             device: Arc::clone(&self.device.inner),
             triangle_count: self.triangle_count,
+            filters: std::mem::take(&mut self.filters),
         };
         // The handle moved into `scene`; do not release it in our `Drop`.
         std::mem::forget(self);
@@ -180,6 +218,10 @@ pub struct CommittedScene {
     #[allow(dead_code)]
     device: Arc<DeviceInner>,
     triangle_count: usize,
+    /// The geometries' hit filters, which Embree calls during queries: dropped after the
+    /// scene is released (fields drop after `Drop::drop`).
+    #[allow(dead_code, clippy::vec_box)]
+    filters: Vec<Box<Box<dyn HitFilter>>>,
 }
 
 // SAFETY: after `rtcCommitScene` the scene is never modified again (no method takes `&mut self`

@@ -3,6 +3,8 @@
 
 use glam::{Vec2, Vec3};
 
+use super::alpha::Alpha;
+
 /// Diffuse reflectance of surfaces whose material sets no `Kd` and that have no texture.
 pub const DEFAULT_KD: Vec3 = Vec3::splat(0.8);
 
@@ -18,6 +20,8 @@ pub struct Material {
     /// diffuse, and matrix transfer is the incident radiance, whatever the BRDF); renderers of
     /// matrix bakes apply it (`crate::math::glossy`).
     pub glossy: Option<Glossy>,
+    /// Alpha-tested occlusion (glTF `alphaMode` MASK or BLEND, OBJ `map_d`); `None` is opaque.
+    pub alpha: Option<Alpha>,
 }
 
 /// A glossy layer over the diffuse one: a normalised Phong lobe about the mirror direction
@@ -42,6 +46,7 @@ impl Default for Material {
             kd: DEFAULT_KD,
             texture: None,
             glossy: None,
+            alpha: None,
         }
     }
 }

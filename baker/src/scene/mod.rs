@@ -14,6 +14,7 @@
 //!
 //! May import: [`crate::support`], [`crate::math`].
 
+mod alpha;
 mod format;
 mod gltf;
 mod mesh;
@@ -31,6 +32,7 @@ use glam::{Vec2, Vec3};
 use crate::support::error::{Error, Location, Result};
 use crate::support::input_path::AssetFolder;
 
+pub use alpha::{Alpha, AlphaMode, Cutouts, Wrap};
 pub use format::FORMATS;
 use format::OTHER_FORMATS;
 pub use mesh::{DEFAULT_KD, Glossy, Hierarchy, HierarchyNode, Material, Mesh};
@@ -263,6 +265,19 @@ impl Scene {
         }
     }
 
+    /// The cut-out triangles the tracers test alpha on, or `None` when every material is
+    /// opaque.
+    pub fn cutouts(&self) -> Option<Cutouts> {
+        let alphas: Vec<Option<&Alpha>> = self.materials.iter().map(|m| m.alpha.as_ref()).collect();
+        Cutouts::new(
+            &alphas,
+            &self.vertex_material,
+            &self.triangles,
+            &self.uvs,
+            &self.textures,
+        )
+    }
+
     /// Linear diffuse albedo at every vertex (Kd × texture at the vertex's uv).
     pub fn vertex_albedo(&self) -> Vec<Vec3> {
         (0..self.vertex_count())
@@ -328,7 +343,10 @@ fn check_mesh(mesh: &Mesh, texture_count: usize) -> std::result::Result<(), Stri
             mesh.name
         ));
     }
-    if mesh.material.texture.is_some_and(|t| t >= texture_count) {
+    let alpha_texture = mesh.material.alpha.as_ref().and_then(|a| a.texture);
+    if mesh.material.texture.is_some_and(|t| t >= texture_count)
+        || alpha_texture.is_some_and(|t| t >= texture_count)
+    {
         return Err(format!("mesh '{}': texture index out of range", mesh.name));
     }
     Ok(())

@@ -12,6 +12,7 @@ use std::path::{Path, PathBuf};
 
 use glam::{Vec2, Vec3};
 
+use super::alpha::{Alpha, AlphaMode, Wrap};
 use super::mesh::{DEFAULT_KD, Glossy, Material, Mesh};
 use super::texture::Texture;
 use crate::math::glossy;
@@ -176,11 +177,32 @@ fn resolve_materials(
             }
             (None, None) => None,
         };
+        let alpha = match &m.dissolve_texture {
+            Some(name) => {
+                let at = texture_refs
+                    .get(&format!("{}\0map_d", m.name))
+                    .map_or_else(|| Location::file(path), |(f, l)| Location::line(f, *l));
+                let alpha_path = folder.admit(
+                    &at,
+                    "texture",
+                    name.trim(),
+                    Path::new(name.trim()),
+                    at.path.parent().unwrap_or(Path::new("")),
+                )?;
+                textures.push(Texture::load(&alpha_path, &at)?);
+                Some(map_d_alpha(
+                    textures.len() - 1,
+                    textures.last().expect("pushed"),
+                ))
+            }
+            None => None,
+        };
         material_table.push(Material {
             name: m.name.clone(),
             kd: m.diffuse.map(Vec3::from_array).unwrap_or(DEFAULT_KD),
             texture,
             glossy: mtl_glossy(m),
+            alpha,
         });
     }
     let no_material = Material {
@@ -192,8 +214,24 @@ fn resolve_materials(
         },
         texture: override_index,
         glossy: None,
+        alpha: None,
     };
     Ok((material_table, no_material, textures))
+}
+
+/// `map_d`'s coverage: the image's alpha channel where it has one that is not all opaque,
+/// else its first channel (a grey map), as a probability ([`AlphaMode::Blend`]): MTL's
+/// dissolve says no more.
+fn map_d_alpha(index: usize, texture: &Texture) -> Alpha {
+    let has_alpha = texture.srgb8.iter().any(|p| p[3] != 255);
+    Alpha {
+        mode: AlphaMode::Blend,
+        factor: 1.0,
+        texture: Some(index),
+        channel: if has_alpha { 3 } else { 0 },
+        wrap: [Wrap::Repeat; 2],
+        transform: Alpha::IDENTITY,
+    }
 }
 
 /// An MTL material is glossy when it gives a non-zero `Ks`; its `Ns` is the Phong exponent
@@ -288,6 +326,13 @@ fn load_mtl(
             Some("map_Kd") => {
                 if let Some(name) = &current {
                     texture_refs.insert(name.clone(), (mtl_path.to_path_buf(), index + 1));
+                }
+            }
+            // Keyed apart from map_Kd's, by a name no material can have.
+            Some("map_d") => {
+                if let Some(name) = &current {
+                    let key = format!("{name}\0map_d");
+                    texture_refs.insert(key, (mtl_path.to_path_buf(), index + 1));
                 }
             }
             _ => {}

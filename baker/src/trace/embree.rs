@@ -9,7 +9,7 @@ use embree_sys::{BuildQuality, CommittedScene, Device, SceneBuilder, SceneFlags}
 use super::offset::ray_origins;
 use super::seams::{seam_points, seam_vertices};
 use super::tracer::{Backend, Hit, Ray, Tracer};
-use crate::scene::Scene;
+use crate::scene::{Cutouts, Scene};
 use crate::support::error::{Error, Result};
 
 /// Rays handed to Embree per stream call: large enough for Embree to form full packets and
@@ -25,9 +25,43 @@ thread_local! {
         RefCell::new(vec![embree_sys::RayHit::new(embree_sys::Ray::default()); STREAM]);
 }
 
-fn to_hit(hit: embree_sys::Hit) -> Hit {
+/// Where hits point in the scene's triangles. A scene with cut-out triangles is two Embree
+/// geometries, the opaque triangles (no filter: Embree's fast path) and the cut-out ones
+/// (with an [`AlphaFilter`]); each lists its triangles' indices in the scene. Without cut-out
+/// triangles there is one geometry, whose primitive ids are the triangle indices.
+#[derive(Clone, Default)]
+struct TriangleIds {
+    /// Per geometry id, its primitives' triangle indices; empty for the one-geometry case.
+    of_geometry: Vec<Arc<Vec<u32>>>,
+}
+
+impl TriangleIds {
+    #[inline]
+    fn triangle(&self, hit: &embree_sys::Hit) -> u32 {
+        match self.of_geometry.get(hit.geom_id as usize) {
+            Some(ids) => ids[hit.prim_id as usize],
+            None => hit.prim_id,
+        }
+    }
+}
+
+/// The alpha test of the cut-out geometry's hits ([`Cutouts::stops`]).
+struct AlphaFilter {
+    cutouts: Arc<Cutouts>,
+    triangles: Arc<Vec<u32>>,
+}
+
+impl embree_sys::HitFilter for AlphaFilter {
+    fn accept(&self, prim_id: u32, u: f32, v: f32, origin: [f32; 3], dir: [f32; 3]) -> bool {
+        let triangle = self.triangles[prim_id as usize];
+        let (origin, dir) = (glam::Vec3::from_array(origin), glam::Vec3::from_array(dir));
+        self.cutouts.stops(triangle, u, v, origin, dir)
+    }
+}
+
+fn to_hit(ids: &TriangleIds, hit: embree_sys::Hit) -> Hit {
     Hit {
-        triangle: hit.prim_id,
+        triangle: ids.triangle(&hit),
         u: hit.u,
         v: hit.v,
         t: hit.t,
@@ -51,6 +85,8 @@ pub struct EmbreeTracer {
     /// That robust scene, built once.
     points_robust: OnceLock<Arc<CommittedScene>>,
     mode: EmbreeMode,
+    /// Cut-out triangles, and the map from hits to triangles.
+    alpha: Alpha,
 }
 
 /// The robust-mode scene over the same geometry, and the ray origins traced in it.
@@ -94,8 +130,35 @@ fn tracer_error(err: embree_sys::Error) -> Error {
     }
 }
 
-/// Builds an Embree scene over `scene`'s triangles, robust or not.
-fn commit(device: &Device, scene: &Scene, robust: bool) -> Result<CommittedScene> {
+/// The scene's cut-out triangles and how hits map back to triangles ([`TriangleIds`]).
+#[derive(Clone, Default)]
+struct Alpha {
+    cutouts: Option<Arc<Cutouts>>,
+    ids: TriangleIds,
+}
+
+impl Alpha {
+    fn of(scene: &Scene) -> Alpha {
+        let Some(cutouts) = scene.cutouts() else {
+            return Alpha::default();
+        };
+        let (cut, opaque): (Vec<u32>, Vec<u32>) =
+            (0..scene.triangles.len() as u32).partition(|&t| cutouts.is_cut(t));
+        let of_geometry = [opaque, cut]
+            .into_iter()
+            .filter(|ids| !ids.is_empty())
+            .map(Arc::new)
+            .collect();
+        Alpha {
+            cutouts: Some(Arc::new(cutouts)),
+            ids: TriangleIds { of_geometry },
+        }
+    }
+}
+
+/// Builds an Embree scene over `scene`'s triangles, robust or not: one geometry, or with
+/// cut-out triangles, the geometries `alpha.ids` lists (the cut-out one filtered).
+fn commit(device: &Device, scene: &Scene, alpha: &Alpha, robust: bool) -> Result<CommittedScene> {
     let positions: Vec<[f32; 3]> = scene.positions.iter().map(|p| p.to_array()).collect();
     let mut builder = SceneBuilder::new(device).map_err(tracer_error)?;
     builder.set_build_quality(BuildQuality::High);
@@ -103,9 +166,30 @@ fn commit(device: &Device, scene: &Scene, robust: bool) -> Result<CommittedScene
         robust,
         compact: false,
     });
-    builder
-        .add_triangle_mesh(&positions, &scene.triangles)
-        .map_err(tracer_error)?;
+    match &alpha.cutouts {
+        None => {
+            builder
+                .add_triangle_mesh(&positions, &scene.triangles)
+                .map_err(tracer_error)?;
+        }
+        Some(cutouts) => {
+            for (geometry, ids) in alpha.ids.of_geometry.iter().enumerate() {
+                let triangles: Vec<[u32; 3]> =
+                    ids.iter().map(|&t| scene.triangles[t as usize]).collect();
+                let added = if cutouts.is_cut(ids[0]) {
+                    let filter = AlphaFilter {
+                        cutouts: cutouts.clone(),
+                        triangles: ids.clone(),
+                    };
+                    builder.add_filtered_triangle_mesh(&positions, &triangles, Box::new(filter))
+                } else {
+                    builder.add_triangle_mesh(&positions, &triangles)
+                };
+                let id = added.map_err(tracer_error)?;
+                debug_assert_eq!(id as usize, geometry, "Embree numbers geometries from 0");
+            }
+        }
+    }
     builder.commit().map_err(tracer_error)
 }
 
@@ -119,6 +203,7 @@ impl EmbreeTracer {
             .map(|t| format!("threads={t}"))
             .unwrap_or_default();
         let device = Device::with_config(&config).map_err(tracer_error)?;
+        let alpha = Alpha::of(scene);
         let seams = match options.mode {
             EmbreeMode::Watertight => {
                 let origins = ray_origins(scene);
@@ -133,7 +218,7 @@ impl EmbreeTracer {
                     None
                 } else {
                     Some(Seams {
-                        robust: Arc::new(commit(&device, scene, true)?),
+                        robust: Arc::new(commit(&device, scene, &alpha, true)?),
                         origins,
                     })
                 }
@@ -141,11 +226,12 @@ impl EmbreeTracer {
             EmbreeMode::Robust | EmbreeMode::Fast => None,
         };
         Ok(EmbreeTracer {
-            scene: commit(&device, scene, options.mode == EmbreeMode::Robust)?,
+            scene: commit(&device, scene, &alpha, options.mode == EmbreeMode::Robust)?,
             seams,
             device,
             points_robust: OnceLock::new(),
             mode: options.mode,
+            alpha,
         })
     }
 
@@ -157,6 +243,7 @@ impl EmbreeTracer {
 
     fn routing(&self) -> Routing<'_> {
         Routing {
+            ids: &self.alpha.ids,
             fast: &self.scene,
             robust: self.seams.as_ref().map(|s| (&*s.robust, &s.origins)),
         }
@@ -194,7 +281,7 @@ impl EmbreeTracer {
             None => match self.points_robust.get() {
                 Some(robust) => robust.clone(),
                 None => {
-                    let robust = Arc::new(commit(&self.device, scene, true)?);
+                    let robust = Arc::new(commit(&self.device, scene, &self.alpha, true)?);
                     self.points_robust.get_or_init(|| robust).clone()
                 }
             },
@@ -225,6 +312,7 @@ impl EmbreePoints<'_> {
 
     fn routing(&self) -> Routing<'_> {
         Routing {
+            ids: &self.base.alpha.ids,
             fast: &self.base.scene,
             robust: Some((&*self.robust, &self.origins)),
         }
@@ -233,6 +321,7 @@ impl EmbreePoints<'_> {
 
 /// Which scene traces a ray: the robust one for the listed origins, the fast one otherwise.
 struct Routing<'a> {
+    ids: &'a TriangleIds,
     fast: &'a CommittedScene,
     robust: Option<(&'a CommittedScene, &'a HashSet<[u32; 3]>)>,
 }
@@ -293,7 +382,7 @@ impl<'a> Routing<'a> {
     fn intersect(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
         assert_eq!(rays.len(), hits.len());
         for (run, scene) in self.runs(rays) {
-            intersect_in(scene, &rays[run.clone()], &mut hits[run]);
+            intersect_in(scene, self.ids, &rays[run.clone()], &mut hits[run]);
         }
     }
 
@@ -310,7 +399,7 @@ impl<'a> Routing<'a> {
                 }
                 scene.intersect_stream(stream);
                 for (h, rh) in hits.iter_mut().zip(stream.iter()) {
-                    *h = rh.hit().map(to_hit);
+                    *h = rh.hit().map(|hit| to_hit(self.ids, hit));
                 }
             }
         });
@@ -399,7 +488,7 @@ fn occluded_in(scene: &CommittedScene, rays: &[Ray], occluded: &mut [bool]) {
 }
 
 /// Closest hits of general rays in `scene`, in streams.
-fn intersect_in(scene: &CommittedScene, rays: &[Ray], hits: &mut [Option<Hit>]) {
+fn intersect_in(scene: &CommittedScene, ids: &TriangleIds, rays: &[Ray], hits: &mut [Option<Hit>]) {
     INTERSECTION_STREAM.with_borrow_mut(|stream| {
         for (rays, hits) in rays.chunks(STREAM).zip(hits.chunks_mut(STREAM)) {
             let stream = &mut stream[..rays.len()];
@@ -409,7 +498,7 @@ fn intersect_in(scene: &CommittedScene, rays: &[Ray], hits: &mut [Option<Hit>]) 
             }
             scene.intersect_stream(stream);
             for (h, rh) in hits.iter_mut().zip(stream.iter()) {
-                *h = rh.hit().map(to_hit);
+                *h = rh.hit().map(|hit| to_hit(ids, hit));
             }
         }
     });

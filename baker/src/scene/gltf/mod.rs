@@ -12,6 +12,7 @@
 //! glTF's texture v runs down from the image's top; the scene keeps OBJ's convention (v up
 //! from the bottom), so v is stored as 1 − v.
 
+mod alpha;
 mod files;
 
 use files::{images_are_readable, read_buffers, read_images, uris_are_readable};
@@ -265,20 +266,23 @@ impl PrimitiveReader<'_> {
             None => Material {
                 name: String::from("default"),
                 kd: DEFAULT_KD,
-                texture: None,
-                glossy: None,
+                ..Material::default()
             },
             Some(index) => {
                 let [r, g, b, _] = pbr.base_color_factor();
+                let name = primitive
+                    .material()
+                    .name()
+                    .map(str::to_string)
+                    .unwrap_or_else(|| format!("material {index}"));
+                let alpha = alpha::material_alpha(&primitive.material(), texture)
+                    .map_err(|problem| self.fail(format!("material '{name}': {problem}")))?;
                 Material {
-                    name: primitive
-                        .material()
-                        .name()
-                        .map(str::to_string)
-                        .unwrap_or_else(|| format!("material {index}")),
+                    name,
                     kd: Vec3::new(r, g, b),
                     texture,
                     glossy: gltf_glossy(&pbr),
+                    alpha,
                 }
             }
         };

@@ -36,7 +36,7 @@ use obvhs::traverse;
 use self::node::{BoxRay, ChildBoxes, traversal_mask};
 use self::triangle::{ScaledHit, Triangle};
 use super::tracer::{Backend, Hit, Ray, Tracer};
-use crate::scene::Scene;
+use crate::scene::{Cutouts, Scene};
 
 /// How the obvhs BVH is built.
 #[derive(Clone, Copy, Debug)]
@@ -58,6 +58,8 @@ pub struct ObvhsTracer {
     bvh: CwBvh,
     /// `triangles[i]` is the scene triangle `bvh.primitive_indices[i]`.
     triangles: Vec<Triangle>,
+    /// The scene's cut-out triangles, whose hits pass the alpha test or are ignored.
+    cutouts: Option<Cutouts>,
 }
 
 impl ObvhsTracer {
@@ -81,7 +83,26 @@ impl ObvhsTracer {
                 Triangle::new(v0, v1, v2)
             })
             .collect();
-        ObvhsTracer { bvh, triangles }
+        ObvhsTracer {
+            bvh,
+            triangles,
+            cutouts: scene.cutouts(),
+        }
+    }
+
+    /// Whether `hit` of `ray` on the triangle in BVH slot `slot` stops the ray: the alpha test
+    /// of cut-out triangles ([`Cutouts::stops`]), true for all others.
+    #[inline(always)]
+    fn stops(&self, slot: u32, hit: &ScaledHit, ray: &BoxRay) -> bool {
+        let Some(cutouts) = &self.cutouts else {
+            return true;
+        };
+        let triangle = self.bvh.primitive_indices[slot as usize];
+        if !cutouts.is_cut(triangle) {
+            return true;
+        }
+        let (u, v) = hit.barycentrics();
+        cutouts.stops(triangle, u, v, ray.origin.into(), ray.dir.into())
     }
 
     /// The number of nodes of the BVH (for benchmarks comparing build presets).
@@ -100,7 +121,9 @@ impl ObvhsTracer {
             traversal_mask(node, state.oct_inv4, ChildBoxes::new(node).entered_by(&ray)),
             {
                 let slot = state.primitive_id;
-                if let Some(hit) = self.triangles[slot as usize].intersect(&ray) {
+                if let Some(hit) = self.triangles[slot as usize].intersect(&ray)
+                    && self.stops(slot, &hit, &ray)
+                {
                     // Later candidates must come nearer (the test keeps t ≤ tfar), as in
                     // Embree, which shortens the ray to each hit.
                     ray.tfar = hit.t / hit.den;

@@ -82,6 +82,7 @@ impl ObvhsTracer {
                     blocked,
                     &groups,
                     origin,
+                    rays,
                 );
                 if blocked == all {
                     return blocked;
@@ -105,6 +106,7 @@ impl ObvhsTracer {
     /// once all of them are blocked. Kept apart from the traversal so each reads alone;
     /// inlined, so the AVX2 compilation still covers it.
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)] // the packet's views, each prepared once per packet
     fn block_in_leaf(
         &self,
         primitive_base: u32,
@@ -113,6 +115,7 @@ impl ObvhsTracer {
         mut blocked: u32,
         groups: &[RayGroup; GROUPS],
         origin: Option<Vec3A>,
+        rays: &[BoxRay],
     ) -> u32 {
         let first = primitive_base + u32::from(meta & 0b1_1111);
         let count = (meta & 0b1110_0000).count_ones();
@@ -122,24 +125,43 @@ impl ObvhsTracer {
                 break;
             }
             let triangle = &self.triangles[slot as usize];
+            let mut hit = 0;
             if let Some(o) = origin {
                 let shared = triangle.seen_from(o);
                 for (g, group) in groups.iter().enumerate() {
                     let lanes = open >> (4 * g) & 0xf;
                     if lanes != 0 {
-                        blocked |= (triangle.hits_from(&shared, group) & lanes) << (4 * g);
+                        hit |= (triangle.hits_from(&shared, group) & lanes) << (4 * g);
                     }
                 }
             } else {
                 for (g, group) in groups.iter().enumerate() {
                     let lanes = open >> (4 * g) & 0xf;
                     if lanes != 0 {
-                        blocked |= (triangle.hits(group) & lanes) << (4 * g);
+                        hit |= (triangle.hits(group) & lanes) << (4 * g);
                     }
                 }
             }
+            if hit != 0 && self.cutouts.is_some() {
+                hit = self.alpha_tested(slot, hit, rays);
+            }
+            blocked |= hit;
         }
         blocked
+    }
+
+    /// Of the rays in `hit` (a mask over `rays`) that hit the triangle in BVH slot `slot`,
+    /// those the alpha test stops ([`ObvhsTracer::stops`], on the one-ray hit).
+    #[cold]
+    fn alpha_tested(&self, slot: u32, hit: u32, rays: &[BoxRay]) -> u32 {
+        let triangle = &self.triangles[slot as usize];
+        bits(hit)
+            .filter(|&i| {
+                triangle
+                    .intersect(&rays[i])
+                    .is_some_and(|h| self.stops(slot, &h, &rays[i]))
+            })
+            .fold(0, |mask, i| mask | 1 << i)
     }
 
     /// Occlusion of `rays` in order, [`PACKET`] at a time: compiled for AVX2 where the CPU

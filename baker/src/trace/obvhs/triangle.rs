@@ -51,6 +51,15 @@ pub(super) struct ScaledHit {
     pub(super) uvw: f32,
 }
 
+impl ScaledHit {
+    /// Embree's barycentrics (u, v) of the hit.
+    #[inline]
+    pub(super) fn barycentrics(&self) -> (f32, f32) {
+        let scaled = |x: f32| if self.uvw == 0.0 { 0.0 } else { x / self.uvw };
+        (scaled(self.u), scaled(self.v))
+    }
+}
+
 /// Four rays, one per lane (a lane may repeat another ray).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct RayGroup {
