@@ -19,4 +19,5 @@ pub mod matrix_hits;
 pub mod memory;
 pub mod options;
 pub mod receivers;
+pub mod subsurface;
 pub mod transfer;
