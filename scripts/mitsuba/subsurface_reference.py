@@ -201,6 +201,8 @@ def main():
                 "object": name,
                 "ior": ior,
                 "vertex": receiver,
+                "point": [float(x) for x in point],
+                "normal": [float(x) for x in normal],
                 "sigma_t": sigma_t,
                 "albedo": ALBEDO,
                 "light": light,

@@ -36,11 +36,11 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
+use crate::bake::options::{Mode, TransferKind};
+use crate::bake::transfer::Transfer;
 use crate::math::medium::{Medium, fresnel, reflect, refract};
 use crate::math::sampling::{Pcg32, uniform_sphere, vertex_seed};
 use crate::math::sh::Basis;
-use crate::bake::options::{Mode, TransferKind};
-use crate::bake::transfer::Transfer;
 use crate::scene::Scene;
 use crate::support::error::{Error, Location, Result};
 use crate::support::progress::Progress;
@@ -102,8 +102,11 @@ pub fn vertex_points(scene: &Scene, media: &[Option<Medium>]) -> Points {
         points.receiver.push(v);
         points.position.push(p);
         points.normal.push(scene.normals[v]);
-        // The outside origin mirrored: as far below the surface as it is above.
-        points.inside.push(p - (outside[v] - p));
+        // The outside origin mirrored through the tangent plane: as far below the surface as
+        // it is above, and nudged, as it is, into the vertex's own triangles (at a box's
+        // corner that keeps it inside the other faces' planes).
+        let (n, d) = (scene.normals[v], outside[v] - p);
+        points.inside.push(outside[v] - 2.0 * d.dot(n) * n);
         points.material.push(material);
     }
     points
@@ -235,7 +238,8 @@ fn point_transfer(
         }
         // The channels that walk with channel c: those with the same σt.
         let group: [bool; 3] = std::array::from_fn(|k| !done[k] && sigma_t[k] == sigma_t[c]);
-        let group_albedo: [f32; 3] = std::array::from_fn(|k| if group[k] { albedo[k] } else { 0.0 });
+        let group_albedo: [f32; 3] =
+            std::array::from_fn(|k| if group[k] { albedo[k] } else { 0.0 });
         let mut sums = vec![0.0f64; 3 * n];
         for _ in 0..walks.samples {
             let start = Step {
@@ -244,7 +248,7 @@ fn point_transfer(
                 weight: [entry; 3],
                 scattered: false,
             };
-            let (exit, cast) = walk(walks, material, &medium, sigma_t[c], group_albedo, start, &mut rng);
+            let (exit, cast) = walk(walks, &medium, sigma_t[c], group_albedo, start, &mut rng);
             rays += cast;
             if let Some(exit) = exit {
                 rays += gather(walks, basis, &exit, group, sh, &mut sums);
@@ -253,7 +257,8 @@ fn point_transfer(
         let kd = walks.scene.materials[material as usize].kd.to_array();
         for k in (0..3).filter(|&k| group[k]) {
             for j in 0..n {
-                out[k * n + j] = (sums[k * n + j] / f64::from(walks.samples) / f64::from(kd[k])) as f32;
+                out[k * n + j] =
+                    (sums[k * n + j] / f64::from(walks.samples) / f64::from(kd[k])) as f32;
             }
             done[k] = true;
         }
@@ -283,7 +288,6 @@ struct Exit {
 /// rays cast.
 fn walk(
     walks: &Walks,
-    material: u32,
     medium: &Medium,
     sigma_t: f32,
     albedo: [f32; 3],
@@ -324,10 +328,11 @@ fn walk(
             }
             continue;
         }
-        // Another object inside this one absorbs the walk.
-        if walks.scene.vertex_material[walks.scene.triangles[h.triangle as usize][0] as usize]
-            != material
-        {
+        // Another object inside this one absorbs the walk. (Meshes with equal media, such as
+        // an OBJ's groups of one material, bound one medium.)
+        let hit_material =
+            walks.scene.vertex_material[walks.scene.triangles[h.triangle as usize][0] as usize];
+        if walks.media[hit_material as usize] != Some(*medium) {
             return (None, rays);
         }
         let point = step.position + step.direction * h.t;
@@ -371,7 +376,6 @@ fn triangle_size(scene: &Scene, t: u32) -> f32 {
         .max(p[1].distance(p[2]))
         .max(p[2].distance(p[0]))
 }
-
 
 /// Adds what a path that left at `exit` carries to `sums` (3 · n², the channels in `group`):
 /// the distant light from its direction if that is unoccluded; in interreflected mode, where it

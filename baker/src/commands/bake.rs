@@ -323,7 +323,13 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
                 prt_baker::bake(&scene, tracer.as_deref(), &options, progress.as_ref())?;
             if let (true, Some(tracer)) = (subsurface, tracer.as_deref()) {
                 let started = std::time::Instant::now();
-                subsurface::apply_to_vertices(&scene, tracer, &media, &mut transfer, progress.as_ref())?;
+                subsurface::apply_to_vertices(
+                    &scene,
+                    tracer,
+                    &media,
+                    &mut transfer,
+                    progress.as_ref(),
+                )?;
                 transfer.seconds += started.elapsed().as_secs_f64();
             }
             let file = CoefficientFile::from_bake(&scene, &transfer);

@@ -71,7 +71,10 @@ impl Materials {
                 let DeValue::Table(table) = value.get_ref() else {
                     return Err(source.error(
                         line,
-                        format!("material `{name}`: expected a table, found a {}", value.get_ref().type_str()),
+                        format!(
+                            "material `{name}`: expected a table, found a {}",
+                            value.get_ref().type_str()
+                        ),
                     ));
                 };
                 let material = Table {
@@ -95,7 +98,8 @@ impl Materials {
     pub fn media_for(&self, scene: &Scene) -> Result<Vec<Option<Medium>>> {
         for entry in &self.entries {
             if !scene.materials.iter().any(|m| m.name == entry.name) {
-                let mut names: Vec<&str> = scene.materials.iter().map(|m| m.name.as_str()).collect();
+                let mut names: Vec<&str> =
+                    scene.materials.iter().map(|m| m.name.as_str()).collect();
                 names.sort_unstable();
                 names.dedup();
                 return Err(Error::scene(
@@ -222,7 +226,9 @@ impl Table<'_> {
                 let x = number(value.get_ref())
                     .ok_or_else(|| self.key_error("ior", "expected a number"))?;
                 if !(x.is_finite() && x > 0.0) {
-                    return Err(self.key_error("ior", format!("must be a positive number, not {x}")));
+                    return Err(
+                        self.key_error("ior", format!("must be a positive number, not {x}"))
+                    );
                 }
                 x as f32
             }
@@ -250,7 +256,11 @@ impl Table<'_> {
                 .collect::<Option<Vec<f64>>>()
                 .filter(|n| n.len() == 3)
                 .ok_or_else(|| self.key_error(key, format!("expected {expected}")))?,
-            other => vec![number(other).ok_or_else(|| self.key_error(key, format!("expected {expected}")))?; 3],
+            other => vec![
+                number(other)
+                    .ok_or_else(|| self.key_error(key, format!("expected {expected}")))?;
+                3
+            ],
         };
         if let Some(x) = numbers.iter().find(|x| !x.is_finite()) {
             return Err(self.key_error(key, format!("{x} is not finite")));
@@ -258,7 +268,11 @@ impl Table<'_> {
         if let Some(x) = numbers.iter().find(|x| **x < 0.0) {
             return Err(self.key_error(key, format!("{x} is negative")));
         }
-        Ok(Vec3::new(numbers[0] as f32, numbers[1] as f32, numbers[2] as f32))
+        Ok(Vec3::new(
+            numbers[0] as f32,
+            numbers[1] as f32,
+            numbers[2] as f32,
+        ))
     }
 }
 
@@ -303,24 +317,40 @@ mod tests {
 
     #[test]
     fn errors_name_the_file_line_and_key() {
-        let text = "[material.skin.subsurface]\nscattering = [1, 1, 1]\nabsorption = [0.1, -0.2, 0]\n";
+        let text =
+            "[material.skin.subsurface]\nscattering = [1, 1, 1]\nabsorption = [0.1, -0.2, 0]\n";
         let m = message(text);
-        assert!(m.contains("mats.toml:3") && m.contains("absorption") && m.contains("negative"), "{m}");
-        let m = message("[material.skin.subsurface]\nscattering = [1, 1, 1]\nabsorption = 0\nior = nan\n");
+        assert!(
+            m.contains("mats.toml:3") && m.contains("absorption") && m.contains("negative"),
+            "{m}"
+        );
+        let m = message(
+            "[material.skin.subsurface]\nscattering = [1, 1, 1]\nabsorption = 0\nior = nan\n",
+        );
         assert!(m.contains("mats.toml:4") && m.contains("ior"), "{m}");
         let m = message("[material.skin.subsurface]\nscattering = [1, inf, 1]\nabsorption = 0\n");
         assert!(m.contains("mats.toml:2") && m.contains("not finite"), "{m}");
         let m = message("[material.skin.subsurface]\nscattering = 1\nabsorption = 0\nsigma = 3\n");
-        assert!(m.contains("mats.toml:4") && m.contains("unknown key `sigma`") || m.contains("key `sigma`: unknown"), "{m}");
+        assert!(
+            m.contains("mats.toml:4") && m.contains("unknown key `sigma`")
+                || m.contains("key `sigma`: unknown"),
+            "{m}"
+        );
         let m = message("[material.skin]\nsubsurf = 1\n");
         assert!(m.contains("mats.toml:2") && m.contains("subsurf"), "{m}");
         let m = message("[material.skin.subsurface]\nscattering = [1, 1]\nabsorption = 0\n");
         assert!(m.contains("mats.toml:2") && m.contains("3 numbers"), "{m}");
         let m = message("[material.skin.subsurface]\nabsorption = 0\n");
-        assert!(m.contains("mats.toml:1") && m.contains("missing key `scattering`"), "{m}");
+        assert!(
+            m.contains("mats.toml:1") && m.contains("missing key `scattering`"),
+            "{m}"
+        );
         let m = message("[materials.skin]\n");
         assert!(m.contains("mats.toml:1") && m.contains("materials"), "{m}");
         let m = message("[material.skin.subsurface\n");
-        assert!(m.contains("mats.toml:1") && m.contains("invalid TOML"), "{m}");
+        assert!(
+            m.contains("mats.toml:1") && m.contains("invalid TOML"),
+            "{m}"
+        );
     }
 }
