@@ -53,6 +53,7 @@ fn transfer_at(
     vertex: usize,
     order: usize,
     samples: u32,
+    seed: u64,
 ) -> Vec<[f64; 3]> {
     let all = vertex_points(scene, media);
     let i = all
@@ -73,7 +74,7 @@ fn transfer_at(
         media,
         order,
         samples,
-        seed: 5,
+        seed,
         bounced: None,
     };
     let (out, _) = bake_points(&walks, &one, &Silent);
@@ -127,7 +128,7 @@ fn semi_infinite_medium_matches_mitsuba_and_the_dipole() {
     );
     let media = vec![Some(medium(1.0, 1.0)); scene.materials.len()];
     let tracer = tracer(&scene, Backend::Embree);
-    let t = transfer_at(&scene, tracer.as_ref(), &media, top, 1, 20_000);
+    let t = transfer_at(&scene, tracer.as_ref(), &media, top, 1, 20_000, 5);
     let radiance = t[0].map(|x| x * SQRT_4PI);
     let mitsuba = [0.750, 0.415, 0.115];
     println!("semi-infinite: bake {radiance:.4?}, Mitsuba {mitsuba:?}");
@@ -184,8 +185,12 @@ struct Reference {
     se: [f64; 3],
 }
 
+/// The committed table, or the one `PRT_SUBSURFACE_REFERENCES` names (`make
+/// mitsuba-subsurface` regenerates it with Mitsuba and points there).
 fn references() -> Vec<Reference> {
-    let text = std::fs::read_to_string(data("references.json")).expect("references.json");
+    let path = std::env::var_os("PRT_SUBSURFACE_REFERENCES")
+        .map_or_else(|| data("references.json"), PathBuf::from);
+    let text = std::fs::read_to_string(&path).expect("references.json");
     let json: serde_json::Value = serde_json::from_str(&text).expect("json");
     let triple = |v: &serde_json::Value| -> [f64; 3] {
         std::array::from_fn(|c| v[c].as_f64().expect("number"))
@@ -209,6 +214,10 @@ fn references() -> Vec<Reference> {
 
 /// The relit radiance at the held-out scene's vertex at `r.point` with normal `r.normal`.
 fn relit_reference_case(r: &Reference, backend: Backend, samples: u32) -> [f64; 3] {
+    relit_seeded(r, backend, samples, 5)
+}
+
+fn relit_seeded(r: &Reference, backend: Backend, samples: u32, seed: u64) -> [f64; 3] {
     let scene = Scene::load(&data(&format!("{}.obj", r.object))).expect("scene");
     let vertex = (0..scene.vertex_count())
         .find(|&v| {
@@ -225,7 +234,7 @@ fn relit_reference_case(r: &Reference, backend: Backend, samples: u32) -> [f64; 
         other => panic!("unknown light {other}"),
     };
     let l = project(order, light);
-    let t = transfer_at(&scene, tracer.as_ref(), &media, vertex, order, samples);
+    let t = transfer_at(&scene, tracer.as_ref(), &media, vertex, order, samples, seed);
     std::array::from_fn(|c| t.iter().zip(&l).map(|(t, l)| t[c] * l).sum())
 }
 
@@ -248,6 +257,32 @@ fn held_out_objects_match_mitsuba_volpath() {
         }
     }
     assert!(failures.is_empty(), "outside 5 % + 3 SE: {failures:?}");
+}
+
+/// The 5 % cannot see every error (leaving out the Fresnel reflection inside moves
+/// these results by 2–3 %), so the bake is also held to the references statistically: the
+/// mean of 8 bakes with their own seeds within 4 combined standard errors (the bake's from the
+/// spread of its seeds), plus 0.5 % for the slab, whose light from below is cut at order 10.
+#[test]
+fn held_out_objects_match_mitsuba_within_their_standard_errors() {
+    let mut failures = Vec::new();
+    for r in references() {
+        let runs: Vec<[f64; 3]> = (0..8).map(|s| relit_seeded(&r, Backend::Embree, 8192, 100 + s)).collect();
+        let truncation = if r.light == "sky" { 0.0 } else { 0.005 };
+        let mut worst = 0.0f64;
+        for c in 0..3 {
+            let mean = runs.iter().map(|x| x[c]).sum::<f64>() / 8.0;
+            let var = runs.iter().map(|x| (x[c] - mean).powi(2)).sum::<f64>() / 7.0;
+            let se = (var / 8.0 + r.se[c] * r.se[c]).sqrt();
+            let excess = ((mean - r.radiance[c]).abs() - truncation * r.radiance[c]).max(0.0);
+            worst = worst.max(excess / se);
+        }
+        println!("{:6} ior {:.1}: worst channel {worst:.2} standard errors off", r.object, r.ior);
+        if worst > 4.0 {
+            failures.push(format!("{} ior {}: {worst:.1} SE", r.object, r.ior));
+        }
+    }
+    assert!(failures.is_empty(), "{failures:?}");
 }
 
 #[test]
