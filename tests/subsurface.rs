@@ -234,7 +234,15 @@ fn relit_seeded(r: &Reference, backend: Backend, samples: u32, seed: u64) -> [f6
         other => panic!("unknown light {other}"),
     };
     let l = project(order, light);
-    let t = transfer_at(&scene, tracer.as_ref(), &media, vertex, order, samples, seed);
+    let t = transfer_at(
+        &scene,
+        tracer.as_ref(),
+        &media,
+        vertex,
+        order,
+        samples,
+        seed,
+    );
     std::array::from_fn(|c| t.iter().zip(&l).map(|(t, l)| t[c] * l).sum())
 }
 
@@ -267,7 +275,9 @@ fn held_out_objects_match_mitsuba_volpath() {
 fn held_out_objects_match_mitsuba_within_their_standard_errors() {
     let mut failures = Vec::new();
     for r in references() {
-        let runs: Vec<[f64; 3]> = (0..8).map(|s| relit_seeded(&r, Backend::Embree, 8192, 100 + s)).collect();
+        let runs: Vec<[f64; 3]> = (0..8)
+            .map(|s| relit_seeded(&r, Backend::Embree, 8192, 100 + s))
+            .collect();
         let truncation = if r.light == "sky" { 0.0 } else { 0.005 };
         let mut worst = 0.0f64;
         for c in 0..3 {
@@ -277,7 +287,10 @@ fn held_out_objects_match_mitsuba_within_their_standard_errors() {
             let excess = ((mean - r.radiance[c]).abs() - truncation * r.radiance[c]).max(0.0);
             worst = worst.max(excess / se);
         }
-        println!("{:6} ior {:.1}: worst channel {worst:.2} standard errors off", r.object, r.ior);
+        println!(
+            "{:6} ior {:.1}: worst channel {worst:.2} standard errors off",
+            r.object, r.ior
+        );
         if worst > 4.0 {
             failures.push(format!("{} ior {}: {worst:.1} SE", r.object, r.ior));
         }
@@ -368,7 +381,7 @@ fn whole_scene_bakes_keep_opaque_transfer_and_compose_bounces() {
     }
     all.push(floor);
     let scene = scene(all);
-    let media = materials.media_for(&scene).unwrap();
+    let media = materials.media_for(&scene.path, &scene.materials).unwrap();
     let tracer = tracer(&scene, Backend::Embree);
     let mut glow = [0.0f64; 2];
     for (k, mode) in [Mode::Shadowed, Mode::Interreflected]

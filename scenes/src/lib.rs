@@ -285,8 +285,9 @@ fn translucent_sphere(dir: &Path) -> std::io::Result<()> {
         dir.join("translucent.toml"),
         "# The wax sphere's medium (docs/subsurface.md): per scene unit, R G B.\n\
          [material.wax.subsurface]\n\
-         scattering = [9.0, 7.5, 5.0]   # reduced scattering coefficient σs′\n\
-         absorption = [0.04, 0.25, 1.2]  # absorption coefficient σa\n\
+         # σt = σs′ + σa is 8 in every channel, so the three channels share their walks.\n\
+         scattering = [7.96, 7.76, 6.8]  # reduced scattering coefficient σs′\n\
+         absorption = [0.04, 0.24, 1.2]  # absorption coefficient σa\n\
          ior = 1.4\n",
     )?;
     std::fs::write(

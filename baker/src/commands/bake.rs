@@ -284,7 +284,7 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
     }
     let materials = args.materials.as_deref().map(Materials::load).transpose()?;
     let media = match &materials {
-        Some(m) => m.media_for(&scene)?,
+        Some(m) => m.media_for(&scene.path, &scene.materials)?,
         None => Vec::new(),
     };
     let subsurface = media.iter().any(Option::is_some);

@@ -18,7 +18,7 @@ use glam::Vec3;
 use toml::Spanned;
 use toml::de::{DeTable, DeValue};
 
-use super::Scene;
+use super::mesh::Material;
 use crate::math::medium::Medium;
 use crate::support::error::{Error, Location, Result};
 
@@ -92,14 +92,17 @@ impl Materials {
         })
     }
 
-    /// The medium of each of `scene`'s materials (indexed as `scene.materials`), `None` for
-    /// opaque ones. A name the scene does not have is an error at its line: a typo must not
-    /// leave an object opaque without a word.
-    pub fn media_for(&self, scene: &Scene) -> Result<Vec<Option<Medium>>> {
+    /// The medium of each of a scene's `materials` (the scene read from `scene_path`), `None`
+    /// for opaque ones. A name the scene does not have is an error at its line: a typo must
+    /// not leave an object opaque without a word.
+    pub fn media_for(
+        &self,
+        scene_path: &Path,
+        materials: &[Material],
+    ) -> Result<Vec<Option<Medium>>> {
         for entry in &self.entries {
-            if !scene.materials.iter().any(|m| m.name == entry.name) {
-                let mut names: Vec<&str> =
-                    scene.materials.iter().map(|m| m.name.as_str()).collect();
+            if !materials.iter().any(|m| m.name == entry.name) {
+                let mut names: Vec<&str> = materials.iter().map(|m| m.name.as_str()).collect();
                 names.sort_unstable();
                 names.dedup();
                 return Err(Error::scene(
@@ -107,14 +110,13 @@ impl Materials {
                     format!(
                         "material `{}` is not in {} (its materials: {})",
                         entry.name,
-                        scene.path.display(),
+                        scene_path.display(),
                         names.join(", ")
                     ),
                 ));
             }
         }
-        Ok(scene
-            .materials
+        Ok(materials
             .iter()
             .map(|m| {
                 self.entries
@@ -313,6 +315,30 @@ mod tests {
         assert!(floor.subsurface.is_none());
         let grey = parse("[material.wax.subsurface]\nscattering = 2\nabsorption = 0\n").unwrap();
         assert_eq!(grey.entries[0].subsurface.unwrap().ior, 1.0);
+    }
+
+    #[test]
+    fn names_the_scene_lacks_are_errors_at_their_line() {
+        let m = parse("# media\n\n[material.wax.subsurface]\nscattering = 1\nabsorption = 0\n")
+            .unwrap();
+        let named = |name: &str| Material {
+            name: name.into(),
+            ..Material::default()
+        };
+        let media = m
+            .media_for(Path::new("s.obj"), &[named("floor"), named("wax")])
+            .unwrap();
+        assert!(media[0].is_none() && media[1].is_some());
+        let err = m
+            .media_for(Path::new("s.obj"), &[named("floor"), named("wac")])
+            .unwrap_err();
+        let text = err.to_string();
+        assert!(
+            text.contains("mats.toml:3")
+                && text.contains("`wax` is not in s.obj")
+                && text.contains("floor, wac"),
+            "{text}"
+        );
     }
 
     #[test]
