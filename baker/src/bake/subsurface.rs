@@ -93,7 +93,7 @@ pub struct Walks<'a> {
 pub fn vertex_points(scene: &Scene, media: &[Option<Medium>]) -> Points {
     let outside = ray_origins(scene);
     let mut points = Points::default();
-    for v in 0..scene.vertex_count() {
+    for (v, &origin) in outside.iter().enumerate() {
         let material = scene.vertex_material[v];
         if media[material as usize].is_none() {
             continue;
@@ -105,8 +105,8 @@ pub fn vertex_points(scene: &Scene, media: &[Option<Medium>]) -> Points {
         // The outside origin mirrored through the tangent plane: as far below the surface as
         // it is above, and nudged, as it is, into the vertex's own triangles (at a box's
         // corner that keeps it inside the other faces' planes).
-        let (n, d) = (scene.normals[v], outside[v] - p);
-        points.inside.push(outside[v] - 2.0 * d.dot(n) * n);
+        let (n, d) = (scene.normals[v], origin - p);
+        points.inside.push(origin - 2.0 * d.dot(n) * n);
         points.material.push(material);
     }
     points
