@@ -294,6 +294,11 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
                 .into(),
         ));
     }
+    if subsurface && options.transfer != prt_baker::bake::options::TransferKind::Vector {
+        return Err(Error::InvalidOption(
+            "--materials with a subsurface medium needs --transfer vector".into(),
+        ));
+    }
     if subsurface && args.lightmap.is_some() {
         return Err(Error::InvalidOption(
             "--materials with a subsurface medium bakes per vertex only (not with --lightmap yet)"
