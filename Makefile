@@ -29,6 +29,8 @@ SCENE := scenes/torus/torus.scene
 NO_EMBREE := target/no-embree
 NO_EMBREE_BAKE := $(NO_EMBREE)/release/prt-bake
 
+# make mitsuba-subsurface: subsurface transfer against Mitsuba 3's volpath on fresh references
+.PHONY: mitsuba-subsurface
 .PHONY: demo test bench bench-view deps build lint unit no-embree embree4 reference interop scenes slurm fuzz browser mitsuba blender web
 
 deps:
@@ -140,6 +142,7 @@ blender-addon: blender
 test: lint unit no-embree embree4 reference interop slurm browser mitsuba blender
 # (a line of its own, so that other additions to make test merge without conflict)
 test: blender-addon
+test: mitsuba-subsurface
 
 bench: deps
 	$(CARGO) bench -p prt-baker --bench bake
@@ -172,3 +175,9 @@ bench-view: out/torus.prt out/cornell-lightmap-512.prt
 # Regenerates the committed demo scenes (a test checks they match the generator).
 scenes:
 	$(CARGO) run --release -p prt-scenes
+
+# Subsurface transfer (docs/subsurface.md) against Mitsuba 3's volumetric path tracer: fresh
+# references for a box, a sphere and a thin slab lit from below (ior 1.0 and 1.3) in the venv
+# of `make mitsuba`, then tests/subsurface.rs against them (part of make test, about 30 s).
+mitsuba-subsurface: build
+	scripts/mitsuba/subsurface.sh

@@ -23,4 +23,5 @@ pub mod probes;
 pub mod receiver_names;
 pub mod receiver_subset;
 pub mod receivers;
+pub mod subsurface;
 pub mod transfer;

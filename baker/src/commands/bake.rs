@@ -9,11 +9,13 @@ use prt_baker::bake::memory;
 use prt_baker::bake::options::Aux;
 use prt_baker::bake::receiver_names::receiver_objects;
 use prt_baker::bake::receiver_subset::bake_objects;
+use prt_baker::bake::subsurface;
 use prt_baker::distribute::checkpoint;
 use prt_baker::distribute::part_baker::PartBaker;
 use prt_baker::distribute::shard::{ShardId, shard_range};
 use prt_baker::export::compress;
 use prt_baker::math::sampling::Sampling;
+use prt_baker::scene::Materials;
 use prt_baker::support::limits;
 use prt_baker::support::output::Output;
 use prt_baker::support::progress::Progress;
@@ -27,6 +29,10 @@ pub struct BakeArgs {
     /// A scene file (one `"object.obj" "texture.tga"` per line), a bare .obj, or a glTF 2.0
     /// file (.gltf, .glb).
     scene: PathBuf,
+    /// A materials file (TOML; docs/subsurface.md): per material name, a subsurface medium
+    /// whose surfaces get subsurface transfer (RGB) from random walks inside the mesh.
+    #[arg(long, value_name = "MATS.toml", conflicts_with_all = ["shard", "checkpoint", "target_error"])]
+    materials: Option<PathBuf>,
     /// The scene's up axis, recorded in the file: rigs, skies and the viewer turn to it.
     /// Default: y for glTF (its specification's axis), z for OBJ and scene files.
     #[arg(long, value_enum)]
@@ -285,7 +291,9 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
     if options.mode.casts_rays() {
         trace::check(args.backend.backend(), tracer_options)?;
     }
-    Output::new(&args.output, std::slice::from_ref(&args.scene))?;
+    let mut inputs = vec![args.scene.clone()];
+    inputs.extend(args.materials.clone());
+    Output::new(&args.output, &inputs)?;
     if let Some(threads) = args.threads {
         start_threads(threads)?;
     }
@@ -295,7 +303,32 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
     if let Some(up) = args.up {
         scene.up = up.up();
     }
-    let output = Output::new(&args.output, &scene.input_files())?;
+    let materials = args.materials.as_deref().map(Materials::load).transpose()?;
+    let media = match &materials {
+        Some(m) => m.media_for(&scene.path, &scene.materials)?,
+        None => Vec::new(),
+    };
+    let subsurface = media.iter().any(Option::is_some);
+    if subsurface && !options.mode.casts_rays() {
+        return Err(Error::InvalidOption(
+            "--materials with a subsurface medium needs rays: use --mode shadowed or interreflected"
+                .into(),
+        ));
+    }
+    if subsurface && options.transfer != prt_baker::bake::options::TransferKind::Vector {
+        return Err(Error::InvalidOption(
+            "--materials with a subsurface medium needs --transfer vector".into(),
+        ));
+    }
+    if subsurface && args.lightmap.is_some() {
+        return Err(Error::InvalidOption(
+            "--materials with a subsurface medium bakes per vertex only (not with --lightmap yet)"
+                .into(),
+        ));
+    }
+    let mut inputs = scene.input_files();
+    inputs.extend(args.materials.clone());
+    let output = Output::new(&args.output, &inputs)?;
     // Whole vertex bakes only (clap refuses --receivers with the others; glTF marks are
     // not applied to them).
     let whole_vertex_bake = args.lightmap.is_none() && shard.is_none() && args.checkpoint.is_none();
@@ -303,6 +336,12 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
         true => receiver_objects(&scene, &args.receivers)?,
         false => None,
     };
+    if subsurface && receivers.is_some() {
+        return Err(Error::InvalidOption(
+            "--materials with a subsurface medium bakes every object (not with --receivers yet)"
+                .into(),
+        ));
+    }
     check_memory(&args, &options, &scene)?;
     let tracer = match options.mode.casts_rays() {
         false => None,
@@ -347,7 +386,19 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
             (transfer, file, what)
         }
         (None, None) => {
-            let transfer = prt_baker::bake(&scene, tracer.as_deref(), &options, progress.as_ref())?;
+            let mut transfer =
+                prt_baker::bake(&scene, tracer.as_deref(), &options, progress.as_ref())?;
+            if let (true, Some(tracer)) = (subsurface, tracer.as_deref()) {
+                let started = std::time::Instant::now();
+                subsurface::apply_to_vertices(
+                    &scene,
+                    tracer,
+                    &media,
+                    &mut transfer,
+                    progress.as_ref(),
+                )?;
+                transfer.seconds += started.elapsed().as_secs_f64();
+            }
             let file = CoefficientFile::from_bake(&scene, &transfer);
             let what = format!("{} vertices", transfer.receiver_count);
             (transfer, file, what)

@@ -9,5 +9,6 @@ mod cpca_moves;
 pub mod eigen;
 pub mod glossy;
 pub mod light_prior;
+pub mod medium;
 pub mod sampling;
 pub mod sh;

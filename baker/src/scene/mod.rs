@@ -17,6 +17,7 @@
 mod alpha;
 mod format;
 mod gltf;
+mod materials;
 mod mesh;
 mod normals;
 mod obj;
@@ -35,6 +36,7 @@ use crate::support::input_path::AssetFolder;
 pub use alpha::{Alpha, AlphaMode, Cutouts, Wrap};
 pub use format::FORMATS;
 use format::OTHER_FORMATS;
+pub use materials::{MaterialEntry, Materials};
 pub use mesh::{DEFAULT_KD, Glossy, Hierarchy, HierarchyNode, Material, Mesh};
 pub use normals::angle_weighted_normals;
 pub use scene_file::{SceneEntry, parse_scene_file};
