@@ -6,7 +6,11 @@
 //! spread evenly over the upper hemisphere (about the scene's up axis): the error a rig
 //! turned anywhere above the horizon would see, where one rig sees one direction's luck.
 //!
-//! cargo run --release -p prt-baker --example cpca_table -- SCENE FILE.prt RIG.toml [K,.. [M,.. [PRIOR]]]
+//! With REFERENCE.prt, a bake of the same scene with many more rays (docs/performance.md,
+//! "CPCA against converged transfer"), three more columns compare against it instead: the
+//! bake itself (its Monte Carlo noise), and the compressed bake (noise and model together).
+//!
+//! cargo run --release -p prt-baker --example cpca_table -- SCENE FILE.prt RIG.toml [K,.. [M,.. [PRIOR [REFERENCE.prt]]]]
 //! (PRIOR: `sphere`, the default, or `upper-hemisphere`, as `compress --light-prior`)
 
 use std::path::Path;
@@ -51,7 +55,10 @@ fn relit_sums(a: &[[f32; 3]], b: &[[f32; 3]]) -> (f64, f64) {
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     if args.len() < 4 {
-        return Err("usage: cpca_table SCENE FILE.prt RIG.toml [K,K,..] [M,M,..]".into());
+        return Err(
+            "usage: cpca_table SCENE FILE.prt RIG.toml [K,K,..] [M,M,..] [PRIOR] [REFERENCE.prt]"
+                .into(),
+        );
     }
     let list = |i: usize, default: &[usize]| -> Vec<usize> {
         args.get(i).map_or(default.to_vec(), |s| {
@@ -67,6 +74,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let scene = Scene::load(Path::new(&args[1]))?;
     let file = CoefficientFile::read(Path::new(&args[2]))?;
     file.check_scene(Path::new(&args[2]), &scene)?;
+    let converged = match args.get(7) {
+        Some(path) => {
+            let converged = CoefficientFile::read(Path::new(path))?;
+            converged.check_scene(Path::new(path), &scene)?;
+            Some(converged)
+        }
+        None => None,
+    };
     let light = Rig::load(Path::new(&args[3]))?
         .project(file.header.order as usize)
         .in_scene_frame(file.header.up);
@@ -78,6 +93,27 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .iter()
         .map(|sun| vertex_radiance(&file, &albedo, sun))
         .collect();
+    // The converged bake relit by the rig and by the suns, and the bake's own error against it.
+    let converged = converged.map(|c| {
+        let rig = vertex_radiance(&c, &albedo, &light);
+        let suns: Vec<_> = suns
+            .iter()
+            .map(|sun| vertex_radiance(&c, &albedo, sun))
+            .collect();
+        let (s, n) = relit_sums(&reference, &rig);
+        let (mut ss, mut sn) = (0.0, 0.0);
+        for (mine, theirs) in sun_references.iter().zip(&suns) {
+            let (a, b) = relit_sums(mine, theirs);
+            ss += a;
+            sn += b;
+        }
+        println!(
+            "bake against the reference: relit rms {:.3} %, upper suns rms {:.3} %",
+            100.0 * (s / n).sqrt(),
+            100.0 * (ss / sn).sqrt()
+        );
+        (rig, suns)
+    });
     let (v1, _) = file.to_bytes();
     println!(
         "{} vertices, {} floats per vertex, {} bytes uncompressed",
@@ -115,8 +151,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 sun_sum += s;
                 sun_norm += n;
             }
+            let against = converged.as_ref().map_or(String::new(), |(rig, rig_suns)| {
+                let (s, n) = relit_sums(&relit, rig);
+                let (mut ss, mut sn) = (0.0, 0.0);
+                for (sun, theirs) in suns.iter().zip(rig_suns) {
+                    let (a, b) = relit_sums(&vertex_radiance(&read, &albedo, sun), theirs);
+                    ss += a;
+                    sn += b;
+                }
+                format!(
+                    " against the reference: relit rms {:.3} %, upper suns rms {:.3} % |",
+                    100.0 * (s / n).sqrt(),
+                    100.0 * (ss / sn).sqrt()
+                )
+            });
             println!(
-                "| {} | {m} | {:.2} | {:.3} | {} | {:.2e} | {:.3} % | {:.2} % | {:.3} % | {seconds:.1} |",
+                "| {} | {m} | {:.2} | {:.3} | {} | {:.2e} | {:.3} % | {:.2} % | {:.3} % | {seconds:.1} |{against}",
                 summary.clusters,
                 summary.floats_per_vertex,
                 summary.floats_per_vertex / file.header.coefficients_per_vertex() as f64,
