@@ -69,11 +69,15 @@ lint: deps
 unit: deps
 	$(CARGO) test --workspace --release
 
-# A build without Embree: prt-baker's tests pass, embree-sys is not even in the dependency
-# graph (so no Embree headers are needed), the binary does not link libembree, and it bakes
-# the demo scene with obvhs.
+# A build without Embree: embree-sys is not even in the dependency graph (so no Embree headers
+# are needed), the binary does not link libembree, it bakes the demo scene with obvhs, and
+# prt-baker's unit tests and the command-line tests that bake (obvhs is then the default
+# backend) pass. The other test files do not depend on the backend and already ran in `make
+# unit`; `make no-embree-full` runs every prt-baker test in this build (it compiles and links
+# every test binary a second time, which is why make test does not).
+NO_EMBREE_TESTS := --lib --test cli --test cli_lightmap --test cli_receivers --test output_policy
 no-embree: deps
-	$(CARGO) test --release -p prt-baker --no-default-features --target-dir $(NO_EMBREE)
+	$(CARGO) test --release -p prt-baker --no-default-features --target-dir $(NO_EMBREE) $(NO_EMBREE_TESTS)
 	$(CARGO) build --release -p prt-baker --no-default-features --target-dir $(NO_EMBREE)
 	@if $(CARGO) tree -p prt-baker --no-default-features -e normal,build,dev | grep embree; then \
 		echo "no-embree: embree-sys is in the dependency graph"; exit 1; fi
@@ -87,6 +91,10 @@ no-embree: deps
 
 embree4: deps
 	scripts/check-embree4.sh
+
+.PHONY: no-embree-full
+no-embree-full: deps
+	$(CARGO) test --release -p prt-baker --no-default-features --target-dir $(NO_EMBREE)
 
 reference: build
 	scripts/reference/run.sh

@@ -8,7 +8,8 @@
 #      temporary folder (the system's /etc/apt, /var/lib/apt/lists and /var/cache/apt are not
 #      touched, and the script verifies that),
 #   2. unpacks it with `dpkg -x` (nothing is installed),
-#   3. runs `cargo check` on embree-sys and prt-baker (all targets) with
+#   3. runs `cargo check` on embree-sys (all targets) and prt-baker (its library, binary and
+#      benches: the targets that use embree-sys; its tests reach Embree only through them) with
 #      EMBREE_INCLUDE_DIR pointing at the unpacked headers, in target/embree4-check,
 #   4. verifies that the build script really used those headers: major=4 in its metadata and
 #      Embree-4-only types (RTCOccludedArguments) in the generated bindings.
@@ -119,9 +120,12 @@ STATE_AFTER="$(apt_state)"
     fail "the system's apt configuration or state changed (/etc/apt, /var/lib/apt/lists, /var/cache/apt; or another apt process ran meanwhile)"
 
 cd "$REPO_ROOT"
-echo "check-embree4: cargo check -p embree-sys -p prt-baker --all-targets --target-dir $TARGET_DIR"
-EMBREE_INCLUDE_DIR="$INCLUDE" cargo check -p embree-sys -p prt-baker --all-targets \
-    --target-dir "$TARGET_DIR" || fail "cargo check against the Embree $VERSION headers failed"
+for targets in "-p embree-sys --all-targets" "-p prt-baker --lib --bins --benches"; do
+    echo "check-embree4: cargo check $targets --target-dir $TARGET_DIR"
+    # shellcheck disable=SC2086 # $targets is a list of arguments
+    EMBREE_INCLUDE_DIR="$INCLUDE" cargo check $targets --target-dir "$TARGET_DIR" ||
+        fail "cargo check $targets against the Embree $VERSION headers failed"
+done
 
 # The build script's recorded output for this run names the temporary include folder, so a
 # stale output from an earlier run (Embree 3, or another folder) cannot pass.
