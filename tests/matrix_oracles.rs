@@ -60,29 +60,7 @@ fn band_matrix(axis: DVec3, t_lo: f64, t_hi: f64) -> Vec<f64> {
 
 /// The largest |got − expected| entry, printed; fails beyond [`TOLERANCE`].
 fn assert_close(what: &str, got: &[f64], expected: &[f64]) {
-    assert_eq!(got.len(), expected.len());
-    let n = sh::coeff_count(ORDER);
-    let (worst, k) = got
-        .iter()
-        .zip(expected)
-        .enumerate()
-        .map(|(k, (g, e))| ((g - e).abs(), k))
-        .fold((0.0, 0), |a, b| if b.0 > a.0 { b } else { a });
-    eprintln!(
-        "{what}: worst entry ({}, {}) off by {worst:.2e} (got {:.5}, expected {:.5})",
-        k / n,
-        k % n,
-        got[k],
-        expected[k]
-    );
-    assert!(
-        worst <= TOLERANCE,
-        "{what}: entry ({}, {}) is {} but should be {} (± {TOLERANCE})",
-        k / n,
-        k % n,
-        got[k],
-        expected[k]
-    );
+    assert_entries_close(what, got, expected, sh::coeff_count(ORDER), TOLERANCE);
 }
 
 /// A lone patch at the origin with normal `normal`: nothing to block its rays.

@@ -499,6 +499,34 @@ pub fn shadowed(order: usize, samples: u32) -> BakeOptions {
     }
 }
 
+/// The largest |got − expected| entry of two row-major matrices with `n` columns (or of
+/// two vectors, n = their length), printed with its row and column; fails beyond
+/// `tolerance`.
+pub fn assert_entries_close(what: &str, got: &[f64], expected: &[f64], n: usize, tolerance: f64) {
+    assert_eq!(got.len(), expected.len());
+    let (worst, k) = got
+        .iter()
+        .zip(expected)
+        .enumerate()
+        .map(|(k, (g, e))| ((g - e).abs(), k))
+        .fold((0.0, 0), |a, b| if b.0 > a.0 { b } else { a });
+    eprintln!(
+        "{what}: worst entry ({}, {}) off by {worst:.2e} (got {:.5}, expected {:.5})",
+        k / n,
+        k % n,
+        got[k],
+        expected[k]
+    );
+    assert!(
+        worst <= tolerance,
+        "{what}: entry ({}, {}) is {} but should be {} (± {tolerance})",
+        k / n,
+        k % n,
+        got[k],
+        expected[k]
+    );
+}
+
 /// Asserts every coefficient of `got` is within tolerance of the moments' mean; prints the
 /// worst case in units of its tolerance, so a regression shows how far off it is.
 pub fn assert_matches(what: &str, got: &[f64], expected: &Moments, samples: u32) {
