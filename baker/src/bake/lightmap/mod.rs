@@ -303,14 +303,15 @@ pub fn place(
     });
     let step_before = stitch::seam_step(&samples, &coefficients, width, 0).0;
     let iterations = stages.time("stitch", || {
-        let mut iterations = stitch::stitch(&samples, &mut coefficients, width);
-        if !visibility.is_empty() {
-            let mut ao: Vec<f32> = visibility.iter().map(|v| v.accessibility).collect();
-            iterations = iterations.max(stitch::stitch(&samples, &mut ao, 1));
-            // Least squares may overshoot a little; accessibility is a fraction.
-            for (v, a) in visibility.iter_mut().zip(ao) {
-                v.accessibility = a.clamp(0.0, 1.0);
-            }
+        let mut ao: Vec<f32> = visibility.iter().map(|v| v.accessibility).collect();
+        let ao_width = usize::from(!ao.is_empty());
+        let iterations = stitch::stitch_fields(
+            &samples,
+            &mut [(&mut coefficients[..], width), (&mut ao[..], ao_width)],
+        );
+        // Least squares may overshoot a little; accessibility is a fraction.
+        for (v, a) in visibility.iter_mut().zip(ao) {
+            v.accessibility = a.clamp(0.0, 1.0);
         }
         iterations
     });

@@ -221,17 +221,31 @@ pub fn seam_step(
 ///
 /// Returns the most iterations a column took.
 pub fn stitch(samples: &[SeamSample], values: &mut [f32], width: usize) -> usize {
-    if samples.is_empty() || width == 0 {
+    stitch_fields(samples, &mut [(values, width)])
+}
+
+/// [`stitch`] for several fields of the same texels (the coefficients and the
+/// accessibility), each `(values, width)`: the system is built once for all.
+pub fn stitch_fields(samples: &[SeamSample], fields: &mut [(&mut [f32], usize)]) -> usize {
+    if samples.is_empty() {
         return 0;
     }
     let system = System::new(samples);
-    let (x, iterations) = system.solve(values, width);
-    for (k, &i) in system.texels.iter().enumerate() {
-        for (v, &s) in values[i * width..(i + 1) * width]
-            .iter_mut()
-            .zip(&x[k * width..(k + 1) * width])
-        {
-            *v = s as f32;
+    let mut iterations = 0;
+    for (values, width) in fields.iter_mut() {
+        let width = *width;
+        if width == 0 {
+            continue;
+        }
+        let (x, taken) = system.solve(values, width);
+        iterations = iterations.max(taken);
+        for (k, &i) in system.texels.iter().enumerate() {
+            for (v, &s) in values[i * width..(i + 1) * width]
+                .iter_mut()
+                .zip(&x[k * width..(k + 1) * width])
+            {
+                *v = s as f32;
+            }
         }
     }
     iterations
@@ -241,17 +255,18 @@ pub fn stitch(samples: &[SeamSample], values: &mut [f32], width: usize) -> usize
 const CHUNK: usize = 1024;
 
 /// The least-squares system of [`stitch`]: C (one row per sample over the texels it reads)
-/// and its transpose.
+/// and its transpose. The weights are f32 (the taps' own precision) to halve the memory
+/// and the traffic of the products; every sum is in f64.
 struct System {
     /// The lightmap texel of each unknown, in the order the samples first read them.
     texels: Vec<usize>,
     /// Per sample, its (unknown, ± weight) entries (side a positive, side b negative, a texel
     /// read on both sides once), delimited by `starts`.
-    entries: Vec<(u32, f64)>,
+    entries: Vec<(u32, f32)>,
     starts: Vec<usize>,
     /// Per unknown, the (sample, weight) entries that read it, in sample order, delimited by
     /// `reads`.
-    readers: Vec<(u32, f64)>,
+    readers: Vec<(u32, f32)>,
     reads: Vec<usize>,
     /// Per unknown, 1 / the diagonal of λI + CᵀC: the Jacobi preconditioner.
     inverse_diagonal: Vec<f64>,
@@ -267,7 +282,7 @@ impl System {
             .unwrap_or(0);
         let mut index = vec![u32::MAX; texel_count];
         let mut texels: Vec<usize> = Vec::new();
-        let mut entries: Vec<(u32, f64)> = Vec::with_capacity(samples.len() * 8);
+        let mut entries: Vec<(u32, f32)> = Vec::with_capacity(samples.len() * 8);
         let mut starts = Vec::with_capacity(samples.len() + 1);
         for s in samples {
             let row = entries.len();
@@ -284,8 +299,8 @@ impl System {
                 }
                 let k = *slot;
                 match entries[row..].iter_mut().find(|(j, _)| *j == k) {
-                    Some(entry) => entry.1 += sign * f64::from(w),
-                    None => entries.push((k, sign * f64::from(w))),
+                    Some(entry) => entry.1 += sign * w,
+                    None => entries.push((k, sign * w)),
                 }
             }
         }
@@ -299,7 +314,7 @@ impl System {
             reads[k + 1] += reads[k];
         }
         let mut fill = reads.clone();
-        let mut readers = vec![(0u32, 0.0f64); entries.len()];
+        let mut readers = vec![(0u32, 0.0f32); entries.len()];
         for (s, row) in starts.windows(2).enumerate() {
             for &(k, w) in &entries[row[0]..row[1]] {
                 readers[fill[k as usize]] = (s as u32, w);
@@ -310,7 +325,7 @@ impl System {
             .map(|k| {
                 let sum: f64 = readers[reads[k]..reads[k + 1]]
                     .iter()
-                    .map(|(_, w)| w * w)
+                    .map(|&(_, w)| f64::from(w) * f64::from(w))
                     .sum();
                 1.0 / (KEEP + sum)
             })
@@ -334,7 +349,7 @@ impl System {
             .for_each(|(s, cs)| {
                 cs.fill(0.0);
                 for &(k, w) in &self.entries[self.starts[s]..self.starts[s + 1]] {
-                    let k = k as usize;
+                    let (k, w) = (k as usize, f64::from(w));
                     for (c, xk) in cs.iter_mut().zip(&x[k * width..(k + 1) * width]) {
                         *c += w * xk;
                     }
@@ -349,7 +364,7 @@ impl System {
                     *y = KEEP * x;
                 }
                 for &(s, w) in &self.readers[self.reads[k]..self.reads[k + 1]] {
-                    let s = s as usize;
+                    let (s, w) = (s as usize, f64::from(w));
                     for (y, cs) in yk.iter_mut().zip(&c[s * width..(s + 1) * width]) {
                         *y += w * cs;
                     }
@@ -357,23 +372,12 @@ impl System {
             });
     }
 
-    /// z = D⁻¹ r, D the diagonal of λI + CᵀC.
-    fn precondition(&self, r: &[f64], z: &mut [f64], width: usize) {
-        z.par_chunks_mut(width)
-            .zip(r.par_chunks(width))
-            .zip(self.inverse_diagonal.par_iter())
-            .with_min_len(CHUNK)
-            .for_each(|((zk, rk), d)| {
-                for (z, r) in zk.iter_mut().zip(rk) {
-                    *z = d * r;
-                }
-            });
-    }
-
     /// Every column's solution (unknown-major), by conjugate gradients with the Jacobi
     /// preconditioner from the baked values: each column with its own step lengths and its
     /// own stop (residual ≤ [`TOLERANCE`] × the right-hand side, at most [`MAX_ITERATIONS`]),
-    /// as if solved alone; and the most iterations a column took.
+    /// as if solved alone; and the most iterations a column took. Four vectors of unknowns
+    /// are held (x, r, p, Ap): the right-hand side λx̂ and the preconditioned residual
+    /// z = D⁻¹r are computed where they are read, not stored.
     fn solve(&self, values: &[f32], width: usize) -> (Vec<f64>, usize) {
         let n = self.texels.len();
         let mut x: Vec<f64> = vec![0.0; n * width];
@@ -384,20 +388,29 @@ impl System {
                     *x = f64::from(v);
                 }
             });
-        let b: Vec<f64> = x.par_iter().map(|v| KEEP * v).collect();
+        // |b|² for b = λx̂, the stop's scale.
+        let stop: Vec<f64> = dots(&x, &x, None, width)
+            .iter()
+            .map(|&xx| TOLERANCE * TOLERANCE * (KEEP * KEEP * xx).max(f64::MIN_POSITIVE))
+            .collect();
         let mut c = vec![0.0; (self.starts.len() - 1) * width];
         let mut ap = vec![0.0; n * width];
         self.apply(&x, &mut ap, &mut c, width);
-        let mut r: Vec<f64> = b.par_iter().zip(&ap).map(|(b, a)| b - a).collect();
-        let mut z = vec![0.0; n * width];
-        self.precondition(&r, &mut z, width);
-        let mut p = z.clone();
-        let mut rr = dots(&r, &r, width);
-        let mut rz = dots(&r, &z, width);
-        let stop: Vec<f64> = dots(&b, &b, width)
-            .iter()
-            .map(|&bb| TOLERANCE * TOLERANCE * bb.max(f64::MIN_POSITIVE))
-            .collect();
+        // r = λx̂ − A x̂ (x = x̂ still).
+        let mut r: Vec<f64> = x.par_iter().zip(&ap).map(|(x, a)| KEEP * x - a).collect();
+        let d = &self.inverse_diagonal;
+        let mut p: Vec<f64> = vec![0.0; n * width];
+        p.par_chunks_mut(width)
+            .zip(r.par_chunks(width))
+            .zip(d.par_iter())
+            .with_min_len(CHUNK)
+            .for_each(|((pk, rk), d)| {
+                for (p, r) in pk.iter_mut().zip(rk) {
+                    *p = d * r;
+                }
+            });
+        let mut rr = dots(&r, &r, None, width);
+        let mut rz = dots(&r, &r, Some(d), width);
         let mut active: Vec<bool> = vec![true; width];
         let mut iterations = 0;
         while iterations < MAX_ITERATIONS {
@@ -409,7 +422,7 @@ impl System {
             }
             iterations += 1;
             self.apply(&p, &mut ap, &mut c, width);
-            let pap = dots(&p, &ap, width);
+            let pap = dots(&p, &ap, None, width);
             let alpha: Vec<f64> = (0..width)
                 .map(|col| if active[col] { rz[col] / pap[col] } else { 0.0 })
                 .collect();
@@ -423,9 +436,8 @@ impl System {
                         rk[col] -= alpha[col] * apk[col];
                     }
                 });
-            self.precondition(&r, &mut z, width);
-            rr = dots(&r, &r, width);
-            let next = dots(&r, &z, width);
+            rr = dots(&r, &r, None, width);
+            let next = dots(&r, &r, Some(d), width);
             let beta: Vec<f64> = (0..width)
                 .map(|col| {
                     if active[col] {
@@ -436,11 +448,12 @@ impl System {
                 })
                 .collect();
             p.par_chunks_mut(width)
-                .zip(z.par_chunks(width))
+                .zip(r.par_chunks(width))
+                .zip(d.par_iter())
                 .with_min_len(CHUNK)
-                .for_each(|(pk, zk)| {
+                .for_each(|((pk, rk), d)| {
                     for col in (0..width).filter(|&col| active[col]) {
-                        pk[col] = zk[col] + beta[col] * pk[col];
+                        pk[col] = d * rk[col] + beta[col] * pk[col];
                     }
                 });
             for col in (0..width).filter(|&col| active[col]) {
@@ -451,17 +464,20 @@ impl System {
     }
 }
 
-/// Per column, Σ u·v over the unknowns: partial sums over fixed chunks of [`CHUNK`]
-/// unknowns, added in chunk order (the same bits for any thread count).
-fn dots(u: &[f64], v: &[f64], width: usize) -> Vec<f64> {
+/// Per column, Σ u·v over the unknowns, each term times the unknown's `weight` where given:
+/// partial sums over fixed chunks of [`CHUNK`] unknowns, added in chunk order (the same bits
+/// for any thread count).
+fn dots(u: &[f64], v: &[f64], weights: Option<&[f64]>, width: usize) -> Vec<f64> {
     let partial: Vec<Vec<f64>> = u
         .par_chunks(CHUNK * width)
         .zip(v.par_chunks(CHUNK * width))
-        .map(|(u, v)| {
+        .enumerate()
+        .map(|(chunk, (u, v))| {
             let mut sum = vec![0.0; width];
-            for (uk, vk) in u.chunks_exact(width).zip(v.chunks_exact(width)) {
+            for (k, (uk, vk)) in u.chunks_exact(width).zip(v.chunks_exact(width)).enumerate() {
+                let weight = weights.map_or(1.0, |w| w[chunk * CHUNK + k]);
                 for ((s, a), b) in sum.iter_mut().zip(uk).zip(vk) {
-                    *s += a * b;
+                    *s += weight * a * b;
                 }
             }
             sum
