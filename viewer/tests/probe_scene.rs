@@ -1,0 +1,247 @@
+//! A rigid object moving through the Cornell room's transfer probes (docs/probes.md, issue
+//! 32's done-when): at four places on its path (in the short box's shadow, by the red wall,
+//! in the sun, by the green wall; the ball faces along the path, so each is turned) the viewer's mover, lit through an 8 × 8 × 8 probe grid,
+//! against the same object lit by a probe baked exactly where it stands (a 1 × 1 × 1 grid
+//! around the point) — per vertex on the CPU, and in rendered frames. And the probe spheres'
+//! per-pixel SH evaluation against the CPU's.
+
+mod common;
+
+use std::path::Path;
+
+use glam::{DQuat, Vec3};
+use prt_baker::bake::probes::{self, ProbeSpec};
+use prt_baker::export::probe_field::{ProbeField, rigid_radiance};
+use prt_baker::light::LightCoefficients;
+use prt_baker::support::progress::Silent;
+use prt_baker::trace::{EmbreeOptions, EmbreeTracer};
+use prt_baker::{BakeOptions, CoefficientFile, Mode, Scene};
+use prt_viewer::Bake;
+use prt_viewer::lights::Lights;
+use prt_viewer::moving::{Mover, Probes};
+
+const ORDER: usize = 3;
+/// Where the test stops the object: its path's vertices.
+const STOPS: [(&str, [f32; 3]); 4] = [
+    ("shadow", [0.35, 0.4, 0.2]),
+    ("red wall", [-0.75, -0.5, 0.8]),
+    ("sun", [0.0, -0.3, 1.0]),
+    ("green wall", [0.75, -0.5, 0.8]),
+];
+/// A sun through the open front (it lights the red wall's inner face; the short box shadows
+/// the floor behind it) and a sky: scripts/browser/probe-move.mjs's rig.
+const RIG: &str = r#"
+[[light]]
+kind = "sun"
+direction = [0.3, -0.8, 0.5]
+color = [1.0, 0.95, 0.9]
+intensity = 1.5
+
+[[light]]
+kind = "hemisphere"
+direction = [0.0, 0.0, 1.0]
+color = [0.3, 0.35, 0.45]
+ground_color = [0.05, 0.045, 0.04]
+"#;
+
+fn cornell() -> Scene {
+    Scene::load(&common::workspace().join("scenes/cornell/cornell.scene")).expect("Cornell")
+}
+
+/// The Cornell room's interreflected probes at `spec` (1,024 rays each, seed 1).
+fn probe_bake(scene: &Scene, spec: &str) -> CoefficientFile {
+    let tracer = EmbreeTracer::new(scene, EmbreeOptions::default()).expect("Embree");
+    let options = BakeOptions {
+        order: ORDER,
+        samples: 1024,
+        mode: Mode::Interreflected,
+        bounces: 1,
+        seed: 1,
+        ..BakeOptions::default()
+    };
+    let block = ProbeSpec::parse(spec).unwrap().probes(scene).unwrap();
+    let transfer = probes::bake(scene, Some(&tracer), &options, &block.positions, &Silent)
+        .expect("the probe bake");
+    CoefficientFile::from_probe_bake(scene, &transfer, Some(&tracer), block)
+}
+
+/// A probe baked exactly at `p`: the single cell centre of a tiny box around it.
+fn exact_probe(scene: &Scene, p: Vec3) -> CoefficientFile {
+    let (lo, hi) = (p - 0.001, p + 0.001);
+    probe_bake(
+        scene,
+        &format!(
+            "grid:1,1,1:{},{},{},{},{},{}",
+            lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
+        ),
+    )
+}
+
+/// A grey ball (radius 0.12, Kd 0.8), baked alone with shadows (order 3).
+fn ball(folder: &Path) -> Bake {
+    let (nu, nv) = (12, 8);
+    let mut text = String::from("mtllib ball.mtl\nusemtl grey\n");
+    let mut normals = Vec::new();
+    for j in 0..=nv {
+        for i in 0..=nu {
+            let (t, p) = (
+                std::f32::consts::PI * j as f32 / nv as f32,
+                std::f32::consts::TAU * i as f32 / nu as f32,
+            );
+            normals.push(Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos()));
+        }
+    }
+    for n in &normals {
+        let v = 0.12 * *n;
+        text += &format!("v {} {} {}\nvn {} {} {}\n", v.x, v.y, v.z, n.x, n.y, n.z);
+    }
+    for j in 0..nv {
+        for i in 0..nu {
+            let a = j * (nu + 1) + i + 1;
+            if j > 0 {
+                text += &format!(
+                    "f {a}//{a} {}//{} {}//{}\n",
+                    a + nu + 1,
+                    a + nu + 1,
+                    a + 1,
+                    a + 1
+                );
+            }
+            if j < nv - 1 {
+                let (b, c, d) = (a + 1, a + nu + 1, a + nu + 2);
+                text += &format!("f {b}//{b} {c}//{c} {d}//{d}\n");
+            }
+        }
+    }
+    std::fs::write(folder.join("ball.obj"), text).unwrap();
+    std::fs::write(folder.join("ball.mtl"), "newmtl grey\nKd 0.8 0.8 0.8\n").unwrap();
+    common::bake(
+        &folder.join("ball.obj"),
+        BakeOptions {
+            order: ORDER,
+            samples: 256,
+            mode: Mode::Shadowed,
+            seed: 1,
+            ..BakeOptions::default()
+        },
+    )
+}
+
+struct Fixture {
+    _folder: tempfile::TempDir,
+    cornell: Scene,
+    grid: CoefficientFile,
+    ball: Bake,
+    mover: Mover,
+    lights: Lights,
+}
+
+impl Fixture {
+    fn new() -> Fixture {
+        let folder = tempfile::tempdir().unwrap();
+        let cornell = cornell();
+        let grid = probe_bake(&cornell, "grid:8,8,8");
+        let ball = ball(folder.path());
+        let path = STOPS.iter().map(|(_, p)| Vec3::from_array(*p)).collect();
+        let mover = Mover::new(
+            ball.scene.clone(),
+            ball.file.clone(),
+            path,
+            0.5,
+            Path::new("ball.prt"),
+        )
+        .expect("the ball moves");
+        std::fs::write(folder.path().join("rig.toml"), RIG).unwrap();
+        let lights = Lights::load(Some(&folder.path().join("rig.toml")), ORDER).unwrap();
+        Fixture {
+            _folder: folder,
+            cornell,
+            grid,
+            ball,
+            mover,
+            lights,
+        }
+    }
+
+    fn probes(&self, file: &CoefficientFile) -> Probes {
+        Probes::new(file.clone(), Path::new("probes.prt")).expect("a grid of probes")
+    }
+
+    /// Where the mover is at stop `k` (a vertex of its path: its position, facing along
+    /// the segment that ends there, or the first one).
+    fn placement(&self, k: usize) -> (Vec3, DQuat) {
+        let along: f32 = STOPS
+            .windows(2)
+            .take(k)
+            .map(|w| Vec3::from_array(w[0].1).distance(Vec3::from_array(w[1].1)))
+            .sum();
+        self.mover.placement(along)
+    }
+
+    fn light(&self) -> LightCoefficients {
+        self.lights.prt()
+    }
+}
+
+fn mean(radiance: &[[f32; 3]]) -> [f64; 3] {
+    let mut sum = [0.0; 3];
+    for r in radiance {
+        for c in 0..3 {
+            sum[c] += f64::from(r[c]) / radiance.len() as f64;
+        }
+    }
+    sum
+}
+
+fn luminance([r, g, b]: [f64; 3]) -> f64 {
+    0.2126 * r + 0.7152 * g + 0.0722 * b
+}
+
+#[test]
+fn the_mover_matches_probes_baked_where_it_stands_and_takes_the_scenes_shadow_and_colour() {
+    let f = Fixture::new();
+    let grid = f.probes(&f.grid);
+    let light = f.light();
+    let albedo = f.ball.scene.vertex_albedo();
+    let mut means = Vec::new();
+    for (k, (name, _)) in STOPS.iter().enumerate() {
+        let placement = f.placement(k);
+        assert!(
+            k == 0 || placement.1.angle_between(DQuat::IDENTITY) > 0.1,
+            "the path turns the ball"
+        );
+        let moved = f.mover.radiance(&grid, placement, &light);
+        let exact_file = exact_probe(&f.cornell, placement.0);
+        let exact_field = ProbeField::new(&exact_file).unwrap();
+        let exact = rigid_radiance(&f.ball.file, &albedo, &exact_field, placement, &light);
+        let (m, e) = (mean(&moved), mean(&exact));
+        // Per vertex: the largest difference in any channel, relative to the mean exact
+        // radiance of that channel.
+        let worst = moved
+            .iter()
+            .zip(&exact)
+            .flat_map(|(a, b)| {
+                (0..3).map(move |c| (f64::from(a[c]) - f64::from(b[c])).abs() / e[c])
+            })
+            .fold(0.0f64, f64::max);
+        let total = (0..3)
+            .map(|c| (m[c] - e[c]).abs() / e[c])
+            .fold(0.0f64, f64::max);
+        eprintln!(
+            "{name}: mean radiance {m:.4?} from the grid, {e:.4?} exact: within {:.2} % (worst vertex {:.2} %)",
+            100.0 * total,
+            100.0 * worst
+        );
+        assert!(total < 0.03, "{name}: mean radiance off by {total}");
+        assert!(worst < 0.08, "{name}: a vertex off by {worst}");
+        means.push(m);
+    }
+    let darkened = luminance(means[0]) / luminance(means[2]);
+    let red = means[1][0] / means[1][1];
+    let green = means[3][0] / means[3][1];
+    eprintln!(
+        "shadow/sun luminance {darkened:.3}; red/green {red:.3} by the red wall, {green:.3} by the green wall"
+    );
+    assert!(darkened < 0.5, "the shadow darkens the ball: {darkened}");
+    assert!(red > 1.1 && green < 1.0, "colour bleeding: {red}, {green}");
+}
