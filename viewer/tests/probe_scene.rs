@@ -16,9 +16,9 @@ use prt_baker::light::LightCoefficients;
 use prt_baker::support::progress::Silent;
 use prt_baker::trace::{EmbreeOptions, EmbreeTracer};
 use prt_baker::{BakeOptions, CoefficientFile, Mode, Scene};
-use prt_viewer::Bake;
 use prt_viewer::lights::Lights;
 use prt_viewer::moving::{Mover, Probes};
+use prt_viewer::{Bake, Camera, FrameInputs, View};
 
 const ORDER: usize = 3;
 /// Where the test stops the object: its path's vertices.
@@ -244,4 +244,191 @@ fn the_mover_matches_probes_baked_where_it_stands_and_takes_the_scenes_shadow_an
     );
     assert!(darkened < 0.5, "the shadow darkens the ball: {darkened}");
     assert!(red > 1.1 && green < 1.0, "colour bleeding: {red}, {green}");
+}
+
+/// sRGB code to linear.
+fn linear(code: u8) -> f64 {
+    let c = f64::from(code) / 255.0;
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// The mean linear colour of the `half`-pixel square around the image's centre.
+fn centre_patch(image: &image::RgbaImage, half: u32) -> [f64; 3] {
+    let (cx, cy) = (image.width() / 2, image.height() / 2);
+    let mut sum = [0.0; 3];
+    let mut count = 0.0;
+    for y in cy - half..cy + half {
+        for x in cx - half..cx + half {
+            let p = image.get_pixel(x, y);
+            for c in 0..3 {
+                sum[c] += linear(p[c]);
+            }
+            count += 1.0;
+        }
+    }
+    sum.map(|s| s / count)
+}
+
+const SIZE: (u32, u32) = (96, 96);
+
+/// The Cornell room's own bake for the renderer (order 3, interreflected, 64 rays).
+fn cornell_bake() -> Bake {
+    common::bake(
+        &common::workspace().join("scenes/cornell/cornell.scene"),
+        BakeOptions {
+            order: ORDER,
+            samples: 64,
+            mode: Mode::Interreflected,
+            bounces: 1,
+            seed: 1,
+            ..BakeOptions::default()
+        },
+    )
+}
+
+#[test]
+fn rendered_frames_of_the_mover_match_exact_probes_and_show_shadow_and_bleeding() {
+    let Some(gpu) = common::gpu() else { return };
+    let f = Fixture::new();
+    let room = cornell_bake();
+    let mut renderer = prt_viewer::Renderer::new(
+        &gpu.device,
+        &gpu.queue,
+        &room,
+        prt_viewer::offscreen::FORMAT,
+        SIZE,
+    )
+    .unwrap();
+    let mut patches = Vec::new();
+    for (k, (name, _)) in STOPS.iter().enumerate() {
+        let along: f32 = STOPS
+            .windows(2)
+            .take(k)
+            .map(|w| Vec3::from_array(w[0].1).distance(Vec3::from_array(w[1].1)))
+            .sum();
+        let position = f.placement(k).0;
+        // From in front (−y) and a little above, 0.45 away, so the ball fills the centre; in
+        // the shadow behind the short box, from behind (the box would hide it).
+        let offset = if k == 0 {
+            Vec3::new(0.0, 0.38, 0.22)
+        } else {
+            Vec3::new(0.0, -0.42, 0.16)
+        };
+        let camera = Camera::looking_at(position + offset, position, 1.7);
+        let inputs = FrameInputs::from_view(&View::new(camera, f.lights.clone()), None);
+        let mut frame = |probes: Probes| {
+            renderer
+                .set_probe_scene(&gpu.device, probes, Some(f.mover.clone()))
+                .unwrap();
+            let scene = renderer.probe_scene_mut().unwrap();
+            scene.show_probes = false;
+            scene.distance = along;
+            prt_viewer::offscreen::render_image(&gpu.device, &gpu.queue, &mut renderer, &inputs)
+                .unwrap()
+        };
+        let moved = frame(f.probes(&f.grid));
+        let exact = frame(f.probes(&exact_probe(&f.cornell, position)));
+        let (a, b) = (centre_patch(&moved, 16), centre_patch(&exact, 16));
+        let off = (0..3)
+            .map(|c| (a[c] - b[c]).abs() / b[c])
+            .fold(0.0f64, f64::max);
+        let difference = common::difference(&moved, &exact, 3);
+        eprintln!(
+            "{name}: centre {a:.4?} through the grid, {b:.4?} exact: within {:.2} %; whole frame: mean {:.3} codes, {:.2} % of pixels over 3 codes",
+            100.0 * off,
+            difference.mean,
+            100.0 * difference.outliers
+        );
+        assert!(off < 0.03, "{name}: the rendered ball is off by {off}");
+        assert!(difference.outliers < 0.01, "{name}: {difference:?}");
+        patches.push(a);
+    }
+    let darkened = luminance(patches[0]) / luminance(patches[2]);
+    let red = patches[1][0] / patches[1][1];
+    let green = patches[3][0] / patches[3][1];
+    eprintln!(
+        "rendered: shadow/sun luminance {darkened:.3}; red/green {red:.3} by the red wall, {green:.3} by the green wall"
+    );
+    assert!(darkened < 0.5, "the shadow darkens the ball: {darkened}");
+    // The side facing the camera, not the wall: less than the whole ball's ratio.
+    assert!(
+        red > 1.05 && green < 0.99 && red - green > 0.1,
+        "colour bleeding: {red}, {green}"
+    );
+}
+
+#[test]
+fn probe_spheres_show_the_cosine_convolved_incident_radiance_per_pixel() {
+    let Some(gpu) = common::gpu() else { return };
+    let cornell = cornell();
+    let folder = tempfile::tempdir().unwrap();
+    std::fs::write(folder.path().join("rig.toml"), RIG).unwrap();
+    let lights = Lights::load(Some(&folder.path().join("rig.toml")), ORDER).unwrap();
+    let file = probe_bake(&cornell, "grid:4,4,4");
+    let room = cornell_bake();
+    let mut renderer = prt_viewer::Renderer::new(
+        &gpu.device,
+        &gpu.queue,
+        &room,
+        prt_viewer::offscreen::FORMAT,
+        SIZE,
+    )
+    .unwrap();
+    let probes = Probes::new(file.clone(), Path::new("probes.prt")).unwrap();
+    renderer.set_probe_scene(&gpu.device, probes, None).unwrap();
+    let block = file.probes.as_ref().unwrap();
+    let field = ProbeField::new(&file).unwrap();
+    let light = lights.prt();
+    let bands = prt_viewer::probe_scene::clamped_cosine_bands(ORDER);
+    let basis = prt_baker::math::sh::Basis::new(ORDER);
+    let mut checked = 0;
+    // Probes in the open (grid:4,4,4 puts them 0.5 apart at ±0.25, ±0.75, and z 0.25 …
+    // 1.75), each seen from a different side.
+    for (p, d) in [
+        (21, Vec3::new(0.2, -1.0, 0.3)),
+        (22, Vec3::new(-0.6, -0.5, 0.6)),
+        (35, Vec3::new(0.7, -0.3, -0.4)),
+        (62, Vec3::new(0.0, -0.3, 1.0)),
+    ] {
+        assert!(block.valid(p), "probe {p} is in the open");
+        let d = d.normalize();
+        let centre = block.positions[p];
+        let camera = Camera::looking_at(centre + 0.12 * d, centre, 1.7);
+        let inputs = FrameInputs::from_view(&View::new(camera, lights.clone()), None);
+        let image =
+            prt_viewer::offscreen::render_image(&gpu.device, &gpu.queue, &mut renderer, &inputs)
+                .unwrap();
+        let incident = field.probe_incident(p, &light);
+        let mut y = vec![0.0f32; ORDER * ORDER];
+        basis.eval(d, &mut y);
+        let expected: Vec<f64> = (0..3)
+            .map(|c| {
+                (0..ORDER * ORDER)
+                    .map(|j| {
+                        bands[(j as f64).sqrt() as usize] * incident.rgb[c][j] * f64::from(y[j])
+                    })
+                    .sum::<f64>()
+            })
+            .collect();
+        let shown = centre_patch(&image, 1);
+        eprintln!("probe {p} from {d:.2?}: shown {shown:.4?}, expected {expected:.4?}");
+        for c in 0..3 {
+            assert!(
+                expected[c] > 0.02 && expected[c] < 0.95,
+                "probe {p}: pick a view whose colour is not clamped ({expected:?})"
+            );
+            assert!(
+                (shown[c] - expected[c]).abs() < 0.02 * expected[c] + 0.004,
+                "probe {p}, channel {c}: shown {}, expected {}",
+                shown[c],
+                expected[c]
+            );
+        }
+        checked += 1;
+    }
+    assert_eq!(checked, 4);
 }
