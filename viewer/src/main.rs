@@ -106,9 +106,10 @@ struct Cli {
         long,
         value_name = "X,Y,Z;X,Y,Z;…",
         requires = "mover",
-        allow_hyphen_values = true
+        allow_hyphen_values = true,
+        value_parser = parse_path
     )]
-    path: Option<String>,
+    path: Option<PathPoints>,
     /// The moving object's speed in scene units per second.
     #[arg(long, value_name = "UNITS", default_value_t = 0.5, requires = "mover")]
     speed: f32,
@@ -141,6 +142,16 @@ fn parse_size(text: &str) -> Result<(u32, u32), String> {
         _ => Err(format!("{s} is not a size from 1 to 16384")),
     };
     Ok((parse(w)?, parse(h)?))
+}
+
+/// `--path`'s points.
+#[derive(Clone)]
+struct PathPoints(Vec<glam::Vec3>);
+
+fn parse_path(text: &str) -> Result<PathPoints, String> {
+    moving::parse_path(text)
+        .map(PathPoints)
+        .map_err(|err| err.to_string())
 }
 
 fn parse_key(text: &str) -> Result<Key, String> {
@@ -270,12 +281,9 @@ fn probe_scene(cli: &Cli) -> Result<Option<(Probes, Option<Mover>)>, Error> {
     };
     let probes = Probes::load(path)?;
     let mover = match (&cli.mover, &cli.mover_prt, &cli.path) {
-        (Some(object), Some(file), Some(points)) => Some(Mover::load(
-            object,
-            file,
-            moving::parse_path(points)?,
-            cli.speed,
-        )?),
+        (Some(object), Some(file), Some(points)) => {
+            Some(Mover::load(object, file, points.0.clone(), cli.speed)?)
+        }
         _ => None,
     };
     Ok(Some((probes, mover)))

@@ -432,3 +432,67 @@ fn probe_spheres_show_the_cosine_convolved_incident_radiance_per_pixel() {
     }
     assert_eq!(checked, 4);
 }
+
+fn prt_view() -> std::process::Command {
+    std::process::Command::new(env!("CARGO_BIN_EXE_prt-view"))
+}
+
+#[test]
+fn prt_view_takes_probes_and_a_mover_on_the_command_line() {
+    let folder = tempfile::tempdir().unwrap();
+    let dir = folder.path();
+    let mut ball = ball(dir);
+    ball.file.write(&dir.join("ball.prt")).unwrap();
+    let mut room = cornell_bake();
+    room.file.write(&dir.join("room.prt")).unwrap();
+    probe_bake(&room.scene, "grid:4,4,4")
+        .write(&dir.join("probes.prt"))
+        .unwrap();
+    std::fs::write(dir.join("rig.toml"), RIG).unwrap();
+    let cornell = common::workspace().join("scenes/cornell/cornell.scene");
+    let run = |extra: &[&str], png: &str| {
+        prt_view()
+            .arg(&cornell)
+            .arg(dir.join("room.prt"))
+            .arg("--lights")
+            .arg(dir.join("rig.toml"))
+            .arg("--probes")
+            .arg(dir.join("probes.prt"))
+            .args(["--mover", "ball.obj", "--mover-prt", "ball.prt"])
+            .args(["--size", "120x90", "--headless", "--screenshot", png])
+            .args(extra)
+            .current_dir(dir)
+            .output()
+            .unwrap()
+    };
+    let output = run(
+        &["--path", "0.35,0.4,0.2;-0.75,-0.5,0.8", "--mover-at", "0.5"],
+        "shot.png",
+    );
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let image = image::open(dir.join("shot.png")).unwrap();
+    assert_eq!((image.width(), image.height()), (120, 90));
+    for (path, message) in [("0.35,0.4", "not one x,y,z point"), ("", "no points")] {
+        let output = run(&["--path", path], "bad.png");
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(2), "{path}: {stderr}");
+        assert!(stderr.contains(message), "{path}: {stderr}");
+    }
+    // The moving object's own bake, in place of the probes: refused as bad input.
+    let output = prt_view()
+        .arg(&cornell)
+        .arg(dir.join("room.prt"))
+        .arg("--probes")
+        .arg(dir.join("ball.prt"))
+        .args(["--headless", "--screenshot", "x.png"])
+        .current_dir(dir)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(3), "{stderr}");
+    assert!(stderr.contains("not a probe bake"), "{stderr}");
+}
