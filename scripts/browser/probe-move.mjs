@@ -77,7 +77,7 @@ const stops = [
   { name: 'shadow', position: [0.35, 0.4, 0.2] },
   { name: 'red wall', position: [-0.75, -0.5, 0.8] },
   { name: 'green wall', position: [0.75, -0.5, 0.8] },
-  { name: 'sun', position: [0.0, -0.5, 1.0] },
+  { name: 'sun', position: [0.0, -0.3, 1.0] },
 ];
 const axis = [0.2, 0.9, 0.4];
 const degrees = 70;

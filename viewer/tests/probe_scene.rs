@@ -127,13 +127,22 @@ fn ball(folder: &Path) -> Bake {
     )
 }
 
+/// What the tests share, made once: the bakes, the ball on its path, the lights.
 struct Fixture {
     _folder: tempfile::TempDir,
-    cornell: Scene,
     grid: CoefficientFile,
+    /// A probe baked exactly at each stop.
+    exact: Vec<CoefficientFile>,
     ball: Bake,
     mover: Mover,
     lights: Lights,
+    /// The room's own bake, for the renderer.
+    room: Bake,
+}
+
+fn fixture() -> &'static Fixture {
+    static FIXTURE: std::sync::OnceLock<Fixture> = std::sync::OnceLock::new();
+    FIXTURE.get_or_init(Fixture::new)
 }
 
 impl Fixture {
@@ -153,14 +162,19 @@ impl Fixture {
         .expect("the ball moves");
         std::fs::write(folder.path().join("rig.toml"), RIG).unwrap();
         let lights = Lights::load(Some(&folder.path().join("rig.toml")), ORDER).unwrap();
-        Fixture {
+        let mut fixture = Fixture {
             _folder: folder,
-            cornell,
             grid,
+            exact: Vec::new(),
             ball,
             mover,
             lights,
-        }
+            room: cornell_bake(),
+        };
+        fixture.exact = (0..STOPS.len())
+            .map(|k| exact_probe(&cornell, fixture.placement(k).0))
+            .collect();
+        fixture
     }
 
     fn probes(&self, file: &CoefficientFile) -> Probes {
@@ -199,7 +213,7 @@ fn luminance([r, g, b]: [f64; 3]) -> f64 {
 
 #[test]
 fn the_mover_matches_probes_baked_where_it_stands_and_takes_the_scenes_shadow_and_colour() {
-    let f = Fixture::new();
+    let f = fixture();
     let grid = f.probes(&f.grid);
     let light = f.light();
     let albedo = f.ball.scene.vertex_albedo();
@@ -211,8 +225,7 @@ fn the_mover_matches_probes_baked_where_it_stands_and_takes_the_scenes_shadow_an
             "the path turns the ball"
         );
         let moved = f.mover.radiance(&grid, placement, &light);
-        let exact_file = exact_probe(&f.cornell, placement.0);
-        let exact_field = ProbeField::new(&exact_file).unwrap();
+        let exact_field = ProbeField::new(&f.exact[k]).unwrap();
         let exact = rigid_radiance(&f.ball.file, &albedo, &exact_field, placement, &light);
         let (m, e) = (mean(&moved), mean(&exact));
         // Per vertex: the largest difference in any channel, relative to the mean exact
@@ -293,12 +306,11 @@ fn cornell_bake() -> Bake {
 #[test]
 fn rendered_frames_of_the_mover_match_exact_probes_and_show_shadow_and_bleeding() {
     let Some(gpu) = common::gpu() else { return };
-    let f = Fixture::new();
-    let room = cornell_bake();
+    let f = fixture();
     let mut renderer = prt_viewer::Renderer::new(
         &gpu.device,
         &gpu.queue,
-        &room,
+        &f.room,
         prt_viewer::offscreen::FORMAT,
         SIZE,
     )
@@ -331,7 +343,7 @@ fn rendered_frames_of_the_mover_match_exact_probes_and_show_shadow_and_bleeding(
                 .unwrap()
         };
         let moved = frame(f.probes(&f.grid));
-        let exact = frame(f.probes(&exact_probe(&f.cornell, position)));
+        let exact = frame(f.probes(&f.exact[k]));
         let (a, b) = (centre_patch(&moved, 16), centre_patch(&exact, 16));
         let off = (0..3)
             .map(|c| (a[c] - b[c]).abs() / b[c])
@@ -369,11 +381,10 @@ fn probe_spheres_show_the_cosine_convolved_incident_radiance_per_pixel() {
     std::fs::write(folder.path().join("rig.toml"), RIG).unwrap();
     let lights = Lights::load(Some(&folder.path().join("rig.toml")), ORDER).unwrap();
     let file = probe_bake(&cornell, "grid:4,4,4");
-    let room = cornell_bake();
     let mut renderer = prt_viewer::Renderer::new(
         &gpu.device,
         &gpu.queue,
-        &room,
+        &fixture().room,
         prt_viewer::offscreen::FORMAT,
         SIZE,
     )
@@ -443,7 +454,7 @@ fn prt_view_takes_probes_and_a_mover_on_the_command_line() {
     let dir = folder.path();
     let mut ball = ball(dir);
     ball.file.write(&dir.join("ball.prt")).unwrap();
-    let mut room = cornell_bake();
+    let mut room = fixture().room.clone();
     room.file.write(&dir.join("room.prt")).unwrap();
     probe_bake(&room.scene, "grid:4,4,4")
         .write(&dir.join("probes.prt"))
