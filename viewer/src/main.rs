@@ -90,7 +90,7 @@ struct Cli {
     #[arg(long, value_name = "FILE.prt", requires = "bench")]
     bench_also: Vec<PathBuf>,
     /// Transfer probes of the scene (a grid bake: `prt-bake bake SCENE --probes grid:…`),
-    /// drawn as spheres showing their incident radiance (P toggles), and lighting --mover.
+    /// drawn as spheres shaded by their incident radiance as a white diffuse ball there (P toggles), and lighting --mover.
     #[arg(long, value_name = "PROBES.prt", conflicts_with = "bench")]
     probes: Option<PathBuf>,
     /// An object baked alone (its own vector bake: --mover-prt) that moves along --path
@@ -157,7 +157,7 @@ fn parse_path(text: &str) -> Result<PathPoints, String> {
 fn parse_key(text: &str) -> Result<Key, String> {
     Key::parse(text).ok_or_else(|| {
         format!(
-            "unknown key {text} (Up, Down, Left, Right, 1-8, Q, A, W, E, T, N, L, F1, F2, Escape)"
+            "unknown key {text} (Up, Down, Left, Right, 1-8, Q, A, W, E, T, N, L, P, F1, F2, Escape)"
         )
     })
 }
