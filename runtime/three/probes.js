@@ -5,12 +5,13 @@
 //   import { loadProbes, probeLightAt, lightProbeCoefficients } from './prt.js';
 //   const probes = await loadProbes('probes.prt');
 //   prt.setLight(probeLightAt(probes, position, rotation, light));   // a PRT mesh baked alone
+//   prt.setLight(probeLightForObject(probes, mesh, light));       // each frame, as `mesh` moves
 //   lightProbe.sh.fromArray(lightProbeCoefficients(probeIncident(probes, position, light)).flat());
 //
 // Positions and lights are in the probes' scene frame (z up for OBJ scenes); `rotation` is the
 // object's row-major 3×3 rotation (object frame to scene frame). The reference is the baker's
 // baker/src/export/probe_field.rs; scripts/browser/probe-test.mjs holds the two to each other.
-import { coeffCount, rotateLight } from './sh.js';
+import { coeffCount, rotateLight, GLTF_TO_Z_UP, Z_UP_TO_GLTF } from './sh.js';
 
 const MAGIC = [0x89, 0x50, 0x52, 0x54, 0x0d, 0x0a, 0x1a, 0x0a];
 const PROBE_HEADER_SIZE = 176;
@@ -116,4 +117,24 @@ export function probeLightAt(probes, position, rotation, light) {
 export function lightProbeCoefficients(incident) {
   const flip = [1, -1, 1, -1, 1, -1, 1, -1, 1];
   return flip.map((s, j) => incident.rgb.map((c) => (j < c.length ? s * c[j] : 0)));
+}
+
+/**
+ * The light of a moving PRT mesh (an object baked alone and exported to .glb; `applyPRT`'s
+ * handle.setLight takes it) from where three.js has put it: `object` is the THREE.Object3D
+ * whose local frame the transfer is in (the glTF mesh), its matrixWorld (updated here) its
+ * place in a world whose frame is the probe scene's turned to glTF's +Y up (a z-up scene
+ * exported to .glb), or the probe scene's own frame when that is y-up. `light` is in the
+ * probes' scene frame. Call it each frame the object moves: R⁻¹·L_in at its position.
+ */
+export function probeLightForObject(probes, object, light) {
+  object.updateWorldMatrix(true, false);
+  const e = object.matrixWorld.elements;
+  // Row-major rotation of the world matrix (column-major), its columns' scale taken out.
+  const scale = [0, 1, 2].map((c) => Math.hypot(e[4 * c], e[4 * c + 1], e[4 * c + 2]));
+  const inverse = [0, 1, 2].flatMap((r) => [0, 1, 2].map((c) => e[4 * r + c] / scale[r]));
+  const world = [e[12], e[13], e[14]];
+  if (probes.up === 'y') return rotateLight(probeIncident(probes, world, light), inverse);
+  const x = [0, 1, 2].map((i) => GLTF_TO_Z_UP[3 * i] * world[0] + GLTF_TO_Z_UP[3 * i + 1] * world[1] + GLTF_TO_Z_UP[3 * i + 2] * world[2]);
+  return rotateLight(rotateLight(probeIncident(probes, x, light), Z_UP_TO_GLTF), inverse);
 }

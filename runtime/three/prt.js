@@ -22,7 +22,7 @@ import { GLTF_TO_Z_UP, coeffCount, lightFromJSON, lightOfOrder, rotateLight } fr
 
 export { lightFromJSON, rotateLight, shRotation, axisAngle, multiply3, Z_UP_TO_GLTF, GLTF_TO_Z_UP } from './sh.js';
 // Transfer probes and rigid objects that move through them (docs/probes.md).
-export { parseProbes, loadProbes, probeWeights, probeIncident, probeLightAt, lightProbeCoefficients } from './probes.js';
+export { parseProbes, loadProbes, probeWeights, probeIncident, probeLightAt, probeLightForObject, lightProbeCoefficients } from './probes.js';
 
 /**
  * The light a `.glb` was exported with (`prt-bake export … --lights RIG`): its

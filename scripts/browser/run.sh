@@ -22,6 +22,9 @@ command -v glslangValidator >/dev/null || { echo "browser: glslangValidator is m
 node scripts/browser/glsl-snippets.mjs docs/gltf.md "$OUT/glsl"
 node scripts/browser/sh-test.mjs target/release/prt-bake "$OUT"
 node scripts/browser/probe-test.mjs target/release/prt-bake "$OUT"
+# A rigid object moving through the Cornell room's probes, lit by prt.js in Chromium, against
+# relight at probes baked exactly at its positions (docs/probes.md).
+node scripts/browser/probe-move.mjs "$NODE_DIR/node_modules" target/release/prt-bake "$OUT"
 node scripts/browser/test.mjs "$NODE_DIR/node_modules" target/release/prt-bake "$OUT"
 # Glossy PRT (issue 33): a CPCA-compressed transfer-matrix export relit by prt.js against
 # prt-bake relight --view from three camera positions.

@@ -12,6 +12,7 @@
 //! | textures on/off | T |
 //! | draw normals on/off | N |
 //! | draw light vectors on/off | L |
+//! | draw transfer probes on/off (`--probes`) | P |
 //! | Blinn-Phong / PRT | F1 / F2 |
 //! | quit | Escape |
 //!
@@ -64,6 +65,8 @@ pub enum Key {
     T,
     N,
     L,
+    /// Transfer probes on/off (the window passes it to the probe scene).
+    P,
     F1,
     F2,
     Escape,
@@ -71,7 +74,7 @@ pub enum Key {
 
 impl Key {
     /// A key by name, as `--keys` lists them: `Up`, `Down`, `Left`, `Right`, `1`–`8`, `Q`, `A`,
-    /// `W`, `E`, `T`, `N`, `L`, `F1`, `F2`, `Escape` (any case).
+    /// `W`, `E`, `T`, `N`, `L`, `P`, `F1`, `F2`, `Escape` (any case).
     pub fn parse(name: &str) -> Option<Key> {
         let key = match name.trim().to_ascii_lowercase().as_str() {
             "up" => Key::Up,
@@ -85,6 +88,7 @@ impl Key {
             "t" => Key::T,
             "n" => Key::N,
             "l" => Key::L,
+            "p" => Key::P,
             "f1" => Key::F1,
             "f2" => Key::F2,
             "escape" | "esc" => Key::Escape,

@@ -36,6 +36,8 @@
 //! * [`Renderer`]: `new` / `resize` / `update` / `render(&TextureView, &Device, &Queue)`, in the
 //!   manner of the wgpu examples; it renders into any view, so the window, headless screenshots
 //!   and tests share one path. Tests pass their own device ([`Gpu`]).
+//! * [`moving`] and [`probe_scene`]: transfer probes (`prt-bake bake --probes`) drawn as
+//!   spheres, and a rigid object baked alone moving along a path, lit through them.
 //! * [`offscreen`], [`probe`], [`bench`] and [`window`]: screenshots, the per-vertex readback
 //!   that tests compare with `relight`, the frame-rate table, and the interactive window.
 
@@ -48,9 +50,11 @@ pub mod font;
 pub mod glossy;
 pub mod gpu;
 pub mod lights;
+pub mod moving;
 pub mod offscreen;
 mod overlay;
 pub mod probe;
+pub mod probe_scene;
 pub mod renderer;
 mod resources;
 pub mod texel_radiance;

@@ -10,6 +10,7 @@ use prt_baker::light::Rig;
 use prt_baker::support::output::Output;
 use prt_viewer::bench::{self, BenchOptions};
 use prt_viewer::lights::{Lights, MAX_LIGHTS};
+use prt_viewer::moving::{self, Mover, Probes};
 use prt_viewer::offscreen;
 use prt_viewer::window::{self, WindowOptions};
 use prt_viewer::{Bake, Camera, Error, FrameInputs, Gpu, Key, Mode, Renderer, View};
@@ -25,7 +26,11 @@ const EXIT_BAD_INPUT: u8 = 3;
     version,
     about = "Real-time viewer of PRT bakes: PRT against Blinn-Phong, with the thesis's controls",
     after_help = "Controls: arrows move, left-drag turns, 1-8 select a light, Q/A its theta, W/E its phi, \
-                  T textures, N normals, L light vectors, F1 Blinn-Phong, F2 PRT, Escape quits."
+                  T textures, N normals, L light vectors, P probes, F1 Blinn-Phong, F2 PRT, Escape quits.\n\n\
+                  Moving objects (docs/probes.md): --probes PROBES.prt (a grid bake of the scene, \
+                  `prt-bake bake SCENE --probes grid:NX,NY,NZ`) draws the probes as spheres showing \
+                  their incident radiance; --mover OBJECT --mover-prt OBJECT.prt --path \"x,y,z;x,y,z\" \
+                  moves an object baked alone along the path, lit through the probes."
 )]
 struct Cli {
     /// The scene the coefficient file was baked from.
@@ -84,6 +89,42 @@ struct Cli {
     /// uncompressed or compressed, shown as glossy PRT) whose PRT rows join the same run.
     #[arg(long, value_name = "FILE.prt", requires = "bench")]
     bench_also: Vec<PathBuf>,
+    /// Transfer probes of the scene (a grid bake: `prt-bake bake SCENE --probes grid:…`),
+    /// drawn as spheres shaded by their incident radiance as a white diffuse ball there (P toggles), and lighting --mover.
+    #[arg(long, value_name = "PROBES.prt", conflicts_with = "bench")]
+    probes: Option<PathBuf>,
+    /// An object baked alone (its own vector bake: --mover-prt) that moves along --path
+    /// through the scene, lit by the probes at its position.
+    #[arg(long, value_name = "OBJECT", requires_all = ["probes", "mover_prt", "path"])]
+    mover: Option<PathBuf>,
+    /// The moving object's coefficient file.
+    #[arg(long, value_name = "OBJECT.prt", requires = "mover")]
+    mover_prt: Option<PathBuf>,
+    /// The moving object's path in the scene's frame: points x,y,z separated by ';'. It
+    /// goes there and back, facing along the path (its +x turned about +z).
+    #[arg(
+        long,
+        value_name = "X,Y,Z;X,Y,Z;…",
+        requires = "mover",
+        allow_hyphen_values = true,
+        value_parser = parse_path
+    )]
+    path: Option<PathPoints>,
+    /// The moving object's speed in scene units per second.
+    #[arg(long, value_name = "UNITS", default_value_t = 0.5, requires = "mover")]
+    speed: f32,
+    /// Where the moving object is in a screenshot, as a fraction of the path (0 its start,
+    /// 1 its end).
+    #[arg(
+        long,
+        value_name = "FRACTION",
+        default_value_t = 0.0,
+        requires = "mover"
+    )]
+    mover_at: f32,
+    /// Start with the probes hidden (P shows them).
+    #[arg(long, requires = "probes")]
+    hide_probes: bool,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -103,10 +144,20 @@ fn parse_size(text: &str) -> Result<(u32, u32), String> {
     Ok((parse(w)?, parse(h)?))
 }
 
+/// `--path`'s points.
+#[derive(Clone)]
+struct PathPoints(Vec<glam::Vec3>);
+
+fn parse_path(text: &str) -> Result<PathPoints, String> {
+    moving::parse_path(text)
+        .map(PathPoints)
+        .map_err(|err| err.to_string())
+}
+
 fn parse_key(text: &str) -> Result<Key, String> {
     Key::parse(text).ok_or_else(|| {
         format!(
-            "unknown key {text} (Up, Down, Left, Right, 1-8, Q, A, W, E, T, N, L, F1, F2, Escape)"
+            "unknown key {text} (Up, Down, Left, Right, 1-8, Q, A, W, E, T, N, L, P, F1, F2, Escape)"
         )
     })
 }
@@ -137,11 +188,18 @@ fn main() -> ExitCode {
 }
 
 fn run(cli: Cli) -> Result<(), Error> {
-    let named_inputs: Vec<PathBuf> = [Some(&cli.scene), Some(&cli.file), cli.lights.as_ref()]
-        .into_iter()
-        .flatten()
-        .cloned()
-        .collect();
+    let named_inputs: Vec<PathBuf> = [
+        Some(&cli.scene),
+        Some(&cli.file),
+        cli.lights.as_ref(),
+        cli.probes.as_ref(),
+        cli.mover.as_ref(),
+        cli.mover_prt.as_ref(),
+    ]
+    .into_iter()
+    .flatten()
+    .cloned()
+    .collect();
     if let Some(path) = &cli.screenshot {
         // Refused before the scene is loaded and the GPU started.
         Output::new(path, &named_inputs)?;
@@ -152,6 +210,7 @@ fn run(cli: Cli) -> Result<(), Error> {
         None => Lights::default_rig(),
     };
     let view = initial_view(&cli, &bake, &rig)?;
+    let probes = probe_scene(&cli)?;
 
     if cli.bench {
         let gpu = Gpu::headless()?;
@@ -168,12 +227,13 @@ fn run(cli: Cli) -> Result<(), Error> {
         return Ok(());
     }
     if let Some(path) = &cli.screenshot {
-        return screenshot(&cli, path, &bake, &view, &rig, named_inputs);
+        return screenshot(&cli, path, (&bake, probes), &view, &rig, named_inputs);
     }
     let options = WindowOptions {
         size: cli.size,
         frames: cli.frames,
         keys: cli.keys,
+        probes,
     };
     let stats = window::run(bake, view, options)?;
     println!(
@@ -214,12 +274,27 @@ fn initial_view(cli: &Cli, bake: &Bake, rig: &Rig) -> Result<View, Error> {
     Ok(view)
 }
 
+/// The probes and the moving object the command line names, loaded.
+fn probe_scene(cli: &Cli) -> Result<Option<(Probes, Option<Mover>)>, Error> {
+    let Some(path) = &cli.probes else {
+        return Ok(None);
+    };
+    let probes = Probes::load(path)?;
+    let mover = match (&cli.mover, &cli.mover_prt, &cli.path) {
+        (Some(object), Some(file), Some(points)) => {
+            Some(Mover::load(object, file, points.0.clone(), cli.speed)?)
+        }
+        _ => None,
+    };
+    Ok(Some((probes, mover)))
+}
+
 /// Renders one frame offscreen to `path`, which must not overwrite any input (the scene's
 /// files, those named on the command line, the rig's).
 fn screenshot(
     cli: &Cli,
     path: &Path,
-    bake: &Bake,
+    (bake, probes): (&Bake, Option<(Probes, Option<Mover>)>),
     view: &View,
     rig: &Rig,
     named_inputs: Vec<PathBuf>,
@@ -232,6 +307,12 @@ fn screenshot(
     let output = Output::new(path, &inputs)?;
     let gpu = Gpu::headless()?;
     let mut renderer = Renderer::new(&gpu.device, &gpu.queue, bake, offscreen::FORMAT, cli.size)?;
+    if let Some((probes, mover)) = probes {
+        renderer.set_probe_scene(&gpu.device, probes, mover)?;
+        let scene = renderer.probe_scene_mut().expect("just set");
+        scene.show_probes = !cli.hide_probes;
+        scene.distance = cli.mover_at.clamp(0.0, 1.0) * scene.mover().map_or(0.0, |m| m.length());
+    }
     let inputs = FrameInputs::from_view(view, None);
     let image = offscreen::render_image(&gpu.device, &gpu.queue, &mut renderer, &inputs)?;
     offscreen::save_png_to(&image, &output)?;

@@ -27,6 +27,7 @@ use crate::error::{Error, Result};
 use crate::glossy::{GlossyResources, material_lobe};
 use crate::lights::{MAX_LIGHTS, PhongLights, PhongShape};
 use crate::overlay::Overlay;
+use crate::probe_scene::ProbeScene;
 use crate::resources::{
     DEPTH_FORMAT, PipelineSpec, buffer_binding, pipeline, scene_shader, storage_entry, texture_2d,
     texture_entry, uniform_buffer, uniform_entry, view_binding,
@@ -198,6 +199,8 @@ pub struct Renderer {
     mode: Mode,
     normals: bool,
     light_vectors: bool,
+    /// Transfer probes and a moving object lit by them (`--probes`, `--mover`).
+    probe_scene: Option<ProbeScene>,
 }
 
 impl Renderer {
@@ -304,7 +307,34 @@ impl Renderer {
             mode: Mode::Prt,
             normals: false,
             light_vectors: false,
+            probe_scene: None,
         })
+    }
+
+    /// Shows transfer probes and, if given, an object moving through them (probe_scene.rs);
+    /// both of the bake's order.
+    pub fn set_probe_scene(
+        &mut self,
+        device: &wgpu::Device,
+        probes: crate::moving::Probes,
+        mover: Option<crate::moving::Mover>,
+    ) -> Result<()> {
+        self.probe_scene = Some(ProbeScene::new(
+            device,
+            (&self.frame_layout, self.format),
+            self.order,
+            probes,
+            mover,
+        )?);
+        Ok(())
+    }
+
+    pub fn probe_scene(&self) -> Option<&ProbeScene> {
+        self.probe_scene.as_ref()
+    }
+
+    pub fn probe_scene_mut(&mut self) -> Option<&mut ProbeScene> {
+        self.probe_scene.as_mut()
     }
 
     /// The colour format the pipelines write.
@@ -368,6 +398,9 @@ impl Renderer {
         );
         if let (Mode::Prt, Some(glossy)) = (inputs.mode, &self.glossy) {
             glossy.update(queue, &inputs.prt_light);
+        }
+        if let Some(probes) = &self.probe_scene {
+            probes.update(queue, &inputs.prt_light);
         }
 
         let lines: Vec<LineVertex> = inputs
@@ -446,6 +479,9 @@ impl Renderer {
             for draw in &self.draws {
                 pass.set_bind_group(1, &self.materials[draw.material], &[]);
                 pass.draw_indexed(draw.indices.clone(), 0, 0..1);
+            }
+            if let Some(probes) = &self.probe_scene {
+                probes.draw(&mut pass, &self.frame_bind_group);
             }
             if self.normals {
                 pass.set_pipeline(&self.lines_depth_tested);

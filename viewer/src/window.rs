@@ -16,6 +16,7 @@ use crate::bake::Bake;
 use crate::controls::{Key, Response, View};
 use crate::error::{Error, Result};
 use crate::gpu::{self, Gpu};
+use crate::moving::{Mover, Probes};
 use crate::renderer::{FrameInputs, Renderer};
 
 /// How often the readout's frame rate is refreshed.
@@ -29,6 +30,8 @@ pub struct WindowOptions {
     pub frames: Option<u64>,
     /// Keys pressed one per frame from the first frame (each released on the next).
     pub keys: Vec<Key>,
+    /// Transfer probes to draw and an object moving through them (`--probes`, `--mover`).
+    pub probes: Option<(Probes, Option<Mover>)>,
 }
 
 /// What a window session did.
@@ -88,7 +91,12 @@ struct Running {
 }
 
 impl Running {
-    fn start(event_loop: &ActiveEventLoop, bake: &Bake, size: (u32, u32)) -> Result<Running> {
+    fn start(
+        event_loop: &ActiveEventLoop,
+        bake: &Bake,
+        options: &WindowOptions,
+    ) -> Result<Running> {
+        let size = options.size;
         let attributes = Window::default_attributes()
             .with_title("prt-view")
             .with_inner_size(PhysicalSize::new(size.0, size.1));
@@ -124,13 +132,16 @@ impl Running {
             },
         };
         surface.configure(&gpu.device, &config);
-        let renderer = Renderer::new(
+        let mut renderer = Renderer::new(
             &gpu.device,
             &gpu.queue,
             bake,
             view_format,
             (config.width, config.height),
         )?;
+        if let Some((probes, mover)) = &options.probes {
+            renderer.set_probe_scene(&gpu.device, probes.clone(), mover.clone())?;
+        }
         Ok(Running {
             window,
             surface,
@@ -208,6 +219,13 @@ impl App {
 
     /// Passes a key to the view; `true` if it asked to quit.
     fn key(&mut self, event_loop: &ActiveEventLoop, key: Key, pressed: bool) -> bool {
+        let probes = self
+            .running
+            .as_mut()
+            .and_then(|r| r.renderer.probe_scene_mut());
+        if let (Key::P, true, Some(probes)) = (key, pressed, probes) {
+            probes.show_probes = !probes.show_probes;
+        }
         let quit = self.view.key(key, pressed) == Response::Quit;
         if quit {
             event_loop.exit();
@@ -243,6 +261,9 @@ impl App {
         let Some(running) = self.running.as_mut() else {
             return;
         };
+        if let (Some(probes), Some(start)) = (running.renderer.probe_scene_mut(), self.started) {
+            probes.set_time((now - start).as_secs_f64());
+        }
         match running.draw(&inputs) {
             Ok(true) => self.frames += 1,
             Ok(false) => {}
@@ -307,7 +328,7 @@ impl ApplicationHandler for App {
         if self.running.is_some() {
             return;
         }
-        match Running::start(event_loop, &self.bake, self.options.size) {
+        match Running::start(event_loop, &self.bake, &self.options) {
             Ok(running) => {
                 running.window.request_redraw();
                 self.running = Some(running);
