@@ -33,10 +33,11 @@
 //! transfer by Kd × texture, so a subsurface receiver renders its walk's radiance times its
 //! texture (a tint; white or no texture renders it as baked).
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use crate::bake::options::{Mode, TransferKind};
+use crate::bake::receivers::BounceTargets;
 use crate::bake::transfer::Transfer;
 use crate::math::medium::{Medium, fresnel, reflect, refract};
 use crate::math::sampling::{Pcg32, uniform_sphere, vertex_seed};
@@ -67,12 +68,13 @@ pub struct Points {
     pub material: Vec<u32>,
 }
 
-/// What an exiting path sees when it hits the scene (interreflected mode): the final transfer
-/// of the scene's vertices, `coefficients[(v · channels + c) · n² + j]`.
+/// What an exiting path sees when it hits the scene (interreflected mode): the bake's final
+/// transfer at every slot of `targets` (the vertices, or the W×H texels of a lightmap, put in
+/// place and dilated), `slots[(s · channels + c) · n² + j]`, read as the bounce passes read it.
 pub struct Bounced<'a> {
-    pub coefficients: &'a [f32],
+    pub slots: &'a [f32],
     pub channels: usize,
-    pub albedo: &'a [Vec3],
+    pub targets: &'a BounceTargets<'a>,
 }
 
 /// A subsurface bake's settings.
@@ -148,7 +150,6 @@ pub fn apply_to_vertices(
         ));
     }
     let n = options.order * options.order;
-    let albedo = scene.vertex_albedo();
     let points = vertex_points(scene, media);
     let walks = Walks {
         scene,
@@ -158,9 +159,9 @@ pub fn apply_to_vertices(
         samples: options.samples,
         seed: options.seed,
         bounced: (options.mode == Mode::Interreflected).then_some(Bounced {
-            coefficients: &transfer.coefficients,
+            slots: &transfer.coefficients,
             channels: transfer.channels,
-            albedo: &albedo,
+            targets: &BounceTargets::Vertices,
         }),
     };
     let (baked, rays) = bake_points(&walks, &points, progress);
@@ -429,33 +430,38 @@ fn gather(
             if h.ng.dot(exit.direction) >= 0.0 || walks.media[material].is_some() {
                 return 1;
             }
-            add_bounce(bounced, &h, tri, &exit.weight, group, n, sums);
+            add_bounce(scene, bounced, &h, &exit.weight, group, n, sums);
         }
     }
     1
 }
 
-/// Adds weight × albedo × transfer at hit `h` on triangle `tri` (barycentric over its vertices)
-/// to `sums`.
+/// Adds weight × albedo × transfer at hit `h` to `sums`: the albedo (Kd × texture) at the
+/// hit's uv, the transfer read from the hit's slots as a bounce pass reads it (barycentric
+/// over a triangle's vertices, bilinear around a lightmap UV).
 fn add_bounce(
+    scene: &Scene,
     bounced: &Bounced,
     h: &Hit,
-    tri: [u32; 3],
     weight: &[f32; 3],
     group: [bool; 3],
     n: usize,
     sums: &mut [f64],
 ) {
+    let tri = scene.triangles[h.triangle as usize];
     let bary = [1.0 - h.u - h.v, h.u, h.v];
+    let uv: Vec2 = (0..3).map(|k| scene.uvs[tri[k] as usize] * bary[k]).sum();
+    let albedo = scene.albedo(scene.triangle_material(h.triangle as usize), uv);
+    let mut taps = [(0u32, 0.0f32); 4];
+    let count = bounced.targets.lookup(scene, h.triangle, bary, &mut taps);
     for k in (0..3).filter(|&k| group[k]) {
         // A grey bake's one channel serves all three.
         let c = k.min(bounced.channels - 1);
-        for (&v, b) in tri.iter().zip(bary) {
-            let v = v as usize;
-            let factor = weight[k] * b * bounced.albedo[v][k];
-            let start = (v * bounced.channels + c) * n;
+        for &(slot, b) in &taps[..count] {
+            let factor = weight[k] * b * albedo[k];
+            let start = (slot as usize * bounced.channels + c) * n;
             for j in 0..n {
-                sums[k * n + j] += f64::from(factor * bounced.coefficients[start + j]);
+                sums[k * n + j] += f64::from(factor * bounced.slots[start + j]);
             }
         }
     }
