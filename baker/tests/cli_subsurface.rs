@@ -1,6 +1,7 @@
 //! `prt-bake bake --materials` (issue 31): a translucent cube's bake is RGB and glows, a bad
 //! materials file is refused with its file, line and key (exit 3), and what subsurface bakes
-//! do not support yet is refused as usage (exit 2), with nothing written.
+//! do not support yet is refused as usage (exit 2), with nothing written. Texel bakes
+//! (`--lightmap`) of translucent materials work as vertex bakes do.
 
 use std::path::Path;
 use std::process::{Command, Output};
@@ -31,20 +32,27 @@ const JADE: &str = "[material.jade.subsurface]\nscattering = [3, 4, 3]\nabsorpti
 
 #[test]
 fn a_translucent_bake_is_rgb() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = bake(dir.path(), JADE, &[]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let inspect = Command::new(env!("CARGO_BIN_EXE_prt-bake"))
-        .arg("inspect")
-        .arg(dir.path().join("out.prt"))
-        .output()
-        .unwrap();
-    let text = String::from_utf8_lossy(&inspect.stdout);
-    assert!(text.contains("\"channels\": 3"), "{text}");
+    // Per vertex and per texel, shadowed and interreflected.
+    for extra in [
+        &[][..],
+        &["--lightmap", "32"][..],
+        &["--lightmap", "32", "--mode", "interreflected"][..],
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let out = bake(dir.path(), JADE, extra);
+        assert!(
+            out.status.success(),
+            "{extra:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let inspect = Command::new(env!("CARGO_BIN_EXE_prt-bake"))
+            .arg("inspect")
+            .arg(dir.path().join("out.prt"))
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&inspect.stdout);
+        assert!(text.contains("\"channels\": 3"), "{extra:?}: {text}");
+    }
 }
 
 #[test]
@@ -78,7 +86,6 @@ fn what_subsurface_bakes_lack_is_a_usage_error() {
     let dir = tempfile::tempdir().unwrap();
     for extra in [
         &["--mode", "unshadowed"][..],
-        &["--lightmap", "64"][..],
         &["--transfer", "matrix"][..],
     ] {
         let out = bake(dir.path(), JADE, extra);
