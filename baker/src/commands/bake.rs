@@ -318,6 +318,7 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
         args.materials.as_deref(),
         &options,
         receivers.is_some(),
+        shard.is_some() || args.checkpoint.is_some(),
     )?;
     let subsurface = media.iter().any(Option::is_some);
     check_memory(&args, &options, &scene)?;
