@@ -665,3 +665,51 @@ fn texel_bakes_carry_each_texels_walks() {
         glow[0]
     );
 }
+
+/// A `--receivers` bake of translucent and opaque objects holds, bit for bit, the whole
+/// bake's rows of their vertices, shadowed and interreflected.
+#[test]
+fn receiver_subsets_hold_the_whole_bakes_rows() {
+    use prt_baker::bake::receiver_subset::bake_objects_translucent;
+    let (scene, media) = box_on_floor();
+    let tracer = tracer(&scene, Backend::Embree);
+    // The box's top and the floor.
+    let objects = [0u32, scene.objects.len() as u32 - 1];
+    for mode in [Mode::Shadowed, Mode::Interreflected] {
+        let options = BakeOptions {
+            order: 2,
+            samples: 64,
+            mode,
+            bounces: u32::from(mode == Mode::Interreflected),
+            seed: 4,
+            ..BakeOptions::default()
+        };
+        let mut whole = prt_baker::bake(&scene, Some(tracer.as_ref()), &options, &Silent).unwrap();
+        apply_to_vertices(&scene, tracer.as_ref(), &media, &mut whole, &Silent).unwrap();
+        let subset = bake_objects_translucent(
+            &scene,
+            Some(tracer.as_ref()),
+            &options,
+            &objects,
+            &media,
+            &Silent,
+        )
+        .unwrap();
+        assert_eq!(subset.channels, 3);
+        let rows: Vec<usize> = objects
+            .iter()
+            .flat_map(|&o| scene.objects[o as usize].vertices.clone())
+            .map(|v| v as usize)
+            .collect();
+        assert_eq!(subset.receiver_count, rows.len());
+        for (r, &v) in rows.iter().enumerate() {
+            for c in 0..3 {
+                assert_eq!(
+                    subset.vertex(r, c),
+                    whole.vertex(v, c),
+                    "{mode:?} vertex {v}"
+                );
+            }
+        }
+    }
+}

@@ -142,6 +142,20 @@ pub fn apply_to_vertices(
     transfer: &mut Transfer,
     progress: &dyn Progress,
 ) -> Result<u64> {
+    apply_to_rows(scene, tracer, media, transfer, None, progress)
+}
+
+/// [`apply_to_vertices`] for a transfer that holds the vertices `rows` only, in that order
+/// (a `--receivers` bake; `None`: every vertex): only those vertices walk. Only a whole
+/// transfer can feed interreflected walks the rest of the scene's light.
+pub fn apply_to_rows(
+    scene: &Scene,
+    tracer: &dyn Tracer,
+    media: &[Option<Medium>],
+    transfer: &mut Transfer,
+    rows: Option<&[u32]>,
+    progress: &dyn Progress,
+) -> Result<u64> {
     check_media(scene, media)?;
     let options = &transfer.options;
     if options.transfer != TransferKind::Vector {
@@ -149,8 +163,25 @@ pub fn apply_to_vertices(
             "--materials with a subsurface medium needs --transfer vector".into(),
         ));
     }
+    if rows.is_some() && options.mode == Mode::Interreflected {
+        return Err(Error::InvalidOption(
+            "interreflected subsurface walks need the whole bake's transfer".into(),
+        ));
+    }
     let n = options.order * options.order;
-    let points = vertex_points(scene, media);
+    let mut points = vertex_points(scene, media);
+    // Each point's row in the transfer.
+    let slots: Vec<usize> = match rows {
+        None => points.receiver.clone(),
+        Some(rows) => {
+            let mut rank = vec![usize::MAX; scene.vertex_count()];
+            for (r, &v) in rows.iter().enumerate() {
+                rank[v as usize] = r;
+            }
+            points = points.keep(|v| rank[v] != usize::MAX);
+            points.receiver.iter().map(|&v| rank[v]).collect()
+        }
+    };
     let walks = Walks {
         scene,
         tracer,
@@ -166,13 +197,28 @@ pub fn apply_to_vertices(
     };
     let (baked, rays) = bake_points(&walks, &points, progress);
     let mut rgb = to_rgb(&transfer.coefficients, transfer.channels, n);
-    for (i, &v) in points.receiver.iter().enumerate() {
-        rgb[v * 3 * n..(v + 1) * 3 * n].copy_from_slice(&baked[i * 3 * n..(i + 1) * 3 * n]);
+    for (i, &r) in slots.iter().enumerate() {
+        rgb[r * 3 * n..(r + 1) * 3 * n].copy_from_slice(&baked[i * 3 * n..(i + 1) * 3 * n]);
     }
     transfer.coefficients = rgb;
     transfer.channels = 3;
     transfer.rays_cast += rays;
     Ok(rays)
+}
+
+impl Points {
+    /// The points whose receiver passes `keep`, in order.
+    pub fn keep(self, keep: impl Fn(usize) -> bool) -> Points {
+        let mut out = Points::default();
+        for i in (0..self.receiver.len()).filter(|&i| keep(self.receiver[i])) {
+            out.receiver.push(self.receiver[i]);
+            out.position.push(self.position[i]);
+            out.normal.push(self.normal[i]);
+            out.inside.push(self.inside[i]);
+            out.material.push(self.material[i]);
+        }
+        out
+    }
 }
 
 /// `coefficients` (`channels` of n per receiver) as three channels: grey copied to each.

@@ -8,7 +8,7 @@ use prt_baker::bake::lightmap;
 use prt_baker::bake::memory;
 use prt_baker::bake::options::Aux;
 use prt_baker::bake::receiver_names::receiver_objects;
-use prt_baker::bake::receiver_subset::bake_objects;
+use prt_baker::bake::receiver_subset::bake_objects_translucent;
 use prt_baker::bake::subsurface;
 use prt_baker::distribute::checkpoint;
 use prt_baker::distribute::part_baker::PartBaker;
@@ -317,7 +317,6 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
         &scene,
         args.materials.as_deref(),
         &options,
-        receivers.is_some(),
         shard.is_some() || args.checkpoint.is_some(),
     )?;
     let subsurface = media.iter().any(Option::is_some);
@@ -348,11 +347,12 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
     }
     let (transfer, file, what) = match (args.lightmap, receivers) {
         (None, Some(objects)) => {
-            let transfer = bake_objects(
+            let transfer = bake_objects_translucent(
                 &scene,
                 tracer.as_deref(),
                 &options,
                 &objects,
+                &media,
                 progress.as_ref(),
             )?;
             let file = CoefficientFile::from_object_bake(&scene, &transfer, &objects);

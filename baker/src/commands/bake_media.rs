@@ -11,13 +11,12 @@ use prt_baker::scene::{Materials, gltf_media};
 use prt_baker::{BakeOptions, Error, Scene};
 
 /// Per scene material, its medium (`None`: opaque): the materials file `materials` where it
-/// names the material, else the glTF file's; empty where there are none. `receivers`: the
-/// bake has a receiver subset; `in_parts`: it is sharded or checkpointed.
+/// names the material, else the glTF file's; empty where there are none. `in_parts`: the
+/// bake is sharded or checkpointed.
 pub fn media(
     scene: &Scene,
     materials: Option<&Path>,
     options: &BakeOptions,
-    receivers: bool,
     in_parts: bool,
 ) -> Result<Vec<Option<Medium>>, Error> {
     let is_gltf = scene
@@ -67,9 +66,6 @@ pub fn media(
     }
     if options.transfer != TransferKind::Vector {
         return refuse("needs --transfer vector");
-    }
-    if receivers {
-        return refuse("bakes every object (not with --receivers yet)");
     }
     if in_parts {
         return refuse("bakes whole files (not with --shard or --checkpoint yet)");
