@@ -9,6 +9,10 @@
 //!   within 5 % + 3 standard errors of the reference (the criterion).
 //! * Embree and obvhs agree, bakes do not depend on the thread count, and a whole-scene bake
 //!   leaves opaque objects' transfer as it was.
+//! * Texel bakes (`--lightmap`): the texel at the box's top centre against the same Mitsuba
+//!   references; a whole texel bake holds each texel's own walks, keeps opaque texels, and
+//!   agrees across thread counts and backends.
+//! * `--receivers` subsets hold the whole bake's rows bit for bit.
 
 use std::path::{Path, PathBuf};
 
