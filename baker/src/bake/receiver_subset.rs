@@ -12,9 +12,11 @@ use std::time::Instant;
 
 use crate::bake::options::{BakeOptions, Mode};
 use crate::bake::receivers::{BounceTargets, Receivers};
+use crate::bake::subsurface::apply_to_rows;
 use crate::bake::transfer::{Estimator, Transfer, bake, bake_receivers, tracer_for};
 use crate::formats::coefficient_file::CoefficientFile;
 use crate::formats::receiver_section::ReceiverObjects;
+use crate::math::medium::Medium;
 use crate::scene::Scene;
 use crate::support::error::Result;
 use crate::support::progress::Progress;
@@ -29,13 +31,32 @@ pub fn bake_objects(
     objects: &[u32],
     progress: &dyn Progress,
 ) -> Result<Transfer> {
+    bake_objects_translucent(scene, tracer, options, objects, &[], progress)
+}
+
+/// [`bake_objects`], the receivers on materials with a medium in `media` (per scene material;
+/// empty: none) given their subsurface transfer ([`crate::bake::subsurface`]; the bake is then
+/// RGB). Interreflected: every translucent vertex walks, in the whole bake its walks' bounce
+/// light comes from, before the receivers' rows are kept.
+pub fn bake_objects_translucent(
+    scene: &Scene,
+    tracer: Option<&dyn Tracer>,
+    options: &BakeOptions,
+    objects: &[u32],
+    media: &[Option<Medium>],
+    progress: &dyn Progress,
+) -> Result<Transfer> {
     let rows = ReceiverObjects {
         object_count: scene.objects.len() as u32,
         objects: objects.to_vec(),
     }
     .vertices(scene);
+    let walker = tracer.filter(|_| media.iter().any(Option::is_some));
     if options.mode == Mode::Interreflected {
-        let whole = bake(scene, tracer, options, progress)?;
+        let mut whole = bake(scene, tracer, options, progress)?;
+        if let Some(tracer) = walker {
+            apply_to_rows(scene, tracer, media, &mut whole, None, progress)?;
+        }
         return Ok(keep_rows(whole, &rows));
     }
     let tracer = tracer_for(options, tracer)?;
@@ -55,13 +76,18 @@ pub fn bake_objects(
         &BounceTargets::Vertices,
         progress,
     );
-    Ok(Transfer::from_direct(
+    let mut transfer = Transfer::from_direct(
         options,
         tracer.map_or(Backend::None, |t| t.backend()),
         rows.len(),
         baked,
         started.elapsed().as_secs_f64(),
-    ))
+    );
+    if let Some(tracer) = walker {
+        apply_to_rows(scene, tracer, media, &mut transfer, Some(&rows), progress)?;
+        transfer.seconds = started.elapsed().as_secs_f64();
+    }
+    Ok(transfer)
 }
 
 /// A whole-scene transfer reduced to the vertices `rows` (its rays and time unchanged).

@@ -33,10 +33,11 @@
 //! transfer by Kd × texture, so a subsurface receiver renders its walk's radiance times its
 //! texture (a tint; white or no texture renders it as baked).
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use crate::bake::options::{Mode, TransferKind};
+use crate::bake::receivers::BounceTargets;
 use crate::bake::transfer::Transfer;
 use crate::math::medium::{Medium, fresnel, reflect, refract};
 use crate::math::sampling::{Pcg32, uniform_sphere, vertex_seed};
@@ -67,12 +68,13 @@ pub struct Points {
     pub material: Vec<u32>,
 }
 
-/// What an exiting path sees when it hits the scene (interreflected mode): the final transfer
-/// of the scene's vertices, `coefficients[(v · channels + c) · n² + j]`.
+/// What an exiting path sees when it hits the scene (interreflected mode): the bake's final
+/// transfer at every slot of `targets` (the vertices, or the W×H texels of a lightmap, put in
+/// place and dilated), `slots[(s · channels + c) · n² + j]`, read as the bounce passes read it.
 pub struct Bounced<'a> {
-    pub coefficients: &'a [f32],
+    pub slots: &'a [f32],
     pub channels: usize,
-    pub albedo: &'a [Vec3],
+    pub targets: &'a BounceTargets<'a>,
 }
 
 /// A subsurface bake's settings.
@@ -140,6 +142,20 @@ pub fn apply_to_vertices(
     transfer: &mut Transfer,
     progress: &dyn Progress,
 ) -> Result<u64> {
+    apply_to_rows(scene, tracer, media, transfer, None, progress)
+}
+
+/// [`apply_to_vertices`] for a transfer that holds the vertices `rows` only, in that order
+/// (a `--receivers` bake; `None`: every vertex): only those vertices walk. Only a whole
+/// transfer can feed interreflected walks the rest of the scene's light.
+pub fn apply_to_rows(
+    scene: &Scene,
+    tracer: &dyn Tracer,
+    media: &[Option<Medium>],
+    transfer: &mut Transfer,
+    rows: Option<&[u32]>,
+    progress: &dyn Progress,
+) -> Result<u64> {
     check_media(scene, media)?;
     let options = &transfer.options;
     if options.transfer != TransferKind::Vector {
@@ -147,9 +163,25 @@ pub fn apply_to_vertices(
             "--materials with a subsurface medium needs --transfer vector".into(),
         ));
     }
+    if rows.is_some() && options.mode == Mode::Interreflected {
+        return Err(Error::InvalidOption(
+            "interreflected subsurface walks need the whole bake's transfer".into(),
+        ));
+    }
     let n = options.order * options.order;
-    let albedo = scene.vertex_albedo();
-    let points = vertex_points(scene, media);
+    let mut points = vertex_points(scene, media);
+    // Each point's row in the transfer.
+    let slots: Vec<usize> = match rows {
+        None => points.receiver.clone(),
+        Some(rows) => {
+            let mut rank = vec![usize::MAX; scene.vertex_count()];
+            for (r, &v) in rows.iter().enumerate() {
+                rank[v as usize] = r;
+            }
+            points = points.keep(|v| rank[v] != usize::MAX);
+            points.receiver.iter().map(|&v| rank[v]).collect()
+        }
+    };
     let walks = Walks {
         scene,
         tracer,
@@ -158,20 +190,35 @@ pub fn apply_to_vertices(
         samples: options.samples,
         seed: options.seed,
         bounced: (options.mode == Mode::Interreflected).then_some(Bounced {
-            coefficients: &transfer.coefficients,
+            slots: &transfer.coefficients,
             channels: transfer.channels,
-            albedo: &albedo,
+            targets: &BounceTargets::Vertices,
         }),
     };
     let (baked, rays) = bake_points(&walks, &points, progress);
     let mut rgb = to_rgb(&transfer.coefficients, transfer.channels, n);
-    for (i, &v) in points.receiver.iter().enumerate() {
-        rgb[v * 3 * n..(v + 1) * 3 * n].copy_from_slice(&baked[i * 3 * n..(i + 1) * 3 * n]);
+    for (i, &r) in slots.iter().enumerate() {
+        rgb[r * 3 * n..(r + 1) * 3 * n].copy_from_slice(&baked[i * 3 * n..(i + 1) * 3 * n]);
     }
     transfer.coefficients = rgb;
     transfer.channels = 3;
     transfer.rays_cast += rays;
     Ok(rays)
+}
+
+impl Points {
+    /// The points whose receiver passes `keep`, in order.
+    pub fn keep(self, keep: impl Fn(usize) -> bool) -> Points {
+        let mut out = Points::default();
+        for i in (0..self.receiver.len()).filter(|&i| keep(self.receiver[i])) {
+            out.receiver.push(self.receiver[i]);
+            out.position.push(self.position[i]);
+            out.normal.push(self.normal[i]);
+            out.inside.push(self.inside[i]);
+            out.material.push(self.material[i]);
+        }
+        out
+    }
 }
 
 /// `coefficients` (`channels` of n per receiver) as three channels: grey copied to each.
@@ -429,33 +476,38 @@ fn gather(
             if h.ng.dot(exit.direction) >= 0.0 || walks.media[material].is_some() {
                 return 1;
             }
-            add_bounce(bounced, &h, tri, &exit.weight, group, n, sums);
+            add_bounce(scene, bounced, &h, &exit.weight, group, n, sums);
         }
     }
     1
 }
 
-/// Adds weight × albedo × transfer at hit `h` on triangle `tri` (barycentric over its vertices)
-/// to `sums`.
+/// Adds weight × albedo × transfer at hit `h` to `sums`: the albedo (Kd × texture) at the
+/// hit's uv, the transfer read from the hit's slots as a bounce pass reads it (barycentric
+/// over a triangle's vertices, bilinear around a lightmap UV).
 fn add_bounce(
+    scene: &Scene,
     bounced: &Bounced,
     h: &Hit,
-    tri: [u32; 3],
     weight: &[f32; 3],
     group: [bool; 3],
     n: usize,
     sums: &mut [f64],
 ) {
+    let tri = scene.triangles[h.triangle as usize];
     let bary = [1.0 - h.u - h.v, h.u, h.v];
+    let uv: Vec2 = (0..3).map(|k| scene.uvs[tri[k] as usize] * bary[k]).sum();
+    let albedo = scene.albedo(scene.triangle_material(h.triangle as usize), uv);
+    let mut taps = [(0u32, 0.0f32); 4];
+    let count = bounced.targets.lookup(scene, h.triangle, bary, &mut taps);
     for k in (0..3).filter(|&k| group[k]) {
         // A grey bake's one channel serves all three.
         let c = k.min(bounced.channels - 1);
-        for (&v, b) in tri.iter().zip(bary) {
-            let v = v as usize;
-            let factor = weight[k] * b * bounced.albedo[v][k];
-            let start = (v * bounced.channels + c) * n;
+        for &(slot, b) in &taps[..count] {
+            let factor = weight[k] * b * albedo[k];
+            let start = (slot as usize * bounced.channels + c) * n;
             for j in 0..n {
-                sums[k * n + j] += f64::from(factor * bounced.coefficients[start + j]);
+                sums[k * n + j] += f64::from(factor * bounced.slots[start + j]);
             }
         }
     }

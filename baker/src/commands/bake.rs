@@ -8,14 +8,14 @@ use prt_baker::bake::lightmap;
 use prt_baker::bake::memory;
 use prt_baker::bake::options::Aux;
 use prt_baker::bake::receiver_names::receiver_objects;
-use prt_baker::bake::receiver_subset::bake_objects;
+use prt_baker::bake::receiver_subset::bake_objects_translucent;
 use prt_baker::bake::subsurface;
 use prt_baker::distribute::checkpoint;
 use prt_baker::distribute::part_baker::PartBaker;
 use prt_baker::distribute::shard::{ShardId, shard_range};
 use prt_baker::export::compress;
+use prt_baker::math::medium::Medium;
 use prt_baker::math::sampling::Sampling;
-use prt_baker::scene::Materials;
 use prt_baker::support::limits;
 use prt_baker::support::output::Output;
 use prt_baker::support::progress::Progress;
@@ -303,29 +303,6 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
     if let Some(up) = args.up {
         scene.up = up.up();
     }
-    let materials = args.materials.as_deref().map(Materials::load).transpose()?;
-    let media = match &materials {
-        Some(m) => m.media_for(&scene.path, &scene.materials)?,
-        None => Vec::new(),
-    };
-    let subsurface = media.iter().any(Option::is_some);
-    if subsurface && !options.mode.casts_rays() {
-        return Err(Error::InvalidOption(
-            "--materials with a subsurface medium needs rays: use --mode shadowed or interreflected"
-                .into(),
-        ));
-    }
-    if subsurface && options.transfer != prt_baker::bake::options::TransferKind::Vector {
-        return Err(Error::InvalidOption(
-            "--materials with a subsurface medium needs --transfer vector".into(),
-        ));
-    }
-    if subsurface && args.lightmap.is_some() {
-        return Err(Error::InvalidOption(
-            "--materials with a subsurface medium bakes per vertex only (not with --lightmap yet)"
-                .into(),
-        ));
-    }
     let mut inputs = scene.input_files();
     inputs.extend(args.materials.clone());
     let output = Output::new(&args.output, &inputs)?;
@@ -336,12 +313,13 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
         true => receiver_objects(&scene, &args.receivers)?,
         false => None,
     };
-    if subsurface && receivers.is_some() {
-        return Err(Error::InvalidOption(
-            "--materials with a subsurface medium bakes every object (not with --receivers yet)"
-                .into(),
-        ));
-    }
+    let media = super::bake_media::media(
+        &scene,
+        args.materials.as_deref(),
+        &options,
+        shard.is_some() || args.checkpoint.is_some(),
+    )?;
+    let subsurface = media.iter().any(Option::is_some);
     check_memory(&args, &options, &scene)?;
     let tracer = match options.mode.casts_rays() {
         false => None,
@@ -369,11 +347,12 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
     }
     let (transfer, file, what) = match (args.lightmap, receivers) {
         (None, Some(objects)) => {
-            let transfer = bake_objects(
+            let transfer = bake_objects_translucent(
                 &scene,
                 tracer.as_deref(),
                 &options,
                 &objects,
+                &media,
                 progress.as_ref(),
             )?;
             let file = CoefficientFile::from_object_bake(&scene, &transfer, &objects);
@@ -409,6 +388,7 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
                 &args,
                 &scene,
                 tracer,
+                &media,
                 &options,
                 resolution,
                 progress.as_ref(),
@@ -486,13 +466,14 @@ fn bake_texels(
     args: &BakeArgs,
     scene: &Scene,
     tracer: Option<&dyn Tracer>,
+    media: &[Option<Medium>],
     options: &BakeOptions,
     resolution: u32,
     progress: &dyn Progress,
 ) -> Result<(Transfer, CoefficientFile, String), Error> {
     let mut stages = lightmap::Stages::default();
     let atlas = stages.time("atlas", || atlas(args, scene, resolution, progress))?;
-    let bake = lightmap::bake(scene, tracer, options, atlas, progress)?;
+    let bake = lightmap::bake_translucent(scene, tracer, options, atlas, media, progress)?;
     if args.verbose {
         eprintln!(
             "prt-bake: stages: {}, {}; stitching took {} iterations",

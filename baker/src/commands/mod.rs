@@ -3,6 +3,7 @@
 //! them into the library's options, and `run`, which calls the library and prints a summary.
 
 pub mod bake;
+pub mod bake_media;
 pub mod bake_probes;
 pub mod compress;
 pub mod export;

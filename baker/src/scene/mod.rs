@@ -36,6 +36,7 @@ use crate::support::input_path::AssetFolder;
 pub use alpha::{Alpha, AlphaMode, Cutouts, Wrap};
 pub use format::FORMATS;
 use format::OTHER_FORMATS;
+pub use gltf::volume::{GltfMedia, gltf_media};
 pub use materials::{MaterialEntry, Materials};
 pub use mesh::{DEFAULT_KD, Glossy, Hierarchy, HierarchyNode, Material, Mesh};
 pub use normals::angle_weighted_normals;

@@ -13,6 +13,7 @@ pub mod leaks;
 pub mod objects;
 pub mod stitch;
 pub mod texels;
+pub mod translucent;
 
 use std::time::Instant;
 
@@ -152,6 +153,19 @@ pub fn bake(
     atlas: Atlas,
     progress: &dyn Progress,
 ) -> Result<LightmapBake> {
+    bake_translucent(scene, tracer, options, atlas, &[], progress)
+}
+
+/// [`bake`], the texels of materials with a medium in `media` (per scene material; empty:
+/// none) baked as subsurface receivers ([`translucent`]) before placing; the bake is then RGB.
+pub fn bake_translucent(
+    scene: &crate::Scene,
+    tracer: Option<&dyn Tracer>,
+    options: &BakeOptions,
+    atlas: Atlas,
+    media: &[Option<crate::math::medium::Medium>],
+    progress: &dyn Progress,
+) -> Result<LightmapBake> {
     let tracer = crate::bake::transfer::tracer_for(options, tracer)?;
     if options.transfer == crate::bake::options::TransferKind::Matrix {
         return Err(crate::Error::InvalidOption(
@@ -174,9 +188,16 @@ pub fn bake(
     let receivers: Receivers = Receivers::texels(&texels);
     let estimator = Estimator::for_receivers(receivers, options)?;
     let targets = BounceTargets::texels(&atlas, &texels);
-    let baked = stages.time("bake", || {
+    let mut baked = stages.time("bake", || {
         bake_receivers(scene, tracer, &estimator, &targets, progress)
     });
+    if let (true, Some(tracer)) = (media.iter().any(Option::is_some), tracer) {
+        stages.time("subsurface", || {
+            translucent::apply_to_texels(
+                scene, tracer, media, options, &texels, &targets, &mut baked, progress,
+            )
+        })?;
+    }
     let width = baked.channels * crate::math::sh::coeff_count(options.order);
     let visibility = tracer.map(|_| baked.visibility.as_slice());
     let stitching = Stitching {

@@ -14,6 +14,7 @@
 
 mod alpha;
 mod files;
+pub mod volume;
 
 use files::{images_are_readable, read_buffers, read_images, uris_are_readable};
 use std::collections::HashMap;
