@@ -19,8 +19,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use glam::{DMat3, DVec3};
-use toml::Spanned;
-use toml::de::{DeTable, DeValue};
+use toml::de::DeValue;
 
 use super::coefficients::LightCoefficients;
 use super::environment::EnvironmentMap;
@@ -28,6 +27,7 @@ use super::projection::{Light, project_sum};
 use super::window::Window;
 use crate::support::error::{Error, Location, Result};
 use crate::support::input_path::AssetFolder;
+use crate::support::toml_file::{self, Source, to_number};
 
 /// The Sun's mean angular radius (16′), the default of `angular_radius` for a sun.
 pub const SUN_ANGULAR_RADIUS_DEGREES: f64 = 0.2666;
@@ -52,22 +52,21 @@ impl Rig {
 
     /// Parses rig text; `path` names it in errors and anchors relative map paths.
     pub fn parse(text: &str, path: &Path) -> Result<Rig> {
-        let source = Source { text, path };
-        let document = DeTable::parse(text).map_err(|err| {
-            let line = err.span().map_or(1, |span| source.line(span.start));
-            source.error(line, format!("invalid TOML: {}", err.message()))
-        })?;
+        let source = Source::new(text, path, |location, message| {
+            Error::light(location, message)
+        });
+        let document = source.parse()?;
         let mut rig = Rig {
             path: path.to_path_buf(),
             lights: Vec::new(),
             window: Window::None,
         };
-        let top = Table {
+        let top = Table(toml_file::Table {
             source: &source,
             table: document.get_ref(),
             line: 1,
-            what: None,
-        };
+            what: String::new(),
+        });
         top.check_keys(&["light", "window", "window_width"], &[])?;
         if let Some((value, line)) = top.get("light") {
             let DeValue::Array(tables) = value.get_ref() else {
@@ -89,12 +88,12 @@ impl Rig {
                         ),
                     ));
                 };
-                let light = Table {
+                let light = Table(toml_file::Table {
                     source: &source,
                     table: t,
                     line: source.line(table.span().start),
-                    what: Some(format!("light {}", i + 1)),
-                };
+                    what: format!("light {}, ", i + 1),
+                });
                 rig.lights.push(light.to_light()?);
             }
         }
@@ -139,63 +138,19 @@ impl Rig {
     }
 }
 
-/// The rig's text and name, for line numbers and messages.
-struct Source<'a> {
-    text: &'a str,
-    path: &'a Path,
-}
+/// One table of the rig (the top level or a `[[light]]`), with the rig's keys.
+struct Table<'a>(toml_file::Table<'a>);
 
-impl Source<'_> {
-    /// 1-based line of a byte offset.
-    fn line(&self, offset: usize) -> usize {
-        1 + self.text[..offset.min(self.text.len())]
-            .bytes()
-            .filter(|&b| b == b'\n')
-            .count()
+impl<'a> std::ops::Deref for Table<'a> {
+    type Target = toml_file::Table<'a>;
+    fn deref(&self) -> &toml_file::Table<'a> {
+        &self.0
     }
-
-    fn error(&self, line: usize, message: impl Into<String>) -> Error {
-        Error::light(Location::line(self.path, line), message)
-    }
-}
-
-/// One table of the rig (the top level or a `[[light]]`), with what errors call it.
-struct Table<'a> {
-    source: &'a Source<'a>,
-    table: &'a DeTable<'a>,
-    /// The line of the table's header (for missing keys).
-    line: usize,
-    /// "light 2" for a `[[light]]`, `None` for the top level.
-    what: Option<String>,
 }
 
 const KINDS: &str = "constant, directional, sun, sphere, hemisphere or environment";
 
 impl Table<'_> {
-    fn get(&self, key: &str) -> Option<(&Spanned<DeValue<'_>>, usize)> {
-        self.table
-            .get_key_value(key)
-            .map(|(k, v)| (v, self.source.line(k.span().start)))
-    }
-
-    /// An error about `key`, at the key's line (the table's where it is absent).
-    fn key_error(&self, key: &str, message: impl std::fmt::Display) -> Error {
-        let line = self.get(key).map_or(self.line, |(_, line)| line);
-        let what = self
-            .what
-            .as_ref()
-            .map_or(String::new(), |w| format!("{w}, "));
-        self.source
-            .error(line, format!("{what}key `{key}`: {message}"))
-    }
-
-    fn type_error(&self, key: &str, expected: &str, found: &DeValue<'_>) -> Error {
-        self.key_error(
-            key,
-            format!("expected {expected}, found a {}", found.type_str()),
-        )
-    }
-
     /// Refuses keys outside `allowed`; a key that belongs to other kinds is named as such.
     fn check_keys(&self, allowed: &[&str], other_kinds: &[&str]) -> Result<()> {
         for (key, _) in self.table.iter() {
@@ -271,15 +226,6 @@ impl Table<'_> {
             return Err(self.key_error(key, "colour components must not be negative"));
         }
         Ok(c)
-    }
-
-    fn missing(&self, key: &str, why: &str) -> Error {
-        let what = self
-            .what
-            .as_ref()
-            .map_or(String::new(), |w| format!("{w}: "));
-        self.source
-            .error(self.line, format!("{what}missing key `{key}` ({why})"))
     }
 
     /// `direction = [x, y, z]` or `theta = …, phi = …` (degrees), as a unit vector.
@@ -446,17 +392,6 @@ impl Table<'_> {
             scale,
             rotation,
         })
-    }
-}
-
-/// A TOML integer or float as f64.
-fn to_number(value: &DeValue<'_>) -> Option<f64> {
-    match value {
-        DeValue::Integer(i) => i64::from_str_radix(i.as_str(), i.radix())
-            .ok()
-            .map(|i| i as f64),
-        DeValue::Float(f) => f.as_str().parse().ok(),
-        _ => None,
     }
 }
 

@@ -15,12 +15,12 @@
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
-use toml::Spanned;
-use toml::de::{DeTable, DeValue};
+use toml::de::DeValue;
 
 use super::mesh::Material;
 use crate::math::medium::Medium;
 use crate::support::error::{Error, Location, Result};
+use crate::support::toml_file::{self, Source, to_number as number};
 
 /// One `[material.NAME]` table.
 #[derive(Clone, Debug, PartialEq)]
@@ -48,17 +48,16 @@ impl Materials {
 
     /// Parses materials text; `path` names it in errors.
     pub fn parse(text: &str, path: &Path) -> Result<Materials> {
-        let source = Source { text, path };
-        let document = DeTable::parse(text).map_err(|err| {
-            let line = err.span().map_or(1, |span| source.line(span.start));
-            source.error(line, format!("invalid TOML: {}", err.message()))
-        })?;
-        let top = Table {
+        let source = Source::new(text, path, |location, message| {
+            Error::scene(location, message)
+        });
+        let document = source.parse()?;
+        let top = Table(toml_file::Table {
             source: &source,
             table: document.get_ref(),
             line: 1,
             what: String::new(),
-        };
+        });
         top.check_keys(&["material"])?;
         let mut entries = Vec::new();
         if let Some((value, line)) = top.get("material") {
@@ -77,12 +76,12 @@ impl Materials {
                         ),
                     ));
                 };
-                let material = Table {
+                let material = Table(toml_file::Table {
                     source: &source,
                     table,
                     line,
                     what: format!("material `{name}`, "),
-                };
+                });
                 entries.push(material.to_entry(name)?);
             }
         }
@@ -128,49 +127,17 @@ impl Materials {
     }
 }
 
-/// The file's text and name, for line numbers and messages.
-struct Source<'a> {
-    text: &'a str,
-    path: &'a Path,
-}
+/// One table of the file, with the materials' keys.
+struct Table<'a>(toml_file::Table<'a>);
 
-impl Source<'_> {
-    /// 1-based line of a byte offset.
-    fn line(&self, offset: usize) -> usize {
-        1 + self.text[..offset.min(self.text.len())]
-            .bytes()
-            .filter(|&b| b == b'\n')
-            .count()
+impl<'a> std::ops::Deref for Table<'a> {
+    type Target = toml_file::Table<'a>;
+    fn deref(&self) -> &toml_file::Table<'a> {
+        &self.0
     }
-
-    fn error(&self, line: usize, message: impl Into<String>) -> Error {
-        Error::scene(Location::line(self.path, line), message)
-    }
-}
-
-/// One table of the file, with what its errors call it.
-struct Table<'a> {
-    source: &'a Source<'a>,
-    table: &'a DeTable<'a>,
-    /// The line of the table's header (for missing keys).
-    line: usize,
-    /// "material `skin`, " or "material `skin`, subsurface, "; empty at the top.
-    what: String,
 }
 
 impl Table<'_> {
-    fn get(&self, key: &str) -> Option<(&Spanned<DeValue<'_>>, usize)> {
-        self.table
-            .get_key_value(key)
-            .map(|(k, v)| (v, self.source.line(k.span().start)))
-    }
-
-    fn key_error(&self, key: &str, message: impl std::fmt::Display) -> Error {
-        let line = self.get(key).map_or(self.line, |(_, line)| line);
-        self.source
-            .error(line, format!("{}key `{key}`: {message}", self.what))
-    }
-
     fn check_keys(&self, allowed: &[&str]) -> Result<()> {
         for (key, _) in self.table.iter() {
             let name: &str = key.get_ref();
@@ -195,12 +162,12 @@ impl Table<'_> {
                         format!("expected a table, found a {}", value.get_ref().type_str()),
                     ));
                 };
-                let subsurface = Table {
+                let subsurface = Table(toml_file::Table {
                     source: self.source,
                     table,
                     line,
                     what: format!("{}subsurface, ", self.what),
-                };
+                });
                 Some(subsurface.to_medium()?)
             }
         };
@@ -245,10 +212,7 @@ impl Table<'_> {
     /// `key = [r, g, b]` (or one number for all three): finite and not negative; required.
     fn colour(&self, key: &str) -> Result<Vec3> {
         let Some((value, _)) = self.get(key) else {
-            return Err(self.source.error(
-                self.line,
-                format!("{}missing key `{key}` (per scene unit, R G B)", self.what),
-            ));
+            return Err(self.missing(key, "per scene unit, R G B"));
         };
         let expected = "an array of 3 numbers, or one number";
         let numbers: Vec<f64> = match value.get_ref() {
@@ -275,14 +239,6 @@ impl Table<'_> {
             numbers[1] as f32,
             numbers[2] as f32,
         ))
-    }
-}
-
-fn number(value: &DeValue<'_>) -> Option<f64> {
-    match value {
-        DeValue::Float(f) => f.as_str().parse().ok(),
-        DeValue::Integer(i) => i.as_str().parse::<i64>().ok().map(|i| i as f64),
-        _ => None,
     }
 }
 

@@ -10,3 +10,4 @@ pub mod input_path;
 pub mod limits;
 pub mod output;
 pub mod progress;
+pub mod toml_file;
