@@ -165,6 +165,34 @@ pub fn relight_from(
         None if matrix => ", diffuse (no --view)".into(),
         None => String::new(),
     };
+    let relit = Relit {
+        vertex_count: scene.vertex_count(),
+        lightmap: false,
+        order,
+        light_count: rig.lights.len(),
+        max_radiance: 0.0,
+        matrix,
+    };
+    let comment = format!(
+        "prt-bake relight: scene {}, transfer {}, lights {} (order {order}, window {}){view}",
+        scene_path.display(),
+        coefficients.display(),
+        rig.path.display(),
+        rig.window.name()
+    );
+    write_vertex_ply(&output, &scene, &radiance, exposure, comment, relit)
+}
+
+/// Writes relit vertices as a PLY (display colours and linear radiance) with `comment` on
+/// what was relit, and returns `relit` with its largest radiance.
+pub(crate) fn write_vertex_ply(
+    output: &crate::support::output::Output,
+    scene: &Scene,
+    radiance: &[[f32; 3]],
+    exposure: f64,
+    comment: String,
+    relit: Relit,
+) -> Result<Relit> {
     let colours: Vec<[u8; 3]> = radiance
         .iter()
         .map(|r| display_colour(*r, exposure))
@@ -173,16 +201,10 @@ pub fn relight_from(
         positions: &scene.positions,
         normals: &scene.normals,
         colours: &colours,
-        radiance: &radiance,
+        radiance,
         triangles: &scene.triangles,
         comments: vec![
-            format!(
-                "prt-bake relight: scene {}, transfer {}, lights {} (order {order}, window {}){view}",
-                scene_path.display(),
-                coefficients.display(),
-                rig.path.display(),
-                rig.window.name()
-            ),
+            comment,
             format!(
                 "radiance_*: linear outgoing radiance; red green blue: radiance x 2^{exposure}, clamped to [0, 1], sRGB-encoded"
             ),
@@ -190,12 +212,8 @@ pub fn relight_from(
     };
     output.write(&mesh.to_bytes())?;
     Ok(Relit {
-        vertex_count: scene.vertex_count(),
-        lightmap: false,
-        order,
-        light_count: rig.lights.len(),
         max_radiance: radiance.iter().flatten().fold(0.0, |a, &b| a.max(b)),
-        matrix,
+        ..relit
     })
 }
 

@@ -9,9 +9,8 @@ use std::path::Path;
 use glam::{DQuat, Vec3};
 
 use crate::export::probe_field::{ProbeField, into_object_frame};
-use crate::export::relight::{Relit, display_colour, vertex_radiance};
+use crate::export::relight::{Relit, vertex_radiance, write_vertex_ply};
 use crate::formats::coefficient_file::CoefficientFile;
-use crate::formats::ply::ColouredMesh;
 use crate::light::Rig;
 use crate::scene::Scene;
 use crate::support::error::{Error, Result};
@@ -61,45 +60,29 @@ pub fn relight_rigid(
     let local = into_object_frame(&incident, placement.rotation);
     let albedo = scene.vertex_albedo();
     let radiance = vertex_radiance(&object, &albedo, &local);
-    let colours: Vec<[u8; 3]> = radiance
-        .iter()
-        .map(|r| display_colour(*r, exposure))
-        .collect();
     let (p, q) = (placement.position, placement.rotation);
-    let mesh = ColouredMesh {
-        positions: &scene.positions,
-        normals: &scene.normals,
-        colours: &colours,
-        radiance: &radiance,
-        triangles: &scene.triangles,
-        comments: vec![
-            format!(
-                "prt-bake relight: rigid object {}, transfer {}, probes {} at ({}, {}, {}) turned by \
-                 quaternion ({}, {}, {}, {}), lights {} (order {order})",
-                scene_path.display(),
-                coefficients.display(),
-                placement.probes.display(),
-                p.x,
-                p.y,
-                p.z,
-                q.x,
-                q.y,
-                q.z,
-                q.w,
-                rig_path.display()
-            ),
-            format!(
-                "radiance_*: linear outgoing radiance; red green blue: radiance x 2^{exposure}, clamped to [0, 1], sRGB-encoded"
-            ),
-        ],
-    };
-    output.write(&mesh.to_bytes())?;
-    Ok(Relit {
+    let comment = format!(
+        "prt-bake relight: rigid object {}, transfer {}, probes {} at ({}, {}, {}) turned by \
+         quaternion ({}, {}, {}, {}), lights {} (order {order})",
+        scene_path.display(),
+        coefficients.display(),
+        placement.probes.display(),
+        p.x,
+        p.y,
+        p.z,
+        q.x,
+        q.y,
+        q.z,
+        q.w,
+        rig_path.display()
+    );
+    let relit = Relit {
         vertex_count: scene.vertex_count(),
         lightmap: false,
         order,
         light_count: rig.lights.len(),
-        max_radiance: radiance.iter().flatten().fold(0.0, |a, &b| a.max(b)),
+        max_radiance: 0.0,
         matrix: false,
-    })
+    };
+    write_vertex_ply(&output, &scene, &radiance, exposure, comment, relit)
 }
