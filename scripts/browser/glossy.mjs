@@ -10,10 +10,9 @@
 //   node scripts/browser/glossy.mjs NODE_MODULES BAKE OUT
 import { execFileSync } from 'node:child_process';
 import fs from 'node:fs';
-import http from 'node:http';
-import os from 'node:os';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
+import { compare, openBrowser } from './harness.mjs';
 
 const [nodeModules, bake, outRoot] = process.argv.slice(2).map((p) => path.resolve(p));
 const out = path.join(outRoot, 'glossy');
@@ -89,54 +88,14 @@ function relight(eye, name) {
   return Buffer.from(radiance.buffer).toString('base64');
 }
 
-const server = http.createServer((request, response) => {
-  const url = decodeURIComponent(new URL(request.url, 'http://127.0.0.1').pathname);
-  const [root, rest] = url.startsWith('/three/') ? [path.join(nodeModules, 'three'), url.slice(7)]
-    : url.startsWith('/data/') ? [out, url.slice(6)] : [repo, url.slice(1)];
-  const file = path.resolve(root, rest);
-  if (!file.startsWith(root + path.sep) || !fs.existsSync(file) || !fs.statSync(file).isFile()) {
-    response.writeHead(404).end();
-    return;
-  }
-  const types = { '.html': 'text/html', '.js': 'text/javascript', '.mjs': 'text/javascript', '.glb': 'model/gltf-binary' };
-  response.writeHead(200, { 'content-type': types[path.extname(file)] ?? 'application/octet-stream' });
-  fs.createReadStream(file).pipe(response);
-});
-await new Promise((resolve) => server.listen(0, '127.0.0.1', resolve));
-const base = `http://127.0.0.1:${server.address().port}`;
-const userDataDir = fs.mkdtempSync(path.join(os.tmpdir(), 'prt-chromium-'));
-const context = await chromium.launchPersistentContext(userDataDir, {
-  executablePath: '/usr/bin/chromium',
-  headless: true,
-  args: ['--headless', '--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader',
-    '--disable-background-networking', '--disable-component-update', '--disable-sync', '--no-first-run'],
-});
+const { base, page, errors, close } = await openBrowser(chromium, { repo, out, nodeModules });
 
-// Over the pixels either render covers: the share within `tolerance` codes in every channel.
-function compare(a, b, tolerance) {
-  let covered = 0;
-  let close = 0;
-  let worst = 0;
-  for (let i = 0; i < a.length; i += 4) {
-    if (a[i + 3] === 0 && b[i + 3] === 0) continue;
-    covered += 1;
-    const d = Math.max(...[0, 1, 2, 3].map((c) => Math.abs(a[i + c] - b[i + c])));
-    worst = Math.max(worst, d);
-    if (d <= tolerance) close += 1;
-  }
-  return { share: covered ? close / covered : 0, covered, worst };
-}
 
 // Three camera positions through the open front (directions from the centre in the file's
 // frame, +Y up), from which the highlights sit in different places.
 const views = [[0.15, 0.2, 1], [-0.4, 0.1, 1], [0.35, 0.45, 1]];
-const errors = [];
 let failures = 0;
 try {
-  const page = context.pages()[0] ?? await context.newPage();
-  page.on('console', (message) => { if (message.type() === 'error') errors.push(message.text()); });
-  page.on('pageerror', (error) => errors.push(String(error)));
-  await page.route('**/*', (route) => (route.request().url().startsWith(base) ? route.continue() : route.abort()));
   await page.goto(`${base}/scripts/browser/glossy.html`);
   await page.waitForFunction(() => window.prtGlossyReady === true);
   const render = (args) => page.evaluate((a) => window.prtGlossy.render(a), args);
@@ -161,9 +120,7 @@ try {
     console.log(`browser: ${ok ? 'ok  ' : 'FAIL'} glossy view ${i} (eye ${eye.map((e) => e.toFixed(2)).join(', ')}): ${(100 * share).toFixed(2)} % of ${covered} covered pixels within 2 codes of relight --view (worst ${worst}); the glossy layer changes ${(100 * glossy).toFixed(1)} % of them${timing}`);
   }
 } finally {
-  await context.close();
-  server.close();
-  fs.rmSync(userDataDir, { recursive: true, force: true });
+  await close();
 }
 for (const e of errors) console.log(`browser: console error: ${e}`);
 if (errors.length > 0 || failures > 0) {

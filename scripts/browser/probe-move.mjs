@@ -13,10 +13,9 @@
 //   node scripts/browser/probe-move.mjs NODE_MODULES BAKE OUT
 import { execFileSync } from 'node:child_process';
 import fs from 'node:fs';
-import http from 'node:http';
-import os from 'node:os';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
+import { compare, openBrowser } from './harness.mjs';
 
 const [nodeModules, bake, outRoot] = process.argv.slice(2).map((p) => path.resolve(p));
 const out = path.join(outRoot, 'probe-move');
@@ -101,55 +100,25 @@ function exactRadiance(position, k) {
 const references = stops.map((s, k) => exactRadiance(s.position, k));
 console.log(`browser: probe-move: baked and relit in ${((Date.now() - started) / 1000).toFixed(1)} s`);
 
-const server = http.createServer((request, response) => {
-  const url = decodeURIComponent(new URL(request.url, 'http://127.0.0.1').pathname);
-  const [root, rest] = url.startsWith('/three/') ? [path.join(nodeModules, 'three'), url.slice(7)]
-    : url.startsWith('/data/') ? [out, url.slice(6)] : [repo, url.slice(1)];
-  const target = path.resolve(root, rest);
-  if (!target.startsWith(root + path.sep) || !fs.existsSync(target) || !fs.statSync(target).isFile()) {
-    response.writeHead(404).end();
-    return;
-  }
-  const types = { '.html': 'text/html', '.js': 'text/javascript', '.mjs': 'text/javascript', '.glb': 'model/gltf-binary', '.json': 'application/json' };
-  response.writeHead(200, { 'content-type': types[path.extname(target)] ?? 'application/octet-stream' });
-  fs.createReadStream(target).pipe(response);
-});
-await new Promise((resolve) => server.listen(0, '127.0.0.1', resolve));
-const base = `http://127.0.0.1:${server.address().port}`;
-const userDataDir = fs.mkdtempSync(path.join(os.tmpdir(), 'prt-chromium-'));
-const context = await chromium.launchPersistentContext(userDataDir, {
-  executablePath: '/usr/bin/chromium',
-  headless: true,
-  args: ['--headless', '--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader',
-    '--disable-background-networking', '--disable-component-update', '--disable-sync', '--no-first-run'],
-});
+const { base, page, errors, close } = await openBrowser(chromium, { repo, out, nodeModules });
 
 // sRGB code to linear.
 const linear = (code) => { const c = code / 255; return c <= 0.04045 ? c / 12.92 : ((c + 0.055) / 1.055) ** 2.4; };
-// Over the pixels either render covers: the share within `tolerance` codes, the mean absolute
-// difference; and the probe render's mean linear RGB.
-function compare(a, b, tolerance) {
-  let [covered, close, sum] = [0, 0, 0];
+// The comparison of harness.mjs, and the probe render's mean linear RGB over the covered pixels.
+function compareWithMean(a, b, tolerance) {
   const mean = [0, 0, 0];
+  let covered = 0;
   for (let i = 0; i < a.length; i += 4) {
     if (a[i + 3] === 0 && b[i + 3] === 0) continue;
     covered += 1;
-    const d = Math.max(...[0, 1, 2, 3].map((c) => Math.abs(a[i + c] - b[i + c])));
-    sum += d;
-    if (d <= tolerance) close += 1;
     for (let c = 0; c < 3; c++) mean[c] += linear(b[i + c]);
   }
-  return { share: covered ? close / covered : 0, covered, meanDifference: sum / Math.max(covered, 1), mean: mean.map((m) => m / Math.max(covered, 1)) };
+  return { ...compare(a, b, tolerance), mean: mean.map((m) => m / Math.max(covered, 1)) };
 }
 
-const errors = [];
 const failures = [];
 const results = [];
 try {
-  const page = context.pages()[0] ?? await context.newPage();
-  page.on('console', (message) => { if (message.type() === 'error') errors.push(message.text()); });
-  page.on('pageerror', (error) => errors.push(String(error)));
-  await page.route('**/*', (route) => (route.request().url().startsWith(base) ? route.continue() : route.abort()));
   await page.goto(`${base}/scripts/browser/probe-move.html`);
   await page.waitForFunction(() => window.prtProbeMoveReady === true);
   const render = (args) => page.evaluate((a) => window.prtProbeMove.render(a), args);
@@ -160,7 +129,7 @@ try {
     const [a, b] = [reference, moved].map((r) => Buffer.from(r.pixels, 'base64'));
     fs.writeFileSync(file(`stop-${k}-relight.rgba`), a);
     fs.writeFileSync(file(`stop-${k}-prt.rgba`), b);
-    const result = compare(a, b, 4);
+    const result = compareWithMean(a, b, 4);
     results.push(result);
     const [r, g, bl] = result.mean;
     const ok = result.covered > 1000 && result.share >= 0.95;
@@ -168,9 +137,7 @@ try {
     console.log(`browser: ${ok ? 'ok  ' : 'FAIL'} probe-move ${stop.name} (${stop.position.join(', ')}): ${(100 * result.share).toFixed(2)} % of ${result.covered} pixels within 4 codes of relight at an exact probe (mean difference ${result.meanDifference.toFixed(2)} codes); luminance ${(0.2126 * r + 0.7152 * g + 0.0722 * bl).toFixed(4)}, red/green ${(r / g).toFixed(3)}`);
   }
 } finally {
-  await context.close();
-  server.close();
-  fs.rmSync(userDataDir, { recursive: true, force: true });
+  await close();
 }
 const luminance = ([r, g, b]) => 0.2126 * r + 0.7152 * g + 0.0722 * b;
 const [shadow, red, green, sun] = results.map((r) => r.mean);

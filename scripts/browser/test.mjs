@@ -7,10 +7,9 @@
 //   node scripts/browser/test.mjs NODE_MODULES BAKE OUT
 import { execFileSync } from 'node:child_process';
 import fs from 'node:fs';
-import http from 'node:http';
-import os from 'node:os';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
+import { compare, openBrowser } from './harness.mjs';
 
 const [nodeModules, bake, out] = process.argv.slice(2).map((p) => path.resolve(p));
 const repo = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '../..');
@@ -76,53 +75,10 @@ run('light', path.join(out, 'rig.toml'), '--order', '3', '--up', 'y', '-o', path
 run('light', path.join(out, 'rig.toml'), '--order', '4', '--up', 'y', '-o', path.join(out, 'light-4.json'));
 console.log(`browser: baked and exported in ${((Date.now() - started) / 1000).toFixed(1)} s`);
 
-// A static server on loopback: /three/ from node_modules, /data/ the outputs, else the repo.
-const types = { '.html': 'text/html', '.js': 'text/javascript', '.mjs': 'text/javascript', '.json': 'application/json', '.glb': 'model/gltf-binary', '.exr': 'image/x-exr' };
-const server = http.createServer((request, response) => {
-  const url = decodeURIComponent(new URL(request.url, 'http://127.0.0.1').pathname);
-  const [root, rest] = url.startsWith('/three/') ? [path.join(nodeModules, 'three'), url.slice(7)]
-    : url.startsWith('/data/') ? [out, url.slice(6)] : [repo, url.slice(1)];
-  const file = path.resolve(root, rest);
-  if (!file.startsWith(root + path.sep) || !fs.existsSync(file) || !fs.statSync(file).isFile()) {
-    response.writeHead(404).end();
-    return;
-  }
-  response.writeHead(200, { 'content-type': types[path.extname(file)] ?? 'application/octet-stream' });
-  fs.createReadStream(file).pipe(response);
-});
-await new Promise((resolve) => server.listen(0, '127.0.0.1', resolve));
-const base = `http://127.0.0.1:${server.address().port}`;
+const { base, page, errors, close } = await openBrowser(chromium, { repo, out, nodeModules });
 
-const userDataDir = fs.mkdtempSync(path.join(os.tmpdir(), 'prt-chromium-'));
-const context = await chromium.launchPersistentContext(userDataDir, {
-  executablePath: '/usr/bin/chromium',
-  headless: true,
-  args: ['--headless', '--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader',
-    '--disable-background-networking', '--disable-component-update', '--disable-sync', '--no-first-run'],
-});
-// Over the pixels either render covers: the share within `tolerance` codes in every channel.
-function compare(a, b, tolerance) {
-  let covered = 0;
-  let close = 0;
-  let worst = 0;
-  for (let i = 0; i < a.length; i += 4) {
-    if (a[i + 3] === 0 && b[i + 3] === 0) continue;
-    covered += 1;
-    const d = Math.max(Math.abs(a[i] - b[i]), Math.abs(a[i + 1] - b[i + 1]), Math.abs(a[i + 2] - b[i + 2]), Math.abs(a[i + 3] - b[i + 3]));
-    worst = Math.max(worst, d);
-    if (d <= tolerance) close += 1;
-  }
-  return { share: covered ? close / covered : 0, covered, worst };
-}
-
-const errors = [];
 let failures = 0;
 try {
-  const page = context.pages()[0] ?? await context.newPage();
-  page.on('console', (message) => { if (message.type() === 'error') errors.push(message.text()); });
-  page.on('pageerror', (error) => errors.push(String(error)));
-  // Nothing but loopback.
-  await page.route('**/*', (route) => (route.request().url().startsWith(base) ? route.continue() : route.abort()));
   await page.goto(`${base}/scripts/browser/page.html`);
   await page.waitForFunction(() => window.prtReady === true);
   const render = (args) => page.evaluate((a) => window.prtTest.render(a), args);
@@ -214,9 +170,7 @@ try {
   failures += exampleOk ? 0 : 1;
   console.log(`browser: ${exampleOk ? 'ok  ' : 'FAIL'} example.html relights ${await page.evaluate(() => window.prtExample.handle.meshes.length)} meshes; a right drag turns the light`);
 } finally {
-  await context.close();
-  server.close();
-  fs.rmSync(userDataDir, { recursive: true, force: true });
+  await close();
 }
 for (const e of errors) console.log(`browser: console error: ${e}`);
 if (errors.length > 0 || failures > 0) {
