@@ -370,3 +370,43 @@ fn a_missing_or_corrupt_normal_texture_names_the_file() {
             .all(|t| (*t - Vec4::new(1.0, 0.0, 0.0, 1.0)).length() < 1e-4)
     );
 }
+
+/// The horizon rule alone: a receiver in open space (nothing below it to hit) whose lobe is
+/// turned 35° off its surface normal still gets the cut lobe in shadowed mode, so a mapped
+/// normal near a surface's edge, where rays into the surface may miss it, sees nothing
+/// through it.
+#[test]
+fn directions_below_the_surface_count_as_blocked_where_nothing_is_hit() {
+    use prt_baker::bake::transfer::{Estimator, Receivers, Scratch};
+    let far = prt_tests::patch(Vec3::splat(100.0), Vec3::Z, 0.1);
+    let scene = prt_tests::scene(vec![far]);
+    let tilt = 35f64.to_radians();
+    let n = DVec3::new(tilt.sin(), 0.0, tilt.cos());
+    let (order, samples) = (3, 1024);
+    for backend in [Backend::Embree, Backend::Obvhs] {
+        let tracer = build(backend, &scene, TracerOptions::default()).expect("tracer");
+        let receivers = Receivers {
+            origins: vec![Vec3::ZERO],
+            normals: vec![n.as_vec3()],
+            horizons: Some(vec![Vec3::Z]),
+            streams: None,
+        };
+        let estimator = Estimator::for_receivers(receivers, &options(Mode::Shadowed, samples))
+            .expect("estimator");
+        let k = sh::coeff_count(order);
+        let mut out = vec![0.0f32; k];
+        estimator.receiver_transfer(0, Some(&*tracer), &mut Scratch::new(k), &mut out, None);
+        let diff = |e: &[f64]| {
+            out.iter()
+                .zip(e)
+                .map(|(a, b)| (f64::from(*a) - b).abs())
+                .fold(0.0, f64::max)
+        };
+        let (cut, uncut) = (
+            diff(&lobe(order, n, DVec3::Z, true)),
+            diff(&lobe(order, n, DVec3::Z, false)),
+        );
+        eprintln!("{backend:?}: {cut:.4} off the cut lobe, {uncut:.4} off the uncut one");
+        assert!(cut < 0.01 && uncut > 0.03, "{backend:?}: {cut} / {uncut}");
+    }
+}
