@@ -64,13 +64,14 @@ fn a_card_lit_from_behind_is_dark_in_front_and_lit_behind() {
         };
         let (front, back) = (side(0), side(1));
         eprintln!("{backend:?}: front (from below, above, open) {front:?}, back {back:?}");
-        // The lit side's response is the clamped cosine's at the normal: Σ_l z_l·y_l0(0).
+        // Lit: the order-3 clamped cosine's response at its axis (0.338); dark: its response
+        // at the opposite pole (0.020, the truncated series' ringing).
         assert!(
-            back.0 > 0.8 && back.1.abs() < 0.05,
+            back.0 > 0.3 && back.1.abs() < 0.03,
             "{backend:?}: back {back:?}"
         );
         assert!(
-            front.0.abs() < 0.05 && front.1 > 0.8,
+            front.0.abs() < 0.03 && front.1 > 0.3,
             "{backend:?}: front {front:?}"
         );
         assert!(
