@@ -357,9 +357,12 @@ fn a_missing_or_corrupt_normal_texture_names_the_file() {
     let bytes = plane_glb(None, 1.0, Some("bumps.png"));
     let err = load_in(folder.path(), &bytes).expect_err("missing texture");
     assert!(err.to_string().contains("bumps.png"), "{err}");
+    assert!(err.is_bad_input(), "exit 3: {err}");
+    eprintln!("{err}");
     std::fs::write(folder.path().join("bumps.png"), b"not a png").unwrap();
     let err = load_in(folder.path(), &bytes).expect_err("corrupt texture");
     assert!(err.to_string().contains("bumps.png"), "{err}");
+    assert!(err.is_bad_input(), "exit 3: {err}");
     eprintln!("{err}");
     std::fs::write(folder.path().join("bumps.png"), normal_png()).unwrap();
     let scene = load_in(folder.path(), &bytes).expect("a readable texture");
