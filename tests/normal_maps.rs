@@ -121,7 +121,15 @@ fn load_in(folder: &std::path::Path, bytes: &[u8]) -> prt_baker::Result<Scene> {
     Scene::load(&path)
 }
 
+/// Loads a `.glb` from a temporary folder. With `PRT_NORMAL_SCENES=folder` the scenes are
+/// also kept there (`scene-N.glb`, in load order) for bakes with `prt-bake`.
 fn load(bytes: &[u8]) -> Scene {
+    if let Some(folder) = std::env::var_os("PRT_NORMAL_SCENES") {
+        static KEPT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+        let n = KEPT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let path = std::path::Path::new(&folder).join(format!("scene-{n}.glb"));
+        std::fs::write(path, bytes).expect("keep the scene");
+    }
     let folder = tempfile::tempdir().expect("temporary folder");
     load_in(folder.path(), bytes).expect("load glb")
 }
