@@ -240,7 +240,7 @@ impl PrimitiveReader<'_> {
         let normal_texture = primitive.material().normal_texture();
         let uv_set = normal_map::uv_set(base_colour.as_ref(), normal_texture.as_ref())
             .map_err(|problem| self.fail(format!("mesh '{name}': {problem}")))?;
-        readable_accessors(self.document, primitive, uv_set)
+        readable_accessors(self.document, primitive, uv_set, normal_texture.is_some())
             .map_err(|problem| self.fail(format!("mesh '{name}': {problem}")))?;
         let buffers = self.buffers;
         let reader = primitive.reader(|b| Some(&buffers[b.index()]));
@@ -335,7 +335,7 @@ impl PrimitiveReader<'_> {
         let data = &self.decoded.as_ref().expect("decoded above")[image];
         let texture = to_texture(self.path, image, data).ok_or_else(|| {
             self.fail(format!(
-                "image {image}: {:?} pixels cannot be a base colour (8-bit RGB or RGBA needed)",
+                "image {image}: {:?} pixels cannot be a base colour or normal texture (8-bit RGB or RGBA needed)",
                 data.format
             ))
         })?;
@@ -401,6 +401,7 @@ fn readable_accessors(
     document: &gltf::Document,
     primitive: &gltf::Primitive,
     uv_set: u32,
+    tangents: bool,
 ) -> std::result::Result<(), String> {
     use gltf::Semantic;
     use gltf::accessor::{DataType, Dimensions};
@@ -412,11 +413,13 @@ fn readable_accessors(
     for (semantic, dimensions, types) in [
         (Semantic::Positions, Dimensions::Vec3, float),
         (Semantic::Normals, Dimensions::Vec3, float),
-        (Semantic::Tangents, Dimensions::Vec4, float),
         (Semantic::TexCoords(uv_set), Dimensions::Vec2, uv),
         (Semantic::TexCoords(1), Dimensions::Vec2, uv),
+        (Semantic::Tangents, Dimensions::Vec4, float),
     ] {
-        if let Some(accessor) = primitive.get(&semantic) {
+        // TANGENT is read only for a normal map.
+        let read = tangents || semantic != Semantic::Tangents;
+        if let Some(accessor) = primitive.get(&semantic).filter(|_| read) {
             used.push((semantic.to_string(), accessor, dimensions, types));
         }
     }
