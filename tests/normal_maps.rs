@@ -62,6 +62,12 @@ fn normal_png() -> Vec<u8> {
 /// normal map as `normalTexture` (`scale`), and TANGENT where given. The image is embedded,
 /// or an external `uri`.
 fn plane_glb(tangent: Option<[f32; 4]>, scale: f32, uri: Option<&str>) -> Vec<u8> {
+    let (document, bin) = plane(tangent, scale, uri);
+    glb(&serde_json::to_vec(&document).unwrap(), &bin)
+}
+
+/// [`plane_glb`]'s JSON document and binary buffer.
+fn plane(tangent: Option<[f32; 4]>, scale: f32, uri: Option<&str>) -> (serde_json::Value, Vec<u8>) {
     let positions = [(-1.0f32, -1.0f32), (-1.0, 1.0), (1.0, 1.0), (1.0, -1.0)];
     let floats = |v: &[f32]| v.iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<u8>>();
     let pos: Vec<f32> = positions.iter().flat_map(|&(x, z)| [x, 0.0, z]).collect();
@@ -111,7 +117,7 @@ fn plane_glb(tangent: Option<[f32; 4]>, scale: f32, uri: Option<&str>) -> Vec<u8
         "images": [image], "textures": [{"source": 0}],
         "materials": [{"name": "bumpy", "normalTexture": {"index": 0, "scale": scale}}],
     });
-    glb(&serde_json::to_vec(&document).unwrap(), &bin)
+    (document, bin)
 }
 
 /// Writes `bytes` as `scene.glb` in `folder` and loads it.
@@ -420,4 +426,22 @@ fn directions_below_the_surface_count_as_blocked_where_nothing_is_hit() {
         eprintln!("{backend:?}: {cut:.4} off the cut lobe, {uncut:.4} off the uncut one");
         assert!(cut < 0.01 && uncut > 0.03, "{backend:?}: {cut} / {uncut}");
     }
+}
+
+/// A TANGENT accessor glTF does not allow (VEC3 here) is refused with the mesh's name where
+/// a normal map would read it, not read past its end.
+#[test]
+fn a_malformed_tangent_accessor_is_an_error() {
+    let (mut document, bin) = plane(Some([1.0, 0.0, 0.0, 1.0]), 1.0, None);
+    document["accessors"][4]["type"] = json!("VEC3");
+    let bytes = glb(&serde_json::to_vec(&document).unwrap(), &bin);
+    let folder = tempfile::tempdir().expect("temporary folder");
+    let Err(err) = load_in(folder.path(), &bytes) else {
+        panic!("VEC3 tangents were read as VEC4");
+    };
+    eprintln!("{err}");
+    assert!(
+        err.to_string().contains("TANGENT") && err.is_bad_input(),
+        "{err}"
+    );
 }
