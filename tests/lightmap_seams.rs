@@ -180,6 +180,7 @@ fn point_transfer(tracer: &dyn Tracer, options: &BakeOptions, at: Vec3) -> Vec<f
     let receivers = Receivers {
         origins: vec![at + Vec3::Z * 1e-5],
         normals: vec![Vec3::Z],
+        horizons: None,
         streams: None,
     };
     let estimator = Estimator::for_receivers(receivers, options).expect("valid options");

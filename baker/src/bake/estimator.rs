@@ -156,6 +156,8 @@ pub struct Estimator {
     rotator: RecurrenceRotator,
     pub(crate) normals: Vec<Vec3>,
     origins: Vec<Vec3>,
+    /// [`Receivers::horizons`].
+    horizons: Option<Vec<Vec3>>,
     /// [`Receivers::streams`].
     streams: Option<Vec<u64>>,
     /// The bake's cosine-weighted directions in the local frame (Owen–Sobol only).
@@ -190,6 +192,13 @@ impl Estimator {
         let adaptive = options
             .target_error
             .map(|_| crate::bake::adaptive::Tables::new(options, &basis));
+        if adaptive.is_some() && receivers.horizons.is_some() {
+            return Err(crate::Error::InvalidOption(
+                "--target-error with a normal-mapped texel bake is not supported yet: \
+                 bake it with a fixed --samples"
+                    .into(),
+            ));
+        }
         if options.sampling == Sampling::OwenSobol && adaptive.is_none() {
             let points = OwenSobol::new(vertex_seed(options.seed, u64::MAX));
             let mut uv: Vec<(u32, f32, f32)> = (0..options.samples)
@@ -228,6 +237,7 @@ impl Estimator {
             basis,
             normals: receivers.normals,
             origins: receivers.origins,
+            horizons: receivers.horizons,
             streams: receivers.streams,
             local_dirs,
             local_rows,
@@ -349,6 +359,7 @@ impl Estimator {
         tracer.intersect_from(origin, &s.dirs, hits);
         let scale = self.options.samples as f32 / self.options.effective_bounce_samples() as f32;
         let probe = self.corner_probe(tracer);
+        let horizon = self.horizon(v);
         for (((blocked, hit), dir), weight) in s
             .occluded
             .iter_mut()
@@ -357,8 +368,26 @@ impl Estimator {
             .zip(&s.weights)
         {
             *blocked = hit.is_some();
-            if let Some(hit) = hit {
+            if let Some(hit) = hit
+                && horizon.is_none_or(|h| h.dot(*dir) > 0.0)
+            {
                 rows.record(hit, *dir, weight * scale, &mut s.rows, &probe);
+            }
+        }
+    }
+
+    /// Receiver `v`'s surface normal where its lobe is turned off it ([`Receivers::horizons`]).
+    fn horizon(&self, v: usize) -> Option<Vec3> {
+        self.horizons.as_ref().map(|h| h[v])
+    }
+
+    /// Counts the directions of `dirs` below receiver `v`'s surface as blocked: the surface
+    /// itself stops them, whatever the tracer says (a ray just off a flat surface and aimed
+    /// into it may miss it near an edge, and would see through it).
+    fn block_below_horizon(&self, v: usize, dirs: &[Vec3], occluded: &mut [bool]) {
+        if let Some(h) = self.horizon(v) {
+            for (blocked, dir) in occluded.iter_mut().zip(dirs) {
+                *blocked |= h.dot(*dir) <= 0.0;
             }
         }
     }
@@ -426,6 +455,9 @@ impl Estimator {
                     tracer.occluded_from(self.origins[v], &s.dirs, &mut s.occluded[..len])
                 }
                 (None, _) => s.occluded[..len].fill(false),
+            }
+            if tracer.is_some() {
+                self.block_below_horizon(v, &s.dirs, &mut s.occluded[..len]);
             }
             match self.options.sampling {
                 Sampling::OwenSobol => self.sum_owen_sobol_batch(b, start..end, s, &mut unblocked),

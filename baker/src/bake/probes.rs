@@ -161,6 +161,7 @@ fn probe_receivers(positions: &[Vec3]) -> Receivers {
             .iter()
             .flat_map(|_| [Vec3::Z, Vec3::NEG_Z])
             .collect(),
+        horizons: None,
         streams: Some((0..2 * positions.len() as u64).collect()),
     }
 }

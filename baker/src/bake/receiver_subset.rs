@@ -66,6 +66,7 @@ pub fn bake_objects_translucent(
     let receivers = Receivers {
         origins: pick(&all.origins),
         normals: pick(&all.normals),
+        horizons: None,
         streams: Some(rows.iter().map(|&v| u64::from(v)).collect()),
     };
     let estimator = Estimator::for_receivers(receivers, options)?;

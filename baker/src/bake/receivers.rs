@@ -34,8 +34,13 @@ pub const RECEIVERS_PER_JOB: usize = 8;
 pub struct Receivers {
     /// Where the receiver's rays start (already moved off its surface).
     pub origins: Vec<Vec3>,
-    /// Unit shading normals.
+    /// Unit shading normals: the lobe's axis (a texel's normal-mapped normal).
     pub normals: Vec<Vec3>,
+    /// Where a receiver's lobe is turned off its surface (normal-mapped texels): per receiver,
+    /// the surface normal, whose hemisphere bounds the rays that can leave. A direction below
+    /// that surface counts as blocked whenever rays are traced (the surface itself stops it);
+    /// unshadowed bakes keep the whole lobe. `None`: the lobe's axis is the surface's.
+    pub horizons: Option<Vec<Vec3>>,
     /// Which random stream each receiver's samples come from (its rotation of the point set,
     /// its thesis-random directions): a texel's index y·W + x, so that a texel's samples do
     /// not depend on which other texels are baked (two backends that disagree on one leaking
@@ -50,6 +55,7 @@ impl Receivers {
         Receivers {
             origins: ray_origins(scene),
             normals: scene.normals.clone(),
+            horizons: None,
             streams: None,
         }
     }
@@ -70,9 +76,12 @@ impl Receivers {
             .filter(|(_, v)| **v)
             .map(|(i, _)| i)
             .collect();
+        let mapped = texels.mapped.iter().zip(&texels.normals);
+        let turned = mapped.zip(&texels.valid).any(|((m, n), v)| *v && m != n);
         Receivers {
             origins: pick(&texels.origins),
-            normals: pick(&texels.normals),
+            normals: pick(&texels.mapped),
+            horizons: turned.then(|| pick(&texels.normals)),
             streams: Some(streams),
         }
     }

@@ -76,7 +76,13 @@ impl Alpha {
 
 /// Bilinear lookup of one 8-bit channel (linear, as alpha is) at glTF coordinates (s, t),
 /// t down from the top row, with the given wrap modes.
-fn sample_channel(texture: &Texture, channel: usize, s: f32, t: f32, wrap: [Wrap; 2]) -> f32 {
+pub(super) fn sample_channel(
+    texture: &Texture,
+    channel: usize,
+    s: f32,
+    t: f32,
+    wrap: [Wrap; 2],
+) -> f32 {
     let (w, h) = (texture.width as i64, texture.height as i64);
     let x = s * w as f32 - 0.5;
     let y = t * h as f32 - 0.5;

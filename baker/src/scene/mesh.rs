@@ -4,6 +4,7 @@
 use glam::{Vec2, Vec3};
 
 use super::alpha::Alpha;
+use super::normal_map::NormalMap;
 
 /// Diffuse reflectance of surfaces whose material sets no `Kd` and that have no texture.
 pub const DEFAULT_KD: Vec3 = Vec3::splat(0.8);
@@ -22,6 +23,9 @@ pub struct Material {
     pub glossy: Option<Glossy>,
     /// Alpha-tested occlusion (glTF `alphaMode` MASK or BLEND, OBJ `map_d`); `None` is opaque.
     pub alpha: Option<Alpha>,
+    /// A tangent-space normal map (glTF `normalTexture`): texel bakes turn each texel's lobe
+    /// by it; vertex bakes cannot resolve it and keep the surface normal.
+    pub normal_map: Option<NormalMap>,
 }
 
 /// A glossy layer over the diffuse one: a normalised Phong lobe about the mirror direction
@@ -47,6 +51,7 @@ impl Default for Material {
             texture: None,
             glossy: None,
             alpha: None,
+            normal_map: None,
         }
     }
 }

@@ -19,16 +19,18 @@ mod format;
 mod gltf;
 mod materials;
 mod mesh;
+mod normal_map;
 mod normals;
 mod obj;
 mod scene_file;
+mod tangents;
 mod texture;
 mod up;
 
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec4};
 
 use crate::support::error::{Error, Location, Result};
 use crate::support::input_path::AssetFolder;
@@ -39,6 +41,7 @@ use format::OTHER_FORMATS;
 pub use gltf::volume::{GltfMedia, gltf_media};
 pub use materials::{MaterialEntry, Materials};
 pub use mesh::{DEFAULT_KD, Glossy, Hierarchy, HierarchyNode, Material, Mesh};
+pub use normal_map::NormalMap;
 pub use normals::angle_weighted_normals;
 pub use scene_file::{SceneEntry, parse_scene_file};
 pub use texture::{Texture, srgb_to_linear};
@@ -78,6 +81,9 @@ pub struct Scene {
     /// Second texture coordinates (glTF TEXCOORD_1, e.g. lightmap UVs), per vertex, where any
     /// mesh has them ((0, 0) for those that do not).
     pub lightmap_uvs: Option<Vec<Vec2>>,
+    /// Per vertex, the tangent (xyz, w = ±1 the bitangent's sign) of objects whose material
+    /// has a normal map, zero elsewhere; `None` where none has one ([`tangents`]).
+    pub tangents: Option<Vec<Vec4>>,
     /// A digest of the source file's whole content where the format calls for one (glTF:
     /// JSON, buffers, images), folded into [`Scene::fingerprint`].
     pub content_digest: Option<u64>,
@@ -107,6 +113,7 @@ impl Scene {
                 scene.up = Up::Y;
                 scene.content_digest = Some(loaded.digest);
                 scene.hierarchy = Some(loaded.hierarchy);
+                scene.tangents = scene.normal_map_tangents(&loaded.tangents);
                 if loaded.lightmap_uvs.iter().any(Option::is_some) {
                     let mut uvs = Vec::with_capacity(scene.vertex_count());
                     for (object, lightmap) in scene.objects.iter().zip(&loaded.lightmap_uvs) {
@@ -176,6 +183,36 @@ impl Scene {
         Ok(scene)
     }
 
+    /// Per vertex, its tangent (xyz unit, w = ±1) where its object's material has a normal
+    /// map, zero elsewhere; `None` where no material has one. `given` holds, per object, the
+    /// tangents its file gave (glTF TANGENT, in world space), used where their count fits;
+    /// MikkTSpace's otherwise, as the glTF specification asks of a client.
+    fn normal_map_tangents(&self, given: &[Option<Vec<Vec4>>]) -> Option<Vec<Vec4>> {
+        if self.materials.iter().all(|m| m.normal_map.is_none()) {
+            return None;
+        }
+        let mut out = vec![Vec4::ZERO; self.positions.len()];
+        for (k, object) in self.objects.iter().enumerate() {
+            let vertices = object.vertices.start as usize..object.vertices.end as usize;
+            let material = self.vertex_material.get(vertices.start).copied();
+            if material.is_none_or(|m| self.materials[m as usize].normal_map.is_none()) {
+                continue;
+            }
+            let tangents = match given.get(k).and_then(Option::as_ref) {
+                Some(file) if file.len() == vertices.len() => file.clone(),
+                _ => tangents::mikktspace_tangents(
+                    &self.positions,
+                    &self.normals,
+                    &self.uvs,
+                    &self.triangles[object.triangles.start as usize..object.triangles.end as usize],
+                    vertices.clone(),
+                ),
+            };
+            out[vertices].copy_from_slice(&tangents);
+        }
+        Some(out)
+    }
+
     /// Every file the scene was read from: the scene file, OBJs, material libraries,
     /// textures. An output must not replace any of them ([`crate::support::output::Output`]).
     pub fn input_files(&self) -> Vec<PathBuf> {
@@ -203,6 +240,7 @@ impl Scene {
             sources: Vec::new(),
             up: Up::Z,
             lightmap_uvs: None,
+            tangents: None,
             content_digest: None,
         };
         for mut mesh in meshes {

@@ -203,6 +203,7 @@ fn resolve_materials(
             texture,
             glossy: mtl_glossy(m),
             alpha,
+            normal_map: None,
         });
     }
     let no_material = Material {
@@ -215,6 +216,7 @@ fn resolve_materials(
         texture: override_index,
         glossy: None,
         alpha: None,
+        normal_map: None,
     };
     Ok((material_table, no_material, textures))
 }

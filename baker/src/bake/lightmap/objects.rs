@@ -352,6 +352,7 @@ fn object_scene(scene: &Scene, object: &Object) -> Scene {
         sources: Vec::new(),
         up: scene.up,
         lightmap_uvs: None,
+        tangents: scene.tangents.as_ref().map(|t| t[v0..v1].to_vec()),
         content_digest: None,
     }
 }

@@ -9,11 +9,11 @@
 //! (edge texels) the centroid of the overlap, which lies both in the triangle and in the
 //! texel: the centre "clipped into the triangle" without leaving the texel.
 
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 
 use super::atlas::Atlas;
-use crate::scene::Scene;
+use crate::scene::{NormalMap, Scene};
 use crate::support::error::Result;
 use crate::trace::{Tracer, offset_distance};
 
@@ -26,8 +26,12 @@ pub struct Texels {
     pub valid: Vec<bool>,
     /// The texel's point on the surface (zero where no triangle covers it).
     pub positions: Vec<Vec3>,
-    /// The interpolated unit shading normal (zero where no triangle covers it).
+    /// The interpolated unit shading normal (zero where no triangle covers it): the surface
+    /// whose hemisphere bounds the rays that can leave.
     pub normals: Vec<Vec3>,
+    /// The normal the texel's lobe is about: `normals` turned by the material's normal map
+    /// ([`crate::scene::NormalMap`]), or equal to it where there is none.
+    pub mapped: Vec<Vec3>,
     /// Where its rays start: the point moved off its triangle along the face normal by
     /// [`offset_distance`] δ, as vertices are, and by up to δ towards the triangle's centroid
     /// (δ·|c − p|/e), so a point on the triangle's edge, where it may meet another surface
@@ -74,6 +78,7 @@ impl Texels {
             valid: Vec::with_capacity(w * h),
             positions: Vec::with_capacity(w * h),
             normals: Vec::with_capacity(w * h),
+            mapped: Vec::with_capacity(w * h),
             origins: Vec::with_capacity(w * h),
             triangle: Vec::with_capacity(w * h),
         };
@@ -81,6 +86,7 @@ impl Texels {
             texels.valid.extend(part.valid);
             texels.positions.extend(part.positions);
             texels.normals.extend(part.normals);
+            texels.mapped.extend(part.mapped);
             texels.origins.extend(part.origins);
             texels.triangle.extend(part.triangle);
         }
@@ -97,6 +103,7 @@ impl Texels {
             valid,
             positions: Vec::new(),
             normals: Vec::new(),
+            mapped: Vec::new(),
             origins: Vec::new(),
             triangle: Vec::new(),
         }
@@ -104,7 +111,8 @@ impl Texels {
 
     /// A 64-bit fingerprint (xxh3) of everything a texel bake's receivers are: the size,
     /// which texels are baked, and each baked texel's point, normal, ray origin and triangle
-    /// (after leaking texels were moved out). Two shards of one bake must agree on it.
+    /// (after leaking texels were moved out), its mapped normal where a normal map turned it.
+    /// Two shards of one bake must agree on it.
     pub fn fingerprint(&self) -> u64 {
         let mut bytes = Vec::with_capacity(16 + self.valid.len() + 40 * self.valid_count());
         bytes.extend(self.width.to_le_bytes());
@@ -115,6 +123,14 @@ impl Texels {
                 bytes.extend(v.to_array().iter().flat_map(|x| x.to_le_bytes()));
             }
             bytes.extend(self.triangle[i].to_le_bytes());
+            if self.mapped[i] != self.normals[i] {
+                bytes.extend(
+                    self.mapped[i]
+                        .to_array()
+                        .iter()
+                        .flat_map(|x| x.to_le_bytes()),
+                );
+            }
         }
         xxhash_rust::xxh3::xxh3_64(&bytes)
     }
@@ -176,6 +192,7 @@ fn rasterise_rows(
         valid: vec![false; n],
         positions: vec![Vec3::ZERO; n],
         normals: vec![Vec3::ZERO; n],
+        mapped: vec![Vec3::ZERO; n],
         origins: vec![Vec3::ZERO; n],
         triangle: vec![u32::MAX; n],
     };
@@ -186,6 +203,7 @@ fn rasterise_rows(
         };
         let p = tri.map(|v| scene.positions[v as usize]);
         let n = tri.map(|v| scene.normals[v as usize]);
+        let mapping = normal_mapping(scene, tri);
         let face = (p[1] - p[0]).cross(p[2] - p[0]);
         let Some(face_normal) = face.try_normalize() else {
             continue; // zero area in space
@@ -217,6 +235,7 @@ fn rasterise_rows(
                 texels.valid[i] = true;
                 texels.positions[i] = position;
                 texels.normals[i] = normal;
+                texels.mapped[i] = mapping.as_ref().map_or(normal, |m| m.at(b, normal));
                 let delta = offset_distance(position, longest);
                 texels.origins[i] =
                     position + face_normal * delta + (centroid - position) * (delta / longest);
@@ -225,6 +244,38 @@ fn rasterise_rows(
         }
     }
     texels
+}
+
+/// What turns a triangle's texels' normals: its material's normal map, its corners' uvs and
+/// tangents; `None` where the material has no map.
+struct Mapping<'a> {
+    map: &'a NormalMap,
+    textures: &'a [crate::scene::Texture],
+    uv: [Vec2; 3],
+    tangent: [Vec4; 3],
+}
+
+fn normal_mapping(scene: &Scene, tri: [u32; 3]) -> Option<Mapping<'_>> {
+    let material = scene.vertex_material[tri[0] as usize] as usize;
+    let map = scene.materials[material].normal_map.as_ref()?;
+    let tangents = scene.tangents.as_ref()?;
+    Some(Mapping {
+        map,
+        textures: &scene.textures,
+        uv: tri.map(|v| scene.uvs[v as usize]),
+        tangent: tri.map(|v| tangents[v as usize]),
+    })
+}
+
+impl Mapping<'_> {
+    /// The mapped normal at barycentrics `b` of a point whose surface normal is `normal`.
+    fn at(&self, b: [f32; 3], normal: Vec3) -> Vec3 {
+        let uv = self.uv[0] * b[0] + self.uv[1] * b[1] + self.uv[2] * b[2];
+        let t = self.tangent[0] * b[0] + self.tangent[1] * b[1] + self.tangent[2] * b[2];
+        // The sign is a corner's, not interpolated (a mesh's corners agree on it).
+        let tangent = t.truncate().extend(self.tangent[0].w);
+        self.map.perturb(self.textures, uv, normal, tangent)
+    }
 }
 
 fn cross(a: Vec2, b: Vec2) -> f32 {
@@ -414,6 +465,7 @@ mod tests {
         assert_eq!(banded.triangle, one_pass.triangle);
         assert_eq!(banded.positions, one_pass.positions);
         assert_eq!(banded.normals, one_pass.normals);
+        assert_eq!(banded.mapped, one_pass.normals, "no normal maps");
         assert_eq!(banded.origins, one_pass.origins);
     }
 }

@@ -20,6 +20,8 @@ pub fn split_at_lightmap_seams(scene: &Scene, uv1: &[[Vec2; 3]]) -> Scene {
         triangles: Vec::with_capacity(scene.triangles.len()),
         objects: Vec::with_capacity(scene.objects.len()),
         lightmap_uvs: None,
+        // Exports carry no normal maps; the split vertices would not match them.
+        tangents: None,
         ..scene.clone()
     };
     let mut lightmap = Vec::new();

@@ -2,6 +2,7 @@
 //! functions: every uri through the input-path policy, every size checked against its declared
 //! byteLength and `--max-memory` before a byte is read.
 
+use crate::scene::texture::Texture;
 use crate::support::error::{Error, Location, Result};
 use crate::support::input_path::AssetFolder;
 use std::path::Path;
@@ -277,7 +278,20 @@ pub(super) fn read_images(
                 }
             }
         };
-        images.push(decode_image(path, i, &bytes, format)?);
+        // A file the image came from is named too: a corrupt `bumps.png` says so.
+        let decoded =
+            decode_image(path, i, &bytes, format).map_err(|err| match (err, image.source()) {
+                (Error::Scene { location, message }, gltf::image::Source::Uri { uri, .. })
+                    if !uri.starts_with("data:") =>
+                {
+                    Error::Scene {
+                        location,
+                        message: format!("{message} (file {uri})"),
+                    }
+                }
+                (err, _) => err,
+            })?;
+        images.push(decoded);
     }
     Ok(images)
 }
@@ -328,5 +342,39 @@ fn decode_image(
         format,
         width,
         height,
+    })
+}
+
+/// An 8-bit RGB(A) or grey image as a texture (texels stay sRGB-encoded, as loaded ones).
+pub(super) fn to_texture(path: &Path, index: usize, data: &gltf::image::Data) -> Option<Texture> {
+    use gltf::image::Format;
+    let pixels = &data.pixels;
+    let srgb8: Vec<[u8; 4]> = match data.format {
+        Format::R8G8B8A8 => pixels
+            .chunks_exact(4)
+            .map(|p| [p[0], p[1], p[2], p[3]])
+            .collect(),
+        Format::R8G8B8 => pixels
+            .chunks_exact(3)
+            .map(|p| [p[0], p[1], p[2], 255])
+            .collect(),
+        Format::R8 => pixels.iter().map(|&g| [g, g, g, 255]).collect(),
+        Format::R8G8 => pixels
+            .chunks_exact(2)
+            .map(|p| [p[0], p[0], p[0], p[1]])
+            .collect(),
+        _ => return None,
+    };
+    if data.width == 0 || data.height == 0 {
+        return None;
+    }
+    Some(Texture {
+        path: path.with_file_name(format!(
+            "{}#image{index}",
+            path.file_name().unwrap_or_default().to_string_lossy()
+        )),
+        width: data.width,
+        height: data.height,
+        srgb8,
     })
 }

@@ -7,20 +7,22 @@
 //! and fans are read; points and lines are skipped with a warning. A primitive without
 //! NORMAL gets angle-weighted normals, as an OBJ without `vn`. Albedo is baseColorFactor ×
 //! baseColorTexture (sRGB, as the specification says); a primitive without a material takes
-//! [`DEFAULT_KD`], as an OBJ object without one does.
+//! [`DEFAULT_KD`], as an OBJ object without one does. `normalTexture` (with its `scale` and
+//! the mesh's TANGENT, or MikkTSpace tangents) is read for texel bakes ([`normal_map`]).
 //!
 //! glTF's texture v runs down from the image's top; the scene keeps OBJ's convention (v up
 //! from the bottom), so v is stored as 1 − v.
 
 mod alpha;
 mod files;
+mod normal_map;
 pub mod volume;
 
-use files::{images_are_readable, read_buffers, read_images, uris_are_readable};
+use files::{images_are_readable, read_buffers, read_images, to_texture, uris_are_readable};
 use std::collections::HashMap;
 use std::path::Path;
 
-use glam::{Mat3, Mat4, Vec2, Vec3};
+use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use gltf::mesh::Mode;
 
 use crate::math::glossy;
@@ -35,6 +37,8 @@ pub struct Loaded {
     pub textures: Vec<Texture>,
     /// TEXCOORD_1 of each mesh (v flipped like TEXCOORD_0), where it has one.
     pub lightmap_uvs: Vec<Option<Vec<Vec2>>>,
+    /// TANGENT of each normal-mapped mesh in world space, where it has one.
+    pub tangents: Vec<Option<Vec<Vec4>>>,
     /// xxh3 of the JSON, every buffer and every decoded image: the file's whole content.
     pub digest: u64,
     /// Things skipped (points, lines), one sentence each.
@@ -98,6 +102,7 @@ pub fn load(path: &Path) -> Result<Loaded> {
         meshes: Vec::new(),
         textures: Vec::new(),
         lightmap_uvs: Vec::new(),
+        tangents: Vec::new(),
         digest: 0,
         warnings: Vec::new(),
         hierarchy,
@@ -233,8 +238,10 @@ impl PrimitiveReader<'_> {
         }
         let pbr = primitive.material().pbr_metallic_roughness();
         let base_colour = pbr.base_color_texture();
-        let uv_set = base_colour.as_ref().map_or(0, |info| info.tex_coord());
-        readable_accessors(self.document, primitive, uv_set)
+        let normal_texture = primitive.material().normal_texture();
+        let uv_set = normal_map::uv_set(base_colour.as_ref(), normal_texture.as_ref())
+            .map_err(|problem| self.fail(format!("mesh '{name}': {problem}")))?;
+        readable_accessors(self.document, primitive, uv_set, normal_texture.is_some())
             .map_err(|problem| self.fail(format!("mesh '{name}': {problem}")))?;
         let buffers = self.buffers;
         let reader = primitive.reader(|b| Some(&buffers[b.index()]));
@@ -278,16 +285,29 @@ impl PrimitiveReader<'_> {
                     .unwrap_or_else(|| format!("material {index}"));
                 let alpha = alpha::material_alpha(&primitive.material(), texture)
                     .map_err(|problem| self.fail(format!("material '{name}': {problem}")))?;
+                let normal_map = match &normal_texture {
+                    None => None,
+                    Some(info) => Some(normal_map::read(
+                        info,
+                        self.texture(info.texture().source().index())?,
+                    )),
+                };
                 Material {
                     name,
                     kd: Vec3::new(r, g, b),
                     texture,
                     glossy: gltf_glossy(&pbr),
                     alpha,
+                    normal_map,
                 }
             }
         };
         loaded.lightmap_uvs.push(read_uvs(1));
+        let tangents = reader
+            .read_tangents()
+            .filter(|_| material.normal_map.is_some());
+        let tangents = tangents.map(|t| normal_map::tangents_to_world(Mat3::from_mat4(world), t));
+        loaded.tangents.push(tangents);
         loaded.meshes.push(Mesh {
             name,
             positions,
@@ -316,7 +336,7 @@ impl PrimitiveReader<'_> {
         let data = &self.decoded.as_ref().expect("decoded above")[image];
         let texture = to_texture(self.path, image, data).ok_or_else(|| {
             self.fail(format!(
-                "image {image}: {:?} pixels cannot be a base colour (8-bit RGB or RGBA needed)",
+                "image {image}: {:?} pixels cannot be a base colour or normal texture (8-bit RGB or RGBA needed)",
                 data.format
             ))
         })?;
@@ -382,6 +402,7 @@ fn readable_accessors(
     document: &gltf::Document,
     primitive: &gltf::Primitive,
     uv_set: u32,
+    tangents: bool,
 ) -> std::result::Result<(), String> {
     use gltf::Semantic;
     use gltf::accessor::{DataType, Dimensions};
@@ -395,8 +416,11 @@ fn readable_accessors(
         (Semantic::Normals, Dimensions::Vec3, float),
         (Semantic::TexCoords(uv_set), Dimensions::Vec2, uv),
         (Semantic::TexCoords(1), Dimensions::Vec2, uv),
+        (Semantic::Tangents, Dimensions::Vec4, float),
     ] {
-        if let Some(accessor) = primitive.get(&semantic) {
+        // TANGENT is read only for a normal map.
+        let read = tangents || semantic != Semantic::Tangents;
+        if let Some(accessor) = primitive.get(&semantic).filter(|_| read) {
             used.push((semantic.to_string(), accessor, dimensions, types));
         }
     }
@@ -612,40 +636,6 @@ fn assemble(mode: Mode, indices: &[u32]) -> Vec<[u32; 3]> {
         .into_iter()
         .filter(|[a, b, c]| a != b && b != c && a != c)
         .collect()
-}
-
-/// An 8-bit RGB(A) or grey image as a texture (texels stay sRGB-encoded, as loaded ones).
-fn to_texture(path: &Path, index: usize, data: &gltf::image::Data) -> Option<Texture> {
-    use gltf::image::Format;
-    let pixels = &data.pixels;
-    let srgb8: Vec<[u8; 4]> = match data.format {
-        Format::R8G8B8A8 => pixels
-            .chunks_exact(4)
-            .map(|p| [p[0], p[1], p[2], p[3]])
-            .collect(),
-        Format::R8G8B8 => pixels
-            .chunks_exact(3)
-            .map(|p| [p[0], p[1], p[2], 255])
-            .collect(),
-        Format::R8 => pixels.iter().map(|&g| [g, g, g, 255]).collect(),
-        Format::R8G8 => pixels
-            .chunks_exact(2)
-            .map(|p| [p[0], p[0], p[0], p[1]])
-            .collect(),
-        _ => return None,
-    };
-    if data.width == 0 || data.height == 0 {
-        return None;
-    }
-    Some(Texture {
-        path: path.with_file_name(format!(
-            "{}#image{index}",
-            path.file_name().unwrap_or_default().to_string_lossy()
-        )),
-        width: data.width,
-        height: data.height,
-        srgb8,
-    })
 }
 
 /// A glTF material is glossy when it sets a roughness below 1: the lobe's exponent follows
