@@ -353,6 +353,7 @@ fn object_scene(scene: &Scene, object: &Object) -> Scene {
         up: scene.up,
         lightmap_uvs: None,
         content_digest: None,
+        instances: Default::default(),
     }
 }
 
