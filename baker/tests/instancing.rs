@@ -55,10 +55,13 @@ fn ground(extent: f32, grid: u32) -> (Vec<[f32; 3]>, Vec<u32>) {
     (positions, indices)
 }
 
-/// Writes `forest.gltf` (and its `.bin`): a ground and `n` nodes of one tree mesh, each
-/// turned, scaled unevenly, every third one mirrored; `extra` nodes are appended as roots.
-fn write_forest(s: &Scratch, n: usize, extra: &[Value]) {
-    let mut blob = Vec::new();
+/// Writes `forest.gltf` (and its `.bin`): a ground and `n` placements of one tree mesh, each
+/// turned, scaled unevenly, every third one mirrored; as `n` nodes under a node "Forest", or
+/// with `gpu`, as EXT_mesh_gpu_instancing instances of one node under a "Forest" moved by
+/// +0.5 in x (the instances by −0.5: the same world placements). `extra` nodes are appended
+/// as roots.
+fn write_forest(s: &Scratch, n: usize, gpu: bool, extra: &[Value]) {
+    let mut blob: Vec<u8> = Vec::new();
     let mut accessors = Vec::new();
     let mut views = Vec::new();
     let mut meshes = Vec::new();
@@ -90,32 +93,69 @@ fn write_forest(s: &Scratch, n: usize, extra: &[Value]) {
         );
     }
     let side = (n as f32).sqrt().ceil() as usize;
-    let mut nodes = vec![
-        json!({"name": "Ground", "mesh": 0}),
-        json!({"name": "Forest", "children": (2..n + 2).collect::<Vec<_>>()}),
-    ];
-    for k in 0..n {
-        let (x, z) = (
-            (k % side) as f32 * 1.5 - side as f32 * 0.75,
-            (k / side) as f32 * 1.5 - side as f32 * 0.75,
-        );
-        let angle = k as f32 * 0.7;
-        let mirror = if k % 3 == 0 { -1.0 } else { 1.0 };
-        nodes.push(json!({"name": format!("tree{k}"), "mesh": 1,
-            "translation": [x, 0.0, z],
-            "rotation": [0.0, (angle / 2.0).sin(), 0.0, (angle / 2.0).cos()],
-            "scale": [mirror * (0.8 + 0.05 * (k % 5) as f32), 1.0 + 0.1 * (k % 3) as f32, 0.9]}));
+    let placements: Vec<([f32; 3], [f32; 4], [f32; 3])> = (0..n)
+        .map(|k| {
+            let (x, z) = (
+                (k % side) as f32 * 1.5 - side as f32 * 0.75,
+                (k / side) as f32 * 1.5 - side as f32 * 0.75,
+            );
+            let angle = k as f32 * 0.7;
+            let mirror = if k % 3 == 0 { -1.0 } else { 1.0 };
+            (
+                [x, 0.0, z],
+                [0.0, (angle / 2.0).sin(), 0.0, (angle / 2.0).cos()],
+                [
+                    mirror * (0.8 + 0.05 * (k % 5) as f32),
+                    1.0 + 0.1 * (k % 3) as f32,
+                    0.9,
+                ],
+            )
+        })
+        .collect();
+    let mut nodes = vec![json!({"name": "Ground", "mesh": 0})];
+    if gpu {
+        let mut attributes = serde_json::Map::new();
+        for (name, width) in [("TRANSLATION", 3), ("ROTATION", 4), ("SCALE", 3)] {
+            let values: Vec<f32> = placements
+                .iter()
+                .flat_map(|(t, r, s)| match width {
+                    4 => r.to_vec(),
+                    _ if name == "SCALE" => s.to_vec(),
+                    _ => vec![t[0] - 0.5, t[1], t[2]],
+                })
+                .collect();
+            views.push(
+                json!({"buffer": 0, "byteOffset": blob.len(), "byteLength": 4 * values.len()}),
+            );
+            blob.extend(values.iter().flat_map(|x| x.to_le_bytes()));
+            let kind = if width == 4 { "VEC4" } else { "VEC3" };
+            accessors.push(json!({"bufferView": views.len() - 1, "componentType": 5126,
+                "count": n, "type": kind}));
+            attributes.insert(name.into(), json!(accessors.len() - 1));
+        }
+        nodes.push(json!({"name": "Forest", "children": [2], "translation": [0.5, 0.0, 0.0]}));
+        nodes.push(json!({"name": "trees", "mesh": 1,
+            "extensions": {"EXT_mesh_gpu_instancing": {"attributes": attributes}}}));
+    } else {
+        nodes.push(json!({"name": "Forest", "children": (2..n + 2).collect::<Vec<_>>()}));
+        for (k, (t, r, s)) in placements.iter().enumerate() {
+            nodes.push(json!({"name": format!("tree{k}"), "mesh": 1,
+                "translation": t, "rotation": r, "scale": s}));
+        }
     }
     let mut roots = vec![0, 1];
     for node in extra {
         roots.push(nodes.len());
         nodes.push(node.clone());
     }
-    let document = json!({
+    let mut document = json!({
         "asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": roots}],
         "nodes": nodes, "meshes": meshes, "accessors": accessors, "bufferViews": views,
         "buffers": [{"byteLength": blob.len(), "uri": "forest.bin"}],
     });
+    if gpu {
+        document["extensionsUsed"] = json!(["EXT_mesh_gpu_instancing"]);
+    }
     s.write("forest.bin", &blob);
     s.write("forest.gltf", serde_json::to_vec(&document).unwrap());
 }
@@ -142,7 +182,7 @@ fn relative_distance(a: &CoefficientFile, b: &CoefficientFile) -> f64 {
 #[test]
 fn a_ground_under_instanced_trees_bakes_as_the_flattened_scene() {
     let s = Scratch::new();
-    write_forest(&s, 100, &[]);
+    write_forest(&s, 100, false, &[]);
     let mut backends = vec!["obvhs"];
     if cfg!(feature = "embree") {
         backends.push("embree");
@@ -219,7 +259,7 @@ fn a_ground_under_instanced_trees_bakes_as_the_flattened_scene() {
 #[test]
 fn closest_hits_through_instances_are_the_flattened_scenes() {
     let s = Scratch::new();
-    write_forest(&s, 25, &[]);
+    write_forest(&s, 25, false, &[]);
     let path = s.path("forest.gltf");
     let flat = Scene::load(&path).unwrap();
     let receives = receives(&["Ground".into()]);
@@ -307,7 +347,7 @@ fn many_instances_are_counted_as_instances() {
     let extra: Vec<Value> = (0..count)
         .map(|_| json!({"mesh": 1, "translation": [0.0, 0.0, 50.0]}))
         .collect();
-    write_forest(&s, 2, &extra);
+    write_forest(&s, 2, false, &extra);
     let run = s.run(&[
         "bake",
         "forest.gltf",
@@ -322,4 +362,51 @@ fn many_instances_are_counted_as_instances() {
     ]);
     run.fails_with_bad_input(&["forest.gltf", "(200002 instanced)", "memory limit"]);
     assert!(!s.path("out/x.prt").exists());
+}
+
+/// EXT_mesh_gpu_instancing: one node's 100 instances (under a moved parent) bake the ground
+/// as 100 nodes at the same places do, flattened and instanced; a file whose instance
+/// accessor points outside its buffer is refused with the node and accessor named.
+#[test]
+fn gpu_instancing_places_the_mesh_at_each_instance() {
+    let s = Scratch::new();
+    write_forest(&s, 100, false, &[]);
+    s.bake(
+        "forest.gltf",
+        "nodes.prt",
+        &["--receivers", "Ground", "--instances", "off"],
+    );
+    write_forest(&s, 100, true, &[]);
+    let read = |name: &str| CoefficientFile::read(&s.path(&format!("out/{name}"))).unwrap();
+    for instances in ["off", "on"] {
+        let name = format!("gpu-{instances}.prt");
+        let run = s.bake(
+            "forest.gltf",
+            &name,
+            &["--receivers", "Ground", "--instances", instances],
+        );
+        assert!(!run.stderr.contains("warning"), "{}", run.stderr);
+        let distance = relative_distance(&read(&name), &read("nodes.prt"));
+        eprintln!("EXT_mesh_gpu_instancing, --instances {instances}: {distance:.2e}");
+        assert!(distance < 1e-3, "--instances {instances}: {distance}");
+    }
+    let mut document: Value = serde_json::from_slice(&s.read("forest.gltf")).unwrap();
+    let rotation =
+        document["nodes"][2]["extensions"]["EXT_mesh_gpu_instancing"]["attributes"]["ROTATION"]
+            .clone();
+    document["accessors"][rotation.as_u64().unwrap() as usize]["byteOffset"] = json!(1 << 20);
+    s.write("forest.gltf", serde_json::to_vec(&document).unwrap());
+    let run = s.run(&[
+        "bake",
+        "forest.gltf",
+        "-o",
+        "out/bad.prt",
+        "--receivers",
+        "Ground",
+    ]);
+    run.fails_with_bad_input(&[
+        "forest.gltf",
+        "node 2: EXT_mesh_gpu_instancing: ROTATION",
+        "outside",
+    ]);
 }

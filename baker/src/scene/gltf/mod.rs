@@ -15,6 +15,7 @@
 mod alpha;
 mod files;
 mod flattened_size;
+mod gpu_instancing;
 mod instancing;
 mod names;
 
@@ -79,6 +80,7 @@ pub fn load(path: &Path, instancing: Option<&Instancing>) -> Result<Loaded> {
         .or_else(|| document.scenes().next())
         .ok_or_else(|| fail("the file has no scene".into()))?;
     let (placed, visited, parent) = flatten(&document, &scene).map_err(fail)?;
+    let placed = gpu_instancing::expand(&document, &json_bytes, &buffers, placed).map_err(fail)?;
     // Nodes in visiting order (parents first), by their index in the file.
     let mut at = vec![u32::MAX; document.nodes().len()];
     let mut hierarchy = Hierarchy::default();
@@ -111,16 +113,6 @@ pub fn load(path: &Path, instancing: Option<&Instancing>) -> Result<Loaded> {
     let instanced = instancing::choose(&placed, &loaded.hierarchy, &at, instancing);
     check_flattened_size(path, &placed, &instanced)?;
     let mut seen = HashMap::new();
-    if document
-        .extensions_used()
-        .any(|e| e == "EXT_mesh_gpu_instancing")
-    {
-        loaded.warnings.push(
-            "EXT_mesh_gpu_instancing is not read yet: each instanced node bakes its mesh once, \
-             at the node, without the instances"
-                .into(),
-        );
-    }
     for ((node, mesh, world), instance) in placed.into_iter().zip(instanced) {
         if instance {
             let mut read = |primitive: &gltf::Primitive, name: String| {
