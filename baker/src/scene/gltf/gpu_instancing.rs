@@ -125,7 +125,6 @@ fn floats(
     let size = 4 * width;
     let stride = view.stride().unwrap_or(size).max(size);
     let count = accessor.count();
-    let start = view.offset() + accessor.offset();
     let last = count
         .checked_sub(1)
         .map_or(Some(0), |n| n.checked_mul(stride)?.checked_add(size));
@@ -139,6 +138,8 @@ fn floats(
     if !fits {
         return Err("its data lies outside its buffer view or buffer".into());
     }
+    // In range: both offsets were checked against the buffer above.
+    let start = view.offset() + accessor.offset();
     let mut values = Vec::with_capacity(count * width);
     for i in 0..count {
         for k in 0..width {
