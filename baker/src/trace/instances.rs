@@ -136,14 +136,21 @@ impl<T: Tracer> TopLevel<T> {
             let far = a.max(b).min_element();
             !(near > far || far < 0.0 || near > tfar())
         };
-        let mut stack = vec![0u32];
-        while let Some(n) = stack.pop() {
-            let node = &self.nodes[n as usize];
+        // Median splits make the tree at most log2(placements) + 1 deep, and the stack holds
+        // at most one node per level and one more: 64 levels is more than any count of
+        // placements that fits in memory. No allocation per ray.
+        let mut stack = [0u32; 64];
+        let mut depth = 1;
+        while depth > 0 {
+            depth -= 1;
+            let node = &self.nodes[stack[depth] as usize];
             if !enters(node) {
                 continue;
             }
             if node.count == 0 {
-                stack.extend([node.start, node.start + 1]);
+                stack[depth] = node.start;
+                stack[depth + 1] = node.start + 1;
+                depth += 2;
                 continue;
             }
             for &p in &self.order[node.start as usize..(node.start + node.count) as usize] {
