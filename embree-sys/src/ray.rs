@@ -58,8 +58,13 @@ impl Ray {
 pub struct Hit {
     /// Index of the triangle within its mesh.
     pub prim_id: u32,
-    /// The mesh, as returned by `SceneBuilder::add_triangle_mesh`.
+    /// The mesh, as returned by `SceneBuilder::add_triangle_mesh` (of the instanced scene,
+    /// for a hit on an instance).
     pub geom_id: u32,
+    /// The instance hit, as returned by `SceneBuilder::add_instance`; `None` for a hit on
+    /// the scene's own meshes. Embree reports `u`, `v` and `ng` of an instance's hit in the
+    /// instanced scene's space.
+    pub inst_id: Option<u32>,
     /// Barycentrics: the hit point is `(1 − u − v)·v0 + u·v1 + v·v2`.
     pub u: f32,
     pub v: f32,
@@ -81,6 +86,7 @@ impl RayHit {
         let hit = sys::RTCHit {
             geomID: sys::RTC_INVALID_GEOMETRY_ID,
             primID: sys::RTC_INVALID_GEOMETRY_ID,
+            instID: [sys::RTC_INVALID_GEOMETRY_ID; sys::RTC_MAX_INSTANCE_LEVEL_COUNT as usize],
             ..Default::default()
         };
         RayHit(sys::RTCRayHit { ray: ray.0, hit })
@@ -93,6 +99,7 @@ impl RayHit {
         (h.geomID != sys::RTC_INVALID_GEOMETRY_ID).then_some(Hit {
             prim_id: h.primID,
             geom_id: h.geomID,
+            inst_id: Some(h.instID[0]).filter(|&i| i != sys::RTC_INVALID_GEOMETRY_ID),
             u: h.u,
             v: h.v,
             t: self.0.ray.tfar,
@@ -196,6 +203,7 @@ impl RayHit16 {
         r.flags[i] = 0;
         self.rayhits.hit.geomID[i] = sys::RTC_INVALID_GEOMETRY_ID;
         self.rayhits.hit.primID[i] = sys::RTC_INVALID_GEOMETRY_ID;
+        self.rayhits.hit.instID[0][i] = sys::RTC_INVALID_GEOMETRY_ID;
         self.valid.0[i] = -1;
     }
 
@@ -211,6 +219,7 @@ impl RayHit16 {
         (self.valid.0[i] != 0 && h.geomID[i] != sys::RTC_INVALID_GEOMETRY_ID).then(|| Hit {
             prim_id: h.primID[i],
             geom_id: h.geomID[i],
+            inst_id: Some(h.instID[0][i]).filter(|&i| i != sys::RTC_INVALID_GEOMETRY_ID),
             u: h.u[i],
             v: h.v[i],
             t: self.rayhits.ray.tfar[i],

@@ -37,6 +37,9 @@ pub struct SceneBuilder {
     #[allow(clippy::vec_box)]
     // the inner box is a fat pointer: the outer one's address is thin
     filters: Vec<Box<Box<dyn HitFilter>>>,
+    /// The scenes instanced by [`SceneBuilder::add_instance`], kept alive with the committed
+    /// scene, which traverses them.
+    instanced: Vec<Arc<CommittedScene>>,
 }
 
 impl SceneBuilder {
@@ -52,6 +55,7 @@ impl SceneBuilder {
             handle,
             triangle_count: 0,
             filters: Vec::new(),
+            instanced: Vec::new(),
         })
     }
 
@@ -186,6 +190,55 @@ impl SceneBuilder {
         result
     }
 
+    /// Adds an instance of a committed scene placed by `to_world` (a 3×4 affine matrix,
+    /// column-major: the three linear columns, then the translation) and returns its geometry
+    /// id, which hits on it report as [`crate::Hit::inst_id`]. One level only: `scene` must
+    /// hold triangle meshes, not instances (Embree is built with one instance level).
+    pub fn add_instance(
+        &mut self,
+        scene: &Arc<CommittedScene>,
+        to_world: &[f32; 12],
+    ) -> Result<u32, Error> {
+        if !to_world.iter().all(|x| x.is_finite()) {
+            return Err(Error::new(
+                ErrorKind::InvalidArgument,
+                "instance transform is not finite",
+            ));
+        }
+        if !scene.instanced.is_empty() {
+            return Err(Error::new(
+                ErrorKind::InvalidArgument,
+                "an instanced scene cannot hold instances itself (one instance level)",
+            ));
+        }
+        // SAFETY: the device handle is live.
+        let geometry = unsafe {
+            sys::rtcNewGeometry(self.device.inner.handle, sys::RTC_GEOMETRY_TYPE_INSTANCE)
+        };
+        self.device.check()?;
+        // SAFETY: `geometry` is a live instance geometry; `scene.handle` a committed scene that
+        // `self.instanced` keeps alive for as long as this scene and its committed form exist;
+        // `to_world` points at 12 floats, the FLOAT3X4_COLUMN_MAJOR layout, which Embree copies.
+        let result = unsafe {
+            sys::rtcSetGeometryInstancedScene(geometry, scene.handle);
+            sys::rtcSetGeometryTimeStepCount(geometry, 1);
+            sys::rtcSetGeometryTransform(
+                geometry,
+                0,
+                sys::RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR,
+                to_world.as_ptr().cast(),
+            );
+            sys::rtcCommitGeometry(geometry);
+            let id = sys::rtcAttachGeometry(self.handle, geometry);
+            self.device.check().map(|()| id)
+        };
+        // SAFETY: the scene holds its own reference once attached; this drops ours either way.
+        unsafe { sys::rtcReleaseGeometry(geometry) };
+        self.instanced.push(Arc::clone(scene));
+        self.triangle_count += scene.triangle_count;
+        result
+    }
+
     /// Builds the BVH. Only a committed scene answers queries.
     pub fn commit(mut self) -> Result<CommittedScene, Error> {
         // SAFETY: the scene handle is live; commit runs on Embree's thread pool and returns
@@ -197,6 +250,7 @@ impl SceneBuilder {
             device: Arc::clone(&self.device.inner),
             triangle_count: self.triangle_count,
             filters: std::mem::take(&mut self.filters),
+            instanced: std::mem::take(&mut self.instanced),
         };
         // The handle moved into `scene`; do not release it in our `Drop`.
         std::mem::forget(self);
@@ -222,6 +276,9 @@ pub struct CommittedScene {
     /// scene is released (fields drop after `Drop::drop`).
     #[allow(dead_code, clippy::vec_box)]
     filters: Vec<Box<Box<dyn HitFilter>>>,
+    /// The scenes its instances place: released after this one (fields drop after `drop`).
+    #[allow(dead_code)]
+    instanced: Vec<Arc<CommittedScene>>,
 }
 
 // SAFETY: after `rtcCommitScene` the scene is never modified again (no method takes `&mut self`
@@ -233,6 +290,7 @@ unsafe impl Send for CommittedScene {}
 unsafe impl Sync for CommittedScene {}
 
 impl CommittedScene {
+    /// Triangles in the scene, each instance's counted once per instance.
     pub fn triangle_count(&self) -> usize {
         self.triangle_count
     }

@@ -219,3 +219,44 @@ fn empty_committed_scene_blocks_nothing() {
         None
     );
 }
+
+/// An instance of the square scene, scaled by 2 and moved to x ≥ 10: rays hit it there (with
+/// the instance's id, and the square's own primitive ids and mesh-space barycentrics), both
+/// by occlusion and closest hit, and not where the square itself lies.
+#[test]
+fn instances_are_hit_where_their_transform_places_them() {
+    let device = Device::new().expect("device");
+    let square = std::sync::Arc::new(square_scene());
+    let mut builder = SceneBuilder::new(&device).expect("scene");
+    // Column-major 3×4: x, y, z axes, then the translation.
+    let to_world = [2.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 2.0, 10.0, 0.0, 0.0];
+    let id = builder.add_instance(&square, &to_world).expect("instance");
+    let top = builder.commit().expect("commit");
+    assert_eq!(top.triangle_count(), 2);
+    let down = |x: f32, y: f32| Ray::new([x, y, 1.0], [0.0, 0.0, -1.0], 0.0, f32::INFINITY);
+    let hit = top
+        .intersect1(&down(11.5, 0.5))
+        .expect("a hit on the instance");
+    assert_eq!(hit.inst_id, Some(id));
+    assert_eq!((hit.geom_id, hit.prim_id), (0, 0));
+    assert!(
+        (hit.t - 1.0).abs() < 1e-6 && (hit.u - 0.5).abs() < 1e-6,
+        "{hit:?}"
+    );
+    assert!(top.occluded1(&down(11.5, 0.5)));
+    assert!(!top.occluded1(&down(0.5, 0.5)));
+    assert!(top.intersect1(&down(0.5, 0.5)).is_none());
+    assert_eq!(
+        square
+            .intersect1(&down(0.5, 0.5))
+            .expect("the square")
+            .inst_id,
+        None
+    );
+    let bad = [f32::NAN; 12];
+    let mut builder = SceneBuilder::new(&device).expect("scene");
+    let err = builder
+        .add_instance(&square, &bad)
+        .expect_err("a NaN transform");
+    assert_eq!(err.kind, ErrorKind::InvalidArgument);
+}

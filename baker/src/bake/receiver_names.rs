@@ -5,7 +5,7 @@
 //! or above the object decides). The others stay in the scene: they occlude and, in
 //! interreflected mode, reflect.
 
-use crate::scene::Scene;
+use crate::scene::{Hierarchy, Scene};
 use crate::support::error::{Error, Result};
 
 /// The receiving objects' indices (ascending), or `None` where every object receives (the
@@ -104,4 +104,36 @@ fn object_list(scene: &Scene) -> String {
         list.push(format!("and {} more", scene.objects.len() - SHOWN));
     }
     list.join(", ")
+}
+
+/// Whether an object named `name`, from node `node` of a glTF `hierarchy`, receives under
+/// `globs`, as [`receiver_objects`] decides (a malformed glob matches nothing here; that
+/// function refuses it). For a load to know which objects it may keep as instances
+/// ([`crate::scene::Instancing`]) before the scene exists.
+pub fn receives(globs: &[String]) -> impl Fn(&Hierarchy, u32, &str) -> bool + use<> {
+    let patterns: Vec<glob::Pattern> = globs
+        .iter()
+        .filter_map(|g| glob::Pattern::new(g).ok())
+        .collect();
+    let marks = globs.is_empty();
+    move |hierarchy, node, name| {
+        let mut at = Some(node);
+        if marks {
+            while let Some(n) = at {
+                let n = &hierarchy.nodes[n as usize];
+                if let Some(receive) = n.receive {
+                    return receive;
+                }
+                at = n.parent;
+            }
+            return true;
+        }
+        let mut names = vec![name];
+        while let Some(n) = at {
+            let n = &hierarchy.nodes[n as usize];
+            names.push(&n.name);
+            at = n.parent;
+        }
+        patterns.iter().any(|p| names.iter().any(|n| p.matches(n)))
+    }
 }

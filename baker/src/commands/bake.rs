@@ -23,6 +23,7 @@ use prt_baker::trace::{self, Backend, Tracer, TracerOptions};
 use prt_baker::{BakeOptions, CoefficientFile, Error, Mode, Scene, Transfer};
 
 use super::UpArg;
+use super::scene_load::{self, InstancesArg};
 
 #[derive(clap::Args)]
 pub struct BakeArgs {
@@ -139,6 +140,9 @@ pub struct BakeArgs {
     #[arg(long, value_name = "GLOB", value_delimiter = ',',
           conflicts_with_all = ["lightmap", "shard", "checkpoint", "clusters", "pcs"])]
     receivers: Vec<String>,
+    /// Trace non-receiving glTF nodes of a shared mesh as instances (docs/scenes.md).
+    #[arg(long, value_enum, default_value_t)]
+    instances: InstancesArg,
     /// Write the bake compressed by clustered PCA into K clusters, as `prt-bake compress`
     /// would (default 64 where only --pcs is given). Not with --shard or --checkpoint:
     /// compress the merged file with `prt-bake compress`.
@@ -298,7 +302,10 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
         start_threads(threads)?;
     }
 
-    let mut scene = Scene::load(&args.scene)?;
+    let whole = args.lightmap.is_none() && shard.is_none() && args.checkpoint.is_none();
+    let instancing = whole && args.probes.is_none() && args.materials.is_none();
+    let instancing = instancing && options.mode != Mode::Interreflected;
+    let mut scene = scene_load::load(&args.scene, args.instances, &args.receivers, instancing)?;
     // --up overrides the format's axis; whole files, parts and checkpoints all record it.
     if let Some(up) = args.up {
         scene.up = up.up();
@@ -308,8 +315,7 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
     let output = Output::new(&args.output, &inputs)?;
     // Whole vertex bakes only (clap refuses --receivers with the others; glTF marks are
     // not applied to them).
-    let whole_vertex_bake = args.lightmap.is_none() && shard.is_none() && args.checkpoint.is_none();
-    let receivers = match whole_vertex_bake {
+    let receivers = match whole {
         true => receiver_objects(&scene, &args.receivers)?,
         false => None,
     };

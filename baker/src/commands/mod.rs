@@ -11,6 +11,7 @@ pub mod inspect;
 pub mod light;
 pub mod merge;
 pub mod relight;
+pub mod scene_load;
 
 use clap::ValueEnum;
 use prt_baker::scene::Up;

@@ -17,6 +17,7 @@
 mod alpha;
 mod format;
 mod gltf;
+mod instances;
 mod materials;
 mod mesh;
 mod normal_map;
@@ -39,6 +40,8 @@ pub use alpha::{Alpha, AlphaMode, Cutouts, Wrap};
 pub use format::FORMATS;
 use format::OTHER_FORMATS;
 pub use gltf::volume::{GltfMedia, gltf_media};
+pub use gltf::{INSTANCE_BYTES, Instancing};
+pub use instances::{InstanceMesh, Instances, Placement, mesh_bounds, world_normal};
 pub use materials::{MaterialEntry, Materials};
 pub use mesh::{DEFAULT_KD, Glossy, Hierarchy, HierarchyNode, Material, Mesh};
 pub use normal_map::NormalMap;
@@ -87,6 +90,9 @@ pub struct Scene {
     /// A digest of the source file's whole content where the format calls for one (glTF:
     /// JSON, buffers, images), folded into [`Scene::fingerprint`].
     pub content_digest: Option<u64>,
+    /// Occluders traced through instances, outside every array above
+    /// ([`Scene::load_instanced`]); empty where the scene was loaded flat.
+    pub instances: Instances,
 }
 
 impl Scene {
@@ -102,14 +108,26 @@ impl Scene {
 
     /// [`Scene::load`], returning the warnings instead of printing them.
     pub fn load_with_warnings(path: &Path) -> Result<(Scene, Vec<String>)> {
+        Scene::load_instanced(path, None)
+    }
+
+    /// [`Scene::load_with_warnings`], keeping the glTF mesh nodes `instancing` picks as
+    /// [`Scene::instances`] rather than objects (other formats load flat).
+    pub fn load_instanced(
+        path: &Path,
+        instancing: Option<&Instancing>,
+    ) -> Result<(Scene, Vec<String>)> {
         let extension = path
             .extension()
             .map(|e| e.to_string_lossy().to_ascii_lowercase())
             .unwrap_or_default();
         match extension.as_str() {
             "gltf" | "glb" => {
-                let loaded = gltf::load(path)?;
+                let loaded = gltf::load(path, instancing)?;
+                instances::check(&loaded.instances)
+                    .map_err(|m| Error::scene(Location::file(path), m))?;
                 let mut scene = Scene::from_meshes(path, loaded.meshes, loaded.textures)?;
+                scene.instances = loaded.instances;
                 scene.up = Up::Y;
                 scene.content_digest = Some(loaded.digest);
                 scene.hierarchy = Some(loaded.hierarchy);
@@ -242,6 +260,7 @@ impl Scene {
             lightmap_uvs: None,
             tangents: None,
             content_digest: None,
+            instances: Instances::default(),
         };
         for mut mesh in meshes {
             check_mesh(&mesh, scene.textures.len()).map_err(|m| Error::scene(at(), m))?;
@@ -353,6 +372,11 @@ impl Scene {
         // Absent for OBJ and scene files, whose fingerprints stay what they were.
         if let Some(digest) = self.content_digest {
             bytes.extend(digest.to_le_bytes());
+        }
+        // Absent for flat scenes, whose fingerprints stay what they were: a scene with
+        // instances is another scene than its flat load.
+        if !self.instances.is_empty() {
+            bytes.extend((self.instances.placements.len() as u64).to_le_bytes());
         }
         xxhash_rust::xxh3::xxh3_64(&bytes)
     }

@@ -9,7 +9,7 @@ use embree_sys::{BuildQuality, CommittedScene, Device, SceneBuilder, SceneFlags}
 use super::offset::ray_origins;
 use super::seams::{seam_points, seam_vertices};
 use super::tracer::{Backend, Hit, Ray, Tracer};
-use crate::scene::{Cutouts, Scene};
+use crate::scene::{Cutouts, Scene, world_normal};
 use crate::support::error::{Error, Result};
 
 /// Rays handed to Embree per stream call: large enough for Embree to form full packets and
@@ -33,6 +33,11 @@ thread_local! {
 struct TriangleIds {
     /// Per geometry id, its primitives' triangle indices; empty for the one-geometry case.
     of_geometry: Vec<Arc<Vec<u32>>>,
+    /// The scene's instances ([`Scene::instances`]): geometry ids from `first_instance` on,
+    /// placement by placement, and each one's transform (hits on them are reported in mesh
+    /// space).
+    first_instance: u32,
+    to_world: Arc<Vec<glam::Affine3A>>,
 }
 
 impl TriangleIds {
@@ -60,8 +65,21 @@ impl embree_sys::HitFilter for AlphaFilter {
 }
 
 fn to_hit(ids: &TriangleIds, hit: embree_sys::Hit) -> Hit {
+    if let Some(geometry) = hit.inst_id {
+        let instance = geometry - ids.first_instance;
+        let to_world = &ids.to_world[instance as usize];
+        return Hit {
+            triangle: hit.prim_id,
+            instance: Some(instance),
+            u: hit.u,
+            v: hit.v,
+            t: hit.t,
+            ng: world_normal(to_world, glam::Vec3::from_array(hit.ng)),
+        };
+    }
     Hit {
         triangle: ids.triangle(&hit),
+        instance: None,
         u: hit.u,
         v: hit.v,
         t: hit.t,
@@ -139,6 +157,20 @@ struct Alpha {
 
 impl Alpha {
     fn of(scene: &Scene) -> Alpha {
+        let mut alpha = Alpha::cutouts_of(scene);
+        alpha.ids.first_instance = alpha.ids.of_geometry.len().max(1) as u32;
+        alpha.ids.to_world = Arc::new(
+            scene
+                .instances
+                .placements
+                .iter()
+                .map(|p| p.to_world)
+                .collect(),
+        );
+        alpha
+    }
+
+    fn cutouts_of(scene: &Scene) -> Alpha {
         let Some(cutouts) = scene.cutouts() else {
             return Alpha::default();
         };
@@ -151,7 +183,10 @@ impl Alpha {
             .collect();
         Alpha {
             cutouts: Some(Arc::new(cutouts)),
-            ids: TriangleIds { of_geometry },
+            ids: TriangleIds {
+                of_geometry,
+                ..TriangleIds::default()
+            },
         }
     }
 }
@@ -190,7 +225,49 @@ fn commit(device: &Device, scene: &Scene, alpha: &Alpha, robust: bool) -> Result
             }
         }
     }
+    add_instances(device, scene, &mut builder, robust)?;
     builder.commit().map_err(tracer_error)
+}
+
+/// Builds one Embree scene per distinct instance mesh and places it at each of its
+/// placements, as geometries numbered after the flat ones (`TriangleIds::first_instance`).
+fn add_instances(
+    device: &Device,
+    scene: &Scene,
+    builder: &mut SceneBuilder,
+    robust: bool,
+) -> Result<()> {
+    let meshes = scene
+        .instances
+        .meshes
+        .iter()
+        .map(|mesh| {
+            let positions: Vec<[f32; 3]> = mesh.positions.iter().map(|p| p.to_array()).collect();
+            let mut one = SceneBuilder::new(device)?;
+            one.set_build_quality(BuildQuality::High);
+            one.set_flags(SceneFlags {
+                robust,
+                compact: false,
+            });
+            one.add_triangle_mesh(&positions, &mesh.triangles)?;
+            one.commit().map(Arc::new)
+        })
+        .collect::<std::result::Result<Vec<_>, _>>()
+        .map_err(tracer_error)?;
+    for placement in &scene.instances.placements {
+        let m = placement.to_world;
+        let columns = [
+            m.matrix3.x_axis,
+            m.matrix3.y_axis,
+            m.matrix3.z_axis,
+            m.translation,
+        ];
+        let matrix: [f32; 12] = std::array::from_fn(|i| columns[i / 3][i % 3]);
+        builder
+            .add_instance(&meshes[placement.mesh as usize], &matrix)
+            .map_err(tracer_error)?;
+    }
+    Ok(())
 }
 
 impl EmbreeTracer {

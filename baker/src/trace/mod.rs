@@ -10,6 +10,7 @@
 
 #[cfg(feature = "embree")]
 mod embree;
+mod instances;
 mod obvhs;
 mod offset;
 pub mod seams;

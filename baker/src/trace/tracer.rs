@@ -35,8 +35,12 @@ impl Ray {
 /// The closest hit of a ray.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
-    /// Index into `Scene::triangles`.
+    /// Index into `Scene::triangles`, or for a hit on an instance, into its mesh's triangles.
     pub triangle: u32,
+    /// The placement hit (`Scene::instances`), or `None` for the scene's own triangles. Only
+    /// occluders are instanced, so passes that read a hit's material never meet one; `u`,
+    /// `v` are then in the instance mesh's triangle, `t` and `ng` in world space.
+    pub instance: Option<u32>,
     /// Barycentrics: hit = (1 − u − v)·v0 + u·v1 + v·v2.
     pub u: f32,
     pub v: f32,

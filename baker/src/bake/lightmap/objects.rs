@@ -354,6 +354,7 @@ fn object_scene(scene: &Scene, object: &Object) -> Scene {
         lightmap_uvs: None,
         tangents: scene.tangents.as_ref().map(|t| t[v0..v1].to_vec()),
         content_digest: None,
+        instances: Default::default(),
     }
 }
 

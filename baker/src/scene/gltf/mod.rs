@@ -15,23 +15,33 @@
 
 mod alpha;
 mod files;
+mod flattened_size;
+mod gpu_instancing;
+mod instancing;
+mod names;
 mod normal_map;
 pub mod volume;
 
 use files::{images_are_readable, read_buffers, read_images, to_texture, uris_are_readable};
+use flattened_size::check_flattened_size;
+use names::object_name;
 use std::collections::HashMap;
 use std::path::Path;
 
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use gltf::mesh::Mode;
 
+pub use instancing::{INSTANCE_BYTES, Instancing};
+
 use crate::math::glossy;
+use crate::scene::instances::Instances;
 use crate::scene::mesh::{DEFAULT_KD, Glossy, Hierarchy, HierarchyNode, Material, Mesh};
 use crate::scene::texture::Texture;
 use crate::support::error::{Error, Location, Result};
 use crate::support::input_path::AssetFolder;
 
 /// What a glTF file contributes.
+#[derive(Default)]
 pub struct Loaded {
     pub meshes: Vec<Mesh>,
     pub textures: Vec<Texture>,
@@ -45,6 +55,8 @@ pub struct Loaded {
     pub warnings: Vec<String>,
     /// The scene's node trees, and which node each mesh came from.
     pub hierarchy: Hierarchy,
+    /// Mesh nodes kept as instances ([`Instancing`]); not among `meshes`.
+    pub instances: Instances,
 }
 
 /// Extensions a file may *require* and still be read correctly. None yet: a required
@@ -52,7 +64,8 @@ pub struct Loaded {
 /// transforms), and reading on without it would bake the wrong scene.
 const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[];
 
-pub fn load(path: &Path) -> Result<Loaded> {
+/// Loads the file, flattening every mesh node but those `instancing` picks.
+pub fn load(path: &Path, instancing: Option<&Instancing>) -> Result<Loaded> {
     let fail = |message: String| Error::scene(Location::file(path), message);
     let bytes = crate::support::limits::read_file(path)?;
     let (document, blob, json_bytes) = parse(path, &bytes)?;
@@ -72,7 +85,7 @@ pub fn load(path: &Path) -> Result<Loaded> {
         .or_else(|| document.scenes().next())
         .ok_or_else(|| fail("the file has no scene".into()))?;
     let (placed, visited, parent) = flatten(&document, &scene).map_err(fail)?;
-    check_flattened_size(path, &placed)?;
+    let placed = gpu_instancing::expand(&document, &json_bytes, &buffers, placed).map_err(fail)?;
     // Nodes in visiting order (parents first), by their index in the file.
     let mut at = vec![u32::MAX; document.nodes().len()];
     let mut hierarchy = Hierarchy::default();
@@ -99,25 +112,23 @@ pub fn load(path: &Path) -> Result<Loaded> {
         decoded: None,
     };
     let mut loaded = Loaded {
-        meshes: Vec::new(),
-        textures: Vec::new(),
-        lightmap_uvs: Vec::new(),
-        tangents: Vec::new(),
-        digest: 0,
-        warnings: Vec::new(),
         hierarchy,
+        ..Loaded::default()
     };
-    if document
-        .extensions_used()
-        .any(|e| e == "EXT_mesh_gpu_instancing")
-    {
-        loaded.warnings.push(
-            "EXT_mesh_gpu_instancing is not read yet: each instanced node bakes its mesh once, \
-             at the node, without the instances"
-                .into(),
-        );
-    }
-    for (node, mesh, world) in placed {
+    let instanced = instancing::choose(&placed, &loaded.hierarchy, &at, instancing);
+    check_flattened_size(path, &placed, &instanced)?;
+    let mut seen = HashMap::new();
+    for ((node, mesh, world), instance) in placed.into_iter().zip(instanced) {
+        if instance {
+            let mut read = |primitive: &gltf::Primitive, name: String| {
+                let mut scratch = Loaded::default();
+                reader.read(primitive, name, Mat4::IDENTITY, &mut scratch)?;
+                Ok(scratch.meshes.pop())
+            };
+            let instances = &mut loaded.instances;
+            instancing::place(&node, &mesh, world, &mut read, &mut seen, instances)?;
+            continue;
+        }
         let primitive_count = mesh.primitives().len();
         for primitive in mesh.primitives() {
             let name = object_name(&node, &mesh, primitive.index(), primitive_count);
@@ -176,26 +187,6 @@ fn parse(path: &Path, bytes: &[u8]) -> Result<(gltf::Document, Option<Vec<u8>>, 
 fn prt_receive(extras: &gltf::json::Extras) -> Option<bool> {
     let value: serde_json::Value = serde_json::from_str(extras.as_ref()?.get()).ok()?;
     value.get("prt")?.get("receive")?.as_bool()
-}
-
-/// An object's name: its node's, as DCC tools and engines name objects (Blender's object
-/// name; its mesh datablock may be called something else, "Plane" for a floor), else its
-/// mesh's, else "node N"; a primitive's index is appended where the mesh has several.
-fn object_name(
-    node: &gltf::Node,
-    mesh: &gltf::Mesh,
-    primitive: usize,
-    primitives: usize,
-) -> String {
-    let base = node
-        .name()
-        .or(mesh.name())
-        .map(str::to_string)
-        .unwrap_or_else(|| format!("node {}", node.index()));
-    match primitives {
-        1 => base,
-        _ => format!("{base}/{primitive}"),
-    }
 }
 
 /// Turns primitives into meshes, carrying what is shared between them: the digest, and the
@@ -552,40 +543,6 @@ fn flatten<'a>(
         }
     }
     Ok((out, visited, parent))
-}
-
-/// Bytes a flattened vertex and triangle take while a scene loads: position, normal and
-/// uv in the primitive read and again in the scene, the computed normals, the material index;
-/// a triangle's indices, before and after the world transform.
-const FLATTENED_VERTEX_BYTES: u64 = 2 * (12 + 12 + 8) + 12 + 4;
-const FLATTENED_TRIANGLE_BYTES: u64 = 2 * 12;
-
-/// Refuses, before any mesh is read, a scene whose flattened geometry would not fit the
-/// memory limit: every mesh node is a copy of its mesh in world space, so a file of a few
-/// megabytes that places one mesh at a million nodes asks for gigabytes.
-fn check_flattened_size(path: &Path, placed: &[(gltf::Node, gltf::Mesh, Mat4)]) -> Result<()> {
-    let (mut vertices, mut triangles) = (0u64, 0u64);
-    for (_, mesh, _) in placed {
-        for primitive in mesh.primitives() {
-            let count = primitive
-                .get(&gltf::Semantic::Positions)
-                .map_or(0, |a| a.count()) as u64;
-            let indices = primitive.indices().map_or(count, |a| a.count() as u64);
-            vertices = vertices.saturating_add(count);
-            triangles = triangles.saturating_add(indices / 3);
-        }
-    }
-    let needed = vertices
-        .checked_mul(FLATTENED_VERTEX_BYTES)
-        .and_then(|v| v.checked_add(triangles.checked_mul(FLATTENED_TRIANGLE_BYTES)?));
-    crate::support::limits::check(
-        path.display().to_string(),
-        &format!(
-            "flattening {} mesh nodes into {vertices} vertices and {triangles} triangles",
-            placed.len()
-        ),
-        needed,
-    )
 }
 
 /// What [`flatten`] returns: the mesh nodes with their world transforms, every node visited

@@ -35,6 +35,7 @@ use obvhs::traverse;
 
 use self::node::{BoxRay, ChildBoxes, traversal_mask};
 use self::triangle::{ScaledHit, Triangle};
+use super::instances::TopLevel;
 use super::tracer::{Backend, Hit, Ray, Tracer};
 use crate::scene::{Cutouts, Scene};
 
@@ -60,14 +61,32 @@ pub struct ObvhsTracer {
     triangles: Vec<Triangle>,
     /// The scene's cut-out triangles, whose hits pass the alpha test or are ignored.
     cutouts: Option<Cutouts>,
+    /// The scene's instances ([`Scene::instances`]), traced after its own triangles.
+    instances: Option<TopLevel<ObvhsTracer>>,
 }
 
 impl ObvhsTracer {
     /// Builds the BVH. Never fails: obvhs needs no device and accepts any triangle soup.
     pub fn new(scene: &Scene, options: ObvhsOptions) -> ObvhsTracer {
-        let corners = |t: &[u32; 3]| t.map(|i| Vec3A::from(scene.positions[i as usize]));
-        let soup: Vec<obvhs::triangle::Triangle> = scene
-            .triangles
+        let mut tracer =
+            ObvhsTracer::of_triangles(&scene.positions, &scene.triangles, scene.cutouts(), options);
+        if !scene.instances.is_empty() {
+            tracer.instances = Some(TopLevel::new(&scene.instances, |mesh| {
+                ObvhsTracer::of_triangles(&mesh.positions, &mesh.triangles, None, options)
+            }));
+        }
+        tracer
+    }
+
+    /// A tracer of a triangle list (a scene's, or an instance mesh's).
+    fn of_triangles(
+        positions: &[Vec3],
+        triangles: &[[u32; 3]],
+        cutouts: Option<Cutouts>,
+        options: ObvhsOptions,
+    ) -> ObvhsTracer {
+        let corners = |t: &[u32; 3]| t.map(|i| Vec3A::from(positions[i as usize]));
+        let soup: Vec<obvhs::triangle::Triangle> = triangles
             .iter()
             .map(|t| {
                 let [v0, v1, v2] = corners(t);
@@ -79,14 +98,15 @@ impl ObvhsTracer {
             .primitive_indices
             .iter()
             .map(|&i| {
-                let [v0, v1, v2] = corners(&scene.triangles[i as usize]);
+                let [v0, v1, v2] = corners(&triangles[i as usize]);
                 Triangle::new(v0, v1, v2)
             })
             .collect();
         ObvhsTracer {
             bvh,
             triangles,
-            cutouts: scene.cutouts(),
+            cutouts,
+            instances: None,
         }
     }
 
@@ -137,6 +157,7 @@ impl ObvhsTracer {
             let barycentric = |x: f32| if hit.uvw == 0.0 { 0.0 } else { x / hit.uvw };
             Hit {
                 triangle: self.bvh.primitive_indices[slot as usize],
+                instance: None,
                 u: barycentric(hit.u),
                 v: barycentric(hit.v),
                 t: hit.t / hit.den,
@@ -152,10 +173,15 @@ impl Tracer for ObvhsTracer {
     }
 
     fn occluded(&self, rays: &[Ray], occluded: &mut [bool]) {
-        let rays = rays
+        let boxed = rays
             .iter()
             .map(|r| BoxRay::new(r.origin.into(), r.dir.into(), r.tfar));
-        self.blocked_in_packets(rays, None, occluded);
+        self.blocked_in_packets(boxed, None, occluded);
+        if let Some(top) = &self.instances {
+            for (o, r) in occluded.iter_mut().zip(rays) {
+                *o = *o || top.occluded(r);
+            }
+        }
     }
 
     fn occluded_from(&self, origin: Vec3, dirs: &[Vec3], occluded: &mut [bool]) {
@@ -163,12 +189,26 @@ impl Tracer for ObvhsTracer {
             .iter()
             .map(|&d| BoxRay::new(origin.into(), d.into(), f32::INFINITY));
         self.blocked_in_packets(rays, Some(origin.into()), occluded);
+        if let Some(top) = &self.instances {
+            for (o, &dir) in occluded.iter_mut().zip(dirs) {
+                *o = *o
+                    || top.occluded(&Ray {
+                        origin,
+                        dir,
+                        tfar: f32::INFINITY,
+                    });
+            }
+        }
     }
 
     fn intersect(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
         assert_eq!(rays.len(), hits.len());
         for (h, r) in hits.iter_mut().zip(rays) {
             *h = self.closest_hit(BoxRay::new(r.origin.into(), r.dir.into(), r.tfar));
+            if let Some(top) = &self.instances {
+                let tfar = h.map_or(r.tfar, |h| h.t);
+                *h = top.closest_hit(&Ray { tfar, ..*r }).or(*h);
+            }
         }
     }
 }
