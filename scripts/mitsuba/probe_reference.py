@@ -93,9 +93,10 @@ def run(cmd):
 def bake(args, points, out, bounces, seed):
     """Ẽ/π per probe, axis and channel (P, 6, 3) of a probe bake under the white sky."""
     prt = f"{out}.prt"
+    extra = ["--bounces", str(bounces)] if args.mode == "interreflected" else []
     run([args.prt_bake, "bake", args.scene, "-o", prt, "--probes", points, "--order",
-         str(ORDER), "--mode", args.mode, "--bounces", str(bounces), "--samples",
-         str(args.samples), "--seed", str(seed), "--quiet"])
+         str(ORDER), "--mode", args.mode, "--samples", str(args.samples), "--seed", str(seed),
+         "--quiet"] + extra)
     run([args.prt_bake, "export", prt, "--scene", args.scene, "--npz", f"{out}.npz"])
     m = np.load(f"{out}.npz")["probe_transfer"]  # (P, C, 9, 9)
     incident = m[:, :, :, 0] * SQRT_4PI  # the sky's L: √(4π) in coefficient 0
@@ -125,7 +126,8 @@ def reference(mi, dr, geometry, points, paths, max_bounces, seed):
     # Uniform directions over the sphere from the probe.
     u1, u2 = rng.next_float32(), rng.next_float32()
     z = 1.0 - 2.0 * u1
-    r = dr.sqrt(4.0 * u1 * (1.0 - u1))  # √(1 − z²) without max(), which this LLVM cannot select
+    # √(1 − z²) without max(), which this LLVM cannot select.
+    r = dr.sqrt(4.0 * u1 * (1.0 - u1))
     s, c = dr.sincos(2.0 * math.pi * u2)
     first = mi.Vector3f(r * c, r * s, z)
     origin = mi.Point3f(np.repeat(points, paths, axis=0).astype(np.float32).T)
@@ -177,8 +179,8 @@ def main():
     ap.add_argument("--prt-bake", default=os.path.join(ROOT, "target/release/prt-bake"))
     ap.add_argument("--scene", default=os.path.join(ROOT, "scenes/cornell/cornell.scene"))
     ap.add_argument("--out", default=os.path.join(ROOT, "target/probe-mitsuba"))
-    ap.add_argument("--paths", type=int, default=1 << 18, help="reference paths per probe")
-    ap.add_argument("--samples", type=int, default=8192, help="rays per probe (--samples)")
+    ap.add_argument("--paths", type=int, default=1 << 17, help="reference paths per probe")
+    ap.add_argument("--samples", type=int, default=4096, help="rays per probe (--samples)")
     ap.add_argument("--bounces", default="1,3")
     ap.add_argument("--mode", default="interreflected", choices=["interreflected", "shadowed"])
     ap.add_argument("--variant", default="llvm_ad_rgb")
