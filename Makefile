@@ -31,6 +31,8 @@ NO_EMBREE_BAKE := $(NO_EMBREE)/release/prt-bake
 
 # make mitsuba-subsurface: subsurface transfer against Mitsuba 3's volpath on fresh references
 .PHONY: mitsuba-subsurface
+# make mitsuba-probes: interreflected transfer probes against Mitsuba 3 on fresh references
+.PHONY: mitsuba-probes
 .PHONY: demo test bench bench-view deps build lint unit no-embree embree4 reference interop scenes slurm fuzz browser mitsuba blender web
 
 deps:
@@ -151,6 +153,7 @@ test: lint unit no-embree embree4 reference interop slurm browser mitsuba blende
 # (a line of its own, so that other additions to make test merge without conflict)
 test: blender-addon
 test: mitsuba-subsurface
+test: mitsuba-probes
 
 bench: deps
 	$(CARGO) bench -p prt-baker --bench bake
@@ -189,3 +192,9 @@ scenes:
 # of `make mitsuba`, then tests/subsurface.rs against them (part of make test, about 30 s).
 mitsuba-subsurface: build
 	scripts/mitsuba/subsurface.sh
+
+# Transfer probes (docs/probes.md) against Mitsuba 3: four probes in the Cornell room under a
+# white sky, order-3 band-limited irradiance at ±x, ±y, ±z, 1 and 3 bounces, against diffuse
+# paths traced on Mitsuba's rays in the venv of `make mitsuba` (part of make test, about 15 s).
+mitsuba-probes: build
+	scripts/mitsuba/probes.sh
