@@ -7,6 +7,12 @@
 #                    against the npz export, the EXR export against it (part of make test)
 #   make mitsuba     interreflected vertex and texel bakes against Mitsuba 3, a path tracer
 #                    (part of make test, 30 s to 2 min; docs/lightmaps.md)
+#   make mitsuba-subsurface  subsurface transfer against Mitsuba 3's volumetric path tracer
+#                    (part of make test, about 30 s; docs/subsurface.md)
+#   make mitsuba-probes  interreflected transfer probes against Mitsuba 3 in the Cornell room
+#                    (part of make test, about 15 s; docs/probes.md)
+#   make no-embree-full  every prt-baker test in the build without Embree (make test runs the
+#                    unit tests and the baking command-line tests there)
 #   make blender     a Blender glTF with per-object lightmap UVs against Cycles' AO bake
 #                    (part of make test, about 30 s after a 373 MB install; docs/lightmaps.md)
 #   make blender-addon  the Blender add-on (runtime/blender/prt_bake): installed from its zip,
