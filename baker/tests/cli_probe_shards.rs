@@ -54,6 +54,13 @@ fn merged_probe_shards_are_the_whole_bake_shadowed_and_interreflected() {
             "{mode}: the merged probe file differs from the whole bake"
         );
     }
+    let inspect = s.run(&["inspect", "out/shadowed-1.part.prt"]).success();
+    let json: serde_json::Value = serde_json::from_str(&inspect.stdout).unwrap();
+    assert_eq!(json["shard"]["first_vertex"], 2, "{json}");
+    assert_eq!(
+        json["probes"]["grid"]["counts"],
+        serde_json::json!([3, 2, 1])
+    );
     // A shard baked through checkpoint blocks is the same part.
     let args = with(&[
         "--shard",
