@@ -54,6 +54,21 @@ fn merged_probe_shards_are_the_whole_bake_shadowed_and_interreflected() {
             "{mode}: the merged probe file differs from the whole bake"
         );
     }
+    // More shards than probes: the empty parts merge too.
+    let mut args = vec![
+        "merge".to_string(),
+        "--quiet".into(),
+        "-o".into(),
+        "out/8.prt".into(),
+    ];
+    for k in 0..8 {
+        let shard = format!("{k}/8");
+        s.bake(CORNELL, &format!("8-{k}.prt"), &with(&["--shard", &shard]));
+        args.push(format!("out/8-{k}.prt"));
+    }
+    s.run(&args.iter().map(String::as_str).collect::<Vec<_>>())
+        .success();
+    assert!(s.read("out/8.prt") == s.read("out/shadowed.prt"));
     let inspect = s.run(&["inspect", "out/shadowed-1.part.prt"]).success();
     let json: serde_json::Value = serde_json::from_str(&inspect.stdout).unwrap();
     assert_eq!(json["shard"]["first_vertex"], 2, "{json}");
