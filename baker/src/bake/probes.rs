@@ -226,6 +226,10 @@ impl ProbeBaker<'_> {
     /// The matrices of probes `range`, `coefficients[((p · channels + c) · n² + i) · n² + j]`
     /// from the range's start, and the rays their own passes cast.
     pub fn bake(&self, range: Range<usize>, progress: &dyn Progress) -> Result<(Vec<f32>, u64)> {
+        if range.is_empty() {
+            // A shard of no probes (more shards than probes) needs no vertex pass either.
+            return Ok((Vec::new(), 0));
+        }
         let light = self.light(progress)?;
         let hemispheres = 2 * range.start..2 * range.end;
         let pass = crate::bake::matrix::matrix_pass(
