@@ -153,22 +153,58 @@ pub(crate) fn bake_range(
 pub(crate) fn bake_range_of(
     scene: &Scene,
     tracer: &dyn Tracer,
-    (corners, vertex_options): (&Estimator, &BakeOptions),
+    vertices: (&Estimator, &BakeOptions),
     estimator: &Estimator,
     receivers: std::ops::Range<usize>,
     progress: &dyn Progress,
 ) -> Result<MatrixBounced> {
-    let options = &estimator.options;
+    let prepared = prepare_light(scene, tracer, vertices, &estimator.options, progress)?;
+    let pass = matrix_pass(
+        estimator,
+        Some(tracer),
+        Some(&prepared.light),
+        receivers.clone(),
+        progress,
+    );
+    let rays = u64::from(estimator.options.samples) * receivers.len() as u64;
+    Ok(MatrixBounced {
+        coefficients: pass.coefficients,
+        channels: prepared.light.channels,
+        visibility: pass.visibility,
+        rays_cast: prepared.rays + rays,
+        hit_cache_bytes: prepared.hit_cache_bytes,
+    })
+}
+
+/// What a matrix bake's bounce rays read (T^{B−1} at every vertex), ready for passes over
+/// any receivers: a probe bake in blocks or shards computes it once per run, not per block.
+pub(crate) struct PreparedLight<'a> {
+    pub light: BounceLight<'a>,
+    /// Rays the vector pass cast (re-traced bounces included).
+    pub rays: u64,
+    pub hit_cache_bytes: Option<u64>,
+}
+
+/// The vector pass over the vertices with `vertex_options` and the light its result gives
+/// to receivers baked with `options`; `corners` (an estimator over the vertices) tests the
+/// corners of hit triangles.
+pub(crate) fn prepare_light<'a>(
+    scene: &'a Scene,
+    tracer: &'a dyn Tracer,
+    (corners, vertex_options): (&'a Estimator, &BakeOptions),
+    options: &BakeOptions,
+    progress: &dyn Progress,
+) -> Result<PreparedLight<'a>> {
+    const VERTICES: &BounceTargets<'static> = &BounceTargets::Vertices;
     let previous = previous_bounces(scene, tracer, vertex_options, progress)?;
-    let targets = BounceTargets::Vertices;
     let n = crate::math::sh::coeff_count(options.order);
     let channels = if albedo_is_grey(scene) { 1 } else { 3 };
     let bounce_samples = options.effective_bounce_samples() as usize;
     let light = BounceLight {
         rows: JobRows::new(
             scene,
-            &targets,
-            std::sync::Arc::new(Embedded::new(scene, &targets)),
+            VERTICES,
+            std::sync::Arc::new(Embedded::new(scene, VERTICES)),
         ),
         probe: corners.corner_probe(tracer),
         previous: previous.transfer,
@@ -179,13 +215,9 @@ pub(crate) fn bake_range_of(
         bounce_samples,
         norm: std::f64::consts::TAU / bounce_samples as f64,
     };
-    let rays = u64::from(options.samples) * receivers.len() as u64;
-    let pass = matrix_pass(estimator, Some(tracer), Some(&light), receivers, progress);
-    Ok(MatrixBounced {
-        coefficients: pass.coefficients,
-        channels,
-        visibility: pass.visibility,
-        rays_cast: previous.rays + rays,
+    Ok(PreparedLight {
+        light,
+        rays: previous.rays,
         hit_cache_bytes: previous.hit_cache_bytes,
     })
 }

@@ -34,8 +34,14 @@ fn fibonacci_sphere(count: usize) -> Vec<Vec3> {
 }
 
 /// Per probe, the fraction of its classification rays that hit a back face (0 with no
-/// tracer: an unshadowed bake knows nothing of the geometry).
-pub fn backface_fractions(tracer: Option<&dyn Tracer>, seed: u64, positions: &[Vec3]) -> Vec<f32> {
+/// tracer: an unshadowed bake knows nothing of the geometry). `positions` are the bake's
+/// probes from index `first` (a shard's or a checkpoint block's), whose rotations they take.
+pub fn backface_fractions(
+    tracer: Option<&dyn Tracer>,
+    seed: u64,
+    positions: &[Vec3],
+    first: usize,
+) -> Vec<f32> {
     let Some(tracer) = tracer else {
         return vec![0.0; positions.len()];
     };
@@ -47,7 +53,7 @@ pub fn backface_fractions(tracer: Option<&dyn Tracer>, seed: u64, positions: &[V
             || (Vec::with_capacity(CLASSIFY_RAYS), vec![None; CLASSIFY_RAYS]),
             |(dirs, hits), (p, &origin)| {
                 let angle = std::f32::consts::TAU
-                    * to_unit_float(vertex_seed(seed ^ 0x0bac_face, p as u64) as u32);
+                    * to_unit_float(vertex_seed(seed ^ 0x0bac_face, (first + p) as u64) as u32);
                 let turn = glam::Quat::from_rotation_z(angle);
                 dirs.clear();
                 dirs.extend(lattice.iter().map(|d| turn * *d));

@@ -19,11 +19,15 @@
 //! it ([`crate::bake::matrix_bounce`]); a back face (the probe is inside or behind geometry)
 //! brings nothing.
 
+use std::ops::Range;
 use std::path::PathBuf;
 
 use glam::Vec3;
 
 use crate::bake::estimator::Estimator;
+use crate::bake::interreflection::albedo_is_grey;
+use crate::bake::matrix_bounce::PreparedLight;
+use crate::bake::matrix_hits::BounceLight;
 use crate::bake::options::{BakeOptions, Mode, TransferKind};
 use crate::bake::receivers::Receivers;
 use crate::bake::transfer::{Baked, Transfer, tracer_for};
@@ -166,6 +170,128 @@ fn probe_receivers(positions: &[Vec3]) -> Receivers {
     }
 }
 
+/// A probe bake ready to bake any range of its probes (the whole bake, a shard, a
+/// checkpoint block). A probe's matrix depends only on its index, its position, the scene
+/// and the options, so ranges baked apart join into the whole bake's bytes. In interreflected
+/// mode the light the bounce rays read is baked on the first call, once per run, and not at
+/// all by a run that bakes nothing (a checkpoint whose blocks are all done).
+pub struct ProbeBaker<'a> {
+    scene: &'a Scene,
+    estimator: Estimator,
+    tracer: Option<&'a dyn Tracer>,
+    /// Interreflected mode: the vertices' estimator the bounce hits read corners with.
+    corners: Option<&'a Estimator>,
+    light: std::cell::OnceCell<PreparedLight<'a>>,
+    channels: usize,
+    /// Matrix options, as recorded in the file.
+    pub options: BakeOptions,
+}
+
+impl ProbeBaker<'_> {
+    /// Transfer channels: three in interreflected mode unless every albedo is grey.
+    pub fn channels(&self) -> usize {
+        self.channels
+    }
+
+    /// Rays cast by the vertex pass the bounces read (0 until it ran, or where none runs).
+    pub fn prepared_rays(&self) -> u64 {
+        self.light.get().map_or(0, |l| l.rays)
+    }
+
+    pub fn tracer(&self) -> Option<&dyn Tracer> {
+        self.tracer
+    }
+
+    pub fn backend(&self) -> Backend {
+        self.tracer.map_or(Backend::None, |t| t.backend())
+    }
+
+    /// The light bounce rays read, baked on first use.
+    fn light(&self, progress: &dyn Progress) -> Result<Option<&BounceLight<'_>>> {
+        let (Some(tracer), Some(corners)) = (self.tracer, self.corners) else {
+            return Ok(None);
+        };
+        if self.light.get().is_none() {
+            let prepared = crate::bake::matrix_bounce::prepare_light(
+                self.scene,
+                tracer,
+                (corners, &self.options),
+                &self.estimator.options,
+                progress,
+            )?;
+            let _ = self.light.set(prepared);
+        }
+        Ok(self.light.get().map(|l| &l.light))
+    }
+
+    /// The matrices of probes `range`, `coefficients[((p · channels + c) · n² + i) · n² + j]`
+    /// from the range's start, and the rays their own passes cast.
+    pub fn bake(&self, range: Range<usize>, progress: &dyn Progress) -> Result<(Vec<f32>, u64)> {
+        if range.is_empty() {
+            // A shard of no probes (more shards than probes) needs no vertex pass either.
+            return Ok((Vec::new(), 0));
+        }
+        let light = self.light(progress)?;
+        let hemispheres = 2 * range.start..2 * range.end;
+        let pass = crate::bake::matrix::matrix_pass(
+            &self.estimator,
+            self.tracer,
+            light,
+            hemispheres,
+            progress,
+        );
+        let samples = u64::from(self.estimator.options.samples);
+        let rays = self.tracer.map_or(0, |_| samples * 2 * range.len() as u64);
+        let width = self.channels * self.options.transfer.floats_per_channel(self.options.order);
+        let coefficients = pass
+            .coefficients
+            .chunks_exact(2 * width)
+            .flat_map(|pair| {
+                let (up, down) = pair.split_at(width);
+                up.iter().zip(down).map(|(u, d)| u + d)
+            })
+            .collect();
+        Ok((coefficients, rays))
+    }
+}
+
+/// Runs `then` with a [`ProbeBaker`] for the probes at `positions` in `scene`. `tracer` may
+/// be `None` only in unshadowed mode (M = I up to quadrature).
+pub fn with_baker<T>(
+    scene: &Scene,
+    tracer: Option<&dyn Tracer>,
+    options: &BakeOptions,
+    positions: &[Vec3],
+    then: impl FnOnce(&ProbeBaker) -> Result<T>,
+) -> Result<T> {
+    let options = BakeOptions {
+        transfer: TransferKind::Matrix,
+        ..options.clone()
+    };
+    options.validate()?;
+    check(&options)?;
+    let tracer = tracer_for(&options, tracer)?;
+    let half = hemisphere_options(&options);
+    let estimator = Estimator::for_receivers(probe_receivers(positions), &half)?;
+    let corners = match tracer {
+        Some(_) if options.mode == Mode::Interreflected => Some(Estimator::new(scene, &options)?),
+        _ => None,
+    };
+    let channels = match (&corners, albedo_is_grey(scene)) {
+        (Some(_), false) => 3,
+        _ => 1,
+    };
+    then(&ProbeBaker {
+        scene,
+        estimator,
+        tracer,
+        corners: corners.as_ref(),
+        light: std::cell::OnceCell::new(),
+        channels,
+        options,
+    })
+}
+
 /// Bakes the probes at `positions` in `scene`: a [`Transfer`] whose receivers are the probes,
 /// `coefficients[((p · channels + c) · n² + i) · n² + j]`, and `options` with
 /// `transfer = Matrix` (as recorded in the file). `tracer` may be `None` only in unshadowed
@@ -177,60 +303,24 @@ pub fn bake(
     positions: &[Vec3],
     progress: &dyn Progress,
 ) -> Result<Transfer> {
-    let options = BakeOptions {
-        transfer: TransferKind::Matrix,
-        ..options.clone()
-    };
-    options.validate()?;
-    check(&options)?;
-    let tracer = tracer_for(&options, tracer)?;
     let started = std::time::Instant::now();
-    let half = hemisphere_options(&options);
-    let receivers = probe_receivers(positions);
-    let count = receivers.len();
-    let estimator = Estimator::for_receivers(receivers, &half)?;
-    let (hemispheres, channels, rays_cast) = match tracer {
-        Some(tracer) if options.mode == Mode::Interreflected => {
-            let corners = Estimator::new(scene, &options)?;
-            let bounced = crate::bake::matrix_bounce::bake_range_of(
-                scene,
-                tracer,
-                (&corners, &options),
-                &estimator,
-                0..count,
-                progress,
-            )?;
-            (bounced.coefficients, bounced.channels, bounced.rays_cast)
-        }
-        _ => {
-            let pass =
-                crate::bake::matrix::matrix_pass(&estimator, tracer, None, 0..count, progress);
-            let rays = tracer.map_or(0, |_| u64::from(half.samples) * count as u64);
-            (pass.coefficients, 1, rays)
-        }
-    };
-    let width = channels * options.transfer.floats_per_channel(options.order);
-    let coefficients = hemispheres
-        .chunks_exact(2 * width)
-        .flat_map(|pair| {
-            let (up, down) = pair.split_at(width);
-            up.iter().zip(down).map(|(u, d)| u + d)
-        })
-        .collect();
-    let baked = Baked {
-        coefficients,
-        channels,
-        visibility: Vec::new(),
-        rays_cast,
-        hit_cache_bytes: None,
-    };
-    Ok(Transfer::from_direct(
-        &options,
-        tracer.map_or(Backend::None, |t| t.backend()),
-        positions.len(),
-        baked,
-        started.elapsed().as_secs_f64(),
-    ))
+    with_baker(scene, tracer, options, positions, |baker| {
+        let (coefficients, rays) = baker.bake(0..positions.len(), progress)?;
+        let baked = Baked {
+            coefficients,
+            channels: baker.channels(),
+            visibility: Vec::new(),
+            rays_cast: baker.prepared_rays() + rays,
+            hit_cache_bytes: None,
+        };
+        Ok(Transfer::from_direct(
+            &baker.options,
+            baker.backend(),
+            positions.len(),
+            baked,
+            started.elapsed().as_secs_f64(),
+        ))
+    })
 }
 
 impl CoefficientFile {
@@ -244,7 +334,7 @@ impl CoefficientFile {
     ) -> CoefficientFile {
         let seed = transfer.options.seed;
         probes.backfaces =
-            crate::bake::probe_validity::backface_fractions(tracer, seed, &probes.positions);
+            crate::bake::probe_validity::backface_fractions(tracer, seed, &probes.positions, 0);
         let mut file = CoefficientFile::from_bake(scene, transfer);
         file.probes = Some(probes);
         file

@@ -162,7 +162,7 @@ pub struct BakeArgs {
     /// matrix of the radiance arriving from the whole sphere, --samples rays per probe.
     /// POINTS.txt (one `x y z` a line), or grid:NX,NY,NZ over the scene's bounds (cell
     /// centres), or grid:NX,NY,NZ:X0,Y0,Z0,X1,Y1,Z1 over a box of its own.
-    #[arg(long, value_name = "POINTS.txt|grid:NX,NY,NZ", conflicts_with_all = ["lightmap", "shard", "checkpoint", "clusters", "pcs", "target_error"])]
+    #[arg(long, value_name = "POINTS.txt|grid:NX,NY,NZ", conflicts_with_all = ["lightmap", "clusters", "pcs", "target_error"])]
     probes: Option<String>,
 }
 
@@ -344,6 +344,7 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
             &scene,
             tracer,
             &options,
+            (shard, args.checkpoint.as_deref(), args.checkpoint_vertices),
             progress.as_ref(),
         );
     }

@@ -3,6 +3,7 @@
 use std::path::Path;
 
 use prt_baker::bake::adaptive::Summary;
+use prt_baker::distribute::probe_parts::ProbePart;
 use prt_baker::distribute::shard::{Part, PartId};
 use prt_baker::formats::coefficient_file::LightmapBlock;
 use prt_baker::formats::cpca_block::annotate_inspect;
@@ -14,7 +15,21 @@ pub fn run(path: &Path) -> Result<(), Error> {
     let bytes = limits::read_file(path)?;
     let is_part =
         bytes.len() >= HEADER_SIZE && matches!(PartId::from_header_bytes(&bytes), Ok(Some(_)));
-    let json = if is_part {
+    let json = if ProbePart::is_probe_part(&bytes) {
+        // A probe bake's part: its header, the shard and probes it holds, the bake's grid.
+        let part = ProbePart::read(path)?;
+        let mut json = serde_json::to_value(&part.header).expect("the header serialises");
+        json["shard"] = serde_json::to_value(part.id).expect("the identity serialises");
+        json["probes"] = serde_json::json!({ "count": part.header.vertex_count });
+        if let Some(g) = &part.grid {
+            json["probes"]["grid"] = serde_json::json!({
+                "counts": g.counts,
+                "lo": g.lo.to_array(),
+                "hi": g.hi.to_array(),
+            });
+        }
+        json
+    } else if is_part {
         // A shard part: its header, plus which shard and vertices it holds.
         let part = Part::read(path)?;
         let mut json = serde_json::to_value(&part.header).expect("the header serialises");

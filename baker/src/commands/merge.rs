@@ -26,9 +26,10 @@ pub fn run(args: MergeArgs) -> Result<(), Error> {
     let progress = super::progress(args.quiet);
     let file = merge(parts, progress.as_ref())?;
     output_policy.write(&file.to_bytes().0)?;
-    let what = match &file.lightmap {
-        Some(l) => format!("{}×{} texels", l.width, l.height),
-        None => format!("{} vertices", file.header.vertex_count),
+    let what = match (&file.lightmap, &file.probes) {
+        (Some(l), _) => format!("{}×{} texels", l.width, l.height),
+        (None, Some(_)) => format!("{} probes", file.header.vertex_count),
+        (None, None) => format!("{} vertices", file.header.vertex_count),
     };
     println!(
         "merged {} parts, {what}, {:.2} s -> {}",

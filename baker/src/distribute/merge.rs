@@ -26,6 +26,9 @@ pub fn merge(paths: &[PathBuf], progress: &dyn Progress) -> Result<CoefficientFi
     let first_path = paths
         .first()
         .ok_or_else(|| Error::InvalidOption("merge needs at least one part".into()))?;
+    if crate::distribute::probe_shards::is_probe_part(first_path)? {
+        return crate::distribute::probe_shards::merge(paths);
+    }
     let mut parts = Vec::with_capacity(paths.len());
     for path in paths {
         let mut part = Part::read(path)?;

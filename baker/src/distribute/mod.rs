@@ -1,6 +1,7 @@
 //! Bakes that outgrow one run: [`shard`] parts baked on many machines ([`part_baker`]),
 //! [`checkpoint`] blocks that survive a kill, and the [`merge`] that joins parts into the very
-//! file one machine would have written; vertex and texel bakes alike ([`lightmap_parts`]).
+//! file one machine would have written; vertex, texel and probe bakes alike
+//! ([`lightmap_parts`], [`probe_parts`]).
 //!
 //! May import: [`crate::support`], [`crate::math`], [`crate::scene`], [`crate::trace`],
 //! [`crate::formats`], [`crate::bake`].
@@ -9,4 +10,6 @@ pub mod checkpoint;
 pub mod lightmap_parts;
 pub mod merge;
 pub mod part_baker;
+pub mod probe_parts;
+pub mod probe_shards;
 pub mod shard;

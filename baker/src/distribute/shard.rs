@@ -195,6 +195,9 @@ impl Part {
         let mut lightmap = match header_size {
             HEADER_SIZE => None,
             LIGHTMAP_PART_HEADER_SIZE => Some(PartLightmap::from_block(bytes, &header)?),
+            header::PROBE_HEADER_SIZE => {
+                return Err("a probe bake's part, not a vertex or texel bake's".into());
+            }
             _ => return Err(format!("header size {header_size} in a shard part")),
         };
         let limit = lightmap

@@ -12,7 +12,7 @@ use crate::formats::header::{HEADER_SIZE, Header, PROBE_HEADER_SIZE, TransferKin
 /// Bytes of the probe block (header bytes 128..176).
 pub const BLOCK_BYTES: usize = PROBE_HEADER_SIZE - HEADER_SIZE;
 /// Bytes per probe after the coefficients: its position and back-face fraction.
-const PROBE_BYTES: u64 = 16;
+pub(crate) const PROBE_BYTES: u64 = 16;
 
 /// What a probe file holds beyond a matrix file.
 #[derive(Clone, Debug, PartialEq)]
@@ -74,19 +74,9 @@ impl ProbeGrid {
 }
 
 impl ProbeBlock {
-    /// The block's 48 bytes: the probe count (u64), the grid's counts (3 × u32) and box
-    /// (6 × f32), all zero for a list of points, and 4 reserved zero bytes.
+    /// The block's 48 bytes ([`encode_block`]).
     pub(crate) fn encode_block(&self) -> Vec<u8> {
-        let mut bytes = (self.positions.len() as u64).to_le_bytes().to_vec();
-        let (counts, lo, hi) = match &self.grid {
-            Some(g) => (g.counts, g.lo, g.hi),
-            None => ([0; 3], Vec3::ZERO, Vec3::ZERO),
-        };
-        bytes.extend(counts.iter().flat_map(|c| c.to_le_bytes()));
-        let corners = lo.to_array().into_iter().chain(hi.to_array());
-        bytes.extend(corners.flat_map(f32::to_le_bytes));
-        bytes.resize(BLOCK_BYTES, 0);
-        bytes
+        encode_block(self.positions.len() as u64, self.grid.as_ref())
     }
 
     /// Whether probe `p` is outside geometry (its back-face fraction at most
@@ -140,21 +130,34 @@ impl ProbeBlock {
     }
 }
 
-/// Checks a probe file's header and block (bytes 128..176) against each other and the
-/// payload's length; returns the grid, if any.
-fn check_block(
-    bytes: &[u8],
-    header: &Header,
-    payload: u64,
+/// A probe block's 48 bytes: the probe count (u64), the grid's counts (3 × u32) and box
+/// (6 × f32), all zero for a list of points, and 4 reserved zero bytes. Shard parts carry
+/// the whole bake's block (`crate::distribute::probe_parts`).
+pub(crate) fn encode_block(count: u64, grid: Option<&ProbeGrid>) -> Vec<u8> {
+    let mut bytes = count.to_le_bytes().to_vec();
+    let (counts, lo, hi) = match grid {
+        Some(g) => (g.counts, g.lo, g.hi),
+        None => ([0; 3], Vec3::ZERO, Vec3::ZERO),
+    };
+    bytes.extend(counts.iter().flat_map(|c| c.to_le_bytes()));
+    let corners = lo.to_array().into_iter().chain(hi.to_array());
+    bytes.extend(corners.flat_map(f32::to_le_bytes));
+    bytes.resize(BLOCK_BYTES, 0);
+    bytes
+}
+
+/// The grid of a block's 48 bytes, checked against its probe count, which must be the
+/// header's `header_count`.
+pub(crate) fn decode_block(
+    block: &[u8],
+    header_count: u64,
 ) -> std::result::Result<Option<ProbeGrid>, String> {
-    let block = &bytes[HEADER_SIZE..PROBE_HEADER_SIZE];
     let u32_at = |o: usize| u32::from_le_bytes(block[o..o + 4].try_into().expect("4 bytes"));
     let f32_at = |o: usize| f32::from_le_bytes(block[o..o + 4].try_into().expect("4 bytes"));
     let count = u64::from_le_bytes(block[..8].try_into().expect("8 bytes"));
-    if count != header.vertex_count {
+    if count != header_count {
         return Err(format!(
-            "the probe block counts {count} probes, the header {}",
-            header.vertex_count
+            "the probe block counts {count} probes, the header {header_count}"
         ));
     }
     if block[44..].iter().any(|&b| b != 0) {
@@ -176,6 +179,18 @@ fn check_block(
             Some(ProbeGrid { counts, lo, hi })
         }
     };
+    Ok(grid)
+}
+
+/// Checks a probe file's header and block (bytes 128..176) against each other and the
+/// payload's length; returns the grid, if any.
+fn check_block(
+    bytes: &[u8],
+    header: &Header,
+    payload: u64,
+) -> std::result::Result<Option<ProbeGrid>, String> {
+    let grid = decode_block(&bytes[HEADER_SIZE..PROBE_HEADER_SIZE], header.vertex_count)?;
+    let count = header.vertex_count;
     if header.transfer != TransferKind::Matrix {
         return Err("a probe bake whose transfer kind is not matrix".into());
     }
