@@ -9,19 +9,9 @@ set -euo pipefail
 
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 cd "$HERE/../.."
-PYTHON="${PYTHON:-python3}"
-VENV="${MITSUBA_VENV:-target/mitsuba-venv}"
 OUT=target/subsurface-references
-
-if ! "$VENV/bin/python" -c 'import mitsuba, numpy' >/dev/null 2>&1; then
-    rm -rf "$VENV"
-    if ! "$PYTHON" -m venv "$VENV" >/dev/null 2>&1 || [ ! -x "$VENV/bin/python" ]; then
-        echo "subsurface.sh: '$PYTHON -m venv' is unavailable (Debian: apt-get install python3-venv)" >&2
-        exit 2
-    fi
-    echo "subsurface.sh: installing Mitsuba 3 and NumPy into $VENV"
-    "$VENV/bin/python" -m pip install --quiet --disable-pip-version-check -r "$HERE/requirements.txt"
-fi
+# shellcheck source=venv.sh
+. "$HERE/venv.sh"
 
 "$VENV/bin/python" "$HERE/subsurface_reference.py" --out "$OUT" --spp 16384 "$@"
 # The meshes are the committed ones: the references must be for the same geometry.
