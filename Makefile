@@ -12,7 +12,7 @@
 #   make mitsuba-probes  interreflected transfer probes against Mitsuba 3 in the Cornell room
 #                    (part of make test, about 15 s; docs/probes.md)
 #   make no-embree-full  every prt-baker test in the build without Embree (make test runs the
-#                    unit tests and the baking command-line tests there)
+#                    baking command-line tests there)
 #   make blender     a Blender glTF with per-object lightmap UVs against Cycles' AO bake
 #                    (part of make test, about 30 s after a 373 MB install; docs/lightmaps.md)
 #   make blender-addon  the Blender add-on (runtime/blender/prt_bake): installed from its zip,
@@ -78,12 +78,12 @@ unit: deps
 	$(CARGO) test --workspace --release
 
 # A build without Embree: embree-sys is not even in the dependency graph (so no Embree headers
-# are needed), the binary does not link libembree, it bakes the demo scene with obvhs, and
-# prt-baker's unit tests and the command-line tests that bake (obvhs is then the default
-# backend) pass. The other test files do not depend on the backend and already ran in `make
-# unit`; `make no-embree-full` runs every prt-baker test in this build (it compiles and links
-# every test binary a second time, which is why make test does not).
-NO_EMBREE_TESTS := --lib --test cli --test cli_lightmap --test cli_receivers --test output_policy
+# are needed), the binary does not link libembree, it bakes the demo scene with obvhs, and the
+# command-line tests that bake (obvhs is then the default backend) pass. The unit tests and the
+# other test files do not depend on the backend and already ran in `make unit`; `make
+# no-embree-full` runs every prt-baker test in this build (it compiles the library's tests and
+# links every test binary a second time, which is why make test does not).
+NO_EMBREE_TESTS := --test cli --test cli_lightmap --test cli_receivers --test output_policy
 no-embree: deps
 	$(CARGO) test --release -p prt-baker --no-default-features --target-dir $(NO_EMBREE) $(NO_EMBREE_TESTS)
 	$(CARGO) build --release -p prt-baker --no-default-features --target-dir $(NO_EMBREE)
