@@ -46,6 +46,25 @@ fn block_path(dir: &Path, index: usize) -> PathBuf {
     dir.join(format!("block-{index:06}.prt"))
 }
 
+/// `range` cut into consecutive blocks of `block` items (vertices or probes), the last one
+/// shorter; an empty range (a shard with nothing to bake) is one empty block.
+pub fn blocks_of(range: &Range<usize>, block: usize) -> Result<Vec<Range<usize>>> {
+    if block == 0 {
+        return Err(Error::InvalidOption(
+            "--checkpoint-vertices must be at least 1".into(),
+        ));
+    }
+    let mut blocks: Vec<Range<usize>> = range
+        .clone()
+        .step_by(block)
+        .map(|start| start..(start + block).min(range.end))
+        .collect();
+    if blocks.is_empty() {
+        blocks.push(range.clone());
+    }
+    Ok(blocks)
+}
+
 /// Bakes `vertices` (shard `shard`'s receivers — vertices or baked texels — or all of them
 /// as shard 0 of 1) in blocks of `block_vertices`, reusing the blocks already in `dir`.
 pub fn bake(
@@ -57,21 +76,8 @@ pub fn bake(
     block_vertices: usize,
     progress: &dyn Progress,
 ) -> Result<Checkpointed> {
-    if block_vertices == 0 {
-        return Err(Error::InvalidOption(
-            "--checkpoint-vertices must be at least 1".into(),
-        ));
-    }
+    let blocks = blocks_of(&vertices, block_vertices)?;
     std::fs::create_dir_all(dir).map_err(|err| Error::io(dir, err))?;
-    let mut blocks: Vec<Range<usize>> = vertices
-        .clone()
-        .step_by(block_vertices)
-        .map(|start| start..(start + block_vertices).min(vertices.end))
-        .collect();
-    if blocks.is_empty() {
-        // A shard of no vertices (more shards than vertices) is one empty block.
-        blocks.push(vertices.clone());
-    }
     let mut done = reuse_blocks(dir, baker, shard, &vertices, &blocks, block_vertices)?;
 
     let reused = done.iter().flatten().count();

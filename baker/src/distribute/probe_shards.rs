@@ -87,20 +87,8 @@ pub fn bake_checkpointed(
     block: usize,
     progress: &dyn Progress,
 ) -> Result<Checkpointed> {
-    if block == 0 {
-        return Err(Error::InvalidOption(
-            "--checkpoint-vertices must be at least 1".into(),
-        ));
-    }
+    let blocks = super::checkpoint::blocks_of(&range, block)?;
     std::fs::create_dir_all(dir).map_err(|err| Error::io(dir, err))?;
-    let mut blocks: Vec<Range<usize>> = range
-        .clone()
-        .step_by(block)
-        .map(|start| start..(start + block).min(range.end))
-        .collect();
-    if blocks.is_empty() {
-        blocks.push(range.clone());
-    }
     let id_of = |b: &Range<usize>| PartId {
         shard,
         first_vertex: b.start as u64,
