@@ -563,6 +563,82 @@ impl<'a> HitRecorder<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::bake::lightmap::{Atlas, texels::Texels};
+    use crate::trace::{ObvhsOptions, ObvhsTracer};
+
+    #[test]
+    fn kept_texel_hits_fold_into_the_row_recording_would_have_folded() {
+        // Hits on the Cornell room's triangles (some on back faces, which add nothing), in
+        // three receivers, with one weight for the first and then a weight per hit: each
+        // receiver's row folded from the kept hits must be, bit for bit, the row folded from
+        // the hits as they came.
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../scenes/cornell/cornell.scene");
+        let scene = Scene::load(&path).unwrap();
+        let atlas = Atlas::generate(&scene, 64, None).unwrap();
+        let texels = Texels::rasterise(&scene, &atlas);
+        let targets = BounceTargets::texels(&atlas, &texels);
+        let embedded = Arc::new(Embedded::new(&scene, &targets));
+        let tracer = ObvhsTracer::new(&scene, ObvhsOptions::default());
+        let probe = CornerProbe {
+            tracer: &tracer,
+            origins: &[],
+            normals: &[],
+            seed: 1,
+        };
+        let mut kept = JobRows::new(&scene, &targets, embedded.clone());
+        let mut rng = Pcg32::new(7, 0);
+        let (mut builder, mut expected) = (RowBuilder::default(), Vec::new());
+        for receiver in 0..3 {
+            kept.begin_vertex();
+            let mut direct = RowBuilder::default();
+            for k in 0..400 {
+                let triangle = rng.next_u32() % scene.triangles.len() as u32;
+                let (u, v) = (rng.next_f32(), rng.next_f32());
+                let (u, v) = if u + v > 1.0 {
+                    (1.0 - u, 1.0 - v)
+                } else {
+                    (u, v)
+                };
+                let hit = Hit {
+                    triangle,
+                    instance: None,
+                    u,
+                    v,
+                    t: 1.0,
+                    ng: Vec3::Z,
+                };
+                let tri = scene.triangles[triangle as usize];
+                let normal = scene.normals[tri[0] as usize];
+                let dir = if k % 5 == 0 { normal } else { -normal };
+                let weight = match receiver {
+                    0 => 4.0,
+                    _ => 0.5 + rng.next_f32(),
+                };
+                kept.record(&hit, dir, weight, &mut builder, &probe);
+                let mut slots = [(0, Vec3::ZERO); 4];
+                let count = kept.front_hit_slots(&hit, dir, weight, &probe, &mut slots);
+                fold(&mut direct, &slots[..count]);
+            }
+            kept.end_vertex(&mut builder);
+            expected.push((direct.touched, direct.sums));
+        }
+        assert_eq!(kept.hit_weights.len(), kept.hits.len(), "per-hit weights");
+        assert!(
+            kept.hits.len() > 900,
+            "front hits kept: {}",
+            kept.hits.len()
+        );
+        for (k, (touched, sums)) in expected.iter().enumerate() {
+            assert!(!touched.is_empty());
+            let (slots, weights) = kept.row(k, &mut builder);
+            assert!(slots == &touched[..], "receiver {k}'s slots differ");
+            let bits = |w: &[[f32; 3]]| -> Vec<[u32; 3]> {
+                w.iter().map(|w| w.map(f32::to_bits)).collect()
+            };
+            assert!(bits(weights) == bits(sums), "receiver {k}'s weights differ");
+        }
+    }
 
     #[test]
     fn a_row_sums_each_slot_in_record_order_and_lists_slots_by_first_touch() {
