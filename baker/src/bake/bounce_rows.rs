@@ -23,7 +23,7 @@ pub const BYTES_PER_ENTRY: u64 = 4 + 3 * 4;
 /// Bytes per cached texel hit ([`JobRows`]): triangle and barycentrics u, v as f32, exactly as
 /// traced, so that the row folded from them in every gather is the one the direct pass would
 /// have folded. A ray's estimator weight adds 4 bytes only where the weights differ
-/// (`--sampling thesis`).
+/// (`--sampling thesis-random`).
 pub const BYTES_PER_HIT: u64 = 4 + 2 * 4;
 
 /// A thread's accumulator for one receiver's bounce row: the slots touched so far in
