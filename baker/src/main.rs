@@ -59,6 +59,10 @@ enum Command {
     /// Merge the shard parts of a bake (`bake --shard`) into the file one machine would have
     /// baked, byte for byte; refuses missing, duplicated or foreign parts (docs/distributed.md).
     Merge(merge::MergeArgs),
+    /// Prepare a texel bake's lightmap once for all its shards: the atlas, the baked texels
+    /// after the leak test and the seam partners, for `bake --shard K/N --prepared FILE` and
+    /// `stitch` (takes `bake`'s options; docs/distributed.md).
+    PrepareLightmap(bake::BakeArgs),
 }
 
 fn main() -> ExitCode {
@@ -82,6 +86,7 @@ fn main() -> ExitCode {
         Command::Relight(args) => relight::run(args),
         Command::Compress(args) => compress::run(args),
         Command::Merge(args) => merge::run(args),
+        Command::PrepareLightmap(args) => bake::run_prepare(args),
     });
     match result {
         Ok(Ok(())) => ExitCode::SUCCESS,

@@ -4,6 +4,7 @@
 
 pub mod bake;
 pub mod bake_media;
+pub mod bake_parts;
 pub mod bake_probes;
 pub mod compress;
 pub mod export;

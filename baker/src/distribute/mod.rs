@@ -10,6 +10,7 @@ pub mod checkpoint;
 pub mod lightmap_parts;
 pub mod merge;
 pub mod part_baker;
+pub mod prepared_file;
 pub mod probe_parts;
 pub mod probe_shards;
 pub mod shard;

@@ -1,0 +1,157 @@
+//! `prt-bake bake --shard / --checkpoint` and `prt-bake prepare-lightmap`: a bake in parts
+//! (docs/distributed.md), and the lightmap preparation its texel shards share.
+
+use prt_baker::bake::lightmap::{self, Prepared};
+use prt_baker::distribute::checkpoint;
+use prt_baker::distribute::part_baker::PartBaker;
+use prt_baker::distribute::prepared_file;
+use prt_baker::distribute::shard::{ShardId, shard_range};
+use prt_baker::support::progress::Progress;
+use prt_baker::trace::Tracer;
+use prt_baker::{BakeOptions, Error, Scene};
+
+use super::bake::{BakeArgs, atlas};
+
+/// A texel bake's preparation: read from `--prepared` (checked against this bake's key), or
+/// computed here; and the tracer watertight for its texels' ray origins.
+fn prepare<'t>(
+    args: &BakeArgs,
+    scene: &Scene,
+    tracer: Option<&'t dyn Tracer>,
+    options: &BakeOptions,
+    resolution: u32,
+    progress: &dyn Progress,
+) -> Result<(Prepared, Option<Box<dyn Tracer + 't>>), Error> {
+    match &args.prepared {
+        Some(path) => {
+            let prepared = prepared_file::read(path, args.prepared_key(scene, options))?;
+            let watertight = match tracer {
+                Some(tracer) => prepared.texels.watertight(scene, tracer)?,
+                None => None,
+            };
+            Ok((prepared, watertight))
+        }
+        None => {
+            let atlas = atlas(args, scene, resolution, progress)?;
+            Ok(lightmap::prepare_traced(
+                scene,
+                tracer,
+                options.seed,
+                atlas,
+            )?)
+        }
+    }
+}
+
+/// `prt-bake prepare-lightmap`: the atlas, the texels after the leak test and the seam
+/// partners, written to `-o` for every shard of the texel bake to read.
+pub(super) fn prepare_lightmap(
+    args: &BakeArgs,
+    scene: &Scene,
+    tracer: Option<&dyn Tracer>,
+    options: &BakeOptions,
+    progress: &dyn Progress,
+) -> Result<(), Error> {
+    let started = std::time::Instant::now();
+    let resolution = args.lightmap.ok_or_else(|| {
+        Error::InvalidOption("prepare-lightmap needs --lightmap RES".into())
+    })?;
+    let atlas = atlas(args, scene, resolution, progress)?;
+    let prepared = lightmap::prepare(scene, tracer, options.seed, atlas)?;
+    prepared_file::write(&args.output, args.prepared_key(scene, options), &prepared)?;
+    if args.verbose {
+        eprintln!("prt-bake: stages: {}", prepared.stages.line());
+    }
+    println!(
+        "prepared {} baked texels of {}×{} ({} moved out, {} left out as leaking), {:.2} s -> {}",
+        prepared.texels.valid_count(),
+        prepared.atlas.width,
+        prepared.atlas.height,
+        prepared.settled.moved,
+        prepared.settled.leaking,
+        started.elapsed().as_secs_f64(),
+        args.output.display()
+    );
+    Ok(())
+}
+
+/// A bake with `--shard` or `--checkpoint`: a part file, or the whole file from checkpoint
+/// blocks.
+pub(super) fn bake_in_parts(
+    args: &BakeArgs,
+    scene: &Scene,
+    tracer: Option<&dyn Tracer>,
+    options: &BakeOptions,
+    shard: Option<ShardId>,
+    progress: &dyn Progress,
+) -> Result<(), Error> {
+    let started = std::time::Instant::now();
+    // A texel bake's parts split its baked texels: every shard reads the prepared lightmap
+    // (or computes the same atlas and leak test), and bakes through a tracer watertight for
+    // the texels, as a whole bake does.
+    let (prepared, watertight);
+    let (baker, noun) = match args.lightmap {
+        None => (PartBaker::vertices(scene, tracer, options)?, "vertices"),
+        Some(resolution) => {
+            (prepared, watertight) = prepare(args, scene, tracer, options, resolution, progress)?;
+            let tracer = watertight.as_deref().or(tracer);
+            let baker = PartBaker::texels(scene, tracer, options, &prepared)?;
+            (baker, "baked texels")
+        }
+    };
+    let vertex_count = baker.receivers();
+    let (id, vertices) = match shard {
+        Some(shard) => (shard, shard_range(vertex_count, shard)),
+        None => (ShardId { index: 0, count: 1 }, 0..vertex_count),
+    };
+    let (part, rays, blocks) = match &args.checkpoint {
+        Some(dir) => {
+            let block_vertices = args
+                .checkpoint_vertices
+                .unwrap_or_else(|| checkpoint::default_block_vertices(options));
+            let done = checkpoint::bake(
+                &baker,
+                options,
+                id,
+                vertices.clone(),
+                dir,
+                block_vertices,
+                progress,
+            )?;
+            let blocks = format!(
+                ", {} blocks ({} resumed from {})",
+                done.blocks,
+                done.reused,
+                dir.display()
+            );
+            (done.part, done.rays, blocks)
+        }
+        None => {
+            let (part, rays) = baker.bake(id, vertices.clone(), progress)?;
+            (part, rays, String::new())
+        }
+    };
+    let what = match shard {
+        Some(shard) => {
+            part.write(&args.output)?;
+            format!(
+                "{shard} ({noun} {}..{} of {vertex_count})",
+                vertices.start, vertices.end
+            )
+        }
+        None => {
+            part.finish(progress).write(&args.output)?;
+            format!("{vertex_count} {noun}")
+        }
+    };
+    let seconds = started.elapsed().as_secs_f64();
+    println!(
+        "baked {what}, {rays} rays, {seconds:.2} s (order {}, {}, {} samples{blocks}) -> {}",
+        options.order,
+        options.mode.name(),
+        options.samples,
+        args.output.display()
+    );
+    Ok(())
+}
+
