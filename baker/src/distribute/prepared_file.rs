@@ -173,6 +173,15 @@ pub fn write(path: &Path, key: u64, prepared: &Prepared) -> Result<()> {
     crate::support::atomic::write(path, &to_bytes(key, prepared))
 }
 
+/// Reads the prepared lightmap at `path` whatever its key (`prt-bake stitch` has no scene: it
+/// checks the atlas and texels against the file it stitches instead).
+pub fn read_any(path: &Path) -> Result<Prepared> {
+    let bytes = std::fs::read(path).map_err(|err| Error::io(path, err))?;
+    let (_, prepared) =
+        from_bytes(&bytes).map_err(|message| Error::coefficient_file(path, message))?;
+    Ok(prepared)
+}
+
 /// Reads the prepared lightmap at `path`, refusing (exit 3, [`Error::Shards`]) one whose key
 /// is not `key`: another scene, other lightmap options, seed or backend.
 pub fn read(path: &Path, key: u64) -> Result<Prepared> {
