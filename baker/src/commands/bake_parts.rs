@@ -53,9 +53,9 @@ pub(super) fn prepare_lightmap(
     progress: &dyn Progress,
 ) -> Result<(), Error> {
     let started = std::time::Instant::now();
-    let resolution = args.lightmap.ok_or_else(|| {
-        Error::InvalidOption("prepare-lightmap needs --lightmap RES".into())
-    })?;
+    let resolution = args
+        .lightmap
+        .ok_or_else(|| Error::InvalidOption("prepare-lightmap needs --lightmap RES".into()))?;
     let atlas = atlas(args, scene, resolution, progress)?;
     let prepared = lightmap::prepare(scene, tracer, options.seed, atlas)?;
     prepared_file::write(&args.output, args.prepared_key(scene, options), &prepared)?;
@@ -154,4 +154,3 @@ pub(super) fn bake_in_parts(
     );
     Ok(())
 }
-

@@ -14,8 +14,12 @@ pub struct StitchArgs {
     file: PathBuf,
     /// Stitch only columns shard K of N (`auto`, `auto/N` as `bake --shard`) into a column
     /// file for --join.
-    #[arg(long, value_name = "K/N|auto|auto/N", requires = "prepared",
-          conflicts_with = "join")]
+    #[arg(
+        long,
+        value_name = "K/N|auto|auto/N",
+        requires = "prepared",
+        conflicts_with = "join"
+    )]
     columns: Option<String>,
     /// With --columns: the bake's prepared lightmap (`prt-bake prepare-lightmap`), for its
     /// seams.

@@ -16,8 +16,10 @@
 //!
 //! A bounce file (`PRTBNC`): magic, k (u32), shard index and count (u32; count 0: merged,
 //! every receiver), 4 reserved bytes, the first receiver and the receiver count (u64), the
-//! length (u64) of a *stub* — a part file of no receivers that carries the bake's header and
-//! lightmap ([`Part`]) — and the stub; then bounce k at each receiver (n² floats at k = 0,
+//! length (u64) of a *stub* — a part file of no receivers that carries the bake's header and,
+//! in a merged file, its lightmap ([`Part`]; a shard's gather leaves the lightmap out, it is
+//! tens of megabytes) — the lightmap's fingerprint (u64, 0 for a vertex bake) and the stub;
+//! then bounce k at each receiver (n² floats at k = 0,
 //! channels × n² after); a merged file also the total T₀ + … + T_k (channels × n²) and the
 //! aux arrays; last an xxh3 of everything before it.
 
@@ -37,8 +39,8 @@ use crate::support::error::{Error, Result};
 use crate::support::progress::Progress;
 
 const MAGIC: &[u8; 8] = b"PRTBNC\0\x01";
-/// Magic, k, shard index, shard count, reserved, first, count, stub length.
-const HEAD: usize = 48;
+/// Magic, k, shard index, shard count, reserved, first, count, stub length, fingerprint.
+const HEAD: usize = 56;
 
 /// Bounce k of a range of a bake's receivers (a shard's gather) or of all of them (merged).
 #[derive(Clone, Debug, PartialEq)]
@@ -48,8 +50,10 @@ pub struct BounceFile {
     pub shard: Option<ShardId>,
     pub first: u64,
     pub count: u64,
-    /// The bake's header and lightmap: a part of no receivers.
+    /// The bake's header and (merged files) lightmap: a part of no receivers.
     pub stub: Part,
+    /// Texel bakes: the lightmap's fingerprint (atlas and baked texels).
+    pub fingerprint: Option<u64>,
     /// Bounce k per receiver: n² floats at k = 0 (grey), channels × n² after.
     pub values: Vec<f32>,
     /// Merged files: T₀ + … + T_k per receiver (channels × n²), and the aux arrays.
@@ -77,6 +81,7 @@ impl BounceFile {
         b.extend(self.first.to_le_bytes());
         b.extend(self.count.to_le_bytes());
         b.extend((stub.len() as u64).to_le_bytes());
+        b.extend(self.fingerprint.unwrap_or(0).to_le_bytes());
         b.extend(stub);
         let aux = self.ao.iter().flatten().copied();
         let bent = self.bent_normal.iter().flatten().flat_map(|v| v.to_array());
@@ -99,6 +104,7 @@ impl BounceFile {
         let u64_at = |o: usize| u64::from_le_bytes(body[o..o + 8].try_into().expect("8"));
         let (k, index, shards) = (u32_at(8), u32_at(12), u32_at(16));
         let (first, count, stub_len) = (u64_at(24), u64_at(32), u64_at(40));
+        let fingerprint = Some(u64_at(48)).filter(|&f| f != 0);
         let stub_end = (HEAD as u64)
             .checked_add(stub_len)
             .filter(|&e| e <= body.len() as u64)
@@ -111,6 +117,10 @@ impl BounceFile {
             ));
         }
         let merged = shards == 0;
+        let stub_fingerprint = stub.lightmap.as_ref().map(|l| l.fingerprint);
+        if merged && stub_fingerprint != fingerprint {
+            return Err("the stub's lightmap is not the file's".into());
+        }
         if merged && (index != 0 || first != 0 || count != receivers) {
             return Err("a merged bounce file that does not hold every receiver".into());
         }
@@ -162,6 +172,7 @@ impl BounceFile {
             first,
             count,
             stub,
+            fingerprint,
             values,
             total,
             ao,
@@ -224,18 +235,28 @@ fn stub_of(part: &Part) -> Part {
     }
 }
 
-/// Refuses `other` (at `path`) unless it is of the bake of `stub` (at `stub_path`).
-fn check_same_bake(stub: &Part, other: &Part, path: &Path, stub_path: &Path) -> Result<()> {
-    let fingerprint = |p: &Part| p.lightmap.as_ref().map(|l| l.fingerprint);
-    let difference = header_difference(&stub.header, &other.header).or_else(|| {
-        (fingerprint(stub) != fingerprint(other))
+/// The fingerprint of a part's lightmap.
+fn fingerprint(part: &Part) -> Option<u64> {
+    part.lightmap.as_ref().map(|l| l.fingerprint)
+}
+
+/// Refuses a file at `path` (its header and lightmap fingerprint) unless it is of the bake of
+/// `lower` (at `lower_path`).
+fn check_same_bake(
+    lower: &BounceFile,
+    other: (&crate::formats::header::Header, Option<u64>),
+    path: &Path,
+    lower_path: &Path,
+) -> Result<()> {
+    let difference = header_difference(&lower.stub.header, other.0).or_else(|| {
+        (lower.fingerprint != other.1)
             .then(|| "another lightmap atlas or set of baked texels".to_string())
     });
     match difference {
         Some(d) => Err(refuse(format!(
             "{}: of another bake than {}: {d}",
             path.display(),
-            stub_path.display()
+            lower_path.display()
         ))),
         None => Ok(()),
     }
@@ -264,6 +285,7 @@ pub fn direct(paths: &[PathBuf]) -> Result<BounceFile> {
         first: 0,
         count: whole.receiver_count() as u64,
         stub: stub_of(&whole),
+        fingerprint: fingerprint(&whole),
         values: whole.coefficients,
         total,
         ao: whole.ao,
@@ -282,7 +304,7 @@ pub fn gather(part_path: &Path, lower_path: &Path, progress: &dyn Progress) -> R
             lower_path.display()
         )));
     }
-    check_same_bake(&lower.stub, &part, part_path, lower_path)?;
+    check_same_bake(&lower, (&part.header, fingerprint(&part)), part_path, lower_path)?;
     if lower.is_last() {
         return Err(refuse(format!(
             "{}: holds bounce {} of {}: every bounce is gathered",
@@ -325,7 +347,12 @@ pub fn gather(part_path: &Path, lower_path: &Path, progress: &dyn Progress) -> R
         shard: Some(part.id.shard),
         first: part.id.first_vertex,
         count: u64::from(part.id.vertices),
-        stub: lower.stub,
+        // The header only: the merge has the lightmap (in the lower bounce file).
+        stub: Part {
+            lightmap: None,
+            ..lower.stub
+        },
+        fingerprint: lower.fingerprint,
         values,
         total: Vec::new(),
         ao: None,
@@ -349,7 +376,7 @@ pub fn merge(paths: &[PathBuf], lower_path: &Path) -> Result<BounceFile> {
     let mut count = None;
     for path in paths {
         let file = BounceFile::read(path)?;
-        check_same_bake(&lower.stub, &file.stub, path, lower_path)?;
+        check_same_bake(&lower, (&file.stub.header, file.fingerprint), path, lower_path)?;
         let Some(shard) = file.shard else {
             return Err(refuse(format!(
                 "{}: a merged bounce file, not a shard's gather",
@@ -412,9 +439,5 @@ pub fn merge(paths: &[PathBuf], lower_path: &Path) -> Result<BounceFile> {
     for (t, b) in lower.total.iter_mut().zip(&values) {
         *t += b;
     }
-    Ok(BounceFile {
-        k,
-        values,
-        ..lower
-    })
+    Ok(BounceFile { k, values, ..lower })
 }

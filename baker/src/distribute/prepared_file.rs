@@ -51,7 +51,13 @@ pub fn to_bytes(key: u64, prepared: &Prepared) -> Vec<u8> {
         b.extend(uv.x.to_le_bytes());
         b.extend(uv.y.to_le_bytes());
     }
-    b.extend(prepared.seams.iter().flatten().flat_map(|c| c.to_le_bytes()));
+    b.extend(
+        prepared
+            .seams
+            .iter()
+            .flatten()
+            .flat_map(|c| c.to_le_bytes()),
+    );
     let has_point = |i: usize| {
         texels.triangle[i] != u32::MAX
             || [
@@ -105,7 +111,11 @@ pub fn from_bytes(bytes: &[u8]) -> std::result::Result<(u64, Prepared), String> 
     let moved = r.u64()? as usize;
     let leaking = r.u64()? as usize;
     let placements = r.u32()? as usize;
-    let section = r.take(placements.checked_mul(OBJECT_BYTES).ok_or("too many objects")?)?;
+    let section = r.take(
+        placements
+            .checked_mul(OBJECT_BYTES)
+            .ok_or("too many objects")?,
+    )?;
     let mut encoded = (placements as u32).to_le_bytes().to_vec();
     encoded.extend(section);
     let objects = match placements {
