@@ -21,8 +21,8 @@ use prt_baker::support::progress::Progress;
 use prt_baker::trace::{self, Backend, Tracer, TracerOptions};
 use prt_baker::{BakeOptions, CoefficientFile, Error, Mode, Scene, Transfer};
 
-use super::UpArg;
 use super::scene_load::{self, InstancesArg};
+use super::{UpArg, bake_parts};
 
 #[derive(clap::Args)]
 pub struct BakeArgs {
@@ -39,7 +39,7 @@ pub struct BakeArgs {
     up: Option<UpArg>,
     /// Output coefficient file.
     #[arg(short, long)]
-    pub(super) output: PathBuf,
+    output: PathBuf,
     /// SH order n: bands 0..n-1, n² coefficients per vertex.
     #[arg(long, default_value_t = 4)]
     order: usize,
@@ -97,7 +97,7 @@ pub struct BakeArgs {
     /// Print each stage's wall time on stderr (texel bakes: atlas, rasterisation, seam texels,
     /// leak test, bake, dilation, seam points, stitching).
     #[arg(long)]
-    pub(super) verbose: bool,
+    verbose: bool,
     /// Bake only part K of N (0 ≤ K < N), a range of vertices (with --lightmap: of baked
     /// texels, so every part casts the same rays), into a part file for `prt-bake merge`. `auto` reads K and N from a Slurm array task; `auto/N` takes K from
     /// a Kubernetes Indexed Job's JOB_COMPLETION_INDEX (or set PRT_SHARD_COUNT and use `auto`).
@@ -106,17 +106,17 @@ pub struct BakeArgs {
     /// Write completed blocks of vertices into DIR as the bake goes; the same command run
     /// again after a crash or a kill continues from them (same file as an uninterrupted bake).
     #[arg(long, value_name = "DIR")]
-    pub(super) checkpoint: Option<PathBuf>,
+    checkpoint: Option<PathBuf>,
     /// Vertices (with --lightmap: baked texels) per checkpoint block (default: about 67
     /// million rays' worth).
     #[arg(long, requires = "checkpoint")]
-    pub(super) checkpoint_vertices: Option<usize>,
+    checkpoint_vertices: Option<usize>,
     /// Bake per texel of a RES×RES lightmap atlas instead of per vertex (docs/lightmaps.md):
     /// the scene's lightmap UVs (glTF TEXCOORD_1) where it has them and no --texel-size is
     /// given, else an atlas unwrapped here (--atlas). Every mode; --shard and --checkpoint
     /// too (every part computes the same atlas and records its fingerprint).
     #[arg(long, value_name = "RES")]
-    pub(super) lightmap: Option<u32>,
+    lightmap: Option<u32>,
     /// With --lightmap: the world size of a texel (default: the charts fill the atlas).
     #[arg(long, value_name = "S", requires = "lightmap")]
     texel_size: Option<f32>,
@@ -135,7 +135,7 @@ pub struct BakeArgs {
     /// scene and the same lightmap options, --seed, --backend and --mode) instead of computing
     /// them in every shard; one of another scene or options is refused (exit 3).
     #[arg(long, value_name = "FILE", requires = "lightmap")]
-    pub(super) prepared: Option<PathBuf>,
+    prepared: Option<PathBuf>,
     /// Set by `prt-bake prepare-lightmap`: write the preparation to -o and stop.
     #[arg(skip)]
     prepare_only: bool,
@@ -287,7 +287,7 @@ pub fn run_prepare(mut args: BakeArgs) -> Result<(), Error> {
 impl BakeArgs {
     /// What a prepared lightmap depends on, hashed ([`prepared_file::key`]): the scene, the
     /// lightmap options, the seed, the backend, and whether rays are cast (the leak test).
-    pub(super) fn prepared_key(&self, scene: &Scene, options: &BakeOptions) -> u64 {
+    fn prepared_key(&self, scene: &Scene, options: &BakeOptions) -> u64 {
         let lightmap = format!(
             "{:?} {:?} {:?} {} {} {:?}",
             self.lightmap,
@@ -389,26 +389,24 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
             progress.as_ref(),
         );
     }
-    if args.prepare_only {
+    if args.prepare_only || in_parts {
         let tracer = tracer.as_deref();
-        return super::bake_parts::prepare_lightmap(
-            &args,
-            &scene,
-            tracer,
-            &options,
-            progress.as_ref(),
-        );
-    }
-    if in_parts {
-        let tracer = tracer.as_deref();
-        return super::bake_parts::bake_in_parts(
-            &args,
-            &scene,
-            tracer,
-            &options,
-            shard,
-            progress.as_ref(),
-        );
+        let atlas = |resolution| atlas(&args, &scene, resolution, progress.as_ref());
+        let parts = bake_parts::PartsArgs {
+            lightmap: args.lightmap,
+            checkpoint: args.checkpoint.as_deref(),
+            checkpoint_vertices: args.checkpoint_vertices,
+            output: &args.output,
+            prepared: args.prepared.as_deref(),
+            prepared_key: args.prepared_key(&scene, &options),
+            verbose: args.verbose,
+            atlas: &atlas,
+        };
+        let progress = progress.as_ref();
+        return match args.prepare_only {
+            true => bake_parts::prepare_lightmap(&parts, &scene, tracer, &options),
+            false => bake_parts::bake_in_parts(&parts, &scene, tracer, &options, shard, progress),
+        };
     }
     let (transfer, file, what) = match (args.lightmap, receivers) {
         (None, Some(objects)) => {
@@ -567,7 +565,7 @@ fn bake_texels(
 }
 
 /// `--lightmap RES`'s atlas: the scene's lightmap UVs, or generated.
-pub(super) fn atlas(
+fn atlas(
     args: &BakeArgs,
     scene: &Scene,
     resolution: u32,

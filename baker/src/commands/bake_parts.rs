@@ -1,6 +1,8 @@
 //! `prt-bake bake --shard / --checkpoint` and `prt-bake prepare-lightmap`: a bake in parts
 //! (docs/distributed.md), and the lightmap preparation its texel shards share.
 
+use std::path::Path;
+
 use prt_baker::bake::lightmap::{self, Prepared};
 use prt_baker::distribute::checkpoint;
 use prt_baker::distribute::part_baker::PartBaker;
@@ -10,21 +12,33 @@ use prt_baker::support::progress::Progress;
 use prt_baker::trace::Tracer;
 use prt_baker::{BakeOptions, Error, Scene};
 
-use super::bake::{BakeArgs, atlas};
+/// What a bake in parts takes from `bake`'s arguments (`commands::bake` builds it; this file
+/// does not import it back).
+pub struct PartsArgs<'a> {
+    pub lightmap: Option<u32>,
+    pub checkpoint: Option<&'a Path>,
+    pub checkpoint_vertices: Option<usize>,
+    pub output: &'a Path,
+    pub prepared: Option<&'a Path>,
+    /// The key a prepared lightmap of this scene and these options has.
+    pub prepared_key: u64,
+    pub verbose: bool,
+    /// `--lightmap RES`'s atlas of the scene.
+    pub atlas: &'a dyn Fn(u32) -> Result<lightmap::Atlas, Error>,
+}
 
 /// A texel bake's preparation: read from `--prepared` (checked against this bake's key), or
 /// computed here; and the tracer watertight for its texels' ray origins.
 fn prepare<'t>(
-    args: &BakeArgs,
+    args: &PartsArgs<'_>,
     scene: &Scene,
     tracer: Option<&'t dyn Tracer>,
     options: &BakeOptions,
     resolution: u32,
-    progress: &dyn Progress,
 ) -> Result<(Prepared, Option<Box<dyn Tracer + 't>>), Error> {
-    match &args.prepared {
+    match args.prepared {
         Some(path) => {
-            let prepared = prepared_file::read(path, args.prepared_key(scene, options))?;
+            let prepared = prepared_file::read(path, args.prepared_key)?;
             let watertight = match tracer {
                 Some(tracer) => prepared.texels.watertight(scene, tracer)?,
                 None => None,
@@ -32,7 +46,7 @@ fn prepare<'t>(
             Ok((prepared, watertight))
         }
         None => {
-            let atlas = atlas(args, scene, resolution, progress)?;
+            let atlas = (args.atlas)(resolution)?;
             Ok(lightmap::prepare_traced(
                 scene,
                 tracer,
@@ -46,19 +60,18 @@ fn prepare<'t>(
 /// `prt-bake prepare-lightmap`: the atlas, the texels after the leak test and the seam
 /// partners, written to `-o` for every shard of the texel bake to read.
 pub(super) fn prepare_lightmap(
-    args: &BakeArgs,
+    args: &PartsArgs<'_>,
     scene: &Scene,
     tracer: Option<&dyn Tracer>,
     options: &BakeOptions,
-    progress: &dyn Progress,
 ) -> Result<(), Error> {
     let started = std::time::Instant::now();
     let resolution = args
         .lightmap
         .ok_or_else(|| Error::InvalidOption("prepare-lightmap needs --lightmap RES".into()))?;
-    let atlas = atlas(args, scene, resolution, progress)?;
+    let atlas = (args.atlas)(resolution)?;
     let prepared = lightmap::prepare(scene, tracer, options.seed, atlas)?;
-    prepared_file::write(&args.output, args.prepared_key(scene, options), &prepared)?;
+    prepared_file::write(args.output, args.prepared_key, &prepared)?;
     if args.verbose {
         eprintln!("prt-bake: stages: {}", prepared.stages.line());
     }
@@ -78,7 +91,7 @@ pub(super) fn prepare_lightmap(
 /// A bake with `--shard` or `--checkpoint`: a part file, or the whole file from checkpoint
 /// blocks.
 pub(super) fn bake_in_parts(
-    args: &BakeArgs,
+    args: &PartsArgs<'_>,
     scene: &Scene,
     tracer: Option<&dyn Tracer>,
     options: &BakeOptions,
@@ -93,7 +106,7 @@ pub(super) fn bake_in_parts(
     let (baker, noun) = match args.lightmap {
         None => (PartBaker::vertices(scene, tracer, options)?, "vertices"),
         Some(resolution) => {
-            (prepared, watertight) = prepare(args, scene, tracer, options, resolution, progress)?;
+            (prepared, watertight) = prepare(args, scene, tracer, options, resolution)?;
             let tracer = watertight.as_deref().or(tracer);
             let baker = PartBaker::texels(scene, tracer, options, &prepared)?;
             (baker, "baked texels")
@@ -104,7 +117,7 @@ pub(super) fn bake_in_parts(
         Some(shard) => (shard, shard_range(vertex_count, shard)),
         None => (ShardId { index: 0, count: 1 }, 0..vertex_count),
     };
-    let (part, rays, blocks) = match &args.checkpoint {
+    let (part, rays, blocks) = match args.checkpoint {
         Some(dir) => {
             let block_vertices = args
                 .checkpoint_vertices
@@ -133,14 +146,14 @@ pub(super) fn bake_in_parts(
     };
     let what = match shard {
         Some(shard) => {
-            part.write(&args.output)?;
+            part.write(args.output)?;
             format!(
                 "{shard} ({noun} {}..{} of {vertex_count})",
                 vertices.start, vertices.end
             )
         }
         None => {
-            part.finish(progress).write(&args.output)?;
+            part.finish(progress).write(args.output)?;
             format!("{vertex_count} {noun}")
         }
     };

@@ -304,7 +304,12 @@ pub fn gather(part_path: &Path, lower_path: &Path, progress: &dyn Progress) -> R
             lower_path.display()
         )));
     }
-    check_same_bake(&lower, (&part.header, fingerprint(&part)), part_path, lower_path)?;
+    check_same_bake(
+        &lower,
+        (&part.header, fingerprint(&part)),
+        part_path,
+        lower_path,
+    )?;
     if lower.is_last() {
         return Err(refuse(format!(
             "{}: holds bounce {} of {}: every bounce is gathered",
@@ -376,7 +381,12 @@ pub fn merge(paths: &[PathBuf], lower_path: &Path) -> Result<BounceFile> {
     let mut count = None;
     for path in paths {
         let file = BounceFile::read(path)?;
-        check_same_bake(&lower, (&file.stub.header, file.fingerprint), path, lower_path)?;
+        check_same_bake(
+            &lower,
+            (&file.stub.header, file.fingerprint),
+            path,
+            lower_path,
+        )?;
         let Some(shard) = file.shard else {
             return Err(refuse(format!(
                 "{}: a merged bounce file, not a shard's gather",

@@ -47,9 +47,12 @@ pub fn merge_with(
     merge_bounces(&header, &order, whole, stitch, progress)
 }
 
+/// A merge's parts joined: the bake's header, each part's path and identity, the joined part.
+pub(crate) type Joined<'a> = (Header, Vec<(&'a Path, PartId)>, Part);
+
 /// Reads and checks every part at `paths` (without their bounce rows) and joins them: the
 /// bake's header, each part's path and identity in shard order, and the joined part.
-pub(crate) fn join(paths: &[PathBuf]) -> Result<(Header, Vec<(&Path, PartId)>, Part)> {
+pub(crate) fn join(paths: &[PathBuf]) -> Result<Joined<'_>> {
     let first_path = paths
         .first()
         .ok_or_else(|| Error::InvalidOption("merge needs at least one part".into()))?;
