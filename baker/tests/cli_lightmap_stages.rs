@@ -155,6 +155,14 @@ fn mismatched_stage_files_are_refused() {
             "a prepared lightmap of another scene or other options",
         ],
     );
+    // A corrupted prepared lightmap (one byte of a texel's point changed).
+    let mut bytes = s.read("out/a-prep.lmp");
+    let at = bytes.len() - 5;
+    bytes[at] ^= 1;
+    s.write("out/bad.lmp", &bytes);
+    let args = [&opts[..], &["--shard", "0/2", "--prepared", "out/bad.lmp"]].concat();
+    let run = s.run(&[&["bake", CORNELL, "-o", "out/x.prt"][..], &args].concat());
+    run.fails_with(3, &["out/bad.lmp", "checksum mismatch"]);
     // A prepared lightmap of another atlas, to stitch with.
     let planar = [&opts[..], &["--atlas", "planar"]].concat();
     s.run(
