@@ -39,6 +39,14 @@ fn prepare<'t>(
     match args.prepared {
         Some(path) => {
             let prepared = prepared_file::read(path, args.prepared_key)?;
+            if prepared.atlas.uv1.len() != scene.triangles.len() {
+                return Err(Error::Shards(format!(
+                    "{}: a prepared lightmap of {} triangles, the scene has {}",
+                    path.display(),
+                    prepared.atlas.uv1.len(),
+                    scene.triangles.len()
+                )));
+            }
             let watertight = match tracer {
                 Some(tracer) => prepared.texels.watertight(scene, tracer)?,
                 None => None,

@@ -18,6 +18,7 @@ use std::path::Path;
 
 use glam::{Vec2, Vec3};
 
+use crate::bake::lightmap::stitch::NO_PARTNER;
 use crate::bake::lightmap::{Atlas, Prepared, Stages, Texels, leaks};
 use crate::formats::header::AtlasSource;
 use crate::formats::object_placements;
@@ -135,10 +136,29 @@ pub fn from_bytes(bytes: &[u8]) -> std::result::Result<(u64, Prepared), String> 
         })
         .collect();
     let codes = r.u32s(count(triangles, 3)?)?;
+    let edges = 3 * triangles;
+    if let Some(i) = codes
+        .iter()
+        .position(|&c| c != NO_PARTNER && c as usize / 2 >= edges)
+    {
+        return Err(format!(
+            "seam partner {} of edge {i} is not an edge",
+            codes[i]
+        ));
+    }
     let seams = codes.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
     let texel_count = count(width as usize, height as usize)?;
     let flags = r.take(texel_count)?.to_vec();
     let triangle = r.u32s(texel_count)?;
+    if let Some(i) = (0..texel_count).find(|&i| {
+        let t = triangle[i];
+        (t != u32::MAX && t as usize >= triangles) || (flags[i] & 1 != 0 && t == u32::MAX)
+    }) {
+        return Err(format!(
+            "texel {i}'s triangle {} is not one of the {triangles}",
+            triangle[i]
+        ));
+    }
     let with_point = flags.iter().filter(|&&f| f & 2 != 0).count();
     let points = r.floats(count(with_point, 12)?)?;
     if r.at != body.len() {

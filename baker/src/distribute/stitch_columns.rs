@@ -188,6 +188,12 @@ pub fn join(
         if c.first as usize != range.start || c.count as usize != range.len() {
             return Err(refuse(format!("{name}: not the columns of {}", c.shard)));
         }
+        if c.values.len() != file.coefficients.len() / width.max(1) * c.count as usize {
+            return Err(refuse(format!(
+                "{name}: not as many texels as {}",
+                path.display()
+            )));
+        }
         if let Some(other) = by_index.insert(c.shard.index, column_path) {
             return Err(refuse(format!(
                 "{} and {name}: both are {}",
