@@ -132,9 +132,15 @@ impl<'a> PartBaker<'a> {
             Some(_) => "baked texels",
             None => "vertices",
         };
+        // The recorder keeps compact hits; the part carries them folded into rows, which can
+        // be several times larger, so the limit applies to the rows too.
         let rows = match recorder {
-            Some(recorder) => match recorder.into_cache() {
-                Some((jobs, _)) => Some(Rows::from_jobs(jobs)),
+            Some(recorder) => match recorder
+                .into_cache()
+                .map(|(jobs, _)| Rows::from_jobs(jobs))
+                .filter(|rows| rows.bytes() <= options.hit_cache_limit)
+            {
+                Some(rows) => Some(rows),
                 None => {
                     return Err(Error::InvalidOption(format!(
                         "the bounce rows of {what} {}..{} exceed --hit-cache-mb {}; a part \
