@@ -23,7 +23,7 @@ use prt_baker::trace::{self, Backend, Tracer, TracerOptions};
 use prt_baker::{BakeOptions, CoefficientFile, Error, Mode, Scene, Transfer};
 
 use super::UpArg;
-use super::scene_load::{self, InstancesArg};
+use super::scene_load::{self, DoubleSidedArg, InstancesArg};
 
 #[derive(clap::Args)]
 pub struct BakeArgs {
@@ -143,6 +143,9 @@ pub struct BakeArgs {
     /// Trace non-receiving glTF nodes of a shared mesh as instances (docs/scenes.md).
     #[arg(long, value_enum, default_value_t)]
     instances: InstancesArg,
+    /// glTF `doubleSided` materials: auto bakes a back sheet of receivers (docs/scenes.md).
+    #[arg(long, value_enum, default_value_t)]
+    double_sided: DoubleSidedArg,
     /// Write the bake compressed by clustered PCA into K clusters, as `prt-bake compress`
     /// would (default 64 where only --pcs is given). Not with --shard or --checkpoint:
     /// compress the merged file with `prt-bake compress`.
@@ -305,7 +308,13 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
     let whole = args.lightmap.is_none() && shard.is_none() && args.checkpoint.is_none();
     let instancing = whole && args.probes.is_none() && args.materials.is_none();
     let instancing = instancing && options.mode != Mode::Interreflected;
-    let mut scene = scene_load::load(&args.scene, args.instances, &args.receivers, instancing)?;
+    let mut scene = scene_load::load(
+        &args.scene,
+        args.instances,
+        &args.receivers,
+        instancing,
+        args.double_sided,
+    )?;
     // --up overrides the format's axis; whole files, parts and checkpoints all record it.
     if let Some(up) = args.up {
         scene.up = up.up();

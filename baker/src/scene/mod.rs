@@ -15,6 +15,7 @@
 //! May import: [`crate::support`], [`crate::math`].
 
 mod alpha;
+mod back_sheets;
 mod format;
 mod gltf;
 mod instances;
@@ -37,6 +38,7 @@ use crate::support::error::{Error, Location, Result};
 use crate::support::input_path::AssetFolder;
 
 pub use alpha::{Alpha, AlphaMode, Cutouts, Wrap};
+pub use back_sheets::BackSheets;
 pub use format::FORMATS;
 use format::OTHER_FORMATS;
 pub use gltf::volume::{GltfMedia, gltf_media};
@@ -93,6 +95,8 @@ pub struct Scene {
     /// Occluders traced through instances, outside every array above
     /// ([`Scene::load_instanced`]); empty where the scene was loaded flat.
     pub instances: Instances,
+    /// The back sheets of glTF `doubleSided` objects, the last objects ([`BackSheets`]).
+    pub back_sheets: BackSheets,
 }
 
 impl Scene {
@@ -143,6 +147,9 @@ impl Scene {
                     }
                     scene.lightmap_uvs = Some(uvs);
                 }
+                scene
+                    .add_back_sheets()
+                    .map_err(|m| Error::scene(Location::file(path), m))?;
                 Ok((scene, loaded.warnings))
             }
             other if OTHER_FORMATS.contains(&other) => Err(Error::scene(
@@ -261,6 +268,7 @@ impl Scene {
             tangents: None,
             content_digest: None,
             instances: Instances::default(),
+            back_sheets: BackSheets::default(),
         };
         for mut mesh in meshes {
             check_mesh(&mesh, scene.textures.len()).map_err(|m| Error::scene(at(), m))?;
