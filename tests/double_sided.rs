@@ -266,3 +266,47 @@ fn a_gltf_double_sided_card_bakes_its_back_sheet_as_a_hand_made_twin() {
         assert!(s[0].0.abs() < 0.03, "{backend:?}: single-sided {:?}", s[0]);
     }
 }
+
+/// The light a glTF `doubleSided` card's underside reflects reaches the floor under it: a
+/// closest hit on the back of the front sheet lands on the back sheet (`TwinFacing`), whose
+/// transfer is the underside's. Without the back sheet that hit is a back face, which
+/// reflects nothing, and the floor's interreflected transfer is its shadowed one.
+#[test]
+fn a_double_sided_card_reflects_from_its_back_onto_the_floor() {
+    let floor = grid("floor", Vec3::new(-0.5, -0.5, 0.0), Vec3::X, Vec3::Y, 2);
+    let mut card = card(false).remove(0);
+    card.material.double_sided = true;
+    let mut two = scene(vec![floor, card]);
+    let one = two.clone();
+    two.add_back_sheets().expect("back sheets");
+    assert_eq!(two.objects.len(), 3);
+    let options = prt_baker::BakeOptions {
+        mode: prt_baker::Mode::Interreflected,
+        bounces: 1,
+        ..shadowed(ORDER, SAMPLES)
+    };
+    let centre = 4; // the floor's centre vertex
+    for backend in [Backend::Embree, Backend::Obvhs] {
+        let tracer = |s: &Scene| build(backend, s, TracerOptions::default()).expect("tracer");
+        let bake_with = |s: &Scene, o: &prt_baker::BakeOptions| {
+            prt_baker::bake(s, Some(&*tracer(s)), o, &Silent).expect("bake")
+        };
+        let shadowed_dc = coefficients(&bake_with(&one, &shadowed(ORDER, SAMPLES)), centre)[0];
+        let (with, without) = (
+            coefficients(&bake_with(&two, &options), centre)[0],
+            coefficients(&bake_with(&one, &options), centre)[0],
+        );
+        eprintln!(
+            "{backend:?}: floor centre DC shadowed {shadowed_dc:.4}, interreflected: \
+             without back sheet {without:.4}, with {with:.4}"
+        );
+        assert!(
+            (without - shadowed_dc).abs() < 1e-3,
+            "{backend:?}: light off a back face"
+        );
+        assert!(
+            with > without + 0.02,
+            "{backend:?}: no light off the card's back sheet"
+        );
+    }
+}
