@@ -7,6 +7,8 @@
 //! lightmaps, exports and renderers need nothing new; only the tracers leave them out
 //! ([`Scene::traced_triangles`]): the front sheet already stops rays from both sides.
 
+use std::collections::HashMap;
+
 use glam::Vec4;
 
 use super::{Object, Scene};
@@ -19,8 +21,10 @@ pub struct BackSheets {
 }
 
 impl Scene {
-    /// Appends a back sheet for every object whose material is `doubleSided` (none for OBJ
-    /// and scene files, which have no such flag). The glTF loader calls it; a scene that
+    /// Appends a back sheet for every open object whose material is `doubleSided` (none for
+    /// OBJ and scene files, which have no such flag). A closed object's inside is never seen
+    /// (Blender's exporter marks every material `doubleSided` unless backface culling is on,
+    /// so a Suzanne or a cube would otherwise bake twice the receivers, half of them shut in). The glTF loader calls it; a scene that
     /// already has them is left as it is. Refuses to pass 2^32 vertices.
     pub fn add_back_sheets(&mut self) -> std::result::Result<(), String> {
         if !self.back_sheets.fronts.is_empty() {
@@ -35,6 +39,7 @@ impl Scene {
                         .vertex_material
                         .get(first)
                         .is_some_and(|&m| self.materials[m as usize].double_sided)
+                    && !self.is_closed(object)
             })
             .collect();
         let added: usize = fronts
@@ -123,6 +128,28 @@ impl Scene {
         self.back_sheets = BackSheets::default();
     }
 
+    /// Whether every edge of `object` (vertices welded by position) joins two triangles or
+    /// more: a closed surface, whose back faces are inside it.
+    fn is_closed(&self, object: &Object) -> bool {
+        let mut ids: HashMap<[u32; 3], u32> = HashMap::new();
+        let mut uses: HashMap<(u32, u32), u32> = HashMap::new();
+        let triangles = object.triangles.start as usize..object.triangles.end as usize;
+        for t in &self.triangles[triangles] {
+            let w = t.map(|v| {
+                let next = ids.len() as u32;
+                *ids.entry(self.positions[v as usize].to_array().map(f32::to_bits))
+                    .or_insert(next)
+            });
+            for k in 0..3 {
+                let (a, b) = (w[k], w[(k + 1) % 3]);
+                if a != b {
+                    *uses.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+                }
+            }
+        }
+        uses.values().all(|&n| n >= 2)
+    }
+
     /// The index of the first back-sheet object, if there are any.
     pub fn first_back_sheet(&self) -> Option<usize> {
         let count = self.back_sheets.fronts.len();
@@ -143,5 +170,47 @@ impl Scene {
             Some(first) => &self.triangles[..self.objects[first].triangles.start as usize],
             None => &self.triangles,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec3;
+
+    use crate::scene::{Material, Mesh, Scene};
+
+    fn scene(positions: Vec<Vec3>, triangles: Vec<[u32; 3]>) -> Scene {
+        let mesh = Mesh {
+            name: "m".into(),
+            positions,
+            triangles,
+            material: Material {
+                double_sided: true,
+                ..Material::default()
+            },
+            ..Mesh::default()
+        };
+        Scene::from_meshes(std::path::Path::new("t"), vec![mesh], Vec::new()).unwrap()
+    }
+
+    /// An open sheet gets a back sheet, which `drop_back_sheets` takes away again; a
+    /// closed tetrahedron gets none.
+    #[test]
+    fn open_double_sided_objects_get_a_back_sheet_and_closed_ones_do_not() {
+        let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z];
+        let mut open = scene(p.clone(), vec![[0, 1, 2], [0, 2, 3]]);
+        let before = open.fingerprint();
+        open.add_back_sheets().unwrap();
+        assert_eq!(open.objects.len(), 2);
+        assert_eq!(open.objects[1].name, "m (back)");
+        assert_eq!(open.triangles[2], [4, 6, 5]);
+        assert_eq!(open.normals[4], -open.normals[0]);
+        assert_eq!(open.traced_triangles().len(), 2);
+        assert_eq!(open.front_of(1), Some(0));
+        open.drop_back_sheets();
+        assert_eq!(open.fingerprint(), before);
+        let mut closed = scene(p, vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]);
+        closed.add_back_sheets().unwrap();
+        assert_eq!(closed.objects.len(), 1);
     }
 }
