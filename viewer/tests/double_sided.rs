@@ -42,7 +42,7 @@ fn card_glb() -> Vec<u8> {
         "buffers": [{"byteLength": bin.len()}],
     });
     let mut text = serde_json::to_vec(&document).unwrap();
-    while text.len() % 4 != 0 {
+    while !text.len().is_multiple_of(4) {
         text.push(b' ');
     }
     let mut out = Vec::new();
