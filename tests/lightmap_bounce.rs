@@ -4,6 +4,7 @@
 //! texel points are vertices, and for determinism across thread counts and the hit cache.
 
 use glam::{DVec3, Vec2, Vec3};
+use prt_baker::bake::interreflection;
 use prt_baker::bake::lightmap::{self, Atlas, LightmapBake};
 use prt_baker::math::sh;
 use prt_baker::scene::{Material, Mesh};
@@ -321,6 +322,62 @@ fn interreflected_texel_bakes_do_not_depend_on_threads_or_the_hit_cache() {
     let n = sh::coeff_count(2);
     let dilated = one.dilated.iter().position(|&d| d).expect("dilated texels");
     assert!((0..3).all(|c| one.transfer.coefficients[(dilated * 3 + c) * n] > 0.0));
+}
+
+#[test]
+fn the_texel_hit_cache_keeps_one_hit_per_bounce_ray() {
+    // Inside a closed box every bounce ray lands on a front face. The cache keeps each hit
+    // (triangle, u, v: 12 bytes) plus 4 bytes a texel for where its hits start; folded rows
+    // took one 16-byte entry per distinct texel tap, 2–3 per bounce ray on a dense lightmap.
+    let cells = 16;
+    let (x, y, z) = (Vec3::X * 2.0, Vec3::Y * 2.0, Vec3::Z * 2.0);
+    let at = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
+    // Each face wound to face the inside (normal edge_u × edge_v).
+    let faces = [
+        ("floor", at(-1.0, -1.0, 0.0), x, y),
+        ("ceiling", at(-1.0, -1.0, 2.0), y, x),
+        ("east", at(1.0, -1.0, 0.0), z, y),
+        ("west", at(-1.0, -1.0, 0.0), y, z),
+        ("north", at(-1.0, 1.0, 0.0), x, z),
+        ("south", at(-1.0, -1.0, 0.0), z, x),
+    ];
+    let scene = scene(
+        faces
+            .iter()
+            .map(|&(name, origin, u, v)| {
+                with_albedo(grid(name, origin, u, v, cells), Vec3::splat(0.5))
+            })
+            .collect(),
+    );
+    // Six 17 × 17 blocks, 3 × 2, 2 texels apart.
+    let side = cells as usize + 1;
+    let (w, h) = (3 * (side + 2), 2 * (side + 2));
+    let uvs: Vec<Vec2> = (0..scene.vertex_count())
+        .map(|v| {
+            let (block, k) = (v / (side * side), v % (side * side));
+            let x = block % 3 * (side + 2) + k % side;
+            let y = block / 3 * (side + 2) + k / side;
+            (Vec2::new(x as f32, y as f32) + 0.5) / Vec2::new(w as f32, h as f32)
+        })
+        .collect();
+    let atlas = Atlas::from_vertex_uvs(&scene, &uvs, w as u32, h as u32).unwrap();
+    let options = interreflected(1, 256, 1);
+    let bake = bake_lightmap(&scene, &atlas, &options);
+    let bytes = bake
+        .transfer
+        .hit_cache_bytes
+        .expect("the hits fit the cache");
+    let texels = bake.texels.valid_count() as u64;
+    let rays = texels * u64::from(options.effective_bounce_samples());
+    let per_ray = bytes as f64 / rays as f64;
+    eprintln!("hit cache: {bytes} bytes for {texels} texels, {per_ray:.2} per bounce ray");
+    let most = rays * interreflection::BYTES_PER_HIT + texels * 4;
+    assert!(bytes <= most, "{bytes} bytes, at most {most}");
+    // Nearly every ray hits a front face (a few slip out where the faces meet).
+    assert!(
+        bytes as f64 >= 0.95 * most as f64,
+        "{bytes} bytes, expected about {most}"
+    );
 }
 
 #[test]

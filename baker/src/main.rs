@@ -10,7 +10,7 @@ use clap::{Parser, Subcommand};
 use prt_baker::Error;
 use prt_baker::support::{input_path, limits, output};
 
-use commands::{bake, compress, export, inspect, light, merge, relight};
+use commands::{bake, compress, export, gather, inspect, light, merge, relight, stitch};
 
 /// Exit codes: 0 success, 1 failure (I/O, backend), 2 bad command line, 3 bad input files.
 const EXIT_FAILURE: u8 = 1;
@@ -59,6 +59,16 @@ enum Command {
     /// Merge the shard parts of a bake (`bake --shard`) into the file one machine would have
     /// baked, byte for byte; refuses missing, duplicated or foreign parts (docs/distributed.md).
     Merge(merge::MergeArgs),
+    /// Prepare a texel bake's lightmap once for all its shards: the atlas, the baked texels
+    /// after the leak test and the seam partners, for `bake --shard K/N --prepared FILE` and
+    /// `stitch` (takes `bake`'s options; docs/distributed.md).
+    PrepareLightmap(bake::BakeArgs),
+    /// One shard's bounce k of an interreflected bake distributed bounce by bounce: gathered
+    /// from its part's rows and the merged bounce k − 1 (docs/distributed.md).
+    Gather(gather::GatherArgs),
+    /// Stitch a merged, unstitched texel bake's seams in shards of columns, and join them
+    /// into the whole bake's file (docs/distributed.md).
+    Stitch(stitch::StitchArgs),
 }
 
 fn main() -> ExitCode {
@@ -82,6 +92,9 @@ fn main() -> ExitCode {
         Command::Relight(args) => relight::run(args),
         Command::Compress(args) => compress::run(args),
         Command::Merge(args) => merge::run(args),
+        Command::PrepareLightmap(args) => bake::run_prepare(args),
+        Command::Gather(args) => gather::run(args),
+        Command::Stitch(args) => stitch::run(args),
     });
     match result {
         Ok(Ok(())) => ExitCode::SUCCESS,

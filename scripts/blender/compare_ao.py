@@ -2,7 +2,7 @@
 the texels that triangles of two objects share in prt-bake's atlas.
 
     python compare_ao.py OUT_DIR BAKE.prt [--objects Floor,Suzanne] [--max-mean 0.01]
-        [--max-rms-ratio 1.5]
+        [--max-rms-ratio 1.5] [--glb OUT_DIR/scene.glb]
 
 OUT_DIR is make_scene.py's (scene.glb, ao_<Name>.f32, cycles.json). Objects are found in
 the GLB (default scene's nodes depth first, as prt-bake orders them); their triangles' atlas
@@ -143,10 +143,11 @@ def main():
     p.add_argument("--objects", default="Floor,Suzanne")
     p.add_argument("--max-mean", type=float, default=0.01)
     p.add_argument("--max-rms-ratio", type=float, default=1.5)
+    p.add_argument("--glb", help="the baked scene (default OUT_DIR/scene.glb)")
     a = p.parse_args()
     out = Path(a.out)
     info = json.loads((out / "cycles.json").read_text())
-    objects = glb_objects(out / "scene.glb")
+    objects = glb_objects(a.glb or out / "scene.glb")
     f = read_prt(a.bake)
     lm = f.lightmap
     assert sum(c for _, c, _ in objects) == lm.scene_triangle_count, "the GLB's triangles are not the bake's"
@@ -164,7 +165,7 @@ def main():
     for k, (name, count, _) in enumerate(objects):
         if name not in a.objects.split(","):
             continue
-        cycles_path = out / f"ao_{name}.f32"
+        cycles_path = out / f"ao_{name.split('/')[0]}.f32"  # a primitive of the object
         if not cycles_path.exists():
             continue
         n = info["resolution"]

@@ -9,6 +9,8 @@
     f.rays              # adaptive bakes (--target-error): (V,) uint32 rays cast, else None
     f.error_estimate    # adaptive bakes: (V,) float32 estimated RMS coefficient error, else None
     f.lightmap          # texel bakes (--lightmap): a Lightmap (below), else None
+    f.receivers         # files of some objects (--receivers): {"object_count": N, "objects":
+                        # [their indices]}, the arrays holding their vertices only; else None
     f.header            # dict: order, channels, vertex_count, mode, transfer ("vector" or
                         # "matrix"), up, ..., and for
                         # adaptive bakes "adaptive": {target_error, replicates, rays_cast}
@@ -51,6 +53,7 @@ TRANSFER_KINDS = {0: "vector", 1: "matrix"}
 ATLAS_SOURCES = {0: "generated", 1: "scene-uvs", 2: "per-object"}
 AUX_AO, AUX_BENT_NORMAL, AUX_RAYS, AUX_ERROR = 1, 2, 4, 8
 AUX_ADAPTIVE = AUX_RAYS | AUX_ERROR  # adaptive bakes: both or neither
+AUX_RECEIVERS = 16  # a file of some objects (bake --receivers): the payload ends with their indices
 
 
 class _Cursor:
@@ -96,6 +99,9 @@ class PrtFile:
     lightmap: "Lightmap | None" = None
     # Compressed (version 2) files: {"means", "bases", "cluster", "weights"} as stored.
     cpca: "dict | None" = None
+    # Files of some objects (bake --receivers): {"object_count": N, "objects": [indices]}; the
+    # arrays hold those objects' vertices only, in scene order.
+    receivers: "dict | None" = None
 
 
 def read_prt(path):
@@ -141,8 +147,8 @@ def parse_prt(b):
     if not (1 <= bounce_samples <= samples if mode == "interreflected" else bounce_samples == 0):
         raise PrtError(f"{bounce_samples} bounce samples in a {mode} file of {samples} samples")
     aux = u32(68)
-    # Bits 0..3 are defined by version 1; later bits name arrays this reader does not know.
-    if aux & ~(AUX_AO | AUX_BENT_NORMAL | AUX_ADAPTIVE):
+    # Bits 0..4 are defined by version 1; later bits name arrays this reader does not know.
+    if aux & ~(AUX_AO | AUX_BENT_NORMAL | AUX_ADAPTIVE | AUX_RECEIVERS):
         raise PrtError(f"unknown auxiliary-array flags {aux:#x}")
     adaptive = _read_adaptive(b, aux, mode, SAMPLINGS[u32(64)])
     if adaptive and transfer_kind == "matrix":
@@ -183,6 +189,15 @@ def parse_prt(b):
                                "does not match")
             object_section = payload - needed
             needed = payload
+    receiver_section = 0
+    if aux & AUX_RECEIVERS:
+        if lightmap is not None:
+            raise PrtError("a receiver section (aux bit 4) in a texel bake (only vertex bakes have one)")
+        # The section: u32 object count, u32 K, K u32 indices (docs/coefficient-format.md).
+        receiver_section = payload - needed
+        if receiver_section < 8 or receiver_section % 4:
+            raise PrtError(f"the receiver section has {receiver_section} bytes (8 + 4 per receiving object)")
+        needed = payload
     if needed != payload:
         raise PrtError("the payload size does not match the vertex count, order, channels, aux arrays"
                        + (" and lightmap" if lightmap is not None else ""))
@@ -255,8 +270,22 @@ def parse_prt(b):
         bent_normal = None if bent_normal is None else bent_normal.reshape(*shape, 3)
         rays = None if rays is None else rays.reshape(shape)
         error_estimate = None if error_estimate is None else error_estimate.reshape(shape)
+    receivers = None
+    if receiver_section:
+        words = take("<u4", receiver_section // 4)
+        object_count, stored, objects = int(words[0]), int(words[1]), [int(o) for o in words[2:]]
+        if stored != len(objects):
+            raise PrtError(f"the receiver section holds {len(objects)} objects, its count says {stored}")
+        if not objects:
+            raise PrtError("the receiver section names no object")
+        if any(o >= object_count for o in objects):
+            raise PrtError(f"receiving object {max(objects)}, but the scene has {object_count} objects")
+        if any(a >= b for a, b in zip(objects, objects[1:])):
+            raise PrtError("the receiving objects are not in ascending order")
+        receivers = {"object_count": object_count, "objects": objects}
+        header["receivers"] = receivers
     assert cursor.offset == len(b)
-    return PrtFile(header, transfer, ao, bent_normal, rays, error_estimate, lightmap)
+    return PrtFile(header, transfer, ao, bent_normal, rays, error_estimate, lightmap, receivers=receivers)
 
 
 def _read_adaptive(b, aux, mode, sampling):

@@ -1,7 +1,8 @@
 """Tests prt.py against `prt-bake export --npz` and `prt-bake inspect` on every variant:
 grey and RGB transfer, orders 1, 3, 4 and 5, with and without the aux arrays, z- and y-up,
 transfer matrices (orders 2 and 3, shadowed and unshadowed, y-up),
-an adaptive bake (rays cast, estimated errors) and texel (lightmap) bakes; that a shard part
+an adaptive bake (rays cast, estimated errors), texel (lightmap) bakes and a file of some
+objects (--receivers); that a shard part
 is refused; and that corrupted or truncated files of each kind are refused with the reason.
 Usage: test_prt.py PRT_BAKE OUT_DIR."""
 
@@ -185,7 +186,7 @@ for broken, reason in (
         (patched(data, 108, np.float32(0)), "without a target error"),
         (patched(data, 68, np.uint32(1 | 2 | 4)), "aux bits 2 and 3"),
         (patched(data, 36, np.uint32(0)), "mode unshadowed"),
-        (patched(data, 68, np.uint32(1 | 2 | 4 | 8 | 16)), "unknown auxiliary-array flags"),
+        (patched(data, 68, np.uint32(1 | 2 | 4 | 8 | 32)), "unknown auxiliary-array flags"),
         (patched(data, 128 + 4 * (V * 16), np.float32(np.nan)), "accessibility")):
     refused(broken, reason, "adaptive file")
 print("test_prt.py: corrupted adaptive files are refused by prt.py and by prt-bake inspect")
@@ -223,6 +224,28 @@ refused(data, "combine the parts with `prt-bake merge`", "shard part", by_inspec
 refused(data, "shard 1 of 2", "shard part", by_inspect=False)
 refused(patched(data, 92, np.uint32(2)), "the index must be below the count", "shard part")
 print("test_prt.py: a shard part is refused (merge it first)")
+
+# A file of some objects (bake --receivers): the receivers' rows, equal to the whole bake's rows
+# of those objects (the same rays), and the section as inspect prints it; a corrupted section
+# is refused by both readers.
+whole, part = out / "receivers-whole.prt", out / "receivers-part.prt"
+run("bake", cornell, "-o", str(whole), "--quiet", "--samples", "32", "--aux", "ao")
+run("bake", cornell, "-o", str(part), "--quiet", "--samples", "32", "--aux", "ao", "--receivers", "tall_box*")
+f, everything = read_prt(part), read_prt(whole)
+inspected = json.loads(run("inspect", str(part)))
+assert f.receivers == inspected["receivers"] == f.header["receivers"], (f.receivers, inspected["receivers"])
+assert len(f.receivers["objects"]) >= 1 and f.header["vertex_count"] < everything.header["vertex_count"]
+# The receiving objects' vertices are one run of the scene's vertex order here (one object).
+rows = len(f.transfer)
+starts = [v for v in range(len(everything.transfer) - rows + 1)
+          if np.array_equal(everything.transfer[v], f.transfer[0])]
+assert any(np.array_equal(everything.transfer[v:v + rows], f.transfer)
+           and np.array_equal(everything.ao[v:v + rows], f.ao) for v in starts), "receivers' rows"
+data = part.read_bytes()
+refused(patched(data, len(data) - 4, np.uint32(10**6)), "but the scene has", "receiver section")
+refused(data[:-4], "announces", "receiver section")
+print(f"test_prt.py: a file of {len(f.receivers['objects'])} of {f.receivers['object_count']} objects "
+      f"({rows} vertices): the whole bake's rows, its section as inspect prints it")
 
 # Compressed (version 2) files: vertex and texel, grey and RGB, a matrix file; prt.py's
 # reconstruction equal to the npz export's (which reconstructs), its header to inspect's.

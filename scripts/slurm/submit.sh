@@ -2,10 +2,15 @@
 # Bakes a scene on a Slurm cluster: an array job of N shards, then a merge job that runs when
 # every shard has succeeded (--dependency=afterok). docs/distributed.md explains it.
 #
-#   scripts/slurm/submit.sh [--wait] SCENE OUT.prt N [bake options…]
+#   scripts/slurm/submit.sh [--wait] [--stages] SCENE OUT.prt N [bake options…]
 #
-#   --wait   block until the merge job has ended; exit with its status (non-zero when a shard
-#            or the merge failed: the merge job is cancelled if a shard fails)
+#   --wait    block until the last job has ended; exit non-zero unless it completed (a shard
+#             or a merge failed: the jobs after a failed one are cancelled)
+#   --stages  a texel bake (--lightmap) in dependent stages, so that no job repeats another's
+#             work and the merges do no heavy work: a prepare-lightmap job; the shards' array
+#             (reading the prepared lightmap); in interreflected mode `merge --direct`, then
+#             per bounce an array of N `gather` tasks and a `merge --lower`; an array of N
+#             `stitch --columns` tasks; and the `stitch --join` that writes OUT.prt
 #
 # Environment:
 #   PRT_BAKE        the prt-bake binary the nodes run (default: target/release/prt-bake of this
@@ -22,11 +27,15 @@ usage() {
     echo "usage: $0 [--wait] SCENE OUT.prt N [bake options…]" >&2
     exit 2
 }
-wait_for_merge=""
-if [ "${1:-}" = "--wait" ]; then
-    wait_for_merge="--wait"
+wait_for_merge="" stages=""
+while [ $# -gt 0 ]; do
+    case $1 in
+        --wait) wait_for_merge="--wait" ;;
+        --stages) stages=1 ;;
+        *) break ;;
+    esac
     shift
-fi
+done
 [ $# -ge 3 ] || usage
 scene=$1 out=$2 count=$3
 shift 3
@@ -45,31 +54,92 @@ quote() { printf '%q ' "$@"; }
 # shellcheck disable=SC2206
 extra=(${SBATCH_OPTIONS:-})
 
-# The shards: array tasks 0..N-1; `--shard auto` reads SLURM_ARRAY_TASK_ID/COUNT.
-array=$(sbatch --parsable "${extra[@]}" --job-name=prt-shard --array="0-$((count - 1))" \
-    --output="$parts/shard-%a.log" \
-    --wrap "$(quote "$bake" bake "$scene" -o "$parts/part-\$SLURM_ARRAY_TASK_ID.prt" --shard auto --quiet "$@" | sed 's/\\\$SLURM_ARRAY_TASK_ID/$SLURM_ARRAY_TASK_ID/')")
-array=${array%%;*}
+if [ -n "$stages" ]; then
+    # The stages' options: --lightmap is required; interreflected bakes have --bounces (1 by
+    # default) bounces to gather.
+    mode=shadowed bounces="" lightmap=""
+    args=("$@")
+    for ((i = 0; i < ${#args[@]}; i++)); do
+        case ${args[i]} in
+            --mode) mode=${args[i + 1]:-} ;;
+            --mode=*) mode=${args[i]#--mode=} ;;
+            --bounces) bounces=${args[i + 1]:-} ;;
+            --bounces=*) bounces=${args[i]#--bounces=} ;;
+            --lightmap | --lightmap=*) lightmap=1 ;;
+        esac
+    done
+    [ -n "$lightmap" ] || { echo "submit: --stages is for texel bakes: give --lightmap RES" >&2; exit 2; }
+    [ "$mode" = interreflected ] || bounces=0
+    bounces=${bounces:-1}
+fi
+
+# Submits one job (or with "array", an array of N tasks) that runs when job $after (if any)
+# has succeeded, and is cancelled if it failed; prints its id. $1 is the job's name.
+submit() {
+    local name=$1 after=$2 array=$3 wrap=$4
+    local opts=(--parsable "${extra[@]}" --job-name="prt-$name")
+    [ -n "$after" ] && opts+=(--dependency="afterok:$after" --kill-on-invalid-dep=yes)
+    if [ -n "$array" ]; then
+        opts+=(--array="0-$((count - 1))" --output="$parts/$name-%a.log")
+    else
+        opts+=(--output="$parts/$name.log")
+    fi
+    local id
+    id=$(sbatch "${opts[@]}" --wrap "$wrap") || {
+        local status=$?
+        echo "submit: the $name job failed (logs in $parts)" >&2
+        exit $status
+    }
+    echo "${id%%;*}"
+}
+# Files of every array task: "$1-0$2 $1-1$2 …".
+each() { for ((k = 0; k < count; k++)); do printf '%q ' "$1-$k$2"; done; }
+task='$SLURM_ARRAY_TASK_ID'
 
 part_files=()
 for ((k = 0; k < count; k++)); do part_files+=("$parts/part-$k.prt"); done
-# The merge: only after every shard succeeded; cancelled (not left pending) if one failed.
-merge_job=$(sbatch --parsable "${extra[@]}" --job-name=prt-merge \
-    --dependency="afterok:$array" --kill-on-invalid-dep=yes \
-    --output="$parts/merge.log" $wait_for_merge \
-    --wrap "$(quote "$bake" merge "${part_files[@]}" -o "$out" --quiet)") || {
-    status=$?
-    echo "submit: the merge job failed (logs in $parts)" >&2
-    exit $status
-}
-merge_job=${merge_job%%;*}
-echo "submit: shards job $array (array 0-$((count - 1))), merge job $merge_job -> $out"
+if [ -n "$stages" ]; then
+    prep="$parts/prepared.lmp"
+    prepare_job=$(submit prepare "" "" "$(quote "$bake" prepare-lightmap "$scene" -o "$prep" --quiet "$@")")
+    # The shards read the prepared lightmap: none repeats the atlas or the leak test.
+    array=$(submit shard "$prepare_job" array "$(quote "$bake" bake "$scene" --shard auto --prepared "$prep" --quiet "$@") -o $(printf '%q' "$parts/part-")$task.prt")
+    last=$array unstitched="$parts/unstitched.prt"
+    if [ "$bounces" -eq 0 ]; then
+        last=$(submit merge "$last" "" "$(quote "$bake" merge "${part_files[@]}" -o "$unstitched" --unstitched --quiet)")
+    else
+        last=$(submit merge-0 "$last" "" "$(quote "$bake" merge --direct "${part_files[@]}" -o "$parts/bounce-0.bnc" --quiet)")
+        for ((b = 1; b <= bounces; b++)); do
+            lower="$parts/bounce-$((b - 1)).bnc"
+            last=$(submit "gather-$b" "$last" array "$(quote "$bake" gather --quiet --lower "$lower") $(printf '%q' "$parts/part-")$task.prt -o $(printf '%q' "$parts/gather-$b-")$task.bnc")
+            next="$parts/bounce-$b.bnc" unstitch=""
+            [ "$b" -eq "$bounces" ] && next=$unstitched unstitch=--unstitched
+            last=$(submit "merge-$b" "$last" "" "$(quote "$bake" merge --lower "$lower" $unstitch -o "$next" --quiet) $(each "$parts/gather-$b" .bnc)")
+        done
+    fi
+    # Stitching, the heavy part of a large lightmap, in N shards of columns; the join is I/O.
+    last=$(submit stitch "$last" array "$(quote "$bake" stitch "$unstitched" --prepared "$prep" --columns auto) -o $(printf '%q' "$parts/columns-")$task.col")
+    merge_job=$(submit join "$last" "" "$(quote "$bake" stitch "$unstitched" -o "$out" --join) $(each "$parts/columns" .col)")
+    echo "submit: prepare job $prepare_job, shards job $array (array 0-$((count - 1))), $((bounces)) bounce stages, stitch and join job $merge_job -> $out"
+else
+    # The shards: array tasks 0..N-1; `--shard auto` reads SLURM_ARRAY_TASK_ID/COUNT.
+    array=$(submit shard "" array "$(quote "$bake" bake "$scene" --shard auto --quiet "$@") -o $(printf '%q' "$parts/part-")$task.prt")
+    # The merge: only after every shard succeeded; cancelled (not left pending) if one failed.
+    merge_job=$(submit merge "$array" "" "$(quote "$bake" merge "${part_files[@]}" -o "$out" --quiet)")
+    echo "submit: shards job $array (array 0-$((count - 1))), merge job $merge_job -> $out"
+fi
 if [ -n "$wait_for_merge" ]; then
-    # sbatch --wait exits 0 for a job cancelled before it started (a shard failed), so ask
-    # the controller how the merge ended.
-    state=$(scontrol show job "$merge_job" -o | grep -o 'JobState=[A-Z_]*' || true)
+    # Polls the last job twice a second (sbatch --wait backs off to 30 s and more between
+    # polls, which a bake in many short stages would spend waiting).
+    state=""
+    while :; do
+        state=$(scontrol show job "$merge_job" -o 2>/dev/null | grep -o 'JobState=[A-Z_]*' || true)
+        case $state in
+            JobState=PENDING | JobState=RUNNING | JobState=CONFIGURING | JobState=COMPLETING | JobState=SUSPENDED | JobState=REQUEUED) sleep 0.5 ;;
+            *) break ;;
+        esac
+    done
     if [ "$state" != "JobState=COMPLETED" ]; then
-        echo "submit: the merge job ended with ${state:-an unknown state}: a shard failed? (logs in $parts)" >&2
+        echo "submit: the last job ended with ${state:-an unknown state}: a shard failed? (logs in $parts)" >&2
         exit 1
     fi
 fi

@@ -40,7 +40,7 @@ teardown() {
     done
     if [ $status -ne 0 ]; then
         echo "slurm test: FAILED; the logs of the daemons and the jobs:" >&2
-        tail -n 20 "$tmp"/*.log "$tmp"/merged.prt.parts/*.log >&2 2>/dev/null || true
+        tail -n 20 "$tmp"/*.log "$tmp"/*.prt.parts/*.log >&2 2>/dev/null || true
     fi
     rm -rf "$tmp"
     exit $status
@@ -84,6 +84,9 @@ SelectTypeParameters=CR_CPU
 MpiDefault=none
 ReturnToService=2
 SchedulerType=sched/backfill
+# Run the scheduler as soon as a job ends (default: at most every 2 s), so that the texel
+# bake's dependent stages follow each other without waiting.
+SchedulerParameters=sched_min_interval=100000
 JobCompType=jobcomp/none
 AccountingStorageType=accounting_storage/none
 JobAcctGatherType=jobacct_gather/none
@@ -132,15 +135,17 @@ timeout 120 "$bake" bake "$scene" -o "$tmp/single.prt" --quiet "${bake_options[@
 cmp "$tmp/merged.prt" "$tmp/single.prt"
 echo "slurm test: 4 shards on Slurm, merged by a dependent job in ${slurm_seconds}s: identical to the single-machine bake"
 
-# A texel (lightmap) bake: its shards split the baked texels; the merge places, dilates and
-# gathers the bounces over the lightmap.
+# A texel (lightmap) bake in dependent stages (--stages): a prepare job, the shards, per
+# bounce an array of gathers and a merge, an array of stitch shards and the join.
 SECONDS=0
-timeout 120 "$root/scripts/slurm/submit.sh" --wait "$scene" "$tmp/texels.prt" 3 "${texel_options[@]}"
+timeout 180 "$root/scripts/slurm/submit.sh" --wait --stages "$scene" "$tmp/texels.prt" 2 "${texel_options[@]}"
 slurm_seconds=$SECONDS
-for k in 0 1 2; do
-    grep -q "shard $k of 3 (baked texels" "$tmp/texels.prt.parts/shard-$k.log" ||
-        { echo "slurm test: texel shard $k's log does not say it baked shard $k of 3's texels" >&2; exit 1; }
+for k in 0 1; do
+    grep -q "shard $k of 2 (baked texels" "$tmp/texels.prt.parts/shard-$k.log" ||
+        { echo "slurm test: texel shard $k's log does not say it baked shard $k of 2's texels" >&2; exit 1; }
+    grep -q "gathered bounce 2 of 2 (shard $k of 2" "$tmp/texels.prt.parts/gather-2-$k.log" ||
+        { echo "slurm test: gather task $k's log does not say it gathered shard $k's bounce 2" >&2; exit 1; }
 done
 timeout 120 "$bake" bake "$scene" -o "$tmp/texels-single.prt" --quiet "${texel_options[@]}" >/dev/null
 cmp "$tmp/texels.prt" "$tmp/texels-single.prt"
-echo "slurm test: a 64² lightmap in 3 shards on Slurm, merged in ${slurm_seconds}s: identical to the single-machine texel bake"
+echo "slurm test: a 64² lightmap in 2 shards on Slurm, in dependent stages (prepare, bake, 2 bounces, stitch) in ${slurm_seconds}s: identical to the single-machine texel bake"

@@ -20,6 +20,12 @@ use crate::trace::{Hit, Tracer};
 /// Bytes per bounce-row entry: vertex index and RGB weight.
 pub const BYTES_PER_ENTRY: u64 = 4 + 3 * 4;
 
+/// Bytes per cached texel hit ([`JobRows`]): triangle and barycentrics u, v as f32, exactly as
+/// traced, so that the row folded from them in every gather is the one the direct pass would
+/// have folded. A ray's estimator weight adds 4 bytes only where the weights differ
+/// (`--sampling thesis-random`).
+pub const BYTES_PER_HIT: u64 = 4 + 2 * 4;
+
 /// A thread's accumulator for one receiver's bounce row: the slots touched so far in
 /// first-touch order (which fixes the output order) with their sums, and where each slot's sum
 /// is. Sparse, so a thread's memory is bounded by a row's length (at most 4 slots a bounce ray)
@@ -41,6 +47,12 @@ impl RowBuilder {
             self.sums.push([0.0; 3]);
         }
         self.sums[i] = (Vec3::from_array(self.sums[i]) + weight).to_array();
+    }
+
+    fn clear(&mut self) {
+        self.touched.clear();
+        self.sums.clear();
+        self.index.clear();
     }
 }
 
@@ -170,16 +182,28 @@ impl CornerProbe<'_> {
 }
 
 /// The bounce rows of a run of consecutive receivers.
+///
+/// Vertex targets keep each receiver's row folded (its hits share corners: about one
+/// 16-byte entry per bounce ray). Texel targets keep the front *hits* instead and fold them
+/// into a row in every gather ([`JobRows::row`]): a hit reads up to 4 texels that the
+/// receiver's other hits almost never share, so its folded entries took 2.64 × 16 bytes per
+/// bounce ray against [`BYTES_PER_HIT`]; the fold is the same code on the same floats in
+/// the same order, so the row, and the bake, are bit for bit what folding at once gave.
 pub struct JobRows<'a> {
     scene: &'a Scene,
     targets: &'a BounceTargets<'a>,
     /// Vertex targets: which corners a hit must not read ([`Embedded`]).
     embedded: Arc<Embedded>,
-    /// Index of each begun receiver's first entry.
+    /// Index of each begun receiver's first entry (vertex targets) or hit (texel targets).
     starts: Vec<u32>,
-    /// Slot of each entry.
-    pub(crate) vertices: Vec<u32>,
-    pub(crate) weights: Vec<[f32; 3]>,
+    /// Vertex targets: slot of each entry.
+    vertices: Vec<u32>,
+    weights: Vec<[f32; 3]>,
+    /// Texel targets: each front hit's triangle and barycentrics u, v (f32 bits).
+    hits: Vec<[u32; 3]>,
+    /// Each hit's estimator weight; empty while every weight so far is `uniform`.
+    hit_weights: Vec<f32>,
+    uniform: f32,
 }
 
 impl<'a> JobRows<'a> {
@@ -195,12 +219,25 @@ impl<'a> JobRows<'a> {
             starts: Vec::new(),
             vertices: Vec::new(),
             weights: Vec::new(),
+            hits: Vec::new(),
+            hit_weights: Vec::new(),
+            uniform: f32::NAN,
         }
+    }
+
+    /// Whether hits are kept rather than folded rows (texel targets).
+    fn keeps_hits(&self) -> bool {
+        matches!(self.targets, BounceTargets::Texels(_))
     }
 
     /// Starts the next receiver's row (receivers are recorded in order).
     pub(crate) fn begin_vertex(&mut self) {
-        self.starts.push(self.vertices.len() as u32);
+        let len = if self.keeps_hits() {
+            self.hits.len()
+        } else {
+            self.vertices.len()
+        };
+        self.starts.push(len as u32);
     }
 
     /// Adds a closest hit of a ray along `dir` with estimator weight `weight`, if the ray
@@ -213,12 +250,30 @@ impl<'a> JobRows<'a> {
         builder: &mut RowBuilder,
         probe: &CornerProbe,
     ) {
+        if self.keeps_hits() {
+            if self.front_barycentric(hit, dir).is_some() {
+                self.keep_hit(hit, weight);
+            }
+            return;
+        }
         let mut slots = [(0, Vec3::ZERO); 4];
         let count = self.front_hit_slots(hit, dir, weight, probe, &mut slots);
-        for &(slot, w) in &slots[..count] {
-            if w != Vec3::ZERO {
-                builder.add(slot, w);
-            }
+        fold(builder, &slots[..count]);
+    }
+
+    /// Keeps a texel target's front hit with its estimator weight.
+    fn keep_hit(&mut self, hit: &Hit, weight: f32) {
+        self.hits
+            .push([hit.triangle, hit.u.to_bits(), hit.v.to_bits()]);
+        if self.hits.len() == 1 {
+            self.uniform = weight;
+        }
+        if !self.hit_weights.is_empty() || weight.to_bits() != self.uniform.to_bits() {
+            // The first weight that differs: from here on every hit carries its own.
+            let kept = self.hits.len() - 1 - self.hit_weights.len();
+            self.hit_weights
+                .extend(std::iter::repeat_n(self.uniform, kept));
+            self.hit_weights.push(weight);
         }
     }
 
@@ -234,26 +289,48 @@ impl<'a> JobRows<'a> {
         probe: &CornerProbe,
         out: &mut [(u32, Vec3); 4],
     ) -> usize {
+        match self.front_barycentric(hit, dir) {
+            Some(barycentric) => {
+                self.hit_slots(hit.triangle, barycentric, weight, Some(probe), out)
+            }
+            None => 0, // a back face: blocks, reflects nothing
+        }
+    }
+
+    /// The hit's barycentrics, if the ray along `dir` reached the front face (the side its
+    /// interpolated shading normal points to).
+    fn front_barycentric(&self, hit: &Hit, dir: Vec3) -> Option<[f32; 3]> {
         let scene = self.scene;
         let tri = scene.triangles[hit.triangle as usize];
-        let corner = |i: u32| i as usize;
         let barycentric = [1.0 - hit.u - hit.v, hit.u, hit.v];
         let normal: Vec3 = (0..3)
-            .map(|k| scene.normals[corner(tri[k])] * barycentric[k])
+            .map(|k| scene.normals[tri[k] as usize] * barycentric[k])
             .sum();
-        if normal.dot(dir) >= 0.0 {
-            return 0; // a back face: blocks, reflects nothing
-        }
+        (normal.dot(dir) < 0.0).then_some(barycentric)
+    }
+
+    /// [`JobRows::front_hit_slots`] of a front hit on `triangle` at `barycentric`. `probe`
+    /// may be `None` only for texel targets (no embedded corners).
+    fn hit_slots(
+        &self,
+        triangle: u32,
+        barycentric: [f32; 3],
+        weight: f32,
+        probe: Option<&CornerProbe>,
+        out: &mut [(u32, Vec3); 4],
+    ) -> usize {
+        let scene = self.scene;
+        let tri = scene.triangles[triangle as usize];
         let uv: Vec2 = (0..3)
-            .map(|k| scene.uvs[corner(tri[k])] * barycentric[k])
+            .map(|k| scene.uvs[tri[k] as usize] * barycentric[k])
             .sum();
-        let albedo = scene.albedo(scene.triangle_material(hit.triangle as usize), uv) * weight;
+        let albedo = scene.albedo(scene.triangle_material(triangle as usize), uv) * weight;
         let mut slots = [(0, 0.0); 4];
         let count = self
             .targets
-            .lookup(scene, hit.triangle, barycentric, &mut slots);
-        if let BounceTargets::Vertices = self.targets
-            && self.embedded.has_embedded_corner(hit.triangle, tri, probe)
+            .lookup(scene, triangle, barycentric, &mut slots);
+        if let (BounceTargets::Vertices, Some(probe)) = (self.targets, probe)
+            && self.embedded.has_embedded_corner(triangle, tri, probe)
         {
             self.skip_embedded(&mut slots[..count], probe);
         }
@@ -295,23 +372,63 @@ impl<'a> JobRows<'a> {
     pub(crate) fn end_vertex(&mut self, builder: &mut RowBuilder) {
         self.vertices.extend(&builder.touched);
         self.weights.extend(&builder.sums);
-        builder.touched.clear();
-        builder.sums.clear();
-        builder.index.clear();
+        builder.clear();
     }
 
     fn bytes(&self) -> u64 {
-        self.vertices.len() as u64 * BYTES_PER_ENTRY + self.starts.len() as u64 * 4
+        self.vertices.len() as u64 * BYTES_PER_ENTRY
+            + self.hits.len() as u64 * BYTES_PER_HIT
+            + self.hit_weights.len() as u64 * 4
+            + self.starts.len() as u64 * 4
     }
 
-    /// The entries of the `k`-th receiver recorded.
-    pub(crate) fn vertex(&self, k: usize) -> Range<usize> {
+    /// Receivers begun.
+    pub(crate) fn receiver_count(&self) -> usize {
+        self.starts.len()
+    }
+
+    /// The entries (vertex targets) or hits (texel targets) of the `k`-th receiver recorded.
+    fn range(&self, k: usize) -> Range<usize> {
+        let len = if self.keeps_hits() {
+            self.hits.len()
+        } else {
+            self.vertices.len()
+        };
         let start = self.starts[k] as usize;
-        let end = self
-            .starts
-            .get(k + 1)
-            .map_or(self.vertices.len(), |&e| e as usize);
+        let end = self.starts.get(k + 1).map_or(len, |&e| e as usize);
         start..end
+    }
+
+    /// The `k`-th receiver's bounce row (slots and RGB weights): its folded entries, or its
+    /// hits folded into `builder` (cleared first) exactly as [`JobRows::record`] would have.
+    pub(crate) fn row<'r>(
+        &'r self,
+        k: usize,
+        builder: &'r mut RowBuilder,
+    ) -> (&'r [u32], &'r [[f32; 3]]) {
+        let range = self.range(k);
+        if !self.keeps_hits() {
+            return (&self.vertices[range.clone()], &self.weights[range]);
+        }
+        builder.clear();
+        for i in range {
+            let [triangle, u, v] = self.hits[i];
+            let (u, v) = (f32::from_bits(u), f32::from_bits(v));
+            let weight = self.hit_weights.get(i).copied().unwrap_or(self.uniform);
+            let mut slots = [(0, Vec3::ZERO); 4];
+            let count = self.hit_slots(triangle, [1.0 - u - v, u, v], weight, None, &mut slots);
+            fold(builder, &slots[..count]);
+        }
+        (&builder.touched, &builder.sums)
+    }
+}
+
+/// Adds a hit's slots to a row (zero weights add nothing).
+fn fold(builder: &mut RowBuilder, slots: &[(u32, Vec3)]) {
+    for &(slot, w) in slots {
+        if w != Vec3::ZERO {
+            builder.add(slot, w);
+        }
     }
 }
 
@@ -334,11 +451,12 @@ impl Rows {
             starts: vec![0],
             ..Rows::default()
         };
+        let mut builder = RowBuilder::default();
         for job in jobs {
-            for k in 0..job.starts.len() {
-                let range = job.vertex(k);
-                rows.vertices.extend(&job.vertices[range.clone()]);
-                rows.weights.extend(&job.weights[range]);
+            for k in 0..job.receiver_count() {
+                let (vertices, weights) = job.row(k, &mut builder);
+                rows.vertices.extend(vertices);
+                rows.weights.extend(weights);
                 rows.starts.push(rows.vertices.len() as u64);
             }
         }
@@ -445,6 +563,82 @@ impl<'a> HitRecorder<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::bake::lightmap::{Atlas, texels::Texels};
+    use crate::trace::{ObvhsOptions, ObvhsTracer};
+
+    #[test]
+    fn kept_texel_hits_fold_into_the_row_recording_would_have_folded() {
+        // Hits on the Cornell room's triangles (some on back faces, which add nothing), in
+        // three receivers, with one weight for the first and then a weight per hit: each
+        // receiver's row folded from the kept hits must be, bit for bit, the row folded from
+        // the hits as they came.
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../scenes/cornell/cornell.scene");
+        let scene = Scene::load(&path).unwrap();
+        let atlas = Atlas::generate(&scene, 64, None).unwrap();
+        let texels = Texels::rasterise(&scene, &atlas);
+        let targets = BounceTargets::texels(&atlas, &texels);
+        let embedded = Arc::new(Embedded::new(&scene, &targets));
+        let tracer = ObvhsTracer::new(&scene, ObvhsOptions::default());
+        let probe = CornerProbe {
+            tracer: &tracer,
+            origins: &[],
+            normals: &[],
+            seed: 1,
+        };
+        let mut kept = JobRows::new(&scene, &targets, embedded.clone());
+        let mut rng = Pcg32::new(7, 0);
+        let (mut builder, mut expected) = (RowBuilder::default(), Vec::new());
+        for receiver in 0..3 {
+            kept.begin_vertex();
+            let mut direct = RowBuilder::default();
+            for k in 0..400 {
+                let triangle = rng.next_u32() % scene.triangles.len() as u32;
+                let (u, v) = (rng.next_f32(), rng.next_f32());
+                let (u, v) = if u + v > 1.0 {
+                    (1.0 - u, 1.0 - v)
+                } else {
+                    (u, v)
+                };
+                let hit = Hit {
+                    triangle,
+                    instance: None,
+                    u,
+                    v,
+                    t: 1.0,
+                    ng: Vec3::Z,
+                };
+                let tri = scene.triangles[triangle as usize];
+                let normal = scene.normals[tri[0] as usize];
+                let dir = if k % 5 == 0 { normal } else { -normal };
+                let weight = match receiver {
+                    0 => 4.0,
+                    _ => 0.5 + rng.next_f32(),
+                };
+                kept.record(&hit, dir, weight, &mut builder, &probe);
+                let mut slots = [(0, Vec3::ZERO); 4];
+                let count = kept.front_hit_slots(&hit, dir, weight, &probe, &mut slots);
+                fold(&mut direct, &slots[..count]);
+            }
+            kept.end_vertex(&mut builder);
+            expected.push((direct.touched, direct.sums));
+        }
+        assert_eq!(kept.hit_weights.len(), kept.hits.len(), "per-hit weights");
+        assert!(
+            kept.hits.len() > 900,
+            "front hits kept: {}",
+            kept.hits.len()
+        );
+        for (k, (touched, sums)) in expected.iter().enumerate() {
+            assert!(!touched.is_empty());
+            let (slots, weights) = kept.row(k, &mut builder);
+            assert!(slots == &touched[..], "receiver {k}'s slots differ");
+            let bits = |w: &[[f32; 3]]| -> Vec<[u32; 3]> {
+                w.iter().map(|w| w.map(f32::to_bits)).collect()
+            };
+            assert!(bits(weights) == bits(sums), "receiver {k}'s weights differ");
+        }
+    }
 
     #[test]
     fn a_row_sums_each_slot_in_record_order_and_lists_slots_by_first_touch() {

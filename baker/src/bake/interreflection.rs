@@ -37,8 +37,11 @@
 //! bilinear weight), and the previous bounce's values are those of the whole lightmap: the
 //! valid texels' values put in place and dilated, as the final lightmap is, so that a hit
 //! near a chart's edge reads what a renderer would read there
-//! ([`crate::bake::receivers::BounceTargets::slot_values`]). Rows, caching, re-tracing and
-//! determinism are the same code as for vertices.
+//! ([`crate::bake::receivers::BounceTargets::slot_values`]). Rows, re-tracing and determinism
+//! are the same code as for vertices; the cache differs: a texel's hits almost never share a
+//! texel, so its folded row (2.6 entries, 42 bytes, per bounce ray) would outweigh the hits
+//! themselves, and the cache keeps each front hit (12 bytes) and folds it again in every
+//! bounce pass, bit for bit as the direct pass would have ([`JobRows`]).
 //!
 //! # Bounce samples
 //!
@@ -58,7 +61,7 @@ use rayon::prelude::*;
 
 use std::sync::Arc;
 
-use crate::bake::bounce_rows::{Embedded, HitRecorder, JobRows};
+use crate::bake::bounce_rows::{Embedded, HitRecorder, JobRows, RowBuilder};
 use crate::bake::estimator::{Estimator, Scratch, Visibility, direct_pass};
 use crate::bake::options::BakeOptions;
 use crate::bake::receivers::BounceTargets;
@@ -68,7 +71,7 @@ use crate::scene::Scene;
 use crate::support::progress::Progress;
 use crate::trace::Tracer;
 
-pub use crate::bake::bounce_rows::{BYTES_PER_ENTRY, Rows};
+pub use crate::bake::bounce_rows::{BYTES_PER_ENTRY, BYTES_PER_HIT, Rows};
 
 /// What an interreflected bake produces.
 pub(crate) struct Bounced {
@@ -253,8 +256,8 @@ pub(crate) fn bounce_pass(
     next.par_chunks_mut(RECEIVERS_PER_JOB * width)
         .enumerate()
         .for_each_init(
-            || Scratch::new(n),
-            |scratch, (job, out)| {
+            || (Scratch::new(n), RowBuilder::default()),
+            |(scratch, builder), (job, out)| {
                 let first = job * RECEIVERS_PER_JOB;
                 for (k, out) in out.chunks_mut(width).enumerate() {
                     let gather = |vertices: &[u32], weights: &[[f32; 3]], out: &mut [f32]| {
@@ -270,9 +273,8 @@ pub(crate) fn bounce_pass(
                     };
                     match rows {
                         RowSource::Jobs(jobs) => {
-                            let range = jobs[job].vertex(k);
-                            let rows = &jobs[job];
-                            gather(&rows.vertices[range.clone()], &rows.weights[range], out);
+                            let (vertices, weights) = jobs[job].row(k, builder);
+                            gather(vertices, weights, out);
                         }
                         RowSource::Flat(rows) => {
                             let range = rows.vertex(first + k);
@@ -288,7 +290,8 @@ pub(crate) fn bounce_pass(
                             // Same rays as the direct pass, so the same row.
                             let mut fresh = JobRows::new(scene, targets, Arc::clone(embedded));
                             estimator.bounce_row(first + k, *tracer, scratch, &mut fresh);
-                            gather(&fresh.vertices, &fresh.weights, out);
+                            let (vertices, weights) = fresh.row(0, builder);
+                            gather(vertices, weights, out);
                         }
                     }
                     for o in out.iter_mut() {

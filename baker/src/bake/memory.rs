@@ -33,11 +33,11 @@ pub fn bake_bytes(options: &BakeOptions, vertices: u64, triangles: u64) -> Optio
         .checked_mul(3)?;
     let bounce = match options.mode {
         Mode::Interreflected => {
-            // Hit-cache rows: up to three (vertex) or four (texel) (slot, weight) entries of
-            // 16 bytes per bounce ray, dropped beyond the cache's limit.
+            // Hit cache: up to three (slot, weight) entries of 16 bytes per bounce ray for a
+            // vertex, one hit of at most 16 bytes for a texel, dropped beyond the cache's limit.
             let rows = vertices
                 .checked_mul(u64::from(options.effective_bounce_samples()))?
-                .checked_mul(4 * BYTES_PER_ENTRY)?;
+                .checked_mul(3 * BYTES_PER_ENTRY)?;
             // Each thread accumulates one row at a time, sparsely: a slot, an RGB weight and
             // a hash-map entry (≤ 32 bytes) for each of up to four entries per bounce ray.
             let builders = u64::from(options.effective_bounce_samples())

@@ -10,9 +10,8 @@ use prt_baker::bake::options::Aux;
 use prt_baker::bake::receiver_names::receiver_objects;
 use prt_baker::bake::receiver_subset::bake_objects_translucent;
 use prt_baker::bake::subsurface;
-use prt_baker::distribute::checkpoint;
-use prt_baker::distribute::part_baker::PartBaker;
-use prt_baker::distribute::shard::{ShardId, shard_range};
+use prt_baker::distribute::prepared_file;
+use prt_baker::distribute::shard::ShardId;
 use prt_baker::export::compress;
 use prt_baker::math::medium::Medium;
 use prt_baker::math::sampling::Sampling;
@@ -22,8 +21,8 @@ use prt_baker::support::progress::Progress;
 use prt_baker::trace::{self, Backend, Tracer, TracerOptions};
 use prt_baker::{BakeOptions, CoefficientFile, Error, Mode, Scene, Transfer};
 
-use super::UpArg;
 use super::scene_load::{self, DoubleSidedArg, InstancesArg};
+use super::{UpArg, bake_parts};
 
 #[derive(clap::Args)]
 pub struct BakeArgs {
@@ -131,6 +130,15 @@ pub struct BakeArgs {
     /// one another are packed per object either way (docs/lightmaps.md).
     #[arg(long, requires = "lightmap")]
     strict_uvs: bool,
+    /// With --lightmap and --shard or --checkpoint: read the atlas, the baked texels after the
+    /// leak test and the seam partners from FILE (`prt-bake prepare-lightmap` with this
+    /// scene and the same lightmap options, --seed, --backend and --mode) instead of computing
+    /// them in every shard; one of another scene or options is refused (exit 3).
+    #[arg(long, value_name = "FILE", requires = "lightmap")]
+    prepared: Option<PathBuf>,
+    /// Set by `prt-bake prepare-lightmap`: write the preparation to -o and stop.
+    #[arg(skip)]
+    prepare_only: bool,
     /// Bake only the objects whose name, or (glTF) whose node's or an ancestor node's name,
     /// matches one of these globs (`*`, `?`, `[…]`); the others occlude and, interreflected,
     /// reflect. Default: every object but those a glTF node marks
@@ -273,6 +281,31 @@ fn options(args: &BakeArgs) -> BakeOptions {
     }
 }
 
+/// `prt-bake prepare-lightmap`: [`run`] up to the texel bake's preparation, written to -o.
+pub fn run_prepare(mut args: BakeArgs) -> Result<(), Error> {
+    args.prepare_only = true;
+    run(args)
+}
+
+impl BakeArgs {
+    /// What a prepared lightmap depends on, hashed ([`prepared_file::key`]): the scene, the
+    /// lightmap options, the seed, the backend, and whether rays are cast (the leak test).
+    fn prepared_key(&self, scene: &Scene, options: &BakeOptions) -> u64 {
+        let lightmap = format!(
+            "{:?} {:?} {:?} {} {} {:?}",
+            self.lightmap,
+            self.texel_size.map(f32::to_bits),
+            self.atlas.map(|a| a.method()),
+            self.strict_uvs,
+            self.robust,
+            scene.up,
+        );
+        let backend = self.backend.backend().name();
+        let rays = options.mode.casts_rays();
+        prepared_file::key(scene.fingerprint(), &lightmap, options.seed, backend, rays)
+    }
+}
+
 pub fn run(args: BakeArgs) -> Result<(), Error> {
     let options = options(&args);
     options.validate()?;
@@ -300,12 +333,19 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
     }
     let mut inputs = vec![args.scene.clone()];
     inputs.extend(args.materials.clone());
+    inputs.extend(args.prepared.clone());
+    let in_parts = shard.is_some() || args.checkpoint.is_some();
+    if args.prepared.is_some() && !in_parts {
+        return Err(Error::InvalidOption(
+            "--prepared is for texel bakes in parts: give --shard or --checkpoint".into(),
+        ));
+    }
     Output::new(&args.output, &inputs)?;
     if let Some(threads) = args.threads {
         start_threads(threads)?;
     }
 
-    let whole = args.lightmap.is_none() && shard.is_none() && args.checkpoint.is_none();
+    let whole = args.lightmap.is_none() && !in_parts && !args.prepare_only;
     let instancing = whole && args.probes.is_none() && args.materials.is_none();
     let instancing = instancing && options.mode != Mode::Interreflected;
     let mut scene = scene_load::load(
@@ -321,6 +361,7 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
     }
     let mut inputs = scene.input_files();
     inputs.extend(args.materials.clone());
+    inputs.extend(args.prepared.clone());
     let output = Output::new(&args.output, &inputs)?;
     // Whole vertex bakes only (clap refuses --receivers with the others; glTF marks are
     // not applied to them).
@@ -357,9 +398,24 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
             progress.as_ref(),
         );
     }
-    if shard.is_some() || args.checkpoint.is_some() {
+    if args.prepare_only || in_parts {
         let tracer = tracer.as_deref();
-        return bake_in_parts(&args, &scene, tracer, &options, shard, progress.as_ref());
+        let atlas = |resolution| atlas(&args, &scene, resolution, progress.as_ref());
+        let parts = bake_parts::PartsArgs {
+            lightmap: args.lightmap,
+            checkpoint: args.checkpoint.as_deref(),
+            checkpoint_vertices: args.checkpoint_vertices,
+            output: &args.output,
+            prepared: args.prepared.as_deref(),
+            prepared_key: args.prepared_key(&scene, &options),
+            verbose: args.verbose,
+            atlas: &atlas,
+        };
+        let progress = progress.as_ref();
+        return match args.prepare_only {
+            true => bake_parts::prepare_lightmap(&parts, &scene, tracer, &options),
+            false => bake_parts::bake_in_parts(&parts, &scene, tracer, &options, shard, progress),
+        };
     }
     let (transfer, file, what) = match (args.lightmap, receivers) {
         (None, Some(objects)) => {
@@ -600,86 +656,6 @@ fn summary(args: &BakeArgs, options: &BakeOptions, transfer: &Transfer, what: &s
         transfer.backend.name(),
         args.output.display()
     )
-}
-
-/// A bake with `--shard` or `--checkpoint`: a part file, or the whole file from checkpoint
-/// blocks.
-fn bake_in_parts(
-    args: &BakeArgs,
-    scene: &Scene,
-    tracer: Option<&dyn Tracer>,
-    options: &BakeOptions,
-    shard: Option<ShardId>,
-    progress: &dyn Progress,
-) -> Result<(), Error> {
-    let started = std::time::Instant::now();
-    // A texel bake's parts split its baked texels: every shard computes the same atlas and
-    // leak test, and bakes through a tracer watertight for the texels, as a whole bake does.
-    let (prepared, watertight);
-    let (baker, noun) = match args.lightmap {
-        None => (PartBaker::vertices(scene, tracer, options)?, "vertices"),
-        Some(resolution) => {
-            let atlas = atlas(args, scene, resolution, progress)?;
-            (prepared, watertight) = lightmap::prepare_traced(scene, tracer, options.seed, atlas)?;
-            let tracer = watertight.as_deref().or(tracer);
-            let baker = PartBaker::texels(scene, tracer, options, &prepared)?;
-            (baker, "baked texels")
-        }
-    };
-    let vertex_count = baker.receivers();
-    let (id, vertices) = match shard {
-        Some(shard) => (shard, shard_range(vertex_count, shard)),
-        None => (ShardId { index: 0, count: 1 }, 0..vertex_count),
-    };
-    let (part, rays, blocks) = match &args.checkpoint {
-        Some(dir) => {
-            let block_vertices = args
-                .checkpoint_vertices
-                .unwrap_or_else(|| checkpoint::default_block_vertices(options));
-            let done = checkpoint::bake(
-                &baker,
-                options,
-                id,
-                vertices.clone(),
-                dir,
-                block_vertices,
-                progress,
-            )?;
-            let blocks = format!(
-                ", {} blocks ({} resumed from {})",
-                done.blocks,
-                done.reused,
-                dir.display()
-            );
-            (done.part, done.rays, blocks)
-        }
-        None => {
-            let (part, rays) = baker.bake(id, vertices.clone(), progress)?;
-            (part, rays, String::new())
-        }
-    };
-    let what = match shard {
-        Some(shard) => {
-            part.write(&args.output)?;
-            format!(
-                "{shard} ({noun} {}..{} of {vertex_count})",
-                vertices.start, vertices.end
-            )
-        }
-        None => {
-            part.finish(progress).write(&args.output)?;
-            format!("{vertex_count} {noun}")
-        }
-    };
-    let seconds = started.elapsed().as_secs_f64();
-    println!(
-        "baked {what}, {rays} rays, {seconds:.2} s (order {}, {}, {} samples{blocks}) -> {}",
-        options.order,
-        options.mode.name(),
-        options.samples,
-        args.output.display()
-    );
-    Ok(())
 }
 
 /// "1 bounce", "2 bounces".

@@ -1,19 +1,35 @@
-//! `prt-bake merge`: shard parts joined into the file one machine would have baked.
+//! `prt-bake merge`: shard parts joined into the file one machine would have baked; or, for
+//! a bake distributed bounce by bounce, one stage's files joined for the next stage
+//! (docs/distributed.md).
 
 use std::path::PathBuf;
 
-use prt_baker::Error;
-use prt_baker::distribute::merge::merge;
+use prt_baker::distribute::bounce_stages::{self, BounceFile};
+use prt_baker::distribute::merge::merge_with;
 use prt_baker::support::output::Output;
+use prt_baker::{CoefficientFile, Error};
 
 #[derive(clap::Args)]
 pub struct MergeArgs {
-    /// Every part of the bake, in any order.
+    /// Every part of the bake, in any order (with --lower: every shard's gather of a bounce).
     #[arg(required = true)]
     parts: Vec<PathBuf>,
-    /// Output coefficient file.
+    /// Output coefficient file (with --direct, or --lower before the last bounce: a bounce
+    /// file for `prt-bake gather`).
     #[arg(short, long)]
     output: PathBuf,
+    /// Interreflected parts: write bounce file 0 (every receiver's direct transfer) for
+    /// `prt-bake gather`, leaving the bounces to the shards, instead of gathering them here.
+    #[arg(long, conflicts_with_all = ["lower", "unstitched"])]
+    direct: bool,
+    /// The PARTS are the shards' gathers of bounce k (`prt-bake gather`) and FILE the merged
+    /// bounce file k − 1: write bounce file k, or after the last bounce the bake's file.
+    #[arg(long, value_name = "FILE")]
+    lower: Option<PathBuf>,
+    /// Texel bakes: place and dilate the lightmap but leave the seams unstitched, for
+    /// `prt-bake stitch` to stitch in shards of columns.
+    #[arg(long)]
+    unstitched: bool,
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
@@ -21,21 +37,59 @@ pub struct MergeArgs {
 
 pub fn run(args: MergeArgs) -> Result<(), Error> {
     let (parts, output) = (args.parts.as_slice(), args.output.as_path());
-    let output_policy = Output::new(output, parts)?;
+    let mut inputs = parts.to_vec();
+    inputs.extend(args.lower.clone());
+    let output_policy = Output::new(output, &inputs)?;
     let started = std::time::Instant::now();
     let progress = super::progress(args.quiet);
-    let file = merge(parts, progress.as_ref())?;
-    output_policy.write(&file.to_bytes().0)?;
-    let what = match (&file.lightmap, &file.probes) {
-        (Some(l), _) => format!("{}×{} texels", l.width, l.height),
-        (None, Some(_)) => format!("{} probes", file.header.vertex_count),
-        (None, None) => format!("{} vertices", file.header.vertex_count),
+    let stitch = !args.unstitched;
+    let bounce = match (&args.lower, args.direct) {
+        (Some(lower), _) => Some(bounce_stages::merge(parts, lower)?),
+        (None, true) => Some(bounce_stages::direct(parts)?),
+        (None, false) => None,
     };
+    let file = match bounce {
+        Some(bounce) if !bounce.is_last() || args.direct => {
+            return write_bounce(&bounce, parts.len(), &output_policy, started);
+        }
+        Some(bounce) => bounce.into_file(stitch),
+        None => merge_with(parts, stitch, progress.as_ref())?,
+    };
+    output_policy.write(&file.to_bytes().0)?;
     println!(
-        "merged {} parts, {what}, {:.2} s -> {}",
+        "merged {} parts, {}{}, {:.2} s -> {}",
         parts.len(),
+        what(&file),
+        if args.unstitched { ", unstitched" } else { "" },
         started.elapsed().as_secs_f64(),
         output.display()
     );
     Ok(())
+}
+
+fn write_bounce(
+    bounce: &BounceFile,
+    parts: usize,
+    output: &Output,
+    started: std::time::Instant,
+) -> Result<(), Error> {
+    output.write(&bounce.to_bytes())?;
+    println!(
+        "merged {parts} files, bounce {} of {} of {} receivers, {:.2} s -> {}",
+        bounce.k,
+        bounce.stub.header.bounces,
+        bounce.count,
+        started.elapsed().as_secs_f64(),
+        output.path().display()
+    );
+    Ok(())
+}
+
+/// "W×H texels", "N probes", "N vertices".
+fn what(file: &CoefficientFile) -> String {
+    match (&file.lightmap, &file.probes) {
+        (Some(l), _) => format!("{}×{} texels", l.width, l.height),
+        (None, Some(_)) => format!("{} probes", file.header.vertex_count),
+        (None, None) => format!("{} vertices", file.header.vertex_count),
+    }
 }

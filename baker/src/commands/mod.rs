@@ -4,14 +4,17 @@
 
 pub mod bake;
 pub mod bake_media;
+pub mod bake_parts;
 pub mod bake_probes;
 pub mod compress;
 pub mod export;
+pub mod gather;
 pub mod inspect;
 pub mod light;
 pub mod merge;
 pub mod relight;
 pub mod scene_load;
+pub mod stitch;
 
 use clap::ValueEnum;
 use prt_baker::scene::Up;

@@ -18,7 +18,9 @@
 use glam::{Vec2, Vec3};
 
 use crate::bake::lightmap::stitch::NO_PARTNER;
-use crate::bake::lightmap::{Atlas, AtlasSource, Prepared, Stitching, Texels, place};
+use crate::bake::lightmap::{
+    Atlas, AtlasSource, Prepared, Stitching, Texels, place, place_unstitched,
+};
 use crate::bake::transfer::{BounceTargets, Visibility};
 use crate::formats::coefficient_file::{CoefficientFile, LightmapBlock};
 use crate::formats::header::{
@@ -295,13 +297,15 @@ impl PartLightmap {
 
     /// The whole texel file of a bake with `header` (the texel count as its vertex count) from
     /// every receiver's final transfer (`header.channels` × n² floats each) and aux arrays:
-    /// placed in the lightmap and dilated, as [`crate::bake::lightmap::bake`] does.
+    /// placed in the lightmap, dilated and (with `stitch`) stitched, as
+    /// [`crate::bake::lightmap::bake`] does.
     pub(crate) fn into_file(
         self,
         header: Header,
         receivers: &[f32],
         ao: Option<Vec<f32>>,
         bent_normal: Option<Vec<Vec3>>,
+        stitch: bool,
     ) -> CoefficientFile {
         let width = header.coefficients_per_vertex();
         debug_assert_eq!(
@@ -325,14 +329,23 @@ impl PartLightmap {
             partners: &self.seams,
             uv1: &self.uv1,
         };
-        let placed = place(
-            &texels,
-            width,
-            receivers,
-            visibility.as_deref(),
-            &stitching,
-            &mut Default::default(),
-        );
+        let placed = match stitch {
+            true => place(
+                &texels,
+                width,
+                receivers,
+                visibility.as_deref(),
+                &stitching,
+                &mut Default::default(),
+            ),
+            false => place_unstitched(
+                &texels,
+                width,
+                receivers,
+                visibility.as_deref(),
+                &mut Default::default(),
+            ),
+        };
         let aux = header.aux;
         CoefficientFile {
             header: Header {

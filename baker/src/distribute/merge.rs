@@ -23,12 +23,39 @@ use crate::support::progress::Progress;
 
 /// Reads, checks and merges the parts at `paths` (in any order).
 pub fn merge(paths: &[PathBuf], progress: &dyn Progress) -> Result<CoefficientFile> {
+    merge_with(paths, true, progress)
+}
+
+/// [`merge`]; a texel bake's lightmap is stitched only with `stitch` (without, `prt-bake
+/// stitch` stitches it apart, in shards of columns).
+pub fn merge_with(
+    paths: &[PathBuf],
+    stitch: bool,
+    progress: &dyn Progress,
+) -> Result<CoefficientFile> {
     let first_path = paths
         .first()
         .ok_or_else(|| Error::InvalidOption("merge needs at least one part".into()))?;
     if crate::distribute::probe_shards::is_probe_part(first_path)? {
         return crate::distribute::probe_shards::merge(paths);
     }
+    let (header, order, mut whole) = join(paths)?;
+    if header.mode != Mode::Interreflected {
+        let coefficients = std::mem::take(&mut whole.coefficients);
+        return Ok(whole.into_file_with(coefficients, stitch));
+    }
+    merge_bounces(&header, &order, whole, stitch, progress)
+}
+
+/// A merge's parts joined: the bake's header, each part's path and identity, the joined part.
+pub(crate) type Joined<'a> = (Header, Vec<(&'a Path, PartId)>, Part);
+
+/// Reads and checks every part at `paths` (without their bounce rows) and joins them: the
+/// bake's header, each part's path and identity in shard order, and the joined part.
+pub(crate) fn join(paths: &[PathBuf]) -> Result<Joined<'_>> {
+    let first_path = paths
+        .first()
+        .ok_or_else(|| Error::InvalidOption("merge needs at least one part".into()))?;
     let mut parts = Vec::with_capacity(paths.len());
     for path in paths {
         let mut part = Part::read(path)?;
@@ -57,10 +84,7 @@ pub fn merge(paths: &[PathBuf], progress: &dyn Progress) -> Result<CoefficientFi
     let parts = by_index.into_values().map(|(_, part)| part).collect();
     let mut whole = Part::join(parts, id);
     whole.lightmap = lightmap;
-    if header.mode != Mode::Interreflected {
-        return Ok(whole.finish(progress));
-    }
-    merge_bounces(&header, &order, whole, progress)
+    Ok((header, order, whole))
 }
 
 /// Refuses `part` (at `path`) unless it is of the bake of `first`: the same header (scene,
@@ -87,7 +111,7 @@ fn check_same_bake(first: &Part, part: &Part, path: &Path, first_path: &Path) ->
 
 /// The parts by shard index, each checked to be of the bake of `header` (the first part's),
 /// split the same number of ways, a whole shard's range, and given once; none missing.
-fn index_parts<'a>(
+pub(crate) fn index_parts<'a>(
     parts: Vec<(&'a Path, Part)>,
     header: &Header,
     first_path: &Path,
@@ -158,6 +182,7 @@ fn merge_bounces(
     header: &Header,
     order: &[(&Path, PartId)],
     mut whole: Part,
+    stitch: bool,
     progress: &dyn Progress,
 ) -> Result<CoefficientFile> {
     let options = options_of(header);
@@ -201,9 +226,9 @@ fn merge_bounces(
     };
     let t0 = std::mem::take(&mut whole.coefficients);
     let total = interreflection::sum_bounces(t0, channels, &options, 0, progress, pass)?;
-    Ok(whole.into_file(total))
+    Ok(whole.into_file_with(total, stitch))
 }
 
-fn refuse(message: String) -> Error {
+pub(crate) fn refuse(message: String) -> Error {
     Error::Shards(message)
 }

@@ -6,10 +6,13 @@
 //! May import: [`crate::support`], [`crate::math`], [`crate::scene`], [`crate::trace`],
 //! [`crate::formats`], [`crate::bake`].
 
+pub mod bounce_stages;
 pub mod checkpoint;
 pub mod lightmap_parts;
 pub mod merge;
 pub mod part_baker;
+pub mod prepared_file;
 pub mod probe_parts;
 pub mod probe_shards;
 pub mod shard;
+pub mod stitch_columns;

@@ -340,13 +340,19 @@ impl Part {
     /// Texel bakes: `coefficients` are the baked texels', placed in the lightmap and dilated
     /// here.
     pub(crate) fn into_file(self, coefficients: Vec<f32>) -> CoefficientFile {
+        self.into_file_with(coefficients, true)
+    }
+
+    /// [`Part::into_file`]; a texel bake's lightmap stitched only with `stitch`.
+    pub(crate) fn into_file_with(self, coefficients: Vec<f32>, stitch: bool) -> CoefficientFile {
         assert_eq!(
             self.id.range(),
             0..self.receiver_count(),
             "a whole file needs every vertex"
         );
         if let Some(lightmap) = self.lightmap {
-            return lightmap.into_file(self.header, &coefficients, self.ao, self.bent_normal);
+            let (ao, bent) = (self.ao, self.bent_normal);
+            return lightmap.into_file(self.header, &coefficients, ao, bent, stitch);
         }
         CoefficientFile {
             header: Header {

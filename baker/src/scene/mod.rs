@@ -393,10 +393,9 @@ impl Scene {
 /// Back sheets of glTF `doubleSided` objects ([`back_sheets`]).
 impl Scene {
     /// Appends a back sheet for every open object whose material is `doubleSided` (none for
-    /// OBJ and scene files, which have no such flag). A closed object's inside is never seen
-    /// (Blender's exporter marks every material `doubleSided` unless backface culling is on,
-    /// so a Suzanne or a cube would otherwise bake twice the receivers, half of them shut in). The glTF loader calls it; a scene that
-    /// already has them is left as it is. Refuses to pass 2^32 vertices.
+    /// OBJ and scene files, which have no such flag). A closed object gets none: its inside
+    /// is never seen. The glTF loader calls it; a scene that already has them is left as it
+    /// is. Refuses to pass 2^32 vertices.
     pub fn add_back_sheets(&mut self) -> std::result::Result<(), String> {
         if !self.back_sheets.fronts.is_empty() {
             return Ok(());

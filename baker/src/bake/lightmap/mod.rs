@@ -278,6 +278,70 @@ pub fn place(
     stitching: &Stitching<'_>,
     stages: &mut Stages,
 ) -> Placed {
+    let mut placed = place_unstitched(texels, width, receivers, receiver_visibility, stages);
+    let samples = stages.time("seam points", || {
+        seam_samples(texels, &placed.dilated, stitching)
+    });
+    let (coefficients, visibility) = (&mut placed.coefficients, &mut placed.visibility);
+    let step_before = stitch::seam_step(&samples, coefficients, width, 0).0;
+    let iterations = stages.time("stitch", || {
+        let mut ao: Vec<f32> = visibility.iter().map(|v| v.accessibility).collect();
+        let ao_width = usize::from(!ao.is_empty());
+        let iterations = stitch::stitch_fields(
+            &samples,
+            &mut [(&mut coefficients[..], width), (&mut ao[..], ao_width)],
+        );
+        // Least squares may overshoot a little; accessibility is a fraction.
+        for (v, a) in visibility.iter_mut().zip(ao) {
+            v.accessibility = clamp_accessibility(a);
+        }
+        iterations
+    });
+    placed.seams = SeamReport {
+        samples: samples.len(),
+        step_before,
+        step_after: stitch::seam_step(&samples, coefficients, width, 0).0,
+        iterations,
+    };
+    placed
+}
+
+/// A stitched accessibility made a fraction again (least squares may overshoot a little).
+pub fn clamp_accessibility(a: f32) -> f32 {
+    a.clamp(0.0, 1.0)
+}
+
+/// The seam samples [`place`] stitches along: the seams of `stitching` over the texels that
+/// hold a value (baked, or filled by dilation: `dilated`).
+pub fn seam_samples(
+    texels: &Texels,
+    dilated: &[bool],
+    stitching: &Stitching<'_>,
+) -> Vec<stitch::SeamSample> {
+    let filled: Vec<bool> = texels
+        .valid
+        .iter()
+        .zip(dilated)
+        .map(|(v, d)| *v || *d)
+        .collect();
+    stitch::seam_samples(
+        stitching.partners,
+        stitching.uv1,
+        texels.width,
+        texels.height,
+        &filled,
+    )
+}
+
+/// [`place`] without stitching: the values placed and dilated, `seams` empty. A sharded
+/// bake stitches apart, a few columns per shard (`prt-bake stitch`).
+pub fn place_unstitched(
+    texels: &Texels,
+    width: usize,
+    receivers: &[f32],
+    receiver_visibility: Option<&[Visibility]>,
+    stages: &mut Stages,
+) -> Placed {
     let texel_count = texels.valid.len();
     let mut coefficients = vec![0.0f32; texel_count * width];
     let mut visibility = Vec::new();
@@ -307,46 +371,11 @@ pub fn place(
     let dilated = stages.time("dilate", || {
         dilate(texels, width, &mut coefficients, &mut visibility)
     });
-    let filled: Vec<bool> = texels
-        .valid
-        .iter()
-        .zip(&dilated)
-        .map(|(v, d)| *v || *d)
-        .collect();
-    let samples = stages.time("seam points", || {
-        stitch::seam_samples(
-            stitching.partners,
-            stitching.uv1,
-            texels.width,
-            texels.height,
-            &filled,
-        )
-    });
-    let step_before = stitch::seam_step(&samples, &coefficients, width, 0).0;
-    let iterations = stages.time("stitch", || {
-        let mut ao: Vec<f32> = visibility.iter().map(|v| v.accessibility).collect();
-        let ao_width = usize::from(!ao.is_empty());
-        let iterations = stitch::stitch_fields(
-            &samples,
-            &mut [(&mut coefficients[..], width), (&mut ao[..], ao_width)],
-        );
-        // Least squares may overshoot a little; accessibility is a fraction.
-        for (v, a) in visibility.iter_mut().zip(ao) {
-            v.accessibility = a.clamp(0.0, 1.0);
-        }
-        iterations
-    });
-    let seams = SeamReport {
-        samples: samples.len(),
-        step_before,
-        step_after: stitch::seam_step(&samples, &coefficients, width, 0).0,
-        iterations,
-    };
     Placed {
         coefficients,
         visibility,
         dilated,
-        seams,
+        seams: SeamReport::default(),
     }
 }
 

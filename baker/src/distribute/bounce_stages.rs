@@ -1,0 +1,453 @@
+//! An interreflected bake's bounces distributed bounce by bounce, as dependent job arrays:
+//!
+//! 1. the shards bake their direct pass and bounce rows into parts (`bake --shard K/N`);
+//! 2. `merge --direct` joins the parts' direct transfer into **bounce file 0** (T₀ of every
+//!    receiver, with the aux arrays);
+//! 3. for k = 1..B: each shard gathers bounce k for its own receivers from its part's rows and
+//!    the merged bounce file k − 1 (`prt-bake gather`), and `merge --lower` joins the shards'
+//!    gathers into bounce file k, adding bounce k to the running total; the last one writes
+//!    the bake's file.
+//!
+//! Each step is the whole bake's own step (`interreflection::sum_bounces`): a gather reads
+//! the previous bounce through [`BounceTargets::slot_values`] (for texels: placed in the
+//! lightmap and dilated, not stitched) with [`interreflection::bounce_pass`], and the total is
+//! T₀ broadcast to every channel plus each bounce in order, so the last merge writes the
+//! whole bake's file byte for byte. No step casts rays but the shards' first.
+//!
+//! A bounce file (`PRTBNC`): magic, k (u32), shard index and count (u32; count 0: merged,
+//! every receiver), 4 reserved bytes, the first receiver and the receiver count (u64), the
+//! length (u64) of a *stub* — a part file of no receivers that carries the bake's header and,
+//! in a merged file, its lightmap ([`Part`]; a shard's gather leaves the lightmap out, it is
+//! tens of megabytes) — the lightmap's fingerprint (u64, 0 for a vertex bake) and the stub;
+//! then bounce k at each receiver (n² floats at k = 0,
+//! channels × n² after); a merged file also the total T₀ + … + T_k (channels × n²) and the
+//! aux arrays; last an xxh3 of everything before it.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+
+use crate::CoefficientFile;
+use crate::bake::interreflection::{self, RowSource, Rows};
+use crate::bake::transfer::{BounceTargets, Estimator, Mode};
+use crate::distribute::lightmap_parts::Lookup;
+use crate::distribute::merge::{join, refuse};
+use crate::distribute::shard::{Part, PartId, ShardId, header_difference, options_of, shard_range};
+use crate::math::sh;
+use crate::support::error::{Error, Result};
+use crate::support::progress::Progress;
+
+const MAGIC: &[u8; 8] = b"PRTBNC\0\x01";
+/// Magic, k, shard index, shard count, reserved, first, count, stub length, fingerprint.
+const HEAD: usize = 56;
+
+/// Bounce k of a range of a bake's receivers (a shard's gather) or of all of them (merged).
+#[derive(Clone, Debug, PartialEq)]
+pub struct BounceFile {
+    pub k: u32,
+    /// The gathering shard; `None` for a merged file.
+    pub shard: Option<ShardId>,
+    pub first: u64,
+    pub count: u64,
+    /// The bake's header and (merged files) lightmap: a part of no receivers.
+    pub stub: Part,
+    /// Texel bakes: the lightmap's fingerprint (atlas and baked texels).
+    pub fingerprint: Option<u64>,
+    /// Bounce k per receiver: n² floats at k = 0 (grey), channels × n² after.
+    pub values: Vec<f32>,
+    /// Merged files: T₀ + … + T_k per receiver (channels × n²), and the aux arrays.
+    pub total: Vec<f32>,
+    pub ao: Option<Vec<f32>>,
+    pub bent_normal: Option<Vec<Vec3>>,
+}
+
+impl BounceFile {
+    fn widths(stub: &Part, k: u32) -> (usize, usize) {
+        let n = sh::coeff_count(stub.header.order as usize);
+        let total = stub.header.channels as usize * n;
+        (if k == 0 { n } else { total }, total)
+    }
+
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let stub = self.stub.to_bytes();
+        let mut b = Vec::with_capacity(HEAD + stub.len() + 4 * self.values.len());
+        b.extend(MAGIC);
+        b.extend(self.k.to_le_bytes());
+        let shard = self.shard.unwrap_or(ShardId { index: 0, count: 0 });
+        b.extend(shard.index.to_le_bytes());
+        b.extend(shard.count.to_le_bytes());
+        b.extend(0u32.to_le_bytes());
+        b.extend(self.first.to_le_bytes());
+        b.extend(self.count.to_le_bytes());
+        b.extend((stub.len() as u64).to_le_bytes());
+        b.extend(self.fingerprint.unwrap_or(0).to_le_bytes());
+        b.extend(stub);
+        let aux = self.ao.iter().flatten().copied();
+        let bent = self.bent_normal.iter().flatten().flat_map(|v| v.to_array());
+        let floats = self.values.iter().chain(&self.total).copied();
+        b.extend(floats.chain(aux).chain(bent).flat_map(f32::to_le_bytes));
+        let sum = xxhash_rust::xxh3::xxh3_64(&b);
+        b.extend(sum.to_le_bytes());
+        b
+    }
+
+    pub fn from_bytes(bytes: &[u8]) -> std::result::Result<BounceFile, String> {
+        if bytes.len() < HEAD + 8 || &bytes[..8] != MAGIC {
+            return Err("not a bounce file (prt-bake merge --direct, gather)".into());
+        }
+        let (body, sum) = bytes.split_at(bytes.len() - 8);
+        if xxhash_rust::xxh3::xxh3_64(body).to_le_bytes() != sum {
+            return Err("checksum mismatch: the file is truncated or corrupted".into());
+        }
+        let u32_at = |o: usize| u32::from_le_bytes(body[o..o + 4].try_into().expect("4"));
+        let u64_at = |o: usize| u64::from_le_bytes(body[o..o + 8].try_into().expect("8"));
+        let (k, index, shards) = (u32_at(8), u32_at(12), u32_at(16));
+        let (first, count, stub_len) = (u64_at(24), u64_at(32), u64_at(40));
+        let fingerprint = Some(u64_at(48)).filter(|&f| f != 0);
+        let stub_end = (HEAD as u64)
+            .checked_add(stub_len)
+            .filter(|&e| e <= body.len() as u64)
+            .ok_or("the stub runs past the end")? as usize;
+        let stub = Part::from_bytes(&body[HEAD..stub_end])?;
+        let receivers = stub.receiver_count() as u64;
+        if first.checked_add(count).is_none_or(|end| end > receivers) {
+            return Err(format!(
+                "receivers {first}..+{count} beyond the bake's {receivers}"
+            ));
+        }
+        let merged = shards == 0;
+        let stub_fingerprint = stub.lightmap.as_ref().map(|l| l.fingerprint);
+        if merged && stub_fingerprint != fingerprint {
+            return Err("the stub's lightmap is not the file's".into());
+        }
+        if merged && (index != 0 || first != 0 || count != receivers) {
+            return Err("a merged bounce file that does not hold every receiver".into());
+        }
+        if !merged && index >= shards {
+            return Err(format!("shard {index} of {shards}"));
+        }
+        let (width, total_width) = BounceFile::widths(&stub, k);
+        let aux = stub.header.aux;
+        let per_receiver = width
+            + if merged {
+                total_width + usize::from(aux.ao) + 3 * usize::from(aux.bent_normal)
+            } else {
+                0
+            };
+        let floats = &body[stub_end..];
+        let expected = (count as usize)
+            .checked_mul(per_receiver * 4)
+            .ok_or("sizes overflow")?;
+        if floats.len() != expected {
+            return Err(format!(
+                "{} bytes of arrays, {expected} expected for {count} receivers",
+                floats.len()
+            ));
+        }
+        let mut words = floats
+            .chunks_exact(4)
+            .map(|w| f32::from_le_bytes(w.try_into().expect("4")));
+        let count_us = count as usize;
+        let mut take = |n: usize| -> Vec<f32> { words.by_ref().take(n).collect() };
+        let values = take(count_us * width);
+        let total = if merged {
+            take(count_us * total_width)
+        } else {
+            Vec::new()
+        };
+        let ao = (merged && aux.ao).then(|| take(count_us));
+        let bent_normal = (merged && aux.bent_normal).then(|| {
+            take(3 * count_us)
+                .chunks_exact(3)
+                .map(Vec3::from_slice)
+                .collect()
+        });
+        Ok(BounceFile {
+            k,
+            shard: (!merged).then_some(ShardId {
+                index,
+                count: shards,
+            }),
+            first,
+            count,
+            stub,
+            fingerprint,
+            values,
+            total,
+            ao,
+            bent_normal,
+        })
+    }
+
+    pub fn read(path: &Path) -> Result<BounceFile> {
+        let bytes = std::fs::read(path).map_err(|err| Error::io(path, err))?;
+        BounceFile::from_bytes(&bytes).map_err(|message| Error::coefficient_file(path, message))
+    }
+
+    /// Writes the file atomically.
+    pub fn write(&self, path: &Path) -> Result<()> {
+        crate::support::atomic::write(path, &self.to_bytes())
+    }
+
+    /// Whether every bounce of the bake is in: the total is the bake's transfer.
+    pub fn is_last(&self) -> bool {
+        self.k == self.stub.header.bounces
+    }
+
+    /// The bake's file from the last merged bounce file ([`BounceFile::is_last`]); a texel
+    /// bake's lightmap stitched only with `stitch`.
+    pub fn into_file(self, stitch: bool) -> CoefficientFile {
+        let receivers = self.stub.receiver_count();
+        let part = Part {
+            id: PartId {
+                shard: ShardId { index: 0, count: 1 },
+                first_vertex: 0,
+                vertices: receivers as u32,
+            },
+            ao: self.ao,
+            bent_normal: self.bent_normal,
+            ..self.stub
+        };
+        part.into_file_with(self.total, stitch)
+    }
+}
+
+/// A part of no receivers that carries `part`'s header and lightmap.
+fn stub_of(part: &Part) -> Part {
+    let aux = part.header.aux;
+    Part {
+        header: part.header.clone(),
+        id: PartId {
+            shard: ShardId { index: 0, count: 1 },
+            first_vertex: 0,
+            vertices: 0,
+        },
+        coefficients: Vec::new(),
+        ao: aux.ao.then(Vec::new),
+        bent_normal: aux.bent_normal.then(Vec::new),
+        rows: Some(Rows {
+            starts: vec![0],
+            vertices: Vec::new(),
+            weights: Vec::new(),
+        }),
+        lightmap: part.lightmap.clone(),
+    }
+}
+
+/// The fingerprint of a part's lightmap.
+fn fingerprint(part: &Part) -> Option<u64> {
+    part.lightmap.as_ref().map(|l| l.fingerprint)
+}
+
+/// Refuses a file at `path` (its header and lightmap fingerprint) unless it is of the bake of
+/// `lower` (at `lower_path`).
+fn check_same_bake(
+    lower: &BounceFile,
+    other: (&crate::formats::header::Header, Option<u64>),
+    path: &Path,
+    lower_path: &Path,
+) -> Result<()> {
+    let difference = header_difference(&lower.stub.header, other.0).or_else(|| {
+        (lower.fingerprint != other.1)
+            .then(|| "another lightmap atlas or set of baked texels".to_string())
+    });
+    match difference {
+        Some(d) => Err(refuse(format!(
+            "{}: of another bake than {}: {d}",
+            path.display(),
+            lower_path.display()
+        ))),
+        None => Ok(()),
+    }
+}
+
+/// `merge --direct`: bounce file 0 from every part of an interreflected bake (their direct
+/// transfer, joined; the total so far T₀ broadcast to every channel, as the bake starts it).
+pub fn direct(paths: &[PathBuf]) -> Result<BounceFile> {
+    let (header, _, whole) = join(paths)?;
+    if header.mode != Mode::Interreflected {
+        return Err(Error::InvalidOption(
+            "merge --direct is for interreflected bakes (the others have no bounces)".into(),
+        ));
+    }
+    let n = sh::coeff_count(header.order as usize);
+    let channels = header.channels as usize;
+    let mut total = Vec::with_capacity(whole.coefficients.len() * channels);
+    for t0 in whole.coefficients.chunks_exact(n) {
+        for _ in 0..channels {
+            total.extend_from_slice(t0);
+        }
+    }
+    Ok(BounceFile {
+        k: 0,
+        shard: None,
+        first: 0,
+        count: whole.receiver_count() as u64,
+        stub: stub_of(&whole),
+        fingerprint: fingerprint(&whole),
+        values: whole.coefficients,
+        total,
+        ao: whole.ao,
+        bent_normal: whole.bent_normal,
+    })
+}
+
+/// `prt-bake gather`: bounce k + 1 at the receivers of the part at `part_path`, from its rows
+/// and the merged bounce file k at `lower_path`.
+pub fn gather(part_path: &Path, lower_path: &Path, progress: &dyn Progress) -> Result<BounceFile> {
+    let lower = BounceFile::read(lower_path)?;
+    let part = Part::read(part_path)?;
+    if lower.shard.is_some() {
+        return Err(refuse(format!(
+            "{}: one shard's gather, not a merged bounce file (merge the shards' gathers first)",
+            lower_path.display()
+        )));
+    }
+    check_same_bake(
+        &lower,
+        (&part.header, fingerprint(&part)),
+        part_path,
+        lower_path,
+    )?;
+    if lower.is_last() {
+        return Err(refuse(format!(
+            "{}: holds bounce {} of {}: every bounce is gathered",
+            lower_path.display(),
+            lower.k,
+            lower.stub.header.bounces
+        )));
+    }
+    let rows = part.rows.as_ref().ok_or_else(|| {
+        refuse(format!(
+            "{}: a part without bounce rows",
+            part_path.display()
+        ))
+    })?;
+    let options = options_of(&part.header);
+    let n = sh::coeff_count(options.order);
+    let channels = part.header.channels as usize;
+    let previous_channels = if lower.k == 0 { 1 } else { channels };
+    let lookup = lower.stub.lightmap.as_ref().map(Lookup::new);
+    let targets = lookup
+        .as_ref()
+        .map_or(BounceTargets::Vertices, Lookup::targets);
+    let k = lower.k + 1;
+    progress.begin(&format!("bounce {k}"), u64::from(part.id.vertices), 0);
+    let previous = targets.slot_values(&lower.values, previous_channels * n);
+    let mut values = vec![0.0f32; part.id.vertices as usize * channels * n];
+    interreflection::bounce_pass(
+        &RowSource::Flat(rows),
+        Estimator::norm_of(&options) as f32,
+        n,
+        &previous,
+        previous_channels,
+        channels,
+        &mut values,
+        progress,
+    );
+    progress.finish();
+    Ok(BounceFile {
+        k,
+        shard: Some(part.id.shard),
+        first: part.id.first_vertex,
+        count: u64::from(part.id.vertices),
+        // The header only: the merge has the lightmap (in the lower bounce file).
+        stub: Part {
+            lightmap: None,
+            ..lower.stub
+        },
+        fingerprint: lower.fingerprint,
+        values,
+        total: Vec::new(),
+        ao: None,
+        bent_normal: None,
+    })
+}
+
+/// `merge --lower`: bounce file k from every shard's gather of bounce k (`paths`, any order)
+/// and the merged bounce file k − 1 (`lower_path`): bounce k joined, and added to the total.
+pub fn merge(paths: &[PathBuf], lower_path: &Path) -> Result<BounceFile> {
+    let mut lower = BounceFile::read(lower_path)?;
+    if lower.shard.is_some() {
+        return Err(refuse(format!(
+            "{}: one shard's gather, not a merged bounce file",
+            lower_path.display()
+        )));
+    }
+    let k = lower.k + 1;
+    let receivers = lower.count as usize;
+    let mut by_index: BTreeMap<u32, (&Path, BounceFile)> = BTreeMap::new();
+    let mut count = None;
+    for path in paths {
+        let file = BounceFile::read(path)?;
+        check_same_bake(
+            &lower,
+            (&file.stub.header, file.fingerprint),
+            path,
+            lower_path,
+        )?;
+        let Some(shard) = file.shard else {
+            return Err(refuse(format!(
+                "{}: a merged bounce file, not a shard's gather",
+                path.display()
+            )));
+        };
+        if file.k != k {
+            return Err(refuse(format!(
+                "{}: bounce {}, but {} holds bounce {} (so the gathers must be of bounce {k})",
+                path.display(),
+                file.k,
+                lower_path.display(),
+                lower.k
+            )));
+        }
+        if *count.get_or_insert(shard.count) != shard.count {
+            return Err(refuse(format!(
+                "{}: {shard} of a bake split {} ways, the others {} ways",
+                path.display(),
+                shard.count,
+                count.unwrap_or(0)
+            )));
+        }
+        let range = shard_range(receivers, shard);
+        if file.first != range.start as u64 || file.count != range.len() as u64 {
+            return Err(refuse(format!(
+                "{}: holds receivers {}..+{}, but {shard} is {}..{}",
+                path.display(),
+                file.first,
+                file.count,
+                range.start,
+                range.end
+            )));
+        }
+        if let Some((other, _)) = by_index.get(&shard.index) {
+            return Err(refuse(format!(
+                "{} and {}: both are {shard}",
+                other.display(),
+                path.display()
+            )));
+        }
+        by_index.insert(shard.index, (path.as_path(), file));
+    }
+    let count = count.ok_or_else(|| Error::InvalidOption("merge needs the gathers".into()))?;
+    let missing: Vec<String> = (0..count)
+        .filter(|i| !by_index.contains_key(i))
+        .map(|i| i.to_string())
+        .collect();
+    if !missing.is_empty() {
+        return Err(refuse(format!(
+            "bounce {k}: the gathers of shards {} of {count} are missing",
+            missing.join(", ")
+        )));
+    }
+    let mut values = Vec::with_capacity(lower.total.len());
+    for (_, file) in by_index.into_values() {
+        values.extend(file.values);
+    }
+    // The running total, as `sum_bounces` adds each bounce.
+    for (t, b) in lower.total.iter_mut().zip(&values) {
+        *t += b;
+    }
+    Ok(BounceFile { k, values, ..lower })
+}

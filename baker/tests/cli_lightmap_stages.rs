@@ -1,0 +1,214 @@
+//! Texel bakes distributed stage by stage (docs/distributed.md, "Stages"): `prepare-lightmap`
+//! once, `bake --shard K/N --prepared`, `merge --direct`, per bounce `gather` per shard and
+//! `merge --lower`, the last one `--unstitched`, then `stitch --columns J/M` per shard and
+//! `stitch --join`. The oracle is the whole bake's file, byte for byte.
+
+mod common;
+
+use common::*;
+
+const CORNELL: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../scenes/cornell/cornell.scene"
+);
+const TORUS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/torus/torus.scene");
+
+/// Runs every stage of a bake of `scene` with `opts` in `n` shards and `m` stitch shards
+/// (texel bakes; `m` = 0: a vertex bake, nothing to prepare or stitch) into `out/NAME.prt`.
+fn staged(s: &Scratch, scene: &str, name: &str, opts: &[&str], n: u32, m: u32) -> String {
+    let texels = m > 0;
+    let out = |f: &str| format!("out/{name}-{f}");
+    let prep = out("prep.lmp");
+    let mut with_prep: Vec<&str> = opts.to_vec();
+    if texels {
+        let args = [&["prepare-lightmap", scene, "-o", &prep][..], opts].concat();
+        let run = s.run(&args).success();
+        assert!(run.stdout.contains("prepared "), "{}", run.stdout);
+        with_prep.extend(["--prepared", &prep]);
+    }
+    let parts: Vec<String> = (0..n).map(|k| out(&format!("part-{k}.prt"))).collect();
+    for (k, part) in parts.iter().enumerate() {
+        let shard = format!("{k}/{n}");
+        let args = [&with_prep[..], &["--shard", &shard]].concat();
+        s.bake(scene, &part["out/".len()..], &args);
+    }
+    let lower = out("bounce-0.bnc");
+    let mut args = vec!["merge", "--quiet", "--direct", "-o", &lower];
+    args.extend(parts.iter().rev().map(String::as_str));
+    s.run(&args).success();
+    let bounces = 2;
+    let mut lower = lower;
+    let result = out("merged.prt");
+    let unstitched = out("unstitched.prt");
+    for b in 1..=bounces {
+        let gathers: Vec<String> = (0..n).map(|k| out(&format!("g{b}-{k}.bnc"))).collect();
+        for (part, gather) in parts.iter().zip(&gathers) {
+            s.run(&["gather", "--quiet", part, "--lower", &lower, "-o", gather])
+                .success();
+        }
+        let next = match (b == bounces, texels) {
+            (false, _) => out(&format!("bounce-{b}.bnc")),
+            (true, true) => unstitched.clone(),
+            (true, false) => result.clone(),
+        };
+        let mut args = vec!["merge", "--quiet", "--lower", &lower, "-o", &next];
+        if b == bounces && texels {
+            args.push("--unstitched");
+        }
+        args.extend(gathers.iter().map(String::as_str));
+        s.run(&args).success();
+        lower = next;
+    }
+    if texels {
+        let columns: Vec<String> = (0..m).map(|j| out(&format!("c{j}.col"))).collect();
+        for (j, column) in columns.iter().enumerate() {
+            let shard = format!("{j}/{m}");
+            let args = [
+                "stitch",
+                &unstitched,
+                "--prepared",
+                &prep,
+                "--columns",
+                &shard,
+            ];
+            s.run(&[&args[..], &["-o", column]].concat()).success();
+        }
+        let mut args = vec!["stitch", &unstitched, "-o", &result, "--join"];
+        args.extend(columns.iter().rev().map(String::as_str));
+        s.run(&args).success();
+    }
+    result
+}
+
+fn assert_staged_is_whole(s: &Scratch, scene: &str, name: &str, opts: &[&str], n: u32, m: u32) {
+    s.bake(scene, &format!("{name}.prt"), opts);
+    let merged = staged(s, scene, name, opts, n, m);
+    assert!(
+        s.read(&format!("out/{name}.prt")) == s.read(&merged),
+        "{name}: the staged bake ({n} shards, {m} stitch shards) differs from the whole bake"
+    );
+}
+
+#[test]
+fn staged_bakes_equal_the_whole_bake() {
+    let s = Scratch::new();
+    let lightmap = [
+        "--mode",
+        "interreflected",
+        "--bounces",
+        "2",
+        "--lightmap",
+        "40",
+    ];
+    // The room: RGB bounces (T₀ grey, then 3 channels), leaking texels moved and left out.
+    let room = [
+        &lightmap[..],
+        &["--aux", "ao,bent-normal", "--samples", "32"],
+    ]
+    .concat();
+    assert_staged_is_whole(&s, CORNELL, "room", &room, 3, 3);
+    // The torus's unwrapped charts meet at smooth seams: the stitch shards do the work.
+    let torus = [
+        &lightmap[..],
+        &["--atlas", "unwrap", "--aux", "ao", "--samples", "32"],
+    ]
+    .concat();
+    assert_staged_is_whole(&s, TORUS, "torus1", &torus, 1, 1);
+    assert_staged_is_whole(&s, TORUS, "torus2", &torus, 2, 2);
+    assert!(
+        s.read("out/torus2-unstitched.prt") != s.read("out/torus2.prt"),
+        "stitching changed nothing: the test would not see a wrong stitch"
+    );
+    // A vertex bake distributed bounce by bounce, too.
+    let vertices = [
+        "--mode",
+        "interreflected",
+        "--bounces",
+        "2",
+        "--samples",
+        "32",
+    ];
+    assert_staged_is_whole(&s, CORNELL, "vertices", &vertices, 2, 0);
+}
+
+#[test]
+fn mismatched_stage_files_are_refused() {
+    let s = Scratch::new();
+    let opts = [
+        "--mode",
+        "interreflected",
+        "--bounces",
+        "2",
+        "--lightmap",
+        "24",
+    ];
+    let opts = [&opts[..], &["--samples", "16"]].concat();
+    staged(&s, CORNELL, "a", &opts, 2, 2);
+    // A prepared lightmap of another seed.
+    let args = [&opts[..], &["--seed", "7", "--shard", "0/2"]].concat();
+    let args = [&args[..], &["--prepared", "out/a-prep.lmp"]].concat();
+    let run = s.run(&[&["bake", CORNELL, "-o", "out/x.prt"][..], &args].concat());
+    run.fails_with(
+        3,
+        &[
+            "out/a-prep.lmp",
+            "a prepared lightmap of another scene or other options",
+        ],
+    );
+    // A corrupted prepared lightmap (one byte of a texel's point changed).
+    let mut bytes = s.read("out/a-prep.lmp");
+    let at = bytes.len() - 5;
+    bytes[at] ^= 1;
+    s.write("out/bad.lmp", &bytes);
+    let args = [&opts[..], &["--shard", "0/2", "--prepared", "out/bad.lmp"]].concat();
+    let run = s.run(&[&["bake", CORNELL, "-o", "out/x.prt"][..], &args].concat());
+    run.fails_with(3, &["out/bad.lmp", "checksum mismatch"]);
+    // A prepared lightmap of another atlas, to stitch with.
+    let planar = [&opts[..], &["--atlas", "planar"]].concat();
+    s.run(
+        &[
+            &["prepare-lightmap", CORNELL, "-o", "out/planar.lmp"][..],
+            &planar,
+        ]
+        .concat(),
+    )
+    .success();
+    let run = s.run(&[
+        "stitch",
+        "out/a-unstitched.prt",
+        "--prepared",
+        "out/planar.lmp",
+        "--columns",
+        "0/2",
+        "-o",
+        "out/x.col",
+    ]);
+    run.fails_with(3, &["out/a-unstitched.prt", "another atlas"]);
+    // A missing gather, a gather of another bounce, a missing column file.
+    let lower = ["merge", "--lower", "out/a-bounce-0.bnc", "-o", "out/x.bnc"];
+    s.run(&[&lower[..], &["out/a-g1-0.bnc"]].concat())
+        .fails_with(3, &["shards 1 of 2 are missing"]);
+    s.run(&[&lower[..], &["out/a-g2-0.bnc", "out/a-g2-1.bnc"]].concat())
+        .fails_with(3, &["out/a-g2-0.bnc", "bounce 2"]);
+    s.run(&[
+        "stitch",
+        "out/a-unstitched.prt",
+        "--join",
+        "out/a-c1.col",
+        "-o",
+        "out/x.prt",
+    ])
+    .fails_with(3, &["shards 0 of 2 are missing"]);
+    // A gather from a part of another bake (another seed's part, same lightmap size).
+    let other = [&opts[..], &["--seed", "7", "--shard", "0/2"]].concat();
+    s.bake(CORNELL, "b-part-0.prt", &other);
+    s.run(&[
+        "gather",
+        "out/b-part-0.prt",
+        "--lower",
+        "out/a-bounce-0.bnc",
+        "-o",
+        "out/x.bnc",
+    ])
+    .fails_with(3, &["out/b-part-0.prt", "of another bake"]);
+}
