@@ -62,7 +62,10 @@ EOF
     return $rc
 }
 
-"$BAKE" bake "$GLB" -o "$OUT/full.prt" --lightmap "$RES" --aux ao --samples "$PRT_SAMPLES" --quiet >"$OUT/full.log" 2>&1
+# --double-sided off throughout: Blender marks every material doubleSided (backface culling
+# off), and Cycles' AO and compare_ao.py (the GLB's triangles) know only the front sheets.
+"$BAKE" bake "$GLB" -o "$OUT/full.prt" --lightmap "$RES" --aux ao --samples "$PRT_SAMPLES" \
+    --double-sided off --quiet >"$OUT/full.log" 2>&1
 echo "production.sh: prt-bake against Cycles' AO (must pass)"
 compare full Ground,Wall/0
 "$PY" - "$OUT/full.prt" <<'EOF'
@@ -82,7 +85,7 @@ EOF
 for what in alpha normal; do
     "$PY" "$HERE/strip_glb.py" "$GLB" "$OUT/no_$what.glb" "$what"
     "$BAKE" bake "$OUT/no_$what.glb" -o "$OUT/no_$what.prt" --lightmap "$RES" --aux ao \
-        --samples "$PRT_SAMPLES" --quiet >"$OUT/no_$what.log" 2>&1
+        --samples "$PRT_SAMPLES" --double-sided off --quiet >"$OUT/no_$what.log" 2>&1
 done
 echo "production.sh: the cut-outs ignored (alphaMode stripped; the ground must fail)"
 if compare no_alpha Ground; then echo "production.sh: the ground passes with the cards opaque" >&2; exit 1; fi
@@ -92,7 +95,7 @@ texels=$(date +%s.%N)
 
 for mode in on off; do
     "$BAKE" bake "$GLB" -o "$OUT/vertex_$mode.prt" --receivers Ground --instances "$mode" --aux ao \
-        --samples "$PRT_SAMPLES" --quiet >"$OUT/vertex_$mode.log" 2>&1
+        --samples "$PRT_SAMPLES" --double-sided off --quiet >"$OUT/vertex_$mode.log" 2>&1
 done
 grep -q "5 placements of 1 meshes traced as instances" "$OUT/vertex_on.log" ||
     { cat "$OUT/vertex_on.log"; echo "production.sh: the crates were not traced as instances" >&2; exit 1; }

@@ -59,8 +59,10 @@ rm -rf "$OUT"
 "$VENV/bin/python" "$HERE/make_scene.py" "$OUT" --res "$RES" --samples "$SAMPLES" >"$OUT.blender.log" 2>&1 ||
     { tail -30 "$OUT.blender.log"; exit 1; }
 blender=$(date +%s.%N)
+# --double-sided off: Blender marks every material doubleSided (backface culling off), and
+# Cycles' AO and compare_ao.py (the GLB's triangles) know only the front sheets.
 "$BAKE" bake "$OUT/scene.glb" -o "$OUT/scene.prt" --lightmap "$RES" --aux ao \
-    --samples "$PRT_SAMPLES" --quiet 2>&1 | tee "$OUT/bake.log"
+    --samples "$PRT_SAMPLES" --double-sided off --quiet 2>&1 | tee "$OUT/bake.log"
 grep -q "each object's UVs are packed" "$OUT/bake.log" ||
     { echo "run.sh: prt-bake did not report the objects' overlapping lightmap UVs" >&2; exit 1; }
 baked=$(date +%s.%N)

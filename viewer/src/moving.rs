@@ -66,7 +66,8 @@ impl Mover {
     /// The object `scene` with its own vector bake `coefficients`, to move along `path`.
     pub fn load(scene: &Path, coefficients: &Path, path: Vec<Vec3>, speed: f32) -> Result<Mover> {
         let file = CoefficientFile::read(coefficients)?;
-        let scene_data = Scene::load(scene)?;
+        let mut scene_data = Scene::load(scene)?;
+        file.match_back_sheets(&mut scene_data);
         file.check_scene(coefficients, &scene_data)?;
         Mover::new(scene_data, file, path, speed, coefficients)
     }

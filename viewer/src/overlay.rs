@@ -99,6 +99,7 @@ impl Overlay {
                 topology: wgpu::PrimitiveTopology::TriangleList,
                 format,
                 depth_test: false,
+                cull_mode: None,
                 blend: Some(wgpu::BlendState::ALPHA_BLENDING),
             },
         );

@@ -142,6 +142,7 @@ impl ProbeScene {
                 topology: wgpu::PrimitiveTopology::TriangleList,
                 format,
                 depth_test: true,
+                cull_mode: None,
                 blend: None,
             },
         );
@@ -167,6 +168,7 @@ impl ProbeScene {
                 topology: wgpu::PrimitiveTopology::TriangleList,
                 format,
                 depth_test: true,
+                cull_mode: None,
                 blend: None,
             },
         );

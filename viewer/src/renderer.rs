@@ -153,6 +153,8 @@ impl FrameInputs {
 struct Draw {
     indices: Range<u32>,
     material: usize,
+    /// A back sheet or the front it twins: drawn with back faces culled.
+    one_sided: bool,
 }
 
 /// The scene on the GPU and the pipelines that draw it.
@@ -185,6 +187,8 @@ pub struct Renderer {
     /// A transfer-matrix bake's glossy resources (group 2 of the PRT pipeline).
     glossy: Option<GlossyResources>,
     phong: wgpu::RenderPipeline,
+    /// `prt` and `phong` with back faces culled, where the scene has two-sheet surfaces.
+    culled: Option<(wgpu::RenderPipeline, wgpu::RenderPipeline)>,
     /// A texel bake's radiance map, refilled before every PRT frame.
     texel_radiance: Option<RadianceMap>,
 
@@ -240,13 +244,21 @@ impl Renderer {
         let (vertices, indices) = mesh_buffers(device, bake);
         let frame = FrameResources::new(device, queue, bake, storage, upload_transfer)?;
         let (material_layout, materials) = materials(device, queue, scene, bake.order());
-        let draws = scene
+        let twinned: Vec<usize> = scene
+            .back_sheets
+            .fronts
+            .iter()
+            .map(|&f| f as usize)
+            .collect();
+        let draws: Vec<Draw> = scene
             .objects
             .iter()
-            .filter(|o| !o.triangles.is_empty())
-            .map(|o| Draw {
+            .enumerate()
+            .filter(|(_, o)| !o.triangles.is_empty())
+            .map(|(k, o)| Draw {
                 indices: 3 * o.triangles.start..3 * o.triangles.end,
                 material: scene.vertex_material[o.vertices.start as usize] as usize,
+                one_sided: scene.front_of(k).is_some() || twinned.contains(&k),
             })
             .collect();
         let texel_radiance = bake.lightmap().map(|l| {
@@ -268,7 +280,12 @@ impl Renderer {
             (None, Some(g)) => Group2::Glossy(&g.layout),
             (None, None) => Group2::None,
         };
-        let (prt, phong) = scene_pipelines(device, layouts, format, group_2);
+        let (prt, phong) = scene_pipelines(device, layouts, format, group_2, None);
+        // The sheets of two-sheet surfaces (glTF doubleSided back sheets and their fronts)
+        // each show their own side's transfer: drawn with back faces culled.
+        let one_sided = draws.iter().any(|d: &Draw| d.one_sided);
+        let culled = one_sided
+            .then(|| scene_pipelines(device, layouts, format, group_2, Some(wgpu::Face::Back)));
         let (centre, radius) = {
             let (lo, hi) = scene.bounds();
             (0.5 * (lo + hi), (0.5 * (hi - lo).length()).max(1e-6))
@@ -297,6 +314,7 @@ impl Renderer {
             prt,
             glossy,
             phong,
+            culled,
             texel_radiance,
             normal_lines: lines.normals,
             light_lines: lines.light_vectors,
@@ -463,10 +481,17 @@ impl Renderer {
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
-            pass.set_pipeline(match self.mode {
-                Mode::Prt => &self.prt,
-                Mode::Phong => &self.phong,
-            });
+            let pipeline = |one_sided: bool| {
+                let (prt, phong) = match (one_sided, &self.culled) {
+                    (true, Some((prt, phong))) => (prt, phong),
+                    _ => (&self.prt, &self.phong),
+                };
+                match self.mode {
+                    Mode::Prt => prt,
+                    Mode::Phong => phong,
+                }
+            };
+            pass.set_pipeline(pipeline(false));
             pass.set_bind_group(0, &self.frame_bind_group, &[]);
             if let (Mode::Prt, Some(radiance)) = (self.mode, &self.texel_radiance) {
                 pass.set_bind_group(2, &radiance.bind_group, &[]);
@@ -477,6 +502,9 @@ impl Renderer {
             pass.set_vertex_buffer(0, self.vertices.slice(..));
             pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
             for draw in &self.draws {
+                if self.culled.is_some() {
+                    pass.set_pipeline(pipeline(draw.one_sided));
+                }
                 pass.set_bind_group(1, &self.materials[draw.material], &[]);
                 pass.draw_indexed(draw.indices.clone(), 0, 0..1);
             }
@@ -727,6 +755,7 @@ pub(crate) fn vertex_layout() -> wgpu::VertexBufferLayout<'static> {
 }
 
 /// What the PRT pipeline's group 2 holds.
+#[derive(Clone, Copy)]
 enum Group2<'a> {
     None,
     /// A texel bake's radiance map.
@@ -742,6 +771,7 @@ fn scene_pipelines(
     [frame_layout, material_layout]: [&wgpu::BindGroupLayout; 2],
     format: wgpu::TextureFormat,
     group_2: Group2,
+    cull_mode: Option<wgpu::Face>,
 ) -> (wgpu::RenderPipeline, wgpu::RenderPipeline) {
     let scene_module = scene_shader(device, "scene", include_str!("shaders/scene.wgsl"));
     let vertex_layout = vertex_layout();
@@ -771,6 +801,7 @@ fn scene_pipelines(
                 format,
                 depth_test: true,
                 blend: None,
+                cull_mode,
             },
         )
     };
@@ -843,6 +874,7 @@ impl LineResources {
                     topology: wgpu::PrimitiveTopology::LineList,
                     format,
                     depth_test,
+                    cull_mode: None,
                     blend: None,
                 },
             )

@@ -131,10 +131,13 @@ pub struct PipelineSpec<'a> {
     /// Depth-tested and written (the scene, normals), or drawn over everything.
     pub depth_test: bool,
     pub blend: Option<wgpu::BlendState>,
+    /// Back faces culled: the sheets of a two-sheet surface (docs/scenes.md, "Two-sided
+    /// surfaces"), each drawn from its own side only; `None` for everything else.
+    pub cull_mode: Option<wgpu::Face>,
 }
 
-/// A pipeline for the renderer's pass (depth buffer [`DEPTH_FORMAT`]). Both faces are drawn:
-/// the scenes' walls are single planes seen from either side.
+/// A pipeline for the renderer's pass (depth buffer [`DEPTH_FORMAT`]). Both faces are drawn
+/// unless `cull_mode` says: the scenes' walls are single planes seen from either side.
 pub fn pipeline(device: &wgpu::Device, spec: PipelineSpec<'_>) -> wgpu::RenderPipeline {
     let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some(spec.label),
@@ -152,6 +155,7 @@ pub fn pipeline(device: &wgpu::Device, spec: PipelineSpec<'_>) -> wgpu::RenderPi
         },
         primitive: wgpu::PrimitiveState {
             topology: spec.topology,
+            cull_mode: spec.cull_mode,
             ..Default::default()
         },
         depth_stencil: Some(wgpu::DepthStencilState {

@@ -21,7 +21,7 @@ use prt_baker::support::progress::Progress;
 use prt_baker::trace::{self, Backend, Tracer, TracerOptions};
 use prt_baker::{BakeOptions, CoefficientFile, Error, Mode, Scene, Transfer};
 
-use super::scene_load::{self, InstancesArg};
+use super::scene_load::{self, DoubleSidedArg, InstancesArg};
 use super::{UpArg, bake_parts};
 
 #[derive(clap::Args)]
@@ -151,6 +151,9 @@ pub struct BakeArgs {
     /// Trace non-receiving glTF nodes of a shared mesh as instances (docs/scenes.md).
     #[arg(long, value_enum, default_value_t)]
     instances: InstancesArg,
+    /// glTF `doubleSided` materials: auto bakes a back sheet of receivers (docs/scenes.md).
+    #[arg(long, value_enum, default_value_t)]
+    double_sided: DoubleSidedArg,
     /// Write the bake compressed by clustered PCA into K clusters, as `prt-bake compress`
     /// would (default 64 where only --pcs is given). Not with --shard or --checkpoint:
     /// compress the merged file with `prt-bake compress`.
@@ -345,7 +348,13 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
     let whole = args.lightmap.is_none() && !in_parts && !args.prepare_only;
     let instancing = whole && args.probes.is_none() && args.materials.is_none();
     let instancing = instancing && options.mode != Mode::Interreflected;
-    let mut scene = scene_load::load(&args.scene, args.instances, &args.receivers, instancing)?;
+    let mut scene = scene_load::load(
+        &args.scene,
+        args.instances,
+        &args.receivers,
+        instancing,
+        args.double_sided,
+    )?;
     // --up overrides the format's axis; whole files, parts and checkpoints all record it.
     if let Some(up) = args.up {
         scene.up = up.up();

@@ -24,10 +24,27 @@ pub enum InstancesArg {
     Off,
 }
 
+/// `--double-sided`: whether glTF `doubleSided` objects get a back sheet of receivers
+/// (docs/scenes.md, "Two-sided surfaces").
+#[derive(Clone, Copy, Debug, Default, PartialEq, ValueEnum)]
+pub enum DoubleSidedArg {
+    /// Where the material says `doubleSided`: the bake adds a back sheet, lit from behind.
+    #[default]
+    Auto,
+    /// Never: the front side's transfer only (bakes before the flag was read).
+    Off,
+}
+
 /// Loads `path` (warnings to stderr), with instances where `arg` asks for them and the bake
 /// can use them (`possible`: a shadowed or unshadowed whole vertex bake; the receivers are
-/// chosen by `globs` as `--receivers` chooses them).
-pub fn load(path: &Path, arg: InstancesArg, globs: &[String], possible: bool) -> Result<Scene> {
+/// chosen by `globs` as `--receivers` chooses them), and back sheets where `sides` asks.
+pub fn load(
+    path: &Path,
+    arg: InstancesArg,
+    globs: &[String],
+    possible: bool,
+    sides: DoubleSidedArg,
+) -> Result<Scene> {
     let receives = receives(globs);
     let min_triangles = match arg {
         InstancesArg::Auto => AUTO_MIN_TRIANGLES,
@@ -39,7 +56,10 @@ pub fn load(path: &Path, arg: InstancesArg, globs: &[String], possible: bool) ->
         min_triangles,
     };
     let chosen = (possible && arg != InstancesArg::Off).then_some(&instancing);
-    let (scene, warnings) = Scene::load_instanced(path, chosen)?;
+    let (mut scene, warnings) = Scene::load_instanced(path, chosen)?;
+    if sides == DoubleSidedArg::Off {
+        scene.drop_back_sheets();
+    }
     for warning in warnings {
         eprintln!("warning: {}: {warning}", path.display());
     }

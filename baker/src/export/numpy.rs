@@ -25,7 +25,8 @@ use crate::support::error::Result;
 /// A lightmap (texel) bake is written as [`export_lightmap_npz`] describes.
 pub fn export_npz(coefficients: &Path, scene: &Path, output: &Path) -> Result<()> {
     let file = CoefficientFile::read(coefficients)?;
-    let scene = Scene::load(scene)?;
+    let mut scene = Scene::load(scene)?;
+    file.match_back_sheets(&mut scene);
     if file.lightmap.is_some() {
         return export_lightmap_npz(coefficients, &file, &scene, output);
     }
@@ -331,7 +332,8 @@ pub fn export_exr(
             coefficients.display()
         )));
     }
-    let scene = Scene::load(scene)?;
+    let mut scene = Scene::load(scene)?;
+    file.match_back_sheets(&mut scene);
     let block = file.check_lightmap_scene(coefficients, &scene)?;
     let mut inputs = scene.input_files();
     inputs.push(coefficients.to_path_buf());

@@ -123,7 +123,8 @@ pub fn relight_from(
         )));
     }
     let scene_path = scene;
-    let scene = Scene::load(scene)?;
+    let mut scene = Scene::load(scene)?;
+    file.match_back_sheets(&mut scene);
     if file.lightmap.is_some() {
         return relight_lightmap(&file, coefficients, &scene, &rig, output, exposure);
     }

@@ -35,7 +35,8 @@ pub fn relight_rigid(
     let rig = Rig::load(rig)?;
     let object = CoefficientFile::read(coefficients)?;
     let scene_path = scene;
-    let scene = Scene::load(scene)?;
+    let mut scene = Scene::load(scene)?;
+    object.match_back_sheets(&mut scene);
     object.check_scene(coefficients, &scene)?;
     let probe_file = CoefficientFile::read(placement.probes)?;
     let field = ProbeField::new(&probe_file)

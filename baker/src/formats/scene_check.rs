@@ -10,6 +10,24 @@ use crate::scene::Scene;
 use crate::support::error::{Error, Result};
 
 impl CoefficientFile {
+    /// Drops `scene`'s back sheets (docs/scenes.md, "Two-sided surfaces") where the file was
+    /// baked without them (`bake --double-sided off`, or before they existed): the scene
+    /// fingerprint records which, so every reader calls this before its checks below.
+    pub fn match_back_sheets(&self, scene: &mut Scene) {
+        if scene.first_back_sheet().is_none()
+            || self.header.scene_fingerprint == scene.fingerprint()
+        {
+            return;
+        }
+        scene.drop_back_sheets();
+        if self.header.scene_fingerprint != scene.fingerprint() {
+            // Another scene either way: the check that follows says so of the whole one.
+            scene
+                .add_back_sheets()
+                .expect("the same back sheets as loaded");
+        }
+    }
+
     /// Refuses a file baked for a different scene (or a changed version of this one), and a
     /// transfer-matrix bake: every reader of transfer vectors only (the glTF and EXR exports,
     /// the viewer's per-texel path) checks its file here, so none of them misreads a matrix as

@@ -26,6 +26,9 @@ pub struct Material {
     /// A tangent-space normal map (glTF `normalTexture`): texel bakes turn each texel's lobe
     /// by it; vertex bakes cannot resolve it and keep the surface normal.
     pub normal_map: Option<NormalMap>,
+    /// glTF `doubleSided`: the loaded scene gets a back sheet of receivers for the objects
+    /// that use it ([`super::BackSheets`]; docs/scenes.md, "Two-sided surfaces").
+    pub double_sided: bool,
 }
 
 /// A glossy layer over the diffuse one: a normalised Phong lobe about the mirror direction
@@ -52,6 +55,7 @@ impl Default for Material {
             glossy: None,
             alpha: None,
             normal_map: None,
+            double_sided: false,
         }
     }
 }

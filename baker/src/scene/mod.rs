@@ -15,6 +15,7 @@
 //! May import: [`crate::support`], [`crate::math`].
 
 mod alpha;
+mod back_sheets;
 mod format;
 mod gltf;
 mod instances;
@@ -37,6 +38,7 @@ use crate::support::error::{Error, Location, Result};
 use crate::support::input_path::AssetFolder;
 
 pub use alpha::{Alpha, AlphaMode, Cutouts, Wrap};
+pub use back_sheets::BackSheets;
 pub use format::FORMATS;
 use format::OTHER_FORMATS;
 pub use gltf::volume::{GltfMedia, gltf_media};
@@ -93,6 +95,8 @@ pub struct Scene {
     /// Occluders traced through instances, outside every array above
     /// ([`Scene::load_instanced`]); empty where the scene was loaded flat.
     pub instances: Instances,
+    /// The back sheets of glTF `doubleSided` objects, the last objects ([`BackSheets`]).
+    pub back_sheets: BackSheets,
 }
 
 impl Scene {
@@ -143,6 +147,9 @@ impl Scene {
                     }
                     scene.lightmap_uvs = Some(uvs);
                 }
+                scene
+                    .add_back_sheets()
+                    .map_err(|m| Error::scene(Location::file(path), m))?;
                 Ok((scene, loaded.warnings))
             }
             other if OTHER_FORMATS.contains(&other) => Err(Error::scene(
@@ -261,6 +268,7 @@ impl Scene {
             tangents: None,
             content_digest: None,
             instances: Instances::default(),
+            back_sheets: BackSheets::default(),
         };
         for mut mesh in meshes {
             check_mesh(&mesh, scene.textures.len()).map_err(|m| Error::scene(at(), m))?;
@@ -379,6 +387,141 @@ impl Scene {
             bytes.extend((self.instances.placements.len() as u64).to_le_bytes());
         }
         xxhash_rust::xxh3::xxh3_64(&bytes)
+    }
+}
+
+/// Back sheets of glTF `doubleSided` objects ([`back_sheets`]).
+impl Scene {
+    /// Appends a back sheet for every open object whose material is `doubleSided` (none for
+    /// OBJ and scene files, which have no such flag). A closed object gets none: its inside
+    /// is never seen. The glTF loader calls it; a scene that already has them is left as it
+    /// is. Refuses to pass 2^32 vertices.
+    pub fn add_back_sheets(&mut self) -> std::result::Result<(), String> {
+        if !self.back_sheets.fronts.is_empty() {
+            return Ok(());
+        }
+        let fronts: Vec<u32> = (0..self.objects.len() as u32)
+            .filter(|&o| {
+                let object = &self.objects[o as usize];
+                let first = object.vertices.start as usize;
+                !object.triangles.is_empty()
+                    && self
+                        .vertex_material
+                        .get(first)
+                        .is_some_and(|&m| self.materials[m as usize].double_sided)
+                    && !back_sheets::is_closed(
+                        &self.positions,
+                        &self.triangles
+                            [object.triangles.start as usize..object.triangles.end as usize],
+                    )
+            })
+            .collect();
+        let added: usize = fronts
+            .iter()
+            .map(|&o| self.objects[o as usize].vertices.len())
+            .sum();
+        if u32::try_from(self.positions.len() + added).is_err() {
+            return Err(format!(
+                "more than 2^32 vertices with the back sheets of its doubleSided materials ({added} vertices); bake with --double-sided off"
+            ));
+        }
+        for &front in &fronts {
+            let object = self.objects[front as usize].clone();
+            let vertices = object.vertices.start as usize..object.vertices.end as usize;
+            let base = self.positions.len() as u32;
+            let first_triangle = self.triangles.len() as u32;
+            self.positions.extend_from_within(vertices.clone());
+            self.normals.extend(
+                self.normals[vertices.clone()]
+                    .iter()
+                    .map(|n| -*n)
+                    .collect::<Vec<_>>(),
+            );
+            self.uvs.extend_from_within(vertices.clone());
+            self.vertex_material.extend_from_within(vertices.clone());
+            if let Some(uvs) = &mut self.lightmap_uvs {
+                uvs.extend_from_within(vertices.clone());
+            }
+            // The whole tangent frame turned over, so a normal-mapped back shades with the
+            // front's perturbed normal negated, as engines draw a back face.
+            if let Some(tangents) = &mut self.tangents {
+                let flipped: Vec<Vec4> = tangents[vertices.clone()]
+                    .iter()
+                    .map(|t| Vec4::new(-t.x, -t.y, -t.z, -t.w))
+                    .collect();
+                tangents.extend(flipped);
+            }
+            let shift = base - object.vertices.start;
+            let triangles = object.triangles.start as usize..object.triangles.end as usize;
+            let reversed: Vec<[u32; 3]> = self.triangles[triangles]
+                .iter()
+                .map(|&[a, b, c]| [a + shift, c + shift, b + shift])
+                .collect();
+            self.triangles.extend(reversed);
+            if let Some(h) = &mut self.hierarchy
+                && let Some(&node) = h.object_node.get(front as usize)
+            {
+                h.object_node.push(node);
+            }
+            self.objects.push(Object {
+                name: format!("{} (back)", object.name),
+                vertices: base..self.positions.len() as u32,
+                triangles: first_triangle..self.triangles.len() as u32,
+            });
+        }
+        self.back_sheets = BackSheets { fronts };
+        Ok(())
+    }
+
+    /// Removes the back sheets (`bake --double-sided off`, or a reader of a file baked
+    /// without them): the scene is then the one bakes before them saw, fingerprint and all.
+    pub fn drop_back_sheets(&mut self) {
+        let Some(first) = self.first_back_sheet() else {
+            return;
+        };
+        let object = &self.objects[first];
+        let (vertices, triangles) = (
+            object.vertices.start as usize,
+            object.triangles.start as usize,
+        );
+        self.positions.truncate(vertices);
+        self.normals.truncate(vertices);
+        self.uvs.truncate(vertices);
+        self.vertex_material.truncate(vertices);
+        if let Some(uvs) = &mut self.lightmap_uvs {
+            uvs.truncate(vertices);
+        }
+        if let Some(tangents) = &mut self.tangents {
+            tangents.truncate(vertices);
+        }
+        self.triangles.truncate(triangles);
+        if let Some(h) = &mut self.hierarchy {
+            h.object_node.truncate(first);
+        }
+        self.objects.truncate(first);
+        self.back_sheets = BackSheets::default();
+    }
+
+    /// The index of the first back-sheet object, if there are any.
+    pub fn first_back_sheet(&self) -> Option<usize> {
+        let count = self.back_sheets.fronts.len();
+        (count > 0).then(|| self.objects.len() - count)
+    }
+
+    /// The object whose back sheet object `o` is, or `None` for a front (or single) sheet.
+    pub fn front_of(&self, o: usize) -> Option<usize> {
+        let first = self.first_back_sheet()?;
+        o.checked_sub(first)
+            .map(|k| self.back_sheets.fronts[k] as usize)
+    }
+
+    /// The triangles the tracers occlude with: every triangle but the back sheets', which
+    /// lie after them (their fronts stop rays from both sides).
+    pub fn traced_triangles(&self) -> &[[u32; 3]] {
+        match self.first_back_sheet() {
+            Some(first) => &self.triangles[..self.objects[first].triangles.start as usize],
+            None => &self.triangles,
+        }
     }
 }
 

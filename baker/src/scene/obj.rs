@@ -204,6 +204,7 @@ fn resolve_materials(
             glossy: mtl_glossy(m),
             alpha,
             normal_map: None,
+            double_sided: false,
         });
     }
     let no_material = Material {
@@ -217,6 +218,7 @@ fn resolve_materials(
         glossy: None,
         alpha: None,
         normal_map: None,
+        double_sided: false,
     };
     Ok((material_table, no_material, textures))
 }

@@ -175,7 +175,7 @@ impl Alpha {
             return Alpha::default();
         };
         let (cut, opaque): (Vec<u32>, Vec<u32>) =
-            (0..scene.triangles.len() as u32).partition(|&t| cutouts.is_cut(t));
+            (0..scene.traced_triangles().len() as u32).partition(|&t| cutouts.is_cut(t));
         let of_geometry = [opaque, cut]
             .into_iter()
             .filter(|ids| !ids.is_empty())
@@ -204,7 +204,7 @@ fn commit(device: &Device, scene: &Scene, alpha: &Alpha, robust: bool) -> Result
     match &alpha.cutouts {
         None => {
             builder
-                .add_triangle_mesh(&positions, &scene.triangles)
+                .add_triangle_mesh(&positions, scene.traced_triangles())
                 .map_err(tracer_error)?;
         }
         Some(cutouts) => {

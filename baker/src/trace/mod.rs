@@ -15,6 +15,7 @@ mod obvhs;
 mod offset;
 pub mod seams;
 mod tracer;
+mod twins;
 
 pub use self::obvhs::{ObvhsOptions, ObvhsTracer};
 #[cfg(feature = "embree")]
@@ -24,6 +25,7 @@ pub use embree::{EmbreeMode, EmbreeOptions, EmbreePoints, EmbreeTracer};
 pub use embree_sys;
 pub use offset::{offset_distance, ray_origins};
 pub use tracer::{Backend, Hit, Ray, Tracer, TracerOptions};
+pub use twins::TwinFacing;
 
 use crate::scene::Scene;
 use crate::support::error::{Error, Result};
@@ -48,13 +50,14 @@ pub fn check(backend: Backend, options: TracerOptions) -> Result<()> {
     }
 }
 
-/// A tracer of `backend` over `scene`; fails as [`check`] does, or when Embree cannot build
+/// A tracer of `backend` over `scene` (whose back-face hits on a `doubleSided` surface land
+/// on its back sheet, [`TwinFacing`]); fails as [`check`] does, or when Embree cannot build
 /// its scene.
 pub fn build(backend: Backend, scene: &Scene, options: TracerOptions) -> Result<Box<dyn Tracer>> {
     check(backend, options)?;
-    match backend {
+    let inner: Box<dyn Tracer> = match backend {
         #[cfg(feature = "embree")]
-        Backend::Embree => Ok(Box::new(EmbreeTracer::new(
+        Backend::Embree => Box::new(EmbreeTracer::new(
             scene,
             EmbreeOptions {
                 threads: options.threads,
@@ -64,8 +67,9 @@ pub fn build(backend: Backend, scene: &Scene, options: TracerOptions) -> Result<
                     EmbreeMode::Watertight
                 },
             },
-        )?)),
-        Backend::Obvhs => Ok(Box::new(ObvhsTracer::new(scene, ObvhsOptions::default()))),
+        )?),
+        Backend::Obvhs => Box::new(ObvhsTracer::new(scene, ObvhsOptions::default())),
         _ => unreachable!("check() refused {backend:?}"),
-    }
+    };
+    Ok(TwinFacing::wrap(inner, scene))
 }

@@ -355,6 +355,7 @@ fn object_scene(scene: &Scene, object: &Object) -> Scene {
         tangents: scene.tangents.as_ref().map(|t| t[v0..v1].to_vec()),
         content_digest: None,
         instances: Default::default(),
+        back_sheets: Default::default(),
     }
 }
 

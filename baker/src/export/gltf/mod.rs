@@ -125,7 +125,8 @@ pub fn export_glb_quantized(
             coefficients.display()
         )));
     }
-    let scene = Scene::load(scene)?;
+    let mut scene = Scene::load(scene)?;
+    file.match_back_sheets(&mut scene);
     let mut inputs = scene.input_files();
     inputs.push(coefficients.to_path_buf());
     inputs.extend(rig.iter().flat_map(Rig::input_files));

@@ -290,6 +290,7 @@ impl PrimitiveReader<'_> {
                     glossy: gltf_glossy(&pbr),
                     alpha,
                     normal_map,
+                    double_sided: primitive.material().double_sided(),
                 }
             }
         };

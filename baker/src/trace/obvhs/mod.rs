@@ -68,8 +68,12 @@ pub struct ObvhsTracer {
 impl ObvhsTracer {
     /// Builds the BVH. Never fails: obvhs needs no device and accepts any triangle soup.
     pub fn new(scene: &Scene, options: ObvhsOptions) -> ObvhsTracer {
-        let mut tracer =
-            ObvhsTracer::of_triangles(&scene.positions, &scene.triangles, scene.cutouts(), options);
+        let mut tracer = ObvhsTracer::of_triangles(
+            &scene.positions,
+            scene.traced_triangles(),
+            scene.cutouts(),
+            options,
+        );
         if !scene.instances.is_empty() {
             tracer.instances = Some(TopLevel::new(&scene.instances, |mesh| {
                 ObvhsTracer::of_triangles(&mesh.positions, &mesh.triangles, None, options)
