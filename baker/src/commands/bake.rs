@@ -342,7 +342,8 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
         start_threads(threads)?;
     }
 
-    let whole = args.lightmap.is_none() && !in_parts && !args.prepare_only;
+    // Whole bakes, per vertex or texel: the non-receivers only occlude.
+    let whole = !in_parts && !args.prepare_only;
     let instancing = whole && args.probes.is_none() && args.materials.is_none();
     let instancing = instancing && options.mode != Mode::Interreflected;
     let mut scene = scene_load::load(&args.scene, args.instances, &args.receivers, instancing)?;
@@ -356,7 +357,7 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
     let output = Output::new(&args.output, &inputs)?;
     // Whole bakes only (clap refuses --receivers with the others; glTF marks are not
     // applied to them).
-    let receivers = match shard.is_none() && args.checkpoint.is_none() {
+    let receivers = match whole {
         true => receiver_objects(&scene, &args.receivers)?,
         false => None,
     };
