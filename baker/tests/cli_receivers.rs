@@ -610,3 +610,57 @@ fn lightmap_receivers_unwrap_the_receivers_alone() {
     );
     assert!(!s.path("out/ir.prt").exists());
 }
+
+/// `--lightmap --receivers` on a per-object atlas (the roof has no lightmap UVs, so each
+/// receiver is packed alone): with a lid over the roof left out, the unshadowed lightmap is
+/// bit for bit the scene's without the lid; the lid is placed at scale 0, offset (−1, −1), its
+/// triangles out of the atlas; export reads the file.
+#[test]
+fn lightmap_receivers_pack_per_object_atlases_without_the_others() {
+    let s = Scratch::new();
+    let mut scene: Value = serde_json::from_slice(&ground_and_roof_uv1()).unwrap();
+    scene["meshes"][1]["primitives"][0]["attributes"]
+        .as_object_mut()
+        .unwrap()
+        .remove("TEXCOORD_1");
+    s.write("two.gltf", serde_json::to_vec(&scene).unwrap());
+    scene["nodes"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({"name": "Lid", "mesh": 1, "translation": [0.0, 0.5, 0.0]}));
+    scene["scenes"][0]["nodes"] = json!([0, 1, 2]);
+    s.write("three.gltf", serde_json::to_vec(&scene).unwrap());
+    let args = ["--lightmap", "32", "--samples", "8", "--mode", "unshadowed"];
+    s.bake("two.gltf", "two.prt", &args);
+    let mut some = args.to_vec();
+    some.extend(["--receivers", "Ground,Roof"]);
+    s.bake("three.gltf", "three.prt", &some);
+    let read = |name: &str| CoefficientFile::read(&s.path(&format!("out/{name}"))).unwrap();
+    let (two, three) = (read("two.prt"), read("three.prt"));
+    let (a, b) = (
+        two.lightmap.as_ref().unwrap(),
+        three.lightmap.as_ref().unwrap(),
+    );
+    assert_eq!(b.source, prt_baker::formats::header::AtlasSource::PerObject);
+    assert_eq!(b.objects[..2], a.objects[..]);
+    assert_eq!(
+        (b.objects[2].scale, b.objects[2].offset),
+        ([0.0; 2], [-1.0; 2])
+    );
+    assert_eq!(b.uv1[..6], a.uv1[..]);
+    assert!(
+        b.uv1[6..]
+            .iter()
+            .flatten()
+            .all(|c| c.x == -1.0 && c.y == -1.0)
+    );
+    assert_eq!(
+        (&b.valid, &three.coefficients),
+        (&a.valid, &two.coefficients)
+    );
+    for out in [["--glb", "out/t.glb"], ["--npz", "out/t.npz"]] {
+        let mut args = vec!["export", "out/three.prt", "--scene", "three.gltf"];
+        args.extend(out);
+        s.run(&args).success();
+    }
+}
