@@ -263,7 +263,7 @@ fn receiver_globs_that_match_nothing_and_conflicting_options_are_refused() {
     );
     let run = s.run(&["bake", CORNELL, "-o", "out/x.prt", "--receivers", "[floor"]);
     run.fails_with(EXIT_BAD_COMMAND_LINE, &["not a glob"]);
-    for extra in [["--lightmap", "64"], ["--shard", "0/2"]] {
+    for extra in [["--shard", "0/2"], ["--checkpoint", "out/c"]] {
         let mut args = vec!["bake", CORNELL, "-o", "out/x.prt", "--receivers", "floor"];
         args.extend(extra);
         let run = s.run(&args);
@@ -274,9 +274,18 @@ fn receiver_globs_that_match_nothing_and_conflicting_options_are_refused() {
 
 /// A glTF builder: meshes of positions and triangles in one data-URI buffer.
 fn gltf(meshes: &[(&[[f32; 3]], &[u32])], nodes: Value, roots: &[usize]) -> Vec<u8> {
+    let meshes: Vec<_> = meshes.iter().map(|&(p, i)| (p, i, &[][..])).collect();
+    gltf_uv1(&meshes, nodes, roots)
+}
+
+/// A mesh's positions, triangle indices and lightmap UVs (none where empty).
+type MeshUv1<'a> = (&'a [[f32; 3]], &'a [u32], &'a [[f32; 2]]);
+
+/// [`gltf`], each mesh with lightmap UVs (TEXCOORD_1) where its third slice is not empty.
+fn gltf_uv1(meshes: &[MeshUv1<'_>], nodes: Value, roots: &[usize]) -> Vec<u8> {
     let mut bin = Vec::new();
     let (mut views, mut accessors, mut gltf_meshes) = (vec![], vec![], vec![]);
-    for (positions, indices) in meshes {
+    for (positions, indices, uv1) in meshes {
         let lo: Vec<f32> = (0..3)
             .map(|k| positions.iter().map(|p| p[k]).fold(f32::INFINITY, f32::min))
             .collect();
@@ -298,10 +307,16 @@ fn gltf(meshes: &[(&[[f32; 3]], &[u32])], nodes: Value, roots: &[usize]) -> Vec<
         bin.extend(indices.iter().flat_map(|i| i.to_le_bytes()));
         accessors.push(json!({"bufferView": views.len() - 1, "componentType": 5125,
             "count": indices.len(), "type": "SCALAR"}));
-        gltf_meshes.push(
-            json!({"primitives": [{"attributes": {"POSITION": accessors.len() - 2},
-            "indices": accessors.len() - 1}]}),
-        );
+        let mut primitive = json!({"attributes": {"POSITION": accessors.len() - 2},
+            "indices": accessors.len() - 1});
+        if !uv1.is_empty() {
+            views.push(json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": uv1.len() * 8}));
+            bin.extend(uv1.iter().flatten().flat_map(|x| x.to_le_bytes()));
+            accessors.push(json!({"bufferView": views.len() - 1, "componentType": 5126,
+                "count": uv1.len(), "type": "VEC2"}));
+            primitive["attributes"]["TEXCOORD_1"] = json!(accessors.len() - 1);
+        }
+        gltf_meshes.push(json!({"primitives": [primitive]}));
     }
     let document = json!({
         "asset": {"version": "2.0"},
@@ -440,4 +455,212 @@ fn a_million_instances_are_refused_before_flattening_and_gpu_instancing_is_read(
         "{}",
         run.stderr
     );
+}
+
+/// The ground and a 1.5 × 1.5 roof facing down at height 1 above its centre, with lightmap
+/// UVs (TEXCOORD_1) apart: the ground's in u ∈ [0.05, 0.45], the roof's in [0.6, 0.9].
+fn ground_and_roof_uv1() -> Vec<u8> {
+    let ((ground, ground_triangles), _) = ground_and_cube();
+    let roof: Vec<[f32; 3]> = [[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]]
+        .iter()
+        .map(|[x, z]| [0.75 * x, 1.0, 0.75 * z])
+        .collect();
+    let roof_triangles = [0, 1, 2, 0, 2, 3];
+    let ground_uv1: Vec<[f32; 2]> = ground
+        .iter()
+        .map(|p| [0.05 + 0.1 * (p[0] + 2.0), 0.05 + 0.225 * (p[2] + 2.0)])
+        .collect();
+    let roof_uv1: Vec<[f32; 2]> = roof
+        .iter()
+        .map(|p| [0.6 + 0.2 * (p[0] + 0.75), 0.3 + 0.2 * (p[2] + 0.75)])
+        .collect();
+    let nodes = json!([{"name": "Ground", "mesh": 0}, {"name": "Roof", "mesh": 1}]);
+    gltf_uv1(
+        &[
+            (&ground, &ground_triangles, &ground_uv1),
+            (&roof, &roof_triangles, &roof_uv1),
+        ],
+        nodes,
+        &[0, 1],
+    )
+}
+
+/// `--lightmap --receivers`: on the scene's own lightmap UVs, the ground's texels are bit for
+/// bit those of the bake of every object (same texels, same streams, same occluders), the
+/// roof is left out of the atlas ((−1, −1)) and shades the ground; a glTF mark
+/// `"prt": {"receive": false}` chooses the same file; export reads it.
+#[test]
+fn lightmap_receivers_bake_the_whole_bakes_texels_on_scene_uvs() {
+    let s = Scratch::new();
+    s.write("uv.gltf", ground_and_roof_uv1());
+    let mut marked: Value = serde_json::from_slice(&ground_and_roof_uv1()).unwrap();
+    marked["nodes"][1]["extras"] = json!({"prt": {"receive": false}});
+    s.write("marked.gltf", serde_json::to_vec(&marked).unwrap());
+    let lightmap = ["--lightmap", "32", "--samples", "16", "--aux", "ao"];
+    s.bake("uv.gltf", "whole.prt", &lightmap);
+    let mut args = lightmap.to_vec();
+    args.extend(["--receivers", "Ground"]);
+    s.bake("uv.gltf", "ground.prt", &args);
+    s.bake("marked.gltf", "marked.prt", &lightmap);
+    let read = |name: &str| CoefficientFile::read(&s.path(&format!("out/{name}"))).unwrap();
+    let (whole, ground, marked) = (read("whole.prt"), read("ground.prt"), read("marked.prt"));
+    let (w, g) = (
+        whole.lightmap.as_ref().unwrap(),
+        ground.lightmap.as_ref().unwrap(),
+    );
+    assert_eq!(g.uv1[..4], w.uv1[..4], "the ground's UVs");
+    assert!(
+        g.uv1[4..]
+            .iter()
+            .flatten()
+            .all(|c| c.x == -1.0 && c.y == -1.0)
+    );
+    let ground_texels = (0..w.valid.len()).filter(|&t| w.valid[t] && t % 32 < 16);
+    let baked: Vec<usize> = (0..g.valid.len()).filter(|&t| g.valid[t]).collect();
+    assert_eq!(baked, ground_texels.collect::<Vec<_>>());
+    for &t in &baked {
+        assert_eq!(ground.vertex(t, 0), whole.vertex(t, 0), "texel {t}");
+        assert_eq!(
+            ground.ao.as_ref().unwrap()[t],
+            whole.ao.as_ref().unwrap()[t],
+            "texel {t}'s AO"
+        );
+    }
+    // The roof shades the ground's centre (texel (8, 16)), not its corner (2, 2).
+    let (under, open) = (
+        ground.vertex(16 * 32 + 8, 0)[0],
+        ground.vertex(2 * 32 + 2, 0)[0],
+    );
+    assert!(
+        under < 0.8 * open,
+        "T0 {under} under the roof, {open} in the open"
+    );
+    assert_eq!(marked.coefficients, ground.coefficients);
+    assert_eq!(marked.lightmap, ground.lightmap);
+    for out in [
+        ["--glb", "out/g.glb"],
+        ["--npz", "out/g.npz"],
+        ["--exr", "out/exr"],
+    ] {
+        let mut args = vec!["export", "out/ground.prt", "--scene", "uv.gltf"];
+        args.extend(out);
+        s.run(&args).success();
+    }
+}
+
+/// `--lightmap --receivers` on a generated atlas: the receivers are unwrapped alone, so an
+/// unshadowed bake of the ground under the roof is bit for bit the bake of a scene of the
+/// ground only; shadowed, the roof's shadow differs. Interreflected is refused (exit 2).
+#[test]
+fn lightmap_receivers_unwrap_the_receivers_alone() {
+    let s = Scratch::new();
+    let ((ground, ground_triangles), _) = ground_and_cube();
+    let mut scene: Value = serde_json::from_slice(&ground_and_roof_uv1()).unwrap();
+    for mesh in scene["meshes"].as_array_mut().unwrap() {
+        mesh["primitives"][0]["attributes"]
+            .as_object_mut()
+            .unwrap()
+            .remove("TEXCOORD_1");
+    }
+    s.write("roof.gltf", serde_json::to_vec(&scene).unwrap());
+    let nodes = json!([{"name": "Ground", "mesh": 0}]);
+    s.write(
+        "alone.gltf",
+        gltf(&[(&ground, &ground_triangles)], nodes, &[0]),
+    );
+    let args = |mode: &'static str, receivers: bool| {
+        let mut args = vec!["--lightmap", "32", "--samples", "16", "--mode", mode];
+        if receivers {
+            args.extend(["--receivers", "Ground"]);
+        }
+        args
+    };
+    s.bake("roof.gltf", "roof-u.prt", &args("unshadowed", true));
+    s.bake("alone.gltf", "alone-u.prt", &args("unshadowed", false));
+    s.bake("roof.gltf", "roof-s.prt", &args("shadowed", true));
+    s.bake("alone.gltf", "alone-s.prt", &args("shadowed", false));
+    let read = |name: &str| CoefficientFile::read(&s.path(&format!("out/{name}"))).unwrap();
+    let (roof, alone) = (read("roof-u.prt"), read("alone-u.prt"));
+    let (r, a) = (
+        roof.lightmap.as_ref().unwrap(),
+        alone.lightmap.as_ref().unwrap(),
+    );
+    assert_eq!(r.uv1[..4], a.uv1[..]);
+    assert_eq!(r.valid, a.valid);
+    assert_eq!(roof.coefficients, alone.coefficients);
+    assert_ne!(
+        read("roof-s.prt").coefficients,
+        read("alone-s.prt").coefficients
+    );
+    let run = s.run(&[
+        "bake",
+        "roof.gltf",
+        "-o",
+        "out/ir.prt",
+        "--lightmap",
+        "32",
+        "--mode",
+        "interreflected",
+        "--receivers",
+        "Ground",
+    ]);
+    run.fails_with(
+        EXIT_BAD_COMMAND_LINE,
+        &["--receivers with --lightmap", "interreflected"],
+    );
+    assert!(!s.path("out/ir.prt").exists());
+}
+
+/// `--lightmap --receivers` on a per-object atlas (the roof has no lightmap UVs, so each
+/// receiver is packed alone): with a lid over the roof left out, the unshadowed lightmap is
+/// bit for bit the scene's without the lid; the lid is placed at scale 0, offset (−1, −1), its
+/// triangles out of the atlas; export reads the file.
+#[test]
+fn lightmap_receivers_pack_per_object_atlases_without_the_others() {
+    let s = Scratch::new();
+    let mut scene: Value = serde_json::from_slice(&ground_and_roof_uv1()).unwrap();
+    scene["meshes"][1]["primitives"][0]["attributes"]
+        .as_object_mut()
+        .unwrap()
+        .remove("TEXCOORD_1");
+    s.write("two.gltf", serde_json::to_vec(&scene).unwrap());
+    scene["nodes"]
+        .as_array_mut()
+        .unwrap()
+        .push(json!({"name": "Lid", "mesh": 1, "translation": [0.0, 0.5, 0.0]}));
+    scene["scenes"][0]["nodes"] = json!([0, 1, 2]);
+    s.write("three.gltf", serde_json::to_vec(&scene).unwrap());
+    let args = ["--lightmap", "32", "--samples", "8", "--mode", "unshadowed"];
+    s.bake("two.gltf", "two.prt", &args);
+    let mut some = args.to_vec();
+    some.extend(["--receivers", "Ground,Roof"]);
+    s.bake("three.gltf", "three.prt", &some);
+    let read = |name: &str| CoefficientFile::read(&s.path(&format!("out/{name}"))).unwrap();
+    let (two, three) = (read("two.prt"), read("three.prt"));
+    let (a, b) = (
+        two.lightmap.as_ref().unwrap(),
+        three.lightmap.as_ref().unwrap(),
+    );
+    assert_eq!(b.source, prt_baker::formats::header::AtlasSource::PerObject);
+    assert_eq!(b.objects[..2], a.objects[..]);
+    assert_eq!(
+        (b.objects[2].scale, b.objects[2].offset),
+        ([0.0; 2], [-1.0; 2])
+    );
+    assert_eq!(b.uv1[..6], a.uv1[..]);
+    assert!(
+        b.uv1[6..]
+            .iter()
+            .flatten()
+            .all(|c| c.x == -1.0 && c.y == -1.0)
+    );
+    assert_eq!(
+        (&b.valid, &three.coefficients),
+        (&a.valid, &two.coefficients)
+    );
+    for out in [["--glb", "out/t.glb"], ["--npz", "out/t.npz"]] {
+        let mut args = vec!["export", "out/three.prt", "--scene", "three.gltf"];
+        args.extend(out);
+        s.run(&args).success();
+    }
 }

@@ -410,3 +410,102 @@ fn gpu_instancing_places_the_mesh_at_each_instance() {
         "outside",
     ]);
 }
+
+/// Texel bakes instance too: the ground's lightmap (`--lightmap 32 --receivers Ground`,
+/// shadowed, the leak test's closest hits included) under 100 trees is bit for bit the same
+/// with `--instances on` and `off`, on Embree and on obvhs (same texels, same streams, same
+/// hits); the trees are not in the atlas either way. The instanced file records the scene
+/// it traced, so `export` (which loads the scene flat) refuses it, as it refuses a vertex
+/// bake's.
+#[test]
+fn a_grounds_lightmap_under_instanced_trees_is_the_flattened_scenes() {
+    let s = Scratch::new();
+    write_forest(&s, 100, false, &[]);
+    let mut backends = vec!["obvhs"];
+    if cfg!(feature = "embree") {
+        backends.push("embree");
+    }
+    let read = |name: &str| CoefficientFile::read(&s.path(&format!("out/{name}"))).unwrap();
+    for &backend in &backends {
+        for instances in ["on", "off"] {
+            let run = s.bake(
+                "forest.gltf",
+                &format!("{backend}-{instances}.prt"),
+                &[
+                    "--lightmap",
+                    "32",
+                    "--samples",
+                    "16",
+                    "--aux",
+                    "ao",
+                    "--receivers",
+                    "Ground",
+                    "--backend",
+                    backend,
+                    "--instances",
+                    instances,
+                ],
+            );
+            assert_eq!(
+                run.stderr
+                    .contains("100 placements of 1 meshes traced as instances"),
+                instances == "on",
+                "{}",
+                run.stderr
+            );
+        }
+        let (on, off) = (
+            read(&format!("{backend}-on.prt")),
+            read(&format!("{backend}-off.prt")),
+        );
+        let (l_on, l_off) = (
+            on.lightmap.as_ref().unwrap(),
+            off.lightmap.as_ref().unwrap(),
+        );
+        // The ground's 512 triangles come first in both; the flat scene's trees are out.
+        assert_eq!(l_on.uv1.len(), 512);
+        assert_eq!(l_on.uv1[..], l_off.uv1[..512]);
+        assert!(
+            l_off.uv1[512..]
+                .iter()
+                .flatten()
+                .all(|c| *c == glam::Vec2::splat(-1.0))
+        );
+        assert_eq!(
+            l_on.valid, l_off.valid,
+            "{backend}: texels left out as leaking"
+        );
+        assert!(l_on.valid.iter().any(|&v| v));
+        assert_eq!(on.coefficients, off.coefficients, "{backend}");
+        assert_eq!(on.ao, off.ao, "{backend}");
+        // The trees shade the ground: some texel sees under 90 % of the sky.
+        let ao = on.ao.as_ref().unwrap();
+        assert!(
+            (0..ao.len()).any(|t| l_on.valid[t] && ao[t] < 0.9),
+            "{backend}: no shadow"
+        );
+    }
+    let run = s.run(&[
+        "export",
+        "out/obvhs-on.prt",
+        "--scene",
+        "forest.gltf",
+        "--npz",
+        "out/x.npz",
+    ]);
+    assert_ne!(run.code, Some(0));
+    assert!(
+        run.stderr.contains("baked for a scene with"),
+        "{}",
+        run.stderr
+    );
+    s.run(&[
+        "export",
+        "out/obvhs-off.prt",
+        "--scene",
+        "forest.gltf",
+        "--npz",
+        "out/x.npz",
+    ])
+    .success();
+}

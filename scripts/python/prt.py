@@ -260,7 +260,9 @@ def parse_prt(b):
             lightmap.objects = []
             for i in range(count):
                 floats, kind = take("<f4", 4), int(take("<u4", 1)[0])
-                if kind > 2 or not (np.all(np.isfinite(floats)) and np.all(floats[:2] > 0)):
+                # Scale 0 at (-1, -1): an object left out of the atlas (bake --receivers).
+                left_out = np.all(floats == np.array([0, 0, -1, -1], dtype="<f4"))
+                if kind > 2 or not (left_out or (np.all(np.isfinite(floats)) and np.all(floats[:2] > 0))):
                     raise PrtError(f"object {i}: not a lightmap placement")
                 lightmap.objects.append({"scale": tuple(map(float, floats[:2])),
                                          "offset": tuple(map(float, floats[2:])),

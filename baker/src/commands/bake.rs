@@ -143,10 +143,10 @@ pub struct BakeArgs {
     /// matches one of these globs (`*`, `?`, `[…]`); the others occlude and, interreflected,
     /// reflect. Default: every object but those a glTF node marks
     /// `"extras": {"prt": {"receive": false}}`. The file records the receivers
-    /// (docs/coefficient-format.md). Vertex bakes, whole (not with --lightmap, --shard,
-    /// --checkpoint or compression).
+    /// (docs/coefficient-format.md). With --lightmap, only the receivers are in the atlas
+    /// (not interreflected). Whole bakes (not with --shard, --checkpoint or compression).
     #[arg(long, value_name = "GLOB", value_delimiter = ',',
-          conflicts_with_all = ["lightmap", "shard", "checkpoint", "clusters", "pcs"])]
+          conflicts_with_all = ["shard", "checkpoint", "clusters", "pcs"])]
     receivers: Vec<String>,
     /// Trace non-receiving glTF nodes of a shared mesh as instances (docs/scenes.md).
     #[arg(long, value_enum, default_value_t)]
@@ -345,7 +345,8 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
         start_threads(threads)?;
     }
 
-    let whole = args.lightmap.is_none() && !in_parts && !args.prepare_only;
+    // Whole bakes, per vertex or texel: the non-receivers only occlude.
+    let whole = !in_parts && !args.prepare_only;
     let instancing = whole && args.probes.is_none() && args.materials.is_none();
     let instancing = instancing && options.mode != Mode::Interreflected;
     let mut scene = scene_load::load(
@@ -363,8 +364,8 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
     inputs.extend(args.materials.clone());
     inputs.extend(args.prepared.clone());
     let output = Output::new(&args.output, &inputs)?;
-    // Whole vertex bakes only (clap refuses --receivers with the others; glTF marks are
-    // not applied to them).
+    // Whole bakes only (clap refuses --receivers with the others; glTF marks are not
+    // applied to them).
     let receivers = match whole {
         true => receiver_objects(&scene, &args.receivers)?,
         false => None,
@@ -454,11 +455,11 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
             let what = format!("{} vertices", transfer.receiver_count);
             (transfer, file, what)
         }
-        (Some(resolution), _) => {
+        (Some(resolution), objects) => {
             let tracer = tracer.as_deref();
             bake_texels(
                 &args,
-                &scene,
+                (&scene, objects.as_deref()),
                 tracer,
                 &media,
                 &options,
@@ -536,7 +537,7 @@ fn check_memory(args: &BakeArgs, options: &BakeOptions, scene: &Scene) -> Result
 /// `--lightmap RES`: the atlas (the scene's lightmap UVs, or generated), then the texel bake.
 fn bake_texels(
     args: &BakeArgs,
-    scene: &Scene,
+    (scene, receivers): (&Scene, Option<&[u32]>),
     tracer: Option<&dyn Tracer>,
     media: &[Option<Medium>],
     options: &BakeOptions,
@@ -544,7 +545,15 @@ fn bake_texels(
     progress: &dyn Progress,
 ) -> Result<(Transfer, CoefficientFile, String), Error> {
     let mut stages = lightmap::Stages::default();
-    let atlas = stages.time("atlas", || atlas(args, scene, resolution, progress))?;
+    let atlas = stages.time("atlas", || match receivers {
+        None => atlas(args, scene, resolution, progress),
+        Some(objects) => {
+            lightmap::receiving::check_mode(options.mode)?;
+            let alone = lightmap::receiving::receiver_scene(scene, objects);
+            let atlas = atlas(args, &alone, resolution, progress)?;
+            Ok(lightmap::receiving::widen(scene, objects, atlas))
+        }
+    })?;
     let bake = lightmap::bake_translucent(scene, tracer, options, atlas, media, progress)?;
     if args.verbose {
         eprintln!(

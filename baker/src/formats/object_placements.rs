@@ -50,7 +50,8 @@ pub(crate) fn section_bytes(
 }
 
 /// Reads and checks a section (empty: no placements): the count matches, every scale is
-/// positive and finite, every offset finite, every kind known.
+/// positive and finite, every offset finite (or the object left out: scale 0, offset
+/// (−1, −1)), every kind known.
 pub(crate) fn decode(section: &[u8]) -> Result<Vec<ObjectPlacement>, String> {
     if section.is_empty() {
         return Ok(Vec::new());
@@ -73,9 +74,11 @@ pub(crate) fn decode(section: &[u8]) -> Result<Vec<ObjectPlacement>, String> {
         let code = u32::from_le_bytes(word(4));
         let uvs = ObjectUvs::from_code(code)
             .ok_or_else(|| format!("object {i}: unknown lightmap UV kind {code}"))?;
-        if !(scale.iter().all(|s| s.is_finite() && *s > 0.0)
-            && offset.iter().all(|o| o.is_finite()))
-        {
+        // Scale 0 at (−1, −1): an object left out of the atlas (`bake --receivers`).
+        let left_out = scale == [0.0; 2] && offset == [-1.0; 2];
+        let placed =
+            scale.iter().all(|s| s.is_finite() && *s > 0.0) && offset.iter().all(|o| o.is_finite());
+        if !(left_out || placed) {
             return Err(format!(
                 "object {i}: lightmap scale {scale:?} and offset {offset:?} are not a placement"
             ));

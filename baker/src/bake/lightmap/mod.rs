@@ -11,6 +11,7 @@ pub mod atlas;
 pub mod dilation;
 pub mod leaks;
 pub mod objects;
+pub mod receiving;
 pub mod stitch;
 pub mod texels;
 pub mod translucent;

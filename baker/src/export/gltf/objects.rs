@@ -27,6 +27,9 @@ pub(super) fn add_placements(root: &mut Value, file: &CoefficientFile) {
         return;
     };
     for (node, o) in nodes.iter_mut().zip(&block.objects) {
+        if o.scale == [0.0; 2] {
+            continue; // Left out of the atlas (`bake --receivers`): no lightmap.
+        }
         // The file's v runs up; glTF's down: v' = 1 − v, so oy' = 1 − sy − oy.
         let offset_y = 1.0 - o.scale[1] - o.offset[1];
         node["extras"] = json!({
