@@ -557,10 +557,10 @@ fn bake_texels(
     let bake = lightmap::bake_translucent(scene, tracer, options, atlas, media, progress)?;
     if args.verbose {
         eprintln!(
-            "prt-bake: stages: {}, {}; stitching took {} iterations",
+            "prt-bake: stages: {}, {}; stitching factor {} nonzeros",
             stages.line(),
             bake.stages.line(),
-            bake.seams.iterations
+            bake.seams.factor_nonzeros
         );
     }
     let file = CoefficientFile::from_lightmap_bake(scene, &bake);

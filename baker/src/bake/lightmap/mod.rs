@@ -263,8 +263,8 @@ pub struct SeamReport {
     pub samples: usize,
     pub step_before: f64,
     pub step_after: f64,
-    /// The most conjugate-gradient iterations a column of the solve took.
-    pub iterations: usize,
+    /// Nonzeros of the stitching system's Cholesky factor (0: nothing stitched).
+    pub factor_nonzeros: usize,
 }
 
 /// Places the receivers' values (`width` floats each, in row-major order of the valid
@@ -285,10 +285,10 @@ pub fn place(
     });
     let (coefficients, visibility) = (&mut placed.coefficients, &mut placed.visibility);
     let step_before = stitch::seam_step(&samples, coefficients, width, 0).0;
-    let iterations = stages.time("stitch", || {
+    let factor_nonzeros = stages.time("stitch", || {
         let mut ao: Vec<f32> = visibility.iter().map(|v| v.accessibility).collect();
         let ao_width = usize::from(!ao.is_empty());
-        let iterations = stitch::stitch_fields(
+        let factor_nonzeros = stitch::stitch_fields(
             &samples,
             &mut [(&mut coefficients[..], width), (&mut ao[..], ao_width)],
         );
@@ -296,13 +296,13 @@ pub fn place(
         for (v, a) in visibility.iter_mut().zip(ao) {
             v.accessibility = clamp_accessibility(a);
         }
-        iterations
+        factor_nonzeros
     });
     placed.seams = SeamReport {
         samples: samples.len(),
         step_before,
         step_after: stitch::seam_step(&samples, coefficients, width, 0).0,
-        iterations,
+        factor_nonzeros,
     };
     placed
 }
