@@ -50,6 +50,8 @@ pub fn receiver_scene(scene: &Scene, objects: &[u32]) -> Scene {
         tangents: scene.tangents.as_ref().map(|_| Vec::new()),
         content_digest: None,
         instances: Default::default(),
+        // Only the atlas is made from it: receiving back sheets are ordinary objects here.
+        back_sheets: Default::default(),
     };
     for &o in objects {
         let object = &scene.objects[o as usize];
