@@ -43,8 +43,7 @@ impl Bake {
         };
         let (file, cpca) =
             parsed.map_err(|message| prt_baker::Error::coefficient_file(coefficients, message))?;
-        let mut scene = Scene::load(scene)?;
-        file.match_back_sheets(&mut scene);
+        let scene = file.load_scene(scene)?;
         let mut bake = Bake::new(scene, file, coefficients)?;
         bake.cpca = cpca;
         Ok(bake)

@@ -66,8 +66,7 @@ impl Mover {
     /// The object `scene` with its own vector bake `coefficients`, to move along `path`.
     pub fn load(scene: &Path, coefficients: &Path, path: Vec<Vec3>, speed: f32) -> Result<Mover> {
         let file = CoefficientFile::read(coefficients)?;
-        let mut scene_data = Scene::load(scene)?;
-        file.match_back_sheets(&mut scene_data);
+        let scene_data = file.load_scene(scene)?;
         file.check_scene(coefficients, &scene_data)?;
         Mover::new(scene_data, file, path, speed, coefficients)
     }

@@ -5,12 +5,8 @@ use std::path::Path;
 
 use clap::ValueEnum;
 use prt_baker::bake::receiver_names::receives;
-use prt_baker::scene::{Instancing, Scene};
+use prt_baker::scene::{AUTO_MIN_TRIANGLES, Instancing, Scene};
 use prt_baker::support::error::Result;
-
-/// Flattened triangles that instancing must save before `--instances auto` uses it: below
-/// this, flattening costs little, and a flat scene's file suits every consumer.
-pub const AUTO_MIN_TRIANGLES: u64 = 1_000_000;
 
 /// `--instances`: when non-receiving glTF mesh nodes that share a mesh are traced as instances.
 #[derive(Clone, Copy, Debug, Default, PartialEq, ValueEnum)]

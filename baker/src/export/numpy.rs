@@ -25,8 +25,7 @@ use crate::support::error::Result;
 /// A lightmap (texel) bake is written as [`export_lightmap_npz`] describes.
 pub fn export_npz(coefficients: &Path, scene: &Path, output: &Path) -> Result<()> {
     let file = CoefficientFile::read(coefficients)?;
-    let mut scene = Scene::load(scene)?;
-    file.match_back_sheets(&mut scene);
+    let scene = file.load_scene(scene)?;
     if file.lightmap.is_some() {
         return export_lightmap_npz(coefficients, &file, &scene, output);
     }
@@ -332,8 +331,7 @@ pub fn export_exr(
             coefficients.display()
         )));
     }
-    let mut scene = Scene::load(scene)?;
-    file.match_back_sheets(&mut scene);
+    let scene = file.load_scene(scene)?;
     let block = file.check_lightmap_scene(coefficients, &scene)?;
     let mut inputs = scene.input_files();
     inputs.push(coefficients.to_path_buf());

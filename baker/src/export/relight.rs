@@ -123,8 +123,7 @@ pub fn relight_from(
         )));
     }
     let scene_path = scene;
-    let mut scene = Scene::load(scene)?;
-    file.match_back_sheets(&mut scene);
+    let scene = file.load_scene(scene)?;
     if file.lightmap.is_some() {
         return relight_lightmap(&file, coefficients, &scene, &rig, output, exposure);
     }

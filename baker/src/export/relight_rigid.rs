@@ -12,7 +12,6 @@ use crate::export::probe_field::{ProbeField, into_object_frame};
 use crate::export::relight::{Relit, vertex_radiance, write_vertex_ply};
 use crate::formats::coefficient_file::CoefficientFile;
 use crate::light::Rig;
-use crate::scene::Scene;
 use crate::support::error::{Error, Result};
 
 /// Where the object stands: its position in the probes' scene and its rotation.
@@ -35,8 +34,7 @@ pub fn relight_rigid(
     let rig = Rig::load(rig)?;
     let object = CoefficientFile::read(coefficients)?;
     let scene_path = scene;
-    let mut scene = Scene::load(scene)?;
-    object.match_back_sheets(&mut scene);
+    let scene = object.load_scene(scene)?;
     object.check_scene(coefficients, &scene)?;
     let probe_file = CoefficientFile::read(placement.probes)?;
     let field = ProbeField::new(&probe_file)

@@ -6,10 +6,51 @@ use std::path::Path;
 
 use crate::formats::coefficient_file::{CoefficientFile, LightmapBlock};
 use crate::formats::header::AtlasSource;
-use crate::scene::Scene;
+use crate::scene::{AUTO_MIN_TRIANGLES, Hierarchy, Instancing, Scene};
 use crate::support::error::{Error, Result};
 
 impl CoefficientFile {
+    /// Loads the scene at `path` as this file's bake traced it (every reader with a scene
+    /// loads it here, then checks it below): with the shared meshes that no object of which
+    /// receives traced through instances, as `bake --instances auto` (the default) and `on`
+    /// do, or flat (`off`, and every bake that cannot instance), whichever the file's
+    /// fingerprint names; with or without back sheets ([`Self::match_back_sheets`]). A bake
+    /// of a ground under 20,000 instanced trees is read without flattening the trees, which
+    /// would need gigabytes; the readers then see the receivers and the flat occluders, not
+    /// the instanced ones. The scene's warnings are printed. A scene no way of loading
+    /// matches is returned as `auto` loads it, and the checks say why it does not belong.
+    pub fn load_scene(&self, path: &Path) -> Result<Scene> {
+        let nobody = |_: &Hierarchy, _: u32, _: &str| false;
+        let mut first: Option<(Scene, Vec<String>)> = None;
+        // auto, on, off: a load without instances makes the later ones (fewer instances)
+        // the same scene, so the search stops there.
+        for min_triangles in [AUTO_MIN_TRIANGLES, 0, u64::MAX] {
+            let instancing = Instancing {
+                receives: &nobody,
+                min_triangles,
+            };
+            let chosen = (min_triangles != u64::MAX).then_some(&instancing);
+            let (mut scene, warnings) = Scene::load_instanced(path, chosen)?;
+            self.match_back_sheets(&mut scene);
+            let flat = scene.instances.is_empty();
+            if scene.fingerprint() == self.header.scene_fingerprint {
+                first = Some((scene, warnings));
+                break;
+            }
+            if first.is_none() {
+                first = Some((scene, warnings));
+            }
+            if flat && min_triangles == 0 {
+                break;
+            }
+        }
+        let (scene, warnings) = first.expect("one load at least");
+        for warning in warnings {
+            eprintln!("warning: {}: {warning}", path.display());
+        }
+        Ok(scene)
+    }
+
     /// Drops `scene`'s back sheets (docs/scenes.md, "Two-sided surfaces") where the file was
     /// baked without them (`bake --double-sided off`, or before they existed): the scene
     /// fingerprint records which, so every reader calls this before its checks below.

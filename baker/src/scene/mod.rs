@@ -42,7 +42,7 @@ pub use back_sheets::BackSheets;
 pub use format::FORMATS;
 use format::OTHER_FORMATS;
 pub use gltf::volume::{GltfMedia, gltf_media};
-pub use gltf::{INSTANCE_BYTES, Instancing};
+pub use gltf::{AUTO_MIN_TRIANGLES, INSTANCE_BYTES, Instancing};
 pub use instances::{InstanceMesh, Instances, Placement, mesh_bounds, world_normal};
 pub use materials::{MaterialEntry, Materials};
 pub use mesh::{DEFAULT_KD, Glossy, Hierarchy, HierarchyNode, Material, Mesh};

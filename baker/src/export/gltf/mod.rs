@@ -125,8 +125,7 @@ pub fn export_glb_quantized(
             coefficients.display()
         )));
     }
-    let mut scene = Scene::load(scene)?;
-    file.match_back_sheets(&mut scene);
+    let scene = file.load_scene(scene)?;
     let mut inputs = scene.input_files();
     inputs.push(coefficients.to_path_buf());
     inputs.extend(rig.iter().flat_map(Rig::input_files));

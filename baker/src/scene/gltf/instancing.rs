@@ -28,6 +28,11 @@ pub struct Instancing<'a> {
     pub min_triangles: u64,
 }
 
+/// Flattened triangles that instancing must save before `bake --instances auto` (the
+/// default) uses it: below this, flattening costs little, and a flat scene's file suits every
+/// consumer. Readers of a file try it first ([`crate::formats`]' `load_scene`).
+pub const AUTO_MIN_TRIANGLES: u64 = 1_000_000;
+
 /// Bytes an instance costs the tracers (Embree's instance geometry and its BVH leaf, our
 /// transforms and top-level BVH node), for the memory check.
 pub const INSTANCE_BYTES: u64 = 1024;

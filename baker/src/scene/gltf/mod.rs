@@ -31,7 +31,7 @@ use std::path::Path;
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use gltf::mesh::Mode;
 
-pub use instancing::{INSTANCE_BYTES, Instancing};
+pub use instancing::{AUTO_MIN_TRIANGLES, INSTANCE_BYTES, Instancing};
 
 use crate::math::glossy;
 use crate::scene::instances::Instances;
