@@ -89,7 +89,8 @@ unit: deps
 NO_EMBREE_TESTS := --test cli --test cli_lightmap --test cli_receivers --test output_policy
 no-embree: deps
 	$(CARGO) test --release -p prt-baker --no-default-features --target-dir $(NO_EMBREE) $(NO_EMBREE_TESTS)
-	$(CARGO) build --release -p prt-baker --no-default-features --target-dir $(NO_EMBREE)
+# (the command-line tests build $(NO_EMBREE_BAKE), the binary checked below: a separate `cargo
+# build` would compile the dependencies a second time, under the features without dev-dependencies)
 	@if $(CARGO) tree -p prt-baker --no-default-features -e normal,build,dev | grep embree; then \
 		echo "no-embree: embree-sys is in the dependency graph"; exit 1; fi
 	@if ldd $(NO_EMBREE_BAKE) | grep -i embree; then \

@@ -29,7 +29,6 @@ normal maps honoured.
 """
 
 import argparse
-import json
 import math
 import sys
 import time
@@ -37,6 +36,8 @@ from pathlib import Path
 
 import bpy
 import numpy as np
+
+from cycles_ao import bake_objects, lightmap_uvs
 
 
 def args():
@@ -48,21 +49,6 @@ def args():
     p.add_argument("--threads", type=int, default=0)
     p.add_argument("--no-bake", action="store_true")
     return p.parse_args(sys.argv[1:])
-
-
-def lightmap_uvs(obj, margin=0.02):
-    """A second UV map, "Lightmap", by Smart UV Project, as a Blender user lays one out."""
-    layer = obj.data.uv_layers.new(name="Lightmap")
-    obj.data.uv_layers.active = layer
-    bpy.ops.object.select_all(action="DESELECT")
-    obj.select_set(True)
-    bpy.context.view_layer.objects.active = obj
-    bpy.ops.object.mode_set(mode="EDIT")
-    bpy.ops.mesh.select_all(action="SELECT")
-    bpy.ops.uv.smart_project(angle_limit=math.radians(66), island_margin=margin, correct_aspect=False)
-    bpy.ops.object.mode_set(mode="OBJECT")
-    # The texture set (UVMap, TEXCOORD_0) stays the one materials read.
-    obj.data.uv_layers.active = obj.data.uv_layers[0]
 
 
 def image(name, rgba, non_color):
@@ -208,7 +194,7 @@ def build():
     crate.data.materials.append(principled("Wood", (0.55, 0.38, 0.2))[0])
     objects = [ground, wall, *cards, crate]
     for obj in objects:
-        lightmap_uvs(obj)
+        lightmap_uvs(obj, correct_aspect=False, texture_uvs_active=True)
     # Linked duplicates (Alt+D): new objects on the crate's mesh datablock.
     for k, (x, y, turn) in enumerate([(0.9, -2.3, 0.9), (1.6, -1.2, -0.4), (-2.8, 1.9, 0.5),
                                       (0.4, 0.2, 1.3)], start=1):
@@ -218,27 +204,6 @@ def build():
         bpy.context.scene.collection.objects.link(dup)
         objects.append(dup)
     return objects
-
-
-def bake_ao(obj, res, path):
-    """Cycles AO into an image on the object's Lightmap UVs (the bake's target is the active
-    UV map; the textures keep reading UVMap, named in their nodes)."""
-    img = bpy.data.images.new("ao_" + obj.name, res, res, float_buffer=True, alpha=False)
-    img.colorspace_settings.name = "Non-Color"
-    mat = obj.data.materials[0]
-    node = mat.node_tree.nodes.new("ShaderNodeTexImage")
-    node.image = img
-    mat.node_tree.nodes.active = node
-    obj.data.uv_layers.active = obj.data.uv_layers["Lightmap"]
-    bpy.ops.object.select_all(action="DESELECT")
-    obj.select_set(True)
-    bpy.context.view_layer.objects.active = obj
-    started = time.time()
-    bpy.ops.object.bake(type="AO", margin=4, use_clear=True)
-    seconds = time.time() - started
-    pixels = np.array(img.pixels[:], dtype=np.float32).reshape(res, res, 4)[:, :, 0]
-    pixels.astype("<f4").tofile(path)
-    return seconds
 
 
 def main():
@@ -261,33 +226,7 @@ def main():
     export_seconds = time.time() - started
     if a.no_bake:
         return
-    scene = bpy.context.scene
-    scene.render.engine = "CYCLES"
-    scene.cycles.device = "CPU"
-    scene.cycles.samples = a.samples
-    scene.cycles.use_denoising = False
-    if a.threads:
-        scene.render.threads_mode = "FIXED"
-        scene.render.threads = a.threads
-    world = bpy.data.worlds.new("World")
-    scene.world = world
-    world.light_settings.distance = 1000.0
-    seconds = {}
-    wanted = [n for n in a.ao.split(",") if n]
-    for obj in objects:
-        if obj.name in wanted:
-            seconds[obj.name] = bake_ao(obj, a.res, out / f"ao_{obj.name}.f32")
-    info = {
-        "blender": bpy.app.version_string,
-        "resolution": a.res,
-        "samples": a.samples,
-        "ao_distance": world.light_settings.distance,
-        "export_seconds": export_seconds,
-        "bake_seconds": seconds,
-        "objects": {o.name: len(o.data.polygons) for o in objects},
-    }
-    (out / "cycles.json").write_text(json.dumps(info, indent=1))
-    print(json.dumps(info))
+    bake_objects(objects, a, out, export_seconds)
 
 
 main()

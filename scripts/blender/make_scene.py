@@ -9,20 +9,17 @@ object, OUT_DIR/ao_<Name>.f32 (RES x RES little-endian float32, row 0 = v 0 of t
 own lightmap UVs, as Blender's images are stored) plus OUT_DIR/cycles.json (resolution,
 samples, AO distance, seconds per object).
 
-Cycles' AO bake: the fraction of cosine-weighted hemisphere rays that reach the AO distance
-unoccluded, i.e. (1/pi) int V(s) max(n.s, 0) ds as prt-bake's --aux ao stores, when the AO
-distance is larger than the scene (set here to 1000 m).
+Cycles' AO bake and the lightmap UVs: cycles_ao.py.
 """
 
 import argparse
-import json
-import math
 import sys
 import time
 from pathlib import Path
 
 import bpy
-import numpy as np
+
+from cycles_ao import bake_objects, lightmap_uvs
 
 
 def args():
@@ -34,19 +31,6 @@ def args():
     p.add_argument("--ao", default="Floor,Suzanne")
     p.add_argument("--threads", type=int, default=0)
     return p.parse_args(argv)
-
-
-def lightmap_uvs(obj, margin):
-    """A second UV map, "Lightmap", by Smart UV Project, as a Blender user lays one out."""
-    layer = obj.data.uv_layers.new(name="Lightmap")
-    obj.data.uv_layers.active = layer
-    bpy.ops.object.select_all(action="DESELECT")
-    obj.select_set(True)
-    bpy.context.view_layer.objects.active = obj
-    bpy.ops.object.mode_set(mode="EDIT")
-    bpy.ops.mesh.select_all(action="SELECT")
-    bpy.ops.uv.smart_project(angle_limit=math.radians(66), island_margin=margin)
-    bpy.ops.object.mode_set(mode="OBJECT")
 
 
 def build():
@@ -72,27 +56,6 @@ def build():
     return [floor, suzanne, cube]
 
 
-def bake_ao(obj, res, path):
-    """Cycles AO into an image on the object's Lightmap UVs (the active UV map)."""
-    image = bpy.data.images.new("ao_" + obj.name, res, res, float_buffer=True, alpha=False)
-    image.colorspace_settings.name = "Non-Color"
-    mat = obj.data.materials[0]
-    node = mat.node_tree.nodes.new("ShaderNodeTexImage")
-    node.image = image
-    mat.node_tree.nodes.active = node
-    obj.data.uv_layers.active = obj.data.uv_layers["Lightmap"]
-    bpy.ops.object.select_all(action="DESELECT")
-    obj.select_set(True)
-    bpy.context.view_layer.objects.active = obj
-    started = time.time()
-    bpy.ops.object.bake(type="AO", margin=4, use_clear=True)
-    seconds = time.time() - started
-    pixels = np.array(image.pixels[:], dtype=np.float32).reshape(res, res, 4)[:, :, 0]
-    pixels.astype("<f4").tofile(path)
-    # The bake's image node stays out of the GLB: the export ran before.
-    return seconds
-
-
 def main():
     a = args()
     out = Path(a.out)
@@ -109,33 +72,7 @@ def main():
         export_apply=True,
     )
     export_seconds = time.time() - started
-    scene = bpy.context.scene
-    scene.render.engine = "CYCLES"
-    scene.cycles.device = "CPU"
-    scene.cycles.samples = a.samples
-    scene.cycles.use_denoising = False
-    if a.threads:
-        scene.render.threads_mode = "FIXED"
-        scene.render.threads = a.threads
-    world = bpy.data.worlds.new("World")
-    scene.world = world
-    world.light_settings.distance = 1000.0
-    seconds = {}
-    wanted = [n for n in a.ao.split(",") if n]
-    for obj in objects:
-        if obj.name in wanted:
-            seconds[obj.name] = bake_ao(obj, a.res, out / f"ao_{obj.name}.f32")
-    info = {
-        "blender": bpy.app.version_string,
-        "resolution": a.res,
-        "samples": a.samples,
-        "ao_distance": world.light_settings.distance,
-        "export_seconds": export_seconds,
-        "bake_seconds": seconds,
-        "objects": {o.name: len(o.data.polygons) for o in objects},
-    }
-    (out / "cycles.json").write_text(json.dumps(info, indent=1))
-    print(json.dumps(info))
+    bake_objects(objects, a, out, export_seconds)
 
 
 main()

@@ -20,4 +20,4 @@ for mesh in box sphere slab; do
         { echo "subsurface.sh: $OUT/$mesh.obj differs from tests/data/subsurface/$mesh.obj" >&2; exit 1; }
 done
 PRT_SUBSURFACE_REFERENCES="$PWD/$OUT/references.json" \
-    cargo test --release -p prt-tests --test subsurface
+    cargo test --release --workspace --test subsurface # --workspace: make unit's build, not a new one
