@@ -15,7 +15,7 @@ OUT=target/browser
 PLAYWRIGHT_VERSION=1.65.1
 [ -x /usr/bin/chromium ] || { echo "browser: /usr/bin/chromium is missing (scripts/install-deps.sh installs it)" >&2; exit 2; }
 node_deps "three@$THREE_VERSION" "playwright-core@$PLAYWRIGHT_VERSION"
-cargo build --release -p prt-baker
+cargo build --release --workspace # make build's features: -p prt-baker alone resolves them anew and rebuilds every dependency
 rm -rf "$OUT"
 mkdir -p "$OUT"
 command -v glslangValidator >/dev/null || { echo "browser: glslangValidator is missing (scripts/install-deps.sh installs glslang-tools)" >&2; exit 2; }

@@ -12,7 +12,7 @@ if [ ! -d "$NODE_DIR/node_modules/gltf-validator" ]; then
     mkdir -p "$NODE_DIR"
     npm install --silent --no-audit --no-fund --prefix "$NODE_DIR" gltf-validator@2.0.0-dev.3.10
 fi
-cargo build --release -p prt-baker
+cargo build --release --workspace # make build's features: -p prt-baker alone resolves them anew and rebuilds every dependency
 BAKE=target/release/prt-bake
 mkdir -p "$OUT"
 $BAKE bake scenes/torus/torus.scene -o "$OUT/torus.prt" --samples 16 --order 3 --quiet

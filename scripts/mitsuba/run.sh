@@ -16,5 +16,5 @@ cd "$HERE/../.."
 # shellcheck source=venv.sh
 . "$HERE/venv.sh" llvm
 
-cargo build --release -p prt-baker
+cargo build --release --workspace # make build's features: -p prt-baker alone resolves them anew and rebuilds every dependency
 exec "$VENV/bin/python" "$HERE/mitsuba_reference.py" --prt-bake target/release/prt-bake "$@"

@@ -28,5 +28,5 @@ if ! "$PY" -c 'import OpenEXR' >/dev/null 2>&1; then
         *) echo "run-tests.sh: $PY has no OpenEXR module: the EXR export is not checked" ;;
     esac
 fi
-cargo build --release -p prt-baker
+cargo build --release --workspace # make build's features: -p prt-baker alone resolves them anew and rebuilds every dependency
 exec "$PY" "$HERE/test_prt.py" target/release/prt-bake target/python-reader

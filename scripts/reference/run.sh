@@ -36,5 +36,5 @@ else
     PY="$PYTHON"
 fi
 
-cargo build --release -p prt-baker
+cargo build --release --workspace # make build's features: -p prt-baker alone resolves them anew and rebuilds every dependency
 exec "$PY" "$HERE/independent_reference.py" --prt-bake target/release/prt-bake "$@"
