@@ -248,10 +248,9 @@ impl Scene {
         files
     }
 
-    /// Assembles and validates a scene from meshes; `path` names it in errors and reports.
-    pub fn from_meshes(path: &Path, meshes: Vec<Mesh>, textures: Vec<Texture>) -> Result<Scene> {
-        let at = || Location::file(path);
-        let mut scene = Scene {
+    /// A scene with no objects, read from `path`, +z up: what loaders and sub-scenes fill.
+    pub fn empty(path: &Path) -> Scene {
+        Scene {
             path: path.to_path_buf(),
             objects: Vec::new(),
             hierarchy: None,
@@ -261,7 +260,7 @@ impl Scene {
             vertex_material: Vec::new(),
             triangles: Vec::new(),
             materials: Vec::new(),
-            textures,
+            textures: Vec::new(),
             sources: Vec::new(),
             up: Up::Z,
             lightmap_uvs: None,
@@ -269,6 +268,15 @@ impl Scene {
             content_digest: None,
             instances: Instances::default(),
             back_sheets: BackSheets::default(),
+        }
+    }
+
+    /// Assembles and validates a scene from meshes; `path` names it in errors and reports.
+    pub fn from_meshes(path: &Path, meshes: Vec<Mesh>, textures: Vec<Texture>) -> Result<Scene> {
+        let at = || Location::file(path);
+        let mut scene = Scene {
+            textures,
+            ..Scene::empty(path)
         };
         for mut mesh in meshes {
             check_mesh(&mesh, scene.textures.len()).map_err(|m| Error::scene(at(), m))?;

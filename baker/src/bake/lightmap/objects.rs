@@ -332,13 +332,11 @@ fn object_scene(scene: &Scene, object: &Object) -> Scene {
         object.triangles.end as usize,
     );
     Scene {
-        path: scene.path.clone(),
         objects: vec![Object {
             name: object.name.clone(),
             vertices: 0..object.vertices.len() as u32,
             triangles: 0..object.triangles.len() as u32,
         }],
-        hierarchy: None,
         positions: scene.positions[v0..v1].to_vec(),
         normals: scene.normals[v0..v1].to_vec(),
         uvs: scene.uvs[v0..v1].to_vec(),
@@ -348,14 +346,9 @@ fn object_scene(scene: &Scene, object: &Object) -> Scene {
             .map(|t| t.map(|v| v - object.vertices.start))
             .collect(),
         materials: scene.materials.clone(),
-        textures: Vec::new(),
-        sources: Vec::new(),
         up: scene.up,
-        lightmap_uvs: None,
         tangents: scene.tangents.as_ref().map(|t| t[v0..v1].to_vec()),
-        content_digest: None,
-        instances: Default::default(),
-        back_sheets: Default::default(),
+        ..Scene::empty(&scene.path)
     }
 }
 

@@ -33,25 +33,15 @@ pub fn check_mode(mode: Mode) -> Result<()> {
 /// The scene of `objects` (ascending indices of `scene`) alone, their vertices and triangles
 /// in scene order, as a file holding only them would load.
 pub fn receiver_scene(scene: &Scene, objects: &[u32]) -> Scene {
+    // No instances and no back sheets: only the atlas is made from it, and receiving back
+    // sheets are ordinary objects here.
     let mut sub = Scene {
-        path: scene.path.clone(),
         objects: Vec::with_capacity(objects.len()),
-        hierarchy: None,
-        positions: Vec::new(),
-        normals: Vec::new(),
-        uvs: Vec::new(),
-        vertex_material: Vec::new(),
-        triangles: Vec::new(),
         materials: scene.materials.clone(),
-        textures: Vec::new(),
-        sources: Vec::new(),
         up: scene.up,
         lightmap_uvs: scene.lightmap_uvs.as_ref().map(|_| Vec::new()),
         tangents: scene.tangents.as_ref().map(|_| Vec::new()),
-        content_digest: None,
-        instances: Default::default(),
-        // Only the atlas is made from it: receiving back sheets are ordinary objects here.
-        back_sheets: Default::default(),
+        ..Scene::empty(&scene.path)
     };
     for &o in objects {
         let object = &scene.objects[o as usize];
