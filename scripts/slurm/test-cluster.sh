@@ -136,9 +136,13 @@ cmp "$tmp/merged.prt" "$tmp/single.prt"
 echo "slurm test: 4 shards on Slurm, merged by a dependent job in ${slurm_seconds}s: identical to the single-machine bake"
 
 # A texel (lightmap) bake in dependent stages (--stages): a prepare job, the shards, per
-# bounce an array of gathers and a merge, an array of stitch shards and the join.
+# bounce an array of gathers and a merge, the last one stitching (--stitch-shards 0: 7 jobs,
+# where stitch shards and a join make 9; `stitch --columns` and `--join` are tested in
+# baker/tests/cli_lightmap_stages.rs).
 SECONDS=0
-timeout 180 "$root/scripts/slurm/submit.sh" --wait --stages "$scene" "$tmp/texels.prt" 2 "${texel_options[@]}"
+timeout 180 "$root/scripts/slurm/submit.sh" --wait --stages --stitch-shards 0 "$scene" "$tmp/texels.prt" 2 "${texel_options[@]}"
+[ ! -e "$tmp/texels.prt.parts/columns-0.col" ] ||
+    { echo "slurm test: --stitch-shards 0 ran stitch shards" >&2; exit 1; }
 slurm_seconds=$SECONDS
 for k in 0 1; do
     grep -q "shard $k of 2 (baked texels" "$tmp/texels.prt.parts/shard-$k.log" ||
@@ -148,16 +152,5 @@ for k in 0 1; do
 done
 timeout 120 "$bake" bake "$scene" -o "$tmp/texels-single.prt" --quiet "${texel_options[@]}" >/dev/null
 cmp "$tmp/texels.prt" "$tmp/texels-single.prt"
-echo "slurm test: a 64² lightmap in 2 shards on Slurm, in dependent stages (prepare, bake, 2 bounces, stitch) in ${slurm_seconds}s: identical to the single-machine texel bake"
-
-# Stages whose last merge stitches (--stitch-shards 0: no stitch jobs), one bounce to keep
-# it to 5 jobs: prepare, shards, merge --direct, gathers, the stitching merge.
-one_bounce=(--lightmap 64 --samples 64 --mode interreflected --bounces 1)
-SECONDS=0
-timeout 180 "$root/scripts/slurm/submit.sh" --wait --stages --stitch-shards 0 "$scene" "$tmp/one-bounce.prt" 2 "${one_bounce[@]}"
-[ ! -e "$tmp/one-bounce.prt.parts/columns-0.col" ] ||
-    { echo "slurm test: --stitch-shards 0 ran stitch shards" >&2; exit 1; }
-timeout 120 "$bake" bake "$scene" -o "$tmp/one-bounce-single.prt" --quiet "${one_bounce[@]}" >/dev/null
-cmp "$tmp/one-bounce.prt" "$tmp/one-bounce-single.prt"
-echo "slurm test: a 1-bounce 64² lightmap in stages stitched by the last merge (--stitch-shards 0) in ${SECONDS}s: identical"
+echo "slurm test: a 64² lightmap in 2 shards on Slurm, in dependent stages (prepare, bake, 2 bounces, the last merge stitching) in ${slurm_seconds}s: identical to the single-machine texel bake"
 
