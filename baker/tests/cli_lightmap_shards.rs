@@ -350,6 +350,17 @@ fn a_checkpointed_texel_bake_killed_with_sigkill_resumes_to_the_same_file() {
         "the resumed texel bake differs from the uninterrupted one"
     );
 
+    // A block carries its texels, not the atlas (flag bit 0 at byte 180), and is no part.
+    let block = s.read("out/checkpoint/block-000000.prt");
+    assert_eq!(block[180..184], [1, 0, 0, 0], "a block carries the atlas");
+    s.run(&[
+        "merge",
+        "out/checkpoint/block-000000.prt",
+        "-o",
+        "out/block.prt",
+    ])
+    .fails_with_bad_input(&["block-000000.prt", "a checkpoint block"]);
+
     // A checkpoint folder of another atlas is refused, never overwritten.
     let mut planar: Vec<&str> = args
         .iter()

@@ -308,6 +308,7 @@ fn closest_hits_through_instances_are_the_flattened_scenes() {
         let options = TracerOptions {
             threads: Some(1),
             robust: backend == Backend::Embree,
+            ..TracerOptions::default()
         };
         let (a, b) = (
             trace::build(backend, &flat, options).unwrap(),

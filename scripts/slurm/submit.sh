@@ -2,7 +2,7 @@
 # Bakes a scene on a Slurm cluster: an array job of N shards, then a merge job that runs when
 # every shard has succeeded (--dependency=afterok). docs/distributed.md explains it.
 #
-#   scripts/slurm/submit.sh [--wait] [--stages] SCENE OUT.prt N [bake options…]
+#   scripts/slurm/submit.sh [--wait] [--stages [--stitch-shards M]] SCENE OUT.prt N [bake options…]
 #
 #   --wait    block until the last job has ended; exit non-zero unless it completed (a shard
 #             or a merge failed: the jobs after a failed one are cancelled)
@@ -11,6 +11,11 @@
 #             (reading the prepared lightmap); in interreflected mode `merge --direct`, then
 #             per bounce an array of N `gather` tasks and a `merge --lower`; an array of N
 #             `stitch --columns` tasks; and the `stitch --join` that writes OUT.prt
+#   --stitch-shards M
+#             with --stages: stitch in M shards of columns (default N); 0: the last merge
+#             stitches, with no stitch jobs (each column shard repeats the stitch's ordering
+#             and symbolic factorisation, so sharding pays only where the stitch is the
+#             wall-clock bottleneck: docs/distributed.md)
 #
 # Environment:
 #   PRT_BAKE        the prt-bake binary the nodes run (default: target/release/prt-bake of this
@@ -24,14 +29,18 @@
 set -euo pipefail
 
 usage() {
-    echo "usage: $0 [--wait] SCENE OUT.prt N [bake options…]" >&2
+    echo "usage: $0 [--wait] [--stages [--stitch-shards M]] SCENE OUT.prt N [bake options…]" >&2
     exit 2
 }
-wait_for_merge="" stages=""
+wait_for_merge="" stages="" stitch_shards=""
 while [ $# -gt 0 ]; do
     case $1 in
         --wait) wait_for_merge="--wait" ;;
         --stages) stages=1 ;;
+        --stitch-shards)
+            stitch_shards=${2:-}
+            [[ "$stitch_shards" =~ ^[0-9]+$ ]] || { echo "submit: --stitch-shards takes a whole number, not '$stitch_shards'" >&2; exit 2; }
+            shift ;;
         *) break ;;
     esac
     shift
@@ -40,6 +49,8 @@ done
 scene=$1 out=$2 count=$3
 shift 3
 [[ "$count" =~ ^[1-9][0-9]*$ ]] || { echo "submit: N must be a positive whole number, not '$count'" >&2; exit 2; }
+[ -z "$stitch_shards" ] || [ -n "$stages" ] || { echo "submit: --stitch-shards is for --stages" >&2; exit 2; }
+stitch_shards=${stitch_shards:-$count}
 [ -f "$scene" ] || { echo "submit: $scene: no such scene file" >&2; exit 3; }
 
 root=$(cd "$(dirname "$0")/../.." && pwd)
@@ -73,14 +84,17 @@ if [ -n "$stages" ]; then
     bounces=${bounces:-1}
 fi
 
-# Submits one job (or with "array", an array of N tasks) that runs when job $after (if any)
-# has succeeded, and is cancelled if it failed; prints its id. $1 is the job's name.
+# Submits one job (or with "array", an array of N tasks; "array:M", of M) that runs when job
+# $after (if any) has succeeded, and is cancelled if it failed; prints its id. $1 is the
+# job's name.
 submit() {
     local name=$1 after=$2 array=$3 wrap=$4
     local opts=(--parsable "${extra[@]}" --job-name="prt-$name")
     [ -n "$after" ] && opts+=(--dependency="afterok:$after" --kill-on-invalid-dep=yes)
     if [ -n "$array" ]; then
-        opts+=(--array="0-$((count - 1))" --output="$parts/$name-%a.log")
+        local tasks=$count
+        [ "$array" = array ] || tasks=${array#array:}
+        opts+=(--array="0-$((tasks - 1))" --output="$parts/$name-%a.log")
     else
         opts+=(--output="$parts/$name.log")
     fi
@@ -92,8 +106,8 @@ submit() {
     }
     echo "${id%%;*}"
 }
-# Files of every array task: "$1-0$2 $1-1$2 …".
-each() { for ((k = 0; k < count; k++)); do printf '%q ' "$1-$k$2"; done; }
+# Files of every array task: "$1-0$2 $1-1$2 …" ($3 tasks, default N).
+each() { for ((k = 0; k < ${3:-$count}; k++)); do printf '%q ' "$1-$k$2"; done; }
 task='$SLURM_ARRAY_TASK_ID'
 
 part_files=()
@@ -104,7 +118,9 @@ if [ -n "$stages" ]; then
     # The shards read the prepared lightmap: none repeats the atlas or the leak test.
     array=$(submit shard "$prepare_job" array "$(quote "$bake" bake "$scene" --shard auto --prepared "$prep" --quiet "$@") -o $(printf '%q' "$parts/part-")$task.prt")
     last=$array unstitched="$parts/unstitched.prt"
-    if [ "$bounces" -eq 0 ]; then
+    if [ "$bounces" -eq 0 ] && [ "$stitch_shards" -eq 0 ]; then
+        last=$(submit merge "$last" "" "$(quote "$bake" merge "${part_files[@]}" -o "$out" --quiet)")
+    elif [ "$bounces" -eq 0 ]; then
         last=$(submit merge "$last" "" "$(quote "$bake" merge "${part_files[@]}" -o "$unstitched" --unstitched --quiet)")
     else
         last=$(submit merge-0 "$last" "" "$(quote "$bake" merge --direct "${part_files[@]}" -o "$parts/bounce-0.bnc" --quiet)")
@@ -113,13 +129,20 @@ if [ -n "$stages" ]; then
             last=$(submit "gather-$b" "$last" array "$(quote "$bake" gather --quiet --lower "$lower") $(printf '%q' "$parts/part-")$task.prt -o $(printf '%q' "$parts/gather-$b-")$task.bnc")
             next="$parts/bounce-$b.bnc" unstitch=""
             [ "$b" -eq "$bounces" ] && next=$unstitched unstitch=--unstitched
+            # Stitching in the last merge: it writes OUT.prt itself.
+            [ "$b" -eq "$bounces" ] && [ "$stitch_shards" -eq 0 ] && next=$out unstitch=""
             last=$(submit "merge-$b" "$last" "" "$(quote "$bake" merge --lower "$lower" $unstitch -o "$next" --quiet) $(each "$parts/gather-$b" .bnc)")
         done
     fi
-    # Stitching, the heavy part of a large lightmap, in N shards of columns; the join is I/O.
-    last=$(submit stitch "$last" array "$(quote "$bake" stitch "$unstitched" --prepared "$prep" --columns auto) -o $(printf '%q' "$parts/columns-")$task.col")
-    merge_job=$(submit join "$last" "" "$(quote "$bake" stitch "$unstitched" -o "$out" --join) $(each "$parts/columns" .col)")
-    echo "submit: prepare job $prepare_job, shards job $array (array 0-$((count - 1))), $((bounces)) bounce stages, stitch and join job $merge_job -> $out"
+    if [ "$stitch_shards" -eq 0 ]; then
+        merge_job=$last
+        echo "submit: prepare job $prepare_job, shards job $array (array 0-$((count - 1))), $((bounces)) bounce stages, the last merge (stitching) job $merge_job -> $out"
+    else
+        # Stitching in M shards of columns; the join is I/O.
+        last=$(submit stitch "$last" "array:$stitch_shards" "$(quote "$bake" stitch "$unstitched" --prepared "$prep" --columns auto) -o $(printf '%q' "$parts/columns-")$task.col")
+        merge_job=$(submit join "$last" "" "$(quote "$bake" stitch "$unstitched" -o "$out" --join) $(each "$parts/columns" .col "$stitch_shards")")
+        echo "submit: prepare job $prepare_job, shards job $array (array 0-$((count - 1))), $((bounces)) bounce stages, stitch ($stitch_shards shards) and join job $merge_job -> $out"
+    fi
 else
     # The shards: array tasks 0..N-1; `--shard auto` reads SLURM_ARRAY_TASK_ID/COUNT.
     array=$(submit shard "" array "$(quote "$bake" bake "$scene" --shard auto --quiet "$@") -o $(printf '%q' "$parts/part-")$task.prt")

@@ -136,9 +136,13 @@ cmp "$tmp/merged.prt" "$tmp/single.prt"
 echo "slurm test: 4 shards on Slurm, merged by a dependent job in ${slurm_seconds}s: identical to the single-machine bake"
 
 # A texel (lightmap) bake in dependent stages (--stages): a prepare job, the shards, per
-# bounce an array of gathers and a merge, an array of stitch shards and the join.
+# bounce an array of gathers and a merge, the last one stitching (--stitch-shards 0: 7 jobs,
+# where stitch shards and a join make 9; `stitch --columns` and `--join` are tested in
+# baker/tests/cli_lightmap_stages.rs).
 SECONDS=0
-timeout 180 "$root/scripts/slurm/submit.sh" --wait --stages "$scene" "$tmp/texels.prt" 2 "${texel_options[@]}"
+timeout 180 "$root/scripts/slurm/submit.sh" --wait --stages --stitch-shards 0 "$scene" "$tmp/texels.prt" 2 "${texel_options[@]}"
+[ ! -e "$tmp/texels.prt.parts/columns-0.col" ] ||
+    { echo "slurm test: --stitch-shards 0 ran stitch shards" >&2; exit 1; }
 slurm_seconds=$SECONDS
 for k in 0 1; do
     grep -q "shard $k of 2 (baked texels" "$tmp/texels.prt.parts/shard-$k.log" ||
@@ -148,4 +152,5 @@ for k in 0 1; do
 done
 timeout 120 "$bake" bake "$scene" -o "$tmp/texels-single.prt" --quiet "${texel_options[@]}" >/dev/null
 cmp "$tmp/texels.prt" "$tmp/texels-single.prt"
-echo "slurm test: a 64² lightmap in 2 shards on Slurm, in dependent stages (prepare, bake, 2 bounces, stitch) in ${slurm_seconds}s: identical to the single-machine texel bake"
+echo "slurm test: a 64² lightmap in 2 shards on Slurm, in dependent stages (prepare, bake, 2 bounces, the last merge stitching) in ${slurm_seconds}s: identical to the single-machine texel bake"
+

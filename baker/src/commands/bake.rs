@@ -327,6 +327,8 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
     let tracer_options = TracerOptions {
         threads: args.threads,
         robust: args.robust,
+        // A texel bake casts no ray from a vertex: its texels' seam points are found apart.
+        points_only: args.lightmap.is_some(),
     };
     if options.mode.casts_rays() {
         trace::check(args.backend.backend(), tracer_options)?;
@@ -349,13 +351,17 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
     let whole = !in_parts && !args.prepare_only;
     let instancing = whole && args.probes.is_none() && args.materials.is_none();
     let instancing = instancing && options.mode != Mode::Interreflected;
-    let mut scene = scene_load::load(
-        &args.scene,
-        args.instances,
-        &args.receivers,
-        instancing,
-        args.double_sided,
-    )?;
+    // What every process of a bake pays before its own work (`--verbose`).
+    let mut setup = lightmap::Stages::default();
+    let mut scene = setup.time("scene", || {
+        scene_load::load(
+            &args.scene,
+            args.instances,
+            &args.receivers,
+            instancing,
+            args.double_sided,
+        )
+    })?;
     // --up overrides the format's axis; whole files, parts and checkpoints all record it.
     if let Some(up) = args.up {
         scene.up = up.up();
@@ -380,12 +386,13 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
     check_memory(&args, &options, &scene)?;
     let tracer = match options.mode.casts_rays() {
         false => None,
-        true => Some(trace::build(
-            args.backend.backend(),
-            &scene,
-            tracer_options,
-        )?),
+        true => Some(setup.time("tracer", || {
+            trace::build(args.backend.backend(), &scene, tracer_options)
+        })?),
     };
+    if args.verbose {
+        eprintln!("prt-bake: stages: {}", setup.line());
+    }
     let progress = super::progress(args.quiet);
     if let Some(spec) = &args.probes {
         let tracer = tracer.as_deref();

@@ -104,8 +104,11 @@ pub fn bake(
         .into_iter()
         .map(|d| d.expect("every block done"))
         .collect();
+    // The blocks hold their lightmap's block only; the bake's own has the arrays.
+    let mut part = Part::join(parts, id);
+    part.lightmap = baker.lightmap().cloned();
     Ok(Checkpointed {
-        part: Part::join(parts, id),
+        part,
         blocks: blocks.len(),
         reused,
         rays,
@@ -140,7 +143,7 @@ fn reuse_blocks(
         else {
             continue;
         };
-        let part = Part::read(&path)?;
+        let part = Part::read_block(&path)?;
         let lightmap_difference = match (baker.lightmap(), &part.lightmap) {
             (None, None) => None,
             (Some(a), Some(b)) => a.difference(b),
@@ -190,6 +193,8 @@ fn bake_missing_blocks(
     for (i, block) in blocks.iter().enumerate() {
         if done[i].is_none() {
             let (part, block_rays) = baker.bake(shard, block.clone(), &quiet)?;
+            // A block carries its texels, not the atlas (the run that resumes computes it).
+            let part = part.into_block();
             part.write(&block_path(dir, i))?;
             rays += block_rays;
             done[i] = Some(part);

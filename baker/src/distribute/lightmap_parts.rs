@@ -62,7 +62,15 @@ pub struct PartLightmap {
     /// How many placements the block announces: what [`PartLightmap::tail_len`] counts
     /// before [`PartLightmap::read_tail`] has read them.
     announced_objects: u32,
+    /// Whether the file carries the arrays above (UVs, mask, seam partners, placements). A
+    /// checkpoint block does not ([`PartLightmap::without_arrays`]): the bake that resumes
+    /// it computes them anyway and checks them by fingerprint, so a block is its texels'
+    /// values only, not 30 MB of atlas each at 720,000 triangles.
+    pub carried: bool,
 }
+
+/// Atlas block flag (bytes 180..184): the part leaves its lightmap's arrays out.
+const NOT_CARRIED: u32 = 1;
 
 impl PartLightmap {
     /// The lightmap of a texel bake of `scene` over `prepared`.
@@ -97,6 +105,20 @@ impl PartLightmap {
             seams: prepared.seams.clone(),
             objects: atlas.objects.clone(),
             announced_objects: atlas.objects.len() as u32,
+            carried: true,
+        }
+    }
+
+    /// The lightmap with its block only (size, counts, fingerprint), as a checkpoint block
+    /// carries it.
+    pub fn without_arrays(&self) -> PartLightmap {
+        PartLightmap {
+            uv1: Vec::new(),
+            valid: Vec::new(),
+            seams: Vec::new(),
+            objects: Vec::new(),
+            carried: false,
+            ..*self
         }
     }
 
@@ -111,7 +133,8 @@ impl PartLightmap {
         b.extend(self.source.code().to_le_bytes());
         b.extend(self.fingerprint.to_le_bytes());
         b.extend(self.receivers.to_le_bytes());
-        b.extend((self.objects.len() as u32).to_le_bytes());
+        b.extend(self.announced_objects.to_le_bytes());
+        b.extend(if self.carried { 0 } else { NOT_CARRIED }.to_le_bytes());
         b.resize(BLOCK_BYTES, 0); // reserved
         b.try_into().expect("64 bytes")
     }
@@ -120,6 +143,9 @@ impl PartLightmap {
     /// triangle and edge its seam partner (u32), then for a per-object atlas the placements
     /// (the texel file's per-object section, [`object_placements`]).
     pub(crate) fn tail_bytes(&self) -> Vec<u8> {
+        if !self.carried {
+            return Vec::new();
+        }
         let uv = self.uv1.iter().flatten().flat_map(|p| p.to_array());
         let mut bytes: Vec<u8> = uv.flat_map(f32::to_le_bytes).collect();
         bytes.extend(self.valid.iter().map(|&v| u8::from(v)));
@@ -130,6 +156,9 @@ impl PartLightmap {
 
     /// Length of [`PartLightmap::tail_bytes`]; `None` where a corrupted count overflows.
     pub(crate) fn tail_len(&self) -> Option<u64> {
+        if !self.carried {
+            return Some(0);
+        }
         let objects = match self.source {
             AtlasSource::PerObject => {
                 4 + OBJECT_PLACEMENT_BYTES as u64 * u64::from(self.announced_objects)
@@ -163,8 +192,12 @@ impl PartLightmap {
             let source = block.source;
             return Err(format!("{objects} object placements in a {source:?} atlas"));
         }
-        if b[52..].iter().any(|&x| x != 0) {
-            return Err("reserved bytes 180..192 are not zero".into());
+        let flags = u32_at(52);
+        if flags & !NOT_CARRIED != 0 {
+            return Err(format!("atlas block flags {flags:#x} (0 or 1)"));
+        }
+        if b[56..].iter().any(|&x| x != 0) {
+            return Err("reserved bytes 184..192 are not zero".into());
         }
         Ok(PartLightmap {
             width: block.width,
@@ -180,11 +213,15 @@ impl PartLightmap {
             seams: Vec::new(),
             objects: Vec::new(),
             announced_objects: objects,
+            carried: flags & NOT_CARRIED == 0,
         })
     }
 
     /// Reads [`PartLightmap::tail_bytes`] (exactly [`PartLightmap::tail_len`] bytes).
     pub(crate) fn read_tail(&mut self, tail: &[u8]) -> std::result::Result<(), String> {
+        if !self.carried {
+            return Ok(());
+        }
         let uv_bytes = self.scene_triangle_count as usize * 24;
         let mask_bytes = self.width as usize * self.height as usize;
         let seam_bytes = self.scene_triangle_count as usize * 12;

@@ -187,8 +187,22 @@ impl Part {
         }
     }
 
-    /// Parses and validates a part file's bytes; the error is a sentence for the user.
+    /// Parses and validates a part file's bytes; the error is a sentence for the user. A
+    /// texel checkpoint block, which leaves its lightmap's arrays out, is refused: only
+    /// [`Part::read_block`] reads one.
     pub fn from_bytes(bytes: &[u8]) -> std::result::Result<Part, String> {
+        let part = Part::parse(bytes)?;
+        if part.lightmap.as_ref().is_some_and(|l| !l.carried) {
+            return Err(format!(
+                "{}: a checkpoint block (without its lightmap's atlas), not a part",
+                part.id
+            ));
+        }
+        Ok(part)
+    }
+
+    /// [`Part::from_bytes`], a texel checkpoint block too.
+    fn parse(bytes: &[u8]) -> std::result::Result<Part, String> {
         let (header, payload_bytes, header_size) = header::parse_header(bytes)?;
         let id = PartId::from_header_bytes(bytes)?
             .ok_or("a whole bake, not a shard part (nothing to merge)")?;
@@ -289,9 +303,22 @@ impl Part {
         Part::from_bytes(&bytes).map_err(|message| Error::coefficient_file(path, message))
     }
 
+    /// Reads a checkpoint block: a part whose lightmap (texel bakes) may be its block only.
+    pub fn read_block(path: &Path) -> Result<Part> {
+        let bytes = std::fs::read(path).map_err(|err| Error::io(path, err))?;
+        Part::parse(&bytes).map_err(|message| Error::coefficient_file(path, message))
+    }
+
     /// Writes the part atomically.
     pub fn write(&self, path: &Path) -> Result<()> {
         crate::support::atomic::write(path, &self.to_bytes())
+    }
+
+    /// Drops a texel part's lightmap arrays, which a checkpoint block leaves out
+    /// ([`crate::distribute::lightmap_parts::PartLightmap::without_arrays`]).
+    pub fn into_block(mut self) -> Part {
+        self.lightmap = self.lightmap.map(|l| l.without_arrays());
+        self
     }
 
     /// Joins parts of one bake that hold consecutive ranges, in order, into one part with

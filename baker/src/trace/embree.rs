@@ -139,6 +139,8 @@ pub struct EmbreeOptions {
     pub threads: Option<usize>,
     /// Which rays are traced in robust mode.
     pub mode: EmbreeMode,
+    /// [`crate::trace::TracerOptions::points_only`]: no seam vertices.
+    pub points_only: bool,
 }
 
 fn tracer_error(err: embree_sys::Error) -> Error {
@@ -282,7 +284,7 @@ impl EmbreeTracer {
         let device = Device::with_config(&config).map_err(tracer_error)?;
         let alpha = Alpha::of(scene);
         let seams = match options.mode {
-            EmbreeMode::Watertight => {
+            EmbreeMode::Watertight if !options.points_only => {
                 let origins = ray_origins(scene);
                 let seam = seam_vertices(scene, &origins);
                 let origins: HashSet<[u32; 3]> = origins
@@ -300,7 +302,7 @@ impl EmbreeTracer {
                     })
                 }
             }
-            EmbreeMode::Robust | EmbreeMode::Fast => None,
+            EmbreeMode::Watertight | EmbreeMode::Robust | EmbreeMode::Fast => None,
         };
         Ok(EmbreeTracer {
             scene: commit(&device, scene, &alpha, options.mode == EmbreeMode::Robust)?,

@@ -66,6 +66,7 @@ pub fn build(backend: Backend, scene: &Scene, options: TracerOptions) -> Result<
                 } else {
                     EmbreeMode::Watertight
                 },
+                points_only: options.points_only,
             },
         )?),
         Backend::Obvhs => Box::new(ObvhsTracer::new(scene, ObvhsOptions::default())),

@@ -125,4 +125,9 @@ pub struct TracerOptions {
     /// the default mode leaks, use it: [`EmbreeMode::Watertight`]). Only Embree has one:
     /// asking another backend for it is an error rather than a silent no-op.
     pub robust: bool,
+    /// No ray leaves a scene vertex (texel bakes: every ray starts at a texel, whose seam
+    /// points [`Tracer::for_points`] finds). Embree's watertight mode then skips finding the
+    /// seam vertices (a third of its build time on a large mesh) and builds its robust scene
+    /// only when some point needs it.
+    pub points_only: bool,
 }
