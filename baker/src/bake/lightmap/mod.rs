@@ -18,6 +18,8 @@ pub mod translucent;
 
 use std::time::Instant;
 
+use rayon::prelude::*;
+
 pub use atlas::{Atlas, AtlasSource};
 pub use texels::Texels;
 
@@ -388,17 +390,32 @@ pub fn dilate(
     coefficients: &mut [f32],
     visibility: &mut [Visibility],
 ) -> Vec<bool> {
-    dilation::dilate_with(texels, |i, sources| {
-        dilation::mean_into(coefficients, n, i, sources);
+    let w = texels.width as usize;
+    dilation::dilate_rings(texels, |ring| {
+        dilation::mean_ring(ring, w, n, coefficients);
         if visibility.is_empty() {
             return;
         }
-        let (mut ao, mut bent) = (0.0f32, glam::Vec3::ZERO);
-        for &j in sources {
-            ao += visibility[j].accessibility;
-            bent += visibility[j].bent_normal;
+        for block in ring.chunks(dilation::RING_BLOCK) {
+            let source = &*visibility;
+            let means: Vec<(f32, glam::Vec3)> = block
+                .par_iter()
+                .map(|f| {
+                    let (sources, count) = f.sources(w);
+                    let (mut ao, mut bent) = (0.0f32, glam::Vec3::ZERO);
+                    for &j in &sources[..count] {
+                        ao += source[j].accessibility;
+                        bent += source[j].bent_normal;
+                    }
+                    let bent = bent.try_normalize().unwrap_or(glam::Vec3::Z);
+                    (ao / count as f32, bent)
+                })
+                .collect();
+            for (f, (ao, bent)) in block.iter().zip(means) {
+                let v = &mut visibility[f.texel as usize];
+                v.accessibility = ao;
+                v.bent_normal = bent;
+            }
         }
-        visibility[i].accessibility = ao / sources.len() as f32;
-        visibility[i].bent_normal = bent.try_normalize().unwrap_or(glam::Vec3::Z);
     })
 }

@@ -53,9 +53,6 @@ pub struct SeamSample {
     pub b: Vec<(u32, f32)>,
 }
 
-/// An edge by its ends' position bits, lower end first.
-type EdgeKey = ([u32; 3], [u32; 3]);
-
 /// No partner: the edge is not a smooth seam.
 pub const NO_PARTNER: u32 = u32::MAX;
 
@@ -73,18 +70,23 @@ pub fn seam_partners(scene: &Scene, atlas: &Atlas) -> Vec<[u32; 3]> {
     }
     let corners: Vec<[Vec2; 3]> = atlas.texel_corners().collect();
     let key = |v: u32| scene.positions[v as usize].to_array().map(f32::to_bits);
+    // Vertices welded by position bits: equal ids for equal positions, so an edge is a pair
+    // of ids and sorts as one u64 (sorting the positions' bits themselves cost most of the
+    // stage on a large mesh, issue 34).
+    let welded = weld(scene);
     // Every edge of a triangle in the atlas by its welded ends, sorted (in parallel) so that
-    // the uses of one edge lie together; (triangle, edge) makes the order total.
-    let mut uses: Vec<(EdgeKey, u32, u8)> = scene
+    // the uses of one edge lie together; triangle · 3 + edge makes the order total.
+    let mut uses: Vec<(u64, u32)> = scene
         .triangles
         .par_iter()
         .enumerate()
         .filter(|(t, _)| !corners[*t].iter().any(|c| c.x < 0.0)) // in the atlas
         .flat_map_iter(|(t, tri)| {
+            let welded = &welded;
             (0..3).filter_map(move |k| {
-                let (p, q) = (key(tri[k]), key(tri[(k + 1) % 3]));
-                let id = if p < q { (p, q) } else { (q, p) };
-                (p != q).then_some((id, t as u32, k as u8))
+                let (p, q) = (welded[tri[k] as usize], welded[tri[(k + 1) % 3] as usize]);
+                let id = (u64::from(p.min(q)) << 32) | u64::from(p.max(q));
+                (p != q).then_some((id, (t * 3 + k) as u32))
             })
         })
         .collect();
@@ -93,8 +95,9 @@ pub fn seam_partners(scene: &Scene, atlas: &Atlas) -> Vec<[u32; 3]> {
         .chunk_by(|a, b| a.0 == b.0)
         .filter_map(|edge| match edge {
             // a boundary, or more than two triangles at the edge, is left alone
-            [(_, t1, k1), (_, t2, k2)] => {
-                Some(((*t1 as usize, *k1 as usize), (*t2 as usize, *k2 as usize)))
+            [(_, e1), (_, e2)] => {
+                let (e1, e2) = (*e1 as usize, *e2 as usize);
+                Some(((e1 / 3, e1 % 3), (e2 / 3, e2 % 3)))
             }
             _ => None,
         })
@@ -124,6 +127,23 @@ pub fn seam_partners(scene: &Scene, atlas: &Atlas) -> Vec<[u32; 3]> {
         partners[t2][k2] = code(t1, k1);
     }
     partners
+}
+
+/// Per vertex, an id shared by exactly the vertices at the same position (bit for bit):
+/// its position's rank among the distinct positions.
+fn weld(scene: &Scene) -> Vec<u32> {
+    let bits = |v: u32| scene.positions[v as usize].to_array().map(f32::to_bits);
+    let mut order: Vec<u32> = (0..scene.positions.len() as u32).collect();
+    order.par_sort_unstable_by_key(|&v| (bits(v), v));
+    let mut welded = vec![0u32; order.len()];
+    let mut id = 0u32;
+    for (n, &v) in order.iter().enumerate() {
+        if n > 0 && bits(order[n - 1]) != bits(v) {
+            id += 1;
+        }
+        welded[v as usize] = id;
+    }
+    welded
 }
 
 /// Points along every seam of `partners` at [`SAMPLES_PER_TEXEL`], read on both sides through

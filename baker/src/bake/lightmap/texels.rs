@@ -64,32 +64,42 @@ impl Texels {
                 }
             }
         }
-        let parts: Vec<Texels> = in_band
-            .par_iter()
-            .enumerate()
-            .map(|(band, triangles)| {
-                let rows = band * BAND_ROWS..((band + 1) * BAND_ROWS).min(h);
-                rasterise_rows(scene, &corners, triangles, w, rows)
-            })
-            .collect();
+        // Every array in place, each band writing its own rows (no per-band copies to join).
+        let n = w * h;
         let mut texels = Texels {
             width: atlas.width,
             height: atlas.height,
-            valid: Vec::with_capacity(w * h),
-            positions: Vec::with_capacity(w * h),
-            normals: Vec::with_capacity(w * h),
-            mapped: Vec::with_capacity(w * h),
-            origins: Vec::with_capacity(w * h),
-            triangle: Vec::with_capacity(w * h),
+            valid: filled(n, false),
+            positions: filled(n, Vec3::ZERO),
+            normals: filled(n, Vec3::ZERO),
+            mapped: filled(n, Vec3::ZERO),
+            origins: filled(n, Vec3::ZERO),
+            triangle: filled(n, u32::MAX),
         };
-        for part in parts {
-            texels.valid.extend(part.valid);
-            texels.positions.extend(part.positions);
-            texels.normals.extend(part.normals);
-            texels.mapped.extend(part.mapped);
-            texels.origins.extend(part.origins);
-            texels.triangle.extend(part.triangle);
-        }
+        let chunk = BAND_ROWS * w;
+        texels
+            .valid
+            .par_chunks_mut(chunk)
+            .zip(texels.positions.par_chunks_mut(chunk))
+            .zip(texels.normals.par_chunks_mut(chunk))
+            .zip(texels.mapped.par_chunks_mut(chunk))
+            .zip(texels.origins.par_chunks_mut(chunk))
+            .zip(texels.triangle.par_chunks_mut(chunk))
+            .zip(in_band.par_iter())
+            .enumerate()
+            .for_each(|(band, (rows, triangles))| {
+                let (((((valid, positions), normals), mapped), origins), triangle) = rows;
+                let out = Rows {
+                    valid,
+                    positions,
+                    normals,
+                    mapped,
+                    origins,
+                    triangle,
+                };
+                let rows = band * BAND_ROWS..((band + 1) * BAND_ROWS).min(h);
+                rasterise_rows(scene, &corners, triangles, w, rows, out);
+            });
         texels
     }
 
@@ -175,27 +185,35 @@ fn texel_bounds(uv: [Vec2; 3], w: usize, h: usize) -> Option<(usize, usize, usiz
     Some((lo.x as usize, x1, lo.y as usize, y1))
 }
 
-/// Rasterises `triangles` (in order) into texel rows `rows` of a `w`-wide lightmap: the
-/// texels of those rows, with the largest overlap winning and the first triangle on a tie.
+/// `n` copies of `value`, written in parallel (a lightmap's arrays are hundreds of MB).
+fn filled<T: Copy + Send + Sync>(n: usize, value: T) -> Vec<T> {
+    let mut v = Vec::with_capacity(n);
+    v.par_extend(rayon::iter::repeat_n(value, n));
+    v
+}
+
+/// Texel rows of the [`Texels`] arrays, for one band to write.
+struct Rows<'a> {
+    valid: &'a mut [bool],
+    positions: &'a mut [Vec3],
+    normals: &'a mut [Vec3],
+    mapped: &'a mut [Vec3],
+    origins: &'a mut [Vec3],
+    triangle: &'a mut [u32],
+}
+
+/// Rasterises `triangles` (in order) into texel rows `rows` of a `w`-wide lightmap, `texels`
+/// (cleared): the largest overlap wins, the first triangle on a tie.
 fn rasterise_rows(
     scene: &Scene,
     corners: &[[Vec2; 3]],
     triangles: &[u32],
     w: usize,
     rows: std::ops::Range<usize>,
-) -> Texels {
+    texels: Rows<'_>,
+) {
     let n = w * rows.len();
     let mut coverage = vec![0.0f32; n];
-    let mut texels = Texels {
-        width: w as u32,
-        height: rows.len() as u32,
-        valid: vec![false; n],
-        positions: vec![Vec3::ZERO; n],
-        normals: vec![Vec3::ZERO; n],
-        mapped: vec![Vec3::ZERO; n],
-        origins: vec![Vec3::ZERO; n],
-        triangle: vec![u32::MAX; n],
-    };
     for &t in triangles {
         let (tri, uv) = (scene.triangles[t as usize], corners[t as usize]);
         let Some((x0, x1, y0, y1)) = texel_bounds(uv, w, usize::MAX) else {
@@ -243,7 +261,6 @@ fn rasterise_rows(
             }
         }
     }
-    texels
 }
 
 /// What turns a triangle's texels' normals: its material's normal map, its corners' uvs and
@@ -303,9 +320,34 @@ fn barycentric_clamped(uv: [Vec2; 3], q: Vec2) -> [f32; 3] {
     b.map(|x| x / sum)
 }
 
+/// A convex polygon of at most 8 corners: a triangle clipped by four half-planes has at most
+/// 7. Held inline: one texel's clip allocated five vectors, most of rasterising a large mesh.
+struct Polygon {
+    points: [Vec2; 8],
+    len: usize,
+}
+
+impl Polygon {
+    fn push(&mut self, p: Vec2) {
+        self.points[self.len] = p;
+        self.len += 1;
+    }
+}
+
+impl std::ops::Deref for Polygon {
+    type Target = [Vec2];
+    fn deref(&self) -> &[Vec2] {
+        &self.points[..self.len]
+    }
+}
+
 /// The triangle clipped to the unit square at `corner` (Sutherland–Hodgman).
-fn clip_to_square(uv: [Vec2; 3], corner: Vec2) -> Vec<Vec2> {
-    let mut poly: Vec<Vec2> = uv.to_vec();
+fn clip_to_square(uv: [Vec2; 3], corner: Vec2) -> Polygon {
+    let mut poly = Polygon {
+        points: [Vec2::ZERO; 8],
+        len: 3,
+    };
+    poly.points[..3].copy_from_slice(&uv);
     // Each half-plane as (axis, bound, keep below?).
     let planes = [
         (0, corner.x, false),
@@ -324,9 +366,12 @@ fn clip_to_square(uv: [Vec2; 3], corner: Vec2) -> Vec<Vec2> {
                 p[axis] >= bound
             }
         };
-        let mut out = Vec::with_capacity(poly.len() + 1);
-        for k in 0..poly.len() {
-            let (a, b) = (poly[k], poly[(k + 1) % poly.len()]);
+        let mut out = Polygon {
+            points: [Vec2::ZERO; 8],
+            len: 0,
+        };
+        for k in 0..poly.len {
+            let (a, b) = (poly[k], poly[(k + 1) % poly.len]);
             match (inside(a), inside(b)) {
                 (true, true) => out.push(b),
                 (true, false) => out.push(intersect(a, b, axis, bound)),
@@ -454,7 +499,21 @@ mod tests {
         let atlas = Atlas::generate(&scene, 200, None).unwrap();
         let corners: Vec<[Vec2; 3]> = atlas.texel_corners().collect();
         let all: Vec<u32> = (0..scene.triangles.len() as u32).collect();
-        let one_pass = rasterise_rows(&scene, &corners, &all, 200, 0..200);
+        let mut one_pass = Texels::mask(200, 200, vec![false; 200 * 200]);
+        one_pass.positions = vec![Vec3::ZERO; 200 * 200];
+        one_pass.normals = one_pass.positions.clone();
+        one_pass.mapped = one_pass.positions.clone();
+        one_pass.origins = one_pass.positions.clone();
+        one_pass.triangle = vec![u32::MAX; 200 * 200];
+        let rows = Rows {
+            valid: &mut one_pass.valid,
+            positions: &mut one_pass.positions,
+            normals: &mut one_pass.normals,
+            mapped: &mut one_pass.mapped,
+            origins: &mut one_pass.origins,
+            triangle: &mut one_pass.triangle,
+        };
+        rasterise_rows(&scene, &corners, &all, 200, 0..200, rows);
         let banded = Texels::rasterise(&scene, &atlas);
         assert!(
             banded.valid_count() > 20_000,

@@ -4,6 +4,7 @@
 //! chart per few triangles, and their padding wastes the atlas (docs/lightmaps.md, "Atlas").
 
 use glam::Vec2;
+use rayon::prelude::*;
 
 use super::placed::{PADDING, Placed};
 use crate::scene::Scene;
@@ -59,22 +60,13 @@ pub struct Chart {
 pub fn planar_charts(scene: &Scene) -> Vec<Chart> {
     let face: Vec<Option<glam::Vec3>> = scene
         .triangles
-        .iter()
+        .par_iter()
         .map(|t| {
             let p = t.map(|v| scene.positions[v as usize]);
             (p[1] - p[0]).cross(p[2] - p[0]).try_normalize()
         })
         .collect();
-    let mut edge_faces: std::collections::HashMap<(u32, u32), Vec<u32>> = Default::default();
-    for (t, tri) in scene.triangles.iter().enumerate() {
-        for k in 0..3 {
-            let (a, b) = (tri[k], tri[(k + 1) % 3]);
-            edge_faces
-                .entry((a.min(b), a.max(b)))
-                .or_default()
-                .push(t as u32);
-        }
-    }
+    let edges = EdgeFaces::new(&scene.triangles);
     let mut assigned = vec![false; scene.triangles.len()];
     let mut charts = Vec::new();
     for seed in 0..scene.triangles.len() {
@@ -104,8 +96,7 @@ pub fn planar_charts(scene: &Scene) -> Vec<Chart> {
             chart.triangles.push(t);
             chart.local.push(local);
             for k in 0..3 {
-                let (a, b) = (tri[k], tri[(k + 1) % 3]);
-                for &n in &edge_faces[&(a.min(b), a.max(b))] {
+                for n in edges.faces(t as usize * 3 + k) {
                     let joins = face[n as usize].is_some_and(|f| f.dot(normal) >= CHART_COS);
                     if !assigned[n as usize] && joins {
                         assigned[n as usize] = true;
@@ -119,25 +110,66 @@ pub fn planar_charts(scene: &Scene) -> Vec<Chart> {
     charts
 }
 
+/// The triangles at each edge (by vertex index), in triangle order: a sorted list of every
+/// triangle's edges rather than a hash map, which cost most of the atlas on a large mesh
+/// (issue 34). Grouping by the sorted key keeps the order of a map filled in triangle order.
+struct EdgeFaces {
+    /// Every (edge key, triangle · 3 + edge), sorted: the uses of one edge lie together, in
+    /// triangle order.
+    uses: Vec<(u64, u32)>,
+    /// Per triangle · 3 + edge, where its edge's uses start in `uses`.
+    start: Vec<u32>,
+    /// Per triangle · 3 + edge, where its edge's uses end in `uses`.
+    end: Vec<u32>,
+}
+
+impl EdgeFaces {
+    fn new(triangles: &[[u32; 3]]) -> EdgeFaces {
+        let mut uses: Vec<(u64, u32)> = triangles
+            .par_iter()
+            .enumerate()
+            .flat_map_iter(|(t, tri)| {
+                (0..3).map(move |k| {
+                    let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                    let key = (u64::from(a.min(b)) << 32) | u64::from(a.max(b));
+                    (key, (t * 3 + k) as u32)
+                })
+            })
+            .collect();
+        uses.par_sort_unstable();
+        let (mut start, mut end) = (vec![0u32; uses.len()], vec![0u32; uses.len()]);
+        let mut first = 0u32;
+        for group in uses.chunk_by(|a, b| a.0 == b.0) {
+            let last = first + group.len() as u32;
+            for &(_, e) in group {
+                (start[e as usize], end[e as usize]) = (first, last);
+            }
+            first = last;
+        }
+        EdgeFaces { uses, start, end }
+    }
+
+    /// The triangles at edge `e` (triangle · 3 + edge), in triangle order, a triangle
+    /// twice where two of its edges are this one (a degenerate triangle).
+    fn faces(&self, e: usize) -> impl Iterator<Item = u32> + '_ {
+        let range = self.start[e] as usize..self.end[e] as usize;
+        self.uses[range].iter().map(|&(_, f)| f / 3)
+    }
+}
+
 /// Shelf-packs the charts at `scale` texels per world unit into a `resolution`² atlas:
 /// each chart's rectangle is its extent, one texel for conservative rasterisation, and
 /// [`PADDING`]. Returns the scale and each chart's offset in texels, or `None` if they do
 /// not fit.
 fn pack(charts: &[Chart], scale: f32, resolution: u32) -> Option<(f32, Vec<Vec2>)> {
     let size = |c: &Chart| ((c.max - c.min) * scale).ceil() + Vec2::splat(1.0 + PADDING as f32);
-    let mut order: Vec<usize> = (0..charts.len()).collect();
-    // Tallest first, ties in chart order: deterministic.
-    order.sort_by(|&a, &b| {
-        size(&charts[b])
-            .y
-            .total_cmp(&size(&charts[a]).y)
-            .then(a.cmp(&b))
-    });
+    let sizes: Vec<Vec2> = charts.iter().map(size).collect();
     let r = resolution as f32;
+    let order = tallest_first(&sizes, r)?;
     let mut offsets = vec![Vec2::ZERO; charts.len()];
     let (mut x, mut y, mut shelf) = (0.0f32, 0.0f32, 0.0f32);
     for i in order {
-        let s = size(&charts[i]);
+        let s = sizes[i];
         if s.x > r {
             return None;
         }
@@ -154,6 +186,38 @@ fn pack(charts: &[Chart], scale: f32, resolution: u32) -> Option<(f32, Vec<Vec2>
         shelf = shelf.max(s.y);
     }
     Some((scale, offsets))
+}
+
+/// The packing order of charts of `sizes` (texels): tallest first, ties in chart order, so
+/// it is deterministic. `None` where a chart is wider or taller than the `r`-texel atlas:
+/// no order packs it. Heights are whole texels, so a counting sort orders them: the
+/// bisection of [`fill`] packs up to 40 times, and a comparison sort of a large mesh's
+/// hundreds of thousands of charts each time cost most of the atlas (issue 34).
+fn tallest_first(sizes: &[Vec2], r: f32) -> Option<Vec<usize>> {
+    if sizes.iter().any(|s| s.x > r || s.y > r) {
+        return None;
+    }
+    let whole = |s: &Vec2| s.y >= 0.0 && s.y.fract() == 0.0; // false for NaN and infinities
+    if !sizes.iter().all(whole) {
+        let mut order: Vec<usize> = (0..sizes.len()).collect();
+        order.sort_by(|&a, &b| sizes[b].y.total_cmp(&sizes[a].y).then(a.cmp(&b)));
+        return Some(order);
+    }
+    // Heights are whole and at most r: bucket i counts the charts i texels tall.
+    let mut start = vec![0usize; r as usize + 2];
+    for s in sizes {
+        start[r as usize - s.y as usize + 1] += 1;
+    }
+    for i in 1..start.len() {
+        start[i] += start[i - 1];
+    }
+    let mut order = vec![0usize; sizes.len()];
+    for (i, s) in sizes.iter().enumerate() {
+        let bucket = &mut start[r as usize - s.y as usize];
+        order[*bucket] = i;
+        *bucket += 1;
+    }
+    Some(order)
 }
 
 /// The largest scale (within 2 %) at which the charts fit, found by bisection.
@@ -194,5 +258,67 @@ fn chart_count(n: usize) -> String {
     match n {
         1 => String::from("1 chart"),
         n => format!("{n} charts"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The triangles at each edge as a hash map filled in triangle order lists them: what
+    /// [`EdgeFaces`] replaced.
+    fn reference(triangles: &[[u32; 3]], e: usize) -> Vec<u32> {
+        let mut map: std::collections::HashMap<(u32, u32), Vec<u32>> = Default::default();
+        for (t, tri) in triangles.iter().enumerate() {
+            for k in 0..3 {
+                let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                map.entry((a.min(b), a.max(b))).or_default().push(t as u32);
+            }
+        }
+        let (a, b) = (triangles[e / 3][e % 3], triangles[e / 3][(e % 3 + 1) % 3]);
+        map[&(a.min(b), a.max(b))].clone()
+    }
+
+    #[test]
+    fn edge_faces_list_each_edges_triangles_in_triangle_order() {
+        // A fan, an edge of three triangles, both windings, and a degenerate triangle whose
+        // two edges are one.
+        let triangles = [
+            [0, 1, 2],
+            [2, 1, 3],
+            [1, 0, 4],
+            [5, 1, 2],
+            [0, 2, 6],
+            [7, 7, 8],
+            [8, 7, 9],
+            [1, 2, 10],
+        ];
+        let edges = EdgeFaces::new(&triangles);
+        for e in 0..triangles.len() * 3 {
+            let faces: Vec<u32> = edges.faces(e).collect();
+            assert_eq!(faces, reference(&triangles, e), "edge {e}");
+        }
+        assert_eq!(edges.faces(3).collect::<Vec<_>>(), [0, 1, 3, 7]);
+        assert_eq!(edges.faces(15).collect::<Vec<_>>(), [5]);
+        assert_eq!(edges.faces(16).collect::<Vec<_>>(), [5, 5, 6]);
+    }
+
+    #[test]
+    fn the_counting_sort_orders_as_the_comparison_sort() {
+        let sizes: Vec<Vec2> = [5.0, 3.0, 5.0, 12.0, 3.0, 0.0, 12.0, 7.0, 16.0]
+            .iter()
+            .map(|&y| Vec2::new(4.0, y))
+            .collect();
+        let mut expected: Vec<usize> = (0..sizes.len()).collect();
+        expected.sort_by(|&a, &b| sizes[b].y.total_cmp(&sizes[a].y).then(a.cmp(&b)));
+        assert_eq!(tallest_first(&sizes, 16.0), Some(expected.clone()));
+        assert_eq!(expected[..3], [8, 3, 6]);
+        // Fractional heights take the comparison sort, to the same order.
+        let mut fractional = sizes.clone();
+        fractional[5].y = 0.5;
+        assert_eq!(tallest_first(&fractional, 16.0), Some(expected));
+        // A chart larger than the atlas fits in no order.
+        assert_eq!(tallest_first(&sizes, 15.0), None);
+        assert_eq!(tallest_first(&[Vec2::new(17.0, 1.0)], 16.0), None);
     }
 }
