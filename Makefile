@@ -25,7 +25,7 @@
 #                    (docs/performance.md)
 #   make bench-large how texel bakes scale: 1 M and 4 M triangles × 2048² and 4096² lightmaps,
 #                    whole and in staged shards (scripts/bench/lightmap_scale.sh; about 10 CPU-min
-#                    a 2048² cell, 40 a 4096² one, which peaks near 8 GB and writes ~8 GB of files;
+#                    a 2048² cell, 40 a 4096² one, which peaks near 9 GB and holds ~9 GB of files;
 #                    SCALE_CELLS=708:2048 runs one cell; docs/distributed.md)
 #   make fuzz        the parsers' mutation fuzzing from a newly drawn seed at 20 times make test's
 #                    mutants (make test runs fixed seeds: docs/robustness.md)

@@ -103,7 +103,7 @@ timed() {
 size() {
     local cell=$1 name=$2
     shift 2
-    printf '%s\t%s\t\t\t\t\t\t\t%s\n' "$cell" "$name" "$(cat "$@" | wc -c)" >>"$results"
+    printf '%s\t%s\t\t\t\t\t\t\t%s\n' "$cell" "$name" "$(stat -c %s "$@" | awk '{s += $1} END {print s}')" >>"$results"
 }
 
 # The staged pipeline of N shards for MODE (options in the rest), compared with WHOLE.
