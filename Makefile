@@ -25,8 +25,8 @@
 #                    (docs/performance.md)
 #   make bench-large how texel bakes scale: 1 M and 4 M triangles × 2048² and 4096² lightmaps,
 #                    whole and in staged shards (scripts/bench/lightmap_scale.sh; about 10 CPU-min
-#                    a 2048² cell, 40 a 4096² one, which peaks near 9 GB and holds ~9 GB of files;
-#                    SCALE_CELLS=708:2048 runs one cell; docs/distributed.md)
+#                    a 2048² cell at 1 M triangles, ~60 at 4 M × 4096², which peaks near 9 GB and
+#                    holds ~9 GB of files; SCALE_CELLS=708:2048 runs one cell; docs/distributed.md)
 #   make fuzz        the parsers' mutation fuzzing from a newly drawn seed at 20 times make test's
 #                    mutants (make test runs fixed seeds: docs/robustness.md)
 #   make web GLB=F   serve the three.js example page for a prt-bake .glb and print its address
