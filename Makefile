@@ -23,6 +23,10 @@
 #                    (part of make test, about 20 s after make blender; docs/scenes.md)
 #   make bench       the bake benchmark: Embree and obvhs against the raw Embree rate
 #                    (docs/performance.md)
+#   make bench-large how texel bakes scale: 1 M and 4 M triangles × 2048² and 4096² lightmaps,
+#                    whole and in staged shards (scripts/bench/lightmap_scale.sh; about 10 CPU-min
+#                    a 2048² cell at 1 M triangles, ~60 at 4 M × 4096², which peaks near 9 GB and
+#                    holds ~9 GB of files; SCALE_CELLS=708:2048 runs one cell; docs/distributed.md)
 #   make fuzz        the parsers' mutation fuzzing from a newly drawn seed at 20 times make test's
 #                    mutants (make test runs fixed seeds: docs/robustness.md)
 #   make web GLB=F   serve the three.js example page for a prt-bake .glb and print its address
@@ -42,7 +46,7 @@ NO_EMBREE_BAKE := $(NO_EMBREE)/release/prt-bake
 .PHONY: mitsuba-subsurface
 # make mitsuba-probes: interreflected transfer probes against Mitsuba 3 on fresh references
 .PHONY: mitsuba-probes
-.PHONY: demo test bench bench-view deps build lint unit no-embree embree4 reference interop scenes slurm fuzz browser mitsuba blender web
+.PHONY: demo test bench bench-large bench-view deps build lint unit no-embree embree4 reference interop scenes slurm fuzz browser mitsuba blender web
 
 deps:
 	@scripts/install-deps.sh
@@ -178,6 +182,11 @@ test: mitsuba-probes
 bench: deps
 	$(CARGO) bench -p prt-baker --bench bake
 	$(CARGO) bench -p prt-baker --bench lightmap
+
+# The texel bake's scaling matrix (issue 34): its tables, then the per-texel figures that
+# docs/distributed.md's 16-node plan multiplies out. SCALE_* variables choose the cells.
+bench-large: build
+	scripts/bench-large.sh --scale
 
 # 400,000 mutants per parser from a new seed (make test runs 20,000 from each of its fixed
 # seeds): a few minutes. FUZZ_SEED=0x… replays a run; FUZZ_CASES=N sets its length.

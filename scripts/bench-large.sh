@@ -7,6 +7,11 @@
 # (baker/benches/large.rs). docs/performance.md records the figures.
 #
 #   scripts/bench-large.sh [N]        (default 4 shards)
+#   scripts/bench-large.sh --scale    how texel bakes scale (issue 34): 1 M and 4 M triangles ×
+#                                     2048² and 4096², shadowed and interreflected, against the
+#                                     vertex bake and raw Embree, and the staged shard pipeline
+#                                     for N = 2 and 4 (scripts/bench/lightmap_scale.sh, whose
+#                                     SCALE_* variables choose sizes and counts; `make bench-large`)
 #
 # Environment: PRT_BAKE (binary), LARGE_QUADS (terrain quads per side, default 708: 1,002,528
 # triangles), LARGE_RELIEF (height scale, 4), LARGE_RES (2048), LARGE_SAMPLES (16), LARGE_BOUNCES (2), LARGE_ORDER (3),
@@ -14,6 +19,7 @@
 set -euo pipefail
 
 root=$(cd "$(dirname "$0")/.." && pwd)
+[ "${1:-}" = --scale ] && exec "$root/scripts/bench/lightmap_scale.sh"
 bake=$(realpath "${PRT_BAKE:-$root/target/release/prt-bake}")
 shards=${1:-4}
 quads=${LARGE_QUADS:-708}

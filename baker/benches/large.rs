@@ -7,7 +7,9 @@
 //! Times are CPU time (user + system, all threads) divided by the thread count, one run each
 //! (a million-triangle 2048² bake is minutes; `benches/lightmap.rs` takes the best of three).
 //!
-//! Usage: `cargo bench -p prt-baker --bench large -- SCENE RES SAMPLES [BOUNCE_SAMPLES]`.
+//! Usage: `cargo bench -p prt-baker --bench large -- SCENE RES SAMPLES [BOUNCE_SAMPLES]`;
+//! BOUNCE_SAMPLES 0 traces a shadowed bake's rays (occlusion streams only), for
+//! `scripts/bench/lightmap_scale.sh`'s shadowed rate.
 
 #[allow(dead_code)] // best_of: one run each here
 mod timing;
@@ -37,12 +39,18 @@ fn main() {
         .as_ref()
         .expect("a scene with TEXCOORD_1");
     let atlas = Atlas::from_vertex_uvs(&scene, uvs, resolution, resolution).expect("atlas");
+    // A shadowed bake casts only occlusion rays: BOUNCE_SAMPLES 0 asks for its rays.
+    let shadowed = bounce_samples == Some(0);
     let options = BakeOptions {
         order: 3,
         samples,
-        mode: Mode::Interreflected,
-        bounces: 2,
-        bounce_samples,
+        mode: if shadowed {
+            Mode::Shadowed
+        } else {
+            Mode::Interreflected
+        },
+        bounces: if shadowed { 0 } else { 2 },
+        bounce_samples: bounce_samples.filter(|_| !shadowed),
         ..BakeOptions::default()
     };
     let threads = rayon::current_num_threads();
