@@ -465,7 +465,14 @@ impl<'a> Routing<'a> {
         }
     }
 
-    fn intersect_from(&self, origin: glam::Vec3, dirs: &[glam::Vec3], hits: &mut [Option<Hit>]) {
+    /// Closest hits of rays from one origin, each ending at `tfar`.
+    fn intersect_within(
+        &self,
+        origin: glam::Vec3,
+        dirs: &[glam::Vec3],
+        tfar: f32,
+        hits: &mut [Option<Hit>],
+    ) {
         assert_eq!(dirs.len(), hits.len());
         let origin = origin.to_array();
         let scene = self.scene_for(origin);
@@ -473,7 +480,7 @@ impl<'a> Routing<'a> {
             for (dirs, hits) in dirs.chunks(STREAM).zip(hits.chunks_mut(STREAM)) {
                 let stream = &mut stream[..dirs.len()];
                 for (slot, d) in stream.iter_mut().zip(dirs) {
-                    let ray = embree_sys::Ray::new(origin, d.to_array(), 0.0, f32::INFINITY);
+                    let ray = embree_sys::Ray::new(origin, d.to_array(), 0.0, tfar);
                     *slot = embree_sys::RayHit::new(ray);
                 }
                 scene.intersect_stream(stream);
@@ -503,7 +510,18 @@ impl Tracer for EmbreeTracer {
     }
 
     fn intersect_from(&self, origin: glam::Vec3, dirs: &[glam::Vec3], hits: &mut [Option<Hit>]) {
-        self.routing().intersect_from(origin, dirs, hits);
+        self.routing()
+            .intersect_within(origin, dirs, f32::INFINITY, hits);
+    }
+
+    fn intersect_within(
+        &self,
+        origin: glam::Vec3,
+        dirs: &[glam::Vec3],
+        tfar: f32,
+        hits: &mut [Option<Hit>],
+    ) {
+        self.routing().intersect_within(origin, dirs, tfar, hits);
     }
 
     fn for_points<'s>(
@@ -546,7 +564,18 @@ impl Tracer for EmbreePoints<'_> {
     }
 
     fn intersect_from(&self, origin: glam::Vec3, dirs: &[glam::Vec3], hits: &mut [Option<Hit>]) {
-        self.routing().intersect_from(origin, dirs, hits);
+        self.routing()
+            .intersect_within(origin, dirs, f32::INFINITY, hits);
+    }
+
+    fn intersect_within(
+        &self,
+        origin: glam::Vec3,
+        dirs: &[glam::Vec3],
+        tfar: f32,
+        hits: &mut [Option<Hit>],
+    ) {
+        self.routing().intersect_within(origin, dirs, tfar, hits);
     }
 }
 

@@ -99,6 +99,14 @@ pub trait Tracer: Send + Sync {
         self.intersect(&Ray::fan(origin, dirs), hits);
     }
 
+    /// Closest hits of rays that share one origin and end at `tfar` (a hit beyond it is
+    /// none): where the answer only matters near the origin (the leak test's screen), a
+    /// short ray costs a fraction of an unbounded one. Same answers as [`Tracer::intersect`].
+    fn intersect_within(&self, origin: Vec3, dirs: &[Vec3], tfar: f32, hits: &mut [Option<Hit>]) {
+        let rays: Vec<Ray> = dirs.iter().map(|&dir| Ray { origin, dir, tfar }).collect();
+        self.intersect(&rays, hits);
+    }
+
     /// A tracer for rays from receivers that are not `scene`'s vertices (texels):
     /// `origins[i]`, the ray origin of a point on triangle `own[i]`. Embree's watertight mode
     /// picks robust mode by ray origin ([`seams`]), so it needs to know which of these are

@@ -92,6 +92,13 @@ impl Tracer for TwinFacing<'_> {
         }
     }
 
+    fn intersect_within(&self, origin: Vec3, dirs: &[Vec3], tfar: f32, hits: &mut [Option<Hit>]) {
+        self.inner.intersect_within(origin, dirs, tfar, hits);
+        for (&dir, hit) in dirs.iter().zip(hits) {
+            self.face(dir, hit);
+        }
+    }
+
     fn for_points<'s>(
         &'s self,
         scene: &Scene,
