@@ -231,7 +231,7 @@ pub fn stitch_fields(samples: &[SeamSample], fields: &mut [(&mut [f32], usize)])
     if samples.is_empty() || fields.iter().all(|(_, width)| *width == 0) {
         return 0;
     }
-    let Some(system) = System::new(samples) else {
+    let Some(system) = System::new(samples.len(), |s| (&samples[s].a, &samples[s].b)) else {
         return 0;
     };
     system.solve(fields);

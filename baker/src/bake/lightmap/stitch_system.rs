@@ -19,11 +19,12 @@ use faer::sparse::{SparseColMat, SparseColMatRef, SymbolicSparseColMat};
 use faer::{MatRef, Par, Side};
 use rayon::prelude::*;
 
-use super::stitch::SeamSample;
-
 /// Weight of keeping a texel's baked value against making the seams agree: small, so the
 /// seams agree to a few per cent of their step, while texels move only as far as they must.
 pub(super) const KEEP: f64 = 0.02;
+
+/// A seam sample's (texel, weight) taps on its two sides.
+pub(super) type Taps<'s> = (&'s [(u32, f32)], &'s [(u32, f32)]);
 
 /// The least-squares system of [`super::stitch::stitch`], factored.
 pub(super) struct System {
@@ -42,12 +43,14 @@ impl System {
     }
 
     /// C (one row per sample over the texels it reads) and its transpose, then the lower
-    /// triangle of λI + CᵀC, factored. Indices are u32 (an unknown is a texel, and a texel
+    /// triangle of λI + CᵀC, factored. `sample(s)`: seam sample s's (texel, weight) taps on
+    /// its two sides, for s in 0..`count` (a function, so that this module needs not know
+    /// [`super::stitch::SeamSample`]). Indices are u32 (an unknown is a texel, and a texel
     /// index is u32 in the samples), which halves the ordering's workspace.
-    pub(super) fn new(samples: &[SeamSample]) -> Option<System> {
-        let texel_count = samples
-            .iter()
-            .flat_map(|s| s.a.iter().chain(&s.b))
+    pub(super) fn new<'s>(count: usize, sample: impl Fn(usize) -> Taps<'s>) -> Option<System> {
+        let samples = || (0..count).map(&sample);
+        let texel_count = samples()
+            .flat_map(|(a, b)| a.iter().chain(b))
             .map(|&(t, _)| t as usize + 1)
             .max()
             .unwrap_or(0);
@@ -55,15 +58,15 @@ impl System {
         let mut texels: Vec<usize> = Vec::new();
         // Per sample, its (unknown, ± weight) entries (side a positive, side b negative, a
         // texel read on both sides once), delimited by `starts`.
-        let mut entries: Vec<(u32, f32)> = Vec::with_capacity(samples.len() * 8);
-        let mut starts = Vec::with_capacity(samples.len() + 1);
-        for s in samples {
+        let mut entries: Vec<(u32, f32)> = Vec::with_capacity(count * 8);
+        let mut starts = Vec::with_capacity(count + 1);
+        for (a, b) in samples() {
             let row = entries.len();
             starts.push(row);
-            let sides =
-                s.a.iter()
-                    .map(|&t| (t, 1.0))
-                    .chain(s.b.iter().map(|&t| (t, -1.0)));
+            let sides = a
+                .iter()
+                .map(|&t| (t, 1.0))
+                .chain(b.iter().map(|&t| (t, -1.0)));
             for ((texel, w), sign) in sides {
                 let slot = &mut index[texel as usize];
                 if *slot == u32::MAX {
