@@ -13,6 +13,7 @@ pub mod leaks;
 pub mod objects;
 pub mod receiving;
 pub mod stitch;
+mod stitch_system;
 pub mod texels;
 pub mod translucent;
 
@@ -202,7 +203,12 @@ pub fn bake_translucent(
         })?;
     }
     let width = baked.channels * crate::math::sh::coeff_count(options.order);
-    let visibility = tracer.map(|_| baked.visibility.as_slice());
+    let backend = tracer.map_or(Backend::None, |t| t.backend());
+    // No more rays: the watertight tracer's acceleration structure goes before the
+    // stitch, the bake's peak of memory (docs/lightmaps.md, "At scale").
+    let casts_rays = tracer.is_some();
+    drop((watertight, estimator, targets));
+    let visibility = casts_rays.then_some(baked.visibility.as_slice());
     let stitching = Stitching {
         partners: &seams,
         uv1: &atlas.uv1,
@@ -217,7 +223,7 @@ pub fn bake_translucent(
     );
     let transfer = Transfer::from_direct(
         options,
-        tracer.map_or(Backend::None, |t| t.backend()),
+        backend,
         texels.valid.len(),
         Baked {
             coefficients: placed.coefficients,

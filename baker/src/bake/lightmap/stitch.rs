@@ -23,23 +23,16 @@
 //! links hundreds of thousands of texels into one system, which iterative solvers took most
 //! of the bake to solve (docs/lightmaps.md, "Seam stitching at scale").
 
-use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::sparse::linalg::cholesky::{
-    CholeskySymbolicParams, LltRef, SymbolicCholesky, SymmetricOrdering,
-    factorize_symbolic_cholesky,
-};
-use faer::sparse::{SparseColMat, SymbolicSparseColMat};
-use faer::{Conj, MatMut, Par, Side};
 use glam::Vec2;
 use rayon::prelude::*;
 
 use super::atlas::Atlas;
+use super::stitch_system::System;
 use super::texels::bilinear_taps;
 use crate::scene::Scene;
 
-/// Weight of keeping a texel's baked value against making the seams agree: small, so the
-/// seams agree to a few per cent of their step, while texels move only as far as they must.
-const KEEP: f64 = 0.02;
+#[cfg(test)]
+use super::stitch_system::KEEP;
 /// Shading normals at a seam's ends closer than this (cosine) make it smooth.
 const SMOOTH: f32 = 0.999;
 /// Seam samples per texel of edge length (on the longer side).
@@ -235,15 +228,16 @@ pub fn seam_step(
 ///
 /// The normal equations are solved directly: a sparse Cholesky factorisation L Lᵀ of
 /// λI + CᵀC (`faer`'s supernodal factorisation after an approximate-minimum-degree
-/// ordering), then two triangular solves per column, each column alone. A planar atlas of a 720,000-triangle
-/// heightfield has 592,060 seam points linking 898,707 baked and dilated texels into one
-/// system, where Jacobi-preconditioned conjugate gradients needed 125 iterations of two
-/// passes over C per column to a relative residual of 10⁻⁴ (19 CPU-s); the factorisation and
-/// the solves take 3.7 CPU-s there, and are exact but for rounding. Everything after the
-/// parallel assembly runs sequentially (`Par::Seq`: faer's parallel factorisation is not
-/// promised to add in the same order for any thread count), so the result is the same for
-/// any thread count. A factorisation that fails (it cannot for finite weights, as λ > 0 makes
-/// the matrix positive definite, unless an index would overflow) leaves the values as baked.
+/// ordering), then two triangular solves over all columns at once ([`System::solve`]). A
+/// planar atlas of a 720,000-triangle heightfield has 592,060 seam points linking 898,707
+/// baked and dilated texels into one system, where Jacobi-preconditioned conjugate gradients
+/// needed 125 iterations of two passes over C per column to a relative residual of 10⁻⁴
+/// (19 CPU-s); the factorisation and the solves take about 2 CPU-s there, and are exact but
+/// for rounding. The ordering and factorisation run sequentially (`Par::Seq`: faer's
+/// parallel factorisation is not promised to add in the same order for any thread count),
+/// and the solves add in a fixed order, so the result is the same for any thread count. A
+/// factorisation that fails (it cannot for finite weights, as λ > 0 makes the matrix
+/// positive definite, unless an index would overflow) leaves the values as baked.
 ///
 /// Returns the factor's nonzeros (0: nothing was stitched).
 pub fn stitch(samples: &[SeamSample], values: &mut [f32], width: usize) -> usize {
@@ -251,203 +245,18 @@ pub fn stitch(samples: &[SeamSample], values: &mut [f32], width: usize) -> usize
 }
 
 /// [`stitch`] for several fields of the same texels (the coefficients and the
-/// accessibility), each `(values, width)`: the system is built and factored once for all.
+/// accessibility), each `(values, width)`: the system is built and factored once, and
+/// solved once for all their columns.
 pub fn stitch_fields(samples: &[SeamSample], fields: &mut [(&mut [f32], usize)]) -> usize {
     if samples.is_empty() || fields.iter().all(|(_, width)| *width == 0) {
         return 0;
     }
-    let Some(system) = System::new(samples) else {
+    let Some(system) = System::new(samples.len(), |s| (&samples[s].a, &samples[s].b)) else {
         return 0;
     };
-    for (values, width) in fields.iter_mut() {
-        if *width > 0 {
-            system.solve(values, *width);
-        }
-    }
-    system.factor.len()
+    system.solve(fields);
+    system.factor_len()
 }
-
-/// The least-squares system of [`stitch`], factored.
-struct System {
-    /// The lightmap texel of each unknown, in the order the samples first read them.
-    texels: Vec<usize>,
-    /// The symbolic factorisation (ordering and supernodes) and the factor's values.
-    symbolic: SymbolicCholesky<usize>,
-    factor: Vec<f64>,
-}
-
-impl System {
-    /// C (one row per sample over the texels it reads) and its transpose, then the lower
-    /// triangle of λI + CᵀC, factored.
-    fn new(samples: &[SeamSample]) -> Option<System> {
-        let texel_count = samples
-            .iter()
-            .flat_map(|s| s.a.iter().chain(&s.b))
-            .map(|&(t, _)| t as usize + 1)
-            .max()
-            .unwrap_or(0);
-        let mut index = vec![u32::MAX; texel_count];
-        let mut texels: Vec<usize> = Vec::new();
-        // Per sample, its (unknown, ± weight) entries (side a positive, side b negative, a
-        // texel read on both sides once), delimited by `starts`.
-        let mut entries: Vec<(u32, f32)> = Vec::with_capacity(samples.len() * 8);
-        let mut starts = Vec::with_capacity(samples.len() + 1);
-        for s in samples {
-            let row = entries.len();
-            starts.push(row);
-            let sides =
-                s.a.iter()
-                    .map(|&t| (t, 1.0))
-                    .chain(s.b.iter().map(|&t| (t, -1.0)));
-            for ((texel, w), sign) in sides {
-                let slot = &mut index[texel as usize];
-                if *slot == u32::MAX {
-                    *slot = texels.len() as u32;
-                    texels.push(texel as usize);
-                }
-                let k = *slot;
-                match entries[row..].iter_mut().find(|(j, _)| *j == k) {
-                    Some(entry) => entry.1 += sign * w,
-                    None => entries.push((k, sign * w)),
-                }
-            }
-        }
-        starts.push(entries.len());
-        drop(index);
-        // The transpose, by counting: each unknown's readers (samples) in sample order.
-        let n = texels.len();
-        let mut reads = vec![0usize; n + 1];
-        for &(k, _) in &entries {
-            reads[k as usize + 1] += 1;
-        }
-        for k in 0..n {
-            reads[k + 1] += reads[k];
-        }
-        let mut fill = reads.clone();
-        let mut readers = vec![(0u32, 0.0f32); entries.len()];
-        for (s, row) in starts.windows(2).enumerate() {
-            for &(k, w) in &entries[row[0]..row[1]] {
-                readers[fill[k as usize]] = (s as u32, w);
-                fill[k as usize] += 1;
-            }
-        }
-        drop(fill);
-        // Column j of the lower triangle: λ on the diagonal plus, for every sample reading
-        // j, w_j·w_k at each unknown k ≥ j it reads; sorted by row (stably, so equal rows
-        // add in sample order: the same bits for any thread count). In parallel over fixed
-        // blocks of columns, each block's rows and values flat.
-        let blocks: Vec<(Vec<usize>, Vec<usize>, Vec<f64>)> = (0..n)
-            .into_par_iter()
-            .step_by(COLUMN_BLOCK)
-            .map(|first| {
-                let (mut lengths, mut rows, mut values) = (Vec::new(), Vec::new(), Vec::new());
-                let mut column: Vec<(usize, f64)> = Vec::new();
-                for j in first..(first + COLUMN_BLOCK).min(n) {
-                    column.clear();
-                    column.push((j, KEEP));
-                    for &(s, wj) in &readers[reads[j]..reads[j + 1]] {
-                        let s = s as usize;
-                        for &(k, wk) in &entries[starts[s]..starts[s + 1]] {
-                            if k as usize >= j {
-                                column.push((k as usize, f64::from(wj) * f64::from(wk)));
-                            }
-                        }
-                    }
-                    column.sort_by_key(|&(k, _)| k);
-                    let before = rows.len();
-                    for &(k, v) in &column {
-                        if rows.len() > before && rows.last() == Some(&k) {
-                            *values.last_mut().expect("a row was pushed") += v;
-                        } else {
-                            rows.push(k);
-                            values.push(v);
-                        }
-                    }
-                    lengths.push(rows.len() - before);
-                }
-                (lengths, rows, values)
-            })
-            .collect();
-        drop((entries, starts, readers, reads));
-        let nonzeros = blocks.iter().map(|b| b.1.len()).sum();
-        let mut col_ptr = Vec::with_capacity(n + 1);
-        let (mut rows, mut values) = (Vec::with_capacity(nonzeros), Vec::with_capacity(nonzeros));
-        col_ptr.push(0);
-        for (lengths, block_rows, block_values) in blocks {
-            for length in lengths {
-                col_ptr.push(col_ptr.last().expect("starts with 0") + length);
-            }
-            rows.extend(block_rows);
-            values.extend(block_values);
-        }
-        let structure = SymbolicSparseColMat::<usize>::new_checked(n, n, col_ptr, None, rows);
-        let matrix = SparseColMat::<usize, f64>::new(structure, values);
-        let symbolic = factorize_symbolic_cholesky(
-            matrix.symbolic(),
-            Side::Lower,
-            SymmetricOrdering::Amd,
-            CholeskySymbolicParams::default(),
-        )
-        .ok()?;
-        let mut factor = vec![0.0; symbolic.len_val()];
-        let mut scratch = MemBuffer::new(
-            symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
-        );
-        symbolic
-            .factorize_numeric_llt(
-                &mut factor,
-                matrix.as_ref(),
-                Side::Lower,
-                Default::default(),
-                Par::Seq,
-                MemStack::new(&mut scratch),
-                Default::default(),
-            )
-            .ok()?;
-        Some(System {
-            texels,
-            symbolic,
-            factor,
-        })
-    }
-
-    /// Solves (λI + CᵀC) x = λx̂ for every column of `values` (`width` floats per texel)
-    /// and writes x into the stitched texels: the columns in parallel, each by its own
-    /// solve, so a column's values do not depend on which columns are stitched with it
-    /// (`prt-bake stitch --columns` stitches shards of columns: `distribute::stitch_columns`).
-    fn solve(&self, values: &mut [f32], width: usize) {
-        let n = self.texels.len();
-        let factor = LltRef::new(&self.symbolic, &self.factor);
-        let baked: &[f32] = values;
-        let solutions: Vec<Vec<f64>> = (0..width)
-            .into_par_iter()
-            .map(|col| {
-                let mut x: Vec<f64> = self
-                    .texels
-                    .iter()
-                    .map(|&i| KEEP * f64::from(baked[i * width + col]))
-                    .collect();
-                let mut scratch =
-                    MemBuffer::new(self.symbolic.solve_in_place_scratch::<f64>(1, Par::Seq));
-                factor.solve_in_place_with_conj(
-                    Conj::No,
-                    MatMut::from_column_major_slice_mut(&mut x, n, 1),
-                    Par::Seq,
-                    MemStack::new(&mut scratch),
-                );
-                x
-            })
-            .collect();
-        for (col, x) in solutions.iter().enumerate() {
-            for (&i, &v) in self.texels.iter().zip(x) {
-                values[i * width + col] = v as f32;
-            }
-        }
-    }
-}
-
-/// Columns of the stitching matrix assembled per parallel task.
-const COLUMN_BLOCK: usize = 4096;
 
 #[cfg(test)]
 mod tests {
@@ -576,6 +385,31 @@ mod tests {
             );
         }
         assert!(seam_step(&samples, &values, 3, 0).0 < 0.2 * seam_step(&samples, &baked, 3, 0).0);
+    }
+
+    #[test]
+    fn a_column_is_stitched_the_same_whatever_columns_share_its_solve() {
+        // `prt-bake stitch --columns` stitches shards of columns: each must get the bits
+        // the whole bake's solve of all columns (and the accessibility) gives it.
+        let (samples, values) = synthetic(64, 400);
+        let ao: Vec<f32> = (0..values.len() / 3).map(|i| values[i * 3]).collect();
+        let (mut all, mut all_ao) = (values.clone(), ao.clone());
+        stitch_fields(&samples, &mut [(&mut all[..], 3), (&mut all_ao[..], 1)]);
+        for column in 0..3 {
+            let mut alone: Vec<f32> = values.iter().skip(column).step_by(3).copied().collect();
+            stitch(&samples, &mut alone, 1);
+            let together: Vec<f32> = all.iter().skip(column).step_by(3).copied().collect();
+            assert!(
+                alone == together,
+                "column {column} differs when stitched alone"
+            );
+        }
+        let mut alone = ao;
+        stitch(&samples, &mut alone, 1);
+        assert!(
+            alone == all_ao,
+            "the accessibility differs when stitched alone"
+        );
     }
 
     #[test]
