@@ -192,9 +192,35 @@ pub fn bake_translucent(
     let receivers: Receivers = Receivers::texels(&texels);
     let estimator = Estimator::for_receivers(receivers, options)?;
     let targets = BounceTargets::texels(&atlas, &texels);
-    let mut baked = stages.time("bake", || {
-        bake_receivers(scene, tracer, &estimator, &targets, progress)
+    let stitching = Stitching {
+        partners: &seams,
+        uv1: &atlas.uv1,
+    };
+    // Where the seams read depends only on which texels will hold a value (baked, or dilated
+    // from baked ones), not on the values: the seam samples are found now, and the stitch's
+    // system (its ordering and factorisation are sequential: about 2 CPU-s on a 720,000-triangle
+    // heightfield's planar atlas) is factored beside the bake's rays, by whichever worker is
+    // free, instead of after them while the other cores wait. The bits are the same.
+    let samples = stages.time("seam points", || {
+        let dilated = dilation::dilate_rings(&texels, |_| {});
+        seam_samples(&texels, &dilated, &stitching)
     });
+    let (mut baked, (factored, factor_seconds)) = stages.time("bake", || {
+        rayon::join(
+            || bake_receivers(scene, tracer, &estimator, &targets, progress),
+            || {
+                let started = Instant::now();
+                let factored = stitch::factor(&samples);
+                (factored, started.elapsed().as_secs_f64())
+            },
+        )
+    });
+    // One sequential task: its wall time is its CPU time.
+    stages.0.push((
+        "stitch factor (beside the bake)",
+        factor_seconds,
+        factor_seconds,
+    ));
     if let (true, Some(tracer)) = (media.iter().any(Option::is_some), tracer) {
         stages.time("subsurface", || {
             translucent::apply_to_texels(
@@ -209,18 +235,8 @@ pub fn bake_translucent(
     let casts_rays = tracer.is_some();
     drop((watertight, estimator, targets));
     let visibility = casts_rays.then_some(baked.visibility.as_slice());
-    let stitching = Stitching {
-        partners: &seams,
-        uv1: &atlas.uv1,
-    };
-    let placed = place(
-        &texels,
-        width,
-        &baked.coefficients,
-        visibility,
-        &stitching,
-        &mut stages,
-    );
+    let placed = place_unstitched(&texels, width, &baked.coefficients, visibility, &mut stages);
+    let placed = stitch_placed(placed, width, &samples, Some(&factored), &mut stages);
     let transfer = Transfer::from_direct(
         options,
         backend,
@@ -287,19 +303,32 @@ pub fn place(
     stitching: &Stitching<'_>,
     stages: &mut Stages,
 ) -> Placed {
-    let mut placed = place_unstitched(texels, width, receivers, receiver_visibility, stages);
+    let placed = place_unstitched(texels, width, receivers, receiver_visibility, stages);
     let samples = stages.time("seam points", || {
         seam_samples(texels, &placed.dilated, stitching)
     });
+    stitch_placed(placed, width, &samples, None, stages)
+}
+
+/// Stitches `placed` along `samples`: with their system if it was `factored` already, else
+/// factoring it here.
+fn stitch_placed(
+    mut placed: Placed,
+    width: usize,
+    samples: &[stitch::SeamSample],
+    factored: Option<&stitch::Factored>,
+    stages: &mut Stages,
+) -> Placed {
     let (coefficients, visibility) = (&mut placed.coefficients, &mut placed.visibility);
-    let step_before = stitch::seam_step(&samples, coefficients, width, 0).0;
+    let step_before = stitch::seam_step(samples, coefficients, width, 0).0;
     let factor_nonzeros = stages.time("stitch", || {
         let mut ao: Vec<f32> = visibility.iter().map(|v| v.accessibility).collect();
         let ao_width = usize::from(!ao.is_empty());
-        let factor_nonzeros = stitch::stitch_fields(
-            &samples,
-            &mut [(&mut coefficients[..], width), (&mut ao[..], ao_width)],
-        );
+        let fields = &mut [(&mut coefficients[..], width), (&mut ao[..], ao_width)];
+        let factor_nonzeros = match factored {
+            Some(factored) => stitch::stitch_factored(factored, fields),
+            None => stitch::stitch_fields(samples, fields),
+        };
         // Least squares may overshoot a little; accessibility is a fraction.
         for (v, a) in visibility.iter_mut().zip(ao) {
             v.accessibility = clamp_accessibility(a);
@@ -309,7 +338,7 @@ pub fn place(
     placed.seams = SeamReport {
         samples: samples.len(),
         step_before,
-        step_after: stitch::seam_step(&samples, coefficients, width, 0).0,
+        step_after: stitch::seam_step(samples, coefficients, width, 0).0,
         factor_nonzeros,
     };
     placed

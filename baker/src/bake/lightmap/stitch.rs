@@ -251,9 +251,34 @@ pub fn stitch_fields(samples: &[SeamSample], fields: &mut [(&mut [f32], usize)])
     if samples.is_empty() || fields.iter().all(|(_, width)| *width == 0) {
         return 0;
     }
-    let Some(system) = System::new(samples.len(), |s| (&samples[s].a, &samples[s].b)) else {
+    stitch_factored(&factor(samples), fields)
+}
+
+/// The least squares of `samples`, factored before the values it stitches exist: the system
+/// depends only on where the seams read, not on what they read there, so a texel bake
+/// factors it beside its rays ([`super::bake_translucent`]).
+pub struct Factored(Option<System>);
+
+/// Builds and factors the system of `samples` ([`stitch`]); `None` inside where there is
+/// nothing to stitch or the factorisation failed.
+pub fn factor(samples: &[SeamSample]) -> Factored {
+    if samples.is_empty() {
+        return Factored(None);
+    }
+    Factored(System::new(samples.len(), |s| {
+        (&samples[s].a, &samples[s].b)
+    }))
+}
+
+/// [`stitch_fields`] with the system of its samples factored already ([`factor`]): the same
+/// bits as factoring it here.
+pub fn stitch_factored(factored: &Factored, fields: &mut [(&mut [f32], usize)]) -> usize {
+    let Some(system) = &factored.0 else {
         return 0;
     };
+    if fields.iter().all(|(_, width)| *width == 0) {
+        return 0;
+    }
     system.solve(fields);
     system.factor_len()
 }
