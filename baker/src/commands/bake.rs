@@ -333,8 +333,7 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
         // staged or sharded bake picks the same.
         rays_per_receiver: options
             .samples
-            .saturating_add(options.effective_bounce_samples())
-            .max(1),
+            .saturating_add(options.effective_bounce_samples()),
     };
     if options.mode.casts_rays() {
         trace::check(args.backend.backend(), tracer_options)?;
