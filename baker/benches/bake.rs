@@ -69,7 +69,15 @@ fn main() {
 
     let started = Instant::now();
     let embree =
-        EmbreeTracer::new(&scene, EmbreeOptions::default()).unwrap_or_else(|err| panic!("{err}"));
+        // The BVH quality `prt-bake` picks for this many rays per vertex.
+        EmbreeTracer::new(
+            &scene,
+            EmbreeOptions {
+                rays_per_receiver: samples,
+                ..EmbreeOptions::default()
+            },
+        )
+        .unwrap_or_else(|err| panic!("{err}"));
     println!(
         "embree BVH build: {:.3} s (two scenes: robust mode for the rays of {} seam vertices \
          of {})",
@@ -108,6 +116,7 @@ fn main() {
             &scene,
             EmbreeOptions {
                 mode,
+                rays_per_receiver: samples,
                 ..EmbreeOptions::default()
             },
         )

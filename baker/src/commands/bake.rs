@@ -329,6 +329,11 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
         robust: args.robust,
         // A texel bake casts no ray from a vertex: its texels' seam points are found apart.
         points_only: args.lightmap.is_some(),
+        // Picks Embree's BVH quality; from the command line alone, so every process of a
+        // staged or sharded bake picks the same.
+        rays_per_receiver: options
+            .samples
+            .saturating_add(options.effective_bounce_samples()),
     };
     if options.mode.casts_rays() {
         trace::check(args.backend.backend(), tracer_options)?;

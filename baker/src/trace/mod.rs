@@ -19,7 +19,7 @@ mod twins;
 
 pub use self::obvhs::{ObvhsOptions, ObvhsTracer};
 #[cfg(feature = "embree")]
-pub use embree::{EmbreeMode, EmbreeOptions, EmbreePoints, EmbreeTracer};
+pub use embree::{EmbreeMode, EmbreeOptions, EmbreePoints, EmbreeTracer, HIGH_QUALITY_RAYS};
 /// The Embree bindings, for benchmarks that call Embree directly on the same scene.
 #[cfg(feature = "embree")]
 pub use embree_sys;
@@ -67,6 +67,7 @@ pub fn build(backend: Backend, scene: &Scene, options: TracerOptions) -> Result<
                     EmbreeMode::Watertight
                 },
                 points_only: options.points_only,
+                rays_per_receiver: options.rays_per_receiver,
             },
         )?),
         Backend::Obvhs => Box::new(ObvhsTracer::new(scene, ObvhsOptions::default())),

@@ -138,4 +138,8 @@ pub struct TracerOptions {
     /// seam vertices (a third of its build time on a large mesh) and builds its robust scene
     /// only when some point needs it.
     pub points_only: bool,
+    /// Rays the bake casts per receiver (0: unknown, counted as few): Embree builds its BVH at high quality
+    /// (spatial splits) only when they are many enough to repay it (`embree.rs`'s module doc).
+    /// The output does not depend on it but at exact ties of t.
+    pub rays_per_receiver: u32,
 }
