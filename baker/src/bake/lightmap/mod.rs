@@ -215,7 +215,8 @@ pub fn bake_translucent(
             },
         )
     });
-    // One sequential task: its wall time is its CPU time.
+    // Its wall time stands for its CPU time: the ordering and factorisation, most of it, are
+    // sequential (the assembly is parallel).
     stages.0.push((
         "stitch factor (beside the bake)",
         factor_seconds,
