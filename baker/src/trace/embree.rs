@@ -570,11 +570,6 @@ impl Tracer for EmbreeTracer {
         self.routing().intersect(rays, hits);
     }
 
-    fn intersect_from(&self, origin: glam::Vec3, dirs: &[glam::Vec3], hits: &mut [Option<Hit>]) {
-        self.routing()
-            .intersect_within(origin, dirs, f32::INFINITY, hits);
-    }
-
     fn intersect_within(
         &self,
         origin: glam::Vec3,
@@ -622,11 +617,6 @@ impl Tracer for EmbreePoints<'_> {
 
     fn intersect(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
         self.routing().intersect(rays, hits);
-    }
-
-    fn intersect_from(&self, origin: glam::Vec3, dirs: &[glam::Vec3], hits: &mut [Option<Hit>]) {
-        self.routing()
-            .intersect_within(origin, dirs, f32::INFINITY, hits);
     }
 
     fn intersect_within(

@@ -96,7 +96,7 @@ pub trait Tracer: Send + Sync {
     /// Closest hits of unbounded rays that share one origin. Same answers as
     /// [`Tracer::intersect`].
     fn intersect_from(&self, origin: Vec3, dirs: &[Vec3], hits: &mut [Option<Hit>]) {
-        self.intersect(&Ray::fan(origin, dirs), hits);
+        self.intersect_within(origin, dirs, f32::INFINITY, hits);
     }
 
     /// Closest hits of rays that share one origin and end at `tfar` (a hit beyond it is

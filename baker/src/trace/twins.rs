@@ -85,13 +85,6 @@ impl Tracer for TwinFacing<'_> {
         }
     }
 
-    fn intersect_from(&self, origin: Vec3, dirs: &[Vec3], hits: &mut [Option<Hit>]) {
-        self.inner.intersect_from(origin, dirs, hits);
-        for (&dir, hit) in dirs.iter().zip(hits) {
-            self.face(dir, hit);
-        }
-    }
-
     fn intersect_within(&self, origin: Vec3, dirs: &[Vec3], tfar: f32, hits: &mut [Option<Hit>]) {
         self.inner.intersect_within(origin, dirs, tfar, hits);
         for (&dir, hit) in dirs.iter().zip(hits) {
