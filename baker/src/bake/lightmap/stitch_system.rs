@@ -101,40 +101,50 @@ impl System {
         }
         drop(fill);
         // Column j of the lower triangle: λ on the diagonal plus, for every sample reading
-        // j, w_j·w_k at each unknown k ≥ j it reads; sorted by row (stably, so equal rows
-        // add in sample order: the same bits for any thread count). In parallel over fixed
-        // blocks of columns, each block's rows and values flat.
+        // j, w_j·w_k at each unknown k ≥ j it reads; equal rows add in sample order (the
+        // same bits for any thread count), each row found by `slot` (its place in the
+        // column, u32::MAX where absent) rather than by sorting all the products: half the
+        // time of sorting them (0.18 against 0.37 CPU-s on the heightfield). Rows sorted
+        // once merged. In parallel over fixed blocks of columns, each block's rows and
+        // values flat.
         let blocks: Vec<(Vec<usize>, Vec<u32>, Vec<f64>)> = (0..n)
             .into_par_iter()
             .step_by(COLUMN_BLOCK)
-            .map(|first| {
-                let (mut lengths, mut rows, mut values) = (Vec::new(), Vec::new(), Vec::new());
-                let mut column: Vec<(u32, f64)> = Vec::new();
-                for j in first..(first + COLUMN_BLOCK).min(n) {
-                    column.clear();
-                    column.push((j as u32, KEEP));
-                    for &(s, wj) in &readers[reads[j]..reads[j + 1]] {
-                        let s = s as usize;
-                        for &(k, wk) in &entries[starts[s]..starts[s + 1]] {
-                            if k as usize >= j {
-                                column.push((k, f64::from(wj) * f64::from(wk)));
+            .map_init(
+                || vec![u32::MAX; n],
+                |slot, first| {
+                    let (mut lengths, mut rows, mut values) = (Vec::new(), Vec::new(), Vec::new());
+                    let mut column: Vec<(u32, f64)> = Vec::new();
+                    for j in first..(first + COLUMN_BLOCK).min(n) {
+                        column.clear();
+                        column.push((j as u32, KEEP));
+                        slot[j] = 0;
+                        for &(s, wj) in &readers[reads[j]..reads[j + 1]] {
+                            let s = s as usize;
+                            for &(k, wk) in &entries[starts[s]..starts[s + 1]] {
+                                if k as usize >= j {
+                                    let v = f64::from(wj) * f64::from(wk);
+                                    match slot[k as usize] {
+                                        u32::MAX => {
+                                            slot[k as usize] = column.len() as u32;
+                                            column.push((k, v));
+                                        }
+                                        at => column[at as usize].1 += v,
+                                    }
+                                }
                             }
                         }
-                    }
-                    column.sort_by_key(|&(k, _)| k);
-                    let before = rows.len();
-                    for &(k, v) in &column {
-                        if rows.len() > before && rows.last() == Some(&k) {
-                            *values.last_mut().expect("a row was pushed") += v;
-                        } else {
-                            rows.push(k);
-                            values.push(v);
+                        for &(k, _) in &column {
+                            slot[k as usize] = u32::MAX;
                         }
+                        column.sort_unstable_by_key(|&(k, _)| k);
+                        rows.extend(column.iter().map(|&(k, _)| k));
+                        values.extend(column.iter().map(|&(_, v)| v));
+                        lengths.push(column.len());
                     }
-                    lengths.push(rows.len() - before);
-                }
-                (lengths, rows, values)
-            })
+                    (lengths, rows, values)
+                },
+            )
             .collect();
         drop((entries, starts, readers, reads));
         let nonzeros: usize = blocks.iter().map(|b| b.1.len()).sum();
