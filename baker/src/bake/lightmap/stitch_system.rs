@@ -110,6 +110,9 @@ impl System {
         let blocks: Vec<(Vec<usize>, Vec<u32>, Vec<f64>)> = (0..n)
             .into_par_iter()
             .step_by(COLUMN_BLOCK)
+            // At least 8 blocks a task: the slots (3.6 MB on the heightfield) are set up per
+            // task, and rayon makes more tasks the more threads it has.
+            .with_min_len(8)
             .map_init(
                 || vec![u32::MAX; n],
                 |slot, first| {
