@@ -135,14 +135,18 @@ timeout 120 "$bake" bake "$scene" -o "$tmp/single.prt" --quiet "${bake_options[@
 cmp "$tmp/merged.prt" "$tmp/single.prt"
 echo "slurm test: 4 shards on Slurm, merged by a dependent job in ${slurm_seconds}s: identical to the single-machine bake"
 
-# A texel (lightmap) bake in dependent stages (--stages): a prepare job, the shards, per
-# bounce an array of gathers and a merge, the last one stitching (--stitch-shards 0: 7 jobs,
-# where stitch shards and a join make 9; `stitch --columns` and `--join` are tested in
-# baker/tests/cli_lightmap_stages.rs).
+# A texel (lightmap) bake in dependent stages (--stages): a prepare job, the shards and beside
+# them the seam factor, per bounce an array of gathers and a merge, the stitch column shards
+# (solving with the factor) and the join: 10 jobs (the last merge stitching itself,
+# `--stitch-shards 0`, is tested in baker/tests/cli_lightmap_stages.rs).
 SECONDS=0
-timeout 180 "$root/scripts/slurm/submit.sh" --wait --stages --stitch-shards 0 "$scene" "$tmp/texels.prt" 2 "${texel_options[@]}"
-[ ! -e "$tmp/texels.prt.parts/columns-0.col" ] ||
-    { echo "slurm test: --stitch-shards 0 ran stitch shards" >&2; exit 1; }
+timeout 180 "$root/scripts/slurm/submit.sh" --wait --stages "$scene" "$tmp/texels.prt" 2 "${texel_options[@]}"
+grep -q "factored .* seam unknowns" "$tmp/texels.prt.parts/factor.log" ||
+    { echo "slurm test: the factor job's log does not say it factored the seams" >&2; exit 1; }
+for k in 0 1; do
+    [ -s "$tmp/texels.prt.parts/columns-$k.col" ] ||
+        { echo "slurm test: stitch shard $k wrote no column file" >&2; exit 1; }
+done
 slurm_seconds=$SECONDS
 for k in 0 1; do
     grep -q "shard $k of 2 (baked texels" "$tmp/texels.prt.parts/shard-$k.log" ||
@@ -152,5 +156,5 @@ for k in 0 1; do
 done
 timeout 120 "$bake" bake "$scene" -o "$tmp/texels-single.prt" --quiet "${texel_options[@]}" >/dev/null
 cmp "$tmp/texels.prt" "$tmp/texels-single.prt"
-echo "slurm test: a 64² lightmap in 2 shards on Slurm, in dependent stages (prepare, bake, 2 bounces, the last merge stitching) in ${slurm_seconds}s: identical to the single-machine texel bake"
+echo "slurm test: a 64² lightmap in 2 shards on Slurm, in dependent stages (prepare, bake and the seam factor, 2 bounces, 2 stitch shards, join) in ${slurm_seconds}s: identical to the single-machine texel bake"
 
