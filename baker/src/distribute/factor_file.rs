@@ -166,6 +166,18 @@ impl FactorFile {
                 self.fingerprint
             )));
         }
+        // The fingerprint matched; a factor whose unknowns lie outside the lightmap all the
+        // same (a file forged or broken under its checksum) is refused, not solved.
+        let texels = self.factored.factor().map_or(&[][..], |f| f.texels());
+        if let Some(&t) = texels.iter().find(|&&t| t as usize >= l.valid.len()) {
+            return Err(refuse(format!(
+                "{}: texel {t} of the seam factor is outside {}'s {}×{} lightmap",
+                path.display(),
+                file.display(),
+                l.width,
+                l.height
+            )));
+        }
         Ok(())
     }
 
