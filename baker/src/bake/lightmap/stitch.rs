@@ -228,7 +228,7 @@ pub fn seam_step(
 ///
 /// The normal equations are solved directly: a sparse Cholesky factorisation L Lᵀ of
 /// λI + CᵀC (`faer`'s supernodal factorisation after an approximate-minimum-degree
-/// ordering), then two triangular solves over all columns at once ([`System::solve`]). A
+/// ordering), then two triangular solves over all columns at once ([`Factor::solve`]). A
 /// planar atlas of a 720,000-triangle heightfield has 592,060 seam points linking 898,707
 /// baked and dilated texels into one system, where Jacobi-preconditioned conjugate gradients
 /// needed 125 iterations of two passes over C per column to a relative residual of 10⁻⁴
