@@ -10,7 +10,9 @@ use clap::{Parser, Subcommand};
 use prt_baker::Error;
 use prt_baker::support::{input_path, limits, output};
 
-use commands::{bake, compress, export, gather, inspect, light, merge, relight, stitch};
+use commands::{
+    bake, compress, export, factor_seams, gather, inspect, light, merge, relight, stitch,
+};
 
 /// Exit codes: 0 success, 1 failure (I/O, backend), 2 bad command line, 3 bad input files.
 const EXIT_FAILURE: u8 = 1;
@@ -69,6 +71,9 @@ enum Command {
     /// Stitch a merged, unstitched texel bake's seams in shards of columns, and join them
     /// into the whole bake's file (docs/distributed.md).
     Stitch(stitch::StitchArgs),
+    /// Factor a texel bake's seam stitch once, from its prepared lightmap, for every
+    /// `stitch --columns K/N --factor FILE` shard (docs/distributed.md).
+    FactorSeams(factor_seams::FactorSeamsArgs),
 }
 
 fn main() -> ExitCode {
@@ -95,6 +100,7 @@ fn main() -> ExitCode {
         Command::PrepareLightmap(args) => bake::run_prepare(args),
         Command::Gather(args) => gather::run(args),
         Command::Stitch(args) => stitch::run(args),
+        Command::FactorSeams(args) => factor_seams::run(args),
     });
     match result {
         Ok(Ok(())) => ExitCode::SUCCESS,

@@ -1,7 +1,8 @@
 //! Texel bakes distributed stage by stage (docs/distributed.md, "Stages"): `prepare-lightmap`
 //! once, `bake --shard K/N --prepared`, `merge --direct`, per bounce `gather` per shard and
-//! `merge --lower`, the last one `--unstitched`, then `stitch --columns J/M` per shard and
-//! `stitch --join`. The oracle is the whole bake's file, byte for byte.
+//! `merge --lower`, the last one `--unstitched`, `factor-seams` once, then
+//! `stitch --columns J/M --factor` per shard and `stitch --join`. The oracle is the whole
+//! bake's file, byte for byte.
 
 mod common;
 
@@ -67,19 +68,31 @@ fn staged(s: &Scratch, scene: &str, name: &str, opts: &[&str], n: u32, m: u32) -
         lower = next;
     }
     if texels {
+        // The seams' system factored once (`factor-seams`); the shards solve with it, the even
+        // ones checking it against the prepared lightmap too.
+        let factor = out("seams.fac");
+        let run = s.run(&["factor-seams", &prep, "-o", &factor]).success();
+        assert!(run.stdout.contains("factored "), "{}", run.stdout);
         let columns: Vec<String> = (0..m).map(|j| out(&format!("c{j}.col"))).collect();
         for (j, column) in columns.iter().enumerate() {
             let shard = format!("{j}/{m}");
-            let args = [
-                "stitch",
-                &unstitched,
-                "--prepared",
-                &prep,
-                "--columns",
-                &shard,
-            ];
-            s.run(&[&args[..], &["-o", column]].concat()).success();
+            let mut args = vec!["stitch", &unstitched, "--factor", &factor];
+            if j % 2 == 0 {
+                args.extend(["--prepared", &prep]);
+            }
+            args.extend(["--columns", &shard, "-o", column]);
+            s.run(&args).success();
         }
+        // Without the factor, a shard factors the system itself: the same columns.
+        let factored_here = out("c0-prepared.col");
+        let args = ["stitch", &unstitched, "--prepared", &prep, "--columns"];
+        let shard = format!("0/{m}");
+        s.run(&[&args[..], &[&shard, "-o", &factored_here]].concat())
+            .success();
+        assert!(
+            s.read(&factored_here) == s.read(&columns[0]),
+            "{name}: a stitch shard's columns differ with the stored factor"
+        );
         let mut args = vec!["stitch", &unstitched, "-o", &result, "--join"];
         args.extend(columns.iter().rev().map(String::as_str));
         s.run(&args).success();
@@ -195,6 +208,38 @@ fn mismatched_stage_files_are_refused() {
         "out/x.col",
     ]);
     run.fails_with(3, &["out/a-unstitched.prt", "another atlas"]);
+    // A seam factor of another prepared lightmap: refused against the file and against the
+    // prepared lightmap; a corrupted one; a stitch shard with neither.
+    s.run(&["factor-seams", "out/planar.lmp", "-o", "out/planar.fac"])
+        .success();
+    let stitch = ["stitch", "out/a-unstitched.prt", "--columns", "0/2"];
+    s.run(
+        &[
+            &stitch[..],
+            &["--factor", "out/planar.fac", "-o", "out/x.col"],
+        ]
+        .concat(),
+    )
+    .fails_with(
+        3,
+        &["out/planar.fac", "the seam factor of another prepared"],
+    );
+    let both = [
+        "--factor",
+        "out/a-seams.fac",
+        "--prepared",
+        "out/planar.lmp",
+    ];
+    s.run(&[&stitch[..], &both, &["-o", "out/x.col"]].concat())
+        .fails_with(3, &["out/a-seams.fac", "than out/planar.lmp"]);
+    let mut bytes = s.read("out/a-seams.fac");
+    let at = bytes.len() - 3;
+    bytes[at] ^= 1;
+    s.write("out/bad.fac", &bytes);
+    s.run(&[&stitch[..], &["--factor", "out/bad.fac", "-o", "out/x.col"]].concat())
+        .fails_with(3, &["out/bad.fac", "checksum mismatch"]);
+    s.run(&[&stitch[..], &["-o", "out/x.col"]].concat())
+        .fails_with(2, &["--prepared FILE or --factor FILE"]);
     // A missing gather, a gather of another bounce, a missing column file.
     let lower = ["merge", "--lower", "out/a-bounce-0.bnc", "-o", "out/x.bnc"];
     s.run(&[&lower[..], &["out/a-g1-0.bnc"]].concat())

@@ -3,8 +3,8 @@
 # `make test`): for each terrain size × lightmap resolution, the whole texel bake shadowed and
 # interreflected, the vertex bake of the same mesh, the raw Embree rate of the same rays
 # (baker/benches/large.rs), and for each shard count N the staged pipeline that
-# `scripts/slurm/submit.sh --stages` submits (prepare-lightmap, N shards, merge --direct, per
-# bounce N gathers and merge --lower, N stitch column shards, stitch --join) run one after
+# `scripts/slurm/submit.sh --stages` submits (prepare-lightmap, factor-seams, N shards, merge
+# --direct, per bounce N gathers and merge --lower, N stitch column shards, stitch --join) run one after
 # another here, its summed CPU against the whole bake's and its file compared byte for byte
 # with the whole bake's. Every process runs under /usr/bin/time -v: wall, CPU (user + system)
 # and peak RSS. Prints a table per cell, then the per-texel figures docs/distributed.md's
@@ -115,6 +115,9 @@ staged() {
     mkdir -p "$s"
     echo " staged $mode, $n shards:"
     timed "$cell" "$s" "$tag:prepare" "$bake" prepare-lightmap "$scene" -o "$s/prep.lmp" --quiet "$@"
+    # The seam stitch's system, factored once for the stitch shards (on Slurm beside the shards).
+    timed "$cell" "$s" "$tag:factor" "$bake" factor-seams "$s/prep.lmp" -o "$s/seams.fac"
+    size "$cell" "$tag:file-factor" "$s/seams.fac"
     local parts=() k b
     for ((k = 0; k < n; k++)); do
         timed "$cell" "$s" "$tag:shard-$k" "$bake" bake "$scene" --prepared "$s/prep.lmp" --shard "$k/$n" \
@@ -146,7 +149,7 @@ staged() {
     fi
     local columns=()
     for ((k = 0; k < n; k++)); do
-        timed "$cell" "$s" "$tag:stitch-$k" "$bake" stitch "$s/unstitched.prt" --prepared "$s/prep.lmp" \
+        timed "$cell" "$s" "$tag:stitch-$k" "$bake" stitch "$s/unstitched.prt" --factor "$s/seams.fac" \
             --columns "$k/$n" -o "$s/columns-$k.col"
         columns+=("$s/columns-$k.col")
     done

@@ -62,7 +62,9 @@ def stage_groups(runs):
 
 
 def kind(stage):
-    """A stage's kind: prepare, shard, merge, gather, stitch, file-…, identical."""
+    """A stage's kind: prepare, factor, shard, merge, gather, stitch, file-…, identical. The seam
+    factor (`factor-seams`) is not a merge: it is the whole bake's own factorisation, done once
+    for every stitch shard, like the preparation."""
     if stage.startswith("file-") or stage == "identical":
         return stage
     if stage.startswith("merge") or stage == "join":
@@ -84,6 +86,8 @@ def summarise_stages(stages):
         if run["cpu_s"] is None:
             continue
         key = re.sub(r"-\d+$", "", stage) if kind(stage) in ("shard", "gather", "stitch") else stage
+        # The seam factor runs beside the shards (it casts no rays): not after them.
+        key = "shard" if stage == "factor" else key
         arrays[key] = max(arrays.get(key, 0.0), run["cpu_s"])
     path = sum(arrays.values())
     rss = max((r["rss_mb"] or 0) for r in stages.values())
@@ -137,12 +141,15 @@ def per_texel(tag, stages, cpu, res, baked, seams, bytes_of):
     if bounces:
         out.append(f"gathers {cpu.get('gather', 0) / baked / bounces * 1e6:.3f} µs/baked texel/bounce")
     out.append(f"merges {cpu.get('merge', 0) / pixels * 1e6:.3f} µs/lightmap texel")
+    if "factor" in cpu:
+        out.append(f"seam factor {cpu['factor'] / pixels * 1e6:.3f} µs/lightmap texel"
+                   + (f" ({cpu['factor'] / seams * 1e6:.2f} µs/seam point)" if seams else ""))
     out.append(f"stitch {cpu.get('stitch', 0) / pixels * 1e6:.3f} µs/lightmap texel"
                + (f" ({cpu.get('stitch', 0) / seams * 1e6:.2f} µs/seam point)" if seams else ""))
     files = []
     for name, per, unit in (("file-prepared", pixels, "lightmap texel"), ("file-parts", baked, "baked texel"),
                             ("file-bounce", pixels, "lightmap texel"), ("file-gathers", baked, "baked texel"),
-                            ("file-columns", pixels, "lightmap texel")):
+                            ("file-columns", pixels, "lightmap texel"), ("file-factor", pixels, "lightmap texel")):
         run = stages.get(name)
         if run and run["bytes"]:
             files.append(f"{name[5:]} {run['bytes'] / per:.1f} B/{unit}")
@@ -259,7 +266,7 @@ def plan(cells, args):
         io = (reads_each + writes_each) / gbps
         rows.append((label, f"{N} × 1", cpu, cpu / T + io, rss, reads_each * N + writes_each * N, note))
 
-    def merge_stage(label, name, reads, writes, note=""):
+    def merge_stage(label, name, reads, writes, note=""):  # also one-task stages that are no merge
         vals = [single(g, name) for g in groups.values() if single(g, name)]
         if not vals:
             return
@@ -274,6 +281,7 @@ def plan(cells, args):
     bounce_b = file_bytes(g_max, "file-bounce") * k_p
     gathers_b = file_bytes(g_max, "file-gathers") * k_r
     columns_b = file_bytes(g_max, "file-columns") * k_p
+    factor_b = file_bytes(g_max, "file-factor") * k_p
     final = runs.get("interreflected:file", {}).get("bytes") or 0.0
     final_b = final * k_p
     prep = [single(g, "prepare") for g in groups.values() if single(g, "prepare")]
@@ -282,6 +290,7 @@ def plan(cells, args):
         rss = max(p[1] for p in prep)
         rss = min(base, rss) * tri_scale + max(rss - base, 0.0) * k_p
         rows.append(("prepare-lightmap", "1", cpu, cpu / T + prep_b / gbps, rss, prep_b, "scene + BVH, atlas, leak test"))
+    merge_stage("factor-seams (beside the shards)", "factor", prep_b, factor_b, "beside the shards")
     array_stage("bake --prepared --shard", "shard", True, True, prep_b, parts_b / N, "the rays")
     merge_stage("merge --direct", "merge-direct", parts_b, bounce_b)
     for k in range(1, bounces + 1):
@@ -289,7 +298,8 @@ def plan(cells, args):
         array_stage(f"gather bounce {k}", f"gather-{k}", False, True, bounce_b + parts_b / N, gathers_b / N)
         merge_stage(f"merge --lower {k}", f"merge-lower-{k}", bounce_b + gathers_b,
                     bounce_b if k < bounces else final_b)
-    array_stage("stitch --columns", "stitch", False, False, final_b + prep_b, columns_b / N)
+    stitch_reads = final_b + (factor_b if factor_b else prep_b)
+    array_stage("stitch --columns", "stitch", False, False, stitch_reads, columns_b / N)
     merge_stage("stitch --join", "join", final_b + columns_b, final_b)
     print(f"\nplan: {args.plan}² lightmap ({P / 1e6:.1f} M texels, fill {args.fill}: {R / 1e6:.1f} M baked), "
           f"{tris * tri_scale / 1e6:.1f} M triangles, interreflected {bounces} bounces, "
@@ -301,7 +311,7 @@ def plan(cells, args):
     total_wall = total_cpu = 0.0
     for label, tasks, cpu, wall, rss, moved, note in rows:
         n = N if tasks != "1" else 1
-        total_wall += wall
+        total_wall += 0.0 if note.startswith("beside") else wall
         total_cpu += cpu * n
         print(f"| {label} | {tasks} | {cpu:,.0f} | {wall:,.0f} | {rss / 1024:.1f} | {moved / 1e9:,.1f} |")
     print(f"| **total** | | {total_cpu:,.0f} (all tasks) | **{total_wall:,.0f}** | | |")

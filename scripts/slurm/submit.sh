@@ -8,14 +8,14 @@
 #             or a merge failed: the jobs after a failed one are cancelled)
 #   --stages  a texel bake (--lightmap) in dependent stages, so that no job repeats another's
 #             work and the merges do no heavy work: a prepare-lightmap job; the shards' array
-#             (reading the prepared lightmap); in interreflected mode `merge --direct`, then
+#             (reading the prepared lightmap) and beside it a `factor-seams` job (the seam
+#             stitch's system factored once); in interreflected mode `merge --direct`, then
 #             per bounce an array of N `gather` tasks and a `merge --lower`; an array of N
-#             `stitch --columns` tasks; and the `stitch --join` that writes OUT.prt
+#             `stitch --columns --factor` tasks (after the last merge and the factor); and the
+#             `stitch --join` that writes OUT.prt
 #   --stitch-shards M
 #             with --stages: stitch in M shards of columns (default N); 0: the last merge
-#             stitches, with no stitch jobs (each column shard repeats the stitch's ordering
-#             and symbolic factorisation, so sharding pays only where the stitch is the
-#             wall-clock bottleneck: docs/distributed.md)
+#             factors and stitches, with no factor or stitch jobs (docs/distributed.md)
 #
 # Environment:
 #   PRT_BAKE        the prt-bake binary the nodes run (default: target/release/prt-bake of this
@@ -115,6 +115,11 @@ for ((k = 0; k < count; k++)); do part_files+=("$parts/part-$k.prt"); done
 if [ -n "$stages" ]; then
     prep="$parts/prepared.lmp"
     prepare_job=$(submit prepare "" "" "$(quote "$bake" prepare-lightmap "$scene" -o "$prep" --quiet "$@")")
+    # The seams' system, factored once for every stitch shard, beside the shards (no rays).
+    factor_job="" factor="$parts/seams.fac"
+    if [ "$stitch_shards" -gt 0 ]; then
+        factor_job=$(submit factor "$prepare_job" "" "$(quote "$bake" factor-seams "$prep" -o "$factor")")
+    fi
     # The shards read the prepared lightmap: none repeats the atlas or the leak test.
     array=$(submit shard "$prepare_job" array "$(quote "$bake" bake "$scene" --shard auto --prepared "$prep" --quiet "$@") -o $(printf '%q' "$parts/part-")$task.prt")
     last=$array unstitched="$parts/unstitched.prt"
@@ -138,10 +143,10 @@ if [ -n "$stages" ]; then
         merge_job=$last
         echo "submit: prepare job $prepare_job, shards job $array (array 0-$((count - 1))), $((bounces)) bounce stages, the last merge (stitching) job $merge_job -> $out"
     else
-        # Stitching in M shards of columns; the join is I/O.
-        last=$(submit stitch "$last" "array:$stitch_shards" "$(quote "$bake" stitch "$unstitched" --prepared "$prep" --columns auto) -o $(printf '%q' "$parts/columns-")$task.col")
+        # Stitching in M shards of columns, each solving with the factor; the join is I/O.
+        last=$(submit stitch "$last:$factor_job" "array:$stitch_shards" "$(quote "$bake" stitch "$unstitched" --factor "$factor" --columns auto) -o $(printf '%q' "$parts/columns-")$task.col")
         merge_job=$(submit join "$last" "" "$(quote "$bake" stitch "$unstitched" -o "$out" --join) $(each "$parts/columns" .col "$stitch_shards")")
-        echo "submit: prepare job $prepare_job, shards job $array (array 0-$((count - 1))), $((bounces)) bounce stages, stitch ($stitch_shards shards) and join job $merge_job -> $out"
+        echo "submit: prepare job $prepare_job, shards job $array (array 0-$((count - 1))), $((bounces)) bounce stages, seam factor job $factor_job, stitch ($stitch_shards shards) and join job $merge_job -> $out"
     fi
 else
     # The shards: array tasks 0..N-1; `--shard auto` reads SLURM_ARRAY_TASK_ID/COUNT.

@@ -16,8 +16,11 @@ root=$(cd "$(dirname "$0")/../.." && pwd)
 bake=$(realpath "${1:-$root/target/release/prt-bake}")
 scene=$root/scenes/cornell/cornell.scene
 bake_options=(--samples 256 --mode interreflected --bounces 2 --aux ao)
-# The texel bake: small and few rays, so it adds seconds, not minutes.
-texel_options=(--lightmap 64 --samples 64 --mode interreflected --bounces 2 --aux ao,bent-normal)
+# The texel bake: small and few rays, so it adds seconds, not minutes. One bounce: Slurm starts
+# a dependent job about a second after the one before at best, so every stage costs seconds;
+# the stitch shards and join take the second bounce's two (the chain of bounces is tested in
+# baker/tests/cli_lightmap_stages.rs).
+texel_options=(--lightmap 64 --samples 64 --mode interreflected --bounces 1 --aux ao,bent-normal)
 
 if [ "$(id -u)" -ne 0 ]; then
     echo "slurm test: SKIPPED: the test's Slurm and munge daemons must run as root (run make test as root)"
@@ -135,22 +138,26 @@ timeout 120 "$bake" bake "$scene" -o "$tmp/single.prt" --quiet "${bake_options[@
 cmp "$tmp/merged.prt" "$tmp/single.prt"
 echo "slurm test: 4 shards on Slurm, merged by a dependent job in ${slurm_seconds}s: identical to the single-machine bake"
 
-# A texel (lightmap) bake in dependent stages (--stages): a prepare job, the shards, per
-# bounce an array of gathers and a merge, the last one stitching (--stitch-shards 0: 7 jobs,
-# where stitch shards and a join make 9; `stitch --columns` and `--join` are tested in
-# baker/tests/cli_lightmap_stages.rs).
+# A texel (lightmap) bake in dependent stages (--stages): a prepare job, the shards and beside
+# them the seam factor, merge --direct, the bounce's gathers and merge, the stitch column
+# shards (solving with the factor) and the join: 8 jobs in 7 stages (the last merge stitching
+# itself, `--stitch-shards 0`, is tested in baker/tests/cli_lightmap_stages.rs).
 SECONDS=0
-timeout 180 "$root/scripts/slurm/submit.sh" --wait --stages --stitch-shards 0 "$scene" "$tmp/texels.prt" 2 "${texel_options[@]}"
-[ ! -e "$tmp/texels.prt.parts/columns-0.col" ] ||
-    { echo "slurm test: --stitch-shards 0 ran stitch shards" >&2; exit 1; }
+timeout 180 "$root/scripts/slurm/submit.sh" --wait --stages "$scene" "$tmp/texels.prt" 2 "${texel_options[@]}"
+grep -q "factored .* seam unknowns" "$tmp/texels.prt.parts/factor.log" ||
+    { echo "slurm test: the factor job's log does not say it factored the seams" >&2; exit 1; }
+for k in 0 1; do
+    [ -s "$tmp/texels.prt.parts/columns-$k.col" ] ||
+        { echo "slurm test: stitch shard $k wrote no column file" >&2; exit 1; }
+done
 slurm_seconds=$SECONDS
 for k in 0 1; do
     grep -q "shard $k of 2 (baked texels" "$tmp/texels.prt.parts/shard-$k.log" ||
         { echo "slurm test: texel shard $k's log does not say it baked shard $k of 2's texels" >&2; exit 1; }
-    grep -q "gathered bounce 2 of 2 (shard $k of 2" "$tmp/texels.prt.parts/gather-2-$k.log" ||
-        { echo "slurm test: gather task $k's log does not say it gathered shard $k's bounce 2" >&2; exit 1; }
+    grep -q "gathered bounce 1 of 1 (shard $k of 2" "$tmp/texels.prt.parts/gather-1-$k.log" ||
+        { echo "slurm test: gather task $k's log does not say it gathered shard $k's bounce 1" >&2; exit 1; }
 done
 timeout 120 "$bake" bake "$scene" -o "$tmp/texels-single.prt" --quiet "${texel_options[@]}" >/dev/null
 cmp "$tmp/texels.prt" "$tmp/texels-single.prt"
-echo "slurm test: a 64² lightmap in 2 shards on Slurm, in dependent stages (prepare, bake, 2 bounces, the last merge stitching) in ${slurm_seconds}s: identical to the single-machine texel bake"
+echo "slurm test: a 64² lightmap in 2 shards on Slurm, in dependent stages (prepare, bake and the seam factor, a bounce, 2 stitch shards, join) in ${slurm_seconds}s: identical to the single-machine texel bake"
 

@@ -8,6 +8,7 @@ pub mod bake_parts;
 pub mod bake_probes;
 pub mod compress;
 pub mod export;
+pub mod factor_seams;
 pub mod gather;
 pub mod inspect;
 pub mod light;

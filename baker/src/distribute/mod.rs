@@ -8,6 +8,7 @@
 
 pub mod bounce_stages;
 pub mod checkpoint;
+pub mod factor_file;
 pub mod lightmap_parts;
 pub mod merge;
 pub mod part_baker;

@@ -206,10 +206,17 @@ pub fn write(path: &Path, key: u64, prepared: &Prepared) -> Result<()> {
 /// Reads the prepared lightmap at `path` whatever its key (`prt-bake stitch` has no scene: it
 /// checks the atlas and texels against the file it stitches instead).
 pub fn read_any(path: &Path) -> Result<Prepared> {
+    Ok(read_identified(path)?.2)
+}
+
+/// [`read_any`], with the file's key and the checksum of its bytes: what identifies this
+/// very preparation (a seam factor records them, `distribute::factor_file`).
+pub fn read_identified(path: &Path) -> Result<(u64, u64, Prepared)> {
     let bytes = std::fs::read(path).map_err(|err| Error::io(path, err))?;
-    let (_, prepared) =
+    let (key, prepared) =
         from_bytes(&bytes).map_err(|message| Error::coefficient_file(path, message))?;
-    Ok(prepared)
+    let sum = u64::from_le_bytes(bytes[16..24].try_into().expect("from_bytes checked"));
+    Ok((key, sum, prepared))
 }
 
 /// Reads the prepared lightmap at `path`, refusing (exit 3, [`Error::Shards`]) one whose key

@@ -7,7 +7,9 @@
 //! j..j' of the merged, *unstitched* file (`merge --unstitched`) gets exactly the whole bake's
 //! values of those columns, and the join puts them back: the whole bake's file, byte for byte.
 //! The seam partners come from the prepared lightmap (`prt-bake prepare-lightmap`), checked
-//! against the file's atlas and baked texels.
+//! against the file's atlas and baked texels; or the shard reads the system factored once for
+//! all shards (`prt-bake factor-seams`, [`crate::distribute::factor_file`]), checked against
+//! the file by fingerprint, and only solves.
 //!
 //! A column file (`PRTCOL`): magic, the xxh3 of the unstitched file's bytes (u64), shard index
 //! and count, first column and column count (u32), texel count (u64); the columns' values,
@@ -18,6 +20,7 @@ use std::path::{Path, PathBuf};
 
 use crate::CoefficientFile;
 use crate::bake::lightmap::{self, Prepared, Stitching, Texels, stitch};
+use crate::distribute::factor_file::FactorFile;
 use crate::distribute::merge::refuse;
 use crate::distribute::shard::{ShardId, shard_range};
 use crate::support::error::{Error, Result};
@@ -115,31 +118,41 @@ fn column_count(file: &CoefficientFile) -> usize {
     file.header.coefficients_per_vertex() + usize::from(file.ao.is_some())
 }
 
+/// Where a stitch shard's system comes from.
+pub enum Seams<'a> {
+    /// The prepared lightmap (`prt-bake prepare-lightmap`), for its seam partners: the shard
+    /// finds the seam samples and factors their system.
+    Prepared(&'a Prepared),
+    /// The system factored already (`prt-bake factor-seams`), at the path given.
+    Factored(&'a FactorFile, &'a Path),
+}
+
 /// Stitches `shard`'s columns of the unstitched `file` (key `key`, at `path`) along the seams
-/// of `prepared`, refused (exit 3) where `prepared` is not of the file's atlas and texels.
+/// of a prepared lightmap or with their factor (`seams`), refused (exit 3) where either is not
+/// of the file's atlas and texels.
 pub fn stitch_shard(
     path: &Path,
     key: u64,
     file: &CoefficientFile,
-    prepared: &Prepared,
+    seams: Seams<'_>,
     shard: ShardId,
 ) -> Result<Columns> {
     let l = file.lightmap.as_ref().expect("read_unstitched checked");
-    if l.uv1 != prepared.atlas.uv1 || l.valid != prepared.texels.valid {
-        return Err(refuse(format!(
-            "{}: another atlas or other baked texels than the prepared lightmap's",
-            path.display()
-        )));
+    match seams {
+        Seams::Prepared(prepared)
+            if l.uv1 != prepared.atlas.uv1 || l.valid != prepared.texels.valid =>
+        {
+            return Err(refuse(format!(
+                "{}: another atlas or other baked texels than the prepared lightmap's",
+                path.display()
+            )));
+        }
+        Seams::Factored(factor, factor_path) => factor.check(factor_path, path, l)?,
+        Seams::Prepared(_) => {}
     }
     let width = file.header.coefficients_per_vertex();
     let columns = shard_range(column_count(file), shard);
     let count = columns.len();
-    let texels = Texels::mask(l.width, l.height, l.valid.clone());
-    let stitching = Stitching {
-        partners: &prepared.seams,
-        uv1: &l.uv1,
-    };
-    let samples = lightmap::seam_samples(&texels, &l.dilated, &stitching);
     let mut values = Vec::with_capacity(l.valid.len() * count);
     for i in 0..l.valid.len() {
         for c in columns.clone() {
@@ -150,7 +163,19 @@ pub fn stitch_shard(
             });
         }
     }
-    stitch::stitch_fields(&samples, &mut [(&mut values[..], count)]);
+    let fields = &mut [(&mut values[..], count)];
+    match seams {
+        Seams::Prepared(prepared) => {
+            let texels = Texels::mask(l.width, l.height, l.valid.clone());
+            let stitching = Stitching {
+                partners: &prepared.seams,
+                uv1: &l.uv1,
+            };
+            let samples = lightmap::seam_samples(&texels, &l.dilated, &stitching);
+            stitch::stitch_fields(&samples, fields)
+        }
+        Seams::Factored(factor, _) => stitch::stitch_factored(&factor.factored, fields),
+    };
     Ok(Columns {
         key,
         shard,

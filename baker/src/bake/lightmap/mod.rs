@@ -13,6 +13,7 @@ pub mod leaks;
 pub mod objects;
 pub mod receiving;
 pub mod stitch;
+pub mod stitch_factor;
 mod stitch_system;
 pub mod texels;
 pub mod translucent;

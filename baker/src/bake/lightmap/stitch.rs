@@ -27,12 +27,12 @@ use glam::Vec2;
 use rayon::prelude::*;
 
 use super::atlas::Atlas;
-use super::stitch_system::System;
+use super::stitch_factor::Factor;
 use super::texels::bilinear_taps;
 use crate::scene::Scene;
 
 #[cfg(test)]
-use super::stitch_system::KEEP;
+use super::stitch_factor::KEEP;
 /// Shading normals at a seam's ends closer than this (cosine) make it smooth.
 const SMOOTH: f32 = 0.999;
 /// Seam samples per texel of edge length (on the longer side).
@@ -228,7 +228,7 @@ pub fn seam_step(
 ///
 /// The normal equations are solved directly: a sparse Cholesky factorisation L Lᵀ of
 /// λI + CᵀC (`faer`'s supernodal factorisation after an approximate-minimum-degree
-/// ordering), then two triangular solves over all columns at once ([`System::solve`]). A
+/// ordering), then two triangular solves over all columns at once ([`Factor::solve`]). A
 /// planar atlas of a 720,000-triangle heightfield has 592,060 seam points linking 898,707
 /// baked and dilated texels into one system, where Jacobi-preconditioned conjugate gradients
 /// needed 125 iterations of two passes over C per column to a relative residual of 10⁻⁴
@@ -256,8 +256,21 @@ pub fn stitch_fields(samples: &[SeamSample], fields: &mut [(&mut [f32], usize)])
 
 /// The least squares of `samples`, factored before the values it stitches exist: the system
 /// depends only on where the seams read, not on what they read there, so a texel bake
-/// factors it beside its rays ([`super::bake_translucent`]).
-pub struct Factored(Option<System>);
+/// factors it beside its rays ([`super::bake_translucent`]), and a sharded one once for all
+/// its stitch shards (`prt-bake factor-seams`).
+pub struct Factored(Option<Factor>);
+
+impl Factored {
+    /// The factor (`None`: nothing to stitch), to store.
+    pub fn factor(&self) -> Option<&Factor> {
+        self.0.as_ref()
+    }
+
+    /// A factor read back (`None`: nothing to stitch).
+    pub fn from_factor(factor: Option<Factor>) -> Factored {
+        Factored(factor)
+    }
+}
 
 /// Builds and factors the system of `samples` ([`stitch`]); `None` inside where there is
 /// nothing to stitch or the factorisation failed.
@@ -265,7 +278,7 @@ pub fn factor(samples: &[SeamSample]) -> Factored {
     if samples.is_empty() {
         return Factored(None);
     }
-    Factored(System::new(samples.len(), |s| {
+    Factored(Factor::new(samples.len(), |s| {
         (&samples[s].a, &samples[s].b)
     }))
 }
@@ -280,7 +293,7 @@ pub fn stitch_factored(factored: &Factored, fields: &mut [(&mut [f32], usize)]) 
         return 0;
     }
     system.solve(fields);
-    system.factor_len()
+    system.len()
 }
 
 #[cfg(test)]
