@@ -320,6 +320,20 @@ impl PartLightmap {
         Texels::mask(self.width, self.height, self.valid.clone())
     }
 
+    /// Bounce values at the baked texels (`width` floats each, in their row-major order)
+    /// placed in the W×H lightmap and dilated: what [`BounceTargets::slot_values`] makes of
+    /// them, without the lookup's other arrays (a gather reads no hit, only its rows).
+    pub(crate) fn placed_and_dilated(&self, values: &[f32], width: usize) -> Vec<f32> {
+        let texels = self.texels();
+        let mut map = vec![0.0f32; texels.valid.len() * width];
+        let valid = texels.valid.iter().enumerate().filter(|(_, v)| **v);
+        for ((i, _), value) in valid.zip(values.chunks_exact(width)) {
+            map[i * width..(i + 1) * width].copy_from_slice(value);
+        }
+        crate::bake::lightmap::dilation::dilate_values(&texels, width, &mut map);
+        map
+    }
+
     /// The atlas the UVs describe.
     pub fn atlas(&self) -> Atlas {
         Atlas {

@@ -133,15 +133,19 @@ pub fn mean_ring(ring: &[Fill], w: usize, n: usize, values: &mut [f32]) {
         return;
     }
     let mut mean = vec![0.0f32; n];
+    let offsets = NEIGHBOURS.map(|(dx, dy)| dy * w as isize + dx);
     for f in ring {
-        let (sources, count) = f.sources(w);
+        let i = f.texel as usize;
         mean.fill(0.0);
-        for &j in &sources[..count] {
+        // The sources in neighbour order: the set bits, lowest first.
+        let (mut bits, count) = (f.sources, f.sources.count_ones());
+        while bits != 0 {
+            let j = i.wrapping_add_signed(offsets[bits.trailing_zeros() as usize]);
+            bits &= bits - 1;
             for (s, c) in mean.iter_mut().zip(&values[j * n..(j + 1) * n]) {
                 *s += c;
             }
         }
-        let i = f.texel as usize;
         for (v, s) in values[i * n..(i + 1) * n].iter_mut().zip(&mean) {
             *v = s / count as f32;
         }
