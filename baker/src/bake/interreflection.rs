@@ -366,7 +366,7 @@ impl PackedRows {
     }
 
     /// Receiver k's entries, in order (one bounds test per row, not per entry).
-    fn row(&self, k: usize) -> impl Iterator<Item = (u32, [f32; 3])> + '_ {
+    pub fn row(&self, k: usize) -> impl Iterator<Item = (u32, [f32; 3])> + '_ {
         let at = |e: u64| self.at + e as usize * BYTES_PER_ENTRY as usize;
         let bytes = &self.bytes[at(self.starts[k])..at(self.starts[k + 1])];
         bytes.chunks_exact(BYTES_PER_ENTRY as usize).map(|b| {

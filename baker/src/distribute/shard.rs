@@ -210,7 +210,7 @@ impl Part {
     fn parse(
         bytes: &[u8],
         reading: Reading,
-    ) -> std::result::Result<(Part, Option<(usize, Vec<u64>)>), String> {
+    ) -> std::result::Result<(Part, Option<RowsAt>), String> {
         let (header, payload_bytes, header_size) = header::parse_header(bytes)?;
         let id = PartId::from_header_bytes(bytes)?
             .ok_or("a whole bake, not a shard part (nothing to merge)")?;
@@ -349,16 +349,22 @@ impl Part {
     /// each entry checked as [`Part::read`] checks it.
     pub fn read_packed_rows(path: &Path) -> Result<(Part, PackedRows)> {
         let bytes = std::fs::read(path).map_err(|err| Error::io(path, err))?;
-        let fail = |message| Error::coefficient_file(path, message);
-        let (part, rows) = Part::parse(&bytes, Reading::Packed).map_err(fail)?;
-        let part = Part::checked(part).map_err(fail)?;
+        Part::packed_rows_from_bytes(bytes).map_err(|m| Error::coefficient_file(path, m))
+    }
+
+    /// [`Part::read_packed_rows`] of a file's bytes.
+    pub fn packed_rows_from_bytes(
+        bytes: Vec<u8>,
+    ) -> std::result::Result<(Part, PackedRows), String> {
+        let (part, rows) = Part::parse(&bytes, Reading::Packed)?;
+        let part = Part::checked(part)?;
         let (at, starts) = rows.expect("a packed reading returns the rows");
         let rows = PackedRows::new(bytes, at, starts);
         if let Some((e, vertex, weight)) = rows.first_invalid(part.header.vertex_count) {
-            return Err(fail(format!(
+            return Err(format!(
                 "{}: bounce-row entry {e} (vertex {vertex}, weight {weight:?}) is invalid",
                 part.id
-            )));
+            ));
         }
         Ok((part, rows))
     }
@@ -459,6 +465,10 @@ impl Part {
         }
     }
 }
+
+/// Where a part's bounce rows lie in its file: the byte their first entry starts at, and
+/// where each row starts ([`Rows::starts`]).
+type RowsAt = (usize, Vec<u64>);
 
 /// Which of a part's arrays a reading parses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
