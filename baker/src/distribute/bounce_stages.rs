@@ -71,7 +71,9 @@ impl BounceFile {
 
     pub fn to_bytes(&self) -> Vec<u8> {
         let stub = self.stub.to_bytes();
-        let mut b = Vec::with_capacity(HEAD + stub.len() + 4 * self.values.len());
+        let floats = self.values.len() + self.total.len() + self.ao.as_ref().map_or(0, Vec::len);
+        let floats = floats + 3 * self.bent_normal.as_ref().map_or(0, Vec::len);
+        let mut b = Vec::with_capacity(HEAD + stub.len() + 4 * floats + 8);
         b.extend(MAGIC);
         b.extend(self.k.to_le_bytes());
         let shard = self.shard.unwrap_or(ShardId { index: 0, count: 0 });
@@ -83,10 +85,13 @@ impl BounceFile {
         b.extend((stub.len() as u64).to_le_bytes());
         b.extend(self.fingerprint.unwrap_or(0).to_le_bytes());
         b.extend(stub);
+        // A float at a time: extending by a byte iterator costs more than the floats' copy.
         let aux = self.ao.iter().flatten().copied();
         let bent = self.bent_normal.iter().flatten().flat_map(|v| v.to_array());
         let floats = self.values.iter().chain(&self.total).copied();
-        b.extend(floats.chain(aux).chain(bent).flat_map(f32::to_le_bytes));
+        for f in floats.chain(aux).chain(bent) {
+            b.extend_from_slice(&f.to_le_bytes());
+        }
         let sum = xxhash_rust::xxh3::xxh3_64(&b);
         b.extend(sum.to_le_bytes());
         b

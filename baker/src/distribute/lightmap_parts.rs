@@ -146,10 +146,14 @@ impl PartLightmap {
         if !self.carried {
             return Vec::new();
         }
-        let uv = self.uv1.iter().flatten().flat_map(|p| p.to_array());
-        let mut bytes: Vec<u8> = uv.flat_map(f32::to_le_bytes).collect();
+        let mut bytes = Vec::with_capacity(self.tail_len().unwrap_or(0) as usize);
+        for f in self.uv1.iter().flatten().flat_map(|p| p.to_array()) {
+            bytes.extend_from_slice(&f.to_le_bytes());
+        }
         bytes.extend(self.valid.iter().map(|&v| u8::from(v)));
-        bytes.extend(self.seams.iter().flatten().flat_map(|c| c.to_le_bytes()));
+        for c in self.seams.iter().flatten() {
+            bytes.extend_from_slice(&c.to_le_bytes());
+        }
         bytes.extend(objects_section(self.source, &self.objects));
         bytes
     }
