@@ -148,6 +148,8 @@ pub(crate) enum RowSource<'a> {
     /// Rows in memory, one per receiver in order (checkpoint blocks joined, or a shard part
     /// the merge has read).
     Flat(&'a Rows),
+    /// Rows as a part file stores them, read in place (a shard's gather).
+    Packed(&'a PackedRows),
     /// Re-trace each receiver's bounce samples (the rows were over the hit-cache budget).
     Retrace {
         scene: &'a Scene,
@@ -261,17 +263,14 @@ pub(crate) fn bounce_pass(
                 let first = job * RECEIVERS_PER_JOB;
                 for (k, out) in out.chunks_mut(width).enumerate() {
                     let gather = |vertices: &[u32], weights: &[[f32; 3]], out: &mut [f32]| {
-                        gather(
-                            vertices,
-                            weights,
-                            previous,
-                            previous_channels,
-                            channels,
-                            n,
-                            out,
-                        )
+                        let entries = vertices.iter().copied().zip(weights.iter().copied());
+                        gather(entries, previous, previous_channels, channels, n, out)
                     };
                     match rows {
+                        RowSource::Packed(rows) => {
+                            let entries = rows.row(first + k);
+                            self::gather(entries, previous, previous_channels, channels, n, out);
+                        }
                         RowSource::Jobs(jobs) => {
                             let (vertices, weights) = jobs[job].row(k, builder);
                             gather(vertices, weights, out);
@@ -306,8 +305,7 @@ pub(crate) fn bounce_pass(
 /// `out` = Σ over a row's entries of weight ⊙ the previous bounce's transfer at the entry's
 /// slot.
 fn gather(
-    vertices: &[u32],
-    weights: &[[f32; 3]],
+    entries: impl Iterator<Item = (u32, [f32; 3])>,
     previous: &[f32],
     previous_channels: usize,
     channels: usize,
@@ -315,7 +313,7 @@ fn gather(
     out: &mut [f32],
 ) {
     out.fill(0.0);
-    for (&vertex, weight) in vertices.iter().zip(weights) {
+    for (vertex, weight) in entries {
         let vertex = vertex as usize;
         for c in 0..channels {
             let from = if previous_channels == 1 { 0 } else { c };
@@ -324,5 +322,63 @@ fn gather(
                 *o += weight[c] * t;
             }
         }
+    }
+}
+
+/// Bounce rows as a shard part stores them, read where they lie in the file's bytes: per
+/// receiver its entry count (u32), then 16-byte entries (slot u32, RGB weight 3 × f32, little
+/// endian). A gather reads each row once, so copying them into [`Rows`] first would only
+/// double the memory it touches (a part's rows are hundreds of megabytes at 2048²).
+pub struct PackedRows {
+    bytes: Vec<u8>,
+    /// Where the first entry starts in `bytes`.
+    at: usize,
+    /// Entries of receiver k are `starts[k]..starts[k + 1]`.
+    starts: Vec<u64>,
+}
+
+impl PackedRows {
+    /// The rows whose entries start at byte `at` of `bytes`, with `starts` as in [`Rows`]
+    /// (the caller has checked that `bytes` holds them all).
+    pub fn new(bytes: Vec<u8>, at: usize, starts: Vec<u64>) -> PackedRows {
+        PackedRows { bytes, at, starts }
+    }
+
+    /// The first entry (index, slot, weight) whose slot is `slots` or more or whose weight
+    /// is not finite: what a file's reader refuses.
+    pub fn first_invalid(&self, slots: u64) -> Option<(usize, u32, [f32; 3])> {
+        let entries = self.starts.last().copied().unwrap_or(0) as usize;
+        (0..entries)
+            .map(|e| {
+                let (slot, weight) = self.entry(e);
+                (e, slot, weight)
+            })
+            .find(|(_, slot, weight)| {
+                u64::from(*slot) >= slots || !weight.iter().all(|w| w.is_finite())
+            })
+    }
+
+    fn entry(&self, e: usize) -> (u32, [f32; 3]) {
+        let b = &self.bytes[self.at + e * BYTES_PER_ENTRY as usize..][..BYTES_PER_ENTRY as usize];
+        let word = |o: usize| <[u8; 4]>::try_from(&b[o..o + 4]).expect("4 bytes");
+        let f = |o: usize| f32::from_le_bytes(word(o));
+        (u32::from_le_bytes(word(0)), [f(4), f(8), f(12)])
+    }
+
+    /// Receiver k's entries, in order (one bounds test per row, not per entry).
+    pub fn row(&self, k: usize) -> impl Iterator<Item = (u32, [f32; 3])> + '_ {
+        let at = |e: u64| self.at + e as usize * BYTES_PER_ENTRY as usize;
+        let bytes = &self.bytes[at(self.starts[k])..at(self.starts[k + 1])];
+        bytes.chunks_exact(BYTES_PER_ENTRY as usize).map(|b| {
+            let b: &[u8; 16] = b.try_into().expect("16 bytes");
+            let word = |o: usize| [b[o], b[o + 1], b[o + 2], b[o + 3]];
+            let f = |o: usize| f32::from_le_bytes(word(o));
+            (u32::from_le_bytes(word(0)), [f(4), f(8), f(12)])
+        })
+    }
+
+    /// Receivers whose rows these are.
+    pub fn receiver_count(&self) -> usize {
+        self.starts.len().saturating_sub(1)
     }
 }

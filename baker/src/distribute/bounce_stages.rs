@@ -23,6 +23,7 @@
 //! channels × n² after); a merged file also the total T₀ + … + T_k (channels × n²) and the
 //! aux arrays; last an xxh3 of everything before it.
 
+use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -30,8 +31,7 @@ use glam::Vec3;
 
 use crate::CoefficientFile;
 use crate::bake::interreflection::{self, RowSource, Rows};
-use crate::bake::transfer::{BounceTargets, Estimator, Mode};
-use crate::distribute::lightmap_parts::Lookup;
+use crate::bake::transfer::{Estimator, Mode};
 use crate::distribute::merge::{join, refuse};
 use crate::distribute::shard::{Part, PartId, ShardId, header_difference, options_of, shard_range};
 use crate::math::sh;
@@ -71,7 +71,9 @@ impl BounceFile {
 
     pub fn to_bytes(&self) -> Vec<u8> {
         let stub = self.stub.to_bytes();
-        let mut b = Vec::with_capacity(HEAD + stub.len() + 4 * self.values.len());
+        let floats = self.values.len() + self.total.len() + self.ao.as_ref().map_or(0, Vec::len);
+        let floats = floats + 3 * self.bent_normal.as_ref().map_or(0, Vec::len);
+        let mut b = Vec::with_capacity(HEAD + stub.len() + 4 * floats + 8);
         b.extend(MAGIC);
         b.extend(self.k.to_le_bytes());
         let shard = self.shard.unwrap_or(ShardId { index: 0, count: 0 });
@@ -83,10 +85,13 @@ impl BounceFile {
         b.extend((stub.len() as u64).to_le_bytes());
         b.extend(self.fingerprint.unwrap_or(0).to_le_bytes());
         b.extend(stub);
+        // A float at a time: extending by a byte iterator costs more than the floats' copy.
         let aux = self.ao.iter().flatten().copied();
         let bent = self.bent_normal.iter().flatten().flat_map(|v| v.to_array());
         let floats = self.values.iter().chain(&self.total).copied();
-        b.extend(floats.chain(aux).chain(bent).flat_map(f32::to_le_bytes));
+        for f in floats.chain(aux).chain(bent) {
+            b.extend_from_slice(&f.to_le_bytes());
+        }
         let sum = xxhash_rust::xxh3::xxh3_64(&b);
         b.extend(sum.to_le_bytes());
         b
@@ -297,7 +302,7 @@ pub fn direct(paths: &[PathBuf]) -> Result<BounceFile> {
 /// and the merged bounce file k at `lower_path`.
 pub fn gather(part_path: &Path, lower_path: &Path, progress: &dyn Progress) -> Result<BounceFile> {
     let lower = BounceFile::read(lower_path)?;
-    let part = Part::read(part_path)?;
+    let (part, rows) = Part::read_packed_rows(part_path)?;
     if lower.shard.is_some() {
         return Err(refuse(format!(
             "{}: one shard's gather, not a merged bounce file (merge the shards' gathers first)",
@@ -318,26 +323,20 @@ pub fn gather(part_path: &Path, lower_path: &Path, progress: &dyn Progress) -> R
             lower.stub.header.bounces
         )));
     }
-    let rows = part.rows.as_ref().ok_or_else(|| {
-        refuse(format!(
-            "{}: a part without bounce rows",
-            part_path.display()
-        ))
-    })?;
     let options = options_of(&part.header);
     let n = sh::coeff_count(options.order);
     let channels = part.header.channels as usize;
     let previous_channels = if lower.k == 0 { 1 } else { channels };
-    let lookup = lower.stub.lightmap.as_ref().map(Lookup::new);
-    let targets = lookup
-        .as_ref()
-        .map_or(BounceTargets::Vertices, Lookup::targets);
     let k = lower.k + 1;
     progress.begin(&format!("bounce {k}"), u64::from(part.id.vertices), 0);
-    let previous = targets.slot_values(&lower.values, previous_channels * n);
+    // Texel bakes: the previous bounce in the lightmap, dilated, as the bake reads it.
+    let previous = match &lower.stub.lightmap {
+        Some(l) => Cow::Owned(l.placed_and_dilated(&lower.values, previous_channels * n)),
+        None => Cow::Borrowed(&lower.values[..]),
+    };
     let mut values = vec![0.0f32; part.id.vertices as usize * channels * n];
     interreflection::bounce_pass(
-        &RowSource::Flat(rows),
+        &RowSource::Packed(&rows),
         Estimator::norm_of(&options) as f32,
         n,
         &previous,

@@ -146,10 +146,14 @@ impl PartLightmap {
         if !self.carried {
             return Vec::new();
         }
-        let uv = self.uv1.iter().flatten().flat_map(|p| p.to_array());
-        let mut bytes: Vec<u8> = uv.flat_map(f32::to_le_bytes).collect();
+        let mut bytes = Vec::with_capacity(self.tail_len().unwrap_or(0) as usize);
+        for f in self.uv1.iter().flatten().flat_map(|p| p.to_array()) {
+            bytes.extend_from_slice(&f.to_le_bytes());
+        }
         bytes.extend(self.valid.iter().map(|&v| u8::from(v)));
-        bytes.extend(self.seams.iter().flatten().flat_map(|c| c.to_le_bytes()));
+        for c in self.seams.iter().flatten() {
+            bytes.extend_from_slice(&c.to_le_bytes());
+        }
         bytes.extend(objects_section(self.source, &self.objects));
         bytes
     }
@@ -318,6 +322,20 @@ impl PartLightmap {
     /// The baked texels, by mask only (no points): enough to place, dilate and look up.
     pub fn texels(&self) -> Texels {
         Texels::mask(self.width, self.height, self.valid.clone())
+    }
+
+    /// Bounce values at the baked texels (`width` floats each, in their row-major order)
+    /// placed in the W×H lightmap and dilated: what [`BounceTargets::slot_values`] makes of
+    /// them, without the lookup's other arrays (a gather reads no hit, only its rows).
+    pub(crate) fn placed_and_dilated(&self, values: &[f32], width: usize) -> Vec<f32> {
+        let texels = self.texels();
+        let mut map = vec![0.0f32; texels.valid.len() * width];
+        let valid = texels.valid.iter().enumerate().filter(|(_, v)| **v);
+        for ((i, _), value) in valid.zip(values.chunks_exact(width)) {
+            map[i * width..(i + 1) * width].copy_from_slice(value);
+        }
+        crate::bake::lightmap::dilation::dilate_values(&texels, width, &mut map);
+        map
     }
 
     /// The atlas the UVs describe.

@@ -58,8 +58,8 @@ pub(crate) fn join(paths: &[PathBuf]) -> Result<Joined<'_>> {
         .ok_or_else(|| Error::InvalidOption("merge needs at least one part".into()))?;
     let mut parts = Vec::with_capacity(paths.len());
     for path in paths {
-        let mut part = Part::read(path)?;
-        part.rows = None; // read again, one part at a time, by each bounce
+        // The rows are read again, one part at a time, by each bounce (or by the gathers).
+        let mut part = Part::read_without_rows(path)?;
         if let Some((_, first)) = parts.first() {
             check_same_bake(first, &part, path, first_path)?;
             // One lightmap's arrays are enough (the others are checked equal by fingerprint).

@@ -244,11 +244,29 @@ mod tests {
             "{err}"
         );
 
+        // A gather's reading: the same rows, read where they lie in the file.
+        let (header_only, packed) = Part::packed_rows_from_bytes(bytes.clone()).unwrap();
+        assert_eq!((header_only.id, packed.receiver_count()), (part.id, 40));
+        for k in 0..40 {
+            let range = rows.vertex(k);
+            let expected = rows.vertices[range.clone()].iter().copied();
+            let expected: Vec<_> = expected.zip(rows.weights[range].iter().copied()).collect();
+            assert_eq!(packed.row(k).collect::<Vec<_>>(), expected, "row {k}");
+        }
+
         // A row entry naming a vertex beyond the scene (checksum recomputed).
         let mut bad = part.clone();
         bad.rows.as_mut().unwrap().vertices[0] = part.header.vertex_count as u32;
         let err = Part::from_bytes(&bad.to_bytes()).unwrap_err();
         assert!(err.contains("bounce-row entry 0"), "{err}");
+        let err = Part::packed_rows_from_bytes(bad.to_bytes()).err().unwrap();
+        assert!(err.contains("bounce-row entry 0"), "{err}");
+        // A weight that is not finite, which the gather would spread.
+        let mut bad = part.clone();
+        let last = bad.rows.as_ref().unwrap().vertices.len() - 1;
+        bad.rows.as_mut().unwrap().weights[last][2] = f32::NAN;
+        let err = Part::packed_rows_from_bytes(bad.to_bytes()).err().unwrap();
+        assert!(err.contains(&format!("bounce-row entry {last}")), "{err}");
         // Row lengths that do not add up to the entries.
         let mut bad = part.clone();
         bad.rows.as_mut().unwrap().starts[40] -= 1;

@@ -17,7 +17,7 @@ use std::path::Path;
 
 use glam::Vec3;
 
-use crate::bake::interreflection::{self, RowSource, Rows};
+use crate::bake::interreflection::{self, PackedRows, RowSource, Rows};
 use crate::bake::transfer::{BakeOptions, BounceTargets, Mode};
 use crate::distribute::lightmap_parts::{self, Lookup, PartLightmap};
 use crate::formats::coefficient_file::{self, CoefficientFile};
@@ -191,7 +191,11 @@ impl Part {
     /// texel checkpoint block, which leaves its lightmap's arrays out, is refused: only
     /// [`Part::read_block`] reads one.
     pub fn from_bytes(bytes: &[u8]) -> std::result::Result<Part, String> {
-        let part = Part::parse(bytes)?;
+        Part::checked(Part::parse(bytes, Reading::Whole)?.0)
+    }
+
+    /// Refuses a texel checkpoint block, which leaves its lightmap's arrays out.
+    fn checked(part: Part) -> std::result::Result<Part, String> {
         if part.lightmap.as_ref().is_some_and(|l| !l.carried) {
             return Err(format!(
                 "{}: a checkpoint block (without its lightmap's atlas), not a part",
@@ -201,8 +205,12 @@ impl Part {
         Ok(part)
     }
 
-    /// [`Part::from_bytes`], a texel checkpoint block too.
-    fn parse(bytes: &[u8]) -> std::result::Result<Part, String> {
+    /// [`Part::from_bytes`], a texel checkpoint block too, reading what `reading` says;
+    /// with [`Reading::Packed`] also where the rows' entries start and each row's.
+    fn parse(
+        bytes: &[u8],
+        reading: Reading,
+    ) -> std::result::Result<(Part, Option<RowsAt>), String> {
         let (header, payload_bytes, header_size) = header::parse_header(bytes)?;
         let id = PartId::from_header_bytes(bytes)?
             .ok_or("a whole bake, not a shard part (nothing to merge)")?;
@@ -246,6 +254,24 @@ impl Part {
             ));
         }
         let payload = &bytes[header_size..bytes.len() - tail as usize];
+        let rows_at = (count * (width + aux_floats) * 4) as u64;
+        if reading == Reading::Packed {
+            if !interreflected {
+                return Err(format!("{id}: a part without bounce rows"));
+            }
+            let starts = row_starts(&payload[rows_at as usize..], &id)?;
+            let at = header_size + rows_at as usize + 4 * count;
+            let part = Part {
+                header,
+                id,
+                coefficients: Vec::new(),
+                ao: None,
+                bent_normal: None,
+                rows: None,
+                lightmap,
+            };
+            return Ok((part, Some((at, starts))));
+        }
         if let Some(l) = lightmap.as_mut() {
             l.read_tail(&bytes[bytes.len() - tail as usize..])
                 .map_err(|message| format!("{id}: {message}"))?;
@@ -266,8 +292,10 @@ impl Part {
                 .map(Vec3::from_slice)
                 .collect::<Vec<_>>()
         });
-        let rows_at = (count * (width + aux_floats) * 4) as u64;
-        let rows = if interreflected {
+        let rows = if interreflected && reading == Reading::WithoutRows {
+            row_starts(&payload[rows_at as usize..], &id)?;
+            None
+        } else if interreflected {
             Some(parse_rows(&payload[rows_at as usize..], &id, &header)?)
         } else {
             if payload_bytes != fixed {
@@ -287,7 +315,7 @@ impl Part {
             .map_err(|message| {
                 format!("{id}: {message} (counting from the part's first vertex)")
             })?;
-        Ok(Part {
+        let part = Part {
             header,
             id,
             coefficients,
@@ -295,18 +323,58 @@ impl Part {
             bent_normal,
             rows,
             lightmap,
-        })
+        };
+        Ok((part, None))
     }
 
     pub fn read(path: &Path) -> Result<Part> {
+        Part::read_with(path, Reading::Whole)
+    }
+
+    /// [`Part::read`] without the bounce rows (their lengths checked): `merge --direct` and
+    /// the merge's first reading need only the direct transfer and the lightmap.
+    pub fn read_without_rows(path: &Path) -> Result<Part> {
+        Part::read_with(path, Reading::WithoutRows)
+    }
+
+    fn read_with(path: &Path, reading: Reading) -> Result<Part> {
         let bytes = std::fs::read(path).map_err(|err| Error::io(path, err))?;
-        Part::from_bytes(&bytes).map_err(|message| Error::coefficient_file(path, message))
+        Part::parse(&bytes, reading)
+            .and_then(|(part, _)| Part::checked(part))
+            .map_err(|message| Error::coefficient_file(path, message))
+    }
+
+    /// What a gather reads of a part: its header, identity and lightmap block (not its
+    /// arrays, nor its transfer), and its bounce rows where they lie in the file's bytes,
+    /// each entry checked as [`Part::read`] checks it.
+    pub fn read_packed_rows(path: &Path) -> Result<(Part, PackedRows)> {
+        let bytes = std::fs::read(path).map_err(|err| Error::io(path, err))?;
+        Part::packed_rows_from_bytes(bytes).map_err(|m| Error::coefficient_file(path, m))
+    }
+
+    /// [`Part::read_packed_rows`] of a file's bytes.
+    pub fn packed_rows_from_bytes(
+        bytes: Vec<u8>,
+    ) -> std::result::Result<(Part, PackedRows), String> {
+        let (part, rows) = Part::parse(&bytes, Reading::Packed)?;
+        let part = Part::checked(part)?;
+        let (at, starts) = rows.expect("a packed reading returns the rows");
+        let rows = PackedRows::new(bytes, at, starts);
+        if let Some((e, vertex, weight)) = rows.first_invalid(part.header.vertex_count) {
+            return Err(format!(
+                "{}: bounce-row entry {e} (vertex {vertex}, weight {weight:?}) is invalid",
+                part.id
+            ));
+        }
+        Ok((part, rows))
     }
 
     /// Reads a checkpoint block: a part whose lightmap (texel bakes) may be its block only.
     pub fn read_block(path: &Path) -> Result<Part> {
         let bytes = std::fs::read(path).map_err(|err| Error::io(path, err))?;
-        Part::parse(&bytes).map_err(|message| Error::coefficient_file(path, message))
+        Part::parse(&bytes, Reading::Whole)
+            .map(|(part, _)| part)
+            .map_err(|message| Error::coefficient_file(path, message))
     }
 
     /// Writes the part atomically.
@@ -398,11 +466,25 @@ impl Part {
     }
 }
 
-/// Bounce rows of `id.vertices` vertices: u32 lengths, then 16-byte entries.
-fn parse_rows(bytes: &[u8], id: &PartId, header: &Header) -> std::result::Result<Rows, String> {
+/// Where a part's bounce rows lie in its file: the byte their first entry starts at, and
+/// where each row starts ([`Rows::starts`]).
+type RowsAt = (usize, Vec<u64>);
+
+/// Which of a part's arrays a reading parses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Reading {
+    Whole,
+    /// Everything but the bounce rows' entries (their lengths are checked).
+    WithoutRows,
+    /// The header, identity and lightmap block, and where the rows lie ([`PackedRows`]).
+    Packed,
+}
+
+/// Where each of `id.vertices` rows starts, from the u32 lengths that begin `bytes`, checked
+/// against the entries `bytes` holds after them.
+fn row_starts(bytes: &[u8], id: &PartId) -> std::result::Result<Vec<u64>, String> {
     let count = id.vertices as usize;
     let u32_at = |o: usize| u32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes"));
-    let f32_at = |o: usize| f32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes"));
     let mut starts = Vec::with_capacity(count + 1);
     starts.push(0u64);
     for k in 0..count {
@@ -416,6 +498,16 @@ fn parse_rows(bytes: &[u8], id: &PartId, header: &Header) -> std::result::Result
             bytes.len()
         ));
     }
+    Ok(starts)
+}
+
+/// Bounce rows of `id.vertices` vertices: u32 lengths, then 16-byte entries.
+fn parse_rows(bytes: &[u8], id: &PartId, header: &Header) -> std::result::Result<Rows, String> {
+    let count = id.vertices as usize;
+    let u32_at = |o: usize| u32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes"));
+    let f32_at = |o: usize| f32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes"));
+    let starts = row_starts(bytes, id)?;
+    let entries = starts[count];
     let mut rows = Rows {
         starts,
         vertices: Vec::with_capacity(entries as usize),
