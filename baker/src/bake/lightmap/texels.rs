@@ -151,8 +151,21 @@ impl Texels {
 
     /// A tracer that is watertight for the valid texels' ray origins (Embree's default mode
     /// picks robust mode per origin, [`crate::trace::seams`]), or `None` where `tracer`
-    /// already is for any origin.
+    /// already is for any origin. The tracer forgets its seam index after
+    /// ([`Tracer::release_points`]).
     pub fn watertight<'t>(
+        &self,
+        scene: &Scene,
+        tracer: &'t dyn Tracer,
+    ) -> Result<Option<Box<dyn Tracer + 't>>> {
+        let watertight = self.watertight_keeping(scene, tracer);
+        tracer.release_points();
+        watertight
+    }
+
+    /// [`Texels::watertight`], the tracer keeping its seam index for more points (the leak
+    /// test's moved texels).
+    pub fn watertight_keeping<'t>(
         &self,
         scene: &Scene,
         tracer: &'t dyn Tracer,
