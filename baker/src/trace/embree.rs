@@ -23,12 +23,12 @@
 
 use std::cell::RefCell;
 use std::collections::HashSet;
-use std::sync::{Arc, Mutex, OnceLock};
+use std::sync::{Arc, OnceLock};
 
 use embree_sys::{BuildQuality, CommittedScene, Device, SceneBuilder, SceneFlags};
 
 use super::offset::ray_origins;
-use super::seams::{SeamIndex, seam_vertices};
+use super::seams::{KeptSeamIndex, seam_vertices};
 use super::tracer::{Backend, Hit, Ray, Tracer};
 use crate::scene::{Cutouts, Scene, world_normal};
 use crate::support::error::{Error, Result};
@@ -123,9 +123,8 @@ pub struct EmbreeTracer {
     device: Device,
     /// That robust scene, built once.
     points_robust: OnceLock<Arc<CommittedScene>>,
-    /// The index that finds seam points ([`Tracer::for_points`]): built once, kept until
-    /// [`Tracer::release_points`] (50 MB at 720,000 triangles).
-    seam_index: Mutex<Option<Arc<SeamIndex>>>,
+    /// The index that finds seam points ([`Tracer::for_points`]).
+    seam_index: KeptSeamIndex,
     mode: EmbreeMode,
     /// [`build_quality`]'s choice, for the robust scene built later.
     quality: BuildQuality,
@@ -364,7 +363,7 @@ impl EmbreeTracer {
             seams,
             device,
             points_robust: OnceLock::new(),
-            seam_index: Mutex::new(None),
+            seam_index: KeptSeamIndex::default(),
             mode: options.mode,
             quality,
             alpha,
@@ -390,26 +389,6 @@ impl EmbreeTracer {
         &self.scene
     }
 
-    /// The seam index of `scene`, built on first use; `None` (build one apart) for another
-    /// scene than the first one asked about, or outside [`EmbreeMode::Watertight`].
-    fn seam_index(&self, scene: &Scene) -> Option<Arc<SeamIndex>> {
-        if self.mode != EmbreeMode::Watertight {
-            return None;
-        }
-        let kept = || self.seam_index.lock().unwrap_or_else(|e| e.into_inner());
-        let existing = kept().clone(); // the guard goes here, not at the match's end
-        let index = match existing {
-            Some(index) => index,
-            // Built without the lock held: its parallel parts may run other work on this
-            // thread, which may ask for the index too.
-            None => {
-                let built = Arc::new(SeamIndex::new(scene));
-                kept().get_or_insert(built).clone()
-            }
-        };
-        index.fits(scene).then_some(index)
-    }
-
     /// [`Tracer::for_points`] for Embree, typed: with [`EmbreeMode::Watertight`], a tracer
     /// that also traces the rays of the seam points among `origins` in robust mode.
     pub fn watertight_for(
@@ -421,10 +400,7 @@ impl EmbreeTracer {
         if self.mode != EmbreeMode::Watertight {
             return Ok(None);
         }
-        let seam = match self.seam_index(scene) {
-            Some(index) => index.seam_points(scene, origins, own),
-            None => SeamIndex::new(scene).seam_points(scene, origins, own),
-        };
+        let seam = self.seam_index.seam_points(scene, origins, own);
         let mut keys: HashSet<[u32; 3]> = origins
             .iter()
             .zip(&seam)
@@ -608,11 +584,13 @@ impl Tracer for EmbreeTracer {
     }
 
     fn prepare_points(&self, scene: &Scene) {
-        let _ = self.seam_index(scene);
+        if self.mode == EmbreeMode::Watertight {
+            self.seam_index.prepare(scene);
+        }
     }
 
     fn release_points(&self) {
-        *self.seam_index.lock().unwrap_or_else(|e| e.into_inner()) = None;
+        self.seam_index.release();
     }
 
     fn for_points<'s>(

@@ -24,6 +24,7 @@
 //! The radius is generous (the leaks come from within a few δ, and it is at least 256 δ): on
 //! the demo scene seam vertices are 4 % of all, so the margin costs little.
 
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use glam::{Vec3, Vec3A};
@@ -175,6 +176,50 @@ impl SeamIndex {
             !seam
         });
         seam
+    }
+}
+
+/// A [`SeamIndex`] built on first use and kept until released: a tracer's, for the points
+/// it is asked about ([`crate::trace::Tracer::for_points`]; 50 MB at 720,000 triangles).
+#[derive(Default)]
+pub struct KeptSeamIndex {
+    kept: Mutex<Option<Arc<SeamIndex>>>,
+}
+
+impl KeptSeamIndex {
+    /// The index of `scene`, built now if not yet; `None` for another scene than it was built
+    /// for (as many triangles).
+    fn get(&self, scene: &Scene) -> Option<Arc<SeamIndex>> {
+        let kept = || self.kept.lock().unwrap_or_else(|e| e.into_inner());
+        let existing = kept().clone(); // the guard goes here, not at the match's end
+        let index = match existing {
+            Some(index) => index,
+            // Built without the lock held: its parallel parts may run other work on this
+            // thread, which may ask for the index too.
+            None => {
+                let built = Arc::new(SeamIndex::new(scene));
+                kept().get_or_insert(built).clone()
+            }
+        };
+        index.fits(scene).then_some(index)
+    }
+
+    /// Builds the index of `scene` now (beside other work).
+    pub fn prepare(&self, scene: &Scene) {
+        let _ = self.get(scene);
+    }
+
+    /// Forgets the index.
+    pub fn release(&self) {
+        *self.kept.lock().unwrap_or_else(|e| e.into_inner()) = None;
+    }
+
+    /// [`seam_points`], with the kept index.
+    pub fn seam_points(&self, scene: &Scene, origins: &[Vec3], own: &[u32]) -> Vec<bool> {
+        match self.get(scene) {
+            Some(index) => index.seam_points(scene, origins, own),
+            None => seam_points(scene, origins, own),
+        }
     }
 }
 
