@@ -102,3 +102,34 @@ impl From<Vec<u8>> for Encoded<'_> {
         encoded
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::formats::header::checksum;
+
+    #[test]
+    fn pieces_seal_and_join_as_one_buffer_would() {
+        let head: Vec<u8> = (0..HEADER_SIZE as u32 + 40)
+            .map(|i| (i * 7) as u8)
+            .collect();
+        let floats: Vec<f32> = (0..1000).map(|i| i as f32 * 0.37 - 5.0).collect();
+        let counts: Vec<u32> = (0..333).map(|i| i * 12_345).collect();
+        let mut encoded = Encoded::from(head.clone());
+        encoded.put(&floats, f32::to_le_bytes);
+        encoded.push(vec![1, 2, 3]);
+        encoded.put(&counts, u32::to_le_bytes);
+        let sealed = encoded.seal();
+        // What one buffer holds, built byte by byte.
+        let mut whole = head;
+        whole.extend(floats.iter().flat_map(|f| f.to_le_bytes()));
+        whole.extend([1, 2, 3]);
+        whole.extend(counts.iter().flat_map(|c| c.to_le_bytes()));
+        let expected = checksum(&whole);
+        whole[CHECKSUM_OFFSET..HEADER_SIZE].copy_from_slice(&expected.to_le_bytes());
+        assert_eq!(sealed, expected);
+        assert_eq!(encoded.len(), whole.len());
+        assert_eq!(encoded.parts().concat(), whole);
+        assert_eq!(encoded.into_vec(), whole);
+    }
+}
