@@ -328,4 +328,43 @@ mod tests {
             2 * (cells as usize + 1)
         );
     }
+
+    #[test]
+    fn a_kept_index_answers_as_a_fresh_one_and_only_for_its_scene() {
+        let room = |cells| {
+            let meshes = vec![
+                grid(Vec3::ZERO, Vec3::X, Vec3::Y, cells),
+                grid(Vec3::ZERO, Vec3::Y, Vec3::Z, cells),
+            ];
+            Scene::from_meshes(Path::new("test"), meshes, Vec::new()).expect("valid")
+        };
+        // Each triangle's centroid, and a point near its first edge, as texel origins.
+        let points = |scene: &Scene| -> (Vec<Vec3>, Vec<u32>) {
+            let mut out = (Vec::new(), Vec::new());
+            for (t, tri) in scene.triangles.iter().enumerate() {
+                let p = tri.map(|i| scene.positions[i as usize]);
+                let centroid = (p[0] + p[1] + p[2]) / 3.0;
+                for origin in [centroid, p[0].lerp(p[1], 0.5).lerp(centroid, 1e-4)] {
+                    out.0.push(origin);
+                    out.1.push(t as u32);
+                }
+            }
+            out
+        };
+        let kept = KeptSeamIndex::default();
+        let check = |scene: &Scene| {
+            let (origins, own) = points(scene);
+            let fresh = seam_points(scene, &origins, &own);
+            assert!(fresh.iter().any(|&s| s) && !fresh.iter().all(|&s| s));
+            // Built by the first call (or another scene's, not used), kept for the second.
+            assert_eq!(kept.seam_points(scene, &origins, &own), fresh);
+            assert_eq!(kept.seam_points(scene, &origins, &own), fresh);
+        };
+        let (large, small) = (room(8), room(5));
+        check(&large);
+        check(&small); // the large room's index is kept: not for this one
+        kept.release();
+        kept.prepare(&small);
+        check(&small);
+    }
 }
