@@ -54,6 +54,15 @@ impl CoefficientFile {
     /// Packages a bake of `scene` with the settings it was made with; the up axis is the
     /// scene's (set [`Header::up`] afterwards to override it).
     pub fn from_bake(scene: &Scene, transfer: &Transfer) -> CoefficientFile {
+        CoefficientFile::from_bake_with(scene, transfer, transfer.coefficients.clone())
+    }
+
+    /// [`CoefficientFile::from_bake`] with `coefficients` (the transfer's own) given.
+    fn from_bake_with(
+        scene: &Scene,
+        transfer: &Transfer,
+        coefficients: Vec<f32>,
+    ) -> CoefficientFile {
         let options = &transfer.options;
         CoefficientFile {
             header: Header::for_bake(
@@ -64,7 +73,7 @@ impl CoefficientFile {
                 transfer.receiver_count,
                 transfer.rays_cast,
             ),
-            coefficients: transfer.coefficients.clone(),
+            coefficients,
             ao: options.aux.ao.then(|| {
                 transfer
                     .visibility
@@ -91,7 +100,39 @@ impl CoefficientFile {
         }
     }
 
-    /// Packages a texel bake of `scene`.
+    /// Packages a texel bake of `scene`, its arrays moved, not copied (a 2048² lightmap's
+    /// coefficients alone are 150 MB of fresh memory to copy into, issue 34). Returns the
+    /// file and the bake's transfer, which no longer holds coefficients.
+    pub fn from_lightmap_bake_owned(
+        scene: &Scene,
+        bake: LightmapBake,
+    ) -> (CoefficientFile, Transfer) {
+        let LightmapBake {
+            atlas,
+            texels,
+            mut transfer,
+            dilated,
+            ..
+        } = bake;
+        let coefficients = std::mem::take(&mut transfer.coefficients);
+        let mut file = CoefficientFile::from_bake_with(scene, &transfer, coefficients);
+        file.lightmap = Some(LightmapBlock {
+            width: atlas.width,
+            height: atlas.height,
+            scene_vertex_count: scene.vertex_count() as u64,
+            scene_triangle_count: scene.triangles.len() as u64,
+            texel_size: atlas.texel_size.unwrap_or(0.0),
+            source: atlas.source,
+            valid: texels.valid,
+            dilated,
+            uv1: atlas.uv1,
+            objects: atlas.objects,
+        });
+        (file, transfer)
+    }
+
+    /// Packages a texel bake of `scene` (a copy: [`CoefficientFile::from_lightmap_bake_owned`]
+    /// moves it).
     pub fn from_lightmap_bake(scene: &Scene, bake: &LightmapBake) -> CoefficientFile {
         let mut file = CoefficientFile::from_bake(scene, &bake.transfer);
         file.lightmap = Some(LightmapBlock {

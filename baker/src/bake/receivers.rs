@@ -63,21 +63,12 @@ impl Receivers {
     /// A lightmap's valid texels as receivers, in row-major order of the valid ones, each sampled from
     /// the stream of its texel index.
     pub fn texels(texels: &Texels) -> Receivers {
-        let pick = |values: &[Vec3]| -> Vec<Vec3> {
-            values
-                .iter()
-                .zip(&texels.valid)
-                .filter(|(_, v)| **v)
-                .map(|(x, _)| *x)
-                .collect()
-        };
-        let streams = (0..texels.valid.len() as u64)
-            .zip(&texels.valid)
-            .filter(|(_, v)| **v)
-            .map(|(i, _)| i)
-            .collect();
-        let mapped = texels.mapped.iter().zip(&texels.normals);
-        let turned = mapped.zip(&texels.valid).any(|((m, n), v)| *v && m != n);
+        // Only the valid texels' entries are read: the pages of empty ones stay unmapped
+        // ([`Texels::rasterise`]).
+        let valid: Vec<usize> = texels.valid_indices().collect();
+        let pick = |values: &[Vec3]| -> Vec<Vec3> { valid.iter().map(|&i| values[i]).collect() };
+        let streams = valid.iter().map(|&i| i as u64).collect();
+        let turned = valid.iter().any(|&i| texels.mapped[i] != texels.normals[i]);
         Receivers {
             origins: pick(&texels.origins),
             normals: pick(&texels.mapped),

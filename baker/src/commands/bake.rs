@@ -483,7 +483,7 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
     let mut stages = lightmap::Stages::default();
     let compressed = stages.time("writing", || -> Result<_, Error> {
         let (bytes, compressed) = compress::bake_output(&file, fit.as_ref())?;
-        output.write(&bytes)?;
+        output.write_parts(&bytes.parts())?;
         Ok(compressed)
     })?;
     if args.verbose {
@@ -575,7 +575,6 @@ fn bake_texels(
             bake.seams.factor_nonzeros
         );
     }
-    let file = CoefficientFile::from_lightmap_bake(scene, &bake);
     let seams = match bake.seams.samples {
         0 => String::new(),
         n => format!(
@@ -591,7 +590,8 @@ fn bake_texels(
         bake.moved,
         bake.leaking
     );
-    Ok((bake.transfer, file, what))
+    let (file, transfer) = CoefficientFile::from_lightmap_bake_owned(scene, bake);
+    Ok((transfer, file, what))
 }
 
 /// `--lightmap RES`'s atlas: the scene's lightmap UVs, or generated.

@@ -6,6 +6,7 @@ use std::path::Path;
 use serde::Serialize;
 
 use crate::formats::coefficient_file::CoefficientFile;
+use crate::formats::encoded::Encoded;
 use crate::math::cpca::{Cpca, STARTS, compress_from, rms_error};
 use crate::math::light_prior::{LightPrior, Metric};
 use crate::support::error::{Error, Result};
@@ -190,18 +191,19 @@ pub fn bake_fit(
     Ok(Some(options))
 }
 
-/// The bytes a bake writes: `file` as version 1, or compressed (version 2) by `fit`.
-pub fn bake_output(
-    file: &CoefficientFile,
+/// The bytes a bake writes: `file` as version 1 (its arrays borrowed), or compressed
+/// (version 2) by `fit`.
+pub fn bake_output<'a>(
+    file: &'a CoefficientFile,
     fit: Option<&FitOptions>,
-) -> Result<(Vec<u8>, Option<Summary>)> {
+) -> Result<(Encoded<'a>, Option<Summary>)> {
     let Some(fit) = fit else {
-        return Ok((file.to_bytes().0, None));
+        return Ok((file.encode().0, None));
     };
     if file.header.vertex_count == 0 {
         return Err(Error::InvalidOption("no receivers to compress".into()));
     }
     let (cpca, summary) = compress_coefficients(file, fit)?;
     let bytes = crate::formats::cpca_block::to_bytes(file, &cpca, summary.rms_error as f32);
-    Ok((bytes, Some(summary)))
+    Ok((bytes.into(), Some(summary)))
 }

@@ -11,6 +11,7 @@ use std::path::Path;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
+use crate::formats::encoded::Encoded;
 use crate::formats::header::{
     AtlasSource, CHECKSUM_OFFSET, OBJECT_PLACEMENT_BYTES, ObjectPlacement, checksum, parse_header,
 };
@@ -90,27 +91,6 @@ impl LightmapBlock {
     }
 }
 
-/// Appends each of `values` as its `N` little-endian bytes (`le`): the bytes sized once and
-/// filled in parallel, where extending them through a byte iterator took a texel bake's
-/// writing most of half a second (issue 34).
-fn put<T: Copy + Sync, const N: usize>(
-    bytes: &mut Vec<u8>,
-    values: &[T],
-    le: impl Fn(T) -> [u8; N] + Sync,
-) {
-    const CHUNK: usize = 1 << 14;
-    let start = bytes.len();
-    bytes.resize(start + values.len() * N, 0);
-    bytes[start..]
-        .par_chunks_mut(CHUNK * N)
-        .zip(values.par_chunks(CHUNK))
-        .for_each(|(out, values)| {
-            for (out, &v) in out.chunks_exact_mut(N).zip(values) {
-                out.copy_from_slice(&le(v));
-            }
-        });
-}
-
 /// `M` floats' little-endian bytes, in order (`N` = 4·`M`).
 fn le_floats<const M: usize, const N: usize>(floats: [f32; M]) -> [u8; N] {
     let mut out = [0u8; N];
@@ -149,34 +129,40 @@ impl CoefficientFile {
 
     /// The file's bytes; the checksum field is computed (and stored in the returned header).
     pub fn to_bytes(&self) -> (Vec<u8>, u32) {
+        let (encoded, checksum) = self.encode();
+        (encoded.into_vec(), checksum)
+    }
+
+    /// [`CoefficientFile::to_bytes`] in pieces, its arrays borrowed where it can
+    /// ([`Encoded`]): what a bake writes.
+    pub fn encode(&self) -> (Encoded<'_>, u32) {
         let h = &self.header;
-        let mut bytes = Vec::with_capacity(self.header_size() + self.payload_bytes() as usize);
-        bytes.extend(h.encode(self.header_size(), self.payload_bytes()));
+        let mut head = Vec::with_capacity(self.header_size());
+        head.extend(h.encode(self.header_size(), self.payload_bytes()));
         if let Some(l) = &self.lightmap {
-            bytes.extend(l.width.to_le_bytes());
-            bytes.extend(l.height.to_le_bytes());
-            bytes.extend(l.scene_vertex_count.to_le_bytes());
-            bytes.extend(l.scene_triangle_count.to_le_bytes());
-            bytes.extend(l.texel_size.to_le_bytes());
-            bytes.extend(l.source.code().to_le_bytes());
+            head.extend(l.width.to_le_bytes());
+            head.extend(l.height.to_le_bytes());
+            head.extend(l.scene_vertex_count.to_le_bytes());
+            head.extend(l.scene_triangle_count.to_le_bytes());
+            head.extend(l.texel_size.to_le_bytes());
+            head.extend(l.source.code().to_le_bytes());
         }
-        bytes.extend(
+        head.extend(
             self.probes
                 .as_ref()
                 .map(ProbeBlock::encode_block)
                 .unwrap_or_default(),
         );
-        put(&mut bytes, &self.coefficients, f32::to_le_bytes);
-        let ao = self.ao.as_deref().unwrap_or_default();
-        put(&mut bytes, ao, f32::to_le_bytes);
+        let mut bytes = Encoded::from(head);
+        bytes.put(&self.coefficients, f32::to_le_bytes);
+        bytes.put(self.ao.as_deref().unwrap_or_default(), f32::to_le_bytes);
         let bent = self.bent_normal.as_deref().unwrap_or_default();
-        put(&mut bytes, bent, |n| le_floats::<3, 12>(n.to_array()));
-        let rays = self.rays.as_deref().unwrap_or_default();
-        put(&mut bytes, rays, u32::to_le_bytes);
+        bytes.put(bent, |n| le_floats::<3, 12>(n.to_array()));
+        bytes.put(self.rays.as_deref().unwrap_or_default(), u32::to_le_bytes);
         let errors = self.error_estimate.as_deref().unwrap_or_default();
-        put(&mut bytes, errors, f32::to_le_bytes);
+        bytes.put(errors, f32::to_le_bytes);
         if let Some(l) = &self.lightmap {
-            put(&mut bytes, &l.uv1, |c| {
+            bytes.put(&l.uv1, |c| {
                 le_floats::<6, 24>([c[0].x, c[0].y, c[1].x, c[1].y, c[2].x, c[2].y])
             });
             let state = |(&valid, &dilated): (&bool, &bool)| match (valid, dilated) {
@@ -184,21 +170,25 @@ impl CoefficientFile {
                 (false, true) => 2,
                 (false, false) => 0,
             };
-            bytes.extend(l.valid.iter().zip(&l.dilated).map(state));
+            bytes.push(l.valid.par_iter().zip(&l.dilated).map(state).collect());
             if l.source == AtlasSource::PerObject {
-                bytes.extend(object_placements::encode(&l.objects));
+                bytes.push(object_placements::encode(&l.objects));
             }
         }
-        bytes.extend(self.probes.iter().flat_map(ProbeBlock::encode_arrays));
+        bytes.push(
+            self.probes
+                .iter()
+                .flat_map(ProbeBlock::encode_arrays)
+                .collect(),
+        );
         if let Some(r) = &h.receivers {
-            bytes.extend(r.encode());
+            bytes.push(r.encode());
         }
         debug_assert_eq!(
             bytes.len() as u64,
             self.header_size() as u64 + self.payload_bytes()
         );
-        let checksum = checksum(&bytes);
-        bytes[CHECKSUM_OFFSET..HEADER_SIZE].copy_from_slice(&checksum.to_le_bytes());
+        let checksum = bytes.seal();
         (bytes, checksum)
     }
 

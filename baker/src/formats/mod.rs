@@ -8,6 +8,7 @@
 
 pub mod coefficient_file;
 pub mod cpca_block;
+pub mod encoded;
 pub mod header;
 pub mod npz;
 pub(crate) mod object_placements;

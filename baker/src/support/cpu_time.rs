@@ -11,3 +11,15 @@ pub fn process_cpu_seconds() -> Option<f64> {
     let ticks = |i: usize| fields.get(i - 3)?.parse::<f64>().ok();
     Some((ticks(14)? + ticks(15)?) / 100.0)
 }
+
+/// CPU seconds (user + system) of the calling thread so far (`CLOCK_THREAD_CPUTIME_ID`), for
+/// a stage that runs beside others; `None` where the clock cannot be read.
+pub fn thread_cpu_seconds() -> Option<f64> {
+    let mut now = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: clock_gettime only writes the timespec it is given.
+    let ok = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut now) } == 0;
+    ok.then_some(now.tv_sec as f64 + now.tv_nsec as f64 * 1e-9)
+}

@@ -75,16 +75,22 @@ impl Output {
 
     /// Writes all of `bytes` or reports why not; a regular file appears only complete.
     pub fn write(&self, bytes: &[u8]) -> Result<()> {
+        self.write_parts(&[bytes])
+    }
+
+    /// [`Output::write`] of the bytes of `parts`, one after the other (a file's arrays need
+    /// not be copied into one buffer first).
+    pub fn write_parts(&self, parts: &[&[u8]]) -> Result<()> {
         match self.target()? {
             Target::Stdout => {
                 let mut out = io::stdout().lock();
-                out.write_all(bytes)
+                write_all(&mut out, parts)
                     .and_then(|()| out.flush())
                     .map_err(|err| Error::io(Path::new("standard output"), err))
             }
-            Target::Stream(path) => write_through(&path, bytes),
+            Target::Stream(path) => write_through(&path, parts),
             Target::File { path, existing } => {
-                write_atomically(&path, existing.as_ref(), bytes).map_err(|err| match err {
+                write_atomically(&path, existing.as_ref(), parts).map_err(|err| match err {
                     // Name the path the user gave, not the resolved one.
                     Error::Io { source, .. } => Error::io(&self.path, source),
                     other => other,
@@ -204,7 +210,12 @@ fn folder_of(path: &Path) -> &Path {
     }
 }
 
-fn write_through(path: &Path, bytes: &[u8]) -> Result<()> {
+/// Writes each of `parts` whole, in order.
+fn write_all(out: &mut impl Write, parts: &[&[u8]]) -> io::Result<()> {
+    parts.iter().try_for_each(|part| out.write_all(part))
+}
+
+fn write_through(path: &Path, parts: &[&[u8]]) -> Result<()> {
     let fail = |err| Error::io(path, err);
     let mut file = OpenOptions::new().write(true).open(path).map_err(fail)?;
     let metadata = file.metadata().map_err(fail)?;
@@ -214,21 +225,21 @@ fn write_through(path: &Path, bytes: &[u8]) -> Result<()> {
             message: "changed from a device or FIFO into something else while being written".into(),
         });
     }
-    file.write_all(bytes)
+    write_all(&mut file, parts)
         .and_then(|()| file.flush())
         .map_err(fail)
 }
 
 /// Temporary file, fsync, rename over `path`; the [`TempFile`] guard removes the temporary
 /// file on every way out but success.
-fn write_atomically(path: &Path, existing: Option<&Metadata>, bytes: &[u8]) -> Result<()> {
+fn write_atomically(path: &Path, existing: Option<&Metadata>, parts: &[&[u8]]) -> Result<()> {
     let fail = |err| Error::io(path, err);
     let mut temp = TempFile::create(path).map_err(fail)?;
     if let Some(existing) = existing {
         // Replacing a file keeps its permissions.
         let _ = temp.file.set_permissions(existing.permissions());
     }
-    temp.file.write_all(bytes).map_err(fail)?;
+    write_all(&mut temp.file, parts).map_err(fail)?;
     test_fault::mid_write();
     temp.file.sync_all().map_err(fail)?;
     // Last look before the rename: only a regular file (or nothing) may be replaced.

@@ -28,7 +28,7 @@ use std::sync::{Arc, OnceLock};
 use embree_sys::{BuildQuality, CommittedScene, Device, SceneBuilder, SceneFlags};
 
 use super::offset::ray_origins;
-use super::seams::{seam_points, seam_vertices};
+use super::seams::{KeptSeamIndex, seam_vertices};
 use super::tracer::{Backend, Hit, Ray, Tracer};
 use crate::scene::{Cutouts, Scene, world_normal};
 use crate::support::error::{Error, Result};
@@ -123,6 +123,8 @@ pub struct EmbreeTracer {
     device: Device,
     /// That robust scene, built once.
     points_robust: OnceLock<Arc<CommittedScene>>,
+    /// The index that finds seam points ([`Tracer::for_points`]).
+    seam_index: KeptSeamIndex,
     mode: EmbreeMode,
     /// [`build_quality`]'s choice, for the robust scene built later.
     quality: BuildQuality,
@@ -361,6 +363,7 @@ impl EmbreeTracer {
             seams,
             device,
             points_robust: OnceLock::new(),
+            seam_index: KeptSeamIndex::default(),
             mode: options.mode,
             quality,
             alpha,
@@ -397,7 +400,7 @@ impl EmbreeTracer {
         if self.mode != EmbreeMode::Watertight {
             return Ok(None);
         }
-        let seam = seam_points(scene, origins, own);
+        let seam = self.seam_index.seam_points(scene, origins, own);
         let mut keys: HashSet<[u32; 3]> = origins
             .iter()
             .zip(&seam)
@@ -580,6 +583,16 @@ impl Tracer for EmbreeTracer {
         self.routing().intersect_within(origin, dirs, tfar, hits);
     }
 
+    fn prepare_points(&self, scene: &Scene) {
+        if self.mode == EmbreeMode::Watertight {
+            self.seam_index.prepare(scene);
+        }
+    }
+
+    fn release_points(&self) {
+        self.seam_index.release();
+    }
+
     fn for_points<'s>(
         &'s self,
         scene: &Scene,
@@ -595,6 +608,14 @@ impl Tracer for EmbreeTracer {
 impl Tracer for EmbreePoints<'_> {
     fn backend(&self) -> Backend {
         Backend::Embree
+    }
+
+    fn prepare_points(&self, scene: &Scene) {
+        self.base.prepare_points(scene);
+    }
+
+    fn release_points(&self) {
+        self.base.release_points();
     }
 
     /// For yet other points (texels moved out of a wall): as the tracer it extends.

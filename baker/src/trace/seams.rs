@@ -24,6 +24,7 @@
 //! The radius is generous (the leaks come from within a few δ, and it is at least 256 δ): on
 //! the demo scene seam vertices are 4 % of all, so the margin costs little.
 
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use glam::{Vec3, Vec3A};
@@ -53,25 +54,29 @@ impl Boundable for Reach {
     }
 }
 
-/// The longest edge of each triangle, and of the triangles around each vertex.
-fn longest_edges(scene: &Scene) -> (Vec<f32>, Vec<f32>) {
-    let mut per_vertex = vec![0.0f32; scene.vertex_count()];
-    let per_triangle = scene
+/// The longest edge of each triangle (in parallel: a large mesh has millions).
+fn triangle_edges(scene: &Scene) -> Vec<f32> {
+    scene
         .triangles
-        .iter()
+        .par_iter()
         .map(|t| {
             let p = t.map(|i| scene.positions[i as usize]);
-            let longest = p[0]
-                .distance(p[1])
+            p[0].distance(p[1])
                 .max(p[1].distance(p[2]))
-                .max(p[2].distance(p[0]));
-            for &i in t {
-                per_vertex[i as usize] = per_vertex[i as usize].max(longest);
-            }
-            longest
+                .max(p[2].distance(p[0]))
         })
-        .collect();
-    (per_triangle, per_vertex)
+        .collect()
+}
+
+/// The longest edge of the triangles around each vertex, from [`triangle_edges`].
+fn vertex_edges(scene: &Scene, triangle_edge: &[f32]) -> Vec<f32> {
+    let mut per_vertex = vec![0.0f32; scene.vertex_count()];
+    for (t, &longest) in scene.triangles.iter().zip(triangle_edge) {
+        for &i in t {
+            per_vertex[i as usize] = per_vertex[i as usize].max(longest);
+        }
+    }
+    per_vertex
 }
 
 /// The distance from `p` to the segment `a`–`b`, in double precision (the distances that
@@ -89,19 +94,23 @@ fn distance_to_segment(p: Vec3, a: Vec3, b: Vec3) -> f64 {
 }
 
 /// A BVH over every triangle's [`Reach`], to find the triangles whose edges a ray origin may
-/// lie near.
-struct SeamIndex<'a> {
-    scene: &'a Scene,
+/// lie near. It depends only on the scene: a tracer keeps the one it built for its texels
+/// ([`crate::trace::Tracer::for_points`] may be asked three times in a texel bake), and may
+/// build it beside other work ([`crate::trace::Tracer::prepare_points`]).
+pub struct SeamIndex {
     bvh: Option<obvhs::bvh2::Bvh2>,
     /// The longest edge of each triangle.
     triangle_edge: Vec<f32>,
 }
 
-impl<'a> SeamIndex<'a> {
-    fn new(scene: &'a Scene, triangle_edge: Vec<f32>) -> SeamIndex<'a> {
+impl SeamIndex {
+    /// The index of `scene`'s triangles: a sequential BVH build (0.2 s at 720,000 triangles),
+    /// the rest in parallel.
+    pub fn new(scene: &Scene) -> SeamIndex {
+        let triangle_edge = triangle_edges(scene);
         let reaches: Vec<Reach> = scene
             .triangles
-            .iter()
+            .par_iter()
             .zip(&triangle_edge)
             .map(|(t, &longest)| {
                 let mut aabb = Aabb::empty();
@@ -120,11 +129,12 @@ impl<'a> SeamIndex<'a> {
                 &mut Duration::default(),
             )
         });
-        SeamIndex {
-            scene,
-            bvh,
-            triangle_edge,
-        }
+        SeamIndex { bvh, triangle_edge }
+    }
+
+    /// Whether the index was built for `scene` (as many triangles).
+    pub fn fits(&self, scene: &Scene) -> bool {
+        self.triangle_edge.len() == scene.triangles.len()
     }
 
     /// Whether `origin` lies near an edge of a triangle that `own` does not exclude.
@@ -132,6 +142,7 @@ impl<'a> SeamIndex<'a> {
     /// offset δ.
     fn near_foreign_edge(
         &self,
+        scene: &Scene,
         origin: Vec3,
         own_edge: f32,
         offset: f32,
@@ -151,13 +162,13 @@ impl<'a> SeamIndex<'a> {
             let node = &bvh.nodes[node as usize];
             let first = node.first_index as usize;
             for &t in &bvh.primitive_indices[first..first + node.prim_count as usize] {
-                let triangle = self.scene.triangles[t as usize];
+                let triangle = scene.triangles[t as usize];
                 if own(t, triangle) {
                     continue;
                 }
                 let longest = self.triangle_edge[t as usize].max(own_edge);
                 let radius = f64::from((SEAM_RADIUS * longest).max(offsets));
-                let p = triangle.map(|i| self.scene.positions[i as usize]);
+                let p = triangle.map(|i| scene.positions[i as usize]);
                 if (0..3).any(|k| distance_to_segment(origin, p[k], p[(k + 1) % 3]) <= radius) {
                     seam = true;
                 }
@@ -168,17 +179,61 @@ impl<'a> SeamIndex<'a> {
     }
 }
 
+/// A [`SeamIndex`] built on first use and kept until released: a tracer's, for the points
+/// it is asked about ([`crate::trace::Tracer::for_points`]; 50 MB at 720,000 triangles).
+#[derive(Default)]
+pub struct KeptSeamIndex {
+    kept: Mutex<Option<Arc<SeamIndex>>>,
+}
+
+impl KeptSeamIndex {
+    /// The index of `scene`, built now if not yet; `None` for another scene than it was built
+    /// for (as many triangles).
+    fn get(&self, scene: &Scene) -> Option<Arc<SeamIndex>> {
+        let kept = || self.kept.lock().unwrap_or_else(|e| e.into_inner());
+        let existing = kept().clone(); // the guard goes here, not at the match's end
+        let index = match existing {
+            Some(index) => index,
+            // Built without the lock held: its parallel parts may run other work on this
+            // thread, which may ask for the index too.
+            None => {
+                let built = Arc::new(SeamIndex::new(scene));
+                kept().get_or_insert(built).clone()
+            }
+        };
+        index.fits(scene).then_some(index)
+    }
+
+    /// Builds the index of `scene` now (beside other work).
+    pub fn prepare(&self, scene: &Scene) {
+        let _ = self.get(scene);
+    }
+
+    /// Forgets the index.
+    pub fn release(&self) {
+        *self.kept.lock().unwrap_or_else(|e| e.into_inner()) = None;
+    }
+
+    /// [`seam_points`], with the kept index.
+    pub fn seam_points(&self, scene: &Scene, origins: &[Vec3], own: &[u32]) -> Vec<bool> {
+        match self.get(scene) {
+            Some(index) => index.seam_points(scene, origins, own),
+            None => seam_points(scene, origins, own),
+        }
+    }
+}
+
 /// `seam[v]`: whether vertex `v`'s ray origin (`origins[v]`, from [`super::ray_origins`]) lies
 /// near an edge of a triangle that does not use `v`.
 pub fn seam_vertices(scene: &Scene, origins: &[Vec3]) -> Vec<bool> {
-    let (triangle_edge, vertex_edge) = longest_edges(scene);
-    let index = SeamIndex::new(scene, triangle_edge);
+    let index = SeamIndex::new(scene);
+    let vertex_edge = vertex_edges(scene, &index.triangle_edge);
     origins
         .par_iter()
         .enumerate()
         .map(|(v, &origin)| {
             let offset = offset_distance(scene.positions[v], vertex_edge[v]);
-            index.near_foreign_edge(origin, vertex_edge[v], offset, |_, triangle| {
+            index.near_foreign_edge(scene, origin, vertex_edge[v], offset, |_, triangle| {
                 triangle.contains(&(v as u32))
             })
         })
@@ -193,22 +248,28 @@ pub fn seam_vertices(scene: &Scene, origins: &[Vec3]) -> Vec<bool> {
 /// side; what lies near a point where meshes meet (a floor's edge against a wall) is foreign.
 /// Its offset δ is taken as [`offset_distance`] at the origin for its triangle's edges.
 pub fn seam_points(scene: &Scene, origins: &[Vec3], own: &[u32]) -> Vec<bool> {
-    let (triangle_edge, _) = longest_edges(scene);
-    let index = SeamIndex::new(scene, triangle_edge);
-    origins
-        .par_iter()
-        .zip(own.par_iter())
-        .map(|(&origin, &t)| {
-            let Some(&own_edge) = index.triangle_edge.get(t as usize) else {
-                return false;
-            };
-            let offset = offset_distance(origin, own_edge);
-            let mine = scene.triangles[t as usize];
-            index.near_foreign_edge(origin, own_edge, offset, |_, other| {
-                other.iter().any(|v| mine.contains(v))
+    SeamIndex::new(scene).seam_points(scene, origins, own)
+}
+
+impl SeamIndex {
+    /// [`seam_points`] with this index (built for `scene`).
+    pub fn seam_points(&self, scene: &Scene, origins: &[Vec3], own: &[u32]) -> Vec<bool> {
+        let index = self;
+        origins
+            .par_iter()
+            .zip(own.par_iter())
+            .map(|(&origin, &t)| {
+                let Some(&own_edge) = index.triangle_edge.get(t as usize) else {
+                    return false;
+                };
+                let offset = offset_distance(origin, own_edge);
+                let mine = scene.triangles[t as usize];
+                index.near_foreign_edge(scene, origin, own_edge, offset, |_, other| {
+                    other.iter().any(|v| mine.contains(v))
+                })
             })
-        })
-        .collect()
+            .collect()
+    }
 }
 
 #[cfg(test)]
@@ -266,5 +327,44 @@ mod tests {
             seam.iter().filter(|&&s| s).count(),
             2 * (cells as usize + 1)
         );
+    }
+
+    #[test]
+    fn a_kept_index_answers_as_a_fresh_one_and_only_for_its_scene() {
+        let room = |cells| {
+            let meshes = vec![
+                grid(Vec3::ZERO, Vec3::X, Vec3::Y, cells),
+                grid(Vec3::ZERO, Vec3::Y, Vec3::Z, cells),
+            ];
+            Scene::from_meshes(Path::new("test"), meshes, Vec::new()).expect("valid")
+        };
+        // Each triangle's centroid, and a point near its first edge, as texel origins.
+        let points = |scene: &Scene| -> (Vec<Vec3>, Vec<u32>) {
+            let mut out = (Vec::new(), Vec::new());
+            for (t, tri) in scene.triangles.iter().enumerate() {
+                let p = tri.map(|i| scene.positions[i as usize]);
+                let centroid = (p[0] + p[1] + p[2]) / 3.0;
+                for origin in [centroid, p[0].lerp(p[1], 0.5).lerp(centroid, 1e-4)] {
+                    out.0.push(origin);
+                    out.1.push(t as u32);
+                }
+            }
+            out
+        };
+        let kept = KeptSeamIndex::default();
+        let check = |scene: &Scene| {
+            let (origins, own) = points(scene);
+            let fresh = seam_points(scene, &origins, &own);
+            assert!(fresh.iter().any(|&s| s) && !fresh.iter().all(|&s| s));
+            // Built by the first call (or another scene's, not used), kept for the second.
+            assert_eq!(kept.seam_points(scene, &origins, &own), fresh);
+            assert_eq!(kept.seam_points(scene, &origins, &own), fresh);
+        };
+        let (large, small) = (room(8), room(5));
+        check(&large);
+        check(&small); // the large room's index is kept: not for this one
+        kept.release();
+        kept.prepare(&small);
+        check(&small);
     }
 }

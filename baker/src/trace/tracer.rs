@@ -107,6 +107,17 @@ pub trait Tracer: Send + Sync {
         self.intersect(&rays, hits);
     }
 
+    /// Builds now, on the calling thread, what [`Tracer::for_points`] will need for `scene`
+    /// and keep (Embree's seam index), so a caller can build it beside other work. A hint:
+    /// `for_points` builds it when not done.
+    fn prepare_points(&self, scene: &Scene) {
+        let _ = scene;
+    }
+
+    /// Frees what [`Tracer::prepare_points`] or [`Tracer::for_points`] kept, once no more
+    /// points will be asked about (the texel bake's peak of memory comes later).
+    fn release_points(&self) {}
+
     /// A tracer for rays from receivers that are not `scene`'s vertices (texels):
     /// `origins[i]`, the ray origin of a point on triangle `own[i]`. Embree's watertight mode
     /// picks robust mode by ray origin ([`seams`]), so it needs to know which of these are

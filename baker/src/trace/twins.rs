@@ -92,6 +92,14 @@ impl Tracer for TwinFacing<'_> {
         }
     }
 
+    fn prepare_points(&self, scene: &Scene) {
+        self.inner.prepare_points(scene);
+    }
+
+    fn release_points(&self) {
+        self.inner.release_points();
+    }
+
     fn for_points<'s>(
         &'s self,
         scene: &Scene,

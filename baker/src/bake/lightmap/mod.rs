@@ -28,7 +28,7 @@ pub use texels::Texels;
 use crate::bake::transfer::{
     BakeOptions, Baked, BounceTargets, Estimator, Receivers, Transfer, Visibility, bake_receivers,
 };
-use crate::support::cpu_time::process_cpu_seconds;
+use crate::support::cpu_time::{process_cpu_seconds, thread_cpu_seconds};
 use crate::support::error::Result;
 use crate::support::progress::Progress;
 use crate::trace::{Backend, Tracer};
@@ -115,28 +115,35 @@ pub fn prepare(
 /// ([`Texels::watertight`]; `None` where `tracer` already is, or casts no rays). Where the
 /// leak test moved nothing and left nothing out, that is the leak test's own (the origins are
 /// the same), not made twice.
+///
+/// The seam partners need only the atlas, and the tracer's seam index only the scene: both
+/// are sequential for the most part, so they run beside the rasterisation (and the partners
+/// beside the seam texels and the leak test too) instead of leaving a core idle. The stages
+/// say so: "rasterise + seam index" is both, the seam partners' CPU time is their thread's,
+/// and the stages they ran beside count the process's CPU, theirs included.
 pub fn prepare_traced<'t>(
     scene: &crate::Scene,
     tracer: Option<&'t dyn Tracer>,
     seed: u64,
     atlas: Atlas,
 ) -> Result<(Prepared, Option<Box<dyn Tracer + 't>>)> {
-    let mut stages = Stages::default();
-    let mut texels = stages.time("rasterise", || Texels::rasterise(scene, &atlas));
-    let mut settled = leaks::Settled::default();
-    let mut watertight = None;
-    if let Some(tracer) = tracer {
-        watertight = stages.time("seam texels", || texels.watertight(scene, tracer))?;
-        let view = watertight.as_deref().unwrap_or(tracer);
-        settled = stages.time("leak test", || {
-            leaks::settle(scene, &atlas, &mut texels, view, seed)
-        })?;
-        if settled != leaks::Settled::default() {
-            // Texels moved out or left out: watertight for the final origins.
-            watertight = stages.time("seam texels", || texels.watertight(scene, tracer))?;
-        }
-    }
-    let seams = stages.time("seam partners", || stitch::seam_partners(scene, &atlas));
+    let ((seams, partners_time), traced) = rayon::join(
+        || {
+            let (started, cpu) = (Instant::now(), thread_cpu_seconds());
+            let seams = stitch::seam_partners(scene, &atlas);
+            let cpu = match (cpu, thread_cpu_seconds()) {
+                (Some(before), Some(after)) => after - before,
+                _ => 0.0,
+            };
+            (seams, (started.elapsed().as_secs_f64(), cpu))
+        },
+        || rasterise_settled(scene, tracer, seed, &atlas),
+    );
+    let (texels, settled, watertight, mut stages) = traced?;
+    let (wall, cpu) = partners_time;
+    stages
+        .0
+        .push(("seam partners (beside the stages before)", wall, cpu));
     let prepared = Prepared {
         atlas,
         texels,
@@ -145,6 +152,41 @@ pub fn prepare_traced<'t>(
         stages,
     };
     Ok((prepared, watertight))
+}
+
+/// The rasterised texels after the leak test, the tracer watertight for them, and the stages.
+type Traced<'t> = (Texels, leaks::Settled, Option<Box<dyn Tracer + 't>>, Stages);
+
+/// [`prepare_traced`]'s texels: rasterised (beside the tracer's seam index), made
+/// watertight and settled by the leak test.
+fn rasterise_settled<'t>(
+    scene: &crate::Scene,
+    tracer: Option<&'t dyn Tracer>,
+    seed: u64,
+    atlas: &Atlas,
+) -> Result<Traced<'t>> {
+    let mut stages = Stages::default();
+    let (mut texels, ()) = stages.time("rasterise + seam index", || {
+        rayon::join(
+            || Texels::rasterise(scene, atlas),
+            || tracer.map_or((), |t| t.prepare_points(scene)),
+        )
+    });
+    let mut settled = leaks::Settled::default();
+    let mut watertight = None;
+    if let Some(tracer) = tracer {
+        watertight = stages.time("seam texels", || texels.watertight_keeping(scene, tracer))?;
+        let view = watertight.as_deref().unwrap_or(tracer);
+        settled = stages.time("leak test", || {
+            leaks::settle(scene, atlas, &mut texels, view, seed)
+        })?;
+        if settled != leaks::Settled::default() {
+            // Texels moved out or left out: watertight for the final origins.
+            watertight = stages.time("seam texels", || texels.watertight(scene, tracer))?;
+        }
+        tracer.release_points();
+    }
+    Ok((texels, settled, watertight, stages))
 }
 
 /// Bakes the transfer of every texel of `atlas` that a triangle covers, in any mode: the
