@@ -29,8 +29,8 @@ pub fn run(args: FactorSeamsArgs) -> Result<(), Error> {
     let file = factor_file::factor_prepared(&prepared, key, sum);
     drop(prepared);
     mark();
-    let bytes = file.to_bytes();
-    output.write(&bytes)?;
+    let bytes = file.encode();
+    output.write_parts(&bytes.parts())?;
     mark();
     let (unknowns, nonzeros) = file
         .factored

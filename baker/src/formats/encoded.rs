@@ -44,6 +44,14 @@ impl<'a> Encoded<'a> {
         }
     }
 
+    /// Overwrites bytes `offset..` of the first piece (a header's checksum, once the rest is
+    /// known).
+    pub fn patch(&mut self, offset: usize, bytes: &[u8]) {
+        if let Some(first) = self.parts.first_mut() {
+            first.to_mut()[offset..offset + bytes.len()].copy_from_slice(bytes);
+        }
+    }
+
     /// Appends each of `values` as its `N` little-endian bytes (`le`): borrowed where those are
     /// its bytes in memory (a little-endian machine), else encoded in parallel.
     pub fn put<T: bytemuck::NoUninit + Sync, const N: usize>(
