@@ -20,6 +20,14 @@ use crate::trace::{Hit, Tracer};
 /// Bytes per bounce-row entry: vertex index and RGB weight.
 pub const BYTES_PER_ENTRY: u64 = 4 + 3 * 4;
 
+/// A bounce-row entry as a part file stores it ([`BYTES_PER_ENTRY`] little-endian bytes):
+/// the slot, then the RGB weight.
+pub fn decode_entry(b: &[u8; BYTES_PER_ENTRY as usize]) -> (u32, [f32; 3]) {
+    let word = |o: usize| [b[o], b[o + 1], b[o + 2], b[o + 3]];
+    let f = |o: usize| f32::from_le_bytes(word(o));
+    (u32::from_le_bytes(word(0)), [f(4), f(8), f(12)])
+}
+
 /// Bytes per cached texel hit ([`JobRows`]): triangle and barycentrics u, v as f32, exactly as
 /// traced, so that the row folded from them in every gather is the one the direct pass would
 /// have folded. A ray's estimator weight adds 4 bytes only where the weights differ

@@ -71,7 +71,7 @@ use crate::scene::Scene;
 use crate::support::progress::Progress;
 use crate::trace::Tracer;
 
-pub use crate::bake::bounce_rows::{BYTES_PER_ENTRY, BYTES_PER_HIT, Rows};
+pub use crate::bake::bounce_rows::{BYTES_PER_ENTRY, BYTES_PER_HIT, Rows, decode_entry};
 
 /// What an interreflected bake produces.
 pub(crate) struct Bounced {
@@ -360,21 +360,16 @@ impl PackedRows {
 
     fn entry(&self, e: usize) -> (u32, [f32; 3]) {
         let b = &self.bytes[self.at + e * BYTES_PER_ENTRY as usize..][..BYTES_PER_ENTRY as usize];
-        let word = |o: usize| <[u8; 4]>::try_from(&b[o..o + 4]).expect("4 bytes");
-        let f = |o: usize| f32::from_le_bytes(word(o));
-        (u32::from_le_bytes(word(0)), [f(4), f(8), f(12)])
+        decode_entry(b.try_into().expect("16 bytes"))
     }
 
     /// Receiver k's entries, in order (one bounds test per row, not per entry).
     pub fn row(&self, k: usize) -> impl Iterator<Item = (u32, [f32; 3])> + '_ {
         let at = |e: u64| self.at + e as usize * BYTES_PER_ENTRY as usize;
         let bytes = &self.bytes[at(self.starts[k])..at(self.starts[k + 1])];
-        bytes.chunks_exact(BYTES_PER_ENTRY as usize).map(|b| {
-            let b: &[u8; 16] = b.try_into().expect("16 bytes");
-            let word = |o: usize| [b[o], b[o + 1], b[o + 2], b[o + 3]];
-            let f = |o: usize| f32::from_le_bytes(word(o));
-            (u32::from_le_bytes(word(0)), [f(4), f(8), f(12)])
-        })
+        bytes
+            .chunks_exact(BYTES_PER_ENTRY as usize)
+            .map(|b| decode_entry(b.try_into().expect("16 bytes")))
     }
 
     /// Receivers whose rows these are.

@@ -504,8 +504,6 @@ fn row_starts(bytes: &[u8], id: &PartId) -> std::result::Result<Vec<u64>, String
 /// Bounce rows of `id.vertices` vertices: u32 lengths, then 16-byte entries.
 fn parse_rows(bytes: &[u8], id: &PartId, header: &Header) -> std::result::Result<Rows, String> {
     let count = id.vertices as usize;
-    let u32_at = |o: usize| u32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes"));
-    let f32_at = |o: usize| f32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes"));
     let starts = row_starts(bytes, id)?;
     let entries = starts[count];
     let mut rows = Rows {
@@ -514,9 +512,10 @@ fn parse_rows(bytes: &[u8], id: &PartId, header: &Header) -> std::result::Result
         weights: Vec::with_capacity(entries as usize),
     };
     for e in 0..entries as usize {
-        let at = count * 4 + e * interreflection::BYTES_PER_ENTRY as usize;
-        let vertex = u32_at(at);
-        let weight = [f32_at(at + 4), f32_at(at + 8), f32_at(at + 12)];
+        let size = interreflection::BYTES_PER_ENTRY as usize;
+        let at = count * 4 + e * size;
+        let (vertex, weight) =
+            interreflection::decode_entry(bytes[at..at + size].try_into().expect("16 bytes"));
         if u64::from(vertex) >= header.vertex_count || !weight.iter().all(|w| w.is_finite()) {
             return Err(format!(
                 "{id}: bounce-row entry {e} (vertex {vertex}, weight {weight:?}) is invalid"
