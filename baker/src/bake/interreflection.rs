@@ -59,6 +59,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
+use std::borrow::Cow;
 use std::sync::Arc;
 
 use crate::bake::bounce_rows::{Embedded, HitRecorder, JobRows, RowBuilder};
@@ -180,8 +181,16 @@ pub(crate) fn add_bounces(
         RowSource::Retrace { .. } => u64::from(options.samples),
         _ => 0,
     };
-    let pass = |previous: &[f32], previous_channels: usize, next: &mut [f32]| {
-        let previous = targets.slot_values(previous, previous_channels * n);
+    let pass = |previous: Cow<[f32]>, previous_channels: usize, next: &mut [f32]| {
+        let slots = targets.slot_values(&previous, previous_channels * n);
+        // A texel bake's slots are a lightmap of their own: the previous bounce can go.
+        let previous = match slots {
+            Cow::Owned(slots) => {
+                drop(previous);
+                Cow::Owned(slots)
+            }
+            Cow::Borrowed(_) => previous,
+        };
         bounce_pass(
             rows,
             norm,
@@ -203,6 +212,10 @@ pub(crate) fn add_bounces(
 /// T_0 (`t0`, one channel, every vertex) broadcast to `channels`, plus `options.bounces`
 /// bounces, each of which `bounce` writes into a zeroed array from the previous one (and its
 /// channel count). `rays_per_vertex` is for the progress bar.
+///
+/// `bounce` gets the previous bounce to keep or drop: a texel bake drops it once it has
+/// placed it in its lightmap, and in one channel T_0 is the total itself rather than a copy,
+/// so a bounce holds three arrays of the receivers' size, not five (issue 34's 1.5 GB).
 pub(crate) fn sum_bounces<E, F>(
     t0: Vec<f32>,
     channels: usize,
@@ -212,28 +225,37 @@ pub(crate) fn sum_bounces<E, F>(
     mut bounce: F,
 ) -> Result<Vec<f32>, E>
 where
-    F: FnMut(&[f32], usize, &mut [f32]) -> Result<(), E>,
+    F: FnMut(Cow<[f32]>, usize, &mut [f32]) -> Result<(), E>,
 {
     let n = sh::coeff_count(options.order);
     let vertex_count = t0.len() / n;
     // Total = T_0 (grey) broadcast to every channel, plus each bounce.
-    let mut total = vec![0.0f32; vertex_count * channels * n];
-    for (v, t0) in t0.chunks_exact(n).enumerate() {
-        for c in 0..channels {
-            total[(v * channels + c) * n..][..n].copy_from_slice(t0);
+    let (mut total, mut previous) = if channels == 1 {
+        (t0, None)
+    } else {
+        let mut total = vec![0.0f32; vertex_count * channels * n];
+        for (v, t0) in t0.chunks_exact(n).enumerate() {
+            for c in 0..channels {
+                total[(v * channels + c) * n..][..n].copy_from_slice(t0);
+            }
         }
-    }
-    let mut previous = t0;
+        (total, Some(t0))
+    };
     let mut previous_channels = 1;
     for k in 1..=options.bounces {
         progress.begin(&format!("bounce {k}"), vertex_count as u64, rays_per_vertex);
         let mut next = vec![0.0f32; vertex_count * channels * n];
-        bounce(&previous, previous_channels, &mut next)?;
+        let from = match previous.take() {
+            Some(previous) => Cow::Owned(previous),
+            // Bounce 1 in one channel: T_0 is the total so far.
+            None => Cow::Borrowed(&total[..]),
+        };
+        bounce(from, previous_channels, &mut next)?;
         progress.finish();
         for (t, b) in total.iter_mut().zip(&next) {
             *t += b;
         }
-        previous = next;
+        previous = Some(next);
         previous_channels = channels;
     }
     Ok(total)

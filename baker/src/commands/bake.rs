@@ -566,7 +566,7 @@ fn bake_texels(
             Ok(lightmap::receiving::widen(scene, objects, atlas))
         }
     })?;
-    let bake = lightmap::bake_translucent(scene, tracer, options, atlas, media, progress)?;
+    let bake = lightmap::bake_without_points(scene, tracer, options, atlas, media, progress)?;
     if args.verbose {
         eprintln!(
             "prt-bake: stages: {}, {}; stitching factor {} nonzeros",

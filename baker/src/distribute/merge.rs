@@ -8,6 +8,7 @@
 //! transfer and aux arrays, and re-reads one part's rows at a time in each bounce. Its
 //! memory is the transfer arrays (previous bounce, next bounce, total) plus one part.
 
+use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -194,9 +195,9 @@ fn merge_bounces(
     let targets = lookup
         .as_ref()
         .map_or(BounceTargets::Vertices, Lookup::targets);
-    let pass = |previous: &[f32], previous_channels: usize, next: &mut [f32]| {
+    let pass = |previous: Cow<[f32]>, previous_channels: usize, next: &mut [f32]| {
         // Texel bakes: the previous bounce in the lightmap, dilated, as the bake reads it.
-        let previous = targets.slot_values(previous, previous_channels * n);
+        let previous = targets.slot_values(&previous, previous_channels * n);
         for &(path, id) in order {
             let part = Part::read(path)?;
             let part_fingerprint = part.lightmap.as_ref().map(|l| l.fingerprint);
