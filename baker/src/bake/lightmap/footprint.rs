@@ -4,8 +4,6 @@
 
 use glam::Vec2;
 
-use super::texels::cross;
-
 /// Where a texel's square lies against a triangle in the atlas ([`Edges::cover`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum Cover {
@@ -178,10 +176,30 @@ pub(super) fn polygon_centroid(poly: &[Vec2]) -> Vec2 {
     poly.iter().copied().sum::<Vec2>() / poly.len() as f32
 }
 
+/// The texels a triangle's bounding box spans in a `w` × `h` lightmap: x0..x1, y0..y1; `None`
+/// where it is not in the atlas or degenerate there.
+pub(super) fn texel_bounds(
+    uv: [Vec2; 3],
+    w: usize,
+    h: usize,
+) -> Option<(usize, usize, usize, usize)> {
+    let uv_area = cross(uv[1] - uv[0], uv[2] - uv[0]);
+    if !uv_area.is_finite() || uv_area == 0.0 {
+        return None;
+    }
+    let lo = uv[0].min(uv[1]).min(uv[2]).floor().max(Vec2::ZERO);
+    let hi = uv[0].max(uv[1]).max(uv[2]).ceil();
+    let (x1, y1) = ((hi.x as usize).min(w), (hi.y as usize).min(h));
+    Some((lo.x as usize, x1, lo.y as usize, y1))
+}
+
+pub(super) fn cross(a: Vec2, b: Vec2) -> f32 {
+    a.x * b.y - a.y * b.x
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bake::lightmap::texels::texel_bounds;
 
     /// The clip as it was written before [`clip_half`]: what it must equal, bit for bit.
     fn clip_to_square_before(uv: [Vec2; 3], corner: Vec2) -> Vec<Vec2> {

@@ -13,7 +13,9 @@ use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 
 use super::atlas::Atlas;
-use super::footprint::{Cover, Edges, clip_to_square, polygon_area, polygon_centroid};
+use super::footprint::{
+    Cover, Edges, clip_to_square, cross, polygon_area, polygon_centroid, texel_bounds,
+};
 use crate::scene::{NormalMap, Scene};
 use crate::support::error::Result;
 use crate::trace::{Tracer, offset_distance};
@@ -195,23 +197,6 @@ impl Texels {
 /// Texel rows per band of the parallel rasterisation.
 const BAND_ROWS: usize = 16;
 
-/// The texels a triangle's bounding box spans in a `w` × `h` lightmap: x0..x1, y0..y1; `None`
-/// where it is not in the atlas or degenerate there.
-pub(super) fn texel_bounds(
-    uv: [Vec2; 3],
-    w: usize,
-    h: usize,
-) -> Option<(usize, usize, usize, usize)> {
-    let uv_area = cross(uv[1] - uv[0], uv[2] - uv[0]);
-    if !uv_area.is_finite() || uv_area == 0.0 {
-        return None;
-    }
-    let lo = uv[0].min(uv[1]).min(uv[2]).floor().max(Vec2::ZERO);
-    let hi = uv[0].max(uv[1]).max(uv[2]).ceil();
-    let (x1, y1) = ((hi.x as usize).min(w), (hi.y as usize).min(h));
-    Some((lo.x as usize, x1, lo.y as usize, y1))
-}
-
 /// `n` copies of `value`, written in parallel (a lightmap's arrays are hundreds of MB).
 fn filled<T: Copy + Send + Sync>(n: usize, value: T) -> Vec<T> {
     let mut v = Vec::with_capacity(n);
@@ -324,10 +309,6 @@ impl Mapping<'_> {
         let tangent = t.truncate().extend(self.tangent[0].w);
         self.map.perturb(self.textures, uv, normal, tangent)
     }
-}
-
-pub(super) fn cross(a: Vec2, b: Vec2) -> f32 {
-    a.x * b.y - a.y * b.x
 }
 
 /// The barycentric coordinates of `q` if it lies in the triangle (edges included).
