@@ -152,11 +152,7 @@ impl SeamIndex {
             return false;
         };
         let offsets = SEAM_OFFSETS * offset;
-        let reach = (SEAM_RADIUS * own_edge).max(offsets);
-        let query = Aabb::new(
-            Vec3A::from(origin) - Vec3A::splat(reach),
-            Vec3A::from(origin) + Vec3A::splat(reach),
-        );
+        let query = query_box(origin, own_edge, offsets);
         let mut seam = false;
         bvh.aabb_traverse(query, |bvh, node| {
             let node = &bvh.nodes[node as usize];
@@ -166,10 +162,7 @@ impl SeamIndex {
                 if own(t, triangle) {
                     continue;
                 }
-                let longest = self.triangle_edge[t as usize].max(own_edge);
-                let radius = f64::from((SEAM_RADIUS * longest).max(offsets));
-                let p = triangle.map(|i| scene.positions[i as usize]);
-                if (0..3).any(|k| distance_to_segment(origin, p[k], p[(k + 1) % 3]) <= radius) {
+                if self.within_reach(scene, origin, own_edge, offsets, t) {
                     seam = true;
                 }
             }
@@ -177,6 +170,32 @@ impl SeamIndex {
         });
         seam
     }
+
+    /// Whether `origin` lies within the seam radius of an edge of triangle `t` (the test
+    /// [`SeamIndex::near_foreign_edge`] makes of each triangle its traversal meets).
+    fn within_reach(
+        &self,
+        scene: &Scene,
+        origin: Vec3,
+        own_edge: f32,
+        offsets: f32,
+        t: u32,
+    ) -> bool {
+        let longest = self.triangle_edge[t as usize].max(own_edge);
+        let radius = f64::from((SEAM_RADIUS * longest).max(offsets));
+        let p = scene.triangles[t as usize].map(|i| scene.positions[i as usize]);
+        (0..3).any(|k| distance_to_segment(origin, p[k], p[(k + 1) % 3]) <= radius)
+    }
+}
+
+/// The box around `origin` whose overlap with a BVH leaf's box sends that leaf's triangles to
+/// the distance test: `origin` ± the larger of [`SEAM_RADIUS`] × `own_edge` and `offsets`.
+fn query_box(origin: Vec3, own_edge: f32, offsets: f32) -> Aabb {
+    let reach = (SEAM_RADIUS * own_edge).max(offsets);
+    Aabb::new(
+        Vec3A::from(origin) - Vec3A::splat(reach),
+        Vec3A::from(origin) + Vec3A::splat(reach),
+    )
 }
 
 /// A [`SeamIndex`] built on first use and kept until released: a tracer's, for the points
@@ -252,19 +271,119 @@ pub fn seam_points(scene: &Scene, origins: &[Vec3], own: &[u32]) -> Vec<bool> {
 }
 
 impl SeamIndex {
-    /// [`seam_points`] with this index (built for `scene`).
+    /// [`seam_points`] with this index (built for `scene`). The points are taken a triangle at
+    /// a time (a texel bake has several per triangle): the BVH is traversed once per triangle,
+    /// with the union of its points' query boxes, and keeps each foreign triangle of a leaf it
+    /// reaches with that leaf; a point then tests the triangles of the leaves whose box meets
+    /// its own query box. Those are exactly the triangles its own traversal would have tested
+    /// (a leaf's box lies in its ancestors' boxes, so a leaf meeting the point's box is reached
+    /// by both), so the answers are the same, for a sixth of the traversals on a heightfield.
     pub fn seam_points(&self, scene: &Scene, origins: &[Vec3], own: &[u32]) -> Vec<bool> {
-        let index = self;
+        let Some(bvh) = &self.bvh else {
+            return vec![false; origins.len()];
+        };
+        let triangles = self.triangle_edge.len();
+        // The points grouped by their triangle (a counting sort, stable); points of a
+        // triangle the index does not know are not seam points.
+        let mut starts = vec![0u32; triangles + 1];
+        for &t in own {
+            if let Some(count) = starts.get_mut(t as usize + 1) {
+                *count += 1;
+            }
+        }
+        for t in 0..triangles {
+            starts[t + 1] += starts[t];
+        }
+        let mut next = starts.clone();
+        let mut order = vec![0u32; starts[triangles] as usize];
+        for (k, &t) in own.iter().enumerate() {
+            if (t as usize) < triangles {
+                order[next[t as usize] as usize] = k as u32;
+                next[t as usize] += 1;
+            }
+        }
+        drop(next);
+        // Each group's answers, in `order`.
+        let grouped: Vec<bool> = (0..triangles)
+            .into_par_iter()
+            .flat_map_iter(|t| {
+                let group = &order[starts[t] as usize..starts[t + 1] as usize];
+                self.group_seam_points(scene, bvh, origins, t as u32, group)
+            })
+            .collect();
+        let mut seam = vec![false; origins.len()];
+        for (&k, s) in order.iter().zip(grouped) {
+            seam[k as usize] = s;
+        }
+        seam
+    }
+
+    /// [`SeamIndex::seam_points`] of the points `group` (indices into `origins`), all on
+    /// triangle `t`.
+    fn group_seam_points(
+        &self,
+        scene: &Scene,
+        bvh: &obvhs::bvh2::Bvh2,
+        origins: &[Vec3],
+        t: u32,
+        group: &[u32],
+    ) -> Vec<bool> {
+        if group.is_empty() {
+            return Vec::new();
+        }
+        let own_edge = self.triangle_edge[t as usize];
+        let queries: Vec<(Aabb, f32)> = group
+            .iter()
+            .map(|&k| {
+                let origin = origins[k as usize];
+                let offsets = SEAM_OFFSETS * offset_distance(origin, own_edge);
+                (query_box(origin, own_edge, offsets), offsets)
+            })
+            .collect();
+        let mut union = Aabb::empty();
+        for (query, _) in &queries {
+            union = union.union(query);
+        }
+        // (foreign triangle, the leaf it was found in)
+        let mine = scene.triangles[t as usize];
+        let mut candidates: Vec<(u32, u32)> = Vec::new();
+        bvh.aabb_traverse(union, |bvh, index| {
+            let node = &bvh.nodes[index as usize];
+            let first = node.first_index as usize;
+            for &c in &bvh.primitive_indices[first..first + node.prim_count as usize] {
+                let other = scene.triangles[c as usize];
+                if !other.iter().any(|v| mine.contains(v)) {
+                    candidates.push((c, index));
+                }
+            }
+            true
+        });
+        group
+            .iter()
+            .zip(&queries)
+            .map(|(&k, (query, offsets))| {
+                candidates.iter().any(|&(c, leaf)| {
+                    bvh.nodes[leaf as usize].aabb().intersect_aabb(query)
+                        && self.within_reach(scene, origins[k as usize], own_edge, *offsets, c)
+                })
+            })
+            .collect()
+    }
+
+    /// [`seam_points`] one point at a time, each with its own traversal: what
+    /// [`SeamIndex::seam_points`] must equal (unit test).
+    #[cfg(test)]
+    fn seam_points_one_by_one(&self, scene: &Scene, origins: &[Vec3], own: &[u32]) -> Vec<bool> {
         origins
-            .par_iter()
-            .zip(own.par_iter())
+            .iter()
+            .zip(own)
             .map(|(&origin, &t)| {
-                let Some(&own_edge) = index.triangle_edge.get(t as usize) else {
+                let Some(&own_edge) = self.triangle_edge.get(t as usize) else {
                     return false;
                 };
                 let offset = offset_distance(origin, own_edge);
                 let mine = scene.triangles[t as usize];
-                index.near_foreign_edge(scene, origin, own_edge, offset, |_, other| {
+                self.near_foreign_edge(scene, origin, own_edge, offset, |_, other| {
                     other.iter().any(|v| mine.contains(v))
                 })
             })
@@ -366,5 +485,47 @@ mod tests {
         kept.release();
         kept.prepare(&small);
         check(&small);
+    }
+
+    #[test]
+    fn points_taken_a_triangle_at_a_time_answer_as_one_at_a_time() {
+        // A floor, a wall meeting it, and a box standing on the floor: many seam points.
+        let meshes = vec![
+            grid(Vec3::ZERO, Vec3::X, Vec3::Y, 12),
+            grid(Vec3::ZERO, Vec3::Y, Vec3::Z, 12),
+            grid(Vec3::new(0.3, 0.3, 0.0), Vec3::Y * 0.4, Vec3::Z * 0.4, 5),
+            grid(Vec3::new(0.3, 0.3, 0.0), Vec3::X * 0.4, Vec3::Z * 0.4, 5),
+        ];
+        let scene = Scene::from_meshes(Path::new("test"), meshes, Vec::new()).expect("valid");
+        // Points over every triangle (anywhere, and every other round near its first edge),
+        // eight rounds over the triangles, so that a triangle's points are not together; and
+        // one on a triangle the index does not know.
+        let (mut origins, mut own) = (Vec::new(), Vec::new());
+        let mut rng = crate::math::sampling::Pcg32::new(7, 1);
+        for round in 0..8 {
+            for (t, tri) in scene.triangles.iter().enumerate().rev() {
+                let p = tri.map(|i| scene.positions[i as usize]);
+                let (a, mut b) = (rng.next_f32(), rng.next_f32());
+                if round % 2 == 1 {
+                    b *= 0.01; // near the first edge
+                }
+                let (a, b) = if a + b > 1.0 {
+                    (1.0 - a, 1.0 - b)
+                } else {
+                    (a, b)
+                };
+                let normal = (p[1] - p[0]).cross(p[2] - p[0]).normalize();
+                let q = p[0] + (p[1] - p[0]) * a + (p[2] - p[0]) * b;
+                origins.push(q + normal * offset_distance(q, 1.0));
+                own.push(t as u32);
+            }
+        }
+        origins.push(Vec3::ZERO);
+        own.push(u32::MAX);
+        let index = SeamIndex::new(&scene);
+        let one_by_one = index.seam_points_one_by_one(&scene, &origins, &own);
+        let seam = one_by_one.iter().filter(|&&s| s).count();
+        assert!(seam > 30 && seam < origins.len() / 2, "{seam} seam points");
+        assert_eq!(index.seam_points(&scene, &origins, &own), one_by_one);
     }
 }

@@ -9,6 +9,7 @@
 
 pub mod atlas;
 pub mod dilation;
+mod footprint;
 pub mod leaks;
 pub mod objects;
 pub mod receiving;

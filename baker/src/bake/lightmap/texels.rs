@@ -13,6 +13,9 @@ use glam::{Vec2, Vec3, Vec4};
 use rayon::prelude::*;
 
 use super::atlas::Atlas;
+use super::footprint::{
+    Cover, Edges, clip_to_square, cross, polygon_area, polygon_centroid, texel_bounds,
+};
 use crate::scene::{NormalMap, Scene};
 use crate::support::error::Result;
 use crate::trace::{Tracer, offset_distance};
@@ -194,19 +197,6 @@ impl Texels {
 /// Texel rows per band of the parallel rasterisation.
 const BAND_ROWS: usize = 16;
 
-/// The texels a triangle's bounding box spans in a `w` × `h` lightmap: x0..x1, y0..y1; `None`
-/// where it is not in the atlas or degenerate there.
-fn texel_bounds(uv: [Vec2; 3], w: usize, h: usize) -> Option<(usize, usize, usize, usize)> {
-    let uv_area = cross(uv[1] - uv[0], uv[2] - uv[0]);
-    if !uv_area.is_finite() || uv_area == 0.0 {
-        return None;
-    }
-    let lo = uv[0].min(uv[1]).min(uv[2]).floor().max(Vec2::ZERO);
-    let hi = uv[0].max(uv[1]).max(uv[2]).ceil();
-    let (x1, y1) = ((hi.x as usize).min(w), (hi.y as usize).min(h));
-    Some((lo.x as usize, x1, lo.y as usize, y1))
-}
-
 /// `n` copies of `value`, written in parallel (a lightmap's arrays are hundreds of MB).
 fn filled<T: Copy + Send + Sync>(n: usize, value: T) -> Vec<T> {
     let mut v = Vec::with_capacity(n);
@@ -253,11 +243,15 @@ fn rasterise_rows(
             .max(p[1].distance(p[2]))
             .max(p[2].distance(p[0]));
         let centroid = (p[0] + p[1] + p[2]) / 3.0;
+        let edges = Edges::new(uv);
         for y in y0.max(rows.start)..y1.min(rows.end) {
             for x in x0..x1 {
                 let square = Vec2::new(x as f32, y as f32);
-                let overlap = clip_to_square(uv, square);
-                let area = polygon_area(&overlap);
+                let area = match edges.cover(x, y) {
+                    Cover::Outside => continue,
+                    Cover::Inside => 1.0,
+                    Cover::Straddles => polygon_area(&clip_to_square(uv, square)),
+                };
                 let i = (y - rows.start) * w + x;
                 if area <= coverage[i] || area <= 0.0 {
                     continue;
@@ -265,7 +259,7 @@ fn rasterise_rows(
                 let centre = square + Vec2::splat(0.5);
                 let b = match barycentric(uv, centre) {
                     Some(b) => b,
-                    None => barycentric_clamped(uv, polygon_centroid(&overlap)),
+                    None => barycentric_clamped(uv, polygon_centroid(&clip_to_square(uv, square))),
                 };
                 let position = p[0] * b[0] + p[1] * b[1] + p[2] * b[2];
                 let normal = (n[0] * b[0] + n[1] * b[1] + n[2] * b[2])
@@ -317,10 +311,6 @@ impl Mapping<'_> {
     }
 }
 
-fn cross(a: Vec2, b: Vec2) -> f32 {
-    a.x * b.y - a.y * b.x
-}
-
 /// The barycentric coordinates of `q` if it lies in the triangle (edges included).
 fn barycentric(uv: [Vec2; 3], q: Vec2) -> Option<[f32; 3]> {
     let b = barycentric_unclipped(uv, q);
@@ -340,94 +330,6 @@ fn barycentric_clamped(uv: [Vec2; 3], q: Vec2) -> [f32; 3] {
     let b = barycentric_unclipped(uv, q).map(|x| x.max(0.0));
     let sum = b[0] + b[1] + b[2];
     b.map(|x| x / sum)
-}
-
-/// A convex polygon of at most 8 corners: a triangle clipped by four half-planes has at most
-/// 7. Held inline: one texel's clip allocated five vectors, most of rasterising a large mesh.
-struct Polygon {
-    points: [Vec2; 8],
-    len: usize,
-}
-
-impl Polygon {
-    fn push(&mut self, p: Vec2) {
-        self.points[self.len] = p;
-        self.len += 1;
-    }
-}
-
-impl std::ops::Deref for Polygon {
-    type Target = [Vec2];
-    fn deref(&self) -> &[Vec2] {
-        &self.points[..self.len]
-    }
-}
-
-/// The triangle clipped to the unit square at `corner` (Sutherland–Hodgman).
-fn clip_to_square(uv: [Vec2; 3], corner: Vec2) -> Polygon {
-    let mut poly = Polygon {
-        points: [Vec2::ZERO; 8],
-        len: 3,
-    };
-    poly.points[..3].copy_from_slice(&uv);
-    // Each half-plane as (axis, bound, keep below?).
-    let planes = [
-        (0, corner.x, false),
-        (0, corner.x + 1.0, true),
-        (1, corner.y, false),
-        (1, corner.y + 1.0, true),
-    ];
-    for (axis, bound, below) in planes {
-        if poly.is_empty() {
-            break;
-        }
-        let inside = |p: Vec2| {
-            if below {
-                p[axis] <= bound
-            } else {
-                p[axis] >= bound
-            }
-        };
-        let mut out = Polygon {
-            points: [Vec2::ZERO; 8],
-            len: 0,
-        };
-        for k in 0..poly.len {
-            let (a, b) = (poly[k], poly[(k + 1) % poly.len]);
-            match (inside(a), inside(b)) {
-                (true, true) => out.push(b),
-                (true, false) => out.push(intersect(a, b, axis, bound)),
-                (false, true) => {
-                    out.push(intersect(a, b, axis, bound));
-                    out.push(b);
-                }
-                (false, false) => {}
-            }
-        }
-        poly = out;
-    }
-    poly
-}
-
-fn intersect(a: Vec2, b: Vec2, axis: usize, bound: f32) -> Vec2 {
-    let t = (bound - a[axis]) / (b[axis] - a[axis]);
-    let mut p = a + (b - a) * t;
-    p[axis] = bound;
-    p
-}
-
-/// Unsigned area of a simple polygon.
-fn polygon_area(poly: &[Vec2]) -> f32 {
-    let mut twice = 0.0;
-    for k in 0..poly.len() {
-        twice += cross(poly[k], poly[(k + 1) % poly.len()]);
-    }
-    (twice * 0.5).abs()
-}
-
-/// Centroid of a convex polygon (its vertex mean is inside it too, which is all we need).
-fn polygon_centroid(poly: &[Vec2]) -> Vec2 {
-    poly.iter().copied().sum::<Vec2>() / poly.len() as f32
 }
 
 /// Bilinear taps at texel-space point `p` (texel centres at half-integers, as a GPU samples a
@@ -477,19 +379,6 @@ pub(crate) fn bilinear_taps(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn a_triangle_covering_a_square_exactly_half_has_half_the_area() {
-        let uv = [Vec2::ZERO, Vec2::new(1.0, 0.0), Vec2::new(0.0, 1.0)];
-        assert!((polygon_area(&clip_to_square(uv, Vec2::ZERO)) - 0.5).abs() < 1e-6);
-        assert_eq!(polygon_area(&clip_to_square(uv, Vec2::new(1.0, 0.0))), 0.0);
-        let big = [
-            Vec2::splat(-5.0),
-            Vec2::new(10.0, -5.0),
-            Vec2::new(-5.0, 10.0),
-        ];
-        assert!((polygon_area(&clip_to_square(big, Vec2::new(1.0, 1.0))) - 1.0).abs() < 1e-6);
-    }
 
     #[test]
     fn the_centroid_of_an_overlap_lies_in_the_triangle() {
