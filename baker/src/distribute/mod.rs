@@ -8,6 +8,7 @@
 
 pub mod bounce_stages;
 pub mod checkpoint;
+pub mod column_join;
 pub mod factor_file;
 pub mod lightmap_parts;
 pub mod merge;
