@@ -74,7 +74,7 @@ fn write_bounce(
     output: &Output,
     started: std::time::Instant,
 ) -> Result<(), Error> {
-    output.write(&bounce.to_bytes())?;
+    output.write_parts(&bounce.encode().parts())?;
     println!(
         "merged {parts} files, bounce {} of {} of {} receivers, {:.2} s -> {}",
         bounce.k,

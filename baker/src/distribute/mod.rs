@@ -13,6 +13,7 @@ pub mod factor_file;
 pub mod lightmap_parts;
 pub mod merge;
 pub mod part_baker;
+pub mod part_encoding;
 pub mod prepared_file;
 pub mod probe_parts;
 pub mod probe_shards;
