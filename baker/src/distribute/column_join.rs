@@ -21,6 +21,7 @@ use crate::formats::part_id::PartId;
 use crate::support::error::{Error, Result};
 
 /// Where a texel file's stitched arrays lie in its bytes.
+#[derive(Debug)]
 struct Layout {
     texels: usize,
     /// Coefficients per texel.
@@ -124,10 +125,112 @@ fn put(bytes: &mut [u8], layout: &Layout, range: std::ops::Range<usize>, body: &
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::distribute::shard::ShardId;
+    use crate::distribute::stitch_columns::Columns;
+    use crate::formats::coefficient_file::{LightmapBlock, fixture};
+    use crate::formats::header::AtlasSource;
+
+    /// A 4×3 texel file of order 2 (4 coefficients) with accessibility.
+    fn texel_file() -> CoefficientFile {
+        let texels = 12;
+        let coefficients = (0..texels * 4).map(|i| i as f32 * 0.25).collect();
+        let mut file = fixture(2, 1, texels as u64, coefficients);
+        file.header.aux.ao = true;
+        file.ao = Some((0..texels).map(|i| i as f32 / 16.0).collect());
+        file.lightmap = Some(LightmapBlock {
+            width: 4,
+            height: 3,
+            scene_vertex_count: 3,
+            scene_triangle_count: 1,
+            texel_size: 0.0,
+            source: AtlasSource::Generated,
+            valid: (0..texels).map(|i| i % 3 == 0).collect(),
+            dilated: (0..texels).map(|i| i % 3 == 1).collect(),
+            uv1: vec![[glam::Vec2::ZERO, glam::Vec2::X, glam::Vec2::Y]],
+            objects: Vec::new(),
+        });
+        file
+    }
 
     #[test]
-    fn a_compressed_or_vertex_file_is_not_laid_out_here() {
-        let file = crate::formats::coefficient_file::fixture(2, 1, 2, vec![0.5; 8]);
+    fn the_join_on_bytes_writes_what_the_long_way_encodes() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = texel_file();
+        let bytes = file.to_bytes().0;
+        let key = xxhash_rust::xxh3::xxh3_64(&bytes);
+        // 5 columns in 2 shards: 0..2, and 2..5 with the accessibility (clamped: 1.5 → 1).
+        let shards = [(0u32, 0u32, 2u32, vec![7u32, 2]), (1, 2, 3, vec![11, 0, 5])];
+        let mut paths = Vec::new();
+        for (index, first, count, texels) in shards {
+            let values = (0..texels.len() * count as usize)
+                .map(|i| 1.5 - i as f32 * 0.125)
+                .collect();
+            let columns = Columns {
+                key,
+                shard: ShardId { index, count: 2 },
+                first,
+                count,
+                lightmap_texels: 12,
+                texels,
+                values,
+            };
+            let path = dir.path().join(format!("c{index}.col"));
+            std::fs::write(&path, columns.to_bytes()).unwrap();
+            paths.push(path);
+        }
+        let path = dir.path().join("unstitched.prt");
+        let fast = join(&path, bytes.clone(), &paths).unwrap();
+        let long = stitch_columns::join(&path, key, file, &paths).unwrap();
+        assert_eq!(fast, long.to_bytes().0);
+        assert_ne!(fast, bytes, "the columns changed the file");
+        let read = CoefficientFile::from_bytes(&fast).unwrap();
+        assert_eq!(read.ao.as_ref().unwrap()[11], 1.0, "clamped");
+        assert_eq!(
+            read.vertex(2, 0)[..2],
+            [1.25, 1.125],
+            "texel 2's first columns"
+        );
+        // Another file's columns, and a missing shard, are refused.
+        let mut other = bytes.clone();
+        other[HEADER_SIZE] ^= 1;
+        let sum = checksum(&other);
+        other[CHECKSUM_OFFSET..HEADER_SIZE].copy_from_slice(&sum.to_le_bytes());
+        let err = join(&path, other, &paths).unwrap_err().to_string();
+        assert!(err.contains("columns of another file"), "{err}");
+        let err = join(&path, bytes, &paths[..1]).unwrap_err().to_string();
+        assert!(err.contains("shards 1 of 2 are missing"), "{err}");
+    }
+
+    #[test]
+    fn column_files_of_old_or_outside_texels_are_refused() {
+        let columns = Columns {
+            key: 1,
+            shard: ShardId { index: 0, count: 1 },
+            first: 0,
+            count: 1,
+            lightmap_texels: 12,
+            texels: vec![12],
+            values: vec![0.5],
+        };
+        let err = Columns::from_bytes(&columns.to_bytes()).unwrap_err();
+        assert!(err.contains("texel 12 outside"), "{err}");
+        let mut old = columns.to_bytes();
+        old[7] = 1;
+        assert!(
+            Columns::from_bytes(&old)
+                .unwrap_err()
+                .contains("earlier prt-bake")
+        );
+        let inside = Columns {
+            texels: vec![11],
+            ..columns
+        };
+        assert_eq!(Columns::from_bytes(&inside.to_bytes()).unwrap(), inside);
+    }
+
+    #[test]
+    fn a_vertex_file_is_not_laid_out_here() {
+        let file = fixture(2, 1, 2, vec![0.5; 8]);
         let bytes = file.to_bytes().0;
         assert!(layout(&bytes).unwrap_err().contains("not a lightmap"));
         assert!(layout(b"PRT").is_err());
