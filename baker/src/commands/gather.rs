@@ -28,7 +28,7 @@ pub fn run(args: GatherArgs) -> Result<(), Error> {
     let started = std::time::Instant::now();
     let progress = super::progress(args.quiet);
     let file = bounce_stages::gather(&args.part, &args.lower, progress.as_ref())?;
-    output.write(&file.to_bytes())?;
+    output.write_parts(&file.encode().parts())?;
     let shard = file.shard.map_or(String::new(), |s| format!("{s}, "));
     println!(
         "gathered bounce {} of {} ({shard}receivers {}..{}), {:.2} s -> {}",

@@ -8,7 +8,7 @@ use prt_baker::Error;
 use prt_baker::distribute::factor_file::FactorFile;
 use prt_baker::distribute::shard::ShardId;
 use prt_baker::distribute::stitch_columns::Seams;
-use prt_baker::distribute::{prepared_file, stitch_columns};
+use prt_baker::distribute::{column_join, prepared_file, stitch_columns};
 use prt_baker::support::cpu_time::process_cpu_seconds;
 use prt_baker::support::output::Output;
 
@@ -44,9 +44,9 @@ pub fn run(args: StitchArgs) -> Result<(), Error> {
     let output = Output::new(&args.output, &inputs)?;
     let started = Instant::now();
     let mut reading = String::new();
-    let (key, file) = stitch_columns::read_unstitched(&args.file)?;
     let what = match &args.columns {
         Some(spec) => {
+            let (key, file) = stitch_columns::read_unstitched(&args.file)?;
             let shard = ShardId::parse(spec, &|name| std::env::var(name).ok())?;
             let columns = match (&args.factor, &args.prepared) {
                 (Some(path), prepared) => {
@@ -83,8 +83,8 @@ pub fn run(args: StitchArgs) -> Result<(), Error> {
             )
         }
         _ => {
-            let file = stitch_columns::join(&args.file, key, file, &args.join)?;
-            output.write(&file.to_bytes().0)?;
+            let bytes = std::fs::read(&args.file).map_err(|err| Error::io(&args.file, err))?;
+            output.write(&column_join::join(&args.file, bytes, &args.join)?)?;
             format!("joined {} column files", args.join.len())
         }
     };

@@ -17,15 +17,14 @@
 
 use glam::{Vec2, Vec3};
 
+use crate::bake::lightmap::dilation;
 use crate::bake::lightmap::stitch::NO_PARTNER;
 use crate::bake::lightmap::{
     Atlas, AtlasSource, Prepared, Stitching, Texels, place, place_unstitched,
 };
 use crate::bake::transfer::{BounceTargets, Visibility};
 use crate::formats::coefficient_file::{CoefficientFile, LightmapBlock};
-use crate::formats::header::{
-    CHECKSUM_OFFSET, HEADER_SIZE, Header, OBJECT_PLACEMENT_BYTES, ObjectPlacement, checksum,
-};
+use crate::formats::header::{HEADER_SIZE, Header, OBJECT_PLACEMENT_BYTES, ObjectPlacement};
 use crate::formats::object_placements;
 use crate::math::sh;
 use crate::scene::Scene;
@@ -369,6 +368,11 @@ impl PartLightmap {
                 * header.channels as usize
                 * sh::coeff_count(header.order as usize)
         );
+        let aux = header.aux;
+        if !stitch && !aux.bent_normal && (header.mode.casts_rays() || !aux.ao) {
+            let (coefficients, ao, dilated) = self.placed_unstitched(width, receivers, ao);
+            return self.file_of(header, coefficients, ao, None, dilated);
+        }
         // A whole bake dilates the visibility of every bake that casts rays.
         let visibility: Option<Vec<Visibility>> = header.mode.casts_rays().then(|| {
             (0..self.receivers as usize)
@@ -401,19 +405,63 @@ impl PartLightmap {
                 &mut Default::default(),
             ),
         };
-        let aux = header.aux;
+        let ao = aux
+            .ao
+            .then(|| placed.visibility.iter().map(|v| v.accessibility).collect());
+        let bent_normal = aux
+            .bent_normal
+            .then(|| placed.visibility.iter().map(|v| v.bent_normal).collect());
+        self.file_of(header, placed.coefficients, ao, bent_normal, placed.dilated)
+    }
+
+    /// [`place_unstitched`] of the coefficients and the accessibility alone (`ao`, where the
+    /// file has it), the same means in the same order: a whole texel's [`Visibility`] (28
+    /// bytes, 117 MB at 2048²) spread only for its accessibility to be kept.
+    fn placed_unstitched(
+        &self,
+        width: usize,
+        receivers: &[f32],
+        ao: Option<Vec<f32>>,
+    ) -> (Vec<f32>, Option<Vec<f32>>, Vec<bool>) {
+        let texels = self.texels();
+        let count = texels.valid.len();
+        let mut coefficients = vec![0.0f32; count * width];
+        let mut map_ao = ao.as_ref().map(|_| vec![0.0f32; count]);
+        let valid = texels.valid.iter().enumerate().filter(|(_, v)| **v);
+        for (k, (i, _)) in valid.enumerate() {
+            coefficients[i * width..(i + 1) * width]
+                .copy_from_slice(&receivers[k * width..(k + 1) * width]);
+            if let (Some(map), Some(ao)) = (map_ao.as_mut(), ao.as_ref()) {
+                map[i] = ao[k];
+            }
+        }
+        let w = texels.width as usize;
+        let dilated = dilation::dilate_rings(&texels, |ring| {
+            dilation::mean_ring(ring, w, width, &mut coefficients);
+            if let Some(map) = map_ao.as_mut() {
+                dilation::mean_ring(ring, w, 1, map);
+            }
+        });
+        (coefficients, map_ao, dilated)
+    }
+
+    /// The texel file of `header` with the lightmap's arrays and the placed ones.
+    fn file_of(
+        self,
+        header: Header,
+        coefficients: Vec<f32>,
+        ao: Option<Vec<f32>>,
+        bent_normal: Option<Vec<Vec3>>,
+        dilated: Vec<bool>,
+    ) -> CoefficientFile {
         CoefficientFile {
             header: Header {
                 checksum: 0,
                 ..header
             },
-            coefficients: placed.coefficients,
-            ao: aux
-                .ao
-                .then(|| placed.visibility.iter().map(|v| v.accessibility).collect()),
-            bent_normal: aux
-                .bent_normal
-                .then(|| placed.visibility.iter().map(|v| v.bent_normal).collect()),
+            coefficients,
+            ao,
+            bent_normal,
             rays: None,
             error_estimate: None,
             lightmap: Some(LightmapBlock {
@@ -424,7 +472,7 @@ impl PartLightmap {
                 texel_size: self.texel_size,
                 source: self.source,
                 valid: self.valid,
-                dilated: placed.dilated,
+                dilated,
                 uv1: self.uv1,
                 objects: self.objects,
             }),
@@ -451,17 +499,6 @@ impl Lookup {
     pub(crate) fn targets(&self) -> BounceTargets<'_> {
         BounceTargets::texels(&self.atlas, &self.texels)
     }
-}
-
-/// A vertex part's bytes (header size 128) made a texel part's: header size 192, the block
-/// inserted at 128, the checksum recomputed.
-pub(crate) fn with_block(mut bytes: Vec<u8>, block: &[u8; BLOCK_BYTES]) -> Vec<u8> {
-    let size = (HEADER_SIZE + BLOCK_BYTES) as u32;
-    bytes[12..16].copy_from_slice(&size.to_le_bytes());
-    bytes.splice(HEADER_SIZE..HEADER_SIZE, block.iter().copied());
-    let sum = checksum(&bytes);
-    bytes[CHECKSUM_OFFSET..HEADER_SIZE].copy_from_slice(&sum.to_le_bytes());
-    bytes
 }
 
 /// The per-object section of an atlas's placements, or nothing for other atlases (whose

@@ -8,10 +8,12 @@
 
 pub mod bounce_stages;
 pub mod checkpoint;
+pub mod column_join;
 pub mod factor_file;
 pub mod lightmap_parts;
 pub mod merge;
 pub mod part_baker;
+pub mod part_encoding;
 pub mod prepared_file;
 pub mod probe_parts;
 pub mod probe_shards;

@@ -19,7 +19,7 @@ use glam::Vec3;
 
 use crate::bake::interreflection::{self, PackedRows, RowSource, Rows};
 use crate::bake::transfer::{BakeOptions, BounceTargets, Mode};
-use crate::distribute::lightmap_parts::{self, Lookup, PartLightmap};
+use crate::distribute::lightmap_parts::{Lookup, PartLightmap};
 use crate::formats::coefficient_file::{self, CoefficientFile};
 use crate::formats::header::{self, HEADER_SIZE, Header, LIGHTMAP_PART_HEADER_SIZE};
 pub use crate::formats::part_id::{PartId, ShardId};
@@ -146,36 +146,9 @@ impl Part {
         self.id.range()
     }
 
-    /// The part file's bytes (checksummed).
+    /// The part file's bytes (checksummed): [`Part::encode`]'s pieces in one buffer.
     pub fn to_bytes(&self) -> Vec<u8> {
-        let mut payload = Vec::new();
-        let floats = self.coefficients.iter().copied();
-        let ao = self.ao.iter().flatten().copied();
-        let bent = self.bent_normal.iter().flatten().flat_map(|n| n.to_array());
-        payload.extend(floats.chain(ao).chain(bent).flat_map(f32::to_le_bytes));
-        if let Some(rows) = &self.rows {
-            for pair in rows.starts.windows(2) {
-                payload.extend(((pair[1] - pair[0]) as u32).to_le_bytes());
-            }
-            for (vertex, weight) in rows.vertices.iter().zip(&rows.weights) {
-                payload.extend(vertex.to_le_bytes());
-                payload.extend(weight.iter().flat_map(|w| w.to_le_bytes()));
-            }
-        }
-        match &self.lightmap {
-            None => {
-                coefficient_file::bytes_with_payload(&self.header, &self.id.to_bytes(), &payload)
-            }
-            Some(lightmap) => {
-                payload.extend(lightmap.tail_bytes());
-                let bytes = coefficient_file::bytes_with_payload(
-                    &self.header,
-                    &self.id.to_bytes(),
-                    &payload,
-                );
-                lightmap_parts::with_block(bytes, &lightmap.block_bytes())
-            }
-        }
+        self.encode().into_vec()
     }
 
     /// The receivers of the whole bake the part is of: the scene's vertices, or the baked
@@ -337,6 +310,20 @@ impl Part {
         Part::read_with(path, Reading::WithoutRows)
     }
 
+    /// [`Part::read_without_rows`] through `buffer`, which keeps its memory for the next
+    /// part: a merge reads one 145 MB part after another, and fresh pages for each cost
+    /// their page faults again.
+    pub fn read_without_rows_in(path: &Path, buffer: &mut Vec<u8>) -> Result<Part> {
+        use std::io::Read;
+        buffer.clear();
+        std::fs::File::open(path)
+            .and_then(|mut file| file.read_to_end(buffer))
+            .map_err(|err| Error::io(path, err))?;
+        Part::parse(buffer, Reading::WithoutRows)
+            .and_then(|(part, _)| Part::checked(part))
+            .map_err(|message| Error::coefficient_file(path, message))
+    }
+
     fn read_with(path: &Path, reading: Reading) -> Result<Part> {
         let bytes = std::fs::read(path).map_err(|err| Error::io(path, err))?;
         Part::parse(&bytes, reading)
@@ -377,9 +364,10 @@ impl Part {
             .map_err(|message| Error::coefficient_file(path, message))
     }
 
-    /// Writes the part atomically.
+    /// Writes the part atomically, in pieces ([`Part::encode`]).
     pub fn write(&self, path: &Path) -> Result<()> {
-        crate::support::atomic::write(path, &self.to_bytes())
+        let output = crate::support::output::Output::new(path, &[])?;
+        output.write_parts(&self.encode().parts())
     }
 
     /// Drops a texel part's lightmap arrays, which a checkpoint block leaves out

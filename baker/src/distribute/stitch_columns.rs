@@ -11,9 +11,15 @@
 //! all shards (`prt-bake factor-seams`, [`crate::distribute::factor_file`]), checked against
 //! the file by fingerprint, and only solves.
 //!
-//! A column file (`PRTCOL`): magic, the xxh3 of the unstitched file's bytes (u64), shard index
-//! and count, first column and column count (u32), texel count (u64); the columns' values,
-//! texel by texel; an xxh3 of everything before.
+//! The stitch moves only the texels its system solves for (the seams' unknowns, a fifth of
+//! the heightfield's 2048² lightmap); every other texel keeps its unstitched value. So a
+//! column file holds those texels only, and the join ([`crate::distribute::column_join`])
+//! writes them over the unstitched file's bytes.
+//!
+//! A column file (`PRTCOL`, version 2): magic, the xxh3 of the unstitched file's bytes (u64),
+//! shard index and count, first column and column count (u32), the number of stitched texels
+//! m (u64), the lightmap's texel count (u64); the m stitched texels (u32, the factor's order),
+//! then their columns' values, texel by texel; an xxh3 of everything before.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -25,8 +31,10 @@ use crate::distribute::merge::refuse;
 use crate::distribute::shard::{ShardId, shard_range};
 use crate::support::error::{Error, Result};
 
-const MAGIC: &[u8; 8] = b"PRTCOL\0\x01";
-const HEAD: usize = 40;
+const MAGIC: &[u8; 8] = b"PRTCOL\0\x02";
+/// The magic of the dense column files before version 2, named in the refusal.
+const OLD_MAGIC: &[u8; 8] = b"PRTCOL\0\x01";
+const HEAD: usize = 48;
 
 /// Some columns of a stitched lightmap.
 #[derive(Clone, Debug, PartialEq)]
@@ -36,27 +44,89 @@ pub struct Columns {
     pub shard: ShardId,
     pub first: u32,
     pub count: u32,
-    /// `count` floats per texel of the W×H lightmap.
+    /// The lightmap's texel count (W·H).
+    pub lightmap_texels: u64,
+    /// The stitched texels (row-major indices), in the factor's order.
+    pub texels: Vec<u32>,
+    /// `count` floats per stitched texel.
     pub values: Vec<f32>,
 }
 
 impl Columns {
     pub fn to_bytes(&self) -> Vec<u8> {
-        let mut b = Vec::with_capacity(HEAD + 8 + 4 * self.values.len());
+        let floats = 4 * (self.texels.len() + self.values.len());
+        let mut b = Vec::with_capacity(HEAD + floats + 8);
         b.extend(MAGIC);
         b.extend(self.key.to_le_bytes());
         for x in [self.shard.index, self.shard.count, self.first, self.count] {
             b.extend(x.to_le_bytes());
         }
-        let texels = self.values.len() as u64 / u64::from(self.count.max(1));
-        b.extend(texels.to_le_bytes());
-        b.extend(self.values.iter().flat_map(|v| v.to_le_bytes()));
+        b.extend((self.texels.len() as u64).to_le_bytes());
+        b.extend(self.lightmap_texels.to_le_bytes());
+        for t in &self.texels {
+            b.extend_from_slice(&t.to_le_bytes());
+        }
+        for v in &self.values {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
         let sum = xxhash_rust::xxh3::xxh3_64(&b);
         b.extend(sum.to_le_bytes());
         b
     }
 
     pub fn from_bytes(bytes: &[u8]) -> std::result::Result<Columns, String> {
+        let (head, body) = ColumnsHead::parse(bytes)?;
+        let u32s = |b: &[u8]| -> Vec<u32> {
+            b.chunks_exact(4)
+                .map(|w| u32::from_le_bytes(w.try_into().expect("4")))
+                .collect()
+        };
+        Ok(Columns {
+            key: head.key,
+            shard: head.shard,
+            first: head.first,
+            count: head.count,
+            lightmap_texels: head.lightmap_texels,
+            texels: u32s(body.texels),
+            values: u32s(body.values).into_iter().map(f32::from_bits).collect(),
+        })
+    }
+
+    pub fn read(path: &Path) -> Result<Columns> {
+        let bytes = std::fs::read(path).map_err(|err| Error::io(path, err))?;
+        Columns::from_bytes(&bytes).map_err(|message| Error::coefficient_file(path, message))
+    }
+}
+
+/// A column file's fields without its arrays: what the join checks before it copies them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ColumnsHead {
+    pub key: u64,
+    pub shard: ShardId,
+    pub first: u32,
+    pub count: u32,
+    /// How many texels the file holds (the stitched ones).
+    pub stitched: u64,
+    pub lightmap_texels: u64,
+}
+
+/// A column file's arrays, as little-endian bytes.
+pub struct ColumnsBody<'a> {
+    /// The stitched texels (u32 each), every one inside the lightmap.
+    pub texels: &'a [u8],
+    /// `count` floats per stitched texel.
+    pub values: &'a [u8],
+}
+
+impl ColumnsHead {
+    /// Checks a column file's `bytes` (magic, checksum, sizes, texel indices) and returns its
+    /// fields and arrays.
+    pub fn parse(bytes: &[u8]) -> std::result::Result<(ColumnsHead, ColumnsBody<'_>), String> {
+        if bytes.len() >= 8 && &bytes[..8] == OLD_MAGIC {
+            return Err(
+                "a column file of an earlier prt-bake (every texel; now only the stitched ones): stitch the columns again".into(),
+            );
+        }
         if bytes.len() < HEAD + 8 || &bytes[..8] != MAGIC {
             return Err("not a column file (prt-bake stitch --columns)".into());
         }
@@ -67,35 +137,109 @@ impl Columns {
         let u32_at = |o: usize| u32::from_le_bytes(body[o..o + 4].try_into().expect("4"));
         let u64_at = |o: usize| u64::from_le_bytes(body[o..o + 8].try_into().expect("8"));
         let (index, shards, first, count) = (u32_at(16), u32_at(20), u32_at(24), u32_at(28));
-        let texels = u64_at(32);
-        let floats = &body[HEAD..];
-        if Some(floats.len() as u64) != texels.checked_mul(4 * u64::from(count)) {
+        let (stitched, lightmap_texels) = (u64_at(32), u64_at(40));
+        let arrays = &body[HEAD..];
+        if Some(arrays.len() as u64) != stitched.checked_mul(4 * (1 + u64::from(count))) {
             return Err(format!(
-                "{} bytes of values for {texels} texels × {count} columns",
-                floats.len()
+                "{} bytes of arrays for {stitched} texels × {count} columns",
+                arrays.len()
             ));
         }
         if index >= shards {
             return Err(format!("shard {index} of {shards}"));
         }
-        Ok(Columns {
+        let (texels, values) = arrays.split_at(4 * stitched as usize);
+        if let Some(t) = texels
+            .chunks_exact(4)
+            .map(|w| u32::from_le_bytes(w.try_into().expect("4")))
+            .find(|&t| u64::from(t) >= lightmap_texels)
+        {
+            return Err(format!(
+                "texel {t} outside the lightmap's {lightmap_texels}"
+            ));
+        }
+        let shard = ShardId {
+            index,
+            count: shards,
+        };
+        let head = ColumnsHead {
             key: u64_at(8),
-            shard: ShardId {
-                index,
-                count: shards,
-            },
+            shard,
             first,
             count,
-            values: floats
-                .chunks_exact(4)
-                .map(|w| f32::from_le_bytes(w.try_into().expect("4")))
-                .collect(),
-        })
+            stitched,
+            lightmap_texels,
+        };
+        Ok((head, ColumnsBody { texels, values }))
+    }
+}
+
+/// The column files a join has taken: each checked against the file and the others.
+#[derive(Default)]
+pub struct ShardsSeen<'a> {
+    by_index: BTreeMap<u32, &'a Path>,
+    shards: Option<u32>,
+}
+
+impl<'a> ShardsSeen<'a> {
+    /// Refuses the column file at `column_path` (`head`) unless its columns are of the
+    /// unstitched file at `path` (key `key`, `total` columns, `texels` texels), of the split
+    /// of the others, and new; returns its columns.
+    pub fn check(
+        &mut self,
+        path: &Path,
+        key: u64,
+        column_path: &'a Path,
+        head: &ColumnsHead,
+        total: usize,
+        texels: usize,
+    ) -> Result<std::ops::Range<usize>> {
+        let name = column_path.display();
+        if head.key != key {
+            return Err(refuse(format!(
+                "{name}: columns of another file than {}",
+                path.display()
+            )));
+        }
+        if *self.shards.get_or_insert(head.shard.count) != head.shard.count {
+            return Err(refuse(format!("{name}: {} of another split", head.shard)));
+        }
+        let range = shard_range(total, head.shard);
+        if head.first as usize != range.start || head.count as usize != range.len() {
+            return Err(refuse(format!("{name}: not the columns of {}", head.shard)));
+        }
+        if head.lightmap_texels != texels as u64 {
+            return Err(refuse(format!(
+                "{name}: not as many texels as {}",
+                path.display()
+            )));
+        }
+        if let Some(other) = self.by_index.insert(head.shard.index, column_path) {
+            return Err(refuse(format!(
+                "{} and {name}: both are {}",
+                other.display(),
+                head.shard
+            )));
+        }
+        Ok(range)
     }
 
-    pub fn read(path: &Path) -> Result<Columns> {
-        let bytes = std::fs::read(path).map_err(|err| Error::io(path, err))?;
-        Columns::from_bytes(&bytes).map_err(|message| Error::coefficient_file(path, message))
+    /// Refuses a join that misses a shard's columns (or has none).
+    pub fn finish(self) -> Result<()> {
+        let shards = self
+            .shards
+            .ok_or_else(|| Error::InvalidOption("no column files".into()))?;
+        let missing: Vec<String> = (0..shards)
+            .filter(|i| !self.by_index.contains_key(i))
+            .map(|i| i.to_string())
+            .collect();
+        if !missing.is_empty() {
+            return Err(refuse(format!(
+                "the columns of shards {} of {shards} are missing",
+                missing.join(", ")
+            )));
+        }
+        Ok(())
     }
 }
 
@@ -164,7 +308,8 @@ pub fn stitch_shard(
         }
     }
     let fields = &mut [(&mut values[..], count)];
-    match seams {
+    let factored_here;
+    let factored = match seams {
         Seams::Prepared(prepared) => {
             let texels = Texels::mask(l.width, l.height, l.valid.clone());
             let stitching = Stitching {
@@ -172,16 +317,28 @@ pub fn stitch_shard(
                 uv1: &l.uv1,
             };
             let samples = lightmap::seam_samples(&texels, &l.dilated, &stitching);
-            stitch::stitch_fields(&samples, fields)
+            factored_here = stitch::factor(&samples);
+            &factored_here
         }
-        Seams::Factored(factor, _) => stitch::stitch_factored(&factor.factored, fields),
+        Seams::Factored(factor, _) => &factor.factored,
     };
+    stitch::stitch_factored(factored, fields);
+    // Only the texels the system solves for moved: the join keeps the others' bytes.
+    let texels = factored
+        .factor()
+        .map_or(Vec::new(), |f| f.texels().to_vec());
+    let mut stitched = Vec::with_capacity(texels.len() * count);
+    for &t in &texels {
+        stitched.extend_from_slice(&values[t as usize * count..(t as usize + 1) * count]);
+    }
     Ok(Columns {
         key,
         shard,
         first: columns.start as u32,
         count: count as u32,
-        values,
+        lightmap_texels: l.valid.len() as u64,
+        texels,
+        values: stitched,
     })
 }
 
@@ -194,40 +351,23 @@ pub fn join(
     columns: &[PathBuf],
 ) -> Result<CoefficientFile> {
     let total = column_count(&file);
-    let mut by_index: BTreeMap<u32, &Path> = BTreeMap::new();
-    let mut shards = None;
     let width = file.header.coefficients_per_vertex();
+    let texels = file.coefficients.len() / width.max(1);
+    let mut seen = ShardsSeen::default();
     for column_path in columns {
         let c = Columns::read(column_path)?;
-        let name = column_path.display();
-        if c.key != key {
-            return Err(refuse(format!(
-                "{name}: columns of another file than {}",
-                path.display()
-            )));
-        }
-        if *shards.get_or_insert(c.shard.count) != c.shard.count {
-            return Err(refuse(format!("{name}: {} of another split", c.shard)));
-        }
-        let range = shard_range(total, c.shard);
-        if c.first as usize != range.start || c.count as usize != range.len() {
-            return Err(refuse(format!("{name}: not the columns of {}", c.shard)));
-        }
-        if c.values.len() != file.coefficients.len() / width.max(1) * c.count as usize {
-            return Err(refuse(format!(
-                "{name}: not as many texels as {}",
-                path.display()
-            )));
-        }
-        if let Some(other) = by_index.insert(c.shard.index, column_path) {
-            return Err(refuse(format!(
-                "{} and {name}: both are {}",
-                other.display(),
-                c.shard
-            )));
-        }
+        let head = ColumnsHead {
+            key: c.key,
+            shard: c.shard,
+            first: c.first,
+            count: c.count,
+            stitched: c.texels.len() as u64,
+            lightmap_texels: c.lightmap_texels,
+        };
+        let range = seen.check(path, key, column_path, &head, total, texels)?;
         let n = c.count as usize;
-        for (i, texel) in c.values.chunks_exact(n.max(1)).enumerate() {
+        for (&i, texel) in c.texels.iter().zip(c.values.chunks_exact(n.max(1))) {
+            let i = i as usize;
             for (j, &v) in texel.iter().enumerate() {
                 let col = range.start + j;
                 match (col < width, file.ao.as_mut()) {
@@ -238,17 +378,7 @@ pub fn join(
             }
         }
     }
-    let shards = shards.ok_or_else(|| Error::InvalidOption("no column files".into()))?;
-    let missing: Vec<String> = (0..shards)
-        .filter(|i| !by_index.contains_key(i))
-        .map(|i| i.to_string())
-        .collect();
-    if !missing.is_empty() {
-        return Err(refuse(format!(
-            "the columns of shards {} of {shards} are missing",
-            missing.join(", ")
-        )));
-    }
+    seen.finish()?;
     file.header.checksum = 0;
     Ok(file)
 }

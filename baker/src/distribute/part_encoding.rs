@@ -1,0 +1,78 @@
+//! A part file's bytes in pieces ([`Encoded`]): its arrays borrowed, its bounce rows encoded
+//! once. A texel shard's part is 145 MB at 2048² (rows, mostly); building it as one payload,
+//! copying that behind the header and then again to insert the texel block, and summing it
+//! twice cost every shard several copies of the file in fresh memory.
+
+use glam::Vec3;
+
+use crate::bake::interreflection::Rows;
+use crate::distribute::lightmap_parts::BLOCK_BYTES;
+use crate::distribute::shard::Part;
+use crate::formats::coefficient_file;
+use crate::formats::encoded::Encoded;
+use crate::formats::header::HEADER_SIZE;
+
+impl Part {
+    /// The part file's bytes in pieces, the checksum set: the bytes of
+    /// [`Part::to_bytes`].
+    pub fn encode(&self) -> Encoded<'_> {
+        let tail = self
+            .lightmap
+            .as_ref()
+            .map_or(Vec::new(), |l| l.tail_bytes());
+        let ao = self.ao.as_deref().unwrap_or_default();
+        let bent = self.bent_normal.as_deref().unwrap_or_default();
+        let arrays = 4 * (self.coefficients.len() + ao.len() + 3 * bent.len());
+        let rows = self.rows.as_ref().map_or(0, |r| {
+            4 * (r.starts.len().saturating_sub(1)) + 16 * r.vertices.len()
+        });
+        let payload = (arrays + rows + tail.len()) as u64;
+        // The header as for an empty payload (and whatever follows it there), its payload
+        // length then set; a texel part's block goes right after the 128 header bytes.
+        let mut head = coefficient_file::bytes_with_payload(&self.header, &self.id.to_bytes(), &[]);
+        head[72..80].copy_from_slice(&payload.to_le_bytes());
+        if let Some(l) = &self.lightmap {
+            let size = (HEADER_SIZE + BLOCK_BYTES) as u32;
+            head[12..16].copy_from_slice(&size.to_le_bytes());
+            head.splice(HEADER_SIZE..HEADER_SIZE, l.block_bytes());
+        }
+        let mut e = Encoded::from(head);
+        e.put(&self.coefficients, f32::to_le_bytes);
+        e.put(ao, f32::to_le_bytes);
+        e.put(bent, |n: Vec3| {
+            let mut b = [0u8; 12];
+            for (o, f) in b.chunks_exact_mut(4).zip(n.to_array()) {
+                o.copy_from_slice(&f.to_le_bytes());
+            }
+            b
+        });
+        if let Some(rows) = &self.rows {
+            let (lengths, entries) = row_bytes(rows);
+            e.push(lengths);
+            e.push(entries);
+        }
+        e.push(tail);
+        e.seal();
+        e
+    }
+}
+
+/// Bounce rows as a part stores them: each row's length (u32), then every entry's vertex
+/// (u32) and RGB weight (3 × f32).
+fn row_bytes(rows: &Rows) -> (Vec<u8>, Vec<u8>) {
+    let lengths = rows
+        .starts
+        .windows(2)
+        .flat_map(|pair| ((pair[1] - pair[0]) as u32).to_le_bytes())
+        .collect();
+    let mut entries = Vec::with_capacity(16 * rows.vertices.len());
+    for (vertex, weight) in rows.vertices.iter().zip(&rows.weights) {
+        let mut entry = [0u8; 16];
+        entry[..4].copy_from_slice(&vertex.to_le_bytes());
+        for (o, w) in entry[4..].chunks_exact_mut(4).zip(weight) {
+            o.copy_from_slice(&w.to_le_bytes());
+        }
+        entries.extend_from_slice(&entry);
+    }
+    (lengths, entries)
+}
