@@ -213,3 +213,33 @@ impl TexelTargets<'_> {
         map
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Taking the points gives the receivers that copying them gives, on an atlas whose valid
+    /// texels are scattered (so the compaction moves them), and leaves the size and mask.
+    #[test]
+    fn taken_texel_points_make_the_receivers_copied_ones_make() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../scenes/cornell/cornell.scene");
+        let scene = Scene::load(&path).unwrap();
+        let atlas = Atlas::generate(&scene, 64, None).unwrap();
+        let texels = Texels::rasterise(&scene, &atlas);
+        assert!(texels.valid.iter().any(|v| !v), "some texels are empty");
+        let copied = Receivers::texels(&texels);
+        let mut taken_from = texels.clone();
+        let taken = Receivers::take_texels(&mut taken_from);
+        assert_eq!(taken.origins, copied.origins);
+        assert_eq!(taken.normals, copied.normals);
+        assert_eq!(taken.horizons, copied.horizons);
+        assert_eq!(taken.streams, copied.streams);
+        assert_eq!(taken_from.valid, texels.valid);
+        assert_eq!(
+            (taken_from.width, taken_from.height),
+            (texels.width, texels.height)
+        );
+        assert!(taken_from.origins.is_empty() && taken_from.positions.is_empty());
+    }
+}
