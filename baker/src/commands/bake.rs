@@ -566,7 +566,15 @@ fn bake_texels(
             Ok(lightmap::receiving::widen(scene, objects, atlas))
         }
     })?;
-    let bake = lightmap::bake_without_points(scene, tracer, options, atlas, media, progress)?;
+    let bake = lightmap::bake_texels(
+        scene,
+        tracer,
+        options,
+        atlas,
+        media,
+        lightmap::TexelPoints::Released,
+        progress,
+    )?;
     if args.verbose {
         eprintln!(
             "prt-bake: stages: {}, {}; stitching factor {} nonzeros",

@@ -42,7 +42,7 @@ pub use dilation::DILATION;
 #[derive(Clone, Debug)]
 pub struct LightmapBake {
     pub atlas: Atlas,
-    /// The texels; only their size and mask after [`bake_without_points`].
+    /// The texels; only their size and mask after a bake with [`TexelPoints::Released`].
     pub texels: Texels,
     pub transfer: Transfer,
     /// Per texel: not baked, but filled from baked neighbours.
@@ -226,37 +226,19 @@ pub fn bake_translucent(
     )
 }
 
-/// [`bake_translucent`], whose [`LightmapBake::texels`] keeps only its size and mask: the
-/// texels' points move into the bake's receivers instead of being copied, which lowers the
-/// peak by 52 bytes a texel (218 MB at 2048²; `prt-bake bake`, which writes no point).
-/// Subsurface texels need their points to the end, so with a medium they are kept.
-pub fn bake_without_points(
-    scene: &crate::Scene,
-    tracer: Option<&dyn Tracer>,
-    options: &BakeOptions,
-    atlas: Atlas,
-    media: &[Option<crate::math::medium::Medium>],
-    progress: &dyn Progress,
-) -> Result<LightmapBake> {
-    bake_texels(
-        scene,
-        tracer,
-        options,
-        atlas,
-        media,
-        TexelPoints::Released,
-        progress,
-    )
-}
-
-/// Whether a texel bake's result keeps its texels' points ([`bake_without_points`]).
+/// Whether a texel bake's result keeps its texels' points. `Released`: the points move into
+/// the bake's receivers instead of being copied, and [`LightmapBake::texels`] keeps only its
+/// size and mask, which lowers the peak by 52 bytes a texel (218 MB at 2048²; `prt-bake
+/// bake`, which writes no point). Subsurface texels need their points to the end, so with a
+/// medium they are kept either way.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum TexelPoints {
+pub enum TexelPoints {
     Kept,
     Released,
 }
 
-fn bake_texels(
+/// [`bake_translucent`], keeping the texels' points or not.
+pub fn bake_texels(
     scene: &crate::Scene,
     tracer: Option<&dyn Tracer>,
     options: &BakeOptions,
