@@ -182,9 +182,9 @@ pub(crate) fn add_bounces(
         _ => 0,
     };
     let pass = |previous: Cow<[f32]>, previous_channels: usize, next: &mut [f32]| {
-        let slots = targets.slot_values(&previous, previous_channels * n);
         // A texel bake's slots are a lightmap of their own: the previous bounce can go.
-        let previous = match slots {
+        // A vertex bake's are the previous bounce itself.
+        let slots = match targets.slot_values(&previous, previous_channels * n) {
             Cow::Owned(slots) => {
                 drop(previous);
                 Cow::Owned(slots)
@@ -195,7 +195,7 @@ pub(crate) fn add_bounces(
             rows,
             norm,
             n,
-            &previous,
+            &slots,
             previous_channels,
             channels,
             next,
