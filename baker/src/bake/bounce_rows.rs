@@ -6,16 +6,20 @@
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
 use std::ops::Range;
-use std::sync::atomic::{AtomicBool, AtomicU8, AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
 use glam::{Vec2, Vec3};
 
-use crate::bake::lightmap::leaks::{LEAK_FRACTION, LEAK_RAYS, SCREEN_RAYS, leaks_at};
-use crate::bake::receivers::{BounceTargets, RECEIVERS_PER_JOB};
-use crate::math::sampling::{Pcg32, vertex_seed};
+pub(crate) use crate::bake::embedded::CornerProbe;
+pub use crate::bake::embedded::{
+    EMBEDDING_FRACTION, EMBEDDING_RAYS, EMBEDDING_SCREEN_RAYS, Embedded,
+};
+use crate::bake::hit_cache::{FrozenJob, RowData};
+use crate::bake::receivers::BounceTargets;
+use crate::bake::receivers::RECEIVERS_PER_JOB;
 use crate::scene::Scene;
-use crate::trace::{Hit, Tracer};
+use crate::trace::Hit;
 
 /// Bytes per bounce-row entry: vertex index and RGB weight.
 pub const BYTES_PER_ENTRY: u64 = 4 + 3 * 4;
@@ -92,103 +96,6 @@ impl Hasher for SlotHasher {
     }
 }
 
-/// Closest-hit rays of a vertex's embedding test (cosine-weighted over its hemisphere), as
-/// many as a texel's leak test casts (`lightmap::leaks`).
-pub const EMBEDDING_RAYS: usize = LEAK_RAYS;
-/// A vertex is embedded when more than this fraction of its test rays hit back faces.
-pub const EMBEDDING_FRACTION: f32 = LEAK_FRACTION;
-/// The first rays of the test, traced alone: a vertex none of whose first 16 rays hits a
-/// back face is taken to be open without the other 48 (most vertices).
-pub const EMBEDDING_SCREEN_RAYS: usize = SCREEN_RAYS;
-
-/// Vertex bakes: which vertices are **embedded** — inside or behind other geometry (a floor
-/// vertex under a box, a wall board's corner beyond the wall it meets), so that their own
-/// transfer is not the light at the surface a bounce hit near them lands on. Like a leaking
-/// texel (`lightmap::leaks`), a vertex is embedded when more than [`EMBEDDING_FRACTION`] of
-/// [`EMBEDDING_RAYS`] cosine-weighted closest-hit rays from its ray origin hit back faces.
-///
-/// A bounce hit on a triangle reads the previous bounce at the triangle's corners; an
-/// embedded corner's value (0 inside a box, the sky's light outside a room) is left out and
-/// the open corners' barycentric weights are renormalised to sum to 1 (where all three are
-/// embedded, the hit reads them as before: nothing better is known). Without this, a floor
-/// triangle running under a box read the box's inside (zero) along the lit strip in front of
-/// it, and overlapping boards read the sky from outside the room.
-///
-/// Each vertex is tested the first time a hit needs it (most vertices never are: only the
-/// corners of hit triangles), from its own random stream, so the answer is a pure function of
-/// (seed, vertex) and the bake stays bit-identical for any thread count, shard split or
-/// re-trace; racing threads compute the same answer.
-pub struct Embedded {
-    /// Per slot: 0 untested, 1 open, 2 embedded. Empty for texel targets.
-    state: Vec<AtomicU8>,
-    /// Per triangle: 0 untested, 1 every corner open (most: a hit then costs one load), 2 some
-    /// corner embedded. Empty for texel targets.
-    triangles: Vec<AtomicU8>,
-}
-
-impl Embedded {
-    /// Untested state for every vertex of `scene` if `targets` are its vertices; nothing
-    /// otherwise (texels have their own leak test, before the bake).
-    pub(crate) fn new(scene: &Scene, targets: &BounceTargets) -> Embedded {
-        let (vertices, triangles) = match targets {
-            BounceTargets::Vertices => (scene.vertex_count(), scene.triangles.len()),
-            BounceTargets::Texels(_) => (0, 0),
-        };
-        let untested = |count| (0..count).map(|_| AtomicU8::new(0)).collect();
-        Embedded {
-            state: untested(vertices),
-            triangles: untested(triangles),
-        }
-    }
-
-    /// Whether a corner of `triangle` (with corners `corners`) is embedded.
-    fn has_embedded_corner(&self, triangle: u32, corners: [u32; 3], probe: &CornerProbe) -> bool {
-        let state = &self.triangles[triangle as usize];
-        match state.load(Ordering::Relaxed) {
-            1 => false,
-            2 => true,
-            _ => {
-                let any = corners.iter().any(|&v| self.is_embedded(v, probe));
-                state.store(if any { 2 } else { 1 }, Ordering::Relaxed);
-                any
-            }
-        }
-    }
-
-    /// Whether vertex `v` is embedded, testing it with `probe` on first use.
-    fn is_embedded(&self, v: u32, probe: &CornerProbe) -> bool {
-        let state = &self.state[v as usize];
-        match state.load(Ordering::Relaxed) {
-            1 => false,
-            2 => true,
-            _ => {
-                let embedded = probe.embedded(v as usize);
-                state.store(if embedded { 2 } else { 1 }, Ordering::Relaxed);
-                embedded
-            }
-        }
-    }
-}
-
-/// What the embedding test of a vertex needs: the tracer, and the vertices' ray origins and
-/// normals (the estimator's receivers, in a vertex bake).
-pub(crate) struct CornerProbe<'t> {
-    pub tracer: &'t dyn Tracer,
-    pub origins: &'t [Vec3],
-    pub normals: &'t [Vec3],
-    pub seed: u64,
-}
-
-impl CornerProbe<'_> {
-    /// Whether more than [`EMBEDDING_FRACTION`] of [`EMBEDDING_RAYS`] cosine-distributed rays
-    /// from vertex `v`'s origin hit back faces (by the geometric normal, as the texel leak
-    /// test decides). Directions come from the vertex's own stream, apart from its samples.
-    fn embedded(&self, v: usize) -> bool {
-        let mut rng = Pcg32::new(vertex_seed(self.seed, v as u64), 0xc0_1eaf);
-        leaks_at(self.origins[v], self.normals[v], self.tracer, &mut rng)
-    }
-}
-
 /// The bounce rows of a run of consecutive receivers.
 ///
 /// Vertex targets keep each receiver's row folded (its hits share corners: about one
@@ -234,7 +141,7 @@ impl<'a> JobRows<'a> {
     }
 
     /// Whether hits are kept rather than folded rows (texel targets).
-    fn keeps_hits(&self) -> bool {
+    pub(crate) fn keeps_hits(&self) -> bool {
         matches!(self.targets, BounceTargets::Texels(_))
     }
 
@@ -327,53 +234,9 @@ impl<'a> JobRows<'a> {
         probe: Option<&CornerProbe>,
         out: &mut [(u32, Vec3); 4],
     ) -> usize {
-        let scene = self.scene;
-        let tri = scene.triangles[triangle as usize];
-        let uv: Vec2 = (0..3)
-            .map(|k| scene.uvs[tri[k] as usize] * barycentric[k])
-            .sum();
-        let albedo = scene.albedo(scene.triangle_material(triangle as usize), uv) * weight;
-        let mut slots = [(0, 0.0); 4];
-        let count = self
-            .targets
-            .lookup(scene, triangle, barycentric, &mut slots);
-        if let (BounceTargets::Vertices, Some(probe)) = (self.targets, probe)
-            && self.embedded.has_embedded_corner(triangle, tri, probe)
-        {
-            self.skip_embedded(&mut slots[..count], probe);
-        }
-        for (out, &(slot, b)) in out.iter_mut().zip(&slots[..count]) {
-            *out = (slot, albedo * b);
-        }
-        count
-    }
-
-    /// A vertex hit's corner weights with the embedded corners left out and the others
-    /// renormalised to sum to 1 (equal, if the hit lies on the embedded corners' edge);
-    /// unchanged where no corner or every corner is embedded.
-    fn skip_embedded(&self, slots: &mut [(u32, f32)], probe: &CornerProbe) {
-        let mut open = [true; 4];
-        for (open, &(vertex, _)) in open.iter_mut().zip(slots.iter()) {
-            *open = !self.embedded.is_embedded(vertex, probe);
-        }
-        let open = &open[..slots.len()];
-        let count = open.iter().filter(|&&o| o).count();
-        if count == 0 || count == slots.len() {
-            return;
-        }
-        let sum: f32 = slots
-            .iter()
-            .zip(open)
-            .filter(|(_, o)| **o)
-            .map(|(s, _)| s.1)
-            .sum();
-        for (slot, &o) in slots.iter_mut().zip(open) {
-            slot.1 = match (o, sum > 0.0) {
-                (false, _) => 0.0,
-                (true, true) => slot.1 / sum,
-                (true, false) => 1.0 / count as f32,
-            };
-        }
+        let embedded = probe.map(|probe| (&*self.embedded, probe));
+        let at = (triangle, barycentric, weight);
+        hit_slots(self.scene, self.targets, at, embedded, out)
     }
 
     /// Ends the current receiver's row: moves the builder's entries into the job.
@@ -383,39 +246,24 @@ impl<'a> JobRows<'a> {
         builder.clear();
     }
 
-    /// Gives back the room its vectors grew into: a job's hits grow by doubling, and the
-    /// slack, a third of the hits on the heightfield of issue 34 (about 180 MB of a 2048²
-    /// lightmap's 510 MiB cache), would otherwise be held to the last bounce.
-    fn shrink_to_fit(&mut self) {
-        self.starts.shrink_to_fit();
-        self.vertices.shrink_to_fit();
-        self.weights.shrink_to_fit();
-        self.hits.shrink_to_fit();
-        self.hit_weights.shrink_to_fit();
-    }
-
-    fn bytes(&self) -> u64 {
+    /// Bytes the cache counts for the job (against `--hit-cache-mb`).
+    pub(crate) fn bytes(&self) -> u64 {
         self.vertices.len() as u64 * BYTES_PER_ENTRY
             + self.hits.len() as u64 * BYTES_PER_HIT
             + self.hit_weights.len() as u64 * 4
             + self.starts.len() as u64 * 4
     }
 
-    /// Receivers begun.
-    pub(crate) fn receiver_count(&self) -> usize {
-        self.starts.len()
-    }
-
-    /// The entries (vertex targets) or hits (texel targets) of the `k`-th receiver recorded.
-    fn range(&self, k: usize) -> Range<usize> {
-        let len = if self.keeps_hits() {
-            self.hits.len()
-        } else {
-            self.vertices.len()
-        };
-        let start = self.starts[k] as usize;
-        let end = self.starts.get(k + 1).map_or(len, |&e| e as usize);
-        start..end
+    /// The job's rows as borrowed slices.
+    pub(crate) fn data(&self) -> RowData<'_> {
+        RowData {
+            starts: &self.starts,
+            vertices: &self.vertices,
+            weights: &self.weights,
+            hits: &self.hits,
+            hit_weights: &self.hit_weights,
+            uniform: self.uniform,
+        }
     }
 
     /// The `k`-th receiver's bounce row (slots and RGB weights): its folded entries, or its
@@ -425,17 +273,78 @@ impl<'a> JobRows<'a> {
         k: usize,
         builder: &'r mut RowBuilder,
     ) -> (&'r [u32], &'r [[f32; 3]]) {
-        let range = self.range(k);
-        if !self.keeps_hits() {
-            return (&self.vertices[range.clone()], &self.weights[range]);
+        self.data().row(self.scene, self.targets, k, builder)
+    }
+
+    /// Empties the job for the next one (keeping its vectors' room: a thread's recording
+    /// vectors serve job after job, and only the kept copy is sized to fit).
+    pub(crate) fn clear(&mut self) {
+        self.starts.clear();
+        self.vertices.clear();
+        self.weights.clear();
+        self.hits.clear();
+        self.hit_weights.clear();
+        self.uniform = f32::NAN;
+    }
+}
+
+/// The slots a front hit `(triangle, barycentric, weight)` reads, with their RGB weights
+/// (`weight` × the hit's albedo × the slot's interpolation weight); with `embedded`, a vertex
+/// target's embedded corners are left out.
+fn hit_slots(
+    scene: &Scene,
+    targets: &BounceTargets,
+    (triangle, barycentric, weight): (u32, [f32; 3], f32),
+    embedded: Option<(&Embedded, &CornerProbe)>,
+    out: &mut [(u32, Vec3); 4],
+) -> usize {
+    let tri = scene.triangles[triangle as usize];
+    let uv: Vec2 = (0..3)
+        .map(|k| scene.uvs[tri[k] as usize] * barycentric[k])
+        .sum();
+    let albedo = scene.albedo(scene.triangle_material(triangle as usize), uv) * weight;
+    let mut slots = [(0, 0.0); 4];
+    let count = targets.lookup(scene, triangle, barycentric, &mut slots);
+    if let (BounceTargets::Vertices, Some((embedded, probe))) = (targets, embedded)
+        && embedded.has_embedded_corner(triangle, tri, probe)
+    {
+        embedded.skip_embedded(&mut slots[..count], probe);
+    }
+    for (out, &(slot, b)) in out.iter_mut().zip(&slots[..count]) {
+        *out = (slot, albedo * b);
+    }
+    count
+}
+
+impl<'r> RowData<'r> {
+    /// The `k`-th receiver's bounce row (slots and RGB weights): its folded entries, or its
+    /// hits folded into `builder` (cleared first) exactly as [`JobRows::record`] would have.
+    pub(crate) fn row(
+        self,
+        scene: &Scene,
+        targets: &BounceTargets,
+        k: usize,
+        builder: &'r mut RowBuilder,
+    ) -> (&'r [u32], &'r [[f32; 3]]) {
+        let keeps_hits = matches!(targets, BounceTargets::Texels(_));
+        let len = if keeps_hits {
+            self.hits.len()
+        } else {
+            self.vertices.len()
+        };
+        let start = self.starts[k] as usize;
+        let end = self.starts.get(k + 1).map_or(len, |&e| e as usize);
+        if !keeps_hits {
+            return (&self.vertices[start..end], &self.weights[start..end]);
         }
         builder.clear();
-        for i in range {
+        for i in start..end {
             let [triangle, u, v] = self.hits[i];
             let (u, v) = (f32::from_bits(u), f32::from_bits(v));
             let weight = self.hit_weights.get(i).copied().unwrap_or(self.uniform);
             let mut slots = [(0, Vec3::ZERO); 4];
-            let count = self.hit_slots(triangle, [1.0 - u - v, u, v], weight, None, &mut slots);
+            let at = (triangle, [1.0 - u - v, u, v], weight);
+            let count = hit_slots(scene, targets, at, None, &mut slots);
             fold(builder, &slots[..count]);
         }
         (&builder.touched, &builder.sums)
@@ -465,15 +374,15 @@ pub struct Rows {
 
 impl Rows {
     /// The rows of a direct pass's jobs, in order.
-    pub(crate) fn from_jobs(jobs: Vec<JobRows>) -> Rows {
+    pub(crate) fn from_jobs(jobs: HitCache) -> Rows {
         let mut rows = Rows {
             starts: vec![0],
             ..Rows::default()
         };
         let mut builder = RowBuilder::default();
-        for job in jobs {
-            for k in 0..job.receiver_count() {
-                let (vertices, weights) = job.row(k, &mut builder);
+        for job in 0..jobs.job_count() {
+            for k in 0..jobs.receiver_count(job) {
+                let (vertices, weights) = jobs.row(job, k, &mut builder);
                 rows.vertices.extend(vertices);
                 rows.weights.extend(weights);
                 rows.starts.push(rows.vertices.len() as u64);
@@ -510,12 +419,44 @@ impl Rows {
     }
 }
 
+/// The direct pass's rows, job by job ([`RECEIVERS_PER_JOB`] receivers each), frozen
+/// ([`crate::bake::hit_cache`]).
+pub struct HitCache<'a> {
+    scene: &'a Scene,
+    targets: &'a BounceTargets<'a>,
+    jobs: Vec<FrozenJob>,
+}
+
+impl HitCache<'_> {
+    pub(crate) fn job_count(&self) -> usize {
+        self.jobs.len()
+    }
+
+    /// Receivers of job `job`.
+    pub(crate) fn receiver_count(&self, job: usize) -> usize {
+        self.jobs[job].receiver_count()
+    }
+
+    /// The bounce row of job `job`'s `k`-th receiver, as [`JobRows::row`] gave it.
+    pub(crate) fn row<'r>(
+        &'r self,
+        job: usize,
+        k: usize,
+        builder: &'r mut RowBuilder,
+    ) -> (&'r [u32], &'r [[f32; 3]]) {
+        let keeps_hits = matches!(self.targets, BounceTargets::Texels(_));
+        self.jobs[job]
+            .data(keeps_hits)
+            .row(self.scene, self.targets, k, builder)
+    }
+}
+
 /// Collects the direct pass's bounce rows job by job, within a memory budget.
 pub(crate) struct HitRecorder<'a> {
     scene: &'a Scene,
     targets: &'a BounceTargets<'a>,
     embedded: Arc<Embedded>,
-    jobs: Vec<Mutex<Option<JobRows<'a>>>>,
+    jobs: Vec<Mutex<Option<FrozenJob>>>,
     bytes: AtomicU64,
     limit: u64,
     overflowed: AtomicBool,
@@ -541,7 +482,7 @@ impl<'a> HitRecorder<'a> {
         }
     }
 
-    /// An empty set of rows for the next job.
+    /// An empty set of rows to record jobs into ([`JobRows::clear`] between them).
     pub(crate) fn job(&self) -> JobRows<'a> {
         JobRows::new(self.scene, self.targets, self.embedded.clone())
     }
@@ -551,22 +492,23 @@ impl<'a> HitRecorder<'a> {
         self.embedded.clone()
     }
 
-    /// Keeps a finished job's rows, unless the budget is (or would be) exceeded.
-    pub(crate) fn finish_job(&self, job: usize, mut hits: JobRows<'a>) {
+    /// Keeps a finished job's rows (a frozen copy), unless the budget is (or would be)
+    /// exceeded.
+    pub(crate) fn finish_job(&self, job: usize, hits: &JobRows<'a>) {
         let total = self.bytes.fetch_add(hits.bytes(), Ordering::Relaxed) + hits.bytes();
         if total > self.limit {
             self.overflowed.store(true, Ordering::Relaxed);
         }
         if !self.overflowed.load(Ordering::Relaxed) {
-            hits.shrink_to_fit();
             *self.jobs[job]
                 .lock()
-                .expect("no job panicked holding the lock") = Some(hits);
+                .expect("no job panicked holding the lock") =
+                Some(FrozenJob::freeze(hits.data(), hits.keeps_hits()));
         }
     }
 
     /// The rows of every job, or `None` if the budget was exceeded.
-    pub(crate) fn into_cache(self) -> Option<(Vec<JobRows<'a>>, u64)> {
+    pub(crate) fn into_cache(self) -> Option<(HitCache<'a>, u64)> {
         if self.overflowed.into_inner() {
             return None;
         }
@@ -576,7 +518,12 @@ impl<'a> HitRecorder<'a> {
                 .expect("no poisoned lock")
                 .expect("every job finished")
         });
-        Some((jobs.collect(), bytes))
+        let cache = HitCache {
+            scene: self.scene,
+            targets: self.targets,
+            jobs: jobs.collect(),
+        };
+        Some((cache, bytes))
     }
 }
 
@@ -584,6 +531,7 @@ impl<'a> HitRecorder<'a> {
 mod tests {
     use super::*;
     use crate::bake::lightmap::{Atlas, texels::Texels};
+    use crate::math::sampling::Pcg32;
     use crate::trace::{ObvhsOptions, ObvhsTracer};
 
     #[test]

@@ -94,15 +94,19 @@ pub(crate) fn direct_pass(
         .zip(visibility.par_chunks_mut(RECEIVERS_PER_JOB))
         .enumerate()
         .for_each_init(
-            || Scratch::new(n),
-            |scratch, (job, (out, vis))| {
+            // One recording of rows per worker, cleared between jobs (the recorder keeps a
+            // frozen copy of each).
+            || (Scratch::new(n), recorder.map(|r| r.job())),
+            |(scratch, hits), (job, (out, vis))| {
                 let first = vertices.start + job * RECEIVERS_PER_JOB;
-                let mut hits = recorder.map(|r| r.job());
+                if let Some(hits) = hits.as_mut() {
+                    hits.clear();
+                }
                 for (k, (out, vis)) in out.chunks_mut(n).zip(vis.iter_mut()).enumerate() {
                     *vis =
                         estimator.receiver_transfer(first + k, tracer, scratch, out, hits.as_mut());
                 }
-                if let (Some(recorder), Some(hits)) = (recorder, hits) {
+                if let (Some(recorder), Some(hits)) = (recorder, hits.as_ref()) {
                     recorder.finish_job(job, hits);
                 }
                 progress.advance(vis.len() as u64);

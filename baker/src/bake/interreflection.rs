@@ -62,7 +62,7 @@ use rayon::prelude::*;
 use std::borrow::Cow;
 use std::sync::Arc;
 
-use crate::bake::bounce_rows::{Embedded, HitRecorder, JobRows, RowBuilder};
+use crate::bake::bounce_rows::{Embedded, HitCache, HitRecorder, JobRows, RowBuilder};
 use crate::bake::estimator::{Estimator, Scratch, Visibility, direct_pass};
 use crate::bake::options::BakeOptions;
 use crate::bake::receivers::BounceTargets;
@@ -145,7 +145,7 @@ pub(crate) fn bake(
 /// Where a bounce pass finds each receiver's bounce row.
 pub(crate) enum RowSource<'a> {
     /// The direct pass's rows, job by job ([`RECEIVERS_PER_JOB`] receivers each).
-    Jobs(&'a [JobRows<'a>]),
+    Jobs(&'a HitCache<'a>),
     /// Rows in memory, one per receiver in order (checkpoint blocks joined, or a shard part
     /// the merge has read).
     Flat(&'a Rows),
@@ -165,8 +165,14 @@ pub(crate) enum RowSource<'a> {
 /// The interreflected transfer from the direct pass's `t0` (one channel, every receiver) and
 /// the bounce rows, read through `targets`: T_0 broadcast to `channels`, plus
 /// `options.bounces` gathers. The single-machine bake and the merge of checkpoint blocks end
-/// here; the merge of shard parts ends in [`sum_bounces`] with the same [`bounce_pass`], so
-/// they agree bit for bit.
+/// here; the merge of shard parts ends in [`sum_bounces`] with the same [`bounce_pass`]: the
+/// same sums of the same floats in the same order, so they agree bit for bit.
+///
+/// Memory: every bounce holds two receiver-sized arrays, not three (issue 34's 1.5 GB). The
+/// slots are built in place from the previous bounce ([`BounceTargets::into_slot_values`]);
+/// bounce 1 in one channel reads T_0 from the total itself, which is given back, bit for bit,
+/// after the gather ([`BounceTargets::from_slot_values`]); and the last bounce is added to
+/// the total receiver by receiver instead of into an array of its own.
 pub(crate) fn add_bounces(
     t0: Vec<f32>,
     channels: usize,
@@ -181,32 +187,64 @@ pub(crate) fn add_bounces(
         RowSource::Retrace { .. } => u64::from(options.samples),
         _ => 0,
     };
-    let pass = |previous: Cow<[f32]>, previous_channels: usize, next: &mut [f32]| {
-        // A texel bake's slots are a lightmap of their own: the previous bounce can go.
-        // A vertex bake's are the previous bounce itself.
-        let slots = match targets.slot_values(&previous, previous_channels * n) {
-            Cow::Owned(slots) => {
-                drop(previous);
-                Cow::Owned(slots)
-            }
-            Cow::Borrowed(_) => previous,
+    let receivers = t0.len() / n;
+    let (mut total, mut previous) = broadcast_t0(t0, channels, n);
+    let mut previous_channels = 1;
+    for k in 1..=options.bounces {
+        progress.begin(&format!("bounce {k}"), receivers as u64, rays);
+        // Bounce 1 in one channel: T_0 is the total so far, lent to the slots.
+        let lent = previous.is_none();
+        let values = previous
+            .take()
+            .unwrap_or_else(|| std::mem::take(&mut total));
+        let slots = targets.into_slot_values(values, previous_channels * n);
+        let pass = |next: &mut [f32], add: bool| {
+            bounce_pass_into(
+                rows,
+                norm,
+                n,
+                &slots,
+                previous_channels,
+                channels,
+                (next, add),
+                progress,
+            )
         };
-        bounce_pass(
-            rows,
-            norm,
-            n,
-            &slots,
-            previous_channels,
-            channels,
-            next,
-            progress,
-        );
-        Ok::<(), std::convert::Infallible>(())
-    };
-    match sum_bounces(t0, channels, options, rays, progress, pass) {
-        Ok(total) => total,
-        Err(never) => match never {},
+        if k == options.bounces && !lent {
+            pass(&mut total, true);
+            progress.finish();
+            break;
+        }
+        let mut next = vec![0.0f32; receivers * channels * n];
+        pass(&mut next, false);
+        progress.finish();
+        if lent {
+            total = targets.from_slot_values(slots, n);
+        } else {
+            drop(slots);
+        }
+        for (t, b) in total.iter_mut().zip(&next) {
+            *t += b;
+        }
+        previous = Some(next);
+        previous_channels = channels;
     }
+    total
+}
+
+/// The total's start, T_0 (one channel) broadcast to `channels`, and T_0 itself where the
+/// total is a copy of it (`None`: in one channel the total is T_0).
+fn broadcast_t0(t0: Vec<f32>, channels: usize, n: usize) -> (Vec<f32>, Option<Vec<f32>>) {
+    if channels == 1 {
+        return (t0, None);
+    }
+    let mut total = vec![0.0f32; t0.len() * channels];
+    for (v, t0) in t0.chunks_exact(n).enumerate() {
+        for c in 0..channels {
+            total[(v * channels + c) * n..][..n].copy_from_slice(t0);
+        }
+    }
+    (total, Some(t0))
 }
 
 /// T_0 (`t0`, one channel, every vertex) broadcast to `channels`, plus `options.bounces`
@@ -230,17 +268,7 @@ where
     let n = sh::coeff_count(options.order);
     let vertex_count = t0.len() / n;
     // Total = T_0 (grey) broadcast to every channel, plus each bounce.
-    let (mut total, mut previous) = if channels == 1 {
-        (t0, None)
-    } else {
-        let mut total = vec![0.0f32; vertex_count * channels * n];
-        for (v, t0) in t0.chunks_exact(n).enumerate() {
-            for c in 0..channels {
-                total[(v * channels + c) * n..][..n].copy_from_slice(t0);
-            }
-        }
-        (total, Some(t0))
-    };
+    let (mut total, mut previous) = broadcast_t0(t0, channels, n);
     let mut previous_channels = 1;
     for k in 1..=options.bounces {
         progress.begin(&format!("bounce {k}"), vertex_count as u64, rays_per_vertex);
@@ -276,14 +304,41 @@ pub(crate) fn bounce_pass(
     next: &mut [f32],
     progress: &dyn Progress,
 ) {
+    bounce_pass_into(
+        rows,
+        norm,
+        n,
+        previous,
+        previous_channels,
+        channels,
+        (next, false),
+        progress,
+    );
+}
+
+/// [`bounce_pass`] into `next` as it is, or, with `add`, added to it receiver by receiver:
+/// each receiver's bounce is the same floats either way, and `next += bounce` the same sum
+/// a whole array of the bounce would have added.
+#[allow(clippy::too_many_arguments)]
+fn bounce_pass_into(
+    rows: &RowSource,
+    norm: f32,
+    n: usize,
+    previous: &[f32],
+    previous_channels: usize,
+    channels: usize,
+    (next, add): (&mut [f32], bool),
+    progress: &dyn Progress,
+) {
     let width = channels * n;
     next.par_chunks_mut(RECEIVERS_PER_JOB * width)
         .enumerate()
         .for_each_init(
-            || (Scratch::new(n), RowBuilder::default()),
-            |(scratch, builder), (job, out)| {
+            || (Scratch::new(n), RowBuilder::default(), vec![0.0f32; width]),
+            |(scratch, builder, bounce), (job, next)| {
                 let first = job * RECEIVERS_PER_JOB;
-                for (k, out) in out.chunks_mut(width).enumerate() {
+                for (k, next) in next.chunks_mut(width).enumerate() {
+                    let out = if add { &mut bounce[..] } else { &mut next[..] };
                     let gather = |vertices: &[u32], weights: &[[f32; 3]], out: &mut [f32]| {
                         let entries = vertices.iter().copied().zip(weights.iter().copied());
                         gather(entries, previous, previous_channels, channels, n, out)
@@ -294,7 +349,7 @@ pub(crate) fn bounce_pass(
                             self::gather(entries, previous, previous_channels, channels, n, out);
                         }
                         RowSource::Jobs(jobs) => {
-                            let (vertices, weights) = jobs[job].row(k, builder);
+                            let (vertices, weights) = jobs.row(job, k, builder);
                             gather(vertices, weights, out);
                         }
                         RowSource::Flat(rows) => {
@@ -318,8 +373,13 @@ pub(crate) fn bounce_pass(
                     for o in out.iter_mut() {
                         *o *= norm;
                     }
+                    if add {
+                        for (t, b) in next.iter_mut().zip(bounce.iter()) {
+                            *t += b;
+                        }
+                    }
                 }
-                progress.advance((out.len() / width) as u64);
+                progress.advance((next.len() / width) as u64);
             },
         );
 }

@@ -8,8 +8,10 @@
 
 pub mod adaptive;
 pub mod bounce_rows;
+pub mod embedded;
 pub mod estimator;
 pub mod file;
+pub mod hit_cache;
 pub mod inference;
 pub mod interreflection;
 pub mod lightmap;

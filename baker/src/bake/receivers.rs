@@ -189,9 +189,65 @@ impl<'a> BounceTargets<'a> {
             BounceTargets::Texels(t) => Cow::Owned(t.lightmap(values, width)),
         }
     }
+
+    /// [`BounceTargets::slot_values`] made in place: `values`' own allocation grown into the
+    /// lightmap (a texel bake), so that the receivers' array and the lightmap are never held
+    /// together. The valid texels' values are those of `values`, bit for bit.
+    pub fn into_slot_values(&self, values: Vec<f32>, width: usize) -> Vec<f32> {
+        match self {
+            BounceTargets::Vertices => values,
+            BounceTargets::Texels(t) => t.lightmap_in_place(values, width),
+        }
+    }
+
+    /// The receivers' values back from [`BounceTargets::into_slot_values`]'s slots, in place:
+    /// dilation writes only the texels that are not valid, so these are the values given.
+    pub fn from_slot_values(&self, slots: Vec<f32>, width: usize) -> Vec<f32> {
+        match self {
+            BounceTargets::Vertices => slots,
+            BounceTargets::Texels(t) => {
+                let mut values = slots;
+                let valid = t.texels.valid.iter().enumerate().filter(|(_, v)| **v);
+                let mut count = 0;
+                // Texel i of the k-th valid one is at or past k: each value moves down onto
+                // a place already read.
+                for (k, (i, _)) in valid.enumerate() {
+                    if i != k {
+                        values.copy_within(i * width..(i + 1) * width, k * width);
+                    }
+                    count = k + 1;
+                }
+                values.truncate(count * width);
+                values.shrink_to_fit();
+                values
+            }
+        }
+    }
 }
 
 impl TexelTargets<'_> {
+    /// [`TexelTargets::lightmap`] in `values`' own allocation: the valid texels' values moved
+    /// up to their places, last first (the k-th valid texel's place is at or past k, so no
+    /// value is written over before it has moved), the others zeroed, then dilated.
+    fn lightmap_in_place(&self, mut values: Vec<f32>, width: usize) -> Vec<f32> {
+        let count = values.len() / width.max(1);
+        values.resize(self.filled.len() * width, 0.0);
+        let mut k = count;
+        let valid = self.texels.valid.iter().enumerate().rev();
+        for (i, _) in valid.filter(|(_, v)| **v) {
+            k -= 1;
+            if i != k {
+                values.copy_within(k * width..(k + 1) * width, i * width);
+            }
+        }
+        debug_assert_eq!(k, 0, "one value per valid texel");
+        for (i, _) in self.texels.valid.iter().enumerate().filter(|(_, v)| !**v) {
+            values[i * width..(i + 1) * width].fill(0.0);
+        }
+        dilation::dilate_values(self.texels, width, &mut values);
+        values
+    }
+
     /// Bilinear weights over the 4 texels around the hit's lightmap point uv·(W, H) − ½, as
     /// a GPU samples a lightmap; texels outside the lightmap or holding no value are left
     /// out and the others' weights renormalised.
@@ -217,6 +273,32 @@ impl TexelTargets<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The slots made in place are, bit for bit, the slots made in a new array, and give the
+    /// receivers' values back, on an atlas whose valid texels are scattered (so values move).
+    #[test]
+    fn slots_made_in_place_match_the_copied_ones_and_give_the_values_back() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../scenes/cornell/cornell.scene");
+        let scene = Scene::load(&path).unwrap();
+        let atlas = Atlas::generate(&scene, 64, None).unwrap();
+        let texels = Texels::rasterise(&scene, &atlas);
+        let targets = BounceTargets::texels(&atlas, &texels);
+        let width = 9;
+        let count = texels.valid_indices().count();
+        assert!(count < texels.valid.len(), "some texels are empty");
+        let values: Vec<f32> = (0..count * width).map(|i| (i as f32).sin() + 1.5).collect();
+        let bits = |v: &[f32]| -> Vec<u32> { v.iter().map(|x| x.to_bits()).collect() };
+        let copied = targets.slot_values(&values, width);
+        let in_place = targets.into_slot_values(values.clone(), width);
+        assert!(bits(&in_place) == bits(&copied), "the slots differ");
+        let back = targets.from_slot_values(in_place, width);
+        assert!(bits(&back) == bits(&values), "the values differ");
+        let vertices = BounceTargets::Vertices;
+        let same =
+            vertices.from_slot_values(vertices.into_slot_values(values.clone(), width), width);
+        assert!(bits(&same) == bits(&values));
+    }
 
     /// Taking the points gives the receivers that copying them gives, on an atlas whose valid
     /// texels are scattered (so the compaction moves them), and leaves the size and mask.
