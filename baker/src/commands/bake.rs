@@ -623,7 +623,11 @@ fn atlas(
             progress.begin("atlas", 0, 0);
             let generated = lightmap::atlas::generate(scene, resolution, texel_size, method);
             progress.finish();
-            generated?.atlas
+            let generated = generated?;
+            if let Some(note) = generated.fragmentation_note(method, scene.triangles.len()) {
+                eprintln!("prt-bake: {note}");
+            }
+            generated.atlas
         }
     })
 }

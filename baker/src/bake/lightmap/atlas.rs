@@ -120,6 +120,32 @@ pub struct Generated {
     pub chart_count: usize,
 }
 
+impl Generated {
+    /// A warning where the planar unwrapper shattered the scene: charts of a few triangles
+    /// each (a rough terrain: 233,508 charts for 720,000 triangles) leave most of the
+    /// lightmap as padding and make nearly every texel a seam texel, whose stitching then
+    /// costs as much as the rays (docs/lightmaps.md, "Atlas"). `None` for a sound atlas.
+    pub fn fragmentation_note(&self, method: AtlasMethod, triangles: usize) -> Option<String> {
+        let shattered = method == AtlasMethod::Planar
+            && self.chart_count >= FRAGMENTED_CHARTS
+            && self.chart_count * FRAGMENTED_TRIANGLES_PER_CHART > triangles;
+        shattered.then(|| {
+            format!(
+                "warning: the planar atlas cut {triangles} triangles into {} charts ({:.1} \
+                 triangles a chart): most texels lie at chart edges, as padding or seams to \
+                 stitch; --atlas unwrap (the default) makes few large charts of curved surfaces",
+                self.chart_count,
+                triangles as f64 / self.chart_count as f64
+            )
+        })
+    }
+}
+
+/// [`Generated::fragmentation_note`] warns from this many charts (small scenes stay quiet)…
+const FRAGMENTED_CHARTS: usize = 1_000;
+/// …when they average fewer triangles than this.
+const FRAGMENTED_TRIANGLES_PER_CHART: usize = 8;
+
 /// Unwraps `scene` with `method` into a `resolution`² atlas ([`Atlas::generate`]).
 pub fn generate(
     scene: &Scene,
@@ -186,5 +212,33 @@ pub fn check_resolution(r: u32) -> Result<()> {
         Err(Error::InvalidOption(format!(
             "--lightmap {r} is outside {MIN_RESOLUTION}..={MAX_RESOLUTION}"
         )))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn generated(chart_count: usize) -> Generated {
+        let atlas = Atlas {
+            width: 8,
+            height: 8,
+            uv1: Vec::new(),
+            source: AtlasSource::Generated,
+            texel_size: None,
+            objects: Vec::new(),
+        };
+        Generated { atlas, chart: Vec::new(), chart_count }
+    }
+
+    #[test]
+    fn a_shattered_planar_atlas_is_warned_of_and_a_sound_one_is_not() {
+        // The heightfield: 233,508 planar charts for 720,000 triangles.
+        let note = generated(233_508).fragmentation_note(AtlasMethod::Planar, 720_000);
+        assert!(note.is_some_and(|n| n.contains("233508 charts") && n.contains("3.1 triangles")));
+        // The same counts from uvunwrap, few charts, or charts of many triangles: quiet.
+        assert_eq!(generated(233_508).fragmentation_note(AtlasMethod::Unwrap, 720_000), None);
+        assert_eq!(generated(999).fragmentation_note(AtlasMethod::Planar, 2_000), None);
+        assert_eq!(generated(2_210).fragmentation_note(AtlasMethod::Planar, 26_228), None);
     }
 }
