@@ -228,7 +228,11 @@ mod tests {
             texel_size: None,
             objects: Vec::new(),
         };
-        Generated { atlas, chart: Vec::new(), chart_count }
+        Generated {
+            atlas,
+            chart: Vec::new(),
+            chart_count,
+        }
     }
 
     #[test]
@@ -237,8 +241,17 @@ mod tests {
         let note = generated(233_508).fragmentation_note(AtlasMethod::Planar, 720_000);
         assert!(note.is_some_and(|n| n.contains("233508 charts") && n.contains("3.1 triangles")));
         // The same counts from uvunwrap, few charts, or charts of many triangles: quiet.
-        assert_eq!(generated(233_508).fragmentation_note(AtlasMethod::Unwrap, 720_000), None);
-        assert_eq!(generated(999).fragmentation_note(AtlasMethod::Planar, 2_000), None);
-        assert_eq!(generated(2_210).fragmentation_note(AtlasMethod::Planar, 26_228), None);
+        assert_eq!(
+            generated(233_508).fragmentation_note(AtlasMethod::Unwrap, 720_000),
+            None
+        );
+        assert_eq!(
+            generated(999).fragmentation_note(AtlasMethod::Planar, 2_000),
+            None
+        );
+        assert_eq!(
+            generated(2_210).fragmentation_note(AtlasMethod::Planar, 26_228),
+            None
+        );
     }
 }
