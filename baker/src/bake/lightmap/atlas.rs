@@ -20,6 +20,7 @@
 //! of it. (xatlas itself was the plan; the crate `xatlas-rs` 0.1.3 links only on Windows:
 //! its bindings name MSVC-mangled symbols. docs/lightmaps.md, "Atlas".)
 
+mod chart_overlap;
 mod placed;
 mod planar;
 mod unwrap;
