@@ -9,11 +9,11 @@
 //! Generated atlases come from one of two unwrappers ([`AtlasMethod`]):
 //! * [`unwrap`] (the default): the `uvunwrap` crate (pure Rust, xatlas-like): charts grown
 //!   within a normal cone, flattened by LSCM + ARAP, packed by their shapes. The torus demo
-//!   at 512² becomes 19 charts covering 84 % of the texels (the planar unwrapper: 2,210
-//!   charts, 43 %); the Cornell room 14 charts, 87 % (planar: 14, 58 %).
-//! * [`planar`] (`--atlas planar`): flat charts, shelf-packed. Kept because it is exact
-//!   (no distortion at all), instant (0.03 s on the torus, where `uvunwrap` takes about 5 s)
-//!   and independent of the crate, so the atlas tests check two paths.
+//!   at 512² becomes 19 charts covering 84 % of the texels (the planar unwrapper: 101
+//!   charts, 48 %); the Cornell room 14 charts, 87 % (planar: 14, 58 %).
+//! * [`planar`] (`--atlas planar`): charts within a 30° cone, projected and shelf-packed.
+//!   Kept because it is exact on flat surfaces, instant (0.02 s on the torus) and
+//!   independent of the crate, so the atlas tests check two paths.
 //!
 //! Both keep [`PADDING`] empty texels between charts, are deterministic (bit-identical UVs
 //! for any thread count) and honour `--texel-size`; `tests/lightmap_atlas.rs` checks all
@@ -123,7 +123,7 @@ pub struct Generated {
 
 impl Generated {
     /// A warning where the planar unwrapper shattered the scene: charts of a few triangles
-    /// each (a rough terrain: 233,508 charts for 720,000 triangles) leave most of the
+    /// each (the rough heightfield of issue 34 in 5° charts: 233,508 for 720,000 triangles) leave most of the
     /// lightmap as padding and make nearly every texel a seam texel, whose stitching then
     /// costs as much as the rays (docs/lightmaps.md, "Atlas"). `None` for a sound atlas.
     pub fn fragmentation_note(&self, method: AtlasMethod, triangles: usize) -> Option<String> {

@@ -86,8 +86,8 @@ pub fn planar_charts(scene: &Scene) -> Vec<Chart> {
         assigned: vec![false; scene.triangles.len()],
     };
     let mut charts = Vec::new();
-    for seed in 0..scene.triangles.len() {
-        if face[seed].is_none() || grower.assigned[seed] {
+    for (seed, normal) in face.iter().enumerate() {
+        if normal.is_none() || grower.assigned[seed] {
             continue;
         }
         let mut chart = grower.grow(seed, None);
