@@ -121,8 +121,8 @@ pub struct BakeArgs {
     #[arg(long, value_name = "S", requires = "lightmap")]
     texel_size: Option<f32>,
     /// With --lightmap: unwrap the atlas here (even where the scene has lightmap UVs) with
-    /// `unwrap` (the default: few large charts, curved meshes too) or `planar` (flat charts,
-    /// shelf-packed; no distortion, but one chart per few triangles on curved meshes).
+    /// `unwrap` (the default: few large charts, curved meshes too) or `planar` (charts within
+    /// a 30° cone, projected, shelf-packed: exact on flat surfaces, more charts on curved ones).
     #[arg(long, value_enum, requires = "lightmap")]
     atlas: Option<AtlasArg>,
     /// With --lightmap on the scene's own lightmap UVs: refuse (exit 3) an object whose UVs
@@ -623,7 +623,11 @@ fn atlas(
             progress.begin("atlas", 0, 0);
             let generated = lightmap::atlas::generate(scene, resolution, texel_size, method);
             progress.finish();
-            generated?.atlas
+            let generated = generated?;
+            if let Some(note) = generated.fragmentation_note(method, scene.triangles.len()) {
+                eprintln!("prt-bake: {note}");
+            }
+            generated.atlas
         }
     })
 }

@@ -9,17 +9,18 @@
 //! Generated atlases come from one of two unwrappers ([`AtlasMethod`]):
 //! * [`unwrap`] (the default): the `uvunwrap` crate (pure Rust, xatlas-like): charts grown
 //!   within a normal cone, flattened by LSCM + ARAP, packed by their shapes. The torus demo
-//!   at 512² becomes 19 charts covering 84 % of the texels (the planar unwrapper: 2,210
-//!   charts, 43 %); the Cornell room 14 charts, 87 % (planar: 14, 58 %).
-//! * [`planar`] (`--atlas planar`): flat charts, shelf-packed. Kept because it is exact
-//!   (no distortion at all), instant (0.03 s on the torus, where `uvunwrap` takes about 5 s)
-//!   and independent of the crate, so the atlas tests check two paths.
+//!   at 512² becomes 19 charts covering 84 % of the texels (the planar unwrapper: 101
+//!   charts, 48 %); the Cornell room 14 charts, 87 % (planar: 14, 58 %).
+//! * [`planar`] (`--atlas planar`): charts within a 30° cone, projected and shelf-packed.
+//!   Kept because it is exact on flat surfaces, instant (0.02 s on the torus) and
+//!   independent of the crate, so the atlas tests check two paths.
 //!
 //! Both keep [`PADDING`] empty texels between charts, are deterministic (bit-identical UVs
 //! for any thread count) and honour `--texel-size`; `tests/lightmap_atlas.rs` checks all
 //! of it. (xatlas itself was the plan; the crate `xatlas-rs` 0.1.3 links only on Windows:
 //! its bindings name MSVC-mangled symbols. docs/lightmaps.md, "Atlas".)
 
+mod chart_overlap;
 mod placed;
 mod planar;
 mod unwrap;
@@ -120,6 +121,32 @@ pub struct Generated {
     pub chart_count: usize,
 }
 
+impl Generated {
+    /// A warning where the planar unwrapper shattered the scene: charts of a few triangles
+    /// each (the rough heightfield of issue 34 in 5° charts: 233,508 for 720,000 triangles) leave most of the
+    /// lightmap as padding and make nearly every texel a seam texel, whose stitching then
+    /// costs as much as the rays (docs/lightmaps.md, "Atlas"). `None` for a sound atlas.
+    pub fn fragmentation_note(&self, method: AtlasMethod, triangles: usize) -> Option<String> {
+        let shattered = method == AtlasMethod::Planar
+            && self.chart_count >= FRAGMENTED_CHARTS
+            && self.chart_count * FRAGMENTED_TRIANGLES_PER_CHART > triangles;
+        shattered.then(|| {
+            format!(
+                "warning: the planar atlas cut {triangles} triangles into {} charts ({:.1} \
+                 triangles a chart): most texels lie at chart edges, as padding or seams to \
+                 stitch; --atlas unwrap (the default) makes few large charts of curved surfaces",
+                self.chart_count,
+                triangles as f64 / self.chart_count as f64
+            )
+        })
+    }
+}
+
+/// [`Generated::fragmentation_note`] warns from this many charts (small scenes stay quiet)…
+const FRAGMENTED_CHARTS: usize = 1_000;
+/// …when they average fewer triangles than this.
+const FRAGMENTED_TRIANGLES_PER_CHART: usize = 8;
+
 /// Unwraps `scene` with `method` into a `resolution`² atlas ([`Atlas::generate`]).
 pub fn generate(
     scene: &Scene,
@@ -186,5 +213,46 @@ pub fn check_resolution(r: u32) -> Result<()> {
         Err(Error::InvalidOption(format!(
             "--lightmap {r} is outside {MIN_RESOLUTION}..={MAX_RESOLUTION}"
         )))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn generated(chart_count: usize) -> Generated {
+        let atlas = Atlas {
+            width: 8,
+            height: 8,
+            uv1: Vec::new(),
+            source: AtlasSource::Generated,
+            texel_size: None,
+            objects: Vec::new(),
+        };
+        Generated {
+            atlas,
+            chart: Vec::new(),
+            chart_count,
+        }
+    }
+
+    #[test]
+    fn a_shattered_planar_atlas_is_warned_of_and_a_sound_one_is_not() {
+        // The heightfield: 233,508 planar charts for 720,000 triangles.
+        let note = generated(233_508).fragmentation_note(AtlasMethod::Planar, 720_000);
+        assert!(note.is_some_and(|n| n.contains("233508 charts") && n.contains("3.1 triangles")));
+        // The same counts from uvunwrap, few charts, or charts of many triangles: quiet.
+        assert_eq!(
+            generated(233_508).fragmentation_note(AtlasMethod::Unwrap, 720_000),
+            None
+        );
+        assert_eq!(
+            generated(999).fragmentation_note(AtlasMethod::Planar, 2_000),
+            None
+        );
+        assert_eq!(
+            generated(2_210).fragmentation_note(AtlasMethod::Planar, 26_228),
+            None
+        );
     }
 }

@@ -1,11 +1,13 @@
 //! The planar unwrapper (`--atlas planar`): edge-connected triangles whose face normals lie
-//! within 5° of the chart's first triangle, projected onto that triangle's plane and
-//! shelf-packed. Exact on flat scenes (one chart per wall), but a curved mesh becomes one
-//! chart per few triangles, and their padding wastes the atlas (docs/lightmaps.md, "Atlas").
+//! within 30° of the chart's first triangle, projected onto that triangle's plane (scaled
+//! back to their surface's area) and shelf-packed. Exact on flat scenes (one chart per
+//! wall); a curved mesh becomes many charts, and their padding wastes the atlas
+//! (docs/lightmaps.md, "Atlas").
 
 use glam::Vec2;
 use rayon::prelude::*;
 
+use super::chart_overlap;
 use super::placed::{PADDING, Placed};
 use crate::scene::Scene;
 use crate::support::error::{Error, Result};
@@ -39,15 +41,24 @@ pub(super) fn generate(scene: &Scene, resolution: u32, texel_size: Option<f32>) 
     Ok(placed)
 }
 
-/// Charts meet across an edge when their face normals differ by less than this (cos 5°).
-const CHART_COS: f32 = 0.996_194_7;
+/// Charts grow over an edge to a triangle whose face normal lies within 30° of the chart's
+/// first triangle's (cos 30°). Projected onto that plane, a triangle tilted by θ is shortened
+/// by cos θ across its slope (at most 13 %), and the chart is scaled back to its surface's
+/// area ([`Chart::local`]). Flat surfaces stay exact, one chart each; a smooth terrain
+/// becomes charts of hundreds of triangles instead of the one to three of a 5° cone, whose
+/// padding and seams cost more than their texels (the rough heightfield of issue 34: 233,508
+/// charts for 720,000 triangles).
+const CHART_COS: f32 = 0.866_025_4;
 
-/// A set of edge-connected triangles whose face normals lie within 5° of the first one's,
-/// flattened by orthogonal projection onto that triangle's plane (world units).
+/// A set of edge-connected triangles whose face normals lie within 30° of the first one's,
+/// flattened by orthogonal projection onto that triangle's plane (world units), whose
+/// projected triangles do not overlap.
 #[derive(Clone, Debug)]
 pub struct Chart {
     pub triangles: Vec<u32>,
-    /// Per triangle, its corners projected onto the chart's plane.
+    /// Per triangle, its corners projected onto the chart's plane, scaled by √(surface area
+    /// / projected area) so that a texel covers the same surface area on a tilted chart as
+    /// on a flat one (`--texel-size`); a flat chart keeps its exact projection.
     pub local: Vec<[Vec2; 3]>,
     pub min: Vec2,
     pub max: Vec2,
@@ -55,8 +66,9 @@ pub struct Chart {
 
 /// Splits the scene into planar charts: flood fill over shared edges (by vertex index) in
 /// triangle order, so the result is deterministic. Flat surfaces (floors, walls, boxes)
-/// become one chart each; curved ones become many small charts. Zero-area triangles are
-/// left out.
+/// become one chart each; curved ones become charts within the cone of [`CHART_COS`]. A chart
+/// whose projection overlaps itself (a surface that winds round) is grown again, each
+/// triangle joining only where it overlaps none already in. Zero-area triangles are left out.
 pub fn planar_charts(scene: &Scene) -> Vec<Chart> {
     let face: Vec<Option<glam::Vec3>> = scene
         .triangles
@@ -67,13 +79,43 @@ pub fn planar_charts(scene: &Scene) -> Vec<Chart> {
         })
         .collect();
     let edges = EdgeFaces::new(&scene.triangles);
-    let mut assigned = vec![false; scene.triangles.len()];
+    let mut grower = Grower {
+        scene,
+        face: &face,
+        edges: &edges,
+        assigned: vec![false; scene.triangles.len()],
+    };
     let mut charts = Vec::new();
-    for seed in 0..scene.triangles.len() {
-        let Some(normal) = face[seed] else { continue };
-        if assigned[seed] {
+    for (seed, normal) in face.iter().enumerate() {
+        if normal.is_none() || grower.assigned[seed] {
             continue;
         }
+        let mut chart = grower.grow(seed, None);
+        if chart_overlap::overlaps_itself(&chart.local) {
+            for &t in &chart.triangles {
+                grower.assigned[t as usize] = false;
+            }
+            let admission = chart_overlap::Admission::new(&chart.local);
+            chart = grower.grow(seed, Some(admission));
+        }
+        charts.push(chart.scaled_to_its_area(scene));
+    }
+    charts
+}
+
+/// The flood fill of [`planar_charts`], over the triangles not yet in a chart.
+struct Grower<'a> {
+    scene: &'a Scene,
+    face: &'a [Option<glam::Vec3>],
+    edges: &'a EdgeFaces,
+    assigned: Vec<bool>,
+}
+
+impl Grower<'_> {
+    /// The chart grown from `seed`; with an [`chart_overlap::Admission`], a triangle whose
+    /// projection would overlap the chart's stays out (for a later chart).
+    fn grow(&mut self, seed: usize, mut admission: Option<chart_overlap::Admission>) -> Chart {
+        let normal = self.face[seed].expect("seeds have a normal");
         let frame = crate::math::sampling::Frame::from_normal(normal);
         let mut chart = Chart {
             triangles: Vec::new(),
@@ -81,14 +123,18 @@ pub fn planar_charts(scene: &Scene) -> Vec<Chart> {
             min: Vec2::splat(f32::INFINITY),
             max: Vec2::splat(f32::NEG_INFINITY),
         };
-        assigned[seed] = true;
+        self.assigned[seed] = true;
         let mut stack = vec![seed as u32];
         while let Some(t) = stack.pop() {
-            let tri = scene.triangles[t as usize];
+            let tri = self.scene.triangles[t as usize];
             let local = tri.map(|v| {
-                let p = scene.positions[v as usize];
+                let p = self.scene.positions[v as usize];
                 Vec2::new(p.dot(frame.tangent), p.dot(frame.bitangent))
             });
+            if admission.as_mut().is_some_and(|a| !a.admit(local)) {
+                self.assigned[t as usize] = false;
+                continue;
+            }
             for p in local {
                 chart.min = chart.min.min(p);
                 chart.max = chart.max.max(p);
@@ -96,18 +142,37 @@ pub fn planar_charts(scene: &Scene) -> Vec<Chart> {
             chart.triangles.push(t);
             chart.local.push(local);
             for k in 0..3 {
-                for n in edges.faces(t as usize * 3 + k) {
-                    let joins = face[n as usize].is_some_and(|f| f.dot(normal) >= CHART_COS);
-                    if !assigned[n as usize] && joins {
-                        assigned[n as usize] = true;
+                for n in self.edges.faces(t as usize * 3 + k) {
+                    let joins = self.face[n as usize].is_some_and(|f| f.dot(normal) >= CHART_COS);
+                    if !self.assigned[n as usize] && joins {
+                        self.assigned[n as usize] = true;
                         stack.push(n);
                     }
                 }
             }
         }
-        charts.push(chart);
+        chart
     }
-    charts
+}
+
+impl Chart {
+    /// The chart scaled by √(surface area / projected area), where they differ by more than
+    /// rounding: a tilted triangle's projection is smaller than its surface.
+    fn scaled_to_its_area(mut self, scene: &Scene) -> Chart {
+        let (mut surface, mut projected) = (0.0f64, 0.0f64);
+        for (&t, local) in self.triangles.iter().zip(&self.local) {
+            let p = scene.triangles[t as usize].map(|v| scene.positions[v as usize]);
+            surface += f64::from((p[1] - p[0]).cross(p[2] - p[0]).length());
+            projected += f64::from((local[1] - local[0]).perp_dot(local[2] - local[0]).abs());
+        }
+        let ratio = surface / projected.max(f64::MIN_POSITIVE);
+        if ratio.is_finite() && ratio > 1.0 + 1e-4 {
+            let s = ratio.sqrt() as f32;
+            self.local.iter_mut().flatten().for_each(|p| *p *= s);
+            (self.min, self.max) = (self.min * s, self.max * s);
+        }
+        self
+    }
 }
 
 /// The triangles at each edge (by vertex index), in triangle order: a sorted list of every
@@ -301,6 +366,93 @@ mod tests {
         assert_eq!(edges.faces(3).collect::<Vec<_>>(), [0, 1, 3, 7]);
         assert_eq!(edges.faces(15).collect::<Vec<_>>(), [5]);
         assert_eq!(edges.faces(16).collect::<Vec<_>>(), [5, 5, 6]);
+    }
+
+    /// A ramp of `steps` 48ths of a turn round the z axis, rising `rise` a turn, radii 1 to
+    /// 2: nearly flat, so one 30° cone holds all of it, and its turns lie over one another.
+    fn spiral_ramp(steps: usize, rise: f32) -> Scene {
+        let mut positions = Vec::new();
+        for i in 0..=steps {
+            let a = i as f32 / 48.0 * std::f32::consts::TAU;
+            let z = rise * i as f32 / 48.0;
+            for r in [1.0f32, 2.0] {
+                positions.push(glam::Vec3::new(r * a.cos(), r * a.sin(), z));
+            }
+        }
+        let triangles = (0..steps as u32)
+            .flat_map(|i| {
+                [
+                    [2 * i, 2 * i + 1, 2 * i + 2],
+                    [2 * i + 1, 2 * i + 3, 2 * i + 2],
+                ]
+            })
+            .collect();
+        let mesh = crate::scene::Mesh {
+            name: "ramp".into(),
+            positions,
+            normals: None,
+            uvs: None,
+            triangles,
+            material: crate::scene::Material::default(),
+        };
+        Scene::from_meshes(std::path::Path::new("ramp"), vec![mesh], Vec::new()).expect("valid")
+    }
+
+    #[test]
+    fn a_ramp_that_winds_over_itself_is_split_where_its_turns_overlap() {
+        // Most of a turn overlaps nothing. (A whole turn does: its end lies 0.1 above its
+        // start, which the projection onto its first triangle's plane, tilted by 1°, shifts
+        // sideways over the start.)
+        assert_eq!(planar_charts(&spiral_ramp(44, 0.1)).len(), 1);
+        assert_eq!(planar_charts(&spiral_ramp(48, 0.1)).len(), 2);
+        let ramp = spiral_ramp(3 * 48, 0.1);
+        let charts = planar_charts(&ramp);
+        // Every triangle is in exactly one chart, no chart overlaps itself, and each turn
+        // needs a chart of its own.
+        let mut seen = vec![0; ramp.triangles.len()];
+        charts
+            .iter()
+            .flat_map(|c| &c.triangles)
+            .for_each(|&t| seen[t as usize] += 1);
+        assert!(seen.iter().all(|&n| n == 1), "{seen:?}");
+        assert!(
+            charts
+                .iter()
+                .all(|c| !chart_overlap::overlaps_itself(&c.local))
+        );
+        assert!((3..=4).contains(&charts.len()), "{} charts", charts.len());
+        // Nearly flat (a slope of 0.1 over a turn of radius 1 is under 1°): no rescaling.
+        let first = &charts[0];
+        let t = first.triangles[0] as usize;
+        let p = ramp.triangles[t].map(|v| ramp.positions[v as usize]);
+        let world = (p[1] - p[0]).cross(p[2] - p[0]).length();
+        let l = first.local[0];
+        let projected = (l[1] - l[0]).perp_dot(l[2] - l[0]).abs();
+        assert!(
+            (projected / world - 1.0).abs() < 1e-3,
+            "{projected} against {world}"
+        );
+    }
+
+    #[test]
+    fn a_tilted_chart_keeps_its_surface_area() {
+        // One turn rising 3 a turn: slopes of up to 25° (at radius 1), one chart, projected
+        // onto its first triangle's plane and scaled back to its surface's area.
+        let ramp = spiral_ramp(40, 3.0);
+        let charts = planar_charts(&ramp);
+        let (mut world, mut projected) = (0.0f64, 0.0f64);
+        for c in &charts {
+            for (&t, l) in c.triangles.iter().zip(&c.local) {
+                let p = ramp.triangles[t as usize].map(|v| ramp.positions[v as usize]);
+                world += f64::from((p[1] - p[0]).cross(p[2] - p[0]).length());
+                projected += f64::from((l[1] - l[0]).perp_dot(l[2] - l[0]).abs());
+            }
+        }
+        assert!(charts.len() < 10, "{} charts", charts.len());
+        assert!(
+            (projected / world - 1.0).abs() < 1e-4,
+            "{projected} against {world}"
+        );
     }
 
     #[test]
