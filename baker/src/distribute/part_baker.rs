@@ -288,6 +288,50 @@ mod tests {
     }
 
     #[test]
+    fn grey_rows_take_half_the_bytes_and_old_parts_are_refused() {
+        let part = cornell_part();
+        let entries = part.rows.as_ref().unwrap().vertices.len();
+        let rgb = part.to_bytes();
+        // The Cornell room's walls are coloured: RGB entries, every weight kept.
+        let mut grey = part.clone();
+        for w in &mut grey.rows.as_mut().unwrap().weights {
+            *w = [w[1]; 3];
+        }
+        let bytes = grey.to_bytes();
+        assert_eq!(rgb.len() - bytes.len(), 8 * entries);
+        let mut read = Part::from_bytes(&bytes).unwrap();
+        read.header.checksum = 0;
+        assert!(read == grey, "a grey part read back differs");
+        let (_, packed) = Part::packed_rows_from_bytes(bytes.clone()).unwrap();
+        let rows = grey.rows.as_ref().unwrap();
+        for k in 0..40 {
+            let range = rows.vertex(k);
+            let expected = rows.vertices[range.clone()].iter().copied();
+            let expected: Vec<_> = expected.zip(rows.weights[range].iter().copied()).collect();
+            assert_eq!(packed.row(k).collect::<Vec<_>>(), expected, "row {k}");
+        }
+        // One weight that is not grey: the part keeps all three.
+        let mut almost = grey.clone();
+        almost.rows.as_mut().unwrap().weights[entries - 1][2] += 1.0;
+        assert_eq!(almost.to_bytes().len(), rgb.len());
+
+        // A part as an older prt-bake wrote it: no encoding word before the row lengths.
+        let mut old = Vec::from(&rgb[..]);
+        let payload = u64::from_le_bytes(old[72..80].try_into().unwrap()) - 4;
+        old[72..80].copy_from_slice(&payload.to_le_bytes());
+        let at = 128 + 4 * part.coefficients.len() + 4 * part.ao.as_ref().unwrap().len() + 12 * 40;
+        old.drain(at..at + 4);
+        let checksum = crate::formats::header::checksum(&old);
+        old[124..128].copy_from_slice(&checksum.to_le_bytes());
+        for err in [
+            Part::from_bytes(&old).unwrap_err(),
+            Part::packed_rows_from_bytes(old.clone()).err().unwrap(),
+        ] {
+            assert!(err.contains("a part of an older prt-bake"), "{err}");
+        }
+    }
+
+    #[test]
     fn texel_parts_round_trip_and_bad_masks_or_blocks_are_refused() {
         let path = concat!(
             env!("CARGO_MANIFEST_DIR"),
