@@ -413,7 +413,8 @@ fn gather(
 /// grey. A gather reads each row once, so copying them into [`Rows`] first would only
 /// double the memory it touches (a part's rows are hundreds of megabytes at 2048²).
 pub struct PackedRows {
-    bytes: Vec<u8>,
+    /// The file's bytes: in memory, or mapped.
+    bytes: Box<dyn std::ops::Deref<Target = [u8]> + Send + Sync>,
     /// Where the first entry starts in `bytes`.
     at: usize,
     /// Entries of receiver k are `starts[k]..starts[k + 1]`.
@@ -428,9 +429,14 @@ pub const GREY_BYTES_PER_ENTRY: u64 = 4 + 4;
 impl PackedRows {
     /// The rows whose entries start at byte `at` of `bytes`, with `starts` as in [`Rows`]
     /// (the caller has checked that `bytes` holds them all); `grey`: 8-byte entries.
-    pub fn new(bytes: Vec<u8>, at: usize, starts: Vec<u64>, grey: bool) -> PackedRows {
+    pub fn new(
+        bytes: impl std::ops::Deref<Target = [u8]> + Send + Sync + 'static,
+        at: usize,
+        starts: Vec<u64>,
+        grey: bool,
+    ) -> PackedRows {
         PackedRows {
-            bytes,
+            bytes: Box::new(bytes),
             at,
             starts,
             grey,
