@@ -200,7 +200,7 @@ impl BounceFile {
     }
 
     pub fn read(path: &Path) -> Result<BounceFile> {
-        let bytes = crate::distribute::big_reads::read(path)?;
+        let bytes = crate::distribute::big_reads::map(path)?;
         BounceFile::from_bytes(&bytes).map_err(|message| Error::coefficient_file(path, message))
     }
 

@@ -311,18 +311,8 @@ impl Part {
         Part::read_with(path, Reading::WithoutRows)
     }
 
-    /// [`Part::read_without_rows`] through `buffer`, which keeps its memory for the next
-    /// part: a merge reads one 145 MB part after another, and fresh pages for each cost
-    /// their page faults again.
-    pub fn read_without_rows_in(path: &Path, buffer: &mut Vec<u8>) -> Result<Part> {
-        crate::distribute::big_reads::read_into(path, buffer)?;
-        Part::parse(buffer, Reading::WithoutRows)
-            .and_then(|(part, _)| Part::checked(part))
-            .map_err(|message| Error::coefficient_file(path, message))
-    }
-
     fn read_with(path: &Path, reading: Reading) -> Result<Part> {
-        let bytes = crate::distribute::big_reads::read(path)?;
+        let bytes = crate::distribute::big_reads::map(path)?;
         Part::parse(&bytes, reading)
             .and_then(|(part, _)| Part::checked(part))
             .map_err(|message| Error::coefficient_file(path, message))
@@ -332,13 +322,13 @@ impl Part {
     /// arrays, nor its transfer), and its bounce rows where they lie in the file's bytes,
     /// each entry checked as [`Part::read`] checks it.
     pub fn read_packed_rows(path: &Path) -> Result<(Part, PackedRows)> {
-        let bytes = crate::distribute::big_reads::read(path)?;
+        let bytes = crate::distribute::big_reads::map(path)?;
         Part::packed_rows_from_bytes(bytes).map_err(|m| Error::coefficient_file(path, m))
     }
 
     /// [`Part::read_packed_rows`] of a file's bytes.
     pub fn packed_rows_from_bytes(
-        bytes: Vec<u8>,
+        bytes: impl std::ops::Deref<Target = [u8]> + Send + Sync + 'static,
     ) -> std::result::Result<(Part, PackedRows), String> {
         let (part, rows) = Part::parse(&bytes, Reading::Packed)?;
         let part = Part::checked(part)?;
