@@ -6,7 +6,9 @@
 use glam::Vec3;
 
 use crate::distribute::lightmap_parts::BLOCK_BYTES;
-use crate::distribute::row_encoding::row_bytes;
+#[cfg(doc)]
+use crate::distribute::row_encoding::encode_jobs;
+use crate::distribute::row_encoding::{EncodedRows, row_bytes};
 use crate::distribute::shard::Part;
 use crate::formats::coefficient_file;
 use crate::formats::encoded::Encoded;
@@ -16,6 +18,12 @@ impl Part {
     /// The part file's bytes in pieces, the checksum set: the bytes of
     /// [`Part::to_bytes`].
     pub fn encode(&self) -> Encoded<'_> {
+        self.encode_with(self.rows.as_ref().map(row_bytes))
+    }
+
+    /// [`Part::encode`] with its bounce rows already encoded (`rows`, the part's own `rows`
+    /// unused): a shard encodes them straight from its direct pass ([`encode_jobs`]).
+    pub fn encode_with(&self, rows: Option<EncodedRows>) -> Encoded<'_> {
         let tail = self
             .lightmap
             .as_ref()
@@ -23,8 +31,7 @@ impl Part {
         let ao = self.ao.as_deref().unwrap_or_default();
         let bent = self.bent_normal.as_deref().unwrap_or_default();
         let arrays = 4 * (self.coefficients.len() + ao.len() + 3 * bent.len());
-        let rows = self.rows.as_ref().map(row_bytes);
-        let row_len = rows.as_ref().map_or(0, |(l, e)| l.len() + e.len());
+        let row_len = rows.as_ref().map_or(0, EncodedRows::byte_len);
         let payload = (arrays + row_len + tail.len()) as u64;
         // The header as for an empty payload (and whatever follows it there), its payload
         // length then set; a texel part's block goes right after the 128 header bytes.
@@ -45,9 +52,11 @@ impl Part {
             }
             b
         });
-        if let Some((lengths, entries)) = rows {
-            e.push(lengths);
-            e.push(entries);
+        if let Some(rows) = rows {
+            e.push(rows.lengths);
+            for entries in rows.entries {
+                e.push(entries);
+            }
         }
         e.push(tail);
         e.seal();

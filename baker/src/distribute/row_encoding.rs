@@ -4,6 +4,7 @@
 
 use rayon::prelude::*;
 
+use crate::bake::bounce_rows::{JobRows, RowBuilder};
 use crate::bake::interreflection::{self, Rows};
 use crate::formats::header::Header;
 use crate::formats::part_id::PartId;
@@ -16,16 +17,35 @@ pub(crate) const ROWS_RGB: u32 = 0xFFFF_FF10;
 /// weights are the same bits (a grey scene's: half the bytes to write and read).
 pub(crate) const ROWS_GREY: u32 = 0xFFFF_FF08;
 
-/// Bounce rows as a part stores them: the encoding word ([`ROWS_RGB`] or [`ROWS_GREY`]),
-/// each row's length (u32), then every entry's vertex (u32) and weight (3 × f32, or one).
-pub(crate) fn row_bytes(rows: &Rows) -> (Vec<u8>, Vec<u8>) {
-    let grey = rows
-        .weights
-        .iter()
-        .all(|[r, g, b]| r.to_bits() == g.to_bits() && g.to_bits() == b.to_bits());
-    let tag = if grey { ROWS_GREY } else { ROWS_RGB };
+/// Bounce rows as a part stores them: the encoding word and the row lengths, then the
+/// entries in pieces (in order).
+pub struct EncodedRows {
+    pub lengths: Vec<u8>,
+    pub entries: Vec<Vec<u8>>,
+    /// Entries in all.
+    pub count: u64,
+}
+
+impl EncodedRows {
+    /// Bytes in the file.
+    pub fn byte_len(&self) -> usize {
+        self.lengths.len() + self.entries.iter().map(Vec::len).sum::<usize>()
+    }
+
+    /// Bytes of the same rows as [`Rows`] in memory ([`Rows::bytes`]): what
+    /// `--hit-cache-mb` bounds.
+    pub fn rows_bytes(&self) -> u64 {
+        let receivers = (self.lengths.len() / 4).saturating_sub(1) as u64;
+        self.count * interreflection::BYTES_PER_ENTRY + 4 * receivers
+    }
+}
+
+/// The encoding word ([`ROWS_RGB`] or [`ROWS_GREY`]), each row's length (u32), then every
+/// entry's vertex (u32) and weight (3 × f32, or one).
+pub(crate) fn row_bytes(rows: &Rows) -> EncodedRows {
+    let grey = rows.weights.iter().all(is_grey);
     let mut lengths = Vec::with_capacity(4 * rows.starts.len());
-    lengths.extend(tag.to_le_bytes());
+    lengths.extend(if grey { ROWS_GREY } else { ROWS_RGB }.to_le_bytes());
     for pair in rows.starts.windows(2) {
         lengths.extend(((pair[1] - pair[0]) as u32).to_le_bytes());
     }
@@ -35,14 +55,85 @@ pub(crate) fn row_bytes(rows: &Rows) -> (Vec<u8>, Vec<u8>) {
     chunks.enumerate().for_each(|(c, out)| {
         let first = c << 14;
         for (k, entry) in out.chunks_exact_mut(size).enumerate() {
-            let weight = &rows.weights[first + k];
-            entry[..4].copy_from_slice(&rows.vertices[first + k].to_le_bytes());
-            for (o, w) in entry[4..].chunks_exact_mut(4).zip(weight) {
-                o.copy_from_slice(&w.to_le_bytes());
-            }
+            put_entry(entry, rows.vertices[first + k], &rows.weights[first + k]);
         }
     });
-    (lengths, entries)
+    EncodedRows {
+        lengths,
+        entries: vec![entries],
+        count: rows.vertices.len() as u64,
+    }
+}
+
+/// The rows of a direct pass's jobs folded and encoded job by job, in parallel, without
+/// [`Rows`] in between: a shard's rows at 2048² were 1.5 GB of fresh memory as `Rows`, then
+/// 0.8 GB again as bytes. Each job is freed (its hits) once encoded.
+pub(crate) fn encode_jobs(jobs: Vec<JobRows>) -> EncodedRows {
+    let jobs: Vec<(Vec<u8>, Vec<u8>, bool)> = jobs
+        .into_par_iter()
+        .map_init(RowBuilder::default, |builder, job| {
+            let mut lengths = Vec::with_capacity(4 * job.receiver_count());
+            let (mut entries, mut grey) = (Vec::new(), true);
+            for k in 0..job.receiver_count() {
+                let (vertices, weights) = job.row(k, builder);
+                lengths.extend((vertices.len() as u32).to_le_bytes());
+                if grey && !weights.iter().all(is_grey) {
+                    (entries, grey) = (to_rgb(&entries), false);
+                }
+                let size = entry_bytes(grey);
+                for (&vertex, weight) in vertices.iter().zip(weights) {
+                    let at = entries.len();
+                    entries.resize(at + size, 0);
+                    put_entry(&mut entries[at..], vertex, weight);
+                }
+            }
+            entries.shrink_to_fit();
+            (lengths, entries, grey)
+        })
+        .collect();
+    let grey = jobs.iter().all(|(_, _, g)| *g);
+    let mut lengths = Vec::with_capacity(4 + jobs.iter().map(|j| j.0.len()).sum::<usize>());
+    lengths.extend(if grey { ROWS_GREY } else { ROWS_RGB }.to_le_bytes());
+    let mut count = 0;
+    let mut pieces = Vec::with_capacity(jobs.len());
+    for (job_lengths, entries, job_grey) in jobs {
+        lengths.extend(job_lengths);
+        count += (entries.len() / entry_bytes(job_grey)) as u64;
+        pieces.push(if job_grey && !grey {
+            to_rgb(&entries)
+        } else {
+            entries
+        });
+    }
+    EncodedRows {
+        lengths,
+        entries: pieces,
+        count,
+    }
+}
+
+fn is_grey([r, g, b]: &[f32; 3]) -> bool {
+    r.to_bits() == g.to_bits() && g.to_bits() == b.to_bits()
+}
+
+/// Writes an entry into `out` (8 bytes: grey, the first weight only; 16: RGB).
+fn put_entry(out: &mut [u8], vertex: u32, weight: &[f32; 3]) {
+    out[..4].copy_from_slice(&vertex.to_le_bytes());
+    for (o, w) in out[4..].chunks_exact_mut(4).zip(weight) {
+        o.copy_from_slice(&w.to_le_bytes());
+    }
+}
+
+/// Grey entries as RGB ones.
+fn to_rgb(grey: &[u8]) -> Vec<u8> {
+    let mut rgb = Vec::with_capacity(2 * grey.len());
+    for entry in grey.chunks_exact(8) {
+        rgb.extend(&entry[..4]);
+        for _ in 0..3 {
+            rgb.extend(&entry[4..]);
+        }
+    }
+    rgb
 }
 
 /// Bytes per entry of grey or RGB rows.

@@ -20,7 +20,7 @@ use glam::Vec3;
 use crate::bake::interreflection::{self, PackedRows, RowSource, Rows};
 use crate::bake::transfer::{BakeOptions, BounceTargets, Mode};
 use crate::distribute::lightmap_parts::{Lookup, PartLightmap};
-use crate::distribute::row_encoding::{parse_rows, row_starts};
+use crate::distribute::row_encoding::{EncodedRows, parse_rows, row_starts};
 use crate::formats::coefficient_file::{self, CoefficientFile};
 use crate::formats::header::{self, HEADER_SIZE, Header, LIGHTMAP_PART_HEADER_SIZE};
 pub use crate::formats::part_id::{PartId, ShardId};
@@ -355,6 +355,12 @@ impl Part {
     pub fn write(&self, path: &Path) -> Result<()> {
         let output = crate::support::output::Output::new(path, &[])?;
         output.write_parts(&self.encode().parts())
+    }
+
+    /// [`Part::write`] with the bounce rows already encoded ([`Part::encode_with`]).
+    pub fn write_with(&self, path: &Path, rows: Option<EncodedRows>) -> Result<()> {
+        let output = crate::support::output::Output::new(path, &[])?;
+        output.write_parts(&self.encode_with(rows).parts())
     }
 
     /// Drops a texel part's lightmap arrays, which a checkpoint block leaves out
