@@ -469,12 +469,20 @@ impl PackedRows {
         decode_packed(&self.bytes[self.at + e * size..][..size])
     }
 
-    /// Receiver k's entries, in order (one bounds test per row, not per entry).
+    /// Receiver k's entries, in order (one bounds test per row, not per entry; each entry
+    /// size a constant, so that decoding one tests no bounds).
     pub fn row(&self, k: usize) -> impl Iterator<Item = (u32, [f32; 3])> + '_ {
         let size = self.entry_bytes();
         let at = |e: u64| self.at + e as usize * size;
         let bytes = &self.bytes[at(self.starts[k])..at(self.starts[k + 1])];
-        bytes.chunks_exact(size).map(decode_packed)
+        let (grey, rgb) = match self.grey {
+            true => (bytes, &[][..]),
+            false => (&[][..], bytes),
+        };
+        let grey = grey.chunks_exact(GREY_BYTES_PER_ENTRY as usize);
+        let rgb = rgb.chunks_exact(BYTES_PER_ENTRY as usize);
+        let grey = grey.map(|b| decode_grey(b.try_into().expect("8 bytes")));
+        grey.chain(rgb.map(|b| decode_entry(b.try_into().expect("16 bytes"))))
     }
 
     /// Receivers whose rows these are.
@@ -483,14 +491,18 @@ impl PackedRows {
     }
 }
 
-/// A packed entry of either size: a grey one's weight read for all three channels.
+/// A grey entry: its one weight read for all three channels.
+fn decode_grey(b: &[u8; GREY_BYTES_PER_ENTRY as usize]) -> (u32, [f32; 3]) {
+    let [s0, s1, s2, s3, w0, w1, w2, w3] = *b;
+    let w = f32::from_le_bytes([w0, w1, w2, w3]);
+    (u32::from_le_bytes([s0, s1, s2, s3]), [w; 3])
+}
+
+/// A packed entry of either size ([`PackedRows::first_invalid`]).
 fn decode_packed(b: &[u8]) -> (u32, [f32; 3]) {
-    match <&[u8; BYTES_PER_ENTRY as usize]>::try_from(b) {
-        Ok(entry) => decode_entry(entry),
-        Err(_) => {
-            let word = |o: usize| [b[o], b[o + 1], b[o + 2], b[o + 3]];
-            let w = f32::from_le_bytes(word(4));
-            (u32::from_le_bytes(word(0)), [w; 3])
-        }
+    match (<&[u8; 16]>::try_from(b), <&[u8; 8]>::try_from(b)) {
+        (Ok(entry), _) => decode_entry(entry),
+        (_, Ok(entry)) => decode_grey(entry),
+        _ => unreachable!("entries are 8 or 16 bytes"),
     }
 }
