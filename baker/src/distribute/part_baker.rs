@@ -4,7 +4,7 @@
 
 use std::ops::Range;
 
-use crate::bake::bounce_rows::{HitRecorder, JobRows};
+use crate::bake::bounce_rows::{HitCache, HitRecorder};
 use crate::bake::interreflection::{self, Rows};
 use crate::bake::lightmap::Prepared;
 use crate::bake::transfer::{
@@ -146,7 +146,7 @@ impl<'a> PartBaker<'a> {
         shard: ShardId,
         receivers: Range<usize>,
         progress: &dyn Progress,
-    ) -> Result<(Part, Option<Vec<JobRows<'_>>>, u64)> {
+    ) -> Result<(Part, Option<HitCache<'_>>, u64)> {
         let options = &self.estimator.options;
         let recorder = (options.mode == Mode::Interreflected).then(|| {
             HitRecorder::new(

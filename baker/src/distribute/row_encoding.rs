@@ -4,7 +4,7 @@
 
 use rayon::prelude::*;
 
-use crate::bake::bounce_rows::{JobRows, RowBuilder};
+use crate::bake::bounce_rows::{HitCache, RowBuilder};
 use crate::bake::interreflection::{self, Rows};
 use crate::formats::header::Header;
 use crate::formats::part_id::PartId;
@@ -67,15 +67,16 @@ pub(crate) fn row_bytes(rows: &Rows) -> EncodedRows {
 
 /// The rows of a direct pass's jobs folded and encoded job by job, in parallel, without
 /// [`Rows`] in between: a shard's rows at 2048² were 1.5 GB of fresh memory as `Rows`, then
-/// 0.8 GB again as bytes. Each job is freed (its hits) once encoded.
-pub(crate) fn encode_jobs(jobs: Vec<JobRows>) -> EncodedRows {
-    let jobs: Vec<(Vec<u8>, Vec<u8>, bool)> = jobs
+/// 0.8 GB again as bytes.
+pub(crate) fn encode_jobs(cache: HitCache) -> EncodedRows {
+    let jobs: Vec<(Vec<u8>, Vec<u8>, bool)> = (0..cache.job_count())
         .into_par_iter()
         .map_init(RowBuilder::default, |builder, job| {
-            let mut lengths = Vec::with_capacity(4 * job.receiver_count());
+            let receivers = cache.receiver_count(job);
+            let mut lengths = Vec::with_capacity(4 * receivers);
             let (mut entries, mut grey) = (Vec::new(), true);
-            for k in 0..job.receiver_count() {
-                let (vertices, weights) = job.row(k, builder);
+            for k in 0..receivers {
+                let (vertices, weights) = cache.row(job, k, builder);
                 lengths.extend((vertices.len() as u32).to_le_bytes());
                 if grey && !weights.iter().all(is_grey) {
                     (entries, grey) = (to_rgb(&entries), false);
