@@ -409,21 +409,45 @@ fn gather(
 
 /// Bounce rows as a shard part stores them, read where they lie in the file's bytes: per
 /// receiver its entry count (u32), then 16-byte entries (slot u32, RGB weight 3 × f32, little
-/// endian). A gather reads each row once, so copying them into [`Rows`] first would only
+/// endian), or 8-byte ones (slot, one weight for all three channels) where every weight is
+/// grey. A gather reads each row once, so copying them into [`Rows`] first would only
 /// double the memory it touches (a part's rows are hundreds of megabytes at 2048²).
 pub struct PackedRows {
-    bytes: Vec<u8>,
+    /// The file's bytes: in memory, or mapped.
+    bytes: Box<dyn std::ops::Deref<Target = [u8]> + Send + Sync>,
     /// Where the first entry starts in `bytes`.
     at: usize,
     /// Entries of receiver k are `starts[k]..starts[k + 1]`.
     starts: Vec<u64>,
+    /// Entries of one weight ([`GREY_BYTES_PER_ENTRY`] bytes each).
+    grey: bool,
 }
+
+/// Bytes per grey bounce-row entry of a part: slot and one weight for R, G and B.
+pub const GREY_BYTES_PER_ENTRY: u64 = 4 + 4;
 
 impl PackedRows {
     /// The rows whose entries start at byte `at` of `bytes`, with `starts` as in [`Rows`]
-    /// (the caller has checked that `bytes` holds them all).
-    pub fn new(bytes: Vec<u8>, at: usize, starts: Vec<u64>) -> PackedRows {
-        PackedRows { bytes, at, starts }
+    /// (the caller has checked that `bytes` holds them all); `grey`: 8-byte entries.
+    pub fn new(
+        bytes: impl std::ops::Deref<Target = [u8]> + Send + Sync + 'static,
+        at: usize,
+        starts: Vec<u64>,
+        grey: bool,
+    ) -> PackedRows {
+        PackedRows {
+            bytes: Box::new(bytes),
+            at,
+            starts,
+            grey,
+        }
+    }
+
+    fn entry_bytes(&self) -> usize {
+        match self.grey {
+            true => GREY_BYTES_PER_ENTRY as usize,
+            false => BYTES_PER_ENTRY as usize,
+        }
     }
 
     /// The first entry (index, slot, weight) whose slot is `slots` or more or whose weight
@@ -441,21 +465,44 @@ impl PackedRows {
     }
 
     fn entry(&self, e: usize) -> (u32, [f32; 3]) {
-        let b = &self.bytes[self.at + e * BYTES_PER_ENTRY as usize..][..BYTES_PER_ENTRY as usize];
-        decode_entry(b.try_into().expect("16 bytes"))
+        let size = self.entry_bytes();
+        decode_packed(&self.bytes[self.at + e * size..][..size])
     }
 
-    /// Receiver k's entries, in order (one bounds test per row, not per entry).
+    /// Receiver k's entries, in order (one bounds test per row, not per entry; each entry
+    /// size a constant, so that decoding one tests no bounds).
     pub fn row(&self, k: usize) -> impl Iterator<Item = (u32, [f32; 3])> + '_ {
-        let at = |e: u64| self.at + e as usize * BYTES_PER_ENTRY as usize;
+        let size = self.entry_bytes();
+        let at = |e: u64| self.at + e as usize * size;
         let bytes = &self.bytes[at(self.starts[k])..at(self.starts[k + 1])];
-        bytes
-            .chunks_exact(BYTES_PER_ENTRY as usize)
-            .map(|b| decode_entry(b.try_into().expect("16 bytes")))
+        let (grey, rgb) = match self.grey {
+            true => (bytes, &[][..]),
+            false => (&[][..], bytes),
+        };
+        let grey = grey.chunks_exact(GREY_BYTES_PER_ENTRY as usize);
+        let rgb = rgb.chunks_exact(BYTES_PER_ENTRY as usize);
+        let grey = grey.map(|b| decode_grey(b.try_into().expect("8 bytes")));
+        grey.chain(rgb.map(|b| decode_entry(b.try_into().expect("16 bytes"))))
     }
 
     /// Receivers whose rows these are.
     pub fn receiver_count(&self) -> usize {
         self.starts.len().saturating_sub(1)
+    }
+}
+
+/// A grey entry: its one weight read for all three channels.
+fn decode_grey(b: &[u8; GREY_BYTES_PER_ENTRY as usize]) -> (u32, [f32; 3]) {
+    let [s0, s1, s2, s3, w0, w1, w2, w3] = *b;
+    let w = f32::from_le_bytes([w0, w1, w2, w3]);
+    (u32::from_le_bytes([s0, s1, s2, s3]), [w; 3])
+}
+
+/// A packed entry of either size ([`PackedRows::first_invalid`]).
+fn decode_packed(b: &[u8]) -> (u32, [f32; 3]) {
+    match (<&[u8; 16]>::try_from(b), <&[u8; 8]>::try_from(b)) {
+        (Ok(entry), _) => decode_entry(entry),
+        (_, Ok(entry)) => decode_grey(entry),
+        _ => unreachable!("entries are 8 or 16 bytes"),
     }
 }

@@ -125,7 +125,7 @@ pub(super) fn bake_in_parts(
         Some(shard) => (shard, shard_range(vertex_count, shard)),
         None => (ShardId { index: 0, count: 1 }, 0..vertex_count),
     };
-    let (part, rays, blocks) = match args.checkpoint {
+    let (part, rows, rays, blocks) = match args.checkpoint {
         Some(dir) => {
             let block_vertices = args
                 .checkpoint_vertices
@@ -145,16 +145,24 @@ pub(super) fn bake_in_parts(
                 done.reused,
                 dir.display()
             );
-            (done.part, done.rays, blocks)
+            (done.part, None, done.rays, blocks)
+        }
+        // A shard's rows go from its direct pass straight to the part's bytes.
+        None if shard.is_some() => {
+            let (part, rows, rays) = baker.bake_encoded(id, vertices.clone(), progress)?;
+            (part, rows, rays, String::new())
         }
         None => {
             let (part, rays) = baker.bake(id, vertices.clone(), progress)?;
-            (part, rays, String::new())
+            (part, None, rays, String::new())
         }
     };
     let what = match shard {
         Some(shard) => {
-            part.write(args.output)?;
+            match rows {
+                Some(rows) => part.write_with(args.output, Some(rows))?,
+                None => part.write(args.output)?,
+            }
             format!(
                 "{shard} ({noun} {}..{} of {vertex_count})",
                 vertices.start, vertices.end

@@ -112,6 +112,12 @@ impl BounceFile {
     }
 
     pub fn from_bytes(bytes: &[u8]) -> std::result::Result<BounceFile, String> {
+        BounceFile::from_bytes_with(bytes, true)
+    }
+
+    /// [`BounceFile::from_bytes`]; without `keep_total` a merged file's running total is
+    /// checked by the checksum only and left empty (a gather never reads it: 150 MB at 2048²).
+    fn from_bytes_with(bytes: &[u8], keep_total: bool) -> std::result::Result<BounceFile, String> {
         if bytes.len() < HEAD + 8 || &bytes[..8] != MAGIC {
             return Err("not a bounce file (prt-bake merge --direct, gather)".into());
         }
@@ -168,16 +174,25 @@ impl BounceFile {
             .chunks_exact(4)
             .map(|w| f32::from_le_bytes(w.try_into().expect("4")));
         let count_us = count as usize;
-        let mut take = |n: usize| -> Vec<f32> { words.by_ref().take(n).collect() };
-        let values = take(count_us * width);
-        let total = if merged {
-            take(count_us * total_width)
-        } else {
-            Vec::new()
+        // Floats read (`keep`) or skipped.
+        let mut take = |n: usize, keep: bool| -> Vec<f32> {
+            let words = words.by_ref().take(n);
+            match keep {
+                true => words.collect(),
+                false => {
+                    words.for_each(drop);
+                    Vec::new()
+                }
+            }
         };
-        let ao = (merged && aux.ao).then(|| take(count_us));
+        let values = take(count_us * width, true);
+        let total = match merged {
+            true => take(count_us * total_width, keep_total),
+            false => Vec::new(),
+        };
+        let ao = (merged && aux.ao).then(|| take(count_us, true));
         let bent_normal = (merged && aux.bent_normal).then(|| {
-            take(3 * count_us)
+            take(3 * count_us, true)
                 .chunks_exact(3)
                 .map(Vec3::from_slice)
                 .collect()
@@ -200,8 +215,13 @@ impl BounceFile {
     }
 
     pub fn read(path: &Path) -> Result<BounceFile> {
-        let bytes = std::fs::read(path).map_err(|err| Error::io(path, err))?;
-        BounceFile::from_bytes(&bytes).map_err(|message| Error::coefficient_file(path, message))
+        BounceFile::read_with(path, true)
+    }
+
+    fn read_with(path: &Path, keep_total: bool) -> Result<BounceFile> {
+        let bytes = crate::distribute::big_reads::map(path)?;
+        BounceFile::from_bytes_with(&bytes, keep_total)
+            .map_err(|message| Error::coefficient_file(path, message))
     }
 
     /// Writes the file atomically, in pieces.
@@ -316,7 +336,7 @@ pub fn direct(paths: &[PathBuf]) -> Result<BounceFile> {
 /// `prt-bake gather`: bounce k + 1 at the receivers of the part at `part_path`, from its rows
 /// and the merged bounce file k at `lower_path`.
 pub fn gather(part_path: &Path, lower_path: &Path, progress: &dyn Progress) -> Result<BounceFile> {
-    let lower = BounceFile::read(lower_path)?;
+    let lower = BounceFile::read_with(lower_path, false)?;
     let (part, rows) = Part::read_packed_rows(part_path)?;
     if lower.shard.is_some() {
         return Err(refuse(format!(

@@ -58,10 +58,9 @@ pub(crate) fn join(paths: &[PathBuf]) -> Result<Joined<'_>> {
         .first()
         .ok_or_else(|| Error::InvalidOption("merge needs at least one part".into()))?;
     let mut parts = Vec::with_capacity(paths.len());
-    let mut buffer = Vec::new();
     for path in paths {
         // The rows are read again, one part at a time, by each bounce (or by the gathers).
-        let mut part = Part::read_without_rows_in(path, &mut buffer)?;
+        let mut part = Part::read_without_rows(path)?;
         if let Some((_, first)) = parts.first() {
             check_same_bake(first, &part, path, first_path)?;
             // One lightmap's arrays are enough (the others are checked equal by fingerprint).

@@ -6,6 +6,7 @@
 //! May import: [`crate::support`], [`crate::math`], [`crate::scene`], [`crate::trace`],
 //! [`crate::formats`], [`crate::bake`].
 
+pub mod big_reads;
 pub mod bounce_stages;
 pub mod checkpoint;
 pub mod column_join;
@@ -17,5 +18,6 @@ pub mod part_encoding;
 pub mod prepared_file;
 pub mod probe_parts;
 pub mod probe_shards;
+pub mod row_encoding;
 pub mod shard;
 pub mod stitch_columns;

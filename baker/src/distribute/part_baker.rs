@@ -4,13 +4,14 @@
 
 use std::ops::Range;
 
-use crate::bake::bounce_rows::HitRecorder;
+use crate::bake::bounce_rows::{HitCache, HitRecorder};
 use crate::bake::interreflection::{self, Rows};
 use crate::bake::lightmap::Prepared;
 use crate::bake::transfer::{
     BakeOptions, BounceTargets, Estimator, Mode, Receivers, direct_pass, tracer_for,
 };
 use crate::distribute::lightmap_parts::PartLightmap;
+use crate::distribute::row_encoding::{EncodedRows, encode_jobs};
 use crate::distribute::shard::{Part, PartId, ShardId};
 use crate::formats::header::Header;
 use crate::scene::Scene;
@@ -112,6 +113,40 @@ impl<'a> PartBaker<'a> {
         receivers: Range<usize>,
         progress: &dyn Progress,
     ) -> Result<(Part, u64)> {
+        let (mut part, jobs, rays) = self.bake_direct(shard, receivers.clone(), progress)?;
+        if let Some(jobs) = jobs {
+            let rows = Rows::from_jobs(jobs);
+            self.check_rows(rows.bytes(), &receivers)?;
+            part.rows = Some(rows);
+        }
+        Ok((part, rays))
+    }
+
+    /// [`PartBaker::bake`] with the bounce rows encoded as the part's file stores them (the
+    /// part's own `rows` left empty: [`Part::encode_with`]), never held as [`Rows`].
+    pub fn bake_encoded(
+        &self,
+        shard: ShardId,
+        receivers: Range<usize>,
+        progress: &dyn Progress,
+    ) -> Result<(Part, Option<EncodedRows>, u64)> {
+        let (part, jobs, rays) = self.bake_direct(shard, receivers.clone(), progress)?;
+        let rows = jobs.map(encode_jobs);
+        if let Some(rows) = &rows {
+            self.check_rows(rows.rows_bytes(), &receivers)?;
+        }
+        Ok((part, rows, rays))
+    }
+
+    /// The direct pass: the part without rows, its jobs' rows (interreflected mode) and the
+    /// rays cast.
+    #[allow(clippy::type_complexity)]
+    fn bake_direct(
+        &self,
+        shard: ShardId,
+        receivers: Range<usize>,
+        progress: &dyn Progress,
+    ) -> Result<(Part, Option<HitCache<'_>>, u64)> {
         let options = &self.estimator.options;
         let recorder = (options.mode == Mode::Interreflected).then(|| {
             HitRecorder::new(
@@ -128,29 +163,10 @@ impl<'a> PartBaker<'a> {
             receivers.clone(),
             progress,
         );
-        let what = match self.lightmap {
-            Some(_) => "baked texels",
-            None => "vertices",
-        };
-        // The recorder keeps compact hits; the part carries them folded into rows, which can
-        // be several times larger, so the limit applies to the rows too.
-        let rows = match recorder {
-            Some(recorder) => match recorder
-                .into_cache()
-                .map(|(jobs, _)| Rows::from_jobs(jobs))
-                .filter(|rows| rows.bytes() <= options.hit_cache_limit)
-            {
-                Some(rows) => Some(rows),
-                None => {
-                    return Err(Error::InvalidOption(format!(
-                        "the bounce rows of {what} {}..{} exceed --hit-cache-mb {}; a part \
-                         carries its rows (the merge casts no rays): use more shards or a larger \
-                         --hit-cache-mb",
-                        receivers.start,
-                        receivers.end,
-                        options.hit_cache_limit >> 20
-                    )));
-                }
+        let jobs = match recorder {
+            Some(recorder) => match recorder.into_cache() {
+                Some((jobs, _)) => Some(jobs),
+                None => return Err(self.rows_too_large(&receivers)),
             },
             None => None,
         };
@@ -171,11 +187,34 @@ impl<'a> PartBaker<'a> {
             bent_normal: aux
                 .bent_normal
                 .then(|| direct.visibility.iter().map(|v| v.bent_normal).collect()),
-            rows,
+            rows: None,
             header: self.header.clone(),
             lightmap: self.lightmap.clone(),
         };
-        Ok((part, rays))
+        Ok((part, jobs, rays))
+    }
+
+    /// The recorder keeps compact hits; the part carries them folded into rows, which can be
+    /// several times larger, so the limit applies to the rows (`bytes` in memory) too.
+    fn check_rows(&self, bytes: u64, receivers: &Range<usize>) -> Result<()> {
+        match bytes <= self.estimator.options.hit_cache_limit {
+            true => Ok(()),
+            false => Err(self.rows_too_large(receivers)),
+        }
+    }
+
+    fn rows_too_large(&self, receivers: &Range<usize>) -> Error {
+        let what = match self.lightmap {
+            Some(_) => "baked texels",
+            None => "vertices",
+        };
+        Error::InvalidOption(format!(
+            "the bounce rows of {what} {}..{} exceed --hit-cache-mb {}; a part carries its rows \
+             (the merge casts no rays): use more shards or a larger --hit-cache-mb",
+            receivers.start,
+            receivers.end,
+            self.estimator.options.hit_cache_limit >> 20
+        ))
     }
 }
 
@@ -288,6 +327,50 @@ mod tests {
     }
 
     #[test]
+    fn grey_rows_take_half_the_bytes_and_old_parts_are_refused() {
+        let part = cornell_part();
+        let entries = part.rows.as_ref().unwrap().vertices.len();
+        let rgb = part.to_bytes();
+        // The Cornell room's walls are coloured: RGB entries, every weight kept.
+        let mut grey = part.clone();
+        for w in &mut grey.rows.as_mut().unwrap().weights {
+            *w = [w[1]; 3];
+        }
+        let bytes = grey.to_bytes();
+        assert_eq!(rgb.len() - bytes.len(), 8 * entries);
+        let mut read = Part::from_bytes(&bytes).unwrap();
+        read.header.checksum = 0;
+        assert!(read == grey, "a grey part read back differs");
+        let (_, packed) = Part::packed_rows_from_bytes(bytes.clone()).unwrap();
+        let rows = grey.rows.as_ref().unwrap();
+        for k in 0..40 {
+            let range = rows.vertex(k);
+            let expected = rows.vertices[range.clone()].iter().copied();
+            let expected: Vec<_> = expected.zip(rows.weights[range].iter().copied()).collect();
+            assert_eq!(packed.row(k).collect::<Vec<_>>(), expected, "row {k}");
+        }
+        // One weight that is not grey: the part keeps all three.
+        let mut almost = grey.clone();
+        almost.rows.as_mut().unwrap().weights[entries - 1][2] += 1.0;
+        assert_eq!(almost.to_bytes().len(), rgb.len());
+
+        // A part as an older prt-bake wrote it: no encoding word before the row lengths.
+        let mut old = Vec::from(&rgb[..]);
+        let payload = u64::from_le_bytes(old[72..80].try_into().unwrap()) - 4;
+        old[72..80].copy_from_slice(&payload.to_le_bytes());
+        let at = 128 + 4 * part.coefficients.len() + 4 * part.ao.as_ref().unwrap().len() + 12 * 40;
+        old.drain(at..at + 4);
+        let checksum = crate::formats::header::checksum(&old);
+        old[124..128].copy_from_slice(&checksum.to_le_bytes());
+        for err in [
+            Part::from_bytes(&old).unwrap_err(),
+            Part::packed_rows_from_bytes(old.clone()).err().unwrap(),
+        ] {
+            assert!(err.contains("a part of an older prt-bake"), "{err}");
+        }
+    }
+
+    #[test]
     fn texel_parts_round_trip_and_bad_masks_or_blocks_are_refused() {
         let path = concat!(
             env!("CARGO_MANIFEST_DIR"),
@@ -315,6 +398,10 @@ mod tests {
         let silent = crate::support::progress::Silent;
         let (part, _) = baker.bake(shard, 10..30, &silent).unwrap();
         let bytes = part.to_bytes();
+        // A shard's way: the rows encoded from the direct pass, the same bytes.
+        let (bare, rows, _) = baker.bake_encoded(shard, 10..30, &silent).unwrap();
+        assert!(bare.rows.is_none());
+        assert!(bare.encode_with(rows).into_vec() == bytes);
         assert_eq!(u32::from_le_bytes(bytes[12..16].try_into().unwrap()), 192);
         let mut read = Part::from_bytes(&bytes).unwrap();
         read.header.checksum = 0;

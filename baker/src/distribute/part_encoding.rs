@@ -5,8 +5,10 @@
 
 use glam::Vec3;
 
-use crate::bake::interreflection::Rows;
 use crate::distribute::lightmap_parts::BLOCK_BYTES;
+#[cfg(doc)]
+use crate::distribute::row_encoding::encode_jobs;
+use crate::distribute::row_encoding::{EncodedRows, row_bytes};
 use crate::distribute::shard::Part;
 use crate::formats::coefficient_file;
 use crate::formats::encoded::Encoded;
@@ -16,6 +18,12 @@ impl Part {
     /// The part file's bytes in pieces, the checksum set: the bytes of
     /// [`Part::to_bytes`].
     pub fn encode(&self) -> Encoded<'_> {
+        self.encode_with(self.rows.as_ref().map(row_bytes))
+    }
+
+    /// [`Part::encode`] with its bounce rows already encoded (`rows`, the part's own `rows`
+    /// unused): a shard encodes them straight from its direct pass ([`encode_jobs`]).
+    pub fn encode_with(&self, rows: Option<EncodedRows>) -> Encoded<'_> {
         let tail = self
             .lightmap
             .as_ref()
@@ -23,10 +31,8 @@ impl Part {
         let ao = self.ao.as_deref().unwrap_or_default();
         let bent = self.bent_normal.as_deref().unwrap_or_default();
         let arrays = 4 * (self.coefficients.len() + ao.len() + 3 * bent.len());
-        let rows = self.rows.as_ref().map_or(0, |r| {
-            4 * (r.starts.len().saturating_sub(1)) + 16 * r.vertices.len()
-        });
-        let payload = (arrays + rows + tail.len()) as u64;
+        let row_len = rows.as_ref().map_or(0, EncodedRows::byte_len);
+        let payload = (arrays + row_len + tail.len()) as u64;
         // The header as for an empty payload (and whatever follows it there), its payload
         // length then set; a texel part's block goes right after the 128 header bytes.
         let mut head = coefficient_file::bytes_with_payload(&self.header, &self.id.to_bytes(), &[]);
@@ -46,33 +52,14 @@ impl Part {
             }
             b
         });
-        if let Some(rows) = &self.rows {
-            let (lengths, entries) = row_bytes(rows);
-            e.push(lengths);
-            e.push(entries);
+        if let Some(rows) = rows {
+            e.push(rows.lengths);
+            for entries in rows.entries {
+                e.push(entries);
+            }
         }
         e.push(tail);
         e.seal();
         e
     }
-}
-
-/// Bounce rows as a part stores them: each row's length (u32), then every entry's vertex
-/// (u32) and RGB weight (3 × f32).
-fn row_bytes(rows: &Rows) -> (Vec<u8>, Vec<u8>) {
-    let lengths = rows
-        .starts
-        .windows(2)
-        .flat_map(|pair| ((pair[1] - pair[0]) as u32).to_le_bytes())
-        .collect();
-    let mut entries = Vec::with_capacity(16 * rows.vertices.len());
-    for (vertex, weight) in rows.vertices.iter().zip(&rows.weights) {
-        let mut entry = [0u8; 16];
-        entry[..4].copy_from_slice(&vertex.to_le_bytes());
-        for (o, w) in entry[4..].chunks_exact_mut(4).zip(weight) {
-            o.copy_from_slice(&w.to_le_bytes());
-        }
-        entries.extend_from_slice(&entry);
-    }
-    (lengths, entries)
 }

@@ -20,6 +20,7 @@ use glam::Vec3;
 use crate::bake::interreflection::{self, PackedRows, RowSource, Rows};
 use crate::bake::transfer::{BakeOptions, BounceTargets, Mode};
 use crate::distribute::lightmap_parts::{Lookup, PartLightmap};
+use crate::distribute::row_encoding::{EncodedRows, parse_rows, row_starts};
 use crate::formats::coefficient_file::{self, CoefficientFile};
 use crate::formats::header::{self, HEADER_SIZE, Header, LIGHTMAP_PART_HEADER_SIZE};
 pub use crate::formats::part_id::{PartId, ShardId};
@@ -219,8 +220,8 @@ impl Part {
         let width = Part::coefficient_width(&header);
         let aux_floats = usize::from(header.aux.ao) + 3 * usize::from(header.aux.bent_normal);
         let interreflected = header.mode == Mode::Interreflected;
-        let fixed =
-            (count * (width + aux_floats) * 4 + if interreflected { count * 4 } else { 0 }) as u64;
+        let fixed = (count * (width + aux_floats) * 4
+            + if interreflected { 4 + count * 4 } else { 0 }) as u64;
         if payload_bytes < fixed {
             return Err(format!(
                 "{id}: the payload is {payload_bytes} bytes, its arrays need at least {fixed}"
@@ -232,8 +233,8 @@ impl Part {
             if !interreflected {
                 return Err(format!("{id}: a part without bounce rows"));
             }
-            let starts = row_starts(&payload[rows_at as usize..], &id)?;
-            let at = header_size + rows_at as usize + 4 * count;
+            let (starts, grey) = row_starts(&payload[rows_at as usize..], &id)?;
+            let at = header_size + rows_at as usize + 4 + 4 * count;
             let part = Part {
                 header,
                 id,
@@ -243,7 +244,7 @@ impl Part {
                 rows: None,
                 lightmap,
             };
-            return Ok((part, Some((at, starts))));
+            return Ok((part, Some((at, starts, grey))));
         }
         if let Some(l) = lightmap.as_mut() {
             l.read_tail(&bytes[bytes.len() - tail as usize..])
@@ -310,22 +311,8 @@ impl Part {
         Part::read_with(path, Reading::WithoutRows)
     }
 
-    /// [`Part::read_without_rows`] through `buffer`, which keeps its memory for the next
-    /// part: a merge reads one 145 MB part after another, and fresh pages for each cost
-    /// their page faults again.
-    pub fn read_without_rows_in(path: &Path, buffer: &mut Vec<u8>) -> Result<Part> {
-        use std::io::Read;
-        buffer.clear();
-        std::fs::File::open(path)
-            .and_then(|mut file| file.read_to_end(buffer))
-            .map_err(|err| Error::io(path, err))?;
-        Part::parse(buffer, Reading::WithoutRows)
-            .and_then(|(part, _)| Part::checked(part))
-            .map_err(|message| Error::coefficient_file(path, message))
-    }
-
     fn read_with(path: &Path, reading: Reading) -> Result<Part> {
-        let bytes = std::fs::read(path).map_err(|err| Error::io(path, err))?;
+        let bytes = crate::distribute::big_reads::map(path)?;
         Part::parse(&bytes, reading)
             .and_then(|(part, _)| Part::checked(part))
             .map_err(|message| Error::coefficient_file(path, message))
@@ -335,18 +322,18 @@ impl Part {
     /// arrays, nor its transfer), and its bounce rows where they lie in the file's bytes,
     /// each entry checked as [`Part::read`] checks it.
     pub fn read_packed_rows(path: &Path) -> Result<(Part, PackedRows)> {
-        let bytes = std::fs::read(path).map_err(|err| Error::io(path, err))?;
+        let bytes = crate::distribute::big_reads::map(path)?;
         Part::packed_rows_from_bytes(bytes).map_err(|m| Error::coefficient_file(path, m))
     }
 
     /// [`Part::read_packed_rows`] of a file's bytes.
     pub fn packed_rows_from_bytes(
-        bytes: Vec<u8>,
+        bytes: impl std::ops::Deref<Target = [u8]> + Send + Sync + 'static,
     ) -> std::result::Result<(Part, PackedRows), String> {
         let (part, rows) = Part::parse(&bytes, Reading::Packed)?;
         let part = Part::checked(part)?;
-        let (at, starts) = rows.expect("a packed reading returns the rows");
-        let rows = PackedRows::new(bytes, at, starts);
+        let (at, starts, grey) = rows.expect("a packed reading returns the rows");
+        let rows = PackedRows::new(bytes, at, starts, grey);
         if let Some((e, vertex, weight)) = rows.first_invalid(part.header.vertex_count) {
             return Err(format!(
                 "{}: bounce-row entry {e} (vertex {vertex}, weight {weight:?}) is invalid",
@@ -368,6 +355,12 @@ impl Part {
     pub fn write(&self, path: &Path) -> Result<()> {
         let output = crate::support::output::Output::new(path, &[])?;
         output.write_parts(&self.encode().parts())
+    }
+
+    /// [`Part::write`] with the bounce rows already encoded ([`Part::encode_with`]).
+    pub fn write_with(&self, path: &Path, rows: Option<EncodedRows>) -> Result<()> {
+        let output = crate::support::output::Output::new(path, &[])?;
+        output.write_parts(&self.encode_with(rows).parts())
     }
 
     /// Drops a texel part's lightmap arrays, which a checkpoint block leaves out
@@ -455,8 +448,8 @@ impl Part {
 }
 
 /// Where a part's bounce rows lie in its file: the byte their first entry starts at, and
-/// where each row starts ([`Rows::starts`]).
-type RowsAt = (usize, Vec<u64>);
+/// where each row starts ([`Rows::starts`]), and whether the entries are grey.
+type RowsAt = (usize, Vec<u64>, bool);
 
 /// Which of a part's arrays a reading parses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -466,53 +459,6 @@ enum Reading {
     WithoutRows,
     /// The header, identity and lightmap block, and where the rows lie ([`PackedRows`]).
     Packed,
-}
-
-/// Where each of `id.vertices` rows starts, from the u32 lengths that begin `bytes`, checked
-/// against the entries `bytes` holds after them.
-fn row_starts(bytes: &[u8], id: &PartId) -> std::result::Result<Vec<u64>, String> {
-    let count = id.vertices as usize;
-    let u32_at = |o: usize| u32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes"));
-    let mut starts = Vec::with_capacity(count + 1);
-    starts.push(0u64);
-    for k in 0..count {
-        starts.push(starts[k] + u64::from(u32_at(4 * k)));
-    }
-    let entries = starts[count];
-    let expected = count as u64 * 4 + entries * interreflection::BYTES_PER_ENTRY;
-    if bytes.len() as u64 != expected {
-        return Err(format!(
-            "{id}: the bounce rows announce {entries} entries ({expected} bytes), the payload holds {} bytes for them",
-            bytes.len()
-        ));
-    }
-    Ok(starts)
-}
-
-/// Bounce rows of `id.vertices` vertices: u32 lengths, then 16-byte entries.
-fn parse_rows(bytes: &[u8], id: &PartId, header: &Header) -> std::result::Result<Rows, String> {
-    let count = id.vertices as usize;
-    let starts = row_starts(bytes, id)?;
-    let entries = starts[count];
-    let mut rows = Rows {
-        starts,
-        vertices: Vec::with_capacity(entries as usize),
-        weights: Vec::with_capacity(entries as usize),
-    };
-    for e in 0..entries as usize {
-        let size = interreflection::BYTES_PER_ENTRY as usize;
-        let at = count * 4 + e * size;
-        let (vertex, weight) =
-            interreflection::decode_entry(bytes[at..at + size].try_into().expect("16 bytes"));
-        if u64::from(vertex) >= header.vertex_count || !weight.iter().all(|w| w.is_finite()) {
-            return Err(format!(
-                "{id}: bounce-row entry {e} (vertex {vertex}, weight {weight:?}) is invalid"
-            ));
-        }
-        rows.vertices.push(vertex);
-        rows.weights.push(weight);
-    }
-    Ok(rows)
 }
 
 /// The options a header records (what the merge needs to gather the bounces).
