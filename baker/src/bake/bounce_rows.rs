@@ -527,6 +527,27 @@ impl<'a> HitRecorder<'a> {
     }
 }
 
+/// A hit on a random triangle of `scene` at random barycentrics: what the hit-cache tests
+/// record.
+#[cfg(test)]
+pub(crate) fn random_hit(rng: &mut crate::math::sampling::Pcg32, scene: &Scene) -> Hit {
+    let triangle = rng.next_u32() % scene.triangles.len() as u32;
+    let (u, v) = (rng.next_f32(), rng.next_f32());
+    let (u, v) = if u + v > 1.0 {
+        (1.0 - u, 1.0 - v)
+    } else {
+        (u, v)
+    };
+    Hit {
+        triangle,
+        instance: None,
+        u,
+        v,
+        t: 1.0,
+        ng: Vec3::Z,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -561,22 +582,8 @@ mod tests {
             kept.begin_vertex();
             let mut direct = RowBuilder::default();
             for k in 0..400 {
-                let triangle = rng.next_u32() % scene.triangles.len() as u32;
-                let (u, v) = (rng.next_f32(), rng.next_f32());
-                let (u, v) = if u + v > 1.0 {
-                    (1.0 - u, 1.0 - v)
-                } else {
-                    (u, v)
-                };
-                let hit = Hit {
-                    triangle,
-                    instance: None,
-                    u,
-                    v,
-                    t: 1.0,
-                    ng: Vec3::Z,
-                };
-                let tri = scene.triangles[triangle as usize];
+                let hit = random_hit(&mut rng, &scene);
+                let tri = scene.triangles[hit.triangle as usize];
                 let normal = scene.normals[tri[0] as usize];
                 let dir = if k % 5 == 0 { normal } else { -normal };
                 let weight = match receiver {

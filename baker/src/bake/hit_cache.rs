@@ -94,7 +94,6 @@ impl FrozenJob {
 
 #[cfg(test)]
 mod tests {
-    use glam::Vec3;
 
     use crate::bake::bounce_rows::{CornerProbe, HitRecorder, JobRows, RowBuilder};
     use crate::bake::lightmap::{Atlas, texels::Texels};
@@ -102,7 +101,7 @@ mod tests {
     use crate::bake::receivers::{BounceTargets, RECEIVERS_PER_JOB};
     use crate::math::sampling::Pcg32;
     use crate::scene::Scene;
-    use crate::trace::{Hit, ObvhsOptions, ObvhsTracer};
+    use crate::trace::{ObvhsOptions, ObvhsTracer};
 
     /// Random hits on `scene`'s triangles for a job's receivers, about a fifth on back faces:
     /// with `uniform`, every hit weighs the same.
@@ -112,22 +111,8 @@ mod tests {
         for _ in 0..RECEIVERS_PER_JOB {
             job.begin_vertex();
             for k in 0..40 {
-                let triangle = rng.next_u32() % scene.triangles.len() as u32;
-                let (u, v) = (rng.next_f32(), rng.next_f32());
-                let (u, v) = if u + v > 1.0 {
-                    (1.0 - u, 1.0 - v)
-                } else {
-                    (u, v)
-                };
-                let hit = Hit {
-                    triangle,
-                    instance: None,
-                    u,
-                    v,
-                    t: 1.0,
-                    ng: Vec3::Z,
-                };
-                let normal = scene.normals[scene.triangles[triangle as usize][0] as usize];
+                let hit = crate::bake::bounce_rows::random_hit(&mut rng, scene);
+                let normal = scene.normals[scene.triangles[hit.triangle as usize][0] as usize];
                 let dir = if k % 5 == 0 { normal } else { -normal };
                 let weight = if uniform { 4.0 } else { 0.5 + rng.next_f32() };
                 job.record(&hit, dir, weight, &mut builder, probe);
