@@ -4,84 +4,29 @@
 //! time), so they are mapped ([`map`]). Advising fresh buffers as transparent huge pages cut
 //! the faults too but not the system time (the kernel compacts memory for them).
 
-use std::ops::Deref;
 use std::path::Path;
 
 use crate::support::error::{Error, Result};
 
-/// A file's bytes mapped read-only (private, populated up front). The pipeline replaces a
-/// file by renaming a new one over it, which leaves a mapping of the old one intact; only
+/// A file's bytes mapped read-only (populated up front), by `memmap2`. The pipeline replaces
+/// a file by renaming a new one over it, which leaves a mapping of the old one intact; only
 /// truncating a file in place while it is mapped would fault (SIGBUS).
-pub struct Mapped {
-    ptr: *const u8,
-    len: usize,
-}
-
-// SAFETY: the mapping is read-only and owned by this value alone.
-unsafe impl Send for Mapped {}
-unsafe impl Sync for Mapped {}
-
-impl Deref for Mapped {
-    type Target = [u8];
-
-    fn deref(&self) -> &[u8] {
-        match self.len {
-            0 => &[],
-            // SAFETY: `ptr` maps `len` readable bytes until `drop`.
-            len => unsafe { std::slice::from_raw_parts(self.ptr, len) },
-        }
-    }
-}
-
-impl Drop for Mapped {
-    fn drop(&mut self) {
-        if self.len > 0 {
-            // SAFETY: `ptr` and `len` are the mapping `map` made, unmapped once.
-            unsafe {
-                libc::munmap(self.ptr as *mut libc::c_void, self.len);
-            }
-        }
-    }
-}
+pub type Mapped = memmap2::Mmap;
 
 /// The bytes of the file at `path`, mapped: the page cache's own pages, neither copied nor
 /// zeroed first.
 pub fn map(path: &Path) -> Result<Mapped> {
-    use std::os::fd::AsRawFd;
     let fail = |err| Error::io(path, err);
     let file = std::fs::File::open(path).map_err(fail)?;
-    let metadata = file.metadata().map_err(fail)?;
-    if !metadata.is_file() {
+    if !file.metadata().map_err(fail)?.is_file() {
         return Err(Error::io(
             path,
             std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a regular file"),
         ));
     }
-    let len = metadata.len() as usize;
-    if len == 0 {
-        return Ok(Mapped {
-            ptr: std::ptr::null(),
-            len,
-        });
-    }
-    // SAFETY: a fresh read-only private mapping of an open regular file; checked below.
-    let ptr = unsafe {
-        libc::mmap(
-            std::ptr::null_mut(),
-            len,
-            libc::PROT_READ,
-            libc::MAP_PRIVATE | libc::MAP_POPULATE,
-            file.as_raw_fd(),
-            0,
-        )
-    };
-    if ptr == libc::MAP_FAILED {
-        return Err(fail(std::io::Error::last_os_error()));
-    }
-    Ok(Mapped {
-        ptr: ptr as *const u8,
-        len,
-    })
+    // SAFETY: a read-only mapping of a regular file that the pipeline never truncates or
+    // writes in place (its outputs are renamed over old files, see [`Mapped`]).
+    unsafe { memmap2::MmapOptions::new().populate().map(&file) }.map_err(fail)
 }
 
 #[cfg(test)]
