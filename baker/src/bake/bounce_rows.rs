@@ -551,7 +551,6 @@ pub(crate) fn random_hit(rng: &mut crate::math::sampling::Pcg32, scene: &Scene) 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bake::lightmap::{Atlas, texels::Texels};
     use crate::math::sampling::Pcg32;
     use crate::trace::{ObvhsOptions, ObvhsTracer};
 
@@ -561,11 +560,7 @@ mod tests {
         // three receivers, with one weight for the first and then a weight per hit: each
         // receiver's row folded from the kept hits must be, bit for bit, the row folded from
         // the hits as they came.
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../scenes/cornell/cornell.scene");
-        let scene = Scene::load(&path).unwrap();
-        let atlas = Atlas::generate(&scene, 64, None).unwrap();
-        let texels = Texels::rasterise(&scene, &atlas);
+        let (scene, atlas, texels) = crate::bake::lightmap::texels::cornell_lightmap(64);
         let targets = BounceTargets::texels(&atlas, &texels);
         let embedded = Arc::new(Embedded::new(&scene, &targets));
         let tracer = ObvhsTracer::new(&scene, ObvhsOptions::default());

@@ -96,7 +96,6 @@ impl FrozenJob {
 mod tests {
 
     use crate::bake::bounce_rows::{CornerProbe, HitRecorder, JobRows, RowBuilder};
-    use crate::bake::lightmap::{Atlas, texels::Texels};
     use crate::bake::receivers::Receivers;
     use crate::bake::receivers::{BounceTargets, RECEIVERS_PER_JOB};
     use crate::math::sampling::Pcg32;
@@ -133,11 +132,7 @@ mod tests {
         // Two jobs of texel targets (kept hits: one weight, then a weight per hit) and two of
         // vertex targets (folded rows), recorded into one cleared job as the direct pass
         // does: each receiver's row from the cache must be, bit for bit, the recorded one.
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../scenes/cornell/cornell.scene");
-        let scene = Scene::load(&path).unwrap();
-        let atlas = Atlas::generate(&scene, 64, None).unwrap();
-        let texels = Texels::rasterise(&scene, &atlas);
+        let (scene, atlas, texels) = crate::bake::lightmap::texels::cornell_lightmap(64);
         let tracer = ObvhsTracer::new(&scene, ObvhsOptions::default());
         let receivers = Receivers::vertices(&scene);
         let probe = CornerProbe {

@@ -278,11 +278,7 @@ mod tests {
     /// receivers' values back, on an atlas whose valid texels are scattered (so values move).
     #[test]
     fn slots_made_in_place_match_the_copied_ones_and_give_the_values_back() {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../scenes/cornell/cornell.scene");
-        let scene = Scene::load(&path).unwrap();
-        let atlas = Atlas::generate(&scene, 64, None).unwrap();
-        let texels = Texels::rasterise(&scene, &atlas);
+        let (_, atlas, texels) = crate::bake::lightmap::texels::cornell_lightmap(64);
         let targets = BounceTargets::texels(&atlas, &texels);
         let width = 9;
         let count = texels.valid_indices().count();
@@ -304,11 +300,7 @@ mod tests {
     /// texels are scattered (so the compaction moves them), and leaves the size and mask.
     #[test]
     fn taken_texel_points_make_the_receivers_copied_ones_make() {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../scenes/cornell/cornell.scene");
-        let scene = Scene::load(&path).unwrap();
-        let atlas = Atlas::generate(&scene, 64, None).unwrap();
-        let texels = Texels::rasterise(&scene, &atlas);
+        let (_, _, texels) = crate::bake::lightmap::texels::cornell_lightmap(64);
         assert!(texels.valid.iter().any(|v| !v), "some texels are empty");
         let copied = Receivers::texels(&texels);
         let mut taken_from = texels.clone();

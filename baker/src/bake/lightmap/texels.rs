@@ -376,6 +376,18 @@ pub(crate) fn bilinear_taps(
     count
 }
 
+/// The Cornell room's scene, generated atlas at `resolution`² and rasterised texels: the
+/// lightmap the receivers' and hit cache's unit tests share (its valid texels are scattered).
+#[cfg(test)]
+pub(crate) fn cornell_lightmap(resolution: u32) -> (Scene, Atlas, Texels) {
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/cornell/cornell.scene");
+    let scene = Scene::load(&path).unwrap();
+    let atlas = Atlas::generate(&scene, resolution, None).unwrap();
+    let texels = Texels::rasterise(&scene, &atlas);
+    (scene, atlas, texels)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
