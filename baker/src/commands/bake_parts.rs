@@ -30,6 +30,7 @@ pub struct PartsArgs<'a> {
 /// A texel bake's preparation: read from `--prepared` (checked against this bake's key), or
 /// computed here; and the tracer watertight for its texels' ray origins.
 fn prepare<'t>(
+    stages: &mut lightmap::Stages,
     args: &PartsArgs<'_>,
     scene: &Scene,
     tracer: Option<&'t dyn Tracer>,
@@ -38,7 +39,9 @@ fn prepare<'t>(
 ) -> Result<(Prepared, Option<Box<dyn Tracer + 't>>), Error> {
     match args.prepared {
         Some(path) => {
-            let prepared = prepared_file::read(path, args.prepared_key)?;
+            let prepared = stages.time("reading the prepared lightmap", || {
+                prepared_file::read(path, args.prepared_key)
+            })?;
             if prepared.atlas.uv1.len() != scene.triangles.len() {
                 return Err(Error::Shards(format!(
                     "{}: a prepared lightmap of {} triangles, the scene has {}",
@@ -48,7 +51,12 @@ fn prepare<'t>(
                 )));
             }
             let watertight = match tracer {
-                Some(tracer) => prepared.texels.watertight(scene, tracer)?,
+                Some(tracer) => {
+                    let seam = prepared.seam_points.as_deref();
+                    stages.time("seam texels", || {
+                        prepared.texels.watertight_known(scene, tracer, seam)
+                    })?
+                }
                 None => None,
             };
             Ok((prepared, watertight))
@@ -107,6 +115,7 @@ pub(super) fn bake_in_parts(
     progress: &dyn Progress,
 ) -> Result<(), Error> {
     let started = std::time::Instant::now();
+    let mut stages = lightmap::Stages::default();
     // A texel bake's parts split its baked texels: every shard reads the prepared lightmap
     // (or computes the same atlas and leak test), and bakes through a tracer watertight for
     // the texels, as a whole bake does.
@@ -114,9 +123,12 @@ pub(super) fn bake_in_parts(
     let (baker, noun) = match args.lightmap {
         None => (PartBaker::vertices(scene, tracer, options)?, "vertices"),
         Some(resolution) => {
-            (prepared, watertight) = prepare(args, scene, tracer, options, resolution)?;
+            (prepared, watertight) =
+                prepare(&mut stages, args, scene, tracer, options, resolution)?;
             let tracer = watertight.as_deref().or(tracer);
-            let baker = PartBaker::texels(scene, tracer, options, &prepared)?;
+            let baker = stages.time("estimator", || {
+                PartBaker::texels(scene, tracer, options, &prepared)
+            })?;
             (baker, "baked texels")
         }
     };
@@ -149,7 +161,9 @@ pub(super) fn bake_in_parts(
         }
         // A shard's rows go from its direct pass straight to the part's bytes.
         None if shard.is_some() => {
-            let (part, rows, rays) = baker.bake_encoded(id, vertices.clone(), progress)?;
+            let (part, rows, rays) = stages.time("bake", || {
+                baker.bake_encoded(id, vertices.clone(), progress)
+            })?;
             (part, rows, rays, String::new())
         }
         None => {
@@ -159,10 +173,10 @@ pub(super) fn bake_in_parts(
     };
     let what = match shard {
         Some(shard) => {
-            match rows {
-                Some(rows) => part.write_with(args.output, Some(rows))?,
-                None => part.write(args.output)?,
-            }
+            stages.time("writing", || match rows {
+                Some(rows) => part.write_with(args.output, Some(rows)),
+                None => part.write(args.output),
+            })?;
             format!(
                 "{shard} ({noun} {}..{} of {vertex_count})",
                 vertices.start, vertices.end
@@ -173,6 +187,9 @@ pub(super) fn bake_in_parts(
             format!("{vertex_count} {noun}")
         }
     };
+    if args.verbose && !stages.0.is_empty() {
+        eprintln!("prt-bake: stages: {}", stages.line());
+    }
     let seconds = started.elapsed().as_secs_f64();
     println!(
         "baked {what}, {rays} rays, {seconds:.2} s (order {}, {}, {} samples{blocks}) -> {}",

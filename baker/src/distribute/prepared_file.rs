@@ -7,16 +7,18 @@
 //! fingerprint, the lightmap options, the seed, the backend, whether rays are cast). A reader
 //! computes the key from its own scene and options and refuses a file whose key differs.
 //!
-//! Layout (little-endian): magic `PRTLMP\0\x01`, key u64, xxh3 of the rest u64; then width,
+//! Layout (little-endian): magic `PRTLMP\0\x02`, key u64, xxh3 of the rest u64; then width,
 //! height (u32), triangles (u64), atlas source (u32), texel size (f32, 0: none), moved and
-//! leaking (u64), per-object placements (u32 count + records, [`object_placements`]); per
-//! triangle its UVs (6 f32) and seam partners (3 u32); per texel a flag byte (1 baked, 2 has a
-//! point) and its triangle (u32); per texel with a point: position, normal, mapped normal and
-//! ray origin (12 f32).
+//! leaking (u64), whether the seam points are known (u32, 0 or 1), per-object placements (u32
+//! count + records, [`object_placements`]); per triangle its UVs (6 f32) and seam partners (3
+//! u32); per texel a flag byte (1 baked, 2 has a point, 4 its ray origin is a seam point) and
+//! its triangle (u32); per texel with a point: position, normal, mapped normal and ray origin
+//! (12 f32). Version 1 files (without the seam points) are refused: prepare again.
 
 use std::path::Path;
 
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 
 use crate::bake::lightmap::stitch::NO_PARTNER;
 use crate::bake::lightmap::{Atlas, Prepared, Stages, Texels, leaks};
@@ -24,7 +26,9 @@ use crate::formats::header::AtlasSource;
 use crate::formats::object_placements;
 use crate::support::error::{Error, Result};
 
-const MAGIC: &[u8; 8] = b"PRTLMP\0\x01";
+const MAGIC: &[u8; 8] = b"PRTLMP\0\x02";
+/// The first version's magic, refused with a message.
+const MAGIC_1: &[u8; 8] = b"PRTLMP\0\x01";
 /// Magic, key, checksum.
 const HEAD: usize = 24;
 
@@ -47,6 +51,7 @@ pub fn to_bytes(key: u64, prepared: &Prepared) -> Vec<u8> {
     b.extend(atlas.texel_size.unwrap_or(0.0).to_le_bytes());
     b.extend((prepared.settled.moved as u64).to_le_bytes());
     b.extend((prepared.settled.leaking as u64).to_le_bytes());
+    b.extend(u32::from(prepared.seam_points.is_some()).to_le_bytes());
     b.extend(object_placements::encode(&atlas.objects));
     for uv in atlas.uv1.iter().flatten() {
         b.extend(uv.x.to_le_bytes());
@@ -70,8 +75,14 @@ pub fn to_bytes(key: u64, prepared: &Prepared) -> Vec<u8> {
             .iter()
             .any(|v| *v != Vec3::ZERO)
     };
-    for i in 0..texels.valid.len() {
-        b.push(u8::from(texels.valid[i]) | (u8::from(has_point(i)) << 1));
+    let mut seam = vec![false; texels.valid.len()];
+    if let Some(points) = &prepared.seam_points {
+        for (i, &s) in texels.valid_indices().zip(points) {
+            seam[i] = s;
+        }
+    }
+    for (i, &seam) in seam.iter().enumerate() {
+        b.push(u8::from(texels.valid[i]) | (u8::from(has_point(i)) << 1) | (u8::from(seam) << 2));
     }
     b.extend(texels.triangle.iter().flat_map(|t| t.to_le_bytes()));
     for i in (0..texels.valid.len()).filter(|&i| has_point(i)) {
@@ -94,6 +105,12 @@ pub fn to_bytes(key: u64, prepared: &Prepared) -> Vec<u8> {
 
 /// Reads the bytes of a prepared lightmap: its key and the preparation (stage times empty).
 pub fn from_bytes(bytes: &[u8]) -> std::result::Result<(u64, Prepared), String> {
+    if bytes.len() >= HEAD && &bytes[..8] == MAGIC_1 {
+        return Err(
+            "a prepared lightmap of an older prt-bake (without its seam points): prepare it again"
+                .into(),
+        );
+    }
     if bytes.len() < HEAD || &bytes[..8] != MAGIC {
         return Err("not a prepared lightmap (prt-bake prepare-lightmap)".into());
     }
@@ -111,6 +128,11 @@ pub fn from_bytes(bytes: &[u8]) -> std::result::Result<(u64, Prepared), String> 
     let texel_size = r.f32()?;
     let moved = r.u64()? as usize;
     let leaking = r.u64()? as usize;
+    let seams_known = match r.u32()? {
+        0 => false,
+        1 => true,
+        other => return Err(format!("seam points flag {other}, not 0 or 1")),
+    };
     let placements = r.u32()? as usize;
     let section = r.take(
         placements
@@ -124,32 +146,41 @@ pub fn from_bytes(bytes: &[u8]) -> std::result::Result<(u64, Prepared), String> 
         _ => object_placements::decode(&encoded)?,
     };
     let count = |n: usize, each: usize| n.checked_mul(each).ok_or("sizes overflow");
-    let uv = r.floats(count(triangles, 6)?)?;
-    let uv1 = uv
-        .chunks_exact(6)
+    // Each array is decoded straight from the file's bytes into its place (a shard reads
+    // this file before its rays: copies of its 100 MB were a second of CPU in each shard).
+    let uv1 = r
+        .take(count(triangles, 24)?)?
+        .chunks_exact(24)
         .map(|c| {
+            let f = |k: usize| f32_at(c, 4 * k);
             [
-                Vec2::new(c[0], c[1]),
-                Vec2::new(c[2], c[3]),
-                Vec2::new(c[4], c[5]),
+                Vec2::new(f(0), f(1)),
+                Vec2::new(f(2), f(3)),
+                Vec2::new(f(4), f(5)),
             ]
         })
         .collect();
-    let codes = r.u32s(count(triangles, 3)?)?;
     let edges = 3 * triangles;
-    if let Some(i) = codes
+    let seams: Vec<[u32; 3]> = r
+        .take(count(triangles, 12)?)?
+        .chunks_exact(12)
+        .map(|c| [0, 4, 8].map(|o| u32_at(c, o)))
+        .collect();
+    if let Some(i) = seams
         .iter()
+        .flatten()
         .position(|&c| c != NO_PARTNER && c as usize / 2 >= edges)
     {
-        return Err(format!(
-            "seam partner {} of edge {i} is not an edge",
-            codes[i]
-        ));
+        let code = seams[i / 3][i % 3];
+        return Err(format!("seam partner {code} of edge {i} is not an edge"));
     }
-    let seams = codes.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
     let texel_count = count(width as usize, height as usize)?;
-    let flags = r.take(texel_count)?.to_vec();
-    let triangle = r.u32s(texel_count)?;
+    let flags = r.take(texel_count)?;
+    let triangle: Vec<u32> = r
+        .take(count(texel_count, 4)?)?
+        .par_chunks_exact(4)
+        .map(|c| u32_at(c, 0))
+        .collect();
     if let Some(i) = (0..texel_count).find(|&i| {
         let t = triangle[i];
         (t != u32::MAX && t as usize >= triangles) || (flags[i] & 1 != 0 && t == u32::MAX)
@@ -160,27 +191,54 @@ pub fn from_bytes(bytes: &[u8]) -> std::result::Result<(u64, Prepared), String> 
         ));
     }
     let with_point = flags.iter().filter(|&&f| f & 2 != 0).count();
-    let points = r.floats(count(with_point, 12)?)?;
+    let points = r.take(count(with_point, 48)?)?;
     if r.at != body.len() {
         return Err(format!("{} bytes after the texels", body.len() - r.at));
     }
-    let mut texels = Texels {
+    // Texel i's point is the n-th of the file's, n the texels with a point before i.
+    let mut first_point = Vec::with_capacity(texel_count);
+    let mut n = 0u32;
+    for &f in flags {
+        first_point.push(n);
+        n += u32::from(f & 2 != 0);
+    }
+    let point = |i: usize, which: usize| match flags[i] & 2 != 0 {
+        true => {
+            let at = 48 * first_point[i] as usize + 12 * which;
+            Vec3::new(
+                f32_at(points, at),
+                f32_at(points, at + 4),
+                f32_at(points, at + 8),
+            )
+        }
+        false => Vec3::ZERO,
+    };
+    let vectors = |which: usize| -> Vec<Vec3> {
+        (0..texel_count)
+            .into_par_iter()
+            .map(|i| point(i, which))
+            .collect()
+    };
+    if let Some(i) = (0..texel_count).find(|&i| flags[i] & !7 != 0 || (flags[i] & 5 == 4)) {
+        return Err(format!("texel {i}'s flags {} are not a texel's", flags[i]));
+    }
+    let seam_points = seams_known.then(|| {
+        flags
+            .iter()
+            .filter(|&&f| f & 1 != 0)
+            .map(|&f| f & 4 != 0)
+            .collect()
+    });
+    let texels = Texels {
         width,
         height,
         valid: flags.iter().map(|&f| f & 1 != 0).collect(),
-        positions: vec![Vec3::ZERO; texel_count],
-        normals: vec![Vec3::ZERO; texel_count],
-        mapped: vec![Vec3::ZERO; texel_count],
-        origins: vec![Vec3::ZERO; texel_count],
+        positions: vectors(0),
+        normals: vectors(1),
+        mapped: vectors(2),
+        origins: vectors(3),
         triangle,
     };
-    let mut point = points.chunks_exact(3).map(Vec3::from_slice);
-    for i in (0..texel_count).filter(|&i| flags[i] & 2 != 0) {
-        texels.positions[i] = point.next().expect("counted");
-        texels.normals[i] = point.next().expect("counted");
-        texels.mapped[i] = point.next().expect("counted");
-        texels.origins[i] = point.next().expect("counted");
-    }
     let prepared = Prepared {
         atlas: Atlas {
             width,
@@ -193,6 +251,7 @@ pub fn from_bytes(bytes: &[u8]) -> std::result::Result<(u64, Prepared), String> 
         texels,
         settled: leaks::Settled { moved, leaking },
         seams,
+        seam_points,
         stages: Stages::default(),
     };
     Ok((key, prepared))
@@ -212,7 +271,7 @@ pub fn read_any(path: &Path) -> Result<Prepared> {
 /// [`read_any`], with the file's key and the checksum of its bytes: what identifies this
 /// very preparation (a seam factor records them, `distribute::factor_file`).
 pub fn read_identified(path: &Path) -> Result<(u64, u64, Prepared)> {
-    let bytes = std::fs::read(path).map_err(|err| Error::io(path, err))?;
+    let bytes = crate::distribute::big_reads::map(path)?;
     let (key, prepared) =
         from_bytes(&bytes).map_err(|message| Error::coefficient_file(path, message))?;
     let sum = u64::from_le_bytes(bytes[16..24].try_into().expect("from_bytes checked"));
@@ -222,7 +281,7 @@ pub fn read_identified(path: &Path) -> Result<(u64, u64, Prepared)> {
 /// Reads the prepared lightmap at `path`, refusing (exit 3, [`Error::Shards`]) one whose key
 /// is not `key`: another scene, other lightmap options, seed or backend.
 pub fn read(path: &Path, key: u64) -> Result<Prepared> {
-    let bytes = std::fs::read(path).map_err(|err| Error::io(path, err))?;
+    let bytes = crate::distribute::big_reads::map(path)?;
     let (found, prepared) =
         from_bytes(&bytes).map_err(|message| Error::coefficient_file(path, message))?;
     if found != key {
@@ -238,6 +297,14 @@ pub fn read(path: &Path, key: u64) -> Result<Prepared> {
 
 /// Bytes of one per-object placement record.
 const OBJECT_BYTES: usize = crate::formats::header::OBJECT_PLACEMENT_BYTES;
+
+fn u32_at(bytes: &[u8], at: usize) -> u32 {
+    u32::from_le_bytes(bytes[at..at + 4].try_into().expect("4 bytes"))
+}
+
+fn f32_at(bytes: &[u8], at: usize) -> f32 {
+    f32::from_bits(u32_at(bytes, at))
+}
 
 struct Reader<'a> {
     bytes: &'a [u8],
@@ -261,18 +328,68 @@ impl<'a> Reader<'a> {
     fn f32(&mut self) -> std::result::Result<f32, String> {
         Ok(f32::from_le_bytes(self.take(4)?.try_into().expect("4")))
     }
-    fn u32s(&mut self, n: usize) -> std::result::Result<Vec<u32>, String> {
-        let bytes = self.take(n.checked_mul(4).ok_or("sizes overflow")?)?;
-        Ok(bytes
-            .chunks_exact(4)
-            .map(|c| u32::from_le_bytes(c.try_into().expect("4")))
-            .collect())
-    }
-    fn floats(&mut self, n: usize) -> std::result::Result<Vec<f32>, String> {
-        let bytes = self.take(n.checked_mul(4).ok_or("sizes overflow")?)?;
-        Ok(bytes
-            .chunks_exact(4)
-            .map(|c| f32::from_le_bytes(c.try_into().expect("4")))
-            .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bake::lightmap::texels::cornell_lightmap;
+    use crate::trace::{Backend, TracerOptions};
+
+    /// The Cornell room's floor meets its walls edge to edge: some of its texels' ray origins
+    /// are seam points, which the file must carry so a shard need not find them again.
+    #[test]
+    fn seam_points_round_trip_and_old_or_damaged_files_are_refused() {
+        let (scene, atlas, _) = cornell_lightmap(64);
+        let tracer =
+            crate::trace::build(Backend::Embree, &scene, TracerOptions::default()).unwrap();
+        let prepared = crate::bake::lightmap::prepare(&scene, Some(&*tracer), 7, atlas).unwrap();
+        let seam = prepared
+            .seam_points
+            .clone()
+            .expect("Embree routes by origin");
+        assert_eq!(seam.len(), prepared.texels.valid_count());
+        assert!(seam.iter().any(|&s| s) && seam.iter().any(|&s| !s));
+        let bytes = to_bytes(42, &prepared);
+        let (key, read) = from_bytes(&bytes).unwrap();
+        assert_eq!((key, read.seam_points.as_ref()), (42, Some(&seam)));
+        assert_eq!(read.texels.valid, prepared.texels.valid);
+        assert_eq!(read.texels.origins, prepared.texels.origins);
+        assert_eq!(read.atlas.uv1, prepared.atlas.uv1);
+        assert_eq!(read.seams, prepared.seams);
+
+        // Without a tracer there are no seam points to carry.
+        let unknown = Prepared {
+            seam_points: None,
+            ..prepared.clone()
+        };
+        assert_eq!(
+            from_bytes(&to_bytes(1, &unknown)).unwrap().1.seam_points,
+            None
+        );
+
+        let mut old = bytes.clone();
+        old[..8].copy_from_slice(MAGIC_1);
+        assert!(from_bytes(&old).unwrap_err().contains("older prt-bake"));
+        // A seam flag on a texel that is not baked, with a checksum that matches.
+        let flags_at = bytes.len()
+            - 4 * 4096
+            - 48 * prepared
+                .texels
+                .positions
+                .iter()
+                .filter(|p| **p != Vec3::ZERO)
+                .count()
+            - 4096;
+        let blank = (0..4096).find(|&i| !prepared.texels.valid[i]).unwrap();
+        let mut damaged = bytes.clone();
+        damaged[flags_at + blank] |= 4;
+        let sum = xxhash_rust::xxh3::xxh3_64(&damaged[HEAD..]);
+        damaged[16..24].copy_from_slice(&sum.to_le_bytes());
+        assert!(
+            from_bytes(&damaged).unwrap_err().contains("flags"),
+            "{:?}",
+            from_bytes(&damaged).err()
+        );
     }
 }

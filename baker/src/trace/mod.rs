@@ -10,6 +10,8 @@
 
 #[cfg(feature = "embree")]
 mod embree;
+#[cfg(feature = "embree")]
+mod embree_scene;
 mod instances;
 mod obvhs;
 mod offset;

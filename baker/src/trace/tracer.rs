@@ -129,7 +129,30 @@ pub trait Tracer: Send + Sync {
         origins: &[Vec3],
         own: &[u32],
     ) -> Result<Option<Box<dyn Tracer + 's>>> {
+        match self.seam_points(scene, origins, own) {
+            Some(seam) => self.for_seam_points(scene, origins, &seam),
+            None => Ok(None),
+        }
+    }
+
+    /// Which of `origins` (as [`Tracer::for_points`] takes them) are seam points, for a
+    /// backend that routes rays by origin; `None` for the others. A pure function of the
+    /// scene and the points, so a texel bake's shards read it from the prepared lightmap
+    /// instead of each building the seam index again.
+    fn seam_points(&self, scene: &Scene, origins: &[Vec3], own: &[u32]) -> Option<Vec<bool>> {
         let _ = (scene, origins, own);
+        None
+    }
+
+    /// [`Tracer::for_points`] where [`Tracer::seam_points`] is known already (`seam[i]` for
+    /// `origins[i]`).
+    fn for_seam_points<'s>(
+        &'s self,
+        scene: &Scene,
+        origins: &[Vec3],
+        seam: &[bool],
+    ) -> Result<Option<Box<dyn Tracer + 's>>> {
+        let _ = (scene, origins, seam);
         Ok(None)
     }
 }

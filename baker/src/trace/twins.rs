@@ -100,15 +100,19 @@ impl Tracer for TwinFacing<'_> {
         self.inner.release_points();
     }
 
-    fn for_points<'s>(
+    fn seam_points(&self, scene: &Scene, origins: &[Vec3], own: &[u32]) -> Option<Vec<bool>> {
+        self.inner.seam_points(scene, origins, own)
+    }
+
+    fn for_seam_points<'s>(
         &'s self,
         scene: &Scene,
         origins: &[Vec3],
-        own: &[u32],
+        seam: &[bool],
     ) -> Result<Option<Box<dyn Tracer + 's>>> {
         Ok(self
             .inner
-            .for_points(scene, origins, own)?
+            .for_seam_points(scene, origins, seam)?
             .map(|inner| -> Box<dyn Tracer + 's> {
                 Box::new(TwinFacing {
                     inner,

@@ -99,6 +99,10 @@ pub struct Prepared {
     pub settled: leaks::Settled,
     /// The atlas's smooth seams, to stitch ([`stitch::seam_partners`]).
     pub seams: Vec<[u32; 3]>,
+    /// Which baked texels' ray origins are seam points for the preparation's tracer (in
+    /// [`Texels::valid_indices`] order; [`Texels::watertight_known`]), `None` where it does
+    /// not route rays by origin or cast none.
+    pub seam_points: Option<Vec<bool>>,
     /// The preparation's stage times.
     pub stages: Stages,
 }
@@ -141,7 +145,7 @@ pub fn prepare_traced<'t>(
         },
         || rasterise_settled(scene, tracer, seed, &atlas),
     );
-    let (texels, settled, watertight, mut stages) = traced?;
+    let (texels, settled, (watertight, seam_points), mut stages) = traced?;
     let (wall, cpu) = partners_time;
     stages
         .0
@@ -151,13 +155,14 @@ pub fn prepare_traced<'t>(
         texels,
         settled,
         seams,
+        seam_points,
         stages,
     };
     Ok((prepared, watertight))
 }
 
 /// The rasterised texels after the leak test, the tracer watertight for them, and the stages.
-type Traced<'t> = (Texels, leaks::Settled, Option<Box<dyn Tracer + 't>>, Stages);
+type Traced<'t> = (Texels, leaks::Settled, texels::Watertight<'t>, Stages);
 
 /// [`prepare_traced`]'s texels: rasterised (beside the tracer's seam index), made
 /// watertight and settled by the leak test.
@@ -175,16 +180,16 @@ fn rasterise_settled<'t>(
         )
     });
     let mut settled = leaks::Settled::default();
-    let mut watertight = None;
+    let mut watertight = (None, None);
     if let Some(tracer) = tracer {
         watertight = stages.time("seam texels", || texels.watertight_keeping(scene, tracer))?;
-        let view = watertight.as_deref().unwrap_or(tracer);
+        let view = watertight.0.as_deref().unwrap_or(tracer);
         settled = stages.time("leak test", || {
             leaks::settle(scene, atlas, &mut texels, view, seed)
         })?;
         if settled != leaks::Settled::default() {
             // Texels moved out or left out: watertight for the final origins.
-            watertight = stages.time("seam texels", || texels.watertight(scene, tracer))?;
+            watertight = stages.time("seam texels", || texels.watertight_keeping(scene, tracer))?;
         }
         tracer.release_points();
     }
@@ -263,6 +268,7 @@ pub fn bake_texels(
         settled,
         seams,
         mut stages,
+        ..
     } = prepared;
     // Watertight for the final texel origins (moved-out ones included).
     let tracer = watertight.as_deref().or(tracer);

@@ -176,23 +176,54 @@ impl Texels {
     ) -> Result<Option<Box<dyn Tracer + 't>>> {
         let watertight = self.watertight_keeping(scene, tracer);
         tracer.release_points();
-        watertight
+        Ok(watertight?.0)
     }
 
     /// [`Texels::watertight`], the tracer keeping its seam index for more points (the leak
-    /// test's moved texels).
+    /// test's moved texels); and which valid texels are seam points (in [`Texels::valid_indices`]
+    /// order; `None` for a tracer that does not route by origin), for [`Texels::watertight_known`].
     pub fn watertight_keeping<'t>(
         &self,
         scene: &Scene,
         tracer: &'t dyn Tracer,
-    ) -> Result<Option<Box<dyn Tracer + 't>>> {
+    ) -> Result<Watertight<'t>> {
         let (origins, own): (Vec<Vec3>, Vec<u32>) = self
             .valid_indices()
             .map(|i| (self.origins[i], self.triangle[i]))
             .unzip();
-        tracer.for_points(scene, &origins, &own)
+        let Some(seam) = tracer.seam_points(scene, &origins, &own) else {
+            return Ok((None, None));
+        };
+        Ok((tracer.for_seam_points(scene, &origins, &seam)?, Some(seam)))
+    }
+
+    /// [`Texels::watertight`] with the seam points known (`seam`, as
+    /// [`Texels::watertight_keeping`] found them for these texels): what a texel bake's shard
+    /// reads from the prepared lightmap instead of building the seam index again.
+    pub fn watertight_known<'t>(
+        &self,
+        scene: &Scene,
+        tracer: &'t dyn Tracer,
+        seam: Option<&[bool]>,
+    ) -> Result<Option<Box<dyn Tracer + 't>>> {
+        let Some(seam) = seam else {
+            return self.watertight(scene, tracer);
+        };
+        let origins: Vec<Vec3> = self.valid_indices().map(|i| self.origins[i]).collect();
+        if seam.len() != origins.len() {
+            return Err(crate::Error::InvalidOption(format!(
+                "{} seam flags for {} baked texels",
+                seam.len(),
+                origins.len()
+            )));
+        }
+        tracer.for_seam_points(scene, &origins, seam)
     }
 }
+
+/// A tracer watertight for a texel bake's ray origins (`None` where the tracer it came from
+/// already is), and which of them are seam points ([`Texels::watertight_keeping`]).
+pub type Watertight<'t> = (Option<Box<dyn Tracer + 't>>, Option<Vec<bool>>);
 
 /// Texel rows per band of the parallel rasterisation.
 const BAND_ROWS: usize = 16;
