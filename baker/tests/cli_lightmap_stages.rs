@@ -1,8 +1,8 @@
 //! Texel bakes distributed stage by stage (docs/distributed.md, "Stages"): `prepare-lightmap`
 //! once, `bake --shard K/N --prepared`, `merge --direct`, per bounce `gather` per shard and
-//! `merge --lower`, the last one `--unstitched`, `factor-seams` once, then
-//! `stitch --columns J/M --factor` per shard and `stitch --join`. The oracle is the whole
-//! bake's file, byte for byte.
+//! `merge --lower`; `factor-seams` once, then the last merge `--factor` (stitching with it), or
+//! `--unstitched` and `stitch --columns J/M --factor` per shard and `stitch --join`. The
+//! oracle is the whole bake's file, byte for byte.
 
 mod common;
 
@@ -26,6 +26,12 @@ fn staged(s: &Scratch, scene: &str, name: &str, opts: &[&str], n: u32, m: u32) -
         let run = s.run(&args).success();
         assert!(run.stdout.contains("prepared "), "{}", run.stdout);
         with_prep.extend(["--prepared", &prep]);
+    }
+    // The seams' system factored once (`factor-seams`), beside the shards.
+    let factor = out("seams.fac");
+    if texels {
+        let run = s.run(&["factor-seams", &prep, "-o", &factor]).success();
+        assert!(run.stdout.contains("factored "), "{}", run.stdout);
     }
     let parts: Vec<String> = (0..n).map(|k| out(&format!("part-{k}.prt"))).collect();
     for (k, part) in parts.iter().enumerate() {
@@ -64,15 +70,23 @@ fn staged(s: &Scratch, scene: &str, name: &str, opts: &[&str], n: u32, m: u32) -
             let mut args = vec!["merge", "--quiet", "--lower", &lower, "-o", &stitched];
             args.extend(gathers.iter().rev().map(String::as_str));
             s.run(&args).success();
+            // Or stitch with the factor (`submit.sh --stages`' default), writing the file.
+            let with_factor = out("merge-factor.prt");
+            let mut args = vec!["merge", "--quiet", "--lower", &lower, "--factor", &factor];
+            args.extend(["-o", &with_factor]);
+            args.extend(gathers.iter().map(String::as_str));
+            let run = s.run(&args).success();
+            assert!(run.stdout.contains("stitched with"), "{}", run.stdout);
+            assert!(
+                s.read(&with_factor) == s.read(&stitched),
+                "{name}: the last merge's stitch with the factor differs from its own"
+            );
         }
         lower = next;
     }
     if texels {
-        // The seams' system factored once (`factor-seams`); the shards solve with it, the even
-        // ones checking it against the prepared lightmap too.
-        let factor = out("seams.fac");
-        let run = s.run(&["factor-seams", &prep, "-o", &factor]).success();
-        assert!(run.stdout.contains("factored "), "{}", run.stdout);
+        // The stitch shards solve with the factor, the even ones checking it against the
+        // prepared lightmap too.
         let columns: Vec<String> = (0..m).map(|j| out(&format!("c{j}.col"))).collect();
         for (j, column) in columns.iter().enumerate() {
             let shard = format!("{j}/{m}");
@@ -240,6 +254,25 @@ fn mismatched_stage_files_are_refused() {
         .fails_with(3, &["out/bad.fac", "checksum mismatch"]);
     s.run(&[&stitch[..], &["-o", "out/x.col"]].concat())
         .fails_with(2, &["--prepared FILE or --factor FILE"]);
+    // --factor before the last bounce: refused (the merge writes a bounce file).
+    let args = [
+        "merge",
+        "--lower",
+        "out/a-bounce-0.bnc",
+        "--factor",
+        "out/a-seams.fac",
+    ];
+    s.run(
+        &[
+            &args[..],
+            &["-o", "out/x.prt", "out/a-g1-0.bnc", "out/a-g1-1.bnc"],
+        ]
+        .concat(),
+    )
+    .fails_with(
+        3,
+        &["bounce 1 of 2", "give --factor to the last bounce's merge"],
+    );
     // A missing gather, a gather of another bounce, a missing column file.
     let lower = ["merge", "--lower", "out/a-bounce-0.bnc", "-o", "out/x.bnc"];
     s.run(&[&lower[..], &["out/a-g1-0.bnc"]].concat())
@@ -267,4 +300,108 @@ fn mismatched_stage_files_are_refused() {
         "out/x.bnc",
     ])
     .fails_with(3, &["out/b-part-0.prt", "of another bake"]);
+}
+
+#[test]
+fn the_merge_stitches_with_the_seam_factor() {
+    let s = Scratch::new();
+    // A shadowed lightmap: the plain merge of its parts stitches with the factor.
+    let opts = ["--lightmap", "32", "--samples", "16", "--aux", "ao"];
+    s.bake(
+        TORUS,
+        "whole.prt",
+        &[&opts[..], &["--atlas", "unwrap"]].concat(),
+    );
+    let unwrap = [&opts[..], &["--atlas", "unwrap"]].concat();
+    let prepare = ["prepare-lightmap", TORUS, "-o", "out/prep.lmp"];
+    s.run(&[&prepare[..], &unwrap].concat()).success();
+    s.run(&["factor-seams", "out/prep.lmp", "-o", "out/seams.fac"])
+        .success();
+    for k in 0..2 {
+        let shard = format!("{k}/2");
+        let args = [
+            &unwrap[..],
+            &["--prepared", "out/prep.lmp", "--shard", &shard],
+        ]
+        .concat();
+        s.bake(TORUS, &format!("part-{k}.prt"), &args);
+    }
+    let merge = ["merge", "--quiet", "out/part-1.prt", "out/part-0.prt"];
+    s.run(
+        &[
+            &merge[..],
+            &["--factor", "out/seams.fac", "-o", "out/merged.prt"],
+        ]
+        .concat(),
+    )
+    .success();
+    assert!(
+        s.read("out/merged.prt") == s.read("out/whole.prt"),
+        "the merge stitched with the factor differs from the whole bake"
+    );
+    s.run(&[&merge[..], &["--unstitched", "-o", "out/unstitched.prt"]].concat())
+        .success();
+    assert!(
+        s.read("out/unstitched.prt") != s.read("out/whole.prt"),
+        "stitching changed nothing: the test would not see a wrong stitch"
+    );
+    // The factor of another lightmap (40², the same atlas): refused, naming it.
+    let other = ["--lightmap", "40", "--samples", "16", "--atlas", "unwrap"];
+    let prepare = ["prepare-lightmap", TORUS, "-o", "out/other.lmp"];
+    s.run(&[&prepare[..], &other].concat()).success();
+    s.run(&["factor-seams", "out/other.lmp", "-o", "out/other.fac"])
+        .success();
+    s.run(
+        &[
+            &merge[..],
+            &["--factor", "out/other.fac", "-o", "out/x.prt"],
+        ]
+        .concat(),
+    )
+    .fails_with(3, &["out/other.fac", "the seam factor of another prepared"]);
+    // With --unstitched: a usage error. Vertex parts: refused.
+    s.run(
+        &[
+            &merge[..],
+            &[
+                "--factor",
+                "out/seams.fac",
+                "--unstitched",
+                "-o",
+                "out/x.prt",
+            ],
+        ]
+        .concat(),
+    )
+    .fails_with(2, &["--unstitched"]);
+    for k in 0..2 {
+        let shard = format!("{k}/2");
+        s.bake(
+            TORUS,
+            &format!("v-{k}.prt"),
+            &["--samples", "16", "--shard", &shard],
+        );
+    }
+    let vertices = [
+        "merge",
+        "out/v-0.prt",
+        "out/v-1.prt",
+        "--factor",
+        "out/seams.fac",
+    ];
+    s.run(&[&vertices[..], &["-o", "out/x.prt"]].concat())
+        .fails_with(3, &["out/v-0.prt", "a vertex bake"]);
+    s.assert_out_holds(&[
+        "whole.prt",
+        "prep.lmp",
+        "seams.fac",
+        "part-0.prt",
+        "part-1.prt",
+        "merged.prt",
+        "unstitched.prt",
+        "other.lmp",
+        "other.fac",
+        "v-0.prt",
+        "v-1.prt",
+    ]);
 }

@@ -4,8 +4,9 @@
 # interreflected, the vertex bake of the same mesh, the raw Embree rate of the same rays
 # (baker/benches/large.rs), and for each shard count N the staged pipeline that
 # `scripts/slurm/submit.sh --stages` submits (prepare-lightmap, factor-seams, N shards, merge
-# --direct, per bounce N gathers and merge --lower, N stitch column shards, stitch --join) run one after
-# another here, its summed CPU against the whole bake's and its file compared byte for byte
+# --direct, per bounce N gathers and merge --lower, the last one stitching with the factor; or
+# with SCALE_STITCH_SHARDS=M, the last merge --unstitched, M stitch column shards and stitch
+# --join) run one after another here, its summed CPU against the whole bake's and its file compared byte for byte
 # with the whole bake's. Every process runs under /usr/bin/time -v: wall, CPU (user + system)
 # and peak RSS. Prints a table per cell, then the per-texel figures docs/distributed.md's
 # 16-node plan is built from, and leaves every figure in $SCALE_OUT/results.tsv.
@@ -22,6 +23,9 @@
 #   SCALE_IR_SAMPLES rays per texel of the interreflected bakes (16, bench-large's)
 #   SCALE_BOUNCES    bounces of the interreflected bakes (2)
 #   SCALE_STAGE_MODES modes run staged (interreflected; "shadowed interreflected" for both)
+#   SCALE_STITCH_SHARDS stitch column shards after the last merge, as `submit.sh --stitch-shards
+#                    M` (default 0: the last merge stitches with the seam factor, submit.sh's
+#                    default)
 #   SCALE_ORDER      SH order (3)
 #   SCALE_ATLAS      empty: the scene's own lightmap UVs (TEXCOORD_1, one chart); planar or
 #                    unwrap: an atlas made by the bake (the raw Embree rate is then skipped:
@@ -46,6 +50,8 @@ atlas=${SCALE_ATLAS:-}
 relief=${SCALE_RELIEF:-4}
 shards=${SCALE_SHARDS-2 4}
 stage_modes=${SCALE_STAGE_MODES:-interreflected}
+stitch_shards=${SCALE_STITCH_SHARDS:-0}
+[[ "$stitch_shards" =~ ^[0-9]+$ ]] || { echo "lightmap_scale: SCALE_STITCH_SHARDS takes a whole number, not '$stitch_shards'" >&2; exit 2; }
 [ -x "$bake" ] || { echo "lightmap_scale: $bake is missing (cargo build --release)" >&2; exit 1; }
 [ -x /usr/bin/time ] || { echo "lightmap_scale: /usr/bin/time is missing (apt-get install time)" >&2; exit 1; }
 if [ -n "${SCALE_CELLS:-}" ]; then
@@ -115,7 +121,8 @@ staged() {
     mkdir -p "$s"
     echo " staged $mode, $n shards:"
     timed "$cell" "$s" "$tag:prepare" "$bake" prepare-lightmap "$scene" -o "$s/prep.lmp" --quiet "$@"
-    # The seam stitch's system, factored once for the stitch shards (on Slurm beside the shards).
+    # The seam stitch's system, factored once for the last merge or the stitch shards (on Slurm
+    # beside the shards).
     timed "$cell" "$s" "$tag:factor" "$bake" factor-seams "$s/prep.lmp" -o "$s/seams.fac"
     size "$cell" "$tag:file-factor" "$s/seams.fac"
     local parts=() k b
@@ -126,35 +133,43 @@ staged() {
     done
     size "$cell" "$tag:file-prepared" "$s/prep.lmp"
     size "$cell" "$tag:file-parts" "${parts[@]}"
+    # How the last merge ends: stitching with the factor into the staged file, or unstitched
+    # for the column shards.
+    local final=(--factor "$s/seams.fac" -o "$s/staged.prt")
+    [ "$stitch_shards" -gt 0 ] && final=(--unstitched -o "$s/unstitched.prt")
     if [ "$mode" = interreflected ]; then
         timed "$cell" "$s" "$tag:merge-direct" "$bake" merge --direct "${parts[@]}" -o "$s/bounce-0.bnc" --quiet
         size "$cell" "$tag:file-bounce" "$s/bounce-0.bnc"
         for ((b = 1; b <= bounces; b++)); do
-            local gathers=() next="$s/bounce-$b.bnc" last=()
+            local gathers=() last=(-o "$s/bounce-$b.bnc")
             for ((k = 0; k < n; k++)); do
                 timed "$cell" "$s" "$tag:gather-$b-$k" "$bake" gather "${parts[k]}" --lower "$s/bounce-$((b - 1)).bnc" \
                     -o "$s/gather-$b-$k.bnc" --quiet
                 gathers+=("$s/gather-$b-$k.bnc")
             done
             [ "$b" -eq 1 ] && size "$cell" "$tag:file-gathers" "${gathers[@]}"
-            [ "$b" -eq "$bounces" ] && next=$s/unstitched.prt last=(--unstitched)
+            [ "$b" -eq "$bounces" ] && last=("${final[@]}")
             timed "$cell" "$s" "$tag:merge-lower-$b" "$bake" merge --lower "$s/bounce-$((b - 1)).bnc" "${last[@]}" \
-                "${gathers[@]}" -o "$next" --quiet
+                "${gathers[@]}" --quiet
             # What no later stage reads (a 4096² pipeline's files outgrow a small disk).
             [ "${SCALE_KEEP:-0}" = 1 ] || rm -f "$s/bounce-$((b - 1)).bnc" "${gathers[@]}"
         done
         [ "${SCALE_KEEP:-0}" = 1 ] || rm -f "${parts[@]}"
+    elif [ "$stitch_shards" -gt 0 ]; then
+        timed "$cell" "$s" "$tag:merge-unstitched" "$bake" merge "${parts[@]}" "${final[@]}" --quiet
     else
-        timed "$cell" "$s" "$tag:merge-unstitched" "$bake" merge --unstitched "${parts[@]}" -o "$s/unstitched.prt" --quiet
+        timed "$cell" "$s" "$tag:merge" "$bake" merge "${parts[@]}" "${final[@]}" --quiet
     fi
-    local columns=()
-    for ((k = 0; k < n; k++)); do
-        timed "$cell" "$s" "$tag:stitch-$k" "$bake" stitch "$s/unstitched.prt" --factor "$s/seams.fac" \
-            --columns "$k/$n" -o "$s/columns-$k.col"
-        columns+=("$s/columns-$k.col")
-    done
-    size "$cell" "$tag:file-columns" "${columns[@]}"
-    timed "$cell" "$s" "$tag:join" "$bake" stitch "$s/unstitched.prt" --join "${columns[@]}" -o "$s/staged.prt"
+    if [ "$stitch_shards" -gt 0 ]; then
+        local columns=()
+        for ((k = 0; k < stitch_shards; k++)); do
+            timed "$cell" "$s" "$tag:stitch-$k" "$bake" stitch "$s/unstitched.prt" --factor "$s/seams.fac" \
+                --columns "$k/$stitch_shards" -o "$s/columns-$k.col"
+            columns+=("$s/columns-$k.col")
+        done
+        size "$cell" "$tag:file-columns" "${columns[@]}"
+        timed "$cell" "$s" "$tag:join" "$bake" stitch "$s/unstitched.prt" --join "${columns[@]}" -o "$s/staged.prt"
+    fi
     if cmp -s "$whole" "$s/staged.prt"; then
         echo "  the staged file equals the whole bake's byte for byte"
         printf '%s\t%s\t\t\t\t\t\t\t1\n' "$cell" "$tag:identical" >>"$results"

@@ -64,7 +64,7 @@ def stage_groups(runs):
 def kind(stage):
     """A stage's kind: prepare, factor, shard, merge, gather, stitch, file-…, identical. The seam
     factor (`factor-seams`) is not a merge: it is the whole bake's own factorisation, done once
-    for every stitch shard, like the preparation."""
+    for the last merge (which solves with it) or every stitch shard, like the preparation."""
     if stage.startswith("file-") or stage == "identical":
         return stage
     if stage.startswith("merge") or stage == "join":
@@ -296,7 +296,9 @@ def plan(cells, args):
     for k in range(1, bounces + 1):
         # A gather's divided work and memory are its part's bounce rows: they grow with the rays.
         array_stage(f"gather bounce {k}", f"gather-{k}", False, True, bounce_b + parts_b / N, gathers_b / N)
-        merge_stage(f"merge --lower {k}", f"merge-lower-{k}", bounce_b + gathers_b,
+        # The last merge reads the seam factor too where it stitches (no stitch shards).
+        last_reads = 0.0 if k < bounces or "join" in g_max else factor_b
+        merge_stage(f"merge --lower {k}", f"merge-lower-{k}", bounce_b + gathers_b + last_reads,
                     bounce_b if k < bounces else final_b)
     stitch_reads = final_b + (factor_b if factor_b else prep_b)
     array_stage("stitch --columns", "stitch", False, False, stitch_reads, columns_b / N)

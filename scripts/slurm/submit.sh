@@ -10,12 +10,13 @@
 #             work and the merges do no heavy work: a prepare-lightmap job; the shards' array
 #             (reading the prepared lightmap) and beside it a `factor-seams` job (the seam
 #             stitch's system factored once); in interreflected mode `merge --direct`, then
-#             per bounce an array of N `gather` tasks and a `merge --lower`; an array of N
-#             `stitch --columns --factor` tasks (after the last merge and the factor); and the
-#             `stitch --join` that writes OUT.prt
+#             per bounce an array of N `gather` tasks and a `merge --lower`; the last merge
+#             (after the factor job too) solves the seams with the factor and writes OUT.prt
 #   --stitch-shards M
-#             with --stages: stitch in M shards of columns (default N); 0: the last merge
-#             factors and stitches, with no factor or stitch jobs (docs/distributed.md)
+#             with --stages, M >= 1: the last merge writes the file unstitched, then an array
+#             of M `stitch --columns --factor` tasks and a `stitch --join` (for lightmaps
+#             whose seam solve is large); 0: the last merge factors and stitches itself, with
+#             no factor job (docs/distributed.md)
 #
 # Environment:
 #   PRT_BAKE        the prt-bake binary the nodes run (default: target/release/prt-bake of this
@@ -40,6 +41,7 @@ while [ $# -gt 0 ]; do
         --stitch-shards)
             stitch_shards=${2:-}
             [[ "$stitch_shards" =~ ^[0-9]+$ ]] || { echo "submit: --stitch-shards takes a whole number, not '$stitch_shards'" >&2; exit 2; }
+            stitch_shards=$((10#$stitch_shards))
             shift ;;
         *) break ;;
     esac
@@ -50,7 +52,6 @@ scene=$1 out=$2 count=$3
 shift 3
 [[ "$count" =~ ^[1-9][0-9]*$ ]] || { echo "submit: N must be a positive whole number, not '$count'" >&2; exit 2; }
 [ -z "$stitch_shards" ] || [ -n "$stages" ] || { echo "submit: --stitch-shards is for --stages" >&2; exit 2; }
-stitch_shards=${stitch_shards:-$count}
 [ -f "$scene" ] || { echo "submit: $scene: no such scene file" >&2; exit 3; }
 
 root=$(cd "$(dirname "$0")/../.." && pwd)
@@ -115,39 +116,50 @@ for ((k = 0; k < count; k++)); do part_files+=("$parts/part-$k.prt"); done
 if [ -n "$stages" ]; then
     prep="$parts/prepared.lmp"
     prepare_job=$(submit prepare "" "" "$(quote "$bake" prepare-lightmap "$scene" -o "$prep" --quiet "$@")")
-    # The seams' system, factored once for every stitch shard, beside the shards (no rays).
+    # The seams' system, factored once (for the last merge or every stitch shard), beside the
+    # shards (no rays); `--stitch-shards 0`: the last merge factors it.
     factor_job="" factor="$parts/seams.fac"
-    if [ "$stitch_shards" -gt 0 ]; then
+    if [ "$stitch_shards" != 0 ]; then
         factor_job=$(submit factor "$prepare_job" "" "$(quote "$bake" factor-seams "$prep" -o "$factor")")
     fi
     # The shards read the prepared lightmap: none repeats the atlas or the leak test.
     array=$(submit shard "$prepare_job" array "$(quote "$bake" bake "$scene" --shard auto --prepared "$prep" --quiet "$@") -o $(printf '%q' "$parts/part-")$task.prt")
-    last=$array unstitched="$parts/unstitched.prt"
-    if [ "$bounces" -eq 0 ] && [ "$stitch_shards" -eq 0 ]; then
-        last=$(submit merge "$last" "" "$(quote "$bake" merge "${part_files[@]}" -o "$out" --quiet)")
-    elif [ "$bounces" -eq 0 ]; then
-        last=$(submit merge "$last" "" "$(quote "$bake" merge "${part_files[@]}" -o "$unstitched" --unstitched --quiet)")
+    # How the last merge ends: stitching with the factor (after the factor job too), leaving
+    # the seams to column shards, or factoring and stitching itself.
+    unstitched="$parts/unstitched.prt" final=$out after_factor=""
+    case $stitch_shards in
+        "") stitching=(--factor "$factor") after_factor=":$factor_job" ;;
+        0) stitching=() ;;
+        *) stitching=(--unstitched) final=$unstitched ;;
+    esac
+    last=$array
+    if [ "$bounces" -eq 0 ]; then
+        last=$(submit merge "$last$after_factor" "" "$(quote "$bake" merge "${part_files[@]}" "${stitching[@]}" -o "$final" --quiet)")
     else
         last=$(submit merge-0 "$last" "" "$(quote "$bake" merge --direct "${part_files[@]}" -o "$parts/bounce-0.bnc" --quiet)")
         for ((b = 1; b <= bounces; b++)); do
             lower="$parts/bounce-$((b - 1)).bnc"
             last=$(submit "gather-$b" "$last" array "$(quote "$bake" gather --quiet --lower "$lower") $(printf '%q' "$parts/part-")$task.prt -o $(printf '%q' "$parts/gather-$b-")$task.bnc")
-            next="$parts/bounce-$b.bnc" unstitch=""
-            [ "$b" -eq "$bounces" ] && next=$unstitched unstitch=--unstitched
-            # Stitching in the last merge: it writes OUT.prt itself.
-            [ "$b" -eq "$bounces" ] && [ "$stitch_shards" -eq 0 ] && next=$out unstitch=""
-            last=$(submit "merge-$b" "$last" "" "$(quote "$bake" merge --lower "$lower" $unstitch -o "$next" --quiet) $(each "$parts/gather-$b" .bnc)")
+            if [ "$b" -lt "$bounces" ]; then
+                last=$(submit "merge-$b" "$last" "" "$(quote "$bake" merge --lower "$lower" -o "$parts/bounce-$b.bnc" --quiet) $(each "$parts/gather-$b" .bnc)")
+            else
+                last=$(submit "merge-$b" "$last$after_factor" "" "$(quote "$bake" merge --lower "$lower" "${stitching[@]}" -o "$final" --quiet) $(each "$parts/gather-$b" .bnc)")
+            fi
         done
     fi
-    if [ "$stitch_shards" -eq 0 ]; then
-        merge_job=$last
-        echo "submit: prepare job $prepare_job, shards job $array (array 0-$((count - 1))), $((bounces)) bounce stages, the last merge (stitching) job $merge_job -> $out"
-    else
-        # Stitching in M shards of columns, each solving with the factor; the join is I/O.
-        last=$(submit stitch "$last:$factor_job" "array:$stitch_shards" "$(quote "$bake" stitch "$unstitched" --factor "$factor" --columns auto) -o $(printf '%q' "$parts/columns-")$task.col")
-        merge_job=$(submit join "$last" "" "$(quote "$bake" stitch "$unstitched" -o "$out" --join) $(each "$parts/columns" .col "$stitch_shards")")
-        echo "submit: prepare job $prepare_job, shards job $array (array 0-$((count - 1))), $((bounces)) bounce stages, seam factor job $factor_job, stitch ($stitch_shards shards) and join job $merge_job -> $out"
-    fi
+    case $stitch_shards in
+        "")
+            merge_job=$last
+            echo "submit: prepare job $prepare_job, shards job $array (array 0-$((count - 1))), seam factor job $factor_job, $((bounces)) bounce stages, the last merge (stitching with the factor) job $merge_job -> $out" ;;
+        0)
+            merge_job=$last
+            echo "submit: prepare job $prepare_job, shards job $array (array 0-$((count - 1))), $((bounces)) bounce stages, the last merge (factoring and stitching) job $merge_job -> $out" ;;
+        *)
+            # Stitching in M shards of columns, each solving with the factor; the join is I/O.
+            last=$(submit stitch "$last:$factor_job" "array:$stitch_shards" "$(quote "$bake" stitch "$unstitched" --factor "$factor" --columns auto) -o $(printf '%q' "$parts/columns-")$task.col")
+            merge_job=$(submit join "$last" "" "$(quote "$bake" stitch "$unstitched" -o "$out" --join) $(each "$parts/columns" .col "$stitch_shards")")
+            echo "submit: prepare job $prepare_job, shards job $array (array 0-$((count - 1))), $((bounces)) bounce stages, seam factor job $factor_job, stitch ($stitch_shards shards) and join job $merge_job -> $out" ;;
+    esac
 else
     # The shards: array tasks 0..N-1; `--shard auto` reads SLURM_ARRAY_TASK_ID/COUNT.
     array=$(submit shard "" array "$(quote "$bake" bake "$scene" --shard auto --quiet "$@") -o $(printf '%q' "$parts/part-")$task.prt")

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # A real single-node Slurm cluster (Debian 12's slurm-wlm 22.05 and munge), started for one
 # test and stopped again: scripts/slurm/submit.sh bakes the Cornell room in 4 shards and merges
-# them, then its 64² lightmap (a texel bake, interreflected) in 3 shards, and each merged file
-# must equal the single-machine bake byte for byte.
+# them, then its 64² lightmap in 2 shards in stages (interreflected, the last merge stitching
+# with the seam factor; shadowed, stitched in column shards), and each merged file must equal
+# the single-machine bake byte for byte.
 #
 #   scripts/slurm/test-cluster.sh [PRT_BAKE]
 #
@@ -17,9 +18,8 @@ bake=$(realpath "${1:-$root/target/release/prt-bake}")
 scene=$root/scenes/cornell/cornell.scene
 bake_options=(--samples 256 --mode interreflected --bounces 2 --aux ao)
 # The texel bake: small and few rays, so it adds seconds, not minutes. One bounce: Slurm starts
-# a dependent job about a second after the one before at best, so every stage costs seconds;
-# the stitch shards and join take the second bounce's two (the chain of bounces is tested in
-# baker/tests/cli_lightmap_stages.rs).
+# a dependent job about a second after the one before at best, so every stage costs seconds
+# (the chain of bounces is tested in baker/tests/cli_lightmap_stages.rs).
 texel_options=(--lightmap 64 --samples 64 --mode interreflected --bounces 1 --aux ao,bent-normal)
 
 if [ "$(id -u)" -ne 0 ]; then
@@ -138,26 +138,36 @@ timeout 120 "$bake" bake "$scene" -o "$tmp/single.prt" --quiet "${bake_options[@
 cmp "$tmp/merged.prt" "$tmp/single.prt"
 echo "slurm test: 4 shards on Slurm, merged by a dependent job in ${slurm_seconds}s: identical to the single-machine bake"
 
-# A texel (lightmap) bake in dependent stages (--stages): a prepare job, the shards and beside
-# them the seam factor, merge --direct, the bounce's gathers and merge, the stitch column
-# shards (solving with the factor) and the join: 8 jobs in 7 stages (the last merge stitching
-# itself, `--stitch-shards 0`, is tested in baker/tests/cli_lightmap_stages.rs).
+# Two texel (lightmap) bakes in dependent stages (--stages), submitted side by side (a stage
+# waits for the scheduler more than it computes). The interreflected one: a prepare job, the
+# shards and beside them the seam factor, merge --direct, the bounce's gathers and the last
+# merge, which stitches with the factor (5 stages). The shadowed one stitches in column shards
+# (--stitch-shards 2): prepare, the shards and the factor, the merge writing it unstitched, 2
+# stitch shards solving with the factor, the join (5 stages). The last merge stitching itself
+# (`--stitch-shards 0`) is tested in baker/tests/cli_lightmap_stages.rs.
+shadowed_options=(--lightmap 64 --samples 16 --mode shadowed --aux ao)
 SECONDS=0
-timeout 180 "$root/scripts/slurm/submit.sh" --wait --stages "$scene" "$tmp/texels.prt" 2 "${texel_options[@]}"
+timeout 180 "$root/scripts/slurm/submit.sh" --wait --stages "$scene" "$tmp/texels.prt" 2 "${texel_options[@]}" &
+texels_pid=$!
+timeout 180 "$root/scripts/slurm/submit.sh" --wait --stages --stitch-shards 2 "$scene" "$tmp/columns.prt" 2 "${shadowed_options[@]}" &
+columns_pid=$!
+wait "$texels_pid"
+wait "$columns_pid"
+slurm_seconds=$SECONDS
 grep -q "factored .* seam unknowns" "$tmp/texels.prt.parts/factor.log" ||
     { echo "slurm test: the factor job's log does not say it factored the seams" >&2; exit 1; }
-for k in 0 1; do
-    [ -s "$tmp/texels.prt.parts/columns-$k.col" ] ||
-        { echo "slurm test: stitch shard $k wrote no column file" >&2; exit 1; }
-done
-slurm_seconds=$SECONDS
+grep -q "stitched with .*seams.fac" "$tmp/texels.prt.parts/merge-1.log" ||
+    { echo "slurm test: the last merge's log does not say it stitched with the factor" >&2; exit 1; }
 for k in 0 1; do
     grep -q "shard $k of 2 (baked texels" "$tmp/texels.prt.parts/shard-$k.log" ||
         { echo "slurm test: texel shard $k's log does not say it baked shard $k of 2's texels" >&2; exit 1; }
     grep -q "gathered bounce 1 of 1 (shard $k of 2" "$tmp/texels.prt.parts/gather-1-$k.log" ||
         { echo "slurm test: gather task $k's log does not say it gathered shard $k's bounce 1" >&2; exit 1; }
+    [ -s "$tmp/columns.prt.parts/columns-$k.col" ] ||
+        { echo "slurm test: stitch shard $k wrote no column file" >&2; exit 1; }
 done
 timeout 120 "$bake" bake "$scene" -o "$tmp/texels-single.prt" --quiet "${texel_options[@]}" >/dev/null
 cmp "$tmp/texels.prt" "$tmp/texels-single.prt"
-echo "slurm test: a 64² lightmap in 2 shards on Slurm, in dependent stages (prepare, bake and the seam factor, a bounce, 2 stitch shards, join) in ${slurm_seconds}s: identical to the single-machine texel bake"
-
+timeout 120 "$bake" bake "$scene" -o "$tmp/columns-single.prt" --quiet "${shadowed_options[@]}" >/dev/null
+cmp "$tmp/columns.prt" "$tmp/columns-single.prt"
+echo "slurm test: 64² lightmaps in 2 shards on Slurm, in dependent stages, in ${slurm_seconds}s: interreflected (the last merge stitching with the seam factor) and shadowed (2 stitch shards and a join), each identical to the single-machine texel bake"

@@ -297,17 +297,6 @@ pub fn stitch_shard(
     let width = file.header.coefficients_per_vertex();
     let columns = shard_range(column_count(file), shard);
     let count = columns.len();
-    let mut values = Vec::with_capacity(l.valid.len() * count);
-    for i in 0..l.valid.len() {
-        for c in columns.clone() {
-            values.push(match (c < width, &file.ao) {
-                (true, _) => file.coefficients[i * width + c],
-                (false, Some(ao)) => ao[i],
-                (false, None) => unreachable!("column_count counts the accessibility"),
-            });
-        }
-    }
-    let fields = &mut [(&mut values[..], count)];
     let factored_here;
     let factored = match seams {
         Seams::Prepared(prepared) => {
@@ -322,11 +311,27 @@ pub fn stitch_shard(
         }
         Seams::Factored(factor, _) => &factor.factored,
     };
-    stitch::stitch_factored(factored, fields);
-    // Only the texels the system solves for moved: the join keeps the others' bytes.
+    // The solve reads and writes only the texels of its system (a fifth of the heightfield's
+    // lightmap), so only theirs are copied: the zeroed rest stays untouched pages.
     let texels = factored
         .factor()
         .map_or(Vec::new(), |f| f.texels().to_vec());
+    let mut values = vec![0.0f32; l.valid.len() * count];
+    for &t in &texels {
+        let i = t as usize;
+        for (v, c) in values[i * count..(i + 1) * count]
+            .iter_mut()
+            .zip(columns.clone())
+        {
+            *v = match (c < width, &file.ao) {
+                (true, _) => file.coefficients[i * width + c],
+                (false, Some(ao)) => ao[i],
+                (false, None) => unreachable!("column_count counts the accessibility"),
+            };
+        }
+    }
+    stitch::stitch_factored(factored, &mut [(&mut values[..], count)]);
+    // Only the texels the system solves for moved: the join keeps the others' bytes.
     let mut stitched = Vec::with_capacity(texels.len() * count);
     for &t in &texels {
         stitched.extend_from_slice(&values[t as usize * count..(t as usize + 1) * count]);
@@ -340,6 +345,54 @@ pub fn stitch_shard(
         texels,
         values: stitched,
     })
+}
+
+/// The unstitched texel `file` (at `path`, in memory) stitched with the seams' system
+/// factored already (`prt-bake factor-seams`, at `factor_path`): one shard of every column
+/// ([`stitch_shard`]) put back as [`join`] puts a column file's, so the last merge writes the
+/// stitched file without an unstitched file or column files between. Refused (exit 3) where
+/// the file is no texel bake or the factor is not of its lightmap.
+pub fn stitch_with_factor(
+    path: &Path,
+    mut file: CoefficientFile,
+    factor_path: &Path,
+) -> Result<CoefficientFile> {
+    if file.lightmap.is_none() {
+        return Err(refuse(format!(
+            "{}: a vertex bake: --factor stitches a lightmap's seams (texel bakes only)",
+            path.display()
+        )));
+    }
+    let factor = FactorFile::read(factor_path)?;
+    let every = ShardId { index: 0, count: 1 };
+    let seams = Seams::Factored(&factor, factor_path);
+    let columns = stitch_shard(path, 0, &file, seams, every)?;
+    put(
+        &mut file,
+        0,
+        &columns.texels,
+        &columns.values,
+        columns.count as usize,
+    );
+    file.header.checksum = 0;
+    Ok(file)
+}
+
+/// Writes the stitched `texels`' values (`n` columns each from column `first`) over `file`'s,
+/// the accessibility clamped as the whole bake clamps it.
+fn put(file: &mut CoefficientFile, first: usize, texels: &[u32], values: &[f32], n: usize) {
+    let width = file.header.coefficients_per_vertex();
+    for (&i, texel) in texels.iter().zip(values.chunks_exact(n.max(1))) {
+        let i = i as usize;
+        for (j, &v) in texel.iter().enumerate() {
+            let col = first + j;
+            match (col < width, file.ao.as_mut()) {
+                (true, _) => file.coefficients[i * width + col] = v,
+                (false, Some(ao)) => ao[i] = lightmap::clamp_accessibility(v),
+                (false, None) => unreachable!("column_count counts the accessibility"),
+            }
+        }
+    }
 }
 
 /// The stitched file: the unstitched `file` (key `key`, at `path`) with every shard's columns
@@ -365,18 +418,13 @@ pub fn join(
             lightmap_texels: c.lightmap_texels,
         };
         let range = seen.check(path, key, column_path, &head, total, texels)?;
-        let n = c.count as usize;
-        for (&i, texel) in c.texels.iter().zip(c.values.chunks_exact(n.max(1))) {
-            let i = i as usize;
-            for (j, &v) in texel.iter().enumerate() {
-                let col = range.start + j;
-                match (col < width, file.ao.as_mut()) {
-                    (true, _) => file.coefficients[i * width + col] = v,
-                    (false, Some(ao)) => ao[i] = lightmap::clamp_accessibility(v),
-                    (false, None) => unreachable!("column_count counts the accessibility"),
-                }
-            }
-        }
+        put(
+            &mut file,
+            range.start,
+            &c.texels,
+            &c.values,
+            c.count as usize,
+        );
     }
     seen.finish()?;
     file.header.checksum = 0;
