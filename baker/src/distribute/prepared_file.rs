@@ -25,6 +25,7 @@ use crate::bake::lightmap::{Atlas, Prepared, Stages, Texels, leaks};
 use crate::formats::header::AtlasSource;
 use crate::formats::object_placements;
 use crate::support::error::{Error, Result};
+use crate::support::output::Output;
 
 const MAGIC: &[u8; 8] = b"PRTLMP\0\x02";
 /// The first version's magic, refused with a message.
@@ -42,6 +43,23 @@ pub fn key(scene_fingerprint: u64, options: &str, seed: u64, backend: &str, rays
 
 /// The file's bytes.
 pub fn to_bytes(key: u64, prepared: &Prepared) -> Vec<u8> {
+    let body = body_bytes(prepared);
+    let mut bytes = head_bytes(key, &body);
+    bytes.extend(body);
+    bytes
+}
+
+/// Magic, key and the body's checksum.
+fn head_bytes(key: u64, body: &[u8]) -> Vec<u8> {
+    let mut head = Vec::with_capacity(HEAD);
+    head.extend(MAGIC);
+    head.extend(key.to_le_bytes());
+    head.extend(xxhash_rust::xxh3::xxh3_64(body).to_le_bytes());
+    head
+}
+
+/// Everything after the head.
+fn body_bytes(prepared: &Prepared) -> Vec<u8> {
     let (atlas, texels) = (&prepared.atlas, &prepared.texels);
     let mut b: Vec<u8> = Vec::new();
     b.extend(atlas.width.to_le_bytes());
@@ -95,16 +113,23 @@ pub fn to_bytes(key: u64, prepared: &Prepared) -> Vec<u8> {
             b.extend(v.to_array().iter().flat_map(|x| x.to_le_bytes()));
         }
     }
-    let mut bytes = Vec::with_capacity(HEAD + b.len());
-    bytes.extend(MAGIC);
-    bytes.extend(key.to_le_bytes());
-    bytes.extend(xxhash_rust::xxh3::xxh3_64(&b).to_le_bytes());
-    bytes.extend(b);
-    bytes
+    b
 }
 
 /// Reads the bytes of a prepared lightmap: its key and the preparation (stage times empty).
 pub fn from_bytes(bytes: &[u8]) -> std::result::Result<(u64, Prepared), String> {
+    parse(bytes, Points::Read)
+}
+
+/// Whether a reading decodes the texels' points (a shard's receivers) or leaves them out (the
+/// seam stitch needs only which texels are baked: [`Texels::mask`]).
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Points {
+    Read,
+    Skip,
+}
+
+fn parse(bytes: &[u8], points_read: Points) -> std::result::Result<(u64, Prepared), String> {
     if bytes.len() >= HEAD && &bytes[..8] == MAGIC_1 {
         return Err(
             "a prepared lightmap of an older prt-bake (without its seam points): prepare it again"
@@ -229,15 +254,19 @@ pub fn from_bytes(bytes: &[u8]) -> std::result::Result<(u64, Prepared), String> 
             .map(|&f| f & 4 != 0)
             .collect()
     });
-    let texels = Texels {
-        width,
-        height,
-        valid: flags.iter().map(|&f| f & 1 != 0).collect(),
-        positions: vectors(0),
-        normals: vectors(1),
-        mapped: vectors(2),
-        origins: vectors(3),
-        triangle,
+    let valid = flags.iter().map(|&f| f & 1 != 0).collect();
+    let texels = match points_read {
+        Points::Read => Texels {
+            width,
+            height,
+            valid,
+            positions: vectors(0),
+            normals: vectors(1),
+            mapped: vectors(2),
+            origins: vectors(3),
+            triangle,
+        },
+        Points::Skip => Texels::mask(width, height, valid),
     };
     let prepared = Prepared {
         atlas: Atlas {
@@ -257,13 +286,17 @@ pub fn from_bytes(bytes: &[u8]) -> std::result::Result<(u64, Prepared), String> 
     Ok((key, prepared))
 }
 
-/// Writes a prepared lightmap atomically.
+/// Writes a prepared lightmap atomically, its head and body apart (not copied into one buffer
+/// first: 107 MB at 2048² planar).
 pub fn write(path: &Path, key: u64, prepared: &Prepared) -> Result<()> {
-    crate::support::atomic::write(path, &to_bytes(key, prepared))
+    let body = body_bytes(prepared);
+    let head = head_bytes(key, &body);
+    Output::new(path, &[])?.write_parts(&[&head, &body])
 }
 
 /// Reads the prepared lightmap at `path` whatever its key (`prt-bake stitch` has no scene: it
-/// checks the atlas and texels against the file it stitches instead).
+/// checks the atlas and texels against the file it stitches instead), for its seams: the
+/// texels are a mask ([`Texels::mask`]), without their points (two thirds of the file).
 pub fn read_any(path: &Path) -> Result<Prepared> {
     Ok(read_identified(path)?.2)
 }
@@ -273,7 +306,7 @@ pub fn read_any(path: &Path) -> Result<Prepared> {
 pub fn read_identified(path: &Path) -> Result<(u64, u64, Prepared)> {
     let bytes = crate::distribute::big_reads::map(path)?;
     let (key, prepared) =
-        from_bytes(&bytes).map_err(|message| Error::coefficient_file(path, message))?;
+        parse(&bytes, Points::Skip).map_err(|message| Error::coefficient_file(path, message))?;
     let sum = u64::from_le_bytes(bytes[16..24].try_into().expect("from_bytes checked"));
     Ok((key, sum, prepared))
 }
