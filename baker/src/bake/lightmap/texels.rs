@@ -211,8 +211,8 @@ impl Texels {
         };
         let origins: Vec<Vec3> = self.valid_indices().map(|i| self.origins[i]).collect();
         if seam.len() != origins.len() {
-            return Err(crate::Error::InvalidOption(format!(
-                "{} seam flags for {} baked texels",
+            return Err(crate::Error::Shards(format!(
+                "a prepared lightmap of {} seam flags for {} baked texels",
                 seam.len(),
                 origins.len()
             )));
