@@ -220,30 +220,6 @@ fn parse(bytes: &[u8], points_read: Points) -> std::result::Result<(u64, Prepare
     if r.at != body.len() {
         return Err(format!("{} bytes after the texels", body.len() - r.at));
     }
-    // Texel i's point is the n-th of the file's, n the texels with a point before i.
-    let mut first_point = Vec::with_capacity(texel_count);
-    let mut n = 0u32;
-    for &f in flags {
-        first_point.push(n);
-        n += u32::from(f & 2 != 0);
-    }
-    let point = |i: usize, which: usize| match flags[i] & 2 != 0 {
-        true => {
-            let at = 48 * first_point[i] as usize + 12 * which;
-            Vec3::new(
-                f32_at(points, at),
-                f32_at(points, at + 4),
-                f32_at(points, at + 8),
-            )
-        }
-        false => Vec3::ZERO,
-    };
-    let vectors = |which: usize| -> Vec<Vec3> {
-        (0..texel_count)
-            .into_par_iter()
-            .map(|i| point(i, which))
-            .collect()
-    };
     if let Some(i) = (0..texel_count).find(|&i| flags[i] & !7 != 0 || (flags[i] & 5 == 4)) {
         return Err(format!("texel {i}'s flags {} are not a texel's", flags[i]));
     }
@@ -256,16 +232,19 @@ fn parse(bytes: &[u8], points_read: Points) -> std::result::Result<(u64, Prepare
     });
     let valid = flags.iter().map(|&f| f & 1 != 0).collect();
     let texels = match points_read {
-        Points::Read => Texels {
-            width,
-            height,
-            valid,
-            positions: vectors(0),
-            normals: vectors(1),
-            mapped: vectors(2),
-            origins: vectors(3),
-            triangle,
-        },
+        Points::Read => {
+            let [positions, normals, mapped, origins] = point_arrays(flags, points);
+            Texels {
+                width,
+                height,
+                valid,
+                positions,
+                normals,
+                mapped,
+                origins,
+                triangle,
+            }
+        }
         Points::Skip => Texels::mask(width, height, valid),
     };
     let prepared = Prepared {
@@ -330,6 +309,35 @@ pub fn read(path: &Path, key: u64) -> Result<Prepared> {
 
 /// Bytes of one per-object placement record.
 const OBJECT_BYTES: usize = crate::formats::header::OBJECT_PLACEMENT_BYTES;
+
+/// Every texel's position, normal, mapped normal and ray origin (zero where its flag byte
+/// says it has no point), from the file's points: the n-th is the point of the n-th texel
+/// that has one.
+fn point_arrays(flags: &[u8], points: &[u8]) -> [Vec<Vec3>; 4] {
+    let mut first_point = Vec::with_capacity(flags.len());
+    let mut n = 0u32;
+    for &f in flags {
+        first_point.push(n);
+        n += u32::from(f & 2 != 0);
+    }
+    let point = |i: usize, which: usize| match flags[i] & 2 != 0 {
+        true => {
+            let at = 48 * first_point[i] as usize + 12 * which;
+            Vec3::new(
+                f32_at(points, at),
+                f32_at(points, at + 4),
+                f32_at(points, at + 8),
+            )
+        }
+        false => Vec3::ZERO,
+    };
+    std::array::from_fn(|which| {
+        (0..flags.len())
+            .into_par_iter()
+            .map(|i| point(i, which))
+            .collect()
+    })
+}
 
 fn u32_at(bytes: &[u8], at: usize) -> u32 {
     u32::from_le_bytes(bytes[at..at + 4].try_into().expect("4 bytes"))
