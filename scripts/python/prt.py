@@ -54,6 +54,7 @@ ATLAS_SOURCES = {0: "generated", 1: "scene-uvs", 2: "per-object"}
 AUX_AO, AUX_BENT_NORMAL, AUX_RAYS, AUX_ERROR = 1, 2, 4, 8
 AUX_ADAPTIVE = AUX_RAYS | AUX_ERROR  # adaptive bakes: both or neither
 AUX_RECEIVERS = 16  # a file of some objects (bake --receivers): the payload ends with their indices
+AUX_DENOISED = 32  # the transfer was denoised (bake --denoise); no array goes with it
 
 
 class _Cursor:
@@ -148,7 +149,7 @@ def parse_prt(b):
         raise PrtError(f"{bounce_samples} bounce samples in a {mode} file of {samples} samples")
     aux = u32(68)
     # Bits 0..4 are defined by version 1; later bits name arrays this reader does not know.
-    if aux & ~(AUX_AO | AUX_BENT_NORMAL | AUX_ADAPTIVE | AUX_RECEIVERS):
+    if aux & ~(AUX_AO | AUX_BENT_NORMAL | AUX_ADAPTIVE | AUX_RECEIVERS | AUX_DENOISED):
         raise PrtError(f"unknown auxiliary-array flags {aux:#x}")
     adaptive = _read_adaptive(b, aux, mode, SAMPLINGS[u32(64)])
     if adaptive and transfer_kind == "matrix":
@@ -212,6 +213,8 @@ def parse_prt(b):
     }
     if adaptive:
         header["adaptive"] = adaptive
+    if aux & AUX_DENOISED:
+        header["denoised"] = True
 
     cursor = _Cursor(b, header_size)
     take = cursor.take

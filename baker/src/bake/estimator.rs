@@ -25,6 +25,7 @@ use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 
 use crate::bake::bounce_rows::{CornerProbe, HitRecorder, JobRows, RowBuilder};
+use crate::bake::noise::{NOISE_BLOCKS, NoiseBlocks};
 use crate::bake::options::BakeOptions;
 use crate::bake::receivers::{RECEIVERS_PER_JOB, Receivers};
 use crate::math::sampling::{
@@ -55,6 +56,11 @@ pub struct Visibility {
     /// Adaptive bakes: the estimated RMS coefficient error of the vertex's transfer
     /// ([`crate::bake::adaptive`]); 0 otherwise.
     pub error_estimate: f32,
+    /// Fixed Owen–Sobol bakes: the estimated variance of one of the receiver's band-0 and
+    /// band-1 coefficients (their mean), from the spread of its rays' [`NOISE_BLOCKS`]
+    /// blocks ([`crate::bake::noise`]); what the denoiser weighs differences against. 0 where
+    /// not estimated.
+    pub noise: f32,
 }
 
 /// Rays per tracer call: the batch over which the SH sums are first formed in f32.
@@ -175,6 +181,10 @@ pub struct Estimator {
     /// Per batch of [`Estimator::batches`], the sum of its rows of `local_rows`: a batch in
     /// which fewer rays are blocked than not is summed as this total minus its blocked rows.
     batch_totals: Vec<f32>,
+    /// Per row of `local_rows`, the block of the sequence its point belongs to (its index
+    /// in the sequence × [`NOISE_BLOCKS`] / samples): the rows are sorted for tracing, the
+    /// blocks are runs of the sequence.
+    row_blocks: Vec<u8>,
     /// Adaptive bakes (`--target-error`): the pilot and its extensions, instead of the table above.
     adaptive: Option<crate::bake::adaptive::Tables>,
 }
@@ -191,8 +201,8 @@ impl Estimator {
         options.validate()?;
         let basis = Basis::new(options.order);
         let n = basis.coeff_count();
-        let (mut local_dirs, mut local_rows, mut batch_totals) =
-            (Vec::new(), Vec::new(), Vec::new());
+        let (mut local_dirs, mut local_rows, mut batch_totals, mut row_blocks) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let adaptive = options
             .target_error
             .map(|_| crate::bake::adaptive::Tables::new(options, &basis));
@@ -221,6 +231,12 @@ impl Estimator {
                 .iter()
                 .map(|&(_, u1, u2)| cosine_hemisphere(u1, u2))
                 .collect();
+            row_blocks = uv
+                .iter()
+                .map(|&(i, _, _)| {
+                    (u64::from(i) * NOISE_BLOCKS as u64 / u64::from(options.samples)) as u8
+                })
+                .collect();
             let width = n + DIR_COLUMNS;
             local_rows = vec![0.0; local_dirs.len() * width];
             for (row, d) in local_rows.chunks_mut(width).zip(&local_dirs) {
@@ -246,6 +262,7 @@ impl Estimator {
             local_dirs,
             local_rows,
             batch_totals,
+            row_blocks,
             adaptive,
         })
     }
@@ -443,6 +460,7 @@ impl Estimator {
         let n = self.basis.coeff_count();
         let frame = self.vertex_frame(v);
         s.total.fill(0.0);
+        s.noise.clear();
         let (mut unblocked, mut bent) = (0.0f64, Vec3::ZERO);
         if let Some(hits) = hits.as_deref_mut() {
             hits.begin_vertex();
@@ -502,6 +520,10 @@ impl Estimator {
             },
             points: self.options.samples,
             error_estimate: 0.0,
+            noise: match (tracer, self.options.sampling) {
+                (Some(_), Sampling::OwenSobol) => s.noise.variance(self.options.samples),
+                _ => 0.0,
+            },
         }
     }
 
@@ -523,6 +545,8 @@ impl Estimator {
         *unblocked += (len - blocked) as f64;
         let width = self.basis.coeff_count() + DIR_COLUMNS;
         let rows = self.local_rows[start * width..end * width].chunks_exact(width);
+        s.noise
+            .add_unblocked(rows.clone(), &self.row_blocks[start..end], occluded);
         if 2 * blocked <= len {
             s.batch_sum
                 .copy_from_slice(&self.batch_totals[b * width..(b + 1) * width]);
@@ -591,6 +615,7 @@ impl Estimator {
             rays: result.rays,
             points: result.points,
             error_estimate: result.error as f32,
+            noise: 0.0,
         }
     }
 }
@@ -611,6 +636,8 @@ pub struct Scratch {
     /// The current receiver's SH rotation blocks.
     rotation: RotationScratch,
     adaptive: crate::bake::adaptive::AdaptiveScratch,
+    /// The current receiver's sums per block of its sequence (its noise estimate).
+    noise: NoiseBlocks,
 }
 
 impl Scratch {
@@ -627,6 +654,7 @@ impl Scratch {
             world: vec![0.0; n],
             rotation: Default::default(),
             adaptive: Default::default(),
+            noise: NoiseBlocks::new(n),
         }
     }
 }

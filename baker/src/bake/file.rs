@@ -46,6 +46,7 @@ impl Header {
                 rays_cast,
             }),
             receivers: None,
+            denoised: options.denoise,
         }
     }
 }

@@ -451,6 +451,7 @@ fn receiver_matrix(
         rays: if tracer.is_some() { samples as u32 } else { 0 },
         points: samples as u32,
         error_estimate: 0.0,
+        noise: 0.0,
     }
 }
 

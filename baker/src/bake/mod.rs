@@ -1,13 +1,15 @@
 //! The bake: what is asked ([`options`]), where transfer is baked ([`receivers`]: vertices or
 //! lightmap texels), the per-receiver [`estimator`], its [`adaptive`] variant (with [`inference`]) and the [`matrix`] one (with bounces: [`matrix_bounce`]), the bounces
 //! ([`bounce_rows`], [`interreflection`]), the entry points ([`transfer`], [`lightmap`]),
-//! the memory a bake needs ([`memory`]) and the coefficient file it fills ([`file`]).
+//! the memory a bake needs ([`memory`]), the denoiser of its transfer ([`denoise`], guided
+//! by each receiver's [`noise`]) and the coefficient file it fills ([`file`]).
 //!
 //! May import: [`crate::support`], [`crate::math`], [`crate::scene`], [`crate::trace`],
 //! [`crate::formats`].
 
 pub mod adaptive;
 pub mod bounce_rows;
+pub mod denoise;
 pub mod embedded;
 pub mod estimator;
 pub mod file;
@@ -19,6 +21,7 @@ pub mod matrix;
 pub mod matrix_bounce;
 pub mod matrix_hits;
 pub mod memory;
+pub mod noise;
 pub mod options;
 pub mod probe_validity;
 pub mod probes;

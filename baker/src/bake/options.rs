@@ -35,6 +35,9 @@ pub struct BakeOptions {
     /// `--transfer`: a transfer vector per receiver (diffuse), or a transfer matrix
     /// ([`crate::bake::matrix`]: glossy and other view-dependent BRDFs).
     pub transfer: TransferKind,
+    /// `--denoise`: filter the baked transfer with weights every coefficient shares
+    /// ([`crate::bake::denoise`]), before a texel bake is dilated and stitched.
+    pub denoise: bool,
 }
 
 /// The default hit-cache budget: 1 GiB.
@@ -54,6 +57,7 @@ impl Default for BakeOptions {
             hit_cache_limit: DEFAULT_HIT_CACHE_LIMIT,
             target_error: None,
             transfer: TransferKind::Vector,
+            denoise: false,
         }
     }
 }
@@ -109,6 +113,11 @@ impl BakeOptions {
         if self.aux.any() && !self.mode.casts_rays() {
             return Err(Error::InvalidOption(
                 "--aux needs rays: use --mode shadowed or interreflected".into(),
+            ));
+        }
+        if self.denoise && !self.mode.casts_rays() {
+            return Err(Error::InvalidOption(
+                "--denoise on needs rays: an unshadowed bake has no noise".into(),
             ));
         }
         check_adaptive(self)?;

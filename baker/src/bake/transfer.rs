@@ -165,6 +165,17 @@ pub fn bake(
             progress,
         ),
     };
+    let mut baked = baked;
+    if options.denoise && tracer.is_some() {
+        crate::bake::denoise::denoise_baked(
+            crate::bake::denoise::vertex_guides(scene, Vec::new()),
+            crate::bake::denoise::Settings::VERTICES,
+            options,
+            &mut baked.coefficients,
+            baked.channels,
+            &baked.visibility,
+        );
+    }
     Ok(Transfer::from_direct(
         options,
         tracer.map_or(Backend::None, |t| t.backend()),

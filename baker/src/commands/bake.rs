@@ -91,6 +91,12 @@ pub struct BakeArgs {
     /// owen-sobol only.
     #[arg(long, conflicts_with_all = ["shard", "checkpoint"])]
     target_error: Option<f32>,
+    /// Denoise the baked transfer (a filter in world space whose weights every coefficient
+    /// shares, so every light sees it denoised; docs/denoising.md). auto: on for whole
+    /// lightmap bakes that cast a fixed number of owen-sobol rays, as lightmappers do; off
+    /// for vertex bakes, parts, probes and adaptive bakes.
+    #[arg(long, value_enum, default_value_t = DenoiseArg::Auto)]
+    denoise: DenoiseArg,
     /// No progress bar (the summary line is still printed).
     #[arg(long)]
     quiet: bool,
@@ -177,6 +183,13 @@ pub struct BakeArgs {
     probes: Option<String>,
 }
 
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum DenoiseArg {
+    Auto,
+    On,
+    Off,
+}
+
 #[derive(Clone, Copy, ValueEnum)]
 enum TransferArg {
     Vector,
@@ -223,7 +236,7 @@ impl BackendArg {
     }
 }
 
-#[derive(Clone, Copy, ValueEnum)]
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
 enum SamplingArg {
     /// Owen-scrambled Sobol points, cosine-weighted (lower error).
     OwenSobol,
@@ -278,6 +291,28 @@ fn options(args: &BakeArgs) -> BakeOptions {
             TransferArg::Vector => prt_baker::bake::options::TransferKind::Vector,
             TransferArg::Matrix => prt_baker::bake::options::TransferKind::Matrix,
         },
+        denoise: match args.denoise {
+            DenoiseArg::On => true,
+            DenoiseArg::Off => false,
+            DenoiseArg::Auto => {
+                args.lightmap.is_some()
+                    && !args.in_parts()
+                    && mode.casts_rays()
+                    && args.target_error.is_none()
+                    && args.sampling == SamplingArg::OwenSobol
+            }
+        },
+    }
+}
+
+impl BakeArgs {
+    /// Whether this process bakes a part of a bake (a shard, a checkpointed run, the
+    /// prepared lightmap) or probes, rather than a whole bake's file.
+    fn in_parts(&self) -> bool {
+        self.shard.is_some()
+            || self.checkpoint.is_some()
+            || self.prepare_only
+            || self.probes.is_some()
     }
 }
 
@@ -309,6 +344,12 @@ impl BakeArgs {
 pub fn run(args: BakeArgs) -> Result<(), Error> {
     let options = options(&args);
     options.validate()?;
+    if options.denoise && args.in_parts() {
+        return Err(Error::InvalidOption(
+            "--denoise on is for whole bakes: parts, checkpoints and probes are not denoised"
+                .into(),
+        ));
+    }
     memory::check_bake_options(&options)?;
     let fit = compress::bake_fit(
         args.clusters,
@@ -450,8 +491,13 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
             (transfer, file, what)
         }
         (None, None) => {
+            // Subsurface transfer is added after the bake: denoised after it, with it.
+            let direct = BakeOptions {
+                denoise: options.denoise && !subsurface,
+                ..options.clone()
+            };
             let mut transfer =
-                prt_baker::bake(&scene, tracer.as_deref(), &options, progress.as_ref())?;
+                prt_baker::bake(&scene, tracer.as_deref(), &direct, progress.as_ref())?;
             if let (true, Some(tracer)) = (subsurface, tracer.as_deref()) {
                 let started = std::time::Instant::now();
                 subsurface::apply_to_vertices(
@@ -461,6 +507,17 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
                     &mut transfer,
                     progress.as_ref(),
                 )?;
+                if options.denoise {
+                    prt_baker::bake::denoise::denoise_baked(
+                        prt_baker::bake::denoise::vertex_guides(&scene, Vec::new()),
+                        prt_baker::bake::denoise::Settings::VERTICES,
+                        &options,
+                        &mut transfer.coefficients,
+                        transfer.channels,
+                        &transfer.visibility,
+                    );
+                    transfer.options.denoise = true;
+                }
                 transfer.seconds += started.elapsed().as_secs_f64();
             }
             let file = CoefficientFile::from_bake(&scene, &transfer);

@@ -245,6 +245,11 @@ pub struct Header {
     /// reader fills it from the payload's end ([`parse_header`] leaves an empty placeholder).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub receivers: Option<ReceiverObjects>,
+    /// The transfer was denoised (`bake --denoise`, aux bit 5): filtered with weights that
+    /// every coefficient shares, so it relights as the raw one does. `inspect` shows it for
+    /// denoised files only.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub denoised: bool,
 }
 
 /// How an adaptive bake sampled (header bytes 108..124; all zero for fixed sampling). Its
@@ -270,6 +275,8 @@ const AUX_ERROR_ESTIMATE: u32 = 8;
 const AUX_ADAPTIVE: u32 = AUX_RAYS | AUX_ERROR_ESTIMATE;
 /// A bake of some objects only: a receiver section ends the payload.
 const AUX_RECEIVERS: u32 = 16;
+/// The transfer was denoised; no array goes with it.
+const AUX_DENOISED: u32 = 32;
 
 fn aux_flags(aux: Aux) -> u32 {
     (if aux.ao { AUX_AO } else { 0 }) | (if aux.bent_normal { AUX_BENT_NORMAL } else { 0 })
@@ -297,6 +304,7 @@ impl Header {
                 0
             }
             | (u32::from(self.receivers.is_some()) * AUX_RECEIVERS)
+            | (u32::from(self.denoised) * AUX_DENOISED)
     }
 
     pub(crate) fn payload_bytes(&self) -> u64 {
@@ -489,7 +497,7 @@ fn parse_fields(bytes: &[u8], version: u32) -> std::result::Result<Header, Strin
         other => return Err(format!("unknown sampling method {other}")),
     };
     let aux_flags = u32_at(68);
-    if aux_flags & !(AUX_AO | AUX_BENT_NORMAL | AUX_ADAPTIVE | AUX_RECEIVERS) != 0 {
+    if aux_flags & !(AUX_AO | AUX_BENT_NORMAL | AUX_ADAPTIVE | AUX_RECEIVERS | AUX_DENOISED) != 0 {
         return Err(format!("unknown auxiliary-array flags {aux_flags:#x}"));
     }
     let aux = Aux {
@@ -538,6 +546,7 @@ fn parse_fields(bytes: &[u8], version: u32) -> std::result::Result<Header, Strin
         checksum: u32_at(CHECKSUM_OFFSET),
         adaptive,
         receivers: (aux_flags & AUX_RECEIVERS != 0).then(ReceiverObjects::default),
+        denoised: aux_flags & AUX_DENOISED != 0,
     };
     Ok(header)
 }

@@ -272,6 +272,16 @@ pub fn bake_texels(
     } = prepared;
     // Watertight for the final texel origins (moved-out ones included).
     let tracer = watertight.as_deref().or(tracer);
+    // The denoiser's guides read the texels' points, which the receivers may take.
+    let guides = match (options.denoise, tracer) {
+        (true, Some(_)) => Some(crate::bake::denoise::texel_guides(
+            scene,
+            &atlas,
+            &texels,
+            Vec::new(),
+        )),
+        _ => None,
+    };
     // Only subsurface texels read their points after this.
     let receivers: Receivers = match points {
         TexelPoints::Released if media.iter().all(Option::is_none) => {
@@ -317,6 +327,18 @@ pub fn bake_texels(
                 scene, tracer, media, options, &texels, &targets, &mut baked, progress,
             )
         })?;
+    }
+    if let Some(guides) = guides {
+        stages.time("denoise", || {
+            crate::bake::denoise::denoise_baked(
+                guides,
+                crate::bake::denoise::Settings::TEXELS,
+                options,
+                &mut baked.coefficients,
+                baked.channels,
+                &baked.visibility,
+            )
+        });
     }
     let width = baked.channels * crate::math::sh::coeff_count(options.order);
     let backend = tracer.map_or(Backend::None, |t| t.backend());

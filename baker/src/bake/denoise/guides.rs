@@ -1,0 +1,108 @@
+//! The denoiser's guides ([`super::Guides`]) for the two kinds of receivers: a scene's
+//! vertices, and a lightmap's baked texels.
+
+use std::collections::BTreeMap;
+
+use super::Guides;
+use crate::bake::lightmap::atlas::Atlas;
+use crate::bake::lightmap::texels::Texels;
+use crate::scene::Scene;
+
+/// Dense ids of (object, material) pairs, in the order first met.
+struct Groups(BTreeMap<(u32, u32), u32>);
+
+impl Groups {
+    fn id(&mut self, object: u32, material: u32) -> u32 {
+        let next = self.0.len() as u32;
+        *self.0.entry((object, material)).or_insert(next)
+    }
+}
+
+/// Per triangle, the index of the scene object holding it.
+fn triangle_objects(scene: &Scene) -> Vec<u32> {
+    let mut objects = vec![0u32; scene.triangles.len()];
+    for (k, object) in scene.objects.iter().enumerate() {
+        for t in object.triangles.clone() {
+            objects[t as usize] = k as u32;
+        }
+    }
+    objects
+}
+
+fn triangle_area(scene: &Scene, t: usize) -> f32 {
+    let [a, b, c] = scene.triangles[t].map(|v| scene.positions[v as usize]);
+    0.5 * (b - a).cross(c - a).length()
+}
+
+/// The guides of every vertex of `scene`, with `noise` per vertex (or empty).
+pub fn vertex_guides(scene: &Scene, noise: Vec<f32>) -> Guides {
+    let count = scene.vertex_count();
+    let objects = triangle_objects(scene);
+    let mut vertex_object = vec![u32::MAX; count];
+    // A vertex's share of its triangles' area: its spacing is about √area for a regular mesh.
+    let mut area = vec![0.0f32; count];
+    for (t, tri) in scene.triangles.iter().enumerate() {
+        let third = triangle_area(scene, t) / 3.0;
+        for &v in tri {
+            area[v as usize] += third;
+            vertex_object[v as usize] = vertex_object[v as usize].min(objects[t]);
+        }
+    }
+    let mut groups = Groups(BTreeMap::new());
+    let groups: Vec<u32> = (0..count)
+        .map(|v| groups.id(vertex_object[v], scene.vertex_material[v]))
+        .collect();
+    let mut spacing: Vec<f32> = area.iter().map(|a| 1.07 * a.sqrt()).collect();
+    fill_missing(&mut spacing);
+    Guides {
+        points: scene.positions.clone(),
+        normals: scene.normals.clone(),
+        surfaces: scene.normals.clone(),
+        groups,
+        spacing,
+        noise,
+    }
+}
+
+/// The guides of `texels`' valid texels, in row-major order, with `noise` per valid texel
+/// (or empty). Each texel's spacing is its triangle's world size of a texel.
+pub fn texel_guides(scene: &Scene, atlas: &Atlas, texels: &Texels, noise: Vec<f32>) -> Guides {
+    let objects = triangle_objects(scene);
+    let texel_area = (atlas.width as f32) * (atlas.height as f32);
+    let triangle_spacing: Vec<f32> = (0..scene.triangles.len())
+        .map(|t| {
+            let [a, b, c] = atlas.uv1[t];
+            let uv_area = 0.5 * (b - a).perp_dot(c - a).abs() * texel_area;
+            match uv_area > 0.0 {
+                true => (triangle_area(scene, t) / uv_area).sqrt(),
+                false => 0.0,
+            }
+        })
+        .collect();
+    let mut groups = Groups(BTreeMap::new());
+    let mut guides = Guides {
+        noise,
+        ..Guides::default()
+    };
+    for i in texels.valid_indices() {
+        let t = texels.triangle[i] as usize;
+        let material = scene.vertex_material[scene.triangles[t][0] as usize];
+        guides.points.push(texels.positions[i]);
+        guides.normals.push(texels.mapped[i]);
+        guides.surfaces.push(texels.normals[i]);
+        guides.groups.push(groups.id(objects[t], material));
+        guides.spacing.push(triangle_spacing[t]);
+    }
+    fill_missing(&mut guides.spacing);
+    guides
+}
+
+/// Spacings of 0 (an isolated vertex, a triangle of no UV area) become the median.
+fn fill_missing(spacing: &mut [f32]) {
+    let mut known: Vec<f32> = spacing.iter().copied().filter(|s| *s > 0.0).collect();
+    known.sort_unstable_by(f32::total_cmp);
+    let median = known.get(known.len() / 2).copied().unwrap_or(1.0);
+    for s in spacing.iter_mut().filter(|s| !(**s > 0.0)) {
+        *s = median;
+    }
+}

@@ -1,0 +1,370 @@
+//! Denoised transfer: a linear filter over the baked receivers whose weights every
+//! coefficient of every channel shares, so it commutes with relighting. T̃_i = Σ_j w_ij T_j
+//! gives T̃_i · L = Σ_j w_ij (T_j · L) for every light L: the filter is run once, at bake
+//! time, and every light, rig and rotation at run time sees a denoised picture for free. A
+//! denoiser of lit images (OIDN, OptiX, Godot's JNLM) has to run again for each light.
+//!
+//! # The method
+//!
+//! A cross-bilateral filter in world space with a variance-normalised range term, the
+//! family of joint non-local means (Buades et al. 2005; Rousselle, Knaus & Zwicker 2012,
+//! *Adaptive rendering with non-local means filtering*; Rousselle, Manzi & Zwicker 2013,
+//! *Robust denoising using feature and color information*) with SVGF's idea of a prefiltered
+//! guide and its filtered variance (Schied et al. 2017). Receiver i's weight on receiver j
+//! multiplies:
+//!
+//! * a Gaussian of their **world distance**, within `radius` receiver spacings (texels, or
+//!   the mesh's local vertex spacing) found in a grid over the receivers' points
+//!   ([`grid`]), not in the atlas: charts that meet at a seam share neighbours, charts that
+//!   merely sit side by side in the atlas never mix;
+//! * the **shading normals'** agreement, (n_i · n_j)^32 (normal-mapped texels use their mapped
+//!   normal, so a bump's two sides stay apart), and 0 for normals facing apart;
+//! * the **plane distance** of j from i's surface, |s_i · (p_j − p_i)|, in spacings: a thin
+//!   wall's other side, a step or a slab lying on a floor are off i's plane;
+//! * the same **object and material**;
+//! * the **range term**: how far apart their transfer is against how far apart noise alone
+//!   would put it. The guide is the transfer's bands 0 and 1 prefiltered over 1.5 spacings
+//!   with the terms above, its variance Σ w² σ²_j from each receiver's own estimate
+//!   ([`crate::bake::noise`]: the spread of its rays' runs). With d² the squared guide
+//!   difference over that variance, the weight is exp(−max(0, d² − 1)/κ²): noise is
+//!   smoothed, a real shadow edge or contact shadow, many σ deep, is kept. Where the rays
+//!   give no estimate (transfer matrices, subsurface), the variance is the median of the
+//!   squared differences to the closest neighbours ([`Filter::new`]).
+//!
+//! The weights are normalised to sum to 1, so a constant transfer is kept exactly. They are
+//! a pure function of the guides and the bake's transfer, formed receiver by receiver over
+//! neighbours in index order: the result is bit-identical for any number of threads.
+//!
+//! A first-order (local linear) fit would remove the bias a constant kernel leaves on a
+//! gradient, but its weights go negative and it amplifies noise; with the range term,
+//! gradients steeper than the noise are kept, which the measurements in
+//! docs/performance.md found enough.
+
+mod grid;
+pub mod guides;
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::bake::estimator::Visibility;
+use crate::bake::options::BakeOptions;
+
+pub use guides::{texel_guides, vertex_guides};
+
+/// What the weights are guided by, per receiver (vertices, or a lightmap's baked texels in
+/// row-major order).
+#[derive(Clone, Debug, Default)]
+pub struct Guides {
+    /// Points on the surface.
+    pub points: Vec<Vec3>,
+    /// Unit shading normals (normal-mapped where the material has a normal map).
+    pub normals: Vec<Vec3>,
+    /// Unit surface normals: the plane a neighbour must lie in.
+    pub surfaces: Vec<Vec3>,
+    /// Object and material: receivers of different groups never mix.
+    pub groups: Vec<u32>,
+    /// World distance between neighbouring receivers: a texel's side, a vertex's spacing.
+    pub spacing: Vec<f32>,
+    /// Per receiver, the variance of one band-0/1 coefficient ([`crate::bake::noise`]); empty,
+    /// or all zero: estimated from the transfer.
+    pub noise: Vec<f32>,
+}
+
+/// The filter's sizes and strengths.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Settings {
+    /// Neighbours within this many spacings.
+    pub radius: f32,
+    /// The guide's prefilter radius, in spacings.
+    pub guide_radius: f32,
+    /// κ: how many noise deviations of difference the range term tolerates.
+    pub kappa: f32,
+    /// A first-order fit over the tangent plane instead of a weighted mean.
+    pub linear: bool,
+}
+
+impl Settings {
+    /// Lightmap texels: 6 texels each way (measured on the Cornell room at 64 and 256 rays:
+    /// docs/denoising.md).
+    pub const TEXELS: Settings = Settings {
+        radius: 6.0,
+        guide_radius: 1.5,
+        kappa: 4.0,
+        linear: true,
+    };
+    /// Vertices: their neighbours up to about two edges away.
+    pub const VERTICES: Settings = Settings {
+        radius: 2.5,
+        guide_radius: 1.2,
+        kappa: 4.0,
+        linear: true,
+    };
+}
+
+/// Coefficients per channel the range term compares: bands 0 and 1.
+const SIGNAL_COEFFICIENTS: usize = 4;
+/// The power of the shading normals' dot product.
+const NORMAL_POWER: i32 = 32;
+
+/// The weights of one bake's receivers, ready to apply to any per-receiver values.
+pub struct Filter<'g> {
+    guides: &'g Guides,
+    settings: Settings,
+    grid: grid::Grid,
+    /// The prefiltered signal, `signal_width` floats per receiver.
+    guide: Vec<f32>,
+    /// Its variance per receiver.
+    guide_noise: Vec<f32>,
+    signal_width: usize,
+}
+
+impl<'g> Filter<'g> {
+    /// The filter of `guides`'s receivers for `transfer`, `width` floats per receiver in
+    /// `channels` blocks of `per_channel` (n² for vectors, n⁴ for matrices: the first
+    /// coefficients of each block are the range term's signal).
+    pub fn new(
+        guides: &'g Guides,
+        settings: Settings,
+        transfer: &[f32],
+        channels: usize,
+        per_channel: usize,
+    ) -> Filter<'g> {
+        let count = guides.points.len();
+        let used = per_channel.min(SIGNAL_COEFFICIENTS);
+        let width = channels * per_channel;
+        let signal_width = channels * used;
+        let signal: Vec<f32> = (0..count)
+            .flat_map(|r| {
+                (0..channels).flat_map(move |c| {
+                    let at = r * width + c * per_channel;
+                    transfer[at..at + used].iter().copied()
+                })
+            })
+            .collect();
+        let mut spacings: Vec<f32> = guides.spacing.clone();
+        spacings.sort_unstable_by(f32::total_cmp);
+        let typical = spacings.get(count / 2).copied().unwrap_or(1.0).max(1e-12);
+        let grid = grid::Grid::new(&guides.points, 0.5 * settings.radius * typical);
+        let mut filter = Filter {
+            guides,
+            settings,
+            grid,
+            guide: Vec::new(),
+            guide_noise: Vec::new(),
+            signal_width,
+        };
+        let noise = match guides.noise.iter().any(|&v| v > 0.0) {
+            true => guides.noise.clone(),
+            false => filter.noise_from_signal(&signal),
+        };
+        let (guide, guide_noise) = filter.prefilter(&signal, &noise);
+        filter.guide = guide;
+        filter.guide_noise = guide_noise;
+        filter
+    }
+
+    /// Receiver i's weight on j from everything but the transfer; 0 outside `radius`
+    /// spacings.
+    fn geometric(&self, i: usize, j: usize, radius: f32) -> f32 {
+        let g = self.guides;
+        if g.groups[i] != g.groups[j] {
+            return 0.0;
+        }
+        let d = g.points[j] - g.points[i];
+        let reach = radius * g.spacing[i];
+        let r2 = d.length_squared() / (reach * reach);
+        if r2 > 1.0 {
+            return 0.0;
+        }
+        let facing = g.normals[i].dot(g.normals[j]);
+        if facing <= 0.0 {
+            return 0.0;
+        }
+        let off_plane = g.surfaces[i].dot(d) / g.spacing[i];
+        (-2.0 * r2 - off_plane * off_plane).exp() * facing.powi(NORMAL_POWER)
+    }
+
+    /// Receiver i's neighbours within `radius` spacings and their geometric weights, in
+    /// index order.
+    fn neighbours(&self, i: usize, radius: f32, out: &mut Vec<(u32, f32)>) {
+        out.clear();
+        let reach = radius * self.guides.spacing[i];
+        self.grid.visit(self.guides.points[i], reach, |j| {
+            let w = self.geometric(i, j as usize, radius);
+            if w > 0.0 {
+                out.push((j, w));
+            }
+        });
+        out.sort_unstable_by_key(|&(j, _)| j);
+    }
+
+    /// The variance of each receiver's signal where the rays gave none: half the median
+    /// squared difference to its closest neighbours (noise alone puts two receivers 2σ²
+    /// apart; the median ignores the few across an edge).
+    fn noise_from_signal(&self, signal: &[f32]) -> Vec<f32> {
+        let sw = self.signal_width;
+        (0..self.guides.points.len())
+            .into_par_iter()
+            .map_init(
+                || (Vec::new(), Vec::new()),
+                |(near, squares): &mut (Vec<(u32, f32)>, Vec<f32>), i| {
+                    self.neighbours(i, self.settings.guide_radius, near);
+                    squares.clear();
+                    squares.extend(near.iter().filter(|&&(j, _)| j as usize != i).map(
+                        |&(j, _)| {
+                            let (a, b) =
+                                (&signal[i * sw..][..sw], &signal[j as usize * sw..][..sw]);
+                            a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f32>() / sw as f32
+                        },
+                    ));
+                    if squares.is_empty() {
+                        return 0.0;
+                    }
+                    let mid = squares.len() / 2;
+                    *squares.select_nth_unstable_by(mid, f32::total_cmp).1 * 0.5
+                },
+            )
+            .collect()
+    }
+
+    /// The guide: the signal filtered with the geometric terms over `guide_radius`, and its
+    /// variance Σ_j w_ij² σ²_j.
+    fn prefilter(&self, signal: &[f32], noise: &[f32]) -> (Vec<f32>, Vec<f32>) {
+        let sw = self.signal_width;
+        let count = self.guides.points.len();
+        let mut guide = vec![0.0f32; count * sw];
+        let mut guide_noise = vec![0.0f32; count];
+        guide
+            .par_chunks_mut(sw.max(1))
+            .zip(guide_noise.par_iter_mut())
+            .enumerate()
+            .for_each_init(Vec::new, |near, (i, (out, var))| {
+                self.neighbours(i, self.settings.guide_radius, near);
+                let total: f32 = near.iter().map(|&(_, w)| w).sum();
+                for &(j, w) in near.iter() {
+                    let w = w / total;
+                    let j = j as usize;
+                    for (o, s) in out.iter_mut().zip(&signal[j * sw..(j + 1) * sw]) {
+                        *o += w * s;
+                    }
+                    *var += w * w * noise[j];
+                }
+            });
+        (guide, guide_noise)
+    }
+
+    /// Receiver i's weights, normalised, in index order of the receivers they weigh.
+    pub fn row(&self, i: usize, out: &mut Vec<(u32, f32)>) {
+        self.neighbours(i, self.settings.radius, out);
+        let sw = self.signal_width;
+        let gi = &self.guide[i * sw..(i + 1) * sw];
+        let kappa2 = self.settings.kappa * self.settings.kappa;
+        for (j, w) in out.iter_mut() {
+            let j = *j as usize;
+            let gj = &self.guide[j * sw..(j + 1) * sw];
+            let squared: f32 = gi.iter().zip(gj).map(|(a, b)| (a - b) * (a - b)).sum();
+            let variance = (self.guide_noise[i] + self.guide_noise[j]) * sw as f32;
+            let d2 = match variance > 0.0 {
+                true => squared / variance,
+                false if squared == 0.0 => 0.0,
+                false => f32::INFINITY,
+            };
+            *w *= (-(d2 - 1.0).max(0.0) / kappa2).exp();
+        }
+        if self.settings.linear {
+            self.linear_fit(i, out);
+        } else {
+            let total: f32 = out.iter().map(|&(_, w)| w).sum();
+            for (_, w) in out.iter_mut() {
+                *w /= total;
+            }
+        }
+    }
+
+    /// Turns kernel weights `w_j` into the weights of a weighted first-order fit over i's
+    /// tangent plane, evaluated at i: ŵ_j = w_j · e₁ᵀ A⁻¹ x_j with x_j = (1, u_j, v_j) and
+    /// A = Σ w_j x_j x_jᵀ. They still sum to 1 and are shared by every coefficient, and a
+    /// transfer that changes linearly along the surface (towards a contact shadow, across a
+    /// chart's last texels, where the neighbours lie on one side) is kept unbiased.
+    fn linear_fit(&self, i: usize, out: &mut [(u32, f32)]) {
+        let g = self.guides;
+        let (t1, t2) = g.surfaces[i].any_orthonormal_pair();
+        let scale = 1.0 / g.spacing[i];
+        let coords = |j: u32| {
+            let d = (g.points[j as usize] - g.points[i]) * scale;
+            glam::DVec3::new(1.0, f64::from(d.dot(t1)), f64::from(d.dot(t2)))
+        };
+        let mut a = glam::DMat3::ZERO;
+        for &(j, w) in out.iter() {
+            let x = coords(j);
+            a += glam::DMat3::from_cols(x * x.x, x * x.y, x * x.z) * f64::from(w);
+        }
+        // A little ridge on the slopes: a neighbourhood along a line (a one-texel-wide strip)
+        // fits no slope across it.
+        let total = a.x_axis.x;
+        a.y_axis.y += 1e-2 * total;
+        a.z_axis.z += 1e-2 * total;
+        let row = a.inverse().row(0);
+        if !row.is_finite() {
+            for (_, w) in out.iter_mut() {
+                *w = (f64::from(*w) / total) as f32;
+            }
+            return;
+        }
+        for (j, w) in out.iter_mut() {
+            *w = (f64::from(*w) * row.dot(coords(*j))) as f32;
+        }
+    }
+
+    /// The filtered values: `values` holds `width` floats per receiver, and so does the
+    /// result.
+    pub fn apply(&self, values: &[f32], width: usize) -> Vec<f32> {
+        let mut out = vec![0.0f32; values.len()];
+        out.par_chunks_mut(width.max(1))
+            .enumerate()
+            .for_each_init(Vec::new, |row, (i, out)| {
+                self.row(i, row);
+                for &(j, w) in row.iter() {
+                    let j = j as usize;
+                    for (o, v) in out.iter_mut().zip(&values[j * width..(j + 1) * width]) {
+                        *o += w * v;
+                    }
+                }
+            });
+        out
+    }
+}
+
+/// Denoises `transfer` in place (`channels` blocks of `per_channel` floats per receiver) with
+/// the weights of `guides`.
+pub fn denoise(
+    guides: &Guides,
+    settings: Settings,
+    transfer: &mut Vec<f32>,
+    channels: usize,
+    per_channel: usize,
+) {
+    if guides.points.is_empty() {
+        return;
+    }
+    let filter = Filter::new(guides, settings, transfer, channels, per_channel);
+    *transfer = filter.apply(transfer, channels * per_channel);
+}
+
+/// Denoises a bake's per-receiver transfer (`options` says its layout) in place, with the
+/// noise its rays estimated per receiver (`visibility`'s, or none).
+pub fn denoise_baked(
+    guides: Guides,
+    settings: Settings,
+    options: &BakeOptions,
+    coefficients: &mut Vec<f32>,
+    channels: usize,
+    visibility: &[Visibility],
+) {
+    let guides = Guides {
+        noise: visibility.iter().map(|v| v.noise).collect(),
+        ..guides
+    };
+    let per_channel = options.transfer.floats_per_channel(options.order);
+    denoise(&guides, settings, coefficients, channels, per_channel);
+}
