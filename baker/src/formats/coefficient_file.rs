@@ -573,6 +573,7 @@ pub(crate) fn fixture(
             checksum: 0,
             adaptive: None,
             receivers: None,
+            denoised: false,
         },
         coefficients,
         ao: None,

@@ -355,6 +355,7 @@ mod tests {
                 checksum: 0,
                 adaptive: None,
                 receivers: None,
+                denoised: false,
             },
             coefficients: (0..v * 4).map(|i| ((i * 37) % 11) as f32 / 11.0).collect(),
             ao: Some((0..v).map(|i| (i % 3) as f32 / 2.0).collect()),

@@ -647,6 +647,7 @@ mod tests {
                 checksum: 0,
                 adaptive: None,
                 receivers: None,
+                denoised: false,
             },
             coefficients: vec![0.25, 0.5],
             ao: Some(vec![0.75, 1.0]),

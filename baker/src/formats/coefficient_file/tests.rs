@@ -32,6 +32,7 @@ fn adaptive_file() -> CoefficientFile {
                 rays_cast: 256 + 4096,
             }),
             receivers: None,
+            denoised: false,
         },
         coefficients: vec![0.25, 0.5],
         ao: Some(vec![0.75, 1.0]),
