@@ -520,6 +520,7 @@ fn prt_seeds() -> Vec<Vec<u8>> {
             rays_cast: 64 * vertex_count,
         }),
         receivers: None,
+        denoised: false,
     };
     let file = |h: Header| {
         let v = h.vertex_count as usize;
