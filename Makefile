@@ -154,7 +154,7 @@ mitsuba: build
 blender: build
 	scripts/blender/run.sh
 
-# The Blender add-on (issue 33): packed into a zip, installed into a throw-away Blender user
+# The Blender add-on: packed into a zip, installed into a throw-away Blender user
 # folder, a Suzanne, cube and floor scene baked through bpy.ops.prt.bake and relit at a rig and
 # turned 90°, against prt-bake's own export of Blender's glTF of the scene (per object: mean
 # within 3 %, per-vertex correlation >= 0.98); errors, cancel, the preview material. Uses make
@@ -163,7 +163,7 @@ blender: build
 blender-addon: blender
 	runtime/blender/test.sh
 
-# The production-style courtyard (issue 30): Blender rebuilds scenes/production/courtyard.glb
+# The production-style courtyard: Blender rebuilds scenes/production/courtyard.glb
 # byte for byte and bakes Cycles' AO of the ground and the normal-mapped wall; prt-bake's texel
 # AO is within Cycles' noise, fails with the cut-outs or the normal map stripped, and the ground's
 # vertex bake is bit for bit equal with the crates instanced or flat. Uses make blender's bpy
@@ -183,7 +183,7 @@ bench: deps
 	$(CARGO) bench -p prt-baker --bench bake
 	$(CARGO) bench -p prt-baker --bench lightmap
 
-# The texel bake's scaling matrix (issue 34): its tables, then the per-texel figures that
+# The texel bake's scaling matrix: its tables, then the per-texel figures that
 # docs/distributed.md's 16-node plan multiplies out. SCALE_* variables choose the cells.
 bench-large: build
 	scripts/bench-large.sh --scale

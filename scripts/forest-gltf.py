@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes a glTF of a ground under N instances of one tree-like mesh (issue 30's forest):
+"""Writes a glTF of a ground under N instances of one tree-like mesh (a forest):
 a 1,792-triangle mesh referenced by N nodes, and a ground quad grid. The bench for
 `bake --receivers Ground` (docs/performance.md, "Receivers"); no file is committed.
 

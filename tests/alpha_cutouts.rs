@@ -1,4 +1,4 @@
-//! Alpha-tested occlusion (issue 30, part 1): a glTF card whose base colour texture cuts it
+//! Alpha-tested occlusion: a glTF card whose base colour texture cuts it
 //! into stripes (`alphaMode: MASK`) must shadow a floor as the same stripes modelled as
 //! geometry do, with the same rays, on both backends; a `BLEND` card stops a ray with the
 //! probability of its alpha, the same on both backends. Each oracle also checks that the
@@ -14,7 +14,7 @@ use serde_json::json;
 
 /// Floor cells per side (the floor is 5 × 5 at y = 0, y up as in glTF).
 const CELLS: u32 = 24;
-/// Rays per vertex, as the issue's criterion says.
+/// Rays per vertex, as the acceptance criterion says.
 const SAMPLES: u32 = 256;
 
 /// A glTF primitive: positions, glTF texture coordinates, indices, material index.
@@ -173,7 +173,7 @@ fn mask_material(mode: &str) -> serde_json::Value {
         "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}})
 }
 
-/// The done-when criterion: ≥ 99 % of the floor's vertices within 2e-3 of the floor under
+/// The acceptance criterion: ≥ 99 % of the floor's vertices within 2e-3 of the floor under
 /// the four opaque stripes modelled as geometry, with the same 256 rays, on both backends.
 #[test]
 fn a_cut_out_card_shadows_like_its_stripes_modelled_as_geometry() {

@@ -1,4 +1,4 @@
-//! Glossy oracles (issue 20): `relight --view` of a transfer-matrix bake through the real
+//! Glossy oracles: `relight --view` of a transfer-matrix bake through the real
 //! baker, Embree, the MTL and glTF loaders and the PLY writer, against closed forms.
 //!
 //! * A glossy floor under a directional light: an unoccluded receiver's L′ is the light

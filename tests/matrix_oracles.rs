@@ -1,4 +1,4 @@
-//! Transfer-matrix oracles (issue 20): `bake --transfer matrix` through the real estimator and
+//! Transfer-matrix oracles: `bake --transfer matrix` through the real estimator and
 //! Embree, against M_ij = ∫ V y_i y_j over the visible directions computed by quadrature, at
 //! order 4 with 16,384 rays, within 0.01 per entry.
 //!
@@ -21,7 +21,7 @@ use prt_tests::*;
 
 const ORDER: usize = 4;
 const SAMPLES: u32 = 16_384;
-/// The issue's tolerance per matrix entry (and per projected coefficient).
+/// The required tolerance per matrix entry (and per projected coefficient).
 const TOLERANCE: f64 = 0.01;
 
 fn matrix_options(mode: Mode) -> BakeOptions {

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Interreflected bakes against Mitsuba 3, an independent path tracer (issue 22, item 1).
+"""Interreflected bakes against Mitsuba 3, an independent path tracer.
 
 Mitsuba traces the rays (its own BVH, variant llvm_ad_rgb); the light transport is a plain
 diffuse path loop written here: from a receiver point, cosine-weighted directions about its

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Interreflected transfer probes against Mitsuba 3 (issue 32, item 5).
+"""Interreflected transfer probes against Mitsuba 3.
 
 At a few points in the Cornell room (scenes/cornell: open at the front and the top) under a
 constant white sky of radiance 1, the probe bake's incident radiance L_in = M·L (L = the sky's

@@ -53,7 +53,7 @@ pub struct Atlas {
 
 impl Atlas {
     /// An atlas from per-vertex lightmap UVs in [0, 1] (the scene's TEXCOORD_1, or a test's).
-    /// Hook for issue 10's glTF lightmap UVs: pass them here instead of unwrapping.
+    /// The glTF loader's lightmap UVs come here instead of being unwrapped.
     pub fn from_vertex_uvs(scene: &Scene, uvs: &[Vec2], width: u32, height: u32) -> Result<Atlas> {
         check_resolution(width)?;
         check_resolution(height)?;
@@ -123,7 +123,7 @@ pub struct Generated {
 
 impl Generated {
     /// A warning where the planar unwrapper shattered the scene: charts of a few triangles
-    /// each (the rough heightfield of issue 34 in 5° charts: 233,508 for 720,000 triangles) leave most of the
+    /// each (a rough heightfield in 5° charts: 233,508 for 720,000 triangles) leave most of the
     /// lightmap as padding and make nearly every texel a seam texel, whose stitching then
     /// costs as much as the rays (docs/lightmaps.md, "Atlas"). `None` for a sound atlas.
     pub fn fragmentation_note(&self, method: AtlasMethod, triangles: usize) -> Option<String> {

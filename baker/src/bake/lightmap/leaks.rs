@@ -18,7 +18,7 @@
 //! their neighbours. Unlike Godot, which pushes the point to the hit point off the surface,
 //! the point never leaves the surface the texel stands for.
 //!
-//! **Which texels get the test** (issue 34: it cost half the bake stage's time on a
+//! **Which texels get the test** (the full test everywhere cost half the bake stage's time on a
 //! 720,000-triangle heightfield, where nothing leaks). The full test ([`leaks_at`]:
 //! [`SCREEN_RAYS`] unbounded closest-hit rays, then [`LEAK_RAYS`] where one finds a back
 //! face) runs only on texels that may leak, found three ways:
