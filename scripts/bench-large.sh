@@ -4,7 +4,7 @@
 # interreflected lightmap whole and in N shards run one after the other, then merged and
 # compared byte for byte with the whole bake. Prints wall time, peak memory (/usr/bin/time -v)
 # the bake's ray rate and CPU time per run, and the raw Embree rate of the same rays
-# (baker/benches/large.rs). docs/performance.md records the figures.
+# (baker/benches/large.rs). docs/explanation/performance.md records the figures.
 #
 #   scripts/bench-large.sh [N]        (default 4 shards)
 #   scripts/bench-large.sh --scale    how texel bakes scale: 1 M and 4 M triangles ×

@@ -5,7 +5,7 @@
 //! and the RMS estimate must be close to the RMS true error (honest, not only safe). A smaller E
 //! must cost more rays and give a smaller true error. Fixed bakes of the same trials measure
 //! what the adaptive bake pays (a win is ≤ 0.8 × the rays of the fixed bakes, interpolated
-//! log-log, at the adaptive bake's p99 true error; docs/performance.md).
+//! log-log, at the adaptive bake's p99 true error; docs/explanation/performance.md).
 //! Texels of a lightmap are trials of the same estimator, and a vertex that stopped at N rays
 //! holds exactly what the fixed N-ray bake holds for it.
 //!

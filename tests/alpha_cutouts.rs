@@ -119,7 +119,7 @@ fn glb(primitives: &[Primitive], materials: serde_json::Value) -> Vec<u8> {
 
 /// Loads a `.glb` written to a temporary folder. With `PRT_ALPHA_SCENES=folder`, the
 /// scenes are also kept there as `scene-N.glb` (in the order the tests load them), for
-/// timing bakes with `prt-bake` (docs/performance.md, "Alpha cutouts").
+/// timing bakes with `prt-bake` (docs/explanation/performance.md, "Alpha cutouts").
 fn load(bytes: &[u8]) -> Scene {
     if let Some(folder) = std::env::var_os("PRT_ALPHA_SCENES") {
         static KEPT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);

@@ -2,7 +2,7 @@
 //! in [0, 1], as Blender's Smart UV Project and Unity lay them out, are packed per object
 //! with a scale and offset (no texel shared between objects); an object whose UVs overlap
 //! themselves is warned about and unwrapped alone; clean scene UVs stay the atlas as they
-//! were. docs/lightmaps.md, "Per-object lightmap UVs".
+//! were. docs/guides/lightmaps.md, "Per-object lightmap UVs".
 
 use glam::{Vec2, Vec3};
 use prt_baker::bake::lightmap::objects::{check, from_scene_uvs, shared_texels};

@@ -7,7 +7,7 @@
 //! * under a coaxial disk and at the bottom of a hemispherical bowl (the scenes of
 //!   visibility_oracles.rs): M is the visible band's ∫ y_i y_j;
 //! * the clamped cosine projected through M, (1/π)·M·ĉ, is the diffuse vector bake up to the
-//!   band-limit error stated in docs/glossy.md: |(1/π)(M·ĉ)_j − T_j| ≤ ‖r‖/π, r the part of
+//!   band-limit error stated in docs/guides/glossy.md: |(1/π)(M·ĉ)_j − T_j| ≤ ‖r‖/π, r the part of
 //!   max(cos θ, 0) above band n−1; and equals the quadrature's own (1/π)·M·ĉ − T.
 
 use glam::{DVec3, Vec3};

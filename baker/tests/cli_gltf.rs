@@ -886,7 +886,7 @@ fn gltf_uris_that_do_not_percent_decode_are_bad_input() {
 }
 
 // ---------------------------------------------------------------------------------------
-// Hostile assets (docs/robustness.md): hierarchies that loop or nest deep, and paths inside
+// Hostile assets (docs/explanation/robustness.md): hierarchies that loop or nest deep, and paths inside
 // an input that name devices, FIFOs or files outside the asset's folder.
 
 /// Runs `prt-bake` in the scratch folder, failing the test if it runs past 10 s: the cases

@@ -354,7 +354,7 @@ fn closest_hits_through_instances_are_the_flattened_scenes() {
 /// Many instances of one mesh: each costs its transform, not a copy of the mesh, so the
 /// memory check counts instances (and refuses them under a small --max-memory, naming
 /// them) rather than flattened triangles. (200,000 rather than the 10⁶ a production forest has, to keep
-/// `make test` fast: writing and parsing the JSON is what takes the time; docs/scenes.md
+/// `make test` fast: writing and parsing the JSON is what takes the time; docs/guides/production-assets.md
 /// has the 10⁶ run.)
 #[test]
 fn many_instances_are_counted_as_instances() {

@@ -240,7 +240,7 @@ pub fn torus_scene(dir: &Path) -> std::io::Result<()> {
 
 /// The glossy demo (`glossy.scene`): the same torus and planes, the torus with a
 /// Phong layer from `torus-glossy.mtl` (Ks 0.25, Ns 24: at the order-4 matrix bakes it is
-/// shown with, sharper lobes lose their shape to the band limit, see docs/glossy.md). The
+/// shown with, sharper lobes lose their shape to the band limit, see docs/guides/glossy.md). The
 /// scene file cannot reach into another folder, so the torus is written again, with a
 /// `mtllib`; the planes and textures are shared.
 fn glossy_torus(dir: &Path, torus: &Mesh) -> std::io::Result<()> {
@@ -253,7 +253,7 @@ fn glossy_torus(dir: &Path, torus: &Mesh) -> std::io::Result<()> {
     std::fs::write(
         dir.join("torus-glossy.mtl"),
         "# A diffuse base (times torus.tga, which glossy.scene gives) under a Phong lobe:\n\
-         # Ks is the fraction the lobe reflects, Ns its exponent (docs/glossy.md).\n\
+         # Ks is the fraction the lobe reflects, Ns its exponent (docs/guides/glossy.md).\n\
          newmtl glossy\nKd 0.75 0.75 0.75\nKs 0.25 0.25 0.25\nNs 24\n",
     )?;
     std::fs::write(
@@ -284,7 +284,7 @@ fn translucent_sphere(dir: &Path) -> std::io::Result<()> {
     )?;
     std::fs::write(
         dir.join("translucent.toml"),
-        "# The wax sphere's medium (docs/subsurface.md): per scene unit, R G B.\n\
+        "# The wax sphere's medium (docs/guides/subsurface.md): per scene unit, R G B.\n\
          [material.wax.subsurface]\n\
          # σt = σs′ + σa is 8 in every channel, so the three channels share their walks.\n\
          scattering = [7.96, 7.76, 6.8]  # reduced scattering coefficient σs′\n\

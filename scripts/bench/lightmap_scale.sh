@@ -8,7 +8,7 @@
 # with SCALE_STITCH_SHARDS=M, the last merge --unstitched, M stitch column shards and stitch
 # --join) run one after another here, its summed CPU against the whole bake's and its file compared byte for byte
 # with the whole bake's. Every process runs under /usr/bin/time -v: wall, CPU (user + system)
-# and peak RSS. Prints a table per cell, then the per-texel figures docs/distributed.md's
+# and peak RSS. Prints a table per cell, then the per-texel figures docs/guides/clusters.md's
 # 16-node plan is built from, and leaves every figure in $SCALE_OUT/results.tsv.
 #
 #   scripts/bench/lightmap_scale.sh

@@ -18,7 +18,7 @@
 //! Both keep [`PADDING`] empty texels between charts, are deterministic (bit-identical UVs
 //! for any thread count) and honour `--texel-size`; `tests/lightmap_atlas.rs` checks all
 //! of it. (xatlas itself was the plan; the crate `xatlas-rs` 0.1.3 links only on Windows:
-//! its bindings name MSVC-mangled symbols. docs/lightmaps.md, "Atlas".)
+//! its bindings name MSVC-mangled symbols. docs/guides/lightmaps.md, "Atlas".)
 
 mod chart_overlap;
 mod placed;
@@ -125,7 +125,7 @@ impl Generated {
     /// A warning where the planar unwrapper shattered the scene: charts of a few triangles
     /// each (a rough heightfield in 5° charts: 233,508 for 720,000 triangles) leave most of the
     /// lightmap as padding and make nearly every texel a seam texel, whose stitching then
-    /// costs as much as the rays (docs/lightmaps.md, "Atlas"). `None` for a sound atlas.
+    /// costs as much as the rays (docs/guides/lightmaps.md, "Atlas"). `None` for a sound atlas.
     pub fn fragmentation_note(&self, method: AtlasMethod, triangles: usize) -> Option<String> {
         let shattered = method == AtlasMethod::Planar
             && self.chart_count >= FRAGMENTED_CHARTS

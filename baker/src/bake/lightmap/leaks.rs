@@ -44,7 +44,7 @@
 //! joined to no leaking texel and off the lattice. These are not texels under a wall but
 //! texels looking across open space at the back of a one-sided surface, which the full test
 //! calls leaking by chance where about a tenth of their directions meet it (a speckle of
-//! left-out texels); they are now baked for what they see. docs/lightmaps.md has the
+//! left-out texels); they are now baked for what they see. docs/guides/lightmaps.md has the
 //! figures.
 
 use glam::{Vec2, Vec3};

@@ -21,7 +21,7 @@
 //! Everything runs in a fixed order, so the result is deterministic. The seams are found
 //! and sampled here; the factorisation is `faer`'s, because a planar atlas of a large mesh
 //! links hundreds of thousands of texels into one system, which iterative solvers took most
-//! of the bake to solve (docs/lightmaps.md, "Seam stitching at scale").
+//! of the bake to solve (docs/guides/lightmaps.md, "Seam stitching at scale").
 
 use glam::Vec2;
 use rayon::prelude::*;

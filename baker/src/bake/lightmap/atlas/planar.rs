@@ -2,7 +2,7 @@
 //! within 30° of the chart's first triangle, projected onto that triangle's plane (scaled
 //! back to their surface's area) and shelf-packed. Exact on flat scenes (one chart per
 //! wall); a curved mesh becomes many charts, and their padding wastes the atlas
-//! (docs/lightmaps.md, "Atlas").
+//! (docs/guides/lightmaps.md, "Atlas").
 
 use glam::Vec2;
 use rayon::prelude::*;
