@@ -29,7 +29,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 MAX_LINES = 600
-# "stop 24", "Stop 36's", "issue 34", "issue #12", "issues 22 and 30", "issue-23".
+# The word stop(s) or issue(s), then a space or a hyphen, an optional #, and a number.
 CITATION = re.compile(r"\b([Ss]tops?|[Ii]ssues?)[ -]#?[0-9]+")
 SOURCE_DIRS = ["baker", "viewer", "runtime", "scripts", "tests", "scenes", "embree-sys"]
 SOURCE_EXT = {".rs", ".py", ".sh", ".js", ".mjs", ".html", ".toml", ".scene", ".wgsl", ".md"}
