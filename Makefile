@@ -6,32 +6,34 @@
 #   make interop     glTF export checked by the Khronos glTF-Validator, the Python .prt reader
 #                    against the npz export, the EXR export against it (part of make test)
 #   make mitsuba     interreflected vertex and texel bakes against Mitsuba 3, a path tracer
-#                    (part of make test, 30 s to 2 min; docs/lightmaps.md)
+#                    (part of make test, 30 s to 2 min; docs/guides/lightmaps.md)
 #   make mitsuba-subsurface  subsurface transfer against Mitsuba 3's volumetric path tracer
-#                    (part of make test, about 30 s; docs/subsurface.md)
+#                    (part of make test, about 30 s; docs/guides/subsurface.md)
 #   make mitsuba-probes  interreflected transfer probes against Mitsuba 3 in the Cornell room
-#                    (part of make test, about 15 s; docs/probes.md)
+#                    (part of make test, about 15 s; docs/guides/probes.md)
 #   make no-embree-full  every prt-baker test in the build without Embree (make test runs the
 #                    baking command-line tests there)
 #   make blender     a Blender glTF with per-object lightmap UVs against Cycles' AO bake
-#                    (part of make test, about 30 s after a 373 MB install; docs/lightmaps.md)
+#                    (part of make test, about 30 s after a 373 MB install; docs/guides/lightmaps.md)
 #   make blender-addon  the Blender add-on (runtime/blender/prt_bake): installed from its zip,
 #                    baked through bpy.ops.prt.bake, against the CLI's export of the same scene
-#                    (part of make test, 20-50 s after make blender; docs/blender.md)
+#                    (part of make test, 20-50 s after make blender; docs/guides/blender.md)
 #   make blender-production  the production-style courtyard (scenes/production: cut-out cards,
 #                    a normal-mapped wall, linked-duplicate crates) against Cycles' AO bake
-#                    (part of make test, about 20 s after make blender; docs/scenes.md)
+#                    (part of make test, about 20 s after make blender; docs/reference/scenes.md)
 #   make bench       the bake benchmark: Embree and obvhs against the raw Embree rate
-#                    (docs/performance.md)
+#                    (docs/explanation/performance.md)
 #   make bench-large how texel bakes scale: 1 M and 4 M triangles × 2048² and 4096² lightmaps,
 #                    whole and in staged shards (scripts/bench/lightmap_scale.sh; about 10 CPU-min
 #                    a 2048² cell at 1 M triangles, ~60 at 4 M × 4096², which peaks near 9 GB and
-#                    holds ~9 GB of files; SCALE_CELLS=708:2048 runs one cell; docs/distributed.md)
+#                    holds ~9 GB of files; SCALE_CELLS=708:2048 runs one cell; docs/guides/clusters.md)
 #   make fuzz        the parsers' mutation fuzzing from a newly drawn seed at 20 times make test's
-#                    mutants (make test runs fixed seeds: docs/robustness.md)
+#                    mutants (make test runs fixed seeds: docs/explanation/robustness.md)
 #   make web GLB=F   serve the three.js example page for a prt-bake .glb and print its address
+#   make docs-check  every command of the guides run on the repository's scenes, the docs' links
+#                    (part of make test, about a minute; make cli-reference regenerates the CLI page)
 #   make bench-view  the viewer's frame rates, Blinn-Phong and PRT with 1 and 8 lights, per vertex
-#                    and per pixel (a texel bake) (docs/performance.md)
+#                    and per pixel (a texel bake) (docs/explanation/performance.md)
 
 CARGO ?= cargo
 BAKE := target/release/prt-bake
@@ -124,7 +126,7 @@ interop: build
 
 # The web runtime (runtime/three/prt.js) in Debian's chromium (headless, SwiftShader): its
 # renders of a grey and an RGB vertex bake and a texel bake match the as-exported .glb, at the
-# rig and with the light turned in JavaScript; the GLSL ES and WGSL snippets of docs/gltf.md
+# rig and with the light turned in JavaScript; the GLSL ES and WGSL snippets of docs/reference/gltf.md
 # compile (glslangValidator; naga in prt-view's tests). About a minute.
 browser: build
 	scripts/browser/run.sh
@@ -150,24 +152,24 @@ mitsuba: build
 # A Blender-made glTF with per-object lightmap UVs (Suzanne, a cube, a floor; Smart UV Project)
 # baked per texel: no texel shared between objects, AO within Cycles' noise of Blender's own
 # AO bake. Blender 4.5 LTS comes from PyPI (bpy, a 373 MB wheel) into target/blender/venv;
-# about 30 s once installed (docs/lightmaps.md, "Against Blender Cycles").
+# about 30 s once installed (docs/guides/lightmaps.md, "Against Blender Cycles").
 blender: build
 	scripts/blender/run.sh
 
-# The Blender add-on (issue 33): packed into a zip, installed into a throw-away Blender user
+# The Blender add-on: packed into a zip, installed into a throw-away Blender user
 # folder, a Suzanne, cube and floor scene baked through bpy.ops.prt.bake and relit at a rig and
 # turned 90°, against prt-bake's own export of Blender's glTF of the scene (per object: mean
 # within 3 %, per-vertex correlation >= 0.98); errors, cancel, the preview material. Uses make
-# blender's bpy (docs/blender.md).
+# blender's bpy (docs/guides/blender.md).
 .PHONY: blender-addon
 blender-addon: blender
 	runtime/blender/test.sh
 
-# The production-style courtyard (issue 30): Blender rebuilds scenes/production/courtyard.glb
+# The production-style courtyard: Blender rebuilds scenes/production/courtyard.glb
 # byte for byte and bakes Cycles' AO of the ground and the normal-mapped wall; prt-bake's texel
 # AO is within Cycles' noise, fails with the cut-outs or the normal map stripped, and the ground's
 # vertex bake is bit for bit equal with the crates instanced or flat. Uses make blender's bpy
-# (docs/scenes.md, "The production courtyard").
+# (docs/guides/production-assets.md, "The production courtyard").
 .PHONY: blender-production
 blender-production: blender
 	scripts/blender/production.sh
@@ -178,13 +180,26 @@ test: blender-addon
 test: blender-production
 test: mitsuba-subsurface
 test: mitsuba-probes
+test: docs-check
+
+# The documentation: every `sh` block of docs/guides/*.md and README.md runs on the repository's
+# scenes from a scratch folder (about a minute), links and anchors resolve, no file in docs/ is
+# over 600 lines, nothing cites a stop or an issue number (scripts/docs/check-docs.py).
+# docs/reference/cli.md is checked against prt-bake's help by make unit
+# (baker/tests/cli_reference.rs); make cli-reference rewrites it after an option changes.
+.PHONY: docs-check cli-reference
+docs-check: build
+	python3 scripts/docs/check-docs.py
+
+cli-reference: deps
+	PRT_BLESS=1 $(CARGO) test --release -p prt-baker --test cli_reference
 
 bench: deps
 	$(CARGO) bench -p prt-baker --bench bake
 	$(CARGO) bench -p prt-baker --bench lightmap
 
-# The texel bake's scaling matrix (issue 34): its tables, then the per-texel figures that
-# docs/distributed.md's 16-node plan multiplies out. SCALE_* variables choose the cells.
+# The texel bake's scaling matrix: its tables, then the per-texel figures that
+# docs/guides/clusters.md's 16-node plan multiplies out. SCALE_* variables choose the cells.
 bench-large: build
 	scripts/bench-large.sh --scale
 
@@ -202,7 +217,7 @@ out/cornell-lightmap-512.prt: build
 		--mode interreflected --samples 64 --seed 1
 
 # Each bench runs twice, the first time untimed into a log: on lavapipe, shader code that Mesa
-# compiles per frame (keyed on per-frame values, docs/performance.md) is then in the bench's own
+# compiles per frame (keyed on per-frame values, docs/explanation/performance.md) is then in the bench's own
 # on-disk shader cache, so the timed run measures rendering, not compiling, and repeats.
 BENCH_VIEW_CACHE := target/bench-view-shader-cache
 bench-view: out/torus.prt out/cornell-lightmap-512.prt
@@ -216,13 +231,13 @@ bench-view: out/torus.prt out/cornell-lightmap-512.prt
 scenes:
 	$(CARGO) run --release -p prt-scenes
 
-# Subsurface transfer (docs/subsurface.md) against Mitsuba 3's volumetric path tracer: fresh
+# Subsurface transfer (docs/guides/subsurface.md) against Mitsuba 3's volumetric path tracer: fresh
 # references for a box, a sphere and a thin slab lit from below (ior 1.0 and 1.3) in the venv
 # of `make mitsuba`, then tests/subsurface.rs against them (part of make test, about 30 s).
 mitsuba-subsurface: build
 	scripts/mitsuba/subsurface.sh
 
-# Transfer probes (docs/probes.md) against Mitsuba 3: four probes in the Cornell room under a
+# Transfer probes (docs/guides/probes.md) against Mitsuba 3: four probes in the Cornell room under a
 # white sky, order-3 band-limited irradiance at ±x, ±y, ±z, 1 and 3 bounces, against diffuse
 # paths traced on Mitsuba's rays in the venv of `make mitsuba` (part of make test, about 15 s).
 mitsuba-probes: build

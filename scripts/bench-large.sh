@@ -1,13 +1,13 @@
 #!/usr/bin/env bash
-# The large-scene benchmark (issue 22; not part of `make test`): a generated terrain of about a
+# The large-scene benchmark (not part of `make test`): a generated terrain of about a
 # million triangles with its own lightmap UVs (scripts/bench/large_scene.py), baked as a 2048²
 # interreflected lightmap whole and in N shards run one after the other, then merged and
 # compared byte for byte with the whole bake. Prints wall time, peak memory (/usr/bin/time -v)
 # the bake's ray rate and CPU time per run, and the raw Embree rate of the same rays
-# (baker/benches/large.rs). docs/performance.md records the figures.
+# (baker/benches/large.rs). docs/explanation/performance.md records the figures.
 #
 #   scripts/bench-large.sh [N]        (default 4 shards)
-#   scripts/bench-large.sh --scale    how texel bakes scale (issue 34): 1 M and 4 M triangles ×
+#   scripts/bench-large.sh --scale    how texel bakes scale: 1 M and 4 M triangles ×
 #                                     2048² and 4096², shadowed and interreflected, against the
 #                                     vertex bake and raw Embree, and the staged shard pipeline
 #                                     for N = 2 and 4 (scripts/bench/lightmap_scale.sh, whose

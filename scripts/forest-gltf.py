@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
-"""Writes a glTF of a ground under N instances of one tree-like mesh (issue 30's forest):
+"""Writes a glTF of a ground under N instances of one tree-like mesh (a forest):
 a 1,792-triangle mesh referenced by N nodes, and a ground quad grid. The bench for
-`bake --receivers Ground` (docs/performance.md, "Receivers"); no file is committed.
+`bake --receivers Ground` (docs/explanation/performance.md, "Receivers"); no file is committed.
 
     python3 scripts/forest-gltf.py N OUT.gltf [--grid G]
 """

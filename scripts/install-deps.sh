@@ -17,7 +17,7 @@
 #                       it does not need or disturb the packages' own services
 #   chromium            the browser test of the web runtime (scripts/browser/run.sh), headless
 #                       with SwiftShader: no GPU or display needed
-#   glslang-tools       glslangValidator, which compiles docs/gltf.md's GLSL ES snippets
+#   glslang-tools       glslangValidator, which compiles docs/reference/gltf.md's GLSL ES snippets
 # The Rust toolchain itself is expected (rustup); python3 for the reference check.
 set -euo pipefail
 

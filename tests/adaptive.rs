@@ -1,11 +1,11 @@
 //! Adaptive sampling (`--target-error E`, `baker/src/bake/adaptive.rs`) held to the analytic
 //! oracles of `oracles.md`: a vertex stops when its *estimated* RMS coefficient error is ≤ E, so
 //! its *true* RMS coefficient error √((1/n²) Σ_j (T̂_j − T_j)²), measured against the
-//! closed-form transfer, must be ≤ 1.5 E at ≥ 95 % of the vertices (the issue's requirement),
+//! closed-form transfer, must be ≤ 1.5 E at ≥ 95 % of the vertices (the requirement),
 //! and the RMS estimate must be close to the RMS true error (honest, not only safe). A smaller E
 //! must cost more rays and give a smaller true error. Fixed bakes of the same trials measure
-//! what the adaptive bake pays (issue 22: a win is ≤ 0.8 × the rays of the fixed bakes, interpolated
-//! log-log, at the adaptive bake's p99 true error; docs/performance.md).
+//! what the adaptive bake pays (a win is ≤ 0.8 × the rays of the fixed bakes, interpolated
+//! log-log, at the adaptive bake's p99 true error; docs/explanation/performance.md).
 //! Texels of a lightmap are trials of the same estimator, and a vertex that stopped at N rays
 //! holds exactly what the fixed N-ray bake holds for it.
 //!
@@ -33,7 +33,7 @@ const FIXED: [u32; 13] = [
     256, 384, 512, 768, 1024, 1536, 2048, 3072, 4096, 6144, 8192, 12_288, 16_384,
 ];
 /// Adaptive sampling wins when it casts at most this share of the rays of the fixed bake with
-/// its p99 true error (issue 22; the fixed bakes interpolated log-log).
+/// its p99 true error (the fixed bakes interpolated log-log).
 const WIN: f64 = 0.8;
 /// What the test requires of that share at each target: a win where the target asks more than
 /// the pilot gives; at 4 × 10⁻³ every trial stops at the 256-point pilot, which is the fixed
@@ -270,7 +270,7 @@ fn the_true_error_stays_within_one_and_a_half_targets_and_converges() {
         .map(|target| judge(target, &scenes.trials(target)))
         .collect();
     // Fixed Owen–Sobol bakes of the same trials: the rays that reach the adaptive bake's p99
-    // true error, and the ratio of rays (issue 22: adaptive wins at ≤ 0.8).
+    // true error, and the ratio of rays (adaptive wins at ≤ 0.8).
     let fixed: Vec<(u32, f64)> = FIXED
         .iter()
         .map(|&samples| {

@@ -1,4 +1,4 @@
-//! Embree and obvhs agree (issue 3): the same rays traced by both backends get the same
+//! Embree and obvhs agree: the same rays traced by both backends get the same
 //! answers, and bakes with the same seed give the same coefficients.
 //!
 //! Ray sets (`prt_tests::ray_sets`): the demo scene and the Cornell room (the bake's own
@@ -14,7 +14,7 @@
 //! the Cornell room, and in baked coefficients, also of a room of boards that meet exactly at
 //! their edges. On the other sets (rays from arbitrary points) it is Embree's default mode,
 //! whose triangle test is not watertight, and is reported only. So is Embree's default mode
-//! everywhere ([`EmbreeMode::Fast`], the default before issue 12), whose bakes leak light
+//! everywhere ([`EmbreeMode::Fast`], the default before the watertight one), whose bakes leak light
 //! where a floor meets a wall.
 //!
 //! # What counts as a disagreement
@@ -28,7 +28,7 @@
 //! Embree wrong, the difference is a finding about Embree, printed, not a failure of obvhs.
 //! The raw figures are printed beside.
 //!
-//! Thresholds (the issue's): occlusion answers agree on ≥ 99.999 % of rays; closest-hit
+//! Thresholds: occlusion answers agree on ≥ 99.999 % of rays; closest-hit
 //! triangle ids on ≥ 99.99 % of the rays that hit in either backend; baked coefficients within
 //! 1e-3 on ≥ 99.9 % of vertices. Every set has at least [`MIN_RAYS`] rays, so the occlusion
 //! threshold allows at most 10 rays in a set and the id threshold about 100.
@@ -596,7 +596,7 @@ const VERTEX_AGREEMENT: f64 = 0.999;
 /// coefficient of band l by at most |y_l(s)|/N ≤ √((2l+1)/4π)/N = 7.3e-4 (l = 3): a vertex
 /// leaves the tolerance only if two or more of its rays differ. Those rays are traced again
 /// and judged, as in [`compare`] (see [`hold`]). obvhs is held to robust Embree, and the
-/// default to both (issue 12: the default bake is watertight); Embree's default mode
+/// default to both (the default bake is watertight); Embree's default mode
 /// everywhere is reported.
 fn check_bakes(name: &str, scene: &Scene) {
     let options = BakeOptions {

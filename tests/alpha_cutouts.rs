@@ -1,4 +1,4 @@
-//! Alpha-tested occlusion (issue 30, part 1): a glTF card whose base colour texture cuts it
+//! Alpha-tested occlusion: a glTF card whose base colour texture cuts it
 //! into stripes (`alphaMode: MASK`) must shadow a floor as the same stripes modelled as
 //! geometry do, with the same rays, on both backends; a `BLEND` card stops a ray with the
 //! probability of its alpha, the same on both backends. Each oracle also checks that the
@@ -14,7 +14,7 @@ use serde_json::json;
 
 /// Floor cells per side (the floor is 5 × 5 at y = 0, y up as in glTF).
 const CELLS: u32 = 24;
-/// Rays per vertex, as the issue's criterion says.
+/// Rays per vertex, as the acceptance criterion says.
 const SAMPLES: u32 = 256;
 
 /// A glTF primitive: positions, glTF texture coordinates, indices, material index.
@@ -119,7 +119,7 @@ fn glb(primitives: &[Primitive], materials: serde_json::Value) -> Vec<u8> {
 
 /// Loads a `.glb` written to a temporary folder. With `PRT_ALPHA_SCENES=folder`, the
 /// scenes are also kept there as `scene-N.glb` (in the order the tests load them), for
-/// timing bakes with `prt-bake` (docs/performance.md, "Alpha cutouts").
+/// timing bakes with `prt-bake` (docs/explanation/performance.md, "Alpha cutouts").
 fn load(bytes: &[u8]) -> Scene {
     if let Some(folder) = std::env::var_os("PRT_ALPHA_SCENES") {
         static KEPT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
@@ -173,7 +173,7 @@ fn mask_material(mode: &str) -> serde_json::Value {
         "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}})
 }
 
-/// The done-when criterion: ≥ 99 % of the floor's vertices within 2e-3 of the floor under
+/// The acceptance criterion: ≥ 99 % of the floor's vertices within 2e-3 of the floor under
 /// the four opaque stripes modelled as geometry, with the same 256 rays, on both backends.
 #[test]
 fn a_cut_out_card_shadows_like_its_stripes_modelled_as_geometry() {

@@ -1,5 +1,5 @@
-//! Double-sided surfaces (issue 30, part 2; the rule is in docs/scenes.md, "Two-sided
-//! surfaces"): transfer is baked for the side a triangle's normal faces; a surface seen from
+//! Double-sided surfaces (the rule is in docs/guides/production-assets.md,
+//! "Two-sided surfaces"): transfer is baked for the side a triangle's normal faces; a surface seen from
 //! both sides is two single-sided sheets back to back, and each sheet's receivers see past
 //! their twin. A single-sided triangle occludes from both sides, on both backends. A glTF
 //! `doubleSided` card gets its back sheet from the loader, baked as the twin made by hand.

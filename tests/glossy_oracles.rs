@@ -1,4 +1,4 @@
-//! Glossy oracles (issue 20): `relight --view` of a transfer-matrix bake through the real
+//! Glossy oracles: `relight --view` of a transfer-matrix bake through the real
 //! baker, Embree, the MTL and glTF loaders and the PLY writer, against closed forms.
 //!
 //! * A glossy floor under a directional light: an unoccluded receiver's L′ is the light
@@ -9,9 +9,9 @@
 //!   radiance estimate computed by quadrature), and at most 1 % of the highlight's peak.
 //! * The highlight sits where the view's mirror direction meets the light (within a vertex
 //!   spacing), and its peak is the band-limited lobe's; the band-limit error against the
-//!   unconvolved lobe (ks·E·(s + 1)/2π) is printed and stated in docs/glossy.md.
+//!   unconvolved lobe (ks·E·(s + 1)/2π) is printed and stated in docs/guides/glossy.md.
 //! * A matrix bake relit without a view is the vector bake of the same scene and seed, within
-//!   the band-limit bound of docs/glossy.md.
+//!   the band-limit bound of docs/guides/glossy.md.
 //! * glTF roughness and metallic map to the lobe's exponent, ks and diffuse weight.
 
 use std::f64::consts::PI;
@@ -213,7 +213,7 @@ fn a_glossy_floors_highlight_matches_the_band_limited_lobe() {
         ),
     )
     .unwrap();
-    // The light's coefficients: a band-limited delta, E·y(d) (docs/lights.md).
+    // The light's coefficients: a band-limited delta, E·y(d) (docs/reference/lights.md).
     let light: Vec<f64> = basis_at(FLOOR_ORDER, d).iter().map(|y| SUN_E * y).collect();
 
     let scene = Scene::load(&obj).unwrap();
@@ -315,7 +315,7 @@ const RIG: &str = concat!(
 /// Without a view, a matrix bake renders kd·Σ ĝ_l(1) L′ y(n) = albedo·((1/π)·M·ĉ)·L: the
 /// vector bake's radiance up to the clamped cosine's band-limit error. Per vertex and channel
 /// the difference is albedo·(1/π)∫ V·r·L ds, r the clamped cosine above band n − 1, at most
-/// albedo·‖r‖/π·‖L_c‖ (Cauchy–Schwarz; ‖r‖/π = 0.0407 at order 4, docs/glossy.md), on the
+/// albedo·‖r‖/π·‖L_c‖ (Cauchy–Schwarz; ‖r‖/π = 0.0407 at order 4, docs/guides/glossy.md), on the
 /// occluded, coloured Cornell box with the viewer's default rig (a sun and a sky), matrix and
 /// vector baked with the same seed and rays.
 #[test]

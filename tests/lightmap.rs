@@ -178,7 +178,7 @@ fn texels_on_a_dense_grids_vertices_agree_with_the_vertex_bake() {
 
 #[test]
 fn a_four_vertex_floor_shows_a_sphere_contact_shadow() {
-    // The issue's case: a sphere resting on a 4-vertex floor. Per vertex the floor sees no
+    // The motivating case: a sphere resting on a 4-vertex floor. Per vertex the floor sees no
     // shadow (its corners are far from the sphere); per texel, relit by a constant white sky
     // (radiance = T_0 · √(4π)), the texels under the sphere are far darker than the far ones.
     let samples = 1 << 12;
@@ -349,7 +349,7 @@ fn texels_inside_a_sphere_are_left_out_as_leaking_and_filled() {
     assert!(bake.dilated.iter().any(|&d| d));
 }
 
-/// Chart seams are stitched (issue 23): the demo torus unwrapped into 64², where the
+/// Chart seams are stitched: the demo torus unwrapped into 64², where the
 /// unwrapper cuts the smooth surface into charts, must read the same on both sides of every
 /// seam after the bake, to a small part of the step it had before, and the texels the seams do
 /// not read keep their baked values (`baker/src/bake/lightmap/stitch.rs`).

@@ -2,7 +2,7 @@
 //! texel and keep `PADDING` empty texels between them after conservative rasterisation,
 //! UVs lie in [0, 1], `--texel-size` is honoured, and the UVs are bit-identical across runs
 //! and thread counts. `atlas_figures` (ignored) prints the chart counts and utilisation
-//! quoted in docs/lightmaps.md.
+//! quoted in docs/guides/lightmaps.md.
 
 use std::path::Path;
 
@@ -260,7 +260,7 @@ fn generated_atlases_are_bit_identical_for_any_thread_count() {
     }
 }
 
-/// The figures of docs/lightmaps.md: charts, covered texels and unwrap time per scene,
+/// The figures of docs/guides/lightmaps.md: charts, covered texels and unwrap time per scene,
 /// unwrapper and resolution. `cargo test --release -p prt-tests --test lightmap_atlas --
 /// --ignored --nocapture`.
 #[test]

@@ -1,8 +1,8 @@
-//! Per-object lightmap UVs (issue 23): scenes whose objects each have their own TEXCOORD_1
+//! Per-object lightmap UVs: scenes whose objects each have their own TEXCOORD_1
 //! in [0, 1], as Blender's Smart UV Project and Unity lay them out, are packed per object
 //! with a scale and offset (no texel shared between objects); an object whose UVs overlap
 //! themselves is warned about and unwrapped alone; clean scene UVs stay the atlas as they
-//! were. docs/lightmaps.md, "Per-object lightmap UVs".
+//! were. docs/guides/lightmaps.md, "Per-object lightmap UVs".
 
 use glam::{Vec2, Vec3};
 use prt_baker::bake::lightmap::objects::{check, from_scene_uvs, shared_texels};
@@ -383,7 +383,7 @@ fn gltf_objects_keep_their_node_names_and_placements_through_the_export() {
     }
 }
 
-/// The node hierarchy survives the export (issue 23): groups without meshes are written as
+/// The node hierarchy survives the export: groups without meshes are written as
 /// group nodes, each object's node keeps its place under its parent, and nodes with nothing
 /// below them are left out. Transforms are identities: the geometry is in world space.
 #[test]

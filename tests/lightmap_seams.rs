@@ -1,4 +1,4 @@
-//! Texel bakes at seams (issue 11): watertight by default (the Cornell room's texels agree
+//! Texel bakes at seams: watertight by default (the Cornell room's texels agree
 //! with `--robust` as its vertices do, `tests/agreement.rs`), leaking texels
 //! that straddle a wall moved out rather than left out.
 

@@ -448,10 +448,10 @@ fn windows_reduce_the_ringing_of_a_directional_light() {
     }
 }
 
-/// The example rig of docs/lights.md parses as printed (its map is written beside it).
+/// The example rig of docs/reference/lights.md parses as printed (its map is written beside it).
 #[test]
 fn the_documented_example_rig_parses() {
-    let docs = include_str!("../docs/lights.md");
+    let docs = include_str!("../docs/reference/lights.md");
     let start = docs.find("```toml\nwindow").expect("the example rig") + "```toml\n".len();
     let rig = &docs[start..start + docs[start..].find("```").unwrap()];
     let folder = tempfile::tempdir().unwrap();

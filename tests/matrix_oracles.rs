@@ -1,4 +1,4 @@
-//! Transfer-matrix oracles (issue 20): `bake --transfer matrix` through the real estimator and
+//! Transfer-matrix oracles: `bake --transfer matrix` through the real estimator and
 //! Embree, against M_ij = ∫ V y_i y_j over the visible directions computed by quadrature, at
 //! order 4 with 16,384 rays, within 0.01 per entry.
 //!
@@ -7,7 +7,7 @@
 //! * under a coaxial disk and at the bottom of a hemispherical bowl (the scenes of
 //!   visibility_oracles.rs): M is the visible band's ∫ y_i y_j;
 //! * the clamped cosine projected through M, (1/π)·M·ĉ, is the diffuse vector bake up to the
-//!   band-limit error stated in docs/glossy.md: |(1/π)(M·ĉ)_j − T_j| ≤ ‖r‖/π, r the part of
+//!   band-limit error stated in docs/guides/glossy.md: |(1/π)(M·ĉ)_j − T_j| ≤ ‖r‖/π, r the part of
 //!   max(cos θ, 0) above band n−1; and equals the quadrature's own (1/π)·M·ĉ − T.
 
 use glam::{DVec3, Vec3};
@@ -21,7 +21,7 @@ use prt_tests::*;
 
 const ORDER: usize = 4;
 const SAMPLES: u32 = 16_384;
-/// The issue's tolerance per matrix entry (and per projected coefficient).
+/// The required tolerance per matrix entry (and per projected coefficient).
 const TOLERANCE: f64 = 0.01;
 
 fn matrix_options(mode: Mode) -> BakeOptions {

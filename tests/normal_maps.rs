@@ -1,7 +1,7 @@
-//! Normal-mapped texel transfer (issue 30, part 3): a glTF plane with a procedurally made
+//! Normal-mapped texel transfer: a glTF plane with a procedurally made
 //! tangent-space normal map (tilts up to 35°), baked per texel.
 //!
-//! * Unshadowed (the done-when criterion): every texel's band-1 lobe points along the map's
+//! * Unshadowed (the acceptance criterion): every texel's band-1 lobe points along the map's
 //!   normal at the texel, within 2°, with the band-1 norm of the flat plane's within 2 %;
 //!   with MikkTSpace tangents, with the file's TANGENT (and its handedness), and with a
 //!   `scale`.
@@ -247,7 +247,7 @@ fn flat_norm(samples: u32) -> f64 {
     norms.iter().sum::<f64>() / norms.len() as f64
 }
 
-/// The done-when criterion, with MikkTSpace tangents (the file has no TANGENT).
+/// The acceptance criterion, with MikkTSpace tangents (the file has no TANGENT).
 #[test]
 fn unshadowed_texel_lobes_turn_by_the_maps_tilt() {
     let samples = 256;

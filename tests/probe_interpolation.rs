@@ -1,4 +1,4 @@
-//! Probes between probes and objects that move (issue 32): the interpolated incident radiance
+//! Probes between probes and objects that move: the interpolated incident radiance
 //! against probes baked exactly at the query points, with and without leaving out the probes
 //! inside geometry; and a rigid object, baked alone in its own frame, moved and turned through
 //! a probe grid, against the same object lit by a probe baked exactly where it stands.

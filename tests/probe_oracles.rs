@@ -1,4 +1,4 @@
-//! Transfer-probe oracles (issue 32): `bake --probes` through the real estimator and Embree,
+//! Transfer-probe oracles: `bake --probes` through the real estimator and Embree,
 //! at order 4 with 16,384 rays per probe, within 0.01 per matrix entry.
 //!
 //! * the held-out oracle: probes on the axis of a one-sided disk, above and below it, see the
@@ -24,7 +24,7 @@ use prt_tests::*;
 
 const ORDER: usize = 4;
 const SAMPLES: u32 = 16_384;
-/// The issue's tolerance per matrix entry.
+/// The required tolerance per matrix entry.
 const TOLERANCE: f64 = 0.01;
 
 /// The probes' matrices (per probe, per channel: n⁴, row-major) through Embree.

@@ -13,7 +13,7 @@ use prt_baker::math::sh::{self, Rotator};
 /// the recurrence's chain of ≤ 8 band products, entries ≤ 1 and coefficients ≤ ~3 in these
 /// tests: ≲ 8·15·3·2⁻⁵² ≈ 1e-13. Allowing 100× that keeps the check about rounding only.
 const ROUNDING: f64 = 1e-11;
-/// The bar for the agreement of the two methods.
+/// The bar for the agreement of the two methods.
 const METHODS_AGREE: f64 = 1e-5;
 const SEED: u64 = 5;
 

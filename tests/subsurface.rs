@@ -1,4 +1,4 @@
-//! Subsurface transfer (issue 31) against a volumetric path tracer and closed forms.
+//! Subsurface transfer against a volumetric path tracer and closed forms.
 //!
 //! * A semi-infinite medium under a constant sky against Mitsuba 3's figures
 //!   (subsurface-digest.md: 0.750, 0.415, 0.115 at albedo 0.99, 0.9, 0.5) and, where the
@@ -6,7 +6,7 @@
 //! * The held-out objects of tests/data/subsurface (a box and a sphere under a constant sky, a
 //!   thin slab lit from below only; ior 1.0 and 1.3) against the Mitsuba `volpath` references
 //!   there (scripts/mitsuba/subsurface_reference.py): every channel of the relit radiance
-//!   within 5 % + 3 standard errors of the reference (the issue's criterion).
+//!   within 5 % + 3 standard errors of the reference (the acceptance criterion).
 //! * Embree and obvhs agree, bakes do not depend on the thread count, and a whole-scene bake
 //!   leaves opaque objects' transfer as it was.
 //! * Texel bakes (`--lightmap`): the texel at the box's top centre against the same Mitsuba
@@ -272,7 +272,7 @@ fn held_out_objects_match_mitsuba_volpath() {
     assert!(failures.is_empty(), "outside 5 % + 3 SE: {failures:?}");
 }
 
-/// The issue's 5 % cannot see every error (leaving out the Fresnel reflection inside moves
+/// The 5 % criterion cannot see every error (leaving out the Fresnel reflection inside moves
 /// these results by 2–3 %), so the bake is also held to the references statistically: the
 /// mean of 8 bakes with their own seeds within 4 combined standard errors (the bake's from the
 /// spread of its seeds), plus 0.5 % for the slab, whose light from below is cut at order 10.
@@ -467,7 +467,7 @@ fn texel_near(
 
 /// Texel receivers run the vertex bake's estimator at their own point and normal: the texel
 /// at the held-out box's top centre (within half a texel of it) meets the Mitsuba references
-/// as the vertex there does (the issue's 5 % + 3 standard errors).
+/// as the vertex there does (5 % + 3 standard errors).
 #[test]
 fn texel_bakes_match_mitsuba_volpath_at_the_box_top() {
     let scene = Scene::load(&data("box.obj")).expect("scene");

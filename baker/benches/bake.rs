@@ -237,7 +237,7 @@ fn main() {
         rate(bake_seconds) / ceiling
     );
     println!(
-        "embree modes (bake speed / the default mode everywhere, the default before issue 12): \
+        "embree modes (bake speed / the default mode everywhere, the default before the watertight one): \
          watertight default {:.3} (target >= 0.93), robust everywhere {:.3}",
         fast_seconds / bake_seconds,
         fast_seconds / robust_seconds
@@ -255,7 +255,7 @@ fn main() {
     if quick {
         return;
     }
-    // Interreflection (issue 4): the same scene and rays, 1–3 bounces, against the shadowed
+    // Interreflection: the same scene and rays, 1–3 bounces, against the shadowed
     // Embree bake just measured.
     println!();
     println!(
@@ -520,7 +520,7 @@ fn shuffle(values: &mut [Vec3], seed: u64) {
     }
 }
 
-/// Issue 12 (`--target-error`): the time to reach the thesis's accuracy. The thesis cast
+/// Adaptive sampling (`--target-error`): the time to reach the thesis's accuracy. The thesis cast
 /// 10,000 independent uniform rays per vertex (`--sampling thesis-random --samples 10000`);
 /// its RMS coefficient error E is measured against a 2^16-ray Owen–Sobol reference of another
 /// seed. Then, each timed as the bake above: the thesis's bake; fixed Owen–Sobol at 10,000

@@ -2,7 +2,7 @@
 //! texel (order 4, shadowed), timed end to end from the atlas (rasterisation, seam texels, leak
 //! test, bake, dilation), against the raw Embree rate of the very same rays (same origins and directions,
 //! occlusion streams straight into Embree's default-mode scene, as `benches/bake.rs` measures
-//! vertices). The goal (issue 11): "a texel is a ray origin like a vertex", the bake at
+//! vertices). The goal: "a texel is a ray origin like a vertex", the bake at
 //! ≥ 0.8 × the raw rate. Also the default (watertight) bake against Embree's fast mode
 //! everywhere, and the stages on their own.
 //!

@@ -1,4 +1,4 @@
-//! What per-vertex allocation can gain on a scene (docs/performance.md, "Adaptive sampling"):
+//! What per-vertex allocation can gain on a scene (docs/explanation/performance.md, "Adaptive sampling"):
 //! allocation rules simulated from fixed bakes, and a clairvoyant bound.
 //!
 //! An adaptive vertex that stops at N rays holds exactly the fixed N-ray bake's value for it

@@ -1,4 +1,4 @@
-//! Adaptive against fixed sampling on a scene (docs/performance.md, "Adaptive sampling"):
+//! Adaptive against fixed sampling on a scene (docs/explanation/performance.md, "Adaptive sampling"):
 //! per-vertex RMS coefficient errors against a high-sample Owen–Sobol reference of another seed
 //! (cached under target/), for fixed bakes at 128…8192 rays (powers of two and 1.5× between)
 //! and adaptive bakes at several targets. An adaptive bake **wins** when its total rays are at

@@ -1,4 +1,4 @@
-//! Error against size of CPCA compression (docs/performance.md, "CPCA compression"): for each
+//! Error against size of CPCA compression (docs/explanation/performance.md, "CPCA compression"): for each
 //! K clusters and M components, the bake compressed, written and read back as a version-2
 //! file, relit by a rig, and compared with the uncompressed bake relit by the same rig.
 //!
@@ -6,7 +6,7 @@
 //! spread evenly over the upper hemisphere (about the scene's up axis): the error a rig
 //! turned anywhere above the horizon would see, where one rig sees one direction's luck.
 //!
-//! With REFERENCE.prt, a bake of the same scene with many more rays (docs/performance.md,
+//! With REFERENCE.prt, a bake of the same scene with many more rays (docs/explanation/performance.md,
 //! "CPCA against converged transfer"), three more columns compare against it instead: the
 //! bake itself (its Monte Carlo noise), and the compressed bake (noise and model together).
 //!

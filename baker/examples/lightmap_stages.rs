@@ -1,5 +1,5 @@
-//! Times the texel bake's preparation and output stages on a scene (issue 34): the planar
-//! atlas, rasterising, seam texels, seam partners, dilation, seam points and the file's
+//! Times the texel bake's preparation and output stages on a scene (on large meshes they,
+//! not the rays, set a texel bake's speed): the planar atlas, rasterising, seam texels, seam partners, dilation, seam points and the file's
 //! bytes, each `REPEAT` times; prints the fastest wall time of each and a fingerprint of its
 //! result, so a change can be checked for both speed and identical output.
 //!

@@ -59,20 +59,20 @@ enum Command {
     /// `relight`, `export` and the viewer read as its reconstruction.
     Compress(compress::CompressArgs),
     /// Merge the shard parts of a bake (`bake --shard`) into the file one machine would have
-    /// baked, byte for byte; refuses missing, duplicated or foreign parts (docs/distributed.md).
+    /// baked, byte for byte; refuses missing, duplicated or foreign parts (docs/guides/clusters.md).
     Merge(merge::MergeArgs),
     /// Prepare a texel bake's lightmap once for all its shards: the atlas, the baked texels
     /// after the leak test and the seam partners, for `bake --shard K/N --prepared FILE` and
-    /// `stitch` (takes `bake`'s options; docs/distributed.md).
+    /// `stitch` (takes `bake`'s options; docs/guides/clusters.md).
     PrepareLightmap(bake::BakeArgs),
     /// One shard's bounce k of an interreflected bake distributed bounce by bounce: gathered
-    /// from its part's rows and the merged bounce k − 1 (docs/distributed.md).
+    /// from its part's rows and the merged bounce k − 1 (docs/guides/clusters.md).
     Gather(gather::GatherArgs),
     /// Stitch a merged, unstitched texel bake's seams in shards of columns, and join them
-    /// into the whole bake's file (docs/distributed.md).
+    /// into the whole bake's file (docs/guides/clusters.md).
     Stitch(stitch::StitchArgs),
     /// Factor a texel bake's seam stitch once, from its prepared lightmap, for every
-    /// `stitch --columns K/N --factor FILE` shard (docs/distributed.md).
+    /// `stitch --columns K/N --factor FILE` shard (docs/guides/clusters.md).
     FactorSeams(factor_seams::FactorSeamsArgs),
 }
 

@@ -1,5 +1,5 @@
 //! End-to-end tests of `prt-bake compress` and of version-2 (CPCA-compressed) coefficient
-//! files in `inspect`, `export --npz` and `relight` (docs/coefficient-format.md, "Compressed
+//! files in `inspect`, `export --npz` and `relight` (docs/reference/coefficient-format.md, "Compressed
 //! files").
 
 mod common;
@@ -182,7 +182,7 @@ fn relit_error_falls_with_clusters_and_components() {
         assert!(more.1 < fewer.1, "relit error {errors:?}");
     }
     // Against 48 floats per vertex raw. 64 × 4 stores under a third of them but misses 1 % on
-    // this small room (2.1 %; docs/performance.md, "CPCA compression"); 64 × 8 meets 1 %.
+    // this small room (2.1 %; docs/explanation/performance.md, "CPCA compression"); 64 × 8 meets 1 %.
     assert!(k64.1 < 0.025, "relit rms error {}", k64.1);
     assert!(k64.2 <= 48.0 / 3.0, "{} floats per vertex", k64.2);
     assert!(m8.1 < 0.01, "relit rms error {}", m8.1);

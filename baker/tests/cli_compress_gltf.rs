@@ -1,6 +1,6 @@
 //! A CPCA-compressed bake exported to glTF (`export --glb` of a `prt-bake compress` file):
 //! the `.glb` carries the cluster index and weights per vertex and the clusters' means and
-//! components in its buffer (docs/gltf.md, "Compressed transfer"). Rebuilt from the file alone,
+//! components in its buffer (docs/reference/gltf.md, "Compressed transfer"). Rebuilt from the file alone,
 //! that transfer dotted with the file's own light must give its COLOR_0.
 
 mod common;
@@ -159,7 +159,7 @@ fn sh_order2(d: [f64; 3]) -> [f64; 4] {
 fn a_compressed_matrix_glb_carries_turned_matrices_and_each_materials_lobe() {
     // The glossy torus (z-up) at order 2: its clusters' 4 × 4 matrices, turned to glTF's +Y up
     // as R·M·Rᵀ, rebuilt per vertex and lit by the file's own light (in its +Y-up frame) give
-    // the diffuse term at the exported normal, which must be COLOR_0 (docs/gltf.md, "Glossy
+    // the diffuse term at the exported normal, which must be COLOR_0 (docs/reference/gltf.md, "Glossy
     // transfer"). Without the turn of the matrices, light and normals would disagree.
     let s = Scratch::new();
     let glossy = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/torus/glossy.scene");

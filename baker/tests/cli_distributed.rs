@@ -1,4 +1,4 @@
-//! End-to-end tests of bakes that outgrow one machine (docs/distributed.md): `bake --shard`,
+//! End-to-end tests of bakes that outgrow one machine (docs/guides/clusters.md): `bake --shard`,
 //! `merge`, and `bake --checkpoint`, run through the real `prt-bake` binary. The oracle is the
 //! single-machine bake: a merge of parts, and a checkpointed bake killed with SIGKILL and run
 //! again, must give the same file byte for byte.

@@ -1,4 +1,4 @@
-//! glTF `doubleSided` through the `prt-bake` binary (docs/scenes.md, "Two-sided surfaces"):
+//! glTF `doubleSided` through the `prt-bake` binary (docs/guides/production-assets.md, "Two-sided surfaces"):
 //! `--double-sided off` bakes the file a bake before the flag was read made; `auto` adds the
 //! back sheet's receivers, which `--receivers`, lightmaps (generated or given TEXCOORD_1
 //! atlases), relight and the glTF export (single-sided materials, both sheets) carry; a
@@ -177,7 +177,7 @@ fn lightmaps_give_the_back_sheet_texels_of_its_own() {
     let s = Scratch::new();
     s.write("card.gltf", scene(json!(true)));
     // Given TEXCOORD_1: the back sheet's UVs are its front's, so every object is packed
-    // with a scale and an offset of its own (docs/lightmaps.md, "Per-object lightmap UVs").
+    // with a scale and an offset of its own (docs/guides/lightmaps.md, "Per-object lightmap UVs").
     let given = s.bake(
         "card.gltf",
         "given.prt",

@@ -1,4 +1,4 @@
-//! End-to-end tests of `prt-bake relight` on transfer-matrix bakes (docs/glossy.md, "Glossy
+//! End-to-end tests of `prt-bake relight` on transfer-matrix bakes (docs/guides/glossy.md, "Glossy
 //! rendering"): diffuse without `--view`, glossy with it, compressed matrix files, and the
 //! usage errors (`--view` on a vector bake, a malformed `--view`).
 

@@ -886,7 +886,7 @@ fn gltf_uris_that_do_not_percent_decode_are_bad_input() {
 }
 
 // ---------------------------------------------------------------------------------------
-// Hostile assets (docs/robustness.md): hierarchies that loop or nest deep, and paths inside
+// Hostile assets (docs/explanation/robustness.md): hierarchies that loop or nest deep, and paths inside
 // an input that name devices, FIFOs or files outside the asset's folder.
 
 /// Runs `prt-bake` in the scratch folder, failing the test if it runs past 10 s: the cases
@@ -1227,7 +1227,7 @@ fn obj_mtl_scene_and_rig_paths_follow_the_same_rules() {
     s.assert_out_holds(&["x.prt"]);
 }
 
-/// Hostile alpha inputs (issue 30): a cutoff outside [0, 1], a missing or corrupt base colour
+/// Hostile alpha inputs: a cutoff outside [0, 1], a missing or corrupt base colour
 /// (alpha) texture in glTF, a missing or corrupt OBJ `map_d`: each a bad-input error that
 /// names the file and the problem, never a crash or an opaque bake.
 #[test]

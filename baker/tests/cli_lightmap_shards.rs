@@ -1,4 +1,4 @@
-//! Texel (lightmap) bakes in shards and checkpoints (docs/distributed.md, "Lightmap bakes"):
+//! Texel (lightmap) bakes in shards and checkpoints (docs/guides/clusters.md, "Lightmap bakes"):
 //! `bake --lightmap RES --shard K/N`, `merge`, and `bake --lightmap RES --checkpoint DIR`,
 //! through the real `prt-bake` binary. The oracle is the whole bake: the merge of the parts,
 //! and a checkpointed bake killed with SIGKILL and run again, must give its file byte for byte.

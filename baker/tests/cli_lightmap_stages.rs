@@ -1,4 +1,4 @@
-//! Texel bakes distributed stage by stage (docs/distributed.md, "Stages"): `prepare-lightmap`
+//! Texel bakes distributed stage by stage (docs/guides/clusters.md, "Stages"): `prepare-lightmap`
 //! once, `bake --shard K/N --prepared`, `merge --direct`, per bounce `gather` per shard and
 //! `merge --lower`; `factor-seams` once, then the last merge `--factor` (stitching with it), or
 //! `--unstitched` and `stitch --columns J/M --factor` per shard and `stitch --join`. The

@@ -15,7 +15,7 @@ const FLOOR: &str = "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nvn 0 0 1\nf 1//1 2/
 const FLOOR_VERTICES: usize = 4;
 const FLOOR_TRIANGLES: usize = 2;
 
-/// The issue's example rig, verbatim.
+/// An example rig with every directional key, verbatim.
 const DIRECTIONAL_RIG: &str = r#"[[light]]
 kind = "directional"            # constant | directional | sun | sphere | hemisphere | environment
 direction = [0.3, 0.4, 0.866]   # world-space vector pointing toward the light

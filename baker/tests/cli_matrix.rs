@@ -1,4 +1,4 @@
-//! End-to-end tests of `prt-bake bake --transfer matrix` (docs/glossy.md): the header's
+//! End-to-end tests of `prt-bake bake --transfer matrix` (docs/guides/glossy.md): the header's
 //! transfer kind in `inspect`, the `transfer_matrix` array of `export --npz`, the commands
 //! that refuse a matrix bake, and the options matrix bakes do not support.
 
@@ -70,7 +70,7 @@ fn a_matrix_bake_is_inspected_exported_and_refused_where_unsupported() {
         }
     }
 
-    // glTF export takes a matrix bake only compressed (docs/gltf.md, "Glossy transfer"), and
+    // glTF export takes a matrix bake only compressed (docs/reference/gltf.md, "Glossy transfer"), and
     // says how to compress it.
     let refusal = "an uncompressed transfer-matrix bake (256 floats per vertex";
     s.run(&[

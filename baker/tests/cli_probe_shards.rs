@@ -1,4 +1,4 @@
-//! Probe bakes in parts (docs/probes.md, "Shards and checkpoints"): `bake --probes --shard`,
+//! Probe bakes in parts (docs/guides/probes.md, "Shards and checkpoints"): `bake --probes --shard`,
 //! `merge`, and `bake --probes --checkpoint`, through the real `prt-bake` binary. The oracle
 //! is the single-machine probe bake: a merge of every shard's part, and a checkpointed bake
 //! interrupted and run again, must give the same file byte for byte, shadowed and

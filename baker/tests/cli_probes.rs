@@ -1,4 +1,4 @@
-//! End-to-end tests of `prt-bake bake --probes` (docs/probes.md): a grid and a list of points,
+//! End-to-end tests of `prt-bake bake --probes` (docs/guides/probes.md): a grid and a list of points,
 //! `inspect`'s probe block, the arrays of `export --npz`, bit-identical files for any thread
 //! count, and the errors: a bad points file (file and line), an odd `--samples`, options that
 //! do not apply, and the commands that refuse a probe file.

@@ -1,4 +1,4 @@
-//! `prt-bake bake --materials` (issue 31): a translucent cube's bake is RGB and glows, a bad
+//! `prt-bake bake --materials`: a translucent cube's bake is RGB and glows, a bad
 //! materials file is refused with its file, line and key (exit 3), and what subsurface bakes
 //! do not support yet is refused as usage (exit 2), with nothing written. Texel bakes
 //! (`--lightmap`) of translucent materials work as vertex bakes do.

@@ -34,7 +34,7 @@
 //! (`make fuzz`, which also runs 20 times the mutants: the exploring campaign, whose findings
 //! are saved into the corpus and so join the gate). Every seed is printed before its run
 //! (`fuzz: seed 0x…`). The counts of a run with [`TABLE_SEED`] are the table of
-//! `docs/robustness.md`, which this test checks at `make test`'s mutant count (with
+//! `docs/explanation/robustness.md`, which this test checks at `make test`'s mutant count (with
 //! `PRT_FUZZ_BLESS=1` it rewrites the table after a parser changed); any other seed checks
 //! everything else (no panic, hang, over-allocation or accepted corruption) and prints its
 //! table. `PRT_FUZZ_CASES=N` sets the mutants per parser and seed.
@@ -66,12 +66,12 @@ const MAX_MEMORY: u64 = 64 << 20;
 const ALLOCATION_CAP: usize = 256 << 20;
 /// Longer than any case takes on a loaded machine (they take well under 10 ms).
 const CASE_TIME_LIMIT: Duration = Duration::from_secs(10);
-/// The seed of the table in `docs/robustness.md` (the seed every run used before runs drew
+/// The seed of the table in `docs/explanation/robustness.md` (the seed every run used before runs drew
 /// their own, so the parsers without structured cases keep their counts).
 const TABLE_SEED: u64 = 0x5eed_0000;
 
 /// The seeds `make test` runs, in order: the table's seed, the seed of the drawn run that found
-/// the EXR block-size crash (docs/robustness.md), and one more fixed seed.
+/// the EXR block-size crash (docs/explanation/robustness.md), and one more fixed seed.
 const GATE_SEEDS: [u64; 3] = [TABLE_SEED, 0x2d7c_19e3_4b5d_ec1a, 0x5eed_0001];
 
 /// This run's seeds: `PRT_FUZZ_SEED` (decimal or `0x` hex) to replay one, `random` to draw a
@@ -1294,12 +1294,12 @@ fn fuzz_every_parser(
     (table, failures)
 }
 
-/// The table in docs/robustness.md must be this run's (PRT_FUZZ_BLESS=1 rewrites it).
+/// The table in docs/explanation/robustness.md must be this run's (PRT_FUZZ_BLESS=1 rewrites it).
 fn check_docs_table(table: &str) {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/robustness.md");
-    let doc = std::fs::read_to_string(&path).expect("docs/robustness.md");
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/explanation/robustness.md");
+    let doc = std::fs::read_to_string(&path).expect("docs/explanation/robustness.md");
     let (Some(begin), Some(end)) = (doc.find(TABLE_BEGIN), doc.find(TABLE_END)) else {
-        panic!("docs/robustness.md lacks the fuzz table markers");
+        panic!("docs/explanation/robustness.md lacks the fuzz table markers");
     };
     let current = doc[begin + TABLE_BEGIN.len()..end].trim();
     if current == table {
@@ -1311,7 +1311,7 @@ fn check_docs_table(table: &str) {
         return;
     }
     panic!(
-        "docs/robustness.md's fuzz table is not this run's (a parser changed what it accepts?); \
+        "docs/explanation/robustness.md's fuzz table is not this run's (a parser changed what it accepts?); \
          if the change is intended, rewrite the table with \
          `PRT_FUZZ_BLESS=1 cargo test --release -p prt-baker --test fuzz` and commit it.\n\
          docs:\n{current}\nthis run:\n{table}"

@@ -1,4 +1,4 @@
-//! Instancing (issue 30): a glTF mesh placed at many nodes that do not receive is traced
+//! Instancing: a glTF mesh placed at many nodes that do not receive is traced
 //! through instances. The oracles: a ground under 100 instanced trees (turned, scaled, some
 //! mirrored) bakes as the flattened scene does, up to rounding, on both backends; closest
 //! hits through instances are the flattened scene's (distance, world normal); Embree and
@@ -353,8 +353,8 @@ fn closest_hits_through_instances_are_the_flattened_scenes() {
 
 /// Many instances of one mesh: each costs its transform, not a copy of the mesh, so the
 /// memory check counts instances (and refuses them under a small --max-memory, naming
-/// them) rather than flattened triangles. (200,000 rather than issue 30's 10⁶ to keep
-/// `make test` fast: writing and parsing the JSON is what takes the time; docs/scenes.md
+/// them) rather than flattened triangles. (200,000 rather than the 10⁶ a production forest has, to keep
+/// `make test` fast: writing and parsing the JSON is what takes the time; docs/guides/production-assets.md
 /// has the 10⁶ run.)
 #[test]
 fn many_instances_are_counted_as_instances() {

@@ -1,4 +1,4 @@
-"""Compares the add-on's "PRT" with the CLI's export of the same scene (issue 33's test).
+"""Compares the add-on's "PRT" with the CLI's export of the same scene (make blender-addon's check).
 
     python compare_cli.py OUT_DIR [--max-mean 0.03] [--min-correlation 0.98]
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# make blender-addon: the Blender add-on (runtime/blender/prt_bake, issue 33) in Blender 4.5
+# make blender-addon: the Blender add-on (runtime/blender/prt_bake) in Blender 4.5
 # LTS (bpy in target/blender/venv, installed by `make blender`, scripts/blender/run.sh).
 #
 # Packs the add-on (make_zip.py), installs it from the zip into a throw-away Blender user

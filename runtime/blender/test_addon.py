@@ -378,7 +378,7 @@ def interreflected(objects, a, arrays):
 def world_light(module, a):
     """The World as the light. A uniform colour: a constant sky, c_00 = L·sqrt(4π) per
     channel and nothing else. An equirectangular .exr: a bright patch at u = 0.25 (Blender's
-    +Y, docs/lights.md) and 31° above the horizon, whose band-1 coefficients point at it
+    +Y, docs/reference/lights.md) and 31° above the horizon, whose band-1 coefficients point at it
     (y_1,-1, y_1,0, y_1,1 ∝ -y, z, -x with the Condon–Shortley phase). Other nodes refused."""
     light = sys.modules[module + ".light"]
     errors = sys.modules[module + ".errors"]

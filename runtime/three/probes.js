@@ -1,4 +1,4 @@
-// Transfer probes in the browser (docs/probes.md): a probe bake (`prt-bake bake SCENE
+// Transfer probes in the browser (docs/guides/probes.md): a probe bake (`prt-bake bake SCENE
 // --probes grid:NX,NY,NZ -o probes.prt`) read as it is, and the light a rigid object moving
 // through the scene receives where it stands.
 //

@@ -1,4 +1,4 @@
-// prt.js: relight prt-bake's glTF exports in three.js (docs/gltf.md, "Relighting in three.js").
+// prt.js: relight prt-bake's glTF exports in three.js (docs/reference/gltf.md, "Relighting in three.js").
 //
 // An ES module with no build step; `three` is imported by its bare name (an import map in the
 // page names the file). Per vertex or per texel, grey or RGB transfer, any order:
@@ -21,7 +21,7 @@ import { EXRLoader } from 'three/addons/loaders/EXRLoader.js';
 import { GLTF_TO_Z_UP, coeffCount, lightFromJSON, lightOfOrder, rotateLight } from './sh.js';
 
 export { lightFromJSON, rotateLight, shRotation, axisAngle, multiply3, Z_UP_TO_GLTF, GLTF_TO_Z_UP } from './sh.js';
-// Transfer probes and rigid objects that move through them (docs/probes.md).
+// Transfer probes and rigid objects that move through them (docs/guides/probes.md).
 export { parseProbes, loadProbes, probeWeights, probeIncident, probeLightAt, probeLightForObject, lightProbeCoefficients } from './probes.js';
 
 /**
@@ -93,7 +93,7 @@ export async function loadLightmapTransfer(manifestUrl) {
  * A CPCA-compressed bake's clusters (the export of a `prt-bake compress` file): the means and
  * principal components that `asset.extras.prt.cpca` names, read from the file's buffer.
  * `gltf` is GLTFLoader's result. Resolves to { clusters, pcs, dim, order, channels, means,
- * bases } (Float32Arrays, layout as docs/gltf.md says), or null when the file has none.
+ * bases } (Float32Arrays, layout as docs/reference/gltf.md says), or null when the file has none.
  */
 export async function loadCompressedTransfer(gltf) {
   const cpca = gltf?.parser?.json?.asset?.extras?.prt?.cpca;
@@ -374,8 +374,8 @@ function relitMaterials(object, uniforms, patch, perVertex, key, clamp) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Glossy PRT: a CPCA-compressed transfer-matrix bake (docs/gltf.md, "Glossy transfer";
-// docs/glossy.md for the formula). Per vertex and channel c, with L′ = M·L_c its shadowed
+// Glossy PRT: a CPCA-compressed transfer-matrix bake (docs/reference/gltf.md, "Glossy transfer";
+// docs/guides/glossy.md for the formula). Per vertex and channel c, with L′ = M·L_c its shadowed
 // incident radiance (n² coefficients),
 //
 //   radiance_c = albedo_c · w · Σ_lm ĝ_l(1) L′_lm y_lm(n)  +  ks_c · Σ_lm ĝ_l(s) L′_lm y_lm(r)

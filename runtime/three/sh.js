@@ -1,6 +1,6 @@
 // Spherical-harmonic lights for prt.js, without three.js (so node can test it on its own).
 //
-// Conventions (the baker's, docs/gltf.md): real orthonormal SH, coefficient (l, m) at index
+// Conventions (the baker's, docs/reference/gltf.md): real orthonormal SH, coefficient (l, m) at index
 // l(l+1)+m, θ from +z, φ from +x towards +y, Condon–Shortley phase (y_1^1 = −0.488603·x).
 // A light is { order, rgb: [Float64Array(n²) × 3] }.
 

@@ -6,9 +6,9 @@
 //!   plus the texture seams: 120 × 90 vertices), tilted and resting on a floor, in a corner of
 //!   two walls; the three planes have 30 × 30 vertices each, 2,700 in all. Thesis scene-file
 //!   format, TGA textures. `torus/glossy.scene` is the same scene with the torus glossy
-//!   (`torus-glossy.obj`, the same mesh with an MTL Phong layer: issue 20's glossy demo).
+//!   (`torus-glossy.obj`, the same mesh with an MTL Phong layer: the glossy demo).
 //!   `torus/translucent.scene` adds a wax sphere (`wax.obj`) whose medium is in
-//!   `translucent.toml` (issue 31's subsurface demo).
+//!   `translucent.toml` (the subsurface demo).
 //! * `cornell/`: a Cornell-box-like room open at the front and the top (so distant light gets
 //!   in): white floor and back wall, red left wall, green right wall (the original box's
 //!   reflectances), a short and a tall white box. Materials in MTL, no textures.
@@ -238,9 +238,9 @@ pub fn torus_scene(dir: &Path) -> std::io::Result<()> {
     )
 }
 
-/// The glossy demo of issue 20 (`glossy.scene`): the same torus and planes, the torus with a
+/// The glossy demo (`glossy.scene`): the same torus and planes, the torus with a
 /// Phong layer from `torus-glossy.mtl` (Ks 0.25, Ns 24: at the order-4 matrix bakes it is
-/// shown with, sharper lobes lose their shape to the band limit, see docs/glossy.md). The
+/// shown with, sharper lobes lose their shape to the band limit, see docs/guides/glossy.md). The
 /// scene file cannot reach into another folder, so the torus is written again, with a
 /// `mtllib`; the planes and textures are shared.
 fn glossy_torus(dir: &Path, torus: &Mesh) -> std::io::Result<()> {
@@ -253,19 +253,19 @@ fn glossy_torus(dir: &Path, torus: &Mesh) -> std::io::Result<()> {
     std::fs::write(
         dir.join("torus-glossy.mtl"),
         "# A diffuse base (times torus.tga, which glossy.scene gives) under a Phong lobe:\n\
-         # Ks is the fraction the lobe reflects, Ns its exponent (docs/glossy.md).\n\
+         # Ks is the fraction the lobe reflects, Ns its exponent (docs/guides/glossy.md).\n\
          newmtl glossy\nKd 0.75 0.75 0.75\nKs 0.25 0.25 0.25\nNs 24\n",
     )?;
     std::fs::write(
         dir.join("glossy.scene"),
-        "# The thesis's demo scene with a glossy torus (issue 20): bake it with\n\
+        "# The thesis's demo scene with a glossy torus: bake it with\n\
          # `prt-bake bake glossy.scene --transfer matrix` and view it in prt-view.\n\
          \"torus-glossy.obj\" \"torus.tga\"\n\
          \"planes.obj\" \"checker.tga\"\n",
     )
 }
 
-/// The subsurface demo of issue 31 (`translucent.scene`, docs/subsurface.md): the torus
+/// The subsurface demo (`translucent.scene`, docs/guides/subsurface.md): the torus
 /// scene with a wax sphere beside the torus, whose medium `translucent.toml` gives
 /// (`prt-bake bake translucent.scene --materials translucent.toml`).
 fn translucent_sphere(dir: &Path) -> std::io::Result<()> {
@@ -284,7 +284,7 @@ fn translucent_sphere(dir: &Path) -> std::io::Result<()> {
     )?;
     std::fs::write(
         dir.join("translucent.toml"),
-        "# The wax sphere's medium (docs/subsurface.md): per scene unit, R G B.\n\
+        "# The wax sphere's medium (docs/guides/subsurface.md): per scene unit, R G B.\n\
          [material.wax.subsurface]\n\
          # σt = σs′ + σa is 8 in every channel, so the three channels share their walks.\n\
          scattering = [7.96, 7.76, 6.8]  # reduced scattering coefficient σs′\n\
@@ -293,7 +293,7 @@ fn translucent_sphere(dir: &Path) -> std::io::Result<()> {
     )?;
     std::fs::write(
         dir.join("translucent.scene"),
-        "# The thesis's demo scene with a translucent wax sphere (issue 31): bake it with\n\
+        "# The thesis's demo scene with a translucent wax sphere: bake it with\n\
          # `prt-bake bake translucent.scene --materials translucent.toml`.\n\
          \"torus.obj\" \"torus.tga\"\n\
          \"planes.obj\" \"checker.tga\"\n\

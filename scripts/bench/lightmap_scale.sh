@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# How texel bakes scale (issue 34 part 4; `scripts/bench-large.sh --scale`, not part of
+# How texel bakes scale (`scripts/bench-large.sh --scale`, not part of
 # `make test`): for each terrain size × lightmap resolution, the whole texel bake shadowed and
 # interreflected, the vertex bake of the same mesh, the raw Embree rate of the same rays
 # (baker/benches/large.rs), and for each shard count N the staged pipeline that
@@ -8,12 +8,12 @@
 # with SCALE_STITCH_SHARDS=M, the last merge --unstitched, M stitch column shards and stitch
 # --join) run one after another here, its summed CPU against the whole bake's and its file compared byte for byte
 # with the whole bake's. Every process runs under /usr/bin/time -v: wall, CPU (user + system)
-# and peak RSS. Prints a table per cell, then the per-texel figures docs/distributed.md's
+# and peak RSS. Prints a table per cell, then the per-texel figures docs/guides/clusters.md's
 # 16-node plan is built from, and leaves every figure in $SCALE_OUT/results.tsv.
 #
 #   scripts/bench/lightmap_scale.sh
 #
-# Environment (defaults: the issue's matrix, 1 M and 4 M triangles × 2048² and 4096²):
+# Environment (defaults: the full matrix, 1 M and 4 M triangles × 2048² and 4096²):
 #   PRT_BAKE         the binary (default target/release/prt-bake)
 #   SCALE_QUADS      terrain quads per side, a list (708 1415: 1,002,528 and 4,004,450 triangles)
 #   SCALE_RES        lightmap resolutions, a list (2048 4096)

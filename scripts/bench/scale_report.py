@@ -2,14 +2,14 @@
 """Tables from scripts/bench/lightmap_scale.sh's results.tsv: per cell the runs' wall, CPU and
 peak memory, their ray rates per CPU-second against the vertex bake and raw Embree, the staged
 pipelines' summed CPU against the whole bake, and the per-texel figures that
-docs/distributed.md's 16-node plan multiplies out.
+docs/guides/clusters.md's 16-node plan multiplies out.
 
     scale_report.py RESULTS.tsv [--cell QUADS:RES] [--threads T]
     scale_report.py RESULTS.tsv --plan RES [--nodes N] [--cores T] [--triangles M] [--fill F]
                     [--samples S] [--gbps G]
 
 --plan multiplies the per-texel figures of the largest measured cell's staged pipelines out to
-a RES² lightmap on N nodes of T cores (docs/distributed.md, "Plan: 8192² on 16 nodes"): each
+a RES² lightmap on N nodes of T cores (docs/guides/clusters.md, "Plan: 8192² on 16 nodes"): each
 array stage's per-task CPU is fitted as a + b/N over the measured shard counts (a: what every
 task repeats, per lightmap texel; b: what divides, per baked texel), the merges per lightmap
 texel, scene loading per triangle; wall = CPU / T for the array stages (ray casting and

@@ -7,7 +7,7 @@ the texels that triangles of two objects share in prt-bake's atlas.
 OUT_DIR is make_scene.py's (scene.glb, ao_<Name>.f32, cycles.json). Objects are found in
 the GLB (default scene's nodes depth first, as prt-bake orders them); their triangles' atlas
 UVs are BAKE.prt's; the texels shared are counted in that atlas and, for the "before"
-figure, in the GLB's TEXCOORD_1 used as one atlas, as prt-bake used it before issue 23. For every baked texel whose centre lies inside a triangle of the object
+figure, in the GLB's TEXCOORD_1 used as one atlas, as prt-bake used it before it packed objects' UVs apart. For every baked texel whose centre lies inside a triangle of the object
 (so prt-bake's sample point is the centre), the object's own lightmap UV there is
 (atlas uv - offset) / scale (the file's per-object placement), and Cycles' image is read
 bilinearly at it (Blender's image row 0 is v = 0, as the .prt's UVs). Reported per object:

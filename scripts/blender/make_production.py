@@ -1,4 +1,4 @@
-"""Builds the production-style courtyard (issue 30, item 7) in Blender the way an artist
+"""Builds the production-style courtyard in Blender the way an artist
 would, exports it as a GLB, and bakes Cycles' own ambient occlusion of the ground and the
 normal-mapped wall into their lightmap UVs.
 

@@ -1,4 +1,4 @@
-"""Builds the issue-23 scene in Blender (bpy 4.5 LTS as a Python module), exports it as a
+"""Builds the per-object lightmap UV scene in Blender (bpy 4.5 LTS as a Python module), exports it as a
 GLB and bakes Cycles' own ambient occlusion of chosen objects into their lightmap UVs.
 
     python make_scene.py OUT_DIR [--res 256] [--samples 256] [--ao Floor,Suzanne]

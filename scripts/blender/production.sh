@@ -2,7 +2,7 @@
 # make blender-production: the production-style courtyard (scenes/production/courtyard.glb:
 # alpha-cut foliage cards, a normal-mapped wall, linked-duplicate crates), made in Blender by
 # make_production.py, baked per texel by prt-bake and checked against Cycles' own AO bake
-# (issue 30, item 7; docs/scenes.md, "The production courtyard").
+# (docs/guides/production-assets.md, "The production courtyard").
 #
 # 1. Blender rebuilds the scene, exports the GLB (check_glb.py: it must equal the committed
 #    one, and have cut-out cards, a normal map with tangents, a shared mesh) and bakes Cycles' AO of the ground and the wall into their Lightmap UVs.

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # make blender: a Blender-made glTF with per-object lightmap UVs, baked per texel, against
-# Blender Cycles' own AO bake (issue 23; docs/lightmaps.md, "Against Blender Cycles").
+# Blender Cycles' own AO bake (docs/guides/lightmaps.md, "Against Blender Cycles").
 #
 # Installs Blender 4.5 LTS as a Python module (PyPI `bpy`, about 370 MB, with NumPy) into
 # target/blender/venv if it is missing there, builds Suzanne, a cube and a floor with Smart UV

@@ -1,4 +1,4 @@
-// Compiles every ```glsl block of docs/gltf.md with glslangValidator (Debian glslang-tools):
+// Compiles every ```glsl block of docs/reference/gltf.md with glslangValidator (Debian glslang-tools):
 // a block with gl_Position is a vertex shader, any other a fragment shader; each must be
 // GLSL ES 3.00 (#version 300 es). Any error fails.
 //   node scripts/browser/glsl-snippets.mjs DOC OUT

@@ -1,4 +1,4 @@
-// The moving-object browser test (make browser; docs/probes.md, "A moving object"): a small
+// The moving-object browser test (make browser; docs/guides/probes.md, "A moving object"): a small
 // grey ball baked alone is moved along a path through the Cornell room and lit in Chromium by
 // runtime/three/prt.js from the room's interreflected probe grid (probeLightForObject: the
 // grid's incident radiance at the ball's position, turned into its frame). At each of four

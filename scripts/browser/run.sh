@@ -6,7 +6,7 @@
 # into target/node at pinned versions, as scripts/gltf/validate.sh installs gltf-validator;
 # the page gets three.js from there through a static server on 127.0.0.1, and no other
 # address is reached. Also checks prt.js's SH rotation against prt-bake light --up, and
-# compiles docs/gltf.md's GLSL ES snippets with glslangValidator.
+# compiles docs/reference/gltf.md's GLSL ES snippets with glslangValidator.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/../.."
 # shellcheck source=scripts/browser/node-deps.sh
@@ -19,13 +19,13 @@ cargo build --release --workspace # make build's features: -p prt-baker alone re
 rm -rf "$OUT"
 mkdir -p "$OUT"
 command -v glslangValidator >/dev/null || { echo "browser: glslangValidator is missing (scripts/install-deps.sh installs glslang-tools)" >&2; exit 2; }
-node scripts/browser/glsl-snippets.mjs docs/gltf.md "$OUT/glsl"
+node scripts/browser/glsl-snippets.mjs docs/reference/gltf.md "$OUT/glsl"
 node scripts/browser/sh-test.mjs target/release/prt-bake "$OUT"
 node scripts/browser/probe-test.mjs target/release/prt-bake "$OUT"
 # A rigid object moving through the Cornell room's probes, lit by prt.js in Chromium, against
-# relight at probes baked exactly at its positions (docs/probes.md).
+# relight at probes baked exactly at its positions (docs/guides/probes.md).
 node scripts/browser/probe-move.mjs "$NODE_DIR/node_modules" target/release/prt-bake "$OUT"
 node scripts/browser/test.mjs "$NODE_DIR/node_modules" target/release/prt-bake "$OUT"
-# Glossy PRT (issue 33): a CPCA-compressed transfer-matrix export relit by prt.js against
+# Glossy PRT: a CPCA-compressed transfer-matrix export relit by prt.js against
 # prt-bake relight --view from three camera positions.
 node scripts/browser/glossy.mjs "$NODE_DIR/node_modules" target/release/prt-bake "$OUT"

@@ -1,5 +1,5 @@
 // Validates glTF files with the Khronos glTF-Validator (npm package `gltf-validator`) and
-// exits 1 if any has an error. Also checks prt-bake's own promises (docs/gltf.md): every
+// exits 1 if any has an error. Also checks prt-bake's own promises (docs/reference/gltf.md): every
 // texture is named by a material slot; a texel bake's relit lightmap is every material's
 // unlit baseColorTexture on TEXCOORD_1; AO is an occlusionTexture on TEXCOORD_1 or `_AO`.
 // Usage: node validate.mjs VALIDATOR_MODULE_DIR FILE.glb...
@@ -47,7 +47,7 @@ function layoutProblems(bytes) {
     m.normalTexture, m.pbrMetallicRoughness?.metallicRoughnessTexture].filter(Boolean);
   const named = new Set(materials.flatMap((m) => slots(m).map((s) => s.index)));
   (root.textures ?? []).forEach((t, i) => {
-    // A texel bake's albedo texture under a relit lightmap is only in extras (docs/gltf.md).
+    // A texel bake's albedo texture under a relit lightmap is only in extras (docs/reference/gltf.md).
     const albedoOnly = materials.some((m) => m.extras?.prt_albedo_texture?.index === i);
     if (!named.has(i) && !albedoOnly) problems.push(`texture ${i} (${t.name ?? "unnamed"}) is in no material slot`);
   });

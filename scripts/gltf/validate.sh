@@ -46,7 +46,7 @@ $BAKE bake scenes/cornell/cornell.scene -o "$OUT/cornell-cpca.prt" --samples 16 
 $BAKE export "$OUT/cornell-cpca.prt" --scene scenes/cornell/cornell.scene --glb "$OUT/cornell-cpca.glb" \
     --lights viewer/src/default-rig.toml
 # A compressed transfer-matrix (glossy) bake: matrices in the clusters, each material's lobe in
-# extras.prt_glossy (issue 33).
+# extras.prt_glossy.
 $BAKE bake scenes/torus/glossy.scene -o "$OUT/glossy-cpca.prt" --transfer matrix --order 2 --samples 16 \
     --clusters 16 --pcs 4 --quiet
 $BAKE export "$OUT/glossy-cpca.prt" --scene scenes/torus/glossy.scene --glb "$OUT/glossy-cpca.glb" \

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Interreflected bakes against Mitsuba 3, an independent path tracer (issue 22, item 1).
+"""Interreflected bakes against Mitsuba 3, an independent path tracer.
 
 Mitsuba traces the rays (its own BVH, variant llvm_ad_rgb); the light transport is a plain
 diffuse path loop written here: from a receiver point, cosine-weighted directions about its
@@ -385,7 +385,7 @@ def main():
                           other[idx], ref, se, bounces)
             if name == "cornell" and kind == "vertex":
                 # The box sides' bottom edges, where a vertex sits on the floor: reported, not
-                # checked (docs/lightmaps.md: the floor strip between the box and the next
+                # checked (docs/guides/lightmaps.md: the floor strip between the box and the next
                 # floor vertex reads that vertex's light, brighter than the contact shadow).
                 edge = pick(select(pos, nrm, margin, contact=True), args.points, seed=7)
                 ref, se = reference(mi, dr, geometry, ray_origins(pos[edge], nrm[edge]),

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Interreflected transfer probes against Mitsuba 3 (issue 32, item 5).
+"""Interreflected transfer probes against Mitsuba 3.
 
 At a few points in the Cornell room (scenes/cornell: open at the front and the top) under a
 constant white sky of radiance 1, the probe bake's incident radiance L_in = M·L (L = the sky's
@@ -14,7 +14,7 @@ at the six axis normals ±x, ±y, ±z,
 addition theorem). A probe holds L_in's projection on the first n² functions, nothing else, so
 its Ẽ is exact up to Monte Carlo noise, while the true irradiance E(n) (the full clamped
 cosine) differs by the lobe's bands l ≥ n, a bias of its own: printed, not checked
-(docs/probes.md). Raw radiance along a direction would carry every band the probe lacks.
+(docs/guides/probes.md). Raw radiance along a direction would carry every band the probe lacks.
 
 The reference: from the probe, directions ω uniform over the sphere; a ray that escapes sees
 the sky (radiance 1); one that hits a front face continues from the hit with the throughput

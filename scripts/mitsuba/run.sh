@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Interreflected bakes against Mitsuba 3 (scripts/mitsuba/mitsuba_reference.py; issue 22):
+# Interreflected bakes against Mitsuba 3 (scripts/mitsuba/mitsuba_reference.py):
 # installs Mitsuba 3 and NumPy from PyPI into target/mitsuba-venv if they are missing there,
 # builds the release baker and runs the comparison. Extra arguments go to the script.
 #

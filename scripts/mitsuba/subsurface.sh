@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Subsurface transfer against Mitsuba 3's volumetric path tracer (issue 31): regenerates the
+# Subsurface transfer against Mitsuba 3's volumetric path tracer: regenerates the
 # held-out references (scripts/mitsuba/subsurface_reference.py, variant scalar_rgb, which needs
 # no LLVM) into target/subsurface-references and runs tests/subsurface.rs against them instead
 # of the committed table. Mitsuba and NumPy come from PyPI into target/mitsuba-venv, as for

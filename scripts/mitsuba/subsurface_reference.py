@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Subsurface references from Mitsuba 3's volumetric path tracer (issue 31, item 4).
+"""Subsurface references from Mitsuba 3's volumetric path tracer.
 
 Writes the held-out translucent objects (tests/data/subsurface/*.obj) and, for each object
 and boundary index, the radiance Mitsuba's `volpath` (variant scalar_rgb: llvm_ad_rgb aborted

@@ -31,7 +31,7 @@ holds what `inspect` prints, f.cpca the stored means (K, D), bases (K, M, D), cl
 indices (V,) and weights (V, M), D = channels × n² floats per receiver, n⁴ for matrices).
 A shard part (`prt-bake bake --shard`)
 is refused: combine the parts with `prt-bake merge` first. The checks are
-docs/coefficient-format.md's ("What a reader must check"), in the reference reader's
+docs/reference/coefficient-format.md's ("What a reader must check"), in the reference reader's
 order (baker/src/coefficient_file.rs); a file that fails one raises PrtError with the
 reason. Copy this file anywhere: it needs only NumPy.
 """
@@ -194,7 +194,7 @@ def parse_prt(b):
     if aux & AUX_RECEIVERS:
         if lightmap is not None:
             raise PrtError("a receiver section (aux bit 4) in a texel bake (only vertex bakes have one)")
-        # The section: u32 object count, u32 K, K u32 indices (docs/coefficient-format.md).
+        # The section: u32 object count, u32 K, K u32 indices (docs/reference/coefficient-format.md).
         receiver_section = payload - needed
         if receiver_section < 8 or receiver_section % 4:
             raise PrtError(f"the receiver section has {receiver_section} bytes (8 + 4 per receiving object)")

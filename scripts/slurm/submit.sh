@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Bakes a scene on a Slurm cluster: an array job of N shards, then a merge job that runs when
-# every shard has succeeded (--dependency=afterok). docs/distributed.md explains it.
+# every shard has succeeded (--dependency=afterok). docs/guides/clusters.md explains it.
 #
 #   scripts/slurm/submit.sh [--wait] [--stages [--stitch-shards M]] SCENE OUT.prt N [bake options…]
 #
@@ -16,7 +16,7 @@
 #             with --stages, M >= 1: the last merge writes the file unstitched, then an array
 #             of M `stitch --columns --factor` tasks and a `stitch --join` (for lightmaps
 #             whose seam solve is large); 0: the last merge factors and stitches itself, with
-#             no factor job (docs/distributed.md)
+#             no factor job (docs/guides/clusters.md)
 #
 # Environment:
 #   PRT_BAKE        the prt-bake binary the nodes run (default: target/release/prt-bake of this

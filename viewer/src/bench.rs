@@ -24,7 +24,7 @@
 //! Nothing is timed until every configuration is warm: [`WARM_UP_ROUNDS`] whole rounds of
 //! untimed blocks run first, so every pipeline has been compiled and used, every buffer
 //! written and every cache filled, in every configuration, before the first timed frame of
-//! any (issue 33: the first configuration used to be timed while later ones still warmed).
+//! any (otherwise the first configuration is timed while later ones still warm up).
 
 use std::time::Instant;
 
@@ -41,7 +41,7 @@ use crate::renderer::{FrameInputs, Renderer};
 
 /// The light counts the thesis measured.
 pub const LIGHT_COUNTS: [usize; 2] = [1, 8];
-/// Targets of issue 6: PRT's frame rate barely changes with the number of lights, and PRT is
+/// The targets: PRT's frame rate barely changes with the number of lights, and PRT is
 /// at least as fast as Blinn-Phong with 8 lights.
 pub const PRT_LIGHT_RATIO_TARGET: f64 = 0.95;
 pub const PRT_OVER_PHONG_TARGET: f64 = 1.0;

@@ -2,7 +2,7 @@
 //!
 //! The viewer asks for Vulkan and GL only. On machines without a GPU, Mesa provides both in
 //! software (lavapipe for Vulkan, llvmpipe for GL), which is what the tests and the benchmark
-//! in `docs/performance.md` run on. `WGPU_BACKEND` and the other wgpu environment variables
+//! in `docs/explanation/performance.md` run on. `WGPU_BACKEND` and the other wgpu environment variables
 //! still override the choice.
 
 use crate::error::{Error, Result};

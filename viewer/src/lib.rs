@@ -4,7 +4,7 @@
 //! # PRT on the GPU
 //!
 //! A vertex's outgoing radiance is albedo × Σ_j T_j·L_j per colour channel (see
-//! `docs/lights.md`). The thesis evaluated the dot product on the CPU for every vertex and
+//! `docs/reference/lights.md`). The thesis evaluated the dot product on the CPU for every vertex and
 //! frame, so its frame rate fell with every light it summed. Here the lights are summed and
 //! rotated on the CPU once per frame (n² coefficients per channel, whatever the number of
 //! lights), and the vertex shader does the per-vertex dot product, reading the transfer from a

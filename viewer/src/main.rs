@@ -27,7 +27,7 @@ const EXIT_BAD_INPUT: u8 = 3;
     about = "Real-time viewer of PRT bakes: PRT against Blinn-Phong, with the thesis's controls",
     after_help = "Controls: arrows move, left-drag turns, 1-8 select a light, Q/A its theta, W/E its phi, \
                   T textures, N normals, L light vectors, P probes, F1 Blinn-Phong, F2 PRT, Escape quits.\n\n\
-                  Moving objects (docs/probes.md): --probes PROBES.prt (a grid bake of the scene, \
+                  Moving objects (docs/guides/probes.md): --probes PROBES.prt (a grid bake of the scene, \
                   `prt-bake bake SCENE --probes grid:NX,NY,NZ`) draws the probes as spheres showing \
                   their incident radiance; --mover OBJECT --mover-prt OBJECT.prt --path \"x,y,z;x,y,z\" \
                   moves an object baked alone along the path, lit through the probes."
@@ -37,7 +37,7 @@ struct Cli {
     scene: PathBuf,
     /// The .prt coefficient file.
     file: PathBuf,
-    /// Light rig (TOML, docs/lights.md); a sun and a sky if not given.
+    /// Light rig (TOML, docs/reference/lights.md); a sun and a sky if not given.
     #[arg(long, value_name = "RIG.toml")]
     lights: Option<PathBuf>,
     /// Render one frame without a display (needs --screenshot).

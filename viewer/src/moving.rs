@@ -1,4 +1,4 @@
-//! A rigid object moving along a path through a probe-baked scene (docs/probes.md), on the
+//! A rigid object moving along a path through a probe-baked scene (docs/guides/probes.md), on the
 //! CPU: where it is at each moment and the radiance of its vertices there.
 //!
 //! The object is baked alone (its own transfer T, its self-shadowing, in its local frame); the

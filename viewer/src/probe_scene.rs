@@ -1,4 +1,4 @@
-//! The transfer probes and the moving object on the GPU (docs/probes.md): drawn into the
+//! The transfer probes and the moving object on the GPU (docs/guides/probes.md): drawn into the
 //! renderer's pass after the scene, depth-tested against it.
 //!
 //! * The moving object ([`Mover`]): its vertices placed and its radiance computed on the

@@ -131,7 +131,7 @@ pub struct PipelineSpec<'a> {
     /// Depth-tested and written (the scene, normals), or drawn over everything.
     pub depth_test: bool,
     pub blend: Option<wgpu::BlendState>,
-    /// Back faces culled: the sheets of a two-sheet surface (docs/scenes.md, "Two-sided
+    /// Back faces culled: the sheets of a two-sheet surface (docs/guides/production-assets.md, "Two-sided
     /// surfaces"), each drawn from its own side only; `None` for everything else.
     pub cull_mode: Option<wgpu::Face>,
 }

@@ -8,7 +8,7 @@
 //! per texel and frame (W·H·C·⌈n²/4⌉ vec4s) instead of four times per pixel (a bilinear
 //! footprint of every layer: 48 loads per pixel for order-4 RGB transfer), and each pixel
 //! reads one filtered sample. On lavapipe, which runs the shaders on the CPU, the loads were
-//! the cost (docs/performance.md, "Per-pixel PRT at Blinn-Phong's cost").
+//! the cost (docs/explanation/performance.md, "Per-pixel PRT at Blinn-Phong's cost").
 //!
 //! The cost moves from the screen's pixels to the lightmap's texels: for a 512² lightmap
 //! at 1280×720, 262,144 texels against 921,600 pixels, once per frame. A 2048² lightmap has

@@ -5,7 +5,7 @@
 //! texel p's channel c as ⌈n²/4⌉ vec4s from vec4 (p·C + c)·⌈n²/4⌉ (an odd order pads each
 //! channel with zeros). A texel's coefficients are then contiguous, and on lavapipe, which
 //! runs shaders on the CPU, a pass reading them as vec4s from a buffer ran 1.7 × faster than
-//! one reading the texture array below (docs/performance.md).
+//! one reading the texture array below (docs/explanation/performance.md).
 //!
 //! **A 2D texture array** otherwise (or when asked for, [`TexelStorage::Array`]): the same vec4s packed four coefficients per RGBA texel, vec4 l of channel c
 //! at layer c·⌈n²/4⌉ + l, texel (x, y), so C·⌈n²/4⌉ layers; row y of every layer is the

@@ -1,4 +1,4 @@
-//! docs/gltf.md's WGSL snippets compile: every ```wgsl block is parsed and validated by naga
+//! docs/reference/gltf.md's WGSL snippets compile: every ```wgsl block is parsed and validated by naga
 //! (the WGSL front end wgpu uses, already in the build through wgpu's `wgsl` feature). The
 //! GLSL ES snippets are compiled by glslangValidator in `make browser`.
 
@@ -24,7 +24,7 @@ fn wgsl_blocks(markdown: &str) -> Vec<String> {
 
 #[test]
 fn gltf_md_wgsl_snippets_compile() {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/gltf.md");
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../docs/reference/gltf.md");
     let markdown = std::fs::read_to_string(path).unwrap_or_else(|err| panic!("{path}: {err}"));
     let blocks = wgsl_blocks(&markdown);
     assert!(!blocks.is_empty(), "{path}: no ```wgsl block");

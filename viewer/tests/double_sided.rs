@@ -1,4 +1,4 @@
-//! A glTF `doubleSided` card lit only from behind, in the viewer (docs/scenes.md, "Two-sided
+//! A glTF `doubleSided` card lit only from behind, in the viewer (docs/guides/production-assets.md, "Two-sided
 //! surfaces"): seen from behind it shows its back sheet, lit; seen from the front, its front
 //! sheet, dark. Each sheet is drawn with back faces culled, so neither hides its twin.
 

@@ -1,4 +1,4 @@
-//! Glossy PRT (issue 20): the glossy torus (`scenes/torus/glossy.scene`) baked as transfer
+//! Glossy PRT: the glossy torus (`scenes/torus/glossy.scene`) baked as transfer
 //! matrices, its per-vertex diffuse and glossy sums read back from the GPU against a CPU
 //! reference computed here from the bake with `prt_baker::math::glossy`, uncompressed and
 //! CPCA-compressed, and its highlight seen to move on screen when the camera moves.

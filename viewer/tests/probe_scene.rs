@@ -1,5 +1,4 @@
-//! A rigid object moving through the Cornell room's transfer probes (docs/probes.md, issue
-//! 32's done-when): at four places on its path (in the short box's shadow, by the red wall,
+//! A rigid object moving through the Cornell room's transfer probes (docs/guides/probes.md): at four places on its path (in the short box's shadow, by the red wall,
 //! in the sun, by the green wall; the ball faces along the path, so each is turned) the viewer's mover, lit through an 8 × 8 × 8 probe grid,
 //! against the same object lit by a probe baked exactly where it stands (a 1 × 1 × 1 grid
 //! around the point) — per vertex on the CPU, and in rendered frames. And the probe spheres'

@@ -8,7 +8,7 @@ use prt_baker::{BakeOptions, Mode};
 use prt_viewer::lights::Lights;
 use prt_viewer::{Camera, FrameInputs, Renderer, View, offscreen, probe};
 
-/// The bound, in linear radiance where 1 is the display's white (exposure 0); the
+/// The bound, in linear radiance where 1 is the display's white (exposure 0); the
 /// display colours (8-bit sRGB, as relight writes them) must also agree within 1 code. The
 /// GPU sums n² f32 products where the CPU sums in f64, so the differences are rounding, far
 /// below either bound.

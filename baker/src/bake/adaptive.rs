@@ -45,7 +45,7 @@
 //! doubled the net. The prediction's rate is a model; the oracle test (`tests/adaptive.rs`)
 //! holds it to the truth (true error ≤ 1.5 E at ≥ 95 % of trials, RMS estimate close to the
 //! RMS true error), and `examples/adaptive_vs_fixed.rs` measures it against fixed bakes
-//! (docs/performance.md).
+//! (docs/explanation/performance.md).
 //!
 //! Every quantity is a pure function of (seed, receiver, sample index), and sums are formed in
 //! a fixed order, so an adaptive bake is bit-identical for any number of threads.

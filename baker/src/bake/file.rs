@@ -102,7 +102,7 @@ impl CoefficientFile {
     }
 
     /// Packages a texel bake of `scene`, its arrays moved, not copied (a 2048² lightmap's
-    /// coefficients alone are 150 MB of fresh memory to copy into, issue 34). Returns the
+    /// coefficients alone are 150 MB of fresh memory to copy into). Returns the
     /// file and the bake's transfer, which no longer holds coefficients.
     pub fn from_lightmap_bake_owned(
         scene: &Scene,

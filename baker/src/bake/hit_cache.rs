@@ -6,7 +6,7 @@
 //! (`bounce_rows::JobRows`: five vectors, scene and targets references and a shared
 //! `Embedded`), each cost a 160-byte struct behind a lock, a second allocation for its 8 row
 //! starts and the rounding of both: about 110 MB beside the 510 MiB of hits, held to the last
-//! bounce (issue 34). A frozen job is one boxed slice of words (16 bytes in the cache's
+//! bounce. A frozen job is one boxed slice of words (16 bytes in the cache's
 //! index, one allocation), and each thread records job after job into the same vectors, so
 //! they grow only once.
 

@@ -168,7 +168,8 @@ pub(crate) enum RowSource<'a> {
 /// here; the merge of shard parts ends in [`sum_bounces`] with the same [`bounce_pass`]: the
 /// same sums of the same floats in the same order, so they agree bit for bit.
 ///
-/// Memory: every bounce holds two receiver-sized arrays, not three (issue 34's 1.5 GB). The
+/// Memory: every bounce holds two receiver-sized arrays, not three (so that a 2048² texel
+/// bake of a million triangles peaks under 1.5 GB). The
 /// slots are built in place from the previous bounce ([`BounceTargets::into_slot_values`]);
 /// bounce 1 in one channel reads T_0 from the total itself, which is given back, bit for bit,
 /// after the gather ([`BounceTargets::from_slot_values`]); and the last bounce is added to
@@ -253,7 +254,8 @@ fn broadcast_t0(t0: Vec<f32>, channels: usize, n: usize) -> (Vec<f32>, Option<Ve
 ///
 /// `bounce` gets the previous bounce to keep or drop: a texel bake drops it once it has
 /// placed it in its lightmap, and in one channel T_0 is the total itself rather than a copy,
-/// so a bounce holds three arrays of the receivers' size, not five (issue 34's 1.5 GB).
+/// so a bounce holds three arrays of the receivers' size, not five (so that a 2048² texel
+/// bake of a million triangles peaks under 1.5 GB).
 pub(crate) fn sum_bounces<E, F>(
     t0: Vec<f32>,
     channels: usize,

@@ -32,7 +32,7 @@
 //! in registers while the batch's rows stream past: 192 multiply-adds per ray at order 4 (the
 //! triangle is n²(n²+1)/2 = 136, the square 256), all in full vectors, and the lower triangle
 //! mirrored at the end. In isolation that is 3–4 times faster than adding each ray's outer
-//! product into memory (docs/performance.md, "Transfer matrices"). A batch in which most rays are
+//! product into memory (docs/explanation/performance.md, "Transfer matrices"). A batch in which most rays are
 //! unblocked is summed as its precomputed total minus its blocked rays (on an open surface,
 //! most are unblocked). Every quantity is a pure function of (seed, receiver, sample
 //! index) summed in a fixed order: bit-identical for any thread count.

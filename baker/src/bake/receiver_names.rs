@@ -64,7 +64,7 @@ pub fn receiver_objects(scene: &Scene, globs: &[String]) -> Result<Option<Vec<u3
 /// The names object `o` answers to: its own, then (glTF) its node's and its ancestors'.
 fn names(scene: &Scene, o: usize) -> Vec<&str> {
     let mut names = vec![scene.objects[o].name.as_str()];
-    // A back sheet is chosen with its front (docs/scenes.md, "Two-sided surfaces").
+    // A back sheet is chosen with its front (docs/guides/production-assets.md, "Two-sided surfaces").
     if let Some(front) = scene.front_of(o) {
         names.push(scene.objects[front].name.as_str());
     }

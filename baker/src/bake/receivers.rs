@@ -80,7 +80,7 @@ impl Receivers {
     /// [`Receivers::texels`], the points moved out of `texels` rather than copied: `texels`
     /// keeps its size and mask, its points are emptied. For a bake that reads no texel point
     /// after this (none but subsurface texels do): a 2048² lightmap's points are 218 MB, and
-    /// an interreflected bake's peak comes later, at its bounces (issue 34's 1.5 GB).
+    /// an interreflected bake's peak comes later, at its bounces, which must stay under 1.5 GB.
     pub fn take_texels(texels: &mut Texels) -> Receivers {
         let valid: Vec<usize> = texels.valid_indices().collect();
         // Valid texels' entries to the front, in order (the same values `texels` picks).

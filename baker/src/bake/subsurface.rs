@@ -1,6 +1,6 @@
 //! Subsurface transfer: for receivers on a translucent object (a material with a medium, from
 //! `bake --materials`), the transfer from the distant light to the radiance that leaves the
-//! surface along its normal after scattering inside (`docs/subsurface.md`).
+//! surface along its normal after scattering inside (`docs/guides/subsurface.md`).
 //!
 //! # Method: random walks inside the closed mesh
 //!

@@ -29,7 +29,7 @@ pub struct BakeArgs {
     /// A scene file (one `"object.obj" "texture.tga"` per line), a bare .obj, or a glTF 2.0
     /// file (.gltf, .glb).
     scene: PathBuf,
-    /// A materials file (TOML; docs/subsurface.md): per material name, a subsurface medium
+    /// A materials file (TOML; docs/guides/subsurface.md): per material name, a subsurface medium
     /// whose surfaces get subsurface transfer (RGB) from random walks inside the mesh.
     #[arg(long, value_name = "MATS.toml", conflicts_with_all = ["shard", "checkpoint", "target_error"])]
     materials: Option<PathBuf>,
@@ -117,7 +117,7 @@ pub struct BakeArgs {
     /// million rays' worth).
     #[arg(long, requires = "checkpoint")]
     checkpoint_vertices: Option<usize>,
-    /// Bake per texel of a RES×RES lightmap atlas instead of per vertex (docs/lightmaps.md):
+    /// Bake per texel of a RES×RES lightmap atlas instead of per vertex (docs/guides/lightmaps.md):
     /// the scene's lightmap UVs (glTF TEXCOORD_1) where it has them and no --texel-size is
     /// given, else an atlas unwrapped here (--atlas). Every mode; --shard and --checkpoint
     /// too (every part computes the same atlas and records its fingerprint).
@@ -133,7 +133,7 @@ pub struct BakeArgs {
     atlas: Option<AtlasArg>,
     /// With --lightmap on the scene's own lightmap UVs: refuse (exit 3) an object whose UVs
     /// overlap themselves instead of warning and unwrapping it here. Objects that overlap
-    /// one another are packed per object either way (docs/lightmaps.md).
+    /// one another are packed per object either way (docs/guides/lightmaps.md).
     #[arg(long, requires = "lightmap")]
     strict_uvs: bool,
     /// With --lightmap and --shard or --checkpoint: read the atlas, the baked texels after the
@@ -149,15 +149,15 @@ pub struct BakeArgs {
     /// matches one of these globs (`*`, `?`, `[…]`); the others occlude and, interreflected,
     /// reflect. Default: every object but those a glTF node marks
     /// `"extras": {"prt": {"receive": false}}`. The file records the receivers
-    /// (docs/coefficient-format.md). With --lightmap, only the receivers are in the atlas
+    /// (docs/reference/coefficient-format.md). With --lightmap, only the receivers are in the atlas
     /// (not interreflected). Whole bakes (not with --shard, --checkpoint or compression).
     #[arg(long, value_name = "GLOB", value_delimiter = ',',
           conflicts_with_all = ["shard", "checkpoint", "clusters", "pcs"])]
     receivers: Vec<String>,
-    /// Trace non-receiving glTF nodes of a shared mesh as instances (docs/scenes.md).
+    /// Trace non-receiving glTF nodes of a shared mesh as instances (docs/guides/production-assets.md).
     #[arg(long, value_enum, default_value_t)]
     instances: InstancesArg,
-    /// glTF `doubleSided` materials: auto bakes a back sheet of receivers (docs/scenes.md).
+    /// glTF `doubleSided` materials: auto bakes a back sheet of receivers (docs/guides/production-assets.md).
     #[arg(long, value_enum, default_value_t)]
     double_sided: DoubleSidedArg,
     /// Write the bake compressed by clustered PCA into K clusters, as `prt-bake compress`
@@ -175,7 +175,7 @@ pub struct BakeArgs {
     /// With compression: the seedings to fit from, as `prt-bake compress --starts`.
     #[arg(long, value_name = "S", conflicts_with_all = ["shard", "checkpoint"])]
     starts: Option<usize>,
-    /// Bake transfer probes instead of vertices (docs/probes.md): at each point the n²×n²
+    /// Bake transfer probes instead of vertices (docs/guides/probes.md): at each point the n²×n²
     /// matrix of the radiance arriving from the whole sphere, --samples rays per probe.
     /// POINTS.txt (one `x y z` a line), or grid:NX,NY,NZ over the scene's bounds (cell
     /// centres), or grid:NX,NY,NZ:X0,Y0,Z0,X1,Y1,Z1 over a box of its own.

@@ -1,7 +1,7 @@
 //! `prt-bake bake`'s subsurface media: a glTF scene's own (`KHR_materials_volume` with
 //! `KHR_materials_diffuse_transmission`), overridden per material name by `--materials`; and
 //! the bakes that cannot take them refused as usage errors before anything is traced
-//! (docs/subsurface.md).
+//! (docs/guides/subsurface.md).
 
 use std::path::Path;
 

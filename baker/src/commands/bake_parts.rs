@@ -1,5 +1,5 @@
 //! `prt-bake bake --shard / --checkpoint` and `prt-bake prepare-lightmap`: a bake in parts
-//! (docs/distributed.md), and the lightmap preparation its texel shards share.
+//! (docs/guides/clusters.md), and the lightmap preparation its texel shards share.
 
 use std::path::Path;
 

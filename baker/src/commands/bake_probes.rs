@@ -1,4 +1,4 @@
-//! `prt-bake bake --probes`: transfer probes instead of vertices (docs/probes.md).
+//! `prt-bake bake --probes`: transfer probes instead of vertices (docs/guides/probes.md).
 
 use std::path::Path;
 
@@ -94,7 +94,7 @@ pub fn bake(
 }
 
 /// A probe bake with `--shard` or `--checkpoint`: a part file, or the whole file from
-/// checkpoint blocks (docs/probes.md, "Shards and checkpoints").
+/// checkpoint blocks (docs/guides/probes.md, "Shards and checkpoints").
 #[allow(clippy::too_many_arguments)]
 fn bake_in_parts(
     output_file: Output,

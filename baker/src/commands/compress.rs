@@ -23,7 +23,7 @@ pub struct CompressArgs {
     pcs: usize,
     /// The lights to fit for: `sphere` (from every direction alike) or `upper-hemisphere`
     /// (above the scene's horizon, as suns and skies over a ground; lights below it count a
-    /// tenth: docs/performance.md, "CPCA compression").
+    /// tenth: docs/explanation/performance.md, "CPCA compression").
     #[arg(long, value_enum, default_value_t = LightPriorArg::Sphere)]
     light_prior: LightPriorArg,
     /// k-means++ seedings to fit from, keeping the best: the time grows with them, the

@@ -19,7 +19,7 @@ pub struct ExportArgs {
     npz: Option<PathBuf>,
     /// Output .glb file: the scene in world space, y up, with the transfer as `_PRT_k`
     /// vertex attributes, or for a lightmap bake with its lightmap UVs as TEXCOORD_1
-    /// (docs/gltf.md).
+    /// (docs/reference/gltf.md).
     #[arg(long, visible_alias = "glb")]
     gltf: Option<PathBuf>,
     /// With --gltf: a light rig (TOML) whose relit shading goes into COLOR_0 (vertex bakes)
@@ -27,12 +27,12 @@ pub struct ExportArgs {
     #[arg(long, requires = "gltf")]
     lights: Option<PathBuf>,
     /// With --gltf: the transfer attributes as normalized 16- or 8-bit integers, a scale per
-    /// attribute (docs/gltf.md); float without it.
+    /// attribute (docs/reference/gltf.md); float without it.
     #[arg(long, value_name = "BITS", requires = "gltf")]
     quantize: Option<u32>,
     /// Output directory (created if missing) for a lightmap bake's coefficients as OpenEXR
     /// images, 4 per RGBA image, with the texel mask, AO, bent normals and a manifest.json
-    /// (docs/lightmaps.md).
+    /// (docs/guides/lightmaps.md).
     #[arg(long, value_name = "DIR")]
     exr: Option<PathBuf>,
     /// With --exr: the images' pixel type.

@@ -1,5 +1,5 @@
 //! `prt-bake factor-seams`: a texel bake's seam stitch factored once, from its prepared
-//! lightmap, for every `stitch --columns K/N --factor FILE` shard (docs/distributed.md).
+//! lightmap, for every `stitch --columns K/N --factor FILE` shard (docs/guides/clusters.md).
 
 use std::path::PathBuf;
 use std::time::Instant;

@@ -1,5 +1,5 @@
 //! `prt-bake gather`: one shard's bounce k of an interreflected bake distributed bounce by
-//! bounce (docs/distributed.md).
+//! bounce (docs/guides/clusters.md).
 
 use std::path::PathBuf;
 

@@ -12,7 +12,7 @@ use super::UpArg;
 
 #[derive(clap::Args)]
 pub struct LightArgs {
-    /// The rig file (docs/lights.md).
+    /// The rig file (docs/reference/lights.md).
     rig: PathBuf,
     /// SH order n: n² coefficients per colour channel.
     #[arg(long, default_value_t = 4)]

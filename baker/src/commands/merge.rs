@@ -1,6 +1,6 @@
 //! `prt-bake merge`: shard parts joined into the file one machine would have baked; or, for
 //! a bake distributed bounce by bounce, one stage's files joined for the next stage
-//! (docs/distributed.md).
+//! (docs/guides/clusters.md).
 
 use std::path::PathBuf;
 

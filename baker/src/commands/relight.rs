@@ -22,13 +22,13 @@ pub struct RelightArgs {
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     exposure: f64,
     /// Camera position X,Y,Z in the scene's coordinates: a transfer-matrix bake is then
-    /// rendered with its materials' glossy layers (docs/glossy.md). Without it a matrix bake
+    /// rendered with its materials' glossy layers (docs/guides/glossy.md). Without it a matrix bake
     /// is rendered diffuse; vector bakes take no view.
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_view, allow_hyphen_values = true)]
     view: Option<glam::Vec3>,
     /// A probe bake (`bake --probes grid:…`) of the scene a rigid object moves through: the
     /// object (SCENE, FILE: baked alone, in its own frame) is lit by the probes' incident
-    /// radiance at --at, turned into its frame by --turn (docs/probes.md).
+    /// radiance at --at, turned into its frame by --turn (docs/guides/probes.md).
     #[arg(long, requires = "at", conflicts_with = "view")]
     probes: Option<PathBuf>,
     /// With --probes: the object's position X,Y,Z in the probes' scene.

@@ -1,5 +1,5 @@
 //! Loading a bake's scene, with `--instances`: which glTF mesh nodes are traced through
-//! instances rather than flattened (docs/scenes.md, "Instancing").
+//! instances rather than flattened (docs/guides/production-assets.md, "Instancing").
 
 use std::path::Path;
 
@@ -21,7 +21,7 @@ pub enum InstancesArg {
 }
 
 /// `--double-sided`: whether glTF `doubleSided` objects get a back sheet of receivers
-/// (docs/scenes.md, "Two-sided surfaces").
+/// (docs/guides/production-assets.md, "Two-sided surfaces").
 #[derive(Clone, Copy, Debug, Default, PartialEq, ValueEnum)]
 pub enum DoubleSidedArg {
     /// Where the material says `doubleSided`: the bake adds a back sheet, lit from behind.

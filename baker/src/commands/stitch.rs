@@ -1,5 +1,5 @@
 //! `prt-bake stitch`: a texel bake's seams stitched in shards of columns, then joined
-//! (docs/distributed.md).
+//! (docs/guides/clusters.md).
 
 use std::path::PathBuf;
 use std::time::Instant;

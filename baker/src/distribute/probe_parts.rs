@@ -1,12 +1,12 @@
 //! Shard parts and checkpoint blocks of probe bakes (`bake --probes … --shard K/N`,
-//! `--checkpoint`, docs/probes.md): a range of consecutive probes, merged by concatenation.
+//! `--checkpoint`, docs/guides/probes.md): a range of consecutive probes, merged by concatenation.
 //!
 //! A probe's matrix depends only on its index (its random streams and classification
 //! rotation), its position, the scene and the options, never on the other probes, so the
 //! final matrices of a range are baked where the range is: a part holds final transfer, not
 //! the direct transfer and bounce rows a vertex part holds. In interreflected mode every run
 //! first bakes the vertices' bounce solution (T^{B−1}) its hits read: each shard repeats that
-//! vertex bake (docs/probes.md measures it); a checkpointed run does it once for all its
+//! vertex bake (docs/guides/probes.md measures it); a checkpointed run does it once for all its
 //! blocks.
 //!
 //! The file: the whole bake's 176-byte header and probe block (every option, the seed, the

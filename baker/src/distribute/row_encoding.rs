@@ -1,4 +1,4 @@
-//! A part's bounce rows as its file stores them (`docs/coefficient-format.md`, "Shard
+//! A part's bounce rows as its file stores them (`docs/reference/coefficient-format.md`, "Shard
 //! parts"): an encoding word, each row's length, then the entries, 8 bytes each where every
 //! weight is grey (half of what a grey scene's parts wrote, read and checked before).
 

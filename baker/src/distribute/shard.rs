@@ -10,7 +10,7 @@
 //! fingerprint, the backend, the final channel count), with its identity in bytes 88..108 and
 //! a payload of its own: its vertices' coefficients and aux arrays, and in interreflected mode
 //! its direct (shadowed) transfer and bounce rows instead of the final transfer, because a
-//! bounce gathers from every vertex of the scene. `docs/coefficient-format.md` specifies it.
+//! bounce gathers from every vertex of the scene. `docs/reference/coefficient-format.md` specifies it.
 
 use std::ops::Range;
 use std::path::Path;

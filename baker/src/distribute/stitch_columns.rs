@@ -1,5 +1,5 @@
 //! A texel bake's seams stitched in shards of columns (`prt-bake stitch`), so that the merge
-//! does no heavy work: stitching is most of a large texel bake's time (docs/performance.md).
+//! does no heavy work: stitching is most of a large texel bake's time (docs/explanation/performance.md).
 //!
 //! The stitch solves one least-squares system per column of the lightmap (each coefficient,
 //! and the accessibility), every column by its own solve, as if alone

@@ -1,5 +1,5 @@
 //! Reading transfer probes at any point, and relighting a rigid object that moves through
-//! them (docs/probes.md).
+//! them (docs/guides/probes.md).
 //!
 //! **Interpolation.** Between the probes of a grid, the incident radiance at x is the
 //! trilinear blend of the 8 probes around it, L_in(x) = Σ w_p M_p·L. Probes inside geometry

@@ -1,4 +1,4 @@
-//! `prt-bake export --npz` of a probe bake (`bake --probes`, docs/probes.md).
+//! `prt-bake export --npz` of a probe bake (`bake --probes`, docs/guides/probes.md).
 
 use std::path::Path;
 

@@ -1,5 +1,5 @@
 //! `prt-bake relight` of a transfer-matrix bake: the CPU reference for glossy PRT
-//! (docs/glossy.md, "Glossy rendering").
+//! (docs/guides/glossy.md, "Glossy rendering").
 //!
 //! Per vertex and colour channel c, with L′ = M·L_c the receiver's shadowed incident radiance
 //! (M: channel c's matrix, or the grey one; L_c the rig in the scene's frame):

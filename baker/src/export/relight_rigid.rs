@@ -1,6 +1,6 @@
 //! `prt-bake relight OBJECT OBJECT.prt --lights RIG --probes PROBES.prt --at X,Y,Z [--turn …]`:
 //! a rigid object, baked alone in its own frame, placed in a probe-baked scene and lit there
-//! (docs/probes.md, "Rigid objects that move"): the probes' incident radiance at its position,
+//! (docs/guides/probes.md, "Rigid objects that move"): the probes' incident radiance at its position,
 //! turned into its frame, through its own transfer. Written as `relight` writes a vertex
 //! bake: a PLY of the object in its own frame, with per-vertex radiance.
 

@@ -1,5 +1,5 @@
 //! The coefficient file (`.prt`): a 128-byte little-endian header, then f32 transfer
-//! coefficients, vertex-major. `docs/coefficient-format.md` is the specification; this module
+//! coefficients, vertex-major. `docs/reference/coefficient-format.md` is the specification; this module
 //! is its reference implementation.
 //!
 //! Files are written atomically (temporary file in the same folder, then rename), so a failed
@@ -48,7 +48,7 @@ pub struct CoefficientFile {
     pub probes: Option<ProbeBlock>,
 }
 
-/// What a texel bake stores beyond a vertex bake (docs/coefficient-format.md, "Lightmap
+/// What a texel bake stores beyond a vertex bake (docs/reference/coefficient-format.md, "Lightmap
 /// (texel) bakes").
 #[derive(Clone, Debug, PartialEq)]
 pub struct LightmapBlock {

@@ -1,5 +1,5 @@
 //! Version 2 of the coefficient file: a CPCA-compressed bake ([`crate::cpca`]); specified in
-//! docs/coefficient-format.md, "Compressed files (version 2)".
+//! docs/reference/coefficient-format.md, "Compressed files (version 2)".
 //!
 //! A version-2 file is a version-1 file whose coefficients are replaced by the cluster means,
 //! bases, per-receiver cluster indices and weights, with a 32-byte CPCA block after the

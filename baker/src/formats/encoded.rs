@@ -1,7 +1,7 @@
 //! A file's bytes as pieces in order: large arrays of plain numbers are their own bytes on a
 //! little-endian machine, so they are borrowed, not copied into one buffer. A texel bake's
 //! file is 172 MB; building it whole touched that much fresh memory (42,000 page faults)
-//! before writing it (issue 34).
+//! before writing it.
 
 use std::borrow::Cow;
 

@@ -1,5 +1,5 @@
 //! The coefficient file's header: the fields `prt-bake inspect` prints, their binary layout
-//! (bytes 0..128, `docs/coefficient-format.md`) and the checks a reader makes of them. The
+//! (bytes 0..128, `docs/reference/coefficient-format.md`) and the checks a reader makes of them. The
 //! header describes a bake (mode, order, samples, seed, backend…) without knowing how one is
 //! made: the bake fills it ([`Header::for_bake`]).
 
@@ -18,10 +18,10 @@ pub const HEADER_SIZE: usize = 128;
 /// The header size of a lightmap (texel) bake: the 128 bytes, then the texel block.
 pub const LIGHTMAP_HEADER_SIZE: usize = 160;
 /// The header size of a lightmap bake's shard part: the texel block, then the part's atlas
-/// block (`docs/coefficient-format.md`, "Shard parts"); never a whole file's.
+/// block (`docs/reference/coefficient-format.md`, "Shard parts"); never a whole file's.
 pub const LIGHTMAP_PART_HEADER_SIZE: usize = 192;
 /// The header size of a probe bake (`bake --probes`): the 128 bytes, then the probe block
-/// (`docs/coefficient-format.md`, "Transfer probes").
+/// (`docs/reference/coefficient-format.md`, "Transfer probes").
 pub const PROBE_HEADER_SIZE: usize = 176;
 /// Offset of the CRC-32 (the last 4 bytes of the header).
 pub(crate) const CHECKSUM_OFFSET: usize = 124;

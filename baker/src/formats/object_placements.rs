@@ -2,7 +2,7 @@
 //! with a scale and offset ([`AtlasSource::PerObject`](crate::formats::header::AtlasSource)):
 //! a u32 object count, then per object its scale (2 × f32), offset (2 × f32) and which UVs
 //! they map (u32, [`ObjectUvs`]). Files with other atlases have no such section, so their
-//! bytes are what they were before it existed (docs/coefficient-format.md).
+//! bytes are what they were before it existed (docs/reference/coefficient-format.md).
 
 use crate::formats::header::{Header, OBJECT_PLACEMENT_BYTES, ObjectPlacement, ObjectUvs};
 

@@ -1,5 +1,5 @@
 //! The probe block of a probe bake's coefficient file (`bake --probes`,
-//! `docs/coefficient-format.md`, "Transfer probes"): a 176-byte header (the 128 bytes, then
+//! `docs/reference/coefficient-format.md`, "Transfer probes"): a 176-byte header (the 128 bytes, then
 //! the probe count, the grid and 4 reserved bytes), the probes' transfer matrices as a matrix
 //! file's coefficients, and after them the probes' positions and back-face fractions. The
 //! "vertices" of such a file are its probes. Old readers refuse the header size, so a probe file is never read as a

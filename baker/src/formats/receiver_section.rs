@@ -2,7 +2,7 @@
 //! (`bake --receivers`, aux flag bit 4): the scene's object count, then the receiving objects'
 //! indices. The file's vertex count and arrays cover the receivers' vertices only, in scene
 //! order; files of every object have no section, so their bytes are what they were
-//! (docs/coefficient-format.md, "Receiver subsets").
+//! (docs/reference/coefficient-format.md, "Receiver subsets").
 
 use serde::Serialize;
 

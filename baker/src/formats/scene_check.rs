@@ -51,7 +51,7 @@ impl CoefficientFile {
         Ok(scene)
     }
 
-    /// Drops `scene`'s back sheets (docs/scenes.md, "Two-sided surfaces") where the file was
+    /// Drops `scene`'s back sheets (docs/guides/production-assets.md, "Two-sided surfaces") where the file was
     /// baked without them (`bake --double-sided off`, or before they existed): the scene
     /// fingerprint records which, so every reader calls this before its checks below.
     pub fn match_back_sheets(&self, scene: &mut Scene) {

@@ -5,7 +5,7 @@
 //! coefficients c_j = ∫ L(s) y_j(s) ds. Lights are linear: the coefficients of several lights
 //! are the sum of theirs, so a renderer pays the same per vertex for one light as for fifty.
 //!
-//! # Units (`docs/lights.md` has the full table)
+//! # Units (`docs/reference/lights.md` has the full table)
 //!
 //! * constant, hemisphere, sphere, environment: *radiance* L of what the light shows.
 //! * directional, sun: *irradiance* E that the light delivers to a surface facing it. A lit,

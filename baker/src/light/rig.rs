@@ -1,4 +1,4 @@
-//! Light rigs: a TOML file of `[[light]]` tables (`docs/lights.md` documents every key).
+//! Light rigs: a TOML file of `[[light]]` tables (`docs/reference/lights.md` documents every key).
 //!
 //! ```toml
 //! [[light]]

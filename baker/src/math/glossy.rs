@@ -1,4 +1,4 @@
-//! The glossy BRDF of issue 20: a normalised Phong lobe about the mirror direction, applied
+//! The glossy BRDF: a normalised Phong lobe about the mirror direction, applied
 //! to a transfer matrix's incident radiance by zonal-harmonic convolution (Sloan, Kautz &
 //! Snyder 2002, §5; Ramamoorthi & Hanrahan 2001 for the convolution).
 //!

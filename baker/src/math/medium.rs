@@ -1,7 +1,7 @@
 //! A homogeneous scattering medium behind a smooth dielectric boundary: the optics a random
 //! walk inside a translucent object needs (free flights, isotropic scattering, Fresnel
 //! reflection and Snell refraction), and Jensen et al.'s (2001) dipole, kept as a closed-form
-//! oracle (`docs/subsurface.md`).
+//! oracle (`docs/guides/subsurface.md`).
 //!
 //! Coefficients are per scene unit and per colour channel. The materials file gives the
 //! reduced scattering coefficient σs′ = σs(1 − g); the walk scatters isotropically with

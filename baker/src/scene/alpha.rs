@@ -5,7 +5,7 @@
 //! with it: glTF `MASK` compares it with the cutoff; `BLEND` (and OBJ `map_d`, which says no
 //! more) treats it as the probability that a ray is stopped, decided by a hash of the ray and
 //! the triangle so a bake stays deterministic for any thread count and both backends agree
-//! (`docs/scenes.md`, "Alpha"). [`Cutouts`] is what the tracers hold: per triangle, whether it
+//! (`docs/guides/production-assets.md`, "Alpha"). [`Cutouts`] is what the tracers hold: per triangle, whether it
 //! is cut out, and what to look up at a hit.
 
 use glam::{Vec2, Vec3};

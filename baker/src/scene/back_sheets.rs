@@ -1,4 +1,4 @@
-//! Back sheets of glTF `doubleSided` objects (docs/scenes.md, "Two-sided surfaces").
+//! Back sheets of glTF `doubleSided` objects (docs/guides/production-assets.md, "Two-sided surfaces").
 //!
 //! Transfer is baked for the side a receiver's normal faces, so a surface an engine shades on
 //! both sides needs a second set of receivers: the same positions with the shading normals

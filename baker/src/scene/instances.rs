@@ -1,6 +1,6 @@
 //! Occluders traced through instances: a glTF mesh placed at many nodes is kept once, in its
 //! own space, with one transform per placement, instead of being copied into world space at
-//! every node (issue 30: a forest of 20,000 nodes of one tree would flatten to 35.8 M
+//! every node (a forest of 20,000 nodes of one tree would flatten to 35.8 M
 //! triangles). Only objects that do not receive are instanced: they occlude (and nothing
 //! else), so they need no vertices, normals or materials in the scene.
 

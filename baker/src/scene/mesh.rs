@@ -27,7 +27,7 @@ pub struct Material {
     /// by it; vertex bakes cannot resolve it and keep the surface normal.
     pub normal_map: Option<NormalMap>,
     /// glTF `doubleSided`: the loaded scene gets a back sheet of receivers for the objects
-    /// that use it ([`super::BackSheets`]; docs/scenes.md, "Two-sided surfaces").
+    /// that use it ([`super::BackSheets`]; docs/guides/production-assets.md, "Two-sided surfaces").
     pub double_sided: bool,
 }
 

@@ -1,7 +1,7 @@
 //! Scenes: triangle meshes with per-vertex normals and texture coordinates, and the materials
 //! (Kd × texture) the renderer and the interreflection pass need.
 //!
-//! Three inputs are accepted, chosen by the extension (see `docs/scenes.md`):
+//! Three inputs are accepted, chosen by the extension (see `docs/reference/scenes.md`):
 //! * the thesis's scene file (`.scene`, or any other text file): one
 //!   `"object.obj" "texture.tga"` per line, quotes allow spaces, `#` starts a comment, the
 //!   texture is optional; objects are already in world space;

@@ -1,5 +1,5 @@
 //! Tangent-space normal maps (glTF `normalTexture`): the normal a texel bake turns each
-//! texel's lobe to (`docs/lightmaps.md`, "Normal maps").
+//! texel's lobe to (`docs/guides/lightmaps.md`, "Normal maps").
 //!
 //! A texel (r, g, b) of the map is the tangent-space normal (2r − 1, 2g − 1, 2b − 1) read as
 //! linear 8-bit data (never sRGB-decoded), its x and y multiplied by the material's `scale`

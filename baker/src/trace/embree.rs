@@ -91,7 +91,7 @@ pub enum EmbreeMode {
     /// ray: `--robust`. About 30 % slower on the demo scene.
     Robust,
     /// Embree's default mode for every ray: the fastest, but it leaks light through the
-    /// seams where meshes meet (the baker's default before issue 12). For benchmarks and the
+    /// seams where meshes meet (the baker's default before it was made watertight). For benchmarks and the
     /// agreement tests.
     Fast,
 }

@@ -38,7 +38,7 @@
 //! box, where two walls end, a wall's corner origin sits δ/3 — a few ulps — below the other
 //! wall's top edge, so every ray towards that wall crosses its plane within rounding of the
 //! rim, and whether it is blocked is a coin toss that Embree and obvhs toss differently
-//! (issue 22: 3–6 of 1,024 rays per rim corner, all judged *ambiguous* by the f64 referee of
+//! (3–6 of 1,024 rays per rim corner, all judged *ambiguous* by the f64 referee of
 //! `tests/agreement.rs`, so neither backend is wrong; the origin is). There the nudge is at
 //! least [`OPEN_EDGE_NUDGE`] of the longest edge: about 700 ulps at unit size, so crossings
 //! land clear of the rim, and still 2⁻¹² of a triangle, far below anything the mesh resolves.

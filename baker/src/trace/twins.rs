@@ -5,7 +5,7 @@
 //! the embedding and leak tests), and there the back of the front sheet is a *back face*,
 //! which reflects nothing. [`TwinFacing`] turns such a hit into the hit on the twin
 //! triangle of the back sheet, which faces the ray, as the hand-made twin sheets of
-//! docs/scenes.md ("Two-sided surfaces") would answer when the coplanar pair resolves to the
+//! docs/guides/production-assets.md ("Two-sided surfaces") would answer when the coplanar pair resolves to the
 //! facing one.
 
 use std::sync::Arc;

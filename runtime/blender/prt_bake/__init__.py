@@ -3,7 +3,7 @@
 Bakes the visible meshes (3D View > Sidebar > PRT, or bpy.ops.prt.bake), stores the
 transfer per face corner as mesh attributes, and the relit colour as the colour attribute
 "PRT"; scene.prt.light_rotation and bpy.ops.prt.relight turn the light without re-baking.
-docs/blender.md in the project describes it. Installs as a Blender 4.2+ extension
+docs/guides/blender.md in the project describes it. Installs as a Blender 4.2+ extension
 (blender_manifest.toml) or as a legacy add-on (bl_info) from the same zip.
 """
 

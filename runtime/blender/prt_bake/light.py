@@ -3,7 +3,7 @@ file, or the World (a uniform colour, or an equirectangular .hdr/.exr environmen
 projected by `prt-bake light`, and turned about +Z.
 
 prt-bake's environment maps are oriented as Blender maps an equirectangular environment in
-its z-up world (docs/lights.md, "Environment maps"), so a World's image is passed unturned.
+its z-up world (docs/reference/lights.md, "Environment maps"), so a World's image is passed unturned.
 """
 
 import json

@@ -31,7 +31,7 @@ class PrtSceneSettings(bpy.types.PropertyGroup):
                                           "lightmap's UV map (empty: the second, else the "
                                           "only one)")
     rig_source: bpy.props.EnumProperty(name="Light", items=[
-        ("FILE", "Rig file", "A prt-bake rig (TOML; docs/lights.md)"),
+        ("FILE", "Rig file", "A prt-bake rig (TOML; docs/reference/lights.md)"),
         ("WORLD", "World", "The World: its uniform colour as a constant sky, or its "
          "equirectangular .hdr/.exr Environment Texture"),
     ], default="FILE")

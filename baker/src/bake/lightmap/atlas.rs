@@ -18,7 +18,7 @@
 //! Both keep [`PADDING`] empty texels between charts, are deterministic (bit-identical UVs
 //! for any thread count) and honour `--texel-size`; `tests/lightmap_atlas.rs` checks all
 //! of it. (xatlas itself was the plan; the crate `xatlas-rs` 0.1.3 links only on Windows:
-//! its bindings name MSVC-mangled symbols. docs/lightmaps.md, "Atlas".)
+//! its bindings name MSVC-mangled symbols. docs/guides/lightmaps.md, "Atlas".)
 
 mod chart_overlap;
 mod placed;
@@ -53,7 +53,7 @@ pub struct Atlas {
 
 impl Atlas {
     /// An atlas from per-vertex lightmap UVs in [0, 1] (the scene's TEXCOORD_1, or a test's).
-    /// Hook for issue 10's glTF lightmap UVs: pass them here instead of unwrapping.
+    /// The glTF loader's lightmap UVs come here instead of being unwrapped.
     pub fn from_vertex_uvs(scene: &Scene, uvs: &[Vec2], width: u32, height: u32) -> Result<Atlas> {
         check_resolution(width)?;
         check_resolution(height)?;
@@ -123,9 +123,9 @@ pub struct Generated {
 
 impl Generated {
     /// A warning where the planar unwrapper shattered the scene: charts of a few triangles
-    /// each (the rough heightfield of issue 34 in 5° charts: 233,508 for 720,000 triangles) leave most of the
+    /// each (a rough heightfield in 5° charts: 233,508 for 720,000 triangles) leave most of the
     /// lightmap as padding and make nearly every texel a seam texel, whose stitching then
-    /// costs as much as the rays (docs/lightmaps.md, "Atlas"). `None` for a sound atlas.
+    /// costs as much as the rays (docs/guides/lightmaps.md, "Atlas"). `None` for a sound atlas.
     pub fn fragmentation_note(&self, method: AtlasMethod, triangles: usize) -> Option<String> {
         let shattered = method == AtlasMethod::Planar
             && self.chart_count >= FRAGMENTED_CHARTS

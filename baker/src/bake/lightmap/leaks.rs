@@ -18,7 +18,7 @@
 //! their neighbours. Unlike Godot, which pushes the point to the hit point off the surface,
 //! the point never leaves the surface the texel stands for.
 //!
-//! **Which texels get the test** (issue 34: it cost half the bake stage's time on a
+//! **Which texels get the test** (the full test everywhere cost half the bake stage's time on a
 //! 720,000-triangle heightfield, where nothing leaks). The full test ([`leaks_at`]:
 //! [`SCREEN_RAYS`] unbounded closest-hit rays, then [`LEAK_RAYS`] where one finds a back
 //! face) runs only on texels that may leak, found three ways:
@@ -44,7 +44,7 @@
 //! joined to no leaking texel and off the lattice. These are not texels under a wall but
 //! texels looking across open space at the back of a one-sided surface, which the full test
 //! calls leaking by chance where about a tenth of their directions meet it (a speckle of
-//! left-out texels); they are now baked for what they see. docs/lightmaps.md has the
+//! left-out texels); they are now baked for what they see. docs/guides/lightmaps.md has the
 //! figures.
 
 use glam::{Vec2, Vec3};

@@ -3,7 +3,7 @@
 //! [`atlas`] says where each triangle lies in the lightmap (the scene's own lightmap UVs, or
 //! charts unwrapped by `uvunwrap` or planar projection), [`texels`] turns covered texels into
 //! sample points, and the bake runs the same estimator as vertex bakes over those points as
-//! [`Receivers`]: same directions, tracing, sums and determinism. `docs/lightmaps.md` describes what exists and what not.
+//! [`Receivers`]: same directions, tracing, sums and determinism. `docs/guides/lightmaps.md` describes what exists and what not.
 //!
 //! Part of [`crate::bake`]: may import what it may.
 
@@ -343,7 +343,7 @@ pub fn bake_texels(
     let width = baked.channels * crate::math::sh::coeff_count(options.order);
     let backend = tracer.map_or(Backend::None, |t| t.backend());
     // No more rays: the watertight tracer's acceleration structure goes before the
-    // stitch, the bake's peak of memory (docs/lightmaps.md, "At scale").
+    // stitch, the bake's peak of memory (docs/guides/lightmaps.md, "At scale").
     let casts_rays = tracer.is_some();
     drop((watertight, estimator, targets));
     let visibility = casts_rays.then_some(baked.visibility.as_slice());

@@ -8,7 +8,7 @@
 //! offset of its own (Unity's `lightmapScaleOffset`), in rectangles proportional to the
 //! object's surface (the same texel density everywhere) with [`PADDING`] texels between
 //! them; an object whose own UVs overlap themselves, or that has none, gets a chart set
-//! unwrapped for it alone ([`generate`]) instead. docs/lightmaps.md, "Per-object
+//! unwrapped for it alone ([`generate`]) instead. docs/guides/lightmaps.md, "Per-object
 //! lightmap UVs".
 
 use glam::Vec2;

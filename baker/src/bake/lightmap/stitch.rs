@@ -1,6 +1,6 @@
 //! Seam stitching: where one edge in space is two edges in the atlas (a chart seam), a GPU's
 //! bilinear filter reads the lightmap from two different sets of texels on the two sides, and
-//! they disagree: a visible step along the seam (issue 23 measured stepped patches along
+//! they disagree: a visible step along the seam (unstitched bakes showed stepped patches along
 //! Suzanne's seams at 256²).
 //!
 //! The fix is a least-squares problem over the texels those samples read (after Liu,
@@ -21,7 +21,7 @@
 //! Everything runs in a fixed order, so the result is deterministic. The seams are found
 //! and sampled here; the factorisation is `faer`'s, because a planar atlas of a large mesh
 //! links hundreds of thousands of texels into one system, which iterative solvers took most
-//! of the bake to solve (docs/lightmaps.md, "Seam stitching at scale").
+//! of the bake to solve (docs/guides/lightmaps.md, "Seam stitching at scale").
 
 use glam::Vec2;
 use rayon::prelude::*;
@@ -65,7 +65,7 @@ pub fn seam_partners(scene: &Scene, atlas: &Atlas) -> Vec<[u32; 3]> {
     let key = |v: u32| scene.positions[v as usize].to_array().map(f32::to_bits);
     // Vertices welded by position bits: equal ids for equal positions, so an edge is a pair
     // of ids and sorts as one u64 (sorting the positions' bits themselves cost most of the
-    // stage on a large mesh, issue 34).
+    // stage on a large mesh).
     let welded = weld(scene);
     // Every edge of a triangle in the atlas by its welded ends, sorted (in parallel) so that
     // the uses of one edge lie together; triangle · 3 + edge makes the order total.

@@ -70,7 +70,7 @@ impl Texels {
         // Every array in place, each band writing its own rows (no per-band copies to join).
         // The zero ones are allocated zeroed: the system maps their pages as they are first
         // touched, so the pages of texels no triangle covers (most, in a sparse atlas) never
-        // are, where writing zeros touched all 200 MB of a 2048² lightmap (issue 34).
+        // are, where writing zeros touched all 200 MB of a 2048² lightmap.
         let n = w * h;
         let mut texels = Texels {
             width: atlas.width,

@@ -1,7 +1,7 @@
 //! Subsurface transfer per texel: a texel bake's translucent texels (those whose triangle's
 //! material has a medium, from `bake --materials`) get the random-walk estimate of
 //! [`crate::bake::subsurface`] at their point and normal, in place of their opaque transfer,
-//! before the lightmap is placed, dilated and stitched (`docs/subsurface.md`).
+//! before the lightmap is placed, dilated and stitched (`docs/guides/subsurface.md`).
 //!
 //! The estimator is the vertex bake's own; only the receivers differ. A walk starts below the
 //! texel's point, where its ray origin mirrored through the tangent plane lies (as a

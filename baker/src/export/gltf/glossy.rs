@@ -1,4 +1,4 @@
-//! A transfer-matrix bake (glossy PRT, docs/glossy.md) in a `.glb`: only CPCA-compressed,
+//! A transfer-matrix bake (glossy PRT, docs/guides/glossy.md) in a `.glb`: only CPCA-compressed,
 //! as Sloan et al. 2003 render it. An order-n matrix is n⁴ floats per vertex and channel
 //! (64 VEC4 attributes at order 4), far beyond any engine's attribute budget, while its CPCA
 //! form is a cluster index and M weights per vertex, like a compressed vector bake's; the
@@ -37,7 +37,7 @@ pub(super) fn check_compressed(
         message: format!(
             "an uncompressed transfer-matrix bake ({} floats per vertex and channel, {} VEC4 \
              attributes: more than any engine binds); compress it first, e.g. `prt-bake \
-             compress {} -o C.prt --clusters 64 --pcs 4`, and export that (docs/gltf.md, \
+             compress {} -o C.prt --clusters 64 --pcs 4`, and export that (docs/reference/gltf.md, \
              \"Glossy transfer\")",
             n2 * n2,
             (n2 * n2).div_ceil(4),

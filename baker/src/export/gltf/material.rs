@@ -1,5 +1,5 @@
 //! One exported material (step 3 of the export): base colour, PBR factors, unlit, and a texel
-//! bake's lightmap and AO slots (docs/gltf.md).
+//! bake's lightmap and AO slots (docs/reference/gltf.md).
 
 use glam::Vec3;
 use serde_json::{Value, json};

@@ -1,5 +1,5 @@
 //! `prt-bake export --gltf`: a bake and its scene as one binary glTF 2.0 file (`.glb`) that
-//! engines and DCC tools load (`docs/gltf.md` is the layout's specification).
+//! engines and DCC tools load (`docs/reference/gltf.md` is the layout's specification).
 //!
 //! One glTF mesh per scene object, one node each, all in world space. glTF is +y up, so a
 //! z-up scene is turned by [`Up::from_z_up`] on the way out: positions, normals and the
@@ -19,7 +19,7 @@
 //!
 //! A lightmap (texel) bake has no per-vertex transfer: its `.glb` carries TEXCOORD_1 = the
 //! atlas (vertices split at chart seams) and, with a rig, the relit lightmap as a texture the
-//! materials name in `extras.prt_lightmap` ([`split_at_lightmap_seams`], docs/gltf.md).
+//! materials name in `extras.prt_lightmap` ([`split_at_lightmap_seams`], docs/reference/gltf.md).
 
 mod builder;
 mod cpca;
@@ -80,7 +80,7 @@ pub struct Written {
     /// Whether the bake's AO is in the file (`_AO` per vertex, or an occlusionTexture).
     pub ao: bool,
     /// A compressed bake's (clusters, components): the transfer is `_PRT_CLUSTER` and the
-    /// `_PRT_Wk` weights of `prt_attributes` (docs/gltf.md).
+    /// `_PRT_Wk` weights of `prt_attributes` (docs/reference/gltf.md).
     pub cpca: Option<(usize, usize)>,
 }
 
@@ -157,7 +157,7 @@ pub fn export_glb_quantized(
 /// A texel bake's `.glb`: the scene with TEXCOORD_1 = the atlas's UVs (vertices split where
 /// the triangle corners sharing one disagree), no transfer attributes (the transfer is per
 /// texel: `export --exr` writes it as images), and with `light` the relit lightmap embedded
-/// as a PNG that every material names in `extras.prt_lightmap` (docs/gltf.md).
+/// as a PNG that every material names in `extras.prt_lightmap` (docs/reference/gltf.md).
 fn lightmap_glb_bytes(
     file: &CoefficientFile,
     coefficients: &Path,
@@ -365,7 +365,7 @@ struct Materials {
 /// Step 3: albedo textures as PNG, a texel bake's relit lightmap and AO, and one material
 /// per scene material. Unlit (`KHR_materials_unlit`) where the file carries the relit light:
 /// COLOR_0 of a vertex bake, or a texel bake's relit lightmap as the base colour texture on
-/// TEXCOORD_1 (docs/gltf.md says why).
+/// TEXCOORD_1 (docs/reference/gltf.md says why).
 fn materials(
     b: &mut Builder,
     scene: &Scene,

@@ -1,4 +1,4 @@
-//! A per-object atlas's placements in the `.glb` (docs/gltf.md, "Per-object lightmap UVs").
+//! A per-object atlas's placements in the `.glb` (docs/reference/gltf.md, "Per-object lightmap UVs").
 //!
 //! TEXCOORD_1 is written already transformed into the packed atlas, so every engine and
 //! viewer samples the lightmap right with no extension. Each node also carries its object's

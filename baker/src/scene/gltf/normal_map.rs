@@ -9,7 +9,7 @@ use crate::scene::normal_map::NormalMap;
 
 /// The normal map of `info`, whose image is the scene's texture `texture`, with the
 /// texture's sampler wrap modes. (`KHR_texture_transform` on a normal texture is not read:
-/// `gltf` 1.4 exposes it only for `Info`, and `docs/lightmaps.md` says so.)
+/// `gltf` 1.4 exposes it only for `Info`, and `docs/guides/lightmaps.md` says so.)
 pub fn read(info: &gltf::material::NormalTexture, texture: usize) -> NormalMap {
     let sampler = info.texture().sampler();
     let wrap = |mode: WrappingMode| match mode {

@@ -1,7 +1,7 @@
 //! Subsurface media from a glTF file's materials: `KHR_materials_volume`,
 //! `KHR_materials_diffuse_transmission` and `KHR_materials_ior`, read from the raw JSON (the
 //! `gltf` crate is built without them), and mapped to the homogeneous medium a subsurface bake
-//! walks in (`docs/subsurface.md`, "glTF materials"). An approximation: glTF describes what a
+//! walks in (`docs/guides/subsurface.md`, "glTF materials"). An approximation: glTF describes what a
 //! real-time renderer shows, not the coefficients of a medium.
 //!
 //! A material is translucent when it has both a volume (`thicknessFactor` > 0: a closed

@@ -13,7 +13,7 @@
 //!   that covers rounding, and axis-parallel rays handled as Embree handles them.
 //!
 //! So this backend answers as Embree does in robust mode, up to rounding. Its bake of the demo
-//! scene runs at 0.39 × the Embree backend's default bake (docs/performance.md, "obvhs:
+//! scene runs at 0.39 × the Embree backend's default bake (docs/explanation/performance.md, "obvhs:
 //! per-ray culling in packets").
 //!
 //! Occlusion rays traverse in packets ([`packet`]) with our own stack, each ray culled on its
@@ -43,7 +43,7 @@ use crate::scene::{Cutouts, Scene};
 #[derive(Clone, Copy, Debug)]
 pub struct ObvhsOptions {
     /// obvhs's build parameters; [`ObvhsOptions::default`] picks the preset that traced the
-    /// demo scene's rays fastest (docs/performance.md).
+    /// demo scene's rays fastest (docs/explanation/performance.md).
     pub build: BvhBuildParams,
 }
 

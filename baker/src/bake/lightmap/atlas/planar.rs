@@ -2,7 +2,7 @@
 //! within 30° of the chart's first triangle, projected onto that triangle's plane (scaled
 //! back to their surface's area) and shelf-packed. Exact on flat scenes (one chart per
 //! wall); a curved mesh becomes many charts, and their padding wastes the atlas
-//! (docs/lightmaps.md, "Atlas").
+//! (docs/guides/lightmaps.md, "Atlas").
 
 use glam::Vec2;
 use rayon::prelude::*;
@@ -46,7 +46,7 @@ pub(super) fn generate(scene: &Scene, resolution: u32, texel_size: Option<f32>) 
 /// by cos θ across its slope (at most 13 %), and the chart is scaled back to its surface's
 /// area ([`Chart::local`]). Flat surfaces stay exact, one chart each; a smooth terrain
 /// becomes charts of hundreds of triangles instead of the one to three of a 5° cone, whose
-/// padding and seams cost more than their texels (the rough heightfield of issue 34: 233,508
+/// padding and seams cost more than their texels (a rough heightfield: 233,508
 /// charts for 720,000 triangles).
 const CHART_COS: f32 = 0.866_025_4;
 
@@ -176,8 +176,8 @@ impl Chart {
 }
 
 /// The triangles at each edge (by vertex index), in triangle order: a sorted list of every
-/// triangle's edges rather than a hash map, which cost most of the atlas on a large mesh
-/// (issue 34). Grouping by the sorted key keeps the order of a map filled in triangle order.
+/// triangle's edges rather than a hash map, which cost most of the atlas on a
+/// large mesh. Grouping by the sorted key keeps the order of a map filled in triangle order.
 struct EdgeFaces {
     /// Every (edge key, triangle · 3 + edge), sorted: the uses of one edge lie together, in
     /// triangle order.
@@ -257,7 +257,7 @@ fn pack(charts: &[Chart], scale: f32, resolution: u32) -> Option<(f32, Vec<Vec2>
 /// it is deterministic. `None` where a chart is wider or taller than the `r`-texel atlas:
 /// no order packs it. Heights are whole texels, so a counting sort orders them: the
 /// bisection of [`fill`] packs up to 40 times, and a comparison sort of a large mesh's
-/// hundreds of thousands of charts each time cost most of the atlas (issue 34).
+/// hundreds of thousands of charts each time cost most of the atlas.
 fn tallest_first(sizes: &[Vec2], r: f32) -> Option<Vec<usize>> {
     if sizes.iter().any(|s| s.x > r || s.y > r) {
         return None;

@@ -4,7 +4,7 @@
 //! rasterised shapes. Built with its `direct-solver` feature: charts are flattened by faer's
 //! sparse Cholesky (the faer the seam stitch uses) instead of conjugate gradients, whose
 //! iterations grow with a chart's size: a 720,000-triangle terrain unwraps in 10 s instead of
-//! 106 (docs/lightmaps.md, "Atlas"). faer chooses its SIMD kernels at run time, so two kinds of
+//! 106 (docs/guides/lightmaps.md, "Atlas"). faer chooses its SIMD kernels at run time, so two kinds of
 //! CPU may unwrap a scene in different last bits; shards on a mixed cluster share one prepared
 //! lightmap (`prepare-lightmap`) rather than each unwrapping. Its `parallel` feature is kept:
 //! the crate collects parallel results in input order, and our tests check that 1 and 2
