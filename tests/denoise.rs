@@ -55,7 +55,10 @@ fn denoising_commutes_with_relighting_and_is_the_bake_s_own() {
         noise: raw.visibility.iter().map(|v| v.noise).collect(),
         ..denoise::vertex_guides(&scene, Vec::new())
     };
-    assert!(guides.noise.iter().any(|&v| v > 0.0), "the rays give a noise estimate");
+    assert!(
+        guides.noise.iter().any(|&v| v > 0.0),
+        "the rays give a noise estimate"
+    );
     let filter = Filter::new(&guides, Settings::VERTICES, &raw.coefficients, 1, n);
     let denoised = filter.apply(&raw.coefficients, n);
     // The bake's own denoising is these weights.
@@ -64,7 +67,11 @@ fn denoising_commutes_with_relighting_and_is_the_bake_s_own() {
     assert_ne!(raw.coefficients, denoised, "the filter changed nothing");
     // Any light: relighting the denoised transfer is denoising the relit image.
     let basis = Basis::new(3);
-    for dir in [Vec3::Z, Vec3::new(1.0, -0.4, 0.3), Vec3::new(-0.2, 0.9, -0.5)] {
+    for dir in [
+        Vec3::Z,
+        Vec3::new(1.0, -0.4, 0.3),
+        Vec3::new(-0.2, 0.9, -0.5),
+    ] {
         let mut light = vec![0.0f32; n];
         basis.eval(dir.normalize(), &mut light);
         let dot = |t: &[f32]| t.iter().zip(&light).map(|(a, b)| a * b).sum::<f32>();
@@ -73,7 +80,10 @@ fn denoising_commutes_with_relighting_and_is_the_bake_s_own() {
         let scale = image.iter().fold(0.0f32, |m, v| m.max(v.abs()));
         for (k, t) in denoised.chunks(n).enumerate() {
             let diff = (dot(t) - filtered[k]).abs();
-            assert!(diff <= 1e-5 * scale, "vertex {k}: {diff} apart (scale {scale})");
+            assert!(
+                diff <= 1e-5 * scale,
+                "vertex {k}: {diff} apart (scale {scale})"
+            );
         }
     }
 }
@@ -102,8 +112,20 @@ fn split_room() -> (Scene, f32) {
     let meshes = vec![
         grid("floor", Vec3::new(-1.0, -1.0, 0.0), x * 2.0, y * 2.0, 16),
         // The ceiling, facing down, with the slot.
-        grid("ceiling-left", Vec3::new(-1.0, -1.0, 1.0), y * 2.0, x * 0.5, 4),
-        grid("ceiling-right", Vec3::new(0.0, -1.0, 1.0), y * 2.0, x * 1.0, 8),
+        grid(
+            "ceiling-left",
+            Vec3::new(-1.0, -1.0, 1.0),
+            y * 2.0,
+            x * 0.5,
+            4,
+        ),
+        grid(
+            "ceiling-right",
+            Vec3::new(0.0, -1.0, 1.0),
+            y * 2.0,
+            x * 1.0,
+            8,
+        ),
         // Outer walls facing in.
         grid("wall-x0", Vec3::new(-1.0, -1.0, 0.0), y * 2.0, z, 8),
         grid("wall-x1", Vec3::new(1.0, -1.0, 0.0), z, y * 2.0, 8),
@@ -117,21 +139,28 @@ fn split_room() -> (Scene, f32) {
 }
 
 /// Under a light from straight above: the most any texel of the dark side (x > the wall)
-/// brightened from `raw` to `denoised`, and the mean relit floor of the lit side.
-fn dark_rise_and_lit(raw: &LightmapBake, denoised: &LightmapBake, wall: f32) -> (f32, f32) {
+/// brightened from `raw` to `denoised`, and the raw bake's noise on the lit side (the RMS
+/// relit difference from `other`, a raw bake of another seed, over √2).
+fn dark_rise_and_noise(
+    raw: &LightmapBake,
+    other: &LightmapBake,
+    denoised: &LightmapBake,
+    wall: f32,
+) -> (f32, f32) {
     let (before, after) = (relit(raw, Vec3::Z), relit(denoised, Vec3::Z));
+    let again = relit(other, Vec3::Z);
     let mut rise = 0.0f32;
-    let (mut lit, mut count) = (0.0f32, 0);
+    let (mut squares, mut count) = (0.0f32, 0);
     for i in raw.texels.valid_indices() {
         let p = raw.texels.positions[i];
         if p.x > wall * 1.01 {
             rise = rise.max(after[i] - before[i]);
-        } else if p.x < 0.0 && p.z < 0.01 {
-            lit += before[i];
+        } else if p.x < 0.0 {
+            squares += (before[i] - again[i]).powi(2);
             count += 1;
         }
     }
-    (rise, lit / count.max(1) as f32)
+    (rise, (squares / (2 * count.max(1)) as f32).sqrt())
 }
 
 #[test]
@@ -139,13 +168,22 @@ fn no_light_crosses_a_one_texel_wall() {
     let (scene, t) = split_room();
     let atlas = Atlas::generate(&scene, 256, Some(t)).unwrap();
     let raw = bake_lightmap(&scene, atlas.clone(), &options(64, false));
+    let other = bake_lightmap(
+        &scene,
+        atlas.clone(),
+        &BakeOptions {
+            seed: 2,
+            ..options(64, false)
+        },
+    );
     let denoised = bake_lightmap(&scene, atlas, &options(64, true));
-    let (rise, lit) = dark_rise_and_lit(&raw, &denoised, t);
-    eprintln!("lit floor {lit}, the dark side's largest rise {rise}");
-    assert!(lit > 0.05, "the lit side is lit ({lit})");
+    let (rise, noise) = dark_rise_and_noise(&raw, &other, &denoised, t);
+    eprintln!("the raw bake's noise {noise}, the dark side's largest rise {rise}");
+    assert!(noise > 1e-3, "the lit side is lit, and noisy ({noise})");
     assert!(
-        rise <= 1e-4 * lit,
-        "a dark texel brightened by {rise} (lit floor {lit}): light crossed the wall"
+        rise <= 0.25 * noise,
+        "a dark texel brightened by {rise}, over a quarter of the raw noise {noise}: light crossed \
+         the wall"
     );
 }
 
@@ -167,7 +205,7 @@ fn relit_error(bake: &LightmapBake, reference: &LightmapBake, dir: Vec3) -> f64 
 #[test]
 fn sixty_four_rays_denoised_beat_five_hundred_and_twelve_raw_in_the_cornell_room() {
     let scene = Scene::load(&scenes_dir().join("cornell/cornell.scene")).expect("cornell");
-    let atlas = Atlas::generate(&scene, 128, None).unwrap();
+    let atlas = Atlas::generate(&scene, 256, None).unwrap();
     let reference = bake_lightmap(&scene, atlas.clone(), &options(4096, false));
     let raw64 = bake_lightmap(&scene, atlas.clone(), &options(64, false));
     let raw512 = bake_lightmap(&scene, atlas.clone(), &options(512, false));
@@ -178,6 +216,9 @@ fn sixty_four_rays_denoised_beat_five_hundred_and_twelve_raw_in_the_cornell_room
         let e512 = relit_error(&raw512, &reference, dir);
         let ed = relit_error(&denoised, &reference, dir);
         eprintln!("light {dir}: raw 64 {e64:.4}, raw 512 {e512:.4}, denoised 64 {ed:.4}");
-        assert!(ed < e512, "denoised 64 rays {ed:.4} against raw 512 {e512:.4}");
+        assert!(
+            ed < e512,
+            "denoised 64 rays {ed:.4} against raw 512 {e512:.4}"
+        );
     }
 }

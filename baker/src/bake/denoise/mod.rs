@@ -103,6 +103,9 @@ impl Settings {
 
 /// Coefficients per channel the range term compares: bands 0 and 1.
 const SIGNAL_COEFFICIENTS: usize = 4;
+/// κ of the guide's prefilter, on the raw signal: more tolerant than the filter's own, as
+/// the raw signal is noisier than the guide.
+const GUIDE_KAPPA: f32 = 3.0;
 /// The power of the shading normals' dot product.
 const NORMAL_POWER: i32 = 32;
 
@@ -240,6 +243,15 @@ impl<'g> Filter<'g> {
             .enumerate()
             .for_each_init(Vec::new, |near, (i, (out, var))| {
                 self.neighbours(i, self.settings.guide_radius, near);
+                // The raw signal's own range term: a receiver's guide does not take in
+                // neighbours far brighter or darker than its noise allows (a thin wall's
+                // other side, a shadow's edge).
+                let si = &signal[i * sw..(i + 1) * sw];
+                for (j, w) in near.iter_mut() {
+                    let sj = &signal[*j as usize * sw..(*j as usize + 1) * sw];
+                    let variance = (noise[i] + noise[*j as usize]) * sw as f32;
+                    *w *= range_weight(si, sj, variance, GUIDE_KAPPA);
+                }
                 let total: f32 = near.iter().map(|&(_, w)| w).sum();
                 for &(j, w) in near.iter() {
                     let w = w / total;
@@ -258,18 +270,11 @@ impl<'g> Filter<'g> {
         self.neighbours(i, self.settings.radius, out);
         let sw = self.signal_width;
         let gi = &self.guide[i * sw..(i + 1) * sw];
-        let kappa2 = self.settings.kappa * self.settings.kappa;
         for (j, w) in out.iter_mut() {
             let j = *j as usize;
             let gj = &self.guide[j * sw..(j + 1) * sw];
-            let squared: f32 = gi.iter().zip(gj).map(|(a, b)| (a - b) * (a - b)).sum();
             let variance = (self.guide_noise[i] + self.guide_noise[j]) * sw as f32;
-            let d2 = match variance > 0.0 {
-                true => squared / variance,
-                false if squared == 0.0 => 0.0,
-                false => f32::INFINITY,
-            };
-            *w *= (-(d2 - 1.0).max(0.0) / kappa2).exp();
+            *w *= range_weight(gi, gj, variance, self.settings.kappa);
         }
         if self.settings.linear {
             self.linear_fit(i, out);
@@ -335,6 +340,18 @@ impl<'g> Filter<'g> {
     }
 }
 
+/// The range term: exp(−max(0, d² − 1)/κ²) for d² the squared difference of `a` and `b`
+/// over `variance`, the difference noise alone would give (so d² ≈ 1 for noise).
+fn range_weight(a: &[f32], b: &[f32], variance: f32, kappa: f32) -> f32 {
+    let squared: f32 = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum();
+    let d2 = match variance > 0.0 {
+        true => squared / variance,
+        false if squared == 0.0 => 0.0,
+        false => f32::INFINITY,
+    };
+    (-(d2 - 1.0).max(0.0) / (kappa * kappa)).exp()
+}
+
 /// Denoises `transfer` in place (`channels` blocks of `per_channel` floats per receiver) with
 /// the weights of `guides`.
 pub fn denoise(
@@ -367,4 +384,68 @@ pub fn denoise_baked(
     };
     let per_channel = options.transfer.floats_per_channel(options.order);
     denoise(&guides, settings, coefficients, channels, per_channel);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A square `side` × `side` grid of receivers at spacing 1 from `origin` along `u`, `v`,
+    /// facing `normal`, in `group`.
+    fn sheet(guides: &mut Guides, origin: Vec3, u: Vec3, v: Vec3, normal: Vec3, group: u32) {
+        for a in 0..12 {
+            for b in 0..12 {
+                guides.points.push(origin + u * a as f32 + v * b as f32);
+                guides.normals.push(normal);
+                guides.surfaces.push(normal);
+                guides.groups.push(group);
+                guides.spacing.push(1.0);
+                guides.noise.push(1e-4);
+            }
+        }
+    }
+
+    /// The largest weight any receiver of the first sheet (the first 144) gives the second,
+    /// every receiver holding the same transfer, so only the geometric terms can tell them
+    /// apart.
+    fn weight_across(guides: &Guides) -> f32 {
+        let transfer = vec![0.5f32; guides.points.len() * 4];
+        let filter = Filter::new(guides, Settings::TEXELS, &transfer, 1, 4);
+        let mut row = Vec::new();
+        let mut most = 0.0f32;
+        for i in 0..144 {
+            filter.row(i, &mut row);
+            for &(j, w) in &row {
+                if j >= 144 {
+                    most = most.max(w.abs());
+                }
+            }
+        }
+        most
+    }
+
+    #[test]
+    fn a_crease_a_step_and_another_object_get_no_weight() {
+        let (x, y, z) = (Vec3::X, Vec3::Y, Vec3::Z);
+        // A floor meeting a wall at a right angle.
+        let mut crease = Guides::default();
+        sheet(&mut crease, Vec3::ZERO, x, y, z, 0);
+        sheet(&mut crease, Vec3::new(0.0, 12.0, 0.5), x, z, -y, 0);
+        assert!(weight_across(&crease) < 1e-3, "{}", weight_across(&crease));
+        // A slab three texels above the floor, facing the same way.
+        let mut step = Guides::default();
+        sheet(&mut step, Vec3::ZERO, x, y, z, 0);
+        sheet(&mut step, Vec3::new(6.0, 0.0, 3.0), x, y, z, 0);
+        assert!(weight_across(&step) < 1e-3, "{}", weight_across(&step));
+        // Two objects side by side in one plane.
+        let mut objects = Guides::default();
+        sheet(&mut objects, Vec3::ZERO, x, y, z, 0);
+        sheet(&mut objects, Vec3::new(12.0, 0.0, 0.0), x, y, z, 1);
+        assert_eq!(weight_across(&objects), 0.0);
+        // And one object continuing in that plane does share.
+        let mut one = Guides::default();
+        sheet(&mut one, Vec3::ZERO, x, y, z, 0);
+        sheet(&mut one, Vec3::new(12.0, 0.0, 0.0), x, y, z, 0);
+        assert!(weight_across(&one) > 1e-2);
+    }
 }
