@@ -15,7 +15,9 @@
 //!   the product is the relit radiance; the materials are then marked
 //!   `KHR_materials_unlit` so viewers show it without adding their own lights.
 //!
-//! Materials are metallic 0, roughness 1, base colour = Kd (× the texture, embedded as PNG).
+//! Materials keep the source's (base colour factor and texture with its sampler and texture
+//! transform, alpha mode and cutoff, doubleSided, normal texture with TANGENT), metallic 0,
+//! roughness 1 (material.rs).
 //!
 //! A lightmap (texel) bake has no per-vertex transfer: its `.glb` carries TEXCOORD_1 = the
 //! atlas (vertices split at chart seams) and, with a rig, the relit lightmap as a texture the
