@@ -6,7 +6,6 @@
 use glam::Vec3;
 use serde_json::{Value, json};
 
-use super::LightmapContents;
 use super::builder::*;
 use crate::scene::{AlphaMode, Material, Scene, Wrap};
 use crate::support::error::Result;
@@ -113,7 +112,7 @@ pub(super) fn materials(
     b: &mut Builder,
     scene: &Scene,
     vertex_lit: bool,
-    lightmap: Option<&LightmapContents<'_>>,
+    (lightmap_png, ao_png): (Option<&[u8]>, Option<&[u8]>),
 ) -> Result<Materials> {
     let mut images = Vec::new();
     for texture in &scene.textures {
@@ -177,7 +176,7 @@ pub(super) fn materials(
             ..Slots::default()
         })
         .collect();
-    let needs_lightmap_sampler = lightmap.is_some_and(|l| l.png.is_some() || l.ao_png.is_some());
+    let needs_lightmap_sampler = lightmap_png.is_some() || ao_png.is_some();
     let lightmap_sampler = samplers.len();
     if needs_lightmap_sampler {
         samplers.push(json!({
@@ -197,8 +196,8 @@ pub(super) fn materials(
             textures.len() - 1
         })
     };
-    let lightmap_texture = embed(lightmap.and_then(|l| l.png.as_deref()), "prt_lightmap");
-    let occlusion_texture = embed(lightmap.and_then(|l| l.ao_png.as_deref()), "prt_ao");
+    let lightmap_texture = embed(lightmap_png, "prt_lightmap");
+    let occlusion_texture = embed(ao_png, "prt_ao");
     let unlit = vertex_lit;
     let materials = scene
         .materials

@@ -606,7 +606,11 @@ fn glb_bytes_with(
         buffer_views: Vec::new(),
         accessors: Vec::new(),
     };
-    let mut materials = materials(&mut b, scene, transfer.colour.is_some(), lightmap)?;
+    let pngs = (
+        lightmap.and_then(|l| l.png.as_deref()),
+        lightmap.and_then(|l| l.ao_png.as_deref()),
+    );
+    let mut materials = materials(&mut b, scene, transfer.colour.is_some(), pngs)?;
     if let Some(file) = contents.file {
         glossy::add_material_extras(&mut materials.materials, scene, &file.header);
     }
