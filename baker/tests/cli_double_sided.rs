@@ -136,7 +136,7 @@ fn double_sided_auto_adds_back_receivers_and_off_bakes_the_front_only() {
         ])
         .success();
     }
-    // The export draws each sheet single-sided, the back sheet as a mesh of its own.
+    // The export writes the back sheet as a mesh of its own, each sheet marked on its node.
     s.run(&[
         "export",
         "out/auto.prt",
@@ -149,11 +149,23 @@ fn double_sided_auto_adds_back_receivers_and_off_bakes_the_front_only() {
     let glb = s.read("out/auto.glb");
     let json_length = u32::from_le_bytes(glb[12..16].try_into().unwrap()) as usize;
     let exported: Value = serde_json::from_slice(&glb[20..20 + json_length]).unwrap();
+    // The source's doubleSided is kept on its material; each sheet's node says which side
+    // it is, for renderers that cull back faces to show each sheet's own transfer.
     let materials = exported["materials"].as_array().unwrap();
-    assert!(
-        materials.iter().all(|m| m["doubleSided"] != json!(true)),
-        "{materials:?}"
+    let leaf = materials.iter().find(|m| m["name"] == "leaf").unwrap();
+    assert_eq!(leaf["doubleSided"], json!(true), "{materials:?}");
+    let sheets: Vec<&Value> = exported["nodes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|n| n["extras"]["prt_sheet"].as_str().map(|_| n))
+        .collect();
+    assert_eq!(sheets.len(), 2, "{sheets:?}");
+    assert_eq!(
+        sheets[1]["name"].as_str().map(|n| n.ends_with("(back)")),
+        Some(true)
     );
+    assert_eq!(sheets[1]["extras"]["prt_sheet"], "back");
     let names: Vec<&str> = exported["nodes"]
         .as_array()
         .unwrap()

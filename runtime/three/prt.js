@@ -224,17 +224,28 @@ function texelShaderPatch(groups) {
   };
 }
 
-function albedoMaterial(source) {
+// The relighting material's base: a MeshBasicMaterial that keeps what the loaded material
+// draws besides its lighting: the base colour factor and texture on TEXCOORD_0 (with the
+// texture transform GLTFLoader put on it), the alpha (alphaTest for MASK, transparent and
+// depthWrite for BLEND, alphaHash, opacity, alphaMap) and the side. A node that is one sheet
+// of a doubleSided surface (extras.prt_sheet: the bake's back sheet, or its front) shows the
+// transfer of the side its normals face, so it is drawn front faces only; its twin draws the
+// other side (docs/reference/gltf.md, "Materials").
+function albedoMaterial(source, object) {
+  const sheet = Boolean(object?.userData?.prt_sheet);
   const material = new THREE.MeshBasicMaterial({
     color: source.color ? source.color.clone() : new THREE.Color(1, 1, 1),
-    side: source.side,
+    side: sheet ? THREE.FrontSide : source.side,
     transparent: source.transparent,
     opacity: source.opacity ?? 1,
+    alphaTest: source.alphaTest ?? 0,
+    alphaHash: source.alphaHash ?? false,
+    depthWrite: source.depthWrite ?? true,
   });
-  // The base colour texture on TEXCOORD_0; a texel bake's exported material shows the relit
-  // lightmap there (on TEXCOORD_1) instead, which is not albedo.
-  const map = source.map && source.map.channel === 0 && !source.userData?.prt_lightmap ? source.map : null;
-  if (map) material.map = map;
+  // The base colour texture is on TEXCOORD_0. (Files exported before the lightmap moved to
+  // extras.prt_lightmap had the relit lightmap there on TEXCOORD_1, which is not albedo.)
+  if (source.map && source.map.channel === 0) material.map = source.map;
+  if (source.alphaMap) material.alphaMap = source.alphaMap;
   material.name = `${source.name || 'material'} (PRT)`;
   return material;
 }
@@ -347,7 +358,7 @@ function relitMaterials(object, uniforms, patch, perVertex, key, clamp) {
   const original = object.material;
   const sources = Array.isArray(original) ? original : [original];
   const made = sources.map((source) => {
-    const material = albedoMaterial(source);
+    const material = albedoMaterial(source, object);
     material.onBeforeCompile = (shader) => {
       Object.assign(shader.uniforms, uniforms);
       if (perVertex) {
@@ -560,7 +571,7 @@ export function applyGlossyPRT(rootOrGltf, light, options = {}) {
         prtKs: { value: new THREE.Vector3(...(lobe ? lobe.ks : [0, 0, 0])) },
         prtDiffuseWeight: { value: lobe ? lobe.diffuse_weight : 1 },
       };
-      const material = albedoMaterial(source);
+      const material = albedoMaterial(source, object);
       material.onBeforeCompile = (shader) => {
         Object.assign(shader.uniforms, uniforms);
         shader.vertexShader = shader.vertexShader

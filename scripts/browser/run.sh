@@ -26,6 +26,9 @@ node scripts/browser/probe-test.mjs target/release/prt-bake "$OUT"
 # relight at probes baked exactly at its positions (docs/guides/probes.md).
 node scripts/browser/probe-move.mjs "$NODE_DIR/node_modules" target/release/prt-bake "$OUT"
 node scripts/browser/test.mjs "$NODE_DIR/node_modules" target/release/prt-bake "$OUT"
-# Glossy PRT: a CPCA-compressed transfer-matrix export relit by prt.js against
+# Cut-outs, textures and two-sided sheets: the cut-out card against its geometry twin, and the
+# courtyard relit by prt.js against three.js's own render of its export (docs/reference/gltf.md).
+node scripts/browser/cutouts.mjs "$NODE_DIR/node_modules" target/release/prt-bake "$OUT"
+# Glossy PRT (issue 33): a CPCA-compressed transfer-matrix export relit by prt.js against
 # prt-bake relight --view from three camera positions.
 node scripts/browser/glossy.mjs "$NODE_DIR/node_modules" target/release/prt-bake "$OUT"

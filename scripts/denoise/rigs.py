@@ -1,4 +1,4 @@
-"""The light rigs the denoiser is measured under (TOML, docs/lights.md): the viewer's default
+"""The light rigs the denoiser is measured under (TOML, docs/reference/lights.md): the viewer's default
 sun and sky, a low sun whose shadows cross the floor, and a sky alone."""
 
 RIGS = {

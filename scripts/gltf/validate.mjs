@@ -1,7 +1,8 @@
 // Validates glTF files with the Khronos glTF-Validator (npm package `gltf-validator`) and
 // exits 1 if any has an error. Also checks prt-bake's own promises (docs/reference/gltf.md): every
-// texture is named by a material slot; a texel bake's relit lightmap is every material's
-// unlit baseColorTexture on TEXCOORD_1; AO is an occlusionTexture on TEXCOORD_1 or `_AO`.
+// texture is named by a material slot (or its extras); a texel bake's relit lightmap is in
+// every material's extras.prt_lightmap on TEXCOORD_1, beside its own base colour; AO is an
+// occlusionTexture on TEXCOORD_1 or `_AO`.
 // Usage: node validate.mjs VALIDATOR_MODULE_DIR FILE.glb...
 import { createRequire } from "node:module";
 import { readFileSync } from "node:fs";
@@ -45,18 +46,18 @@ function layoutProblems(bytes) {
   const materials = root.materials ?? [];
   const slots = (m) => [m.pbrMetallicRoughness?.baseColorTexture, m.occlusionTexture, m.emissiveTexture,
     m.normalTexture, m.pbrMetallicRoughness?.metallicRoughnessTexture].filter(Boolean);
-  const named = new Set(materials.flatMap((m) => slots(m).map((s) => s.index)));
+  const extras = (m) => [m.extras?.prt_lightmap, m.extras?.prt_alpha_texture].filter(Boolean);
+  const named = new Set(materials.flatMap((m) => [...slots(m), ...extras(m)].map((s) => s.index)));
   (root.textures ?? []).forEach((t, i) => {
-    // A texel bake's albedo texture under a relit lightmap is only in extras (docs/reference/gltf.md).
-    const albedoOnly = materials.some((m) => m.extras?.prt_albedo_texture?.index === i);
-    if (!named.has(i) && !albedoOnly) problems.push(`texture ${i} (${t.name ?? "unnamed"}) is in no material slot`);
+    if (!named.has(i)) problems.push(`texture ${i} (${t.name ?? "unnamed"}) is in no material slot`);
   });
   const lightmap = root.asset?.extras?.prt?.lightmap;
   if (lightmap && Number.isInteger(lightmap.texture)) {
     materials.forEach((m, i) => {
+      const slot = m.extras?.prt_lightmap;
       const base = m.pbrMetallicRoughness?.baseColorTexture;
-      if (base?.index !== lightmap.texture || base?.texCoord !== 1 || !m.extensions?.KHR_materials_unlit) {
-        problems.push(`material ${i}: not unlit with the relit lightmap as baseColorTexture on TEXCOORD_1`);
+      if (slot?.index !== lightmap.texture || slot?.texCoord !== 1 || base?.index === lightmap.texture) {
+        problems.push(`material ${i}: the relit lightmap is not in extras.prt_lightmap on TEXCOORD_1 beside the base colour`);
       }
     });
   }

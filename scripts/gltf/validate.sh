@@ -32,7 +32,7 @@ $BAKE export "$OUT/cornell-lm-ao.prt" --scene scenes/cornell/cornell.scene --glb
 $BAKE bake scenes/torus/torus.scene -o "$OUT/torus-ao.prt" --samples 16 --order 3 --aux ao --quiet
 $BAKE export "$OUT/torus-ao.prt" --scene scenes/torus/torus.scene --glb "$OUT/torus-ao.glb"
 # The texel bake without a rig: plain PBR materials, what a re-bake reads (the rig's export
-# has the relit lightmap as its base colour texture).
+# adds the relit lightmap beside the base colour, in extras.prt_lightmap).
 $BAKE export "$OUT/cornell-lm.prt" --scene scenes/cornell/cornell.scene --glb "$OUT/cornell-lm-plain.glb"
 # The exported file read back as a scene: the round trip.
 $BAKE bake "$OUT/torus.glb" -o "$OUT/torus-from-glb.prt" --samples 16 --order 3 --quiet
@@ -51,6 +51,19 @@ $BAKE bake scenes/torus/glossy.scene -o "$OUT/glossy-cpca.prt" --transfer matrix
     --clusters 16 --pcs 4 --quiet
 $BAKE export "$OUT/glossy-cpca.prt" --scene scenes/torus/glossy.scene --glb "$OUT/glossy-cpca.glb" \
     --lights viewer/src/default-rig.toml
+# The production courtyard (cut-out foliage cards, a normal-mapped wall, every material
+# doubleSided), per vertex and per texel with a rig, and the cut-out card: the exports keep the
+# source's materials (docs/reference/gltf.md, "Materials"), checked field by field.
+COURTYARD=scenes/production/courtyard.glb
+$BAKE bake $COURTYARD -o "$OUT/courtyard.prt" --samples 16 --quiet
+$BAKE export "$OUT/courtyard.prt" --scene $COURTYARD --glb "$OUT/courtyard.glb" --lights viewer/src/default-rig.toml
+$BAKE bake $COURTYARD -o "$OUT/courtyard-lm.prt" --lightmap 64 --samples 16 --quiet 2>/dev/null
+$BAKE export "$OUT/courtyard-lm.prt" --scene $COURTYARD --glb "$OUT/courtyard-lm.glb" --lights viewer/src/default-rig.toml
+$BAKE bake scenes/cutout/card.glb -o "$OUT/card.prt" --samples 16 --quiet
+$BAKE export "$OUT/card.prt" --scene scenes/cutout/card.glb --glb "$OUT/card.glb"
+node scripts/gltf/materials.mjs $COURTYARD "$OUT/courtyard.glb" "$OUT/courtyard-lm.glb"
+node scripts/gltf/materials.mjs scenes/cutout/card.glb "$OUT/card.glb"
 node scripts/gltf/validate.mjs "$NODE_DIR/node_modules" "$OUT/torus.glb" "$OUT/cornell.glb" "$OUT/torus-again.glb" \
     "$OUT/cornell-lm.glb" "$OUT/cornell-lm-again.glb" "$OUT/cornell-lm-ao.glb" "$OUT/torus-ao.glb" \
-    "$OUT/cornell-lm-plain.glb" "$OUT/cornell-cpca.glb" "$OUT/glossy-cpca.glb"
+    "$OUT/cornell-lm-plain.glb" "$OUT/cornell-cpca.glb" "$OUT/glossy-cpca.glb" \
+    "$OUT/courtyard.glb" "$OUT/courtyard-lm.glb" "$OUT/card.glb"

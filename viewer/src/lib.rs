@@ -50,6 +50,7 @@ pub mod font;
 pub mod glossy;
 pub mod gpu;
 pub mod lights;
+mod materials;
 pub mod moving;
 pub mod offscreen;
 mod overlay;

@@ -24,17 +24,17 @@ use crate::bake::Bake;
 use crate::camera::Camera;
 use crate::controls::{Mode, View};
 use crate::error::{Error, Result};
-use crate::glossy::{GlossyResources, material_lobe};
+use crate::glossy::GlossyResources;
 use crate::lights::{MAX_LIGHTS, PhongLights, PhongShape};
+use crate::materials::materials;
 use crate::overlay::Overlay;
 use crate::probe_scene::ProbeScene;
 use crate::resources::{
     DEPTH_FORMAT, PipelineSpec, buffer_binding, pipeline, scene_shader, storage_entry, texture_2d,
-    texture_entry, uniform_buffer, uniform_entry, view_binding,
+    uniform_buffer, uniform_entry, view_binding,
 };
 use crate::texel_radiance::RadianceMap;
 use crate::texel_transfer::{TexelStorage, TexelTransfer};
-use crate::textures;
 
 /// Behind the scene: a dark grey, linear.
 const BACKGROUND: wgpu::Color = wgpu::Color {
@@ -90,19 +90,6 @@ struct FrameUniform {
     pad: [u32; 2],
     ambient: [f32; 4],
     lights: [PhongLightUniform; MAX_LIGHTS],
-}
-
-/// `Material` of common.wgsl.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Pod, Zeroable)]
-struct MaterialUniform {
-    kd: [f32; 4],
-    has_texture: u32,
-    pad: [u32; 3],
-    /// Glossy PRT: rgb Ks, w the diffuse weight.
-    ks: [f32; 4],
-    /// ĝ_l(s), band l at [l / 4][l % 4].
-    glossy_bands: [[f32; 4]; 2],
 }
 
 /// Everything one frame shows, taken from a [`View`] (or built by a test).
@@ -573,8 +560,6 @@ impl Renderer {
     }
 }
 
-/// The materials' bind group layout, and one bind group per material: Kd, the texture
-/// (white where there is none) and a trilinear, repeating sampler.
 /// Refuses a vertex bake whose transfer does not fit in the device's largest storage buffer.
 fn check_transfer_size(device: &wgpu::Device, bake: &Bake) -> Result<()> {
     let lightmap = bake.lightmap();
@@ -902,76 +887,6 @@ fn buffer_init(
         contents,
         usage,
     })
-}
-
-fn materials(
-    device: &wgpu::Device,
-    queue: &wgpu::Queue,
-    scene: &prt_baker::Scene,
-    order: usize,
-) -> (wgpu::BindGroupLayout, Vec<wgpu::BindGroup>) {
-    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("material"),
-        entries: &[
-            // The glossy vertex shader reads the lobe's band factors.
-            uniform_entry(0, wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT),
-            texture_entry(1, true),
-            wgpu::BindGroupLayoutEntry {
-                binding: 2,
-                visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                count: None,
-            },
-        ],
-    });
-    let sampler = device.create_sampler(&wgpu::SamplerDescriptor {
-        label: Some("albedo"),
-        address_mode_u: wgpu::AddressMode::Repeat,
-        address_mode_v: wgpu::AddressMode::Repeat,
-        mag_filter: wgpu::FilterMode::Linear,
-        min_filter: wgpu::FilterMode::Linear,
-        mipmap_filter: wgpu::MipmapFilterMode::Linear,
-        ..Default::default()
-    });
-    let views: Vec<wgpu::TextureView> = scene
-        .textures
-        .iter()
-        .map(|t| textures::upload(device, queue, t))
-        .collect();
-    let white = textures::white(device, queue);
-    let groups = scene
-        .materials
-        .iter()
-        .map(|m| {
-            let lobe = material_lobe(m, order);
-            let uniform = MaterialUniform {
-                kd: m.kd.extend(1.0).to_array(),
-                has_texture: u32::from(m.texture.is_some()),
-                pad: [0; 3],
-                ks: lobe.ks,
-                glossy_bands: lobe.bands,
-            };
-            let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("material"),
-                contents: bytemuck::bytes_of(&uniform),
-                usage: wgpu::BufferUsages::UNIFORM,
-            });
-            let view = m.texture.map_or(&white, |t| &views[t]);
-            device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("material"),
-                layout: &layout,
-                entries: &[
-                    buffer_binding(0, &uniform),
-                    view_binding(1, view),
-                    wgpu::BindGroupEntry {
-                        binding: 2,
-                        resource: wgpu::BindingResource::Sampler(&sampler),
-                    },
-                ],
-            })
-        })
-        .collect();
-    (layout, groups)
 }
 
 /// The light as the shader reads it: coefficient j's (R, G, B, 0) at j.

@@ -52,13 +52,32 @@ pub fn mip_chain(texture: &Texture) -> Vec<(u32, u32, Vec<[u8; 4]>)> {
 
 /// Uploads a texture and its mip chain.
 pub fn upload(device: &wgpu::Device, queue: &wgpu::Queue, texture: &Texture) -> wgpu::TextureView {
+    upload_as(device, queue, texture, wgpu::TextureFormat::Rgba8UnormSrgb)
+}
+
+/// Uploads a texture of data (an OBJ `map_d` coverage image, whose grey is not sRGB colour)
+/// and its mip chain: sampling returns the bytes / 255.
+pub fn upload_data(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    texture: &Texture,
+) -> wgpu::TextureView {
+    upload_as(device, queue, texture, wgpu::TextureFormat::Rgba8Unorm)
+}
+
+fn upload_as(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    texture: &Texture,
+    format: wgpu::TextureFormat,
+) -> wgpu::TextureView {
     let levels = mip_chain(texture);
     let gpu = texture_2d(
         device,
         "albedo",
         (texture.width, texture.height),
         levels.len() as u32,
-        wgpu::TextureFormat::Rgba8UnormSrgb,
+        format,
         wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
     );
     for (level, (w, h, pixels)) in levels.iter().enumerate() {

@@ -22,12 +22,47 @@ pub enum AlphaMode {
 }
 
 /// A texture's wrap mode along one axis (glTF sampler `wrapS` / `wrapT`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Wrap {
     #[default]
     Repeat,
     ClampToEdge,
     MirroredRepeat,
+}
+
+/// `KHR_texture_transform` of a texture reference, as the source wrote it: offset, rotation
+/// (radians, counter-clockwise in the image) and scale, applied to glTF texture coordinates
+/// (v down from the image's top) as translation × rotation × scale.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TextureTransform {
+    pub offset: [f32; 2],
+    pub rotation: f32,
+    pub scale: [f32; 2],
+}
+
+impl TextureTransform {
+    /// The transform as an affine map: rows `[a, b, c]` give `a·u + b·v + c`.
+    pub fn matrix(&self) -> [[f32; 3]; 2] {
+        let ([ox, oy], [sx, sy]) = (self.offset, self.scale);
+        let (sin, cos) = self.rotation.sin_cos();
+        [[cos * sx, sin * sy, ox], [-sin * sx, cos * sy, oy]]
+    }
+}
+
+/// How a material's base colour texture is looked up by renderers and written by the glTF
+/// export: its sampler's wrap modes and its `KHR_texture_transform` (OBJ: repeat, none).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Sampling {
+    /// The wrap modes along u and v.
+    pub wrap: [Wrap; 2],
+    pub transform: Option<TextureTransform>,
+}
+
+impl Sampling {
+    /// The transform's affine map, the identity without one.
+    pub fn matrix(&self) -> [[f32; 3]; 2] {
+        self.transform.map_or(Alpha::IDENTITY, |t| t.matrix())
+    }
 }
 
 /// Where a material's coverage comes from and what it decides.

@@ -3,7 +3,7 @@
 
 use glam::{Vec2, Vec3};
 
-use super::alpha::Alpha;
+use super::alpha::{Alpha, Sampling};
 use super::normal_map::NormalMap;
 
 /// Diffuse reflectance of surfaces whose material sets no `Kd` and that have no texture.
@@ -17,6 +17,9 @@ pub struct Material {
     pub kd: Vec3,
     /// Index into [`super::Scene::textures`].
     pub texture: Option<usize>,
+    /// The base colour texture's wrap modes and texture transform, for renderers and the
+    /// glTF export (the baker's own albedo lookups repeat, untransformed).
+    pub sampling: Sampling,
     /// The glossy layer, if the material has one. Bakes never read it (vector transfer is
     /// diffuse, and matrix transfer is the incident radiance, whatever the BRDF); renderers of
     /// matrix bakes apply it (`crate::math::glossy`).
@@ -52,6 +55,7 @@ impl Default for Material {
             name: String::from("default"),
             kd: DEFAULT_KD,
             texture: None,
+            sampling: Sampling::default(),
             glossy: None,
             alpha: None,
             normal_map: None,

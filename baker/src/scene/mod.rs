@@ -37,7 +37,7 @@ use glam::{Vec2, Vec3, Vec4};
 use crate::support::error::{Error, Location, Result};
 use crate::support::input_path::AssetFolder;
 
-pub use alpha::{Alpha, AlphaMode, Cutouts, Wrap};
+pub use alpha::{Alpha, AlphaMode, Cutouts, Sampling, TextureTransform, Wrap};
 pub use back_sheets::BackSheets;
 pub use format::FORMATS;
 use format::OTHER_FORMATS;

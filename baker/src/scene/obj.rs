@@ -201,6 +201,7 @@ fn resolve_materials(
             name: m.name.clone(),
             kd: m.diffuse.map(Vec3::from_array).unwrap_or(DEFAULT_KD),
             texture,
+            sampling: Default::default(),
             glossy: mtl_glossy(m),
             alpha,
             normal_map: None,
@@ -215,6 +216,7 @@ fn resolve_materials(
             DEFAULT_KD
         },
         texture: override_index,
+        sampling: Default::default(),
         glossy: None,
         alpha: None,
         normal_map: None,

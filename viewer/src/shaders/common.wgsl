@@ -35,16 +35,24 @@ struct Frame {
 }
 
 struct Material {
+    // rgb Kd, w the base colour factor's alpha.
     kd: vec4<f32>,
     has_texture: u32,
-    pad0: u32,
-    pad1: u32,
-    pad2: u32,
+    // 0 opaque, 1 MASK (discard below the cutoff), 2 hashed (glTF BLEND, OBJ map_d).
+    alpha_mode: u32,
+    // The coverage texture's channel: 3 alpha, 0 red (grey map_d images), 4 none.
+    alpha_channel: u32,
+    alpha_cutoff: f32,
     // Glossy PRT (matrix bakes, glossy.wgsl): rgb Ks, w the diffuse term's weight (1 for a
     // material without a glossy layer, whose Ks is 0).
     ks: vec4<f32>,
     // ĝ_l(s) of the material's Phong lobe, band l at [l / 4][l % 4] (orders up to 8).
     glossy_bands: array<vec4<f32>, 2>,
+    // The base colour texture's KHR_texture_transform: rows (a, b, c) of a·u + b·v + c in
+    // glTF's texture coordinates (v down from the image's top).
+    uv_transform: array<vec4<f32>, 2>,
+    // The coverage texture's.
+    alpha_uv_transform: array<vec4<f32>, 2>,
 }
 
 @group(0) @binding(0) var<uniform> frame: Frame;
@@ -63,6 +71,8 @@ struct Material {
 @group(1) @binding(0) var<uniform> material: Material;
 @group(1) @binding(1) var albedo_texture: texture_2d<f32>;
 @group(1) @binding(2) var albedo_sampler: sampler;
+// The coverage texture (alpha): the base colour texture for glTF, an OBJ map_d's own image.
+@group(1) @binding(3) var alpha_texture: texture_2d<f32>;
 
 // Σ_j T_j·L_j per channel for vertex v: the light a vertex sends out per unit albedo. This
 // is the one place the PRT dot product is computed; the probe reads it back for the tests.
@@ -137,12 +147,49 @@ fn prt_radiance_texel_array(texel: vec2<u32>) -> vec3<f32> {
     return radiance;
 }
 
+// A scene uv (OBJ's convention, v up from the image's bottom; textures are stored top row
+// first) in glTF's convention, through a material's texture transform.
+fn texture_uv(uv: vec2<f32>, transform: array<vec4<f32>, 2>) -> vec2<f32> {
+    let g = vec3<f32>(uv.x, 1.0 - uv.y, 1.0);
+    return vec2<f32>(dot(transform[0].xyz, g), dot(transform[1].xyz, g));
+}
+
 // Linear albedo Kd × texture (the texture is sRGB, so sampling returns linear values).
 fn albedo(uv: vec2<f32>) -> vec3<f32> {
-    // OBJ's v runs up from the bottom of the image; textures are stored top row first.
-    let texel = textureSample(albedo_texture, albedo_sampler, vec2<f32>(uv.x, 1.0 - uv.y)).rgb;
+    let texel = textureSample(albedo_texture, albedo_sampler, texture_uv(uv, material.uv_transform)).rgb;
     let textured = material.has_texture != 0u && frame.use_textures != 0u;
     return material.kd.rgb * select(vec3<f32>(1.0), texel, textured);
+}
+
+// Whether the fragment at `pixel` (its framebuffer position) is drawn: the material's
+// coverage (Kd's alpha × the coverage texture's channel) against the cutoff (MASK), or against
+// a hash of the pixel (hashed transparency: kept with probability = coverage, as the baker's
+// rays are stopped). Opaque materials draw everything. Fragment entry points discard where
+// this is false.
+fn covered(uv: vec2<f32>, pixel: vec2<f32>) -> bool {
+    let texel = textureSample(alpha_texture, albedo_sampler, texture_uv(uv, material.alpha_uv_transform));
+    var coverage = material.kd.w;
+    if material.alpha_channel == 3u {
+        coverage *= texel.a;
+    } else if material.alpha_channel == 0u {
+        coverage *= texel.r;
+    }
+    if material.alpha_mode == 1u {
+        return coverage >= material.alpha_cutoff;
+    }
+    if material.alpha_mode == 2u {
+        return pixel_hash(vec2<u32>(pixel)) < coverage;
+    }
+    return true;
+}
+
+// A number in [0, 1) per pixel (a 2D integer hash), the threshold of hashed transparency.
+fn pixel_hash(p: vec2<u32>) -> f32 {
+    var h = p.x * 0x8da6b343u ^ p.y * 0xd8163841u;
+    h = (h ^ (h >> 16u)) * 0x7feb352du;
+    h = (h ^ (h >> 15u)) * 0x846ca68bu;
+    h = h ^ (h >> 16u);
+    return f32(h >> 8u) / 16777216.0;
 }
 
 // `prt-bake relight`'s display colour: × 2^exposure, clamped to [0, 1]; the sRGB framebuffer

@@ -173,6 +173,9 @@ fn vs_glossy(in: VertexIn, @builtin(vertex_index) v: u32) -> GlossyOut {
 
 @fragment
 fn fs_glossy(in: GlossyOut) -> @location(0) vec4<f32> {
+    if !covered(in.uv, in.clip.xy) {
+        discard;
+    }
     let diffuse = in.diffuse * albedo(in.uv) * material.ks.w;
     return tone_map(diffuse + material.ks.rgb * in.glossy);
 }

@@ -26,6 +26,9 @@ fn vs_prt(in: VertexIn, @builtin(vertex_index) v: u32) -> PrtOut {
 
 @fragment
 fn fs_prt(in: PrtOut) -> @location(0) vec4<f32> {
+    if !covered(in.uv, in.clip.xy) {
+        discard;
+    }
     return tone_map(in.radiance * albedo(in.uv));
 }
 
@@ -54,6 +57,9 @@ fn vs_prt_texel(in: VertexIn) -> PrtTexelOut {
 
 @fragment
 fn fs_prt_texel(in: PrtTexelOut) -> @location(0) vec4<f32> {
+    if !covered(in.uv, in.clip.xy) {
+        discard;
+    }
     var radiance = vec3<f32>(0.0);
     if all(in.uv1 >= vec2<f32>(0.0)) {
         radiance = textureSampleLevel(texel_radiance, texel_radiance_sampler, in.uv1, 0.0).rgb;
@@ -87,6 +93,9 @@ fn vs_phong(in: VertexIn) -> PhongOut {
 // as under PRT), hemisphere skies, ambient, and an energy-normalised Blinn-Phong highlight.
 @fragment
 fn fs_phong(in: PhongOut) -> @location(0) vec4<f32> {
+    if !covered(in.uv, in.clip.xy) {
+        discard;
+    }
     let n = normalize(in.normal);
     let to_eye = normalize(frame.camera_position.xyz - in.world);
     var diffuse = frame.ambient.rgb;

@@ -38,7 +38,7 @@
 //! A first-order (local linear) fit would remove the bias a constant kernel leaves on a
 //! gradient, but its weights go negative and it amplifies noise; with the range term,
 //! gradients steeper than the noise are kept, which the measurements in
-//! docs/performance.md found enough.
+//! docs/explanation/performance.md found enough.
 
 mod grid;
 pub mod guides;

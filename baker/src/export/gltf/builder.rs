@@ -86,11 +86,12 @@ pub(super) const LINEAR_MIPMAP_LINEAR: u32 = 9987;
 pub(super) const REPEAT: u32 = 10497;
 /// Sampler wrap mode: clamp to edge.
 pub(super) const CLAMP_TO_EDGE: u32 = 33071;
+/// Sampler wrap mode: mirrored repeat.
+pub(super) const MIRRORED_REPEAT: u32 = 33648;
 
-/// Sampler 0: albedo textures, repeat wrapping as the baker samples them, trilinear.
+/// Sampler 0: the scene's textures, repeat wrapping, trilinear (textures whose source
+/// sampler wraps otherwise get samplers of their own after it).
 pub(super) const ALBEDO_SAMPLER: usize = 0;
-/// Sampler 1: lightmaps (relit light, AO), clamped to the edge, linear without mipmaps.
-pub(super) const LIGHTMAP_SAMPLER: usize = 1;
 
 impl Builder {
     /// Appends bytes as a buffer view (4-byte aligned) and returns its index.

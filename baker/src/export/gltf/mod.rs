@@ -15,7 +15,9 @@
 //!   the product is the relit radiance; the materials are then marked
 //!   `KHR_materials_unlit` so viewers show it without adding their own lights.
 //!
-//! Materials are metallic 0, roughness 1, base colour = Kd (× the texture, embedded as PNG).
+//! Materials keep the source's (base colour factor and texture with its sampler and texture
+//! transform, alpha mode and cutoff, doubleSided, normal texture with TANGENT), metallic 0,
+//! roughness 1 (material.rs).
 //!
 //! A lightmap (texel) bake has no per-vertex transfer: its `.glb` carries TEXCOORD_1 = the
 //! atlas (vertices split at chart seams) and, with a rig, the relit lightmap as a texture the
@@ -46,7 +48,7 @@ pub use builder::Quantize;
 use builder::*;
 use cpca::{CLUSTER_ATTRIBUTE, CompressedTransfer, compressed_transfer, read_maybe_compressed};
 use light::{light_in_gltf_frame, light_json};
-use material::material;
+use material::{Materials, materials};
 use seams::ao_png_bytes;
 pub use seams::split_at_lightmap_seams;
 
@@ -231,6 +233,9 @@ struct VertexArrays {
     normals: Vec<f32>,
     texcoords: Vec<f32>,
     lightmap: Option<Vec<f32>>,
+    /// TANGENT (xyz turned, w the bitangent's sign) where the scene has normal-mapped
+    /// objects; zero at vertices of objects without a normal map.
+    tangents: Option<Vec<f32>>,
 }
 
 /// Step 1: positions, normals and UVs turned to +y up, UVs with v flipped to glTF's.
@@ -255,6 +260,15 @@ fn vertex_arrays(scene: &Scene, up: Up) -> VertexArrays {
             .collect(),
         texcoords: uvs(&scene.uvs),
         lightmap: scene.lightmap_uvs.as_deref().map(uvs),
+        tangents: scene.tangents.as_ref().map(|tangents| {
+            tangents
+                .iter()
+                .flat_map(|t| {
+                    let xyz = (turn_f32 * t.truncate()).normalize_or_zero();
+                    xyz.extend(if t.w < 0.0 { -1.0 } else { 1.0 }).to_array()
+                })
+                .collect()
+        }),
     }
 }
 
@@ -350,65 +364,6 @@ fn vertex_transfer(
     }
 }
 
-/// Images, textures and materials, and which textures are the lightmap's.
-struct Materials {
-    images: Vec<Value>,
-    textures: Vec<Value>,
-    materials: Vec<Value>,
-    /// The relit lightmap's texture index.
-    lightmap_texture: Option<usize>,
-    /// The texel AO's texture index (occlusionTexture).
-    occlusion_texture: Option<usize>,
-    unlit: bool,
-}
-
-/// Step 3: albedo textures as PNG, a texel bake's relit lightmap and AO, and one material
-/// per scene material. Unlit (`KHR_materials_unlit`) where the file carries the relit light:
-/// COLOR_0 of a vertex bake, or a texel bake's relit lightmap as the base colour texture on
-/// TEXCOORD_1 (docs/reference/gltf.md says why).
-fn materials(
-    b: &mut Builder,
-    scene: &Scene,
-    vertex_lit: bool,
-    lightmap: Option<&LightmapContents<'_>>,
-) -> Result<Materials> {
-    let mut images = Vec::new();
-    for texture in &scene.textures {
-        let png = png_bytes(texture)?;
-        let view = b.view(&png, None);
-        images.push(json!({"bufferView": view, "mimeType": "image/png"}));
-    }
-    let mut textures: Vec<Value> = (0..scene.textures.len())
-        .map(|i| json!({"source": i, "sampler": ALBEDO_SAMPLER}))
-        .collect();
-    let mut embed = |png: Option<&[u8]>, name: &str| {
-        png.map(|png| {
-            let view = b.view(png, None);
-            images.push(json!({"bufferView": view, "mimeType": "image/png", "name": name}));
-            textures.push(
-                json!({"source": images.len() - 1, "sampler": LIGHTMAP_SAMPLER, "name": name}),
-            );
-            textures.len() - 1
-        })
-    };
-    let lightmap_texture = embed(lightmap.and_then(|l| l.png.as_deref()), "prt_lightmap");
-    let occlusion_texture = embed(lightmap.and_then(|l| l.ao_png.as_deref()), "prt_ao");
-    let unlit = vertex_lit || lightmap_texture.is_some();
-    let materials = scene
-        .materials
-        .iter()
-        .map(|m| material(m, unlit, lightmap_texture, occlusion_texture))
-        .collect();
-    Ok(Materials {
-        images,
-        textures,
-        materials,
-        lightmap_texture,
-        occlusion_texture,
-        unlit,
-    })
-}
-
 /// Step 4: one mesh of one triangle-list primitive per scene object, its attributes sliced
 /// from the arrays.
 fn meshes(
@@ -433,6 +388,20 @@ fn meshes(
         );
         if let Some(lightmap) = &arrays.lightmap {
             add("TEXCOORD_1", b.floats(&slice(lightmap, 2), 2, false));
+        }
+        // The normal texture's tangent frame, where every vertex has one (else engines
+        // generate MikkTSpace tangents, as the glTF specification asks).
+        let normal_mapped = scene.materials[scene.vertex_material[v0] as usize]
+            .normal_map
+            .is_some();
+        if let Some(tangents) = arrays.tangents.as_ref().filter(|_| normal_mapped) {
+            let values = slice(tangents, 4);
+            if values
+                .chunks_exact(4)
+                .all(|t| t[0] != 0.0 || t[1] != 0.0 || t[2] != 0.0)
+            {
+                add("TANGENT", b.floats(&values, 4, false));
+            }
         }
         if let Some(colour) = &transfer.colour {
             add("COLOR_0", b.floats(&slice(colour, 3), 3, false));
@@ -541,7 +510,8 @@ fn asset_extras(
     });
     if let Some(t) = materials.lightmap_texture {
         lightmap_json["material_slot"] = json!(format!(
-            "every material's baseColorTexture (texCoord 1), unlit (KHR_materials_unlit): texture {t}"
+            "every material's extras.prt_lightmap (texCoord 1), beside its own base colour: \
+             texture {t}; radiance = base colour x this texture's decoded value"
         ));
     }
     if let Some(t) = materials.occlusion_texture {
@@ -581,6 +551,14 @@ fn document(
         .enumerate()
         .map(|(i, o)| json!({"name": o.name, "mesh": i}))
         .collect();
+    // The two sheets of a doubleSided surface (the bake's back sheet and its front): each
+    // shows the transfer of the side its normals face, so a PRT renderer culls back faces.
+    for back in 0..scene.objects.len() {
+        if let Some(front) = scene.front_of(back) {
+            nodes[back]["extras"] = json!({"prt_sheet": "back", "prt_twin": front});
+            nodes[front]["extras"] = json!({"prt_sheet": "front", "prt_twin": back});
+        }
+    }
     let roots = objects::hierarchy_roots(scene.hierarchy.as_ref(), &mut nodes);
     let mut root = json!({
         "asset": {"version": "2.0", "generator": concat!("prt-bake ", env!("CARGO_PKG_VERSION"))},
@@ -594,26 +572,19 @@ fn document(
         "buffers": [{"byteLength": bin.len()}],
     });
     if !materials.images.is_empty() {
-        let mut samplers = vec![json!({
-            "magFilter": LINEAR,
-            "minFilter": LINEAR_MIPMAP_LINEAR,
-            "wrapS": REPEAT,
-            "wrapT": REPEAT,
-        })];
-        if materials.lightmap_texture.is_some() || materials.occlusion_texture.is_some() {
-            samplers.push(json!({
-                "magFilter": LINEAR,
-                "minFilter": LINEAR,
-                "wrapS": CLAMP_TO_EDGE,
-                "wrapT": CLAMP_TO_EDGE,
-            }));
-        }
         root["images"] = json!(materials.images);
         root["textures"] = json!(materials.textures);
-        root["samplers"] = json!(samplers);
+        root["samplers"] = json!(materials.samplers);
     }
+    let mut used = Vec::new();
     if materials.unlit {
-        root["extensionsUsed"] = json!(["KHR_materials_unlit"]);
+        used.push("KHR_materials_unlit");
+    }
+    if materials.texture_transform {
+        used.push("KHR_texture_transform");
+    }
+    if !used.is_empty() {
+        root["extensionsUsed"] = json!(used);
     }
     if let Some(extras) = extras {
         root["asset"]["extras"] = extras;
@@ -635,7 +606,11 @@ fn glb_bytes_with(
         buffer_views: Vec::new(),
         accessors: Vec::new(),
     };
-    let mut materials = materials(&mut b, scene, transfer.colour.is_some(), lightmap)?;
+    let pngs = (
+        lightmap.and_then(|l| l.png.as_deref()),
+        lightmap.and_then(|l| l.ao_png.as_deref()),
+    );
+    let mut materials = materials(&mut b, scene, transfer.colour.is_some(), pngs)?;
     if let Some(file) = contents.file {
         glossy::add_material_extras(&mut materials.materials, scene, &file.header);
     }

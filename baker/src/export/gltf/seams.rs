@@ -20,8 +20,7 @@ pub fn split_at_lightmap_seams(scene: &Scene, uv1: &[[Vec2; 3]]) -> Scene {
         triangles: Vec::with_capacity(scene.triangles.len()),
         objects: Vec::with_capacity(scene.objects.len()),
         lightmap_uvs: None,
-        // Exports carry no normal maps; the split vertices would not match them.
-        tangents: None,
+        tangents: scene.tangents.as_ref().map(|_| Vec::new()),
         ..scene.clone()
     };
     let mut lightmap = Vec::new();
@@ -41,6 +40,9 @@ pub fn split_at_lightmap_seams(scene: &Scene, uv1: &[[Vec2; 3]]) -> Scene {
                         split.normals.push(scene.normals[v]);
                         split.uvs.push(scene.uvs[v]);
                         split.vertex_material.push(scene.vertex_material[v]);
+                        if let (Some(to), Some(from)) = (&mut split.tangents, &scene.tangents) {
+                            to.push(from[v]);
+                        }
                         lightmap.push(uv);
                         split.positions.len() as u32 - 1
                     })

@@ -1,10 +1,10 @@
 //! A glTF material's `alphaMode`, `alphaCutoff`, base colour alpha and the base colour
-//! texture's sampler and `KHR_texture_transform`, as an [`Alpha`].
+//! texture's sampler and `KHR_texture_transform`, as an [`Alpha`] and a [`Sampling`].
 
 use gltf::material::AlphaMode as GltfMode;
 use gltf::texture::WrappingMode;
 
-use crate::scene::alpha::{Alpha, AlphaMode, Wrap};
+use crate::scene::alpha::{Alpha, AlphaMode, Sampling, TextureTransform, Wrap};
 
 /// The material's alpha test, `None` for `OPAQUE`; `texture` is the scene's index of its
 /// base colour texture. Refuses a cutoff outside [0, 1] (the specification's range) and a
@@ -31,7 +31,21 @@ pub fn material_alpha(
             "baseColorFactor's alpha {factor} is outside [0, 1]"
         ));
     }
-    let info = pbr.base_color_texture();
+    let sampling = base_colour_sampling(material)?;
+    Ok(Some(Alpha {
+        mode,
+        factor,
+        texture,
+        channel: 3,
+        wrap: sampling.wrap,
+        transform: sampling.matrix(),
+    }))
+}
+
+/// The base colour texture's sampler wrap modes and `KHR_texture_transform` (repeat and none
+/// without a texture). Refuses a non-finite transform.
+pub fn base_colour_sampling(material: &gltf::Material) -> std::result::Result<Sampling, String> {
+    let info = material.pbr_metallic_roughness().base_color_texture();
     let sampler = info.as_ref().map(|i| i.texture().sampler());
     let wrap = |mode: Option<WrappingMode>| match mode {
         Some(WrappingMode::ClampToEdge) => Wrap::ClampToEdge,
@@ -39,27 +53,24 @@ pub fn material_alpha(
         Some(WrappingMode::Repeat) | None => Wrap::Repeat,
     };
     let transform = match info.as_ref().and_then(|i| i.texture_transform()) {
-        None => Alpha::IDENTITY,
+        None => None,
         Some(t) => {
-            let ([ox, oy], r, [sx, sy]) = (t.offset(), t.rotation(), t.scale());
-            let (sin, cos) = r.sin_cos();
-            // translation × rotation × scale, as the extension defines it.
-            let m = [[cos * sx, sin * sy, ox], [-sin * sx, cos * sy, oy]];
-            if m.iter().flatten().any(|x| !x.is_finite()) {
+            let transform = TextureTransform {
+                offset: t.offset(),
+                rotation: t.rotation(),
+                scale: t.scale(),
+            };
+            if transform.matrix().iter().flatten().any(|x| !x.is_finite()) {
                 return Err("KHR_texture_transform has a non-finite value".into());
             }
-            m
+            Some(transform)
         }
     };
-    Ok(Some(Alpha {
-        mode,
-        factor,
-        texture,
-        channel: 3,
+    Ok(Sampling {
         wrap: [
             wrap(sampler.as_ref().map(|s| s.wrap_s())),
             wrap(sampler.as_ref().map(|s| s.wrap_t())),
         ],
         transform,
-    }))
+    })
 }

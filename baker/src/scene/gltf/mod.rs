@@ -276,6 +276,8 @@ impl PrimitiveReader<'_> {
                     .unwrap_or_else(|| format!("material {index}"));
                 let alpha = alpha::material_alpha(&primitive.material(), texture)
                     .map_err(|problem| self.fail(format!("material '{name}': {problem}")))?;
+                let sampling = alpha::base_colour_sampling(&primitive.material())
+                    .map_err(|problem| self.fail(format!("material '{name}': {problem}")))?;
                 let normal_map = match &normal_texture {
                     None => None,
                     Some(info) => Some(normal_map::read(
@@ -287,6 +289,7 @@ impl PrimitiveReader<'_> {
                     name,
                     kd: Vec3::new(r, g, b),
                     texture,
+                    sampling,
                     glossy: gltf_glossy(&pbr),
                     alpha,
                     normal_map,
