@@ -206,3 +206,42 @@ fn interreflected_texel_bakes_are_colour_and_deterministic() {
         assert!(inspect.stdout.contains(field), "{}", inspect.stdout);
     }
 }
+
+#[test]
+fn whole_lightmap_bakes_are_denoised_by_default_and_say_so() {
+    let s = Scratch::new();
+    let lightmap = ["--lightmap", "32", "--samples", "16", "--order", "3"];
+    s.bake(
+        CORNELL,
+        "auto.prt",
+        &[&lightmap[..], &["--denoise", "auto"]].concat(),
+    );
+    s.bake(
+        CORNELL,
+        "off.prt",
+        &[&lightmap[..], &["--denoise", "off"]].concat(),
+    );
+    let inspect = |name: &str| s.run(&["inspect", &format!("out/{name}")]).success().stdout;
+    assert!(inspect("auto.prt").contains("\"denoised\": true"));
+    assert!(!inspect("off.prt").contains("denoised"));
+    assert!(s.read("out/auto.prt") != s.read("out/off.prt"));
+    // A vertex bake stays raw unless asked; an unshadowed bake has nothing to denoise; a
+    // shard is not denoised.
+    s.bake(CORNELL, "vertex.prt", &["--samples", "16"]);
+    assert!(!inspect("vertex.prt").contains("denoised"));
+    s.bake(
+        CORNELL,
+        "vertex-on.prt",
+        &["--samples", "16", "--denoise", "on"],
+    );
+    assert!(inspect("vertex-on.prt").contains("\"denoised\": true"));
+    let bake = |extra: &[&str]| {
+        let mut args = vec!["bake", CORNELL, "-o", "out/x.prt", "--quiet"];
+        args.extend(extra);
+        s.run(&args)
+    };
+    bake(&["--mode", "unshadowed", "--denoise", "on"]).fails_with(2, &["--denoise on"]);
+    bake(&[&lightmap[..], &["--shard", "0/2", "--denoise", "on"]].concat())
+        .fails_with(2, &["--denoise on"]);
+    s.assert_out_holds(&["auto.prt", "off.prt", "vertex.prt", "vertex-on.prt"]);
+}

@@ -29,6 +29,6 @@ node scripts/browser/test.mjs "$NODE_DIR/node_modules" target/release/prt-bake "
 # Cut-outs, textures and two-sided sheets: the cut-out card against its geometry twin, and the
 # courtyard relit by prt.js against three.js's own render of its export (docs/reference/gltf.md).
 node scripts/browser/cutouts.mjs "$NODE_DIR/node_modules" target/release/prt-bake "$OUT"
-# Glossy PRT (issue 33): a CPCA-compressed transfer-matrix export relit by prt.js against
+# Glossy PRT: a CPCA-compressed transfer-matrix export relit by prt.js against
 # prt-bake relight --view from three camera positions.
 node scripts/browser/glossy.mjs "$NODE_DIR/node_modules" target/release/prt-bake "$OUT"

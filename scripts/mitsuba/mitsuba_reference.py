@@ -130,7 +130,8 @@ def bake(args, scene, out, bounces, seed, lightmap=None, samples=None):
            "--mode", "interreflected", "--bounces", str(bounces), "--seed", str(seed),
            "--samples", str(samples)]
     if lightmap:
-        cmd += ["--lightmap", str(lightmap)]
+        # The raw estimate: its error is what the path tracer's standard error is held to.
+        cmd += ["--lightmap", str(lightmap), "--denoise", "off"]
     run(cmd)
     run([args.prt_bake, "export", prt, "--scene", scene, "--npz", f"{out}.npz"])
     return np.load(f"{out}.npz")

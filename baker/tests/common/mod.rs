@@ -65,6 +65,12 @@ impl Scratch {
         if !extra.contains(&"--samples") {
             args.extend(["--samples", "64"]);
         }
+        // These tests hold whole texel bakes to their shards, checkpoints and stages, which
+        // are not denoised: the whole bakes are raw unless a test asks (tests/denoise.rs and
+        // cli_lightmap.rs test the denoiser).
+        if extra.contains(&"--lightmap") && !extra.contains(&"--denoise") {
+            args.extend(["--denoise", "off"]);
+        }
         self.run(&args).success()
     }
 

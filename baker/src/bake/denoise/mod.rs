@@ -92,9 +92,10 @@ impl Settings {
         kappa: 4.0,
         linear: true,
     };
-    /// Vertices: their neighbours up to about two edges away.
+    /// Vertices: their neighbours up to about four edges away (measured on the torus at 64
+    /// rays).
     pub const VERTICES: Settings = Settings {
-        radius: 2.5,
+        radius: 4.0,
         guide_radius: 1.2,
         kappa: 4.0,
         linear: true,
