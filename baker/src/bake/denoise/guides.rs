@@ -3,10 +3,30 @@
 
 use std::collections::BTreeMap;
 
-use super::Guides;
+use glam::Vec3;
+
 use crate::bake::lightmap::atlas::Atlas;
 use crate::bake::lightmap::texels::Texels;
 use crate::scene::Scene;
+
+/// What the weights are guided by, per receiver (vertices, or a lightmap's baked texels in
+/// row-major order).
+#[derive(Clone, Debug, Default)]
+pub struct Guides {
+    /// Points on the surface.
+    pub points: Vec<Vec3>,
+    /// Unit shading normals (normal-mapped where the material has a normal map).
+    pub normals: Vec<Vec3>,
+    /// Unit surface normals: the plane a neighbour must lie in.
+    pub surfaces: Vec<Vec3>,
+    /// Object and material: receivers of different groups never mix.
+    pub groups: Vec<u32>,
+    /// World distance between neighbouring receivers: a texel's side, a vertex's spacing.
+    pub spacing: Vec<f32>,
+    /// Per receiver, the variance of one band-0/1 coefficient ([`crate::bake::noise`]); empty,
+    /// or all zero: estimated from the transfer.
+    pub noise: Vec<f32>,
+}
 
 /// Dense ids of (object, material) pairs, in the order first met.
 struct Groups(BTreeMap<(u32, u32), u32>);
@@ -102,7 +122,7 @@ fn fill_missing(spacing: &mut [f32]) {
     let mut known: Vec<f32> = spacing.iter().copied().filter(|s| *s > 0.0).collect();
     known.sort_unstable_by(f32::total_cmp);
     let median = known.get(known.len() / 2).copied().unwrap_or(1.0);
-    for s in spacing.iter_mut().filter(|s| !(**s > 0.0)) {
+    for s in spacing.iter_mut().filter(|s| s.is_nan() || **s <= 0.0) {
         *s = median;
     }
 }

@@ -43,32 +43,12 @@
 mod grid;
 pub mod guides;
 
-use glam::Vec3;
 use rayon::prelude::*;
 
 use crate::bake::estimator::Visibility;
 use crate::bake::options::BakeOptions;
 
-pub use guides::{texel_guides, vertex_guides};
-
-/// What the weights are guided by, per receiver (vertices, or a lightmap's baked texels in
-/// row-major order).
-#[derive(Clone, Debug, Default)]
-pub struct Guides {
-    /// Points on the surface.
-    pub points: Vec<Vec3>,
-    /// Unit shading normals (normal-mapped where the material has a normal map).
-    pub normals: Vec<Vec3>,
-    /// Unit surface normals: the plane a neighbour must lie in.
-    pub surfaces: Vec<Vec3>,
-    /// Object and material: receivers of different groups never mix.
-    pub groups: Vec<u32>,
-    /// World distance between neighbouring receivers: a texel's side, a vertex's spacing.
-    pub spacing: Vec<f32>,
-    /// Per receiver, the variance of one band-0/1 coefficient ([`crate::bake::noise`]); empty,
-    /// or all zero: estimated from the transfer.
-    pub noise: Vec<f32>,
-}
+pub use guides::{Guides, texel_guides, vertex_guides};
 
 /// The filter's sizes and strengths.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -390,6 +370,7 @@ pub fn denoise_baked(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::Vec3;
 
     /// A square `side` × `side` grid of receivers at spacing 1 from `origin` along `u`, `v`,
     /// facing `normal`, in `group`.
