@@ -1,7 +1,8 @@
 //! Receivers near a point, found in world space: a uniform grid of cubic cells over the
 //! receivers' points, its occupied cells sorted by key and found by binary search. Written
 //! here because the query is a dozen lines, and its visiting order (cells in a fixed order,
-//! receivers in index order within a cell) must be deterministic, which a hash map's is not.
+//! receivers in index order within a cell) must be deterministic, which a hash map's is not:
+//! the denoiser sums over neighbours in this order.
 
 use glam::Vec3;
 

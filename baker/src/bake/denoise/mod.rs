@@ -33,7 +33,7 @@
 //!
 //! The weights are normalised to sum to 1, so a constant transfer is kept exactly. They are
 //! a pure function of the guides and the bake's transfer, formed receiver by receiver over
-//! neighbours in index order: the result is bit-identical for any number of threads.
+//! neighbours in a fixed order: the result is bit-identical for any number of threads.
 //!
 //! A first-order (local linear) fit would remove the bias a constant kernel leaves on a
 //! gradient, but its weights go negative and it amplifies noise; with the range term,
@@ -147,9 +147,10 @@ impl<'g> Filter<'g> {
         filter
     }
 
-    /// Receiver i's weight on j from everything but the transfer; 0 outside `radius`
-    /// spacings.
-    fn geometric(&self, i: usize, j: usize, radius: f32) -> f32 {
+    /// Receiver i's weight on j: the geometric terms times exp(−`range`), 0 outside `radius`
+    /// spacings. `range` (the range term's exponent) is asked only of neighbours the
+    /// geometric terms keep, and the terms share one exponential.
+    fn weight(&self, i: usize, j: usize, radius: f32, range: impl Fn(usize) -> f32) -> f32 {
         let g = self.guides;
         if g.groups[i] != g.groups[j] {
             return 0.0;
@@ -165,21 +166,27 @@ impl<'g> Filter<'g> {
             return 0.0;
         }
         let off_plane = g.surfaces[i].dot(d) / g.spacing[i];
-        (-2.0 * r2 - off_plane * off_plane).exp() * facing.powi(NORMAL_POWER)
+        (-2.0 * r2 - off_plane * off_plane - range(j)).exp() * facing.powi(NORMAL_POWER)
     }
 
-    /// Receiver i's neighbours within `radius` spacings and their geometric weights, in
-    /// index order.
-    fn neighbours(&self, i: usize, radius: f32, out: &mut Vec<(u32, f32)>) {
+    /// Receiver i's neighbours within `radius` spacings and their weights ([`Filter::weight`]),
+    /// in the grid's fixed order of visit (a function of the points alone, so sums over
+    /// them are the same on any thread).
+    fn neighbours(
+        &self,
+        i: usize,
+        radius: f32,
+        out: &mut Vec<(u32, f32)>,
+        range: impl Fn(usize) -> f32,
+    ) {
         out.clear();
         let reach = radius * self.guides.spacing[i];
         self.grid.visit(self.guides.points[i], reach, |j| {
-            let w = self.geometric(i, j as usize, radius);
+            let w = self.weight(i, j as usize, radius, &range);
             if w > 0.0 {
                 out.push((j, w));
             }
         });
-        out.sort_unstable_by_key(|&(j, _)| j);
     }
 
     /// The variance of each receiver's signal where the rays gave none: half the median
@@ -192,7 +199,7 @@ impl<'g> Filter<'g> {
             .map_init(
                 || (Vec::new(), Vec::new()),
                 |(near, squares): &mut (Vec<(u32, f32)>, Vec<f32>), i| {
-                    self.neighbours(i, self.settings.guide_radius, near);
+                    self.neighbours(i, self.settings.guide_radius, near, |_| 0.0);
                     squares.clear();
                     squares.extend(near.iter().filter(|&&(j, _)| j as usize != i).map(
                         |&(j, _)| {
@@ -223,16 +230,14 @@ impl<'g> Filter<'g> {
             .zip(guide_noise.par_iter_mut())
             .enumerate()
             .for_each_init(Vec::new, |near, (i, (out, var))| {
-                self.neighbours(i, self.settings.guide_radius, near);
                 // The raw signal's own range term: a receiver's guide does not take in
                 // neighbours far brighter or darker than its noise allows (a thin wall's
                 // other side, a shadow's edge).
                 let si = &signal[i * sw..(i + 1) * sw];
-                for (j, w) in near.iter_mut() {
-                    let sj = &signal[*j as usize * sw..(*j as usize + 1) * sw];
-                    let variance = (noise[i] + noise[*j as usize]) * sw as f32;
-                    *w *= range_weight(si, sj, variance, GUIDE_KAPPA);
-                }
+                self.neighbours(i, self.settings.guide_radius, near, |j| {
+                    let sj = &signal[j * sw..(j + 1) * sw];
+                    range_exponent(si, sj, (noise[i] + noise[j]) * sw as f32, GUIDE_KAPPA)
+                });
                 let total: f32 = near.iter().map(|&(_, w)| w).sum();
                 for &(j, w) in near.iter() {
                     let w = w / total;
@@ -246,17 +251,16 @@ impl<'g> Filter<'g> {
         (guide, guide_noise)
     }
 
-    /// Receiver i's weights, normalised, in index order of the receivers they weigh.
+    /// Receiver i's weights, normalised, in the grid's fixed order of the receivers they
+    /// weigh.
     pub fn row(&self, i: usize, out: &mut Vec<(u32, f32)>) {
-        self.neighbours(i, self.settings.radius, out);
         let sw = self.signal_width;
         let gi = &self.guide[i * sw..(i + 1) * sw];
-        for (j, w) in out.iter_mut() {
-            let j = *j as usize;
+        self.neighbours(i, self.settings.radius, out, |j| {
             let gj = &self.guide[j * sw..(j + 1) * sw];
             let variance = (self.guide_noise[i] + self.guide_noise[j]) * sw as f32;
-            *w *= range_weight(gi, gj, variance, self.settings.kappa);
-        }
+            range_exponent(gi, gj, variance, self.settings.kappa)
+        });
         if self.settings.linear {
             self.linear_fit(i, out);
         } else {
@@ -321,16 +325,16 @@ impl<'g> Filter<'g> {
     }
 }
 
-/// The range term: exp(−max(0, d² − 1)/κ²) for d² the squared difference of `a` and `b`
-/// over `variance`, the difference noise alone would give (so d² ≈ 1 for noise).
-fn range_weight(a: &[f32], b: &[f32], variance: f32, kappa: f32) -> f32 {
+/// The range term's exponent, max(0, d² − 1)/κ² for d² the squared difference of `a` and
+/// `b` over `variance`, the difference noise alone would give (so d² ≈ 1 for noise).
+fn range_exponent(a: &[f32], b: &[f32], variance: f32, kappa: f32) -> f32 {
     let squared: f32 = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum();
     let d2 = match variance > 0.0 {
         true => squared / variance,
         false if squared == 0.0 => 0.0,
         false => f32::INFINITY,
     };
-    (-(d2 - 1.0).max(0.0) / (kappa * kappa)).exp()
+    (d2 - 1.0).max(0.0) / (kappa * kappa)
 }
 
 /// Denoises `transfer` in place (`channels` blocks of `per_channel` floats per receiver) with
