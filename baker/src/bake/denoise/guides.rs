@@ -23,7 +23,8 @@ pub struct Guides {
     pub groups: Vec<u32>,
     /// World distance between neighbouring receivers: a texel's side, a vertex's spacing.
     pub spacing: Vec<f32>,
-    /// Per receiver, the variance of one band-0/1 coefficient ([`crate::bake::noise`]); empty,
+    /// Per receiver, the variance of one coefficient, estimated on bands 0 and 1
+    /// ([`crate::bake::noise`]) and taken for every band the range term compares; empty,
     /// or all zero: estimated from the transfer.
     pub noise: Vec<f32>,
 }

@@ -23,7 +23,7 @@
 //!   wall's other side, a step or a slab lying on a floor are off i's plane;
 //! * the same **object and material**;
 //! * the **range term**: how far apart their transfer is against how far apart noise alone
-//!   would put it. The guide is the transfer's bands 0 and 1 prefiltered over 1.5 spacings
+//!   would put it. The guide is the transfer's bands 0 to 2 prefiltered over 1.5 spacings
 //!   with the terms above, its variance Σ w² σ²_j from each receiver's own estimate
 //!   ([`crate::bake::noise`]: the spread of its rays' runs). With d² the squared guide
 //!   difference over that variance, the weight is exp(−max(0, d² − 1)/κ²): noise is
@@ -82,8 +82,10 @@ impl Settings {
     };
 }
 
-/// Coefficients per channel the range term compares: bands 0 and 1.
-const SIGNAL_COEFFICIENTS: usize = 4;
+/// Coefficients per channel the range term compares: bands 0 to 2 (band 2 tells a sun's
+/// shadow edges apart better than bands 0 and 1 alone: 0.58 -> 0.55 % at 256 rays on the
+/// Cornell room).
+const SIGNAL_COEFFICIENTS: usize = 9;
 /// κ of the guide's prefilter, on the raw signal: more tolerant than the filter's own, as
 /// the raw signal is noisier than the guide.
 const GUIDE_KAPPA: f32 = 3.0;
