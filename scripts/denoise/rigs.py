@@ -1,20 +1,14 @@
 """The light rigs the denoiser is measured under (TOML, docs/reference/lights.md): the viewer's default
 sun and sky, a low sun whose shadows cross the floor, and a sky alone."""
 
-RIGS = {
-    "sun-and-sky": """
-[[light]]
-kind = "sun"
-theta = 65
-phi = 30
-color = [1.0, 0.92, 0.8]
-intensity = 3.0
+import os
 
-[[light]]
-kind = "hemisphere"
-color = [0.15, 0.19, 0.27]
-ground_color = [0.05, 0.045, 0.04]
-""",
+# The viewer's own default lights.
+with open(os.path.join(os.path.dirname(__file__), "..", "..", "viewer", "src", "default-rig.toml")) as f:
+    DEFAULT_RIG = f.read()
+
+RIGS = {
+    "sun-and-sky": DEFAULT_RIG,
     "low-sun": """
 [[light]]
 kind = "sun"
