@@ -2,16 +2,29 @@
 """The architecture check of `make lint`: prt-baker's module import graph has no cycle, no
 layer imports a layer above it, and no source file outgrows the size a reader can hold.
 
-Usage: scripts/check-layers.py baker/src LAYER,LAYER,... (lowest first)   [IMPORTS_V=-v lists
-every file's imports]. A module's imports are its `use` paths and `crate::`/`super::` paths
+Usage: scripts/check-layers.py baker/src LAYER,LAYER,... (lowest first)
+           [--max-lines FILE=N ...] [--max-function-lines FOLDER=N ...]
+[IMPORTS_V=-v lists every file's imports]. --max-lines holds FILE (under baker/src) to N
+lines, tighter than the 700 of every file; --max-function-lines holds every function of the
+files under FOLDER to N lines, from its `fn` line to its closing brace. A module's imports are its `use` paths and `crate::`/`super::` paths
 outside comments and strings, resolved to the file that defines them; a folder's mod.rs
 depends on a child it names. The cycle check leaves out test modules (a test may use its
 parent); the layer check does not: no code, test or not, imports a layer above its own.
 Exits 1 with the offenders listed.
 """
-import os, re, sys, collections
-root = sys.argv[1]
-layers = sys.argv[2].split(",") if len(sys.argv) > 2 else None
+import argparse, os, re, sys, collections
+def limit(text):
+    path, _, n = text.rpartition("=")
+    return path, int(n)
+cli = argparse.ArgumentParser(description="prt-baker's import graph, layers and sizes")
+cli.add_argument("root")
+cli.add_argument("layers", nargs="?")
+cli.add_argument("--max-lines", type=limit, action="append", default=[], metavar="FILE=N")
+cli.add_argument("--max-function-lines", type=limit, action="append", default=[],
+                 metavar="FOLDER=N")
+opts = cli.parse_args()
+root = opts.root
+layers = opts.layers.split(",") if opts.layers else None
 files = {}
 for d, _, fs in os.walk(root):
     for f in fs:
@@ -135,7 +148,61 @@ main = os.path.join(root, "main.rs")
 main_lines = sum(1 for _ in open(main)) if os.path.exists(main) else 0
 if main_lines > 200:
     print(f"  {main}: {main_lines} lines (main.rs parses, dispatches and maps errors: at most 200)")
+too_long = []
+for rel, n in opts.max_lines:
+    lines = sum(1 for _ in open(os.path.join(root, rel)))
+    if lines > n: too_long.append(f"  {os.path.join(root, rel)}: {lines} lines (at most {n})")
+FN = re.compile(r'^\s*(?:pub(?:\([^)]*\))?\s+)?(?:const\s+)?(?:async\s+)?(?:unsafe\s+)?fn\s+(\w+)')
+def code_lines(path):
+    """The file's lines with comments, strings and character literals blanked."""
+    out = []; in_block = False
+    for line in open(path).read().split("\n"):
+        code = []; i = 0
+        while i < len(line):
+            if in_block:
+                j = line.find("*/", i)
+                if j < 0: break
+                in_block = False; i = j + 2; continue
+            if line.startswith("//", i): break
+            if line.startswith("/*", i): in_block = True; i += 2; continue
+            if line[i] == '"':
+                j = i + 1
+                while j < len(line) and line[j] != '"': j += 2 if line[j] == "\\" else 1
+                code.append('""'); i = j + 1; continue
+            m = re.match(r"'(\\.|[^\\'])'", line[i:])
+            if m: code.append("' '"); i += m.end(); continue
+            code.append(line[i]); i += 1
+        out.append("".join(code))
+    return out
+def functions(path):
+    """(name, first line, lines) of each function with a body in `path`."""
+    code = code_lines(path); found = []
+    for k, line in enumerate(code):
+        m = FN.match(line)
+        if not m: continue
+        depth = 0; nest = 0; opened = False; end = None
+        for e in range(k, len(code)):
+            for ch in code[e]:
+                if ch in "([": nest += 1
+                elif ch in ")]": nest -= 1
+                elif ch == "{": depth += 1; opened = True
+                elif ch == "}":
+                    depth -= 1
+                    if opened and depth == 0: end = e; break
+                elif ch == ";" and not opened and nest == 0: end = -1; break
+            if end is not None: break
+        if end is not None and end >= 0: found.append((m.group(1), k + 1, end - k + 1))
+    return found
+for folder, n in opts.max_function_lines:
+    for d, _, fs in os.walk(os.path.join(root, folder)):
+        for f in sorted(fs):
+            if not f.endswith(".rs"): continue
+            p = os.path.join(d, f)
+            for fn, line, lines in functions(p):
+                if lines > n: too_long.append(f"  {p}:{line}: fn {fn} is {lines} lines (at most {n})")
+for t in too_long: print(t)
 failed = bool(cyc) or bool(layers and (up or unlisted)) or bool(long_files) or main_lines > 200
+failed = failed or bool(too_long)
 if "-v" in os.environ.get("IMPORTS_V",""):
     for a in sorted(edges): print(name(a),"->",", ".join(sorted(name(b) for b in edges[a])))
 sys.exit(1 if failed else 0)

@@ -1,13 +1,15 @@
 //! `prt-bake bake --shard / --checkpoint` and `prt-bake prepare-lightmap`: a bake in parts
 //! (docs/guides/clusters.md), and the lightmap preparation its texel shards share.
 
+use std::ops::Range;
 use std::path::Path;
 
 use prt_baker::bake::lightmap::{self, Prepared};
 use prt_baker::distribute::checkpoint;
 use prt_baker::distribute::part_baker::PartBaker;
 use prt_baker::distribute::prepared_file;
-use prt_baker::distribute::shard::{ShardId, shard_range};
+use prt_baker::distribute::row_encoding::EncodedRows;
+use prt_baker::distribute::shard::{Part, ShardId, shard_range};
 use prt_baker::support::progress::Progress;
 use prt_baker::trace::Tracer;
 use prt_baker::{BakeOptions, Error, Scene};
@@ -137,40 +139,16 @@ pub(super) fn bake_in_parts(
         Some(shard) => (shard, shard_range(vertex_count, shard)),
         None => (ShardId { index: 0, count: 1 }, 0..vertex_count),
     };
-    let (part, rows, rays, blocks) = match args.checkpoint {
-        Some(dir) => {
-            let block_vertices = args
-                .checkpoint_vertices
-                .unwrap_or_else(|| checkpoint::default_block_vertices(options));
-            let done = checkpoint::bake(
-                &baker,
-                options,
-                id,
-                vertices.clone(),
-                dir,
-                block_vertices,
-                progress,
-            )?;
-            let blocks = format!(
-                ", {} blocks ({} resumed from {})",
-                done.blocks,
-                done.reused,
-                dir.display()
-            );
-            (done.part, None, done.rays, blocks)
-        }
-        // A shard's rows go from its direct pass straight to the part's bytes.
-        None if shard.is_some() => {
-            let (part, rows, rays) = stages.time("bake", || {
-                baker.bake_encoded(id, vertices.clone(), progress)
-            })?;
-            (part, rows, rays, String::new())
-        }
-        None => {
-            let (part, rays) = baker.bake(id, vertices.clone(), progress)?;
-            (part, None, rays, String::new())
-        }
-    };
+    let range = (id, vertices.clone());
+    let (part, rows, rays, blocks) = bake_range(
+        args,
+        &baker,
+        options,
+        range,
+        shard.is_some(),
+        &mut stages,
+        progress,
+    )?;
     let what = match shard {
         Some(shard) => {
             stages.time("writing", || match rows {
@@ -199,4 +177,47 @@ pub(super) fn bake_in_parts(
         args.output.display()
     );
     Ok(())
+}
+
+/// A part's bake: the part, a shard's rows encoded for its file, the rays cast, and the
+/// checkpoint blocks for the summary line.
+type BakedPart = (Part, Option<EncodedRows>, u64, String);
+
+/// Bakes `range` of `baker`'s receivers: in checkpoint blocks, as a shard's part (`shard`),
+/// or whole.
+fn bake_range(
+    args: &PartsArgs<'_>,
+    baker: &PartBaker,
+    options: &BakeOptions,
+    (id, vertices): (ShardId, Range<usize>),
+    shard: bool,
+    stages: &mut lightmap::Stages,
+    progress: &dyn Progress,
+) -> Result<BakedPart, Error> {
+    Ok(match args.checkpoint {
+        Some(dir) => {
+            let block_vertices = args
+                .checkpoint_vertices
+                .unwrap_or_else(|| checkpoint::default_block_vertices(options));
+            let done =
+                checkpoint::bake(baker, options, id, vertices, dir, block_vertices, progress)?;
+            let blocks = format!(
+                ", {} blocks ({} resumed from {})",
+                done.blocks,
+                done.reused,
+                dir.display()
+            );
+            (done.part, None, done.rays, blocks)
+        }
+        // A shard's rows go from its direct pass straight to the part's bytes.
+        None if shard => {
+            let (part, rows, rays) =
+                stages.time("bake", || baker.bake_encoded(id, vertices, progress))?;
+            (part, rows, rays, String::new())
+        }
+        None => {
+            let (part, rays) = baker.bake(id, vertices, progress)?;
+            (part, None, rays, String::new())
+        }
+    })
 }

@@ -1,11 +1,17 @@
 //! The subcommands of `prt-bake`, one file each. Every file holds the command's arguments
 //! (clap declares their ranges and which flags need or exclude which), one function that turns
 //! them into the library's options, and `run`, which calls the library and prints a summary.
+//! `bake`, the largest, lowers its arguments into a plan (`bake_plan`, with the values of
+//! `bake_values`) that `bake_run` runs stage by stage; `bake_parts`, `bake_probes` and
+//! `bake_media` are its bakes in parts, of probes and its subsurface media.
 
 pub mod bake;
 pub mod bake_media;
 pub mod bake_parts;
+pub mod bake_plan;
 pub mod bake_probes;
+pub mod bake_run;
+pub mod bake_values;
 pub mod compress;
 pub mod export;
 pub mod factor_seams;

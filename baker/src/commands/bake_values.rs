@@ -1,0 +1,124 @@
+//! The values `prt-bake bake`'s options take (clap's value enums, their help) and the
+//! library's types each stands for; `commands::bake` lowers its arguments through them.
+
+use clap::ValueEnum;
+use prt_baker::Mode;
+use prt_baker::bake::lightmap::atlas::AtlasMethod;
+use prt_baker::bake::options::{Aux, TransferKind};
+use prt_baker::math::sampling::Sampling;
+use prt_baker::trace::Backend;
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum DenoiseArg {
+    Auto,
+    On,
+    Off,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+pub enum TransferArg {
+    Vector,
+    Matrix,
+}
+
+impl TransferArg {
+    pub fn kind(self) -> TransferKind {
+        match self {
+            TransferArg::Vector => TransferKind::Vector,
+            TransferArg::Matrix => TransferKind::Matrix,
+        }
+    }
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+pub enum ModeArg {
+    /// Cosine-weighted reflectance only (no rays).
+    Unshadowed,
+    /// With occlusion rays.
+    Shadowed,
+    /// Shadowed plus light bounced off other surfaces, in colour.
+    Interreflected,
+}
+
+impl ModeArg {
+    pub fn mode(self) -> Mode {
+        match self {
+            ModeArg::Unshadowed => Mode::Unshadowed,
+            ModeArg::Shadowed => Mode::Shadowed,
+            ModeArg::Interreflected => Mode::Interreflected,
+        }
+    }
+}
+
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
+pub enum AuxArg {
+    /// Ambient accessibility: cosine-weighted fraction of the sky seen.
+    Ao,
+    /// Cosine-weighted mean unoccluded direction.
+    BentNormal,
+}
+
+impl AuxArg {
+    /// `--aux a,b`: the arrays stored beside the coefficients.
+    pub fn aux(list: &[AuxArg]) -> Aux {
+        Aux {
+            ao: list.contains(&AuxArg::Ao),
+            bent_normal: list.contains(&AuxArg::BentNormal),
+        }
+    }
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum BackendArg {
+    /// Intel Embree (needs a build with the `embree` feature, the default).
+    Embree,
+    /// obvhs, a pure-Rust BVH.
+    Obvhs,
+}
+
+impl BackendArg {
+    pub const DEFAULT: BackendArg = match Backend::DEFAULT {
+        Backend::Obvhs => BackendArg::Obvhs,
+        _ => BackendArg::Embree,
+    };
+
+    pub fn backend(self) -> Backend {
+        match self {
+            BackendArg::Embree => Backend::Embree,
+            BackendArg::Obvhs => Backend::Obvhs,
+        }
+    }
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum SamplingArg {
+    /// Owen-scrambled Sobol points, cosine-weighted (lower error).
+    OwenSobol,
+    /// The thesis's independent uniform directions (the baseline).
+    ThesisRandom,
+}
+
+impl SamplingArg {
+    pub fn sampling(self) -> Sampling {
+        match self {
+            SamplingArg::OwenSobol => Sampling::OwenSobol,
+            SamplingArg::ThesisRandom => Sampling::ThesisRandom,
+        }
+    }
+}
+
+/// `bake --atlas`: which unwrapper makes a generated lightmap atlas.
+#[derive(Clone, Copy, ValueEnum)]
+pub enum AtlasArg {
+    Unwrap,
+    Planar,
+}
+
+impl AtlasArg {
+    pub fn method(self) -> AtlasMethod {
+        match self {
+            AtlasArg::Unwrap => AtlasMethod::Unwrap,
+            AtlasArg::Planar => AtlasMethod::Planar,
+        }
+    }
+}
