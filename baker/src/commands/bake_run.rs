@@ -1,10 +1,11 @@
 //! `prt-bake bake`, run: a [`BakePlan`]'s stages in order. Every bake starts the same way
-//! ([`start`], [`load`], [`receivers`], [`check_memory`], [`tracer`]); probes and bakes in
-//! parts then go to `commands::bake_probes` and `commands::bake_parts`, and a whole bake
-//! bakes its vertices ([`bake_vertices`], with [`add_subsurface`]) or texels
-//! ([`bake_texels`], whose atlas is [`atlas`]), then [`write`]s its file, compressed or
-//! not, and prints its [`summary`]. The estimator, the bounces, the denoiser and the
-//! lightmap's seam stitch run inside the library's bake.
+//! ([`start`], [`load`], [`receivers`], [`check_memory`], [`tracer`]); [`probes`] and bakes
+//! in parts ([`bake_in_parts`]) then go to `commands::bake_probes` and `commands::bake_parts`,
+//! and a whole bake ([`bake_whole`]) bakes its receiving objects ([`bake_objects`]), its
+//! vertices ([`bake_vertices`], with [`add_subsurface`]) or its texels ([`bake_texels`], whose
+//! atlas is [`atlas`]), then [`write`]s its file, compressed or not, and prints its
+//! [`summary`]. The estimator, the bounces, the denoiser and the lightmap's seam stitch run
+//! inside the library's bake.
 
 use prt_baker::bake::denoise;
 use prt_baker::bake::lightmap;
@@ -47,31 +48,14 @@ pub fn run(plan: &BakePlan) -> Result<(), Error> {
     }
     let progress = super::progress(plan.report.quiet);
     let (tracer, progress) = (tracer.as_deref(), progress.as_ref());
-    let baked = match &plan.what {
-        What::Probes(spec) => {
-            let split = &plan.split;
-            let parts = (
-                split.shard,
-                split.checkpoint.as_deref(),
-                split.checkpoint_vertices,
-            );
-            let options = &plan.options;
-            let output = &plan.output;
-            return bake_probes::bake(spec, output, &scene, tracer, options, parts, progress);
+    match &plan.what {
+        What::Probes(spec) => probes(plan, spec, &scene, tracer, progress),
+        What::Prepare | What::Parts => bake_in_parts(plan, &scene, tracer, progress),
+        What::Whole => {
+            let baked = bake_whole(plan, &scene, &receivers, tracer, progress)?;
+            write(plan, &output, baked)
         }
-        What::Prepare | What::Parts => return bake_in_parts(plan, &scene, tracer, progress),
-        What::Whole => match (plan.lightmap.resolution, receivers.objects.as_deref()) {
-            (None, Some(objects)) => {
-                bake_objects(plan, &scene, tracer, objects, &receivers.media, progress)?
-            }
-            (None, None) => bake_vertices(plan, &scene, tracer, &receivers.media, progress)?,
-            (Some(resolution), objects) => {
-                let scene = (&scene, objects);
-                bake_texels(plan, scene, tracer, &receivers.media, resolution, progress)?
-            }
-        },
-    };
-    write(plan, &output, baked)
+    }
 }
 
 /// Checks the output's path against the inputs the command line names, and starts the
@@ -178,6 +162,24 @@ fn tracer(
     })
 }
 
+/// `--probes`: transfer matrices at points, whole or in parts.
+fn probes(
+    plan: &BakePlan,
+    spec: &str,
+    scene: &Scene,
+    tracer: Option<&dyn Tracer>,
+    progress: &dyn Progress,
+) -> Result<(), Error> {
+    let split = &plan.split;
+    let parts = (
+        split.shard,
+        split.checkpoint.as_deref(),
+        split.checkpoint_vertices,
+    );
+    let (output, options) = (&plan.output, &plan.options);
+    bake_probes::bake(spec, output, scene, tracer, options, parts, progress)
+}
+
 /// `--shard`, `--checkpoint` and `prepare-lightmap`.
 fn bake_in_parts(
     plan: &BakePlan,
@@ -200,6 +202,24 @@ fn bake_in_parts(
     match plan.what {
         What::Prepare => bake_parts::prepare_lightmap(&parts, scene, tracer, options),
         _ => bake_parts::bake_in_parts(&parts, scene, tracer, options, plan.split.shard, progress),
+    }
+}
+
+/// A whole bake: `--receivers`' objects' vertices, every vertex, or the lightmap's texels.
+fn bake_whole(
+    plan: &BakePlan,
+    scene: &Scene,
+    receivers: &Receivers,
+    tracer: Option<&dyn Tracer>,
+    progress: &dyn Progress,
+) -> Result<Baked, Error> {
+    let media = &receivers.media;
+    match (plan.lightmap.resolution, receivers.objects.as_deref()) {
+        (None, Some(objects)) => bake_objects(plan, scene, tracer, objects, media, progress),
+        (None, None) => bake_vertices(plan, scene, tracer, media, progress),
+        (Some(resolution), objects) => {
+            bake_texels(plan, (scene, objects), tracer, media, resolution, progress)
+        }
     }
 }
 
