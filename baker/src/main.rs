@@ -6,7 +6,7 @@ mod commands;
 
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use prt_baker::Error;
 use prt_baker::support::{input_path, limits, output};
 
@@ -61,23 +61,50 @@ enum Command {
     /// Merge the shard parts of a bake (`bake --shard`) into the file one machine would have
     /// baked, byte for byte; refuses missing, duplicated or foreign parts (docs/guides/clusters.md).
     Merge(merge::MergeArgs),
+    // The staged pipeline's internals (docs/guides/clusters.md): scripts call them, a user
+    // rarely does, so the help lists them apart, after the user's commands ([`command`]).
     /// Prepare a texel bake's lightmap once for all its shards: the atlas, the baked texels
     /// after the leak test and the seam partners, for `bake --shard K/N --prepared FILE` and
     /// `stitch` (takes `bake`'s options; docs/guides/clusters.md).
+    #[command(hide = true)]
     PrepareLightmap(bake::BakeArgs),
     /// One shard's bounce k of an interreflected bake distributed bounce by bounce: gathered
     /// from its part's rows and the merged bounce k − 1 (docs/guides/clusters.md).
+    #[command(hide = true)]
     Gather(gather::GatherArgs),
     /// Stitch a merged, unstitched texel bake's seams in shards of columns, and join them
     /// into the whole bake's file (docs/guides/clusters.md).
+    #[command(hide = true)]
     Stitch(stitch::StitchArgs),
     /// Factor a texel bake's seam stitch once, from its prepared lightmap, for every
     /// `stitch --columns K/N --factor FILE` shard (docs/guides/clusters.md).
+    #[command(hide = true)]
     FactorSeams(factor_seams::FactorSeamsArgs),
 }
 
+/// The command line: the user's commands under clap's "Commands:", the hidden cluster stages
+/// after them under their own heading, each with its description.
+fn command() -> clap::Command {
+    let command = Cli::command();
+    let stages: Vec<_> = command
+        .get_subcommands()
+        .filter(|c| c.is_hide_set())
+        .collect();
+    let width = stages.iter().map(|c| c.get_name().len()).max().unwrap_or(0) + 2;
+    let mut text = String::from("Cluster stages (docs/guides/clusters.md):");
+    for stage in stages {
+        let about = stage
+            .get_about()
+            .map(ToString::to_string)
+            .unwrap_or_default();
+        text.push_str(&format!("\n  {:<width$}{about}", stage.get_name()));
+    }
+    command.after_help(text)
+}
+
 fn main() -> ExitCode {
-    let cli = match Cli::try_parse() {
+    let parsed = command().try_get_matches();
+    let cli = match parsed.and_then(|mut matches| Cli::from_arg_matches_mut(&mut matches)) {
         Ok(cli) => cli,
         Err(err) => return usage_error(err),
     };

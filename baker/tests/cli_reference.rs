@@ -34,11 +34,15 @@ fn help(args: &[&str]) -> String {
         .join("\n")
 }
 
-/// The subcommands listed under "Commands:" in the top-level help, without `help`, each with
-/// the first line of its description.
-fn subcommands(top: &str) -> Vec<(String, String)> {
+/// The heading of the cluster stages the top-level help lists after its commands (they are
+/// hidden from "Commands:"; each still has its page).
+const STAGES: &str = "Cluster stages";
+
+/// The subcommands listed under `heading` ("Commands:", or [`STAGES`]) in the top-level help,
+/// without `help`, each with the first line of its description.
+fn subcommands(top: &str, heading: &str) -> Vec<(String, String)> {
     top.lines()
-        .skip_while(|line| !line.starts_with("Commands:"))
+        .skip_while(|line| !line.starts_with(heading))
         .skip(1)
         .take_while(|line| line.starts_with("  "))
         .filter_map(|line| {
@@ -61,7 +65,7 @@ const HEADER: &str = "<!-- Generated from clap's help by baker/tests/cli_referen
 /// (path relative to docs/reference, text). One page per subcommand keeps every page short.
 fn render() -> Vec<(String, String)> {
     let top = help(&[]);
-    let names = subcommands(&top);
+    let (commands, stages) = (subcommands(&top, "Commands:"), subcommands(&top, STAGES));
     let mut index = format!(
         "# `prt-bake` command-line reference\n\n{HEADER}\
          Each subcommand's page is its `--help`, as the binary prints it. Exit codes: 0 success, \
@@ -69,14 +73,19 @@ fn render() -> Vec<(String, String)> {
          [guides](../README.md) show the options at work.\n\n\
          | command | what it does |\n|---|---|\n"
     );
-    for (name, about) in &names {
-        index.push_str(&format!(
-            "| [`prt-bake {name}`](cli/{name}.md) | {about} |\n"
-        ));
-    }
+    let row = |(name, about): &(String, String)| {
+        format!("| [`prt-bake {name}`](cli/{name}.md) | {about} |\n")
+    };
+    commands.iter().for_each(|c| index.push_str(&row(c)));
+    index.push_str(
+        "\nThe staged pipeline's own commands, which the cluster scripts call \
+         ([clusters](../guides/clusters.md)), are listed after the others:\n\n\
+         | cluster stage | what it does |\n|---|---|\n",
+    );
+    stages.iter().for_each(|c| index.push_str(&row(c)));
     index.push_str(&format!("\n## prt-bake\n\n```text\n{top}\n```\n"));
     let mut pages = vec![("cli.md".to_string(), index)];
-    for (name, _) in &names {
+    for (name, _) in commands.iter().chain(&stages) {
         let text = help(&[name]);
         pages.push((
             format!("cli/{name}.md"),
@@ -97,7 +106,8 @@ fn the_cli_reference_is_the_binarys_help() {
     let pages = render();
     assert!(
         pages.iter().any(|(p, _)| p == "cli/bake.md")
-            && pages.iter().any(|(p, _)| p == "cli/merge.md"),
+            && pages.iter().any(|(p, _)| p == "cli/merge.md")
+            && pages.iter().any(|(p, _)| p == "cli/stitch.md"),
         "could not read the subcommands from the help"
     );
     let dir = Path::new(REFERENCE);
