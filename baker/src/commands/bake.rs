@@ -277,6 +277,7 @@ fn plan(args: BakeArgs) -> Result<BakePlan, Error> {
         materials: args.materials,
         output: args.output,
         what,
+        whole_scene: !split.any() && !args.prepare_only,
         split,
         lightmap: LightmapPlan {
             resolution: args.lightmap,

@@ -25,6 +25,9 @@ pub struct BakePlan {
     /// `-o`: the coefficient file, part file or prepared lightmap.
     pub output: PathBuf,
     pub what: What,
+    /// Whether the scene's receivers are chosen here (`--receivers`, glTF marks): neither
+    /// split into parts nor a lightmap's preparation (whole bakes, and unsplit probes).
+    pub whole_scene: bool,
     pub split: Split,
     pub lightmap: LightmapPlan,
     pub options: BakeOptions,
@@ -96,12 +99,6 @@ pub struct Report {
 }
 
 impl BakePlan {
-    /// Whether the scene's receivers are chosen here (`--receivers`, glTF marks): whole bakes
-    /// and probes not split into parts.
-    pub fn whole_scene(&self) -> bool {
-        !self.split.any() && self.what != What::Prepare
-    }
-
     /// The files the output must not overwrite, before the scene names its own.
     pub fn inputs(&self) -> Vec<PathBuf> {
         let mut inputs = vec![self.scene.clone()];

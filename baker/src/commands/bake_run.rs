@@ -105,7 +105,7 @@ fn load(plan: &BakePlan, setup: &mut lightmap::Stages) -> Result<(Scene, Output)
 fn receivers(plan: &BakePlan, scene: &Scene) -> Result<Receivers, Error> {
     // Whole bakes only (clap refuses --receivers with the others; glTF marks are not
     // applied to them).
-    let objects = match plan.whole_scene() {
+    let objects = match plan.whole_scene {
         true => receiver_objects(scene, &plan.load.receivers)?,
         false => None,
     };
