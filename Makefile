@@ -56,7 +56,13 @@ deps:
 build: deps
 	$(CARGO) build --release --workspace
 
-out/torus.prt: build
+# The demo builds only the two programs it runs (make build, for make test, builds the
+# workspace: the scene generator and the cross-crate tests' library too).
+.PHONY: demo-build
+demo-build: deps
+	$(CARGO) build --release -p prt-baker -p prt-viewer --bins
+
+out/torus.prt: demo-build
 	@mkdir -p out
 	$(BAKE) bake $(SCENE) -o out/torus.prt --samples 10000
 
