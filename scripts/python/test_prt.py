@@ -186,7 +186,7 @@ for broken, reason in (
         (patched(data, 108, np.float32(0)), "without a target error"),
         (patched(data, 68, np.uint32(1 | 2 | 4)), "aux bits 2 and 3"),
         (patched(data, 36, np.uint32(0)), "mode unshadowed"),
-        (patched(data, 68, np.uint32(1 | 2 | 4 | 8 | 32)), "unknown auxiliary-array flags"),
+        (patched(data, 68, np.uint32(1 | 2 | 4 | 8 | 64)), "unknown auxiliary-array flags"),
         (patched(data, 128 + 4 * (V * 16), np.float32(np.nan)), "accessibility")):
     refused(broken, reason, "adaptive file")
 print("test_prt.py: corrupted adaptive files are refused by prt.py and by prt-bake inspect")

@@ -173,7 +173,7 @@ pub fn bake(
             options,
             &mut baked.coefficients,
             baked.channels,
-            &baked.visibility,
+            &mut baked.visibility,
         );
     }
     Ok(Transfer::from_direct(

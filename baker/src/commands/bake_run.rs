@@ -286,7 +286,7 @@ fn add_subsurface(
             options,
             &mut transfer.coefficients,
             transfer.channels,
-            &transfer.visibility,
+            &mut transfer.visibility,
         );
         transfer.options.denoise = true;
     }

@@ -356,21 +356,34 @@ pub fn denoise(
 }
 
 /// Denoises a bake's per-receiver transfer (`options` says its layout) in place, with the
-/// noise its rays estimated per receiver (`visibility`'s, or none).
+/// noise its rays estimated per receiver (`visibility`'s, or none), and each receiver's
+/// accessibility with the same weights: the accessibility is the transfer's DC under a
+/// white sky, and stays so (but for the clamp to [0, 1]).
 pub fn denoise_baked(
     guides: Guides,
     settings: Settings,
     options: &BakeOptions,
     coefficients: &mut Vec<f32>,
     channels: usize,
-    visibility: &[Visibility],
+    visibility: &mut [Visibility],
 ) {
+    if guides.points.is_empty() {
+        return;
+    }
     let guides = Guides {
         noise: visibility.iter().map(|v| v.noise).collect(),
         ..guides
     };
     let per_channel = options.transfer.floats_per_channel(options.order);
-    denoise(&guides, settings, coefficients, channels, per_channel);
+    let filter = Filter::new(&guides, settings, coefficients, channels, per_channel);
+    *coefficients = filter.apply(coefficients, channels * per_channel);
+    if !visibility.is_empty() {
+        let ao: Vec<f32> = visibility.iter().map(|v| v.accessibility).collect();
+        // The fit may overshoot a little; accessibility is a fraction.
+        for (v, a) in visibility.iter_mut().zip(filter.apply(&ao, 1)) {
+            v.accessibility = a.clamp(0.0, 1.0);
+        }
+    }
 }
 
 #[cfg(test)]

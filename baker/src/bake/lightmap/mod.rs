@@ -336,7 +336,7 @@ pub fn bake_texels(
                 options,
                 &mut baked.coefficients,
                 baked.channels,
-                &baked.visibility,
+                &mut baked.visibility,
             )
         });
     }
