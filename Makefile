@@ -66,6 +66,8 @@ out/torus.prt: demo-build
 	@mkdir -p out
 	$(BAKE) bake $(SCENE) -o out/torus.prt --samples 10000
 
+# (Without a display, Vulkan's loader asks libwayland for a socket, which prints an error line
+# where XDG_RUNTIME_DIR is unset: a private empty folder answers it quietly.)
 demo: out/torus.prt
 	$(BAKE) export out/torus.prt --scene $(SCENE) --npz out/torus.npz
 	@echo
@@ -75,6 +77,7 @@ demo: out/torus.prt
 		echo "demo: opening the viewer (Escape quits; keys in README.md)"; \
 		$(VIEW) $(SCENE) out/torus.prt; \
 	else \
+		if [ -z "$$XDG_RUNTIME_DIR" ]; then XDG_RUNTIME_DIR=$$(mktemp -d); export XDG_RUNTIME_DIR; fi; \
 		$(VIEW) $(SCENE) out/torus.prt --headless --screenshot out/demo-prt.png --mode prt && \
 		$(VIEW) $(SCENE) out/torus.prt --headless --screenshot out/demo-phong.png --mode phong && \
 		echo "demo: no display (DISPLAY is unset), so no window; screenshots:" && \
