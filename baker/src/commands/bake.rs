@@ -85,7 +85,7 @@ pub struct BakeArgs {
     #[arg(long, conflicts_with_all = ["shard", "checkpoint"])]
     target_error: Option<f32>,
     /// Denoise the baked transfer (a filter in world space whose weights every coefficient
-    /// shares, so every light sees it denoised; docs/denoising.md). auto: on for whole
+    /// shares, so every light sees it denoised; docs/explanation/denoising.md). auto: on for whole
     /// lightmap bakes that cast a fixed number of owen-sobol rays, as lightmappers do; off
     /// for vertex bakes, parts, probes and adaptive bakes.
     #[arg(long, value_enum, default_value_t = DenoiseArg::Auto)]

@@ -233,6 +233,15 @@ fn bake_objects(
     progress: &dyn Progress,
 ) -> Result<Baked, Error> {
     let options = &plan.options;
+    if options.denoise {
+        // Its receivers are some of the scene's vertices, which the vertex guides do not
+        // single out: refused rather than recorded as denoised.
+        return Err(Error::InvalidOption(
+            "--denoise on with receiving objects is for lightmaps (--lightmap): a vertex bake \
+             of some objects is not denoised"
+                .into(),
+        ));
+    }
     let transfer = bake_objects_translucent(scene, tracer, options, objects, media, progress)?;
     let file = CoefficientFile::from_object_bake(scene, &transfer, objects);
     let what = format!(
