@@ -167,9 +167,8 @@ pub fn bake(
     };
     let mut baked = baked;
     if options.denoise && tracer.is_some() {
-        crate::bake::denoise::denoise_baked(
-            crate::bake::denoise::vertex_guides(scene, Vec::new()),
-            crate::bake::denoise::Settings::VERTICES,
+        crate::bake::denoise::denoise_vertices(
+            scene,
             options,
             &mut baked.coefficients,
             baked.channels,

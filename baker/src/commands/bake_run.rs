@@ -289,9 +289,8 @@ fn add_subsurface(
     let started = std::time::Instant::now();
     subsurface::apply_to_vertices(scene, tracer, media, transfer, progress)?;
     if options.denoise {
-        denoise::denoise_baked(
-            denoise::vertex_guides(scene, Vec::new()),
-            denoise::Settings::VERTICES,
+        denoise::denoise_vertices(
+            scene,
             options,
             &mut transfer.coefficients,
             transfer.channels,

@@ -341,20 +341,23 @@ fn range_exponent(a: &[f32], b: &[f32], variance: f32, kappa: f32) -> f32 {
     (d2 - 1.0).max(0.0) / (kappa * kappa)
 }
 
-/// Denoises `transfer` in place (`channels` blocks of `per_channel` floats per receiver) with
-/// the weights of `guides`.
-pub fn denoise(
-    guides: &Guides,
-    settings: Settings,
-    transfer: &mut Vec<f32>,
+/// [`denoise_baked`] for a bake of every vertex of `scene`.
+pub fn denoise_vertices(
+    scene: &crate::Scene,
+    options: &BakeOptions,
+    coefficients: &mut Vec<f32>,
     channels: usize,
-    per_channel: usize,
+    visibility: &mut [Visibility],
 ) {
-    if guides.points.is_empty() {
-        return;
-    }
-    let filter = Filter::new(guides, settings, transfer, channels, per_channel);
-    *transfer = filter.apply(transfer, channels * per_channel);
+    let guides = vertex_guides(scene, Vec::new());
+    denoise_baked(
+        guides,
+        Settings::VERTICES,
+        options,
+        coefficients,
+        channels,
+        visibility,
+    );
 }
 
 /// Denoises a bake's per-receiver transfer (`options` says its layout) in place, with the
