@@ -313,19 +313,36 @@ impl<'g> Filter<'g> {
     /// The filtered values: `values` holds `width` floats per receiver, and so does the
     /// result.
     pub fn apply(&self, values: &[f32], width: usize) -> Vec<f32> {
+        self.apply_with(values, width, &[]).0
+    }
+
+    /// [`Filter::apply`] of `values` and of `scalars` (one float per receiver, or none)
+    /// with the same rows: each row is formed once.
+    pub fn apply_with(
+        &self,
+        values: &[f32],
+        width: usize,
+        scalars: &[f32],
+    ) -> (Vec<f32>, Vec<f32>) {
         let mut out = vec![0.0f32; values.len()];
+        let mut out_scalars = vec![0.0f32; self.guides.points.len()];
         out.par_chunks_mut(width.max(1))
+            .zip(out_scalars.par_iter_mut())
             .enumerate()
-            .for_each_init(Vec::new, |row, (i, out)| {
+            .for_each_init(Vec::new, |row, (i, (out, scalar))| {
                 self.row(i, row);
                 for &(j, w) in row.iter() {
                     let j = j as usize;
                     for (o, v) in out.iter_mut().zip(&values[j * width..(j + 1) * width]) {
                         *o += w * v;
                     }
+                    if let Some(s) = scalars.get(j) {
+                        *scalar += w * s;
+                    }
                 }
             });
-        out
+        out_scalars.truncate(scalars.len());
+        (out, out_scalars)
     }
 }
 
@@ -381,13 +398,12 @@ pub fn denoise_baked(
     };
     let per_channel = options.transfer.floats_per_channel(options.order);
     let filter = Filter::new(&guides, settings, coefficients, channels, per_channel);
-    *coefficients = filter.apply(coefficients, channels * per_channel);
-    if !visibility.is_empty() {
-        let ao: Vec<f32> = visibility.iter().map(|v| v.accessibility).collect();
-        // The fit may overshoot a little; accessibility is a fraction.
-        for (v, a) in visibility.iter_mut().zip(filter.apply(&ao, 1)) {
-            v.accessibility = a.clamp(0.0, 1.0);
-        }
+    let ao: Vec<f32> = visibility.iter().map(|v| v.accessibility).collect();
+    let (filtered, ao) = filter.apply_with(coefficients, channels * per_channel, &ao);
+    *coefficients = filtered;
+    // The fit may overshoot a little; accessibility is a fraction.
+    for (v, a) in visibility.iter_mut().zip(ao) {
+        v.accessibility = a.clamp(0.0, 1.0);
     }
 }
 
