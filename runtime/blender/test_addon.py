@@ -100,7 +100,7 @@ def snapshot():
             "slots": [(s.link, s.material.name if s.material else None)
                       for s in obj.material_slots],
             "attributes": sorted(a.name for a in obj.data.attributes
-                                 if not a.name.startswith("prt_T") and a.name != "PRT")}
+                                 if not a.name.startswith("prt_") and a.name != "PRT")}
     return out
 
 
@@ -175,8 +175,8 @@ def main():
         return
     objects = build()  # first: factory settings would disable the add-on again
     module = install(a.zip)
-    bpy.ops.export_scene.gltf(filepath=str(out / "scene.glb"), export_format="GLB",
-                              export_yup=True, export_apply=True, export_materials="EXPORT")
+    export = sys.modules[module + ".export"]
+    bpy.ops.export_scene.gltf(filepath=str(out / "scene.glb"), **export.EXPORT_SETTINGS)
     prefs = bpy.context.preferences.addons[module].preferences
 
     # Errors: reported, nothing changed.
@@ -199,23 +199,33 @@ def main():
     for obj in objects:
         obj.hide_set(False)
 
-    # What is left out of a bake, with a warning: an instance of a mesh already baked (its
-    # attributes would hold the other object's transfer) and a mesh without faces.
+    # A linked duplicate that receives gets a mesh of its own (a mesh holds one transfer),
+    # one that does not only occludes, and a mesh without faces is left out: each named.
     scene_mesh = sys.modules[module + ".scene_mesh"]
     twin = bpy.data.objects.new("CubeTwin", objects[2].data)
+    shadow = bpy.data.objects.new("CubeShadow", objects[2].data)
+    shadow.prt_receive = False
     edges = bpy.data.meshes.new("Edges")
     edges.from_pydata([(0, 0, 0), (1, 0, 0)], [(0, 1)], [])
     wire = bpy.data.objects.new("Wire", edges)
-    for obj in (twin, wire):
+    for obj in (twin, shadow, wire):
         bpy.context.scene.collection.objects.link(obj)
-    baked, warnings = scene_mesh.visible_meshes(bpy.context)
-    check("instances and meshes without faces left out",
-          [o.name for o in baked] == [o.name for o in objects] and warnings == [
-              "CubeTwin shares its mesh with Cube: not baked", "Wire has no faces: not baked"],
-          warnings)
-    bpy.data.objects.remove(twin)
-    bpy.data.objects.remove(wire)
+    plan = export.export_scene(bpy.context, str(out / "plan.glb"))
+    names = sorted(r.obj.name for r in plan.receivers)
+    check("linked duplicates, occluders and meshes without faces",
+          names == sorted(["CubeTwin", *[o.name for o in objects]])
+          and twin.data != objects[2].data and shadow.data == objects[2].data
+          and sorted(plan.warnings[:2]) == [
+              f"CubeTwin shared mesh 'Cube' with Cube: given a copy of its own "
+              f"({twin.data.name!r}) to hold its own transfer (turn its PRT receive off to "
+              "keep it linked: it then only casts shadows)", "Wire has no faces: not baked"]
+          and not plan.flat,
+          plan.warnings)
+    copy = twin.data
+    for obj in (twin, shadow, wire):
+        bpy.data.objects.remove(obj)
     bpy.data.meshes.remove(edges)
+    bpy.data.meshes.remove(copy)
 
     # A mirrored object (negative scale): world normals still point out of the cube, and
     # every triangle's winding agrees with its vertices' normals, as prt-bake expects.
@@ -235,11 +245,12 @@ def main():
 
     # Cancel: a bake driven by its job as the modal operator drives it, stopped mid-way.
     bake_job = sys.modules[module + ".bake_job"]
-    depsgraph = bpy.context.evaluated_depsgraph_get()
-    receivers = [scene_mesh.receivers_of(o, depsgraph)[0] for o in objects]
     settings = bake_job.BakeSettings(order=4, samples=1 << 14, mode="shadowed")
     before = snapshot()
-    job = bake_job.BakeJob(a.prt_bake, settings, receivers)
+    folder = Path(out / "cancel")
+    folder.mkdir()
+    plan = export.export_scene(bpy.context, str(folder / "scene.glb"))
+    job = bake_job.BakeJob(a.prt_bake, settings, None, plan=plan, folder=str(folder))
     job.start()
     folder, process = job.folder, job.process
     started = time.time()
@@ -321,7 +332,7 @@ def modal(module, objects, a, arrays):
     def operator(samples):
         op = SimpleNamespace(samples=samples, order=4, mode="", rig=a.rig, seed=-1, threads=0,
                              lightmap=0, reports=[])
-        for name in ("_prepare", "_finish", "_end", "_lightmap"):
+        for name in ("_prepare", "_finish", "_end", "_lightmap", "_warn"):
             setattr(op, name, getattr(cls, name).__get__(op))
         op.report = lambda kind, message: op.reports.append((set(kind), message))
         return op

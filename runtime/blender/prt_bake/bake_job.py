@@ -1,9 +1,12 @@
-"""One bake as a background process: write the scene, run `prt-bake bake`, watch its
-progress, and read the transfer back: per face corner, or (lightmaps) per object's tile.
+"""One bake as a background process: the scene (Blender's glTF export, export.py; for
+lightmaps the add-on's own GLB, glb.py), `prt-bake bake`, its progress, and the transfer read
+back: per face corner (corner_map.py), or (lightmaps) per object's tile.
 
-The bake runs with `--checkpoint DIR`: prt-bake writes each finished block of vertices into
-DIR, and the number of blocks there is the progress (prt-bake draws its own progress bar
-only on a terminal). The checkpointed file is byte-identical to an uninterrupted bake's.
+Where every mesh node receives and no mesh is shared, the bake runs with `--checkpoint DIR`:
+prt-bake writes each finished block of vertices into DIR, and the number of blocks there is
+the progress (prt-bake draws its own progress bar only on a terminal). The checkpointed file
+is byte-identical to an uninterrupted bake's. Otherwise (occluders, instances) it runs whole,
+as receivers and instancing need, and the progress shows only its end.
 
 Driving it: `start()`, then `poll()` until it returns True (the modal operator polls on a
 timer; a script may call `run()`, which polls until done); `cancel()` stops it. Every
@@ -20,7 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import glb
+from . import corner_map, glb, gltf_scene
+from .sh_frame import gltf_to_blender
 from .errors import PrtError
 from .process import failure, run_prt_bake
 
@@ -40,12 +44,17 @@ class BakeSettings:
     threads: int = 0  # 0: all cores
     lightmap: int = 0  # texels per side of each object's lightmap; 0: a per-vertex bake
     lightmap_uv: str = ""  # the UV map (empty: the second, else the only one)
+    double_sided: str = "off"  # prt-bake --double-sided: auto or off
+    denoise: str = "auto"  # prt-bake --denoise: auto, on or off
 
 
 class BakeJob:
-    def __init__(self, executable, settings, receivers):
+    def __init__(self, executable, settings, receivers, plan=None, folder=None):
+        """Lightmaps: `receivers` (scene_mesh.Receivers); per vertex: `plan` (export.Plan)
+        of the scene already exported into `folder`/scene.glb."""
         self.executable, self.settings, self.receivers = executable, settings, receivers
-        self.folder = None
+        self.plan, self.folder = plan, folder
+        self.summary = ""
         self.process = None
         self.progress = 0.0
         self.transfer = None  # per receiver: (loops, channels, n²) float32, once done
@@ -67,8 +76,8 @@ class BakeJob:
 
     def _work(self):
         """Vertices, or (lightmaps) about how many texels the UVs cover."""
-        if not self.settings.lightmap:
-            return sum(r.vertex_count for r in self.receivers)
+        if self.plan is not None:
+            return max(1, sum(len(r.obj.data.loops) for r in self.plan.receivers))
         area = 0.0
         for r in self.receivers:
             for p in r.primitives:
@@ -86,8 +95,15 @@ class BakeJob:
             "bake", self._path("scene.glb"), "-o", self._path("scene.prt"), "--up", "z",
             "--order", str(s.order), "--samples", str(s.samples), "--mode", s.mode,
             "--seed", str(s.seed), "--quiet",
-            "--checkpoint", self._path("blocks"), "--checkpoint-vertices", str(block),
         ]
+        if self.plan is None or self.plan.flat:
+            arguments += ["--checkpoint", self._path("blocks"),
+                          "--checkpoint-vertices", str(block)]
+        if self.plan is not None:
+            arguments[arguments.index("--up") + 1] = "y"  # glTF's, as exported
+            arguments += ["--double-sided", s.double_sided, "--denoise", s.denoise]
+            if s.mode != "interreflected":
+                arguments += ["--instances", "on"]
         if s.threads:
             arguments += ["--threads", str(s.threads)]
         if s.lightmap:
@@ -95,13 +111,15 @@ class BakeJob:
         return [self.executable, *arguments]
 
     def start(self):
-        self.folder = tempfile.mkdtemp(prefix="prt-bake-")
+        if self.folder is None:
+            self.folder = tempfile.mkdtemp(prefix="prt-bake-")
         try:
-            primitives = [p for r in self.receivers for p in r.primitives]
-            if self.settings.lightmap:
-                self._tile_uvs()
-                primitives = [dict(p, uv1=p["atlas_uv"]) for p in primitives]
-            glb.write_glb(self._path("scene.glb"), primitives)
+            if self.plan is None:
+                primitives = [p for r in self.receivers for p in r.primitives]
+                if self.settings.lightmap:
+                    self._tile_uvs()
+                    primitives = [dict(p, uv1=p["atlas_uv"]) for p in primitives]
+                glb.write_glb(self._path("scene.glb"), primitives)
             os.mkdir(self._path("blocks"))
             command = self.command()
             self.log = open(self._path("bake.log"), "w+")
@@ -129,6 +147,9 @@ class BakeJob:
         if code != 0:
             self.log.seek(0)
             raise failure("bake", code, self.log.read())
+        self.log.seek(0)
+        lines = [line for line in self.log.read().splitlines() if line.startswith("baked ")]
+        self.summary = lines[-1] if lines else ""
         self._read_result()
         self.progress = 1.0
         return True
@@ -163,22 +184,7 @@ class BakeJob:
         if self.settings.lightmap:
             self._read_lightmaps(npz)
             return
-        with np.load(npz) as f:
-            transfer = np.asarray(f["transfer"], np.float32)
-            positions = np.asarray(f["positions"], np.float64)
-        if transfer.ndim == 2:  # (V, n²) for a grey bake, should the export ever write it
-            transfer = transfer[:, None, :]
-        expected = sum(r.vertex_count for r in self.receivers)
-        if len(transfer) != expected:
-            raise PrtError(f"prt-bake baked {len(transfer)} vertices, the add-on wrote {expected}")
-        self.transfer, start = [], 0
-        for r in self.receivers:
-            ours = np.concatenate([p["positions"] for p in r.primitives])
-            theirs = positions[start:start + r.vertex_count]
-            if not np.allclose(ours, theirs, rtol=1e-5, atol=1e-4 * (1 + np.abs(ours).max())):
-                raise PrtError(f"{r.obj.name}: prt-bake's vertices are not the add-on's")
-            self.transfer.append(transfer[start:start + r.vertex_count][r.corner_vertex])
-            start += r.vertex_count
+        self._read_corners(npz)
 
     def _read_lightmaps(self, npz):
         """self.transfer: per receiver its tile, (RES, RES, channels, n²), row 0 at v = 0."""
@@ -194,3 +200,40 @@ class BakeJob:
         for i, _ in enumerate(self.receivers):
             x, y = (i % g) * res, (i // g) * res
             self.transfer.append(transfer[y:y + res, x:x + res])
+
+    def _read_corners(self, npz):
+        """self.transfer: per plan receiver (loops, channels, n²) in Blender's frame;
+        self.albedo: per receiver (loops, 3), prt-bake's (base colour × texture)."""
+        with np.load(npz) as f:
+            transfer = np.asarray(f["transfer"], np.float64)
+            positions = np.asarray(f["positions"], np.float64)
+            normals = np.asarray(f["normals"], np.float64)
+            albedo = np.asarray(f["albedo"], np.float32)
+            receives = np.asarray(f["receives"]) if "receives" in f.files else None
+        if transfer.ndim == 2:
+            transfer = transfer[:, None, :]
+        turn = gltf_to_blender(self.settings.order)
+        glb_ = self.plan.glb
+        depsgraph = bpy_depsgraph()
+        self.transfer, self.albedo, cursor = [], [], 0
+        for r in self.plan.receivers:
+            primitives = gltf_scene.triangle_primitives(glb_, r.node)
+            count = sum(c for c, _ in primitives)
+            if receives is not None:  # skip the flattened occluders' vertices
+                ahead = np.flatnonzero(receives[cursor:] > 0)
+                cursor += int(ahead[0]) if len(ahead) else 0
+                if not (receives[cursor:cursor + count] > 0).all():
+                    raise PrtError(f"{r.obj.name}: prt-bake's receivers are not the add-on's")
+            corner, position, normal = corner_map.corner_vertices(r.obj, depsgraph,
+                                                                  primitives, cursor)
+            if corner.max() >= len(transfer):
+                raise PrtError(f"{r.obj.name}: prt-bake baked fewer vertices than exported")
+            corner_map.check(r.obj, positions[corner], normals[corner], position, normal)
+            self.transfer.append((transfer[corner] @ turn.T).astype(np.float32))
+            self.albedo.append(albedo[corner])
+            cursor += count
+
+
+def bpy_depsgraph():
+    import bpy
+    return bpy.context.evaluated_depsgraph_get()

@@ -5,10 +5,13 @@ Every failure is reported through Blender's report system (self.report), never r
 """
 
 import json
+import shutil
+import tempfile
+import time
 
 import bpy
 
-from . import light, relight
+from . import export, light, relight
 from .bake_job import BakeJob, BakeSettings
 from .errors import PrtError
 from .lightmap_images import RELIT, store_lightmap, texel_materials, transfer_images
@@ -64,33 +67,54 @@ class PRT_OT_bake(bpy.types.Operator):
                                 mode=self.mode or s.mode,
                                 seed=s.seed if self.seed < 0 else self.seed,
                                 threads=self.threads,
-                                lightmap=self._lightmap(s), lightmap_uv=s.lightmap_uv)
+                                lightmap=self._lightmap(s), lightmap_uv=s.lightmap_uv,
+                                double_sided=s.double_sided, denoise=s.denoise)
         if settings.mode not in ("shadowed", "interreflected"):
             raise PrtError(f"unknown mode {settings.mode!r} (shadowed or interreflected)")
         executable = find_prt_bake(preferences(context))
         self._light = _project_light(context, executable, s, settings.order, self.rig)
+        self._started = time.time()
+        if not settings.lightmap:
+            folder = tempfile.mkdtemp(prefix="prt-bake-")
+            try:
+                plan = export.export_scene(context, f"{folder}/scene.glb")
+            except BaseException:
+                shutil.rmtree(folder, ignore_errors=True)
+                raise
+            self._warn(context, plan.warnings)
+            self._order = settings.order
+            return BakeJob(executable, settings, None, plan=plan, folder=folder)
         objects, warnings = visible_meshes(context)
+        warnings.append("lightmap bakes write the add-on's own minimal scene: image textures, "
+                        "cut-outs, normal maps and instances are not baked (bake per vertex "
+                        "for them)")
         depsgraph = context.evaluated_depsgraph_get()
         receivers = []
         for obj in objects:
-            r, more = receivers_of(obj, depsgraph,
-                                   settings.lightmap_uv if settings.lightmap else None)
+            r, more = receivers_of(obj, depsgraph, settings.lightmap_uv)
             receivers.append(r)
             warnings += more
-        for warning in warnings:
-            self.report({"WARNING"}, warning)
+        self._warn(context, warnings)
         self._order = settings.order
         return BakeJob(executable, settings, receivers)
 
+    def _warn(self, context, warnings):
+        """Each warning in Blender's report and in the panel's list of the last bake's."""
+        for warning in warnings:
+            self.report({"WARNING"}, warning)
+        context.scene.prt.last_warnings = json.dumps(warnings)
+
     def _finish(self, context, job):
-        for r, transfer in zip(job.receivers, job.transfer):
-            if job.settings.lightmap:
-                uv = lightmap_layer(r.obj.data, job.settings.lightmap_uv).name
-                slots = texel_materials(r.primitives, job.settings.lightmap)
-                store_lightmap(r.obj, transfer, uv, slots)
-            else:
-                store_transfer(r.obj.data, transfer)
+        if job.plan is not None:
+            for r, transfer, albedo in zip(job.plan.receivers, job.transfer, job.albedo):
+                store_transfer(r.obj.data, transfer, albedo)
+        for r, transfer in zip(job.receivers or [], job.transfer):
+            uv = lightmap_layer(r.obj.data, job.settings.lightmap_uv).name
+            slots = texel_materials(r.primitives, job.settings.lightmap)
+            store_lightmap(r.obj, transfer, uv, slots)
         s = context.scene.prt
+        s.last_time = time.time() - self._started
+        s.last_summary = job.summary
         s.baked_order = self._order
         s.light_json = json.dumps(self._light.tolist())
         s.status = ""

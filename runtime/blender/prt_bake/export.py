@@ -1,0 +1,123 @@
+"""The scene as prt-bake sees it: Blender's own glTF exporter writes it (cut-outs, normal
+maps with tangents, base-colour textures, doubleSided, every UV map, linked duplicates,
+collection and geometry-nodes instances as nodes sharing one mesh), then each mesh node is
+marked as receiving or not (`extras.prt.receive`, which prt-bake reads).
+
+Receivers are the visible mesh objects whose "PRT receive" is on (Object properties, or
+`obj.prt_receive`). A Blender mesh holds one transfer per face corner, so a receiving object
+that shares its mesh with an earlier receiver (a linked duplicate) is given a copy of the
+mesh of its own (as Object > Relations > Make Single User does) and named in a warning.
+Instances (collection, geometry nodes) and non-receivers only occlude: prt-bake traces a mesh
+shared by several of them once (`--instances on`).
+"""
+
+from dataclasses import dataclass, field
+
+import bpy
+
+from . import gltf_scene, materials
+from .errors import PrtError
+
+# Blender's glTF exporter settings for a bake (docs/guides/blender.md says the same).
+EXPORT_SETTINGS = dict(
+    export_format="GLB", use_selection=False, use_visible=True, use_renderable=False,
+    use_active_collection=False, export_apply=True, export_yup=True, export_texcoords=True,
+    export_normals=True, export_tangents=True, export_materials="EXPORT",
+    export_image_format="AUTO", export_extras=True, export_gn_mesh=True,
+    export_cameras=False, export_lights=False, export_animations=False,
+)
+
+
+@dataclass
+class Receiver:
+    obj: object
+    node: int  # the glTF node holding it
+
+
+@dataclass
+class Plan:
+    receivers: list
+    glb: object
+    warnings: list = field(default_factory=list)
+    flat: bool = True  # every mesh node receives and no mesh is shared
+
+
+def _receiving_objects(context, warnings):
+    objects, owner = [], {}
+    for obj in context.view_layer.objects:
+        if obj.type != "MESH" or not obj.visible_get():
+            continue
+        if len(obj.data.polygons) == 0:
+            warnings.append(f"{obj.name} has no faces: not baked")
+            continue
+        if not obj.prt_receive:
+            continue
+        if obj.data.is_editmode:
+            raise PrtError(f"{obj.name} in Edit Mode: PRT bakes in Object Mode (the results "
+                           "would be lost on leaving Edit Mode)")
+        if obj.data.name in owner:
+            shared = obj.data.name
+            obj.data = obj.data.copy()
+            warnings.append(f"{obj.name} shared mesh {shared!r} with {owner[shared]}: given a "
+                            f"copy of its own ({obj.data.name!r}) to hold its own transfer "
+                            "(turn its PRT receive off to keep it linked: it then only casts "
+                            "shadows)")
+        owner[obj.data.name] = obj.name
+        objects.append(obj)
+    return objects
+
+
+def _same_topology(obj, depsgraph):
+    evaluated = obj.evaluated_get(depsgraph)
+    mesh = evaluated.to_mesh()
+    try:
+        return len(mesh.loops) == len(obj.data.loops) and \
+            len(mesh.polygons) == len(obj.data.polygons)
+    finally:
+        evaluated.to_mesh_clear()
+
+
+def export_scene(context, path):
+    """Writes the scene to `path` (GLB) with every mesh node's receive mark; returns the
+    Plan. Raises PrtError when nothing can be baked."""
+    warnings = []
+    objects = _receiving_objects(context, warnings)
+    depsgraph = context.evaluated_depsgraph_get()
+    receivers = []
+    for obj in objects:
+        if _same_topology(obj, depsgraph):
+            receivers.append(obj)
+        else:
+            warnings.append(f"{obj.name}: its modifiers change its topology, so its transfer "
+                            "cannot be stored on its faces: it casts shadows as modified, not "
+                            "baked (apply the modifiers to bake it)")
+    if not receivers:
+        raise PrtError("no visible mesh to bake (or none with PRT receive on)")
+    result = bpy.ops.export_scene.gltf(filepath=path, **EXPORT_SETTINGS)
+    if result != {"FINISHED"}:
+        raise PrtError(f"Blender's glTF export failed ({result})")
+    glb = gltf_scene.Glb(path)
+    nodes = glb.json.get("nodes", [])
+    order = gltf_scene.walk(glb.json)
+    parent = {index: p for index, p, _ in order}
+    by_name = {}
+    for index, _, _ in order:
+        by_name.setdefault(nodes[index].get("name"), []).append(index)
+    plan = Plan([], glb, warnings)
+    for obj in receivers:
+        want = obj.parent.name if obj.parent is not None else None
+        found = [i for i in by_name.get(obj.name, []) if "mesh" in nodes[i] and
+                 (nodes[parent[i]].get("name") if parent[i] is not None else None) == want]
+        if not found:
+            raise PrtError(f"{obj.name}: not found in Blender's glTF export")
+        plan.receivers.append(Receiver(obj, found[0]))
+    rank = {index: k for k, (index, _, _) in enumerate(order)}
+    plan.receivers.sort(key=lambda r: rank[r.node])  # prt-bake's object order
+    receiving = {r.node for r in plan.receivers}
+    gltf_scene.mark_receivers(glb, receiving)
+    glb.write(path)
+    mesh_nodes = [i for i, n in enumerate(nodes) if "mesh" in n]
+    plan.flat = len(receiving) == len(mesh_nodes) and \
+        len({nodes[i]["mesh"] for i in mesh_nodes}) == len(mesh_nodes)
+    warnings += materials.warnings(receivers, depsgraph)
+    return plan
