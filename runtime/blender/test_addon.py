@@ -302,6 +302,7 @@ def main():
     check("preview material hidden", all(s.link == "DATA" for o in objects
                                          for s in o.material_slots)
           and all(o.data.materials[0].name == o.name + "Material" for o in objects))
+    warnings_and_panel(module, a)
     modal(module, objects, a, arrays)
     lightmaps(objects, a, arrays)
     interreflected(objects, a, arrays)
@@ -373,6 +374,42 @@ def modal(module, objects, a, arrays):
           and updates == sorted(updates) and wm.calls[-1] == ("status_text_set", None),
           f"{ticks} timer ticks, progress bar at {sorted(set(updates))} %, "
           f"{op.reports[-1][1] if op.reports else 'no report'}")
+
+
+def warnings_and_panel(module, a):
+    """A material the bake cannot read (a procedural Base Color) is named, with its object,
+    in the last bake's warnings; the panel lists them with the bake's time and rays."""
+    bpy.ops.mesh.primitive_cube_add(size=0.3, location=(2.5, -2.5, 0.15))
+    obj = bpy.context.object
+    obj.name = "Procedural"
+    m = material("Noisy", (0.5, 0.5, 0.5))
+    noise = m.node_tree.nodes.new("ShaderNodeTexNoise")
+    m.node_tree.links.new(noise.outputs["Color"],
+                          m.node_tree.nodes["Principled BSDF"].inputs["Base Color"])
+    obj.data.materials.append(m)
+    result = bpy.ops.prt.bake(rig=a.rig, samples=16, order=2)
+    warnings = json.loads(bpy.context.scene.prt.last_warnings)
+    check("a procedural material named in a warning", result == {"FINISHED"} and warnings == [
+        "Procedural, material Noisy: Base Color from Noise Texture is not exported; baked "
+        "with its Base Color value (no texture)"], warnings)
+
+    class Layout:  # records what the panel draws
+        def __init__(self, lines):
+            self.lines = lines
+
+        def __getattr__(self, name):
+            return lambda *args, **kw: (self.lines.append(kw.get("text", "")), self)[1]
+    lines = []
+    panel = sys.modules[module + ".panel"].PRT_PT_panel
+    stand_in = type("Stand-in", (), {"layout": Layout(lines)})()
+    panel.draw(stand_in, bpy.context)
+    summary = bpy.context.scene.prt.last_summary
+    check("the panel shows the last bake's time, rays and warnings",
+          any(line.startswith("Last bake: ") for line in lines) and summary.split(" -> ")[0]
+          in lines and " rays" in summary and warnings[0] in lines
+          and any(line.startswith("Receivers: ") for line in lines), lines)
+    bpy.data.objects.remove(obj)
+    bpy.data.materials.remove(m)
 
 
 def interreflected(objects, a, arrays):
