@@ -76,7 +76,7 @@ class BakeJob:
 
     def _work(self):
         """Vertices, or (lightmaps) about how many texels the UVs cover."""
-        if self.plan is not None:
+        if self.plan is not None and not self.settings.lightmap:
             return max(1, sum(len(r.obj.data.loops) for r in self.plan.receivers))
         area = 0.0
         for r in self.receivers:
@@ -191,6 +191,10 @@ class BakeJob:
         with np.load(npz) as f:
             transfer = np.asarray(f["transfer"], np.float32)
             uv1 = np.asarray(f["uv1"], np.float64)
+        if self.plan is not None:  # occluders' triangles are outside the atlas, at (-1, -1)
+            uv1 = uv1[(uv1 >= 0).all(axis=(1, 2))]
+            turn = gltf_to_blender(self.settings.order).astype(np.float32)
+            transfer = transfer @ turn.T
         ours = np.concatenate([p["atlas_uv"][p["triangles"]]
                                for r in self.receivers for p in r.primitives])
         if uv1.shape != ours.shape or not np.allclose(uv1, ours, atol=1e-5):

@@ -68,3 +68,17 @@ def check(obj, positions, normals, corner_position, corner_normal):
     if far > 1e-4 * scale or turned:
         raise PrtError(f"{obj.name}: prt-bake's vertices are not its face corners "
                        f"({far:.3g} m apart at most, {turned} normals turned)")
+
+
+def used_materials(obj, depsgraph):
+    """The material indices the evaluated mesh's triangles use, ascending: the export's
+    triangle primitives, in order."""
+    evaluated = obj.evaluated_get(depsgraph)
+    mesh = evaluated.to_mesh()
+    try:
+        mesh.calc_loop_triangles()
+        material = np.zeros(len(mesh.loop_triangles), np.int64)
+        mesh.loop_triangles.foreach_get("material_index", material)
+        return np.unique(material)
+    finally:
+        evaluated.to_mesh_clear()

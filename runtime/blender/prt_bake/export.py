@@ -11,11 +11,13 @@ Instances (collection, geometry nodes) and non-receivers only occlude: prt-bake 
 shared by several of them once (`--instances on`).
 """
 
+import math
 from dataclasses import dataclass, field
 
 import bpy
+import numpy as np
 
-from . import gltf_scene, materials
+from . import corner_map, gltf_scene, materials
 from .errors import PrtError
 
 # Blender's glTF exporter settings for a bake (docs/guides/blender.md says the same).
@@ -32,6 +34,7 @@ EXPORT_SETTINGS = dict(
 class Receiver:
     obj: object
     node: int  # the glTF node holding it
+    primitives: list = field(default_factory=list)  # lightmaps: tile_lightmaps' dicts
 
 
 @dataclass
@@ -121,3 +124,45 @@ def export_scene(context, path):
         len({nodes[i]["mesh"] for i in mesh_nodes}) == len(mesh_nodes)
     warnings += materials.warnings(receivers, depsgraph)
     return plan
+
+
+def tile_lightmaps(plan, depsgraph):
+    """Lightmap bakes: each receiver's own lightmap UVs (TEXCOORD_1: the second UV map, in
+    [0, 1]) moved into its tile of a g × g grid in the export itself, so prt-bake's atlas
+    is the tiles and each object's image is its tile (bake_job). Sets each receiver's
+    `primitives` ({uv1 own, atlas_uv, triangles, material}, v up as Blender's) and returns g."""
+    g = math.ceil(math.sqrt(len(plan.receivers)))
+    glb, document = plan.glb, plan.glb.json
+    binary = bytearray(glb.binary)
+    views = [a.get("bufferView") for a in document["accessors"]]
+    done = set()
+    for i, r in enumerate(plan.receivers):
+        mesh = document["meshes"][document["nodes"][r.node]["mesh"]]
+        used = corner_map.used_materials(r.obj, depsgraph)
+        triangles = [p for p in mesh["primitives"] if p.get("mode", 4) == 4]
+        r.primitives = []
+        for m, p in zip(used, triangles):
+            index = p["attributes"].get("TEXCOORD_1")
+            if index is None:
+                raise PrtError(f"{r.obj.name}: no second UV map for the lightmap (TEXCOORD_1): "
+                               "add one (UV > Smart UV Project into a second UV map)")
+            own = glb.accessor(index).astype(np.float64) * [1, -1] + [0, 1]
+            if own.min() < -1e-6 or own.max() > 1 + 1e-6:
+                raise PrtError(f"{r.obj.name}: lightmap UVs outside [0, 1]: pack them "
+                               "(UV > Pack Islands)")
+            atlas = (np.clip(own, 0, 1) + [i % g, i // g]) / g
+            accessor = document["accessors"][index]
+            if views.count(accessor["bufferView"]) != 1 or accessor["componentType"] != 5126:
+                raise PrtError(f"{r.obj.name}: the export's lightmap UVs are not a float array "
+                               "of their own")
+            if index not in done:  # a mesh shared with occluders is tiled once
+                view = document["bufferViews"][accessor["bufferView"]]
+                start = view.get("byteOffset", 0) + accessor.get("byteOffset", 0)
+                data = (atlas * [1, -1] + [0, 1]).astype("<f4").tobytes()
+                binary[start:start + len(data)] = data
+                done.add(index)
+            r.primitives.append({"uv1": own, "atlas_uv": atlas, "material": int(m),
+                                 "triangles": glb.accessor(p["indices"]).astype(np.int64)
+                                 .reshape(-1, 3)})
+    glb.binary = bytes(binary)
+    return g

@@ -18,7 +18,7 @@ from .lightmap_images import RELIT, store_lightmap, texel_materials, transfer_im
 from .process import find_prt_bake
 from .properties import preferences
 from .results import baked_meshes, store_transfer
-from .scene_mesh import lightmap_layer, receivers_of, visible_meshes
+from .scene_mesh import lightmap_layer
 
 PREVIEW_MATERIAL = "PRT Relit"
 
@@ -74,29 +74,25 @@ class PRT_OT_bake(bpy.types.Operator):
         executable = find_prt_bake(preferences(context))
         self._light = _project_light(context, executable, s, settings.order, self.rig)
         self._started = time.time()
-        if not settings.lightmap:
-            folder = tempfile.mkdtemp(prefix="prt-bake-")
-            try:
-                plan = export.export_scene(context, f"{folder}/scene.glb")
-            except BaseException:
-                shutil.rmtree(folder, ignore_errors=True)
-                raise
-            self._warn(context, plan.warnings)
-            self._order = settings.order
-            return BakeJob(executable, settings, None, plan=plan, folder=folder)
-        objects, warnings = visible_meshes(context)
-        warnings.append("lightmap bakes write the add-on's own minimal scene: image textures, "
-                        "cut-outs, normal maps and instances are not baked (bake per vertex "
-                        "for them)")
-        depsgraph = context.evaluated_depsgraph_get()
-        receivers = []
-        for obj in objects:
-            r, more = receivers_of(obj, depsgraph, settings.lightmap_uv)
-            receivers.append(r)
-            warnings += more
-        self._warn(context, warnings)
+        folder = tempfile.mkdtemp(prefix="prt-bake-")
+        try:
+            path = f"{folder}/scene.glb"
+            plan = export.export_scene(context, path)
+            if settings.lightmap:
+                for r in plan.receivers:
+                    layers = r.obj.data.uv_layers
+                    if len(layers) < 2 or lightmap_layer(r.obj.data, s.lightmap_uv) != layers[1]:
+                        raise PrtError(f"{r.obj.name}: the lightmap UV map must be its second "
+                                       "UV map (the export's TEXCOORD_1)")
+                export.tile_lightmaps(plan, context.evaluated_depsgraph_get())
+                plan.glb.write(path)
+        except BaseException:
+            shutil.rmtree(folder, ignore_errors=True)
+            raise
+        self._warn(context, plan.warnings)
         self._order = settings.order
-        return BakeJob(executable, settings, receivers)
+        receivers = plan.receivers if settings.lightmap else None
+        return BakeJob(executable, settings, receivers, plan=plan, folder=folder)
 
     def _warn(self, context, warnings):
         """Each warning in Blender's report and in the panel's list of the last bake's."""
@@ -105,10 +101,10 @@ class PRT_OT_bake(bpy.types.Operator):
         context.scene.prt.last_warnings = json.dumps(warnings)
 
     def _finish(self, context, job):
-        if job.plan is not None:
+        if not job.settings.lightmap:
             for r, transfer, albedo in zip(job.plan.receivers, job.transfer, job.albedo):
                 store_transfer(r.obj.data, transfer, albedo)
-        for r, transfer in zip(job.receivers or [], job.transfer):
+        for r, transfer in zip(job.receivers if job.settings.lightmap else [], job.transfer):
             uv = lightmap_layer(r.obj.data, job.settings.lightmap_uv).name
             slots = texel_materials(r.primitives, job.settings.lightmap)
             store_lightmap(r.obj, transfer, uv, slots)
