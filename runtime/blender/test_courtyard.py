@@ -228,7 +228,112 @@ def main():
         check(f"courtyard with {kind} switched off fails", result == {"FINISHED"} and not ok,
               f"below 99 %: {failing}")
     result = bake()  # leaves the scene baked as it should be
+    report["texels"] = texels(module, objects, a, out, lights, strip)
     (out / "courtyard.json").write_text(json.dumps(report, indent=1))
+
+
+def tiled_export(module, objects, path):
+    """Blender's export with each receiver's lightmap UVs moved into the tile the add-on
+    gives it (its place in prt-bake's object order, g × g): the atlas a user would pack."""
+    export = sys.modules[module + ".export"]
+    plan = export.export_scene(bpy.context, path)  # the add-on's order
+    names = [r.obj.name for r in plan.receivers]
+    g = math.ceil(math.sqrt(len(names)))
+    saved = {}
+
+    def layer(name):
+        # Through the attribute, not uv_layers[1].uv: in Blender 4.5 a write through the
+        # latter reaches every copy of the mesh that still shares the array (the crates'
+        # copies, made by the add-on), a write through the attribute does not.
+        mesh = bpy.data.objects[name].data
+        return mesh.attributes[mesh.uv_layers[1].name].data
+    for i, name in enumerate(names):
+        uv = np.zeros(len(layer(name)) * 2)
+        layer(name).foreach_get("vector", uv)
+        saved[name] = uv.copy()
+        tiled = (uv.reshape(-1, 2) + [i % g, i // g]) / g
+        layer(name).foreach_set("vector", tiled.ravel())
+    bpy.ops.export_scene.gltf(filepath=path, **export.EXPORT_SETTINGS)
+    for name, uv in saved.items():
+        layer(name).foreach_set("vector", uv)
+    return names, g
+
+
+def texels(module, objects, a, out, lights, strip, res=32, samples=256):
+    """Lightmaps: the add-on's transfer images against the CLI's bake of Blender's export
+    with the same tiles, texel by texel (valid texels), at the rig and turned 90°; then with
+    each feature switched off (normal maps too: texel bakes turn the lobe by them)."""
+    export = sys.modules[module + ".export"]
+    images = sys.modules[module + ".lightmap_images"]
+    rotate_z = sys.modules[module + ".light"].rotate_z
+    glb = str(out / "courtyard-tiled.glb")
+    names, g = tiled_export(module, objects, glb)
+    subprocess.run([a.prt_bake, "bake", glb, "-o", str(out / "cli-texels.prt"), "--lightmap",
+                    str(g * res), "--strict-uvs", "--double-sided", "off", "--samples",
+                    str(samples), "--order", str(a.order), "--seed", "0", "--quiet"], check=True)
+    subprocess.run([a.prt_bake, "export", str(out / "cli-texels.prt"), "--scene", glb,
+                    "--npz", str(out / "cli-texels.npz")], check=True, capture_output=True)
+    with np.load(out / "cli-texels.npz") as f:
+        transfer, valid = np.asarray(f["transfer"], np.float64), np.asarray(f["texel_valid"])
+
+    def bake():
+        return bpy.ops.prt.bake(rig=a.rig, samples=samples, order=a.order, seed=0,
+                                lightmap=res)
+
+    def compare(present):
+        light_b = np.array(json.loads(bpy.context.scene.prt.light_json))
+        out_, ok = {}, True
+        for turn, angle in (("0", 0.0), ("90", math.pi / 2)):
+            for name in present:
+                i = names.index(name)
+                x, y = (i % g) * res, (i // g) * res
+                mask = valid[y:y + res, x:x + res]
+                theirs = np.einsum("hwcj,cj->hwc", transfer[y:y + res, x:x + res],
+                                   lights[turn][:1])[..., 0][mask]
+                ours_t, _ = images.load_lightmap(bpy.data.images[images.TRANSFER.format(name)])
+                ours = np.einsum("hwcj,cj->hwc", ours_t.astype(np.float64),
+                                 rotate_z(light_b, angle))[..., 0][mask]
+                close = np.abs(ours - theirs) <= 0.02 * np.abs(theirs) + 1e-4
+                out_[f"{name}/{turn}"] = {"texels": int(mask.sum()),
+                                          "within_2_percent": float(close.mean())}
+                ok &= close.mean() >= 0.99
+        return out_, ok
+
+    result = bake()
+    figures, ok = compare(names)
+    worst = min(figures.items(), key=lambda kv: kv[1]["within_2_percent"])
+    check("courtyard lightmaps: the add-on against the CLI per texel, every object, at the "
+          "rig and turned 90°", result == {"FINISHED"} and ok,
+          f"{len(figures)} object/light pairs of {res}² texels, {samples} rays; the worst "
+          f"{worst[0]}: {100 * worst[1]['within_2_percent']:.2f} % of "
+          f"{worst[1]['texels']} texels within 2 %")
+    report = {"addon": figures, "switched_off": {}}
+    original = export.export_scene
+    crates = [o for o in objects if o.name in ("Crate1", "Crate2", "Crate3", "Crate4")]
+    for kind in ("cutouts", "normalmaps", "textures", "instances"):
+        def patched(context, path, kind=kind):
+            if kind == "instances":
+                for o in crates:
+                    o.prt_receive = False
+            plan = original(context, path)
+            strip(kind)(plan.glb.json, plan.receivers)
+            plan.glb.write(path)
+            return plan
+        export.export_scene = patched
+        try:
+            result = bake()
+        finally:
+            export.export_scene = original
+            for o in objects:
+                o.prt_receive = True
+        present = [n for n in names if kind != "instances" or n not in [c.name for c in crates]]
+        figures, ok = compare(present)
+        failing = {k: round(100 * v["within_2_percent"], 1) for k, v in figures.items()
+                   if v["within_2_percent"] < 0.99}
+        report["switched_off"][kind] = figures
+        check(f"courtyard lightmaps with {kind} switched off fail",
+              result == {"FINISHED"} and not ok, f"below 99 %: {failing}")
+    return report
 
 
 try:

@@ -2,11 +2,12 @@
 lightmaps the add-on's own GLB, glb.py), `prt-bake bake`, its progress, and the transfer read
 back: per face corner (corner_map.py), or (lightmaps) per object's tile.
 
-Where every mesh node receives and no mesh is shared, the bake runs with `--checkpoint DIR`:
+Where every mesh node receives and no mesh is shared, a vertex bake runs with `--checkpoint DIR`:
 prt-bake writes each finished block of vertices into DIR, and the number of blocks there is
 the progress (prt-bake draws its own progress bar only on a terminal). The checkpointed file
 is byte-identical to an uninterrupted bake's. Otherwise (occluders, instances) it runs whole,
-as receivers and instancing need, and the progress shows only its end.
+as receivers and instancing need, and so do lightmap bakes (`--denoise auto` denoises whole
+lightmap bakes only): the progress then shows only the end.
 
 Driving it: `start()`, then `poll()` until it returns True (the modal operator polls on a
 timer; a script may call `run()`, which polls until done); `cancel()` stops it. Every
@@ -96,7 +97,8 @@ class BakeJob:
             "--order", str(s.order), "--samples", str(s.samples), "--mode", s.mode,
             "--seed", str(s.seed), "--quiet",
         ]
-        if self.plan is None or self.plan.flat:
+        # Lightmaps run whole: `--denoise auto` denoises whole lightmap bakes only.
+        if self.plan is None or (self.plan.flat and not s.lightmap):
             arguments += ["--checkpoint", self._path("blocks"),
                           "--checkpoint-vertices", str(block)]
         if self.plan is not None:
