@@ -201,7 +201,6 @@ def main():
 
     # A linked duplicate that receives gets a mesh of its own (a mesh holds one transfer),
     # one that does not only occludes, and a mesh without faces is left out: each named.
-    scene_mesh = sys.modules[module + ".scene_mesh"]
     twin = bpy.data.objects.new("CubeTwin", objects[2].data)
     shadow = bpy.data.objects.new("CubeShadow", objects[2].data)
     shadow.prt_receive = False
@@ -227,22 +226,6 @@ def main():
     bpy.data.meshes.remove(edges)
     bpy.data.meshes.remove(copy)
 
-    # A mirrored object (negative scale): world normals still point out of the cube, and
-    # every triangle's winding agrees with its vertices' normals, as prt-bake expects.
-    mirror = bpy.data.objects.new("Mirror", objects[2].data)
-    mirror.scale = (-1, 1, 1)
-    bpy.context.scene.collection.objects.link(mirror)
-    bpy.context.view_layer.update()
-    r = scene_mesh.receivers_of(mirror, bpy.context.evaluated_depsgraph_get())[0]
-    p = r.primitives[0]
-    outward = ((p["positions"] - p["positions"].mean(0)) * p["normals"]).sum(1)
-    t = p["positions"][p["triangles"]]
-    face = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
-    agree = (face * p["normals"][p["triangles"]].sum(1)).sum(1)
-    check("a mirrored object", (outward > 0).all() and (agree > 0).all(),
-          f"{len(p['triangles'])} triangles")
-    bpy.data.objects.remove(mirror)
-
     # Cancel: a bake driven by its job as the modal operator drives it, stopped mid-way.
     bake_job = sys.modules[module + ".bake_job"]
     settings = bake_job.BakeSettings(order=4, samples=1 << 14, mode="shadowed")
@@ -250,7 +233,7 @@ def main():
     folder = Path(out / "cancel")
     folder.mkdir()
     plan = export.export_scene(bpy.context, str(folder / "scene.glb"))
-    job = bake_job.BakeJob(a.prt_bake, settings, None, plan=plan, folder=str(folder))
+    job = bake_job.BakeJob(a.prt_bake, settings, plan, str(folder))
     job.start()
     folder, process = job.folder, job.process
     started = time.time()
@@ -302,7 +285,7 @@ def main():
     check("preview material hidden", all(s.link == "DATA" for o in objects
                                          for s in o.material_slots)
           and all(o.data.materials[0].name == o.name + "Material" for o in objects))
-    warnings_and_panel(module, a)
+    warnings_and_panel(module, a, objects[2])
     modal(module, objects, a, arrays)
     lightmaps(objects, a, arrays)
     interreflected(objects, a, arrays)
@@ -376,9 +359,15 @@ def modal(module, objects, a, arrays):
           f"{op.reports[-1][1] if op.reports else 'no report'}")
 
 
-def warnings_and_panel(module, a):
+def warnings_and_panel(module, a, cube):
     """A material the bake cannot read (a procedural Base Color) is named, with its object,
-    in the last bake's warnings; the panel lists them with the bake's time and rays."""
+    in the last bake's warnings; the panel lists them with the bake's time and rays. A
+    mirrored cube (scale −1) bakes too: the corner map's check (each corner's baked vertex at
+    its position, facing its normal) passes for it."""
+    mirror = bpy.data.objects.new("Mirror", cube.data.copy())
+    mirror.scale = (-1, 1, 1)
+    mirror.location = (-2.5, 2.5, 0.5)
+    bpy.context.scene.collection.objects.link(mirror)
     bpy.ops.mesh.primitive_cube_add(size=0.3, location=(2.5, -2.5, 0.15))
     obj = bpy.context.object
     obj.name = "Procedural"
@@ -389,6 +378,10 @@ def warnings_and_panel(module, a):
     obj.data.materials.append(m)
     result = bpy.ops.prt.bake(rig=a.rig, samples=16, order=2)
     warnings = json.loads(bpy.context.scene.prt.last_warnings)
+    check("a mirrored object", result == {"FINISHED"} and "prt_T03" in mirror.data.attributes)
+    mesh = mirror.data
+    bpy.data.objects.remove(mirror)
+    bpy.data.meshes.remove(mesh)
     check("a procedural material named in a warning", result == {"FINISHED"} and warnings == [
         "Procedural, material Noisy: Base Color from Noise Texture is not exported; baked "
         "with its Base Color value (no texture)"], warnings)

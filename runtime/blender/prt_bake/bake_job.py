@@ -1,6 +1,6 @@
-"""One bake as a background process: the scene (Blender's glTF export, export.py; for
-lightmaps the add-on's own GLB, glb.py), `prt-bake bake`, its progress, and the transfer read
-back: per face corner (corner_map.py), or (lightmaps) per object's tile.
+"""One bake as a background process: the scene (Blender's glTF export, export.py),
+`prt-bake bake`, its progress, and the transfer read back: per face corner (corner_map.py),
+or (lightmaps) per object's tile.
 
 Where every mesh node receives and no mesh is shared, a vertex bake runs with `--checkpoint DIR`:
 prt-bake writes each finished block of vertices into DIR, and the number of blocks there is
@@ -18,16 +18,15 @@ import math
 import os
 import shutil
 import subprocess
-import tempfile
 import time
 from dataclasses import dataclass
 
 import numpy as np
 
-from . import corner_map, glb, gltf_scene
-from .sh_frame import gltf_to_blender
+from . import corner_map, gltf_scene
 from .errors import PrtError
 from .process import failure, run_prt_bake
+from .sh_frame import gltf_to_blender
 
 PROGRESS_BLOCKS = 40  # checkpoint blocks per bake at most: the progress bar's steps
 # Vertices (texels) per block at least: smaller blocks cost time (a 2,953-vertex bake at
@@ -50,11 +49,11 @@ class BakeSettings:
 
 
 class BakeJob:
-    def __init__(self, executable, settings, receivers, plan=None, folder=None):
-        """Lightmaps: `receivers` (scene_mesh.Receivers); per vertex: `plan` (export.Plan)
-        of the scene already exported into `folder`/scene.glb."""
-        self.executable, self.settings, self.receivers = executable, settings, receivers
-        self.plan, self.folder = plan, folder
+    def __init__(self, executable, settings, plan, folder):
+        """`plan` (export.Plan): the scene already exported into `folder`/scene.glb (for
+        lightmaps with its receivers' UVs tiled, export.tile_lightmaps)."""
+        self.executable, self.settings = executable, settings
+        self.plan, self.folder, self.receivers = plan, folder, plan.receivers
         self.summary = ""
         self.process = None
         self.progress = 0.0
@@ -69,15 +68,9 @@ class BakeJob:
         is its tile. Returns g."""
         return math.ceil(math.sqrt(len(self.receivers)))
 
-    def _tile_uvs(self):
-        g = self.tiles()
-        for i, r in enumerate(self.receivers):
-            for p in r.primitives:
-                p["atlas_uv"] = (p["uv1"] + [i % g, i // g]) / g
-
     def _work(self):
         """Vertices, or (lightmaps) about how many texels the UVs cover."""
-        if self.plan is not None and not self.settings.lightmap:
+        if not self.settings.lightmap:
             return max(1, sum(len(r.obj.data.loops) for r in self.plan.receivers))
         area = 0.0
         for r in self.receivers:
@@ -93,19 +86,17 @@ class BakeJob:
         block = max(MIN_BLOCK, math.ceil(vertices / PROGRESS_BLOCKS))
         self.blocks_total = math.ceil(vertices / block)
         arguments = [
-            "bake", self._path("scene.glb"), "-o", self._path("scene.prt"), "--up", "z",
+            "bake", self._path("scene.glb"), "-o", self._path("scene.prt"),
             "--order", str(s.order), "--samples", str(s.samples), "--mode", s.mode,
             "--seed", str(s.seed), "--quiet",
         ]
         # Lightmaps run whole: `--denoise auto` denoises whole lightmap bakes only.
-        if self.plan is None or (self.plan.flat and not s.lightmap):
+        if self.plan.flat and not s.lightmap:
             arguments += ["--checkpoint", self._path("blocks"),
                           "--checkpoint-vertices", str(block)]
-        if self.plan is not None:
-            arguments[arguments.index("--up") + 1] = "y"  # glTF's, as exported
-            arguments += ["--double-sided", s.double_sided, "--denoise", s.denoise]
-            if s.mode != "interreflected":
-                arguments += ["--instances", "on"]
+        arguments += ["--double-sided", s.double_sided, "--denoise", s.denoise]
+        if s.mode != "interreflected":
+            arguments += ["--instances", "on"]
         if s.threads:
             arguments += ["--threads", str(s.threads)]
         if s.lightmap:
@@ -113,15 +104,7 @@ class BakeJob:
         return [self.executable, *arguments]
 
     def start(self):
-        if self.folder is None:
-            self.folder = tempfile.mkdtemp(prefix="prt-bake-")
         try:
-            if self.plan is None:
-                primitives = [p for r in self.receivers for p in r.primitives]
-                if self.settings.lightmap:
-                    self._tile_uvs()
-                    primitives = [dict(p, uv1=p["atlas_uv"]) for p in primitives]
-                glb.write_glb(self._path("scene.glb"), primitives)
             os.mkdir(self._path("blocks"))
             command = self.command()
             self.log = open(self._path("bake.log"), "w+")
@@ -193,10 +176,9 @@ class BakeJob:
         with np.load(npz) as f:
             transfer = np.asarray(f["transfer"], np.float32)
             uv1 = np.asarray(f["uv1"], np.float64)
-        if self.plan is not None:  # occluders' triangles are outside the atlas, at (-1, -1)
-            uv1 = uv1[(uv1 >= 0).all(axis=(1, 2))]
-            turn = gltf_to_blender(self.settings.order).astype(np.float32)
-            transfer = transfer @ turn.T
+        # Occluders' triangles are outside the atlas, at (-1, -1).
+        uv1 = uv1[(uv1 >= 0).all(axis=(1, 2))]
+        transfer = transfer @ gltf_to_blender(self.settings.order).astype(np.float32).T
         ours = np.concatenate([p["atlas_uv"][p["triangles"]]
                                for r in self.receivers for p in r.primitives])
         if uv1.shape != ours.shape or not np.allclose(uv1, ours, atol=1e-5):

@@ -91,8 +91,7 @@ class PRT_OT_bake(bpy.types.Operator):
             raise
         self._warn(context, plan.warnings)
         self._order = settings.order
-        receivers = plan.receivers if settings.lightmap else None
-        return BakeJob(executable, settings, receivers, plan=plan, folder=folder)
+        return BakeJob(executable, settings, plan, folder)
 
     def _warn(self, context, warnings):
         """Each warning in Blender's report and in the panel's list of the last bake's."""
