@@ -9,8 +9,9 @@
 # scene with the CLI at the same settings and exports it lit by the rig and by the rig turned
 # 90° (COLOR_0), and compares per object (compare_cli.py: mean within 3 %, per-vertex
 # correlation ≥ 0.98). test_courtyard.py: the production courtyard through the add-on against
-# the CLI on Blender's export of it, per vertex (≥ 99 % within 2 %, every object, at the rig
-# and turned 90°), and failing with cut-outs, textures or instances switched off.
+# the CLI on Blender's export of it, per vertex and per lightmap texel (≥ 99 % within 2 %,
+# every object, at the rig and turned 90°), and failing with cut-outs, textures or instances
+# (and, per texel, normal maps) switched off.
 # test_scatter.py: a collection instance and a geometry-nodes scatter of 1,000 instances cast
 # shadows, in memory that grows with meshes, not instances.
 #
@@ -79,8 +80,8 @@ sys.exit(f"test.sh: add-on checks failed: {', '.join(bad)}" if bad or len(checks
 PY
 addon=$(date +%s.%N)
 
-# --double-sided off: Blender's exporter marks the materials doubleSided, the add-on's own GLB does
-# not (a Blender mesh holds one value per corner), so both bake the same receivers.
+# --double-sided off: Blender's exporter marks the materials doubleSided, and the add-on bakes
+# with its default Double-sided off (a Blender mesh holds one transfer per corner).
 "$BAKE" bake "$OUT/scene.glb" -o "$OUT/cli.prt" --order 4 --samples "$SAMPLES" --quiet --double-sided off
 "$BAKE" bake "$OUT/scene.glb" -o "$OUT/cli-ir.prt" --order 4 --samples 256 \
     --mode interreflected --quiet --double-sided off

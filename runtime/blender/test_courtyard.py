@@ -15,7 +15,10 @@ rotation 90° against RIG90) must be within 2 % of the CLI's at ≥ 99 % of the 
 Then each feature is switched off once in the add-on's scene (the exported GLB edited
 before the bake: cut-outs opaque, base-colour textures dropped, the linked duplicates left
 out as the old add-on did) and the same comparison must fail. (Normal maps: vertex bakes
-ignore them, so they are not switched off here.)
+ignore them, so they are switched off in the lightmap part only.)
+
+Lightmaps: the same, texel by texel, against the CLI's bake of Blender's export whose
+lightmap UVs the test moved into the add-on's tiles in Blender (texels(), below).
 Writes OUT_DIR/courtyard.json; exits through os._exit (bpy can hang in its exit handlers).
 """
 
