@@ -376,8 +376,18 @@ def warnings_and_panel(module, a, cube):
     m.node_tree.links.new(noise.outputs["Color"],
                           m.node_tree.nodes["Principled BSDF"].inputs["Base Color"])
     obj.data.materials.append(m)
+    text = bpy.data.objects.new("Label", bpy.data.curves.new("Label", "FONT"))
+    text.location = (2.5, 2.5, 0.0)
+    bpy.context.scene.collection.objects.link(text)
     result = bpy.ops.prt.bake(rig=a.rig, samples=16, order=2)
     warnings = json.loads(bpy.context.scene.prt.last_warnings)
+    check("a text object named in a warning", warnings[:1] == [
+        "Label is a font, not a mesh: not baked (it casts shadows as far as Blender's glTF "
+        "export makes it a mesh; convert it to a mesh to bake it)"], warnings[:1])
+    curve = text.data
+    bpy.data.objects.remove(text)
+    bpy.data.curves.remove(curve)
+    warnings = warnings[1:]
     check("a mirrored object", result == {"FINISHED"} and "prt_T03" in mirror.data.attributes)
     mesh = mirror.data
     bpy.data.objects.remove(mirror)

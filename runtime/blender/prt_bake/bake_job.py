@@ -55,6 +55,7 @@ class BakeJob:
         self.executable, self.settings = executable, settings
         self.plan, self.folder, self.receivers = plan, folder, plan.receivers
         self.summary = ""
+        self.warnings = []
         self.process = None
         self.progress = 0.0
         self.transfer = None  # per receiver: (loops, channels, n²) float32, once done
@@ -133,8 +134,12 @@ class BakeJob:
             self.log.seek(0)
             raise failure("bake", code, self.log.read())
         self.log.seek(0)
-        lines = [line for line in self.log.read().splitlines() if line.startswith("baked ")]
-        self.summary = lines[-1] if lines else ""
+        lines = self.log.read().splitlines()
+        baked = [line for line in lines if line.startswith("baked ")]
+        self.summary = baked[-1] if baked else ""
+        # prt-bake's own warnings (a skipped primitive, UVs it unwrapped…), for the UI.
+        self.warnings = [line.replace(self._path("scene.glb"), "the scene")
+                         for line in lines if line.startswith("warning: ")]
         self._read_result()
         self.progress = 1.0
         return True

@@ -48,6 +48,11 @@ class Plan:
 def _receiving_objects(context, warnings):
     objects, owner = [], {}
     for obj in context.view_layer.objects:
+        if obj.type in ("CURVE", "SURFACE", "FONT", "META", "CURVES", "POINTCLOUD") \
+                and obj.visible_get():
+            warnings.append(f"{obj.name} is a {obj.type.lower()}, not a mesh: not baked (it "
+                            "casts shadows as far as Blender's glTF export makes it a mesh; "
+                            "convert it to a mesh to bake it)")
         if obj.type != "MESH" or not obj.visible_get():
             continue
         if len(obj.data.polygons) == 0:

@@ -110,6 +110,10 @@ class PRT_OT_bake(bpy.types.Operator):
         s = context.scene.prt
         s.last_time = time.time() - self._started
         s.last_summary = job.summary
+        for warning in job.warnings:
+            self.report({"WARNING"}, warning)
+        if job.warnings:
+            s.last_warnings = json.dumps(json.loads(s.last_warnings) + job.warnings)
         s.baked_order = self._order
         s.light_json = json.dumps(self._light.tolist())
         s.status = ""
