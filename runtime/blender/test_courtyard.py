@@ -79,7 +79,8 @@ def cli_objects(module, glb_path, npz_path):
         part["normals"] = part["normals"] @ turn.T
         out[node["name"]] = part
         cursor += count
-    assert cursor == len(arrays["positions"]), (cursor, len(arrays["positions"]))
+    # Back sheets (--double-sided auto) follow every node's vertices.
+    assert cursor <= len(arrays["positions"]), (cursor, len(arrays["positions"]))
     return out
 
 
@@ -202,6 +203,22 @@ def main():
           len({o.data.name for o in objects if o.name.startswith("Crate")}) == 5
           and sum("given a copy of its own" in w for w in warnings) == 4, warnings)
     report = {"addon": figures, "warnings": warnings, "switched_off": {}}
+
+    # Double-sided auto: prt-bake adds back sheets (after every node); the fronts still match.
+    subprocess.run([a.prt_bake, "bake", glb, "-o", str(out / "cli-ds.prt"), "--double-sided",
+                    "auto", "--samples", str(a.samples), "--order", str(a.order), "--seed",
+                    str(seed), "--quiet"], check=True)
+    subprocess.run([a.prt_bake, "export", str(out / "cli-ds.prt"), "--scene", glb, "--npz",
+                    str(out / "cli-ds.npz")], check=True, capture_output=True)
+    bpy.context.scene.prt.double_sided = "auto"
+    result = bake()
+    bpy.context.scene.prt.double_sided = "off"
+    figures_ds, ok = compare(objects, cli_objects(module, glb, str(out / "cli-ds.npz")), lights,
+                             turns)
+    worst = min(figures_ds.values(), key=lambda v: v["within_2_percent"])["within_2_percent"]
+    check("courtyard, double-sided auto: the fronts against the CLI's", result == {"FINISHED"}
+          and ok, f"the worst object {100 * worst:.2f} % within 2 %")
+    report["double_sided_auto"] = figures_ds
 
     # Each feature switched off once: the same comparison must fail.
     original = export.export_scene

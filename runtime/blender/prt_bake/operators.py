@@ -74,6 +74,11 @@ class PRT_OT_bake(bpy.types.Operator):
         executable = find_prt_bake(preferences(context))
         self._light = _project_light(context, executable, s, settings.order, self.rig)
         self._started = time.time()
+        if settings.lightmap and settings.double_sided == "auto":
+            # A back sheet would need texels of its own beside the object's tile.
+            self.report({"WARNING"}, "Double-sided auto applies to vertex bakes: this "
+                        "lightmap bake bakes fronts only")
+            settings.double_sided = "off"
         folder = tempfile.mkdtemp(prefix="prt-bake-")
         try:
             path = f"{folder}/scene.glb"

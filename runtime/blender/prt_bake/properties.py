@@ -32,8 +32,8 @@ class PrtSceneSettings(bpy.types.PropertyGroup):
                                           "only one)")
     double_sided: bpy.props.EnumProperty(name="Double-sided", items=[
         ("off", "Off", "Every face's front only (Blender stores one transfer per corner)"),
-        ("auto", "Auto", "prt-bake also bakes the back sheet of doubleSided materials "
-         "(Backface Culling off); the add-on stores the fronts"),
+        ("auto", "Auto", "Vertex bakes: prt-bake also bakes the back sheet of doubleSided "
+         "materials (Backface Culling off); the add-on stores the fronts"),
     ], default="off")
     denoise: bpy.props.EnumProperty(name="Denoise", items=[
         ("auto", "Auto", "prt-bake's choice (off for vertex bakes)"),
