@@ -240,6 +240,13 @@ def main():
             export.export_scene = original
             for o in objects:
                 o.prt_receive = True
+        if kind == "instances":
+            stale = json.loads(bpy.context.scene.prt.last_warnings)
+            check("courtyard: objects no longer receiving lose their earlier results",
+                  all("prt_T00" not in o.data.attributes and "PRT" not in o.data.attributes
+                      for o in objects[-4:]) and
+                  sum("its earlier PRT results removed" in w for w in stale) == 4,
+                  [w for w in stale if "earlier" in w])
         present = [o for o in objects if kind != "instances" or o not in objects[-4:]]
         figures, ok = compare(present, cli, lights, turns)
         failing = {k: round(100 * v["within_2_percent"], 1) for k, v in figures.items()

@@ -17,7 +17,7 @@ from .errors import PrtError
 from .lightmap_images import RELIT, store_lightmap, texel_materials, transfer_images
 from .process import find_prt_bake
 from .properties import preferences
-from .results import baked_meshes, store_transfer
+from .results import baked_meshes, clear_transfer, store_transfer
 from .scene_mesh import lightmap_layer
 
 PREVIEW_MATERIAL = "PRT Relit"
@@ -30,6 +30,21 @@ def _project_light(context, executable, settings, order, rig):
     if not path:
         raise PrtError("no rig file chosen (PRT panel > Rig), and the light is not the World")
     return light.project(executable, path, order)
+
+
+def _clear_stale(context, job):
+    """A vertex bake's earlier results on visible meshes that no longer receive (PRT receive
+    off) are removed, so relighting does not show them as if baked with this scene; named."""
+    if job.settings.lightmap:
+        return []
+    baked = {r.obj.data for r in job.plan.receivers}
+    out = []
+    for obj in context.view_layer.objects:
+        if obj.type == "MESH" and obj.visible_get() and obj.data not in baked \
+                and clear_transfer(obj.data):
+            baked.add(obj.data)
+            out.append(f"{obj.name}: not baked this time, its earlier PRT results removed")
+    return out
 
 
 class PRT_OT_bake(bpy.types.Operator):
@@ -115,6 +130,7 @@ class PRT_OT_bake(bpy.types.Operator):
         s = context.scene.prt
         s.last_time = time.time() - self._started
         s.last_summary = job.summary
+        job.warnings += _clear_stale(context, job)
         for warning in job.warnings:
             self.report({"WARNING"}, warning)
         if job.warnings:

@@ -94,3 +94,13 @@ def baked_meshes(scene):
             seen.add(obj.data.name)
             meshes.append(obj.data)
     return meshes
+
+
+def clear_transfer(mesh):
+    """Removes a vertex bake's attributes (the transfer, its albedo and "PRT") from a mesh:
+    True if it had any."""
+    names = [a.name for a in mesh.attributes
+             if a.name.startswith(PREFIX) or a.name in (ALBEDO, PRT_COLOR)]
+    for name in names:
+        mesh.attributes.remove(mesh.attributes[name])
+    return bool(names)
