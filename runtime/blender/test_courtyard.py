@@ -127,7 +127,8 @@ def compare(objects, cli, lights, turns):
             position, normal, ours = corners(obj)
             corner = match(c["positions"], c["normals"], position, normal)
             found = corner >= 0
-            close = np.abs(ours[corner[found]] - theirs[found]) <= 0.02 * np.abs(theirs[found]) + 1e-4
+            difference = np.abs(ours[corner[found]] - theirs[found])
+            close = difference <= 0.02 * np.abs(theirs[found]) + 1e-4
             fraction = close.sum() / len(theirs)
             out[f"{obj.name}/{turn_name}"] = {
                 "vertices": len(theirs), "matched": int(found.sum()),

@@ -11,7 +11,8 @@ off, and with instances stripped from the export the test's shadow check fails);
 export holds one rock mesh placed at every instance; and prt-bake's peak memory (its
 ru_maxrss, through a wrapper) grows with distinct meshes, not instances: each placement
 beyond COUNT (at 4 × COUNT) costs under 5 % of what one flattened instance costs in
-prt-bake's flat load of the same file (`--instances off`). Writes OUT_DIR/scatter.json; exits through os._exit.
+prt-bake's flat load of the same file (`--instances off`). Writes OUT_DIR/scatter.json;
+exits through os._exit.
 """
 
 import argparse

@@ -24,7 +24,8 @@ def basis(directions, order):
                 p_prev, p = p, z * (2 * m + 1) * pmm
             elif l > m + 1:
                 p_prev, p = p, ((2 * l - 1) * z * p - (l + m - 1) * p_prev) / (l - m)
-            k = math.sqrt((2 * l + 1) / (4 * math.pi) * math.factorial(l - m) / math.factorial(l + m))
+            k = math.sqrt((2 * l + 1) / (4 * math.pi)
+                          * math.factorial(l - m) / math.factorial(l + m))
             if m == 0:
                 out[:, l * (l + 1)] = k * p
             else:
