@@ -16,8 +16,10 @@
 #   make blender     a Blender glTF with per-object lightmap UVs against Cycles' AO bake
 #                    (part of make test, about 30 s after a 373 MB install; docs/guides/lightmaps.md)
 #   make blender-addon  the Blender add-on (runtime/blender/prt_bake): installed from its zip,
-#                    baked through bpy.ops.prt.bake, against the CLI's export of the same scene
-#                    (part of make test, 20-50 s after make blender; docs/guides/blender.md)
+#                    baked through bpy.ops.prt.bake, against the CLI on Blender's export of the
+#                    same scene; the production courtyard per vertex and per texel; a 1,000-
+#                    instance scatter (part of make test, 45-60 s after make blender;
+#                    docs/guides/blender.md)
 #   make blender-production  the production-style courtyard (scenes/production: cut-out cards,
 #                    a normal-mapped wall, linked-duplicate crates) against Cycles' AO bake
 #                    (part of make test, about 20 s after make blender; docs/reference/scenes.md)
@@ -171,8 +173,11 @@ blender: build
 # The Blender add-on: packed into a zip, installed into a throw-away Blender user
 # folder, a Suzanne, cube and floor scene baked through bpy.ops.prt.bake and relit at a rig and
 # turned 90°, against prt-bake's own export of Blender's glTF of the scene (per object: mean
-# within 3 %, per-vertex correlation >= 0.98); errors, cancel, the preview material. Uses make
-# blender's bpy (docs/guides/blender.md).
+# within 3 %, per-vertex correlation >= 0.98); errors, cancel, the preview material; the
+# production courtyard against the CLI per vertex and per lightmap texel (>= 99 % within 2 %,
+# failing with cut-outs, normal maps, textures or instances switched off); a collection
+# instance and a 1,000-instance geometry-nodes scatter casting shadows in memory that grows
+# with meshes. Uses make blender's bpy (docs/guides/blender.md).
 .PHONY: blender-addon
 blender-addon: blender
 	runtime/blender/test.sh

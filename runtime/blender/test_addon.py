@@ -100,7 +100,7 @@ def snapshot():
             "slots": [(s.link, s.material.name if s.material else None)
                       for s in obj.material_slots],
             "attributes": sorted(a.name for a in obj.data.attributes
-                                 if not a.name.startswith("prt_T") and a.name != "PRT")}
+                                 if not a.name.startswith("prt_") and a.name != "PRT")}
     return out
 
 
@@ -175,8 +175,8 @@ def main():
         return
     objects = build()  # first: factory settings would disable the add-on again
     module = install(a.zip)
-    bpy.ops.export_scene.gltf(filepath=str(out / "scene.glb"), export_format="GLB",
-                              export_yup=True, export_apply=True, export_materials="EXPORT")
+    export = sys.modules[module + ".export"]
+    bpy.ops.export_scene.gltf(filepath=str(out / "scene.glb"), **export.EXPORT_SETTINGS)
     prefs = bpy.context.preferences.addons[module].preferences
 
     # Errors: reported, nothing changed.
@@ -199,47 +199,41 @@ def main():
     for obj in objects:
         obj.hide_set(False)
 
-    # What is left out of a bake, with a warning: an instance of a mesh already baked (its
-    # attributes would hold the other object's transfer) and a mesh without faces.
-    scene_mesh = sys.modules[module + ".scene_mesh"]
+    # A linked duplicate that receives gets a mesh of its own (a mesh holds one transfer),
+    # one that does not only occludes, and a mesh without faces is left out: each named.
     twin = bpy.data.objects.new("CubeTwin", objects[2].data)
+    shadow = bpy.data.objects.new("CubeShadow", objects[2].data)
+    shadow.prt_receive = False
     edges = bpy.data.meshes.new("Edges")
     edges.from_pydata([(0, 0, 0), (1, 0, 0)], [(0, 1)], [])
     wire = bpy.data.objects.new("Wire", edges)
-    for obj in (twin, wire):
+    for obj in (twin, shadow, wire):
         bpy.context.scene.collection.objects.link(obj)
-    baked, warnings = scene_mesh.visible_meshes(bpy.context)
-    check("instances and meshes without faces left out",
-          [o.name for o in baked] == [o.name for o in objects] and warnings == [
-              "CubeTwin shares its mesh with Cube: not baked", "Wire has no faces: not baked"],
-          warnings)
-    bpy.data.objects.remove(twin)
-    bpy.data.objects.remove(wire)
+    plan = export.export_scene(bpy.context, str(out / "plan.glb"))
+    names = sorted(r.obj.name for r in plan.receivers)
+    check("linked duplicates, occluders and meshes without faces",
+          names == sorted(["CubeTwin", *[o.name for o in objects]])
+          and twin.data != objects[2].data and shadow.data == objects[2].data
+          and sorted(plan.warnings[:2]) == [
+              f"CubeTwin shared mesh 'Cube' with Cube: given a copy of its own "
+              f"({twin.data.name!r}) to hold its own transfer (turn its PRT receive off to "
+              "keep it linked: it then only casts shadows)", "Wire has no faces: not baked"]
+          and not plan.flat,
+          plan.warnings)
+    copy = twin.data
+    for obj in (twin, shadow, wire):
+        bpy.data.objects.remove(obj)
     bpy.data.meshes.remove(edges)
-
-    # A mirrored object (negative scale): world normals still point out of the cube, and
-    # every triangle's winding agrees with its vertices' normals, as prt-bake expects.
-    mirror = bpy.data.objects.new("Mirror", objects[2].data)
-    mirror.scale = (-1, 1, 1)
-    bpy.context.scene.collection.objects.link(mirror)
-    bpy.context.view_layer.update()
-    r = scene_mesh.receivers_of(mirror, bpy.context.evaluated_depsgraph_get())[0]
-    p = r.primitives[0]
-    outward = ((p["positions"] - p["positions"].mean(0)) * p["normals"]).sum(1)
-    t = p["positions"][p["triangles"]]
-    face = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
-    agree = (face * p["normals"][p["triangles"]].sum(1)).sum(1)
-    check("a mirrored object", (outward > 0).all() and (agree > 0).all(),
-          f"{len(p['triangles'])} triangles")
-    bpy.data.objects.remove(mirror)
+    bpy.data.meshes.remove(copy)
 
     # Cancel: a bake driven by its job as the modal operator drives it, stopped mid-way.
     bake_job = sys.modules[module + ".bake_job"]
-    depsgraph = bpy.context.evaluated_depsgraph_get()
-    receivers = [scene_mesh.receivers_of(o, depsgraph)[0] for o in objects]
     settings = bake_job.BakeSettings(order=4, samples=1 << 14, mode="shadowed")
     before = snapshot()
-    job = bake_job.BakeJob(a.prt_bake, settings, receivers)
+    folder = Path(out / "cancel")
+    folder.mkdir()
+    plan = export.export_scene(bpy.context, str(folder / "scene.glb"))
+    job = bake_job.BakeJob(a.prt_bake, settings, plan, str(folder))
     job.start()
     folder, process = job.folder, job.process
     started = time.time()
@@ -291,6 +285,7 @@ def main():
     check("preview material hidden", all(s.link == "DATA" for o in objects
                                          for s in o.material_slots)
           and all(o.data.materials[0].name == o.name + "Material" for o in objects))
+    warnings_and_panel(module, a, objects[2])
     modal(module, objects, a, arrays)
     lightmaps(objects, a, arrays)
     interreflected(objects, a, arrays)
@@ -321,7 +316,7 @@ def modal(module, objects, a, arrays):
     def operator(samples):
         op = SimpleNamespace(samples=samples, order=4, mode="", rig=a.rig, seed=-1, threads=0,
                              lightmap=0, reports=[])
-        for name in ("_prepare", "_finish", "_end", "_lightmap"):
+        for name in ("_prepare", "_finish", "_end", "_lightmap", "_warn"):
             setattr(op, name, getattr(cls, name).__get__(op))
         op.report = lambda kind, message: op.reports.append((set(kind), message))
         return op
@@ -362,6 +357,62 @@ def modal(module, objects, a, arrays):
           and updates == sorted(updates) and wm.calls[-1] == ("status_text_set", None),
           f"{ticks} timer ticks, progress bar at {sorted(set(updates))} %, "
           f"{op.reports[-1][1] if op.reports else 'no report'}")
+
+
+def warnings_and_panel(module, a, cube):
+    """A material the bake cannot read (a procedural Base Color) is named, with its object,
+    in the last bake's warnings; the panel lists them with the bake's time and rays. A
+    mirrored cube (scale −1) bakes too: the corner map's check (each corner's baked vertex at
+    its position, facing its normal) passes for it."""
+    mirror = bpy.data.objects.new("Mirror", cube.data.copy())
+    mirror.scale = (-1, 1, 1)
+    mirror.location = (-2.5, 2.5, 0.5)
+    bpy.context.scene.collection.objects.link(mirror)
+    bpy.ops.mesh.primitive_cube_add(size=0.3, location=(2.5, -2.5, 0.15))
+    obj = bpy.context.object
+    obj.name = "Procedural"
+    m = material("Noisy", (0.5, 0.5, 0.5))
+    noise = m.node_tree.nodes.new("ShaderNodeTexNoise")
+    m.node_tree.links.new(noise.outputs["Color"],
+                          m.node_tree.nodes["Principled BSDF"].inputs["Base Color"])
+    obj.data.materials.append(m)
+    text = bpy.data.objects.new("Label", bpy.data.curves.new("Label", "FONT"))
+    text.location = (2.5, 2.5, 0.0)
+    bpy.context.scene.collection.objects.link(text)
+    result = bpy.ops.prt.bake(rig=a.rig, samples=16, order=2)
+    warnings = json.loads(bpy.context.scene.prt.last_warnings)
+    check("a text object named in a warning", warnings[:1] == [
+        "Label is a font, not a mesh: not baked (it casts shadows as far as Blender's glTF "
+        "export makes it a mesh; convert it to a mesh to bake it)"], warnings[:1])
+    curve = text.data
+    bpy.data.objects.remove(text)
+    bpy.data.curves.remove(curve)
+    warnings = warnings[1:]
+    check("a mirrored object", result == {"FINISHED"} and "prt_T03" in mirror.data.attributes)
+    mesh = mirror.data
+    bpy.data.objects.remove(mirror)
+    bpy.data.meshes.remove(mesh)
+    check("a procedural material named in a warning", result == {"FINISHED"} and warnings == [
+        "Procedural, material Noisy: Base Color from Noise Texture is not exported; baked "
+        "with its Base Color value (no texture)"], warnings)
+
+    class Layout:  # records what the panel draws
+        def __init__(self, lines):
+            self.lines = lines
+
+        def __getattr__(self, name):
+            return lambda *args, **kw: (self.lines.append(kw.get("text", "")), self)[1]
+    lines = []
+    panel = sys.modules[module + ".panel"].PRT_PT_panel
+    stand_in = type("Stand-in", (), {"layout": Layout(lines)})()
+    panel.draw(stand_in, bpy.context)
+    summary = bpy.context.scene.prt.last_summary
+    check("the panel shows the last bake's time, rays and warnings",
+          any(line.startswith("Last bake: ") for line in lines) and summary.split(" -> ")[0]
+          in lines and " rays" in summary and warnings[0] in lines
+          and any(line.startswith("Receivers: ") for line in lines), lines)
+    bpy.data.objects.remove(obj)
+    bpy.data.materials.remove(m)
 
 
 def interreflected(objects, a, arrays):

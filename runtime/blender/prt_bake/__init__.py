@@ -29,9 +29,13 @@ def register():
     for cls in _classes:
         bpy.utils.register_class(cls)
     bpy.types.Scene.prt = bpy.props.PointerProperty(type=properties.PrtSceneSettings)
+    bpy.types.Object.prt_receive = bpy.props.BoolProperty(
+        name="PRT receive", default=True, description="Bake this object's transfer (off: "
+        "it only casts shadows and reflects light)")
 
 
 def unregister():
     del bpy.types.Scene.prt
+    del bpy.types.Object.prt_receive
     for cls in reversed(_classes):
         bpy.utils.unregister_class(cls)

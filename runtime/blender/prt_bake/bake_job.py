@@ -1,9 +1,13 @@
-"""One bake as a background process: write the scene, run `prt-bake bake`, watch its
-progress, and read the transfer back: per face corner, or (lightmaps) per object's tile.
+"""One bake as a background process: the scene (Blender's glTF export, export.py),
+`prt-bake bake`, its progress, and the transfer read back: per face corner (corner_map.py),
+or (lightmaps) per object's tile.
 
-The bake runs with `--checkpoint DIR`: prt-bake writes each finished block of vertices into
-DIR, and the number of blocks there is the progress (prt-bake draws its own progress bar
-only on a terminal). The checkpointed file is byte-identical to an uninterrupted bake's.
+Where every mesh node receives and no mesh is shared, a vertex bake runs with `--checkpoint DIR`:
+prt-bake writes each finished block of vertices into DIR, and the number of blocks there is
+the progress (prt-bake draws its own progress bar only on a terminal). The checkpointed file
+is byte-identical to an uninterrupted bake's. Otherwise (occluders, instances) it runs whole,
+as receivers and instancing need, and so do lightmap bakes (`--denoise auto` denoises whole
+lightmap bakes only): the progress then shows only the end.
 
 Driving it: `start()`, then `poll()` until it returns True (the modal operator polls on a
 timer; a script may call `run()`, which polls until done); `cancel()` stops it. Every
@@ -14,15 +18,15 @@ import math
 import os
 import shutil
 import subprocess
-import tempfile
 import time
 from dataclasses import dataclass
 
 import numpy as np
 
-from . import glb
+from . import corner_map, gltf_scene
 from .errors import PrtError
 from .process import failure, run_prt_bake
+from .sh_frame import gltf_to_blender
 
 PROGRESS_BLOCKS = 40  # checkpoint blocks per bake at most: the progress bar's steps
 # Vertices (texels) per block at least: smaller blocks cost time (a 2,953-vertex bake at
@@ -40,12 +44,18 @@ class BakeSettings:
     threads: int = 0  # 0: all cores
     lightmap: int = 0  # texels per side of each object's lightmap; 0: a per-vertex bake
     lightmap_uv: str = ""  # the UV map (empty: the second, else the only one)
+    double_sided: str = "off"  # prt-bake --double-sided: auto or off
+    denoise: str = "auto"  # prt-bake --denoise: auto, on or off
 
 
 class BakeJob:
-    def __init__(self, executable, settings, receivers):
-        self.executable, self.settings, self.receivers = executable, settings, receivers
-        self.folder = None
+    def __init__(self, executable, settings, plan, folder):
+        """`plan` (export.Plan): the scene already exported into `folder`/scene.glb (for
+        lightmaps with its receivers' UVs tiled, export.tile_lightmaps)."""
+        self.executable, self.settings = executable, settings
+        self.plan, self.folder, self.receivers = plan, folder, plan.receivers
+        self.summary = ""
+        self.warnings = []
         self.process = None
         self.progress = 0.0
         self.transfer = None  # per receiver: (loops, channels, n²) float32, once done
@@ -59,16 +69,10 @@ class BakeJob:
         is its tile. Returns g."""
         return math.ceil(math.sqrt(len(self.receivers)))
 
-    def _tile_uvs(self):
-        g = self.tiles()
-        for i, r in enumerate(self.receivers):
-            for p in r.primitives:
-                p["atlas_uv"] = (p["uv1"] + [i % g, i // g]) / g
-
     def _work(self):
         """Vertices, or (lightmaps) about how many texels the UVs cover."""
         if not self.settings.lightmap:
-            return sum(r.vertex_count for r in self.receivers)
+            return max(1, sum(len(r.obj.data.loops) for r in self.plan.receivers))
         area = 0.0
         for r in self.receivers:
             for p in r.primitives:
@@ -83,11 +87,17 @@ class BakeJob:
         block = max(MIN_BLOCK, math.ceil(vertices / PROGRESS_BLOCKS))
         self.blocks_total = math.ceil(vertices / block)
         arguments = [
-            "bake", self._path("scene.glb"), "-o", self._path("scene.prt"), "--up", "z",
+            "bake", self._path("scene.glb"), "-o", self._path("scene.prt"),
             "--order", str(s.order), "--samples", str(s.samples), "--mode", s.mode,
             "--seed", str(s.seed), "--quiet",
-            "--checkpoint", self._path("blocks"), "--checkpoint-vertices", str(block),
         ]
+        # Lightmaps run whole: `--denoise auto` denoises whole lightmap bakes only.
+        if self.plan.flat and not s.lightmap:
+            arguments += ["--checkpoint", self._path("blocks"),
+                          "--checkpoint-vertices", str(block)]
+        arguments += ["--double-sided", s.double_sided, "--denoise", s.denoise]
+        if s.mode != "interreflected":
+            arguments += ["--instances", "on"]
         if s.threads:
             arguments += ["--threads", str(s.threads)]
         if s.lightmap:
@@ -95,13 +105,7 @@ class BakeJob:
         return [self.executable, *arguments]
 
     def start(self):
-        self.folder = tempfile.mkdtemp(prefix="prt-bake-")
         try:
-            primitives = [p for r in self.receivers for p in r.primitives]
-            if self.settings.lightmap:
-                self._tile_uvs()
-                primitives = [dict(p, uv1=p["atlas_uv"]) for p in primitives]
-            glb.write_glb(self._path("scene.glb"), primitives)
             os.mkdir(self._path("blocks"))
             command = self.command()
             self.log = open(self._path("bake.log"), "w+")
@@ -129,6 +133,13 @@ class BakeJob:
         if code != 0:
             self.log.seek(0)
             raise failure("bake", code, self.log.read())
+        self.log.seek(0)
+        lines = self.log.read().splitlines()
+        baked = [line for line in lines if line.startswith("baked ")]
+        self.summary = baked[-1] if baked else ""
+        # prt-bake's own warnings (a skipped primitive, UVs it unwrapped…), for the UI.
+        self.warnings = [line.replace(self._path("scene.glb"), "the scene")
+                         for line in lines if line.startswith("warning: ")]
         self._read_result()
         self.progress = 1.0
         return True
@@ -163,28 +174,16 @@ class BakeJob:
         if self.settings.lightmap:
             self._read_lightmaps(npz)
             return
-        with np.load(npz) as f:
-            transfer = np.asarray(f["transfer"], np.float32)
-            positions = np.asarray(f["positions"], np.float64)
-        if transfer.ndim == 2:  # (V, n²) for a grey bake, should the export ever write it
-            transfer = transfer[:, None, :]
-        expected = sum(r.vertex_count for r in self.receivers)
-        if len(transfer) != expected:
-            raise PrtError(f"prt-bake baked {len(transfer)} vertices, the add-on wrote {expected}")
-        self.transfer, start = [], 0
-        for r in self.receivers:
-            ours = np.concatenate([p["positions"] for p in r.primitives])
-            theirs = positions[start:start + r.vertex_count]
-            if not np.allclose(ours, theirs, rtol=1e-5, atol=1e-4 * (1 + np.abs(ours).max())):
-                raise PrtError(f"{r.obj.name}: prt-bake's vertices are not the add-on's")
-            self.transfer.append(transfer[start:start + r.vertex_count][r.corner_vertex])
-            start += r.vertex_count
+        self._read_corners(npz)
 
     def _read_lightmaps(self, npz):
         """self.transfer: per receiver its tile, (RES, RES, channels, n²), row 0 at v = 0."""
         with np.load(npz) as f:
             transfer = np.asarray(f["transfer"], np.float32)
             uv1 = np.asarray(f["uv1"], np.float64)
+        # Occluders' triangles are outside the atlas, at (-1, -1).
+        uv1 = uv1[(uv1 >= 0).all(axis=(1, 2))]
+        transfer = transfer @ gltf_to_blender(self.settings.order).astype(np.float32).T
         ours = np.concatenate([p["atlas_uv"][p["triangles"]]
                                for r in self.receivers for p in r.primitives])
         if uv1.shape != ours.shape or not np.allclose(uv1, ours, atol=1e-5):
@@ -194,3 +193,40 @@ class BakeJob:
         for i, _ in enumerate(self.receivers):
             x, y = (i % g) * res, (i // g) * res
             self.transfer.append(transfer[y:y + res, x:x + res])
+
+    def _read_corners(self, npz):
+        """self.transfer: per plan receiver (loops, channels, n²) in Blender's frame;
+        self.albedo: per receiver (loops, 3), prt-bake's (base colour × texture)."""
+        with np.load(npz) as f:
+            transfer = np.asarray(f["transfer"], np.float64)
+            positions = np.asarray(f["positions"], np.float64)
+            normals = np.asarray(f["normals"], np.float64)
+            albedo = np.asarray(f["albedo"], np.float32)
+            receives = np.asarray(f["receives"]) if "receives" in f.files else None
+        if transfer.ndim == 2:
+            transfer = transfer[:, None, :]
+        turn = gltf_to_blender(self.settings.order)
+        glb_ = self.plan.glb
+        depsgraph = bpy_depsgraph()
+        self.transfer, self.albedo, cursor = [], [], 0
+        for r in self.plan.receivers:
+            primitives = gltf_scene.triangle_primitives(glb_, r.node)
+            count = sum(c for c, _ in primitives)
+            if receives is not None:  # skip the flattened occluders' vertices
+                ahead = np.flatnonzero(receives[cursor:] > 0)
+                cursor += int(ahead[0]) if len(ahead) else 0
+                if not (receives[cursor:cursor + count] > 0).all():
+                    raise PrtError(f"{r.obj.name}: prt-bake's receivers are not the add-on's")
+            corner, position, normal = corner_map.corner_vertices(r.obj, depsgraph,
+                                                                  primitives, cursor)
+            if corner.max() >= len(transfer):
+                raise PrtError(f"{r.obj.name}: prt-bake baked fewer vertices than exported")
+            corner_map.check(r.obj, positions[corner], normals[corner], position, normal)
+            self.transfer.append((transfer[corner] @ turn.T).astype(np.float32))
+            self.albedo.append(albedo[corner])
+            cursor += count
+
+
+def bpy_depsgraph():
+    import bpy
+    return bpy.context.evaluated_depsgraph_get()

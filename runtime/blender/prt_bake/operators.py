@@ -5,17 +5,20 @@ Every failure is reported through Blender's report system (self.report), never r
 """
 
 import json
+import shutil
+import tempfile
+import time
 
 import bpy
 
-from . import light, relight
+from . import export, light, relight
 from .bake_job import BakeJob, BakeSettings
 from .errors import PrtError
 from .lightmap_images import RELIT, store_lightmap, texel_materials, transfer_images
 from .process import find_prt_bake
 from .properties import preferences
-from .results import baked_meshes, store_transfer
-from .scene_mesh import lightmap_layer, receivers_of, visible_meshes
+from .results import baked_meshes, clear_transfer, store_transfer
+from .scene_mesh import lightmap_layer
 
 PREVIEW_MATERIAL = "PRT Relit"
 
@@ -27,6 +30,21 @@ def _project_light(context, executable, settings, order, rig):
     if not path:
         raise PrtError("no rig file chosen (PRT panel > Rig), and the light is not the World")
     return light.project(executable, path, order)
+
+
+def _clear_stale(context, job):
+    """A vertex bake's earlier results on visible meshes that no longer receive (PRT receive
+    off) are removed, so relighting does not show them as if baked with this scene; named."""
+    if job.settings.lightmap:
+        return []
+    baked = {r.obj.data for r in job.plan.receivers}
+    out = []
+    for obj in context.view_layer.objects:
+        if obj.type == "MESH" and obj.visible_get() and obj.data not in baked \
+                and clear_transfer(obj.data):
+            baked.add(obj.data)
+            out.append(f"{obj.name}: not baked this time, its earlier PRT results removed")
+    return out
 
 
 class PRT_OT_bake(bpy.types.Operator):
@@ -64,33 +82,59 @@ class PRT_OT_bake(bpy.types.Operator):
                                 mode=self.mode or s.mode,
                                 seed=s.seed if self.seed < 0 else self.seed,
                                 threads=self.threads,
-                                lightmap=self._lightmap(s), lightmap_uv=s.lightmap_uv)
+                                lightmap=self._lightmap(s), lightmap_uv=s.lightmap_uv,
+                                double_sided=s.double_sided, denoise=s.denoise)
         if settings.mode not in ("shadowed", "interreflected"):
             raise PrtError(f"unknown mode {settings.mode!r} (shadowed or interreflected)")
         executable = find_prt_bake(preferences(context))
         self._light = _project_light(context, executable, s, settings.order, self.rig)
-        objects, warnings = visible_meshes(context)
-        depsgraph = context.evaluated_depsgraph_get()
-        receivers = []
-        for obj in objects:
-            r, more = receivers_of(obj, depsgraph,
-                                   settings.lightmap_uv if settings.lightmap else None)
-            receivers.append(r)
-            warnings += more
+        self._started = time.time()
+        if settings.lightmap and settings.double_sided == "auto":
+            # A back sheet would need texels of its own beside the object's tile.
+            self.report({"WARNING"}, "Double-sided auto applies to vertex bakes: this "
+                        "lightmap bake bakes fronts only")
+            settings.double_sided = "off"
+        folder = tempfile.mkdtemp(prefix="prt-bake-")
+        try:
+            path = f"{folder}/scene.glb"
+            plan = export.export_scene(context, path)
+            if settings.lightmap:
+                for r in plan.receivers:
+                    layers = r.obj.data.uv_layers
+                    if len(layers) < 2 or lightmap_layer(r.obj.data, s.lightmap_uv) != layers[1]:
+                        raise PrtError(f"{r.obj.name}: the lightmap UV map must be its second "
+                                       "UV map (the export's TEXCOORD_1)")
+                export.tile_lightmaps(plan, context.evaluated_depsgraph_get())
+                plan.glb.write(path)
+        except BaseException:
+            shutil.rmtree(folder, ignore_errors=True)
+            raise
+        self._warn(context, plan.warnings)
+        self._order = settings.order
+        return BakeJob(executable, settings, plan, folder)
+
+    def _warn(self, context, warnings):
+        """Each warning in Blender's report and in the panel's list of the last bake's."""
         for warning in warnings:
             self.report({"WARNING"}, warning)
-        self._order = settings.order
-        return BakeJob(executable, settings, receivers)
+        context.scene.prt.last_warnings = json.dumps(warnings)
 
     def _finish(self, context, job):
-        for r, transfer in zip(job.receivers, job.transfer):
-            if job.settings.lightmap:
-                uv = lightmap_layer(r.obj.data, job.settings.lightmap_uv).name
-                slots = texel_materials(r.primitives, job.settings.lightmap)
-                store_lightmap(r.obj, transfer, uv, slots)
-            else:
-                store_transfer(r.obj.data, transfer)
+        if not job.settings.lightmap:
+            for r, transfer, albedo in zip(job.plan.receivers, job.transfer, job.albedo):
+                store_transfer(r.obj.data, transfer, albedo)
+        for r, transfer in zip(job.receivers if job.settings.lightmap else [], job.transfer):
+            uv = lightmap_layer(r.obj.data, job.settings.lightmap_uv).name
+            slots = texel_materials(r.primitives, job.settings.lightmap)
+            store_lightmap(r.obj, transfer, uv, slots)
         s = context.scene.prt
+        s.last_time = time.time() - self._started
+        s.last_summary = job.summary
+        job.warnings += _clear_stale(context, job)
+        for warning in job.warnings:
+            self.report({"WARNING"}, warning)
+        if job.warnings:
+            s.last_warnings = json.dumps(json.loads(s.last_warnings) + job.warnings)
         s.baked_order = self._order
         s.light_json = json.dumps(self._light.tolist())
         s.status = ""

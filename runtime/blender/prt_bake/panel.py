@@ -1,5 +1,7 @@
 """The sidebar panel (3D View > Sidebar > PRT)."""
 
+import json
+
 import bpy
 
 
@@ -21,9 +23,18 @@ class PRT_PT_panel(bpy.types.Panel):
         if s.target == "LIGHTMAP":
             column.prop(s, "lightmap_resolution")
             column.prop(s, "lightmap_uv")
+        column.prop(s, "double_sided")
+        column.prop(s, "denoise")
         column.prop(s, "rig_source")
         if s.rig_source == "FILE":
             column.prop(s, "rig")
+        obj = context.object
+        if obj is not None and obj.type == "MESH":
+            column.prop(obj, "prt_receive", text=f"{obj.name} receives")
+        receivers = [o.name for o in context.view_layer.objects
+                     if o.type == "MESH" and o.visible_get() and o.prt_receive]
+        column.label(text=f"Receivers: {len(receivers)} ({', '.join(receivers[:4])}"
+                     f"{', …' if len(receivers) > 4 else ''})")
         layout.operator("prt.bake", icon="RENDER_STILL")
         box = layout.box()
         box.prop(s, "light_rotation")
@@ -33,6 +44,16 @@ class PRT_PT_panel(bpy.types.Panel):
         row = box.row()
         row.operator("prt.preview_material", text="Show PRT").show = True
         row.operator("prt.preview_material", text="Hide").show = False
+        if s.last_summary or s.last_time:
+            last = layout.box()
+            last.label(text=f"Last bake: {s.last_time:.1f} s")
+            if s.last_summary:
+                last.label(text=s.last_summary.split(" -> ")[0])
+            warnings = json.loads(s.last_warnings or "[]")
+            for warning in warnings:
+                last.label(text=warning, icon="ERROR")
+            if not warnings:
+                last.label(text="No warnings")
         if s.status:
             layout.label(text=s.status, icon="ERROR")
 

@@ -30,6 +30,15 @@ class PrtSceneSettings(bpy.types.PropertyGroup):
     lightmap_uv: bpy.props.StringProperty(name="UV map", default="", description="The "
                                           "lightmap's UV map (empty: the second, else the "
                                           "only one)")
+    double_sided: bpy.props.EnumProperty(name="Double-sided", items=[
+        ("off", "Off", "Every face's front only (Blender stores one transfer per corner)"),
+        ("auto", "Auto", "Vertex bakes: prt-bake also bakes the back sheet of doubleSided "
+         "materials (Backface Culling off); the add-on stores the fronts"),
+    ], default="off")
+    denoise: bpy.props.EnumProperty(name="Denoise", items=[
+        ("auto", "Auto", "prt-bake's choice (off for vertex bakes)"),
+        ("on", "On", "Denoise the transfer"), ("off", "Off", "No denoising"),
+    ], default="auto")
     rig_source: bpy.props.EnumProperty(name="Light", items=[
         ("FILE", "Rig file", "A prt-bake rig (TOML; docs/reference/lights.md)"),
         ("WORLD", "World", "The World: its uniform colour as a constant sky, or its "
@@ -45,6 +54,10 @@ class PrtSceneSettings(bpy.types.PropertyGroup):
     baked_order: bpy.props.IntProperty(default=0, options={"HIDDEN"})
     light_json: bpy.props.StringProperty(default="", options={"HIDDEN"})
     status: bpy.props.StringProperty(default="", options={"HIDDEN"})
+    # The last bake: its warnings (a JSON list), wall time and prt-bake's summary (rays).
+    last_warnings: bpy.props.StringProperty(default="[]", options={"HIDDEN"})
+    last_time: bpy.props.FloatProperty(default=0.0, options={"HIDDEN"})
+    last_summary: bpy.props.StringProperty(default="", options={"HIDDEN"})
 
 
 class PrtPreferences(bpy.types.AddonPreferences):

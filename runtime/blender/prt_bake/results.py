@@ -14,18 +14,24 @@ from .scene_mesh import corner_albedo
 
 PRT_COLOR = "PRT"
 PREFIX = "prt_T"
+ALBEDO = "prt_albedo"  # per corner, where the bake read textures
 
 
 def attribute_name(j):
     return f"{PREFIX}{j:02d}"
 
 
-def store_transfer(mesh, transfer):
-    """transfer: (loops, channels, n²) float32 for this mesh's face corners."""
+def store_transfer(mesh, transfer, albedo=None):
+    """transfer: (loops, channels, n²) float32 for this mesh's face corners; albedo: (loops,
+    3) prt-bake's albedo (base colour × texture), stored as ALBEDO."""
     loops, channels, count = transfer.shape
     kind = "FLOAT" if channels == 1 else "FLOAT_VECTOR"
-    for name in [a.name for a in mesh.attributes if a.name.startswith(PREFIX)]:
+    for name in [a.name for a in mesh.attributes
+                 if a.name.startswith(PREFIX) or a.name == ALBEDO]:
         mesh.attributes.remove(mesh.attributes[name])
+    if albedo is not None:
+        mesh.attributes.new(ALBEDO, "FLOAT_VECTOR", "CORNER").data.foreach_set(
+            "vector", np.ascontiguousarray(albedo, np.float32).ravel())
     for j in range(count):
         attribute = mesh.attributes.new(attribute_name(j), kind, "CORNER")
         values = transfer[:, :, j] if channels == 3 else transfer[:, 0, j]
@@ -56,6 +62,11 @@ def relit_colors(mesh, light):
     """(loops, 3) albedo × Σ_j T_j L_j for light (3, n²)."""
     transfer = load_transfer(mesh, light.shape[1])
     radiance = np.einsum("lcj,cj->lc", transfer.astype(np.float64), light)
+    stored = mesh.attributes.get(ALBEDO)
+    if stored is not None and stored.domain == "CORNER":
+        albedo = np.zeros(len(mesh.loops) * 3, np.float32)
+        stored.data.foreach_get("vector", albedo)
+        return albedo.reshape(-1, 3) * radiance
     return corner_albedo(mesh) * radiance
 
 
@@ -83,3 +94,13 @@ def baked_meshes(scene):
             seen.add(obj.data.name)
             meshes.append(obj.data)
     return meshes
+
+
+def clear_transfer(mesh):
+    """Removes a vertex bake's attributes (the transfer, its albedo and "PRT") from a mesh:
+    True if it had any."""
+    names = [a.name for a in mesh.attributes
+             if a.name.startswith(PREFIX) or a.name in (ALBEDO, PRT_COLOR)]
+    for name in names:
+        mesh.attributes.remove(mesh.attributes[name])
+    return bool(names)
