@@ -10,10 +10,14 @@ use super::bake_plan::{BakePlan, What};
 /// Refuses what an LDPRT bake does not cover, before the scene is read: it is per vertex,
 /// whole, uncompressed, of every vertex, without subsurface media.
 pub fn check(plan: &BakePlan) -> Result<(), Error> {
-    if plan.ldprt.is_none() {
+    let Some(lobes) = plan.ldprt else {
         return Ok(());
-    }
+    };
     let refuse = |what: &str| Err(Error::InvalidOption(format!("--transfer ldprt {what}")));
+    let most = prt_baker::bake::ldprt::fit::MAX_LOBES;
+    if !(1..=most).contains(&lobes) {
+        return refuse(&format!("--lobes {lobes} is outside 1..={most}"));
+    }
     if plan.what != What::Whole {
         return refuse("is a whole bake: not with --probes, --shard or --checkpoint");
     }
