@@ -1,6 +1,7 @@
 //! LDPRT oracles (docs/guides/characters.md): the rigid limit (an LDPRT bake relit on its own
 //! mesh is within the fit error it reports of the SH bake it came from), rotation (turning
-//! the mesh equals turning the light the other way), and deformation (a ribbed tube bent 90°:
+//! the mesh equals turning the light the other way), and deformation (`scenes/tube`, a ribbed
+//! tube bent 90°:
 //! the straight bake's lobes on the bent tube against a fresh bake of the bent tube, compared
 //! with the straight bake's world-space SH transfer).
 
@@ -18,61 +19,24 @@ use prt_baker::trace::{self, Backend, TracerOptions};
 use prt_baker::{BakeOptions, Mode, Scene, Transfer};
 
 const ORDER: usize = 4;
-/// Tube radius, ribs, length and the bend (docs/guides/characters.md shows the same tube).
+/// The tube's radius and the z where its bend starts (`scenes/src/tube.rs`: length 2, a
+/// quarter circle of radius 0.3 about the middle).
 const RADIUS: f32 = 0.2;
-const AROUND: usize = 24;
-const ALONG: usize = 96;
-const LENGTH: f32 = 2.0;
-const BEND_RADIUS: f32 = 0.3;
+const BEND_START: f32 = 1.0 - 0.3 * std::f32::consts::FRAC_PI_4;
 
-/// The ribbed tube along +z, radius 0.2 ± 12 % (ribs every 0.125), and its triangles.
-fn tube() -> (Vec<Vec3>, Vec<[u32; 3]>) {
-    let mut positions = Vec::new();
-    for j in 0..=ALONG {
-        let z = LENGTH * j as f32 / ALONG as f32;
-        let r = RADIUS * (1.0 + 0.12 * (std::f32::consts::TAU * z / 0.125).cos());
-        for i in 0..AROUND {
-            let phi = std::f32::consts::TAU * i as f32 / AROUND as f32;
-            positions.push(Vec3::new(r * phi.cos(), r * phi.sin(), z));
-        }
-    }
-    let mut triangles = Vec::new();
-    let at = |i: usize, j: usize| (j * AROUND + i % AROUND) as u32;
-    for j in 0..ALONG {
-        for i in 0..AROUND {
-            triangles.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
-            triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
-        }
-    }
-    (positions, triangles)
+/// `scenes/tube/NAME.obj`: the ribbed tube, straight (`tube`) or bent 90° (`tube-bent`),
+/// the same vertices and triangles.
+fn tube(name: &str) -> Scene {
+    let path = format!("{}/../scenes/tube/{name}.obj", env!("CARGO_MANIFEST_DIR"));
+    Scene::load(Path::new(&path)).unwrap()
 }
 
-/// Where the bend starts and ends along z: a quarter circle about the middle.
-fn bend_span() -> (f32, f32) {
-    let arc = BEND_RADIUS * std::f32::consts::FRAC_PI_2;
-    (0.5 * (LENGTH - arc), 0.5 * (LENGTH + arc))
-}
-
-/// The tube bent 90° towards +x at its middle: below the bend unchanged, the bend a quarter
-/// circle of radius `BEND_RADIUS` about its centre line, above it the rest turned rigidly.
-fn bend(p: Vec3) -> Vec3 {
-    let (z0, z1) = bend_span();
-    let arm = BEND_RADIUS - p.x; // distance from the bend's centre of curvature
-    if p.z <= z0 {
-        p
-    } else if p.z <= z1 {
-        let theta = (p.z - z0) / BEND_RADIUS;
-        Vec3::new(BEND_RADIUS - arm * theta.cos(), p.y, z0 + arm * theta.sin())
-    } else {
-        Vec3::new(BEND_RADIUS + (p.z - z1), p.y, z0 + arm)
-    }
-}
-
-fn scene(positions: Vec<Vec3>, triangles: &[[u32; 3]]) -> Scene {
+/// `scene` with its positions replaced (normals recomputed from them).
+fn posed(scene: &Scene, positions: Vec<Vec3>) -> Scene {
     let mesh = Mesh {
         name: "tube".into(),
         positions,
-        triangles: triangles.to_vec(),
+        triangles: scene.triangles.clone(),
         ..Mesh::default()
     };
     Scene::from_meshes(Path::new("tube.obj"), vec![mesh], Vec::new()).unwrap()
@@ -128,8 +92,7 @@ fn rms(a: &[[f32; 3]], b: &[[f32; 3]], pick: &[usize]) -> f64 {
 
 #[test]
 fn rigid_limit_is_within_the_reported_fit_error() {
-    let (positions, triangles) = tube();
-    let scene = scene(positions, &triangles);
+    let scene = tube("tube");
     let transfer = bake(&scene);
     for lobes in [1, 3] {
         let file = fit_bake(&scene, &transfer, lobes).unwrap();
@@ -172,13 +135,14 @@ fn rigid_limit_is_within_the_reported_fit_error() {
 
 #[test]
 fn turning_the_mesh_equals_turning_the_light_back() {
-    let (positions, triangles) = tube();
-    let rest = scene(positions.clone(), &triangles);
-    let file = fit_bake(&rest, &bake(&rest), 2).unwrap();
+    let loaded = tube("tube");
+    let file = fit_bake(&loaded, &bake(&loaded), 2).unwrap();
+    // Both poses' normals computed the same way, from their own positions.
+    let rest = posed(&loaded, loaded.positions.clone());
     let q = DQuat::from_axis_angle(DVec3::new(0.3, -1.0, 0.5).normalize(), 1.1);
-    let turned = scene(
-        positions.iter().map(|p| q.as_quat() * *p).collect(),
-        &triangles,
+    let turned = posed(
+        &rest,
+        rest.positions.iter().map(|p| q.as_quat() * *p).collect(),
     );
     let light = light(65.0, 30.0);
     let on_turned = ldprt_radiance(&file, &turned, &light);
@@ -198,12 +162,10 @@ fn turning_the_mesh_equals_turning_the_light_back() {
 
 #[test]
 fn deformed_lobes_beat_the_straight_bake_on_the_outer_side_of_the_bend() {
-    let (positions, triangles) = tube();
-    let straight = scene(positions.clone(), &triangles);
-    let bent = scene(positions.iter().map(|p| bend(*p)).collect(), &triangles);
+    let (straight, bent) = (tube("tube"), tube("tube-bent"));
     let straight_bake = bake(&straight);
     let fresh = bake(&bent);
-    let (z0, _) = bend_span();
+    let (positions, z0) = (&straight.positions, BEND_START);
     // Outer side: vertices of the bend and the turned half facing away from the bend's
     // centre (rest x < −r/2); inner side: facing it (rest x > r/2).
     let side = |outer: bool| -> Vec<usize> {
