@@ -14,7 +14,7 @@ fn scenes_dir() -> &'static Path {
 fn committed_scene_files_equal_the_generator_output() {
     let dir = tempfile::tempdir().expect("temporary folder");
     prt_scenes::write_all(dir.path()).expect("generate scenes");
-    for scene in ["torus", "cornell"] {
+    for scene in ["torus", "tube", "cornell"] {
         let generated = dir.path().join(scene);
         let mut names: Vec<_> = std::fs::read_dir(&generated)
             .expect("generated folder")

@@ -13,6 +13,8 @@
 //!   in): white floor and back wall, red left wall, green right wall (the original box's
 //!   reflectances), a short and a tall white box. Materials in MTL, no textures.
 
+pub mod tube;
+
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -412,5 +414,6 @@ pub fn cornell_scene(dir: &Path) -> std::io::Result<()> {
 /// Writes every demo scene under `dir`.
 pub fn write_all(dir: &Path) -> std::io::Result<()> {
     torus_scene(&dir.join("torus"))?;
+    tube::tube_scene(&dir.join("tube"))?;
     cornell_scene(&dir.join("cornell"))
 }

@@ -9,7 +9,8 @@ fn main() -> std::io::Result<()> {
         .unwrap_or_else(|| std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")));
     prt_scenes::write_all(&dir)?;
     println!(
-        "wrote {}/torus and {}/cornell",
+        "wrote {}/torus, {}/tube and {}/cornell",
+        dir.display(),
         dir.display(),
         dir.display()
     );

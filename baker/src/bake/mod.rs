@@ -16,6 +16,7 @@ pub mod file;
 pub mod hit_cache;
 pub mod inference;
 pub mod interreflection;
+pub mod ldprt;
 pub mod lightmap;
 pub mod matrix;
 pub mod matrix_bounce;

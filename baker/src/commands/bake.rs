@@ -13,7 +13,7 @@ use prt_baker::{BakeOptions, Error, Mode};
 use super::UpArg;
 use super::bake_plan::{BakePlan, LightmapPlan, LoadPlan, Report, Split, What, tracer_options};
 use super::bake_values::{
-    AtlasArg, AuxArg, BackendArg, DenoiseArg, ModeArg, SamplingArg, TransferArg,
+    AtlasArg, AuxArg, BackendArg, DenoiseArg, ModeArg, SamplingArg, TransferArgs,
 };
 use super::scene_load::{DoubleSidedArg, InstancesArg};
 
@@ -41,10 +41,8 @@ pub struct BakeArgs {
     samples: u32,
     #[arg(long, value_enum, default_value_t = ModeArg::Shadowed)]
     mode: ModeArg,
-    /// What is stored per vertex: the diffuse transfer vector (n² floats per channel), or the
-    /// transfer matrix (n²×n², for glossy BRDFs; any mode, per vertex).
-    #[arg(long, value_enum, default_value_t = TransferArg::Vector)]
-    transfer: TransferArg,
+    #[command(flatten)]
+    transfer: TransferArgs,
     /// Seed of the sample directions; the same seed gives a bit-identical file.
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -213,7 +211,7 @@ fn options(args: &BakeArgs, what: &What) -> BakeOptions {
         aux: AuxArg::aux(&args.aux),
         hit_cache_limit: args.hit_cache_mb.saturating_mul(1 << 20),
         target_error: args.target_error,
-        transfer: args.transfer.kind(),
+        transfer: args.transfer.transfer.kind(),
         denoise: match args.denoise {
             DenoiseArg::On => true,
             DenoiseArg::Off => false,
@@ -286,6 +284,7 @@ fn plan(args: BakeArgs) -> Result<BakePlan, Error> {
             strict_uvs: args.strict_uvs,
             prepared: args.prepared,
         },
+        ldprt: args.transfer.ldprt_lobes()?,
         options,
         backend,
         tracer,

@@ -31,6 +31,8 @@ pub struct BakePlan {
     pub split: Split,
     pub lightmap: LightmapPlan,
     pub options: BakeOptions,
+    /// `--transfer ldprt`: lobes per vertex fitted to the vector bake (`commands::bake_ldprt`).
+    pub ldprt: Option<usize>,
     pub backend: Backend,
     pub tracer: TracerOptions,
     /// `--threads`: the process's thread pool.

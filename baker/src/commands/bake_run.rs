@@ -36,6 +36,7 @@ struct Receivers {
 
 /// Runs `plan`: the shared stages, then probes, parts, or a whole bake and its file.
 pub fn run(plan: &BakePlan) -> Result<(), Error> {
+    super::bake_ldprt::check(plan)?;
     start(plan)?;
     // What every process of a bake pays before its own work (`--verbose`).
     let mut setup = lightmap::Stages::default();
@@ -53,7 +54,10 @@ pub fn run(plan: &BakePlan) -> Result<(), Error> {
         What::Prepare | What::Parts => bake_in_parts(plan, &scene, tracer, progress),
         What::Whole => {
             let baked = bake_whole(plan, &scene, &receivers, tracer, progress)?;
-            write(plan, &output, baked)
+            match plan.ldprt {
+                Some(lobes) => super::bake_ldprt::write(plan, &scene, &output, &baked.0, lobes),
+                None => write(plan, &output, baked),
+            }
         }
     }
 }

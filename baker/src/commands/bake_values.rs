@@ -15,17 +15,48 @@ pub enum DenoiseArg {
     Off,
 }
 
-#[derive(Clone, Copy, ValueEnum)]
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum TransferArg {
     Vector,
     Matrix,
+    /// Zonal-harmonic lobes in each vertex's frame, fitted to the vector bake: transfer that
+    /// follows the mesh when it is posed or skinned (docs/guides/characters.md).
+    Ldprt,
 }
 
 impl TransferArg {
+    /// The library's kind: an LDPRT bake bakes vectors, then fits its lobes to them.
     pub fn kind(self) -> TransferKind {
         match self {
-            TransferArg::Vector => TransferKind::Vector,
+            TransferArg::Vector | TransferArg::Ldprt => TransferKind::Vector,
             TransferArg::Matrix => TransferKind::Matrix,
+        }
+    }
+}
+
+/// `bake --transfer` and `--lobes`, flattened into `BakeArgs`.
+#[derive(clap::Args)]
+pub struct TransferArgs {
+    /// What is stored per vertex: the diffuse transfer vector (n² floats per channel), the
+    /// transfer matrix (n²×n², for glossy BRDFs; any mode, per vertex), or LDPRT lobes (an
+    /// LDPRT file; whole per-vertex bakes).
+    #[arg(long, value_enum, default_value_t = TransferArg::Vector)]
+    pub transfer: TransferArg,
+    /// With --transfer ldprt: zonal-harmonic lobes per vertex, 1 (about the normal, closed
+    /// form) to 8 (axes optimised per vertex).
+    #[arg(long, value_name = "K")]
+    pub lobes: Option<usize>,
+}
+
+impl TransferArgs {
+    /// `Some(K)` for an LDPRT bake (1 lobe by default); `--lobes` without it is refused.
+    pub fn ldprt_lobes(&self) -> Result<Option<usize>, prt_baker::Error> {
+        match (self.transfer, self.lobes) {
+            (TransferArg::Ldprt, lobes) => Ok(Some(lobes.unwrap_or(1))),
+            (_, None) => Ok(None),
+            (_, Some(_)) => Err(prt_baker::Error::InvalidOption(
+                "--lobes is for --transfer ldprt".into(),
+            )),
         }
     }
 }

@@ -15,7 +15,9 @@ pub fn run(path: &Path) -> Result<(), Error> {
     let bytes = limits::read_file(path)?;
     let is_part =
         bytes.len() >= HEADER_SIZE && matches!(PartId::from_header_bytes(&bytes), Ok(Some(_)));
-    let json = if ProbePart::is_probe_part(&bytes) {
+    let json = if prt_baker::formats::ldprt_file::is_ldprt(&bytes) {
+        prt_baker::formats::ldprt_file::LdprtFile::read(path)?.inspect_json()
+    } else if ProbePart::is_probe_part(&bytes) {
         // A probe bake's part: its header, the shard and probes it holds, the bake's grid.
         let part = ProbePart::read(path)?;
         let mut json = serde_json::to_value(&part.header).expect("the header serialises");

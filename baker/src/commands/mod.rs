@@ -6,6 +6,7 @@
 //! `bake_media` are its bakes in parts, of probes and its subsurface media.
 
 pub mod bake;
+pub mod bake_ldprt;
 pub mod bake_media;
 pub mod bake_parts;
 pub mod bake_plan;
@@ -20,6 +21,7 @@ pub mod inspect;
 pub mod light;
 pub mod merge;
 pub mod relight;
+pub mod relight_ldprt;
 pub mod scene_load;
 pub mod stitch;
 

@@ -7,9 +7,10 @@ use prt_baker::support::output::Output;
 
 #[derive(clap::Args)]
 pub struct RelightArgs {
-    /// The scene the coefficient file was baked from.
+    /// The scene the coefficient file was baked from; for an LDPRT file (`bake --transfer
+    /// ldprt`), its mesh in any pose (same vertices and triangles).
     scene: PathBuf,
-    /// The .prt file.
+    /// The .prt file, or an LDPRT file.
     file: PathBuf,
     /// The light rig (TOML).
     #[arg(long)]
@@ -77,6 +78,15 @@ pub fn run(args: RelightArgs) -> Result<(), Error> {
     }
     let inputs = [args.scene.clone(), args.file.clone(), args.lights.clone()];
     Output::new(&args.output, &inputs)?;
+    if super::relight_ldprt::run_if_ldprt(
+        &args.scene,
+        &args.file,
+        &args.lights,
+        &args.output,
+        args.exposure,
+    )? {
+        return Ok(());
+    }
     if let (Some(probes), Some(position)) = (&args.probes, args.at) {
         let placement = prt_baker::export::relight_rigid::Placement {
             probes,

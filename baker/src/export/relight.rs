@@ -240,6 +240,11 @@ enum ImageFormat {
     Exr,
 }
 
+/// Whether `output` names an image (.png, .exr) rather than a mesh.
+pub(crate) fn image_format_of(output: &Path) -> bool {
+    image_format(output).is_some()
+}
+
 fn image_format(output: &Path) -> Option<ImageFormat> {
     let extension = output.extension()?.to_str()?.to_ascii_lowercase();
     match extension.as_str() {

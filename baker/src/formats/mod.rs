@@ -10,6 +10,7 @@ pub mod coefficient_file;
 pub mod cpca_block;
 pub mod encoded;
 pub mod header;
+pub mod ldprt_file;
 pub mod npz;
 pub(crate) mod object_placements;
 pub mod openexr;
