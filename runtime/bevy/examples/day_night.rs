@@ -20,10 +20,11 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use bevy::camera::visibility::RenderLayers;
-use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::math::{DMat3, DVec3};
 use bevy::prelude::*;
-use bevy_prt::{PrtExport, PrtLight, PrtPlugin, load_export, load_texel_transfer, spawn_exported, spawn_prt};
+use bevy_prt::{
+    PrtExport, PrtLight, PrtPlugin, load_export, load_texel_transfer, spawn_exported, spawn_prt,
+};
 use headless::{Captures, beside, camera, compare, fail, headless_app, save};
 
 #[derive(Clone, Debug)]
@@ -44,7 +45,9 @@ struct Args {
 }
 
 fn usage(message: &str) -> ! {
-    eprintln!("day_night: {message}\nusage: day_night [--scene FILE.glb [--exr DIR]] [--lights RIG.toml | --light LIGHT.json] [--turn DEG] [--screenshot OUT.png [--compare [EXPORT.glb]]] [--view X,Y,Z] [--size N] [--tolerance CODES] [--min-share F] [--bench prt|lightmap [--frames N]]");
+    eprintln!(
+        "day_night: {message}\nusage: day_night [--scene FILE.glb [--exr DIR]] [--lights RIG.toml | --light LIGHT.json] [--turn DEG] [--screenshot OUT.png [--compare [EXPORT.glb]]] [--view X,Y,Z] [--size N] [--tolerance CODES] [--min-share F] [--bench prt|lightmap [--frames N]]"
+    );
     std::process::exit(2);
 }
 
@@ -66,13 +69,18 @@ fn parse_args() -> Args {
     };
     let list: Vec<String> = std::env::args().skip(1).collect();
     let mut i = 0;
-    let mut value = |i: &mut usize, name: &str| -> String {
+    let value = |i: &mut usize, name: &str| -> String {
         *i += 1;
-        list.get(*i).cloned().unwrap_or_else(|| usage(&format!("{name} needs a value")))
+        list.get(*i)
+            .cloned()
+            .unwrap_or_else(|| usage(&format!("{name} needs a value")))
     };
     while i < list.len() {
         let flag = list[i].clone();
-        let number = |s: String| s.parse::<f64>().unwrap_or_else(|_| usage(&format!("{flag}: not a number: {s}")));
+        let number = |s: String| {
+            s.parse::<f64>()
+                .unwrap_or_else(|_| usage(&format!("{flag}: not a number: {s}")))
+        };
         match flag.as_str() {
             "--scene" => a.scene = Some(value(&mut i, &flag).into()),
             "--exr" => a.exr = Some(value(&mut i, &flag).into()),
@@ -88,7 +96,10 @@ fn parse_args() -> Args {
                 a.compare = Some(next.map(PathBuf::from));
             }
             "--view" => {
-                let v: Vec<f32> = value(&mut i, &flag).split(',').map(|s| s.trim().parse().unwrap_or_else(|_| usage("--view X,Y,Z"))).collect();
+                let v: Vec<f32> = value(&mut i, &flag)
+                    .split(',')
+                    .map(|s| s.trim().parse().unwrap_or_else(|_| usage("--view X,Y,Z")))
+                    .collect();
                 if v.len() != 3 {
                     usage("--view X,Y,Z");
                 }
@@ -140,7 +151,10 @@ fn main() {
         return interactive(args);
     };
     let export = load_export(&scene).unwrap_or_else(|e| fail(&e.to_string()));
-    let texel = args.exr.as_ref().map(|d| load_texel_transfer(d).unwrap_or_else(|e| fail(&e.to_string())));
+    let texel = args
+        .exr
+        .as_ref()
+        .map(|d| load_texel_transfer(d).unwrap_or_else(|e| fail(&e.to_string())));
     let light = scene_light(&args, &export).unwrap_or_else(|e| fail(&e));
     let reference = match &args.compare {
         Some(Some(path)) => Some(load_export(path).unwrap_or_else(|e| fail(&e.to_string()))),
@@ -151,7 +165,9 @@ fn main() {
         usage("a --scene is checked headless: give --screenshot OUT.png or --bench");
     }
     let mut app = headless_app();
-    app.add_plugins(PrtPlugin).insert_resource(light).insert_resource(Captures::default());
+    app.add_plugins(PrtPlugin)
+        .insert_resource(light)
+        .insert_resource(Captures::default());
     app.add_systems(
         Startup,
         move |mut commands: Commands,
@@ -162,12 +178,34 @@ fn main() {
             let mut targets = Vec::new();
             let lightmap_only = args.bench.as_deref() == Some("lightmap");
             if !lightmap_only {
-                let parts = spawn_prt(&mut commands, &export, texel.as_ref(), true, &mut meshes, &mut images, &mut prt_materials).unwrap_or_else(|e| fail(&e));
-                targets.push(view_camera(&mut commands, &mut images, &export, &args, 1, &parts));
+                let parts = spawn_prt(
+                    &mut commands,
+                    &export,
+                    texel.as_ref(),
+                    true,
+                    &mut meshes,
+                    &mut images,
+                    &mut prt_materials,
+                )
+                .unwrap_or_else(|e| fail(&e));
+                targets.push(view_camera(
+                    &mut commands,
+                    &mut images,
+                    &export,
+                    &args,
+                    1,
+                    &parts,
+                ));
             }
-            let exported = if lightmap_only { Some(&export) } else { reference.as_ref() };
+            let exported = if lightmap_only {
+                Some(&export)
+            } else {
+                reference.as_ref()
+            };
             if let Some(r) = exported {
-                let parts = spawn_exported(&mut commands, r, &mut meshes, &mut images, &mut materials).unwrap_or_else(|e| fail(&e));
+                let parts =
+                    spawn_exported(&mut commands, r, &mut meshes, &mut images, &mut materials)
+                        .unwrap_or_else(|e| fail(&e));
                 targets.push(view_camera(&mut commands, &mut images, r, &args, 2, &parts));
             }
             commands.insert_resource(Run {
@@ -186,7 +224,9 @@ fn main() {
 fn bounds(export: &PrtExport) -> (Vec3, Vec3) {
     let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
     for part in &export.parts {
-        if let Some(bevy::mesh::VertexAttributeValues::Float32x3(p)) = part.mesh.attribute(Mesh::ATTRIBUTE_POSITION) {
+        if let Some(bevy::mesh::VertexAttributeValues::Float32x3(p)) =
+            part.mesh.attribute(Mesh::ATTRIBUTE_POSITION)
+        {
             for q in p {
                 lo = lo.min(Vec3::from(*q));
                 hi = hi.max(Vec3::from(*q));
@@ -198,7 +238,14 @@ fn bounds(export: &PrtExport) -> (Vec3, Vec3) {
 
 /// The browser test's view of a scene: from the bounding box's centre along `--view`, 2.4
 /// radii away, a 40° field; the parts go to render layer `layer`.
-fn view_camera(commands: &mut Commands, images: &mut Assets<Image>, export: &PrtExport, args: &Args, layer: usize, parts: &[Entity]) -> Handle<Image> {
+fn view_camera(
+    commands: &mut Commands,
+    images: &mut Assets<Image>,
+    export: &PrtExport,
+    args: &Args,
+    layer: usize,
+    parts: &[Entity],
+) -> Handle<Image> {
     let (lo, hi) = bounds(export);
     let centre = 0.5 * (lo + hi);
     let radius = 0.5 * (hi - lo).length();
@@ -213,20 +260,38 @@ fn view_camera(commands: &mut Commands, images: &mut Assets<Image>, export: &Prt
         ..default()
     };
     let eye = centre + args.view.normalize() * radius * 2.4;
-    camera(commands, images, args.size, layer, projection, Transform::from_translation(eye).looking_at(centre, Vec3::Y))
+    camera(
+        commands,
+        images,
+        args.size,
+        layer,
+        projection,
+        Transform::from_translation(eye).looking_at(centre, Vec3::Y),
+    )
 }
 
 /// Headless frames: a few to settle, then the screenshots (and the comparison), or the timed
 /// frames of --bench.
-fn step(mut commands: Commands, mut run: ResMut<Run>, captures: Res<Captures>, mut exit: MessageWriter<AppExit>) {
+fn step(
+    mut commands: Commands,
+    mut run: ResMut<Run>,
+    captures: Res<Captures>,
+    mut exit: MessageWriter<AppExit>,
+) {
     run.frame += 1;
     let frame = run.frame;
     if let Some(which) = run.args.bench.clone() {
         if frame == 10 {
             run.started = Some(Instant::now());
         } else if frame == 10 + run.args.frames {
-            let ms = run.started.map_or(0.0, |s| s.elapsed().as_secs_f64() * 1000.0) / run.args.frames as f64;
-            println!("day_night: {which}: {ms:.2} ms a frame over {} frames at {}²", run.args.frames, run.args.size);
+            let ms = run
+                .started
+                .map_or(0.0, |s| s.elapsed().as_secs_f64() * 1000.0)
+                / run.args.frames as f64;
+            println!(
+                "day_night: {which}: {ms:.2} ms a frame over {} frames at {}²",
+                run.args.frames, run.args.size
+            );
             exit.write(AppExit::Success);
         }
         return;
@@ -238,7 +303,11 @@ fn step(mut commands: Commands, mut run: ResMut<Run>, captures: Res<Captures>, m
         && let Some(shots) = captures.pixels()
     {
         let code = finish(&run.args, &shots);
-        exit.write(if code == 0 { AppExit::Success } else { AppExit::error() });
+        exit.write(if code == 0 {
+            AppExit::Success
+        } else {
+            AppExit::error()
+        });
     } else if frame > 300 {
         eprintln!("day_night: no screenshot after 300 frames");
         exit.write(AppExit::error());
@@ -280,23 +349,47 @@ fn interactive(args: Args) {
     App::new()
         .add_plugins((DefaultPlugins, PrtPlugin))
         .insert_resource(PrtLight::zero(order))
-        .add_systems(Startup, move |mut commands: Commands, mut meshes: ResMut<Assets<Mesh>>, mut images: ResMut<Assets<Image>>, mut materials: ResMut<Assets<bevy_prt::PrtMaterial>>| {
-            let parts = spawn_prt(&mut commands, &export, texel.as_ref(), false, &mut meshes, &mut images, &mut materials).unwrap_or_else(|e| fail(&e));
-            let _ = parts;
-            let (lo, hi) = bounds(&export);
-            let centre = 0.5 * (lo + hi);
-            let eye = centre + args2.view.normalize() * 0.5 * (hi - lo).length() * 2.4;
-            commands.spawn((Camera3d::default(), Tonemapping::None, Transform::from_translation(eye).looking_at(centre, Vec3::Y)));
-        })
-        .add_systems(Update, move |time: Res<Time>, mut light: ResMut<PrtLight>| {
-            *light = sun_at(time.elapsed_secs_f64(), order);
-        })
+        .add_systems(
+            Startup,
+            move |mut commands: Commands,
+                  mut meshes: ResMut<Assets<Mesh>>,
+                  mut images: ResMut<Assets<Image>>,
+                  mut materials: ResMut<Assets<bevy_prt::PrtMaterial>>| {
+                let parts = spawn_prt(
+                    &mut commands,
+                    &export,
+                    texel.as_ref(),
+                    false,
+                    &mut meshes,
+                    &mut images,
+                    &mut materials,
+                )
+                .unwrap_or_else(|e| fail(&e));
+                let _ = parts;
+                let (lo, hi) = bounds(&export);
+                let centre = 0.5 * (lo + hi);
+                let eye = centre + args2.view.normalize() * 0.5 * (hi - lo).length() * 2.4;
+                commands.spawn((
+                    Camera3d::default(),
+                    Tonemapping::None,
+                    Transform::from_translation(eye).looking_at(centre, Vec3::Y),
+                ));
+            },
+        )
+        .add_systems(
+            Update,
+            move |time: Res<Time>, mut light: ResMut<PrtLight>| {
+                *light = sun_at(time.elapsed_secs_f64(), order);
+            },
+        )
         .run();
 }
 
 #[cfg(not(feature = "window"))]
 fn interactive(_args: Args) {
-    fail("the window needs `--features window`; headless, give --scene FILE.glb --screenshot OUT.png");
+    fail(
+        "the window needs `--features window`; headless, give --scene FILE.glb --screenshot OUT.png",
+    );
 }
 
 /// The light of time t (seconds): a day of 20 s, the sun rising in the east (+x), crossing
@@ -307,7 +400,7 @@ pub fn sun_at(t: f64, order: usize) -> PrtLight {
     let height = d.y.max(0.0);
     let day = height.powf(0.5);
     let sun = DVec3::new(1.0, 0.55 + 0.4 * day, 0.3 + 0.6 * day) * (3.0 * day);
-    let sky = DVec3::new(0.1, 0.14, 0.25) * (0.2 + day) ;
+    let sky = DVec3::new(0.1, 0.14, 0.25) * (0.2 + day);
     let ground = DVec3::new(0.05, 0.045, 0.04) * (0.3 + day);
     PrtLight::sun_and_sky(order, d, sun, sky, ground, DVec3::Y)
 }
@@ -321,7 +414,11 @@ fn demo_scene(args: &Args) -> (PathBuf, Option<PathBuf>) {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
     let glb = dir.join("target/bevy/demo/cornell-lm.glb");
     if !glb.exists() {
-        let status = std::process::Command::new("make").arg("-C").arg(&dir).arg("bevy-demo-data").status();
+        let status = std::process::Command::new("make")
+            .arg("-C")
+            .arg(&dir)
+            .arg("bevy-demo-data")
+            .status();
         if !status.is_ok_and(|s| s.success()) {
             fail("make bevy-demo-data failed");
         }

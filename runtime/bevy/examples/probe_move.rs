@@ -18,7 +18,7 @@ use std::path::PathBuf;
 use bevy::camera::visibility::RenderLayers;
 use bevy::math::{DMat3, DQuat, DVec3};
 use bevy::prelude::*;
-use bevy_prt::probes::{PrtProbes, ProbeLit};
+use bevy_prt::probes::{ProbeLit, PrtProbes};
 use bevy_prt::{PrtExtension, PrtLight, PrtMaterial, PrtPlugin, load_export, sh};
 use headless::{Captures, beside, camera, compare, fail, headless_app, save};
 
@@ -33,7 +33,14 @@ struct Args {
 }
 
 fn numbers(s: &str, n: usize) -> Vec<f64> {
-    let v: Vec<f64> = s.split(',').map(|x| x.trim().parse().unwrap_or_else(|_| fail(&format!("not a number in {s}")))).collect();
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| {
+            x.trim()
+                .parse()
+                .unwrap_or_else(|_| fail(&format!("not a number in {s}")))
+        })
+        .collect();
     if v.len() != n {
         fail(&format!("{s}: expected {n} numbers"));
     }
@@ -43,8 +50,13 @@ fn numbers(s: &str, n: usize) -> Vec<f64> {
 fn parse_args() -> Args {
     let list: Vec<String> = std::env::args().skip(1).collect();
     let get = |name: &str| -> String {
-        let i = list.iter().position(|a| a == name).unwrap_or_else(|| fail(&format!("{name} is required")));
-        list.get(i + 1).cloned().unwrap_or_else(|| fail(&format!("{name} needs a value")))
+        let i = list
+            .iter()
+            .position(|a| a == name)
+            .unwrap_or_else(|| fail(&format!("{name} is required")));
+        list.get(i + 1)
+            .cloned()
+            .unwrap_or_else(|| fail(&format!("{name} needs a value")))
     };
     let at = numbers(&get("--at"), 3);
     let turn = numbers(&get("--turn"), 4);
@@ -53,7 +65,10 @@ fn parse_args() -> Args {
         probes: get("--probes").into(),
         lights: get("--lights").into(),
         at: DVec3::new(at[0], at[1], at[2]),
-        turn: DMat3::from_axis_angle(DVec3::new(turn[0], turn[1], turn[2]).normalize(), turn[3].to_radians()),
+        turn: DMat3::from_axis_angle(
+            DVec3::new(turn[0], turn[1], turn[2]).normalize(),
+            turn[3].to_radians(),
+        ),
         radiance: get("--radiance").into(),
         screenshot: get("--screenshot").into(),
     }
@@ -63,7 +78,11 @@ fn parse_args() -> Args {
 /// blue uchar, then the radiance floats).
 fn read_radiance(path: &PathBuf) -> Vec<[f32; 4]> {
     let bytes = std::fs::read(path).unwrap_or_else(|e| fail(&format!("{}: {e}", path.display())));
-    let end = bytes.windows(11).position(|w| w == b"end_header\n").unwrap_or_else(|| fail("not a PLY")) + 11;
+    let end = bytes
+        .windows(11)
+        .position(|w| w == b"end_header\n")
+        .unwrap_or_else(|| fail("not a PLY"))
+        + 11;
     let header = String::from_utf8_lossy(&bytes[..end]);
     let count: usize = header
         .lines()
@@ -71,10 +90,12 @@ fn read_radiance(path: &PathBuf) -> Vec<[f32; 4]> {
         .and_then(|n| n.trim().parse().ok())
         .unwrap_or_else(|| fail("PLY without vertices"));
     let f = |o: usize| f32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes"));
-    (0..count).map(|v| {
-        let o = end + v * 39 + 27;
-        [f(o), f(o + 4), f(o + 8), 1.0]
-    }).collect()
+    (0..count)
+        .map(|v| {
+            let o = end + v * 39 + 27;
+            [f(o), f(o + 4), f(o + 8), 1.0]
+        })
+        .collect()
 }
 
 #[derive(Resource)]
@@ -88,14 +109,22 @@ fn main() {
     let args = parse_args();
     let export = load_export(&args.object).unwrap_or_else(|e| fail(&e.to_string()));
     let probes = PrtProbes::load(&args.probes).unwrap_or_else(|e| fail(&e.to_string()));
-    let light = PrtLight::from_rig_file(&args.lights, probes.order).unwrap_or_else(|e| fail(&e.to_string()));
+    let light = PrtLight::from_rig_file(&args.lights, probes.order)
+        .unwrap_or_else(|e| fail(&e.to_string()));
     let radiance = read_radiance(&args.radiance);
     // The probe scene's frame to Bevy's world.
-    let to_world = if probes.y_up { DMat3::IDENTITY } else { sh::z_up_to_gltf() };
+    let to_world = if probes.y_up {
+        DMat3::IDENTITY
+    } else {
+        sh::z_up_to_gltf()
+    };
     let position = (to_world * args.at).as_vec3();
     let rotation = DQuat::from_mat3(&(to_world * args.turn * to_world.transpose())).as_quat();
     let mut app = headless_app();
-    app.add_plugins(PrtPlugin).insert_resource(light).insert_resource(probes).insert_resource(Captures::default());
+    app.add_plugins(PrtPlugin)
+        .insert_resource(light)
+        .insert_resource(probes)
+        .insert_resource(Captures::default());
     let screenshot = args.screenshot.clone();
     app.add_systems(
         Startup,
@@ -104,7 +133,10 @@ fn main() {
               mut images: ResMut<Assets<Image>>,
               mut prt_materials: ResMut<Assets<PrtMaterial>>,
               mut materials: ResMut<Assets<StandardMaterial>>| {
-            let part = export.parts.first().unwrap_or_else(|| fail("the object has no mesh"));
+            let part = export
+                .parts
+                .first()
+                .unwrap_or_else(|| fail("the object has no mesh"));
             if export.parts.len() != 1 || !part.vertex_transfer {
                 fail("the object must be one mesh with vertex transfer");
             }
@@ -116,9 +148,21 @@ fn main() {
             };
             let material = prt_materials.add(PrtMaterial {
                 base: base.clone(),
-                extension: PrtExtension::new(export.order, export.channels == 3, None, false, false),
+                extension: PrtExtension::new(
+                    export.order,
+                    export.channels == 3,
+                    None,
+                    false,
+                    false,
+                ),
             });
-            commands.spawn((Mesh3d(meshes.add(part.mesh.clone())), MeshMaterial3d(material), placed, ProbeLit, RenderLayers::layer(1)));
+            commands.spawn((
+                Mesh3d(meshes.add(part.mesh.clone())),
+                MeshMaterial3d(material),
+                placed,
+                ProbeLit,
+                RenderLayers::layer(1),
+            ));
             let mut coloured = part.mesh.clone();
             if coloured.count_vertices() != radiance.len() {
                 fail("the PLY's vertices are not the object's");
@@ -129,7 +173,12 @@ fn main() {
                 unlit: true,
                 ..default()
             });
-            commands.spawn((Mesh3d(meshes.add(coloured)), MeshMaterial3d(white), placed, RenderLayers::layer(2)));
+            commands.spawn((
+                Mesh3d(meshes.add(coloured)),
+                MeshMaterial3d(white),
+                placed,
+                RenderLayers::layer(2),
+            ));
             // The browser test's camera: 0.15 above and 0.5 in front (+z) of the object.
             let projection = PerspectiveProjection {
                 fov: 30f32.to_radians(),
@@ -138,8 +187,20 @@ fn main() {
                 far: 10.0,
                 ..default()
             };
-            let eye = Transform::from_translation(position + Vec3::new(0.0, 0.15, 0.5)).looking_at(position, Vec3::Y);
-            let targets = (1..=2).map(|layer| camera(&mut commands, &mut images, 256, layer, projection.clone(), eye)).collect();
+            let eye = Transform::from_translation(position + Vec3::new(0.0, 0.15, 0.5))
+                .looking_at(position, Vec3::Y);
+            let targets = (1..=2)
+                .map(|layer| {
+                    camera(
+                        &mut commands,
+                        &mut images,
+                        256,
+                        layer,
+                        projection.clone(),
+                        eye,
+                    )
+                })
+                .collect();
             commands.insert_resource(Run {
                 targets,
                 frame: 0,
@@ -151,7 +212,12 @@ fn main() {
     app.run();
 }
 
-fn step(mut commands: Commands, mut run: ResMut<Run>, captures: Res<Captures>, mut exit: MessageWriter<AppExit>) {
+fn step(
+    mut commands: Commands,
+    mut run: ResMut<Run>,
+    captures: Res<Captures>,
+    mut exit: MessageWriter<AppExit>,
+) {
     run.frame += 1;
     if run.frame == 5 {
         captures.request(&mut commands, &run.targets);
@@ -172,7 +238,11 @@ fn step(mut commands: Commands, mut run: ResMut<Run>, captures: Res<Captures>, m
             c.worst,
             reference.display()
         );
-        exit.write(if ok { AppExit::Success } else { AppExit::error() });
+        exit.write(if ok {
+            AppExit::Success
+        } else {
+            AppExit::error()
+        });
     } else if run.frame > 300 {
         fail("no screenshot after 300 frames");
     }

@@ -20,11 +20,16 @@ pub const MAX_TRANSFER_ATTRIBUTES: usize = 12;
 /// The transfer attributes: VEC4 `i` holds coefficients 4i..4i+3 of one channel, grey
 /// (i < ⌈n²/4⌉) or channel-major RGB (R groups, then G, then B).
 pub const PRT_TRANSFER: [MeshVertexAttribute; MAX_TRANSFER_ATTRIBUTES] = {
-    let mut list = [MeshVertexAttribute::new("PRT_T0", 0x5052_5400, VertexFormat::Float32x4); MAX_TRANSFER_ATTRIBUTES];
-    let names = ["PRT_T0", "PRT_T1", "PRT_T2", "PRT_T3", "PRT_T4", "PRT_T5", "PRT_T6", "PRT_T7", "PRT_T8", "PRT_T9", "PRT_T10", "PRT_T11"];
+    let mut list = [MeshVertexAttribute::new("PRT_T0", 0x5052_5400, VertexFormat::Float32x4);
+        MAX_TRANSFER_ATTRIBUTES];
+    let names = [
+        "PRT_T0", "PRT_T1", "PRT_T2", "PRT_T3", "PRT_T4", "PRT_T5", "PRT_T6", "PRT_T7", "PRT_T8",
+        "PRT_T9", "PRT_T10", "PRT_T11",
+    ];
     let mut i = 0;
     while i < MAX_TRANSFER_ATTRIBUTES {
-        list[i] = MeshVertexAttribute::new(names[i], 0x5052_5400 + i as u64, VertexFormat::Float32x4);
+        list[i] =
+            MeshVertexAttribute::new(names[i], 0x5052_5400 + i as u64, VertexFormat::Float32x4);
         i += 1;
     }
     list
@@ -84,10 +89,11 @@ pub fn load_export(path: &Path) -> Result<PrtExport, ExportError> {
         message,
     };
     let bytes = std::fs::read(path).map_err(|e| content(e.to_string()))?;
-    let gltf::Gltf { document, blob } = gltf::Gltf::from_slice(&bytes).map_err(|source| ExportError::Gltf {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let gltf::Gltf { document, blob } =
+        gltf::Gltf::from_slice(&bytes).map_err(|source| ExportError::Gltf {
+            path: path.to_path_buf(),
+            source,
+        })?;
     // An export is one .glb: its one buffer is the binary chunk.
     let blob = blob.ok_or_else(|| content("no binary chunk: not a .glb export".into()))?;
     let buffers = [blob];
@@ -99,10 +105,14 @@ pub fn load_export(path: &Path) -> Result<PrtExport, ExportError> {
         .and_then(|raw| serde_json::from_str::<serde_json::Value>(raw.get()).ok())
         .and_then(|extras| extras.get("prt").cloned())
         .ok_or_else(|| content("no asset.extras.prt: not a prt-bake export".into()))?;
-    let order = prt["order"].as_u64().ok_or_else(|| content("asset.extras.prt.order missing".into()))? as usize;
+    let order = prt["order"]
+        .as_u64()
+        .ok_or_else(|| content("asset.extras.prt.order missing".into()))? as usize;
     let channels = prt["channels"].as_u64().unwrap_or(1) as usize;
     let light = match prt.get("light") {
-        Some(value) => Some(PrtLight::from_json_value(value, path).map_err(|e| content(e.to_string()))?),
+        Some(value) => {
+            Some(PrtLight::from_json_value(value, path).map_err(|e| content(e.to_string()))?)
+        }
         None => None,
     };
     let get = |buffer: gltf::Buffer| buffers.get(buffer.index()).map(|b| b.as_slice());
@@ -110,7 +120,10 @@ pub fn load_export(path: &Path) -> Result<PrtExport, ExportError> {
         Some(c) => Some(Cpca::read(c, &document, &get).map_err(content)?),
         None => None,
     };
-    let scales = prt.get("quantization").and_then(|q| q.get("scales")).cloned();
+    let scales = prt
+        .get("quantization")
+        .and_then(|q| q.get("scales"))
+        .cloned();
     let images = read_images(&document, &buffers).map_err(content)?;
     let groups = (order * order).div_ceil(4);
     let mut parts = Vec::new();
@@ -123,15 +136,28 @@ pub fn load_export(path: &Path) -> Result<PrtExport, ExportError> {
             .is_some_and(|raw| raw.get().contains("prt_sheet"));
         for primitive in mesh.primitives() {
             let reader = primitive.reader(|b| get(b));
-            let positions: Vec<[f32; 3]> = reader.read_positions().ok_or_else(|| content(format!("mesh '{name}': no POSITION")))?.collect();
+            let positions: Vec<[f32; 3]> = reader
+                .read_positions()
+                .ok_or_else(|| content(format!("mesh '{name}': no POSITION")))?
+                .collect();
             let count = positions.len();
-            let normals: Vec<[f32; 3]> = reader.read_normals().ok_or_else(|| content(format!("mesh '{name}': no NORMAL")))?.collect();
+            let normals: Vec<[f32; 3]> = reader
+                .read_normals()
+                .ok_or_else(|| content(format!("mesh '{name}': no NORMAL")))?
+                .collect();
             let uv0: Vec<[f32; 2]> = match reader.read_tex_coords(0) {
                 Some(t) => t.into_f32().collect(),
                 None => vec![[0.0; 2]; count],
             };
-            let indices: Vec<u32> = reader.read_indices().ok_or_else(|| content(format!("mesh '{name}': no indices")))?.into_u32().collect();
-            let mut bevy_mesh = Mesh::new(PrimitiveTopology::TriangleList, RenderAssetUsages::default());
+            let indices: Vec<u32> = reader
+                .read_indices()
+                .ok_or_else(|| content(format!("mesh '{name}': no indices")))?
+                .into_u32()
+                .collect();
+            let mut bevy_mesh = Mesh::new(
+                PrimitiveTopology::TriangleList,
+                RenderAssetUsages::default(),
+            );
             bevy_mesh.insert_attribute(Mesh::ATTRIBUTE_POSITION, positions);
             bevy_mesh.insert_attribute(Mesh::ATTRIBUTE_NORMAL, normals);
             bevy_mesh.insert_attribute(Mesh::ATTRIBUTE_UV_0, uv0);
@@ -140,15 +166,26 @@ pub fn load_export(path: &Path) -> Result<PrtExport, ExportError> {
             }
             bevy_mesh.insert_indices(Indices::U32(indices));
             let transfer = match &cpca {
-                Some(c) if primitive.get(&Semantic::Extras("PRT_CLUSTER".into())).is_some() => {
-                    Some(c.reconstruct(&primitive, &get, count).map_err(|m| content(format!("mesh '{name}': {m}")))?)
+                Some(c)
+                    if primitive
+                        .get(&Semantic::Extras("PRT_CLUSTER".into()))
+                        .is_some() =>
+                {
+                    Some(
+                        c.reconstruct(&primitive, &get, count)
+                            .map_err(|m| content(format!("mesh '{name}': {m}")))?,
+                    )
                 }
-                _ => read_transfer(&primitive, &get, channels, groups, scales.as_ref()).map_err(|m| content(format!("mesh '{name}': {m}")))?,
+                _ => read_transfer(&primitive, &get, channels, groups, scales.as_ref())
+                    .map_err(|m| content(format!("mesh '{name}': {m}")))?,
             };
             let vertex_transfer = transfer.is_some();
             if let Some(t) = transfer {
                 if t.len() > MAX_TRANSFER_ATTRIBUTES {
-                    return Err(content(format!("mesh '{name}': {} transfer VEC4s, at most {MAX_TRANSFER_ATTRIBUTES} fit", t.len())));
+                    return Err(content(format!(
+                        "mesh '{name}': {} transfer VEC4s, at most {MAX_TRANSFER_ATTRIBUTES} fit",
+                        t.len()
+                    )));
                 }
                 for (attribute, values) in PRT_TRANSFER.iter().zip(t) {
                     bevy_mesh.insert_attribute(*attribute, values);
@@ -161,19 +198,27 @@ pub fn load_export(path: &Path) -> Result<PrtExport, ExportError> {
                 .extras()
                 .as_ref()
                 .and_then(|raw| serde_json::from_str::<serde_json::Value>(raw.get()).ok())
-                .and_then(|e| e.get("prt_lightmap").and_then(|l| l.get("index")).and_then(|i| i.as_u64()))
+                .and_then(|e| {
+                    e.get("prt_lightmap")
+                        .and_then(|l| l.get("index"))
+                        .and_then(|i| i.as_u64())
+                })
                 .and_then(|i| document.textures().nth(i as usize))
                 .map(|t| t.source().index());
             let alpha_mode = match material.alpha_mode() {
                 gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
-                gltf::material::AlphaMode::Mask => AlphaMode::Mask(material.alpha_cutoff().unwrap_or(0.5)),
+                gltf::material::AlphaMode::Mask => {
+                    AlphaMode::Mask(material.alpha_cutoff().unwrap_or(0.5))
+                }
                 gltf::material::AlphaMode::Blend => AlphaMode::Blend,
             };
             parts.push(PrtPart {
                 name: name.clone(),
                 mesh: bevy_mesh,
                 base_color: LinearRgba::from_f32_array(pbr.base_color_factor()),
-                base_color_texture: pbr.base_color_texture().map(|t| t.texture().source().index()),
+                base_color_texture: pbr
+                    .base_color_texture()
+                    .map(|t| t.texture().source().index()),
                 lightmap,
                 colours,
                 vertex_transfer,
@@ -206,7 +251,8 @@ fn read_images(document: &gltf::Document, buffers: &[Vec<u8>]) -> Result<Vec<Ima
             let gltf::image::Source::View { view, mime_type } = image.source() else {
                 return Err("an image outside the .glb's buffer".to_string());
             };
-            let data = &buffers[view.buffer().index()][view.offset()..view.offset() + view.length()];
+            let data =
+                &buffers[view.buffer().index()][view.offset()..view.offset() + view.length()];
             let mut sampler = bevy::image::ImageSamplerDescriptor::linear();
             if repeat[image.index()] {
                 sampler.set_address_mode(bevy::image::ImageAddressMode::Repeat);
@@ -227,10 +273,16 @@ fn read_images(document: &gltf::Document, buffers: &[Vec<u8>]) -> Result<Vec<Ima
 type GetBuffer<'a> = dyn Fn(gltf::Buffer<'a>) -> Option<&'a [u8]> + 'a;
 
 /// A VEC4 attribute as floats: float, or normalized SHORT/BYTE (`--quantize`) times its scale.
-fn read_vec4<'a>(accessor: gltf::Accessor<'a>, get: &'a GetBuffer<'a>, scale: f32) -> Result<Vec<[f32; 4]>, String> {
+fn read_vec4<'a>(
+    accessor: gltf::Accessor<'a>,
+    get: &'a GetBuffer<'a>,
+    scale: f32,
+) -> Result<Vec<[f32; 4]>, String> {
     let missing = || "an attribute without data".to_string();
     Ok(match accessor.data_type() {
-        DataType::F32 => Iter::<[f32; 4]>::new(accessor, get).ok_or_else(missing)?.collect(),
+        DataType::F32 => Iter::<[f32; 4]>::new(accessor, get)
+            .ok_or_else(missing)?
+            .collect(),
         DataType::I16 => Iter::<[i16; 4]>::new(accessor, get)
             .ok_or_else(missing)?
             .map(|v| v.map(|x| (x as f32 / 32767.0).max(-1.0) * scale))
@@ -255,18 +307,31 @@ fn read_transfer<'a>(
     let names: Vec<String> = if channels == 1 {
         (0..groups).map(|k| format!("PRT_{k}")).collect()
     } else {
-        ["R", "G", "B"].iter().flat_map(|c| (0..groups).map(move |k| format!("PRT_{c}{k}"))).collect()
+        ["R", "G", "B"]
+            .iter()
+            .flat_map(|c| (0..groups).map(move |k| format!("PRT_{c}{k}")))
+            .collect()
     };
     if primitive.get(&Semantic::Extras(names[0].clone())).is_none() {
         return Ok(None);
     }
     let mut out = Vec::with_capacity(names.len());
     for name in &names {
-        let accessor = primitive.get(&Semantic::Extras(name.clone())).ok_or_else(|| format!("no _{name} attribute"))?;
+        let accessor = primitive
+            .get(&Semantic::Extras(name.clone()))
+            .ok_or_else(|| format!("no _{name} attribute"))?;
         let scale = match (accessor.normalized(), scales) {
             (false, _) => 1.0,
-            (true, Some(s)) => s.get(format!("_{name}")).and_then(|x| x.as_f64()).ok_or_else(|| format!("no quantization scale for _{name}"))? as f32,
-            (true, None) => return Err(format!("_{name} is quantized, but the file has no asset.extras.prt.quantization")),
+            (true, Some(s)) => s
+                .get(format!("_{name}"))
+                .and_then(|x| x.as_f64())
+                .ok_or_else(|| format!("no quantization scale for _{name}"))?
+                as f32,
+            (true, None) => {
+                return Err(format!(
+                    "_{name} is quantized, but the file has no asset.extras.prt.quantization"
+                ));
+            }
         };
         out.push(read_vec4(accessor, get, scale)?);
     }
@@ -284,30 +349,74 @@ struct Cpca {
 }
 
 impl Cpca {
-    fn read<'a>(value: &serde_json::Value, document: &'a gltf::Document, get: &'a GetBuffer<'a>) -> Result<Cpca, String> {
-        let int = |key: &str| value.get(key).and_then(|x| x.as_u64()).map(|x| x as usize).ok_or_else(|| format!("asset.extras.prt.cpca.{key} missing"));
+    fn read<'a>(
+        value: &serde_json::Value,
+        document: &'a gltf::Document,
+        get: &'a GetBuffer<'a>,
+    ) -> Result<Cpca, String> {
+        let int = |key: &str| {
+            value
+                .get(key)
+                .and_then(|x| x.as_u64())
+                .map(|x| x as usize)
+                .ok_or_else(|| format!("asset.extras.prt.cpca.{key} missing"))
+        };
         if value.get("transfer").and_then(|t| t.as_str()) == Some("matrix") {
-            return Err("a glossy transfer-matrix bake: bevy_prt relights diffuse transfer only".into());
+            return Err(
+                "a glossy transfer-matrix bake: bevy_prt relights diffuse transfer only".into(),
+            );
         }
-        let (clusters, pcs, dim, order, channels) = (int("clusters")?, int("pcs")?, int("dim")?, int("order")?, int("channels")?);
+        let (clusters, pcs, dim, order, channels) = (
+            int("clusters")?,
+            int("pcs")?,
+            int("dim")?,
+            int("order")?,
+            int("channels")?,
+        );
         let floats = |key: &str| -> Result<Vec<f32>, String> {
-            let accessor = document.accessors().nth(int(key)?).ok_or_else(|| format!("cpca.{key}: no such accessor"))?;
-            Ok(Iter::<f32>::new(accessor, get).ok_or("cpca accessor without data")?.collect())
+            let accessor = document
+                .accessors()
+                .nth(int(key)?)
+                .ok_or_else(|| format!("cpca.{key}: no such accessor"))?;
+            Ok(Iter::<f32>::new(accessor, get)
+                .ok_or("cpca accessor without data")?
+                .collect())
         };
         let (means, bases) = (floats("means")?, floats("bases")?);
-        if dim != channels * order * order || means.len() != clusters * dim || bases.len() != clusters * pcs * dim {
+        if dim != channels * order * order
+            || means.len() != clusters * dim
+            || bases.len() != clusters * pcs * dim
+        {
             return Err("asset.extras.prt.cpca: clusters, pcs, dim, order and channels do not fit the accessors".into());
         }
-        Ok(Cpca { pcs, dim, order, channels, means, bases })
+        Ok(Cpca {
+            pcs,
+            dim,
+            order,
+            channels,
+            means,
+            bases,
+        })
     }
 
     /// Per vertex, means[k] + Σ_i w_i·bases[k, i], packed as [`PRT_TRANSFER`].
-    fn reconstruct<'a>(&self, primitive: &gltf::Primitive<'a>, get: &'a GetBuffer<'a>, count: usize) -> Result<Vec<Vec<[f32; 4]>>, String> {
-        let cluster_accessor = primitive.get(&Semantic::Extras("PRT_CLUSTER".into())).ok_or("no _PRT_CLUSTER")?;
-        let clusters: Vec<f32> = Iter::<f32>::new(cluster_accessor, get).ok_or("no cluster data")?.collect();
+    fn reconstruct<'a>(
+        &self,
+        primitive: &gltf::Primitive<'a>,
+        get: &'a GetBuffer<'a>,
+        count: usize,
+    ) -> Result<Vec<Vec<[f32; 4]>>, String> {
+        let cluster_accessor = primitive
+            .get(&Semantic::Extras("PRT_CLUSTER".into()))
+            .ok_or("no _PRT_CLUSTER")?;
+        let clusters: Vec<f32> = Iter::<f32>::new(cluster_accessor, get)
+            .ok_or("no cluster data")?
+            .collect();
         let mut weights = Vec::new();
         for k in 0..self.pcs.div_ceil(4) {
-            let accessor = primitive.get(&Semantic::Extras(format!("PRT_W{k}"))).ok_or_else(|| format!("no _PRT_W{k}"))?;
+            let accessor = primitive
+                .get(&Semantic::Extras(format!("PRT_W{k}")))
+                .ok_or_else(|| format!("no _PRT_W{k}"))?;
             weights.push(read_vec4(accessor, get, 1.0)?);
         }
         let n = self.order * self.order;
@@ -316,10 +425,15 @@ impl Cpca {
         let mut t = vec![0.0f32; self.dim];
         for v in 0..count {
             let k = clusters[v].round() as usize;
-            t.copy_from_slice(self.means.get(k * self.dim..(k + 1) * self.dim).ok_or("a cluster index out of range")?);
+            t.copy_from_slice(
+                self.means
+                    .get(k * self.dim..(k + 1) * self.dim)
+                    .ok_or("a cluster index out of range")?,
+            );
             for i in 0..self.pcs {
                 let w = weights[i / 4][v][i % 4];
-                let base = &self.bases[(k * self.pcs + i) * self.dim..(k * self.pcs + i + 1) * self.dim];
+                let base =
+                    &self.bases[(k * self.pcs + i) * self.dim..(k * self.pcs + i + 1) * self.dim];
                 t.iter_mut().zip(base).for_each(|(a, b)| *a += w * b);
             }
             for c in 0..self.channels {

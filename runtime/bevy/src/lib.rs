@@ -24,7 +24,7 @@ use bevy::prelude::*;
 pub use export::{PrtExport, PrtPart, load_export};
 pub use light::PrtLight;
 pub use material::{PrtExtension, PrtMaterial};
-pub use probes::{PrtProbes, ProbeLit};
+pub use probes::{ProbeLit, PrtProbes};
 pub use scene::{spawn_exported, spawn_prt};
 pub use texel::{TexelTransfer, load_texel_transfer};
 
@@ -37,7 +37,13 @@ impl Plugin for PrtPlugin {
         embedded_asset!(app, "prt.wgsl");
         app.add_plugins(MaterialPlugin::<PrtMaterial>::default())
             .init_resource::<PrtLight>()
-            .add_systems(PostUpdate, (relight, probes::light_probe_lit.after(bevy::transform::TransformSystems::Propagate)));
+            .add_systems(
+                PostUpdate,
+                (
+                    relight,
+                    probes::light_probe_lit.after(bevy::transform::TransformSystems::Propagate),
+                ),
+            );
     }
 }
 

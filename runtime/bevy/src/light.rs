@@ -73,10 +73,15 @@ impl PrtLight {
             serde_json::from_value(value.clone()).map_err(|e| error(e.to_string()))?;
         let n = sh::coeff_count(json.order);
         if !(1..=16).contains(&json.order) || json.coefficients.len() != 3 {
-            return Err(error("needs an order in 1..16 and 3 coefficient arrays".into()));
+            return Err(error(
+                "needs an order in 1..16 and 3 coefficient arrays".into(),
+            ));
         }
         if json.coefficients.iter().any(|c| c.len() != n) {
-            return Err(error(format!("order {} needs {n} coefficients a channel", json.order)));
+            return Err(error(format!(
+                "order {} needs {n} coefficients a channel",
+                json.order
+            )));
         }
         let [r, g, b]: [Vec<f64>; 3] = json.coefficients.try_into().expect("3 channels");
         Ok(PrtLight {
@@ -114,7 +119,14 @@ impl PrtLight {
     /// A sun of irradiance `sun` (linear RGB, W/m² on a facing surface) from `direction`
     /// (glTF frame, towards the sun) over a sky of radiance `sky` above `up` and `ground`
     /// below: the rig `sun` + `hemisphere` of docs/reference/lights.md.
-    pub fn sun_and_sky(order: usize, direction: DVec3, sun: DVec3, sky: DVec3, ground: DVec3, up: DVec3) -> PrtLight {
+    pub fn sun_and_sky(
+        order: usize,
+        direction: DVec3,
+        sun: DVec3,
+        sky: DVec3,
+        ground: DVec3,
+        up: DVec3,
+    ) -> PrtLight {
         let mut light = PrtLight::zero(order);
         light.add_sun(direction, sun, SUN_ANGULAR_RADIUS_DEGREES.to_radians());
         light.add_hemisphere(up, sky, ground);

@@ -2,9 +2,13 @@
 //! transfer attributes) or per texel (a texel bake's transfer array on TEXCOORD_1).
 
 use bevy::mesh::MeshVertexBufferLayoutRef;
-use bevy::pbr::{ExtendedMaterial, MaterialExtension, MaterialExtensionKey, MaterialExtensionPipeline};
+use bevy::pbr::{
+    ExtendedMaterial, MaterialExtension, MaterialExtensionKey, MaterialExtensionPipeline,
+};
 use bevy::prelude::*;
-use bevy::render::render_resource::{AsBindGroup, RenderPipelineDescriptor, ShaderType, SpecializedMeshPipelineError};
+use bevy::render::render_resource::{
+    AsBindGroup, RenderPipelineDescriptor, ShaderType, SpecializedMeshPipelineError,
+};
 use bevy::shader::ShaderRef;
 
 use crate::export::PRT_TRANSFER;
@@ -67,9 +71,19 @@ impl From<&PrtExtension> for PrtKey {
 impl PrtExtension {
     /// A material for a transfer of `order`, grey or `rgb`; `transfer` for texel bakes.
     /// `clamp_shading` clamps Σ T·L to [0, 1] as an export's COLOR_0 and lightmap are.
-    pub fn new(order: usize, rgb: bool, transfer: Option<Handle<Image>>, z_up: bool, clamp_shading: bool) -> PrtExtension {
+    pub fn new(
+        order: usize,
+        rgb: bool,
+        transfer: Option<Handle<Image>>,
+        z_up: bool,
+        clamp_shading: bool,
+    ) -> PrtExtension {
         let groups = (order * order).div_ceil(4) as u32;
-        let attributes = if transfer.is_some() { 0 } else { groups * if rgb { 3 } else { 1 } };
+        let attributes = if transfer.is_some() {
+            0
+        } else {
+            groups * if rgb { 3 } else { 1 }
+        };
         PrtExtension {
             uniform: PrtUniform {
                 light: [Vec4::ZERO; MAX_LIGHT_VEC4],
@@ -92,7 +106,13 @@ impl PrtExtension {
         let n = (self.order * self.order) as usize;
         for (c, channel) in rgb.iter().enumerate() {
             for k in 0..groups {
-                let at = |i: usize| if 4 * k + i < n { channel.get(4 * k + i).copied().unwrap_or(0.0) as f32 } else { 0.0 };
+                let at = |i: usize| {
+                    if 4 * k + i < n {
+                        channel.get(4 * k + i).copied().unwrap_or(0.0) as f32
+                    } else {
+                        0.0
+                    }
+                };
                 self.uniform.light[c * groups + k] = Vec4::new(at(0), at(1), at(2), at(3));
             }
         }

@@ -56,7 +56,8 @@ impl PrtProbes {
         if bytes.len() < PROBE_HEADER_SIZE || bytes[..8] != MAGIC {
             return Err(error("not a PRT coefficient file".into()));
         }
-        let u32_at = |o: usize| u32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes")) as usize;
+        let u32_at =
+            |o: usize| u32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes")) as usize;
         let f32_at = |o: usize| f32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes"));
         if u32_at(12) != PROBE_HEADER_SIZE {
             return Err(error("not a probe bake (bake --probes)".into()));
@@ -67,13 +68,20 @@ impl PrtProbes {
         let floats = count * channels * n * n;
         let expected = PROBE_HEADER_SIZE + 4 * (floats + 4 * count);
         if bytes.len() != expected {
-            return Err(error(format!("{} bytes, {count} probes need {expected}", bytes.len())));
+            return Err(error(format!(
+                "{} bytes, {count} probes need {expected}",
+                bytes.len()
+            )));
         }
         let counts = [u32_at(136), u32_at(140), u32_at(144)];
         if counts.iter().product::<usize>() != count {
             return Err(error("not a grid probe bake (--probes grid:…)".into()));
         }
-        let read = |offset: usize, len: usize| (0..len).map(|i| f32_at(offset + 4 * i)).collect::<Vec<f32>>();
+        let read = |offset: usize, len: usize| {
+            (0..len)
+                .map(|i| f32_at(offset + 4 * i))
+                .collect::<Vec<f32>>()
+        };
         Ok(PrtProbes {
             order,
             channels,
@@ -123,7 +131,9 @@ impl PrtProbes {
                 let channel = if self.channels == 1 { 0 } else { c };
                 let start = (p * self.channels + channel) * n * n;
                 for (i, oi) in o.iter_mut().enumerate() {
-                    let dot: f64 = (0..n).map(|j| self.matrices[start + i * n + j] as f64 * light[c][j]).sum();
+                    let dot: f64 = (0..n)
+                        .map(|j| self.matrices[start + i * n + j] as f64 * light[c][j])
+                        .sum();
                     *oi += w as f64 * dot;
                 }
             }
@@ -134,9 +144,17 @@ impl PrtProbes {
     /// The light, in the object's own frame, of a rigid PRT mesh placed by `transform` in
     /// Bevy's world (the glTF frame of the exports: the probe scene turned to +Y up when it
     /// is z-up): R⁻¹·L_in at its position. `light` is in the glTF frame, turned.
-    pub fn light_for_object(&self, transform: &GlobalTransform, light: &[Vec<f64>; 3]) -> [Vec<f64>; 3] {
+    pub fn light_for_object(
+        &self,
+        transform: &GlobalTransform,
+        light: &[Vec<f64>; 3],
+    ) -> [Vec<f64>; 3] {
         let (_, rotation, position) = transform.to_scale_rotation_translation();
-        let to_gltf = if self.y_up { DMat3::IDENTITY } else { sh::z_up_to_gltf() };
+        let to_gltf = if self.y_up {
+            DMat3::IDENTITY
+        } else {
+            sh::z_up_to_gltf()
+        };
         let order = self.order;
         let turn = |m: DMat3, c: &[Vec<f64>; 3]| {
             let bands = sh::rotation(order, m);
@@ -163,7 +181,8 @@ pub(crate) fn light_probe_lit(
     for (transform, material) in &lit {
         if let Some(mut m) = materials.get_mut(&material.0) {
             m.extension.probe_lit = true;
-            m.extension.set_light(&probes.light_for_object(transform, &turned));
+            m.extension
+                .set_light(&probes.light_for_object(transform, &turned));
         }
     }
 }

@@ -39,11 +39,16 @@ pub fn project(text: &str, path: &Path, order: usize) -> Result<PrtLight, LightE
         message,
     };
     let rig: RigFile = toml::from_str(text).map_err(|e| {
-        let line = e.span().map_or(1, |s| text[..s.start].lines().count().max(1));
+        let line = e
+            .span()
+            .map_or(1, |s| text[..s.start].lines().count().max(1));
         error(line, e.message().to_string())
     })?;
     if rig.window.as_deref().is_some_and(|w| w != "none") {
-        return Err(error(1, "a windowed rig: project it with `prt-bake light RIG --up y` and load the JSON".into()));
+        return Err(error(
+            1,
+            "a windowed rig: project it with `prt-bake light RIG --up y` and load the JSON".into(),
+        ));
     }
     // The line of each [[light]] table, for the messages.
     let lines: Vec<usize> = text
@@ -64,9 +69,18 @@ pub fn project(text: &str, path: &Path, order: usize) -> Result<PrtLight, LightE
                 Some(DVec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos()))
             }
             (None, None, None) => None,
-            _ => return Err(error(line, "give either `direction` or `theta` and `phi`".into())),
+            _ => {
+                return Err(error(
+                    line,
+                    "give either `direction` or `theta` and `phi`".into(),
+                ));
+            }
         };
-        let needed = || direction.map(|d| to_gltf * d).ok_or_else(|| error(line, format!("a {} needs `direction`", l.kind)));
+        let needed = || {
+            direction
+                .map(|d| to_gltf * d)
+                .ok_or_else(|| error(line, format!("a {} needs `direction`", l.kind)))
+        };
         match l.kind.as_str() {
             "constant" => light.add_constant(colour),
             "directional" => light.add_zonal(needed()?, &vec![1.0; order], colour),
@@ -76,13 +90,16 @@ pub fn project(text: &str, path: &Path, order: usize) -> Result<PrtLight, LightE
             }
             "hemisphere" => {
                 let up = to_gltf * direction.unwrap_or(DVec3::Z);
-                let ground = DVec3::from(l.ground_color.unwrap_or([0.0; 3])) * l.intensity.unwrap_or(1.0);
+                let ground =
+                    DVec3::from(l.ground_color.unwrap_or([0.0; 3])) * l.intensity.unwrap_or(1.0);
                 light.add_hemisphere(up, colour, ground);
             }
             other => {
                 return Err(error(
                     line,
-                    format!("kind \"{other}\": project this rig with `prt-bake light RIG --up y` and load the JSON"),
+                    format!(
+                        "kind \"{other}\": project this rig with `prt-bake light RIG --up y` and load the JSON"
+                    ),
                 ));
             }
         }
@@ -101,9 +118,39 @@ mod tests {
         let text = include_str!("../../../viewer/src/default-rig.toml");
         let light = project(text, Path::new("default-rig.toml"), 3).expect("rig");
         let expected = [
-            [1.200779726214066, -0.7729760389796273, -0.6642363919549258, -1.1504911791021664, 1.0872060322817556, 0.6276986954024564, -0.3632842379690948, 1.1657604301239817, 0.7168774385339749],
-            [1.195112494513122, -0.7924924291430031, -0.6110974805985318, -1.0584518847739932, 1.0002295496992153, 0.57748279977026, -0.3342214989315673, 1.0724995957140633, 0.6595272434512569],
-            [1.22649185860708, -0.8486293404716619, -0.5313891135639407, -0.9203929432817333, 0.8697648258254047, 0.502158956321965, -0.2906273903752759, 0.9326083440991857, 0.5735019508271799],
+            [
+                1.200779726214066,
+                -0.7729760389796273,
+                -0.6642363919549258,
+                -1.1504911791021664,
+                1.0872060322817556,
+                0.6276986954024564,
+                -0.3632842379690948,
+                1.1657604301239817,
+                0.7168774385339749,
+            ],
+            [
+                1.195112494513122,
+                -0.7924924291430031,
+                -0.6110974805985318,
+                -1.0584518847739932,
+                1.0002295496992153,
+                0.57748279977026,
+                -0.3342214989315673,
+                1.0724995957140633,
+                0.6595272434512569,
+            ],
+            [
+                1.22649185860708,
+                -0.8486293404716619,
+                -0.5313891135639407,
+                -0.9203929432817333,
+                0.8697648258254047,
+                0.502158956321965,
+                -0.2906273903752759,
+                0.9326083440991857,
+                0.5735019508271799,
+            ],
         ];
         for (channel, want) in light.rgb.iter().zip(expected) {
             for (a, b) in channel.iter().zip(want) {
@@ -115,10 +162,14 @@ mod tests {
     #[test]
     fn errors_name_the_file_and_line() {
         let text = "[[light]]\nkind = \"sun\"\n\n[[light]]\nkind = \"environment\"\n";
-        let e = project(text, Path::new("r.toml"), 3).unwrap_err().to_string();
+        let e = project(text, Path::new("r.toml"), 3)
+            .unwrap_err()
+            .to_string();
         assert!(e.starts_with("r.toml:1: a sun needs `direction`"), "{e}");
         let text = "[[light]]\nkind = \"environment\"\n";
-        let e = project(text, Path::new("r.toml"), 3).unwrap_err().to_string();
+        let e = project(text, Path::new("r.toml"), 3)
+            .unwrap_err()
+            .to_string();
         assert!(e.starts_with("r.toml:1: kind \"environment\""), "{e}");
     }
 }

@@ -19,7 +19,11 @@ fn base_material(part: &PrtPart, images: &[Handle<Image>], unlit: bool) -> Stand
         base_color_texture: part.base_color_texture.map(|i| images[i].clone()),
         unlit,
         // A sheet of a two-sided pair shows its own side only (docs/reference/gltf.md).
-        cull_mode: if part.double_sided && !part.sheet { None } else { Some(bevy::render::render_resource::Face::Back) },
+        cull_mode: if part.double_sided && !part.sheet {
+            None
+        } else {
+            Some(bevy::render::render_resource::Face::Back)
+        },
         double_sided: part.double_sided && !part.sheet,
         alpha_mode: part.alpha_mode,
         perceptual_roughness: 1.0,
@@ -31,7 +35,11 @@ fn base_material(part: &PrtPart, images: &[Handle<Image>], unlit: bool) -> Stand
 
 /// The export's images as assets.
 pub fn add_images(export: &PrtExport, images: &mut Assets<Image>) -> Vec<Handle<Image>> {
-    export.images.iter().map(|i| images.add(i.clone())).collect()
+    export
+        .images
+        .iter()
+        .map(|i| images.add(i.clone()))
+        .collect()
 }
 
 /// Spawns every part relit by PRT: per vertex where the part carries transfer attributes, per
@@ -50,19 +58,39 @@ pub fn spawn_prt(
     let mut spawned = Vec::new();
     for part in &export.parts {
         let extension = if part.vertex_transfer {
-            PrtExtension::new(export.order, export.channels == 3, None, false, clamp_shading)
+            PrtExtension::new(
+                export.order,
+                export.channels == 3,
+                None,
+                false,
+                clamp_shading,
+            )
         } else {
             let (Some(t), Some(handle)) = (texel, &transfer) else {
-                return Err(format!("mesh '{}' has no transfer attributes: a texel bake needs its `export --exr` folder", part.name));
+                return Err(format!(
+                    "mesh '{}' has no transfer attributes: a texel bake needs its `export --exr` folder",
+                    part.name
+                ));
             };
-            PrtExtension::new(t.order, t.channels == 3, Some(handle.clone()), t.z_up, clamp_shading)
+            PrtExtension::new(
+                t.order,
+                t.channels == 3,
+                Some(handle.clone()),
+                t.z_up,
+                clamp_shading,
+            )
         };
         let material = materials.add(PrtMaterial {
             base: base_material(part, &image_handles, true),
             extension,
         });
         let entity = commands
-            .spawn((Mesh3d(meshes.add(part.mesh.clone())), MeshMaterial3d(material), PrtPartOf, Name::new(part.name.clone())))
+            .spawn((
+                Mesh3d(meshes.add(part.mesh.clone())),
+                MeshMaterial3d(material),
+                PrtPartOf,
+                Name::new(part.name.clone()),
+            ))
             .id();
         spawned.push(entity);
     }
@@ -86,7 +114,11 @@ pub fn spawn_exported(
         let mut entity = commands.spawn((PrtPartOf, Name::new(part.name.clone())));
         if let Some(colours) = &part.colours {
             mesh.insert_attribute(Mesh::ATTRIBUTE_COLOR, colours.clone());
-            entity.insert(MeshMaterial3d(materials.add(base_material(part, &image_handles, true))));
+            entity.insert(MeshMaterial3d(materials.add(base_material(
+                part,
+                &image_handles,
+                true,
+            ))));
         } else if let Some(lightmap) = part.lightmap {
             entity.insert((
                 MeshMaterial3d(materials.add(StandardMaterial {
@@ -100,7 +132,10 @@ pub fn spawn_exported(
                 },
             ));
         } else {
-            return Err(format!("mesh '{}': neither COLOR_0 nor a relit lightmap (export with --lights)", part.name));
+            return Err(format!(
+                "mesh '{}': neither COLOR_0 nor a relit lightmap (export with --lights)",
+                part.name
+            ));
         }
         entity.insert(Mesh3d(meshes.add(mesh)));
         spawned.push(entity.id());

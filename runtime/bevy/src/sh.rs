@@ -41,7 +41,7 @@ pub fn basis(order: usize, d: DVec3) -> Vec<f64> {
             }
             let k = (((2 * l + 1) as f64 / (4.0 * std::f64::consts::PI))
                 * (factorial(l - m) / factorial(l + m)))
-                .sqrt();
+            .sqrt();
             let centre = l * (l + 1);
             if m == 0 {
                 y[centre] = k * q;

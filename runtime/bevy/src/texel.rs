@@ -55,12 +55,26 @@ pub fn load_texel_transfer(dir: &Path) -> Result<TexelTransfer, TexelError> {
         path: path.to_path_buf(),
         message,
     };
-    let text = std::fs::read_to_string(&manifest_path).map_err(|e| error(&manifest_path, e.to_string()))?;
-    let manifest: Manifest = serde_json::from_str(&text).map_err(|e| error(&manifest_path, format!("not a prt-bake lightmap manifest: {e}")))?;
+    let text = std::fs::read_to_string(&manifest_path)
+        .map_err(|e| error(&manifest_path, e.to_string()))?;
+    let manifest: Manifest = serde_json::from_str(&text).map_err(|e| {
+        error(
+            &manifest_path,
+            format!("not a prt-bake lightmap manifest: {e}"),
+        )
+    })?;
     let groups = (manifest.order * manifest.order).div_ceil(4);
     let layers = groups * manifest.channels;
     if manifest.transfer.len() != layers || ![1, 3].contains(&manifest.channels) {
-        return Err(error(&manifest_path, format!("{} transfer images, order {} with {} channel(s) needs {layers}", manifest.transfer.len(), manifest.order, manifest.channels)));
+        return Err(error(
+            &manifest_path,
+            format!(
+                "{} transfer images, order {} with {} channel(s) needs {layers}",
+                manifest.transfer.len(),
+                manifest.order,
+                manifest.channels
+            ),
+        ));
     }
     let (w, h) = (manifest.width as usize, manifest.height as usize);
     let texel_bytes = 8;
@@ -72,22 +86,37 @@ pub fn load_texel_transfer(dir: &Path) -> Result<TexelTransfer, TexelError> {
             "b" | "B" | "blue" => 2,
             other => return Err(error(&manifest_path, format!("colour_channel \"{other}\""))),
         };
-        let first = *entry.coefficients.first().ok_or_else(|| error(&manifest_path, "an entry without coefficients".into()))?;
+        let first = *entry
+            .coefficients
+            .first()
+            .ok_or_else(|| error(&manifest_path, "an entry without coefficients".into()))?;
         let layer = channel * groups + first / 4;
         let path = dir.join(&entry.file);
         let image = exr::prelude::read_first_rgba_layer_from_file(
             &path,
-            |resolution, _| vec![[0.0f32; 4]; resolution.width() * resolution.height()],
-            move |pixels, position, (r, g, b, a): (f32, f32, f32, f32)| {
-                pixels[position.y() * position.width() + position.x()] = [r, g, b, a];
+            |resolution, _| {
+                (
+                    resolution.width(),
+                    vec![[0.0f32; 4]; resolution.width() * resolution.height()],
+                )
+            },
+            |(width, pixels), position, (r, g, b, a): (f32, f32, f32, f32)| {
+                pixels[position.y() * *width + position.x()] = [r, g, b, a];
             },
         )
         .map_err(|e| error(&path, e.to_string()))?;
         let size = image.layer_data.size;
         if size.width() != w || size.height() != h {
-            return Err(error(&path, format!("{}×{}, the manifest says {w}×{h}", size.width(), size.height())));
+            return Err(error(
+                &path,
+                format!(
+                    "{}×{}, the manifest says {w}×{h}",
+                    size.width(),
+                    size.height()
+                ),
+            ));
         }
-        let pixels = &image.layer_data.channel_data.pixels;
+        let pixels = &image.layer_data.channel_data.pixels.1;
         let out = &mut data[layer * w * h * texel_bytes..(layer + 1) * w * h * texel_bytes];
         for (i, p) in pixels.iter().enumerate() {
             for (c, x) in p.iter().enumerate() {

@@ -47,7 +47,14 @@ pub fn fail(message: &str) -> ! {
 /// A camera rendering render layer `layer` into a new `size`² sRGB image: colours as they
 /// are (no tonemapping, dithering or MSAA) and an exposure of 1 for Bevy's lit path
 /// (exp2(−ev100)/1.2 = 1), clear transparent (alpha is coverage).
-pub fn camera(commands: &mut Commands, images: &mut Assets<Image>, size: u32, layer: usize, projection: PerspectiveProjection, transform: Transform) -> Handle<Image> {
+pub fn camera(
+    commands: &mut Commands,
+    images: &mut Assets<Image>,
+    size: u32,
+    layer: usize,
+    projection: PerspectiveProjection,
+    transform: Transform,
+) -> Handle<Image> {
     let mut image = Image::new_uninit(
         Extent3d {
             width: size,
@@ -73,7 +80,9 @@ pub fn camera(commands: &mut Commands, images: &mut Assets<Image>, size: u32, la
         Tonemapping::None,
         DebandDither::Disabled,
         Msaa::Off,
-        Exposure { ev100: -(1.2f32).log2() },
+        Exposure {
+            ev100: -(1.2f32).log2(),
+        },
         RenderLayers::layer(layer),
     ));
     handle
@@ -89,9 +98,11 @@ impl Captures {
         *self.0.lock().unwrap() = vec![None; targets.len()];
         for (i, target) in targets.iter().enumerate() {
             let store = self.0.clone();
-            commands.spawn(Screenshot::image(target.clone())).observe(move |captured: On<ScreenshotCaptured>| {
-                store.lock().unwrap()[i] = Some(captured.image.clone());
-            });
+            commands.spawn(Screenshot::image(target.clone())).observe(
+                move |captured: On<ScreenshotCaptured>| {
+                    store.lock().unwrap()[i] = Some(captured.image.clone());
+                },
+            );
         }
     }
 
@@ -101,19 +112,33 @@ impl Captures {
         if shots.is_empty() || shots.iter().any(Option::is_none) {
             return None;
         }
-        Some(shots.iter().map(|s| s.as_ref().and_then(|i| i.data.clone()).expect("screenshot data")).collect())
+        Some(
+            shots
+                .iter()
+                .map(|s| {
+                    s.as_ref()
+                        .and_then(|i| i.data.clone())
+                        .expect("screenshot data")
+                })
+                .collect(),
+        )
     }
 }
 
 /// Saves RGBA8 pixels as a PNG (alpha kept: it is coverage).
 pub fn save(data: &[u8], size: u32, path: &Path) {
     let image = image::RgbaImage::from_raw(size, size, data.to_vec()).expect("screenshot size");
-    image.save(path).unwrap_or_else(|e| fail(&format!("{}: {e}", path.display())));
+    image
+        .save(path)
+        .unwrap_or_else(|e| fail(&format!("{}: {e}", path.display())));
 }
 
 /// `out` with `-suffix` before its extension.
 pub fn beside(out: &Path, suffix: &str) -> PathBuf {
-    out.with_file_name(format!("{}-{suffix}.png", out.file_stem().unwrap_or_default().to_string_lossy()))
+    out.with_file_name(format!(
+        "{}-{suffix}.png",
+        out.file_stem().unwrap_or_default().to_string_lossy()
+    ))
 }
 
 /// The comparison of two renders: pixels covered in either, those within `tolerance` codes in
