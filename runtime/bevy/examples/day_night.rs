@@ -5,7 +5,7 @@
 //! frame. Headless, for any bake:
 //!
 //!   day_night --scene FILE.glb [--exr DIR] [--lights RIG.toml | --light LIGHT.json]
-//!             [--turn DEG] --screenshot OUT.png [--compare [EXPORT.glb]] [--view X,Y,Z]
+//!             [--turn DEG | --time SECONDS] --screenshot OUT.png [--compare [EXPORT.glb]] [--view X,Y,Z]
 //!   day_night --scene FILE.glb [--exr DIR] --bench prt|lightmap [--frames N]
 //!
 //! `--compare` renders the same view a second time as exported (COLOR_0 unlit, or the relit
@@ -34,6 +34,7 @@ struct Args {
     lights: Option<PathBuf>,
     light_json: Option<PathBuf>,
     turn: f64,
+    time: Option<f64>,
     screenshot: Option<PathBuf>,
     compare: Option<Option<PathBuf>>,
     view: Vec3,
@@ -46,7 +47,7 @@ struct Args {
 
 fn usage(message: &str) -> ! {
     eprintln!(
-        "day_night: {message}\nusage: day_night [--scene FILE.glb [--exr DIR]] [--lights RIG.toml | --light LIGHT.json] [--turn DEG] [--screenshot OUT.png [--compare [EXPORT.glb]]] [--view X,Y,Z] [--size N] [--tolerance CODES] [--min-share F] [--bench prt|lightmap [--frames N]]"
+        "day_night: {message}\nusage: day_night [--scene FILE.glb [--exr DIR]] [--lights RIG.toml | --light LIGHT.json] [--turn DEG] [--time SECONDS] [--screenshot OUT.png [--compare [EXPORT.glb]]] [--view X,Y,Z] [--size N] [--tolerance CODES] [--min-share F] [--bench prt|lightmap [--frames N]]"
     );
     std::process::exit(2);
 }
@@ -58,6 +59,7 @@ fn parse_args() -> Args {
         lights: None,
         light_json: None,
         turn: 0.0,
+        time: None,
         screenshot: None,
         compare: None,
         view: Vec3::new(0.15, 0.2, 1.0),
@@ -87,6 +89,7 @@ fn parse_args() -> Args {
             "--lights" => a.lights = Some(value(&mut i, &flag).into()),
             "--light" => a.light_json = Some(value(&mut i, &flag).into()),
             "--turn" => a.turn = number(value(&mut i, &flag)),
+            "--time" => a.time = Some(number(value(&mut i, &flag))),
             "--screenshot" => a.screenshot = Some(value(&mut i, &flag).into()),
             "--compare" => {
                 let next = list.get(i + 1).filter(|s| !s.starts_with("--")).cloned();
@@ -123,7 +126,9 @@ fn parse_args() -> Args {
 
 /// The light the scene is lit by: a rig projected here, a light JSON, or the export's own.
 fn scene_light(args: &Args, export: &PrtExport) -> Result<PrtLight, String> {
-    let mut light = if let Some(rig) = &args.lights {
+    let mut light = if let Some(t) = args.time {
+        sun_at(t, export.order)
+    } else if let Some(rig) = &args.lights {
         PrtLight::from_rig_file(rig, export.order.max(3)).map_err(|e| e.to_string())?
     } else if let Some(json) = &args.light_json {
         PrtLight::from_json_file(json).map_err(|e| e.to_string())?
