@@ -83,6 +83,18 @@ for name in torus cornell-lm; do
         --screenshot "$OUT/$name-turned.png" --compare "$OUT/$name-turned.glb"
 done
 
+# The other forms of vertex transfer, at the rig: RGB (the Cornell room interreflected, 12
+# attributes), CPCA-compressed (64 clusters × 4 components, reconstructed on load) and
+# --quantize 16 (normalized shorts times their scales).
+$BAKE bake "$cornell" -o "$OUT/cornell-rgb.prt" --mode interreflected --samples 64 --quiet
+$BAKE bake "$cornell" -o "$OUT/cornell-cpca.prt" --mode interreflected --clusters 64 --pcs 4 --samples 64 --quiet >/dev/null
+$BAKE export "$OUT/cornell-rgb.prt" --scene "$cornell" --glb "$OUT/cornell-rgb.glb" --lights "$OUT/rig.toml" >/dev/null
+$BAKE export "$OUT/cornell-cpca.prt" --scene "$cornell" --glb "$OUT/cornell-cpca.glb" --lights "$OUT/rig.toml" >/dev/null
+$BAKE export "$OUT/torus.prt" --scene "$torus" --glb "$OUT/torus-q16.glb" --quantize 16 --lights "$OUT/rig.toml" >/dev/null
+for name in cornell-rgb cornell-cpca torus-q16; do
+    check "$name rig" --scene "$OUT/$name.glb" --lights "$OUT/rig.toml" --screenshot "$OUT/$name.png" --compare
+done
+
 # A probe-lit object moving through the Cornell room: the ball of the browser test
 # (scripts/browser/probe-move.mjs) baked alone, lit by bevy_prt from the room's 8×8×8
 # interreflected probe grid at 3 positions, against relight --probes --at --turn from a probe
