@@ -198,6 +198,20 @@ test: blender-production
 test: mitsuba-subsurface
 test: mitsuba-probes
 test: docs-check
+test: bevy
+
+# The Bevy plugin (runtime/bevy, its own workspace and Cargo.lock, built into target/bevy so
+# that make lint, make unit and make demo never compile Bevy): its unit tests, then the
+# day_night example renders the torus's vertex bake and the Cornell room's texel bake headless
+# on lavapipe, at a rig and turned 90°, against the exports' own colours (≥ 99 % of lit pixels
+# within 2 codes), and times PRT against Bevy's own Lightmap (docs/guides/bevy.md).
+# make bevy-demo-data bakes the Cornell room the interactive example opens.
+.PHONY: bevy bevy-demo-data
+bevy: build
+	scripts/bevy/test.sh
+
+bevy-demo-data: demo-build
+	scripts/bevy/demo-data.sh
 
 # The documentation: every `sh` block of docs/guides/*.md and README.md runs on the repository's
 # scenes from a scratch folder (about a minute), links and anchors resolve, no file in docs/ is

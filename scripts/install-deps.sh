@@ -18,6 +18,8 @@
 #   chromium            the browser test of the web runtime (scripts/browser/run.sh), headless
 #                       with SwiftShader: no GPU or display needed
 #   glslang-tools       glslangValidator, which compiles docs/reference/gltf.md's GLSL ES snippets
+# make bevy (runtime/bevy) needs nothing more: it renders headless through the same Vulkan
+# loader and lavapipe, and its window (--features window) loads the X11 libraries above.
 # The Rust toolchain itself is expected (rustup); python3 for the reference check.
 set -euo pipefail
 

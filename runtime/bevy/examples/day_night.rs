@@ -1,0 +1,432 @@
+//! The day–night example and the render check of bevy_prt (docs/guides/bevy.md).
+//!
+//! Interactive (`--features window`): the Cornell room's texel bake (baked by make when
+//! missing) or any export, with the sun crossing the sky and the light following it every
+//! frame. Headless, for any bake:
+//!
+//!   day_night --scene FILE.glb [--exr DIR] [--lights RIG.toml | --light LIGHT.json]
+//!             [--turn DEG | --time SECONDS] --screenshot OUT.png [--compare [EXPORT.glb]] [--view X,Y,Z]
+//!   day_night --scene FILE.glb [--exr DIR] --bench prt|lightmap [--frames N]
+//!
+//! `--compare` renders the same view a second time as exported (COLOR_0 unlit, or the relit
+//! lightmap through Bevy's own `Lightmap`), from EXPORT.glb (default: the scene; pass the
+//! export of the rig turned the same way with `--turn`), and prints the share of lit pixels
+//! within `--tolerance` codes (default 2); it exits 1 below `--min-share` (default 0.99).
+
+#[path = "common/headless.rs"]
+mod headless;
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use bevy::camera::visibility::RenderLayers;
+use bevy::math::{DMat3, DVec3};
+use bevy::prelude::*;
+use bevy_prt::{
+    PrtExport, PrtLight, PrtPlugin, load_export, load_texel_transfer, spawn_exported, spawn_prt,
+};
+use headless::{Captures, beside, camera, compare, fail, headless_app, save};
+
+#[derive(Clone, Debug)]
+struct Args {
+    scene: Option<PathBuf>,
+    exr: Option<PathBuf>,
+    lights: Option<PathBuf>,
+    light_json: Option<PathBuf>,
+    turn: f64,
+    time: Option<f64>,
+    screenshot: Option<PathBuf>,
+    compare: Option<Option<PathBuf>>,
+    view: Vec3,
+    size: u32,
+    tolerance: u8,
+    min_share: f64,
+    bench: Option<String>,
+    frames: u32,
+}
+
+fn usage(message: &str) -> ! {
+    eprintln!(
+        "day_night: {message}\nusage: day_night [--scene FILE.glb [--exr DIR]] [--lights RIG.toml | --light LIGHT.json] [--turn DEG] [--time SECONDS] [--screenshot OUT.png [--compare [EXPORT.glb]]] [--view X,Y,Z] [--size N] [--tolerance CODES] [--min-share F] [--bench prt|lightmap [--frames N]]"
+    );
+    std::process::exit(2);
+}
+
+fn parse_args() -> Args {
+    let mut a = Args {
+        scene: None,
+        exr: None,
+        lights: None,
+        light_json: None,
+        turn: 0.0,
+        time: None,
+        screenshot: None,
+        compare: None,
+        view: Vec3::new(0.15, 0.2, 1.0),
+        size: 256,
+        tolerance: 2,
+        min_share: 0.99,
+        bench: None,
+        frames: 200,
+    };
+    let list: Vec<String> = std::env::args().skip(1).collect();
+    let mut i = 0;
+    let value = |i: &mut usize, name: &str| -> String {
+        *i += 1;
+        list.get(*i)
+            .cloned()
+            .unwrap_or_else(|| usage(&format!("{name} needs a value")))
+    };
+    while i < list.len() {
+        let flag = list[i].clone();
+        let number = |s: String| {
+            s.parse::<f64>()
+                .unwrap_or_else(|_| usage(&format!("{flag}: not a number: {s}")))
+        };
+        match flag.as_str() {
+            "--scene" => a.scene = Some(value(&mut i, &flag).into()),
+            "--exr" => a.exr = Some(value(&mut i, &flag).into()),
+            "--lights" => a.lights = Some(value(&mut i, &flag).into()),
+            "--light" => a.light_json = Some(value(&mut i, &flag).into()),
+            "--turn" => a.turn = number(value(&mut i, &flag)),
+            "--time" => a.time = Some(number(value(&mut i, &flag))),
+            "--screenshot" => a.screenshot = Some(value(&mut i, &flag).into()),
+            "--compare" => {
+                let next = list.get(i + 1).filter(|s| !s.starts_with("--")).cloned();
+                if next.is_some() {
+                    i += 1;
+                }
+                a.compare = Some(next.map(PathBuf::from));
+            }
+            "--view" => {
+                let v: Vec<f32> = value(&mut i, &flag)
+                    .split(',')
+                    .map(|s| s.trim().parse().unwrap_or_else(|_| usage("--view X,Y,Z")))
+                    .collect();
+                if v.len() != 3 {
+                    usage("--view X,Y,Z");
+                }
+                a.view = Vec3::new(v[0], v[1], v[2]);
+            }
+            "--size" => a.size = number(value(&mut i, &flag)) as u32,
+            "--tolerance" => a.tolerance = number(value(&mut i, &flag)) as u8,
+            "--min-share" => a.min_share = number(value(&mut i, &flag)),
+            "--bench" => a.bench = Some(value(&mut i, &flag)),
+            "--frames" => a.frames = number(value(&mut i, &flag)) as u32,
+            "-h" | "--help" => usage("help"),
+            other => usage(&format!("unknown argument {other}")),
+        }
+        i += 1;
+    }
+    if a.compare.is_some() && a.screenshot.is_none() {
+        usage("--compare needs --screenshot");
+    }
+    a
+}
+
+/// The light the scene is lit by: a rig projected here, a light JSON, or the export's own.
+fn scene_light(args: &Args, export: &PrtExport) -> Result<PrtLight, String> {
+    let mut light = if let Some(t) = args.time {
+        sun_at(t, export.order)
+    } else if let Some(rig) = &args.lights {
+        PrtLight::from_rig_file(rig, export.order.max(3)).map_err(|e| e.to_string())?
+    } else if let Some(json) = &args.light_json {
+        PrtLight::from_json_file(json).map_err(|e| e.to_string())?
+    } else if let Some(l) = &export.light {
+        l.clone()
+    } else {
+        return Err("the export carries no light: pass --lights RIG.toml".into());
+    };
+    // --turn: about glTF's up axis, +Y (a rig turned about its z-up world's +z).
+    light.rotation = DMat3::from_rotation_y(args.turn.to_radians());
+    Ok(light)
+}
+
+#[derive(Resource)]
+struct Run {
+    args: Args,
+    targets: Vec<Handle<Image>>,
+    frame: u32,
+    started: Option<Instant>,
+}
+
+fn main() {
+    let args = parse_args();
+    let Some(scene) = args.scene.clone() else {
+        return interactive(args);
+    };
+    let export = load_export(&scene).unwrap_or_else(|e| fail(&e.to_string()));
+    let texel = args
+        .exr
+        .as_ref()
+        .map(|d| load_texel_transfer(d).unwrap_or_else(|e| fail(&e.to_string())));
+    let light = scene_light(&args, &export).unwrap_or_else(|e| fail(&e));
+    let reference = match &args.compare {
+        Some(Some(path)) => Some(load_export(path).unwrap_or_else(|e| fail(&e.to_string()))),
+        Some(None) => Some(load_export(&scene).unwrap_or_else(|e| fail(&e.to_string()))),
+        None => None,
+    };
+    if args.screenshot.is_none() && args.bench.is_none() {
+        usage("a --scene is checked headless: give --screenshot OUT.png or --bench");
+    }
+    let mut app = headless_app();
+    app.add_plugins(PrtPlugin)
+        .insert_resource(light)
+        .insert_resource(Captures::default());
+    app.add_systems(
+        Startup,
+        move |mut commands: Commands,
+              mut meshes: ResMut<Assets<Mesh>>,
+              mut images: ResMut<Assets<Image>>,
+              mut prt_materials: ResMut<Assets<bevy_prt::PrtMaterial>>,
+              mut materials: ResMut<Assets<StandardMaterial>>| {
+            let mut targets = Vec::new();
+            let lightmap_only = args.bench.as_deref() == Some("lightmap");
+            if !lightmap_only {
+                let parts = spawn_prt(
+                    &mut commands,
+                    &export,
+                    texel.as_ref(),
+                    true,
+                    &mut meshes,
+                    &mut images,
+                    &mut prt_materials,
+                )
+                .unwrap_or_else(|e| fail(&e));
+                targets.push(view_camera(
+                    &mut commands,
+                    &mut images,
+                    &export,
+                    &args,
+                    1,
+                    &parts,
+                ));
+            }
+            let exported = if lightmap_only {
+                Some(&export)
+            } else {
+                reference.as_ref()
+            };
+            if let Some(r) = exported {
+                let parts =
+                    spawn_exported(&mut commands, r, &mut meshes, &mut images, &mut materials)
+                        .unwrap_or_else(|e| fail(&e));
+                targets.push(view_camera(&mut commands, &mut images, r, &args, 2, &parts));
+            }
+            commands.insert_resource(Run {
+                args: args.clone(),
+                targets,
+                frame: 0,
+                started: None,
+            });
+        },
+    );
+    app.add_systems(Update, step);
+    app.run();
+}
+
+/// The scene's bounding box.
+fn bounds(export: &PrtExport) -> (Vec3, Vec3) {
+    let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+    for part in &export.parts {
+        if let Some(bevy::mesh::VertexAttributeValues::Float32x3(p)) =
+            part.mesh.attribute(Mesh::ATTRIBUTE_POSITION)
+        {
+            for q in p {
+                lo = lo.min(Vec3::from(*q));
+                hi = hi.max(Vec3::from(*q));
+            }
+        }
+    }
+    (lo, hi)
+}
+
+/// The browser test's view of a scene: from the bounding box's centre along `--view`, 2.4
+/// radii away, a 40° field; the parts go to render layer `layer`.
+fn view_camera(
+    commands: &mut Commands,
+    images: &mut Assets<Image>,
+    export: &PrtExport,
+    args: &Args,
+    layer: usize,
+    parts: &[Entity],
+) -> Handle<Image> {
+    let (lo, hi) = bounds(export);
+    let centre = 0.5 * (lo + hi);
+    let radius = 0.5 * (hi - lo).length();
+    for &p in parts {
+        commands.entity(p).insert(RenderLayers::layer(layer));
+    }
+    let projection = PerspectiveProjection {
+        fov: 40f32.to_radians(),
+        aspect_ratio: 1.0,
+        near: radius / 100.0,
+        far: radius * 10.0,
+        ..default()
+    };
+    let eye = centre + args.view.normalize() * radius * 2.4;
+    camera(
+        commands,
+        images,
+        args.size,
+        layer,
+        projection,
+        Transform::from_translation(eye).looking_at(centre, Vec3::Y),
+    )
+}
+
+/// Headless frames: a few to settle, then the screenshots (and the comparison), or the timed
+/// frames of --bench.
+fn step(
+    mut commands: Commands,
+    mut run: ResMut<Run>,
+    captures: Res<Captures>,
+    mut exit: MessageWriter<AppExit>,
+) {
+    run.frame += 1;
+    let frame = run.frame;
+    if let Some(which) = run.args.bench.clone() {
+        if frame == 10 {
+            run.started = Some(Instant::now());
+        } else if frame == 10 + run.args.frames {
+            let ms = run
+                .started
+                .map_or(0.0, |s| s.elapsed().as_secs_f64() * 1000.0)
+                / run.args.frames as f64;
+            println!(
+                "day_night: {which}: {ms:.2} ms a frame over {} frames at {}²",
+                run.args.frames, run.args.size
+            );
+            exit.write(AppExit::Success);
+        }
+        return;
+    }
+    if frame == 5 {
+        captures.request(&mut commands, &run.targets);
+    }
+    if frame > 5
+        && let Some(shots) = captures.pixels()
+    {
+        let code = finish(&run.args, &shots);
+        exit.write(if code == 0 {
+            AppExit::Success
+        } else {
+            AppExit::error()
+        });
+    } else if frame > 300 {
+        eprintln!("day_night: no screenshot after 300 frames");
+        exit.write(AppExit::error());
+    }
+}
+
+/// Writes the screenshots and compares them; returns the exit code.
+fn finish(args: &Args, shots: &[Vec<u8>]) -> i32 {
+    let out = args.screenshot.as_ref().expect("--screenshot");
+    save(&shots[0], args.size, out);
+    println!("day_night: wrote {}", out.display());
+    if args.compare.is_none() {
+        return 0;
+    }
+    let ref_path = beside(out, "exported");
+    save(&shots[1], args.size, &ref_path);
+    let c = compare(&shots[0], &shots[1], args.tolerance);
+    let ok = c.covered > 1000 && c.share >= args.min_share;
+    println!(
+        "day_night: {} {:.2} % of {} lit pixels within {} codes of the export (worst {}); as exported: {}",
+        if ok { "ok  " } else { "FAIL" },
+        100.0 * c.share,
+        c.covered,
+        args.tolerance,
+        c.worst,
+        ref_path.display()
+    );
+    if ok { 0 } else { 1 }
+}
+
+/// The window: the sun crosses the sky, the sky's colours follow its height.
+#[cfg(feature = "window")]
+fn interactive(args: Args) {
+    let (scene, exr) = demo_scene(&args);
+    let export = load_export(&scene).unwrap_or_else(|e| fail(&e.to_string()));
+    let texel = exr.map(|d| load_texel_transfer(&d).unwrap_or_else(|e| fail(&e.to_string())));
+    let order = export.order;
+    let args2 = args.clone();
+    App::new()
+        .add_plugins((DefaultPlugins, PrtPlugin))
+        .insert_resource(PrtLight::zero(order))
+        .add_systems(
+            Startup,
+            move |mut commands: Commands,
+                  mut meshes: ResMut<Assets<Mesh>>,
+                  mut images: ResMut<Assets<Image>>,
+                  mut materials: ResMut<Assets<bevy_prt::PrtMaterial>>| {
+                let parts = spawn_prt(
+                    &mut commands,
+                    &export,
+                    texel.as_ref(),
+                    false,
+                    &mut meshes,
+                    &mut images,
+                    &mut materials,
+                )
+                .unwrap_or_else(|e| fail(&e));
+                let _ = parts;
+                let (lo, hi) = bounds(&export);
+                let centre = 0.5 * (lo + hi);
+                let eye = centre + args2.view.normalize() * 0.5 * (hi - lo).length() * 2.4;
+                commands.spawn((
+                    Camera3d::default(),
+                    Tonemapping::None,
+                    Transform::from_translation(eye).looking_at(centre, Vec3::Y),
+                ));
+            },
+        )
+        .add_systems(
+            Update,
+            move |time: Res<Time>, mut light: ResMut<PrtLight>| {
+                *light = sun_at(time.elapsed_secs_f64(), order);
+            },
+        )
+        .run();
+}
+
+#[cfg(not(feature = "window"))]
+fn interactive(_args: Args) {
+    fail(
+        "the window needs `--features window`; headless, give --scene FILE.glb --screenshot OUT.png",
+    );
+}
+
+/// The light of time t (seconds): a day of 20 s, the sun rising in the east (+x), crossing
+/// the sky tilted 30° towards −z, setting in the west; sky and sun warmer and dimmer low.
+pub fn sun_at(t: f64, order: usize) -> PrtLight {
+    let angle = (t / 20.0) * std::f64::consts::TAU;
+    let d = DVec3::new(angle.cos(), angle.sin(), -0.5 * angle.sin()).normalize();
+    let height = d.y.max(0.0);
+    let day = height.powf(0.5);
+    let sun = DVec3::new(1.0, 0.55 + 0.4 * day, 0.3 + 0.6 * day) * (3.0 * day);
+    let sky = DVec3::new(0.1, 0.14, 0.25) * (0.2 + day);
+    let ground = DVec3::new(0.05, 0.045, 0.04) * (0.3 + day);
+    PrtLight::sun_and_sky(order, d, sun, sky, ground, DVec3::Y)
+}
+
+/// The interactive scene: --scene, or the Cornell room's texel bake, made by make if missing.
+#[cfg(feature = "window")]
+fn demo_scene(args: &Args) -> (PathBuf, Option<PathBuf>) {
+    if let Some(s) = &args.scene {
+        return (s.clone(), args.exr.clone());
+    }
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let glb = dir.join("target/bevy/demo/cornell-lm.glb");
+    if !glb.exists() {
+        let status = std::process::Command::new("make")
+            .arg("-C")
+            .arg(&dir)
+            .arg("bevy-demo-data")
+            .status();
+        if !status.is_ok_and(|s| s.success()) {
+            fail("make bevy-demo-data failed");
+        }
+    }
+    (glb, Some(dir.join("target/bevy/demo/cornell-lm-exr")))
+}
