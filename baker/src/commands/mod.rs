@@ -7,6 +7,7 @@
 
 pub mod bake;
 pub mod bake_media;
+pub mod bake_occluder;
 pub mod bake_parts;
 pub mod bake_plan;
 pub mod bake_probes;
@@ -20,6 +21,7 @@ pub mod inspect;
 pub mod light;
 pub mod merge;
 pub mod relight;
+pub mod relight_occluders;
 pub mod scene_load;
 pub mod stitch;
 

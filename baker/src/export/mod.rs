@@ -12,4 +12,5 @@ pub mod probe_field;
 pub mod probe_npz;
 pub mod relight;
 pub mod relight_glossy;
+pub mod relight_occluded;
 pub mod relight_rigid;

@@ -12,6 +12,7 @@ pub mod encoded;
 pub mod header;
 pub mod npz;
 pub(crate) mod object_placements;
+pub mod occluder_file;
 pub mod openexr;
 pub mod part_id;
 pub mod ply;
