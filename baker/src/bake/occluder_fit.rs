@@ -129,3 +129,55 @@ pub fn describe(file: &OccluderFile) -> String {
         .collect::<Vec<_>>()
         .join("; ")
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{Material, Mesh};
+
+    /// An octahedron of `radius` about `centre` (its corners on the sphere).
+    fn octahedron(name: &str, centre: Vec3, radius: f32) -> Mesh {
+        let positions: Vec<Vec3> = [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z]
+            .iter()
+            .map(|d| centre + *d * radius)
+            .collect();
+        let triangles = vec![
+            [0, 2, 4],
+            [2, 1, 4],
+            [1, 3, 4],
+            [3, 0, 4],
+            [2, 0, 5],
+            [1, 2, 5],
+            [3, 1, 5],
+            [0, 3, 5],
+        ];
+        Mesh {
+            name: name.into(),
+            normals: None,
+            uvs: None,
+            positions,
+            triangles,
+            material: Material::default(),
+        }
+    }
+
+    #[test]
+    fn two_separate_balls_get_a_sphere_each() {
+        let scene = Scene::from_meshes(
+            std::path::Path::new("two"),
+            vec![
+                octahedron("a", Vec3::new(-2.0, 0.0, 0.0), 0.5),
+                octahedron("b", Vec3::new(3.0, 1.0, 0.0), 0.25),
+            ],
+            Vec::new(),
+        )
+        .unwrap();
+        let mut fit = fit_spheres(&scene, 2).unwrap().spheres;
+        fit.sort_by(|a, b| a.centre.x.total_cmp(&b.centre.x));
+        assert!((fit[0].centre - Vec3::new(-2.0, 0.0, 0.0)).length() < 1e-5, "{fit:?}");
+        assert!((fit[0].radius - 0.5).abs() < 1e-5);
+        assert!((fit[1].centre - Vec3::new(3.0, 1.0, 0.0)).length() < 1e-5, "{fit:?}");
+        assert!((fit[1].radius - 0.25).abs() < 1e-5);
+        assert!(fit_spheres(&scene, 0).is_err() && fit_spheres(&scene, 13).is_err());
+    }
+}
