@@ -113,8 +113,6 @@ fn two_occluders_darken_a_vertex_bake_near_them_only() {
             "--at",
             at[1],
             "--turn",
-            "0,0,1,30",
-            "--turn",
             "1,0,0,90",
             "-o",
             "out/shadowed.ply",
@@ -237,6 +235,14 @@ fn occluder_usage_errors_and_a_damaged_file() {
         "0,0,1",
     ])
     .fails_with(EXIT_BAD_COMMAND_LINE, &["2 --occluder need 2 --at"]);
+    let group = ["--occluder", "out/ball.occ", "--at", "0,0,1"];
+    let turn = ["--turn", "0,0,1,30"];
+    with(&[&turn[..], &group[..]].concat()).fails_with(
+        EXIT_BAD_COMMAND_LINE,
+        &["each --turn follows its own --occluder"],
+    );
+    with(&[&group[..], &turn[..], &turn[..]].concat())
+        .fails_with(EXIT_BAD_COMMAND_LINE, &["at most one a group"]);
     with(&["--at", "0,0,1"]).fails_with(EXIT_BAD_COMMAND_LINE, &["give --probes or --occluder"]);
     s.write("bad.occ", b"\x89PRTOCC\n\x01\0\0\0\x01\0\0\0short");
     with(&["--occluder", "bad.occ", "--at", "0,0,1"])

@@ -174,9 +174,15 @@ mod tests {
         .unwrap();
         let mut fit = fit_spheres(&scene, 2).unwrap().spheres;
         fit.sort_by(|a, b| a.centre.x.total_cmp(&b.centre.x));
-        assert!((fit[0].centre - Vec3::new(-2.0, 0.0, 0.0)).length() < 1e-5, "{fit:?}");
+        assert!(
+            (fit[0].centre - Vec3::new(-2.0, 0.0, 0.0)).length() < 1e-5,
+            "{fit:?}"
+        );
         assert!((fit[0].radius - 0.5).abs() < 1e-5);
-        assert!((fit[1].centre - Vec3::new(3.0, 1.0, 0.0)).length() < 1e-5, "{fit:?}");
+        assert!(
+            (fit[1].centre - Vec3::new(3.0, 1.0, 0.0)).length() < 1e-5,
+            "{fit:?}"
+        );
         assert!((fit[1].radius - 0.25).abs() < 1e-5);
         assert!(fit_spheres(&scene, 0).is_err() && fit_spheres(&scene, 13).is_err());
     }

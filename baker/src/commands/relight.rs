@@ -36,7 +36,7 @@ pub struct RelightArgs {
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_view, allow_hyphen_values = true)]
     at: Vec<glam::Vec3>,
     /// With --probes: the object's rotation, about the axis X,Y,Z by DEGREES (default none);
-    /// with --occluder: none, or one per --occluder.
+    /// with --occluder: the rotation of the --occluder before it (default none).
     #[arg(long, value_name = "X,Y,Z,DEGREES", value_parser = parse_turn, allow_hyphen_values = true)]
     turn: Vec<glam::DQuat>,
     #[command(flatten)]

@@ -9,7 +9,7 @@ use prt_baker::export::relight_occluded::{PlacedOccluder, relight_occluded};
 
 #[derive(clap::Args)]
 pub struct OccluderGroups {
-    /// A moving occluder (an occluder file: `bake OBJ --occluder`) whose shadow darkens the bake, placed by the --at (and --turn) given with it; repeat `--occluder … --at …` for several (docs/guides/occluders.md). Vector bakes, per vertex or per texel.
+    /// A moving occluder (an occluder file: `bake OBJ --occluder`) whose shadow darkens the bake, placed by the --at and the optional --turn that follow it; repeat `--occluder … --at … [--turn …]` for several (docs/guides/occluders.md). Vector bakes, per vertex or per texel.
     #[arg(long, value_name = "OCC.prt", requires = "at", conflicts_with = "view")]
     occluder: Vec<PathBuf>,
 }
@@ -19,31 +19,60 @@ impl OccluderGroups {
         self.occluder.is_empty()
     }
 
-    /// Pairs each --occluder with its --at and --turn (all or none of the groups turned).
+    /// Pairs each --occluder with its --at and its --turn, if the group has one.
     pub fn placed(
         &self,
         at: &[glam::Vec3],
         turn: &[glam::DQuat],
     ) -> Result<Vec<PlacedOccluder>, Error> {
         let count = self.occluder.len();
-        if at.len() != count || !(turn.is_empty() || turn.len() == count) {
+        if at.len() != count {
             return Err(Error::InvalidOption(format!(
-                "{count} --occluder need {count} --at and none or {count} --turn (got {} and {})",
-                at.len(),
-                turn.len()
+                "{count} --occluder need {count} --at (got {})",
+                at.len()
             )));
+        }
+        let groups = turn_groups().unwrap_or_else(|| (0..turn.len()).collect());
+        let mut rotations = vec![glam::DQuat::IDENTITY; count];
+        let mut turned = vec![false; count];
+        for (t, group) in groups.iter().enumerate() {
+            if *group >= count || std::mem::replace(&mut turned[*group], true) {
+                return Err(Error::InvalidOption(
+                    "each --turn follows its own --occluder, at most one a group".into(),
+                ));
+            }
+            rotations[*group] = turn[t];
         }
         Ok(self
             .occluder
             .iter()
-            .enumerate()
-            .map(|(k, file)| PlacedOccluder {
+            .zip(at.iter().zip(rotations))
+            .map(|(file, (&position, rotation))| PlacedOccluder {
                 file: file.clone(),
-                position: at[k],
-                rotation: turn.get(k).copied().unwrap_or_default(),
+                position,
+                rotation,
             })
             .collect())
     }
+}
+
+/// The group of each --turn: the last --occluder before it on the command line (clap keeps
+/// each option's values apart; their order comes back from its indices). `None` where the
+/// command line does not parse as `relight` (a caller other than the binary), or a --turn
+/// comes before every --occluder (then `usize::MAX`, refused by the caller).
+fn turn_groups() -> Option<Vec<usize>> {
+    let matches = crate::command().try_get_matches().ok()?;
+    let (_, relight) = matches.subcommand()?;
+    let occluders: Vec<usize> = relight.indices_of("occluder")?.collect();
+    let turns: Vec<usize> = relight
+        .indices_of("turn")
+        .map_or(Vec::new(), Iterator::collect);
+    Some(
+        turns
+            .iter()
+            .map(|t| occluders.iter().rposition(|o| o < t).unwrap_or(usize::MAX))
+            .collect(),
+    )
 }
 
 /// Without occluders, --at and --turn belong to --probes: one each at most.
