@@ -22,6 +22,8 @@ command -v glslangValidator >/dev/null || { echo "browser: glslangValidator is m
 node scripts/browser/glsl-snippets.mjs docs/reference/gltf.md "$OUT/glsl"
 node scripts/browser/sh-test.mjs target/release/prt-bake "$OUT"
 node scripts/browser/probe-test.mjs target/release/prt-bake "$OUT"
+# Moving occluders: occluders.js's occludedTransfer against relight --occluder (docs/guides/occluders.md).
+node scripts/browser/occluder-test.mjs target/release/prt-bake "$OUT"
 # A rigid object moving through the Cornell room's probes, lit by prt.js in Chromium, against
 # relight at probes baked exactly at its positions (docs/guides/probes.md).
 node scripts/browser/probe-move.mjs "$NODE_DIR/node_modules" target/release/prt-bake "$OUT"

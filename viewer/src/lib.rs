@@ -52,6 +52,7 @@ pub mod gpu;
 pub mod lights;
 mod materials;
 pub mod moving;
+pub mod occluders;
 pub mod offscreen;
 mod overlay;
 pub mod probe;

@@ -6,11 +6,13 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::{Parser, ValueEnum};
+use prt_baker::formats::occluder_file::OccluderFile;
 use prt_baker::light::Rig;
 use prt_baker::support::output::Output;
 use prt_viewer::bench::{self, BenchOptions};
 use prt_viewer::lights::{Lights, MAX_LIGHTS};
 use prt_viewer::moving::{self, Mover, Probes};
+use prt_viewer::occluders::MoverShadow;
 use prt_viewer::offscreen;
 use prt_viewer::window::{self, WindowOptions};
 use prt_viewer::{Bake, Camera, Error, FrameInputs, Gpu, Key, Mode, Renderer, View};
@@ -122,6 +124,10 @@ struct Cli {
         requires = "mover"
     )]
     mover_at: f32,
+    /// With --mover: an occluder file (`prt-bake bake OBJECT --occluder`) that moves with it
+    /// and shadows the scene, a per-vertex vector bake (docs/guides/occluders.md).
+    #[arg(long, value_name = "OCC", requires = "mover")]
+    mover_occluder: Option<PathBuf>,
     /// Start with the probes hidden (P shows them).
     #[arg(long, requires = "probes")]
     hide_probes: bool,
@@ -195,6 +201,7 @@ fn run(cli: Cli) -> Result<(), Error> {
         cli.probes.as_ref(),
         cli.mover.as_ref(),
         cli.mover_prt.as_ref(),
+        cli.mover_occluder.as_ref(),
     ]
     .into_iter()
     .flatten()
@@ -211,6 +218,10 @@ fn run(cli: Cli) -> Result<(), Error> {
     };
     let view = initial_view(&cli, &bake, &rig)?;
     let probes = probe_scene(&cli)?;
+    let shadow = match &cli.mover_occluder {
+        Some(path) => Some(MoverShadow::new(&bake, OccluderFile::read(path)?)?),
+        None => None,
+    };
 
     if cli.bench {
         let gpu = Gpu::headless()?;
@@ -227,13 +238,21 @@ fn run(cli: Cli) -> Result<(), Error> {
         return Ok(());
     }
     if let Some(path) = &cli.screenshot {
-        return screenshot(&cli, path, (&bake, probes), &view, &rig, named_inputs);
+        return screenshot(
+            &cli,
+            path,
+            (&bake, probes, shadow),
+            &view,
+            &rig,
+            named_inputs,
+        );
     }
     let options = WindowOptions {
         size: cli.size,
         frames: cli.frames,
         keys: cli.keys,
         probes,
+        shadow,
     };
     let stats = window::run(bake, view, options)?;
     println!(
@@ -289,12 +308,15 @@ fn probe_scene(cli: &Cli) -> Result<Option<(Probes, Option<Mover>)>, Error> {
     Ok(Some((probes, mover)))
 }
 
+/// `--probes` and `--mover`, loaded.
+type ProbesAndMover = Option<(Probes, Option<Mover>)>;
+
 /// Renders one frame offscreen to `path`, which must not overwrite any input (the scene's
 /// files, those named on the command line, the rig's).
 fn screenshot(
     cli: &Cli,
     path: &Path,
-    (bake, probes): (&Bake, Option<(Probes, Option<Mover>)>),
+    (bake, probes, shadow): (&Bake, ProbesAndMover, Option<MoverShadow>),
     view: &View,
     rig: &Rig,
     named_inputs: Vec<PathBuf>,
@@ -312,6 +334,9 @@ fn screenshot(
         let scene = renderer.probe_scene_mut().expect("just set");
         scene.show_probes = !cli.hide_probes;
         scene.distance = cli.mover_at.clamp(0.0, 1.0) * scene.mover().map_or(0.0, |m| m.length());
+    }
+    if let Some(shadow) = shadow {
+        renderer.set_mover_shadow(shadow);
     }
     let inputs = FrameInputs::from_view(view, None);
     let image = offscreen::render_image(&gpu.device, &gpu.queue, &mut renderer, &inputs)?;

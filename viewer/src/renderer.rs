@@ -160,6 +160,8 @@ pub struct Renderer {
     frame_layout: wgpu::BindGroupLayout,
     frame_buffer: wgpu::Buffer,
     light_buffer: wgpu::Buffer,
+    /// A vertex bake's transfer (rewritten per frame under a mover's shadow).
+    transfer: wgpu::Buffer,
     frame_bind_group: wgpu::BindGroup,
     vertices: wgpu::Buffer,
     indices: wgpu::Buffer,
@@ -192,6 +194,8 @@ pub struct Renderer {
     light_vectors: bool,
     /// Transfer probes and a moving object lit by them (`--probes`, `--mover`).
     probe_scene: Option<ProbeScene>,
+    /// The mover's shadow on a vertex bake (`--mover-occluder`, occluders.rs).
+    mover_shadow: Option<crate::occluders::MoverShadow>,
 }
 
 impl Renderer {
@@ -291,6 +295,7 @@ impl Renderer {
             frame_layout: frame.layout,
             frame_buffer: frame.frame_buffer,
             light_buffer: frame.light_buffer,
+            transfer: frame.transfer,
             frame_bind_group: frame.bind_group,
             vertices,
             indices,
@@ -313,6 +318,7 @@ impl Renderer {
             normals: false,
             light_vectors: false,
             probe_scene: None,
+            mover_shadow: None,
         })
     }
 
@@ -332,6 +338,11 @@ impl Renderer {
             mover,
         )?);
         Ok(())
+    }
+
+    /// Darkens the scene where the probe scene's mover stands, each frame (occluders.rs).
+    pub fn set_mover_shadow(&mut self, shadow: crate::occluders::MoverShadow) {
+        self.mover_shadow = Some(shadow);
     }
 
     pub fn probe_scene(&self) -> Option<&ProbeScene> {
@@ -406,6 +417,10 @@ impl Renderer {
         }
         if let Some(probes) = &self.probe_scene {
             probes.update(queue, &inputs.prt_light);
+            if let (Some(shadow), Some(placement)) = (&self.mover_shadow, probes.placement()) {
+                let transfer = shadow.transfer(placement);
+                queue.write_buffer(&self.transfer, 0, bytemuck::cast_slice(&transfer));
+            }
         }
 
         let lines: Vec<LineVertex> = inputs
@@ -631,6 +646,8 @@ struct FrameResources {
     layout: wgpu::BindGroupLayout,
     frame_buffer: wgpu::Buffer,
     light_buffer: wgpu::Buffer,
+    /// A vertex bake's transfer (rewritten per frame under a mover's shadow).
+    transfer: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
     /// Whether a texel bake's transfer is in the buffer (binding 4) or the array (3).
     texel_transfer_in_buffer: bool,
@@ -655,7 +672,7 @@ impl FrameResources {
                 None if upload_transfer => bytemuck::cast_slice(&bake.file.coefficients),
                 _ => bytemuck::bytes_of(&[0.0f32; 4]),
             },
-            wgpu::BufferUsages::STORAGE,
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         );
         let texel_transfer = match lightmap {
             Some(l) => TexelTransfer::upload(
@@ -696,6 +713,7 @@ impl FrameResources {
             layout,
             frame_buffer,
             light_buffer,
+            transfer,
             bind_group,
             texel_transfer_in_buffer: texel_transfer.in_buffer,
         })

@@ -32,6 +32,8 @@ pub struct WindowOptions {
     pub keys: Vec<Key>,
     /// Transfer probes to draw and an object moving through them (`--probes`, `--mover`).
     pub probes: Option<(Probes, Option<Mover>)>,
+    /// The mover's shadow on the scene (`--mover-occluder`).
+    pub shadow: Option<crate::occluders::MoverShadow>,
 }
 
 /// What a window session did.
@@ -141,6 +143,9 @@ impl Running {
         )?;
         if let Some((probes, mover)) = &options.probes {
             renderer.set_probe_scene(&gpu.device, probes.clone(), mover.clone())?;
+        }
+        if let Some(shadow) = &options.shadow {
+            renderer.set_mover_shadow(shadow.clone());
         }
         Ok(Running {
             window,

@@ -23,6 +23,7 @@ pub mod matrix_bounce;
 pub mod matrix_hits;
 pub mod memory;
 pub mod noise;
+pub mod occluder_fit;
 pub mod options;
 pub mod probe_validity;
 pub mod probes;

@@ -55,20 +55,16 @@ pub struct BakeArgs {
     /// Interreflection bounces (interreflected mode; default 1 there).
     #[arg(long)]
     bounces: Option<u32>,
-    /// Rays per vertex whose hits feed the bounces (interreflected mode; default a quarter of
-    /// --samples): closest-hit rays cost 2–4 times occlusion rays, bounced light needs fewer.
+    /// Rays per vertex whose hits feed the bounces (interreflected mode; default a quarter of --samples): closest-hit rays cost 2–4 times occlusion rays, bounced light needs fewer.
     #[arg(long)]
     bounce_samples: Option<u32>,
-    /// Per-vertex arrays to store beside the coefficients: ambient accessibility and the
-    /// bent normal (comma-separated).
+    /// Per-vertex arrays to store beside the coefficients: ambient accessibility and the bent normal (comma-separated).
     #[arg(long, value_enum, value_delimiter = ',')]
     aux: Vec<AuxArg>,
-    /// Memory (MiB) the interreflected mode may use to cache first hits; beyond it the
-    /// bounces re-trace (slower, same result).
+    /// Memory (MiB) the interreflected mode may use to cache first hits; beyond it the bounces re-trace (slower, same result).
     #[arg(long, default_value_t = 1024)]
     hit_cache_mb: u64,
-    /// Ray-tracing backend: Embree, or obvhs (pure Rust, watertight, about a quarter of
-    /// Embree's speed; the only one in a build without Embree). Recorded in the file.
+    /// Ray-tracing backend: Embree, or obvhs (pure Rust, watertight, about a quarter of Embree's speed; the only one in a build without Embree). Recorded in the file.
     #[arg(long, value_enum, default_value_t = BackendArg::DEFAULT)]
     backend: BackendArg,
     /// Embree's robust mode for every ray (about 30 % slower). Without it, only the rays of
@@ -104,8 +100,7 @@ pub struct BakeArgs {
     /// again after a crash or a kill continues from them (same file as an uninterrupted bake).
     #[arg(long, value_name = "DIR")]
     checkpoint: Option<PathBuf>,
-    /// Vertices (with --lightmap: baked texels) per checkpoint block (default: about 67
-    /// million rays' worth).
+    /// Vertices (with --lightmap: baked texels) per checkpoint block (default: about 67 million rays' worth).
     #[arg(long, requires = "checkpoint")]
     checkpoint_vertices: Option<usize>,
     /// Bake per texel of a RES×RES lightmap atlas instead of per vertex (docs/guides/lightmaps.md):
@@ -172,9 +167,14 @@ pub struct BakeArgs {
     /// centres), or grid:NX,NY,NZ:X0,Y0,Z0,X1,Y1,Z1 over a box of its own.
     #[arg(long, value_name = "POINTS.txt|grid:NX,NY,NZ", conflicts_with_all = ["lightmap", "clusters", "pcs", "target_error"])]
     probes: Option<String>,
+    #[command(flatten)]
+    occluder: super::bake_occluder::OccluderArgs,
 }
 
 pub fn run(args: BakeArgs) -> Result<(), Error> {
+    if args.occluder.occluder {
+        return super::bake_occluder::run(&args.scene, &args.output, &args.occluder);
+    }
     super::bake_run::run(&plan(args)?)
 }
 

@@ -8,6 +8,7 @@
 pub mod bake;
 pub mod bake_ldprt;
 pub mod bake_media;
+pub mod bake_occluder;
 pub mod bake_parts;
 pub mod bake_plan;
 pub mod bake_probes;
@@ -22,6 +23,7 @@ pub mod light;
 pub mod merge;
 pub mod relight;
 pub mod relight_ldprt;
+pub mod relight_occluders;
 pub mod scene_load;
 pub mod stitch;
 

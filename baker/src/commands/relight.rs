@@ -30,14 +30,18 @@ pub struct RelightArgs {
     /// A probe bake (`bake --probes grid:…`) of the scene a rigid object moves through: the
     /// object (SCENE, FILE: baked alone, in its own frame) is lit by the probes' incident
     /// radiance at --at, turned into its frame by --turn (docs/guides/probes.md).
-    #[arg(long, requires = "at", conflicts_with = "view")]
+    #[arg(long, requires = "at", conflicts_with_all = ["view", "occluder"])]
     probes: Option<PathBuf>,
-    /// With --probes: the object's position X,Y,Z in the probes' scene.
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_view, allow_hyphen_values = true, requires = "probes")]
-    at: Option<glam::Vec3>,
-    /// With --probes: the object's rotation, about the axis X,Y,Z by DEGREES (default none).
-    #[arg(long, value_name = "X,Y,Z,DEGREES", value_parser = parse_turn, allow_hyphen_values = true, requires = "probes")]
-    turn: Option<glam::DQuat>,
+    /// With --probes: the object's position X,Y,Z in the probes' scene; with --occluder: the
+    /// occluder's, one --at per --occluder.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_view, allow_hyphen_values = true)]
+    at: Vec<glam::Vec3>,
+    /// With --probes: the object's rotation, about the axis X,Y,Z by DEGREES (default none);
+    /// with --occluder: the rotation of the --occluder before it (default none).
+    #[arg(long, value_name = "X,Y,Z,DEGREES", value_parser = parse_turn, allow_hyphen_values = true)]
+    turn: Vec<glam::DQuat>,
+    #[command(flatten)]
+    occluders: super::relight_occluders::OccluderGroups,
 }
 
 /// An axis and an angle in degrees, `X,Y,Z,DEGREES`, as a unit quaternion.
@@ -78,6 +82,16 @@ pub fn run(args: RelightArgs) -> Result<(), Error> {
     }
     let inputs = [args.scene.clone(), args.file.clone(), args.lights.clone()];
     Output::new(&args.output, &inputs)?;
+    if !args.occluders.is_empty() {
+        let files = (
+            args.scene.as_path(),
+            args.file.as_path(),
+            args.lights.as_path(),
+        );
+        let placed = args.occluders.placed(&args.at, &args.turn)?;
+        return super::relight_occluders::run(files, &placed, &args.output, args.exposure);
+    }
+    super::relight_occluders::check_placement(args.probes.is_some(), &args.at, &args.turn)?;
     if super::relight_ldprt::run_if_ldprt(
         &args.scene,
         &args.file,
@@ -87,11 +101,11 @@ pub fn run(args: RelightArgs) -> Result<(), Error> {
     )? {
         return Ok(());
     }
-    if let (Some(probes), Some(position)) = (&args.probes, args.at) {
+    if let (Some(probes), Some(&position)) = (&args.probes, args.at.first()) {
         let placement = prt_baker::export::relight_rigid::Placement {
             probes,
             position,
-            rotation: args.turn.unwrap_or_default(),
+            rotation: args.turn.first().copied().unwrap_or_default(),
         };
         let relit = prt_baker::export::relight_rigid::relight_rigid(
             (&args.scene, &args.file),

@@ -220,7 +220,7 @@ pub(crate) fn write_vertex_ply(
 /// A coefficient file of any version, and for a compressed matrix file its CPCA form too
 /// (rendered by projecting the light per cluster; compressed vector files are relit from
 /// their reconstruction, as before).
-fn read_with_cpca(path: &Path) -> Result<(CoefficientFile, Option<Cpca>)> {
+pub(crate) fn read_with_cpca(path: &Path) -> Result<(CoefficientFile, Option<Cpca>)> {
     let bytes = crate::support::limits::read_file(path)?;
     if !cpca_block::is_compressed(&bytes) {
         let file = CoefficientFile::from_bytes(&bytes)
@@ -235,7 +235,7 @@ fn read_with_cpca(path: &Path) -> Result<(CoefficientFile, Option<Cpca>)> {
 
 /// The lightmap image formats `relight` writes, by the output's extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum ImageFormat {
+pub(crate) enum ImageFormat {
     Png,
     Exr,
 }
@@ -245,7 +245,7 @@ pub(crate) fn image_format_of(output: &Path) -> bool {
     image_format(output).is_some()
 }
 
-fn image_format(output: &Path) -> Option<ImageFormat> {
+pub(crate) fn image_format(output: &Path) -> Option<ImageFormat> {
     let extension = output.extension()?.to_str()?.to_ascii_lowercase();
     match extension.as_str() {
         "png" => Some(ImageFormat::Png),
@@ -284,8 +284,30 @@ fn relight_lightmap(
     let light = rig.project(order).in_scene_frame(file.header.up);
     let (w, h) = (block.width as usize, block.height as usize);
     let radiance = lightmap_radiance(file, &light);
-    let rows = crate::formats::openexr::image_rows(&radiance, w, h);
-    let bytes = match format {
+    let bytes = lightmap_image(block, &radiance, format, output, exposure)?;
+    output_policy.write(&bytes)?;
+    Ok(Relit {
+        vertex_count: w * h,
+        lightmap: true,
+        order,
+        light_count: rig.lights.len(),
+        max_radiance: radiance.iter().flatten().fold(0.0, |a, &b| a.max(b)),
+        matrix: false,
+    })
+}
+
+/// The image bytes of per-texel radiance (texel order) in `format`: tone-mapped PNG, or
+/// linear OpenEXR with A = 1 where the texel holds transfer (see [`relight_lightmap`]).
+pub(crate) fn lightmap_image(
+    block: &crate::formats::coefficient_file::LightmapBlock,
+    radiance: &[[f32; 3]],
+    format: ImageFormat,
+    output: &Path,
+    exposure: f64,
+) -> Result<Vec<u8>> {
+    let (w, h) = (block.width as usize, block.height as usize);
+    let rows = crate::formats::openexr::image_rows(radiance, w, h);
+    Ok(match format {
         ImageFormat::Png => png_bytes(&rows, block.width, block.height, exposure, output)?,
         ImageFormat::Exr => {
             let filled: Vec<f32> = (0..w * h)
@@ -305,15 +327,6 @@ fn relight_lightmap(
                 crate::formats::openexr::PixelType::F32,
             )?
         }
-    };
-    output_policy.write(&bytes)?;
-    Ok(Relit {
-        vertex_count: w * h,
-        lightmap: true,
-        order,
-        light_count: rig.lights.len(),
-        max_radiance: radiance.iter().flatten().fold(0.0, |a, &b| a.max(b)),
-        matrix: false,
     })
 }
 

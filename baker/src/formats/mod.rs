@@ -13,6 +13,7 @@ pub mod header;
 pub mod ldprt_file;
 pub mod npz;
 pub(crate) mod object_placements;
+pub mod occluder_file;
 pub mod openexr;
 pub mod part_id;
 pub mod ply;

@@ -10,5 +10,6 @@ pub mod eigen;
 pub mod glossy;
 pub mod light_prior;
 pub mod medium;
+pub mod occlusion;
 pub mod sampling;
 pub mod sh;

@@ -25,6 +25,7 @@
 
 mod basis;
 pub mod rotation;
+pub mod triple;
 
 pub use basis::*;
 pub use rotation::{RecurrenceRotator, RotationScratch};
