@@ -61,6 +61,13 @@ fn merged_shards_equal_the_single_machine_bake_in_every_mode() {
     // The Cornell box's coloured walls: three channels, two bounces gathered by the merge.
     let interreflected = ["--mode", "interreflected", "--bounces", "2", "--aux", "ao"];
     assert_merge_is_the_whole_bake(&s, CORNELL, "rgb", 5, &interreflected);
+    // Denoised: the parts carry their vertices' noise and guides, and the merge denoises
+    // every vertex (after the bounces) as the whole bake does.
+    let denoised = ["--aux", "ao,bent-normal", "--denoise", "on"];
+    assert_merge_is_the_whole_bake(&s, CORNELL, "denoised", 4, &denoised);
+    assert!(s.read("out/denoised.prt") != s.read("out/aux.prt"));
+    let denoised = [&interreflected[..], &["--denoise", "on"]].concat();
+    assert_merge_is_the_whole_bake(&s, CORNELL, "rgb-denoised", 3, &denoised);
     let thesis = [
         "--mode",
         "interreflected",
@@ -140,6 +147,12 @@ fn merge_refuses_missing_duplicated_and_foreign_parts_and_writes_nothing() {
     s.bake(TORUS, "torus.prt", &["--shard", "2/3"]);
     s.bake(CORNELL, "of4.prt", &["--shard", "2/4"]);
     s.bake(CORNELL, "whole.prt", &[]);
+    // A denoised bake's part among raw ones: its guides could not denoise the others.
+    s.bake(
+        CORNELL,
+        "denoised.prt",
+        &["--shard", "2/3", "--denoise", "on"],
+    );
     let parts = [
         "p0.prt",
         "p1.prt",
@@ -148,8 +161,9 @@ fn merge_refuses_missing_duplicated_and_foreign_parts_and_writes_nothing() {
         "torus.prt",
         "of4.prt",
         "whole.prt",
+        "denoised.prt",
     ];
-    let cases: [(&[&str], &[&str]); 6] = [
+    let cases: [(&[&str], &[&str]); 7] = [
         (&["out/p0.prt", "out/p2.prt"], &["shard 1 of 3 missing"]),
         (
             &["out/p0.prt", "out/p1.prt", "out/p1.prt", "out/p2.prt"],
@@ -176,6 +190,10 @@ fn merge_refuses_missing_duplicated_and_foreign_parts_and_writes_nothing() {
         (
             &["out/p0.prt", "out/p1.prt", "out/whole.prt"],
             &["out/whole.prt: a whole bake, not a shard part"],
+        ),
+        (
+            &["out/p0.prt", "out/p1.prt", "out/denoised.prt"],
+            &["out/denoised.prt: a part of another bake", "denoised true"],
         ),
     ];
     for (given, needles) in cases {
@@ -344,6 +362,9 @@ fn a_checkpointed_bake_killed_with_sigkill_resumes_to_the_same_file() {
         "interreflected",
         "--aux",
         "ao",
+        // Denoised once the blocks are joined, as the uninterrupted bake is.
+        "--denoise",
+        "on",
         "--checkpoint",
         "out/checkpoint",
         "--checkpoint-vertices",

@@ -225,8 +225,9 @@ fn whole_lightmap_bakes_are_denoised_by_default_and_say_so() {
     assert!(inspect("auto.prt").contains("\"denoised\": true"));
     assert!(!inspect("off.prt").contains("denoised"));
     assert!(s.read("out/auto.prt") != s.read("out/off.prt"));
-    // A vertex bake stays raw unless asked; an unshadowed bake has nothing to denoise; a
-    // shard is not denoised.
+    // A vertex bake stays raw unless asked; an unshadowed bake has nothing to denoise;
+    // probes are not denoised (shards and checkpoints are: cli_lightmap_shards.rs,
+    // cli_distributed.rs, cli_lightmap_stages.rs).
     s.bake(CORNELL, "vertex.prt", &["--samples", "16"]);
     assert!(!inspect("vertex.prt").contains("denoised"));
     s.bake(
@@ -241,7 +242,7 @@ fn whole_lightmap_bakes_are_denoised_by_default_and_say_so() {
         s.run(&args)
     };
     bake(&["--mode", "unshadowed", "--denoise", "on"]).fails_with(2, &["--denoise on"]);
-    bake(&[&lightmap[..], &["--shard", "0/2", "--denoise", "on"]].concat())
-        .fails_with(2, &["--denoise on"]);
+    bake(&["--probes", "grid:2,2,2", "--denoise", "on"]).fails_with(2, &["--denoise on"]);
+
     s.assert_out_holds(&["auto.prt", "off.prt", "vertex.prt", "vertex-on.prt"]);
 }

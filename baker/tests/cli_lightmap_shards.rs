@@ -60,10 +60,23 @@ fn merged_texel_shards_equal_the_whole_texel_bake() {
     assert_texel_merge_is_the_whole_bake(&s, "shadowed", &[]);
     assert_texel_merge_is_the_whole_bake(&s, "aux", &["--aux", "ao,bent-normal"]);
     assert_texel_merge_is_the_whole_bake(&s, "unshadowed", &["--mode", "unshadowed"]);
+    // Denoised: the parts carry their texels' noise and guides, the merge denoises every
+    // texel before placing the lightmap, as the whole bake does (and it did change the file).
+    let denoised = ["--aux", "ao,bent-normal", "--denoise", "on"];
+    assert_texel_merge_is_the_whole_bake(&s, "denoised", &denoised);
+    assert!(s.read("out/denoised.prt") != s.read("out/aux.prt"));
+    let header = s.run(&["inspect", "out/denoised.merged.prt"]).success();
+    assert!(
+        header.stdout.contains("\"denoised\": true"),
+        "{}",
+        header.stdout
+    );
     // The torus's unwrapped charts meet at smooth seams, which the merge stitches as the
     // whole bake does (the room's boards meet at creases only).
     let stitched = ["--atlas", "unwrap", "--aux", "ao", "--samples", "256"];
     assert_merge_of(&s, TORUS, "torus-seams", &stitched);
+    let denoised = [&stitched[..], &["--denoise", "on"]].concat();
+    assert_merge_of(&s, TORUS, "torus-denoised", &denoised);
     let run = s
         .run(
             &[
@@ -84,6 +97,9 @@ fn merged_texel_shards_equal_the_whole_texel_bake() {
     // Coloured walls: 3 channels, two bounces gathered by the merge over the dilated lightmap.
     let interreflected = ["--mode", "interreflected", "--bounces", "2", "--aux", "ao"];
     assert_texel_merge_is_the_whole_bake(&s, "rgb", &interreflected);
+    // Denoised after the merge's bounces, as the whole bake denoises after its own.
+    let denoised = [&interreflected[..], &["--denoise", "on"]].concat();
+    assert_texel_merge_is_the_whole_bake(&s, "rgb-denoised", &denoised);
     let header = s.run(&["inspect", "out/rgb.merged.prt"]).success().stdout;
     assert!(header.contains("\"channels\": 3"), "{header}");
     assert!(header.contains("\"width\": 40"), "{header}");
@@ -285,9 +301,8 @@ fn a_checkpointed_texel_bake_killed_with_sigkill_resumes_to_the_same_file() {
         "2",
         "--aux",
         "ao,bent-normal",
-        // The uninterrupted bake below drops the checkpoint: raw, as checkpoints are.
-        "--denoise",
-        "off",
+        // --denoise auto: a checkpointed texel bake is denoised once its blocks are joined,
+        // as the uninterrupted bake below (which drops the checkpoint) is.
         "--checkpoint",
         "out/checkpoint",
         "--checkpoint-vertices",
@@ -352,6 +367,8 @@ fn a_checkpointed_texel_bake_killed_with_sigkill_resumes_to_the_same_file() {
         s.read("out/resumed.prt") == s.read("out/whole.prt"),
         "the resumed texel bake differs from the uninterrupted one"
     );
+    let header = s.run(&["inspect", "out/resumed.prt"]).success().stdout;
+    assert!(header.contains("\"denoised\": true"), "{header}");
 
     // A block carries its texels, not the atlas (flag bit 0 at byte 180), and is no part.
     let block = s.read("out/checkpoint/block-000000.prt");
@@ -451,7 +468,10 @@ fn per_object_atlases_shard_and_checkpoint_like_whole_bakes() {
     let placements = inspected.stdout.matches("\"scale\"").count();
     assert_eq!(placements, 2, "{}", inspected.stdout);
 
-    // A checkpointed bake over blocks of 64 texels, run to the end, is the whole bake.
+    // A checkpointed bake over blocks of 64 texels, run to the end, is the whole bake;
+    // both denoised by default (--denoise auto), the objects' texels kept apart.
+    let auto = ["--lightmap", "40", "--aux", "ao", "--denoise", "auto"];
+    s.bake("objects.gltf", "objects-auto.prt", &auto);
     s.run(&[
         "bake",
         "objects.gltf",
@@ -470,5 +490,6 @@ fn per_object_atlases_shard_and_checkpoint_like_whole_bakes() {
         "64",
     ])
     .success();
-    assert!(s.read("out/checkpointed.prt") == s.read("out/objects.prt"));
+    assert!(s.read("out/checkpointed.prt") == s.read("out/objects-auto.prt"));
+    assert!(s.read("out/checkpointed.prt") != s.read("out/objects.prt"));
 }

@@ -145,6 +145,11 @@ fn staged_bakes_equal_the_whole_bake() {
     ]
     .concat();
     assert_staged_is_whole(&s, CORNELL, "room", &room, 3, 3);
+    // Denoised: the merged bounce files carry the parts' guides, and the last merge
+    // denoises the total before placing the lightmap, as the whole bake does.
+    let denoised = [&room[..], &["--denoise", "on"]].concat();
+    assert_staged_is_whole(&s, CORNELL, "room-denoised", &denoised, 2, 2);
+    assert!(s.read("out/room-denoised.prt") != s.read("out/room.prt"));
     // The torus's unwrapped charts meet at smooth seams: the stitch shards do the work.
     let torus = [
         &lightmap[..],
@@ -167,6 +172,8 @@ fn staged_bakes_equal_the_whole_bake() {
         "32",
     ];
     assert_staged_is_whole(&s, CORNELL, "vertices", &vertices, 2, 0);
+    let denoised = [&vertices[..], &["--denoise", "on"]].concat();
+    assert_staged_is_whole(&s, CORNELL, "vertices-denoised", &denoised, 2, 0);
 }
 
 #[test]

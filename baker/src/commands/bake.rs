@@ -79,9 +79,9 @@ pub struct BakeArgs {
     #[arg(long, conflicts_with_all = ["shard", "checkpoint"])]
     target_error: Option<f32>,
     /// Denoise the baked transfer (a filter in world space whose weights every coefficient
-    /// shares, so every light sees it denoised; docs/explanation/denoising.md). auto: on for whole
-    /// lightmap bakes that cast a fixed number of owen-sobol rays, as lightmappers do; off
-    /// for vertex bakes, parts, probes and adaptive bakes.
+    /// shares, so every light sees it denoised; docs/explanation/denoising.md). auto: on for
+    /// lightmap bakes (whole, shards, checkpoints) that cast a fixed number of owen-sobol rays,
+    /// as lightmappers do; off for vertex bakes, probes and adaptive bakes.
     #[arg(long, value_enum, default_value_t = DenoiseArg::Auto)]
     denoise: DenoiseArg,
     /// No progress bar (the summary line is still printed).
@@ -217,7 +217,7 @@ fn options(args: &BakeArgs, what: &What) -> BakeOptions {
             DenoiseArg::Off => false,
             DenoiseArg::Auto => {
                 args.lightmap.is_some()
-                    && *what == What::Whole
+                    && matches!(what, What::Whole | What::Parts)
                     && mode.casts_rays()
                     && args.target_error.is_none()
                     && args.sampling == SamplingArg::OwenSobol
@@ -226,19 +226,14 @@ fn options(args: &BakeArgs, what: &What) -> BakeOptions {
     }
 }
 
-/// The plan of the arguments, checked in this order: the options, denoising only whole,
+/// The plan of the arguments, checked in this order: the options, denoising only receivers,
 /// the sample tables' memory, the compression, the lightmap's resolution, the shard, the
 /// backend, `--prepared` only in parts.
 fn plan(args: BakeArgs) -> Result<BakePlan, Error> {
     let what = what(&args);
     let options = options(&args, &what);
     options.validate()?;
-    if options.denoise && what != What::Whole {
-        return Err(Error::InvalidOption(
-            "--denoise on is for whole bakes: parts, checkpoints and probes are not denoised"
-                .into(),
-        ));
-    }
+    super::bake_plan::check_denoise(&options, &what)?;
     memory::check_bake_options(&options)?;
     let prior = args.light_prior.map(Into::into);
     let fit = compress::bake_fit(args.clusters, args.pcs, prior, args.starts, options.order)?;

@@ -10,7 +10,7 @@ use prt_baker::distribute::shard::ShardId;
 use prt_baker::export::compress::FitOptions;
 use prt_baker::scene::Up;
 use prt_baker::trace::{Backend, TracerOptions};
-use prt_baker::{BakeOptions, Scene};
+use prt_baker::{BakeOptions, Error, Scene};
 
 use super::scene_load::{DoubleSidedArg, InstancesArg};
 
@@ -125,6 +125,21 @@ impl BakePlan {
         let options = &self.options;
         let (backend, rays) = (self.backend.name(), options.mode.casts_rays());
         prepared_file::key(scene.fingerprint(), &lightmap, options.seed, backend, rays)
+    }
+}
+
+/// Refuses `--denoise on` for probes, which are not denoised. Bakes in shards or
+/// checkpoints are denoised where every receiver is in (the merge, or the checkpointed
+/// bake's join), with the guides their parts carry; `prepare-lightmap` takes the bake's
+/// options, and its preparation serves denoised and raw shards alike.
+pub fn check_denoise(options: &BakeOptions, what: &What) -> Result<(), Error> {
+    match options.denoise && matches!(what, What::Probes(_)) {
+        true => Err(Error::InvalidOption(
+            "--denoise on is for vertex and texel bakes (whole, in shards or checkpointed): \
+             probes are not denoised"
+                .into(),
+        )),
+        false => Ok(()),
     }
 }
 

@@ -20,8 +20,10 @@
 //! in a merged file, its lightmap ([`Part`]; a shard's gather leaves the lightmap out, it is
 //! tens of megabytes) — the lightmap's fingerprint (u64, 0 for a vertex bake) and the stub;
 //! then bounce k at each receiver (n² floats at k = 0,
-//! channels × n² after); a merged file also the total T₀ + … + T_k (channels × n²) and the
-//! aux arrays; last an xxh3 of everything before it.
+//! channels × n² after); a merged file also the total T₀ + … + T_k (channels × n²), the
+//! aux arrays and, for a denoised bake, the parts' denoiser guides (12 words a receiver,
+//! [`crate::distribute::part_guides`]): the last merge denoises the total with them, as the
+//! whole bake denoises its transfer after the bounces; last an xxh3 of everything before it.
 
 use std::borrow::Cow;
 use std::collections::BTreeMap;
@@ -30,9 +32,11 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 
 use crate::CoefficientFile;
+use crate::bake::denoise::Guides;
 use crate::bake::interreflection::{self, RowSource, Rows};
 use crate::bake::transfer::{Estimator, Mode};
 use crate::distribute::merge::{join, refuse};
+use crate::distribute::part_guides::{GUIDE_WORDS, guide_bytes, parse_guides};
 use crate::distribute::shard::{Part, PartId, ShardId, header_difference, options_of, shard_range};
 use crate::formats::encoded::Encoded;
 use crate::math::sh;
@@ -61,6 +65,9 @@ pub struct BounceFile {
     pub total: Vec<f32>,
     pub ao: Option<Vec<f32>>,
     pub bent_normal: Option<Vec<Vec3>>,
+    /// Merged files of a denoised bake: every receiver's noise and the denoiser's guides,
+    /// for the last merge to denoise with ([`crate::distribute::part_guides`]).
+    pub guides: Option<Guides>,
 }
 
 impl BounceFile {
@@ -103,6 +110,7 @@ impl BounceFile {
             }
             b
         });
+        e.push(self.guides.as_ref().map_or(Vec::new(), guide_bytes));
         let mut hasher = xxhash_rust::xxh3::Xxh3::new();
         for part in e.parts() {
             hasher.update(part);
@@ -154,12 +162,14 @@ impl BounceFile {
         }
         let (width, total_width) = BounceFile::widths(&stub, k);
         let aux = stub.header.aux;
+        let guided = merged && stub.header.denoised;
         let per_receiver = width
             + if merged {
                 total_width + usize::from(aux.ao) + 3 * usize::from(aux.bent_normal)
             } else {
                 0
-            };
+            }
+            + GUIDE_WORDS * usize::from(guided);
         let floats = &body[stub_end..];
         let expected = (count as usize)
             .checked_mul(per_receiver * 4)
@@ -197,6 +207,12 @@ impl BounceFile {
                 .map(Vec3::from_slice)
                 .collect()
         });
+        // A gather (no `keep_total`) reads no guides: only the last merge denoises.
+        let guide_len = count_us * GUIDE_WORDS * 4;
+        let guides = match guided && keep_total {
+            true => Some(parse_guides(&floats[floats.len() - guide_len..], count_us)?),
+            false => None,
+        };
         Ok(BounceFile {
             k,
             shard: (!merged).then_some(ShardId {
@@ -211,6 +227,7 @@ impl BounceFile {
             total,
             ao,
             bent_normal,
+            guides,
         })
     }
 
@@ -247,6 +264,7 @@ impl BounceFile {
             },
             ao: self.ao,
             bent_normal: self.bent_normal,
+            guides: self.guides,
             ..self.stub
         };
         part.into_file_with(self.total, stitch)
@@ -272,6 +290,7 @@ fn stub_of(part: &Part) -> Part {
             weights: Vec::new(),
         }),
         lightmap: part.lightmap.clone(),
+        guides: part.header.denoised.then(Default::default),
     }
 }
 
@@ -330,6 +349,7 @@ pub fn direct(paths: &[PathBuf]) -> Result<BounceFile> {
         total,
         ao: whole.ao,
         bent_normal: whole.bent_normal,
+        guides: whole.guides,
     })
 }
 
@@ -396,6 +416,7 @@ pub fn gather(part_path: &Path, lower_path: &Path, progress: &dyn Progress) -> R
         total: Vec::new(),
         ao: None,
         bent_normal: None,
+        guides: None,
     })
 }
 

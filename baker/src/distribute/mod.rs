@@ -15,6 +15,7 @@ pub mod lightmap_parts;
 pub mod merge;
 pub mod part_baker;
 pub mod part_encoding;
+pub mod part_guides;
 pub mod prepared_file;
 pub mod probe_parts;
 pub mod probe_shards;

@@ -5,6 +5,7 @@
 use std::ops::Range;
 
 use crate::bake::bounce_rows::{HitCache, HitRecorder};
+use crate::bake::denoise::{self, Guides};
 use crate::bake::interreflection::{self, Rows};
 use crate::bake::lightmap::Prepared;
 use crate::bake::transfer::{
@@ -37,6 +38,9 @@ pub struct PartBaker<'a> {
     targets: BounceTargets<'a>,
     header: Header,
     lightmap: Option<PartLightmap>,
+    /// Denoised bakes: the guides of every receiver, whose range each part carries with
+    /// its receivers' noise.
+    guides: Option<Guides>,
 }
 
 impl<'a> PartBaker<'a> {
@@ -60,6 +64,8 @@ impl<'a> PartBaker<'a> {
             targets: BounceTargets::Vertices,
             header: bake_header(scene, backend, options),
             lightmap: None,
+            guides: (options.denoise && tracer.is_some())
+                .then(|| denoise::vertex_guides(scene, Vec::new())),
         })
     }
 
@@ -85,6 +91,8 @@ impl<'a> PartBaker<'a> {
             targets: BounceTargets::texels(&prepared.atlas, texels),
             header,
             lightmap: Some(PartLightmap::new(scene, prepared)),
+            guides: (options.denoise && tracer.is_some())
+                .then(|| denoise::texel_guides(scene, &prepared.atlas, texels, Vec::new())),
         })
     }
 
@@ -190,6 +198,10 @@ impl<'a> PartBaker<'a> {
             rows: None,
             header: self.header.clone(),
             lightmap: self.lightmap.clone(),
+            guides: self.guides.as_ref().map(|g| Guides {
+                noise: direct.visibility.iter().map(|v| v.noise).collect(),
+                ..g.range(receivers.clone())
+            }),
         };
         Ok((part, jobs, rays))
     }
@@ -322,6 +334,46 @@ mod tests {
         let err = Part::from_bytes(&bad.to_bytes()).unwrap_err();
         assert!(
             err.contains("coefficient 1 of vertex 1 is not finite"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn denoised_parts_carry_their_guides_and_bad_guides_are_refused() {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../scenes/cornell/cornell.scene"
+        );
+        let scene = Scene::load(Path::new(path)).unwrap();
+        let tracer = crate::trace::build(Backend::DEFAULT, &scene, Default::default()).unwrap();
+        let mut options = BakeOptions {
+            samples: 32,
+            ..BakeOptions::default()
+        };
+        let shard = ShardId { index: 1, count: 3 };
+        let silent = crate::support::progress::Silent;
+        let raw = bake_part(&scene, Some(&*tracer), &options, shard, 100..140, &silent);
+        options.denoise = true;
+        let part = bake_part(&scene, Some(&*tracer), &options, shard, 100..140, &silent);
+        let (raw, part) = (raw.unwrap().0, part.unwrap().0);
+        // A raw part is as before: no guides. A denoised one: 48 bytes a vertex more, the
+        // whole scene's guides of its vertices, and each vertex's noise.
+        assert!(raw.guides.is_none());
+        assert_eq!(part.to_bytes().len(), raw.to_bytes().len() + 48 * 40);
+        let guides = part.guides.as_ref().unwrap();
+        let all = crate::bake::denoise::vertex_guides(&scene, Vec::new());
+        assert_eq!(guides.points, all.points[100..140]);
+        assert_eq!(guides.spacing, all.spacing[100..140]);
+        assert!(guides.noise.iter().all(|&v| v >= 0.0) && guides.noise.iter().any(|&v| v > 0.0));
+        let mut read = Part::from_bytes(&part.to_bytes()).unwrap();
+        read.header.checksum = 0;
+        assert!(read == part, "a denoised part read back differs");
+        // A guide no denoiser can use (a spacing of 0), checksum recomputed: refused.
+        let mut bad = part;
+        bad.guides.as_mut().unwrap().spacing[3] = 0.0;
+        let err = Part::from_bytes(&bad.to_bytes()).unwrap_err();
+        assert!(
+            err.contains("the denoiser's guides of receiver 3: its spacing is not positive"),
             "{err}"
         );
     }

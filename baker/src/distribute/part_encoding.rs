@@ -6,6 +6,7 @@
 use glam::Vec3;
 
 use crate::distribute::lightmap_parts::BLOCK_BYTES;
+use crate::distribute::part_guides::guide_bytes;
 #[cfg(doc)]
 use crate::distribute::row_encoding::encode_jobs;
 use crate::distribute::row_encoding::{EncodedRows, row_bytes};
@@ -30,7 +31,8 @@ impl Part {
             .map_or(Vec::new(), |l| l.tail_bytes());
         let ao = self.ao.as_deref().unwrap_or_default();
         let bent = self.bent_normal.as_deref().unwrap_or_default();
-        let arrays = 4 * (self.coefficients.len() + ao.len() + 3 * bent.len());
+        let guides = self.guides.as_ref().map_or(Vec::new(), guide_bytes);
+        let arrays = 4 * (self.coefficients.len() + ao.len() + 3 * bent.len()) + guides.len();
         let row_len = rows.as_ref().map_or(0, EncodedRows::byte_len);
         let payload = (arrays + row_len + tail.len()) as u64;
         // The header as for an empty payload (and whatever follows it there), its payload
@@ -52,6 +54,7 @@ impl Part {
             }
             b
         });
+        e.push(guides);
         if let Some(rows) = rows {
             e.push(rows.lengths);
             for entries in rows.entries {

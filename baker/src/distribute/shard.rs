@@ -17,9 +17,11 @@ use std::path::Path;
 
 use glam::Vec3;
 
+use crate::bake::denoise::{self, Guides, Settings};
 use crate::bake::interreflection::{self, PackedRows, RowSource, Rows};
 use crate::bake::transfer::{BakeOptions, BounceTargets, Mode};
 use crate::distribute::lightmap_parts::{Lookup, PartLightmap};
+use crate::distribute::part_guides::{GUIDE_WORDS, parse_guides};
 use crate::distribute::row_encoding::{EncodedRows, parse_rows, row_starts};
 use crate::formats::coefficient_file::{self, CoefficientFile};
 use crate::formats::header::{self, HEADER_SIZE, Header, LIGHTMAP_PART_HEADER_SIZE};
@@ -132,6 +134,9 @@ pub struct Part {
     /// Texel bakes: the lightmap (atlas, baked texels, fingerprint). The part's "vertices"
     /// are then the baked texels, in row-major order.
     pub lightmap: Option<PartLightmap>,
+    /// Denoised bakes ([`Header::denoised`]): each receiver's noise and the denoiser's
+    /// guides, for the merge to denoise with ([`crate::distribute::part_guides`]).
+    pub guides: Option<Guides>,
 }
 
 impl Part {
@@ -218,7 +223,9 @@ impl Part {
         let payload_bytes = payload_bytes - tail;
         let count = id.vertices as usize;
         let width = Part::coefficient_width(&header);
-        let aux_floats = usize::from(header.aux.ao) + 3 * usize::from(header.aux.bent_normal);
+        let aux_floats = usize::from(header.aux.ao)
+            + 3 * usize::from(header.aux.bent_normal)
+            + GUIDE_WORDS * usize::from(header.denoised);
         let interreflected = header.mode == Mode::Interreflected;
         let fixed = (count * (width + aux_floats) * 4
             + if interreflected { 4 + count * 4 } else { 0 }) as u64;
@@ -243,6 +250,7 @@ impl Part {
                 bent_normal: None,
                 rows: None,
                 lightmap,
+                guides: None,
             };
             return Ok((part, Some((at, starts, grey))));
         }
@@ -266,6 +274,14 @@ impl Part {
                 .map(Vec3::from_slice)
                 .collect::<Vec<_>>()
         });
+        let guides = match header.denoised {
+            true => {
+                let at = count * (width + aux_floats - GUIDE_WORDS) * 4;
+                let bytes = &payload[at..at + count * GUIDE_WORDS * 4];
+                Some(parse_guides(bytes, count).map_err(|m| format!("{id}: {m}"))?)
+            }
+            false => None,
+        };
         let rows = if interreflected && reading == Reading::WithoutRows {
             row_starts(&payload[rows_at as usize..], &id)?;
             None
@@ -297,6 +313,7 @@ impl Part {
             bent_normal,
             rows,
             lightmap,
+            guides,
         };
         Ok((part, None))
     }
@@ -387,6 +404,9 @@ impl Part {
             if let (Some(rows), Some(more)) = (&mut joined.rows, part.rows) {
                 rows.append(&more);
             }
+            if let (Some(guides), Some(more)) = (&mut joined.guides, part.guides) {
+                guides.append(more);
+            }
         }
         joined
     }
@@ -419,13 +439,42 @@ impl Part {
         self.into_file_with(coefficients, true)
     }
 
-    /// [`Part::into_file`]; a texel bake's lightmap stitched only with `stitch`.
-    pub(crate) fn into_file_with(self, coefficients: Vec<f32>, stitch: bool) -> CoefficientFile {
+    /// [`Part::into_file`]; a texel bake's lightmap stitched only with `stitch`. A denoised
+    /// bake's transfer (and accessibility) is denoised here, every receiver in, with the
+    /// guides its parts carried: before the lightmap is placed, as the whole bake does.
+    pub(crate) fn into_file_with(
+        mut self,
+        mut coefficients: Vec<f32>,
+        stitch: bool,
+    ) -> CoefficientFile {
         assert_eq!(
             self.id.range(),
             0..self.receiver_count(),
             "a whole file needs every vertex"
         );
+        if self.header.denoised {
+            let guides = self
+                .guides
+                .take()
+                .expect("a denoised part carries its guides");
+            let settings = match self.lightmap {
+                Some(_) => Settings::TEXELS,
+                None => Settings::VERTICES,
+            };
+            let per_channel = self
+                .header
+                .transfer
+                .floats_per_channel(self.header.order as usize);
+            let channels = self.header.channels as usize;
+            denoise::denoise_guided(
+                &guides,
+                settings,
+                &mut coefficients,
+                channels,
+                per_channel,
+                self.ao.as_mut(),
+            );
+        }
         if let Some(lightmap) = self.lightmap {
             let (ao, bent) = (self.ao, self.bent_normal);
             return lightmap.into_file(self.header, &coefficients, ao, bent, stitch);
@@ -487,10 +536,14 @@ pub fn header_difference(a: &Header, b: &Header) -> Option<String> {
         _ => unreachable!("a header serialises to an object"),
     };
     let (a, b) = (fields(a), fields(b));
+    // The keys of both: a field left out when unset (`denoised`, `adaptive`) differs too.
+    let only_b = b.keys().filter(|key| !a.contains_key(*key));
     let differences: Vec<String> = a
-        .iter()
-        .filter(|(key, value)| b.get(*key) != Some(value))
-        .map(|(key, value)| {
+        .keys()
+        .chain(only_b)
+        .filter(|key| a.get(*key) != b.get(*key))
+        .map(|key| {
+            let value = a.get(key).map_or("none".into(), |v| v.to_string());
             let other = b.get(key).map_or("none".into(), |v| v.to_string());
             let name = match key.as_str() {
                 "scene_fingerprint" => "scene fingerprint (another scene)",

@@ -65,9 +65,9 @@ impl Scratch {
         if !extra.contains(&"--samples") {
             args.extend(["--samples", "64"]);
         }
-        // These tests hold whole texel bakes to their shards, checkpoints and stages, which
-        // are not denoised: the whole bakes are raw unless a test asks (tests/denoise.rs and
-        // cli_lightmap.rs test the denoiser).
+        // Texel bakes are raw here unless a test asks, which keeps these tests quick: the
+        // denoiser is tested by tests/denoise.rs and cli_lightmap.rs, and denoised shards,
+        // checkpoints and stages by the tests that ask for --denoise.
         if extra.contains(&"--lightmap") && !extra.contains(&"--denoise") {
             args.extend(["--denoise", "off"]);
         }

@@ -11,7 +11,7 @@ use crate::scene::Scene;
 
 /// What the weights are guided by, per receiver (vertices, or a lightmap's baked texels in
 /// row-major order).
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Guides {
     /// Points on the surface.
     pub points: Vec<Vec3>,
@@ -27,6 +27,30 @@ pub struct Guides {
     /// ([`crate::bake::noise`]) and taken for every band the range term compares; empty,
     /// or all zero: estimated from the transfer.
     pub noise: Vec<f32>,
+}
+
+impl Guides {
+    /// The guides of receivers `range` (a part's).
+    pub fn range(&self, range: std::ops::Range<usize>) -> Guides {
+        Guides {
+            points: self.points[range.clone()].to_vec(),
+            normals: self.normals[range.clone()].to_vec(),
+            surfaces: self.surfaces[range.clone()].to_vec(),
+            groups: self.groups[range.clone()].to_vec(),
+            spacing: self.spacing[range.clone()].to_vec(),
+            noise: self.noise.get(range).map_or(Vec::new(), <[f32]>::to_vec),
+        }
+    }
+
+    /// Appends `more`'s receivers after these (parts joined in order).
+    pub fn append(&mut self, more: Guides) {
+        self.points.extend(more.points);
+        self.normals.extend(more.normals);
+        self.surfaces.extend(more.surfaces);
+        self.groups.extend(more.groups);
+        self.spacing.extend(more.spacing);
+        self.noise.extend(more.noise);
+    }
 }
 
 /// Dense ids of (object, material) pairs, in the order first met.

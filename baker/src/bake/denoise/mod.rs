@@ -389,21 +389,47 @@ pub fn denoise_baked(
     channels: usize,
     visibility: &mut [Visibility],
 ) {
-    if guides.points.is_empty() {
-        return;
-    }
     let guides = Guides {
         noise: visibility.iter().map(|v| v.noise).collect(),
         ..guides
     };
+    let mut ao: Vec<f32> = visibility.iter().map(|v| v.accessibility).collect();
     let per_channel = options.transfer.floats_per_channel(options.order);
-    let filter = Filter::new(&guides, settings, coefficients, channels, per_channel);
-    let ao: Vec<f32> = visibility.iter().map(|v| v.accessibility).collect();
-    let (filtered, ao) = filter.apply_with(coefficients, channels * per_channel, &ao);
+    denoise_guided(
+        &guides,
+        settings,
+        coefficients,
+        channels,
+        per_channel,
+        Some(&mut ao),
+    );
+    for (v, a) in visibility.iter_mut().zip(ao) {
+        v.accessibility = a;
+    }
+}
+
+/// [`denoise_baked`] of transfer whose guides carry their noise (a merge's: the parts
+/// carry both), `per_channel` floats per channel, and of the accessibility where there is
+/// one. Every path that denoises goes through here, so a merged or checkpointed bake is
+/// filtered by the very same arithmetic as the whole bake.
+pub fn denoise_guided(
+    guides: &Guides,
+    settings: Settings,
+    coefficients: &mut Vec<f32>,
+    channels: usize,
+    per_channel: usize,
+    ao: Option<&mut Vec<f32>>,
+) {
+    if guides.points.is_empty() {
+        return;
+    }
+    let filter = Filter::new(guides, settings, coefficients, channels, per_channel);
+    let scalars: &[f32] = ao.as_deref().map_or(&[], |a| a.as_slice());
+    let (filtered, filtered_ao) = filter.apply_with(coefficients, channels * per_channel, scalars);
     *coefficients = filtered;
     // The fit may overshoot a little; accessibility is a fraction.
-    for (v, a) in visibility.iter_mut().zip(ao) {
-        v.accessibility = a.clamp(0.0, 1.0);
+    if let Some(ao) = ao {
+        *ao = filtered_ao.into_iter().map(|a| a.clamp(0.0, 1.0)).collect();
     }
 }
 
