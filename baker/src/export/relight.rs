@@ -139,10 +139,7 @@ pub fn relight_from(
             output.display()
         )));
     }
-    let mut inputs = scene.input_files();
-    inputs.push(coefficients.to_path_buf());
-    inputs.extend(rig.input_files());
-    let output = crate::support::output::Output::new(output, &inputs)?;
+    let output = relight_output(&scene, &[coefficients], &rig, output)?;
     let order = file.header.order as usize;
     // Rigs are written for a z-up world; a y-up bake gets them turned to its up axis.
     let light = rig.project(order).in_scene_frame(file.header.up);
@@ -241,8 +238,18 @@ pub(crate) enum ImageFormat {
 }
 
 /// Whether `output` names an image (.png, .exr) rather than a mesh.
-pub(crate) fn image_format_of(output: &Path) -> bool {
-    image_format(output).is_some()
+/// The write of a relit `output`, refused where it would overwrite the scene's files, the
+/// `files` relit or the rig's.
+pub(crate) fn relight_output(
+    scene: &Scene,
+    files: &[&Path],
+    rig: &Rig,
+    output: &Path,
+) -> Result<crate::support::output::Output> {
+    let mut inputs = scene.input_files();
+    inputs.extend(files.iter().map(|f| f.to_path_buf()));
+    inputs.extend(rig.input_files());
+    crate::support::output::Output::new(output, &inputs)
 }
 
 pub(crate) fn image_format(output: &Path) -> Option<ImageFormat> {
@@ -276,10 +283,7 @@ fn relight_lightmap(
             output.display()
         )));
     };
-    let mut inputs = scene.input_files();
-    inputs.push(coefficients.to_path_buf());
-    inputs.extend(rig.input_files());
-    let output_policy = crate::support::output::Output::new(output, &inputs)?;
+    let output_policy = relight_output(scene, &[coefficients], rig, output)?;
     let order = file.header.order as usize;
     let light = rig.project(order).in_scene_frame(file.header.up);
     let (w, h) = (block.width as usize, block.height as usize);

@@ -70,16 +70,13 @@ pub fn relight_ldprt(
     let file = LdprtFile::read(ldprt)?;
     let scene = Scene::load(mesh)?;
     check_topology(&file, ldprt, &scene)?;
-    if crate::export::relight::image_format_of(output) {
+    if crate::export::relight::image_format(output).is_some() {
         return Err(crate::Error::InvalidOption(format!(
             "{}: an LDPRT bake relights to a .ply mesh",
             output.display()
         )));
     }
-    let mut inputs = scene.input_files();
-    inputs.push(ldprt.to_path_buf());
-    inputs.extend(rig.input_files());
-    let output = crate::support::output::Output::new(output, &inputs)?;
+    let output = crate::export::relight::relight_output(&scene, &[ldprt], &rig, output)?;
     let order = file.order as usize;
     let light = rig.project(order).in_scene_frame(file.up);
     let radiance = ldprt_radiance(&file, &scene, &light);

@@ -155,10 +155,9 @@ pub fn relight_occluded(
     }
     let spheres = place_all(occluders)?;
     let scene = file.load_scene(scene_path)?;
-    let mut inputs = scene.input_files();
-    inputs.push(coefficients.to_path_buf());
-    inputs.extend(rig.input_files());
-    inputs.extend(occluders.iter().map(|o| o.file.clone()));
+    let mut files = vec![coefficients];
+    files.extend(occluders.iter().map(|o| o.file.as_path()));
+    let open_output = || crate::export::relight::relight_output(&scene, &files, &rig, output);
     let order = file.header.order as usize;
     let light = OccludedLight::new(&rig.project(order).in_scene_frame(file.header.up));
     let relit = Relit {
@@ -177,7 +176,7 @@ pub fn relight_occluded(
                 output.display()
             )));
         };
-        let output_policy = crate::support::output::Output::new(output, &inputs)?;
+        let output_policy = open_output()?;
         let (points, normals) = texel_points(&scene, block);
         let ones = vec![Vec3::ONE; points.len()];
         let radiance = light.file_radiance(&file, (&points, &normals), &ones, &spheres);
@@ -196,7 +195,7 @@ pub fn relight_occluded(
             output.display()
         )));
     }
-    let output = crate::support::output::Output::new(output, &inputs)?;
+    let output = open_output()?;
     let albedo = scene.vertex_albedo();
     let geometry = (&scene.positions[..], &scene.normals[..]);
     let radiance = light.file_radiance(&file, geometry, &albedo, &spheres);

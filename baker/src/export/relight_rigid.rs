@@ -48,10 +48,8 @@ pub fn relight_rigid(
             coefficients.display()
         )));
     }
-    let mut inputs = scene.input_files();
-    inputs.extend([coefficients.to_path_buf(), placement.probes.to_path_buf()]);
-    inputs.extend(rig.input_files());
-    let output = crate::support::output::Output::new(output, &inputs)?;
+    let files = [coefficients, placement.probes];
+    let output = crate::export::relight::relight_output(&scene, &files, &rig, output)?;
     // The rig, turned to the probes' scene's up axis; the incident radiance there, turned
     // into the object's frame.
     let light = rig.project(order).in_scene_frame(probe_file.header.up);
