@@ -376,7 +376,7 @@ fn interactive(args: Args) {
                 let eye = centre + args2.view.normalize() * 0.5 * (hi - lo).length() * 2.4;
                 commands.spawn((
                     Camera3d::default(),
-                    Tonemapping::None,
+                    bevy::core_pipeline::tonemapping::Tonemapping::None,
                     Transform::from_translation(eye).looking_at(centre, Vec3::Y),
                 ));
             },
