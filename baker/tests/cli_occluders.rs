@@ -247,5 +247,10 @@ fn occluder_usage_errors_and_a_damaged_file() {
     s.write("bad.occ", b"\x89PRTOCC\n\x01\0\0\0\x01\0\0\0short");
     with(&["--occluder", "bad.occ", "--at", "0,0,1"])
         .fails_with(EXIT_BAD_INPUT, &["bad.occ", "spheres make 32"]);
+    // prepare-lightmap shares the bake's options: an occluder is not a texel bake's.
+    s.run(&["prepare-lightmap", CORNELL, "--occluder", "-o", "out/p.occ"])
+        .fails_with(EXIT_BAD_COMMAND_LINE, &["not prepare-lightmap"]);
+    s.run(&["bake", CORNELL, "--spheres", "3", "-o", "out/s.prt"])
+        .fails_with(EXIT_BAD_COMMAND_LINE, &["--occluder"]);
     s.assert_out_holds(&["ball.occ", "room.prt"]);
 }

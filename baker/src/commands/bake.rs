@@ -180,6 +180,7 @@ pub fn run(args: BakeArgs) -> Result<(), Error> {
 
 /// `prt-bake prepare-lightmap`: [`run`] up to the texel bake's preparation, written to -o.
 pub fn run_prepare(mut args: BakeArgs) -> Result<(), Error> {
+    super::bake_occluder::refuse_in_prepare(&args.occluder)?;
     args.prepare_only = true;
     run(args)
 }

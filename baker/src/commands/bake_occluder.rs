@@ -15,8 +15,19 @@ pub struct OccluderArgs {
     #[arg(long, conflicts_with_all = ["lightmap", "probes", "shard", "checkpoint", "receivers", "clusters", "pcs"])]
     pub occluder: bool,
     /// With --occluder: how many spheres to fit (1 for a ball; more for long or flat objects).
-    #[arg(long, value_name = "K", default_value_t = 1)]
+    #[arg(long, value_name = "K", default_value_t = 1, requires = "occluder")]
     pub spheres: usize,
+}
+
+/// `prepare-lightmap` shares the bake's options, `--occluder` among them: it prepares a texel
+/// bake, and an occluder is not one.
+pub fn refuse_in_prepare(args: &OccluderArgs) -> Result<(), Error> {
+    match args.occluder {
+        true => Err(Error::InvalidOption(
+            "--occluder is for `prt-bake bake OBJ --occluder`, not prepare-lightmap".into(),
+        )),
+        false => Ok(()),
+    }
 }
 
 /// Fits and writes the occluder file.
