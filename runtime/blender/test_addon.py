@@ -104,8 +104,8 @@ def snapshot():
     return out
 
 
-def corners(obj):
-    """Per face corner: world position, world normal, albedo, and "PRT" (RGB)."""
+def corner_frames(obj):
+    """Per face corner of obj.data: world position, unit world normal, and "PRT" (RGB)."""
     mesh = obj.data
     n = len(mesh.loops)
     vertex = np.zeros(n, np.int64)
@@ -120,6 +120,14 @@ def corners(obj):
     normal /= np.linalg.norm(normal, axis=1, keepdims=True)
     rgba = np.zeros(n * 4)
     mesh.color_attributes["PRT"].data.foreach_get("color", rgba)
+    return position, normal, rgba.reshape(n, 4)[:, :3]
+
+
+def corners(obj):
+    """Per face corner: world position, world normal, albedo, and "PRT" (RGB)."""
+    mesh = obj.data
+    n = len(mesh.loops)
+    position, normal, prt = corner_frames(obj)
     albedos = np.array([m.node_tree.nodes["Principled BSDF"].inputs["Base Color"]
                         .default_value[:3] for m in mesh.materials])
     corner_polygon = np.zeros(n, np.int64)
@@ -127,7 +135,7 @@ def corners(obj):
         corner_polygon[polygon.loop_start:polygon.loop_start + polygon.loop_total] = \
             polygon.index
     slot = np.array([p.material_index for p in mesh.polygons])[corner_polygon]
-    return position, normal, albedos[slot], rgba.reshape(n, 4)[:, :3]
+    return position, normal, albedos[slot], prt
 
 
 def prt_colors(obj):

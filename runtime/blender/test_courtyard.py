@@ -34,6 +34,8 @@ from pathlib import Path
 import bpy
 import numpy as np
 
+from test_addon import corner_frames  # (this folder: the script's own)
+
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent.parent
 checks = {}
@@ -85,21 +87,9 @@ def cli_objects(module, glb_path, npz_path):
 
 
 def corners(obj):
-    mesh = obj.data
-    n = len(mesh.loops)
-    vertex = np.zeros(n, np.int64)
-    mesh.loops.foreach_get("vertex_index", vertex)
-    co = np.zeros(len(mesh.vertices) * 3)
-    mesh.vertices.foreach_get("co", co)
-    normal = np.zeros(n * 3)
-    mesh.corner_normals.foreach_get("vector", normal)
-    m = np.array(obj.matrix_world)
-    position = co.reshape(-1, 3)[vertex] @ m[:3, :3].T + m[:3, 3]
-    normal = normal.reshape(n, 3) @ np.linalg.inv(m[:3, :3])
-    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
-    rgba = np.zeros(n * 4)
-    mesh.color_attributes["PRT"].data.foreach_get("color", rgba)
-    return position, normal, rgba.reshape(n, 4)[:, :3].mean(1)
+    """Per face corner: world position, world normal, and the mean of "PRT"'s channels."""
+    position, normal, prt = corner_frames(obj)
+    return position, normal, prt.mean(1)
 
 
 def match(position, normal, corner_position, corner_normal):
