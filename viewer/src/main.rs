@@ -336,7 +336,7 @@ fn screenshot(
         scene.distance = cli.mover_at.clamp(0.0, 1.0) * scene.mover().map_or(0.0, |m| m.length());
     }
     if let Some(shadow) = shadow {
-        renderer.set_mover_shadow(shadow);
+        renderer.set_mover_shadow(&gpu.device, bake, shadow)?;
     }
     let inputs = FrameInputs::from_view(view, None);
     let image = offscreen::render_image(&gpu.device, &gpu.queue, &mut renderer, &inputs)?;

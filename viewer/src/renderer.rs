@@ -18,6 +18,7 @@ use std::ops::Range;
 use bytemuck::{Pod, Zeroable};
 use glam::{Vec3, Vec4};
 use prt_baker::light::LightCoefficients;
+use prt_baker::math::occlusion::Sphere;
 use wgpu::util::DeviceExt;
 
 use crate::bake::Bake;
@@ -340,9 +341,40 @@ impl Renderer {
         Ok(())
     }
 
-    /// Darkens the scene where the probe scene's mover stands, each frame (occluders.rs).
-    pub fn set_mover_shadow(&mut self, shadow: crate::occluders::MoverShadow) {
+    /// Darkens the scene where the probe scene's mover stands, each frame (occluders.rs):
+    /// `bake` is this renderer's, whose lightmap (if any) gets the occluded radiance pass.
+    pub fn set_mover_shadow(
+        &mut self,
+        device: &wgpu::Device,
+        bake: &Bake,
+        shadow: crate::occluders::MoverShadow,
+    ) -> Result<()> {
+        self.add_occluders(device, bake)?;
         self.mover_shadow = Some(shadow);
+        Ok(())
+    }
+
+    /// Readies a lightmap bake's radiance pass for occluder spheres (texel_occluders.rs);
+    /// nothing for a vertex bake.
+    pub fn add_occluders(&mut self, device: &wgpu::Device, bake: &Bake) -> Result<()> {
+        match &mut self.texel_radiance {
+            Some(radiance) => radiance.add_occluders(device, &self.frame_layout, bake),
+            None => Ok(()),
+        }
+    }
+
+    /// Shadows a lightmap bake with `spheres` (placed in the scene) from the next frame on;
+    /// a vertex bake's shadow is its transfer, rewritten by [`Renderer::set_transfer`].
+    pub fn set_occluder_spheres(&mut self, queue: &wgpu::Queue, spheres: &[Sphere]) -> Result<()> {
+        match &mut self.texel_radiance {
+            Some(radiance) => radiance.set_occluder_spheres(queue, spheres),
+            None => Ok(()),
+        }
+    }
+
+    /// Replaces a vertex bake's transfer (as the file holds it) from the next frame on.
+    pub fn set_transfer(&self, queue: &wgpu::Queue, transfer: &[f32]) {
+        queue.write_buffer(&self.transfer, 0, bytemuck::cast_slice(transfer));
     }
 
     pub fn probe_scene(&self) -> Option<&ProbeScene> {
@@ -418,8 +450,17 @@ impl Renderer {
         if let Some(probes) = &self.probe_scene {
             probes.update(queue, &inputs.prt_light);
             if let (Some(shadow), Some(placement)) = (&self.mover_shadow, probes.placement()) {
-                let transfer = shadow.transfer(placement);
-                queue.write_buffer(&self.transfer, 0, bytemuck::cast_slice(&transfer));
+                let spheres = shadow.spheres(placement);
+                match &mut self.texel_radiance {
+                    Some(radiance) => radiance
+                        .set_occluder_spheres(queue, &spheres)
+                        .expect("MoverShadow::new checked the sphere count"),
+                    None => queue.write_buffer(
+                        &self.transfer,
+                        0,
+                        bytemuck::cast_slice(&shadow.transfer_for(&spheres)),
+                    ),
+                }
             }
         }
 

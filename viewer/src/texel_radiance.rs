@@ -22,6 +22,7 @@
 //! computed from stays f32 ([`crate::texel_transfer`]), read exactly.
 
 use crate::resources::{scene_shader, texture_2d, texture_entry};
+use crate::texel_occluders::{self, TexelOccluders};
 
 /// The radiance map's format.
 pub const FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
@@ -35,6 +36,9 @@ pub struct RadianceMap {
     pipeline: wgpu::RenderPipeline,
     pub layout: wgpu::BindGroupLayout,
     pub bind_group: wgpu::BindGroup,
+    transfer_in_buffer: bool,
+    /// Moving occluders' pass (texel_occluders.rs), once [`RadianceMap::add_occluders`].
+    occluded: Option<(wgpu::RenderPipeline, TexelOccluders)>,
 }
 
 impl RadianceMap {
@@ -62,40 +66,12 @@ impl RadianceMap {
             "texel radiance",
             include_str!("shaders/texel_radiance.wgsl"),
         );
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("texel radiance"),
-            bind_group_layouts: &[Some(frame_layout)],
-            immediate_size: 0,
-        });
-        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("texel radiance"),
-            layout: Some(&pipeline_layout),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("vs_texel_radiance"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: None,
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some(if transfer_in_buffer {
-                    "fs_texel_radiance_buffer"
-                } else {
-                    "fs_texel_radiance_array"
-                }),
-                compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: FORMAT,
-                    blend: None,
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        let entry = if transfer_in_buffer {
+            "fs_texel_radiance_buffer"
+        } else {
+            "fs_texel_radiance_array"
+        };
+        let pipeline = radiance_pipeline(device, &[Some(frame_layout)], &module, entry);
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("texel radiance"),
             entries: &[
@@ -138,6 +114,41 @@ impl RadianceMap {
             pipeline,
             layout,
             bind_group,
+            transfer_in_buffer,
+            occluded: None,
+        }
+    }
+
+    /// Builds the occluded pass for `bake` (this map's lightmap bake); its spheres are set
+    /// per frame by [`RadianceMap::set_occluder_spheres`].
+    pub fn add_occluders(
+        &mut self,
+        device: &wgpu::Device,
+        frame_layout: &wgpu::BindGroupLayout,
+        bake: &crate::bake::Bake,
+    ) -> crate::error::Result<()> {
+        let occluders = TexelOccluders::new(device, bake)?;
+        let source = format!(
+            "{}\n{}",
+            include_str!("shaders/texel_radiance.wgsl"),
+            texel_occluders::shader_source(bake.order(), bake.channels(), self.transfer_in_buffer)
+        );
+        let module = scene_shader(device, "texel radiance, occluded", &source);
+        let layouts = [Some(frame_layout), Some(&occluders.layout)];
+        let pipeline = radiance_pipeline(device, &layouts, &module, "fs_texel_radiance_occluded");
+        self.occluded = Some((pipeline, occluders));
+        Ok(())
+    }
+
+    /// This frame's occluder spheres, placed in the scene (none: the plain pass).
+    pub fn set_occluder_spheres(
+        &mut self,
+        queue: &wgpu::Queue,
+        spheres: &[prt_baker::math::occlusion::Sphere],
+    ) -> crate::error::Result<()> {
+        match &mut self.occluded {
+            Some((_, occluders)) => occluders.set_spheres(queue, spheres),
+            None => Ok(()),
         }
     }
 
@@ -160,8 +171,14 @@ impl RadianceMap {
             occlusion_query_set: None,
             multiview_mask: None,
         });
-        pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, frame_bind_group, &[]);
+        match &self.occluded {
+            Some((pipeline, occluders)) if occluders.count > 0 => {
+                pass.set_pipeline(pipeline);
+                pass.set_bind_group(1, &occluders.bind_group, &[]);
+            }
+            _ => pass.set_pipeline(&self.pipeline),
+        }
         pass.draw(0..3, 0..1);
     }
 
@@ -169,4 +186,43 @@ impl RadianceMap {
     pub fn texture(&self) -> &wgpu::Texture {
         &self.texture
     }
+}
+
+/// The pass's pipeline: one full-screen triangle, fragment `entry` of `module`.
+fn radiance_pipeline(
+    device: &wgpu::Device,
+    layouts: &[Option<&wgpu::BindGroupLayout>],
+    module: &wgpu::ShaderModule,
+    entry: &str,
+) -> wgpu::RenderPipeline {
+    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("texel radiance"),
+        bind_group_layouts: layouts,
+        immediate_size: 0,
+    });
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some("texel radiance"),
+        layout: Some(&pipeline_layout),
+        vertex: wgpu::VertexState {
+            module,
+            entry_point: Some("vs_texel_radiance"),
+            compilation_options: Default::default(),
+            buffers: &[],
+        },
+        primitive: wgpu::PrimitiveState::default(),
+        depth_stencil: None,
+        multisample: wgpu::MultisampleState::default(),
+        fragment: Some(wgpu::FragmentState {
+            module,
+            entry_point: Some(entry),
+            compilation_options: Default::default(),
+            targets: &[Some(wgpu::ColorTargetState {
+                format: FORMAT,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            })],
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
 }

@@ -145,7 +145,7 @@ impl Running {
             renderer.set_probe_scene(&gpu.device, probes.clone(), mover.clone())?;
         }
         if let Some(shadow) = &options.shadow {
-            renderer.set_mover_shadow(shadow.clone());
+            renderer.set_mover_shadow(&gpu.device, bake, shadow.clone())?;
         }
         Ok(Running {
             window,

@@ -79,3 +79,129 @@ fn the_shadowed_transfer_relights_as_relight_occluder_does() {
     assert!(worst < 1e-4, "largest relative difference {worst}");
     assert!(darker > 100, "{darker} vertex channels darker");
 }
+
+/// A half float's value (the radiance map is `Rgba16Float`).
+fn from_f16(bits: u16) -> f32 {
+    let sign = if bits & 0x8000 != 0 { -1.0 } else { 1.0 };
+    let exponent = i32::from((bits >> 10) & 0x1f);
+    let mantissa = f32::from(bits & 0x3ff);
+    sign * match exponent {
+        0 => mantissa * 2f32.powi(-24),
+        31 => f32::INFINITY,
+        _ => (1.0 + mantissa / 1024.0) * 2f32.powi(exponent - 15),
+    }
+}
+
+/// The radiance map (RGB per texel, row-major) a PRT frame of `frame` leaves, the lightmap
+/// shadowed by `spheres` (none: the plain pass), with the transfer stored as `storage` asks.
+fn radiance_map(
+    gpu: &prt_viewer::Gpu,
+    bake: &prt_viewer::Bake,
+    frame: &prt_viewer::FrameInputs,
+    spheres: &[prt_baker::math::occlusion::Sphere],
+    storage: prt_viewer::texel_transfer::TexelStorage,
+) -> Vec<[f32; 3]> {
+    let mut renderer = prt_viewer::Renderer::with_texel_storage(
+        &gpu.device,
+        &gpu.queue,
+        bake,
+        prt_viewer::offscreen::FORMAT,
+        (64, 48),
+        storage,
+    )
+    .unwrap();
+    renderer.add_occluders(&gpu.device, bake).unwrap();
+    renderer.set_occluder_spheres(&gpu.queue, spheres).unwrap();
+    prt_viewer::offscreen::render_image(&gpu.device, &gpu.queue, &mut renderer, frame).unwrap();
+    let texture = renderer.texel_radiance().expect("a radiance map");
+    let bytes = prt_viewer::offscreen::read_texture(&gpu.device, &gpu.queue, texture, 8).unwrap();
+    let halves: Vec<f32> = bytes
+        .chunks_exact(2)
+        .map(|b| from_f16(u16::from_le_bytes([b[0], b[1]])))
+        .collect();
+    halves.chunks_exact(4).map(|t| [t[0], t[1], t[2]]).collect()
+}
+
+#[test]
+fn a_lightmap_is_darkened_per_texel_as_relight_occluder_does() {
+    // The Cornell room baked per texel (64² atlas, order 4, RGB interreflected), shadowed by
+    // two balls (one of two spheres, turned) under the viewer's default rig: the radiance
+    // pass's occluded texels (texel_occluders.rs, f32 on the device, half floats stored)
+    // against `OccludedLight` at the texel points `prt-bake relight --occluder` uses, in both
+    // transfer storages. Every texel within 2⁻⁹ of itself plus 2·10⁻⁴ of the largest value
+    // (half-float rounding, f32 sums); the shadow is there (texels darker than unshadowed).
+    use prt_baker::bake::lightmap::{self, Atlas};
+    use prt_viewer::texel_transfer::TexelStorage;
+    let Some(gpu) = common::gpu() else { return };
+    let scene =
+        prt_baker::Scene::load(&common::workspace().join("scenes/cornell/cornell.scene")).unwrap();
+    let atlas = Atlas::generate(&scene, 64, None).unwrap();
+    let tracer = prt_baker::trace::EmbreeTracer::new(&scene, Default::default()).unwrap();
+    let options = BakeOptions {
+        order: 4,
+        samples: 32,
+        mode: Mode::Interreflected,
+        bounces: 1,
+        seed: 1,
+        ..BakeOptions::default()
+    };
+    let baked = lightmap::bake(
+        &scene,
+        Some(&tracer),
+        &options,
+        atlas,
+        &prt_baker::support::progress::Silent,
+    )
+    .unwrap();
+    let file = prt_baker::CoefficientFile::from_lightmap_bake(&scene, &baked);
+    let bake = prt_viewer::Bake::new(scene.clone(), file, std::path::Path::new("lm.prt")).unwrap();
+    let rig = Rig::load(&common::workspace().join("viewer/src/default-rig.toml")).unwrap();
+    let lights = prt_viewer::lights::Lights::from_rig(&rig, 4).for_up(bake.up());
+    let view = prt_viewer::controls::View::new(
+        prt_viewer::camera::Camera::framing(&scene.positions, 4.0 / 3.0),
+        lights,
+    );
+    let frame = prt_viewer::FrameInputs::from_view(&view, None);
+    let pair = OccluderFile {
+        spheres: vec![
+            LocalSphere {
+                centre: Vec3::new(-0.12, 0.0, 0.0),
+                radius: 0.15,
+            },
+            LocalSphere {
+                centre: Vec3::new(0.12, 0.0, 0.05),
+                radius: 0.12,
+            },
+        ],
+    };
+    let mut spheres = pair.placed(
+        glam::DVec3::new(-0.5, -0.55, 0.2),
+        DQuat::from_axis_angle(glam::DVec3::Z, 0.7),
+    );
+    spheres.extend(pair.placed(glam::DVec3::new(0.4, 0.3, 0.6), DQuat::IDENTITY));
+    let reference = OccludedLight::new(&frame.prt_light);
+    let block = bake.lightmap().unwrap();
+    let (points, normals) = prt_baker::export::relight_occluded::texel_points(&scene, block);
+    let ones = vec![Vec3::ONE; points.len()];
+    let want = reference.file_radiance(&bake.file, (&points, &normals), &ones, &spheres);
+    let largest = want.iter().flatten().fold(0.0f32, |m, x| m.max(x.abs()));
+    let plain = radiance_map(&gpu, &bake, &frame, &[], TexelStorage::Fit);
+    for storage in [TexelStorage::Fit, TexelStorage::Array] {
+        let got = radiance_map(&gpu, &bake, &frame, &spheres, storage);
+        assert_eq!(got.len(), want.len());
+        let (mut worst, mut darker) = (0.0f32, 0);
+        for ((g, w), p) in got.iter().zip(&want).zip(&plain) {
+            for c in 0..3 {
+                let bound = 2f32.powi(-9) * w[c].abs() + 2e-4 * largest;
+                worst = worst.max((g[c] - w[c]).abs() / bound);
+                darker += usize::from(g[c] < p[c] - 0.01 * largest);
+            }
+        }
+        eprintln!(
+            "{storage:?}: {} texels, largest {largest:.3}, worst error {worst:.3} of the bound, {darker} texel channels darker than unshadowed",
+            got.len()
+        );
+        assert!(worst <= 1.0, "{storage:?}: {worst} × the bound");
+        assert!(darker > 300, "{storage:?}: {darker} texel channels darker");
+    }
+}
