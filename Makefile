@@ -35,7 +35,8 @@
 #   make docs-check  every command of the guides run on the repository's scenes, the docs' links
 #                    (part of make test, about a minute; make cli-reference regenerates the CLI page)
 #   make bench-view  the viewer's frame rates, Blinn-Phong and PRT with 1 and 8 lights, per vertex
-#                    and per pixel (a texel bake) (docs/explanation/performance.md)
+#                    and per pixel (a texel bake), and the texel bake with 4 moving occluders
+#                    (docs/explanation/performance.md)
 
 CARGO ?= cargo
 BAKE := target/release/prt-bake
@@ -247,16 +248,23 @@ out/cornell-lightmap-512.prt: build
 	$(BAKE) bake scenes/cornell/cornell.scene -o out/cornell-lightmap-512.prt --lightmap 512 \
 		--mode interreflected --samples 64 --seed 1
 
+# A ball of radius 0.2 as an occluder (one sphere): four copies move over the Cornell lightmap
+# in bench-view's second table (docs/guides/occluders.md).
+out/ball.occ: build scripts/bench/ball_obj.py
+	@mkdir -p out
+	python3 scripts/bench/ball_obj.py 0.2 > out/ball.obj
+	$(BAKE) bake out/ball.obj --occluder -o out/ball.occ
+
 # Each bench runs twice, the first time untimed into a log: on lavapipe, shader code that Mesa
 # compiles per frame (keyed on per-frame values, docs/explanation/performance.md) is then in the bench's own
 # on-disk shader cache, so the timed run measures rendering, not compiling, and repeats.
 BENCH_VIEW_CACHE := target/bench-view-shader-cache
-bench-view: out/torus.prt out/cornell-lightmap-512.prt
+bench-view: out/torus.prt out/cornell-lightmap-512.prt out/ball.occ
 	@mkdir -p $(BENCH_VIEW_CACHE)
 	MESA_SHADER_CACHE_DIR=$(BENCH_VIEW_CACHE) $(VIEW) $(SCENE) out/torus.prt --bench > target/bench-view-priming.log
 	MESA_SHADER_CACHE_DIR=$(BENCH_VIEW_CACHE) $(VIEW) $(SCENE) out/torus.prt --bench
-	MESA_SHADER_CACHE_DIR=$(BENCH_VIEW_CACHE) $(VIEW) scenes/cornell/cornell.scene out/cornell-lightmap-512.prt --bench >> target/bench-view-priming.log
-	MESA_SHADER_CACHE_DIR=$(BENCH_VIEW_CACHE) $(VIEW) scenes/cornell/cornell.scene out/cornell-lightmap-512.prt --bench
+	MESA_SHADER_CACHE_DIR=$(BENCH_VIEW_CACHE) $(VIEW) scenes/cornell/cornell.scene out/cornell-lightmap-512.prt --bench --bench-occluder out/ball.occ >> target/bench-view-priming.log
+	MESA_SHADER_CACHE_DIR=$(BENCH_VIEW_CACHE) $(VIEW) scenes/cornell/cornell.scene out/cornell-lightmap-512.prt --bench --bench-occluder out/ball.occ
 
 # Regenerates the committed demo scenes (a test checks they match the generator).
 scenes:

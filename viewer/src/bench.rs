@@ -21,6 +21,12 @@
 //! but not timed, and every other round takes the configurations in reverse order, so no
 //! configuration always follows the same one.
 //!
+//! Moving occluders (`--bench-occluder OCC`, `--bench-occluders N`) add PRT rows for the
+//! main bake shadowed by N copies of the occluder (docs/guides/occluders.md), each frame
+//! moved along its own circle over the scene, all of them within reach of most receivers:
+//! a lightmap's radiance pass then evaluates every texel's triple product
+//! ([`crate::texel_occluders`]), a vertex bake's transfer is darkened on the CPU and uploaded.
+//!
 //! Nothing is timed until every configuration is warm: [`WARM_UP_ROUNDS`] whole rounds of
 //! untimed blocks run first, so every pipeline has been compiled and used, every buffer
 //! written and every cache filled, in every configuration, before the first timed frame of
@@ -28,7 +34,9 @@
 
 use std::time::Instant;
 
-use glam::Vec3;
+use glam::{DQuat, DVec3, Vec3};
+use prt_baker::formats::occluder_file::OccluderFile;
+use prt_baker::math::occlusion::Sphere;
 
 use crate::bake::Bake;
 use crate::camera::Camera;
@@ -36,6 +44,7 @@ use crate::controls::{Mode, View};
 use crate::error::{Error, Result};
 use crate::gpu::Gpu;
 use crate::lights::Lights;
+use crate::occluders::MoverShadow;
 use crate::offscreen::{self, Offscreen};
 use crate::renderer::{FrameInputs, Renderer};
 
@@ -45,6 +54,8 @@ pub const LIGHT_COUNTS: [usize; 2] = [1, 8];
 /// at least as fast as Blinn-Phong with 8 lights.
 pub const PRT_LIGHT_RATIO_TARGET: f64 = 0.95;
 pub const PRT_OVER_PHONG_TARGET: f64 = 1.0;
+/// With moving occluders, PRT keeps at least half its frame rate.
+pub const OCCLUDED_RATIO_TARGET: f64 = 0.5;
 /// How far the lights turn per frame.
 const LIGHT_DEGREES_PER_FRAME: f64 = 1.0;
 /// The camera path: an arc of this many degrees about the scene's vertical axis.
@@ -105,6 +116,8 @@ pub struct BenchReport {
     /// A lightmap (texel) bake's W×H, shaded per pixel.
     pub lightmap: Option<(u32, u32)>,
     pub measurements: Vec<Measurement>,
+    /// The rows shadowed by moving occluders: their `bake` index.
+    pub occluded: Option<usize>,
 }
 
 impl BenchReport {
@@ -164,10 +177,20 @@ impl BenchReport {
             verdict(a >= PRT_LIGHT_RATIO_TARGET),
             verdict(b >= PRT_OVER_PHONG_TARGET)
         );
+        if let Some(b) = self.occluded {
+            let ratios =
+                LIGHT_COUNTS.map(|n| self.fps_of(b, Mode::Prt, n) / self.fps(Mode::Prt, n));
+            text += &format!(
+                "\nPRT with moving occluders / PRT: {:.3} (1 light), {:.3} (8 lights) (target ≥ {OCCLUDED_RATIO_TARGET}: {})",
+                ratios[0],
+                ratios[1],
+                verdict(ratios.iter().all(|&r| r >= OCCLUDED_RATIO_TARGET))
+            );
+        }
         let extra = self
             .measurements
             .iter()
-            .filter(|m| m.bake > 0 && m.lights == 1);
+            .filter(|m| m.bake > 0 && Some(m.bake) != self.occluded && m.lights == 1);
         for m in extra {
             let (one, eight) = (
                 self.fps_of(m.bake, m.mode, 1),
@@ -257,6 +280,48 @@ pub fn run_with(
     also: &[Bake],
     options: BenchOptions,
 ) -> Result<BenchReport> {
+    run_occluded(gpu, (bake, also), None, options)
+}
+
+/// Moving occluders for the bench: `count` copies of one occluder.
+#[derive(Clone, Debug)]
+pub struct BenchOccluders {
+    pub occluder: OccluderFile,
+    pub count: usize,
+}
+
+/// The spheres of `occluders` at frame `k`: copy i circles the scene's vertical axis at a
+/// quarter of its horizontal extent from the centre, 0.3 of the way up from its bottom,
+/// starting at 2πi/N and turning 1° a frame.
+pub fn occluder_spheres(occluders: &BenchOccluders, bake: &Bake, k: u32) -> Vec<Sphere> {
+    let frame = bake.up().from_z_up();
+    let (lo, hi) = bake.scene.bounds();
+    let (lo, hi) = (lo.as_dvec3(), hi.as_dvec3());
+    let (x, y, z) = (frame * DVec3::X, frame * DVec3::Y, frame * DVec3::Z);
+    let centre = 0.5 * (lo + hi);
+    let extent = hi - lo;
+    let radius = 0.25 * (extent.dot(x).abs()).min(extent.dot(y).abs());
+    let height = lo.dot(z).min(hi.dot(z)) + 0.3 * extent.dot(z).abs();
+    let axis = centre - centre.dot(z) * z + height * z;
+    (0..occluders.count)
+        .flat_map(|i| {
+            let angle = std::f64::consts::TAU * i as f64 / occluders.count as f64
+                + f64::from(k).to_radians();
+            let at = axis + radius * (angle.cos() * x + angle.sin() * y);
+            occluders
+                .occluder
+                .placed(at, DQuat::from_axis_angle(z, angle))
+        })
+        .collect()
+}
+
+/// [`run_with`], and with `occluders` PRT rows of the main bake shadowed by them.
+pub fn run_occluded(
+    gpu: &Gpu,
+    (bake, also): (&Bake, &[Bake]),
+    occluders: Option<&BenchOccluders>,
+    options: BenchOptions,
+) -> Result<BenchReport> {
     if let Some(other) = also
         .iter()
         .find(|b| b.scene.vertex_count() != bake.scene.vertex_count() || b.lightmap().is_some())
@@ -278,6 +343,21 @@ pub fn run_with(
         .iter()
         .map(|b| Renderer::new(device, queue, b, offscreen::FORMAT, options.size))
         .collect::<Result<Vec<_>>>()?;
+    // The occluded rows' renderer (the main bake's), and the shadow that darkens it.
+    let occluded = bakes.len();
+    let shadow = match occluders {
+        Some(o) => {
+            let mut copies = o.occluder.clone();
+            let one = o.occluder.spheres.clone();
+            copies.spheres = (0..o.count).flat_map(|_| one.clone()).collect();
+            let shadow = MoverShadow::new(bake, copies)?;
+            let mut renderer = Renderer::new(device, queue, bake, offscreen::FORMAT, options.size)?;
+            renderer.add_occluders(device, bake)?;
+            renderers.push(renderer);
+            Some(shadow)
+        }
+        None => None,
+    };
     let target = Offscreen::new(device, options.size);
     let (w, h) = options.size;
     let framing = Camera::framing(&bake.scene.positions, w as f32 / h as f32);
@@ -285,15 +365,19 @@ pub fn run_with(
     let centre = 0.5 * (bounds.0 + bounds.1);
     let configurations = [(0, Mode::Phong), (0, Mode::Prt)]
         .into_iter()
-        .chain((1..bakes.len()).map(|b| (b, Mode::Prt)));
+        .chain((1..renderers.len()).map(|b| (b, Mode::Prt)));
     let mut views: Vec<(usize, String, View)> = configurations
         .flat_map(|(b, mode)| {
-            let label = match mode {
-                Mode::Phong => mode.name().to_string(),
-                Mode::Prt => prt_label(bakes[b]),
+            let label = match (mode, occluders) {
+                (Mode::Phong, _) => mode.name().to_string(),
+                (Mode::Prt, Some(o)) if b == occluded => {
+                    format!("{}, {} moving occluders", prt_label(bake), o.count)
+                }
+                (Mode::Prt, _) => prt_label(bakes[b]),
             };
+            let of = bakes.get(b).copied().unwrap_or(bake);
             LIGHT_COUNTS.map(|count| {
-                let lights = Lights::suns(count, bakes[b].order()).for_up(bakes[b].up());
+                let lights = Lights::suns(count, of.order()).for_up(of.up());
                 let mut view = View::new(framing, lights);
                 view.mode = mode;
                 (b, label.clone(), view)
@@ -309,6 +393,14 @@ pub fn run_with(
         view.camera = camera_on_path(&framing, centre, slot.k, path_frames);
         for light in view.lights.iter_mut() {
             light.steerable.phi += LIGHT_DEGREES_PER_FRAME.to_radians();
+        }
+        if let (Some(o), Some(shadow), true) = (occluders, &shadow, *b == occluded) {
+            let spheres = occluder_spheres(o, bake, slot.k);
+            if shadow.is_texel() {
+                renderer.set_occluder_spheres(queue, &spheres)?;
+            } else {
+                renderer.set_transfer(queue, &shadow.transfer_for(&spheres));
+            }
         }
         renderer.update(queue, &FrameInputs::from_view(view, None));
         renderer.render(&target.view, device, queue);
@@ -338,6 +430,7 @@ pub fn run_with(
         order: bake.order(),
         lightmap: bake.lightmap().map(|l| (l.width, l.height)),
         measurements,
+        occluded: occluders.map(|_| occluded),
     })
 }
 

@@ -91,6 +91,18 @@ struct Cli {
     /// uncompressed or compressed, shown as glossy PRT) whose PRT rows join the same run.
     #[arg(long, value_name = "FILE.prt", requires = "bench")]
     bench_also: Vec<PathBuf>,
+    /// With --bench: an occluder file (`prt-bake bake OBJECT --occluder`) whose copies move
+    /// over the scene and shadow it in further PRT rows (docs/guides/occluders.md).
+    #[arg(long, value_name = "OCC", requires = "bench")]
+    bench_occluder: Option<PathBuf>,
+    /// With --bench-occluder: how many copies move at once.
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = 4,
+        requires = "bench_occluder"
+    )]
+    bench_occluders: usize,
     /// Transfer probes of the scene (a grid bake: `prt-bake bake SCENE --probes grid:…`),
     /// drawn as spheres shaded by their incident radiance as a white diffuse ball there (P toggles), and lighting --mover.
     #[arg(long, value_name = "PROBES.prt", conflicts_with = "bench")]
@@ -202,6 +214,7 @@ fn run(cli: Cli) -> Result<(), Error> {
         cli.mover.as_ref(),
         cli.mover_prt.as_ref(),
         cli.mover_occluder.as_ref(),
+        cli.bench_occluder.as_ref(),
     ]
     .into_iter()
     .flatten()
@@ -234,7 +247,15 @@ fn run(cli: Cli) -> Result<(), Error> {
             .iter()
             .map(|file| Bake::load(&cli.scene, file))
             .collect::<Result<Vec<_>, _>>()?;
-        println!("{}", bench::run_with(&gpu, &bake, &also, options)?.table());
+        let occluders = match &cli.bench_occluder {
+            Some(path) => Some(bench::BenchOccluders {
+                occluder: OccluderFile::read(path)?,
+                count: cli.bench_occluders,
+            }),
+            None => None,
+        };
+        let report = bench::run_occluded(&gpu, (&bake, &also), occluders.as_ref(), options)?;
+        println!("{}", report.table());
         return Ok(());
     }
     if let Some(path) = &cli.screenshot {

@@ -205,3 +205,85 @@ fn a_lightmap_is_darkened_per_texel_as_relight_occluder_does() {
         assert!(darker > 300, "{storage:?}: {darker} texel channels darker");
     }
 }
+
+#[test]
+fn the_bench_times_moving_occluders_over_a_lightmap() {
+    // `prt-view --bench --bench-occluder OCC --bench-occluders 2` on a 32² lightmap of the
+    // Cornell room: the table has the occluded rows and their ratio to PRT; an occluder of too
+    // many spheres for a lightmap (2 × 40 > 64) is refused with exit code 3.
+    use prt_baker::bake::lightmap::{self, Atlas};
+    let folder = tempfile::tempdir().unwrap();
+    let cornell = common::workspace().join("scenes/cornell/cornell.scene");
+    let scene = prt_baker::Scene::load(&cornell).unwrap();
+    let tracer = prt_baker::trace::EmbreeTracer::new(&scene, Default::default()).unwrap();
+    let options = BakeOptions {
+        order: 4,
+        samples: 8,
+        mode: Mode::Shadowed,
+        seed: 1,
+        ..BakeOptions::default()
+    };
+    let atlas = Atlas::generate(&scene, 32, None).unwrap();
+    let baked = lightmap::bake(
+        &scene,
+        Some(&tracer),
+        &options,
+        atlas,
+        &prt_baker::support::progress::Silent,
+    )
+    .unwrap();
+    let prt = folder.path().join("lm.prt");
+    prt_baker::CoefficientFile::from_lightmap_bake(&scene, &baked)
+        .write(&prt)
+        .unwrap();
+    let ball = |spheres: usize, name: &str| {
+        let path = folder.path().join(name);
+        let file = OccluderFile {
+            spheres: (0..spheres)
+                .map(|k| LocalSphere {
+                    centre: Vec3::new(0.01 * k as f32, 0.0, 0.0),
+                    radius: 0.2,
+                })
+                .collect(),
+        };
+        std::fs::write(&path, file.to_bytes()).unwrap();
+        path
+    };
+    let run = |occ: &std::path::Path| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_prt-view"))
+            .arg(&cornell)
+            .arg(&prt)
+            .args([
+                "--bench",
+                "--bench-frames",
+                "2",
+                "--size",
+                "64x48",
+                "--bench-occluders",
+                "2",
+            ])
+            .arg("--bench-occluder")
+            .arg(occ)
+            .output()
+            .unwrap()
+    };
+    let output = run(&ball(1, "ball.occ"));
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        output.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(stdout.contains("| PRT, 2 moving occluders |"), "{stdout}");
+    assert!(
+        stdout.contains("PRT with moving occluders / PRT: "),
+        "{stdout}"
+    );
+    let output = run(&ball(40, "many.occ"));
+    assert_eq!(
+        output.status.code(),
+        Some(3),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+}
