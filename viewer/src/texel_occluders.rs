@@ -78,7 +78,11 @@ impl TexelOccluders {
         let packed: Vec<[f32; 4]> = points
             .iter()
             .zip(&normals)
-            .flat_map(|(p, n)| [p.extend(1.0).to_array(), n.extend(0.0).to_array()])
+            // w = 0 marks a texel no triangle covers (no normal; its transfer is zero).
+            .flat_map(|(p, n)| {
+                let covered = f32::from(u8::from(*n != glam::Vec3::ZERO));
+                [p.extend(covered).to_array(), n.extend(0.0).to_array()]
+            })
             .collect();
         let points = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("texel points"),
@@ -177,7 +181,7 @@ pub fn shader_source(order: usize, channels: usize, in_buffer: bool) -> String {
         w,
         "struct Occluders {{ count: u32, pad0: u32, pad1: u32, pad2: u32, spheres: array<vec4<f32>, {MAX_SPHERES}> }}\n\
          @group(1) @binding(0) var<uniform> occluders: Occluders;\n\
-         // Texel p's surface point at 2p (w = 1), its normal at 2p + 1.\n\
+         // Texel p's surface point at 2p (w = 1; 0 where no triangle covers it), its normal at 2p + 1.\n\
          @group(1) @binding(1) var<storage, read> texel_points: array<vec4<f32>>;\n"
     );
     // The real SH basis by the baker's recurrence (basis.rs), unrolled.
@@ -294,7 +298,7 @@ pub fn shader_source(order: usize, channels: usize, in_buffer: bool) -> String {
     };
     let _ = writeln!(
         w,
-        "@fragment\nfn fs_texel_radiance_occluded(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {{\n    let texel = vec2<u32>(frag.xy);\n    let p_index = texel.y * frame.lightmap_width + texel.x;\n    let point = texel_points[2u * p_index].xyz;\n    let normal = texel_points[2u * p_index + 1u].xyz;\n    var v: array<f32, {n2}>;\n    var any = false;\n    for (var s = 0u; s < occluders.count; s++) {{\n        let sphere = occluders.spheres[s];\n        let offset = sphere.xyz - point;\n        if length(offset) > {reach} * sphere.w || dot(offset, normal) < -sphere.w {{ continue; }}\n        let one = occ_sphere(point, sphere);\n        if any {{ v = occ_product(v, one); }} else {{ v = one; any = true; }}\n    }}\n    if !any {{ return vec4<f32>({plain}(texel), 1.0); }}\n    var l: array<vec3<f32>, {n2}>;",
+        "@fragment\nfn fs_texel_radiance_occluded(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {{\n    let texel = vec2<u32>(frag.xy);\n    let p_index = texel.y * frame.lightmap_width + texel.x;\n    let at = texel_points[2u * p_index];\n    if at.w == 0.0 {{ return vec4<f32>({plain}(texel), 1.0); }}\n    let point = at.xyz;\n    let normal = texel_points[2u * p_index + 1u].xyz;\n    var v: array<f32, {n2}>;\n    var any = false;\n    for (var s = 0u; s < occluders.count; s++) {{\n        let sphere = occluders.spheres[s];\n        let offset = sphere.xyz - point;\n        if length(offset) > {reach} * sphere.w || dot(offset, normal) < -sphere.w {{ continue; }}\n        let one = occ_sphere(point, sphere);\n        if any {{ v = occ_product(v, one); }} else {{ v = one; any = true; }}\n    }}\n    if !any {{ return vec4<f32>({plain}(texel), 1.0); }}\n    var l: array<vec3<f32>, {n2}>;",
         reach = lit(REACH)
     );
     for j in 0..n2 {
