@@ -1,5 +1,5 @@
 //! Mutation fuzzing of every parser, on stable Rust: OBJ, MTL, scene file, glTF (`.glb` and
-//! `.gltf`), TGA, PNG, HDR, EXR, rig TOML and the `.prt` coefficient file.
+//! `.gltf`), TGA, PNG, HDR, EXR, rig TOML, the `.prt` coefficient file and the occluder file.
 //!
 //! Each parser gets seeds (valid files made here, plus every file committed under
 //! `tests/fuzz-corpus/<parser>/`: hand-made seeds and the crashes found so far, kept as
@@ -16,7 +16,7 @@
 //!   refused on the spot (the process aborts, the input saved as `fuzz-over-allocation.bin`).
 //! * a `.prt` mutant whose checksum was not repaired must be rejected (a corruption that is
 //!   accepted is counted and fails the test); with the checksum repaired, what is accepted
-//!   must read back to the same bytes.
+//!   must read back to the same bytes. An accepted occluder file must too.
 //!
 //! Besides byte mutants, a quarter of the glTF cases and an eighth of the OBJ, MTL, scene and
 //! rig cases are made by structure-aware generators ([`structured_case`]): node hierarchies
@@ -52,6 +52,7 @@ use common::base64;
 use prt_baker::bake::transfer::{Aux, Mode};
 use prt_baker::export::gltf::{Contents, glb_bytes};
 use prt_baker::formats::coefficient_file::{Adaptive, CoefficientFile, Header};
+use prt_baker::formats::occluder_file::{LocalSphere, OccluderFile};
 use prt_baker::light::{EnvironmentMap, Rig};
 use prt_baker::math::sampling::Sampling;
 use prt_baker::scene::{Texture, Up};
@@ -392,9 +393,11 @@ enum Target {
     Prt,
     // Last, so that the earlier targets keep their discriminants, the seeds of their mutators.
     Gltf,
+    /// An occluder file (`bake --occluder`): sphere sets.
+    Occ,
 }
 
-const TARGETS: [Target; 10] = [
+const TARGETS: [Target; 11] = [
     Target::Obj,
     Target::Mtl,
     Target::SceneFile,
@@ -405,6 +408,7 @@ const TARGETS: [Target; 10] = [
     Target::Exr,
     Target::Rig,
     Target::Prt,
+    Target::Occ,
 ];
 
 impl Target {
@@ -420,6 +424,7 @@ impl Target {
             Target::Exr => "exr",
             Target::Rig => "rig",
             Target::Prt => "prt",
+            Target::Occ => "occ",
         }
     }
 
@@ -450,6 +455,7 @@ impl Target {
             Target::Exr => "case.exr",
             Target::Rig => "case.toml",
             Target::Prt => "case.prt",
+            Target::Occ => "case.occ",
         }
     }
 
@@ -467,6 +473,7 @@ impl Target {
             Target::Hdr | Target::Exr => EnvironmentMap::load(&path).is_ok(),
             Target::Rig => Rig::load(&path).is_ok(),
             Target::Prt => CoefficientFile::from_bytes(bytes).is_ok(),
+            Target::Occ => OccluderFile::read(&path).is_ok(),
         }
     }
 }
@@ -562,6 +569,21 @@ fn prt_seeds() -> Vec<Vec<u8>> {
     ]
 }
 
+/// Occluder files of one and of three spheres.
+fn occ_seeds() -> Vec<Vec<u8>> {
+    let sphere = |x: f32, radius: f32| LocalSphere {
+        centre: glam::Vec3::new(x, 0.5 * x, -x),
+        radius,
+    };
+    [
+        vec![sphere(0.0, 0.2)],
+        vec![sphere(-0.3, 0.1), sphere(0.0, 0.25), sphere(0.3, 0.1)],
+    ]
+    .into_iter()
+    .map(|spheres| OccluderFile { spheres }.to_bytes())
+    .collect()
+}
+
 /// A `.glb` of the case folder's textured triangle, written by the exporter (its buffer in the
 /// binary chunk, the texture as a PNG in a buffer view); the same document as a `.gltf` whose
 /// buffer is a base64 data URI; and that `.gltf` with its image the case folder's `té.png`,
@@ -634,6 +656,7 @@ fn generated_seeds(target: Target) -> Vec<Vec<u8>> {
              [[light]]\nkind = \"constant\"\ncolor = [1, 1, 1]\n",
         ]),
         Target::Prt => prt_seeds(),
+        Target::Occ => occ_seeds(),
     }
 }
 
@@ -1152,6 +1175,13 @@ fn fuzz(
                     std::fs::write(&path, &bytes).unwrap();
                     tally.escapes.push(path.display().to_string());
                 }
+                // An accepted occluder file is written back byte for byte.
+                if target == Target::Occ {
+                    let again = OccluderFile::from_bytes(&bytes).map(|f| f.to_bytes());
+                    if again.as_deref() != Ok(&bytes[..]) {
+                        tally.unfaithful += 1;
+                    }
+                }
                 if target == Target::Prt && k >= seeds.len() {
                     let is_a_seed = seeds.contains(&bytes);
                     if !repaired && !is_a_seed {
@@ -1284,8 +1314,10 @@ fn fuzz_every_parser(
         }
         if t.accepted_corruptions > 0 || t.unfaithful > 0 {
             failures.push(format!(
-                "prt: {} corruptions accepted, {} accepted files read back differently",
-                t.accepted_corruptions, t.unfaithful
+                "{}: {} corruptions accepted, {} accepted files read back differently",
+                target.name(),
+                t.accepted_corruptions,
+                t.unfaithful
             ));
         }
     }
