@@ -3,8 +3,9 @@
 //
 //   import { parseOccluder, occluderSpheresForObject, occludedTransfer } from './occluders.js';
 //   const ball = parseOccluder(await (await fetch('ball.occ')).arrayBuffer());
-//   // each frame the ball moves (beside probeLightForObject, which lights it):
-//   const spheres = occluderSpheresForObject(ball, mesh);
+//   // each frame the ball moves (beside probeLightForObject, which lights it); a scene
+//   // exported to .glb has its positions, normals and transfer in glTF's frame, so 'y':
+//   const spheres = occluderSpheresForObject(ball, mesh, 'y');
 //   const shadowed = occludedTransfer(transfer, channels, order, positions, normals, spheres);
 //
 // Per receiver within reach of a sphere, the spheres' visibility V is built in SH (each a cap
@@ -13,7 +14,7 @@
 // ∫ L·T·V, the triple product of light, transfer and visibility, as
 // `prt-bake relight --occluder` (baker/src/export/relight_occluded.rs) computes it.
 // scripts/browser/occluder-test.mjs holds the two to each other.
-import { GLTF_TO_Z_UP } from './sh.js';
+import { GLTF_TO_Z_UP, Z_UP_TO_GLTF } from './sh.js';
 
 const MAGIC = [0x89, 0x50, 0x52, 0x54, 0x4f, 0x43, 0x43, 0x0a]; // \x89PRTOCC\n
 /** Spheres farther than this many radii from a receiver are left out (as the baker does). */
@@ -48,21 +49,22 @@ export function placeOccluder(occluder, position, rotation) {
 /**
  * The spheres of an occluder carried by the THREE.Object3D `object` (its matrixWorld, updated
  * here, scale taken out), in the scene frame of a z-up bake exported to .glb (glTF's +Y up
- * turned back), or of a y-up bake when `up` is 'y'.
+ * turned back), or in three's world (the .glb's own frame, where its transfer is) when `up`
+ * is 'y'. The occluder's spheres are in the object's source frame: a z-up object (an OBJ,
+ * `objectUp` 'z') exported to .glb has its vertices turned to +Y up, (x, y, z) ↦ (x, z, −y),
+ * and its spheres are turned the same way before the object's matrix places them.
  */
-export function occluderSpheresForObject(occluder, object, up = 'z') {
+export function occluderSpheresForObject(occluder, object, up = 'z', objectUp = 'z') {
   object.updateWorldMatrix(true, false);
   const e = object.matrixWorld.elements;
   const scale = [0, 1, 2].map((c) => Math.hypot(e[4 * c], e[4 * c + 1], e[4 * c + 2]));
-  let rotation = [0, 1, 2].flatMap((r) => [0, 1, 2].map((c) => e[4 * c + r] / scale[c]));
-  let position = [e[12], e[13], e[14]];
-  if (up !== 'y') {
-    const g = GLTF_TO_Z_UP;
-    const apply = (v) => [0, 1, 2].map((i) => g[3 * i] * v[0] + g[3 * i + 1] * v[1] + g[3 * i + 2] * v[2]);
-    position = apply(position);
-    rotation = [0, 1, 2].flatMap((r) => [0, 1, 2].map((c) => g[3 * r] * rotation[c] + g[3 * r + 1] * rotation[3 + c] + g[3 * r + 2] * rotation[6 + c]));
-  }
-  return placeOccluder(occluder, position, rotation);
+  const rotation = [0, 1, 2].flatMap((r) => [0, 1, 2].map((c) => e[4 * c + r] / scale[c]));
+  const apply = (m, v) => [0, 1, 2].map((i) => m[3 * i] * v[0] + m[3 * i + 1] * v[1] + m[3 * i + 2] * v[2]);
+  const local = objectUp === 'y' ? occluder.spheres
+    : occluder.spheres.map(({ centre, radius }) => ({ centre: apply(Z_UP_TO_GLTF, centre), radius }));
+  const placed = placeOccluder({ spheres: local }, [e[12], e[13], e[14]], rotation);
+  if (up === 'y') return placed;
+  return placed.map(({ centre, radius }) => ({ centre: apply(GLTF_TO_Z_UP, centre), radius }));
 }
 
 /** y_i(d) for i < n², d unit (the baker's recurrence, Condon–Shortley phase). */

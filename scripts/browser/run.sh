@@ -24,6 +24,8 @@ node scripts/browser/sh-test.mjs target/release/prt-bake "$OUT"
 node scripts/browser/probe-test.mjs target/release/prt-bake "$OUT"
 # Moving occluders: occluders.js's occludedTransfer against relight --occluder (docs/guides/occluders.md).
 node scripts/browser/occluder-test.mjs target/release/prt-bake "$OUT"
+# ... and in Chromium: the room's .glb relit by prt.js, darkened by occluders.js for two movers.
+node scripts/browser/occluder-render.mjs "$NODE_DIR/node_modules" target/release/prt-bake "$OUT"
 # A rigid object moving through the Cornell room's probes, lit by prt.js in Chromium, against
 # relight at probes baked exactly at its positions (docs/guides/probes.md).
 node scripts/browser/probe-move.mjs "$NODE_DIR/node_modules" target/release/prt-bake "$OUT"

@@ -1,0 +1,131 @@
+// The moving-occluder browser test's page module: window.prtOccluder.render(...) draws the
+// Cornell room's .glb export either relit by prt.js with each mesh's transfer darkened by
+// occluders.js's occludedTransfer for the given occluder places, or with its vertices
+// coloured by given radiances (prt-bake relight --occluder's, matched to the mesh's vertices
+// by position and normal). Returns the RGBA pixels (base64, top row first).
+import * as THREE from 'three';
+import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
+import { applyPRT, lightFromJSON, Z_UP_TO_GLTF, GLTF_TO_Z_UP } from '/runtime/three/prt.js';
+import { parseOccluder, occluderSpheresForObject, occludedTransfer } from '/runtime/three/occluders.js';
+
+const canvas = document.getElementById('view');
+const renderer = new THREE.WebGLRenderer({ canvas, antialias: false, preserveDrawingBuffer: true, alpha: true });
+renderer.setPixelRatio(1);
+renderer.setClearColor(0x000000, 0);
+const gl = renderer.getContext();
+
+function pixels() {
+  const { width, height } = canvas;
+  const data = new Uint8Array(width * height * 4);
+  gl.readPixels(0, 0, width, height, gl.RGBA, gl.UNSIGNED_BYTE, data);
+  const flipped = new Uint8Array(data.length);
+  for (let y = 0; y < height; y++) flipped.set(data.subarray((height - 1 - y) * width * 4, (height - y) * width * 4), y * width * 4);
+  let text = '';
+  for (let i = 0; i < flipped.length; i += 0x8000) text += String.fromCharCode(...flipped.subarray(i, i + 0x8000));
+  return btoa(text);
+}
+
+const floats = (base64) => new Float32Array(Uint8Array.from(atob(base64), (ch) => ch.charCodeAt(0)).buffer);
+const zUp = (v) => [0, 1, 2].map((i) => GLTF_TO_Z_UP[3 * i] * v[0] + GLTF_TO_Z_UP[3 * i + 1] * v[1] + GLTF_TO_Z_UP[3 * i + 2] * v[2]);
+// A vertex's key: its z-up position and normal, rounded.
+const key = (p, n) => [...p, ...n].map((x) => Math.round(x * 1e4)).join(',');
+
+// A row-major 3×3 as a THREE.Matrix4, and glTF's frame from the z-up scene's.
+const matrix4 = (m) => new THREE.Matrix4().set(m[0], m[1], m[2], 0, m[3], m[4], m[5], 0, m[6], m[7], m[8], 0, 0, 0, 0, 1);
+const C = matrix4(Z_UP_TO_GLTF);
+
+// A mesh's vertices in three's world (the .glb's frame, +Y up; `turn` maps them to another):
+// positions and normals, 3 floats each.
+function worldVertices(object, turn = (v) => v) {
+  object.updateWorldMatrix(true, false);
+  const normalMatrix = new THREE.Matrix3().getNormalMatrix(object.matrixWorld);
+  const { position, normal } = object.geometry.attributes;
+  const positions = new Float32Array(3 * position.count);
+  const normals = new Float32Array(3 * position.count);
+  for (let v = 0; v < position.count; v++) {
+    const p = new THREE.Vector3().fromBufferAttribute(position, v).applyMatrix4(object.matrixWorld);
+    const n = new THREE.Vector3().fromBufferAttribute(normal, v).applyMatrix3(normalMatrix).normalize();
+    positions.set(turn(p.toArray()), 3 * v);
+    normals.set(turn(n.toArray()), 3 * v);
+  }
+  return { positions, normals };
+}
+
+window.prtOccluder = {
+  /**
+   * glb, light, occluder: urls (the room's export, `prt-bake light`'s JSON in its scene frame,
+   * the occluder file); places: [{ position, rotation }] in the z-up scene frame (rotation a
+   * row-major 3×3); reference: base64 float32 positions, normals and RGB radiance per PLY
+   * vertex, to draw instead of prt.js.
+   */
+  async render({ glb, light, occluder, places, reference }) {
+    const gltf = await new GLTFLoader().loadAsync(glb);
+    const world = new THREE.Scene();
+    world.add(gltf.scene);
+    let darkened = 0;
+    if (reference) {
+      const [positions, normals, radiance] = ['positions', 'normals', 'radiance'].map((k) => floats(reference[k]));
+      const index = new Map();
+      for (let v = 0; v < positions.length / 3; v++) {
+        index.set(key(positions.subarray(3 * v, 3 * v + 3), normals.subarray(3 * v, 3 * v + 3)), v);
+      }
+      gltf.scene.traverse((object) => {
+        if (!object.isMesh) return;
+        const mine = worldVertices(object, zUp);
+        const colours = new Float32Array(mine.positions.length);
+        for (let v = 0; v < colours.length / 3; v++) {
+          const at = index.get(key(mine.positions.subarray(3 * v, 3 * v + 3), mine.normals.subarray(3 * v, 3 * v + 3)));
+          if (at === undefined) throw new Error(`mesh '${object.name}': vertex ${v} is not in the PLY`);
+          colours.set(radiance.subarray(3 * at, 3 * at + 3), 3 * v);
+        }
+        object.geometry.setAttribute('color', new THREE.BufferAttribute(colours, 3));
+        object.material = new THREE.MeshBasicMaterial({ vertexColors: true });
+      });
+    } else {
+      const [json, bytes] = await Promise.all([fetch(light).then((r) => r.text()), fetch(occluder).then((r) => r.arrayBuffer())]);
+      const sceneLight = lightFromJSON(json);
+      const ball = parseOccluder(bytes);
+      // Each place as three.js would hold a mover there (the z-up scene turned by C); the
+      // .glb's transfer is in glTF's frame, so the spheres are taken in it ('y').
+      const spheres = places.flatMap(({ position, rotation }) => {
+        const mover = new THREE.Object3D();
+        mover.quaternion.setFromRotationMatrix(C.clone().multiply(matrix4(rotation)).multiply(C.clone().transpose()));
+        mover.position.set(...position).applyMatrix4(C);
+        return occluderSpheresForObject(ball, mover, 'y');
+      });
+      const handle = applyPRT(gltf, sceneLight);
+      for (const object of handle.meshes) {
+        const attributes = object.geometry.attributes;
+        const grey = Boolean(attributes._prt_0);
+        const names = grey ? [[0, 1, 2, 3].map((k) => `_prt_${k}`)] : ['r', 'g', 'b'].map((c) => [0, 1, 2, 3].map((k) => `_prt_${c}${k}`));
+        const channels = names.length;
+        const count = attributes.position.count;
+        const transfer = new Float32Array(count * channels * 16);
+        for (const [c, group] of names.entries()) {
+          for (const [k, name] of group.entries()) {
+            const a = attributes[name];
+            if (!a || a.itemSize !== 4 || a.normalized) throw new Error(`mesh '${object.name}': ${name} is not a float VEC4`);
+            for (let v = 0; v < count; v++) for (let i = 0; i < 4; i++) transfer[(v * channels + c) * 16 + 4 * k + i] = a.getComponent(v, i);
+          }
+        }
+        const { positions, normals } = worldVertices(object);
+        const shadowed = occludedTransfer(transfer, channels, 4, positions, normals, spheres);
+        for (const [c, group] of names.entries()) {
+          for (const [k, name] of group.entries()) {
+            const a = attributes[name];
+            for (let v = 0; v < count; v++) for (let i = 0; i < 4; i++) a.setComponent(v, i, shadowed[(v * channels + c) * 16 + 4 * k + i]);
+            a.needsUpdate = true;
+          }
+        }
+        for (let i = 0; i < transfer.length; i++) if (shadowed[i] !== transfer[i]) darkened += 1;
+      }
+    }
+    const camera = new THREE.PerspectiveCamera(40, canvas.width / canvas.height, 0.05, 20);
+    camera.position.set(0, -3.4, 0.9).applyMatrix4(C);
+    camera.up.set(0, 0, 1).applyMatrix4(C);
+    camera.lookAt(new THREE.Vector3(0, 0, -0.3).applyMatrix4(C));
+    renderer.render(world, camera);
+    return { pixels: pixels(), darkened };
+  },
+};
+window.prtOccluderReady = true;
