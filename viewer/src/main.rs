@@ -137,7 +137,8 @@ struct Cli {
     )]
     mover_at: f32,
     /// With --mover: an occluder file (`prt-bake bake OBJECT --occluder`) that moves with it
-    /// and shadows the scene, a per-vertex vector bake (docs/guides/occluders.md).
+    /// and shadows the scene's vector bake, per vertex or per lightmap texel
+    /// (docs/guides/occluders.md).
     #[arg(long, value_name = "OCC", requires = "mover")]
     mover_occluder: Option<PathBuf>,
     /// Start with the probes hidden (P shows them).
