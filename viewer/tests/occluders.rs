@@ -287,3 +287,134 @@ fn the_bench_times_moving_occluders_over_a_lightmap() {
         String::from_utf8_lossy(&output.stderr)
     );
 }
+
+#[test]
+fn prt_view_shadows_a_lightmap_where_the_mover_stands() {
+    // The command line end to end on a lightmap: the Cornell room's 48² texel bake, a ball
+    // (its own bake, an occluder of one sphere) lit by a 2³ probe grid and standing on the
+    // floor; `--mover-occluder` must darken the frame (the mover's placement reaches the
+    // radiance pass each frame) and brighten nothing.
+    use prt_baker::bake::lightmap::{self, Atlas};
+    use prt_baker::bake::probes::{self, ProbeSpec};
+    use prt_baker::support::progress::Silent;
+    let folder = tempfile::tempdir().unwrap();
+    let dir = folder.path();
+    let cornell = common::workspace().join("scenes/cornell/cornell.scene");
+    let scene = prt_baker::Scene::load(&cornell).unwrap();
+    let tracer = prt_baker::trace::EmbreeTracer::new(&scene, Default::default()).unwrap();
+    let options = |samples| BakeOptions {
+        order: 4,
+        samples,
+        mode: Mode::Shadowed,
+        seed: 1,
+        ..BakeOptions::default()
+    };
+    let atlas = Atlas::generate(&scene, 48, None).unwrap();
+    let baked = lightmap::bake(&scene, Some(&tracer), &options(16), atlas, &Silent).unwrap();
+    prt_baker::CoefficientFile::from_lightmap_bake(&scene, &baked)
+        .write(&dir.join("room.prt"))
+        .unwrap();
+    let block = ProbeSpec::parse("grid:2,2,2")
+        .unwrap()
+        .probes(&scene)
+        .unwrap();
+    let transfer = probes::bake(
+        &scene,
+        Some(&tracer),
+        &options(64),
+        &block.positions,
+        &Silent,
+    )
+    .unwrap();
+    prt_baker::CoefficientFile::from_probe_bake(&scene, &transfer, Some(&tracer), block)
+        .write(&dir.join("probes.prt"))
+        .unwrap();
+    // A ball of radius 0.25 (a coarse UV sphere: enough for its own bake).
+    let (rings, segments) = (8, 12);
+    let mut obj = String::from("o ball\n");
+    for i in 0..=rings {
+        for j in 0..segments {
+            let (t, p) = (
+                std::f32::consts::PI * i as f32 / rings as f32,
+                std::f32::consts::TAU * j as f32 / segments as f32,
+            );
+            let v = 0.25 * Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos());
+            obj += &format!("v {} {} {}\n", v.x, v.y, v.z);
+        }
+    }
+    let at = |i: usize, j: usize| i * segments + j % segments + 1;
+    for i in 0..rings {
+        for j in 0..segments {
+            obj += &format!("f {} {} {}\n", at(i, j), at(i + 1, j), at(i + 1, j + 1));
+            obj += &format!("f {} {} {}\n", at(i, j), at(i + 1, j + 1), at(i, j + 1));
+        }
+    }
+    std::fs::write(dir.join("ball.obj"), obj).unwrap();
+    let mut ball = common::bake(&dir.join("ball.obj"), options(64));
+    ball.file.write(&dir.join("ball.prt")).unwrap();
+    let occluder = OccluderFile {
+        spheres: vec![LocalSphere {
+            centre: Vec3::ZERO,
+            radius: 0.25,
+        }],
+    };
+    std::fs::write(dir.join("ball.occ"), occluder.to_bytes()).unwrap();
+    // The default rig, windowed: under the unwindowed order-4 sun a ball blocking its
+    // negative lobes brightens some receivers (217 pixels here; docs/guides/occluders.md,
+    // "Limits").
+    let rig = std::fs::read_to_string(common::workspace().join("viewer/src/default-rig.toml"));
+    std::fs::write(
+        dir.join("rig.toml"),
+        format!("window = \"hanning\"\n{}", rig.unwrap()),
+    )
+    .unwrap();
+    let shot = |extra: &[&str], png: &str| {
+        let output = std::process::Command::new(env!("CARGO_BIN_EXE_prt-view"))
+            .arg(&cornell)
+            .arg(dir.join("room.prt"))
+            .args([
+                "--probes",
+                "probes.prt",
+                "--mover",
+                "ball.obj",
+                "--mover-prt",
+            ])
+            .args([
+                "ball.prt",
+                "--path",
+                "-0.4,-0.3,0.27;0.4,-0.3,0.27",
+                "--mover-at",
+                "0.5",
+            ])
+            .args([
+                "--hide-probes",
+                "--size",
+                "160x120",
+                "--headless",
+                "--screenshot",
+                png,
+            ])
+            .args(["--lights", "rig.toml"])
+            .args(extra)
+            .current_dir(dir)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(output.status.success(), "{stderr}");
+        image::open(dir.join(png)).unwrap().to_rgba8()
+    };
+    let plain = shot(&[], "plain.png");
+    let shadowed = shot(&["--mover-occluder", "ball.occ"], "shadowed.png");
+    let (mut darker, mut brighter) = (0, 0);
+    for (a, b) in plain.pixels().zip(shadowed.pixels()) {
+        let sum = |p: &image::Rgba<u8>| p.0[..3].iter().map(|&c| i32::from(c)).sum::<i32>();
+        darker += usize::from(sum(b) < sum(a) - 6);
+        brighter += usize::from(sum(b) > sum(a) + 6);
+    }
+    eprintln!("{darker} pixels darker, {brighter} brighter with the mover's shadow");
+    assert!(darker > 300, "{darker} pixels darker");
+    assert!(
+        brighter < darker / 20,
+        "{brighter} brighter, {darker} darker"
+    );
+}
