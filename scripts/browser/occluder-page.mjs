@@ -5,7 +5,7 @@
 // by position and normal). Returns the RGBA pixels (base64, top row first).
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
-import { applyPRT, lightFromJSON, Z_UP_TO_GLTF, GLTF_TO_Z_UP } from '/runtime/three/prt.js';
+import { applyPRT, lightFromJSON, loadProbes, probeLightForObject, Z_UP_TO_GLTF, GLTF_TO_Z_UP } from '/runtime/three/prt.js';
 import { parseOccluder, occluderSpheresForObject, occludedTransfer } from '/runtime/three/occluders.js';
 
 const canvas = document.getElementById('view');
@@ -56,13 +56,49 @@ window.prtOccluder = {
    * glb, light, occluder: urls (the room's export, `prt-bake light`'s JSON in its scene frame,
    * the occluder file); places: [{ position, rotation }] in the z-up scene frame (rotation a
    * row-major 3×3); reference: base64 float32 positions, normals and RGB radiance per PLY
-   * vertex, to draw instead of prt.js.
+   * vertex, to draw instead of prt.js. mover (optional): { glb, probes, light } urls (the
+   * ball's own export, the room's probe grid, `prt-bake light`'s JSON in the z-up frame) and
+   * `radiance` (base64 float32 RGB per vertex, relight --probes --at --turn's) or none: the
+   * ball is drawn at places[mover.at], lit by prt.js from the probes (probeLightForObject)
+   * and, with the others, shadowing the room from where three.js put it (unless `shadow` is
+   * false).
    */
-  async render({ glb, light, occluder, places, reference }) {
+  async render({ glb, light, occluder, places, reference, mover, shadow = true }) {
     const gltf = await new GLTFLoader().loadAsync(glb);
     const world = new THREE.Scene();
     world.add(gltf.scene);
     let darkened = 0;
+    // Each place as three.js holds an object there (the z-up scene turned by C); the mover's
+    // own .glb at its place.
+    const holders = (places ?? []).map(({ position, rotation }) => {
+      const holder = new THREE.Object3D();
+      holder.quaternion.setFromRotationMatrix(C.clone().multiply(matrix4(rotation)).multiply(C.clone().transpose()));
+      holder.position.set(...position).applyMatrix4(C);
+      return holder;
+    });
+    if (mover) {
+      const ball = await new GLTFLoader().loadAsync(mover.glb);
+      const root = ball.scene;
+      root.quaternion.copy(holders[mover.at].quaternion);
+      root.position.copy(holders[mover.at].position);
+      holders[mover.at] = root;
+      world.add(root);
+      if (mover.radiance) {
+        const colours = floats(mover.radiance);
+        root.traverse((object) => {
+          if (!object.isMesh) return;
+          if (object.geometry.attributes.position.count * 3 !== colours.length) throw new Error('mover vertex count');
+          object.geometry.setAttribute('color', new THREE.BufferAttribute(colours, 3));
+          object.material = new THREE.MeshBasicMaterial({ vertexColors: true });
+        });
+      } else {
+        const [field, json] = await Promise.all([loadProbes(mover.probes), fetch(mover.light).then((r) => r.text())]);
+        const probeLight = lightFromJSON(json);
+        const handle = applyPRT(ball, probeLight);
+        if (handle.meshes.length !== 1) throw new Error(`${mover.glb}: ${handle.meshes.length} PRT meshes, not 1`);
+        handle.setLight(probeLightForObject(field, handle.meshes[0], probeLight));
+      }
+    }
     if (reference) {
       const [positions, normals, radiance] = ['positions', 'normals', 'radiance'].map((k) => floats(reference[k]));
       const index = new Map();
@@ -85,14 +121,8 @@ window.prtOccluder = {
       const [json, bytes] = await Promise.all([fetch(light).then((r) => r.text()), fetch(occluder).then((r) => r.arrayBuffer())]);
       const sceneLight = lightFromJSON(json);
       const ball = parseOccluder(bytes);
-      // Each place as three.js would hold a mover there (the z-up scene turned by C); the
-      // .glb's transfer is in glTF's frame, so the spheres are taken in it ('y').
-      const spheres = places.flatMap(({ position, rotation }) => {
-        const mover = new THREE.Object3D();
-        mover.quaternion.setFromRotationMatrix(C.clone().multiply(matrix4(rotation)).multiply(C.clone().transpose()));
-        mover.position.set(...position).applyMatrix4(C);
-        return occluderSpheresForObject(ball, mover, 'y');
-      });
+      // The .glb's transfer is in glTF's frame, so the spheres are taken in it ('y').
+      const spheres = shadow ? holders.flatMap((holder) => occluderSpheresForObject(ball, holder, 'y')) : [];
       const handle = applyPRT(gltf, sceneLight);
       for (const object of handle.meshes) {
         const attributes = object.geometry.attributes;
@@ -121,9 +151,9 @@ window.prtOccluder = {
       }
     }
     const camera = new THREE.PerspectiveCamera(40, canvas.width / canvas.height, 0.05, 20);
-    camera.position.set(0, -3.4, 0.9).applyMatrix4(C);
+    camera.position.set(0, -2.9, 2.3).applyMatrix4(C);
     camera.up.set(0, 0, 1).applyMatrix4(C);
-    camera.lookAt(new THREE.Vector3(0, 0, -0.3).applyMatrix4(C));
+    camera.lookAt(new THREE.Vector3(0, -0.2, 0.2).applyMatrix4(C));
     renderer.render(world, camera);
     return { pixels: pixels(), darkened };
   },

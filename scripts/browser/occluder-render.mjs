@@ -1,10 +1,12 @@
 // The moving-occluder browser test (make browser; docs/guides/occluders.md, "In three.js"):
 // the Cornell room's vertex bake, exported to .glb, relit in Chromium by runtime/three/prt.js
 // with its transfer darkened by runtime/three/occluders.js (occluderSpheresForObject for two
-// movers, one turned, then occludedTransfer), must match the same .glb coloured with
-// `prt-bake relight --occluder --at --turn`'s radiance: at least 99 % of the lit pixels
-// (a code of 8 or more in the reference) within 2 codes. The same render without the
-// occluders must miss that bound (the test can fail).
+// movers, one turned, then occludedTransfer); the turned one is a ball baked alone and lit
+// by the room's probes (probeLightForObject). The frame must match the same .glb coloured
+// with `prt-bake relight --occluder --at --turn`'s radiance and the ball coloured with
+// `relight --probes --at --turn`'s: at least 99 % of the lit pixels (a code of 8 or more in
+// the reference) within 2 codes. The same render without the occluders must miss that bound
+// (the test can fail).
 //
 //   node scripts/browser/occluder-render.mjs NODE_MODULES BAKE OUT
 import { execFileSync } from 'node:child_process';
@@ -44,23 +46,37 @@ run('light', rig, '--order', '4', '--up', 'y', '-o', file('light.json'));
 // Two movers on the floor, the second turned 90° about x (scene frame, z up).
 const places = [
   { position: [-0.45, -0.5, 0.27], turn: [0, 0, 1, 0] },
-  { position: [0.5, 0.35, 0.27], turn: [1, 0, 0, 90] },
+  { position: [0.1, -0.6, 0.27], turn: [1, 0, 0, 90] },
 ].map(({ position, turn: [x, y, z, deg] }) => ({ position, turn: [x, y, z, deg], rotation: sh.axisAngle([x, y, z], (deg * Math.PI) / 180) }));
 run('relight', cornell, file('room.prt'), '--lights', rig, '-o', file('shadowed.ply'),
   ...places.flatMap((p) => ['--occluder', file('ball.occ'), '--at', p.position.join(','), '--turn', p.turn.join(',')]));
 
-// The PLY's positions, normals and radiance (6 floats, 3 colour bytes, 3 floats per vertex).
-const ply = fs.readFileSync(file('shadowed.ply'));
-const start = ply.indexOf('end_header\n') + 'end_header\n'.length;
-const count = Number(/element vertex (\d+)/.exec(ply.subarray(0, start).toString('latin1'))[1]);
-const [positions, normals, radiance] = [0, 1, 2].map(() => new Float32Array(3 * count));
-for (let v = 0; v < count; v++) for (let k = 0; k < 3; k++) {
-  positions[3 * v + k] = ply.readFloatLE(start + v * 39 + 4 * k);
-  normals[3 * v + k] = ply.readFloatLE(start + v * 39 + 12 + 4 * k);
-  radiance[3 * v + k] = ply.readFloatLE(start + v * 39 + 27 + 4 * k);
+// The mover: the ball baked alone and exported, lit by the room's probes at the second place
+// (relight --probes --at --turn gives its reference radiance).
+run('bake', file('ball.obj'), '-o', file('ball.prt'), '--order', '4', '--samples', '128', '--quiet');
+run('export', file('ball.prt'), '--scene', file('ball.obj'), '--glb', file('ball.glb'));
+run('bake', cornell, '-o', file('grid.prt'), '--probes', 'grid:4,4,4', '--order', '4', '--samples', '256', '--mode', 'interreflected', '--quiet');
+run('light', rig, '--order', '4', '-o', file('light-z.json'));
+run('relight', file('ball.obj'), file('ball.prt'), '--lights', rig, '-o', file('ball-lit.ply'),
+  '--probes', file('grid.prt'), '--at', places[1].position.join(','), '--turn', places[1].turn.join(','));
+
+// A PLY's positions, normals and radiance (6 floats, 3 colour bytes, 3 floats per vertex).
+function readPly(name) {
+  const ply = fs.readFileSync(file(name));
+  const start = ply.indexOf('end_header\n') + 'end_header\n'.length;
+  const count = Number(/element vertex (\d+)/.exec(ply.subarray(0, start).toString('latin1'))[1]);
+  const [positions, normals, radiance] = [0, 1, 2].map(() => new Float32Array(3 * count));
+  for (let v = 0; v < count; v++) for (let k = 0; k < 3; k++) {
+    positions[3 * v + k] = ply.readFloatLE(start + v * 39 + 4 * k);
+    normals[3 * v + k] = ply.readFloatLE(start + v * 39 + 12 + 4 * k);
+    radiance[3 * v + k] = ply.readFloatLE(start + v * 39 + 27 + 4 * k);
+  }
+  return { positions, normals, radiance };
 }
 const base64 = (a) => Buffer.from(a.buffer).toString('base64');
-const reference = { positions: base64(positions), normals: base64(normals), radiance: base64(radiance) };
+const room = readPly('shadowed.ply');
+const reference = { positions: base64(room.positions), normals: base64(room.normals), radiance: base64(room.radiance) };
+const ballRadiance = base64(readPly('ball-lit.ply').radiance);
 console.log(`browser: occluder-render: baked, exported and relit in ${((Date.now() - started) / 1000).toFixed(1)} s`);
 
 // Over the reference's lit pixels: the share within `tolerance` codes in every channel.
@@ -84,7 +100,9 @@ try {
   const render = (args) => page.evaluate((a) => window.prtOccluder.render(a), args);
   const common = { glb: '/data/room.glb', light: '/data/light.json', occluder: '/data/ball.occ' };
   const movers = places.map(({ position, rotation }) => ({ position, rotation }));
-  const renders = [await render({ ...common, reference }), await render({ ...common, places: movers }), await render({ ...common, places: [] })];
+  const mover = { glb: '/data/ball.glb', probes: '/data/grid.prt', light: '/data/light-z.json', at: 1 };
+  const renders = [await render({ ...common, places: movers, reference, mover: { ...mover, radiance: ballRadiance } }),
+    await render({ ...common, places: movers, mover }), await render({ ...common, places: movers, mover, shadow: false })];
   const [want, got, plain] = renders.map((r) => Buffer.from(r.pixels, 'base64'));
   ['relight', 'prt', 'unshadowed'].forEach((name, k) => fs.writeFileSync(file(`${name}.rgba`), [want, got, plain][k]));
   results = { shadowed: compareLit(want, got, 2), plain: compareLit(want, plain, 2), darkened: renders[1].darkened };
