@@ -124,20 +124,14 @@ fn radiance_map(
 
 #[test]
 fn a_lightmap_is_darkened_per_texel_as_relight_occluder_does() {
-    // The Cornell room baked per texel (64² atlas, order 4, RGB interreflected), shadowed by
-    // two balls (one of two spheres, turned) under the viewer's default rig: the radiance
-    // pass's occluded texels (texel_occluders.rs, f32 on the device, half floats stored)
-    // against `OccludedLight` at the texel points `prt-bake relight --occluder` uses, in both
-    // transfer storages. Every texel within 2⁻⁹ of itself plus 2·10⁻⁴ of the largest value
-    // (half-float rounding, f32 sums); the shadow is there (texels darker than unshadowed).
-    use prt_baker::bake::lightmap::{self, Atlas};
-    use prt_viewer::texel_transfer::TexelStorage;
-    let Some(gpu) = common::gpu() else { return };
-    let scene =
-        prt_baker::Scene::load(&common::workspace().join("scenes/cornell/cornell.scene")).unwrap();
-    let atlas = Atlas::generate(&scene, 64, None).unwrap();
-    let tracer = prt_baker::trace::EmbreeTracer::new(&scene, Default::default()).unwrap();
-    let options = BakeOptions {
+    // The Cornell room baked per texel (64² atlas), order 4 RGB interreflected and order 3
+    // grey shadowed (an odd order pads each channel's last vec4), shadowed by two balls (one
+    // of two spheres, turned) under the viewer's default rig: the radiance pass's occluded
+    // texels (texel_occluders.rs, f32 on the device, half floats stored) against
+    // `OccludedLight` at the texel points `prt-bake relight --occluder` uses, in both transfer
+    // storages. Every texel within 2⁻⁹ of itself plus 2·10⁻⁴ of the largest value (half-float
+    // rounding, f32 sums); the shadow is there (texels darker than unshadowed).
+    let interreflected = BakeOptions {
         order: 4,
         samples: 32,
         mode: Mode::Interreflected,
@@ -145,10 +139,30 @@ fn a_lightmap_is_darkened_per_texel_as_relight_occluder_does() {
         seed: 1,
         ..BakeOptions::default()
     };
+    let shadowed = BakeOptions {
+        order: 3,
+        samples: 32,
+        mode: Mode::Shadowed,
+        seed: 1,
+        ..BakeOptions::default()
+    };
+    for options in [interreflected, shadowed] {
+        darkened_like_relight(&options);
+    }
+}
+
+fn darkened_like_relight(options: &BakeOptions) {
+    use prt_baker::bake::lightmap::{self, Atlas};
+    use prt_viewer::texel_transfer::TexelStorage;
+    let Some(gpu) = common::gpu() else { return };
+    let scene =
+        prt_baker::Scene::load(&common::workspace().join("scenes/cornell/cornell.scene")).unwrap();
+    let atlas = Atlas::generate(&scene, 64, None).unwrap();
+    let tracer = prt_baker::trace::EmbreeTracer::new(&scene, Default::default()).unwrap();
     let baked = lightmap::bake(
         &scene,
         Some(&tracer),
-        &options,
+        options,
         atlas,
         &prt_baker::support::progress::Silent,
     )
@@ -156,7 +170,7 @@ fn a_lightmap_is_darkened_per_texel_as_relight_occluder_does() {
     let file = prt_baker::CoefficientFile::from_lightmap_bake(&scene, &baked);
     let bake = prt_viewer::Bake::new(scene.clone(), file, std::path::Path::new("lm.prt")).unwrap();
     let rig = Rig::load(&common::workspace().join("viewer/src/default-rig.toml")).unwrap();
-    let lights = prt_viewer::lights::Lights::from_rig(&rig, 4).for_up(bake.up());
+    let lights = prt_viewer::lights::Lights::from_rig(&rig, options.order).for_up(bake.up());
     let view = prt_viewer::controls::View::new(
         prt_viewer::camera::Camera::framing(&scene.positions, 4.0 / 3.0),
         lights,
@@ -198,7 +212,9 @@ fn a_lightmap_is_darkened_per_texel_as_relight_occluder_does() {
             }
         }
         eprintln!(
-            "{storage:?}: {} texels, largest {largest:.3}, worst error {worst:.3} of the bound, {darker} texel channels darker than unshadowed",
+            "order {}, {} channel(s), {storage:?}: {} texels, largest {largest:.3}, worst error {worst:.3} of the bound, {darker} texel channels darker than unshadowed",
+            options.order,
+            bake.channels(),
             got.len()
         );
         assert!(worst <= 1.0, "{storage:?}: {worst} × the bound");
