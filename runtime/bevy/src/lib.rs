@@ -25,7 +25,8 @@ pub use export::{PrtExport, PrtPart, load_export};
 pub use light::PrtLight;
 pub use material::{PrtExtension, PrtMaterial};
 pub use probes::{ProbeLit, PrtProbes};
-pub use scene::{spawn_exported, spawn_prt};
+pub use rig::RigSun;
+pub use scene::{PrtStyle, Specular, spawn_exported, spawn_prt};
 pub use texel::{TexelTransfer, load_texel_transfer};
 
 /// Registers [`PrtMaterial`], the [`PrtLight`] resource (order 3, dark, until set) and the
