@@ -26,12 +26,13 @@ mod specular;
 use std::path::PathBuf;
 use std::time::Instant;
 
+use bevy::asset::{AssetLoadError, LoadState};
 use bevy::camera::visibility::RenderLayers;
 use bevy::math::{DMat3, DVec3};
 use bevy::prelude::*;
 use bevy_prt::{
-    PrtExport, PrtLight, PrtPlugin, PrtStyle, RigSun, Specular, load_export, load_texel_transfer,
-    spawn_exported, spawn_prt,
+    ExportError, PrtExport, PrtLight, PrtPlugin, PrtStyle, RigSun, Specular, TexelError,
+    TexelTransfer, spawn_exported, spawn_prt,
 };
 use headless::{Captures, beside, camera, compare, fail, headless_app, save};
 use specular::check_specular;
@@ -165,6 +166,16 @@ struct Run {
     started: Option<Instant>,
 }
 
+/// The files as the asset server loads them ([`bevy_prt::PrtExportLoader`],
+/// [`bevy_prt::TexelTransferLoader`]), until they have loaded.
+#[derive(Resource)]
+struct Pending {
+    args: Args,
+    scene: Handle<PrtExport>,
+    texel: Option<Handle<TexelTransfer>>,
+    reference: Option<Handle<PrtExport>>,
+}
+
 /// The exit status is the app's: 1 when a comparison fails.
 fn main() -> AppExit {
     let args = parse_args();
@@ -172,20 +183,115 @@ fn main() -> AppExit {
         interactive(args);
         return AppExit::Success;
     };
-    let export = load_export(&scene).unwrap_or_else(|e| fail(&e.to_string()));
-    let texel = args
-        .exr
-        .as_ref()
-        .map(|d| load_texel_transfer(d).unwrap_or_else(|e| fail(&e.to_string())));
-    let light = scene_light(&args, &export).unwrap_or_else(|e| fail(&e));
-    let reference = match &args.compare {
-        Some(Some(path)) => Some(load_export(path).unwrap_or_else(|e| fail(&e.to_string()))),
-        Some(None) => Some(load_export(&scene).unwrap_or_else(|e| fail(&e.to_string()))),
-        None => None,
-    };
     if args.screenshot.is_none() && args.bench.is_none() {
         usage("a --scene is checked headless: give --screenshot OUT.png or --bench");
     }
+    if args.specular && args.time.is_none() && args.lights.is_none() {
+        usage("--specular needs the suns of --lights RIG.toml or of --time");
+    }
+    let mut app = headless_app();
+    app.add_plugins(PrtPlugin)
+        .insert_resource(Captures::default());
+    app.add_systems(
+        Startup,
+        move |mut commands: Commands, server: Res<AssetServer>| {
+            let reference = match &args.compare {
+                Some(Some(path)) => Some(path.clone()),
+                Some(None) => Some(scene.clone()),
+                None => None,
+            };
+            commands.insert_resource(Pending {
+                scene: server.load(asset_path(&scene)),
+                texel: (args.exr.as_ref())
+                    .map(|d| server.load(asset_path(&d.join("manifest.json")))),
+                reference: reference.map(|p| server.load(asset_path(&p))),
+                args: args.clone(),
+            });
+        },
+    );
+    app.add_systems(
+        Update,
+        (
+            spawn_when_loaded.run_if(not(resource_exists::<Run>)),
+            step.run_if(resource_exists::<Run>),
+        ),
+    );
+    app.run()
+}
+
+/// `path` relative to the working directory, which is the asset root of the headless app.
+fn asset_path(path: &std::path::Path) -> String {
+    let canonical = |p: &std::path::Path| {
+        std::fs::canonicalize(p).unwrap_or_else(|e| fail(&format!("{}: {e}", p.display())))
+    };
+    let (full, base) = (canonical(path), canonical(std::path::Path::new(".")));
+    let common = full
+        .components()
+        .zip(base.components())
+        .take_while(|(a, b)| a == b)
+        .count();
+    let mut relative = PathBuf::new();
+    base.components()
+        .skip(common)
+        .for_each(|_| relative.push(".."));
+    full.components()
+        .skip(common)
+        .for_each(|c| relative.push(c));
+    relative.to_string_lossy().into_owned()
+}
+
+/// Whether every pending file has loaded; a file that failed ends the run with its error.
+fn all_loaded(server: &AssetServer, pending: &Pending) -> bool {
+    let ids = [
+        Some(pending.scene.id().untyped()),
+        pending.texel.as_ref().map(|h| h.id().untyped()),
+        pending.reference.as_ref().map(|h| h.id().untyped()),
+    ];
+    for id in ids.into_iter().flatten() {
+        match server.load_state(id) {
+            LoadState::Loaded => {}
+            LoadState::Failed(e) => fail(&match e.as_ref() {
+                // The loader's own error (it names the file), without Bevy's backtrace.
+                AssetLoadError::AssetLoaderError(e) => {
+                    let error = e.error();
+                    (error.downcast_ref::<ExportError>().map(|e| e.to_string()))
+                        .or_else(|| error.downcast_ref::<TexelError>().map(|e| e.to_string()))
+                        .unwrap_or_else(|| error.to_string())
+                }
+                other => other.to_string(),
+            }),
+            _ => return false,
+        }
+    }
+    true
+}
+
+/// Once the files have loaded: the light, the scene relit by PRT and what it is compared
+/// with, each seen by its own camera.
+#[allow(clippy::too_many_arguments)] // a Bevy system: one argument per resource
+fn spawn_when_loaded(
+    mut commands: Commands,
+    pending: Res<Pending>,
+    server: Res<AssetServer>,
+    exports: Res<Assets<PrtExport>>,
+    texels: Res<Assets<TexelTransfer>>,
+    mut meshes: ResMut<Assets<Mesh>>,
+    mut images: ResMut<Assets<Image>>,
+    mut prt_materials: ResMut<Assets<bevy_prt::PrtMaterial>>,
+    mut materials: ResMut<Assets<StandardMaterial>>,
+) {
+    if !all_loaded(&server, &pending) {
+        return;
+    }
+    let args = &pending.args;
+    let (Some(export), texel) = (
+        exports.get(&pending.scene),
+        pending.texel.as_ref().and_then(|h| texels.get(h)),
+    ) else {
+        return;
+    };
+    let reference = pending.reference.as_ref().and_then(|h| exports.get(h));
+    let light = scene_light(args, export).unwrap_or_else(|e| fail(&e));
     let suns = if !args.specular {
         Vec::new()
     } else if let Some(t) = args.time {
@@ -193,113 +299,98 @@ fn main() -> AppExit {
     } else if let Some(rig) = &args.lights {
         PrtLight::rig_suns(rig).unwrap_or_else(|e| fail(&e.to_string()))
     } else {
-        usage("--specular needs the suns of --lights RIG.toml or of --time")
+        Vec::new()
     };
     let rotation = light.rotation;
+    commands.insert_resource(light);
     let style = PrtStyle {
         clamp_shading: true,
-        specular: args.specular.then_some(specular_of(&args)),
+        specular: args.specular.then_some(specular_of(args)),
     };
-    let mut app = headless_app();
-    app.add_plugins(PrtPlugin)
-        .insert_resource(light)
-        .insert_resource(Captures::default());
-    app.add_systems(
-        Startup,
-        move |mut commands: Commands,
-              mut meshes: ResMut<Assets<Mesh>>,
-              mut images: ResMut<Assets<Image>>,
-              mut prt_materials: ResMut<Assets<bevy_prt::PrtMaterial>>,
-              mut materials: ResMut<Assets<StandardMaterial>>| {
-            let mut targets = Vec::new();
-            let lightmap_only = args.bench.as_deref() == Some("lightmap");
-            for sun in &suns {
-                commands.spawn((
-                    sun.directional_light(rotation),
-                    RenderLayers::from_layers(&[0, 1, 2, 3]),
-                ));
-            }
-            if !lightmap_only {
-                let parts = spawn_prt(
-                    &mut commands,
-                    &export,
-                    texel.as_ref(),
-                    style,
-                    &mut meshes,
-                    &mut images,
-                    &mut prt_materials,
-                )
-                .unwrap_or_else(|e| fail(&e));
-                targets.push(view_camera(
-                    &mut commands,
-                    &mut images,
-                    &export,
-                    &args,
-                    1,
-                    &parts,
-                ));
-            }
-            let exported = if lightmap_only {
-                Some(&export)
-            } else {
-                reference.as_ref()
-            };
-            if args.specular && args.compare.is_some() {
-                // T·L alone, and Bevy's own specular on black.
-                let plain = PrtStyle {
-                    specular: None,
-                    ..style
-                };
-                let parts = spawn_prt(
-                    &mut commands,
-                    &export,
-                    texel.as_ref(),
-                    plain,
-                    &mut meshes,
-                    &mut images,
-                    &mut prt_materials,
-                )
-                .unwrap_or_else(|e| fail(&e));
-                targets.push(view_camera(
-                    &mut commands,
-                    &mut images,
-                    &export,
-                    &args,
-                    2,
-                    &parts,
-                ));
-                let parts = spawn_bevy_specular(
-                    &mut commands,
-                    &export,
-                    specular_of(&args),
-                    &mut meshes,
-                    &mut images,
-                    &mut materials,
-                );
-                targets.push(view_camera(
-                    &mut commands,
-                    &mut images,
-                    &export,
-                    &args,
-                    3,
-                    &parts,
-                ));
-            } else if let Some(r) = exported {
-                let parts =
-                    spawn_exported(&mut commands, r, &mut meshes, &mut images, &mut materials)
-                        .unwrap_or_else(|e| fail(&e));
-                targets.push(view_camera(&mut commands, &mut images, r, &args, 2, &parts));
-            }
-            commands.insert_resource(Run {
-                args: args.clone(),
-                targets,
-                frame: 0,
-                started: None,
-            });
-        },
-    );
-    app.add_systems(Update, step);
-    app.run()
+    let mut targets = Vec::new();
+    let lightmap_only = args.bench.as_deref() == Some("lightmap");
+    for sun in &suns {
+        commands.spawn((
+            sun.directional_light(rotation),
+            RenderLayers::from_layers(&[0, 1, 2, 3]),
+        ));
+    }
+    if !lightmap_only {
+        let parts = spawn_prt(
+            &mut commands,
+            export,
+            texel,
+            style,
+            &mut meshes,
+            &mut images,
+            &mut prt_materials,
+        )
+        .unwrap_or_else(|e| fail(&e));
+        targets.push(view_camera(
+            &mut commands,
+            &mut images,
+            export,
+            args,
+            1,
+            &parts,
+        ));
+    }
+    let exported = if lightmap_only {
+        Some(export)
+    } else {
+        reference
+    };
+    if args.specular && args.compare.is_some() {
+        // T·L alone, and Bevy's own specular on black.
+        let plain = PrtStyle {
+            specular: None,
+            ..style
+        };
+        let parts = spawn_prt(
+            &mut commands,
+            export,
+            texel,
+            plain,
+            &mut meshes,
+            &mut images,
+            &mut prt_materials,
+        )
+        .unwrap_or_else(|e| fail(&e));
+        targets.push(view_camera(
+            &mut commands,
+            &mut images,
+            export,
+            args,
+            2,
+            &parts,
+        ));
+        let parts = spawn_bevy_specular(
+            &mut commands,
+            export,
+            specular_of(args),
+            &mut meshes,
+            &mut images,
+            &mut materials,
+        );
+        targets.push(view_camera(
+            &mut commands,
+            &mut images,
+            export,
+            args,
+            3,
+            &parts,
+        ));
+    } else if let Some(r) = exported {
+        let parts = spawn_exported(&mut commands, r, &mut meshes, &mut images, &mut materials)
+            .unwrap_or_else(|e| fail(&e));
+        targets.push(view_camera(&mut commands, &mut images, r, args, 2, &parts));
+    }
+    commands.insert_resource(Run {
+        args: args.clone(),
+        targets,
+        frame: 0,
+        started: None,
+    });
 }
 
 /// The StandardMaterial parameters of --specular.
@@ -490,65 +581,104 @@ fn finish(args: &Args, shots: &[Vec<u8>]) -> i32 {
 #[cfg(feature = "window")]
 fn interactive(args: Args) {
     let (scene, exr) = demo_scene(&args);
-    let export = load_export(&scene).unwrap_or_else(|e| fail(&e.to_string()));
-    let texel = exr.map(|d| load_texel_transfer(&d).unwrap_or_else(|e| fail(&e.to_string())));
-    let order = export.order;
-    let args2 = args.clone();
-    let style = PrtStyle {
-        clamp_shading: false,
-        specular: args.specular.then_some(specular_of(&args)),
-    };
     App::new()
-        .add_plugins((DefaultPlugins, PrtPlugin))
-        .insert_resource(PrtLight::zero(order))
+        .add_plugins((DefaultPlugins.set(headless::file_assets()), PrtPlugin))
         .add_systems(
             Startup,
-            move |mut commands: Commands,
-                  mut meshes: ResMut<Assets<Mesh>>,
-                  mut images: ResMut<Assets<Image>>,
-                  mut materials: ResMut<Assets<bevy_prt::PrtMaterial>>| {
-                let parts = spawn_prt(
-                    &mut commands,
-                    &export,
-                    texel.as_ref(),
-                    style,
-                    &mut meshes,
-                    &mut images,
-                    &mut materials,
-                )
-                .unwrap_or_else(|e| fail(&e));
-                let _ = parts;
-                let (lo, hi) = bounds(&export);
-                let centre = 0.5 * (lo + hi);
-                let eye = centre + args2.view.normalize() * 0.5 * (hi - lo).length() * 2.4;
-                commands.spawn((
-                    Camera3d::default(),
-                    bevy::core_pipeline::tonemapping::Tonemapping::None,
-                    // An exposure of 1: Bevy's specular in T·L's units.
-                    bevy::camera::Exposure {
-                        ev100: -(1.2f32).log2(),
-                    },
-                    Transform::from_translation(eye).looking_at(centre, Vec3::Y),
-                ));
-                if args2.specular {
-                    commands.spawn(sun_at(0.0, order).1.directional_light(DMat3::IDENTITY));
-                }
+            move |mut commands: Commands, server: Res<AssetServer>| {
+                commands.insert_resource(Pending {
+                    scene: server.load(asset_path(&scene)),
+                    texel: (exr.as_ref())
+                        .map(|d| server.load(asset_path(&d.join("manifest.json")))),
+                    reference: None,
+                    args: args.clone(),
+                });
             },
         )
         .add_systems(
             Update,
-            move |time: Res<Time>,
-                  mut light: ResMut<PrtLight>,
-                  mut suns: Query<(&mut DirectionalLight, &mut Transform)>| {
-                let (prt, sun) = sun_at(time.elapsed_secs_f64(), order);
-                *light = prt;
-                // Bevy's sun (its specular) follows the PRT sun.
-                for (mut bevy_light, mut transform) in &mut suns {
-                    (*bevy_light, *transform) = sun.directional_light(DMat3::IDENTITY);
-                }
-            },
+            (
+                spawn_window_scene.run_if(not(resource_exists::<Shown>)),
+                move_sun.run_if(resource_exists::<Shown>),
+            ),
         )
         .run();
+}
+
+/// The window's scene is up; its transfer's order.
+#[cfg(feature = "window")]
+#[derive(Resource)]
+struct Shown(usize);
+
+#[cfg(feature = "window")]
+#[allow(clippy::too_many_arguments)] // a Bevy system: one argument per resource
+fn spawn_window_scene(
+    mut commands: Commands,
+    pending: Res<Pending>,
+    server: Res<AssetServer>,
+    exports: Res<Assets<PrtExport>>,
+    texels: Res<Assets<TexelTransfer>>,
+    mut meshes: ResMut<Assets<Mesh>>,
+    mut images: ResMut<Assets<Image>>,
+    mut materials: ResMut<Assets<bevy_prt::PrtMaterial>>,
+) {
+    if !all_loaded(&server, &pending) {
+        return;
+    }
+    let Some(export) = exports.get(&pending.scene) else {
+        return;
+    };
+    let texel = pending.texel.as_ref().and_then(|h| texels.get(h));
+    let args = &pending.args;
+    let style = PrtStyle {
+        clamp_shading: false,
+        specular: args.specular.then_some(specular_of(args)),
+    };
+    spawn_prt(
+        &mut commands,
+        export,
+        texel,
+        style,
+        &mut meshes,
+        &mut images,
+        &mut materials,
+    )
+    .unwrap_or_else(|e| fail(&e));
+    let (lo, hi) = bounds(export);
+    let centre = 0.5 * (lo + hi);
+    let eye = centre + args.view.normalize() * 0.5 * (hi - lo).length() * 2.4;
+    commands.spawn((
+        Camera3d::default(),
+        bevy::core_pipeline::tonemapping::Tonemapping::None,
+        // An exposure of 1: Bevy's specular in T·L's units.
+        bevy::camera::Exposure {
+            ev100: -(1.2f32).log2(),
+        },
+        Transform::from_translation(eye).looking_at(centre, Vec3::Y),
+    ));
+    if args.specular {
+        commands.spawn(
+            sun_at(0.0, export.order)
+                .1
+                .directional_light(DMat3::IDENTITY),
+        );
+    }
+    commands.insert_resource(Shown(export.order));
+}
+
+/// The sun crosses the sky: the PRT light and Bevy's sun (its specular) follow it.
+#[cfg(feature = "window")]
+fn move_sun(
+    time: Res<Time>,
+    shown: Res<Shown>,
+    mut light: ResMut<PrtLight>,
+    mut suns: Query<(&mut DirectionalLight, &mut Transform)>,
+) {
+    let (prt, sun) = sun_at(time.elapsed_secs_f64(), shown.0);
+    *light = prt;
+    for (mut bevy_light, mut transform) in &mut suns {
+        (*bevy_light, *transform) = sun.directional_light(DMat3::IDENTITY);
+    }
 }
 
 #[cfg(not(feature = "window"))]

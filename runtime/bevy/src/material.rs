@@ -167,8 +167,9 @@ impl MaterialExtension for PrtExtension {
         } else {
             // The shading goes to the fragment stage as the vertex colour.
             defs.push("VERTEX_COLORS".into());
-            for i in 0..key.bind_group_data.attributes as usize {
-                attributes.push(PRT_TRANSFER[i].at_shader_location(3 + i as u32));
+            let count = key.bind_group_data.attributes as usize;
+            for (i, attribute) in PRT_TRANSFER.iter().enumerate().take(count) {
+                attributes.push(attribute.at_shader_location(3 + i as u32));
                 defs.push(format!("PRT_T{i}").into());
             }
         }
