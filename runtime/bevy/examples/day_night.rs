@@ -663,6 +663,15 @@ fn spawn_window_scene(
                 .directional_light(DMat3::IDENTITY),
         );
     }
+    info!(
+        "day_night: {} parts loaded and relit by PRT{}",
+        export.parts.len(),
+        if args.specular {
+            " with Bevy's specular"
+        } else {
+            ""
+        }
+    );
     commands.insert_resource(Shown(export.order));
 }
 
