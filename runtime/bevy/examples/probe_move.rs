@@ -105,7 +105,8 @@ struct Run {
     screenshot: PathBuf,
 }
 
-fn main() {
+/// The exit status is the app's: 1 when a comparison fails.
+fn main() -> AppExit {
     let args = parse_args();
     let export = load_export(&args.object).unwrap_or_else(|e| fail(&e.to_string()));
     let probes = PrtProbes::load(&args.probes).unwrap_or_else(|e| fail(&e.to_string()));
@@ -209,7 +210,7 @@ fn main() {
         },
     );
     app.add_systems(Update, step);
-    app.run();
+    app.run()
 }
 
 fn step(

@@ -64,7 +64,8 @@ pub struct PrtPart {
     pub alpha_mode: AlphaMode,
 }
 
-/// A whole export.
+/// A whole export: an [`Asset`], loaded by `asset_server.load::<PrtExport>("x.glb")`.
+#[derive(Asset, TypePath)]
 pub struct PrtExport {
     pub order: usize,
     /// 1 (grey) or 3 (RGB).
@@ -82,15 +83,24 @@ impl PrtExport {
     }
 }
 
-/// Reads an export. Errors name the file and the problem.
+/// Reads an export from a file, outside Bevy's asset server (which loads it with
+/// [`crate::PrtExportLoader`]). Errors name the file and the problem.
 pub fn load_export(path: &Path) -> Result<PrtExport, ExportError> {
+    let bytes = std::fs::read(path).map_err(|e| ExportError::Content {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })?;
+    parse_export(&bytes, path)
+}
+
+/// An export from its bytes; `path` names it in the errors.
+pub fn parse_export(bytes: &[u8], path: &Path) -> Result<PrtExport, ExportError> {
     let content = |message: String| ExportError::Content {
         path: path.to_path_buf(),
         message,
     };
-    let bytes = std::fs::read(path).map_err(|e| content(e.to_string()))?;
     let gltf::Gltf { document, blob } =
-        gltf::Gltf::from_slice(&bytes).map_err(|source| ExportError::Gltf {
+        gltf::Gltf::from_slice(bytes).map_err(|source| ExportError::Gltf {
             path: path.to_path_buf(),
             source,
         })?;
@@ -135,7 +145,7 @@ pub fn load_export(path: &Path) -> Result<PrtExport, ExportError> {
             .as_ref()
             .is_some_and(|raw| raw.get().contains("prt_sheet"));
         for primitive in mesh.primitives() {
-            let reader = primitive.reader(|b| get(b));
+            let reader = primitive.reader(&get);
             let positions: Vec<[f32; 3]> = reader
                 .read_positions()
                 .ok_or_else(|| content(format!("mesh '{name}': no POSITION")))?

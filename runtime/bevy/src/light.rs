@@ -116,6 +116,16 @@ impl PrtLight {
         crate::rig::project(&text, path, order)
     }
 
+    /// The suns and directional lights of a rig file, for Bevy lights of their own (Bevy's
+    /// specular, [`crate::PrtExtension::specular`]), in the glTF frame.
+    pub fn rig_suns(path: &Path) -> Result<Vec<crate::RigSun>, LightError> {
+        let text = std::fs::read_to_string(path).map_err(|source| LightError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        crate::rig::suns(&text, path)
+    }
+
     /// A sun of irradiance `sun` (linear RGB, W/m² on a facing surface) from `direction`
     /// (glTF frame, towards the sun) over a sky of radiance `sky` above `up` and `ground`
     /// below: the rig `sun` + `hemisphere` of docs/reference/lights.md.

@@ -1,5 +1,7 @@
-//! [`PrtMaterial`]: a [`StandardMaterial`] whose lighting is replaced by T·L, per vertex (the
-//! transfer attributes) or per texel (a texel bake's transfer array on TEXCOORD_1).
+//! [`PrtMaterial`]: a [`StandardMaterial`] whose diffuse lighting is replaced by T·L, per
+//! vertex (the transfer attributes) or per texel (a texel bake's transfer array on
+//! TEXCOORD_1), with Bevy's own specular from the scene's lights where
+//! [`PrtExtension::specular`] asks for it.
 
 use bevy::mesh::MeshVertexBufferLayoutRef;
 use bevy::pbr::{
@@ -49,6 +51,11 @@ pub struct PrtExtension {
     pub z_up: bool,
     /// Lit by [`crate::ProbeLit`] from the probes, not by the [`crate::PrtLight`] directly.
     pub probe_lit: bool,
+    /// Adds Bevy's own specular (its PBR lighting with the diffuse made zero) from the scene's
+    /// Bevy lights (directional, point, spot, environment map, ambient), with `base`'s
+    /// roughness, metallic and reflectance. Off by default: T·L alone. The specular is in
+    /// Bevy's lit units (times the camera's exposure); T·L is not.
+    pub specular: bool,
 }
 
 /// What the pipeline is specialised on.
@@ -57,6 +64,7 @@ pub struct PrtExtension {
 pub struct PrtKey {
     texel: u32,
     attributes: u32,
+    specular: u32,
 }
 
 impl From<&PrtExtension> for PrtKey {
@@ -64,6 +72,7 @@ impl From<&PrtExtension> for PrtKey {
         PrtKey {
             texel: e.transfer.is_some() as u32,
             attributes: e.attributes,
+            specular: e.specular as u32,
         }
     }
 }
@@ -97,6 +106,7 @@ impl PrtExtension {
             attributes,
             z_up,
             probe_lit: false,
+            specular: false,
         }
     }
 
@@ -148,14 +158,18 @@ impl MaterialExtension for PrtExtension {
             Mesh::ATTRIBUTE_UV_0.at_shader_location(2),
         ];
         let mut defs = Vec::new();
+        if key.bind_group_data.specular != 0 {
+            defs.push("PRT_SPECULAR".into());
+        }
         if key.bind_group_data.texel != 0 {
             attributes.push(Mesh::ATTRIBUTE_UV_1.at_shader_location(3));
             defs.push("PRT_TEXEL".into());
         } else {
             // The shading goes to the fragment stage as the vertex colour.
             defs.push("VERTEX_COLORS".into());
-            for i in 0..key.bind_group_data.attributes as usize {
-                attributes.push(PRT_TRANSFER[i].at_shader_location(3 + i as u32));
+            let count = key.bind_group_data.attributes as usize;
+            for (i, attribute) in PRT_TRANSFER.iter().enumerate().take(count) {
+                attributes.push(attribute.at_shader_location(3 + i as u32));
                 defs.push(format!("PRT_T{i}").into());
             }
         }

@@ -6,7 +6,7 @@
 
 use std::path::{Path, PathBuf};
 
-use bevy::math::{DMat3, DVec3};
+use bevy::math::DMat3;
 use bevy::prelude::*;
 
 use crate::light::PrtLight;
@@ -163,7 +163,7 @@ impl PrtProbes {
         let mut fitted = light.clone();
         fitted.iter_mut().for_each(|c| c.resize(order * order, 0.0));
         let scene_light = turn(to_gltf.transpose(), &fitted);
-        let x = (to_gltf.transpose() * DVec3::from(position.as_dvec3())).as_vec3();
+        let x = (to_gltf.transpose() * position.as_dvec3()).as_vec3();
         let incident = turn(to_gltf, &self.incident(x, &scene_light));
         turn(DMat3::from_quat(rotation.as_dquat()).transpose(), &incident)
     }

@@ -1,16 +1,17 @@
-// PrtMaterial's shaders: StandardMaterial with its lighting replaced by PRT, radiance =
-// albedo · clamp(Σ_j T_j·L_j) per channel (docs/reference/gltf.md).
+// PrtMaterial's shaders: StandardMaterial with its diffuse lighting replaced by PRT, radiance =
+// albedo · (1 − metallic) · clamp(Σ_j T_j·L_j) per channel (docs/reference/gltf.md), plus,
+// with PRT_SPECULAR, Bevy's own specular from the scene's Bevy lights.
 //
 // Per vertex, the vertex stage dots the transfer attributes (PRT_T0…) into the light and
-// hands the result on as the vertex colour, which pbr_input_from_standard_material multiplies
-// into the base colour. Per texel, the fragment stage samples the transfer array on
-// TEXCOORD_1 and multiplies it in.
+// hands the result on as the vertex colour; the fragment stage takes it back out of the
+// StandardMaterial's inputs (so that a metal's F0 is its base colour, not T·L) and
+// multiplies it in. Per texel, the fragment stage samples the transfer array on TEXCOORD_1.
 #import bevy_pbr::{
     mesh_functions,
     forward_io::{VertexOutput, FragmentOutput},
     view_transformations::position_world_to_clip,
     pbr_fragment::pbr_input_from_standard_material,
-    pbr_functions::{alpha_discard, main_pass_post_lighting_processing},
+    pbr_functions::{alpha_discard, apply_pbr_lighting, main_pass_post_lighting_processing},
 }
 
 struct PrtUniform {
@@ -170,13 +171,27 @@ fn texel_shading(uv: vec2<f32>) -> vec3<f32> {
 
 @fragment
 fn fragment(in: VertexOutput, @builtin(front_facing) is_front: bool) -> FragmentOutput {
-    var pbr_input = pbr_input_from_standard_material(in, is_front);
+    var material_in = in;
 #ifdef PRT_TEXEL
-    let base = pbr_input.material.base_color;
-    pbr_input.material.base_color = vec4(base.rgb * texel_shading(in.uv_b), base.a);
+    let shading = texel_shading(in.uv_b);
+#else
+    let shading = in.color.rgb;
+    material_in.color = vec4(1.0);
 #endif
-    pbr_input.material.base_color = alpha_discard(pbr_input.material, pbr_input.material.base_color);
+    var pbr_input = pbr_input_from_standard_material(material_in, is_front);
+    let base = pbr_input.material.base_color;
+    var color = vec4(base.rgb * (1.0 - pbr_input.material.metallic) * shading, base.a);
+#ifdef PRT_SPECULAR
+    // Bevy's own lighting with its diffuse made zero: calculate_diffuse_color multiplies by
+    // (1 − diffuse_transmission), and F0 does not depend on it; the transmitted lobe is drawn
+    // only under STANDARD_MATERIAL_DIFFUSE_TRANSMISSION, which a PrtMaterial never sets.
+    var specular_input = pbr_input;
+    specular_input.material.diffuse_transmission = 1.0;
+    specular_input.material.emissive = vec4(0.0);
+    color = vec4(color.rgb + apply_pbr_lighting(specular_input).rgb, color.a);
+#endif
+    color = alpha_discard(pbr_input.material, color);
     var out: FragmentOutput;
-    out.color = main_pass_post_lighting_processing(pbr_input, pbr_input.material.base_color);
+    out.color = main_pass_post_lighting_processing(pbr_input, color);
     return out;
 }

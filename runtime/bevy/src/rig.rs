@@ -5,7 +5,8 @@
 
 use std::path::Path;
 
-use bevy::math::DVec3;
+use bevy::math::{DMat3, DVec3};
+use bevy::prelude::*;
 use serde::Deserialize;
 
 use crate::light::{LightError, PrtLight, disk_band_factors};
@@ -31,6 +32,104 @@ struct RigLight {
     ground_color: Option<[f64; 3]>,
 }
 
+/// A rig's sun or directional light, for a Bevy light of its own (Bevy's specular, see
+/// [`crate::PrtExtension::specular`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RigSun {
+    /// Towards the light, in the glTF frame (+Y up).
+    pub direction: DVec3,
+    /// Its irradiance on a facing surface (linear RGB, the rig's `color` × `intensity`).
+    pub irradiance: DVec3,
+}
+
+impl RigSun {
+    /// A [`DirectionalLight`] shining as this sun after `rotation` (the [`PrtLight`]'s
+    /// rotation): its illuminance is the irradiance, so that with a camera exposure of 1
+    /// (`Exposure { ev100: -log2(1.2) }`) Bevy's lighting is in T·L's units.
+    pub fn directional_light(&self, rotation: DMat3) -> (DirectionalLight, Transform) {
+        let towards = (rotation * self.direction).as_vec3().normalize();
+        let up = if towards.y.abs() > 0.99 {
+            Vec3::X
+        } else {
+            Vec3::Y
+        };
+        let strength = self.irradiance.max_element().max(1e-9);
+        let colour = (self.irradiance / strength).as_vec3();
+        (
+            DirectionalLight {
+                color: Color::linear_rgb(colour.x, colour.y, colour.z),
+                illuminance: strength as f32,
+                ..default()
+            },
+            Transform::IDENTITY.looking_to(-towards, up),
+        )
+    }
+}
+
+/// The suns and directional lights of the rig in `text` (read from `path`).
+pub fn suns(text: &str, path: &Path) -> Result<Vec<RigSun>, LightError> {
+    let (rig, lines) = parse(text, path)?;
+    let mut out = Vec::new();
+    for (i, l) in rig.light.iter().enumerate() {
+        if l.kind == "sun" || l.kind == "directional" {
+            let direction = direction_of(l)
+                .and_then(|d| d.ok_or_else(|| format!("a {} needs `direction`", l.kind)))
+                .map_err(|message| LightError::Rig {
+                    path: path.to_path_buf(),
+                    line: lines.get(i).copied().unwrap_or(1),
+                    message,
+                })?;
+            out.push(RigSun {
+                direction: sh::z_up_to_gltf() * direction,
+                irradiance: colour_of(l),
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// The rig and the line of each of its [[light]] tables (for the messages).
+fn parse(text: &str, path: &Path) -> Result<(RigFile, Vec<usize>), LightError> {
+    let rig: RigFile = toml::from_str(text).map_err(|e| {
+        let line = e
+            .span()
+            .map_or(1, |s| text[..s.start].lines().count().max(1));
+        LightError::Rig {
+            path: path.to_path_buf(),
+            line,
+            message: e.message().to_string(),
+        }
+    })?;
+    let lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| l.trim_start().starts_with("[[light]]"))
+        .map(|(i, _)| i + 1)
+        .collect();
+    Ok((rig, lines))
+}
+
+fn colour_of(l: &RigLight) -> DVec3 {
+    DVec3::from(l.color.unwrap_or([1.0; 3])) * l.intensity.unwrap_or(1.0)
+}
+
+/// A light's direction (z-up, unit), if it gives one.
+fn direction_of(l: &RigLight) -> Result<Option<DVec3>, String> {
+    match (l.direction, l.theta, l.phi) {
+        (Some(d), None, None) => Ok(Some(DVec3::from(d).normalize())),
+        (None, Some(t), Some(p)) => {
+            let (t, p) = (t.to_radians(), p.to_radians());
+            Ok(Some(DVec3::new(
+                t.sin() * p.cos(),
+                t.sin() * p.sin(),
+                t.cos(),
+            )))
+        }
+        (None, None, None) => Ok(None),
+        _ => Err("give either `direction` or `theta` and `phi`".into()),
+    }
+}
+
 /// The rig in `text` (read from `path`) at `order`, in the glTF frame.
 pub fn project(text: &str, path: &Path, order: usize) -> Result<PrtLight, LightError> {
     let error = |line: usize, message: String| LightError::Rig {
@@ -38,44 +137,19 @@ pub fn project(text: &str, path: &Path, order: usize) -> Result<PrtLight, LightE
         line,
         message,
     };
-    let rig: RigFile = toml::from_str(text).map_err(|e| {
-        let line = e
-            .span()
-            .map_or(1, |s| text[..s.start].lines().count().max(1));
-        error(line, e.message().to_string())
-    })?;
+    let (rig, lines) = parse(text, path)?;
     if rig.window.as_deref().is_some_and(|w| w != "none") {
         return Err(error(
             1,
             "a windowed rig: project it with `prt-bake light RIG --up y` and load the JSON".into(),
         ));
     }
-    // The line of each [[light]] table, for the messages.
-    let lines: Vec<usize> = text
-        .lines()
-        .enumerate()
-        .filter(|(_, l)| l.trim_start().starts_with("[[light]]"))
-        .map(|(i, _)| i + 1)
-        .collect();
     let to_gltf = sh::z_up_to_gltf();
     let mut light = PrtLight::zero(order);
     for (i, l) in rig.light.iter().enumerate() {
         let line = lines.get(i).copied().unwrap_or(1);
-        let colour = DVec3::from(l.color.unwrap_or([1.0; 3])) * l.intensity.unwrap_or(1.0);
-        let direction = match (l.direction, l.theta, l.phi) {
-            (Some(d), None, None) => Some(DVec3::from(d).normalize()),
-            (None, Some(t), Some(p)) => {
-                let (t, p) = (t.to_radians(), p.to_radians());
-                Some(DVec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos()))
-            }
-            (None, None, None) => None,
-            _ => {
-                return Err(error(
-                    line,
-                    "give either `direction` or `theta` and `phi`".into(),
-                ));
-            }
-        };
+        let colour = colour_of(l);
+        let direction = direction_of(l).map_err(|m| error(line, m))?;
         let needed = || {
             direction
                 .map(|d| to_gltf * d)

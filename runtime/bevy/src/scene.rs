@@ -13,7 +13,13 @@ use crate::texel::TexelTransfer;
 #[derive(Component)]
 pub struct PrtPartOf;
 
-fn base_material(part: &PrtPart, images: &[Handle<Image>], unlit: bool) -> StandardMaterial {
+/// The [`StandardMaterial`] of a part (matte: roughness 1, no metal, no reflectance), `unlit`
+/// or lit by Bevy.
+pub fn standard_material(
+    part: &PrtPart,
+    images: &[Handle<Image>],
+    unlit: bool,
+) -> StandardMaterial {
     StandardMaterial {
         base_color: Color::LinearRgba(part.base_color),
         base_color_texture: part.base_color_texture.map(|i| images[i].clone()),
@@ -42,13 +48,30 @@ pub fn add_images(export: &PrtExport, images: &mut Assets<Image>) -> Vec<Handle<
         .collect()
 }
 
+/// How [`spawn_prt`] draws the parts.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PrtStyle {
+    /// Clamps Σ T·L to [0, 1] (as an export's COLOR_0 and lightmap are).
+    pub clamp_shading: bool,
+    /// Bevy's specular from the scene's Bevy lights on top of T·L ([`PrtExtension::specular`]).
+    pub specular: Option<Specular>,
+}
+
+/// The StandardMaterial parameters of [`PrtStyle::specular`] (an export's materials are matte).
+#[derive(Clone, Copy, Debug)]
+pub struct Specular {
+    pub perceptual_roughness: f32,
+    pub metallic: f32,
+    pub reflectance: f32,
+}
+
 /// Spawns every part relit by PRT: per vertex where the part carries transfer attributes, per
-/// texel from `texel` otherwise. `clamp_shading` clamps Σ T·L to [0, 1] (as COLOR_0 is).
+/// texel from `texel` otherwise.
 pub fn spawn_prt(
     commands: &mut Commands,
     export: &PrtExport,
     texel: Option<&TexelTransfer>,
-    clamp_shading: bool,
+    style: PrtStyle,
     meshes: &mut Assets<Mesh>,
     images: &mut Assets<Image>,
     materials: &mut Assets<PrtMaterial>,
@@ -56,8 +79,9 @@ pub fn spawn_prt(
     let image_handles = add_images(export, images);
     let transfer = texel.map(|t| images.add(t.image.clone()));
     let mut spawned = Vec::new();
+    let clamp_shading = style.clamp_shading;
     for part in &export.parts {
-        let extension = if part.vertex_transfer {
+        let mut extension = if part.vertex_transfer {
             PrtExtension::new(
                 export.order,
                 export.channels == 3,
@@ -80,10 +104,16 @@ pub fn spawn_prt(
                 clamp_shading,
             )
         };
-        let material = materials.add(PrtMaterial {
-            base: base_material(part, &image_handles, true),
-            extension,
-        });
+        let mut base = standard_material(part, &image_handles, true);
+        if let Some(s) = style.specular {
+            extension.specular = true;
+            // Bevy's shader reads roughness, metallic and reflectance of lit materials only.
+            base.unlit = false;
+            base.perceptual_roughness = s.perceptual_roughness;
+            base.metallic = s.metallic;
+            base.reflectance = s.reflectance;
+        }
+        let material = materials.add(PrtMaterial { base, extension });
         let entity = commands
             .spawn((
                 Mesh3d(meshes.add(part.mesh.clone())),
@@ -114,7 +144,7 @@ pub fn spawn_exported(
         let mut entity = commands.spawn((PrtPartOf, Name::new(part.name.clone())));
         if let Some(colours) = &part.colours {
             mesh.insert_attribute(Mesh::ATTRIBUTE_COLOR, colours.clone());
-            entity.insert(MeshMaterial3d(materials.add(base_material(
+            entity.insert(MeshMaterial3d(materials.add(standard_material(
                 part,
                 &image_handles,
                 true,
@@ -123,7 +153,7 @@ pub fn spawn_exported(
             entity.insert((
                 MeshMaterial3d(materials.add(StandardMaterial {
                     lightmap_exposure: 1.0,
-                    ..base_material(part, &image_handles, false)
+                    ..standard_material(part, &image_handles, false)
                 })),
                 Lightmap {
                     image: image_handles[lightmap].clone(),

@@ -21,7 +21,7 @@ pub enum TexelError {
 }
 
 #[derive(Deserialize)]
-struct Manifest {
+pub(crate) struct Manifest {
     order: usize,
     channels: usize,
     width: u32,
@@ -37,7 +37,9 @@ struct Entry {
     colour_channel: String,
 }
 
-/// The transfer images of a texel bake.
+/// The transfer images of a texel bake: an [`Asset`], loaded by
+/// `asset_server.load::<TexelTransfer>("DIR/manifest.json")`.
+#[derive(Asset, TypePath)]
 pub struct TexelTransfer {
     pub order: usize,
     pub channels: usize,
@@ -48,18 +50,34 @@ pub struct TexelTransfer {
     pub image: Image,
 }
 
-/// Reads DIR/manifest.json and its images.
+/// Reads DIR/manifest.json and its images, outside Bevy's asset server (which loads them
+/// with [`crate::TexelTransferLoader`]).
 pub fn load_texel_transfer(dir: &Path) -> Result<TexelTransfer, TexelError> {
     let manifest_path = dir.join("manifest.json");
-    let error = |path: &Path, message: String| TexelError::Read {
-        path: path.to_path_buf(),
-        message,
-    };
     let text = std::fs::read_to_string(&manifest_path)
         .map_err(|e| error(&manifest_path, e.to_string()))?;
-    let manifest: Manifest = serde_json::from_str(&text).map_err(|e| {
+    let manifest = parse_manifest(&text, &manifest_path)?;
+    let mut files = Vec::new();
+    for file in manifest.files() {
+        let path = dir.join(file);
+        let bytes = std::fs::read(&path).map_err(|e| error(&path, e.to_string()))?;
+        files.push((path, bytes));
+    }
+    assemble(&manifest, &manifest_path, &files)
+}
+
+fn error(path: &Path, message: String) -> TexelError {
+    TexelError::Read {
+        path: path.to_path_buf(),
+        message,
+    }
+}
+
+/// A texel bake's manifest, checked against the layers its order and channels need.
+pub(crate) fn parse_manifest(text: &str, manifest_path: &Path) -> Result<Manifest, TexelError> {
+    let manifest: Manifest = serde_json::from_str(text).map_err(|e| {
         error(
-            &manifest_path,
+            manifest_path,
             format!("not a prt-bake lightmap manifest: {e}"),
         )
     })?;
@@ -67,7 +85,7 @@ pub fn load_texel_transfer(dir: &Path) -> Result<TexelTransfer, TexelError> {
     let layers = groups * manifest.channels;
     if manifest.transfer.len() != layers || ![1, 3].contains(&manifest.channels) {
         return Err(error(
-            &manifest_path,
+            manifest_path,
             format!(
                 "{} transfer images, order {} with {} channel(s) needs {layers}",
                 manifest.transfer.len(),
@@ -76,24 +94,42 @@ pub fn load_texel_transfer(dir: &Path) -> Result<TexelTransfer, TexelError> {
             ),
         ));
     }
+    Ok(manifest)
+}
+
+impl Manifest {
+    /// The transfer images' file names, relative to the manifest's folder, in its order.
+    pub(crate) fn files(&self) -> impl Iterator<Item = &str> {
+        self.transfer.iter().map(|e| e.file.as_str())
+    }
+}
+
+/// The transfer array from the manifest and its images' bytes (in [`Manifest::files`]'s
+/// order, each with the path that names it in the errors).
+pub(crate) fn assemble(
+    manifest: &Manifest,
+    manifest_path: &Path,
+    files: &[(PathBuf, Vec<u8>)],
+) -> Result<TexelTransfer, TexelError> {
+    let groups = (manifest.order * manifest.order).div_ceil(4);
+    let layers = groups * manifest.channels;
     let (w, h) = (manifest.width as usize, manifest.height as usize);
     let texel_bytes = 8;
     let mut data = vec![0u8; layers * w * h * texel_bytes];
-    for entry in &manifest.transfer {
+    for (entry, (path, bytes)) in manifest.transfer.iter().zip(files) {
         let channel = match entry.colour_channel.as_str() {
             "grey" | "r" | "R" | "red" => 0,
             "g" | "G" | "green" => 1,
             "b" | "B" | "blue" => 2,
-            other => return Err(error(&manifest_path, format!("colour_channel \"{other}\""))),
+            other => return Err(error(manifest_path, format!("colour_channel \"{other}\""))),
         };
         let first = *entry
             .coefficients
             .first()
-            .ok_or_else(|| error(&manifest_path, "an entry without coefficients".into()))?;
+            .ok_or_else(|| error(manifest_path, "an entry without coefficients".into()))?;
         let layer = channel * groups + first / 4;
-        let path = dir.join(&entry.file);
-        let image = exr::prelude::read_first_rgba_layer_from_file(
-            &path,
+        let image = read_rgba(
+            bytes,
             |resolution, _| {
                 (
                     resolution.width(),
@@ -104,11 +140,11 @@ pub fn load_texel_transfer(dir: &Path) -> Result<TexelTransfer, TexelError> {
                 pixels[position.y() * *width + position.x()] = [r, g, b, a];
             },
         )
-        .map_err(|e| error(&path, e.to_string()))?;
+        .map_err(|e| error(path, e.to_string()))?;
         let size = image.layer_data.size;
         if size.width() != w || size.height() != h {
             return Err(error(
-                &path,
+                path,
                 format!(
                     "{}×{}, the manifest says {w}×{h}",
                     size.width(),
@@ -148,4 +184,24 @@ pub fn load_texel_transfer(dir: &Path) -> Result<TexelTransfer, TexelError> {
         z_up: manifest.up == "z",
         image,
     })
+}
+
+/// exr's `read_first_rgba_layer_from_file`, from bytes.
+fn read_rgba<Set, Create, Pixels: 'static>(
+    bytes: &[u8],
+    create: Create,
+    set_pixel: Set,
+) -> exr::error::Result<exr::prelude::PixelImage<Pixels, exr::prelude::RgbaChannels>>
+where
+    Create: Fn(exr::math::Vec2<usize>, &exr::prelude::RgbaChannels) -> Pixels + 'static,
+    Set: Fn(&mut Pixels, exr::math::Vec2<usize>, (f32, f32, f32, f32)) + 'static,
+{
+    use exr::prelude::*;
+    exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .rgba_channels(create, set_pixel)
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(std::io::Cursor::new(bytes))
 }

@@ -26,6 +26,7 @@ pub fn headless_app() -> App {
                 exit_condition: ExitCondition::DontExit,
                 ..default()
             })
+            .set(file_assets())
             .set(bevy::render::RenderPlugin {
                 synchronous_pipeline_compilation: true,
                 ..default()
@@ -37,6 +38,19 @@ pub fn headless_app() -> App {
         ..default()
     });
     app
+}
+
+/// The asset server reading files given on the command line: relative to the working
+/// directory, wherever they are (`..` allowed), without `.meta` files.
+pub fn file_assets() -> AssetPlugin {
+    AssetPlugin {
+        file_path: std::env::current_dir()
+            .map(|d| d.display().to_string())
+            .unwrap_or_else(|_| ".".into()),
+        unapproved_path_mode: bevy::asset::UnapprovedPathMode::Allow,
+        meta_check: bevy::asset::AssetMetaCheck::Never,
+        ..default()
+    }
 }
 
 pub fn fail(message: &str) -> ! {
