@@ -5,10 +5,11 @@ use std::path::Path;
 
 use prt_baker::Error;
 use prt_baker::formats::ldprt_file::{MAGIC, is_ldprt};
+use prt_baker::scene::Pose;
 
 /// Relights `file` on `mesh` if it is an LDPRT file (and says so); `false` for any other file.
 pub fn run_if_ldprt(
-    mesh: &Path,
+    (mesh, pose): (&Path, &Pose),
     file: &Path,
     lights: &Path,
     output: &Path,
@@ -20,9 +21,9 @@ pub fn run_if_ldprt(
         return Ok(false);
     }
     let relit =
-        prt_baker::export::relight_ldprt::relight_ldprt(mesh, file, lights, output, exposure)?;
+        prt_baker::export::relight_ldprt::relight_ldprt(mesh, pose, file, lights, output, exposure)?;
     println!(
-        "relit {} vertices of an LDPRT bake posed as {} with {} light(s) at order {}, largest \
+        "relit {} vertices of an LDPRT bake posed as {} ({pose}) with {} light(s) at order {}, largest \
          radiance {:.4} -> {}",
         relit.vertex_count,
         mesh.display(),

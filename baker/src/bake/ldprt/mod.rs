@@ -122,25 +122,65 @@ pub fn package(
         axes,
         zh,
         vertex_error,
+        pose: None,
     }
+}
+
+/// Per vertex and lobe, the world axis of the file's lobes on the vertex frames `frames`
+/// (a pose of the mesh; the frame rule).
+pub fn frame_axes(file: &LdprtFile, frames: &[[DVec3; 3]]) -> Vec<DVec3> {
+    let k_count = file.lobes as usize;
+    (0..file.axes.len())
+        .map(|i| {
+            let local = DVec3::from_array(file.axes[i].map(f64::from));
+            frame::to_world(&frames[i / k_count], local).normalize()
+        })
+        .collect()
+}
+
+/// Per vertex and lobe, the axis in the skinned mesh's bind (object) space: the world axis
+/// in the baked pose (`frames`, `linear` that pose's per-vertex skinning) taken back
+/// through the inverse of the vertex's skinning, a_obj = N_B⁻¹ a_B (normalised).
+pub fn bind_axes(file: &LdprtFile, frames: &[[DVec3; 3]], linear: &[glam::Mat3]) -> Vec<DVec3> {
+    let k_count = file.lobes as usize;
+    frame_axes(file, frames)
+        .iter()
+        .enumerate()
+        .map(|(i, a)| {
+            let inverse = linear[i / k_count].as_dmat3().inverse();
+            (inverse * *a).normalize_or(*a)
+        })
+        .collect()
+}
+
+/// Bind-space axes skinned like normals by each vertex's linear part in a pose,
+/// a_P = N_P a_obj (normalised): the rule runtimes apply on the GPU.
+pub fn skinned_axes(lobes: usize, bind: &[DVec3], linear: &[glam::Mat3]) -> Vec<DVec3> {
+    bind.iter()
+        .enumerate()
+        .map(|(i, a)| (linear[i / lobes].as_dmat3() * *a).normalize_or(*a))
+        .collect()
 }
 
 /// Per vertex and channel, the n² SH transfer of the file's lobes in the world frames
 /// `frames` (a pose of the mesh): c_l g_l y_l^m(R a) per lobe, summed.
 pub fn world_transfer(file: &LdprtFile, frames: &[[DVec3; 3]]) -> Vec<f64> {
+    world_transfer_axes(file, &frame_axes(file, frames))
+}
+
+/// [`world_transfer`] with every lobe's world axis given (vertex-major, K per vertex).
+pub fn world_transfer_axes(file: &LdprtFile, axes: &[DVec3]) -> Vec<f64> {
     let order = file.order as usize;
     let n = crate::math::sh::coeff_count(order);
     let (k_count, channels) = (file.lobes as usize, file.channels as usize);
     let basis = Basis::new(order);
-    let per_vertex: Vec<Vec<f64>> = frames
-        .par_iter()
+    let per_vertex: Vec<Vec<f64>> = axes
+        .par_chunks(k_count)
         .enumerate()
-        .map(|(v, f)| {
+        .map(|(v, vertex_axes)| {
             let mut out = vec![0.0; channels * n];
             let mut y = vec![0.0; n];
-            for k in 0..k_count {
-                let local = DVec3::from_array(file.axes[v * k_count + k].map(f64::from));
-                let axis = frame::to_world(f, local).normalize();
+            for (k, &axis) in vertex_axes.iter().enumerate() {
                 for c in 0..channels {
                     let g: Vec<f64> = file.zh(v, k, c).iter().map(|&x| f64::from(x)).collect();
                     fit::add_lobe(&basis, axis, &g, &mut y, &mut out[c * n..(c + 1) * n]);
