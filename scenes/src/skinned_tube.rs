@@ -71,8 +71,16 @@ pub fn skinned_tube_glb() -> Vec<u8> {
         (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)),
         |(lo, hi), p| (lo.min(*p), hi.max(*p)),
     );
-    let p = view(&mut bin, floats(positions.iter().flat_map(|p| p.to_array())), Some(34962));
-    let n = view(&mut bin, floats(normals.iter().flat_map(|n| n.to_array())), Some(34962));
+    let p = view(
+        &mut bin,
+        floats(positions.iter().flat_map(|p| p.to_array())),
+        Some(34962),
+    );
+    let n = view(
+        &mut bin,
+        floats(normals.iter().flat_map(|n| n.to_array())),
+        Some(34962),
+    );
     // Joints and weights per vertex, a joint of zero weight written as 0 (the validator's
     // rule): all root, all elbow, or a blend of the two.
     let influences = |z: f32| match elbow_weight(z) {
@@ -91,7 +99,11 @@ pub fn skinned_tube_glb() -> Vec<u8> {
         .collect();
     let i = view(&mut bin, indices, Some(34963));
     let inverse_binds = [0.0, ELBOW, 2.0].map(|z| Mat4::from_translation(Vec3::new(0.0, 0.0, -z)));
-    let ibm = view(&mut bin, floats(inverse_binds.iter().flat_map(|m| m.to_cols_array())), None);
+    let ibm = view(
+        &mut bin,
+        floats(inverse_binds.iter().flat_map(|m| m.to_cols_array())),
+        None,
+    );
     let times = view(&mut bin, floats(KEYFRAMES.map(|k| k.0)), None);
     let turns = KEYFRAMES.map(|k| Quat::from_rotation_y(k.1.to_radians()).to_array());
     let rotations = view(&mut bin, floats(turns.into_iter().flatten()), None);

@@ -48,7 +48,10 @@ pub fn write(
     let started = std::time::Instant::now();
     let mut file = fit_bake(scene, transfer, lobes)?;
     // A skinned glTF's lobes follow its skin from the pose they were baked in.
-    file.pose = scene.pose_linear.as_ref().map(|_| plan.load.pose.to_string());
+    file.pose = scene
+        .pose_linear
+        .as_ref()
+        .map(|_| plan.load.pose.to_string());
     output.write(&file.to_bytes())?;
     let options = &plan.options;
     println!(

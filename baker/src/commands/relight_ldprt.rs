@@ -20,8 +20,9 @@ pub fn run_if_ldprt(
     if !matches!(read, Ok(n) if n == MAGIC.len()) || !is_ldprt(&head) {
         return Ok(false);
     }
-    let relit =
-        prt_baker::export::relight_ldprt::relight_ldprt(mesh, pose, file, lights, output, exposure)?;
+    let relit = prt_baker::export::relight_ldprt::relight_ldprt(
+        mesh, pose, file, lights, output, exposure,
+    )?;
     println!(
         "relit {} vertices of an LDPRT bake posed as {} ({pose}) with {} light(s) at order {}, largest \
          radiance {:.4} -> {}",

@@ -4,15 +4,15 @@
 //! lobes lit as SH: radiance_c = albedo_c · Σ_k Σ_l c_l g_kcl Σ_m L_c,lm y_lm(R a_k).
 //!
 //! A bake of a skinned glTF, lit on a pose of a skinned glTF, follows the skin instead
-//! ([`pose_axes`]): each axis is taken from the baked pose into the bind space and skinned
-//! like a normal, as the exported GLB's runtimes do, so the command line and the runtimes
-//! agree to float rounding.
+//! ([`pose_axes`]): each vertex's frame is taken from the baked pose into the bind space,
+//! its normal and tangent skinned as runtimes skin NORMAL and TANGENT, so the command line
+//! and the runtimes agree to float rounding.
 
 use std::path::Path;
 
 use glam::DVec3;
 
-use crate::bake::ldprt::{bind_axes, frame, frame_axes, skinned_axes, world_transfer_axes};
+use crate::bake::ldprt::{bind_frames, frame, frame_axes, skinned_frames, world_transfer_axes};
 use crate::export::relight::{Relit, write_vertex_ply};
 use crate::formats::ldprt_file::{LdprtFile, topology_fingerprint};
 use crate::light::{LightCoefficients, Rig};
@@ -49,8 +49,8 @@ pub fn ldprt_radiance(file: &LdprtFile, scene: &Scene, light: &LightCoefficients
 
 /// The world axis of every lobe of `file` on `scene` (a pose of the baked mesh, read from
 /// `mesh`): where the file was baked from a skinned glTF and `scene` is skinned, the baked
-/// pose's axes (`mesh` read again in it) taken to the bind space and skinned to `scene`'s
-/// pose; otherwise each vertex's frame rebuilt from `scene`.
+/// pose's frames (`mesh` read again in it) taken to the bind space and skinned to `scene`'s
+/// pose ([`skinned_frames`]); otherwise each vertex's frame rebuilt from `scene`.
 pub fn pose_axes(file: &LdprtFile, mesh: &Path, scene: &Scene) -> Result<Vec<DVec3>> {
     let frames = |s: &Scene| frame::vertex_frames(&s.positions, &s.normals, &s.triangles);
     let (Some(baked), Some(linear)) = (&file.pose, &scene.pose_linear) else {
@@ -61,8 +61,8 @@ pub fn pose_axes(file: &LdprtFile, mesh: &Path, scene: &Scene) -> Result<Vec<DVe
     })?;
     let (rest, _) = Scene::load_posed(mesh, None, &pose)?;
     let rest_linear = rest.pose_linear.as_ref().unwrap_or(linear);
-    let bind = bind_axes(file, &frames(&rest), rest_linear);
-    Ok(skinned_axes(file.lobes as usize, &bind, linear))
+    let bind = bind_frames(&frames(&rest), rest_linear);
+    Ok(frame_axes(file, &skinned_frames(&bind, linear)))
 }
 
 /// [`ldprt_radiance`] with the world axis of every lobe given ([`pose_axes`]).

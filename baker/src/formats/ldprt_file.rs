@@ -230,10 +230,7 @@ impl LdprtFile {
             .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")))
             .collect();
         if let Some(i) = floats.iter().position(|x| !x.is_finite()) {
-            return Err(format!(
-                "a non-finite value at byte {}",
-                arrays + 4 * i
-            ));
+            return Err(format!("a non-finite value at byte {}", arrays + 4 * i));
         }
         let v = vertex_count as usize;
         let (k, c, n) = (lobes as usize, channels as usize, order as usize);

@@ -138,27 +138,37 @@ pub fn frame_axes(file: &LdprtFile, frames: &[[DVec3; 3]]) -> Vec<DVec3> {
         .collect()
 }
 
-/// Per vertex and lobe, the axis in the skinned mesh's bind (object) space: the world axis
-/// in the baked pose (`frames`, `linear` that pose's per-vertex skinning) taken back
-/// through the inverse of the vertex's skinning, a_obj = N_B⁻¹ a_B (normalised).
-pub fn bind_axes(file: &LdprtFile, frames: &[[DVec3; 3]], linear: &[glam::Mat3]) -> Vec<DVec3> {
-    let k_count = file.lobes as usize;
-    frame_axes(file, frames)
+/// Per vertex, the (tangent, normal) of its frame in the skinned mesh's bind (object)
+/// space: the baked pose's frame (`frames`, `linear` that pose's per-vertex skinning) taken
+/// back through the inverse of the vertex's skinning, N_B⁻¹ t and N_B⁻¹ n.
+pub fn bind_frames(frames: &[[DVec3; 3]], linear: &[glam::Mat3]) -> Vec<[DVec3; 2]> {
+    frames
         .iter()
-        .enumerate()
-        .map(|(i, a)| {
-            let inverse = linear[i / k_count].as_dmat3().inverse();
-            (inverse * *a).normalize_or(*a)
+        .zip(linear)
+        .map(|(f, n)| {
+            let inverse = n.as_dmat3().inverse();
+            [inverse * f[0], inverse * f[2]]
         })
         .collect()
 }
 
-/// Bind-space axes skinned like normals by each vertex's linear part in a pose,
-/// a_P = N_P a_obj (normalised): the rule runtimes apply on the GPU.
-pub fn skinned_axes(lobes: usize, bind: &[DVec3], linear: &[glam::Mat3]) -> Vec<DVec3> {
+/// The frames of a pose from bind-space ones: normal and tangent skinned by each vertex's
+/// linear part N_P (as runtimes skin NORMAL and TANGENT), the tangent made orthogonal to the
+/// normal, the bitangent n × t. A vertex's lobes turn rigidly with it, so a blend's shear
+/// cannot change the angles between them (skinning the axes themselves like normals would,
+/// and lobes fitted to cancel each other then no longer do).
+pub fn skinned_frames(bind: &[[DVec3; 2]], linear: &[glam::Mat3]) -> Vec<[DVec3; 3]> {
     bind.iter()
-        .enumerate()
-        .map(|(i, a)| (linear[i / lobes].as_dmat3() * *a).normalize_or(*a))
+        .zip(linear)
+        .map(|([t, n], m)| {
+            let m = m.as_dmat3();
+            let n = (m * *n).normalize_or(DVec3::Z);
+            let t = m * *t;
+            let t = (t - n * t.dot(n))
+                .try_normalize()
+                .unwrap_or_else(|| n.any_orthonormal_vector());
+            [t, n.cross(t), n]
+        })
         .collect()
 }
 

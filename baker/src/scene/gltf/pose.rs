@@ -29,7 +29,8 @@ impl FromStr for Pose {
     type Err = String;
 
     fn from_str(text: &str) -> Result<Pose, String> {
-        let usage = "a pose is rest, ANIM@SECONDS or ANIM#KEYFRAME (ANIM an animation's name or index)";
+        let usage =
+            "a pose is rest, ANIM@SECONDS or ANIM#KEYFRAME (ANIM an animation's name or index)";
         if text == "rest" {
             return Ok(Pose::Rest);
         }
@@ -38,7 +39,9 @@ impl FromStr for Pose {
                 .parse()
                 .ok()
                 .filter(|s: &f32| s.is_finite())
-                .ok_or_else(|| format!("'{text}': '{seconds}' is not a time in seconds; {usage}"))?;
+                .ok_or_else(|| {
+                    format!("'{text}': '{seconds}' is not a time in seconds; {usage}")
+                })?;
             if !animation.is_empty() {
                 let animation = animation.to_owned();
                 return Ok(Pose::Time { animation, seconds });

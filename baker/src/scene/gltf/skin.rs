@@ -10,8 +10,8 @@
 
 use glam::{Mat3, Mat4, Quat, Vec3, Vec4};
 use gltf::accessor::{DataType, Dimensions};
-use gltf::animation::{Interpolation, Property};
 use gltf::animation::util::ReadOutputs;
+use gltf::animation::{Interpolation, Property};
 
 use super::accessors::check;
 use super::pose::Pose;
@@ -96,12 +96,19 @@ fn find<'a>(document: &'a gltf::Document, name: &str) -> Result<gltf::Animation<
     by_name.or_else(by_index).ok_or_else(|| {
         let names: Vec<String> = document
             .animations()
-            .map(|a| a.name().map_or_else(|| a.index().to_string(), str::to_owned))
+            .map(|a| {
+                a.name()
+                    .map_or_else(|| a.index().to_string(), str::to_owned)
+            })
             .collect();
         format!(
             "no animation '{name}' (the file has {}: {})",
             names.len(),
-            if names.is_empty() { "none".into() } else { names.join(", ") }
+            if names.is_empty() {
+                "none".into()
+            } else {
+                names.join(", ")
+            }
         )
     })
 }
@@ -119,18 +126,42 @@ fn read_channel(
         channel.index()
     );
     let sampler = channel.sampler();
-    check(document, &format!("{at} input"), &sampler.input(), Dimensions::Scalar, &[DataType::F32])?;
-    let rotation_types = [DataType::F32, DataType::I8, DataType::U8, DataType::I16, DataType::U16];
+    check(
+        document,
+        &format!("{at} input"),
+        &sampler.input(),
+        Dimensions::Scalar,
+        &[DataType::F32],
+    )?;
+    let rotation_types = [
+        DataType::F32,
+        DataType::I8,
+        DataType::U8,
+        DataType::I16,
+        DataType::U16,
+    ];
     let (dimensions, types): (Dimensions, &[DataType]) = match channel.target().property() {
         Property::Rotation => (Dimensions::Vec4, &rotation_types),
         Property::MorphTargetWeights => return Ok((Vec::new(), Vec::new())),
         _ => (Dimensions::Vec3, &[DataType::F32]),
     };
-    check(document, &format!("{at} output"), &sampler.output(), dimensions, types)?;
+    check(
+        document,
+        &format!("{at} output"),
+        &sampler.output(),
+        dimensions,
+        types,
+    )?;
     let reader = channel.reader(|b| Some(&buffers[b.index()]));
-    let inputs: Vec<f32> = reader.read_inputs().map(Iterator::collect).unwrap_or_default();
+    let inputs: Vec<f32> = reader
+        .read_inputs()
+        .map(Iterator::collect)
+        .unwrap_or_default();
     if let Some(i) = inputs.windows(2).position(|w| !(w[0] < w[1])) {
-        return Err(format!("{at}: keyframe times must increase (time {i} and {})", i + 1));
+        return Err(format!(
+            "{at}: keyframe times must increase (time {i} and {})",
+            i + 1
+        ));
     }
     let outputs = match reader.read_outputs() {
         Some(ReadOutputs::Translations(t)) => t.map(|v| Vec3::from(v).extend(0.0)).collect(),
@@ -152,7 +183,13 @@ fn sample(
     time: f32,
 ) -> Vec4 {
     let cubic = interpolation == Interpolation::CubicSpline;
-    let value = |k: usize| if cubic { outputs[3 * k + 1] } else { outputs[k] };
+    let value = |k: usize| {
+        if cubic {
+            outputs[3 * k + 1]
+        } else {
+            outputs[k]
+        }
+    };
     let last = inputs.len() - 1;
     if time <= inputs[0] {
         return value(0);
@@ -196,7 +233,13 @@ pub fn joint_matrices(
         None => vec![Mat4::IDENTITY; joints.len()],
         Some(accessor) => {
             let what = format!("skin {} inverseBindMatrices", skin.index());
-            check(document, &what, &accessor, Dimensions::Mat4, &[DataType::F32])?;
+            check(
+                document,
+                &what,
+                &accessor,
+                Dimensions::Mat4,
+                &[DataType::F32],
+            )?;
             let reader = skin.reader(|b| Some(&buffers[b.index()]));
             let matrices: Vec<Mat4> = reader
                 .read_inverse_bind_matrices()
@@ -262,7 +305,9 @@ pub fn vertex_matrices(
                     ));
                 };
                 if !(w >= 0.0) {
-                    return Err(format!("WEIGHTS_{set} of vertex {v} has a weight {w} below 0"));
+                    return Err(format!(
+                        "WEIGHTS_{set} of vertex {v} has a weight {w} below 0"
+                    ));
                 }
                 blended[v] += *joint * w;
                 sums[v] += w;
@@ -312,11 +357,24 @@ mod tests {
         assert_eq!(at(Interpolation::Linear, -1.0).x, 0.0);
         let turn = Quat::from_rotation_y(std::f32::consts::FRAC_PI_2);
         let rotations = [Vec4::from(Quat::IDENTITY), Vec4::from(turn)];
-        let half = Quat::from_vec4(sample(&inputs, &rotations, Interpolation::Linear, true, 0.5));
+        let half = Quat::from_vec4(sample(
+            &inputs,
+            &rotations,
+            Interpolation::Linear,
+            true,
+            0.5,
+        ));
         let expected = Quat::from_rotation_y(std::f32::consts::FRAC_PI_4);
         assert!(half.angle_between(expected) < 1e-5);
         // A cubic spline with zero tangents is smoothstep between the values.
-        let cubic = [Vec4::ZERO, values[0], Vec4::ZERO, Vec4::ZERO, values[1], Vec4::ZERO];
+        let cubic = [
+            Vec4::ZERO,
+            values[0],
+            Vec4::ZERO,
+            Vec4::ZERO,
+            values[1],
+            Vec4::ZERO,
+        ];
         let mid = sample(&inputs, &cubic, Interpolation::CubicSpline, false, 0.25).x;
         assert!((mid - 2.0 * (3.0 * 0.0625 - 2.0 * 0.015625)).abs() < 1e-6);
     }
