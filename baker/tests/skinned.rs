@@ -7,7 +7,7 @@
 
 use std::path::{Path, PathBuf};
 
-use glam::{Quat, Vec3};
+use glam::{DQuat, DVec3, Quat, Vec3};
 use prt_baker::bake::ldprt::fit_bake;
 use prt_baker::export::relight_ldprt::{ldprt_radiance, ldprt_radiance_axes, pose_axes};
 use prt_baker::formats::ldprt_file::LdprtFile;
@@ -305,5 +305,104 @@ fn bad_skins_are_refused_and_missing_inverse_binds_are_identities() {
     for (p, q) in rest.positions.iter().zip(&identity.positions) {
         let lift = Vec3::new(0.0, 0.0, elbow_weight(p.z) * ELBOW);
         assert!((*p + lift - *q).length() < 1e-5, "{p} {q}");
+    }
+}
+
+/// Accessor `name` of the exported file's only primitive, as f32s.
+fn attribute(document: &gltf::Document, bin: &[u8], name: &str) -> Vec<f32> {
+    let primitive = document
+        .meshes()
+        .next()
+        .unwrap()
+        .primitives()
+        .next()
+        .unwrap();
+    let (_, accessor) = primitive
+        .attributes()
+        .find(|(s, _)| s.to_string() == name)
+        .unwrap_or_else(|| panic!("no {name}"));
+    let view = accessor.view().unwrap();
+    let start = view.offset() + accessor.offset();
+    let length = accessor.count() * accessor.size();
+    bin[start..start + length]
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes(b.try_into().unwrap()))
+        .collect()
+}
+
+/// The exported GLB lit as a runtime lights it, skinned here by the closed-form joints
+/// (root fixed, elbow turned about +y), against `relight --pose`'s computation at three
+/// frames of the animation: the runtime's rule and the command line's are one.
+#[test]
+fn exported_lobes_skinned_like_a_runtime_light_as_relight_does() {
+    let rest = load(&glb(), "rest").unwrap();
+    let transfer = bake(&rest);
+    let dir = tempfile::tempdir().unwrap();
+    let (ldprt_path, out) = (dir.path().join("t.ldprt"), dir.path().join("t.glb"));
+    let mut file = fit_bake(&rest, &transfer, 3).unwrap();
+    file.pose = Some("rest".into());
+    std::fs::write(&ldprt_path, file.to_bytes()).unwrap();
+    prt_baker::export::ldprt_gltf::export_ldprt_glb(&ldprt_path, &glb(), &out).unwrap();
+    let (document, buffers, _) = gltf::import(&out).unwrap();
+    let bin = &buffers[0].0;
+    let normals = attribute(&document, bin, "_LDPRT_NORMAL");
+    let tangents = attribute(&document, bin, "_LDPRT_TANGENT");
+    let positions = attribute(&document, bin, "POSITION");
+    let axes: Vec<Vec<f32>> = (0..3)
+        .map(|k| attribute(&document, bin, &format!("_LDPRT_AXIS_{k}")))
+        .collect();
+    let zh: Vec<Vec<f32>> = (0..3)
+        .map(|k| attribute(&document, bin, &format!("_LDPRT_ZH_{k}")))
+        .collect();
+    // The skin and the animation came through untouched.
+    assert_eq!(document.skins().count(), 1);
+    assert_eq!(document.animations().next().unwrap().name(), Some("bend"));
+    let basis = prt_baker::math::sh::Basis::new(ORDER);
+    let light = light(65.0, 30.0);
+    for (pose, degrees) in [("bend@0", 0.0f32), ("bend@0.5", 45.0), ("bend@1", 90.0)] {
+        let posed = load(&glb(), pose).unwrap();
+        let cli = ldprt_radiance_axes(
+            &file,
+            &posed,
+            &pose_axes(&file, &glb(), &posed).unwrap(),
+            &light,
+        );
+        let turn = glam::DMat3::from_quat(DQuat::from_rotation_y(f64::from(degrees).to_radians()));
+        let albedo = posed.vertex_albedo();
+        let mut worst = 0.0f64;
+        for v in 0..posed.vertex_count() {
+            // Blended linear part: (1 − w) I + w R (the root is fixed, the elbow turns).
+            let w = f64::from(elbow_weight(positions[3 * v + 2]));
+            let m = glam::DMat3::IDENTITY * (1.0 - w) + turn * w;
+            let at =
+                |a: &[f32]| DVec3::new(a[3 * v].into(), a[3 * v + 1].into(), a[3 * v + 2].into());
+            let n = (m * at(&normals)).normalize();
+            let t = m * at(&tangents);
+            let t = (t - n * t.dot(n)).normalize();
+            let frame = [t, n.cross(t), n];
+            let mut sh = vec![0.0; 16];
+            let mut y = vec![0.0; 16];
+            for k in 0..3 {
+                let a = at(&axes[k]);
+                let axis = frame[0] * a.x + frame[1] * a.y + frame[2] * a.z;
+                let g: Vec<f64> = zh[k][4 * v..4 * v + 4].iter().map(|&x| x.into()).collect();
+                prt_baker::bake::ldprt::fit::add_lobe(
+                    &basis,
+                    axis.normalize(),
+                    &g,
+                    &mut y,
+                    &mut sh,
+                );
+            }
+            for c in 0..3 {
+                let dot: f64 = sh.iter().zip(&light.rgb[c]).map(|(t, l)| t * l).sum();
+                let runtime = f64::from(albedo[v][c]) * dot;
+                worst = worst.max((runtime - f64::from(cli[v][c])).abs());
+            }
+        }
+        eprintln!(
+            "exported GLB skinned as a runtime, {pose}: largest |runtime − relight| {worst:.2e}"
+        );
+        assert!(worst < 1e-4, "{pose}: {worst}");
     }
 }

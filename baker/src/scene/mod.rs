@@ -101,6 +101,9 @@ pub struct Scene {
     /// (the blend of its joints' J · IBM, or its node's world matrix), by which lobe axes
     /// turn with the skin; `None` otherwise.
     pub pose_linear: Option<Vec<Mat3>>,
+    /// With `pose_linear`: per object, the glTF mesh and primitive it was read from (the
+    /// LDPRT export writes its attributes there).
+    pub gltf_primitives: Option<Vec<[u32; 2]>>,
 }
 
 impl Scene {
@@ -152,6 +155,7 @@ impl Scene {
                 scene.tangents = scene.normal_map_tangents(&loaded.tangents);
                 if loaded.skinned {
                     scene.pose_linear = Some(loaded.pose_linear.concat());
+                    scene.gltf_primitives = Some(loaded.primitives);
                 }
                 if loaded.lightmap_uvs.iter().any(Option::is_some) {
                     let mut uvs = Vec::with_capacity(scene.vertex_count());
@@ -290,6 +294,7 @@ impl Scene {
             instances: Instances::default(),
             back_sheets: BackSheets::default(),
             pose_linear: None,
+            gltf_primitives: None,
         }
     }
 

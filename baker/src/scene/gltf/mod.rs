@@ -68,6 +68,8 @@ pub struct Loaded {
     pub pose_linear: Vec<Vec<Mat3>>,
     /// Whether a mesh node has a skin.
     pub skinned: bool,
+    /// Per mesh, the glTF mesh and primitive it was read from.
+    pub primitives: Vec<[u32; 2]>,
 }
 
 /// Extensions a file may *require* and still be read correctly. None yet: a required
@@ -157,6 +159,8 @@ pub fn load(path: &Path, instancing: Option<&Instancing>, pose: &Pose) -> Result
             reader.read(&primitive, name, world, joints.as_deref(), &mut loaded)?;
             for _ in before..loaded.meshes.len() {
                 loaded.hierarchy.object_node.push(at[node.index()]);
+                let source = [mesh.index() as u32, primitive.index() as u32];
+                loaded.primitives.push(source);
             }
         }
     }
