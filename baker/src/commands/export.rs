@@ -10,7 +10,8 @@ use prt_baker::support::output::Output;
 #[derive(clap::Args)]
 #[command(group(clap::ArgGroup::new("outputs").required(true).multiple(true).args(["npz", "gltf", "exr"])))]
 pub struct ExportArgs {
-    /// The .prt file.
+    /// The .prt file, or an LDPRT file (`bake --transfer ldprt` of a skinned .glb): with
+    /// --gltf alone, its lobes are written into a copy of that .glb (docs/guides/characters.md).
     file: PathBuf,
     /// The scene it was baked from.
     #[arg(long)]
