@@ -106,12 +106,6 @@ pub fn run(args: RelightArgs) -> Result<(), Error> {
     )? {
         return Ok(());
     }
-    if !args.pose.is_rest() {
-        return Err(Error::InvalidOption(
-            "--pose is for LDPRT files (bake --transfer ldprt): other bakes are in world space"
-                .into(),
-        ));
-    }
     if let (Some(probes), Some(&position)) = (&args.probes, args.at.first()) {
         let placement = prt_baker::export::relight_rigid::Placement {
             probes,

@@ -7,7 +7,8 @@ use prt_baker::Error;
 use prt_baker::formats::ldprt_file::{MAGIC, is_ldprt};
 use prt_baker::scene::Pose;
 
-/// Relights `file` on `mesh` if it is an LDPRT file (and says so); `false` for any other file.
+/// Relights `file` on `mesh` in `pose` if it is an LDPRT file (and says so); `false` for any
+/// other file, which must then be lit in the rest pose (its transfer is in world space).
 pub fn run_if_ldprt(
     (mesh, pose): (&Path, &Pose),
     file: &Path,
@@ -18,6 +19,13 @@ pub fn run_if_ldprt(
     let mut head = [0u8; MAGIC.len()];
     let read = std::fs::File::open(file).and_then(|mut f| f.read(&mut head));
     if !matches!(read, Ok(n) if n == MAGIC.len()) || !is_ldprt(&head) {
+        if !pose.is_rest() {
+            return Err(Error::InvalidOption(
+                "--pose is for LDPRT files (bake --transfer ldprt): other bakes are in world \
+                 space"
+                    .into(),
+            ));
+        }
         return Ok(false);
     }
     let relit = prt_baker::export::relight_ldprt::relight_ldprt(

@@ -157,7 +157,10 @@ fn read_channel(
         .read_inputs()
         .map(Iterator::collect)
         .unwrap_or_default();
-    if let Some(i) = inputs.windows(2).position(|w| !(w[0] < w[1])) {
+    if let Some(i) = inputs
+        .windows(2)
+        .position(|w| w[0].partial_cmp(&w[1]) != Some(std::cmp::Ordering::Less))
+    {
         return Err(format!(
             "{at}: keyframe times must increase (time {i} and {})",
             i + 1
@@ -304,7 +307,7 @@ pub fn vertex_matrices(
                         joints.len()
                     ));
                 };
-                if !(w >= 0.0) {
+                if w.is_nan() || w < 0.0 {
                     return Err(format!(
                         "WEIGHTS_{set} of vertex {v} has a weight {w} below 0"
                     ));
