@@ -180,3 +180,82 @@ fn a_posed_gltf_relights_as_the_posed_obj() {
     ]);
     assert_eq!(largest(gltf.success()), largest(obj.success()));
 }
+
+const SKINNED: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../scenes/tube/tube-skinned.glb"
+);
+
+/// A skinned glTF from the command line: a bake in a named pose records it, `relight
+/// --pose` lights the lobes on another pose, and poses that are not there are refused.
+#[test]
+fn skinned_gltf_bakes_and_relights_in_named_poses() {
+    let s = Scratch::new();
+    let ldprt = ["--transfer", "ldprt", "--samples", "32"];
+    s.bake(SKINNED, "rest.ldprt", &ldprt);
+    let inspect = s.run(&["inspect", "out/rest.ldprt"]).success();
+    assert!(
+        inspect.stdout.contains("\"pose\": \"rest\""),
+        "{}",
+        inspect.stdout
+    );
+    let mut posed = ldprt.to_vec();
+    posed.extend(["--pose", "bend#1"]);
+    s.bake(SKINNED, "half.ldprt", &posed);
+    let inspect = s.run(&["inspect", "out/half.ldprt"]).success();
+    assert!(
+        inspect.stdout.contains("\"pose\": \"bend#1\""),
+        "{}",
+        inspect.stdout
+    );
+    let relit = s
+        .run(&[
+            "relight",
+            SKINNED,
+            "out/rest.ldprt",
+            "--pose",
+            "bend@1",
+            "--lights",
+            RIG,
+            "-o",
+            "out/b.ply",
+        ])
+        .success();
+    assert!(relit.stdout.contains("(bend@1)"), "{}", relit.stdout);
+    s.run(&[
+        "relight",
+        SKINNED,
+        "out/rest.ldprt",
+        "--pose",
+        "walk@1",
+        "--lights",
+        RIG,
+        "-o",
+        "out/w.ply",
+    ])
+    .fails_with_bad_input(&["tube-skinned.glb", "no animation 'walk'"]);
+    s.run(&[
+        "relight",
+        SKINNED,
+        "out/rest.ldprt",
+        "--pose",
+        "bend",
+        "--lights",
+        RIG,
+        "-o",
+        "out/w.ply",
+    ])
+    .fails_with(EXIT_BAD_COMMAND_LINE, &["ANIM@SECONDS"]);
+    s.run(&[
+        "bake",
+        TUBE,
+        "-o",
+        "out/x.ldprt",
+        "--pose",
+        "bend@1",
+        "--samples",
+        "16",
+    ])
+    .fails_with_bad_input(&["tube.obj", "only glTF files have skins"]);
+    s.assert_out_holds(&["b.ply", "half.ldprt", "rest.ldprt"]);
+}

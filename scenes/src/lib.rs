@@ -13,6 +13,7 @@
 //!   in): white floor and back wall, red left wall, green right wall (the original box's
 //!   reflectances), a short and a tall white box. Materials in MTL, no textures.
 
+pub mod skinned_tube;
 pub mod tube;
 
 use std::fmt::Write as _;

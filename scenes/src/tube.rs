@@ -63,11 +63,15 @@ fn obj(positions: &[Vec3], triangles: &[[u32; 3]]) -> String {
     text
 }
 
-/// Writes `tube.obj` and `tube-bent.obj` into `dir`.
+/// Writes `tube.obj`, `tube-bent.obj` and `tube-skinned.glb` into `dir`.
 pub fn tube_scene(dir: &Path) -> std::io::Result<()> {
     std::fs::create_dir_all(dir)?;
     let (positions, triangles) = tube();
     let bent: Vec<Vec3> = positions.iter().map(|p| bend(*p)).collect();
     std::fs::write(dir.join("tube.obj"), obj(&positions, &triangles))?;
-    std::fs::write(dir.join("tube-bent.obj"), obj(&bent, &triangles))
+    std::fs::write(dir.join("tube-bent.obj"), obj(&bent, &triangles))?;
+    std::fs::write(
+        dir.join("tube-skinned.glb"),
+        crate::skinned_tube::skinned_tube_glb(),
+    )
 }

@@ -61,9 +61,14 @@ $BAKE bake $COURTYARD -o "$OUT/courtyard-lm.prt" --lightmap 64 --samples 16 --qu
 $BAKE export "$OUT/courtyard-lm.prt" --scene $COURTYARD --glb "$OUT/courtyard-lm.glb" --lights viewer/src/default-rig.toml
 $BAKE bake scenes/cutout/card.glb -o "$OUT/card.prt" --samples 16 --quiet
 $BAKE export "$OUT/card.prt" --scene scenes/cutout/card.glb --glb "$OUT/card.glb"
+# A skinned glTF's LDPRT bake written back into it: skin, joints, weights, inverse bind
+# matrices and the animation kept, the lobes as _LDPRT_* attributes.
+SKINNED=scenes/tube/tube-skinned.glb
+$BAKE bake $SKINNED -o "$OUT/tube-skinned.ldprt" --transfer ldprt --lobes 3 --samples 16 --quiet
+$BAKE export "$OUT/tube-skinned.ldprt" --scene $SKINNED --glb "$OUT/tube-skinned-ldprt.glb"
 node scripts/gltf/materials.mjs $COURTYARD "$OUT/courtyard.glb" "$OUT/courtyard-lm.glb"
 node scripts/gltf/materials.mjs scenes/cutout/card.glb "$OUT/card.glb"
 node scripts/gltf/validate.mjs "$NODE_DIR/node_modules" "$OUT/torus.glb" "$OUT/cornell.glb" "$OUT/torus-again.glb" \
     "$OUT/cornell-lm.glb" "$OUT/cornell-lm-again.glb" "$OUT/cornell-lm-ao.glb" "$OUT/torus-ao.glb" \
     "$OUT/cornell-lm-plain.glb" "$OUT/cornell-cpca.glb" "$OUT/glossy-cpca.glb" \
-    "$OUT/courtyard.glb" "$OUT/courtyard-lm.glb" "$OUT/card.glb"
+    "$OUT/courtyard.glb" "$OUT/courtyard-lm.glb" "$OUT/card.glb" "$OUT/tube-skinned-ldprt.glb"

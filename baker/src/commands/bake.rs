@@ -267,6 +267,7 @@ fn plan(args: BakeArgs) -> Result<BakePlan, Error> {
             receivers: args.receivers,
             instances: args.instances,
             double_sided: args.double_sided,
+            pose: args.transfer.pose.clone(),
         },
         materials: args.materials,
         output: args.output,

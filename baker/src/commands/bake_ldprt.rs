@@ -46,7 +46,12 @@ pub fn write(
     lobes: usize,
 ) -> Result<(), Error> {
     let started = std::time::Instant::now();
-    let file = fit_bake(scene, transfer, lobes)?;
+    let mut file = fit_bake(scene, transfer, lobes)?;
+    // A skinned glTF's lobes follow its skin from the pose they were baked in.
+    file.pose = scene
+        .pose_linear
+        .as_ref()
+        .map(|_| plan.load.pose.to_string());
     output.write(&file.to_bytes())?;
     let options = &plan.options;
     println!(

@@ -64,6 +64,8 @@ pub struct LoadPlan {
     pub receivers: Vec<String>,
     pub instances: InstancesArg,
     pub double_sided: DoubleSidedArg,
+    /// `--pose`: a glTF file's skins and animations.
+    pub pose: prt_baker::scene::Pose,
 }
 
 /// `--shard` and `--checkpoint`: the bake's share of the receivers, and where its blocks go.

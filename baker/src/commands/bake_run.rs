@@ -92,7 +92,8 @@ fn load(plan: &BakePlan, setup: &mut lightmap::Stages) -> Result<(Scene, Output)
     let load = &plan.load;
     let mut scene = setup.time("scene", || {
         let (instances, sides) = (load.instances, load.double_sided);
-        scene_load::load(&plan.scene, instances, &load.receivers, instancing, sides)
+        let how = (instances, sides, &load.pose);
+        scene_load::load(&plan.scene, how, &load.receivers, instancing)
     })?;
     // --up overrides the format's axis; whole files, parts and checkpoints all record it.
     if let Some(up) = load.up {

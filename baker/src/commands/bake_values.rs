@@ -46,6 +46,11 @@ pub struct TransferArgs {
     /// form) to 8 (axes optimised per vertex).
     #[arg(long, value_name = "K")]
     pub lobes: Option<usize>,
+    /// A glTF file's pose: `rest` (the nodes' own transforms), `ANIM@SECONDS` or
+    /// `ANIM#KEYFRAME` (ANIM an animation's name or index), skins applied on the CPU
+    /// (docs/guides/characters.md).
+    #[arg(long, default_value = "rest")]
+    pub pose: prt_baker::scene::Pose,
 }
 
 impl TransferArgs {

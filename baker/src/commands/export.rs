@@ -1,5 +1,6 @@
 //! `prt-bake export`: a bake as NumPy arrays, binary glTF or OpenEXR images.
 
+use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use clap::ValueEnum;
@@ -9,7 +10,8 @@ use prt_baker::support::output::Output;
 #[derive(clap::Args)]
 #[command(group(clap::ArgGroup::new("outputs").required(true).multiple(true).args(["npz", "gltf", "exr"])))]
 pub struct ExportArgs {
-    /// The .prt file.
+    /// The .prt file, or an LDPRT file (`bake --transfer ldprt` of a skinned .glb): with
+    /// --gltf alone, its lobes are written into a copy of that .glb (docs/guides/characters.md).
     file: PathBuf,
     /// The scene it was baked from.
     #[arg(long)]
@@ -55,6 +57,9 @@ pub fn run(args: ExportArgs) -> Result<(), Error> {
     for output in args.npz.iter().chain(&args.gltf) {
         Output::new(output, &inputs)?;
     }
+    if let Some(done) = ldprt(&args) {
+        return done;
+    }
     // First: it refuses a vertex bake before anything is written.
     if let Some(dir) = &args.exr {
         exr(&args, dir)?;
@@ -71,6 +76,44 @@ pub fn run(args: ExportArgs) -> Result<(), Error> {
         gltf(&args, glb)?;
     }
     Ok(())
+}
+
+/// An LDPRT file: `--gltf` only, its lobes written into the skinned `.glb` it was baked
+/// from; `None` for any other file.
+fn ldprt(args: &ExportArgs) -> Option<Result<(), Error>> {
+    let mut head = [0u8; 8];
+    let read = std::fs::File::open(&args.file).and_then(|mut f| f.read(&mut head));
+    if !matches!(read, Ok(8)) || !prt_baker::formats::ldprt_file::is_ldprt(&head) {
+        return None;
+    }
+    let (Some(glb), None, None, None, None) = (
+        &args.gltf,
+        &args.npz,
+        &args.exr,
+        &args.lights,
+        args.quantize,
+    ) else {
+        return Some(Err(Error::InvalidOption(
+            "an LDPRT file exports with --gltf alone (not --npz, --exr, --lights or --quantize)"
+                .into(),
+        )));
+    };
+    Some(
+        prt_baker::export::ldprt_gltf::export_ldprt_glb(&args.file, &args.scene, glb).map(|w| {
+            println!(
+                "wrote {} ({} bytes): the skinned glTF kept, {} vertices of {} primitive(s) with \
+                 {} lobe(s) in {} attributes ({}..{})",
+                glb.display(),
+                w.bytes,
+                w.vertex_count,
+                w.primitives,
+                w.lobes,
+                w.attributes.len(),
+                w.attributes.first().map_or("", String::as_str),
+                w.attributes.last().map_or("", String::as_str)
+            );
+        }),
+    )
 }
 
 /// `--exr DIR`: a lightmap bake as OpenEXR images.

@@ -18,6 +18,11 @@ pub struct RelightArgs {
     /// Output .ply file; for a lightmap bake a .png (tone-mapped) or .exr (linear) image.
     #[arg(short, long)]
     output: PathBuf,
+    /// With an LDPRT file and a glTF mesh: the pose its skins and animations are read in,
+    /// `rest` (the nodes' own transforms), `ANIM@SECONDS` or `ANIM#KEYFRAME` (ANIM an
+    /// animation's name or index; docs/guides/characters.md).
+    #[arg(long, default_value = "rest")]
+    pose: prt_baker::scene::Pose,
     /// Exposure of the 8-bit colour in stops: radiance × 2^EV before clamping to [0, 1]
     /// (the float radiance is written unscaled).
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
@@ -93,7 +98,7 @@ pub fn run(args: RelightArgs) -> Result<(), Error> {
     }
     super::relight_occluders::check_placement(args.probes.is_some(), &args.at, &args.turn)?;
     if super::relight_ldprt::run_if_ldprt(
-        &args.scene,
+        (&args.scene, &args.pose),
         &args.file,
         &args.lights,
         &args.output,

@@ -5,10 +5,12 @@ use std::path::Path;
 
 use prt_baker::Error;
 use prt_baker::formats::ldprt_file::{MAGIC, is_ldprt};
+use prt_baker::scene::Pose;
 
-/// Relights `file` on `mesh` if it is an LDPRT file (and says so); `false` for any other file.
+/// Relights `file` on `mesh` in `pose` if it is an LDPRT file (and says so); `false` for any
+/// other file, which must then be lit in the rest pose (its transfer is in world space).
 pub fn run_if_ldprt(
-    mesh: &Path,
+    (mesh, pose): (&Path, &Pose),
     file: &Path,
     lights: &Path,
     output: &Path,
@@ -17,12 +19,20 @@ pub fn run_if_ldprt(
     let mut head = [0u8; MAGIC.len()];
     let read = std::fs::File::open(file).and_then(|mut f| f.read(&mut head));
     if !matches!(read, Ok(n) if n == MAGIC.len()) || !is_ldprt(&head) {
+        if !pose.is_rest() {
+            return Err(Error::InvalidOption(
+                "--pose is for LDPRT files (bake --transfer ldprt): other bakes are in world \
+                 space"
+                    .into(),
+            ));
+        }
         return Ok(false);
     }
-    let relit =
-        prt_baker::export::relight_ldprt::relight_ldprt(mesh, file, lights, output, exposure)?;
+    let relit = prt_baker::export::relight_ldprt::relight_ldprt(
+        mesh, pose, file, lights, output, exposure,
+    )?;
     println!(
-        "relit {} vertices of an LDPRT bake posed as {} with {} light(s) at order {}, largest \
+        "relit {} vertices of an LDPRT bake posed as {} ({pose}) with {} light(s) at order {}, largest \
          radiance {:.4} -> {}",
         relit.vertex_count,
         mesh.display(),

@@ -5,7 +5,7 @@ use std::path::Path;
 
 use clap::ValueEnum;
 use prt_baker::bake::receiver_names::receives;
-use prt_baker::scene::{AUTO_MIN_TRIANGLES, Instancing, Scene};
+use prt_baker::scene::{AUTO_MIN_TRIANGLES, Instancing, Pose, Scene};
 use prt_baker::support::error::Result;
 
 /// `--instances`: when non-receiving glTF mesh nodes that share a mesh are traced as instances.
@@ -33,13 +33,13 @@ pub enum DoubleSidedArg {
 
 /// Loads `path` (warnings to stderr), with instances where `arg` asks for them and the bake
 /// can use them (`possible`: a shadowed or unshadowed whole vertex bake; the receivers are
-/// chosen by `globs` as `--receivers` chooses them), and back sheets where `sides` asks.
+/// chosen by `globs` as `--receivers` chooses them), back sheets where `sides` asks, a
+/// glTF file in `pose`.
 pub fn load(
     path: &Path,
-    arg: InstancesArg,
+    (arg, sides, pose): (InstancesArg, DoubleSidedArg, &Pose),
     globs: &[String],
     possible: bool,
-    sides: DoubleSidedArg,
 ) -> Result<Scene> {
     let receives = receives(globs);
     let min_triangles = match arg {
@@ -52,7 +52,7 @@ pub fn load(
         min_triangles,
     };
     let chosen = (possible && arg != InstancesArg::Off).then_some(&instancing);
-    let (mut scene, warnings) = Scene::load_instanced(path, chosen)?;
+    let (mut scene, warnings) = Scene::load_posed(path, chosen, pose)?;
     if sides == DoubleSidedArg::Off {
         scene.drop_back_sheets();
     }

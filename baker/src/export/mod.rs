@@ -7,6 +7,7 @@
 
 pub mod compress;
 pub mod gltf;
+pub mod ldprt_gltf;
 pub mod numpy;
 pub mod probe_field;
 pub mod probe_npz;

@@ -2,14 +2,21 @@
 //! a mesh of the same topology in any pose. Each vertex's frame is rebuilt from that mesh
 //! ([`crate::bake::ldprt::frame`]), its lobes' axes turned into the world with it, and the
 //! lobes lit as SH: radiance_c = albedo_c · Σ_k Σ_l c_l g_kcl Σ_m L_c,lm y_lm(R a_k).
+//!
+//! A bake of a skinned glTF, lit on a pose of a skinned glTF, follows the skin instead
+//! ([`pose_axes`]): each vertex's frame is taken from the baked pose into the bind space,
+//! its normal and tangent skinned as runtimes skin NORMAL and TANGENT, so the command line
+//! and the runtimes agree to float rounding.
 
 use std::path::Path;
 
-use crate::bake::ldprt::{frame, world_transfer};
+use glam::DVec3;
+
+use crate::bake::ldprt::{bind_frames, frame, frame_axes, skinned_frames, world_transfer_axes};
 use crate::export::relight::{Relit, write_vertex_ply};
 use crate::formats::ldprt_file::{LdprtFile, topology_fingerprint};
 use crate::light::{LightCoefficients, Rig};
-use crate::scene::Scene;
+use crate::scene::{Pose, Scene};
 use crate::support::error::Result;
 
 /// Refuses a mesh whose vertex count or triangles differ from the baked mesh's.
@@ -37,7 +44,35 @@ pub fn check_topology(file: &LdprtFile, path: &Path, scene: &Scene) -> Result<()
 /// (of the file's order, in the scene's frame).
 pub fn ldprt_radiance(file: &LdprtFile, scene: &Scene, light: &LightCoefficients) -> Vec<[f32; 3]> {
     let frames = frame::vertex_frames(&scene.positions, &scene.normals, &scene.triangles);
-    let transfer = world_transfer(file, &frames);
+    ldprt_radiance_axes(file, scene, &frame_axes(file, &frames), light)
+}
+
+/// The world axis of every lobe of `file` on `scene` (a pose of the baked mesh, read from
+/// `mesh`): where the file was baked from a skinned glTF and `scene` is skinned, the baked
+/// pose's frames (`mesh` read again in it) taken to the bind space and skinned to `scene`'s
+/// pose ([`skinned_frames`]); otherwise each vertex's frame rebuilt from `scene`.
+pub fn pose_axes(file: &LdprtFile, mesh: &Path, scene: &Scene) -> Result<Vec<DVec3>> {
+    let frames = |s: &Scene| frame::vertex_frames(&s.positions, &s.normals, &s.triangles);
+    let (Some(baked), Some(linear)) = (&file.pose, &scene.pose_linear) else {
+        return Ok(frame_axes(file, &frames(scene)));
+    };
+    let pose: Pose = baked.parse().map_err(|problem| {
+        crate::Error::scene(crate::support::error::Location::file(mesh), problem)
+    })?;
+    let (rest, _) = Scene::load_posed(mesh, None, &pose)?;
+    let rest_linear = rest.pose_linear.as_ref().unwrap_or(linear);
+    let bind = bind_frames(&frames(&rest), rest_linear);
+    Ok(frame_axes(file, &skinned_frames(&bind, linear)))
+}
+
+/// [`ldprt_radiance`] with the world axis of every lobe given ([`pose_axes`]).
+pub fn ldprt_radiance_axes(
+    file: &LdprtFile,
+    scene: &Scene,
+    axes: &[DVec3],
+    light: &LightCoefficients,
+) -> Vec<[f32; 3]> {
+    let transfer = world_transfer_axes(file, axes);
     let n = crate::math::sh::coeff_count(file.order as usize);
     let channels = file.channels as usize;
     let albedo = scene.vertex_albedo();
@@ -57,10 +92,11 @@ pub fn ldprt_radiance(file: &LdprtFile, scene: &Scene, light: &LightCoefficients
         .collect()
 }
 
-/// Lights the LDPRT file `ldprt` on the mesh `mesh` (any pose of the baked mesh) with the rig
-/// and writes a PLY to `output` atomically.
+/// Lights the LDPRT file `ldprt` on the mesh `mesh` (any pose of the baked mesh; a glTF in
+/// `pose`) with the rig and writes a PLY to `output` atomically.
 pub fn relight_ldprt(
     mesh: &Path,
+    pose: &Pose,
     ldprt: &Path,
     rig: &Path,
     output: &Path,
@@ -68,7 +104,10 @@ pub fn relight_ldprt(
 ) -> Result<Relit> {
     let rig = Rig::load(rig)?;
     let file = LdprtFile::read(ldprt)?;
-    let scene = Scene::load(mesh)?;
+    let (scene, warnings) = Scene::load_posed(mesh, None, pose)?;
+    for warning in warnings {
+        eprintln!("warning: {}: {warning}", mesh.display());
+    }
     check_topology(&file, ldprt, &scene)?;
     if crate::export::relight::image_format(output).is_some() {
         return Err(crate::Error::InvalidOption(format!(
@@ -79,7 +118,8 @@ pub fn relight_ldprt(
     let output = crate::export::relight::relight_output(&scene, &[ldprt], &rig, output)?;
     let order = file.order as usize;
     let light = rig.project(order).in_scene_frame(file.up);
-    let radiance = ldprt_radiance(&file, &scene, &light);
+    let axes = pose_axes(&file, mesh, &scene)?;
+    let radiance = ldprt_radiance_axes(&file, &scene, &axes, &light);
     let relit = Relit {
         vertex_count: scene.vertex_count(),
         lightmap: false,
@@ -89,7 +129,7 @@ pub fn relight_ldprt(
         matrix: false,
     };
     let comment = format!(
-        "prt-bake relight: mesh {}, LDPRT {} ({} lobes), lights {} (order {order}, window {})",
+        "prt-bake relight: mesh {} (pose {pose}), LDPRT {} ({} lobes), lights {} (order {order}, window {})",
         mesh.display(),
         ldprt.display(),
         file.lobes,

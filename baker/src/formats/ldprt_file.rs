@@ -12,6 +12,8 @@ pub const VERSION: u32 = 1;
 pub const HEADER_SIZE: usize = 96;
 /// Most lobes per vertex a reader accepts.
 pub const MAX_LOBES: u32 = 8;
+/// Longest pose text (bytes) a reader accepts.
+pub const MAX_POSE_BYTES: u32 = 4096;
 
 /// The fit's relative L2 error over the vertices: what LDPRT loses against the SH bake
 /// before any deformation.
@@ -65,6 +67,10 @@ pub struct LdprtFile {
     pub zh: Vec<f32>,
     /// Per vertex, the fit's relative L2 error.
     pub vertex_error: Vec<f32>,
+    /// For a bake of a skinned glTF, the pose it was baked in (`rest`, `ANIM@SECONDS`,
+    /// `ANIM#KEYFRAME`): relit on a pose of that skin, the lobes' axes follow the skin
+    /// from it. `None` for other meshes: the axes follow each vertex's rebuilt frame.
+    pub pose: Option<String>,
 }
 
 /// FNV-1a over the vertex count and the triangles' indices: equal for meshes of the same
@@ -123,7 +129,10 @@ impl LdprtFile {
         for e in [self.error.mean, self.error.p99, self.error.max] {
             b.extend(e.to_le_bytes());
         }
+        let pose = self.pose.as_deref().unwrap_or("");
+        b.extend((pose.len() as u32).to_le_bytes());
         b.resize(HEADER_SIZE, 0);
+        b.extend(pose.as_bytes());
         for a in &self.axes {
             for x in a {
                 b.extend(x.to_le_bytes());
@@ -173,14 +182,21 @@ impl LdprtFile {
             return Err(format!("{channels} channels (1 or 3 expected)"));
         }
         let vertex_count = u64_at(24);
+        let pose_bytes = u32_at(84);
+        if pose_bytes > MAX_POSE_BYTES {
+            return Err(format!(
+                "a pose of {pose_bytes} bytes (at most {MAX_POSE_BYTES})"
+            ));
+        }
+        let arrays = HEADER_SIZE + pose_bytes as usize;
         let per_vertex = LdprtFile::floats_per_vertex(order, lobes, channels);
         let expected = vertex_count
             .checked_mul(per_vertex * 4)
-            .and_then(|p| p.checked_add(HEADER_SIZE as u64 + 4));
+            .and_then(|p| p.checked_add(arrays as u64 + 4));
         if expected != Some(bytes.len() as u64) {
             return Err(format!(
                 "{} bytes, but {vertex_count} vertices of {lobes} lobes at order {order} with \
-                 {channels} channel(s) need {}",
+                 {channels} channel(s) and a pose of {pose_bytes} bytes need {}",
                 bytes.len(),
                 expected.map_or("more than 2^64".into(), |e| e.to_string())
             ));
@@ -201,15 +217,20 @@ impl LdprtFile {
         };
         let up = Up::from_code(u32_at(44))
             .ok_or_else(|| format!("unknown up axis code {}", u32_at(44)))?;
-        let floats: Vec<f32> = bytes[HEADER_SIZE..body]
+        let pose = match pose_bytes {
+            0 => None,
+            _ => Some(
+                std::str::from_utf8(&bytes[HEADER_SIZE..arrays])
+                    .map_err(|_| "the pose is not UTF-8 text".to_string())?
+                    .to_owned(),
+            ),
+        };
+        let floats: Vec<f32> = bytes[arrays..body]
             .chunks_exact(4)
             .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")))
             .collect();
         if let Some(i) = floats.iter().position(|x| !x.is_finite()) {
-            return Err(format!(
-                "a non-finite value at byte {}",
-                HEADER_SIZE + 4 * i
-            ));
+            return Err(format!("a non-finite value at byte {}", arrays + 4 * i));
         }
         let v = vertex_count as usize;
         let (k, c, n) = (lobes as usize, channels as usize, order as usize);
@@ -248,6 +269,7 @@ impl LdprtFile {
             axes,
             zh: floats[v * k * 3..zh_end].to_vec(),
             vertex_error: floats[zh_end..].to_vec(),
+            pose,
         })
     }
 
@@ -281,6 +303,7 @@ impl LdprtFile {
             "scene_fingerprint": format!("{:016x}", self.scene_fingerprint),
             "topology_fingerprint": format!("{:016x}", self.topology),
             "fit_error": self.error,
+            "pose": self.pose,
         })
     }
 }
@@ -310,11 +333,17 @@ mod tests {
             axes: vec![[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]],
             zh: vec![1.0, 0.5, 0.25, 0.125],
             vertex_error: vec![0.1],
+            pose: None,
         }
     }
 
     #[test]
     fn round_trips_and_refuses_damage() {
+        let posed = LdprtFile {
+            pose: Some("bend@0.5".into()),
+            ..sample()
+        };
+        assert_eq!(LdprtFile::from_bytes(&posed.to_bytes()).unwrap(), posed);
         let file = sample();
         let bytes = file.to_bytes();
         assert_eq!(LdprtFile::from_bytes(&bytes).unwrap(), file);

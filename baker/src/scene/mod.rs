@@ -32,7 +32,7 @@ mod up;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
-use glam::{Vec2, Vec3, Vec4};
+use glam::{Mat3, Vec2, Vec3, Vec4};
 
 use crate::support::error::{Error, Location, Result};
 use crate::support::input_path::AssetFolder;
@@ -42,7 +42,7 @@ pub use back_sheets::BackSheets;
 pub use format::FORMATS;
 use format::OTHER_FORMATS;
 pub use gltf::volume::{GltfMedia, gltf_media};
-pub use gltf::{AUTO_MIN_TRIANGLES, INSTANCE_BYTES, Instancing};
+pub use gltf::{AUTO_MIN_TRIANGLES, INSTANCE_BYTES, Instancing, Pose};
 pub use instances::{InstanceMesh, Instances, Placement, mesh_bounds, world_normal};
 pub use materials::{MaterialEntry, Materials};
 pub use mesh::{DEFAULT_KD, Glossy, Hierarchy, HierarchyNode, Material, Mesh};
@@ -97,6 +97,13 @@ pub struct Scene {
     pub instances: Instances,
     /// The back sheets of glTF `doubleSided` objects, the last objects ([`BackSheets`]).
     pub back_sheets: BackSheets,
+    /// glTF scenes with a skin: per vertex, the linear part of the matrix that posed it
+    /// (the blend of its joints' J · IBM, or its node's world matrix), by which lobe axes
+    /// turn with the skin; `None` otherwise.
+    pub pose_linear: Option<Vec<Mat3>>,
+    /// With `pose_linear`: per object, the glTF mesh and primitive it was read from (the
+    /// LDPRT export writes its attributes there).
+    pub gltf_primitives: Option<Vec<[u32; 2]>>,
 }
 
 impl Scene {
@@ -121,13 +128,23 @@ impl Scene {
         path: &Path,
         instancing: Option<&Instancing>,
     ) -> Result<(Scene, Vec<String>)> {
+        Scene::load_posed(path, instancing, &Pose::Rest)
+    }
+
+    /// [`Scene::load_instanced`] with a glTF file's skins and animations in `pose`; other
+    /// formats have no poses and refuse any but the rest pose.
+    pub fn load_posed(
+        path: &Path,
+        instancing: Option<&Instancing>,
+        pose: &Pose,
+    ) -> Result<(Scene, Vec<String>)> {
         let extension = path
             .extension()
             .map(|e| e.to_string_lossy().to_ascii_lowercase())
             .unwrap_or_default();
         match extension.as_str() {
             "gltf" | "glb" => {
-                let loaded = gltf::load(path, instancing)?;
+                let loaded = gltf::load(path, instancing, pose)?;
                 instances::check(&loaded.instances)
                     .map_err(|m| Error::scene(Location::file(path), m))?;
                 let mut scene = Scene::from_meshes(path, loaded.meshes, loaded.textures)?;
@@ -136,6 +153,10 @@ impl Scene {
                 scene.content_digest = Some(loaded.digest);
                 scene.hierarchy = Some(loaded.hierarchy);
                 scene.tangents = scene.normal_map_tangents(&loaded.tangents);
+                if loaded.skinned {
+                    scene.pose_linear = Some(loaded.pose_linear.concat());
+                    scene.gltf_primitives = Some(loaded.primitives);
+                }
                 if loaded.lightmap_uvs.iter().any(Option::is_some) {
                     let mut uvs = Vec::with_capacity(scene.vertex_count());
                     for (object, lightmap) in scene.objects.iter().zip(&loaded.lightmap_uvs) {
@@ -155,6 +176,10 @@ impl Scene {
             other if OTHER_FORMATS.contains(&other) => Err(Error::scene(
                 Location::file(path),
                 format!("unknown scene format .{other}: the formats read are {FORMATS}"),
+            )),
+            _ if !pose.is_rest() => Err(Error::scene(
+                Location::file(path),
+                format!("--pose {pose}: only glTF files have skins and animations"),
             )),
             _ => Scene::load_obj_or_scene_file(path).map(|scene| (scene, Vec::new())),
         }
@@ -268,6 +293,8 @@ impl Scene {
             content_digest: None,
             instances: Instances::default(),
             back_sheets: BackSheets::default(),
+            pose_linear: None,
+            gltf_primitives: None,
         }
     }
 
@@ -449,6 +476,9 @@ impl Scene {
             self.vertex_material.extend_from_within(vertices.clone());
             if let Some(uvs) = &mut self.lightmap_uvs {
                 uvs.extend_from_within(vertices.clone());
+            }
+            if let Some(linear) = &mut self.pose_linear {
+                linear.extend_from_within(vertices.clone());
             }
             // The whole tangent frame turned over, so a normal-mapped back shades with the
             // front's perturbed normal negated, as engines draw a back face.

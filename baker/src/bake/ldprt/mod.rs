@@ -122,25 +122,75 @@ pub fn package(
         axes,
         zh,
         vertex_error,
+        pose: None,
     }
+}
+
+/// Per vertex and lobe, the world axis of the file's lobes on the vertex frames `frames`
+/// (a pose of the mesh; the frame rule).
+pub fn frame_axes(file: &LdprtFile, frames: &[[DVec3; 3]]) -> Vec<DVec3> {
+    let k_count = file.lobes as usize;
+    (0..file.axes.len())
+        .map(|i| {
+            let local = DVec3::from_array(file.axes[i].map(f64::from));
+            frame::to_world(&frames[i / k_count], local).normalize()
+        })
+        .collect()
+}
+
+/// Per vertex, the (tangent, normal) of its frame in the skinned mesh's bind (object)
+/// space: the baked pose's frame (`frames`, `linear` that pose's per-vertex skinning) taken
+/// back through the inverse of the vertex's skinning, N_B⁻¹ t and N_B⁻¹ n.
+pub fn bind_frames(frames: &[[DVec3; 3]], linear: &[glam::Mat3]) -> Vec<[DVec3; 2]> {
+    frames
+        .iter()
+        .zip(linear)
+        .map(|(f, n)| {
+            let inverse = n.as_dmat3().inverse();
+            [inverse * f[0], inverse * f[2]]
+        })
+        .collect()
+}
+
+/// The frames of a pose from bind-space ones: normal and tangent skinned by each vertex's
+/// linear part N_P (as runtimes skin NORMAL and TANGENT), the tangent made orthogonal to the
+/// normal, the bitangent n × t. A vertex's lobes turn rigidly with it, so a blend's shear
+/// cannot change the angles between them (skinning the axes themselves like normals would,
+/// and lobes fitted to cancel each other then no longer do).
+pub fn skinned_frames(bind: &[[DVec3; 2]], linear: &[glam::Mat3]) -> Vec<[DVec3; 3]> {
+    bind.iter()
+        .zip(linear)
+        .map(|([t, n], m)| {
+            let m = m.as_dmat3();
+            let n = (m * *n).normalize_or(DVec3::Z);
+            let t = m * *t;
+            let t = (t - n * t.dot(n))
+                .try_normalize()
+                .unwrap_or_else(|| n.any_orthonormal_vector());
+            [t, n.cross(t), n]
+        })
+        .collect()
 }
 
 /// Per vertex and channel, the n² SH transfer of the file's lobes in the world frames
 /// `frames` (a pose of the mesh): c_l g_l y_l^m(R a) per lobe, summed.
 pub fn world_transfer(file: &LdprtFile, frames: &[[DVec3; 3]]) -> Vec<f64> {
+    world_transfer_axes(file, &frame_axes(file, frames))
+}
+
+/// [`world_transfer`] with every lobe's world axis given (vertex-major, K per vertex).
+pub fn world_transfer_axes(file: &LdprtFile, axes: &[DVec3]) -> Vec<f64> {
     let order = file.order as usize;
     let n = crate::math::sh::coeff_count(order);
     let (k_count, channels) = (file.lobes as usize, file.channels as usize);
     let basis = Basis::new(order);
-    let per_vertex: Vec<Vec<f64>> = frames
-        .par_iter()
+    let per_vertex: Vec<Vec<f64>> = axes
+        .par_chunks(k_count)
         .enumerate()
-        .map(|(v, f)| {
+        .map(|(v, vertex_axes)| {
             let mut out = vec![0.0; channels * n];
             let mut y = vec![0.0; n];
-            for k in 0..k_count {
-                let local = DVec3::from_array(file.axes[v * k_count + k].map(f64::from));
-                let axis = frame::to_world(f, local).normalize();
+            for (k, &axis) in vertex_axes.iter().enumerate() {
                 for c in 0..channels {
                     let g: Vec<f64> = file.zh(v, k, c).iter().map(|&x| f64::from(x)).collect();
                     fit::add_lobe(&basis, axis, &g, &mut y, &mut out[c * n..(c + 1) * n]);

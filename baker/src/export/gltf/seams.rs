@@ -21,6 +21,8 @@ pub fn split_at_lightmap_seams(scene: &Scene, uv1: &[[Vec2; 3]]) -> Scene {
         objects: Vec::with_capacity(scene.objects.len()),
         lightmap_uvs: None,
         tangents: scene.tangents.as_ref().map(|_| Vec::new()),
+        pose_linear: None,
+        gltf_primitives: None,
         ..scene.clone()
     };
     let mut lightmap = Vec::new();

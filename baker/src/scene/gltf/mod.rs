@@ -13,6 +13,7 @@
 //! glTF's texture v runs down from the image's top; the scene keeps OBJ's convention (v up
 //! from the bottom), so v is stored as 1 − v.
 
+mod accessors;
 mod alpha;
 mod files;
 mod flattened_size;
@@ -20,8 +21,11 @@ mod gpu_instancing;
 mod instancing;
 mod names;
 mod normal_map;
+pub mod pose;
+mod skin;
 pub mod volume;
 
+use accessors::readable_accessors;
 use files::{images_are_readable, read_buffers, read_images, to_texture, uris_are_readable};
 use flattened_size::check_flattened_size;
 use names::object_name;
@@ -32,6 +36,7 @@ use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use gltf::mesh::Mode;
 
 pub use instancing::{AUTO_MIN_TRIANGLES, INSTANCE_BYTES, Instancing};
+pub use pose::Pose;
 
 use crate::math::glossy;
 use crate::scene::instances::Instances;
@@ -57,6 +62,14 @@ pub struct Loaded {
     pub hierarchy: Hierarchy,
     /// Mesh nodes kept as instances ([`Instancing`]); not among `meshes`.
     pub instances: Instances,
+    /// Per mesh and vertex, the linear part of the matrix that placed it in the pose: the
+    /// blend of its joints' for a skinned mesh ([`skin`]), the node's world matrix's
+    /// otherwise. Lobe axes and normals turn by it.
+    pub pose_linear: Vec<Vec<Mat3>>,
+    /// Whether a mesh node has a skin.
+    pub skinned: bool,
+    /// Per mesh, the glTF mesh and primitive it was read from.
+    pub primitives: Vec<[u32; 2]>,
 }
 
 /// Extensions a file may *require* and still be read correctly. None yet: a required
@@ -64,8 +77,9 @@ pub struct Loaded {
 /// transforms), and reading on without it would bake the wrong scene.
 const SUPPORTED_REQUIRED_EXTENSIONS: &[&str] = &[];
 
-/// Loads the file, flattening every mesh node but those `instancing` picks.
-pub fn load(path: &Path, instancing: Option<&Instancing>) -> Result<Loaded> {
+/// Loads the file in `pose`, flattening every mesh node but those `instancing` picks (never
+/// a skinned one).
+pub fn load(path: &Path, instancing: Option<&Instancing>, pose: &Pose) -> Result<Loaded> {
     let fail = |message: String| Error::scene(Location::file(path), message);
     let bytes = crate::support::limits::read_file(path)?;
     let (document, blob, json_bytes) = parse(path, &bytes)?;
@@ -84,7 +98,8 @@ pub fn load(path: &Path, instancing: Option<&Instancing>) -> Result<Loaded> {
         .default_scene()
         .or_else(|| document.scenes().next())
         .ok_or_else(|| fail("the file has no scene".into()))?;
-    let (placed, visited, parent) = flatten(&document, &scene).map_err(fail)?;
+    let locals = skin::node_locals(&document, &buffers, pose).map_err(fail)?;
+    let (placed, visited, parent, worlds) = flatten(&document, &scene, &locals).map_err(fail)?;
     let placed = gpu_instancing::expand(&document, &json_bytes, &buffers, placed).map_err(fail)?;
     // Nodes in visiting order (parents first), by their index in the file.
     let mut at = vec![u32::MAX; document.nodes().len()];
@@ -115,14 +130,17 @@ pub fn load(path: &Path, instancing: Option<&Instancing>) -> Result<Loaded> {
         hierarchy,
         ..Loaded::default()
     };
-    let instanced = instancing::choose(&placed, &loaded.hierarchy, &at, instancing);
+    let mut instanced = instancing::choose(&placed, &loaded.hierarchy, &at, instancing);
+    for ((node, _, _), instance) in placed.iter().zip(&mut instanced) {
+        *instance &= node.skin().is_none();
+    }
     check_flattened_size(path, &placed, &instanced)?;
     let mut seen = HashMap::new();
     for ((node, mesh, world), instance) in placed.into_iter().zip(instanced) {
         if instance {
             let mut read = |primitive: &gltf::Primitive, name: String| {
                 let mut scratch = Loaded::default();
-                reader.read(primitive, name, Mat4::IDENTITY, &mut scratch)?;
+                reader.read(primitive, name, Mat4::IDENTITY, None, &mut scratch)?;
                 Ok(scratch.meshes.pop())
             };
             let instances = &mut loaded.instances;
@@ -130,12 +148,19 @@ pub fn load(path: &Path, instancing: Option<&Instancing>) -> Result<Loaded> {
             continue;
         }
         let primitive_count = mesh.primitives().len();
+        let joints = match node.skin() {
+            None => None,
+            Some(s) => Some(skin::joint_matrices(&document, &buffers, &s, &worlds).map_err(fail)?),
+        };
+        loaded.skinned |= joints.is_some();
         for primitive in mesh.primitives() {
             let name = object_name(&node, &mesh, primitive.index(), primitive_count);
             let before = loaded.meshes.len();
-            reader.read(&primitive, name, world, &mut loaded)?;
+            reader.read(&primitive, name, world, joints.as_deref(), &mut loaded)?;
             for _ in before..loaded.meshes.len() {
                 loaded.hierarchy.object_node.push(at[node.index()]);
+                let source = [mesh.index() as u32, primitive.index() as u32];
+                loaded.primitives.push(source);
             }
         }
     }
@@ -208,13 +233,15 @@ impl PrimitiveReader<'_> {
         Error::scene(Location::file(self.path), message)
     }
 
-    /// Reads one primitive placed by `world` into `loaded`; a primitive of points or lines
-    /// adds a warning instead.
+    /// Reads one primitive placed by `world`, or skinned by `joints` (each joint's J · IBM,
+    /// `world` then ignored), into `loaded`; a primitive of points or lines adds a warning
+    /// instead.
     fn read(
         &mut self,
         primitive: &gltf::Primitive,
         name: String,
         world: Mat4,
+        joints: Option<&[Mat4]>,
         loaded: &mut Loaded,
     ) -> Result<()> {
         let mode = primitive.mode();
@@ -239,10 +266,20 @@ impl PrimitiveReader<'_> {
         let Some(positions) = reader.read_positions() else {
             return Err(self.fail(format!("mesh '{name}': a primitive has no POSITION")));
         };
-        let positions: Vec<Vec3> = positions.map(Vec3::from_array).collect();
-        let normals: Option<Vec<Vec3>> = reader
+        let mut positions: Vec<Vec3> = positions.map(Vec3::from_array).collect();
+        let mut normals: Option<Vec<Vec3>> = reader
             .read_normals()
             .map(|n| n.map(Vec3::from_array).collect());
+        let (world, linear) = match joints {
+            None => (world, vec![Mat3::from_mat4(world); positions.len()]),
+            Some(joints) => {
+                let matrices = skin::vertex_matrices(primitive, buffers, joints, positions.len())
+                    .map_err(|problem| self.fail(format!("mesh '{name}': {problem}")))?;
+                skin::skin(&matrices, &mut positions, normals.as_mut());
+                let linear = matrices.iter().map(|m| Mat3::from_mat4(*m)).collect();
+                (Mat4::IDENTITY, linear)
+            }
+        };
         let read_uvs = |set: u32| {
             reader.read_tex_coords(set).map(|uv| {
                 uv.into_f32()
@@ -303,6 +340,7 @@ impl PrimitiveReader<'_> {
             .filter(|_| material.normal_map.is_some());
         let tangents = tangents.map(|t| normal_map::tangents_to_world(Mat3::from_mat4(world), t));
         loaded.tangents.push(tangents);
+        loaded.pose_linear.push(linear);
         loaded.meshes.push(Mesh {
             name,
             positions,
@@ -389,83 +427,6 @@ fn positions_exist(json: &gltf::json::Root) -> std::result::Result<(), String> {
     Ok(())
 }
 
-/// Guards panics of `gltf` 1.4's typed readers (found by `baker/tests/fuzz.rs`): they reach
-/// `unreachable!` on a component type the specification does not allow for the attribute
-/// (indices of floats), and slice out of bounds when a view's stride is shorter than an
-/// element or a sparse accessor is empty.
-fn readable_accessors(
-    document: &gltf::Document,
-    primitive: &gltf::Primitive,
-    uv_set: u32,
-    tangents: bool,
-) -> std::result::Result<(), String> {
-    use gltf::Semantic;
-    use gltf::accessor::{DataType, Dimensions};
-    use gltf::json::accessor::{ComponentType, IndexComponentType};
-    use gltf::json::validation::Checked;
-    let float = &[DataType::F32][..];
-    let uv = &[DataType::F32, DataType::U8, DataType::U16][..];
-    let mut used: Vec<(String, gltf::Accessor, Dimensions, &[DataType])> = Vec::new();
-    for (semantic, dimensions, types) in [
-        (Semantic::Positions, Dimensions::Vec3, float),
-        (Semantic::Normals, Dimensions::Vec3, float),
-        (Semantic::TexCoords(uv_set), Dimensions::Vec2, uv),
-        (Semantic::TexCoords(1), Dimensions::Vec2, uv),
-        (Semantic::Tangents, Dimensions::Vec4, float),
-    ] {
-        // TANGENT is read only for a normal map.
-        let read = tangents || semantic != Semantic::Tangents;
-        if let Some(accessor) = primitive.get(&semantic).filter(|_| read) {
-            used.push((semantic.to_string(), accessor, dimensions, types));
-        }
-    }
-    if let Some(accessor) = primitive.indices() {
-        let types = &[DataType::U8, DataType::U16, DataType::U32][..];
-        used.push(("indices".into(), accessor, Dimensions::Scalar, types));
-    }
-    let views = &document.as_json().buffer_views;
-    let short_stride = |view: usize, size: usize| {
-        let stride = views[view].byte_stride.map_or(0, |s| s.0);
-        stride != 0 && stride < size
-    };
-    for (what, accessor, dimensions, types) in used {
-        let at = format!("{what} (accessor {})", accessor.index());
-        if accessor.dimensions() != dimensions || !types.contains(&accessor.data_type()) {
-            return Err(format!(
-                "{at} is {:?} of {:?}, which glTF does not allow there",
-                accessor.dimensions(),
-                accessor.data_type()
-            ));
-        }
-        let size = accessor.size();
-        let json = &document.as_json().accessors[accessor.index()];
-        let mut strides = vec![(json.buffer_view.map(|v| v.value()), size)];
-        if let Some(sparse) = &json.sparse {
-            let index_size = match sparse.indices.component_type {
-                Checked::Valid(IndexComponentType(ComponentType::U8)) => 1,
-                Checked::Valid(IndexComponentType(ComponentType::U16)) => 2,
-                Checked::Valid(IndexComponentType(ComponentType::U32)) => 4,
-                _ => return Err(format!("{at}: sparse indices must be unsigned integers")),
-            };
-            if json.count.0 == 0 || sparse.count.0 == 0 {
-                return Err(format!(
-                    "{at}: a sparse accessor must have a count of 1 or more"
-                ));
-            }
-            strides.push((Some(sparse.indices.buffer_view.value()), index_size));
-            strides.push((Some(sparse.values.buffer_view.value()), size));
-        }
-        for (view, size) in strides {
-            if let Some(view) = view.filter(|&v| short_stride(v, size)) {
-                return Err(format!(
-                    "{at}: buffer view {view}'s byteStride is shorter than an element ({size} bytes)"
-                ));
-            }
-        }
-    }
-    Ok(())
-}
-
 /// The deepest node hierarchy read: far beyond any real asset (tens of levels), and reached
 /// only by a file made to be hostile; the walk is iterative, so this bounds its memory, not
 /// the stack.
@@ -481,6 +442,7 @@ pub const MAX_NODE_DEPTH: usize = 100_000;
 fn flatten<'a>(
     document: &'a gltf::Document,
     scene: &gltf::Scene<'a>,
+    locals: &[Mat4],
 ) -> std::result::Result<Flattened<'a>, String> {
     let json = document.as_json();
     // Indices were validated by `Document::from_json`.
@@ -528,6 +490,7 @@ fn flatten<'a>(
     // meets each node once: no cycle is reachable.
     let mut out = Vec::new();
     let mut visited = Vec::new();
+    let mut worlds = vec![None; json.nodes.len()];
     while let Some((node, parent_world, depth)) = stack.pop() {
         visited.push(node.index());
         if depth > MAX_NODE_DEPTH {
@@ -536,7 +499,8 @@ fn flatten<'a>(
                 node.index()
             ));
         }
-        let world = parent_world * Mat4::from_cols_array_2d(&node.transform().matrix());
+        let world = parent_world * locals[node.index()];
+        worlds[node.index()] = Some(world);
         if let Some(mesh) = node.mesh() {
             out.push((node.clone(), mesh, world));
         }
@@ -546,15 +510,17 @@ fn flatten<'a>(
             stack.push((child, world, depth + 1));
         }
     }
-    Ok((out, visited, parent))
+    Ok((out, visited, parent, worlds))
 }
 
 /// What [`flatten`] returns: the mesh nodes with their world transforms, every node visited
-/// (parents first), and each node's parent (by index in the file).
+/// (parents first), each node's parent and each node's world matrix where it is in the
+/// scene (by index in the file).
 type Flattened<'a> = (
     Vec<(gltf::Node<'a>, gltf::Mesh<'a>, Mat4)>,
     Vec<usize>,
     Vec<Option<usize>>,
+    Vec<Option<Mat4>>,
 );
 
 /// The cycle `node` lies on, following parents (`0 → 1 → 0`), if it does.
