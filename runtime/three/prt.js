@@ -231,7 +231,7 @@ function texelShaderPatch(groups) {
 // of a doubleSided surface (extras.prt_sheet: the bake's back sheet, or its front) shows the
 // transfer of the side its normals face, so it is drawn front faces only; its twin draws the
 // other side (docs/reference/gltf.md, "Materials").
-function albedoMaterial(source, object) {
+export function albedoMaterial(source, object) {
   const sheet = Boolean(object?.userData?.prt_sheet);
   const material = new THREE.MeshBasicMaterial({
     color: source.color ? source.color.clone() : new THREE.Color(1, 1, 1),
@@ -445,7 +445,7 @@ const glslFloat = (x) => {
 // GLSL of `void prtBasis(vec3 d, out vec4 y[G])`: the real SH y_i(d), i < n², packed 4 to a
 // vec4 (unused lanes 0), by the baker's recurrence (baker/src/math/sh/basis.rs: Q_l^m with
 // the Condon–Shortley phase, times Re/Im (x + iy)^m), unrolled with its constants.
-function shBasisGlsl(order) {
+export function shBasisGlsl(order) {
   const n = coeffCount(order);
   const groups = Math.ceil(n / 4);
   const factorial = (k) => (k <= 1 ? 1 : k * factorial(k - 1));

@@ -1,0 +1,79 @@
+// The skinned LDPRT browser test's page module: window.prtLdprt.render(...) loads the tube's
+// LDPRT export (a SkinnedMesh with its `bend` animation), sets an AnimationMixer to a time,
+// and draws it either lit by runtime/three/ldprt.js or with its vertices coloured by given
+// radiances (prt-bake relight --pose's PLY, in the .glb's vertex order). Returns the RGBA
+// pixels (base64, top row first).
+import * as THREE from 'three';
+import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
+import { lightFromJSON } from '/runtime/three/prt.js';
+import { applyLDPRT } from '/runtime/three/ldprt.js';
+
+const canvas = document.getElementById('view');
+const renderer = new THREE.WebGLRenderer({ canvas, antialias: false, preserveDrawingBuffer: true, alpha: true });
+renderer.setPixelRatio(1);
+renderer.setClearColor(0x000000, 0);
+const gl = renderer.getContext();
+
+function pixels() {
+  const { width, height } = canvas;
+  const data = new Uint8Array(width * height * 4);
+  gl.readPixels(0, 0, width, height, gl.RGBA, gl.UNSIGNED_BYTE, data);
+  const flipped = new Uint8Array(data.length);
+  for (let y = 0; y < height; y++) flipped.set(data.subarray((height - 1 - y) * width * 4, (height - y) * width * 4), y * width * 4);
+  let text = '';
+  for (let i = 0; i < flipped.length; i += 0x8000) text += String.fromCharCode(...flipped.subarray(i, i + 0x8000));
+  return btoa(text);
+}
+
+const floats = (base64) => new Float32Array(Uint8Array.from(atob(base64), (ch) => ch.charCodeAt(0)).buffer);
+
+window.prtLdprt = {
+  /**
+   * glb, light: urls (the LDPRT export, `prt-bake light --up y`'s JSON); time: seconds of the
+   * first animation; radiance (optional): base64 float32 RGB per vertex to draw instead.
+   */
+  async render({ glb, light, time, radiance }) {
+    const gltf = await new GLTFLoader().loadAsync(glb);
+    const world = new THREE.Scene();
+    world.add(gltf.scene);
+    const mixer = new THREE.AnimationMixer(gltf.scene);
+    const action = mixer.clipAction(gltf.animations[0]);
+    // Held at the end, not wrapped to 0, at time = duration.
+    action.setLoop(THREE.LoopOnce, 1);
+    action.clampWhenFinished = true;
+    action.play();
+    mixer.setTime(time);
+    let skinned = 0;
+    let attributes = [];
+    let key = '';
+    if (radiance) {
+      const colours = floats(radiance);
+      gltf.scene.traverse((object) => {
+        if (!object.isMesh) return;
+        if (object.geometry.attributes.position.count * 3 !== colours.length) throw new Error(`${glb}: vertex count differs from the PLY's`);
+        object.geometry.setAttribute('color', new THREE.BufferAttribute(colours, 3));
+        object.material = new THREE.MeshBasicMaterial({ vertexColors: true });
+      });
+    } else {
+      const handle = applyLDPRT(gltf, lightFromJSON(await fetch(light).then((r) => r.text())));
+      if (handle.meshes.length !== 1) throw new Error(`${glb}: ${handle.meshes.length} LDPRT meshes, not 1`);
+      skinned = handle.meshes.filter((m) => m.isSkinnedMesh).length;
+      key = handle.meshes[0].material.customProgramCacheKey();
+    }
+    const camera = new THREE.PerspectiveCamera(45, canvas.width / canvas.height, 0.05, 20);
+    camera.position.set(1.2, 3.6, 1.6);
+    camera.up.set(0, 0, 1);
+    camera.lookAt(new THREE.Vector3(0.3, 0, 1.0));
+    renderer.render(world, camera);
+    if (!radiance) {
+      // The program's active vertex attributes (the lobes are in a texture: three).
+      const program = renderer.info.programs.find((p) => p.cacheKey.includes(key));
+      if (program) {
+        const count = gl.getProgramParameter(program.program, gl.ACTIVE_ATTRIBUTES);
+        attributes = Array.from({ length: count }, (_, i) => gl.getActiveAttrib(program.program, i).name);
+      }
+    }
+    return { pixels: pixels(), skinned, attributes };
+  },
+};
+window.prtLdprtReady = true;

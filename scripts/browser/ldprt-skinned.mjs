@@ -1,0 +1,121 @@
+// The skinned LDPRT browser test (make browser; docs/guides/characters.md, "In three.js"): the
+// skinned tube (scenes/tube/tube-skinned.glb) baked as LDPRT at rest (order 4, 3 lobes; grey
+// shadowed and RGB interreflected), exported to a skinned .glb, posed in Chromium by three's
+// AnimationMixer at `bend` 0, 0.5 and 1 s and lit by runtime/three/ldprt.js. Each frame must
+// match the same .glb at the same time coloured with `prt-bake relight --pose bend@T`'s
+// radiance: at least 99 % of the lit pixels (a code of 8 or more in the reference) within 2
+// codes. The 1 s render against the 0 s reference must miss that bound (the pose matters).
+//
+//   node scripts/browser/ldprt-skinned.mjs NODE_MODULES BAKE OUT
+import { execFileSync } from 'node:child_process';
+import fs from 'node:fs';
+import path from 'node:path';
+import { fileURLToPath } from 'node:url';
+import { openBrowser } from './harness.mjs';
+
+const [nodeModules, bake, outRoot] = process.argv.slice(2).map((p) => path.resolve(p));
+const out = path.join(outRoot, 'ldprt-skinned');
+const repo = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '../..');
+const { chromium } = await import(path.join(nodeModules, 'playwright-core/index.mjs'));
+fs.mkdirSync(out, { recursive: true });
+const run = (...args) => execFileSync(bake, args, { stdio: ['ignore', 'ignore', 'inherit'] });
+const file = (name) => path.join(out, name);
+const started = Date.now();
+
+// The tube with a base colour (a primitive without a material is white in glTF and three.js,
+// but the baker's default albedo is 0.8): a copy whose JSON chunk names one material.
+function withMaterial(source, target, baseColorFactor) {
+  const glb = fs.readFileSync(source);
+  const jsonLength = glb.readUInt32LE(12);
+  const json = JSON.parse(glb.subarray(20, 20 + jsonLength).toString('utf8'));
+  json.materials = [{ name: 'tube', pbrMetallicRoughness: { baseColorFactor, metallicFactor: 0 } }];
+  for (const mesh of json.meshes) for (const primitive of mesh.primitives) primitive.material = 0;
+  let text = JSON.stringify(json);
+  text += ' '.repeat((4 - (text.length % 4)) % 4);
+  const header = Buffer.alloc(20);
+  const rest = glb.subarray(20 + jsonLength);
+  header.write('glTF', 0, 'latin1');
+  header.writeUInt32LE(2, 4);
+  header.writeUInt32LE(20 + text.length + rest.length, 8);
+  header.writeUInt32LE(text.length, 12);
+  header.writeUInt32LE(0x4e4f534a, 16);
+  fs.writeFileSync(target, Buffer.concat([header, Buffer.from(text, 'utf8'), rest]));
+}
+const tube = file('tube.glb');
+withMaterial(path.join(repo, 'scenes/tube/tube-skinned.glb'), tube, [0.9, 0.7, 0.5, 1]);
+const rig = path.join(repo, 'viewer/src/default-rig.toml');
+run('light', rig, '--order', '4', '--up', 'y', '-o', file('light.json'));
+const cases = [
+  { name: 'grey', mode: 'shadowed', samples: '64', times: [0, 0.5, 1] },
+  { name: 'rgb', mode: 'interreflected', samples: '32', times: [0.5] },
+];
+for (const c of cases) {
+  run('bake', tube, '-o', file(`${c.name}.ldprt`), '--transfer', 'ldprt', '--lobes', '3', '--order', '4',
+    '--mode', c.mode, '--samples', c.samples, '--seed', '1', '--quiet');
+  run('export', file(`${c.name}.ldprt`), '--scene', tube, '--glb', file(`${c.name}.glb`));
+  for (const t of c.times) run('relight', tube, file(`${c.name}.ldprt`), '--pose', `bend@${t}`, '--lights', rig, '-o', file(`${c.name}-${t}.ply`));
+}
+
+// A PLY's radiance (6 floats, 3 colour bytes, 3 floats per vertex), base64 float32.
+function plyRadiance(name) {
+  const ply = fs.readFileSync(file(name));
+  const start = ply.indexOf('end_header\n') + 'end_header\n'.length;
+  const count = Number(/element vertex (\d+)/.exec(ply.subarray(0, start).toString('latin1'))[1]);
+  const radiance = new Float32Array(3 * count);
+  for (let v = 0; v < count; v++) for (let k = 0; k < 3; k++) radiance[3 * v + k] = ply.readFloatLE(start + v * 39 + 27 + 4 * k);
+  return Buffer.from(radiance.buffer).toString('base64');
+}
+console.log(`browser: ldprt-skinned: baked, exported and relit in ${((Date.now() - started) / 1000).toFixed(1)} s`);
+
+// Over the reference's lit pixels: the share within `tolerance` codes in every channel.
+function compareLit(a, b, tolerance) {
+  let [lit, close, worst] = [0, 0, 0];
+  for (let i = 0; i < a.length; i += 4) {
+    if (a[i + 3] === 0 || Math.max(a[i], a[i + 1], a[i + 2]) < 8) continue;
+    lit += 1;
+    const d = Math.max(Math.abs(a[i] - b[i]), Math.abs(a[i + 1] - b[i + 1]), Math.abs(a[i + 2] - b[i + 2]));
+    worst = Math.max(worst, d);
+    if (d <= tolerance) close += 1;
+  }
+  return { share: lit ? close / lit : 0, lit, worst };
+}
+
+const { base, page, errors, close } = await openBrowser(chromium, { repo, out, nodeModules });
+const results = [];
+let poseMatters;
+try {
+  await page.goto(`${base}/scripts/browser/ldprt.html`);
+  await page.waitForFunction(() => window.prtLdprtReady === true);
+  const render = (args) => page.evaluate((a) => window.prtLdprt.render(a), args);
+  for (const c of cases) {
+    const glb = `/data/${c.name}.glb`;
+    const frames = {};
+    for (const time of c.times) {
+      const want = await render({ glb, time, radiance: plyRadiance(`${c.name}-${time}.ply`) });
+      const got = await render({ glb, time, light: '/data/light.json' });
+      const [a, b] = [want, got].map((r) => Buffer.from(r.pixels, 'base64'));
+      fs.writeFileSync(file(`${c.name}-${time}-relight.rgba`), a);
+      fs.writeFileSync(file(`${c.name}-${time}-ldprt.rgba`), b);
+      frames[time] = { a, b };
+      results.push({ name: `${c.name} bend@${time}`, ...compareLit(a, b, 2), skinned: got.skinned, attributes: got.attributes });
+    }
+    if (frames[0] && frames[1]) poseMatters = compareLit(frames[0].a, frames[1].b, 2);
+  }
+} finally {
+  await close();
+}
+let ok = errors.length === 0;
+for (const r of results) {
+  const good = r.lit > 3000 && r.share >= 0.99 && r.skinned === 1 && r.attributes.length <= 4;
+  ok &&= good;
+  console.log(`browser: ${good ? 'ok  ' : 'FAIL'} ldprt-skinned ${r.name}: ${(100 * r.share).toFixed(2)} % of ${r.lit} lit pixels within 2 codes of relight --pose (worst ${r.worst}; vertex attributes ${r.attributes.join(' ')})`);
+}
+const differs = poseMatters && poseMatters.share < 0.99;
+ok &&= differs;
+console.log(`browser: ${differs ? 'ok  ' : 'FAIL'} ldprt-skinned bend@1 against the bend@0 reference: ${(100 * (poseMatters?.share ?? 1)).toFixed(2)} % within 2 codes (must be under 99 %)`);
+for (const e of errors) console.log(`browser: console error: ${e}`);
+if (!ok) {
+  console.log('browser: ldprt-skinned FAILED');
+  process.exit(1);
+}
+console.log(`browser: ldprt-skinned: ldprt.js on a SkinnedMesh matches relight --pose (${((Date.now() - started) / 1000).toFixed(1)} s)`);
