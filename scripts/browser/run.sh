@@ -30,6 +30,9 @@ node scripts/browser/occluder-render.mjs "$NODE_DIR/node_modules" target/release
 # relight at probes baked exactly at its positions (docs/guides/probes.md).
 node scripts/browser/probe-move.mjs "$NODE_DIR/node_modules" target/release/prt-bake "$OUT"
 node scripts/browser/test.mjs "$NODE_DIR/node_modules" target/release/prt-bake "$OUT"
+# LDPRT on a SkinnedMesh: the skinned tube posed by three's AnimationMixer and lit by ldprt.js,
+# against relight --pose at 0, 0.5 and 1 s (docs/guides/characters.md).
+node scripts/browser/ldprt-skinned.mjs "$NODE_DIR/node_modules" target/release/prt-bake "$OUT"
 # Cut-outs, textures and two-sided sheets: the cut-out card against its geometry twin, and the
 # courtyard relit by prt.js against three.js's own render of its export (docs/reference/gltf.md).
 node scripts/browser/cutouts.mjs "$NODE_DIR/node_modules" target/release/prt-bake "$OUT"
