@@ -5,7 +5,7 @@
 // pixels (base64, top row first).
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
-import { lightFromJSON } from '/runtime/three/prt.js';
+import { lightFromJSON, rotateLight } from '/runtime/three/prt.js';
 import { applyLDPRT } from '/runtime/three/ldprt.js';
 
 const canvas = document.getElementById('view');
@@ -30,11 +30,15 @@ const floats = (base64) => new Float32Array(Uint8Array.from(atob(base64), (ch) =
 window.prtLdprt = {
   /**
    * glb, light: urls (the LDPRT export, `prt-bake light --up y`'s JSON); time: seconds of the
-   * first animation; radiance (optional): base64 float32 RGB per vertex to draw instead.
+   * first animation; radiance (optional): base64 float32 RGB per vertex to draw instead;
+   * turn (optional): a row-major 3×3 rotation applied to the scene's root, the camera and
+   * (by setLight after the material is made) the light, which must leave the picture as it was.
    */
-  async render({ glb, light, time, radiance }) {
+  async render({ glb, light, time, radiance, turn }) {
     const gltf = await new GLTFLoader().loadAsync(glb);
     const world = new THREE.Scene();
+    const R = turn ? new THREE.Matrix4().set(turn[0], turn[1], turn[2], 0, turn[3], turn[4], turn[5], 0, turn[6], turn[7], turn[8], 0, 0, 0, 0, 1) : new THREE.Matrix4();
+    gltf.scene.quaternion.setFromRotationMatrix(R);
     world.add(gltf.scene);
     const mixer = new THREE.AnimationMixer(gltf.scene);
     const action = mixer.clipAction(gltf.animations[0]);
@@ -55,15 +59,17 @@ window.prtLdprt = {
         object.material = new THREE.MeshBasicMaterial({ vertexColors: true });
       });
     } else {
-      const handle = applyLDPRT(gltf, lightFromJSON(await fetch(light).then((r) => r.text())));
+      const sceneLight = lightFromJSON(await fetch(light).then((r) => r.text()));
+      const handle = applyLDPRT(gltf, sceneLight);
+      if (turn) handle.setLight(rotateLight(sceneLight, turn));
       if (handle.meshes.length !== 1) throw new Error(`${glb}: ${handle.meshes.length} LDPRT meshes, not 1`);
       skinned = handle.meshes.filter((m) => m.isSkinnedMesh).length;
       key = handle.meshes[0].material.customProgramCacheKey();
     }
     const camera = new THREE.PerspectiveCamera(45, canvas.width / canvas.height, 0.05, 20);
-    camera.position.set(1.2, 3.6, 1.6);
-    camera.up.set(0, 0, 1);
-    camera.lookAt(new THREE.Vector3(0.3, 0, 1.0));
+    camera.position.set(1.2, 3.6, 1.6).applyMatrix4(R);
+    camera.up.set(0, 0, 1).applyMatrix4(R);
+    camera.lookAt(new THREE.Vector3(0.3, 0, 1.0).applyMatrix4(R));
     renderer.render(world, camera);
     if (!radiance) {
       // The program's active vertex attributes (the lobes are in a texture: three).

@@ -4,7 +4,9 @@
 // AnimationMixer at `bend` 0, 0.5 and 1 s and lit by runtime/three/ldprt.js. Each frame must
 // match the same .glb at the same time coloured with `prt-bake relight --pose bend@T`'s
 // radiance: at least 99 % of the lit pixels (a code of 8 or more in the reference) within 2
-// codes. The 1 s render against the 0 s reference must miss that bound (the pose matters).
+// codes; so must the grey 0.5 s frame with the tube's root, the camera and the light (by
+// setLight and sh.js's rotateLight) all turned 70° about an oblique axis. The 1 s render
+// against the 0 s reference must miss that bound (the pose matters).
 //
 //   node scripts/browser/ldprt-skinned.mjs NODE_MODULES BAKE OUT
 import { execFileSync } from 'node:child_process';
@@ -17,6 +19,7 @@ const [nodeModules, bake, outRoot] = process.argv.slice(2).map((p) => path.resol
 const out = path.join(outRoot, 'ldprt-skinned');
 const repo = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '../..');
 const { chromium } = await import(path.join(nodeModules, 'playwright-core/index.mjs'));
+const sh = await import(path.join(repo, 'runtime/three/sh.js'));
 fs.mkdirSync(out, { recursive: true });
 const run = (...args) => execFileSync(bake, args, { stdio: ['ignore', 'ignore', 'inherit'] });
 const file = (name) => path.join(out, name);
@@ -98,6 +101,14 @@ try {
       fs.writeFileSync(file(`${c.name}-${time}-ldprt.rgba`), b);
       frames[time] = { a, b };
       results.push({ name: `${c.name} bend@${time}`, ...compareLit(a, b, 2), skinned: got.skinned, attributes: got.attributes });
+      if (c.name === 'grey' && time === 0.5) {
+        const n = Math.hypot(1, 2, 3);
+        const turn = sh.axisAngle([1 / n, 2 / n, 3 / n], (70 * Math.PI) / 180);
+        const turned = await render({ glb, time, light: '/data/light.json', turn });
+        const t = Buffer.from(turned.pixels, 'base64');
+        fs.writeFileSync(file('grey-0.5-turned.rgba'), t);
+        results.push({ name: 'grey bend@0.5, all turned 70°', ...compareLit(a, t, 2), skinned: turned.skinned, attributes: turned.attributes });
+      }
     }
     if (frames[0] && frames[1]) poseMatters = compareLit(frames[0].a, frames[1].b, 2);
   }
