@@ -6,6 +6,7 @@
 
 use glam::Vec3;
 
+#[derive(Clone)]
 pub struct Grid {
     cell: f32,
     origin: Vec3,
@@ -63,6 +64,14 @@ impl Grid {
         c.iter().fold(0u64, |key, &a| {
             (key << AXIS_BITS) | a.clamp(0, AXIS_MAX) as u64
         })
+    }
+
+    /// The receivers of each occupied cell, cell by cell in key order, each cell's in index
+    /// order.
+    pub fn cells(&self) -> impl Iterator<Item = &[u32]> {
+        self.cells
+            .iter()
+            .map(|&(_, start, end)| &self.order[start as usize..end as usize])
     }
 
     /// Calls `visit` with every receiver in a cell that the sphere of `radius` about `p`

@@ -42,6 +42,7 @@
 //! the guides and the bake's transfer, formed receiver by receiver over neighbours in a fixed
 //! order: the result is bit-identical for any number of threads.
 
+mod clusters;
 mod grid;
 pub mod guides;
 
@@ -50,6 +51,7 @@ use rayon::prelude::*;
 use crate::bake::estimator::Visibility;
 use crate::bake::options::BakeOptions;
 
+use clusters::Clusters;
 pub use guides::{Guides, texel_guides, vertex_guides};
 
 /// The filter's sizes and strengths.
@@ -63,24 +65,31 @@ pub struct Settings {
     pub kappa: f32,
     /// A first-order fit over the tangent plane instead of a weighted mean.
     pub linear: bool,
+    /// The wide pass reads clusters about this many spacings across ([`clusters`]), or
+    /// every receiver (`None`).
+    pub step: Option<f32>,
 }
 
 impl Settings {
     /// Lightmap texels: 6 texels each way (measured on the Cornell room at 64 and 256 rays:
-    /// docs/denoising.md).
+    /// docs/denoising.md), over clusters of about two texels (1.5 spacings across: the
+    /// wide pass costs half; at 2 spacings it costs a third, but a 256-ray bake's error rises
+    /// from 0.55 to 0.73 %, at 1.5 to 0.58 %).
     pub const TEXELS: Settings = Settings {
         radius: 6.0,
         guide_radius: 1.5,
         kappa: 4.0,
         linear: true,
+        step: Some(1.5),
     };
     /// Vertices: their neighbours up to about four edges away (measured on the torus at 64
-    /// rays).
+    /// rays), each read on its own: a mesh is too sparse for clusters.
     pub const VERTICES: Settings = Settings {
         radius: 4.0,
         guide_radius: 1.2,
         kappa: 4.0,
         linear: true,
+        step: None,
     };
 }
 
@@ -98,7 +107,11 @@ const NORMAL_POWER: i32 = 32;
 pub struct Filter<'g> {
     guides: &'g Guides,
     settings: Settings,
-    grid: grid::Grid,
+    /// The prefilter's grid over every receiver.
+    fine: grid::Grid,
+    /// The wide pass's grid over the clusters' representatives (cluster indices).
+    wide: grid::Grid,
+    clusters: Clusters,
     /// The prefiltered signal, `signal_width` floats per receiver.
     guide: Vec<f32>,
     /// Its variance per receiver.
@@ -132,11 +145,17 @@ impl<'g> Filter<'g> {
         let mut spacings: Vec<f32> = guides.spacing.clone();
         spacings.sort_unstable_by(f32::total_cmp);
         let typical = spacings.get(count / 2).copied().unwrap_or(1.0).max(1e-12);
-        let grid = grid::Grid::new(&guides.points, 0.5 * settings.radius * typical);
+        let wide_cell = 0.5 * settings.radius * typical;
+        let fine = grid::Grid::new(
+            &guides.points,
+            settings.step.map_or(wide_cell, |s| s * typical),
+        );
         let mut filter = Filter {
             guides,
             settings,
-            grid,
+            wide: fine.clone(),
+            fine,
+            clusters: Clusters::singletons(&[]),
             guide: Vec::new(),
             guide_noise: Vec::new(),
             signal_width,
@@ -148,18 +167,43 @@ impl<'g> Filter<'g> {
         let (guide, guide_noise) = filter.prefilter(&signal, &noise);
         filter.guide = guide;
         filter.guide_noise = guide_noise;
+        filter.clusters = match settings.step {
+            None => Clusters {
+                points: guides.points.clone(),
+                ..Clusters::singletons(&noise)
+            },
+            Some(step) => {
+                let sw = signal_width;
+                let clusters = Clusters::build(guides, &filter.fine, step, &noise, |rep, m| {
+                    let variance = (filter.guide_noise[m] + filter.guide_noise[rep]) * sw as f32;
+                    let (s, g) = (
+                        &filter.guide[m * sw..][..sw],
+                        &filter.guide[rep * sw..][..sw],
+                    );
+                    (-range_exponent(s, g, variance, settings.kappa)).exp()
+                });
+                filter.wide = grid::Grid::new(&clusters.points, wide_cell);
+                clusters
+            }
+        };
         filter
     }
 
-    /// Receiver i's weight on j: the geometric terms times exp(−`range`), 0 outside `radius`
-    /// spacings. `range` (the range term's exponent) is asked only of neighbours the
+    /// Receiver i's weight on j, taken to lie `at` (its own point, or its cluster's): the
+    /// geometric terms times exp(−`range`), 0 outside `radius` spacings. `range` (the range term's exponent) is asked only of neighbours the
     /// geometric terms keep, and the terms share one exponential.
-    fn weight(&self, i: usize, j: usize, radius: f32, range: impl Fn(usize) -> f32) -> f32 {
+    fn weight(
+        &self,
+        i: usize,
+        (j, at): (usize, glam::Vec3),
+        radius: f32,
+        range: impl Fn(usize) -> f32,
+    ) -> f32 {
         let g = self.guides;
         if g.groups[i] != g.groups[j] {
             return 0.0;
         }
-        let d = g.points[j] - g.points[i];
+        let d = at - g.points[i];
         let reach = radius * g.spacing[i];
         let r2 = d.length_squared() / (reach * reach);
         if r2 > 1.0 {
@@ -174,7 +218,7 @@ impl<'g> Filter<'g> {
     }
 
     /// Receiver i's neighbours within `radius` spacings and their weights ([`Filter::weight`]),
-    /// in the grid's fixed order of visit (a function of the points alone, so sums over
+    /// in the fine grid's fixed order of visit (a function of the points alone, so sums over
     /// them are the same on any thread).
     fn neighbours(
         &self,
@@ -185,8 +229,13 @@ impl<'g> Filter<'g> {
     ) {
         out.clear();
         let reach = radius * self.guides.spacing[i];
-        self.grid.visit(self.guides.points[i], reach, |j| {
-            let w = self.weight(i, j as usize, radius, &range);
+        self.fine.visit(self.guides.points[i], reach, |j| {
+            let w = self.weight(
+                i,
+                (j as usize, self.guides.points[j as usize]),
+                radius,
+                &range,
+            );
             if w > 0.0 {
                 out.push((j, w));
             }
@@ -255,15 +304,25 @@ impl<'g> Filter<'g> {
         (guide, guide_noise)
     }
 
-    /// Receiver i's weights, normalised, in the grid's fixed order of the receivers they
-    /// weigh.
-    pub fn row(&self, i: usize, out: &mut Vec<(u32, f32)>) {
+    /// Receiver i's weights on the clusters (their indices), normalised, in the wide grid's
+    /// fixed order of visit.
+    fn wide_row(&self, i: usize, out: &mut Vec<(u32, f32)>) {
+        out.clear();
         let sw = self.signal_width;
+        let (radius, kappa) = (self.settings.radius, self.settings.kappa);
         let gi = &self.guide[i * sw..(i + 1) * sw];
-        self.neighbours(i, self.settings.radius, out, |j| {
-            let gj = &self.guide[j * sw..(j + 1) * sw];
-            let variance = (self.guide_noise[i] + self.guide_noise[j]) * sw as f32;
-            range_exponent(gi, gj, variance, self.settings.kappa)
+        let reps = &self.clusters.reps;
+        let reach = radius * self.guides.spacing[i];
+        self.wide.visit(self.guides.points[i], reach, |k| {
+            let j = (reps[k as usize] as usize, self.clusters.points[k as usize]);
+            let w = self.weight(i, j, radius, |j| {
+                let gj = &self.guide[j * sw..(j + 1) * sw];
+                let variance = (self.guide_noise[i] + self.guide_noise[j]) * sw as f32;
+                range_exponent(gi, gj, variance, kappa)
+            });
+            if w > 0.0 {
+                out.push((k, w * self.clusters.mass[k as usize]));
+            }
         });
         if self.settings.linear {
             self.linear_fit(i, out);
@@ -275,22 +334,40 @@ impl<'g> Filter<'g> {
         }
     }
 
-    /// Turns kernel weights `w_j` into the weights of a weighted first-order fit over i's
-    /// tangent plane, evaluated at i: ŵ_j = w_j · e₁ᵀ A⁻¹ x_j with x_j = (1, u_j, v_j) and
-    /// A = Σ w_j x_j x_jᵀ. They still sum to 1 and are shared by every coefficient, and a
-    /// transfer that changes linearly along the surface (towards a contact shadow, across a
-    /// chart's last texels, where the neighbours lie on one side) is kept unbiased.
+    /// Receiver i's weights on every receiver, normalised, in the receivers' order: the
+    /// wide pass's weights on the clusters times each cluster's weights on its members.
+    pub fn row(&self, i: usize, out: &mut Vec<(u32, f32)>) {
+        let mut wide = Vec::new();
+        self.wide_row(i, &mut wide);
+        out.clear();
+        for &(k, w) in &wide {
+            out.extend(
+                self.clusters
+                    .row(k as usize)
+                    .iter()
+                    .map(|&(j, m)| (j, w * m)),
+            );
+        }
+        out.sort_unstable_by_key(|&(j, _)| j);
+    }
+
+    /// Turns kernel weights `w_k` on clusters into the weights of a weighted first-order fit
+    /// over i's tangent plane, evaluated at i: ŵ_k = w_k · e₁ᵀ A⁻¹ x_k with x_k = (1, u_k, v_k)
+    /// (the cluster's centroid) and A = Σ w_k x_k x_kᵀ. They still sum to 1 and are
+    /// shared by every coefficient, and a transfer that changes linearly along the surface
+    /// (towards a contact shadow, across a chart's last texels, where the neighbours lie on
+    /// one side) is kept unbiased.
     fn linear_fit(&self, i: usize, out: &mut [(u32, f32)]) {
         let g = self.guides;
         let (t1, t2) = g.surfaces[i].any_orthonormal_pair();
         let scale = 1.0 / g.spacing[i];
-        let coords = |j: u32| {
-            let d = (g.points[j as usize] - g.points[i]) * scale;
+        let coords = |k: u32| {
+            let d = (self.clusters.points[k as usize] - g.points[i]) * scale;
             glam::DVec3::new(1.0, f64::from(d.dot(t1)), f64::from(d.dot(t2)))
         };
         let mut a = glam::DMat3::ZERO;
-        for &(j, w) in out.iter() {
-            let x = coords(j);
+        for &(k, w) in out.iter() {
+            let x = coords(k);
             a += glam::DMat3::from_cols(x * x.x, x * x.y, x * x.z) * f64::from(w);
         }
         // A little ridge on the slopes: a neighbourhood along a line (a one-texel-wide strip)
@@ -305,8 +382,8 @@ impl<'g> Filter<'g> {
             }
             return;
         }
-        for (j, w) in out.iter_mut() {
-            *w = (f64::from(*w) * row.dot(coords(*j))) as f32;
+        for (k, w) in out.iter_mut() {
+            *w = (f64::from(*w) * row.dot(coords(*k))) as f32;
         }
     }
 
@@ -324,19 +401,24 @@ impl<'g> Filter<'g> {
         width: usize,
         scalars: &[f32],
     ) -> (Vec<f32>, Vec<f32>) {
+        let means = self.clusters.means(values, width);
+        let scalar_means = match scalars.is_empty() {
+            true => Vec::new(),
+            false => self.clusters.means(scalars, 1),
+        };
         let mut out = vec![0.0f32; values.len()];
         let mut out_scalars = vec![0.0f32; self.guides.points.len()];
         out.par_chunks_mut(width.max(1))
             .zip(out_scalars.par_iter_mut())
             .enumerate()
             .for_each_init(Vec::new, |row, (i, (out, scalar))| {
-                self.row(i, row);
-                for &(j, w) in row.iter() {
-                    let j = j as usize;
-                    for (o, v) in out.iter_mut().zip(&values[j * width..(j + 1) * width]) {
+                self.wide_row(i, row);
+                for &(k, w) in row.iter() {
+                    let k = k as usize;
+                    for (o, v) in out.iter_mut().zip(&means[k * width..(k + 1) * width]) {
                         *o += w * v;
                     }
-                    if let Some(s) = scalars.get(j) {
+                    if let Some(s) = scalar_means.get(k) {
                         *scalar += w * s;
                     }
                 }
