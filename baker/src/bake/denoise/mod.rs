@@ -31,6 +31,13 @@
 //!   give no estimate (transfer matrices), the variance is half the median of the squared
 //!   differences to the closest neighbours ([`Filter::new`]).
 //!
+//! The wide pass (6 texel spacings, about 110 texels) does not weigh every texel: it weighs
+//! **clusters** of about two texels on one surface ([`clusters`]), each at its members'
+//! weighted centroid, with its representative's normals, group and guide, and its members'
+//! mean, as an à-trous pass reads a coarser level (Dammertz et al. 2010, *Edge-avoiding
+//! À-Trous wavelet transform*; SVGF). Every texel still counts once, through its cluster;
+//! the wide pass costs about half. Vertices, sparser, are read one by one.
+//!
 //! The kernel weights then become those of a weighted first-order fit over i's tangent plane
 //! (local regression: Moon, Carr & Yoon 2014), evaluated at i ([`Filter::row`]): a constant
 //! kernel biases every gradient (towards a contact shadow, over a chart's last texels, where
