@@ -110,6 +110,19 @@ const GUIDE_KAPPA: f32 = 3.0;
 /// The power of the shading normals' dot product.
 const NORMAL_POWER: i32 = 32;
 
+/// What the wide pass reads of one cluster.
+struct Tap {
+    /// The members' weighted centroid.
+    at: glam::Vec3,
+    /// The representative's shading normal and group.
+    normal: glam::Vec3,
+    group: u32,
+    /// How many receivers the cluster stands for.
+    mass: f32,
+    /// The representative's guide's variance.
+    noise: f32,
+}
+
 /// The weights of one bake's receivers, ready to apply to any per-receiver values.
 pub struct Filter<'g> {
     guides: &'g Guides,
@@ -119,6 +132,11 @@ pub struct Filter<'g> {
     /// The wide pass's grid over the clusters' representatives (cluster indices).
     wide: grid::Grid,
     clusters: Clusters,
+    /// What the wide pass reads of each cluster, in cluster order (the wide grid's): read in
+    /// sequence, not gathered from the guides' arrays.
+    taps: Vec<Tap>,
+    /// Each cluster's guide (its representative's), `signal_width` floats per cluster.
+    tap_guide: Vec<f32>,
     /// The prefiltered signal, `signal_width` floats per receiver.
     guide: Vec<f32>,
     /// Its variance per receiver.
@@ -163,6 +181,8 @@ impl<'g> Filter<'g> {
             wide: fine.clone(),
             fine,
             clusters: Clusters::singletons(&[]),
+            taps: Vec::new(),
+            tap_guide: Vec::new(),
             guide: Vec::new(),
             guide_noise: Vec::new(),
             signal_width,
@@ -174,25 +194,41 @@ impl<'g> Filter<'g> {
         let (guide, guide_noise) = filter.prefilter(&signal, &noise);
         filter.guide = guide;
         filter.guide_noise = guide_noise;
-        filter.clusters = match settings.step {
+        let clusters = match settings.step {
             None => Clusters {
                 points: guides.points.clone(),
                 ..Clusters::singletons(&noise)
             },
             Some(step) => {
                 let sw = signal_width;
-                let clusters = Clusters::build(guides, &filter.fine, step, &noise, |rep, m| {
+                Clusters::build(guides, &filter.fine, step, &noise, |rep, m| {
                     let variance = (filter.guide_noise[m] + filter.guide_noise[rep]) * sw as f32;
-                    let (s, g) = (
-                        &filter.guide[m * sw..][..sw],
-                        &filter.guide[rep * sw..][..sw],
-                    );
+                    let (s, g) = (&filter.guide[m * sw..][..sw], &filter.guide[rep * sw..][..sw]);
                     (-range_exponent(s, g, variance, settings.kappa)).exp()
-                });
-                filter.wide = grid::Grid::new(&clusters.points, wide_cell);
-                clusters
+                })
             }
         };
+        filter.wide = grid::Grid::new(&clusters.points, wide_cell);
+        let clusters = clusters.permute(&filter.wide.renumber());
+        filter.taps = (0..clusters.reps.len())
+            .map(|k| {
+                let r = clusters.reps[k] as usize;
+                Tap {
+                    at: clusters.points[k],
+                    normal: guides.normals[r],
+                    group: guides.groups[r],
+                    mass: clusters.mass[k],
+                    noise: filter.guide_noise[r],
+                }
+            })
+            .collect();
+        filter.tap_guide = clusters
+            .reps
+            .iter()
+            .flat_map(|&r| filter.guide[r as usize * signal_width..][..signal_width].iter())
+            .copied()
+            .collect();
+        filter.clusters = clusters;
         filter
     }
 
@@ -315,20 +351,28 @@ impl<'g> Filter<'g> {
     /// fixed order of visit.
     fn wide_row(&self, i: usize, out: &mut Vec<(u32, f32)>) {
         out.clear();
+        let g = self.guides;
         let sw = self.signal_width;
         let (radius, kappa) = (self.settings.radius, self.settings.kappa);
         let gi = &self.guide[i * sw..(i + 1) * sw];
-        let reps = &self.clusters.reps;
-        let reach = radius * self.guides.spacing[i];
-        self.wide.visit(self.guides.points[i], reach, |k| {
-            let j = (reps[k as usize] as usize, self.clusters.points[k as usize]);
-            let w = self.weight(i, j, radius, |j| {
-                let gj = &self.guide[j * sw..(j + 1) * sw];
-                let variance = (self.guide_noise[i] + self.guide_noise[j]) * sw as f32;
-                range_exponent(gi, gj, variance, kappa)
-            });
+        let (pi, ni, si, group) = (g.points[i], g.normals[i], g.surfaces[i], g.groups[i]);
+        let (spacing, noise) = (g.spacing[i], self.guide_noise[i]);
+        let reach = radius * spacing;
+        // The terms of [`Filter::weight`], with the cluster's data read in sequence.
+        self.wide.visit(pi, reach, |k| {
+            let tap = &self.taps[k as usize];
+            let d = tap.at - pi;
+            let r2 = d.length_squared() / (reach * reach);
+            let facing = ni.dot(tap.normal);
+            if r2 > 1.0 || tap.group != group || facing <= 0.0 {
+                return;
+            }
+            let off_plane = si.dot(d) / spacing;
+            let gj = &self.tap_guide[k as usize * sw..][..sw];
+            let range = range_exponent(gi, gj, (noise + tap.noise) * sw as f32, kappa);
+            let w = (-2.0 * r2 - off_plane * off_plane - range).exp() * facing.powi(NORMAL_POWER);
             if w > 0.0 {
-                out.push((k, w * self.clusters.mass[k as usize]));
+                out.push((k, w * tap.mass));
             }
         });
         if self.settings.linear {
