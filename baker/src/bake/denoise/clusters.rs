@@ -1,8 +1,9 @@
-//! The filter's coarse level: receivers joined into small clusters of neighbours on one
+//! The filter's coarse level: receivers joined into small clusters of like neighbours on one
 //! surface, each standing for its members in the wide pass ([`super::Filter`]), as an
 //! à-trous pass reads a coarser level (Dammertz et al. 2010; Schied et al. 2017). The wide
-//! pass then weighs a few dozen clusters instead of a hundred receivers, and every receiver
-//! still counts, once, through its cluster's mean.
+//! pass then forms one kernel per cluster over a few dozen clusters instead of one per
+//! receiver over a hundred receivers, and every receiver still counts, once, through its
+//! cluster's mean.
 
 use super::Guides;
 use super::grid::Grid;
@@ -40,17 +41,18 @@ impl Clusters {
 
     /// Clusters of at most `step` spacings across, within the cells of `grid` (cells about
     /// `step` typical spacings wide): in each cell, receivers in index order join the first
-    /// cluster whose first member they may share a value with (the same group, normals
-    /// within 25°, on its plane, within `step` of its spacings), or start one. A member's
-    /// weight is `weight(rep, member)`, the range term against the representative's guide,
-    /// so a cluster that a shadow edge crosses does not average across it. A function of the
-    /// guides alone, in a fixed order: the same on any thread.
+    /// cluster whose first member they may share a kernel with (the same group, normals
+    /// within 25°, on its plane, within `step` of its spacings, and `similar`: guides apart
+    /// by no more than their noise), or start one. A member's weight is `weight(rep,
+    /// member)`, the range term against the representative's guide. A function of the guides
+    /// alone, in a fixed order: the same on any thread.
     pub fn build(
         guides: &Guides,
         grid: &Grid,
         step: f32,
         noise: &[f32],
         weight: impl Fn(usize, usize) -> f32,
+        similar: impl Fn(usize, usize) -> bool,
     ) -> Clusters {
         let g = guides;
         let joins = |seed: usize, m: usize| {
@@ -61,6 +63,7 @@ impl Clusters {
                 && g.surfaces[seed].dot(g.surfaces[m]) > 0.9
                 && g.surfaces[seed].dot(d).abs() < 0.5 * g.spacing[seed]
                 && d.length_squared() <= reach * reach
+                && similar(seed, m)
         };
         let mut found: Vec<(u32, Vec<(u32, f32)>, f32, f32, glam::Vec3)> = Vec::new();
         let (mut seeds, mut label) = (Vec::<usize>::new(), Vec::<usize>::new());

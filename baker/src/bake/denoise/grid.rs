@@ -69,7 +69,12 @@ impl Grid {
 
     /// Fills `column_starts`, where the table is small enough.
     fn index_columns(&mut self) {
-        let column = |key: u64| ((key >> (2 * AXIS_BITS)) as i64, (key >> AXIS_BITS) as i64 & AXIS_MAX);
+        let column = |key: u64| {
+            (
+                (key >> (2 * AXIS_BITS)) as i64,
+                (key >> AXIS_BITS) as i64 & AXIS_MAX,
+            )
+        };
         let (nx, ny) = self.cells.iter().fold((0, 0), |(nx, ny), c| {
             let (x, y) = column(c.0);
             (nx.max(x + 1), ny.max(y + 1))

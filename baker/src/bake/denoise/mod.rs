@@ -79,15 +79,14 @@ pub struct Settings {
 
 impl Settings {
     /// Lightmap texels: 6 texels each way (measured on the Cornell room at 64 and 256 rays:
-    /// docs/denoising.md), over clusters of about two texels (1.5 spacings across: the
-    /// wide pass costs half; at 2 spacings it costs a third, but a 256-ray bake's error rises
-    /// from 0.55 to 0.73 %, at 1.5 to 0.58 %).
+    /// docs/denoising.md), over clusters of up to 2 × 2 texels (clusters 3 or 4 texels
+    /// across save little more and cost a 64-ray bake 5 % of its error).
     pub const TEXELS: Settings = Settings {
         radius: 6.0,
         guide_radius: 1.5,
         kappa: 4.0,
         linear: true,
-        step: Some(1.5),
+        step: Some(2.0),
     };
     /// Vertices: their neighbours up to about four edges away (measured on the torus at 64
     /// rays), each read on its own: a mesh is too sparse for clusters.
@@ -137,6 +136,8 @@ pub struct Filter<'g> {
     taps: Vec<Tap>,
     /// Each cluster's guide (its representative's), `signal_width` floats per cluster.
     tap_guide: Vec<f32>,
+    /// Each receiver's cluster.
+    cluster_of: Vec<u32>,
     /// The prefiltered signal, `signal_width` floats per receiver.
     guide: Vec<f32>,
     /// Its variance per receiver.
@@ -183,6 +184,7 @@ impl<'g> Filter<'g> {
             clusters: Clusters::singletons(&[]),
             taps: Vec::new(),
             tap_guide: Vec::new(),
+            cluster_of: Vec::new(),
             guide: Vec::new(),
             guide_noise: Vec::new(),
             signal_width,
@@ -201,11 +203,30 @@ impl<'g> Filter<'g> {
             },
             Some(step) => {
                 let sw = signal_width;
-                Clusters::build(guides, &filter.fine, step, &noise, |rep, m| {
-                    let variance = (filter.guide_noise[m] + filter.guide_noise[rep]) * sw as f32;
-                    let (s, g) = (&filter.guide[m * sw..][..sw], &filter.guide[rep * sw..][..sw]);
-                    (-range_exponent(s, g, variance, settings.kappa)).exp()
-                })
+                Clusters::build(
+                    guides,
+                    &filter.fine,
+                    step,
+                    &noise,
+                    |rep, m| {
+                        let variance =
+                            (filter.guide_noise[m] + filter.guide_noise[rep]) * sw as f32;
+                        let (s, g) = (
+                            &filter.guide[m * sw..][..sw],
+                            &filter.guide[rep * sw..][..sw],
+                        );
+                        (-range_exponent(s, g, variance, settings.kappa)).exp()
+                    },
+                    |seed, m| {
+                        let variance =
+                            (filter.guide_noise[m] + filter.guide_noise[seed]) * sw as f32;
+                        let (s, g) = (
+                            &filter.guide[m * sw..][..sw],
+                            &filter.guide[seed * sw..][..sw],
+                        );
+                        range_exponent(s, g, variance, 1.0) == 0.0
+                    },
+                )
             }
         };
         filter.wide = grid::Grid::new(&clusters.points, wide_cell);
@@ -228,6 +249,12 @@ impl<'g> Filter<'g> {
             .flat_map(|&r| filter.guide[r as usize * signal_width..][..signal_width].iter())
             .copied()
             .collect();
+        filter.cluster_of = vec![0; count];
+        for c in 0..clusters.reps.len() {
+            for &(m, _) in clusters.row(c) {
+                filter.cluster_of[m as usize] = c as u32;
+            }
+        }
         filter.clusters = clusters;
         filter
     }
@@ -347,18 +374,31 @@ impl<'g> Filter<'g> {
         (guide, guide_noise)
     }
 
-    /// Receiver i's weights on the clusters (their indices), normalised, in the wide grid's
-    /// fixed order of visit.
-    fn wide_row(&self, i: usize, out: &mut Vec<(u32, f32)>) {
+    /// Cluster c's kernel over the clusters, in the wide grid's fixed order of visit:
+    /// entries (k, e_k) such that a member m's weight on cluster k is
+    /// ŵ_k(m) = e_k · (1, u_m, v_m), with (u_m, v_m) the member's place about c's centroid
+    /// ([`Filter::member_place`]). The kernel multiplies the terms of [`Filter::weight`] for
+    /// c's representative (its normals, group, spacing and guide) placed at c's centroid;
+    /// the clusters' data is read in sequence.
+    ///
+    /// With `linear`, the weights are those of a weighted first-order fit over the tangent
+    /// plane evaluated at the member's place: e_k = w_k A⁻¹ x_k with x_k = (1, u_k, v_k) and
+    /// A = Σ w_k x_k x_kᵀ. They sum to 1 at every place and are shared by every
+    /// coefficient, and a transfer that changes linearly along the surface (towards a
+    /// contact shadow, across a chart's last texels, where the neighbours lie on one side)
+    /// is kept unbiased. Each member evaluates the fit at its own place, so a cluster's
+    /// members differ as their neighbourhoods do, though their kernel is formed once.
+    fn cluster_kernel(&self, c: usize, out: &mut Vec<(u32, [f32; 3])>) {
         out.clear();
         let g = self.guides;
         let sw = self.signal_width;
         let (radius, kappa) = (self.settings.radius, self.settings.kappa);
-        let gi = &self.guide[i * sw..(i + 1) * sw];
-        let (pi, ni, si, group) = (g.points[i], g.normals[i], g.surfaces[i], g.groups[i]);
-        let (spacing, noise) = (g.spacing[i], self.guide_noise[i]);
+        let r = self.clusters.reps[c] as usize;
+        let gi = &self.tap_guide[c * sw..(c + 1) * sw];
+        let pi = self.clusters.points[c];
+        let (ni, si, group) = (g.normals[r], g.surfaces[r], g.groups[r]);
+        let (spacing, noise) = (g.spacing[r], self.taps[c].noise);
         let reach = radius * spacing;
-        // The terms of [`Filter::weight`], with the cluster's data read in sequence.
         self.wide.visit(pi, reach, |k| {
             let tap = &self.taps[k as usize];
             let d = tap.at - pi;
@@ -372,26 +412,65 @@ impl<'g> Filter<'g> {
             let range = range_exponent(gi, gj, (noise + tap.noise) * sw as f32, kappa);
             let w = (-2.0 * r2 - off_plane * off_plane - range).exp() * facing.powi(NORMAL_POWER);
             if w > 0.0 {
-                out.push((k, w * tap.mass));
+                out.push((k, [w * tap.mass, 0.0, 0.0]));
             }
         });
-        if self.settings.linear {
-            self.linear_fit(i, out);
-        } else {
-            let total: f32 = out.iter().map(|&(_, w)| w).sum();
-            for (_, w) in out.iter_mut() {
-                *w /= total;
+        let total: f32 = out.iter().map(|&(_, w)| w[0]).sum();
+        if !self.settings.linear {
+            for (_, e) in out.iter_mut() {
+                e[0] /= total;
             }
+            return;
+        }
+        let (t1, t2) = si.any_orthonormal_pair();
+        let scale = 1.0 / spacing;
+        let coords = |k: u32| {
+            let d = (self.clusters.points[k as usize] - pi) * scale;
+            glam::DVec3::new(1.0, f64::from(d.dot(t1)), f64::from(d.dot(t2)))
+        };
+        let mut a = glam::DMat3::ZERO;
+        for &(k, [w, ..]) in out.iter() {
+            let x = coords(k);
+            a += glam::DMat3::from_cols(x * x.x, x * x.y, x * x.z) * f64::from(w);
+        }
+        // A little ridge on the slopes: a neighbourhood along a line (a one-texel-wide strip)
+        // fits no slope across it.
+        let mass = a.x_axis.x;
+        a.y_axis.y += 1e-2 * mass;
+        a.z_axis.z += 1e-2 * mass;
+        let inverse = a.inverse();
+        if !inverse.is_finite() {
+            for (_, e) in out.iter_mut() {
+                e[0] = (f64::from(e[0]) / mass) as f32;
+            }
+            return;
+        }
+        for (k, e) in out.iter_mut() {
+            let y = inverse * coords(*k) * f64::from(e[0]);
+            *e = [y.x as f32, y.y as f32, y.z as f32];
         }
     }
 
-    /// Receiver i's weights on every receiver, normalised, in the receivers' order: the
-    /// wide pass's weights on the clusters times each cluster's weights on its members.
+    /// Member m's place about cluster c's centroid, in c's representative's tangent plane, in
+    /// its spacings: (1, u, v).
+    fn member_place(&self, c: usize, m: usize) -> [f32; 3] {
+        let g = self.guides;
+        let r = self.clusters.reps[c] as usize;
+        let (t1, t2) = g.surfaces[r].any_orthonormal_pair();
+        let d = (g.points[m] - self.clusters.points[c]) / g.spacing[r];
+        [1.0, d.dot(t1), d.dot(t2)]
+    }
+
+    /// Receiver i's weights on every receiver, normalised, in the receivers' order: its
+    /// cluster's kernel at its place times each cluster's weights on its members.
     pub fn row(&self, i: usize, out: &mut Vec<(u32, f32)>) {
-        let mut wide = Vec::new();
-        self.wide_row(i, &mut wide);
+        let c = self.cluster_of[i] as usize;
+        let mut kernel = Vec::new();
+        self.cluster_kernel(c, &mut kernel);
+        let place = self.member_place(c, i);
         out.clear();
-        for &(k, w) in &wide {
+        for &(k, e) in &kernel {
+            let w = e[0] * place[0] + e[1] * place[1] + e[2] * place[2];
             out.extend(
                 self.clusters
                     .row(k as usize)
@@ -402,42 +481,6 @@ impl<'g> Filter<'g> {
         out.sort_unstable_by_key(|&(j, _)| j);
     }
 
-    /// Turns kernel weights `w_k` on clusters into the weights of a weighted first-order fit
-    /// over i's tangent plane, evaluated at i: ŵ_k = w_k · e₁ᵀ A⁻¹ x_k with x_k = (1, u_k, v_k)
-    /// (the cluster's centroid) and A = Σ w_k x_k x_kᵀ. They still sum to 1 and are
-    /// shared by every coefficient, and a transfer that changes linearly along the surface
-    /// (towards a contact shadow, across a chart's last texels, where the neighbours lie on
-    /// one side) is kept unbiased.
-    fn linear_fit(&self, i: usize, out: &mut [(u32, f32)]) {
-        let g = self.guides;
-        let (t1, t2) = g.surfaces[i].any_orthonormal_pair();
-        let scale = 1.0 / g.spacing[i];
-        let coords = |k: u32| {
-            let d = (self.clusters.points[k as usize] - g.points[i]) * scale;
-            glam::DVec3::new(1.0, f64::from(d.dot(t1)), f64::from(d.dot(t2)))
-        };
-        let mut a = glam::DMat3::ZERO;
-        for &(k, w) in out.iter() {
-            let x = coords(k);
-            a += glam::DMat3::from_cols(x * x.x, x * x.y, x * x.z) * f64::from(w);
-        }
-        // A little ridge on the slopes: a neighbourhood along a line (a one-texel-wide strip)
-        // fits no slope across it.
-        let total = a.x_axis.x;
-        a.y_axis.y += 1e-2 * total;
-        a.z_axis.z += 1e-2 * total;
-        let row = a.inverse().row(0);
-        if !row.is_finite() {
-            for (_, w) in out.iter_mut() {
-                *w = (f64::from(*w) / total) as f32;
-            }
-            return;
-        }
-        for (k, w) in out.iter_mut() {
-            *w = (f64::from(*w) * row.dot(coords(*k))) as f32;
-        }
-    }
-
     /// The filtered values: `values` holds `width` floats per receiver, and so does the
     /// result.
     pub fn apply(&self, values: &[f32], width: usize) -> Vec<f32> {
@@ -445,7 +488,7 @@ impl<'g> Filter<'g> {
     }
 
     /// [`Filter::apply`] of `values` and of `scalars` (one float per receiver, or none)
-    /// with the same rows: each row is formed once.
+    /// with the same kernels: each cluster's kernel is formed once.
     pub fn apply_with(
         &self,
         values: &[f32],
@@ -457,24 +500,42 @@ impl<'g> Filter<'g> {
             true => Vec::new(),
             false => self.clusters.means(scalars, 1),
         };
-        let mut out = vec![0.0f32; values.len()];
-        let mut out_scalars = vec![0.0f32; self.guides.points.len()];
-        out.par_chunks_mut(width.max(1))
-            .zip(out_scalars.par_iter_mut())
-            .enumerate()
-            .for_each_init(Vec::new, |row, (i, (out, scalar))| {
-                self.wide_row(i, row);
-                for &(k, w) in row.iter() {
-                    let k = k as usize;
-                    for (o, v) in out.iter_mut().zip(&means[k * width..(k + 1) * width]) {
-                        *o += w * v;
-                    }
-                    if let Some(s) = scalar_means.get(k) {
-                        *scalar += w * s;
+        // Per cluster, its members' filtered values and scalars, in member order.
+        let filtered: Vec<(Vec<f32>, Vec<f32>)> = (0..self.clusters.reps.len())
+            .into_par_iter()
+            .map_init(Vec::new, |kernel, c| {
+                self.cluster_kernel(c, kernel);
+                let members = self.clusters.row(c);
+                let mut out = vec![0.0f32; members.len() * width];
+                let mut out_scalars = vec![0.0f32; members.len().min(scalars.len())];
+                for (n, &(m, _)) in members.iter().enumerate() {
+                    let place = self.member_place(c, m as usize);
+                    let out = &mut out[n * width..(n + 1) * width];
+                    for &(k, e) in kernel.iter() {
+                        let w = e[0] * place[0] + e[1] * place[1] + e[2] * place[2];
+                        let k = k as usize;
+                        for (o, v) in out.iter_mut().zip(&means[k * width..(k + 1) * width]) {
+                            *o += w * v;
+                        }
+                        if let Some(s) = scalar_means.get(k) {
+                            out_scalars[n] += w * s;
+                        }
                     }
                 }
-            });
-        out_scalars.truncate(scalars.len());
+                (out, out_scalars)
+            })
+            .collect();
+        let mut out = vec![0.0f32; values.len()];
+        let mut out_scalars = vec![0.0f32; scalars.len()];
+        for (c, (values, scalars)) in filtered.into_iter().enumerate() {
+            for (n, &(m, _)) in self.clusters.row(c).iter().enumerate() {
+                let m = m as usize;
+                out[m * width..(m + 1) * width].copy_from_slice(&values[n * width..][..width]);
+                if let Some(&s) = scalars.get(n) {
+                    out_scalars[m] = s;
+                }
+            }
+        }
         (out, out_scalars)
     }
 }
