@@ -684,6 +684,12 @@ mod tests {
         sheet(&mut objects, Vec3::ZERO, x, y, z, 0);
         sheet(&mut objects, Vec3::new(12.0, 0.0, 0.0), x, y, z, 1);
         assert_eq!(weight_across(&objects), 0.0);
+        // Two objects meeting closer than a texel, within one cluster's reach: no cluster
+        // takes in both.
+        let mut touching = Guides::default();
+        sheet(&mut touching, Vec3::ZERO, x, y, z, 0);
+        sheet(&mut touching, Vec3::new(11.5, 0.0, 0.0), x, y, z, 1);
+        assert_eq!(weight_across(&touching), 0.0);
         // And one object continuing in that plane does share.
         let mut one = Guides::default();
         sheet(&mut one, Vec3::ZERO, x, y, z, 0);
