@@ -5,8 +5,12 @@
 //! receiver over a hundred receivers, and every receiver still counts, once, through its
 //! cluster's mean.
 
-use super::Guides;
 use super::grid::Grid;
+use super::guides::Guides;
+
+/// One cluster as found: its representative, members and weights, mass, variance and
+/// centroid.
+type Found = (u32, Vec<(u32, f32)>, f32, f32, glam::Vec3);
 
 /// Clusters of receivers, in the order of their representatives.
 pub struct Clusters {
@@ -65,7 +69,7 @@ impl Clusters {
                 && d.length_squared() <= reach * reach
                 && similar(seed, m)
         };
-        let mut found: Vec<(u32, Vec<(u32, f32)>, f32, f32, glam::Vec3)> = Vec::new();
+        let mut found: Vec<Found> = Vec::new();
         let (mut seeds, mut label) = (Vec::<usize>::new(), Vec::<usize>::new());
         for cell in grid.cells() {
             seeds.clear();

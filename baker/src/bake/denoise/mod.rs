@@ -32,11 +32,11 @@
 //!   differences to the closest neighbours ([`Filter::new`]).
 //!
 //! The wide pass (6 texel spacings, about 110 texels) does not weigh every texel: it weighs
-//! **clusters** of about two texels on one surface ([`clusters`]), each at its members'
-//! weighted centroid, with its representative's normals, group and guide, and its members'
-//! mean, as an à-trous pass reads a coarser level (Dammertz et al. 2010, *Edge-avoiding
-//! À-Trous wavelet transform*; SVGF). Every texel still counts once, through its cluster;
-//! the wide pass costs about half. Vertices, sparser, are read one by one.
+//! **clusters** of up to 2 × 2 like texels ([`clusters`]), each at its members' centroid,
+//! with its representative's normals, group and guide, and its members' mean, as an à-trous
+//! pass reads a coarser level (Dammertz et al. 2010, *Edge-avoiding À-Trous wavelet
+//! transform*; SVGF), and forms one kernel per cluster, which each member evaluates at its
+//! own place. Every texel counts once; the filter costs half. Vertices are read one by one.
 //!
 //! The kernel weights then become those of a weighted first-order fit over i's tangent plane
 //! (local regression: Moon, Carr & Yoon 2014), evaluated at i ([`Filter::row`]): a constant
