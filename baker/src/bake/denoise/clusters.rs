@@ -46,16 +46,14 @@ impl Clusters {
     /// Clusters of at most `step` spacings across, within the cells of `grid` (cells about
     /// `step` typical spacings wide): in each cell, receivers in index order join the first
     /// cluster whose first member they may share a kernel with (the same group, normals
-    /// within 25°, on its plane, within `step` of its spacings, and `similar`: guides apart
-    /// by no more than their noise), or start one. A member's weight is `weight(rep,
-    /// member)`, the range term against the representative's guide. A function of the guides
-    /// alone, in a fixed order: the same on any thread.
+    /// within 25°, on its plane, within `step` of its spacings, and `similar`: raw signals
+    /// apart by about their noise), or start one. Members weigh the same. A function of the
+    /// guides and the signal alone, in a fixed order: the same on any thread.
     pub fn build(
         guides: &Guides,
         grid: &Grid,
         step: f32,
         noise: &[f32],
-        weight: impl Fn(usize, usize) -> f32,
         similar: impl Fn(usize, usize) -> bool,
     ) -> Clusters {
         let g = guides;
@@ -99,13 +97,8 @@ impl Clusters {
                         (best, rep) = (d, m);
                     }
                 }
-                let mut row: Vec<(u32, f32)> = mine()
-                    .map(|(&m, _)| (m, weight(rep as usize, m as usize)))
-                    .collect();
-                let mut mass: f32 = row.iter().map(|&(_, w)| w).sum();
-                if mass.is_nan() || mass <= 0.0 {
-                    (row, mass) = (vec![(rep, 1.0)], 1.0);
-                }
+                let mut row: Vec<(u32, f32)> = mine().map(|(&m, _)| (m, 1.0)).collect();
+                let mass = row.len() as f32;
                 let mut var = 0.0f32;
                 let mut at = glam::Vec3::ZERO;
                 for (m, w) in row.iter_mut() {
