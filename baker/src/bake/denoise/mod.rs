@@ -36,7 +36,7 @@
 //! with its representative's normals, group and guide, and its members' mean, as an à-trous
 //! pass reads a coarser level (Dammertz et al. 2010, *Edge-avoiding À-Trous wavelet
 //! transform*; SVGF), and forms one kernel per cluster, which each member evaluates at its
-//! own place. Every texel counts once; the filter costs half. Vertices are read one by one.
+//! own place. Every texel counts once; the filter costs a quarter. Vertices: one by one.
 //!
 //! The kernel weights then become those of a weighted first-order fit over i's tangent plane
 //! (local regression: Moon, Carr & Yoon 2014), evaluated at i ([`Filter::row`]): a constant
@@ -79,8 +79,8 @@ pub struct Settings {
 
 impl Settings {
     /// Lightmap texels: 6 texels each way (measured on the Cornell room at 64 and 256 rays:
-    /// docs/denoising.md), over clusters of up to 2 × 2 texels (clusters 3 or 4 texels
-    /// across save little more and cost a 64-ray bake 5 % of its error).
+    /// docs/denoising.md), over clusters of up to 2 × 2 texels (larger ones save little
+    /// more and add to the error).
     pub const TEXELS: Settings = Settings {
         radius: 6.0,
         guide_radius: 1.5,
