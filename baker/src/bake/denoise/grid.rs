@@ -1,11 +1,13 @@
 //! Receivers near a point, found in world space: a uniform grid of cubic cells over the
-//! receivers' points, its occupied cells sorted by key and found by binary search. Written
+//! receivers' points, its occupied cells sorted by key, each column of cells found in a table
+//! (or, for a grid too large for one, by binary search). Written
 //! here because the query is a dozen lines, and its visiting order (cells in a fixed order,
 //! receivers in index order within a cell) must be deterministic, which a hash map's is not:
 //! the denoiser sums over neighbours in this order.
 
 use glam::Vec3;
 
+#[derive(Clone)]
 pub struct Grid {
     cell: f32,
     origin: Vec3,
@@ -13,7 +15,15 @@ pub struct Grid {
     cells: Vec<(u64, u32, u32)>,
     /// Receiver indices, sorted by (cell key, index).
     order: Vec<u32>,
+    /// Where each (x, y) column's cells start in `cells`, column x · `columns.1` + y, and
+    /// one more entry for the end; empty where the grid has over [`TABLE_MAX`] columns.
+    column_starts: Vec<u32>,
+    /// Columns along x and y.
+    columns: (i64, i64),
 }
+
+/// The most columns a table indexes (16 MiB): past it, a binary search finds each column.
+const TABLE_MAX: i64 = 1 << 22;
 
 /// Bits per axis of a cell key: 2²¹ cells a side.
 const AXIS_BITS: u32 = 21;
@@ -37,6 +47,8 @@ impl Grid {
             origin,
             cells: Vec::new(),
             order: Vec::new(),
+            column_starts: Vec::new(),
+            columns: (0, 0),
         };
         let mut keyed: Vec<(u64, u32)> = points
             .iter()
@@ -51,7 +63,37 @@ impl Grid {
                 _ => grid.cells.push((key, at as u32, at as u32 + 1)),
             }
         }
+        grid.index_columns();
         grid
+    }
+
+    /// Fills `column_starts`, where the table is small enough.
+    fn index_columns(&mut self) {
+        let column = |key: u64| {
+            (
+                (key >> (2 * AXIS_BITS)) as i64,
+                (key >> AXIS_BITS) as i64 & AXIS_MAX,
+            )
+        };
+        let (nx, ny) = self.cells.iter().fold((0, 0), |(nx, ny), c| {
+            let (x, y) = column(c.0);
+            (nx.max(x + 1), ny.max(y + 1))
+        });
+        if nx * ny > TABLE_MAX {
+            return;
+        }
+        self.columns = (nx, ny);
+        // Cells are sorted by key, so by column: each column's start is the count of cells
+        // in the columns before it.
+        let mut starts = vec![0u32; (nx * ny + 1) as usize];
+        for c in &self.cells {
+            let (x, y) = column(c.0);
+            starts[(x * ny + y + 1) as usize] += 1;
+        }
+        for k in 1..starts.len() {
+            starts[k] += starts[k - 1];
+        }
+        self.column_starts = starts;
     }
 
     fn coords(&self, p: Vec3) -> [i64; 3] {
@@ -65,18 +107,49 @@ impl Grid {
         })
     }
 
+    /// Numbers the points in the order of their cells: returns the old index of each new one
+    /// (`order`), and the grid visits new indices from here on, consecutive within a cell, so
+    /// data stored in this order is read in sequence.
+    pub fn renumber(&mut self) -> Vec<u32> {
+        let order = std::mem::take(&mut self.order);
+        self.order = (0..order.len() as u32).collect();
+        order
+    }
+
+    /// The receivers of each occupied cell, cell by cell in key order, each cell's in index
+    /// order.
+    pub fn cells(&self) -> impl Iterator<Item = &[u32]> {
+        self.cells
+            .iter()
+            .map(|&(_, start, end)| &self.order[start as usize..end as usize])
+    }
+
     /// Calls `visit` with every receiver in a cell that the sphere of `radius` about `p`
     /// overlaps (a superset of those within `radius`), in a fixed order.
     pub fn visit(&self, p: Vec3, radius: f32, mut visit: impl FnMut(u32)) {
         let lo = self.coords(p - Vec3::splat(radius));
         let hi = self.coords(p + Vec3::splat(radius));
-        // Cells of one (x, y) are consecutive keys: one search finds the run of z.
-        for x in lo[0].max(0)..=hi[0].min(AXIS_MAX) {
-            for y in lo[1].max(0)..=hi[1].min(AXIS_MAX) {
+        // Cells of one (x, y) are consecutive keys: the column's run, or one search, finds
+        // the run of z.
+        let table = !self.column_starts.is_empty();
+        let (nx, ny) = match table {
+            true => self.columns,
+            false => (AXIS_MAX + 1, AXIS_MAX + 1),
+        };
+        for x in lo[0].max(0)..=hi[0].min(nx - 1) {
+            for y in lo[1].max(0)..=hi[1].min(ny - 1) {
                 let first = self.key([x, y, lo[2]]);
                 let last = self.key([x, y, hi[2]]);
-                let from = self.cells.partition_point(|c| c.0 < first);
-                for &(_, start, end) in self.cells[from..].iter().take_while(|c| c.0 <= last) {
+                let run = match table {
+                    true => {
+                        let c = (x * ny + y) as usize;
+                        let column = &self.column_starts[c..c + 2];
+                        let cells = &self.cells[column[0] as usize..column[1] as usize];
+                        &cells[cells.partition_point(|c| c.0 < first)..]
+                    }
+                    false => &self.cells[self.cells.partition_point(|c| c.0 < first)..],
+                };
+                for &(_, start, end) in run.iter().take_while(|c| c.0 <= last) {
                     self.order[start as usize..end as usize]
                         .iter()
                         .for_each(|&i| visit(i));

@@ -31,6 +31,13 @@
 //!   give no estimate (transfer matrices), the variance is half the median of the squared
 //!   differences to the closest neighbours ([`Filter::new`]).
 //!
+//! The wide pass (6 texel spacings, about 110 texels) does not weigh every texel: it weighs
+//! **clusters** of up to 2 × 2 like texels ([`clusters`]), each at its members' centroid,
+//! with its representative's normals, group and guide, and its members' mean, as an à-trous
+//! pass reads a coarser level (Dammertz et al. 2010, *Edge-avoiding À-Trous wavelet
+//! transform*; SVGF), and forms one kernel per cluster, which each member evaluates at its
+//! own place. Every texel counts once; the filter costs a quarter. Vertices: one by one.
+//!
 //! The kernel weights then become those of a weighted first-order fit over i's tangent plane
 //! (local regression: Moon, Carr & Yoon 2014), evaluated at i ([`Filter::row`]): a constant
 //! kernel biases every gradient (towards a contact shadow, over a chart's last texels, where
@@ -42,6 +49,7 @@
 //! the guides and the bake's transfer, formed receiver by receiver over neighbours in a fixed
 //! order: the result is bit-identical for any number of threads.
 
+mod clusters;
 mod grid;
 pub mod guides;
 
@@ -50,6 +58,7 @@ use rayon::prelude::*;
 use crate::bake::estimator::Visibility;
 use crate::bake::options::BakeOptions;
 
+use clusters::Clusters;
 pub use guides::{Guides, texel_guides, vertex_guides};
 
 /// The filter's sizes and strengths.
@@ -63,24 +72,30 @@ pub struct Settings {
     pub kappa: f32,
     /// A first-order fit over the tangent plane instead of a weighted mean.
     pub linear: bool,
+    /// The wide pass reads clusters about this many spacings across ([`clusters`]), or
+    /// every receiver (`None`).
+    pub step: Option<f32>,
 }
 
 impl Settings {
     /// Lightmap texels: 6 texels each way (measured on the Cornell room at 64 and 256 rays:
-    /// docs/denoising.md).
+    /// docs/denoising.md), over clusters of up to 2 × 2 texels (larger ones save little
+    /// more and add to the error).
     pub const TEXELS: Settings = Settings {
         radius: 6.0,
         guide_radius: 1.5,
         kappa: 4.0,
         linear: true,
+        step: Some(2.0),
     };
     /// Vertices: their neighbours up to about four edges away (measured on the torus at 64
-    /// rays).
+    /// rays), each read on its own: a mesh is too sparse for clusters.
     pub const VERTICES: Settings = Settings {
         radius: 4.0,
         guide_radius: 1.2,
         kappa: 4.0,
         linear: true,
+        step: None,
     };
 }
 
@@ -91,15 +106,45 @@ const SIGNAL_COEFFICIENTS: usize = 9;
 /// κ of the guide's prefilter, on the raw signal: more tolerant than the filter's own, as
 /// the raw signal is noisier than the guide.
 const GUIDE_KAPPA: f32 = 3.0;
+/// How far apart two texels' raw signals may be to share a cluster, as the range term's
+/// exponent at κ = [`GUIDE_KAPPA`]: d² up to 3.25, what noise alone gives but for 1 pair in
+/// 1,000. At 0 (d² ≤ 1) the clusters split twice as often: the filter costs 2 ×, for 1.5 %
+/// of a 64-ray bake's error.
+const SIMILAR: f32 = 0.25;
 /// The power of the shading normals' dot product.
 const NORMAL_POWER: i32 = 32;
+
+/// What the wide pass reads of one cluster.
+struct Tap {
+    /// The members' weighted centroid.
+    at: glam::Vec3,
+    /// The representative's shading normal and group.
+    normal: glam::Vec3,
+    group: u32,
+    /// How many receivers the cluster stands for.
+    mass: f32,
+    /// The representative's guide's variance.
+    noise: f32,
+}
 
 /// The weights of one bake's receivers, ready to apply to any per-receiver values.
 pub struct Filter<'g> {
     guides: &'g Guides,
     settings: Settings,
-    grid: grid::Grid,
-    /// The prefiltered signal, `signal_width` floats per receiver.
+    /// The prefilter's grid over every receiver.
+    fine: grid::Grid,
+    /// The wide pass's grid over the clusters' representatives (cluster indices).
+    wide: grid::Grid,
+    clusters: Clusters,
+    /// What the wide pass reads of each cluster, in cluster order (the wide grid's): read in
+    /// sequence, not gathered from the guides' arrays.
+    taps: Vec<Tap>,
+    /// Each cluster's guide (its representative's), `signal_width` floats per cluster.
+    tap_guide: Vec<f32>,
+    /// Each receiver's cluster.
+    cluster_of: Vec<u32>,
+    /// The prefiltered signal, `signal_width` floats per receiver (the representatives'; 0
+    /// elsewhere).
     guide: Vec<f32>,
     /// Its variance per receiver.
     guide_noise: Vec<f32>,
@@ -132,11 +177,20 @@ impl<'g> Filter<'g> {
         let mut spacings: Vec<f32> = guides.spacing.clone();
         spacings.sort_unstable_by(f32::total_cmp);
         let typical = spacings.get(count / 2).copied().unwrap_or(1.0).max(1e-12);
-        let grid = grid::Grid::new(&guides.points, 0.5 * settings.radius * typical);
+        let wide_cell = 0.5 * settings.radius * typical;
+        let fine = grid::Grid::new(
+            &guides.points,
+            settings.step.map_or(wide_cell, |s| s * typical),
+        );
         let mut filter = Filter {
             guides,
             settings,
-            grid,
+            wide: fine.clone(),
+            fine,
+            clusters: Clusters::singletons(&[]),
+            taps: Vec::new(),
+            tap_guide: Vec::new(),
+            cluster_of: Vec::new(),
             guide: Vec::new(),
             guide_noise: Vec::new(),
             signal_width,
@@ -145,21 +199,72 @@ impl<'g> Filter<'g> {
             true => guides.noise.clone(),
             false => filter.noise_from_signal(&signal),
         };
-        let (guide, guide_noise) = filter.prefilter(&signal, &noise);
+        let clusters = match settings.step {
+            None => Clusters {
+                points: guides.points.clone(),
+                ..Clusters::singletons(&noise)
+            },
+            Some(step) => {
+                let sw = signal_width;
+                Clusters::build(guides, &filter.fine, step, &noise, |seed, m| {
+                    let variance = (noise[m] + noise[seed]) * sw as f32;
+                    let (s, g) = (&signal[m * sw..][..sw], &signal[seed * sw..][..sw]);
+                    range_exponent(s, g, variance, GUIDE_KAPPA) <= SIMILAR
+                })
+            }
+        };
+        let mut wanted = vec![false; count];
+        for &r in &clusters.reps {
+            wanted[r as usize] = true;
+        }
+        let (guide, guide_noise) = filter.prefilter(&signal, &noise, &wanted);
         filter.guide = guide;
         filter.guide_noise = guide_noise;
+        filter.wide = grid::Grid::new(&clusters.points, wide_cell);
+        let clusters = clusters.permute(&filter.wide.renumber());
+        filter.taps = (0..clusters.reps.len())
+            .map(|k| {
+                let r = clusters.reps[k] as usize;
+                Tap {
+                    at: clusters.points[k],
+                    normal: guides.normals[r],
+                    group: guides.groups[r],
+                    mass: clusters.mass[k],
+                    noise: filter.guide_noise[r],
+                }
+            })
+            .collect();
+        filter.tap_guide = clusters
+            .reps
+            .iter()
+            .flat_map(|&r| filter.guide[r as usize * signal_width..][..signal_width].iter())
+            .copied()
+            .collect();
+        filter.cluster_of = vec![0; count];
+        for c in 0..clusters.reps.len() {
+            for &(m, _) in clusters.row(c) {
+                filter.cluster_of[m as usize] = c as u32;
+            }
+        }
+        filter.clusters = clusters;
         filter
     }
 
-    /// Receiver i's weight on j: the geometric terms times exp(−`range`), 0 outside `radius`
-    /// spacings. `range` (the range term's exponent) is asked only of neighbours the
+    /// Receiver i's weight on j, taken to lie `at` (its own point, or its cluster's): the
+    /// geometric terms times exp(−`range`), 0 outside `radius` spacings. `range` (the range term's exponent) is asked only of neighbours the
     /// geometric terms keep, and the terms share one exponential.
-    fn weight(&self, i: usize, j: usize, radius: f32, range: impl Fn(usize) -> f32) -> f32 {
+    fn weight(
+        &self,
+        i: usize,
+        (j, at): (usize, glam::Vec3),
+        radius: f32,
+        range: impl Fn(usize) -> f32,
+    ) -> f32 {
         let g = self.guides;
         if g.groups[i] != g.groups[j] {
             return 0.0;
         }
-        let d = g.points[j] - g.points[i];
+        let d = at - g.points[i];
         let reach = radius * g.spacing[i];
         let r2 = d.length_squared() / (reach * reach);
         if r2 > 1.0 {
@@ -174,7 +279,7 @@ impl<'g> Filter<'g> {
     }
 
     /// Receiver i's neighbours within `radius` spacings and their weights ([`Filter::weight`]),
-    /// in the grid's fixed order of visit (a function of the points alone, so sums over
+    /// in the fine grid's fixed order of visit (a function of the points alone, so sums over
     /// them are the same on any thread).
     fn neighbours(
         &self,
@@ -185,8 +290,13 @@ impl<'g> Filter<'g> {
     ) {
         out.clear();
         let reach = radius * self.guides.spacing[i];
-        self.grid.visit(self.guides.points[i], reach, |j| {
-            let w = self.weight(i, j as usize, radius, &range);
+        self.fine.visit(self.guides.points[i], reach, |j| {
+            let w = self.weight(
+                i,
+                (j as usize, self.guides.points[j as usize]),
+                radius,
+                &range,
+            );
             if w > 0.0 {
                 out.push((j, w));
             }
@@ -222,9 +332,9 @@ impl<'g> Filter<'g> {
             .collect()
     }
 
-    /// The guide: the signal filtered with the geometric terms over `guide_radius`, and its
-    /// variance Σ_j w_ij² σ²_j.
-    fn prefilter(&self, signal: &[f32], noise: &[f32]) -> (Vec<f32>, Vec<f32>) {
+    /// The guide of the `wanted` receivers (0 elsewhere): the signal filtered with the
+    /// geometric terms over `guide_radius`, and its variance Σ_j w_ij² σ²_j.
+    fn prefilter(&self, signal: &[f32], noise: &[f32], wanted: &[bool]) -> (Vec<f32>, Vec<f32>) {
         let sw = self.signal_width;
         let count = self.guides.points.len();
         let mut guide = vec![0.0f32; count * sw];
@@ -234,6 +344,9 @@ impl<'g> Filter<'g> {
             .zip(guide_noise.par_iter_mut())
             .enumerate()
             .for_each_init(Vec::new, |near, (i, (out, var))| {
+                if !wanted[i] {
+                    return;
+                }
                 // The raw signal's own range term: a receiver's guide does not take in
                 // neighbours far brighter or darker than its noise allows (a thin wall's
                 // other side, a shadow's edge).
@@ -255,59 +368,111 @@ impl<'g> Filter<'g> {
         (guide, guide_noise)
     }
 
-    /// Receiver i's weights, normalised, in the grid's fixed order of the receivers they
-    /// weigh.
-    pub fn row(&self, i: usize, out: &mut Vec<(u32, f32)>) {
-        let sw = self.signal_width;
-        let gi = &self.guide[i * sw..(i + 1) * sw];
-        self.neighbours(i, self.settings.radius, out, |j| {
-            let gj = &self.guide[j * sw..(j + 1) * sw];
-            let variance = (self.guide_noise[i] + self.guide_noise[j]) * sw as f32;
-            range_exponent(gi, gj, variance, self.settings.kappa)
-        });
-        if self.settings.linear {
-            self.linear_fit(i, out);
-        } else {
-            let total: f32 = out.iter().map(|&(_, w)| w).sum();
-            for (_, w) in out.iter_mut() {
-                *w /= total;
-            }
-        }
-    }
-
-    /// Turns kernel weights `w_j` into the weights of a weighted first-order fit over i's
-    /// tangent plane, evaluated at i: ŵ_j = w_j · e₁ᵀ A⁻¹ x_j with x_j = (1, u_j, v_j) and
-    /// A = Σ w_j x_j x_jᵀ. They still sum to 1 and are shared by every coefficient, and a
-    /// transfer that changes linearly along the surface (towards a contact shadow, across a
-    /// chart's last texels, where the neighbours lie on one side) is kept unbiased.
-    fn linear_fit(&self, i: usize, out: &mut [(u32, f32)]) {
+    /// Cluster c's kernel over the clusters, in the wide grid's fixed order of visit:
+    /// entries (k, e_k) such that a member m's weight on cluster k is
+    /// ŵ_k(m) = e_k · (1, u_m, v_m), with (u_m, v_m) the member's place about c's centroid
+    /// ([`Filter::member_place`]). The kernel multiplies the terms of [`Filter::weight`] for
+    /// c's representative (its normals, group, spacing and guide) placed at c's centroid;
+    /// the clusters' data is read in sequence.
+    ///
+    /// With `linear`, the weights are those of a weighted first-order fit over the tangent
+    /// plane evaluated at the member's place: e_k = w_k A⁻¹ x_k with x_k = (1, u_k, v_k) and
+    /// A = Σ w_k x_k x_kᵀ. They sum to 1 at every place and are shared by every
+    /// coefficient, and a transfer that changes linearly along the surface (towards a
+    /// contact shadow, across a chart's last texels, where the neighbours lie on one side)
+    /// is kept unbiased. Each member evaluates the fit at its own place, so a cluster's
+    /// members differ as their neighbourhoods do, though their kernel is formed once.
+    fn cluster_kernel(&self, c: usize, out: &mut Vec<(u32, [f32; 3])>) {
+        out.clear();
         let g = self.guides;
-        let (t1, t2) = g.surfaces[i].any_orthonormal_pair();
-        let scale = 1.0 / g.spacing[i];
-        let coords = |j: u32| {
-            let d = (g.points[j as usize] - g.points[i]) * scale;
+        let sw = self.signal_width;
+        let (radius, kappa) = (self.settings.radius, self.settings.kappa);
+        let r = self.clusters.reps[c] as usize;
+        let gi = &self.tap_guide[c * sw..(c + 1) * sw];
+        let pi = self.clusters.points[c];
+        let (ni, si, group) = (g.normals[r], g.surfaces[r], g.groups[r]);
+        let (spacing, noise) = (g.spacing[r], self.taps[c].noise);
+        let reach = radius * spacing;
+        self.wide.visit(pi, reach, |k| {
+            let tap = &self.taps[k as usize];
+            let d = tap.at - pi;
+            let r2 = d.length_squared() / (reach * reach);
+            let facing = ni.dot(tap.normal);
+            if r2 > 1.0 || tap.group != group || facing <= 0.0 {
+                return;
+            }
+            let off_plane = si.dot(d) / spacing;
+            let gj = &self.tap_guide[k as usize * sw..][..sw];
+            let range = range_exponent(gi, gj, (noise + tap.noise) * sw as f32, kappa);
+            let w = (-2.0 * r2 - off_plane * off_plane - range).exp() * facing.powi(NORMAL_POWER);
+            if w > 0.0 {
+                out.push((k, [w * tap.mass, 0.0, 0.0]));
+            }
+        });
+        let total: f32 = out.iter().map(|&(_, w)| w[0]).sum();
+        if !self.settings.linear {
+            for (_, e) in out.iter_mut() {
+                e[0] /= total;
+            }
+            return;
+        }
+        let (t1, t2) = si.any_orthonormal_pair();
+        let scale = 1.0 / spacing;
+        let coords = |k: u32| {
+            let d = (self.clusters.points[k as usize] - pi) * scale;
             glam::DVec3::new(1.0, f64::from(d.dot(t1)), f64::from(d.dot(t2)))
         };
         let mut a = glam::DMat3::ZERO;
-        for &(j, w) in out.iter() {
-            let x = coords(j);
+        for &(k, [w, ..]) in out.iter() {
+            let x = coords(k);
             a += glam::DMat3::from_cols(x * x.x, x * x.y, x * x.z) * f64::from(w);
         }
         // A little ridge on the slopes: a neighbourhood along a line (a one-texel-wide strip)
         // fits no slope across it.
-        let total = a.x_axis.x;
-        a.y_axis.y += 1e-2 * total;
-        a.z_axis.z += 1e-2 * total;
-        let row = a.inverse().row(0);
-        if !row.is_finite() {
-            for (_, w) in out.iter_mut() {
-                *w = (f64::from(*w) / total) as f32;
+        let mass = a.x_axis.x;
+        a.y_axis.y += 1e-2 * mass;
+        a.z_axis.z += 1e-2 * mass;
+        let inverse = a.inverse();
+        if !inverse.is_finite() {
+            for (_, e) in out.iter_mut() {
+                e[0] = (f64::from(e[0]) / mass) as f32;
             }
             return;
         }
-        for (j, w) in out.iter_mut() {
-            *w = (f64::from(*w) * row.dot(coords(*j))) as f32;
+        for (k, e) in out.iter_mut() {
+            let y = inverse * coords(*k) * f64::from(e[0]);
+            *e = [y.x as f32, y.y as f32, y.z as f32];
         }
+    }
+
+    /// Member m's place about cluster c's centroid, in c's representative's tangent plane, in
+    /// its spacings: (1, u, v).
+    fn member_place(&self, c: usize, m: usize) -> [f32; 3] {
+        let g = self.guides;
+        let r = self.clusters.reps[c] as usize;
+        let (t1, t2) = g.surfaces[r].any_orthonormal_pair();
+        let d = (g.points[m] - self.clusters.points[c]) / g.spacing[r];
+        [1.0, d.dot(t1), d.dot(t2)]
+    }
+
+    /// Receiver i's weights on every receiver, normalised, in the receivers' order: its
+    /// cluster's kernel at its place times each cluster's weights on its members.
+    pub fn row(&self, i: usize, out: &mut Vec<(u32, f32)>) {
+        let c = self.cluster_of[i] as usize;
+        let mut kernel = Vec::new();
+        self.cluster_kernel(c, &mut kernel);
+        let place = self.member_place(c, i);
+        out.clear();
+        for &(k, e) in &kernel {
+            let w = e[0] * place[0] + e[1] * place[1] + e[2] * place[2];
+            out.extend(
+                self.clusters
+                    .row(k as usize)
+                    .iter()
+                    .map(|&(j, m)| (j, w * m)),
+            );
+        }
+        out.sort_unstable_by_key(|&(j, _)| j);
     }
 
     /// The filtered values: `values` holds `width` floats per receiver, and so does the
@@ -317,31 +482,54 @@ impl<'g> Filter<'g> {
     }
 
     /// [`Filter::apply`] of `values` and of `scalars` (one float per receiver, or none)
-    /// with the same rows: each row is formed once.
+    /// with the same kernels: each cluster's kernel is formed once.
     pub fn apply_with(
         &self,
         values: &[f32],
         width: usize,
         scalars: &[f32],
     ) -> (Vec<f32>, Vec<f32>) {
-        let mut out = vec![0.0f32; values.len()];
-        let mut out_scalars = vec![0.0f32; self.guides.points.len()];
-        out.par_chunks_mut(width.max(1))
-            .zip(out_scalars.par_iter_mut())
-            .enumerate()
-            .for_each_init(Vec::new, |row, (i, (out, scalar))| {
-                self.row(i, row);
-                for &(j, w) in row.iter() {
-                    let j = j as usize;
-                    for (o, v) in out.iter_mut().zip(&values[j * width..(j + 1) * width]) {
-                        *o += w * v;
-                    }
-                    if let Some(s) = scalars.get(j) {
-                        *scalar += w * s;
+        let means = self.clusters.means(values, width);
+        let scalar_means = match scalars.is_empty() {
+            true => Vec::new(),
+            false => self.clusters.means(scalars, 1),
+        };
+        // Per cluster, its members' filtered values and scalars, in member order.
+        let filtered: Vec<(Vec<f32>, Vec<f32>)> = (0..self.clusters.reps.len())
+            .into_par_iter()
+            .map_init(Vec::new, |kernel, c| {
+                self.cluster_kernel(c, kernel);
+                let members = self.clusters.row(c);
+                let mut out = vec![0.0f32; members.len() * width];
+                let mut out_scalars = vec![0.0f32; members.len().min(scalars.len())];
+                for (n, &(m, _)) in members.iter().enumerate() {
+                    let place = self.member_place(c, m as usize);
+                    let out = &mut out[n * width..(n + 1) * width];
+                    for &(k, e) in kernel.iter() {
+                        let w = e[0] * place[0] + e[1] * place[1] + e[2] * place[2];
+                        let k = k as usize;
+                        for (o, v) in out.iter_mut().zip(&means[k * width..(k + 1) * width]) {
+                            *o += w * v;
+                        }
+                        if let Some(s) = scalar_means.get(k) {
+                            out_scalars[n] += w * s;
+                        }
                     }
                 }
-            });
-        out_scalars.truncate(scalars.len());
+                (out, out_scalars)
+            })
+            .collect();
+        let mut out = vec![0.0f32; values.len()];
+        let mut out_scalars = vec![0.0f32; scalars.len()];
+        for (c, (values, scalars)) in filtered.into_iter().enumerate() {
+            for (n, &(m, _)) in self.clusters.row(c).iter().enumerate() {
+                let m = m as usize;
+                out[m * width..(m + 1) * width].copy_from_slice(&values[n * width..][..width]);
+                if let Some(&s) = scalars.get(n) {
+                    out_scalars[m] = s;
+                }
+            }
+        }
         (out, out_scalars)
     }
 }
@@ -490,6 +678,12 @@ mod tests {
         sheet(&mut objects, Vec3::ZERO, x, y, z, 0);
         sheet(&mut objects, Vec3::new(12.0, 0.0, 0.0), x, y, z, 1);
         assert_eq!(weight_across(&objects), 0.0);
+        // Two objects meeting closer than a texel, within one cluster's reach: no cluster
+        // takes in both.
+        let mut touching = Guides::default();
+        sheet(&mut touching, Vec3::ZERO, x, y, z, 0);
+        sheet(&mut touching, Vec3::new(11.5, 0.0, 0.0), x, y, z, 1);
+        assert_eq!(weight_across(&touching), 0.0);
         // And one object continuing in that plane does share.
         let mut one = Guides::default();
         sheet(&mut one, Vec3::ZERO, x, y, z, 0);

@@ -1,0 +1,171 @@
+//! The filter's coarse level: receivers joined into small clusters of like neighbours on one
+//! surface, each standing for its members in the wide pass ([`super::Filter`]), as an
+//! à-trous pass reads a coarser level (Dammertz et al. 2010; Schied et al. 2017). The wide
+//! pass then forms one kernel per cluster over a few dozen clusters instead of one per
+//! receiver over a hundred receivers, and every receiver still counts, once, through its
+//! cluster's mean.
+
+use super::grid::Grid;
+use super::guides::Guides;
+
+/// One cluster as found: its representative, members and weights, mass, variance and
+/// centroid.
+type Found = (u32, Vec<(u32, f32)>, f32, f32, glam::Vec3);
+
+/// Clusters of receivers, in the order of their representatives.
+pub struct Clusters {
+    /// Each cluster's representative, the member nearest the members' centroid: its point,
+    /// normals and guide stand for the cluster. Ascending.
+    pub reps: Vec<u32>,
+    /// Cluster k's members and their normalised weights: `members[starts[k]..starts[k + 1]]`.
+    pub starts: Vec<u32>,
+    pub members: Vec<(u32, f32)>,
+    /// How many receivers each cluster stands for: the sum of its members' weights before
+    /// normalising.
+    pub mass: Vec<f32>,
+    /// The variance of each cluster's mean, Σ w² σ² over its members.
+    pub noise: Vec<f32>,
+    /// Each cluster's weighted centroid: where its mean lies.
+    pub points: Vec<glam::Vec3>,
+}
+
+impl Clusters {
+    /// Every receiver its own cluster: the wide pass reads the raw values.
+    pub fn singletons(noise: &[f32]) -> Clusters {
+        let count = noise.len() as u32;
+        Clusters {
+            reps: (0..count).collect(),
+            starts: (0..=count).collect(),
+            members: (0..count).map(|i| (i, 1.0)).collect(),
+            mass: vec![1.0; noise.len()],
+            noise: noise.to_vec(),
+            points: Vec::new(),
+        }
+    }
+
+    /// Clusters of at most `step` spacings across, within the cells of `grid` (cells about
+    /// `step` typical spacings wide): in each cell, receivers in index order join the first
+    /// cluster whose first member they may share a kernel with (the same group, normals
+    /// within 25°, on its plane, within `step` of its spacings, and `similar`: raw signals
+    /// apart by about their noise), or start one. Members weigh the same. A function of the
+    /// guides and the signal alone, in a fixed order: the same on any thread.
+    pub fn build(
+        guides: &Guides,
+        grid: &Grid,
+        step: f32,
+        noise: &[f32],
+        similar: impl Fn(usize, usize) -> bool,
+    ) -> Clusters {
+        let g = guides;
+        let joins = |seed: usize, m: usize| {
+            let d = g.points[m] - g.points[seed];
+            let reach = step * g.spacing[seed];
+            g.groups[seed] == g.groups[m]
+                && g.normals[seed].dot(g.normals[m]) > 0.9
+                && g.surfaces[seed].dot(g.surfaces[m]) > 0.9
+                && g.surfaces[seed].dot(d).abs() < 0.5 * g.spacing[seed]
+                && d.length_squared() <= reach * reach
+                && similar(seed, m)
+        };
+        let mut found: Vec<Found> = Vec::new();
+        let (mut seeds, mut label) = (Vec::<usize>::new(), Vec::<usize>::new());
+        for cell in grid.cells() {
+            seeds.clear();
+            label.clear();
+            for &m in cell {
+                let m = m as usize;
+                let k = match seeds.iter().position(|&s| joins(s, m)) {
+                    Some(k) => k,
+                    None => {
+                        seeds.push(m);
+                        seeds.len() - 1
+                    }
+                };
+                label.push(k);
+            }
+            for k in 0..seeds.len() {
+                let mine = || cell.iter().zip(&label).filter(move |(_, l)| **l == k);
+                let (sum, n) = mine().fold((glam::Vec3::ZERO, 0.0f32), |(s, n), (&m, _)| {
+                    (s + g.points[m as usize], n + 1.0)
+                });
+                let centre = sum / n;
+                let mut rep = u32::MAX;
+                let mut best = f32::INFINITY;
+                for (&m, _) in mine() {
+                    let d = g.points[m as usize].distance_squared(centre);
+                    if d < best {
+                        (best, rep) = (d, m);
+                    }
+                }
+                let mut row: Vec<(u32, f32)> = mine().map(|(&m, _)| (m, 1.0)).collect();
+                let mass = row.len() as f32;
+                let mut var = 0.0f32;
+                let mut at = glam::Vec3::ZERO;
+                for (m, w) in row.iter_mut() {
+                    *w /= mass;
+                    var += *w * *w * noise[*m as usize];
+                    at += *w * g.points[*m as usize];
+                }
+                found.push((rep, row, mass, var, at));
+            }
+        }
+        found.sort_unstable_by_key(|f| f.0);
+        let mut clusters = Clusters {
+            reps: Vec::with_capacity(found.len()),
+            starts: vec![0],
+            members: Vec::with_capacity(g.points.len()),
+            mass: Vec::with_capacity(found.len()),
+            noise: Vec::with_capacity(found.len()),
+            points: Vec::with_capacity(found.len()),
+        };
+        for (rep, row, mass, var, at) in found {
+            clusters.points.push(at);
+            clusters.reps.push(rep);
+            clusters.members.extend(row);
+            clusters.starts.push(clusters.members.len() as u32);
+            clusters.mass.push(mass);
+            clusters.noise.push(var);
+        }
+        clusters
+    }
+
+    /// The clusters in `order` (`order[new] = old`).
+    pub fn permute(self, order: &[u32]) -> Clusters {
+        let mut out = Clusters {
+            reps: Vec::with_capacity(order.len()),
+            starts: vec![0],
+            members: Vec::with_capacity(self.members.len()),
+            mass: Vec::with_capacity(order.len()),
+            noise: Vec::with_capacity(order.len()),
+            points: Vec::with_capacity(order.len()),
+        };
+        for &k in order {
+            let k = k as usize;
+            out.reps.push(self.reps[k]);
+            out.members.extend_from_slice(self.row(k));
+            out.starts.push(out.members.len() as u32);
+            out.mass.push(self.mass[k]);
+            out.noise.push(self.noise[k]);
+            out.points.push(self.points[k]);
+        }
+        out
+    }
+
+    /// Cluster k's members and their weights.
+    pub fn row(&self, k: usize) -> &[(u32, f32)] {
+        &self.members[self.starts[k] as usize..self.starts[k + 1] as usize]
+    }
+
+    /// Each cluster's weighted mean of `values` (`width` floats per receiver).
+    pub fn means(&self, values: &[f32], width: usize) -> Vec<f32> {
+        let mut out = vec![0.0f32; self.reps.len() * width];
+        for (k, out) in out.chunks_mut(width.max(1)).enumerate() {
+            for &(j, w) in self.row(k) {
+                for (o, v) in out.iter_mut().zip(&values[j as usize * width..][..width]) {
+                    *o += w * v;
+                }
+            }
+        }
+        out
+    }
+}
