@@ -60,7 +60,11 @@ impl Skinned {
             frozen,
         };
         let (scene, transfer) = skinned.posed_in_scene_frame(&skinned.pose_at(0.0))?;
-        let bake = Bake::new(scene.clone(), skinned.coefficient_file(&scene, transfer), ldprt)?;
+        let bake = Bake::new(
+            scene.clone(),
+            skinned.coefficient_file(&scene, transfer),
+            ldprt,
+        )?;
         Ok((skinned, bake))
     }
 

@@ -113,9 +113,8 @@ fn reference(
     let mut coefficients = vec![0.0f32; scene.vertex_count() * 3 * n];
     for (v, (_, r)) in relit.iter().enumerate() {
         for c in 0..3 {
-            coefficients[(v * 3 + c) * n] = (f64::from(r[c])
-                / (f64::from(albedo[v][c]) * l00[c]))
-                as f32;
+            coefficients[(v * 3 + c) * n] =
+                (f64::from(r[c]) / (f64::from(albedo[v][c]) * l00[c])) as f32;
         }
     }
     let transfer = prt_baker::Transfer {
@@ -196,7 +195,10 @@ fn prt_view_plays_a_skinned_ldprt_bake_as_relight_poses_it() {
             d.max,
             d.mean
         );
-        assert!(lit > 5000, "{pose}: the tube fills the frame ({lit} pixels)");
+        assert!(
+            lit > 5000,
+            "{pose}: the tube fills the frame ({lit} pixels)"
+        );
         assert!(
             fraction >= LIT_WITHIN,
             "{pose}: only {:.2} % of lit pixels within {CODES} codes of relight",
@@ -208,7 +210,9 @@ fn prt_view_plays_a_skinned_ldprt_bake_as_relight_poses_it() {
     let (skinned, _) = prt_viewer::skinned::Skinned::load(&glb(), &ldprt, None).unwrap();
     let started = std::time::Instant::now();
     for k in 0..20 {
-        skinned.posed(&skinned.pose_at(f64::from(k) * 0.05)).unwrap();
+        skinned
+            .posed(&skinned.pose_at(f64::from(k) * 0.05))
+            .unwrap();
     }
     eprintln!(
         "posing and turning the lobes: {:.2} ms a frame",
