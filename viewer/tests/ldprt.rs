@@ -222,3 +222,22 @@ fn prt_view_plays_a_skinned_ldprt_bake_as_relight_poses_it() {
     let (same, _) = lit_within(&images[0], &images[2]);
     assert!(same < 0.5, "bend@0 and bend@1 look alike ({same:.3})");
 }
+
+/// `--pose` is for LDPRT files (exit 3 for another file) and must parse (exit 2).
+#[test]
+fn pose_is_refused_for_other_files_and_when_malformed() {
+    let run = |file: &Path, pose: &str| {
+        Command::new(env!("CARGO_BIN_EXE_prt-view"))
+            .arg(glb())
+            .arg(file)
+            .args(["--pose", pose, "--headless", "--screenshot"])
+            .arg(std::env::temp_dir().join("prt-view-never-written.png"))
+            .output()
+            .unwrap()
+    };
+    let other = run(&rig(), "bend@0");
+    assert_eq!(other.status.code(), Some(3));
+    let stderr = String::from_utf8_lossy(&other.stderr);
+    assert!(stderr.contains("--pose is for LDPRT files"), "{stderr}");
+    assert_eq!(run(&rig(), "bend@x").status.code(), Some(2));
+}
