@@ -241,3 +241,25 @@ fn pose_is_refused_for_other_files_and_when_malformed() {
     assert!(stderr.contains("--pose is for LDPRT files"), "{stderr}");
     assert_eq!(run(&rig(), "bend@x").status.code(), Some(2));
 }
+
+/// The window plays the animation (under Xvfb, as tests/window.rs runs windows): 40 frames
+/// posed and lit each, with the light turned by keys meanwhile.
+#[test]
+fn the_window_plays_the_animation() {
+    let folder = tempfile::tempdir().unwrap();
+    let ldprt = bake_ldprt(folder.path());
+    let out = Command::new("xvfb-run")
+        .args(["-a", "-s", "-screen 0 1024x768x24"])
+        .arg(env!("CARGO_BIN_EXE_prt-view"))
+        .arg(glb())
+        .arg(&ldprt)
+        .args(["--size", "320x180", "--frames", "40", "--keys", "Q,Q,W,W"])
+        .output()
+        .expect("xvfb-run starts (scripts/install-deps.sh installs it)");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success() && stdout.contains("40 frames"),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
