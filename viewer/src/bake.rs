@@ -62,16 +62,7 @@ impl Bake {
         }
         // A bake of some objects (`bake --receivers`): the others are drawn unshadowed.
         let file = file.spread_to_scene(file_path, &scene)?.into_owned();
-        let up = file.header.up;
-        if up != Up::Z {
-            let to_z_up = up.from_z_up().transpose().as_mat3();
-            for p in &mut scene.positions {
-                *p = to_z_up * *p;
-            }
-            for n in &mut scene.normals {
-                *n = (to_z_up * *n).normalize();
-            }
-        }
+        turn_to_z_up(&mut scene, file.header.up);
         Ok(Bake {
             scene,
             file,
@@ -104,5 +95,18 @@ impl Bake {
     /// `None` for a per-vertex bake.
     pub fn lightmap(&self) -> Option<&LightmapBlock> {
         self.file.lightmap.as_ref()
+    }
+}
+
+/// Turns a scene of up axis `up` to the viewer's z-up frame (its positions and normals).
+pub fn turn_to_z_up(scene: &mut Scene, up: Up) {
+    if up != Up::Z {
+        let to_z_up = up.from_z_up().transpose().as_mat3();
+        for p in &mut scene.positions {
+            *p = to_z_up * *p;
+        }
+        for n in &mut scene.normals {
+            *n = (to_z_up * *n).normalize();
+        }
     }
 }

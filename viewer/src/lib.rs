@@ -59,6 +59,7 @@ pub mod probe;
 pub mod probe_scene;
 pub mod renderer;
 mod resources;
+pub mod skinned;
 pub mod texel_occluders;
 pub mod texel_radiance;
 pub mod texel_transfer;

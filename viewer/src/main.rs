@@ -14,6 +14,7 @@ use prt_viewer::lights::{Lights, MAX_LIGHTS};
 use prt_viewer::moving::{self, Mover, Probes};
 use prt_viewer::occluders::MoverShadow;
 use prt_viewer::offscreen;
+use prt_viewer::skinned::Skinned;
 use prt_viewer::window::{self, WindowOptions};
 use prt_viewer::{Bake, Camera, Error, FrameInputs, Gpu, Key, Mode, Renderer, View};
 
@@ -144,6 +145,10 @@ struct Cli {
     /// Start with the probes hidden (P shows them).
     #[arg(long, requires = "probes")]
     hide_probes: bool,
+    /// With an LDPRT file (`prt-bake bake SKINNED.glb --transfer ldprt`): show this pose
+    /// (rest, ANIM@SECONDS, ANIM#KEYFRAME) instead of playing the glTF's first animation.
+    #[arg(long, value_name = "POSE", conflicts_with_all = ["bench", "probes"])]
+    pose: Option<prt_baker::scene::Pose>,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -225,7 +230,21 @@ fn run(cli: Cli) -> Result<(), Error> {
         // Refused before the scene is loaded and the GPU started.
         Output::new(path, &named_inputs)?;
     }
-    let bake = Bake::load(&cli.scene, &cli.file)?;
+    let (bake, skinned) = if is_ldprt(&cli.file) {
+        let (skinned, bake) = Skinned::load(&cli.scene, &cli.file, cli.pose.clone())?;
+        (bake, Some(skinned))
+    } else if cli.pose.is_some() {
+        return Err(Error::InvalidOption(
+            "--pose is for LDPRT files (bake --transfer ldprt)".into(),
+        ));
+    } else {
+        (Bake::load(&cli.scene, &cli.file)?, None)
+    };
+    if skinned.is_some() && (cli.bench || cli.probes.is_some()) {
+        return Err(Error::InvalidOption(
+            "an LDPRT file is shown on its own (no --bench, --probes)".into(),
+        ));
+    }
     let rig = match &cli.lights {
         Some(path) => Rig::load(path)?,
         None => Lights::default_rig(),
@@ -275,6 +294,7 @@ fn run(cli: Cli) -> Result<(), Error> {
         keys: cli.keys,
         probes,
         shadow,
+        skinned,
     };
     let stats = window::run(bake, view, options)?;
     println!(
@@ -328,6 +348,17 @@ fn probe_scene(cli: &Cli) -> Result<Option<(Probes, Option<Mover>)>, Error> {
         _ => None,
     };
     Ok(Some((probes, mover)))
+}
+
+/// Whether `path` starts with the LDPRT magic (an unreadable file is left to the loader's
+/// message).
+fn is_ldprt(path: &Path) -> bool {
+    use std::io::Read;
+    let mut head = [0u8; prt_baker::formats::ldprt_file::MAGIC.len()];
+    std::fs::File::open(path)
+        .and_then(|mut f| f.read_exact(&mut head))
+        .is_ok()
+        && prt_baker::formats::ldprt_file::is_ldprt(&head)
 }
 
 /// `--probes` and `--mover`, loaded.

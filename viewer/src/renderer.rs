@@ -377,6 +377,20 @@ impl Renderer {
         queue.write_buffer(&self.transfer, 0, bytemuck::cast_slice(transfer));
     }
 
+    /// Replaces a vertex bake's positions and normals (a posed skinned mesh, in the viewer's
+    /// z-up frame; its UVs are `scene`'s) from the next frame on.
+    pub fn set_vertices(&self, queue: &wgpu::Queue, scene: &prt_baker::Scene) {
+        let vertices: Vec<Vertex> = (0..scene.vertex_count())
+            .map(|v| Vertex {
+                position: scene.positions[v].to_array(),
+                normal: scene.normals[v].to_array(),
+                uv: scene.uvs[v].to_array(),
+                uv1: [0.0; 2],
+            })
+            .collect();
+        queue.write_buffer(&self.vertices, 0, bytemuck::cast_slice(&vertices));
+    }
+
     pub fn probe_scene(&self) -> Option<&ProbeScene> {
         self.probe_scene.as_ref()
     }
@@ -666,11 +680,12 @@ fn mesh_buffers(device: &wgpu::Device, bake: &Bake) -> (wgpu::Buffer, wgpu::Buff
             (0..3 * scene.triangles.len() as u32).collect(),
         ),
     };
+    // COPY_DST: a skinned mesh's vertices are rewritten each frame (skinned.rs).
     let vertex_buffer = buffer_init(
         device,
         "vertices",
         bytemuck::cast_slice(&vertices),
-        wgpu::BufferUsages::VERTEX,
+        wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
     );
     let index_buffer = buffer_init(
         device,

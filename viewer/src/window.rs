@@ -34,6 +34,8 @@ pub struct WindowOptions {
     pub probes: Option<(Probes, Option<Mover>)>,
     /// The mover's shadow on the scene (`--mover-occluder`).
     pub shadow: Option<crate::occluders::MoverShadow>,
+    /// A skinned glTF's LDPRT bake, posed each frame (skinned.rs).
+    pub skinned: Option<crate::skinned::Skinned>,
 }
 
 /// What a window session did.
@@ -268,6 +270,17 @@ impl App {
         };
         if let (Some(probes), Some(start)) = (running.renderer.probe_scene_mut(), self.started) {
             probes.set_time((now - start).as_secs_f64());
+        }
+        if let (Some(skinned), Some(start)) = (&self.options.skinned, self.started) {
+            let pose = skinned.pose_at((now - start).as_secs_f64());
+            match skinned.posed(&pose) {
+                Ok(posed) => {
+                    let queue = &running.gpu.queue;
+                    running.renderer.set_vertices(queue, &posed.scene);
+                    running.renderer.set_transfer(queue, &posed.transfer);
+                }
+                Err(err) => return self.fail(event_loop, err),
+            }
         }
         match running.draw(&inputs) {
             Ok(true) => self.frames += 1,

@@ -1,0 +1,148 @@
+//! A skinned glTF lit by its LDPRT bake (`prt-view SKINNED.glb FILE.ldprt [--pose P]`,
+//! docs/guides/characters.md): each frame the mesh is posed at the animation's time (looping;
+//! fixed by `--pose`) and its lobes turned with the skin, both by the baker's own code, as
+//! `prt-bake relight SKINNED.glb FILE.ldprt --pose P` does:
+//!
+//! * [`Scene::load_posed`] poses the mesh by linear-blend skinning;
+//! * [`pose_axes`] takes each vertex's baked frame to the bind space and skins it (the frame
+//!   rule of docs/reference/gltf.md), giving every lobe's world axis;
+//! * [`world_transfer_axes`] rotates each lobe's zonal harmonics to that axis: a per-vertex
+//!   SH transfer vector in the scene's frame.
+//!
+//! That vector is uploaded as the transfer of an ordinary vertex bake, with the posed
+//! positions and normals, and the renderer's tested vertex-PRT path dots it with the turning
+//! light and multiplies by the albedo: the same sum as relight's `ldprt_radiance_axes`,
+//! in f32 (tests/ldprt.rs holds the two to 1 code). Posing is done on the CPU because the
+//! meshes are small and the baker's skinning is then the only skinning: the test tube (2328
+//! vertices, order 4, 3 lobes) costs 1.8 ms a frame in a release build on 2 cores (measured
+//! by tests/ldprt.rs), reading the glb twice included (`pose_axes` reads the baked pose
+//! again). The normal lines (N) stay those of the first frame's pose.
+
+use std::path::{Path, PathBuf};
+
+use prt_baker::bake::ldprt::world_transfer_axes;
+use prt_baker::export::relight_ldprt::{check_topology, pose_axes};
+use prt_baker::formats::ldprt_file::LdprtFile;
+use prt_baker::scene::Pose;
+use prt_baker::{BakeOptions, CoefficientFile, Scene};
+
+use crate::bake::{Bake, turn_to_z_up};
+use crate::error::{Error, Result};
+
+/// The mesh, its LDPRT bake and which pose each frame shows.
+#[derive(Clone, Debug)]
+pub struct Skinned {
+    mesh: PathBuf,
+    ldprt: PathBuf,
+    file: LdprtFile,
+    /// The glTF's first animation and its length in seconds (its last keyframe time).
+    animation: Option<(String, f32)>,
+    /// `--pose`: every frame shows this pose.
+    pub frozen: Option<Pose>,
+}
+
+/// One frame's posed mesh (turned to z-up, as [`Bake`] turns scenes) and its transfer.
+pub struct Posed {
+    pub scene: Scene,
+    pub transfer: Vec<f32>,
+}
+
+impl Skinned {
+    /// Reads the LDPRT file and the glTF's first animation; the bake returned shows the
+    /// first frame's pose.
+    pub fn load(mesh: &Path, ldprt: &Path, frozen: Option<Pose>) -> Result<(Skinned, Bake)> {
+        let file = LdprtFile::read(ldprt)?;
+        let skinned = Skinned {
+            mesh: mesh.to_path_buf(),
+            ldprt: ldprt.to_path_buf(),
+            file,
+            animation: first_animation(mesh)?,
+            frozen,
+        };
+        let (scene, transfer) = skinned.posed_in_scene_frame(&skinned.pose_at(0.0))?;
+        let bake = Bake::new(
+            scene.clone(),
+            skinned.coefficient_file(&scene, transfer),
+            ldprt,
+        )?;
+        Ok((skinned, bake))
+    }
+
+    /// The pose at `seconds` since the start: `--pose` if given, else the first animation
+    /// looping, else the rest pose.
+    pub fn pose_at(&self, seconds: f64) -> Pose {
+        if let Some(pose) = &self.frozen {
+            return pose.clone();
+        }
+        match &self.animation {
+            Some((name, length)) if *length > 0.0 => Pose::Time {
+                animation: name.clone(),
+                seconds: seconds.rem_euclid(f64::from(*length)) as f32,
+            },
+            _ => Pose::Rest,
+        }
+    }
+
+    /// The mesh in `pose`, turned to z-up, and its transfer there.
+    pub fn posed(&self, pose: &Pose) -> Result<Posed> {
+        let (mut scene, transfer) = self.posed_in_scene_frame(pose)?;
+        turn_to_z_up(&mut scene, self.file.up);
+        Ok(Posed { scene, transfer })
+    }
+
+    fn posed_in_scene_frame(&self, pose: &Pose) -> Result<(Scene, Vec<f32>)> {
+        let (scene, _warnings) = Scene::load_posed(&self.mesh, None, pose)?;
+        check_topology(&self.file, &self.ldprt, &scene)?;
+        let axes = pose_axes(&self.file, &self.mesh, &scene)?;
+        let transfer = world_transfer_axes(&self.file, &axes)
+            .into_iter()
+            .map(|t| t as f32)
+            .collect();
+        Ok((scene, transfer))
+    }
+
+    /// A vector-transfer file of the file's order and channels holding `transfer`.
+    fn coefficient_file(&self, scene: &Scene, transfer: Vec<f32>) -> CoefficientFile {
+        let options = BakeOptions {
+            order: self.file.order as usize,
+            samples: self.file.samples_per_vertex,
+            mode: self.file.mode,
+            bounces: self.file.bounces,
+            seed: self.file.seed,
+            ..BakeOptions::default()
+        };
+        CoefficientFile::from_bake(
+            scene,
+            &prt_baker::Transfer {
+                options,
+                channels: self.file.channels as usize,
+                receiver_count: scene.vertex_count(),
+                coefficients: transfer,
+                visibility: Vec::new(),
+                backend: prt_baker::trace::Backend::None,
+                rays_cast: 0,
+                seconds: 0.0,
+                hit_cache_bytes: None,
+            },
+        )
+    }
+}
+
+/// The glTF's first animation: its name (its index if unnamed) and its last keyframe time
+/// (glTF requires the min and max of an animation's input accessors).
+fn first_animation(mesh: &Path) -> Result<Option<(String, f32)>> {
+    let document = gltf::Gltf::open(mesh)
+        .map_err(|err| Error::InvalidOption(format!("{}: {err}", mesh.display())))?;
+    let Some(animation) = document.animations().next() else {
+        return Ok(None);
+    };
+    let length = animation
+        .samplers()
+        .filter_map(|s| s.input().max())
+        .filter_map(|max| max.get(0).and_then(|v| v.as_f64()))
+        .fold(0.0f64, f64::max);
+    let name = animation
+        .name()
+        .map_or_else(|| animation.index().to_string(), str::to_owned);
+    Ok(Some((name, length as f32)))
+}
