@@ -5,12 +5,7 @@
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { applyPRT, lightFromGLTF, loadCompressedTransfer } from '/runtime/three/prt.js';
-
-const canvas = document.getElementById('view');
-const renderer = new THREE.WebGLRenderer({ canvas, antialias: false, preserveDrawingBuffer: true, alpha: true });
-renderer.setPixelRatio(1);
-renderer.setClearColor(0x000000, 0);
-const gl = renderer.getContext();
+import { canvas, renderer, gl, pixels } from '/scripts/browser/canvas.mjs';
 
 // The camera: from the scene's bounding box, `distance` radii from its centre along `view`.
 function frame(root, view, distance) {
@@ -21,17 +16,6 @@ function frame(root, view, distance) {
   camera.position.copy(centre).addScaledVector(new THREE.Vector3(...view).normalize(), radius * distance);
   camera.lookAt(centre);
   return camera;
-}
-
-function pixels() {
-  const { width, height } = canvas;
-  const data = new Uint8Array(width * height * 4);
-  gl.readPixels(0, 0, width, height, gl.RGBA, gl.UNSIGNED_BYTE, data);
-  const flipped = new Uint8Array(data.length);
-  for (let y = 0; y < height; y++) flipped.set(data.subarray((height - 1 - y) * width * 4, (height - y) * width * 4), y * width * 4);
-  let text = '';
-  for (let i = 0; i < flipped.length; i += 0x8000) text += String.fromCharCode(...flipped.subarray(i, i + 0x8000));
-  return btoa(text);
 }
 
 // Colours every mesh's vertices with `radiance` (linear RGB floats of the whole scene, in the

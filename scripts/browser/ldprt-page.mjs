@@ -7,25 +7,7 @@ import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { lightFromJSON, rotateLight } from '/runtime/three/prt.js';
 import { applyLDPRT } from '/runtime/three/ldprt.js';
-
-const canvas = document.getElementById('view');
-const renderer = new THREE.WebGLRenderer({ canvas, antialias: false, preserveDrawingBuffer: true, alpha: true });
-renderer.setPixelRatio(1);
-renderer.setClearColor(0x000000, 0);
-const gl = renderer.getContext();
-
-function pixels() {
-  const { width, height } = canvas;
-  const data = new Uint8Array(width * height * 4);
-  gl.readPixels(0, 0, width, height, gl.RGBA, gl.UNSIGNED_BYTE, data);
-  const flipped = new Uint8Array(data.length);
-  for (let y = 0; y < height; y++) flipped.set(data.subarray((height - 1 - y) * width * 4, (height - y) * width * 4), y * width * 4);
-  let text = '';
-  for (let i = 0; i < flipped.length; i += 0x8000) text += String.fromCharCode(...flipped.subarray(i, i + 0x8000));
-  return btoa(text);
-}
-
-const floats = (base64) => new Float32Array(Uint8Array.from(atob(base64), (ch) => ch.charCodeAt(0)).buffer);
+import { canvas, renderer, gl, pixels, floats } from '/scripts/browser/canvas.mjs';
 
 window.prtLdprt = {
   /**

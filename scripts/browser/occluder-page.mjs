@@ -7,25 +7,8 @@ import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { applyPRT, lightFromJSON, loadProbes, probeLightForObject, Z_UP_TO_GLTF, GLTF_TO_Z_UP } from '/runtime/three/prt.js';
 import { parseOccluder, occluderSpheresForObject, occludedTransfer } from '/runtime/three/occluders.js';
+import { canvas, renderer, pixels, floats } from '/scripts/browser/canvas.mjs';
 
-const canvas = document.getElementById('view');
-const renderer = new THREE.WebGLRenderer({ canvas, antialias: false, preserveDrawingBuffer: true, alpha: true });
-renderer.setPixelRatio(1);
-renderer.setClearColor(0x000000, 0);
-const gl = renderer.getContext();
-
-function pixels() {
-  const { width, height } = canvas;
-  const data = new Uint8Array(width * height * 4);
-  gl.readPixels(0, 0, width, height, gl.RGBA, gl.UNSIGNED_BYTE, data);
-  const flipped = new Uint8Array(data.length);
-  for (let y = 0; y < height; y++) flipped.set(data.subarray((height - 1 - y) * width * 4, (height - y) * width * 4), y * width * 4);
-  let text = '';
-  for (let i = 0; i < flipped.length; i += 0x8000) text += String.fromCharCode(...flipped.subarray(i, i + 0x8000));
-  return btoa(text);
-}
-
-const floats = (base64) => new Float32Array(Uint8Array.from(atob(base64), (ch) => ch.charCodeAt(0)).buffer);
 const zUp = (v) => [0, 1, 2].map((i) => GLTF_TO_Z_UP[3 * i] * v[0] + GLTF_TO_Z_UP[3 * i + 1] * v[1] + GLTF_TO_Z_UP[3 * i + 2] * v[2]);
 // A vertex's key: its z-up position and normal, rounded.
 const key = (p, n) => [...p, ...n].map((x) => Math.round(x * 1e4)).join(',');

@@ -3,12 +3,7 @@
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { applyPRT, lightFromGLTF, lightFromJSON, loadCompressedTransfer, loadLightmapTransfer, rotateLight } from '/runtime/three/prt.js';
-
-const canvas = document.getElementById('view');
-const renderer = new THREE.WebGLRenderer({ canvas, antialias: false, preserveDrawingBuffer: true, alpha: true });
-renderer.setPixelRatio(1);
-renderer.setClearColor(0x000000, 0);
-const gl = renderer.getContext();
+import { canvas, renderer, gl, pixels } from '/scripts/browser/canvas.mjs';
 
 async function loadGLB(url) {
   return new GLTFLoader().loadAsync(url);
@@ -24,18 +19,6 @@ function frame(root, view, zoom = 1) {
   camera.position.copy(centre).addScaledVector(dir, (radius * 2.4) / zoom);
   camera.lookAt(centre);
   return camera;
-}
-
-function pixels() {
-  const { width, height } = canvas;
-  const data = new Uint8Array(width * height * 4);
-  gl.readPixels(0, 0, width, height, gl.RGBA, gl.UNSIGNED_BYTE, data);
-  // Bottom row first in GL: flip to top first.
-  const flipped = new Uint8Array(data.length);
-  for (let y = 0; y < height; y++) flipped.set(data.subarray((height - 1 - y) * width * 4, (height - y) * width * 4), y * width * 4);
-  let text = '';
-  for (let i = 0; i < flipped.length; i += 0x8000) text += String.fromCharCode(...flipped.subarray(i, i + 0x8000));
-  return btoa(text);
 }
 
 // Milliseconds per frame over `frames` renders, each waited for by reading one pixel back

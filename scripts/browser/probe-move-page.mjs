@@ -7,23 +7,7 @@
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { applyPRT, lightFromJSON, loadProbes, probeLightForObject, Z_UP_TO_GLTF } from '/runtime/three/prt.js';
-
-const canvas = document.getElementById('view');
-const renderer = new THREE.WebGLRenderer({ canvas, antialias: false, preserveDrawingBuffer: true, alpha: true });
-renderer.setPixelRatio(1);
-renderer.setClearColor(0x000000, 0);
-const gl = renderer.getContext();
-
-function pixels() {
-  const { width, height } = canvas;
-  const data = new Uint8Array(width * height * 4);
-  gl.readPixels(0, 0, width, height, gl.RGBA, gl.UNSIGNED_BYTE, data);
-  const flipped = new Uint8Array(data.length);
-  for (let y = 0; y < height; y++) flipped.set(data.subarray((height - 1 - y) * width * 4, (height - y) * width * 4), y * width * 4);
-  let text = '';
-  for (let i = 0; i < flipped.length; i += 0x8000) text += String.fromCharCode(...flipped.subarray(i, i + 0x8000));
-  return btoa(text);
-}
+import { canvas, renderer, pixels } from '/scripts/browser/canvas.mjs';
 
 // A row-major 3×3 as a THREE.Matrix4.
 const matrix4 = (m) => new THREE.Matrix4().set(m[0], m[1], m[2], 0, m[3], m[4], m[5], 0, m[6], m[7], m[8], 0, 0, 0, 0, 1);
