@@ -5,19 +5,18 @@
 //! straight bake's world-space SH; the skinned-axis rule against the rebuilt frames; and
 //! files with bad skins refused, naming the file and the problem.
 
+mod relit;
+
 use std::path::{Path, PathBuf};
 
 use glam::{DQuat, DVec3, Quat, Vec3};
 use prt_baker::bake::ldprt::fit_bake;
 use prt_baker::export::relight_ldprt::{ldprt_radiance, ldprt_radiance_axes, pose_axes};
 use prt_baker::formats::ldprt_file::LdprtFile;
-use prt_baker::light::{LightCoefficients, Rig};
 use prt_baker::scene::Pose;
-use prt_baker::support::progress::Silent;
-use prt_baker::trace::{self, Backend, TracerOptions};
-use prt_baker::{BakeOptions, Mode, Scene, Transfer};
+use prt_baker::{Scene, Transfer};
+use relit::{ORDER, bake, light, rms, sh_radiance};
 
-const ORDER: usize = 4;
 const RADIUS: f32 = 0.2;
 /// The elbow's height and the half-length of the weights' blend (`scenes/src/skinned_tube.rs`).
 const ELBOW: f32 = 1.0;
@@ -82,53 +81,6 @@ fn skinning_matches_the_closed_form_bend() {
         eprintln!("pose {pose}: largest |skinned − closed form| {worst:.2e}, normals {normal:.2e}");
         assert!(worst < 2e-6 && normal < 2e-6, "{pose}: {worst} {normal}");
     }
-}
-
-fn bake(scene: &Scene) -> Transfer {
-    let options = BakeOptions {
-        order: ORDER,
-        samples: 512,
-        mode: Mode::Shadowed,
-        ..BakeOptions::default()
-    };
-    let tracer = trace::build(Backend::Obvhs, scene, TracerOptions::default()).unwrap();
-    prt_baker::bake(scene, Some(tracer.as_ref()), &options, &Silent).unwrap()
-}
-
-/// A warm sun and a sky over a dark ground; `theta`, `phi` in degrees.
-fn light(theta: f64, phi: f64) -> LightCoefficients {
-    let text = format!(
-        "[[light]]\nkind = \"sun\"\ntheta = {theta}\nphi = {phi}\ncolor = [1.0, 0.92, 0.8]\nintensity = 3.0\n\n\
-         [[light]]\nkind = \"hemisphere\"\ncolor = [0.15, 0.19, 0.27]\nground_color = [0.05, 0.045, 0.04]\n"
-    );
-    Rig::parse(&text, Path::new("rig.toml"))
-        .unwrap()
-        .project(ORDER)
-}
-
-fn sh_radiance(transfer: &Transfer, scene: &Scene, light: &LightCoefficients) -> Vec<[f32; 3]> {
-    let albedo = scene.vertex_albedo();
-    (0..scene.vertex_count())
-        .map(|v| {
-            let t = transfer.vertex(v, 0);
-            [0, 1, 2].map(|c| {
-                let dot: f64 = t
-                    .iter()
-                    .zip(&light.rgb[c])
-                    .map(|(t, l)| f64::from(*t) * l)
-                    .sum();
-                (f64::from(albedo[v][c]) * dot) as f32
-            })
-        })
-        .collect()
-}
-
-fn rms(a: &[[f32; 3]], b: &[[f32; 3]], pick: &[usize]) -> f64 {
-    let sum: f64 = pick
-        .iter()
-        .flat_map(|&v| (0..3).map(move |c| f64::from(a[v][c] - b[v][c]).powi(2)))
-        .sum();
-    (sum / (3 * pick.len()) as f64).sqrt()
 }
 
 /// A file as it is written and read back: what `relight` sees.

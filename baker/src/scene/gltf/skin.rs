@@ -1,7 +1,9 @@
 //! Skins and animations: the nodes' local transforms in a [`Pose`], and linear-blend skinning
 //! of a skinned mesh's vertices on the CPU (glTF 2.0 §3.7.3):
 //!
-//!     p' = Σ_k w_k · J_k · IBM_k · p
+//! ```text
+//! p' = Σ_k w_k · J_k · IBM_k · p
+//! ```
 //!
 //! with J_k the joint node's world matrix in the pose and IBM_k its inverse bind matrix
 //! (identity where the skin gives none, as the specification says). Normals take the same
