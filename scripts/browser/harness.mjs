@@ -1,7 +1,9 @@
-// What the Chromium tests share (test.mjs, glossy.mjs, probe-move.mjs): a loopback server for
+// What the Chromium tests share (test.mjs, glossy.mjs, probe-move.mjs, occluder-render.mjs,
+// ldprt-skinned.mjs): a loopback server for
 // the repository (/), the run's output folder (/data/) and three.js (/three/); Debian's
 // chromium, headless on SwiftShader with a throw-away profile, whose page may reach nothing
-// but that server and collects its console errors; and the pixel comparison of two renders.
+// but that server and collects its console errors; the pixel comparisons of two renders; and
+// relight's PLY read back.
 import fs from 'node:fs';
 import http from 'node:http';
 import os from 'node:os';
@@ -67,4 +69,32 @@ export function compare(a, b, tolerance) {
     if (d <= tolerance) close += 1;
   }
   return { share: covered ? close / covered : 0, covered, worst, meanDifference: sum / Math.max(covered, 1) };
+}
+
+// Over the reference's lit pixels (covered and not near black): the share within `tolerance`
+// codes in every channel, how many are lit, and the worst difference.
+export function compareLit(a, b, tolerance) {
+  let [lit, close, worst] = [0, 0, 0];
+  for (let i = 0; i < a.length; i += 4) {
+    if (a[i + 3] === 0 || Math.max(a[i], a[i + 1], a[i + 2]) < 8) continue;
+    lit += 1;
+    const d = Math.max(Math.abs(a[i] - b[i]), Math.abs(a[i + 1] - b[i + 1]), Math.abs(a[i + 2] - b[i + 2]));
+    worst = Math.max(worst, d);
+    if (d <= tolerance) close += 1;
+  }
+  return { share: lit ? close / lit : 0, lit, worst };
+}
+
+// A relight PLY's positions, normals and radiance (6 floats, 3 colour bytes, 3 floats per vertex).
+export function readPly(filePath) {
+  const ply = fs.readFileSync(filePath);
+  const start = ply.indexOf('end_header\n') + 'end_header\n'.length;
+  const count = Number(/element vertex (\d+)/.exec(ply.subarray(0, start).toString('latin1'))[1]);
+  const [positions, normals, radiance] = [0, 1, 2].map(() => new Float32Array(3 * count));
+  for (let v = 0; v < count; v++) for (let k = 0; k < 3; k++) {
+    positions[3 * v + k] = ply.readFloatLE(start + v * 39 + 4 * k);
+    normals[3 * v + k] = ply.readFloatLE(start + v * 39 + 12 + 4 * k);
+    radiance[3 * v + k] = ply.readFloatLE(start + v * 39 + 27 + 4 * k);
+  }
+  return { positions, normals, radiance };
 }

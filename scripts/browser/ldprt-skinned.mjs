@@ -13,7 +13,7 @@ import { execFileSync } from 'node:child_process';
 import fs from 'node:fs';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
-import { openBrowser } from './harness.mjs';
+import { compareLit, openBrowser, readPly } from './harness.mjs';
 
 const [nodeModules, bake, outRoot] = process.argv.slice(2).map((p) => path.resolve(p));
 const out = path.join(outRoot, 'ldprt-skinned');
@@ -59,29 +59,8 @@ for (const c of cases) {
   for (const t of c.times) run('relight', tube, file(`${c.name}.ldprt`), '--pose', `bend@${t}`, '--lights', rig, '-o', file(`${c.name}-${t}.ply`));
 }
 
-// A PLY's radiance (6 floats, 3 colour bytes, 3 floats per vertex), base64 float32.
-function plyRadiance(name) {
-  const ply = fs.readFileSync(file(name));
-  const start = ply.indexOf('end_header\n') + 'end_header\n'.length;
-  const count = Number(/element vertex (\d+)/.exec(ply.subarray(0, start).toString('latin1'))[1]);
-  const radiance = new Float32Array(3 * count);
-  for (let v = 0; v < count; v++) for (let k = 0; k < 3; k++) radiance[3 * v + k] = ply.readFloatLE(start + v * 39 + 27 + 4 * k);
-  return Buffer.from(radiance.buffer).toString('base64');
-}
 console.log(`browser: ldprt-skinned: baked, exported and relit in ${((Date.now() - started) / 1000).toFixed(1)} s`);
 
-// Over the reference's lit pixels: the share within `tolerance` codes in every channel.
-function compareLit(a, b, tolerance) {
-  let [lit, close, worst] = [0, 0, 0];
-  for (let i = 0; i < a.length; i += 4) {
-    if (a[i + 3] === 0 || Math.max(a[i], a[i + 1], a[i + 2]) < 8) continue;
-    lit += 1;
-    const d = Math.max(Math.abs(a[i] - b[i]), Math.abs(a[i + 1] - b[i + 1]), Math.abs(a[i + 2] - b[i + 2]));
-    worst = Math.max(worst, d);
-    if (d <= tolerance) close += 1;
-  }
-  return { share: lit ? close / lit : 0, lit, worst };
-}
 
 const { base, page, errors, close } = await openBrowser(chromium, { repo, out, nodeModules });
 const results = [];
@@ -94,7 +73,7 @@ try {
     const glb = `/data/${c.name}.glb`;
     const frames = {};
     for (const time of c.times) {
-      const want = await render({ glb, time, radiance: plyRadiance(`${c.name}-${time}.ply`) });
+      const want = await render({ glb, time, radiance: Buffer.from(readPly(file(`${c.name}-${time}.ply`)).radiance.buffer).toString('base64') });
       const got = await render({ glb, time, light: '/data/light.json' });
       const [a, b] = [want, got].map((r) => Buffer.from(r.pixels, 'base64'));
       fs.writeFileSync(file(`${c.name}-${time}-relight.rgba`), a);

@@ -13,7 +13,7 @@ import { execFileSync } from 'node:child_process';
 import fs from 'node:fs';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
-import { openBrowser } from './harness.mjs';
+import { compareLit, openBrowser, readPly } from './harness.mjs';
 
 const [nodeModules, bake, outRoot] = process.argv.slice(2).map((p) => path.resolve(p));
 const out = path.join(outRoot, 'occluder-render');
@@ -60,37 +60,12 @@ run('light', rig, '--order', '4', '-o', file('light-z.json'));
 run('relight', file('ball.obj'), file('ball.prt'), '--lights', rig, '-o', file('ball-lit.ply'),
   '--probes', file('grid.prt'), '--at', places[1].position.join(','), '--turn', places[1].turn.join(','));
 
-// A PLY's positions, normals and radiance (6 floats, 3 colour bytes, 3 floats per vertex).
-function readPly(name) {
-  const ply = fs.readFileSync(file(name));
-  const start = ply.indexOf('end_header\n') + 'end_header\n'.length;
-  const count = Number(/element vertex (\d+)/.exec(ply.subarray(0, start).toString('latin1'))[1]);
-  const [positions, normals, radiance] = [0, 1, 2].map(() => new Float32Array(3 * count));
-  for (let v = 0; v < count; v++) for (let k = 0; k < 3; k++) {
-    positions[3 * v + k] = ply.readFloatLE(start + v * 39 + 4 * k);
-    normals[3 * v + k] = ply.readFloatLE(start + v * 39 + 12 + 4 * k);
-    radiance[3 * v + k] = ply.readFloatLE(start + v * 39 + 27 + 4 * k);
-  }
-  return { positions, normals, radiance };
-}
 const base64 = (a) => Buffer.from(a.buffer).toString('base64');
-const room = readPly('shadowed.ply');
+const room = readPly(file('shadowed.ply'));
 const reference = { positions: base64(room.positions), normals: base64(room.normals), radiance: base64(room.radiance) };
-const ballRadiance = base64(readPly('ball-lit.ply').radiance);
+const ballRadiance = base64(readPly(file('ball-lit.ply')).radiance);
 console.log(`browser: occluder-render: baked, exported and relit in ${((Date.now() - started) / 1000).toFixed(1)} s`);
 
-// Over the reference's lit pixels: the share within `tolerance` codes in every channel.
-function compareLit(a, b, tolerance) {
-  let [lit, close, worst] = [0, 0, 0];
-  for (let i = 0; i < a.length; i += 4) {
-    if (a[i + 3] === 0 || Math.max(a[i], a[i + 1], a[i + 2]) < 8) continue;
-    lit += 1;
-    const d = Math.max(Math.abs(a[i] - b[i]), Math.abs(a[i + 1] - b[i + 1]), Math.abs(a[i + 2] - b[i + 2]));
-    worst = Math.max(worst, d);
-    if (d <= tolerance) close += 1;
-  }
-  return { share: lit ? close / lit : 0, lit, worst };
-}
 
 const { base, page, errors, close } = await openBrowser(chromium, { repo, out, nodeModules });
 let results;
