@@ -506,18 +506,6 @@ fn the_window_runs_every_control_on_a_texel_file() {
     assert!(stdout.contains("prt-view: 40 frames in"), "{stdout}");
 }
 
-/// A half float's value (the radiance map is `Rgba16Float`).
-fn from_f16(bits: u16) -> f32 {
-    let sign = if bits & 0x8000 != 0 { -1.0 } else { 1.0 };
-    let exponent = i32::from((bits >> 10) & 0x1f);
-    let mantissa = f32::from(bits & 0x3ff);
-    sign * match exponent {
-        0 => mantissa * 2f32.powi(-24),
-        31 => f32::INFINITY,
-        _ => (1.0 + mantissa / 1024.0) * 2f32.powi(exponent - 15),
-    }
-}
-
 /// The radiance map a PRT frame of `frame` left, texel by texel (row-major), RGB.
 fn radiance_map(
     gpu: &prt_viewer::Gpu,
@@ -546,7 +534,13 @@ fn radiance_map(
         .collect();
     let texels = halves
         .chunks_exact(4)
-        .map(|t| [from_f16(t[0]), from_f16(t[1]), from_f16(t[2])])
+        .map(|t| {
+            [
+                common::from_f16(t[0]),
+                common::from_f16(t[1]),
+                common::from_f16(t[2]),
+            ]
+        })
         .collect();
     (texels, image)
 }

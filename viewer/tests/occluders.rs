@@ -80,18 +80,6 @@ fn the_shadowed_transfer_relights_as_relight_occluder_does() {
     assert!(darker > 100, "{darker} vertex channels darker");
 }
 
-/// A half float's value (the radiance map is `Rgba16Float`).
-fn from_f16(bits: u16) -> f32 {
-    let sign = if bits & 0x8000 != 0 { -1.0 } else { 1.0 };
-    let exponent = i32::from((bits >> 10) & 0x1f);
-    let mantissa = f32::from(bits & 0x3ff);
-    sign * match exponent {
-        0 => mantissa * 2f32.powi(-24),
-        31 => f32::INFINITY,
-        _ => (1.0 + mantissa / 1024.0) * 2f32.powi(exponent - 15),
-    }
-}
-
 /// The radiance map (RGB per texel, row-major) a PRT frame of `frame` leaves, the lightmap
 /// shadowed by `spheres` (none: the plain pass), with the transfer stored as `storage` asks.
 fn radiance_map(
@@ -117,7 +105,7 @@ fn radiance_map(
     let bytes = prt_viewer::offscreen::read_texture(&gpu.device, &gpu.queue, texture, 8).unwrap();
     let halves: Vec<f32> = bytes
         .chunks_exact(2)
-        .map(|b| from_f16(u16::from_le_bytes([b[0], b[1]])))
+        .map(|b| common::from_f16(u16::from_le_bytes([b[0], b[1]])))
         .collect();
     halves.chunks_exact(4).map(|t| [t[0], t[1], t[2]]).collect()
 }

@@ -107,3 +107,15 @@ pub fn difference(a: &image::RgbaImage, b: &image::RgbaImage, threshold: u8) -> 
         outliers: outliers as f64 / pixels as f64,
     }
 }
+
+/// A half float's value (the radiance map is `Rgba16Float`).
+pub fn from_f16(bits: u16) -> f32 {
+    let sign = if bits & 0x8000 != 0 { -1.0 } else { 1.0 };
+    let exponent = i32::from((bits >> 10) & 0x1f);
+    let mantissa = f32::from(bits & 0x3ff);
+    sign * match exponent {
+        0 => mantissa * 2f32.powi(-24),
+        31 => f32::INFINITY,
+        _ => (1.0 + mantissa / 1024.0) * 2f32.powi(exponent - 15),
+    }
+}
