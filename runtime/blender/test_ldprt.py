@@ -204,6 +204,15 @@ def passes(figures):
     return all(v["within_2_percent"] >= 0.99 and v["posed_as_cli"] for v in figures.values())
 
 
+def refused(**arguments):
+    """The error message of a bake that must fail ('' if it did not)."""
+    try:
+        result = bpy.ops.prt.bake(**arguments)
+    except RuntimeError as err:
+        return str(err)
+    return "" if result == {"FINISHED"} else str(result)
+
+
 def cli(prt_bake, *arguments):
     return subprocess.run([prt_bake, *map(str, arguments)], check=True, capture_output=True,
                           text=True).stdout
@@ -309,6 +318,16 @@ def main():
     for frame in range(25):
         scene.frame_set(frame)
     report["seconds"]["frame_change"] = (time.time() - step) / 25
+    refusals = {}
+    floor.prt_receive = False
+    refusals["a visible mesh not receiving"] = refused(transfer="LDPRT", rig=a.rig,
+                                                      samples=16)
+    floor.prt_receive = True
+    refusals["order 5"] = refused(transfer="LDPRT", rig=a.rig, samples=16, order=5)
+    check("LDPRT: refuses a visible mesh that does not receive, and order 5, scene unchanged",
+          "every visible mesh" in refusals["a visible mesh not receiving"]
+          and "order 4 at most" in refusals["order 5"]
+          and json.loads(tube.data[ldprt.INFO])["channels"] == 3, refusals)
     report["seconds"]["total"] = time.time() - started
     (out / "ldprt.json").write_text(json.dumps(report, indent=1))
 

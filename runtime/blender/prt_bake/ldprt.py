@@ -163,7 +163,12 @@ def read(glb_path, plan, depsgraph, settings):
         # object's own, for a mesh no armature deforms).
         normal, tangent = normal[corner] @ GLTF_TO_BLENDER.T, tangent[corner] @ GLTF_TO_BLENDER.T
         armature = armature_of(r.obj)
-        skinned = armature is not None and "skin" in glb.json["nodes"][r.node]
+        skinned = "skin" in glb.json["nodes"][r.node]
+        if (armature is not None) != skinned:
+            raise PrtError(f"{r.obj.name}: Blender's glTF export wrote "
+                           f"{'a skin' if skinned else 'no skin'} for it, but "
+                           f"{'no' if armature is None else 'an'} armature deforms it "
+                           "(parent the mesh to its armature)")
         bones = []
         if skinned:
             skin = glb.json["skins"][glb.json["nodes"][r.node]["skin"]]
