@@ -50,11 +50,11 @@ def material(name, color):
     return m
 
 
-def build():
+def build(rings=33, segments=24):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     scene.render.fps = FPS
-    rings, segments = 33, 24
+
     verts, faces = [], []
     for i in range(rings):
         z = 2 * i / (rings - 1)

@@ -14,7 +14,8 @@ blends). Then radiance = albedo × Σ_k Σ_l √(4π/(2l+1)) g_kl Σ_m L_lm y_lm
 
 Kept on the mesh (face-corner domain): `prt_ldprt_normal`, `prt_ldprt_tangent`,
 `prt_ldprt_axis{k}` (FLOAT_VECTOR), `prt_Z{k}_{l}` (lobe k's coefficient l: FLOAT, or
-FLOAT_VECTOR R, G, B for an RGB bake), `prt_joint{i}` (INT) and `prt_weight{i}` (FLOAT),
+FLOAT_VECTOR R, G, B for an RGB bake), `prt_ldprt_vertex` (INT: the corner's vertex in the
+export; corners sharing one are lit once), `prt_joint{i}` (INT) and `prt_weight{i}` (FLOAT),
 i < 4; and `mesh["prt_ldprt"]` (JSON: order, lobes, channels, the bones the joints index,
 the baked pose).
 """
@@ -31,6 +32,7 @@ from .sh_frame import GLTF_TO_BLENDER, basis
 
 INFO = "prt_ldprt"
 NORMAL, TANGENT = "prt_ldprt_normal", "prt_ldprt_tangent"
+VERTEX = "prt_ldprt_vertex"  # the corner's vertex in the export: corners sharing one share lobes
 INFLUENCES = 4  # JOINTS_0 / WEIGHTS_0: what Blender's exporter writes by default
 
 
@@ -186,7 +188,7 @@ def read(glb_path, plan, depsgraph, settings):
             "normal": np.einsum("cij,cj->ci", undo, normal),
             "tangent": np.einsum("cij,cj->ci", undo, tangent),
             "axes": np.stack([a[f"_LDPRT_AXIS_{k}"][corner] for k in range(lobes)], 1),
-            "zh": zh, "joints": joints[corner] if skinned else None,
+            "zh": zh, "vertex": corner, "joints": joints[corner] if skinned else None,
             "weights": weights[corner] if skinned else None,
             "info": {"order": order, "lobes": lobes, "channels": channels, "bones": bones,
                      "pose": extras.get("pose") or "rest"},
@@ -209,6 +211,7 @@ def store(mesh, data):
     info = data["info"]
     _set(mesh, NORMAL, "FLOAT_VECTOR", data["normal"])
     _set(mesh, TANGENT, "FLOAT_VECTOR", data["tangent"])
+    _set(mesh, VERTEX, "INT", data["vertex"])
     for k in range(info["lobes"]):
         _set(mesh, axis_name(k), "FLOAT_VECTOR", data["axes"][:, k])
         for l in range(info["order"]):
@@ -234,24 +237,46 @@ def _get(mesh, name, width):
     return values.reshape(loops, width) if width > 1 else values
 
 
+def sh4(d, order):
+    """(N, n²) real SH of unit directions up to order 4 as polynomials in x, y, z (the
+    project's convention: Condon–Shortley phase, index l(l+1)+m; equal to sh_frame.basis to
+    float rounding, about 10 times faster: relighting runs it per lobe at every frame)."""
+    if order > 4:
+        return basis(d, order)
+    x, y, z = d[:, 0], d[:, 1], d[:, 2]
+    zz = z * z
+    columns = [np.full_like(x, 0.28209479177387814),
+               -0.4886025119029199 * y, 0.4886025119029199 * z, -0.4886025119029199 * x,
+               1.0925484305920792 * x * y, -1.0925484305920792 * y * z,
+               0.31539156525252005 * (3 * zz - 1), -1.0925484305920792 * x * z,
+               0.5462742152960396 * (x * x - y * y),
+               -0.5900435899266435 * y * (3 * x * x - y * y), 2.890611442640554 * x * y * z,
+               -0.4570457994644658 * y * (5 * zz - 1), 0.3731763325901154 * z * (5 * zz - 3),
+               -0.4570457994644658 * x * (5 * zz - 1), 1.445305721320277 * z * (x * x - y * y),
+               -0.5900435899266435 * x * (x * x - 3 * y * y)]
+    return np.stack(columns[:order * order], 1)
+
+
 def ldprt_objects(scene):
     """The scene's mesh objects that hold an LDPRT bake of the scene's order."""
     return [obj for obj in scene.objects if obj.type == "MESH" and INFO in obj.data
             and json.loads(obj.data[INFO])["order"] == scene.prt.baked_order]
 
 
-def posed_frames(obj, depsgraph=None):
-    """(corners, 3, 3) the frames (t, b, n as rows) of obj's corners in the current pose."""
+def posed_frames(obj, depsgraph=None, rows=slice(None)):
+    """(corners, 3, 3) the frames (t, b, n as rows) of obj's corners (those of `rows`) in the
+    current pose."""
     mesh = obj.data
     info = json.loads(mesh[INFO])
-    normal, tangent = _get(mesh, NORMAL, 3), _get(mesh, TANGENT, 3)
+    normal, tangent = _get(mesh, NORMAL, 3)[rows], _get(mesh, TANGENT, 3)[rows]
     armature = armature_of(obj) if info["bones"] else None
     if armature is not None:
         if depsgraph is not None:
             armature = armature.evaluated_get(depsgraph)
         bone_matrices, base = _bone_matrices(armature, info["bones"])
-        joints = np.stack([_get(mesh, f"prt_joint{i}", 1) for i in range(INFLUENCES)], 1)
-        weights = np.stack([_get(mesh, f"prt_weight{i}", 1) for i in range(INFLUENCES)], 1)
+        joints = np.stack([_get(mesh, f"prt_joint{i}", 1)[rows] for i in range(INFLUENCES)], 1)
+        weights = np.stack([_get(mesh, f"prt_weight{i}", 1)[rows]
+                            for i in range(INFLUENCES)], 1)
         skin = base[:3, :3] @ _blend(bone_matrices, joints, weights)
     else:
         source = obj.evaluated_get(depsgraph) if depsgraph is not None else obj
@@ -273,23 +298,26 @@ def skin_frames(skin, normal, tangent):
 
 def radiance(obj, light, depsgraph=None):
     """(corners, 3) Σ_k Σ_l √(4π/(2l+1)) g_kl Σ_m L_lm y_lm(axis_k) (albedo excluded) for
-    light (3, n²) in Blender's frame, in the current pose."""
+    light (3, n²) in Blender's frame, in the current pose. Evaluated once per exported vertex
+    (the face corners around a smooth vertex share it: a quarter of the work on quads)."""
     mesh = obj.data
     info = json.loads(mesh[INFO])
     order, lobes, channels = info["order"], info["lobes"], info["channels"]
-    frames = posed_frames(obj, depsgraph)
-    out = np.zeros((len(mesh.loops), 3))
+    _, rows, spread = np.unique(_get(mesh, VERTEX, 1), return_index=True,
+                                return_inverse=True)
+    frames = posed_frames(obj, depsgraph, rows)
+    out = np.zeros((len(rows), 3))
     for k in range(lobes):
-        axis = np.einsum("cj,cji->ci", _get(mesh, axis_name(k), 3), frames)
+        axis = np.einsum("cj,cji->ci", _get(mesh, axis_name(k), 3)[rows], frames)
         axis /= np.maximum(np.linalg.norm(axis, axis=1, keepdims=True), 1e-30)
-        y = basis(axis, order)
+        y = sh4(axis, order)
         for l in range(order):
             band = slice(l * l, (l + 1) * (l + 1))
             lit = y[:, band] @ light[:, band].T  # (corners, 3)
-            g = _get(mesh, zh_name(k, l), 3 if channels == 3 else 1)
+            g = _get(mesh, zh_name(k, l), 3 if channels == 3 else 1)[rows]
             g = g if channels == 3 else g[:, None]
             out += math.sqrt(4 * math.pi / (2 * l + 1)) * g * lit
-    return out
+    return out[spread]
 
 
 def relit_colors(obj, light, depsgraph=None):
