@@ -74,7 +74,7 @@ timeout 600 env BLENDER_USER_RESOURCES="$OUT/user-scatter" "$PY" "$HERE/test_sca
     >"$OUT/scatter.log" 2>&1 || { cat "$OUT/scatter.log"; exit 1; }
 ldprt_started=$(date +%s.%N)
 timeout 300 env BLENDER_USER_RESOURCES="$OUT/user-ldprt" "$PY" "$HERE/test_ldprt.py" \
-    "$OUT/prt_bake.zip" "$BAKE" "$OUT/rig.toml" "$OUT/ldprt" \
+    "$OUT/prt_bake.zip" "$BAKE" "$OUT/rig.toml" "$OUT/rig90.toml" "$OUT/ldprt" \
     >"$OUT/ldprt.log" 2>&1 || { cat "$OUT/ldprt.log"; exit 1; }
 ldprt_done=$(date +%s.%N)
 grep -hE '^(ok|FAIL) ' "$OUT/blender.log" "$OUT/blender-legacy.log" "$OUT/courtyard.log" \

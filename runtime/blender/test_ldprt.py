@@ -1,6 +1,7 @@
 """LDPRT on an armature-deformed mesh through the add-on, against the CLI (make blender-addon).
 
-    BLENDER_USER_RESOURCES=DIR python test_ldprt.py ZIP PRT_BAKE RIG OUT_DIR [--samples 256]
+    BLENDER_USER_RESOURCES=DIR python test_ldprt.py ZIP PRT_BAKE RIG RIG90 OUT_DIR
+        [--samples 256]
 
 Builds a ribbed tube deformed by a two-bone armature (Root, Tip; smoothstep weights across
 the middle) whose action "bend" turns Tip 0° → 45° → 90° over frames 0, 12, 24 (24 fps),
@@ -220,7 +221,7 @@ def cli(prt_bake, *arguments):
 
 def main():
     p = argparse.ArgumentParser()
-    for name in ("zip", "prt_bake", "rig", "out"):
+    for name in ("zip", "prt_bake", "rig", "rig90", "out"):
         p.add_argument(name)
     p.add_argument("--samples", type=int, default=256)
     a = p.parse_args()
@@ -270,6 +271,20 @@ def main():
               {f: {k: round(100 * v["within_2_percent"], 2) for k, v in o.items()}
                for f, o in figures.items()}))
     relit = time.time()
+
+    # Light rotation relights LDPRT meshes too (RIG90: the rig turned 90° about +z).
+    cli(a.prt_bake, "relight", glb, out / "cli.ldprt", "--pose", "bend@1", "--lights",
+        a.rig90, "-o", out / "cli-24-90.ply")
+    scene.prt.light_rotation = math.pi / 2
+    turned = compare(objects, corners, out / "cli-24-90.ply", 24)
+    scene.prt.light_rotation = 0.0
+    check("LDPRT: Light rotation 90° at frame 24 against the CLI's rig turned 90°",
+          passes(turned), {k: round(100 * v["within_2_percent"], 2) for k, v in turned.items()})
+    bpy.ops.prt.preview_material(show=True)
+    shown = [(s.link, s.material.name if s.material else None) for s in tube.material_slots]
+    bpy.ops.prt.preview_material(show=False)
+    check("LDPRT: Show PRT puts the PRT Relit material on the deformed tube", shown ==
+          [("OBJECT", "PRT Relit")] and tube.material_slots[0].link == "DATA", shown)
     report = {"addon": figures, "seconds": {"scene, CLI bake and relight, add-on bake":
                                             baked - started, "three frames": relit - baked}}
 
@@ -340,7 +355,7 @@ if __name__ == "__main__":
         traceback.print_exc()
         check("test_ldprt.py ran to its end", False)
         code = 1
-    out = Path(sys.argv[4]) if len(sys.argv) > 4 else Path(".")
+    out = Path(sys.argv[5]) if len(sys.argv) > 5 else Path(".")
     out.mkdir(parents=True, exist_ok=True)
     (out / "checks-ldprt.json").write_text(json.dumps(checks, indent=1))
     sys.stdout.flush()
