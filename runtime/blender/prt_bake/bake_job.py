@@ -177,13 +177,12 @@ class BakeJob:
             self.folder = None
 
     def _read_result(self):
-        npz = self._path("scene.npz")
-        if self.settings.transfer != "ldprt":
-            run_prt_bake(self.executable, ["export", self._path("scene.prt"),
-                                           "--scene", self._path("scene.glb"), "--npz", npz])
         if self.settings.transfer == "ldprt":
             self._read_ldprt()
             return
+        npz = self._path("scene.npz")
+        run_prt_bake(self.executable, ["export", self._path("scene.prt"),
+                                       "--scene", self._path("scene.glb"), "--npz", npz])
         if self.settings.lightmap:
             self._read_lightmaps(npz)
             return
@@ -238,7 +237,6 @@ class BakeJob:
             self.transfer.append((transfer[corner] @ turn.T).astype(np.float32))
             self.albedo.append(albedo[corner])
             cursor += count
-
 
     def _read_ldprt(self):
         """self.transfer: per plan receiver ldprt.read's arrays (its face corners' frames in
