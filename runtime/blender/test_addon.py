@@ -323,8 +323,8 @@ def modal(module, objects, a, arrays):
 
     def operator(samples):
         op = SimpleNamespace(samples=samples, order=4, mode="", rig=a.rig, seed=-1, threads=0,
-                             lightmap=0, reports=[])
-        for name in ("_prepare", "_finish", "_end", "_lightmap", "_warn"):
+                             lightmap=0, transfer="", lobes=0, pose="", reports=[])
+        for name in ("_prepare", "_finish", "_end", "_lightmap", "_warn", "_ldprt_settings"):
             setattr(op, name, getattr(cls, name).__get__(op))
         op.report = lambda kind, message: op.reports.append((set(kind), message))
         return op

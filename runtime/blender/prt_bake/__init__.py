@@ -19,7 +19,7 @@ bl_info = {
 
 import bpy  # noqa: E402
 
-from . import operators, panel, properties  # noqa: E402
+from . import operators, panel, properties, relight  # noqa: E402
 
 _classes = (properties.PrtSceneSettings, properties.PrtPreferences, *operators.classes,
             *panel.classes)
@@ -32,9 +32,13 @@ def register():
     bpy.types.Object.prt_receive = bpy.props.BoolProperty(
         name="PRT receive", default=True, description="Bake this object's transfer (off: "
         "it only casts shadows and reflects light)")
+    if relight.on_frame_change not in bpy.app.handlers.frame_change_post:
+        bpy.app.handlers.frame_change_post.append(relight.on_frame_change)
 
 
 def unregister():
+    if relight.on_frame_change in bpy.app.handlers.frame_change_post:
+        bpy.app.handlers.frame_change_post.remove(relight.on_frame_change)
     del bpy.types.Scene.prt
     del bpy.types.Object.prt_receive
     for cls in reversed(_classes):

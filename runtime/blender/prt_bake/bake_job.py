@@ -14,6 +14,7 @@ timer; a script may call `run()`, which polls until done); `cancel()` stops it. 
 failure raises PrtError; the temporary folder is removed in every case by `close()`.
 """
 
+import contextlib
 import math
 import os
 import shutil
@@ -23,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import corner_map, gltf_scene
+from . import corner_map, gltf_scene, ldprt
 from .errors import PrtError
 from .process import failure, run_prt_bake
 from .sh_frame import gltf_to_blender
@@ -46,6 +47,10 @@ class BakeSettings:
     lightmap_uv: str = ""  # the UV map (empty: the second, else the only one)
     double_sided: str = "off"  # prt-bake --double-sided: auto or off
     denoise: str = "auto"  # prt-bake --denoise: auto, on or off
+    transfer: str = "sh"  # or "ldprt": zonal lobes that follow an armature (ldprt.py)
+    lobes: int = 3  # LDPRT lobes per vertex (--lobes)
+    pose: str = "REST"  # LDPRT: bake the armatures' rest pose, or "CURRENT"
+    pose_argument: str = "rest"  # LDPRT: prt-bake's --pose (export.pose_argument)
 
 
 class BakeJob:
@@ -86,13 +91,17 @@ class BakeJob:
         vertices = self._work()
         block = max(MIN_BLOCK, math.ceil(vertices / PROGRESS_BLOCKS))
         self.blocks_total = math.ceil(vertices / block)
+        ldprt = s.transfer == "ldprt"
         arguments = [
             "bake", self._path("scene.glb"), "-o", self._path("scene.prt"),
             "--order", str(s.order), "--samples", str(s.samples), "--mode", s.mode,
             "--seed", str(s.seed), "--quiet",
         ]
+        if ldprt:  # whole (no checkpoints); the pose is the export's own (export.py)
+            arguments += ["--transfer", "ldprt", "--lobes", str(s.lobes), "--pose",
+                          s.pose_argument]
         # Lightmaps run whole: `--denoise auto` denoises whole lightmap bakes only.
-        if self.plan.flat and not s.lightmap:
+        if self.plan.flat and not s.lightmap and not ldprt:
             arguments += ["--checkpoint", self._path("blocks"),
                           "--checkpoint-vertices", str(block)]
         arguments += ["--double-sided", s.double_sided, "--denoise", s.denoise]
@@ -168,6 +177,9 @@ class BakeJob:
             self.folder = None
 
     def _read_result(self):
+        if self.settings.transfer == "ldprt":
+            self._read_ldprt()
+            return
         npz = self._path("scene.npz")
         run_prt_bake(self.executable, ["export", self._path("scene.prt"),
                                        "--scene", self._path("scene.glb"), "--npz", npz])
@@ -225,6 +237,39 @@ class BakeJob:
             self.transfer.append((transfer[corner] @ turn.T).astype(np.float32))
             self.albedo.append(albedo[corner])
             cursor += count
+
+    def _read_ldprt(self):
+        """self.transfer: per plan receiver ldprt.read's arrays (its face corners' frames in
+        the rest pose, lobes, joints and weights), from the LDPRT export's skinned GLB."""
+        glb = self._path("scene-ldprt.glb")
+        run_prt_bake(self.executable, ["export", self._path("scene.prt"), "--scene",
+                                       self._path("scene.glb"), "--glb", glb])
+        with rest_pose(self.plan.receivers) as depsgraph:
+            self.transfer = ldprt.read(glb, self.plan, depsgraph, self.settings)
+
+
+@contextlib.contextmanager
+def rest_pose(receivers):
+    """The evaluated depsgraph with the receivers' armatures in their rest pose (the LDPRT
+    export's frames are in the bind space, its joints at rest: the corners are checked there),
+    put back as they were afterwards."""
+    import bpy
+
+    changed = []
+    for r in receivers:
+        armature = ldprt.armature_of(r.obj)
+        if armature is not None and armature.data.pose_position != "REST":
+            changed.append(armature.data)
+            armature.data.pose_position = "REST"
+    try:
+        if changed:
+            bpy.context.view_layer.update()
+        yield bpy.context.evaluated_depsgraph_get()
+    finally:
+        for data in changed:
+            data.pose_position = "POSE"
+        if changed:
+            bpy.context.view_layer.update()
 
 
 def bpy_depsgraph():

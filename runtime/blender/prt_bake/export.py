@@ -30,6 +30,32 @@ EXPORT_SETTINGS = dict(
 )
 
 
+
+
+def ldprt_export_settings(current_pose):
+    """An LDPRT bake's export: the skins too, their joints (the nodes' own transforms) at the
+    armatures' rest pose; for a bake of the current pose the actions too, which prt-bake
+    poses (`--pose ACTION@SECONDS`, `pose_argument`)."""
+    return dict(EXPORT_SETTINGS, export_skins=True, export_rest_position_armature=True,
+                export_animations=current_pose)
+
+
+def pose_argument(context, plan, armatures):
+    """prt-bake's `--pose` for the current frame: the armatures' one action, as Blender's
+    exporter names it, at frame / fps seconds (the exporter's time of a frame)."""
+    actions = {a.animation_data.action.name for a in armatures
+               if a.animation_data is not None and a.animation_data.action is not None}
+    names = [a.get("name") for a in plan.glb.json.get("animations", [])]
+    if len(actions) != 1 or next(iter(actions)) not in names:
+        raise PrtError("a bake of the current pose needs one action playing on the armatures "
+                       f"(found {sorted(actions) or 'none'}; exported animations "
+                       f"{names}): bake the rest pose, or give the armatures one action")
+    scene = context.scene
+    seconds = (scene.frame_current + scene.frame_subframe) * scene.render.fps_base \
+        / scene.render.fps
+    return f"{next(iter(actions))}@{seconds!r}"
+
+
 @dataclass
 class Receiver:
     obj: object
@@ -85,9 +111,10 @@ def _same_topology(obj, depsgraph):
         evaluated.to_mesh_clear()
 
 
-def export_scene(context, path):
+def export_scene(context, path, settings=None):
     """Writes the scene to `path` (GLB) with every mesh node's receive mark; returns the
-    Plan. Raises PrtError when nothing can be baked."""
+    Plan. Raises PrtError when nothing can be baked. `settings`: the exporter's (default
+    EXPORT_SETTINGS)."""
     warnings = []
     objects = _receiving_objects(context, warnings)
     depsgraph = context.evaluated_depsgraph_get()
@@ -101,7 +128,7 @@ def export_scene(context, path):
                             "baked (apply the modifiers to bake it)")
     if not receivers:
         raise PrtError("no visible mesh to bake (or none with PRT receive on)")
-    result = bpy.ops.export_scene.gltf(filepath=path, **EXPORT_SETTINGS)
+    result = bpy.ops.export_scene.gltf(filepath=path, **(settings or EXPORT_SETTINGS))
     if result != {"FINISHED"}:
         raise PrtError(f"Blender's glTF export failed ({result})")
     glb = gltf_scene.Glb(path)

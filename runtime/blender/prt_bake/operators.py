@@ -11,7 +11,7 @@ import time
 
 import bpy
 
-from . import export, light, relight
+from . import export, ldprt, light, relight
 from .bake_job import BakeJob, BakeSettings
 from .errors import PrtError
 from .lightmap_images import RELIT, store_lightmap, texel_materials, transfer_images
@@ -68,6 +68,13 @@ class PRT_OT_bake(bpy.types.Operator):
         name="Lightmap", default=-1, min=-1, description="Texels per side of each object's "
         "lightmap; 0: per vertex; -1: the scene's setting")
 
+    transfer: bpy.props.StringProperty(
+        name="Transfer", default="", description="AUTO, SH or LDPRT (empty: the scene's)")
+    lobes: bpy.props.IntProperty(name="Lobes", default=0, min=0, max=8,
+                                 description="LDPRT lobes per vertex (0: the scene's)")
+    pose: bpy.props.StringProperty(name="Pose", default="",
+                                   description="LDPRT: REST or CURRENT (empty: the scene's)")
+
     _job = None
     _timer = None
 
@@ -86,6 +93,7 @@ class PRT_OT_bake(bpy.types.Operator):
                                 double_sided=s.double_sided, denoise=s.denoise)
         if settings.mode not in ("shadowed", "interreflected"):
             raise PrtError(f"unknown mode {settings.mode!r} (shadowed or interreflected)")
+        self._ldprt_settings(context, settings)
         executable = find_prt_bake(preferences(context))
         self._light = _project_light(context, executable, s, settings.order, self.rig)
         self._started = time.time()
@@ -97,7 +105,19 @@ class PRT_OT_bake(bpy.types.Operator):
         folder = tempfile.mkdtemp(prefix="prt-bake-")
         try:
             path = f"{folder}/scene.glb"
-            plan = export.export_scene(context, path)
+            if settings.transfer == "ldprt":
+                current = settings.pose == "CURRENT"
+                plan = export.export_scene(context, path,
+                                           export.ldprt_export_settings(current))
+                if not plan.flat:
+                    raise PrtError("LDPRT bakes every visible mesh, each of its own: turn PRT "
+                                   "receive on (or hide the object) for every visible mesh, "
+                                   "and make instances real (they share a mesh)")
+                if current:
+                    armatures = {ldprt.armature_of(r.obj) for r in plan.receivers} - {None}
+                    settings.pose_argument = export.pose_argument(context, plan, armatures)
+            else:
+                plan = export.export_scene(context, path)
             if settings.lightmap:
                 for r in plan.receivers:
                     layers = r.obj.data.uv_layers
@@ -113,6 +133,32 @@ class PRT_OT_bake(bpy.types.Operator):
         self._order = settings.order
         return BakeJob(executable, settings, plan, folder)
 
+    def _ldprt_settings(self, context, settings):
+        """Transfer: LDPRT where asked, or (Auto) where a receiver is deformed by an
+        armature; its lobes and pose. LDPRT is per vertex, front faces only, order ≤ 4."""
+        s = context.scene.prt
+        transfer = (self.transfer or s.transfer).upper()
+        if transfer not in ("AUTO", "SH", "LDPRT"):
+            raise PrtError(f"unknown transfer {transfer!r} (AUTO, SH or LDPRT)")
+        if transfer == "AUTO":
+            deformed = [o for o in context.view_layer.objects if o.type == "MESH"
+                        and o.visible_get() and o.prt_receive and ldprt.armature_of(o)]
+            transfer = "LDPRT" if deformed and not settings.lightmap else "SH"
+        if transfer == "SH":
+            return
+        settings.transfer, settings.lobes = "ldprt", self.lobes or s.lobes
+        settings.pose = (self.pose or s.ldprt_pose).upper()
+        if settings.pose not in ("REST", "CURRENT"):
+            raise PrtError(f"unknown pose {settings.pose!r} (REST or CURRENT)")
+        if settings.lightmap:
+            raise PrtError("LDPRT bakes per vertex: choose Bake: Per vertex")
+        if settings.order > 4:
+            raise PrtError(f"LDPRT keeps order 4 at most (order {settings.order} asked)")
+        if settings.double_sided != "off":
+            self.report({"WARNING"}, "Double-sided auto applies to SH bakes: this LDPRT bake "
+                        "bakes fronts only")
+            settings.double_sided = "off"
+
     def _warn(self, context, warnings):
         """Each warning in Blender's report and in the panel's list of the last bake's."""
         for warning in warnings:
@@ -120,7 +166,10 @@ class PRT_OT_bake(bpy.types.Operator):
         context.scene.prt.last_warnings = json.dumps(warnings)
 
     def _finish(self, context, job):
-        if not job.settings.lightmap:
+        if job.settings.transfer == "ldprt":
+            for r, data in zip(job.plan.receivers, job.transfer):
+                ldprt.store(r.obj.data, data)
+        elif not job.settings.lightmap:
             for r, transfer, albedo in zip(job.plan.receivers, job.transfer, job.albedo):
                 store_transfer(r.obj.data, transfer, albedo)
         for r, transfer in zip(job.receivers if job.settings.lightmap else [], job.transfer):
@@ -296,6 +345,7 @@ class PRT_OT_preview_material(bpy.types.Operator):
 
     def execute(self, context):
         meshes = set(m.name for m in baked_meshes(context.scene))
+        meshes |= {o.data.name for o in ldprt.ldprt_objects(context.scene)}
         lightmaps = {i["prt_object"]: i for i in transfer_images()}
         if not meshes and not lightmaps:
             self.report({"ERROR"}, "nothing baked yet: bake first")

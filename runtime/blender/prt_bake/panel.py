@@ -23,6 +23,10 @@ class PRT_PT_panel(bpy.types.Panel):
         if s.target == "LIGHTMAP":
             column.prop(s, "lightmap_resolution")
             column.prop(s, "lightmap_uv")
+        column.prop(s, "transfer")
+        if s.transfer != "SH":
+            column.prop(s, "lobes")
+            column.prop(s, "ldprt_pose")
         column.prop(s, "double_sided")
         column.prop(s, "denoise")
         column.prop(s, "rig_source")

@@ -39,6 +39,18 @@ class PrtSceneSettings(bpy.types.PropertyGroup):
         ("auto", "Auto", "prt-bake's choice (off for vertex bakes)"),
         ("on", "On", "Denoise the transfer"), ("off", "Off", "No denoising"),
     ], default="auto")
+    transfer: bpy.props.EnumProperty(name="Transfer", items=[
+        ("AUTO", "Auto", "LDPRT where a receiver is deformed by an armature, else SH"),
+        ("SH", "SH", "Spherical-harmonic transfer in world space (rigid meshes)"),
+        ("LDPRT", "LDPRT", "Zonal lobes in each vertex's frame, which follow an armature's "
+         "pose (every visible mesh receives; per vertex, order 4 at most)"),
+    ], default="AUTO")
+    lobes: bpy.props.IntProperty(name="Lobes", description="LDPRT: zonal lobes per vertex",
+                                 default=3, min=1, max=8)
+    ldprt_pose: bpy.props.EnumProperty(name="Pose", items=[
+        ("REST", "Rest", "Bake the armatures' rest pose"),
+        ("CURRENT", "Current", "Bake the pose at the current frame"),
+    ], default="REST")
     rig_source: bpy.props.EnumProperty(name="Light", items=[
         ("FILE", "Rig file", "A prt-bake rig (TOML; docs/reference/lights.md)"),
         ("WORLD", "World", "The World: its uniform colour as a constant sky, or its "

@@ -24,6 +24,9 @@ def attribute_name(j):
 def store_transfer(mesh, transfer, albedo=None):
     """transfer: (loops, channels, n²) float32 for this mesh's face corners; albedo: (loops,
     3) prt-bake's albedo (base colour × texture), stored as ALBEDO."""
+    from .ldprt import clear
+
+    clear(mesh)  # an LDPRT bake's lobes, if the mesh held one
     loops, channels, count = transfer.shape
     kind = "FLOAT" if channels == 1 else "FLOAT_VECTOR"
     for name in [a.name for a in mesh.attributes
@@ -103,4 +106,6 @@ def clear_transfer(mesh):
              if a.name.startswith(PREFIX) or a.name in (ALBEDO, PRT_COLOR)]
     for name in names:
         mesh.attributes.remove(mesh.attributes[name])
-    return bool(names)
+    from .ldprt import clear
+
+    return clear(mesh) or bool(names)
