@@ -342,3 +342,33 @@ fn character_needs_probes_and_its_bake() {
         assert_eq!(out.status.code(), Some(2), "{extra:?}");
     }
 }
+
+/// The window plays the walk (under Xvfb, as tests/window.rs runs windows): 30 frames, the
+/// character posed and lit through the probes each.
+#[test]
+fn the_window_plays_the_walk() {
+    let folder = tempfile::tempdir().unwrap();
+    let (files, _) = bake_files(folder.path());
+    let out = Command::new("xvfb-run")
+        .args(["-a", "-s", "-screen 0 1024x768x24"])
+        .arg(env!("CARGO_BIN_EXE_prt-view"))
+        .arg(room())
+        .arg(&files.room)
+        .arg("--probes")
+        .arg(&files.probes)
+        .arg("--character")
+        .arg(walker())
+        .arg("--character-ldprt")
+        .arg(&files.ldprt)
+        .args(["--size", "320x180", "--frames", "30"])
+        .output()
+        .expect("xvfb-run starts (scripts/install-deps.sh installs it)");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success()
+            && stdout.contains("30 frames")
+            && !stderr.contains("the character at"),
+        "{stdout}{stderr}"
+    );
+}
