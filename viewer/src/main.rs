@@ -33,7 +33,9 @@ const EXIT_BAD_INPUT: u8 = 3;
                   Moving objects (docs/guides/probes.md): --probes PROBES.prt (a grid bake of the scene, \
                   `prt-bake bake SCENE --probes grid:NX,NY,NZ`) draws the probes as spheres showing \
                   their incident radiance; --mover OBJECT --mover-prt OBJECT.prt --path \"x,y,z;x,y,z\" \
-                  moves an object baked alone along the path, lit through the probes."
+                  moves an object baked alone along the path, lit through the probes; --character \
+                  SKINNED.glb --character-ldprt FILE.ldprt plays a skinned character's animation through \
+                  them (docs/guides/characters.md)."
 )]
 struct Cli {
     /// The scene the coefficient file was baked from.
