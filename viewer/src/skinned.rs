@@ -17,6 +17,11 @@
 //! vertices, order 4, 3 lobes) costs 1.8 ms a frame in a release build on 2 cores (measured
 //! by tests/ldprt.rs), reading the glb twice included (`pose_axes` reads the baked pose
 //! again). The normal lines (N) stay those of the first frame's pose.
+//!
+//! A character walking through a probe-baked scene (`prt-view SCENE FILE --probes P
+//! --character SKINNED.glb --character-ldprt FILE.ldprt`) is posed the same way and lit on the
+//! CPU by [`Skinned::lit_through_probes`] (relight --probes's own function), then drawn by the
+//! probe scene's mover pipeline (probe_scene.rs) beside the scene.
 
 use std::path::{Path, PathBuf};
 
