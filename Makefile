@@ -23,6 +23,8 @@
 #   make blender-production  the production-style courtyard (scenes/production: cut-out cards,
 #                    a normal-mapped wall, linked-duplicate crates) against Cycles' AO bake
 #                    (part of make test, about 20 s after make blender; docs/reference/scenes.md)
+#   make blender-walker  the walking character (scenes/cornell/walker.glb) rebuilt by bpy equals
+#                    the committed file byte for byte (part of make test, about 4 s)
 #   make bench       the bake benchmark: Embree and obvhs against the raw Embree rate
 #                    (docs/explanation/performance.md)
 #   make bench-large how texel bakes scale: 1 M and 4 M triangles × 2048² and 4096² lightmaps,
@@ -192,10 +194,17 @@ blender-addon: blender
 blender-production: blender
 	scripts/blender/production.sh
 
+# The walking character (scenes/cornell/walker.glb) rebuilt by scripts/blender/make_walker.py
+# must equal the committed file byte for byte (about 3 s after make blender; docs/guides/characters.md).
+.PHONY: blender-walker
+blender-walker: blender
+	scripts/blender/walker.sh
+
 test: lint unit no-embree embree4 reference interop slurm browser mitsuba blender
 # (a line of its own, so that other additions to make test merge without conflict)
 test: blender-addon
 test: blender-production
+test: blender-walker
 test: mitsuba-subsurface
 test: mitsuba-probes
 test: docs-check

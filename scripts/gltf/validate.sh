@@ -66,9 +66,14 @@ $BAKE export "$OUT/card.prt" --scene scenes/cutout/card.glb --glb "$OUT/card.glb
 SKINNED=scenes/tube/tube-skinned.glb
 $BAKE bake $SKINNED -o "$OUT/tube-skinned.ldprt" --transfer ldprt --lobes 3 --samples 16 --quiet
 $BAKE export "$OUT/tube-skinned.ldprt" --scene $SKINNED --glb "$OUT/tube-skinned-ldprt.glb"
+# The Blender-made walking character (scripts/blender/make_walker.py), as committed and exported.
+WALKER=scenes/cornell/walker.glb
+$BAKE bake $WALKER -o "$OUT/walker.ldprt" --transfer ldprt --lobes 3 --samples 16 --quiet
+$BAKE export "$OUT/walker.ldprt" --scene $WALKER --glb "$OUT/walker-ldprt.glb"
 node scripts/gltf/materials.mjs $COURTYARD "$OUT/courtyard.glb" "$OUT/courtyard-lm.glb"
 node scripts/gltf/materials.mjs scenes/cutout/card.glb "$OUT/card.glb"
 node scripts/gltf/validate.mjs "$NODE_DIR/node_modules" "$OUT/torus.glb" "$OUT/cornell.glb" "$OUT/torus-again.glb" \
     "$OUT/cornell-lm.glb" "$OUT/cornell-lm-again.glb" "$OUT/cornell-lm-ao.glb" "$OUT/torus-ao.glb" \
     "$OUT/cornell-lm-plain.glb" "$OUT/cornell-cpca.glb" "$OUT/glossy-cpca.glb" \
-    "$OUT/courtyard.glb" "$OUT/courtyard-lm.glb" "$OUT/card.glb" "$OUT/tube-skinned-ldprt.glb"
+    "$OUT/courtyard.glb" "$OUT/courtyard-lm.glb" "$OUT/card.glb" "$OUT/tube-skinned-ldprt.glb" \
+    $WALKER "$OUT/walker-ldprt.glb"

@@ -33,7 +33,9 @@ const EXIT_BAD_INPUT: u8 = 3;
                   Moving objects (docs/guides/probes.md): --probes PROBES.prt (a grid bake of the scene, \
                   `prt-bake bake SCENE --probes grid:NX,NY,NZ`) draws the probes as spheres showing \
                   their incident radiance; --mover OBJECT --mover-prt OBJECT.prt --path \"x,y,z;x,y,z\" \
-                  moves an object baked alone along the path, lit through the probes."
+                  moves an object baked alone along the path, lit through the probes; --character \
+                  SKINNED.glb --character-ldprt FILE.ldprt plays a skinned character's animation through \
+                  them (docs/guides/characters.md)."
 )]
 struct Cli {
     /// The scene the coefficient file was baked from.
@@ -145,9 +147,18 @@ struct Cli {
     /// Start with the probes hidden (P shows them).
     #[arg(long, requires = "probes")]
     hide_probes: bool,
-    /// With an LDPRT file (`prt-bake bake SKINNED.glb --transfer ldprt`): show this pose
-    /// (rest, ANIM@SECONDS, ANIM#KEYFRAME) instead of playing the glTF's first animation.
-    #[arg(long, value_name = "POSE", conflicts_with_all = ["bench", "probes"])]
+    /// A skinned glTF character (with --character-ldprt, its LDPRT bake) that plays its
+    /// first animation through the scene, lit each frame by the probes at its posed position
+    /// (docs/guides/characters.md).
+    #[arg(long, value_name = "SKINNED.glb", requires_all = ["probes", "character_ldprt"], conflicts_with = "mover")]
+    character: Option<PathBuf>,
+    /// The character's LDPRT bake (`prt-bake bake SKINNED.glb --transfer ldprt`).
+    #[arg(long, value_name = "FILE.ldprt", requires = "character")]
+    character_ldprt: Option<PathBuf>,
+    /// With an LDPRT file (`prt-bake bake SKINNED.glb --transfer ldprt`) or --character: show
+    /// this pose (rest, ANIM@SECONDS, ANIM#KEYFRAME) instead of playing the glTF's first
+    /// animation.
+    #[arg(long, value_name = "POSE", conflicts_with = "bench")]
     pose: Option<prt_baker::scene::Pose>,
 }
 
@@ -221,6 +232,8 @@ fn run(cli: Cli) -> Result<(), Error> {
         cli.mover_prt.as_ref(),
         cli.mover_occluder.as_ref(),
         cli.bench_occluder.as_ref(),
+        cli.character.as_ref(),
+        cli.character_ldprt.as_ref(),
     ]
     .into_iter()
     .flatten()
@@ -233,7 +246,7 @@ fn run(cli: Cli) -> Result<(), Error> {
     let (bake, skinned) = if is_ldprt(&cli.file) {
         let (skinned, bake) = Skinned::load(&cli.scene, &cli.file, cli.pose.clone())?;
         (bake, Some(skinned))
-    } else if cli.pose.is_some() {
+    } else if cli.pose.is_some() && cli.character.is_none() {
         return Err(Error::InvalidOption(
             "--pose is for LDPRT files (bake --transfer ldprt)".into(),
         ));
@@ -254,6 +267,10 @@ fn run(cli: Cli) -> Result<(), Error> {
     let shadow = match &cli.mover_occluder {
         Some(path) => Some(MoverShadow::new(&bake, OccluderFile::read(path)?)?),
         None => None,
+    };
+    let walker = match (&cli.character, &cli.character_ldprt) {
+        (Some(mesh), Some(ldprt)) => Some(Skinned::open(mesh, ldprt, cli.pose.clone())?),
+        _ => None,
     };
 
     if cli.bench {
@@ -282,7 +299,7 @@ fn run(cli: Cli) -> Result<(), Error> {
         return screenshot(
             &cli,
             path,
-            (&bake, probes, shadow),
+            (&bake, probes, shadow, walker),
             &view,
             &rig,
             named_inputs,
@@ -295,6 +312,7 @@ fn run(cli: Cli) -> Result<(), Error> {
         probes,
         shadow,
         skinned,
+        walker,
     };
     let stats = window::run(bake, view, options)?;
     println!(
@@ -369,7 +387,7 @@ type ProbesAndMover = Option<(Probes, Option<Mover>)>;
 fn screenshot(
     cli: &Cli,
     path: &Path,
-    (bake, probes, shadow): (&Bake, ProbesAndMover, Option<MoverShadow>),
+    (bake, probes, shadow, walker): (&Bake, ProbesAndMover, Option<MoverShadow>, Option<Skinned>),
     view: &View,
     rig: &Rig,
     named_inputs: Vec<PathBuf>,
@@ -387,6 +405,9 @@ fn screenshot(
         let scene = renderer.probe_scene_mut().expect("just set");
         scene.show_probes = !cli.hide_probes;
         scene.distance = cli.mover_at.clamp(0.0, 1.0) * scene.mover().map_or(0.0, |m| m.length());
+    }
+    if let Some(walker) = walker {
+        renderer.set_walker(&gpu.device, walker)?;
     }
     if let Some(shadow) = shadow {
         renderer.set_mover_shadow(&gpu.device, bake, shadow)?;

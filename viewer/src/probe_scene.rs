@@ -16,6 +16,7 @@ use prt_baker::light::LightCoefficients;
 use crate::error::{Error, Result};
 use crate::moving::{Mover, Probes};
 use crate::resources::{PipelineSpec, buffer_binding, pipeline, scene_shader, storage_entry};
+use crate::skinned::Skinned;
 
 /// A probe sphere's radius, as a fraction of the grid's smallest spacing.
 const SPHERE_RADIUS: f32 = 0.12;
@@ -36,6 +37,10 @@ pub struct ProbeScene {
     mover: Option<Mover>,
     /// Distance along the mover's path.
     pub distance: f32,
+    /// A skinned character walking through the probes instead of a rigid mover, and the
+    /// seconds since its animation started ([`ProbeScene::set_walker`]).
+    walker: Option<Skinned>,
+    pub seconds: f64,
     /// Whether the probe spheres are drawn.
     pub show_probes: bool,
     /// The valid probes' indices in the file.
@@ -194,6 +199,8 @@ impl ProbeScene {
             probes,
             mover,
             distance: 0.0,
+            walker: None,
+            seconds: 0.0,
             show_probes: true,
             valid,
             mover_vertices,
@@ -216,8 +223,46 @@ impl ProbeScene {
         self.mover.as_ref().map(|m| m.placement(self.distance))
     }
 
-    /// Moves the mover to where it is after `seconds` on its path.
+    /// A skinned character with its LDPRT bake (skinned.rs) that plays its animation through
+    /// the probes, lit each frame at its posed position; instead of a rigid mover.
+    pub fn set_walker(&mut self, device: &wgpu::Device, walker: Skinned) -> Result<()> {
+        if self.mover.is_some() {
+            return Err(Error::InvalidOption(
+                "one moving object at a time: a rigid mover or a character".into(),
+            ));
+        }
+        if walker.order() != self.probes.order() {
+            return Err(Error::InvalidOption(format!(
+                "the character's LDPRT bake is of order {}, the probes of order {}",
+                walker.order(),
+                self.probes.order()
+            )));
+        }
+        let indices: Vec<u32> = walker.triangles()?.into_iter().flatten().collect();
+        let vertex_count = indices.iter().max().map_or(0, |&i| i as usize + 1);
+        self.mover_vertices = Some(device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("character"),
+            size: (vertex_count.max(1) * std::mem::size_of::<MoverVertex>()) as u64,
+            usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        }));
+        let index_buffer = wgpu::util::DeviceExt::create_buffer_init(
+            device,
+            &wgpu::util::BufferInitDescriptor {
+                label: Some("character indices"),
+                contents: bytemuck::cast_slice(&indices),
+                usage: wgpu::BufferUsages::INDEX,
+            },
+        );
+        self.mover_indices = Some((index_buffer, indices.len() as u32));
+        self.walker = Some(walker);
+        Ok(())
+    }
+
+    /// Moves the mover to where it is after `seconds` on its path (a character to its pose
+    /// then).
     pub fn set_time(&mut self, seconds: f64) {
+        self.seconds = seconds;
         if let Some(m) = &self.mover {
             self.distance = m.distance_at(seconds);
         }
@@ -255,6 +300,25 @@ impl ProbeScene {
                 })
                 .collect();
             queue.write_buffer(buffer, 0, bytemuck::cast_slice(&vertices));
+        }
+        if let (Some(walker), Some(buffer)) = (&self.walker, &self.mover_vertices) {
+            let pose = walker.pose_at(self.seconds);
+            match walker.lit_through_probes(&pose, &field, light) {
+                Ok((positions, radiance)) => {
+                    let vertices: Vec<MoverVertex> = positions
+                        .iter()
+                        .zip(&radiance)
+                        .map(|(p, [r, g, b])| MoverVertex {
+                            position: p.to_array(),
+                            colour: [*r, *g, *b, 1.0],
+                        })
+                        .collect();
+                    queue.write_buffer(buffer, 0, bytemuck::cast_slice(&vertices));
+                }
+                // The file was read and checked when loaded; a frame that cannot pose keeps
+                // the last one.
+                Err(err) => eprintln!("prt-view: the character at {pose}: {err}"),
+            }
         }
     }
 

@@ -341,6 +341,20 @@ impl Renderer {
         Ok(())
     }
 
+    /// A skinned character walking through the probe scene (`set_probe_scene` first).
+    pub fn set_walker(
+        &mut self,
+        device: &wgpu::Device,
+        walker: crate::skinned::Skinned,
+    ) -> Result<()> {
+        match &mut self.probe_scene {
+            Some(scene) => scene.set_walker(device, walker),
+            None => Err(Error::InvalidOption(
+                "a character walks through transfer probes: give --probes".into(),
+            )),
+        }
+    }
+
     /// Darkens the scene where the probe scene's mover stands, each frame (occluders.rs):
     /// `bake` is this renderer's, whose lightmap (if any) gets the occluded radiance pass.
     pub fn set_mover_shadow(

@@ -17,13 +17,21 @@
 //! vertices, order 4, 3 lobes) costs 1.8 ms a frame in a release build on 2 cores (measured
 //! by tests/ldprt.rs), reading the glb twice included (`pose_axes` reads the baked pose
 //! again). The normal lines (N) stay those of the first frame's pose.
+//!
+//! A character walking through a probe-baked scene (`prt-view SCENE FILE --probes P
+//! --character SKINNED.glb --character-ldprt FILE.ldprt`) is posed the same way and lit on the
+//! CPU by [`Skinned::lit_through_probes`] (relight --probes's own function), then drawn by the
+//! probe scene's mover pipeline (probe_scene.rs) beside the scene.
 
 use std::path::{Path, PathBuf};
 
 use prt_baker::bake::ldprt::world_transfer_axes;
+use prt_baker::export::probe_field::ProbeField;
 use prt_baker::export::relight_ldprt::{check_topology, pose_axes};
+use prt_baker::export::relight_ldprt_probes::character_radiance;
 use prt_baker::formats::ldprt_file::LdprtFile;
-use prt_baker::scene::Pose;
+use prt_baker::light::LightCoefficients;
+use prt_baker::scene::{Pose, Up};
 use prt_baker::{BakeOptions, CoefficientFile, Scene};
 
 use crate::bake::{Bake, turn_to_z_up};
@@ -51,14 +59,7 @@ impl Skinned {
     /// Reads the LDPRT file and the glTF's first animation; the bake returned shows the
     /// first frame's pose.
     pub fn load(mesh: &Path, ldprt: &Path, frozen: Option<Pose>) -> Result<(Skinned, Bake)> {
-        let file = LdprtFile::read(ldprt)?;
-        let skinned = Skinned {
-            mesh: mesh.to_path_buf(),
-            ldprt: ldprt.to_path_buf(),
-            file,
-            animation: first_animation(mesh)?,
-            frozen,
-        };
+        let skinned = Skinned::open(mesh, ldprt, frozen)?;
         let (scene, transfer) = skinned.posed_in_scene_frame(&skinned.pose_at(0.0))?;
         let bake = Bake::new(
             scene.clone(),
@@ -66,6 +67,54 @@ impl Skinned {
             ldprt,
         )?;
         Ok((skinned, bake))
+    }
+
+    /// Reads the LDPRT file and the glTF's first animation, and checks the mesh's rest pose
+    /// against the file's topology.
+    pub fn open(mesh: &Path, ldprt: &Path, frozen: Option<Pose>) -> Result<Skinned> {
+        let file = LdprtFile::read(ldprt)?;
+        let (scene, _warnings) = Scene::load_posed(mesh, None, &Pose::Rest)?;
+        check_topology(&file, ldprt, &scene)?;
+        Ok(Skinned {
+            mesh: mesh.to_path_buf(),
+            ldprt: ldprt.to_path_buf(),
+            file,
+            animation: first_animation(mesh)?,
+            frozen,
+        })
+    }
+
+    /// The baked order.
+    pub fn order(&self) -> usize {
+        self.file.order as usize
+    }
+
+    /// The mesh's triangles (the same in every pose).
+    pub fn triangles(&self) -> Result<Vec<[u32; 3]>> {
+        Ok(Scene::load_posed(&self.mesh, None, &Pose::Rest)?
+            .0
+            .triangles)
+    }
+
+    /// The mesh in `pose` walking through a probe-baked scene (docs/guides/characters.md):
+    /// its vertices turned to z-up and their linear radiance, lit by the probes' incident
+    /// radiance at the centre of the posed bounds (`light` in the probes' z-up frame), as
+    /// `prt-bake relight MESH FILE --pose P --probes PROBES` lights them
+    /// ([`character_radiance`]).
+    pub fn lit_through_probes(
+        &self,
+        pose: &Pose,
+        field: &ProbeField,
+        light: &LightCoefficients,
+    ) -> Result<(Vec<glam::Vec3>, Vec<[f32; 3]>)> {
+        let (mut scene, _warnings) = Scene::load_posed(&self.mesh, None, pose)?;
+        check_topology(&self.file, &self.ldprt, &scene)?;
+        let axes = pose_axes(&self.file, &self.mesh, &scene)?;
+        let (_, radiance) =
+            character_radiance(&self.file, (&scene, &axes), (field, Up::Z), None, light);
+        let up = scene.up;
+        turn_to_z_up(&mut scene, up);
+        Ok((scene.positions, radiance))
     }
 
     /// The pose at `seconds` since the start: `--pose` if given, else the first animation

@@ -36,6 +36,8 @@ pub struct WindowOptions {
     pub shadow: Option<crate::occluders::MoverShadow>,
     /// A skinned glTF's LDPRT bake, posed each frame (skinned.rs).
     pub skinned: Option<crate::skinned::Skinned>,
+    /// A skinned character walking through the probes (`--character`).
+    pub walker: Option<crate::skinned::Skinned>,
 }
 
 /// What a window session did.
@@ -145,6 +147,9 @@ impl Running {
         )?;
         if let Some((probes, mover)) = &options.probes {
             renderer.set_probe_scene(&gpu.device, probes.clone(), mover.clone())?;
+        }
+        if let Some(walker) = &options.walker {
+            renderer.set_walker(&gpu.device, walker.clone())?;
         }
         if let Some(shadow) = &options.shadow {
             renderer.set_mover_shadow(&gpu.device, bake, shadow.clone())?;

@@ -34,8 +34,10 @@ pub struct RelightArgs {
     view: Option<glam::Vec3>,
     /// A probe bake (`bake --probes grid:…`) of the scene a rigid object moves through: the
     /// object (SCENE, FILE: baked alone, in its own frame) is lit by the probes' incident
-    /// radiance at --at, turned into its frame by --turn (docs/guides/probes.md).
-    #[arg(long, requires = "at", conflicts_with_all = ["view", "occluder"])]
+    /// radiance at --at, turned into its frame by --turn (docs/guides/probes.md). With an
+    /// LDPRT file: a character in --pose, lit at the centre of its posed bounds (or --at)
+    /// (docs/guides/characters.md).
+    #[arg(long, conflicts_with_all = ["view", "occluder"])]
     probes: Option<PathBuf>,
     /// With --probes: the object's position X,Y,Z in the probes' scene; with --occluder: the
     /// occluder's, one --at per --occluder.
@@ -96,16 +98,17 @@ pub fn run(args: RelightArgs) -> Result<(), Error> {
         let placed = args.occluders.placed(&args.at, &args.turn)?;
         return super::relight_occluders::run(files, &placed, &args.output, args.exposure);
     }
-    super::relight_occluders::check_placement(args.probes.is_some(), &args.at, &args.turn)?;
-    if super::relight_ldprt::run_if_ldprt(
-        (&args.scene, &args.pose),
-        &args.file,
-        &args.lights,
-        &args.output,
-        args.exposure,
-    )? {
+    let ldprt = super::relight_ldprt::LdprtRelight {
+        mesh: (&args.scene, &args.pose),
+        files: (&args.file, &args.lights),
+        probes: args.probes.as_deref(),
+        at: &args.at,
+        turns: args.turn.len(),
+    };
+    if super::relight_ldprt::run_if_ldprt(&ldprt, &args.output, args.exposure)? {
         return Ok(());
     }
+    super::relight_occluders::check_placement(args.probes.is_some(), &args.at, &args.turn)?;
     if let (Some(probes), Some(&position)) = (&args.probes, args.at.first()) {
         let placement = prt_baker::export::relight_rigid::Placement {
             probes,

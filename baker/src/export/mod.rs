@@ -14,5 +14,6 @@ pub mod probe_npz;
 pub mod relight;
 pub mod relight_glossy;
 pub mod relight_ldprt;
+pub mod relight_ldprt_probes;
 pub mod relight_occluded;
 pub mod relight_rigid;
