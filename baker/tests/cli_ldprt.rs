@@ -56,6 +56,53 @@ fn an_ldprt_bake_inspects_and_relights_on_a_pose() {
     );
 }
 
+/// A glTF `doubleSided` sheet (Blender's exporter marks materials so by default) baked with
+/// `--double-sided off` has no back sheet in the file: `relight` and `export --glb` read the
+/// mesh as the bake saw it, and with back sheets where the bake had them.
+#[test]
+fn a_double_sided_sheet_relights_as_it_was_baked() {
+    const CARD: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/cutout/card.glb");
+    let s = Scratch::new();
+    for (name, sides) in [("off.ldprt", "off"), ("auto.ldprt", "auto")] {
+        s.bake(
+            CARD,
+            name,
+            &[
+                "--transfer",
+                "ldprt",
+                "--lobes",
+                "1",
+                "--double-sided",
+                sides,
+            ],
+        );
+        let file = format!("out/{name}");
+        let relit = s
+            .run(&[
+                "relight",
+                CARD,
+                &file,
+                "--lights",
+                RIG,
+                "-o",
+                "out/card.ply",
+            ])
+            .success();
+        assert!(
+            relit.stdout.contains("of an LDPRT bake"),
+            "{}",
+            relit.stdout
+        );
+        std::fs::remove_file(s.path("out/card.ply")).unwrap();
+    }
+    let off = s.read("out/off.ldprt").len();
+    let auto = s.read("out/auto.ldprt").len();
+    assert!(
+        off < auto,
+        "the back sheet is baked only by auto: {off} vs {auto} bytes"
+    );
+}
+
 #[test]
 fn ldprt_refusals() {
     let s = Scratch::new();

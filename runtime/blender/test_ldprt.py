@@ -106,9 +106,8 @@ def build(rings=33, segments=24):
     floor = bpy.context.object
     floor.name = "Floor"
     floor.data.materials.append(material("FloorMaterial", (0.7, 0.7, 0.7)))
-    # One-sided (not doubleSided): `relight` of an LDPRT file reads a doubleSided plane with
-    # its back sheet, which the bake (--double-sided off, as the add-on bakes) has not.
-    floor.data.materials[0].use_backface_culling = True
+    # Double-sided, as Blender's exporter marks it by default: the add-on bakes it with
+    # --double-sided off, and `relight` must read it as the bake saw it.
     return [tube, floor]
 
 

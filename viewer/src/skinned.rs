@@ -27,7 +27,7 @@ use std::path::{Path, PathBuf};
 
 use prt_baker::bake::ldprt::world_transfer_axes;
 use prt_baker::export::probe_field::ProbeField;
-use prt_baker::export::relight_ldprt::{check_topology, pose_axes};
+use prt_baker::export::relight_ldprt::{load_posed_as_baked, pose_axes};
 use prt_baker::export::relight_ldprt_probes::character_radiance;
 use prt_baker::formats::ldprt_file::LdprtFile;
 use prt_baker::light::LightCoefficients;
@@ -73,8 +73,7 @@ impl Skinned {
     /// against the file's topology.
     pub fn open(mesh: &Path, ldprt: &Path, frozen: Option<Pose>) -> Result<Skinned> {
         let file = LdprtFile::read(ldprt)?;
-        let (scene, _warnings) = Scene::load_posed(mesh, None, &Pose::Rest)?;
-        check_topology(&file, ldprt, &scene)?;
+        load_posed_as_baked(&file, ldprt, mesh, &Pose::Rest)?;
         Ok(Skinned {
             mesh: mesh.to_path_buf(),
             ldprt: ldprt.to_path_buf(),
@@ -91,9 +90,11 @@ impl Skinned {
 
     /// The mesh's triangles (the same in every pose).
     pub fn triangles(&self) -> Result<Vec<[u32; 3]>> {
-        Ok(Scene::load_posed(&self.mesh, None, &Pose::Rest)?
-            .0
-            .triangles)
+        Ok(
+            load_posed_as_baked(&self.file, &self.ldprt, &self.mesh, &Pose::Rest)?
+                .0
+                .triangles,
+        )
     }
 
     /// The mesh in `pose` walking through a probe-baked scene (docs/guides/characters.md):
@@ -107,8 +108,8 @@ impl Skinned {
         field: &ProbeField,
         light: &LightCoefficients,
     ) -> Result<(Vec<glam::Vec3>, Vec<[f32; 3]>)> {
-        let (mut scene, _warnings) = Scene::load_posed(&self.mesh, None, pose)?;
-        check_topology(&self.file, &self.ldprt, &scene)?;
+        let (mut scene, _warnings) =
+            load_posed_as_baked(&self.file, &self.ldprt, &self.mesh, pose)?;
         let axes = pose_axes(&self.file, &self.mesh, &scene)?;
         let (_, radiance) =
             character_radiance(&self.file, (&scene, &axes), (field, Up::Z), None, light);
@@ -140,8 +141,7 @@ impl Skinned {
     }
 
     fn posed_in_scene_frame(&self, pose: &Pose) -> Result<(Scene, Vec<f32>)> {
-        let (scene, _warnings) = Scene::load_posed(&self.mesh, None, pose)?;
-        check_topology(&self.file, &self.ldprt, &scene)?;
+        let (scene, _warnings) = load_posed_as_baked(&self.file, &self.ldprt, &self.mesh, pose)?;
         let axes = pose_axes(&self.file, &self.mesh, &scene)?;
         let transfer = world_transfer_axes(&self.file, &axes)
             .into_iter()

@@ -23,9 +23,9 @@ use glam::DVec3;
 use serde_json::{Value, json};
 
 use crate::bake::ldprt::{bind_frames, frame};
-use crate::export::relight_ldprt::check_topology;
+use crate::export::relight_ldprt::load_posed_as_baked;
 use crate::formats::ldprt_file::LdprtFile;
-use crate::scene::{Pose, Scene};
+use crate::scene::Pose;
 use crate::support::error::{Error, Location, Result};
 use crate::support::output::Output;
 
@@ -61,8 +61,7 @@ pub fn export_ldprt_glb(ldprt: &Path, glb: &Path, output: &Path) -> Result<Writt
         .unwrap_or("rest")
         .parse()
         .map_err(bad)?;
-    let (scene, _) = Scene::load_posed(glb, None, &pose)?;
-    check_topology(&file, ldprt, &scene)?;
+    let (scene, _) = load_posed_as_baked(&file, ldprt, glb, &pose)?;
     let (Some(linear), Some(sources)) = (&scene.pose_linear, &scene.gltf_primitives) else {
         return Err(bad(
             "has no skin: the LDPRT export writes its lobes into a skinned .glb (other meshes \

@@ -19,25 +19,43 @@ use crate::light::{LightCoefficients, Rig};
 use crate::scene::{Pose, Scene};
 use crate::support::error::Result;
 
-/// Refuses a mesh whose vertex count or triangles differ from the baked mesh's.
-pub fn check_topology(file: &LdprtFile, path: &Path, scene: &Scene) -> Result<()> {
-    let count = scene.vertex_count();
-    if count as u64 != file.vertex_count
-        || topology_fingerprint(count, &scene.triangles) != file.topology
-    {
+/// Loads `mesh` in `pose` as the LDPRT file `file` (read from `path`) saw it: without the
+/// back sheets of its glTF `doubleSided` objects where the file was baked without them
+/// (`bake --double-sided off`; Blender's exporter marks materials double-sided by default).
+/// Refuses a mesh whose vertex count or triangles differ from the baked mesh's either way.
+pub fn load_posed_as_baked(
+    file: &LdprtFile,
+    path: &Path,
+    mesh: &Path,
+    pose: &Pose,
+) -> Result<(Scene, Vec<String>)> {
+    let (mut scene, warnings) = Scene::load_posed(mesh, None, pose)?;
+    let (count, topology) = (scene.vertex_count(), topology_of(&scene));
+    if !same_topology(file, &scene) && scene.first_back_sheet().is_some() {
+        scene.drop_back_sheets();
+    }
+    if !same_topology(file, &scene) {
         return Err(crate::Error::coefficient_file(
             path,
             format!(
                 "baked for a mesh of {} vertices and topology {:016x}; {} has {count} vertices and \
-                 topology {:016x} (a posed mesh must keep the baked mesh's vertices and triangles)",
+                 topology {topology:016x} (a posed mesh must keep the baked mesh's vertices and \
+                 triangles)",
                 file.vertex_count,
                 file.topology,
                 scene.path.display(),
-                topology_fingerprint(count, &scene.triangles)
             ),
         ));
     }
-    Ok(())
+    Ok((scene, warnings))
+}
+
+fn topology_of(scene: &Scene) -> u64 {
+    topology_fingerprint(scene.vertex_count(), &scene.triangles)
+}
+
+fn same_topology(file: &LdprtFile, scene: &Scene) -> bool {
+    scene.vertex_count() as u64 == file.vertex_count && topology_of(scene) == file.topology
 }
 
 /// Per-vertex linear RGB radiance of `file`'s lobes on `scene` (its pose) under `light`
@@ -59,7 +77,7 @@ pub fn pose_axes(file: &LdprtFile, mesh: &Path, scene: &Scene) -> Result<Vec<DVe
     let pose: Pose = baked.parse().map_err(|problem| {
         crate::Error::scene(crate::support::error::Location::file(mesh), problem)
     })?;
-    let (rest, _) = Scene::load_posed(mesh, None, &pose)?;
+    let (rest, _) = load_posed_as_baked(file, mesh, mesh, &pose)?;
     let rest_linear = rest.pose_linear.as_ref().unwrap_or(linear);
     let bind = bind_frames(&frames(&rest), rest_linear);
     Ok(frame_axes(file, &skinned_frames(&bind, linear)))
@@ -104,11 +122,10 @@ pub fn relight_ldprt(
 ) -> Result<Relit> {
     let rig = Rig::load(rig)?;
     let file = LdprtFile::read(ldprt)?;
-    let (scene, warnings) = Scene::load_posed(mesh, None, pose)?;
+    let (scene, warnings) = load_posed_as_baked(&file, ldprt, mesh, pose)?;
     for warning in warnings {
         eprintln!("warning: {}: {warning}", mesh.display());
     }
-    check_topology(&file, ldprt, &scene)?;
     if crate::export::relight::image_format(output).is_some() {
         return Err(crate::Error::InvalidOption(format!(
             "{}: an LDPRT bake relights to a .ply mesh",

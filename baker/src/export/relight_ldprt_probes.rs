@@ -15,7 +15,7 @@ use glam::{DMat3, DVec3, Vec3};
 
 use crate::export::probe_field::ProbeField;
 use crate::export::relight::{Relit, write_vertex_ply};
-use crate::export::relight_ldprt::{check_topology, ldprt_radiance_axes, pose_axes};
+use crate::export::relight_ldprt::{ldprt_radiance_axes, load_posed_as_baked, pose_axes};
 use crate::formats::coefficient_file::CoefficientFile;
 use crate::formats::ldprt_file::LdprtFile;
 use crate::light::{LightCoefficients, Rig};
@@ -89,11 +89,10 @@ pub fn relight_ldprt_probes(
 ) -> Result<(Relit, Vec3)> {
     let rig = Rig::load(rig)?;
     let file = LdprtFile::read(ldprt)?;
-    let (scene, warnings) = Scene::load_posed(mesh, None, pose)?;
+    let (scene, warnings) = load_posed_as_baked(&file, ldprt, mesh, pose)?;
     for warning in warnings {
         eprintln!("warning: {}: {warning}", mesh.display());
     }
-    check_topology(&file, ldprt, &scene)?;
     let probe_file = CoefficientFile::read(placement.probes)?;
     let field = ProbeField::new(&probe_file)
         .map_err(|message| Error::coefficient_file(placement.probes, message))?;
