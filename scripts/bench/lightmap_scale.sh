@@ -40,7 +40,7 @@
 #                    bake does)
 #   SCALE_WHOLE      the whole bakes run, a list (default "vertex shadowed interreflected"; the
 #                    staged pipelines need the whole bakes of their modes)
-# The staged pipeline's fixed costs at low ray counts (`make bench-staged`): SCALE_CELLS=600:1024
+# The staged pipeline's fixed costs at low ray counts (docs/explanation/performance.md): SCALE_CELLS=600:1024
 # SCALE_SHARDS=2 SCALE_RAW=0 SCALE_WHOLE=interreflected SCALE_DENOISE=auto (720,000 triangles).
 # A quick run: SCALE_CELLS=354:1024 SCALE_SHARDS=2 (250,632 triangles, 1024²), about 2 CPU-minutes
 # (the 512² cell of the same terrain measured 27 CPU-s without the raw rate; 100:256 takes seconds).
