@@ -145,8 +145,8 @@ fn staged_bakes_equal_the_whole_bake() {
     ]
     .concat();
     assert_staged_is_whole(&s, CORNELL, "room", &room, 3, 3);
-    // Denoised: the merged bounce files carry the parts' guides, and the last merge
-    // denoises the total before placing the lightmap, as the whole bake does.
+    // Denoised: the last bounce's gathers carry their parts' guides (and aux arrays), and the
+    // last merge denoises the total before placing the lightmap, as the whole bake does.
     let denoised = [&room[..], &["--denoise", "on"]].concat();
     assert_staged_is_whole(&s, CORNELL, "room-denoised", &denoised, 2, 2);
     assert!(s.read("out/room-denoised.prt") != s.read("out/room.prt"));
@@ -295,6 +295,14 @@ fn mismatched_stage_files_are_refused() {
         "out/x.prt",
     ])
     .fails_with(3, &["shards 0 of 2 are missing"]);
+    // A bounce file of the first format (aux and guides in every merged file): refused by
+    // its magic, naming the file.
+    let mut bytes = s.read("out/a-bounce-0.bnc");
+    bytes[7] = 1;
+    s.write("out/old.bnc", &bytes);
+    let gather = ["gather", "out/a-part-0.prt", "-o", "out/x.bnc", "--lower"];
+    s.run(&[&gather[..], &["out/old.bnc"]].concat())
+        .fails_with(3, &["out/old.bnc", "older prt-bake (version 1)"]);
     // A gather from a part of another bake (another seed's part, same lightmap size).
     let other = [&opts[..], &["--seed", "7", "--shard", "0/2"]].concat();
     s.bake(CORNELL, "b-part-0.prt", &other);

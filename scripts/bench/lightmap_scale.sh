@@ -35,6 +35,13 @@
 #   SCALE_KEEP       1 keeps every cell's bakes (default: deleted once compared; a 4096² cell
 #                    writes several GB)
 #   SCALE_OUT        folder (default target/bench-scale): scenes, logs, results.tsv
+#   SCALE_DENOISE    --denoise of every bake, whole and staged (default off; auto denoises the
+#                    texel bakes: the staged pipeline's last merge then denoises as the whole
+#                    bake does)
+#   SCALE_WHOLE      the whole bakes run, a list (default "vertex shadowed interreflected"; the
+#                    staged pipelines need the whole bakes of their modes)
+# The staged pipeline's fixed costs at low ray counts (docs/explanation/performance.md): SCALE_CELLS=600:1024
+# SCALE_SHARDS=2 SCALE_RAW=0 SCALE_WHOLE=interreflected SCALE_DENOISE=auto (720,000 triangles).
 # A quick run: SCALE_CELLS=354:1024 SCALE_SHARDS=2 (250,632 triangles, 1024²), about 2 CPU-minutes
 # (the 512² cell of the same terrain measured 27 CPU-s without the raw rate; 100:256 takes seconds).
 set -euo pipefail
@@ -51,6 +58,8 @@ relief=${SCALE_RELIEF:-4}
 shards=${SCALE_SHARDS-2 4}
 stage_modes=${SCALE_STAGE_MODES:-interreflected}
 stitch_shards=${SCALE_STITCH_SHARDS:-0}
+denoise=${SCALE_DENOISE:-off}
+whole_runs=" ${SCALE_WHOLE:-vertex shadowed interreflected} "
 [[ "$stitch_shards" =~ ^[0-9]+$ ]] || { echo "lightmap_scale: SCALE_STITCH_SHARDS takes a whole number, not '$stitch_shards'" >&2; exit 2; }
 [ -x "$bake" ] || { echo "lightmap_scale: $bake is missing (cargo build --release)" >&2; exit 1; }
 [ -x /usr/bin/time ] || { echo "lightmap_scale: /usr/bin/time is missing (apt-get install time)" >&2; exit 1; }
@@ -120,7 +129,7 @@ staged() {
     local s="$dir/stages-$mode-$n" tag="$mode-N$n"
     mkdir -p "$s"
     echo " staged $mode, $n shards:"
-    timed "$cell" "$s" "$tag:prepare" "$bake" prepare-lightmap "$scene" -o "$s/prep.lmp" --quiet "$@"
+    timed "$cell" "$s" "$tag:prepare" "$bake" prepare-lightmap "$scene" -o "$s/prep.lmp" --quiet --verbose "$@"
     # The seam stitch's system, factored once for the last merge or the stitch shards (on Slurm
     # beside the shards).
     timed "$cell" "$s" "$tag:factor" "$bake" factor-seams "$s/prep.lmp" -o "$s/seams.fac"
@@ -128,7 +137,7 @@ staged() {
     local parts=() k b
     for ((k = 0; k < n; k++)); do
         timed "$cell" "$s" "$tag:shard-$k" "$bake" bake "$scene" --prepared "$s/prep.lmp" --shard "$k/$n" \
-            -o "$s/part-$k.prt" --quiet "$@"
+            -o "$s/part-$k.prt" --quiet --verbose "$@"
         parts+=("$s/part-$k.prt")
     done
     size "$cell" "$tag:file-prepared" "$s/prep.lmp"
@@ -189,18 +198,24 @@ for cell in "${cells[@]}"; do
     rm -rf "$dir"
     mkdir -p "$dir"
     echo "cell $cell: $((2 * quads * quads)) triangles, ${res}², load $(cut -d' ' -f1-3 /proc/loadavg)"
-    # The whole bakes are raw, as the staged ones they are compared with byte for byte.
-    lm=(--lightmap "$res" --order "$order" --denoise off)
+    # The whole bakes take the staged ones' --denoise, as they are compared byte for byte.
+    lm=(--lightmap "$res" --order "$order" --denoise "$denoise")
     [ -n "$atlas" ] && lm+=(--atlas "$atlas")
     shadowed=("${lm[@]}" --samples "$samples")
     # Parts carry their bounce rows, which at 4096² outgrow the 1 GiB default limit.
     inter=("${lm[@]}" --samples "$ir_samples" --mode interreflected --bounces "$bounces" --hit-cache-mb 16384)
-    timed "$cell" "$dir" vertex "$bake" bake "$scene" -o "$dir/vertex.prt" --order "$order" --samples "$samples" --quiet --verbose
-    rm -f "$dir/vertex.prt"
-    timed "$cell" "$dir" shadowed "$bake" bake "$scene" -o "$dir/shadowed.prt" "${shadowed[@]}" --quiet --verbose
-    size "$cell" shadowed:file "$dir/shadowed.prt"
-    timed "$cell" "$dir" interreflected "$bake" bake "$scene" -o "$dir/interreflected.prt" "${inter[@]}" --quiet --verbose
-    size "$cell" interreflected:file "$dir/interreflected.prt"
+    if [[ "$whole_runs" == *" vertex "* ]]; then
+        timed "$cell" "$dir" vertex "$bake" bake "$scene" -o "$dir/vertex.prt" --order "$order" --samples "$samples" --quiet --verbose
+        rm -f "$dir/vertex.prt"
+    fi
+    if [[ "$whole_runs" == *" shadowed "* ]]; then
+        timed "$cell" "$dir" shadowed "$bake" bake "$scene" -o "$dir/shadowed.prt" "${shadowed[@]}" --quiet --verbose
+        size "$cell" shadowed:file "$dir/shadowed.prt"
+    fi
+    if [[ "$whole_runs" == *" interreflected "* ]]; then
+        timed "$cell" "$dir" interreflected "$bake" bake "$scene" -o "$dir/interreflected.prt" "${inter[@]}" --quiet --verbose
+        size "$cell" interreflected:file "$dir/interreflected.prt"
+    fi
     if [ "${SCALE_RAW:-1}" != 0 ] && [ -z "$atlas" ]; then
         for mode in shadowed interreflected; do
             if [ "$mode" = shadowed ]; then raw=("$samples" 0); else raw=("$ir_samples"); fi

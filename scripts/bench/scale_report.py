@@ -55,7 +55,8 @@ def stage_groups(runs):
     """The staged pipelines of a cell: {"interreflected-N2": {stage: run}}."""
     groups = OrderedDict()
     for name, run in runs.items():
-        if ":" in name and re.match(r"^(shadowed|interreflected)-N\d+:", name):
+        # A --verbose run's stage sum ("shard-0:stages") is inside its process's CPU.
+        if ":" in name and not name.endswith(":stages") and re.match(r"^(shadowed|interreflected)-N\d+:", name):
             tag, stage = name.split(":", 1)
             groups.setdefault(tag, OrderedDict())[stage] = run
     return groups

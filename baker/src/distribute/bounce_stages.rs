@@ -19,11 +19,14 @@
 //! length (u64) of a *stub* — a part file of no receivers that carries the bake's header and,
 //! in a merged file, its lightmap ([`Part`]; a shard's gather leaves the lightmap out, it is
 //! tens of megabytes) — the lightmap's fingerprint (u64, 0 for a vertex bake) and the stub;
-//! then bounce k at each receiver (n² floats at k = 0,
-//! channels × n² after); a merged file also the total T₀ + … + T_k (channels × n²), the
-//! aux arrays and, for a denoised bake, the parts' denoiser guides (12 words a receiver,
-//! [`crate::distribute::part_guides`]): the last merge denoises the total with them, as the
-//! whole bake denoises its transfer after the bounces; last an xxh3 of everything before it.
+//! then bounce k at each receiver (n² floats at k = 0, channels × n² after); a merged file
+//! with k ≥ 1 also the total T₀ + … + T_k (channels × n²; at k = 0 the total is T₀ broadcast,
+//! not stored); a file of the last bounce (k = B: the shards' last gathers) also the aux arrays
+//! and, for a denoised bake, the parts' denoiser guides (12 words a receiver,
+//! [`crate::distribute::part_guides`]), which each last gather copies from its own part, so
+//! that no earlier bounce file carries them: the last merge denoises the total with them, as
+//! the whole bake denoises its transfer after the bounces; last an xxh3 of everything before
+//! it. Version 1 files (aux and guides in every merged file) are refused: run the stages again.
 
 use std::borrow::Cow;
 use std::collections::BTreeMap;
@@ -43,7 +46,9 @@ use crate::math::sh;
 use crate::support::error::{Error, Result};
 use crate::support::progress::Progress;
 
-const MAGIC: &[u8; 8] = b"PRTBNC\0\x01";
+const MAGIC: &[u8; 8] = b"PRTBNC\0\x02";
+/// The first version's magic, refused with a message.
+const MAGIC_1: &[u8; 8] = b"PRTBNC\0\x01";
 /// Magic, k, shard index, shard count, reserved, first, count, stub length, fingerprint.
 const HEAD: usize = 56;
 
@@ -61,12 +66,14 @@ pub struct BounceFile {
     pub fingerprint: Option<u64>,
     /// Bounce k per receiver: n² floats at k = 0 (grey), channels × n² after.
     pub values: Vec<f32>,
-    /// Merged files: T₀ + … + T_k per receiver (channels × n²), and the aux arrays.
+    /// Merged files with k ≥ 1: T₀ + … + T_k per receiver (channels × n²; empty at k = 0,
+    /// where it is `values` broadcast: [`BounceFile::total_so_far`]).
     pub total: Vec<f32>,
+    /// Files of the last bounce (k = B): the aux arrays of their receivers.
     pub ao: Option<Vec<f32>>,
     pub bent_normal: Option<Vec<Vec3>>,
-    /// Merged files of a denoised bake: every receiver's noise and the denoiser's guides,
-    /// for the last merge to denoise with ([`crate::distribute::part_guides`]).
+    /// Files of the last bounce of a denoised bake: their receivers' noise and the denoiser's
+    /// guides, for the last merge to denoise with ([`crate::distribute::part_guides`]).
     pub guides: Option<Guides>,
 }
 
@@ -75,6 +82,28 @@ impl BounceFile {
         let n = sh::coeff_count(stub.header.order as usize);
         let total = stub.header.channels as usize * n;
         (if k == 0 { n } else { total }, total)
+    }
+
+    /// Whether a file of bounce k carries the aux arrays and guides: only the last bounce's.
+    fn carries_aux(stub: &Part, k: u32) -> bool {
+        k == stub.header.bounces
+    }
+
+    /// T₀ + … + T_k per receiver: at k = 0, T₀ broadcast to every channel, as the bake starts
+    /// its total.
+    fn total_so_far(&self) -> Vec<f32> {
+        if self.k > 0 {
+            return self.total.clone();
+        }
+        let n = sh::coeff_count(self.stub.header.order as usize);
+        let channels = self.stub.header.channels as usize;
+        let mut total = Vec::with_capacity(self.values.len() * channels);
+        for t0 in self.values.chunks_exact(n) {
+            for _ in 0..channels {
+                total.extend_from_slice(t0);
+            }
+        }
+        total
     }
 
     pub fn to_bytes(&self) -> Vec<u8> {
@@ -126,6 +155,13 @@ impl BounceFile {
     /// [`BounceFile::from_bytes`]; without `keep_total` a merged file's running total is
     /// checked by the checksum only and left empty (a gather never reads it: 150 MB at 2048²).
     fn from_bytes_with(bytes: &[u8], keep_total: bool) -> std::result::Result<BounceFile, String> {
+        if bytes.len() >= 8 && &bytes[..8] == MAGIC_1 {
+            return Err(
+                "a bounce file of an older prt-bake (version 1): run the bake's stages \
+                        again from the shards' parts (merge --direct, gather, merge --lower)"
+                    .into(),
+            );
+        }
         if bytes.len() < HEAD + 8 || &bytes[..8] != MAGIC {
             return Err("not a bounce file (prt-bake merge --direct, gather)".into());
         }
@@ -162,10 +198,13 @@ impl BounceFile {
         }
         let (width, total_width) = BounceFile::widths(&stub, k);
         let aux = stub.header.aux;
-        let guided = merged && stub.header.denoised;
+        let last = BounceFile::carries_aux(&stub, k);
+        let with_total = merged && k > 0;
+        let guided = last && stub.header.denoised;
         let per_receiver = width
-            + if merged {
-                total_width + usize::from(aux.ao) + 3 * usize::from(aux.bent_normal)
+            + total_width * usize::from(with_total)
+            + if last {
+                usize::from(aux.ao) + 3 * usize::from(aux.bent_normal)
             } else {
                 0
             }
@@ -196,12 +235,12 @@ impl BounceFile {
             }
         };
         let values = take(count_us * width, true);
-        let total = match merged {
+        let total = match with_total {
             true => take(count_us * total_width, keep_total),
             false => Vec::new(),
         };
-        let ao = (merged && aux.ao).then(|| take(count_us, true));
-        let bent_normal = (merged && aux.bent_normal).then(|| {
+        let ao = (last && aux.ao).then(|| take(count_us, true));
+        let bent_normal = (last && aux.bent_normal).then(|| {
             take(3 * count_us, true)
                 .chunks_exact(3)
                 .map(Vec3::from_slice)
@@ -256,6 +295,7 @@ impl BounceFile {
     /// bake's lightmap stitched only with `stitch`.
     pub fn into_file(self, stitch: bool) -> CoefficientFile {
         let receivers = self.stub.receiver_count();
+        let total = self.total_so_far();
         let part = Part {
             id: PartId {
                 shard: ShardId { index: 0, count: 1 },
@@ -267,7 +307,7 @@ impl BounceFile {
             guides: self.guides,
             ..self.stub
         };
-        part.into_file_with(self.total, stitch)
+        part.into_file_with(total, stitch)
     }
 }
 
@@ -322,7 +362,8 @@ fn check_same_bake(
 }
 
 /// `merge --direct`: bounce file 0 from every part of an interreflected bake (their direct
-/// transfer, joined; the total so far T₀ broadcast to every channel, as the bake starts it).
+/// transfer, joined; the total so far is T₀ broadcast, not stored). The aux arrays and guides
+/// stay in the parts: the last bounce's gathers carry them on.
 pub fn direct(paths: &[PathBuf]) -> Result<BounceFile> {
     let (header, _, whole) = join(paths)?;
     if header.mode != Mode::Interreflected {
@@ -330,26 +371,20 @@ pub fn direct(paths: &[PathBuf]) -> Result<BounceFile> {
             "merge --direct is for interreflected bakes (the others have no bounces)".into(),
         ));
     }
-    let n = sh::coeff_count(header.order as usize);
-    let channels = header.channels as usize;
-    let mut total = Vec::with_capacity(whole.coefficients.len() * channels);
-    for t0 in whole.coefficients.chunks_exact(n) {
-        for _ in 0..channels {
-            total.extend_from_slice(t0);
-        }
-    }
+    let stub = stub_of(&whole);
+    let last = BounceFile::carries_aux(&stub, 0);
     Ok(BounceFile {
         k: 0,
         shard: None,
         first: 0,
         count: whole.receiver_count() as u64,
-        stub: stub_of(&whole),
         fingerprint: fingerprint(&whole),
         values: whole.coefficients,
-        total,
-        ao: whole.ao,
-        bent_normal: whole.bent_normal,
-        guides: whole.guides,
+        total: Vec::new(),
+        ao: whole.ao.filter(|_| last),
+        bent_normal: whole.bent_normal.filter(|_| last),
+        guides: whole.guides.filter(|_| last),
+        stub,
     })
 }
 
@@ -357,7 +392,9 @@ pub fn direct(paths: &[PathBuf]) -> Result<BounceFile> {
 /// and the merged bounce file k at `lower_path`.
 pub fn gather(part_path: &Path, lower_path: &Path, progress: &dyn Progress) -> Result<BounceFile> {
     let lower = BounceFile::read_with(lower_path, false)?;
-    let (part, rows) = Part::read_packed_rows(part_path)?;
+    // The last bounce's gather carries the part's aux arrays and guides to the last merge.
+    let last = BounceFile::carries_aux(&lower.stub, lower.k + 1);
+    let (part, rows) = Part::read_packed_rows(part_path, last)?;
     if lower.shard.is_some() {
         return Err(refuse(format!(
             "{}: one shard's gather, not a merged bounce file (merge the shards' gathers first)",
@@ -414,16 +451,16 @@ pub fn gather(part_path: &Path, lower_path: &Path, progress: &dyn Progress) -> R
         fingerprint: lower.fingerprint,
         values,
         total: Vec::new(),
-        ao: None,
-        bent_normal: None,
-        guides: None,
+        ao: part.ao,
+        bent_normal: part.bent_normal,
+        guides: part.guides,
     })
 }
 
 /// `merge --lower`: bounce file k from every shard's gather of bounce k (`paths`, any order)
 /// and the merged bounce file k − 1 (`lower_path`): bounce k joined, and added to the total.
 pub fn merge(paths: &[PathBuf], lower_path: &Path) -> Result<BounceFile> {
-    let mut lower = BounceFile::read(lower_path)?;
+    let lower = BounceFile::read(lower_path)?;
     if lower.shard.is_some() {
         return Err(refuse(format!(
             "{}: one shard's gather, not a merged bounce file",
@@ -496,13 +533,40 @@ pub fn merge(paths: &[PathBuf], lower_path: &Path) -> Result<BounceFile> {
             missing.join(", ")
         )));
     }
-    let mut values = Vec::with_capacity(lower.total.len());
+    let mut total = lower.total_so_far();
+    let mut values = Vec::with_capacity(total.len());
+    // The last bounce's gathers carry their receivers' aux arrays and guides, in shard order.
+    let (mut ao, mut bent_normal, mut guides) = (None, None, None);
     for (_, file) in by_index.into_values() {
         values.extend(file.values);
+        join_aux(&mut ao, file.ao);
+        join_aux(&mut bent_normal, file.bent_normal);
+        match (&mut guides, file.guides) {
+            (None, more) => guides = more,
+            (Some(g), Some(more)) => g.append(more),
+            (Some(_), None) => {}
+        }
     }
     // The running total, as `sum_bounces` adds each bounce.
-    for (t, b) in lower.total.iter_mut().zip(&values) {
+    for (t, b) in total.iter_mut().zip(&values) {
         *t += b;
     }
-    Ok(BounceFile { k, values, ..lower })
+    Ok(BounceFile {
+        k,
+        values,
+        total,
+        ao,
+        bent_normal,
+        guides,
+        ..lower
+    })
+}
+
+/// Appends a gather's aux array to the ones before it.
+fn join_aux<T>(joined: &mut Option<Vec<T>>, more: Option<Vec<T>>) {
+    match (joined.as_mut(), more) {
+        (None, more) => *joined = more,
+        (Some(j), Some(more)) => j.extend(more),
+        (Some(_), None) => {}
+    }
 }

@@ -296,7 +296,7 @@ mod tests {
         );
 
         // A gather's reading: the same rows, read where they lie in the file.
-        let (header_only, packed) = Part::packed_rows_from_bytes(bytes.clone()).unwrap();
+        let (header_only, packed) = Part::packed_rows_from_bytes(bytes.clone(), false).unwrap();
         assert_eq!((header_only.id, packed.receiver_count()), (part.id, 40));
         for k in 0..40 {
             let range = rows.vertex(k);
@@ -310,13 +310,17 @@ mod tests {
         bad.rows.as_mut().unwrap().vertices[0] = part.header.vertex_count as u32;
         let err = Part::from_bytes(&bad.to_bytes()).unwrap_err();
         assert!(err.contains("bounce-row entry 0"), "{err}");
-        let err = Part::packed_rows_from_bytes(bad.to_bytes()).err().unwrap();
+        let err = Part::packed_rows_from_bytes(bad.to_bytes(), false)
+            .err()
+            .unwrap();
         assert!(err.contains("bounce-row entry 0"), "{err}");
         // A weight that is not finite, which the gather would spread.
         let mut bad = part.clone();
         let last = bad.rows.as_ref().unwrap().vertices.len() - 1;
         bad.rows.as_mut().unwrap().weights[last][2] = f32::NAN;
-        let err = Part::packed_rows_from_bytes(bad.to_bytes()).err().unwrap();
+        let err = Part::packed_rows_from_bytes(bad.to_bytes(), false)
+            .err()
+            .unwrap();
         assert!(err.contains(&format!("bounce-row entry {last}")), "{err}");
         // Row lengths that do not add up to the entries.
         let mut bad = part.clone();
@@ -393,7 +397,7 @@ mod tests {
         let mut read = Part::from_bytes(&bytes).unwrap();
         read.header.checksum = 0;
         assert!(read == grey, "a grey part read back differs");
-        let (_, packed) = Part::packed_rows_from_bytes(bytes.clone()).unwrap();
+        let (_, packed) = Part::packed_rows_from_bytes(bytes.clone(), false).unwrap();
         let rows = grey.rows.as_ref().unwrap();
         for k in 0..40 {
             let range = rows.vertex(k);
@@ -416,7 +420,9 @@ mod tests {
         old[124..128].copy_from_slice(&checksum.to_le_bytes());
         for err in [
             Part::from_bytes(&old).unwrap_err(),
-            Part::packed_rows_from_bytes(old.clone()).err().unwrap(),
+            Part::packed_rows_from_bytes(old.clone(), false)
+                .err()
+                .unwrap(),
         ] {
             assert!(err.contains("a part of an older prt-bake"), "{err}");
         }

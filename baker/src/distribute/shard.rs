@@ -236,21 +236,26 @@ impl Part {
         }
         let payload = &bytes[header_size..bytes.len() - tail as usize];
         let rows_at = (count * (width + aux_floats) * 4) as u64;
-        if reading == Reading::Packed {
+        if let Reading::Packed { aux } = reading {
             if !interreflected {
                 return Err(format!("{id}: a part without bounce rows"));
             }
             let (starts, grey) = row_starts(&payload[rows_at as usize..], &id)?;
             let at = header_size + rows_at as usize + 4 + 4 * count;
+            let (ao, bent_normal, guides) = match aux {
+                true => aux_arrays(&payload[count * width * 4..], &header, count)
+                    .map_err(|m| format!("{id}: {m}"))?,
+                false => (None, None, None),
+            };
             let part = Part {
                 header,
                 id,
                 coefficients: Vec::new(),
-                ao: None,
-                bent_normal: None,
+                ao,
+                bent_normal,
                 rows: None,
                 lightmap,
-                guides: None,
+                guides,
             };
             return Ok((part, Some((at, starts, grey))));
         }
@@ -267,21 +272,8 @@ impl Part {
                 .collect()
         };
         let coefficients = f32s(count * width);
-        let ao = header.aux.ao.then(|| f32s(count));
-        let bent_normal = header.aux.bent_normal.then(|| {
-            f32s(3 * count)
-                .chunks_exact(3)
-                .map(Vec3::from_slice)
-                .collect::<Vec<_>>()
-        });
-        let guides = match header.denoised {
-            true => {
-                let at = count * (width + aux_floats - GUIDE_WORDS) * 4;
-                let bytes = &payload[at..at + count * GUIDE_WORDS * 4];
-                Some(parse_guides(bytes, count).map_err(|m| format!("{id}: {m}"))?)
-            }
-            false => None,
-        };
+        let (ao, bent_normal, guides) = aux_arrays(&payload[count * width * 4..], &header, count)
+            .map_err(|m| format!("{id}: {m}"))?;
         let rows = if interreflected && reading == Reading::WithoutRows {
             row_starts(&payload[rows_at as usize..], &id)?;
             None
@@ -338,16 +330,18 @@ impl Part {
     /// What a gather reads of a part: its header, identity and lightmap block (not its
     /// arrays, nor its transfer), and its bounce rows where they lie in the file's bytes,
     /// each entry checked as [`Part::read`] checks it.
-    pub fn read_packed_rows(path: &Path) -> Result<(Part, PackedRows)> {
+    /// With `aux`, also its aux arrays and guides (the last bounce's gather passes them on).
+    pub fn read_packed_rows(path: &Path, aux: bool) -> Result<(Part, PackedRows)> {
         let bytes = crate::distribute::big_reads::map(path)?;
-        Part::packed_rows_from_bytes(bytes).map_err(|m| Error::coefficient_file(path, m))
+        Part::packed_rows_from_bytes(bytes, aux).map_err(|m| Error::coefficient_file(path, m))
     }
 
     /// [`Part::read_packed_rows`] of a file's bytes.
     pub fn packed_rows_from_bytes(
         bytes: impl std::ops::Deref<Target = [u8]> + Send + Sync + 'static,
+        aux: bool,
     ) -> std::result::Result<(Part, PackedRows), String> {
-        let (part, rows) = Part::parse(&bytes, Reading::Packed)?;
+        let (part, rows) = Part::parse(&bytes, Reading::Packed { aux })?;
         let part = Part::checked(part)?;
         let (at, starts, grey) = rows.expect("a packed reading returns the rows");
         let rows = PackedRows::new(bytes, at, starts, grey);
@@ -506,8 +500,43 @@ enum Reading {
     Whole,
     /// Everything but the bounce rows' entries (their lengths are checked).
     WithoutRows,
-    /// The header, identity and lightmap block, and where the rows lie ([`PackedRows`]).
-    Packed,
+    /// The header, identity and lightmap block, and where the rows lie ([`PackedRows`]);
+    /// with `aux` also the aux arrays and the denoiser's guides (the last bounce's gather
+    /// carries them to the last merge).
+    Packed {
+        aux: bool,
+    },
+}
+
+/// A part's aux arrays and guides, from `bytes` that start after its transfer.
+type AuxArrays = (Option<Vec<f32>>, Option<Vec<Vec3>>, Option<Guides>);
+
+/// The aux arrays (AO, bent normals) and the denoiser's guides of `count` receivers, from the
+/// bytes that follow their transfer (the lengths are checked by the caller).
+fn aux_arrays(bytes: &[u8], header: &Header, count: usize) -> Result<AuxArrays, String> {
+    let mut words = bytes
+        .chunks_exact(4)
+        .map(|w| f32::from_le_bytes(w.try_into().expect("4 bytes")));
+    let mut f32s = |n: usize| -> Vec<f32> { words.by_ref().take(n).collect() };
+    let ao = header.aux.ao.then(|| f32s(count));
+    let bent_normal = header.aux.bent_normal.then(|| {
+        f32s(3 * count)
+            .chunks_exact(3)
+            .map(Vec3::from_slice)
+            .collect::<Vec<_>>()
+    });
+    let guides = match header.denoised {
+        true => {
+            let at =
+                count * (usize::from(header.aux.ao) + 3 * usize::from(header.aux.bent_normal)) * 4;
+            Some(parse_guides(
+                &bytes[at..at + count * GUIDE_WORDS * 4],
+                count,
+            )?)
+        }
+        false => None,
+    };
+    Ok((ao, bent_normal, guides))
 }
 
 /// The options a header records (what the merge needs to gather the bounces).
