@@ -137,7 +137,16 @@ pub fn bake(
     let tracer = tracer_for(options, tracer)?;
     let started = Instant::now();
     let estimator = Estimator::new(scene, options)?;
+    let adaptive_denoised = crate::bake::adaptive_denoised::applies(options, tracer);
     let baked = match tracer {
+        // Sampled until the denoised estimate is within the target, and denoised.
+        Some(tracer) if adaptive_denoised => crate::bake::adaptive_denoised::baked(
+            &estimator,
+            tracer,
+            crate::bake::denoise::vertex_guides(scene, Vec::new()),
+            crate::bake::denoise::Settings::VERTICES,
+            progress,
+        ),
         // The interreflected matrix reads a vector bake's bounces at its hits.
         Some(tracer)
             if options.mode == Mode::Interreflected && options.transfer == TransferKind::Matrix =>
@@ -166,7 +175,7 @@ pub fn bake(
         ),
     };
     let mut baked = baked;
-    if options.denoise && tracer.is_some() {
+    if options.denoise && tracer.is_some() && !adaptive_denoised {
         crate::bake::denoise::denoise_vertices(
             scene,
             options,
