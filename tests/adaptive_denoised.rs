@@ -65,11 +65,7 @@ fn errors(got: &[f32], reference: &[f32]) -> Vec<f64> {
     got.chunks(n)
         .zip(reference.chunks(n))
         .map(|(a, b)| {
-            let squares: f64 = a
-                .iter()
-                .zip(b)
-                .map(|(x, y)| f64::from(x - y).powi(2))
-                .sum();
+            let squares: f64 = a.iter().zip(b).map(|(x, y)| f64::from(x - y).powi(2)).sum();
             (squares / n as f64).sqrt()
         })
         .collect()
@@ -99,7 +95,10 @@ fn the_denoised_estimate_is_within_the_target_at_a_fraction_of_the_raw_rays() {
     let error = errors(&denoised.coefficients, &reference.coefficients);
     let p99 = quantile(&error, 0.99);
     let rays = |t: &prt_baker::Transfer| t.rays_cast as f64 / vertices as f64;
-    let estimates = denoised.visibility.iter().map(|v| f64::from(v.error_estimate));
+    let estimates = denoised
+        .visibility
+        .iter()
+        .map(|v| f64::from(v.error_estimate));
     let (estimate_rms, true_rms) = (rms(estimates), rms(error.iter().copied()));
     // The floor's vertices along the box's foot (within 0.1 of its sides, not under it), and
     // the open floor (more than 0.5 from it).

@@ -392,9 +392,7 @@ fn extend(
         if rows.start < points.start as usize {
             continue;
         }
-        rays += cast(
-            tables, n, rows, origin, frame, tracer, s, unblocked, bent,
-        );
+        rays += cast(tables, n, rows, origin, frame, tracer, s, unblocked, bent);
     }
     rays
 }
@@ -581,9 +579,6 @@ impl Summary {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bake::options::Mode;
-    use crate::math::sampling::Sampling;
-    use crate::support::error::Error;
 
     #[test]
     fn the_stop_is_the_smallest_size_predicted_to_reach_the_target() {
@@ -651,65 +646,5 @@ mod tests {
         assert_eq!((d.min, d.median, d.p95, d.max), (1.0, 50.0, 95.0, 100.0));
         assert_eq!(d.mean, 50.5);
         assert!(Distribution::of(std::iter::empty()).is_none());
-    }
-
-    #[test]
-    fn unsupported_combinations_are_refused() {
-        let adaptive = BakeOptions {
-            target_error: Some(1e-3),
-            samples: 4096,
-            ..BakeOptions::default()
-        };
-        assert!(adaptive.validate().is_ok());
-        for (options, message) in [
-            (
-                BakeOptions {
-                    mode: Mode::Interreflected,
-                    bounces: 1,
-                    ..adaptive.clone()
-                },
-                "needs --mode shadowed",
-            ),
-            (
-                BakeOptions {
-                    mode: Mode::Unshadowed,
-                    ..adaptive.clone()
-                },
-                "needs --mode shadowed",
-            ),
-            (
-                BakeOptions {
-                    sampling: Sampling::ThesisRandom,
-                    ..adaptive.clone()
-                },
-                "needs --sampling owen-sobol",
-            ),
-            (
-                BakeOptions {
-                    samples: 255,
-                    ..adaptive.clone()
-                },
-                "at least 256",
-            ),
-            (
-                BakeOptions {
-                    target_error: Some(0.0),
-                    ..adaptive.clone()
-                },
-                "positive",
-            ),
-            (
-                BakeOptions {
-                    target_error: Some(f32::NAN),
-                    ..adaptive.clone()
-                },
-                "positive",
-            ),
-        ] {
-            match options.validate() {
-                Err(Error::InvalidOption(m)) => assert!(m.contains(message), "{m}"),
-                other => panic!("{options:?}: {other:?}"),
-            }
-        }
     }
 }

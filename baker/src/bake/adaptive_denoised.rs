@@ -76,24 +76,6 @@ pub fn applies(options: &crate::bake::options::BakeOptions, tracer: Option<&dyn 
     options.denoise && options.target_error.is_some() && tracer.is_some()
 }
 
-/// [`bake`] as the other bakes return theirs.
-pub fn baked(
-    estimator: &Estimator,
-    tracer: &dyn Tracer,
-    guides: Guides,
-    settings: Settings,
-    progress: &dyn Progress,
-) -> crate::bake::transfer::Baked {
-    let pass = bake(estimator, tracer, guides, settings, progress);
-    crate::bake::transfer::Baked {
-        coefficients: pass.coefficients,
-        channels: 1,
-        rays_cast: pass.visibility.iter().map(|v| u64::from(v.rays)).sum(),
-        visibility: pass.visibility,
-        hit_cache_bytes: None,
-    }
-}
-
 /// Bakes `estimator`'s receivers (an adaptive bake) until each one's denoised estimate is
 /// predicted within the target, and denoises them with the final filter.
 pub fn bake(
@@ -111,7 +93,11 @@ pub fn bake(
     let frames: Vec<(Vec3, Mat3)> = (0..count)
         .map(|v| (estimator.origin(v), estimator.vertex_frame(v)))
         .collect();
-    progress.begin("adaptive (denoised)", count as u64, u64::from(tables.rounds[0]));
+    progress.begin(
+        "adaptive (denoised)",
+        count as u64,
+        u64::from(tables.rounds[0]),
+    );
     let mut states: Vec<ReceiverState> = frames
         .par_iter()
         .map_init(AdaptiveScratch::default, |s, (origin, frame)| {
@@ -220,8 +206,12 @@ impl Assessed {
             .into_par_iter()
             .map(|i| {
                 let (a, b) = (&filtered[i * n..][..n], &transfer[i * n..][..n]);
-                let d2: f64 =
-                    a.iter().zip(b).map(|(x, y)| f64::from(x - y).powi(2)).sum::<f64>() / n as f64;
+                let d2: f64 = a
+                    .iter()
+                    .zip(b)
+                    .map(|(x, y)| f64::from(x - y).powi(2))
+                    .sum::<f64>()
+                    / n as f64;
                 let expected = variance[i] * (1.0 - 2.0 * own(i, &rows[i])) + noise(&rows[i]);
                 (d2 - expected).max(0.0)
             })
@@ -249,7 +239,9 @@ impl Assessed {
                 let (alpha, mse) = blend.best();
                 let asks = match mse.sqrt() > target {
                     false => Vec::new(),
-                    true => asks(i, row, &variance, &points, bias, target, cap, tables, states),
+                    true => asks(
+                        i, row, &variance, &points, bias, target, cap, tables, states,
+                    ),
                 };
                 (alpha as f32, mse.sqrt(), asks)
             })
@@ -356,7 +348,10 @@ fn asks(
         // σ_i(N) = s (m/N)^(RATE/2) ≤ 0.9 E.
         let spread = states[i].spread;
         let want = f64::from(tables.pilot) * (spread / (AIM * target)).powf(2.0 / RATE);
-        return vec![(i as u32, stop_at_least(tables, want.max(f64::from(points[i]) + 1.0)))];
+        return vec![(
+            i as u32,
+            stop_at_least(tables, want.max(f64::from(points[i]) + 1.0)),
+        )];
     }
     allocate(row, variance, points, aim - bias, cap, tables)
 }

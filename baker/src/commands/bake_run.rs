@@ -448,7 +448,11 @@ fn summary(plan: &BakePlan, transfer: &Transfer, what: &str) -> String {
             let baked = transfer.visibility.iter().filter(|v| v.rays > 0).count();
             format!(
                 "{mode}, adaptive to {target:e}{}: {:.0} rays per {} on average",
-                if options.denoise { " after denoising" } else { "" },
+                if options.denoise {
+                    " after denoising"
+                } else {
+                    ""
+                },
                 transfer.rays_cast as f64 / baked.max(1) as f64,
                 if plan.lightmap.resolution.is_some() {
                     "texel"

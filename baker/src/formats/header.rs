@@ -262,10 +262,8 @@ pub struct Adaptive {
     pub replicates: u32,
     /// Rays cast by all vertices together (u64 at 116).
     pub rays_cast: u64,
-    /// The per-vertex error estimates, and the target, are of the denoised transfer: the bake
-    /// sampled until its denoised estimate was within the target. Not a field of its own: an
-    /// adaptive file that is denoised (aux bit 5) says so, which every reader of the aux bits
-    /// reads; one that is not states the raw estimate's error.
+    /// The error estimates and the target are of the denoised transfer: read from the
+    /// denoised bit (aux bit 5) of an adaptive file, which every reader knows.
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub after_denoise: bool,
 }

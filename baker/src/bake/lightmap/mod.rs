@@ -312,7 +312,7 @@ pub fn bake_texels(
     let (mut baked, (factored, factor_seconds)) = stages.time("bake", || {
         rayon::join(
             || match adaptive_guides {
-                Some((guides, tracer)) => crate::bake::adaptive_denoised::baked(
+                Some((guides, tracer)) => crate::bake::transfer::denoised_adaptive(
                     &estimator,
                     tracer,
                     guides,
