@@ -6,8 +6,8 @@
 //! raw, and with 16,384 rays of another seed (the reference). The denoised bake must
 //!
 //! * keep its p99 RMS coefficient error against the reference within E (the requirement);
-//! * cast at most half the rays of the raw bake to the same E (the filter does the rest);
-//! * record estimates of the denoised transfer: their RMS within a factor of 2 of the RMS
+//! * cast at most 0.65 × the rays of the raw bake held to the same tail (E/TAIL);
+//! * record estimates of the denoised transfer: their RMS within a factor of 1.5 of the RMS
 //!   true error (a raw estimate is several times the denoised error);
 //! * send its rays where the filter cannot help: the floor along the box's foot casts more
 //!   than 1.5 × the rays of the open floor.
@@ -19,9 +19,9 @@ use prt_baker::{BakeOptions, Mode, Scene};
 use prt_tests::*;
 
 const ORDER: usize = 3;
-const TARGET: f32 = 5e-4;
+const TARGET: f32 = 1e-3;
 /// The share of the raw bake's rays the denoised bake may cast.
-const RAYS: f64 = 0.8;
+const RAYS: f64 = 0.65;
 
 /// The floor [−1, 1]² in 48² cells, and a closed box 0.5 wide and 0.4 tall on its middle, each
 /// face an object of its own.
@@ -134,7 +134,7 @@ fn the_denoised_estimate_is_within_the_target_at_a_fraction_of_the_raw_rays() {
         rays(&raw)
     );
     assert!(
-        (0.5..=2.0).contains(&(estimate_rms / true_rms)),
+        (0.67..=1.5).contains(&(estimate_rms / true_rms)),
         "estimate RMS {estimate_rms:e}, true RMS {true_rms:e}"
     );
     assert!(

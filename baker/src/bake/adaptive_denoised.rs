@@ -213,7 +213,9 @@ impl Assessed {
                     .sum::<f64>()
                     / n as f64;
                 let expected = variance[i] * (1.0 - 2.0 * own(i, &rows[i])) + noise(&rows[i]);
-                (d2 - expected).max(0.0)
+                // Not clamped here: the noise of a receiver's value is symmetric about its
+                // bias, and clamping each before they are smoothed would bias the mean up.
+                d2 - expected
             })
             .collect();
         // E bounds the tail: each receiver's predicted RMS error is brought within E/TAIL.
@@ -230,7 +232,7 @@ impl Assessed {
                     let w = f64::from(w.abs());
                     (s + w * bias[j as usize], m + w)
                 });
-                let bias = if mass > 0.0 { sum / mass } else { 0.0 };
+                let bias = if mass > 0.0 { (sum / mass).max(0.0) } else { 0.0 };
                 let blend = Blend {
                     filtered: bias + noise(row),
                     raw: variance[i],
