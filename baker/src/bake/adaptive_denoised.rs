@@ -148,6 +148,9 @@ pub fn bake(
     }
 }
 
+/// One receiver's α, predicted error and the points it asks of its neighbours.
+type Judged = (f32, f64, Vec<(u32, u32)>);
+
 /// One pass's judgement of every receiver: its filtered transfer, the share α_i of it
 /// that goes into the output, the predicted error of the output and the points it asks of
 /// its neighbours.
@@ -222,7 +225,7 @@ impl Assessed {
         let target = f64::from(tables.target) / TAIL;
         let cap = *tables.rounds.last().expect("at least the pilot");
         let points: Vec<u32> = states.iter().map(|s| s.points).collect();
-        let judged: Vec<(f32, f64, Vec<(u32, u32)>)> = (0..count)
+        let judged: Vec<Judged> = (0..count)
             .into_par_iter()
             .map(|i| {
                 let row = &rows[i];
@@ -232,7 +235,11 @@ impl Assessed {
                     let w = f64::from(w.abs());
                     (s + w * bias[j as usize], m + w)
                 });
-                let bias = if mass > 0.0 { (sum / mass).max(0.0) } else { 0.0 };
+                let bias = if mass > 0.0 {
+                    (sum / mass).max(0.0)
+                } else {
+                    0.0
+                };
                 let blend = Blend {
                     filtered: bias + noise(row),
                     raw: variance[i],

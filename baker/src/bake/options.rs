@@ -30,7 +30,8 @@ pub struct BakeOptions {
     pub hit_cache_limit: u64,
     /// `--target-error E`: cast rays in rounds until each vertex's estimated RMS coefficient
     /// error is at most E (`samples` becomes the cap); `None` casts `samples` rays everywhere.
-    /// See [`crate::bake::adaptive`].
+    /// See [`crate::bake::adaptive`]; with `denoise`, the error after denoising
+    /// ([`crate::bake::adaptive_denoised`]).
     pub target_error: Option<f32>,
     /// `--transfer`: a transfer vector per receiver (diffuse), or a transfer matrix
     /// ([`crate::bake::matrix`]: glossy and other view-dependent BRDFs).
