@@ -525,6 +525,7 @@ fn prt_seeds() -> Vec<Vec<u8>> {
             target_error: 1e-3,
             replicates: 16,
             rays_cast: 64 * vertex_count,
+            after_denoise: false,
         }),
         receivers: None,
         denoised: false,

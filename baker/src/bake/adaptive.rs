@@ -316,8 +316,40 @@ pub fn receiver_transfer(
     s: &mut AdaptiveScratch,
     local: &mut [f64],
 ) -> VertexResult {
-    let k = PILOT_BLOCKS;
     let m = tables.pilot;
+    let (mut rays, mut unblocked, mut bent) = pilot(tables, n, origin, frame, tracer, s);
+    let spread = block_spread(&s.totals, n, m);
+    let net = tables.net_points(spread);
+    rays += extend(
+        tables,
+        n,
+        (origin, frame),
+        tracer,
+        s,
+        tables.rounds[0]..net,
+        (&mut unblocked, &mut bent),
+    );
+    sequence_mean(&s.totals, n, net, local);
+    VertexResult {
+        rays,
+        points: net,
+        error: predicted_error(spread, m, net),
+        unblocked,
+        bent,
+    }
+}
+
+/// Casts the pilot (the first K·m points) into fresh totals: returns the rays cast, the
+/// unblocked count and the sum of the unblocked world directions.
+fn pilot(
+    tables: &Tables,
+    n: usize,
+    origin: Vec3,
+    frame: &Mat3,
+    tracer: Option<&dyn Tracer>,
+    s: &mut AdaptiveScratch,
+) -> (u32, u32, Vec3) {
+    let k = PILOT_BLOCKS;
     s.totals.clear();
     s.totals.resize(k * n, 0.0);
     s.batch.resize(k * n, 0.0);
@@ -325,8 +357,8 @@ pub fn receiver_transfer(
     s.seen.clear();
     s.grid_current = false;
     let (mut unblocked, mut bent) = (0u32, Vec3::ZERO);
-    let pilot_rows = k * m as usize;
-    let mut rays = cast(
+    let pilot_rows = k * tables.pilot as usize;
+    let rays = cast(
         tables,
         n,
         0..pilot_rows,
@@ -337,36 +369,138 @@ pub fn receiver_transfer(
         &mut unblocked,
         &mut bent,
     );
-    let spread = block_spread(&s.totals, n, m);
-    let net = tables.net_points(spread);
-    // Segment by segment (the stop sizes), so no segment spans two octaves.
+    (rays, unblocked, bent)
+}
+
+/// Extends the points summed in `s` over `points` (from one stop size of the tables to a
+/// later one), segment by segment, so no segment spans two octaves. Returns the rays cast.
+fn extend(
+    tables: &Tables,
+    n: usize,
+    (origin, frame): (Vec3, &Mat3),
+    tracer: Option<&dyn Tracer>,
+    s: &mut AdaptiveScratch,
+    points: std::ops::Range<u32>,
+    (unblocked, bent): (&mut u32, &mut Vec3),
+) -> u32 {
+    let mut rays = 0;
     for pair in tables.rounds.windows(2) {
         let rows = pair[0] as usize..pair[1] as usize;
-        if rows.start >= net as usize {
+        if rows.start >= points.end as usize {
             break;
         }
-        rays += cast(
+        if rows.start < points.start as usize {
+            continue;
+        }
+        rays += cast(tables, n, rows, origin, frame, tracer, s, unblocked, bent);
+    }
+    rays
+}
+
+/// The estimate of the first `points` points from their block totals `totals[k·n + j]`.
+fn sequence_mean(totals: &[f64], n: usize, points: u32, local: &mut [f64]) {
+    let norm = 1.0 / f64::from(points);
+    for (j, out) in local.iter_mut().enumerate() {
+        *out = (0..PILOT_BLOCKS).map(|r| totals[r * n + j]).sum::<f64>() * norm;
+    }
+}
+
+/// One receiver of a bake sampled in passes ([`crate::bake::adaptive_denoised`]): what it
+/// has summed so far, kept between passes so a later pass extends its sequence instead of
+/// casting it again. Extending to N points in several passes sums exactly what one pass to
+/// N sums: every inference grid is built from the points before an octave only.
+#[derive(Clone, Debug, Default)]
+pub struct ReceiverState {
+    /// Block totals `[k·n² + j]` (the points beyond the pilot in block 0).
+    totals: Vec<f64>,
+    /// The answers of the points summed, one bit a point, by sequence index.
+    seen: Vec<u64>,
+    /// Rays cast, and points summed (a stop size of the tables).
+    pub rays: u32,
+    pub points: u32,
+    pub unblocked: u32,
+    /// The sum of the unblocked world directions.
+    pub bent: Vec3,
+    /// The pilot's per-block RMS error over every coefficient ([`block_spread`]).
+    pub spread: f64,
+    /// The same over bands 0 and 1 only: the noise the denoiser's range term reads
+    /// ([`crate::bake::noise`] sums the same coefficients).
+    pub low_spread: f64,
+}
+
+impl ReceiverState {
+    /// The pilot of one receiver.
+    pub fn pilot(
+        tables: &Tables,
+        n: usize,
+        (origin, frame): (Vec3, &Mat3),
+        tracer: Option<&dyn Tracer>,
+        s: &mut AdaptiveScratch,
+    ) -> ReceiverState {
+        let (rays, unblocked, bent) = pilot(tables, n, origin, frame, tracer, s);
+        let mut state = ReceiverState {
+            rays,
+            points: tables.rounds[0],
+            unblocked,
+            bent,
+            spread: block_spread(&s.totals, n, tables.pilot),
+            low_spread: block_spread_of(&s.totals, n, n.min(4), tables.pilot),
+            ..ReceiverState::default()
+        };
+        state.save(s);
+        state
+    }
+
+    /// Extends the receiver's sequence to `points` (a stop size of the tables, more than it
+    /// holds).
+    pub fn extend(
+        &mut self,
+        tables: &Tables,
+        n: usize,
+        (origin, frame): (Vec3, &Mat3),
+        tracer: Option<&dyn Tracer>,
+        s: &mut AdaptiveScratch,
+        points: u32,
+    ) {
+        s.totals.clone_from(&self.totals);
+        s.batch.resize(PILOT_BLOCKS * n, 0.0);
+        s.occluded.resize(BATCH, false);
+        s.seen.clear();
+        s.seen
+            .extend((0..self.points as usize).map(|i| ((self.seen[i / 64] >> (i % 64)) & 1) as u8));
+        s.grid_current = false;
+        self.rays += extend(
             tables,
             n,
-            rows,
-            origin,
-            frame,
+            (origin, frame),
             tracer,
             s,
-            &mut unblocked,
-            &mut bent,
+            self.points..points,
+            (&mut self.unblocked, &mut self.bent),
         );
+        self.points = points;
+        self.save(s);
     }
-    let norm = 1.0 / f64::from(net);
-    for (j, out) in local.iter_mut().enumerate() {
-        *out = (0..k).map(|r| s.totals[r * n + j]).sum::<f64>() * norm;
+
+    fn save(&mut self, s: &AdaptiveScratch) {
+        self.totals.clone_from(&s.totals);
+        self.seen.clear();
+        self.seen.resize((self.points as usize).div_ceil(64), 0);
+        for (i, &answer) in s.seen[..self.points as usize].iter().enumerate() {
+            self.seen[i / 64] |= u64::from(answer & 1) << (i % 64);
+        }
     }
-    VertexResult {
-        rays,
-        points: net,
-        error: predicted_error(spread, m, net),
-        unblocked,
-        bent,
+
+    /// The local-frame transfer of the points summed.
+    pub fn local_transfer(&self, n: usize, local: &mut [f64]) {
+        sequence_mean(&self.totals, n, self.points, local);
+    }
+
+    /// The predicted mean squared coefficient error of the transfer, over every coefficient
+    /// (`low`: bands 0 and 1 only).
+    pub fn variance(&self, tables: &Tables, low: bool) -> f64 {
+        let spread = if low { self.low_spread } else { self.spread };
+        predicted_error(spread, tables.pilot, self.points).powi(2)
     }
 }
 
@@ -374,10 +508,15 @@ pub fn receiver_transfer(
 /// points each are `totals[k·n + j]`: the blocks' sample variance, corrected for their
 /// covariance under the rate model (module doc).
 pub fn block_spread(totals: &[f64], n: usize, points: u32) -> f64 {
+    block_spread_of(totals, n, n, points)
+}
+
+/// [`block_spread`] over the first `used` of the n coefficients.
+fn block_spread_of(totals: &[f64], n: usize, used: usize, points: u32) -> f64 {
     let k = totals.len() / n;
     let scale = 1.0 / f64::from(points);
     let mut sum_of_variances = 0.0;
-    for j in 0..n {
+    for j in 0..used {
         let estimate = |r: usize| totals[r * n + j] * scale;
         let mean = (0..k).map(estimate).sum::<f64>() / k as f64;
         let squares: f64 = (0..k).map(|r| (estimate(r) - mean).powi(2)).sum();
@@ -385,7 +524,7 @@ pub fn block_spread(totals: &[f64], n: usize, points: u32) -> f64 {
     }
     let blocks = k as f64;
     let inflation = 1.0 + (1.0 - blocks.powf(1.0 - RATE)) / (blocks - 1.0);
-    (sum_of_variances / n as f64 / inflation).sqrt()
+    (sum_of_variances / used as f64 / inflation).sqrt()
 }
 
 /// Order statistics of a per-vertex quantity, as `inspect` prints them.
@@ -440,9 +579,6 @@ impl Summary {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bake::options::Mode;
-    use crate::math::sampling::Sampling;
-    use crate::support::error::Error;
 
     #[test]
     fn the_stop_is_the_smallest_size_predicted_to_reach_the_target() {
@@ -510,65 +646,5 @@ mod tests {
         assert_eq!((d.min, d.median, d.p95, d.max), (1.0, 50.0, 95.0, 100.0));
         assert_eq!(d.mean, 50.5);
         assert!(Distribution::of(std::iter::empty()).is_none());
-    }
-
-    #[test]
-    fn unsupported_combinations_are_refused() {
-        let adaptive = BakeOptions {
-            target_error: Some(1e-3),
-            samples: 4096,
-            ..BakeOptions::default()
-        };
-        assert!(adaptive.validate().is_ok());
-        for (options, message) in [
-            (
-                BakeOptions {
-                    mode: Mode::Interreflected,
-                    bounces: 1,
-                    ..adaptive.clone()
-                },
-                "needs --mode shadowed",
-            ),
-            (
-                BakeOptions {
-                    mode: Mode::Unshadowed,
-                    ..adaptive.clone()
-                },
-                "needs --mode shadowed",
-            ),
-            (
-                BakeOptions {
-                    sampling: Sampling::ThesisRandom,
-                    ..adaptive.clone()
-                },
-                "needs --sampling owen-sobol",
-            ),
-            (
-                BakeOptions {
-                    samples: 255,
-                    ..adaptive.clone()
-                },
-                "at least 256",
-            ),
-            (
-                BakeOptions {
-                    target_error: Some(0.0),
-                    ..adaptive.clone()
-                },
-                "positive",
-            ),
-            (
-                BakeOptions {
-                    target_error: Some(f32::NAN),
-                    ..adaptive.clone()
-                },
-                "positive",
-            ),
-        ] {
-            match options.validate() {
-                Err(Error::InvalidOption(m)) => assert!(m.contains(message), "{m}"),
-                other => panic!("{options:?}: {other:?}"),
-            }
-        }
     }
 }

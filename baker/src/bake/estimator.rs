@@ -267,6 +267,11 @@ impl Estimator {
         })
     }
 
+    /// Adaptive bakes: the pilot's and extensions' tables ([`crate::bake::adaptive`]).
+    pub(crate) fn adaptive_tables(&self) -> Option<&crate::bake::adaptive::Tables> {
+        self.adaptive.as_ref()
+    }
+
     /// How many receivers the estimator bakes.
     pub fn receiver_count(&self) -> usize {
         self.normals.len()

@@ -44,6 +44,9 @@ impl Header {
                 target_error,
                 replicates: PILOT_BLOCKS as u32,
                 rays_cast,
+                // Denoised adaptive bakes sample to their denoised error
+                // ([`crate::bake::adaptive_denoised`]).
+                after_denoise: options.denoise,
             }),
             receivers: None,
             denoised: options.denoise,

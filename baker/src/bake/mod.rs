@@ -8,6 +8,7 @@
 //! [`crate::formats`].
 
 pub mod adaptive;
+pub mod adaptive_denoised;
 pub mod bounce_rows;
 pub mod denoise;
 pub mod embedded;

@@ -30,7 +30,8 @@ pub struct BakeOptions {
     pub hit_cache_limit: u64,
     /// `--target-error E`: cast rays in rounds until each vertex's estimated RMS coefficient
     /// error is at most E (`samples` becomes the cap); `None` casts `samples` rays everywhere.
-    /// See [`crate::bake::adaptive`].
+    /// See [`crate::bake::adaptive`]; with `denoise`, the error after denoising
+    /// ([`crate::bake::adaptive_denoised`]).
     pub target_error: Option<f32>,
     /// `--transfer`: a transfer vector per receiver (diffuse), or a transfer matrix
     /// ([`crate::bake::matrix`]: glossy and other view-dependent BRDFs).
@@ -188,4 +189,69 @@ fn check_adaptive(options: &BakeOptions) -> Result<()> {
         )));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unsupported_combinations_are_refused() {
+        let adaptive = BakeOptions {
+            target_error: Some(1e-3),
+            samples: 4096,
+            ..BakeOptions::default()
+        };
+        assert!(adaptive.validate().is_ok());
+        for (options, message) in [
+            (
+                BakeOptions {
+                    mode: Mode::Interreflected,
+                    bounces: 1,
+                    ..adaptive.clone()
+                },
+                "needs --mode shadowed",
+            ),
+            (
+                BakeOptions {
+                    mode: Mode::Unshadowed,
+                    ..adaptive.clone()
+                },
+                "needs --mode shadowed",
+            ),
+            (
+                BakeOptions {
+                    sampling: Sampling::ThesisRandom,
+                    ..adaptive.clone()
+                },
+                "needs --sampling owen-sobol",
+            ),
+            (
+                BakeOptions {
+                    samples: 255,
+                    ..adaptive.clone()
+                },
+                "at least 256",
+            ),
+            (
+                BakeOptions {
+                    target_error: Some(0.0),
+                    ..adaptive.clone()
+                },
+                "positive",
+            ),
+            (
+                BakeOptions {
+                    target_error: Some(f32::NAN),
+                    ..adaptive.clone()
+                },
+                "positive",
+            ),
+        ] {
+            match options.validate() {
+                Err(Error::InvalidOption(m)) => assert!(m.contains(message), "{m}"),
+                other => panic!("{options:?}: {other:?}"),
+            }
+        }
+    }
 }

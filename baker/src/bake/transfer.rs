@@ -137,7 +137,16 @@ pub fn bake(
     let tracer = tracer_for(options, tracer)?;
     let started = Instant::now();
     let estimator = Estimator::new(scene, options)?;
+    let adaptive_denoised = crate::bake::adaptive_denoised::applies(options, tracer);
     let baked = match tracer {
+        // Sampled until the denoised estimate is within the target, and denoised.
+        Some(tracer) if adaptive_denoised => denoised_adaptive(
+            &estimator,
+            tracer,
+            crate::bake::denoise::vertex_guides(scene, Vec::new()),
+            crate::bake::denoise::Settings::VERTICES,
+            progress,
+        ),
         // The interreflected matrix reads a vector bake's bounces at its hits.
         Some(tracer)
             if options.mode == Mode::Interreflected && options.transfer == TransferKind::Matrix =>
@@ -166,7 +175,7 @@ pub fn bake(
         ),
     };
     let mut baked = baked;
-    if options.denoise && tracer.is_some() {
+    if options.denoise && tracer.is_some() && !adaptive_denoised {
         crate::bake::denoise::denoise_vertices(
             scene,
             options,
@@ -253,4 +262,23 @@ pub fn bake_receivers(
     };
     baked.rays_cast = rays_per_pass + retraced;
     baked
+}
+
+/// An adaptive bake sampled to its denoised error ([`crate::bake::adaptive_denoised`]), as
+/// the other bakes return theirs.
+pub(crate) fn denoised_adaptive(
+    estimator: &Estimator,
+    tracer: &dyn Tracer,
+    guides: crate::bake::denoise::Guides,
+    settings: crate::bake::denoise::Settings,
+    progress: &dyn Progress,
+) -> Baked {
+    let pass = crate::bake::adaptive_denoised::bake(estimator, tracer, guides, settings, progress);
+    Baked {
+        coefficients: pass.coefficients,
+        channels: 1,
+        rays_cast: pass.visibility.iter().map(|v| u64::from(v.rays)).sum(),
+        visibility: pass.visibility,
+        hit_cache_bytes: None,
+    }
 }

@@ -73,15 +73,15 @@ pub struct BakeArgs {
     #[arg(long)]
     robust: bool,
     /// Adaptive sampling: each vertex (with --lightmap: texel) casts rays until its estimated
-    /// RMS coefficient error is at most this (--samples becomes the most it may cast): a pilot
-    /// of 4 independently scrambled point sets, then one net of the predicted size; shadowed,
-    /// owen-sobol only.
+    /// RMS coefficient error is at most this, the error after denoising when denoised
+    /// (--samples caps the rays): a pilot of 256 points, then more where the error is predicted
+    /// above the target; shadowed, owen-sobol only.
     #[arg(long, conflicts_with_all = ["shard", "checkpoint"])]
     target_error: Option<f32>,
     /// Denoise the baked transfer (a filter in world space whose weights every coefficient
     /// shares, so every light sees it denoised; docs/explanation/denoising.md). auto: on for
-    /// lightmap bakes (whole, shards, checkpoints) that cast a fixed number of owen-sobol rays,
-    /// as lightmappers do; off for vertex bakes, probes and adaptive bakes.
+    /// lightmap bakes (whole, shards, checkpoints) that cast owen-sobol rays, as lightmappers
+    /// do, and adaptive bakes of every vertex; off for other vertex bakes and probes.
     #[arg(long, value_enum, default_value_t = DenoiseArg::Auto)]
     denoise: DenoiseArg,
     /// No progress bar (the summary line is still printed).
@@ -217,10 +217,10 @@ fn options(args: &BakeArgs, what: &What) -> BakeOptions {
             DenoiseArg::On => true,
             DenoiseArg::Off => false,
             DenoiseArg::Auto => {
-                args.lightmap.is_some()
-                    && matches!(what, What::Whole | What::Parts)
+                matches!(what, What::Whole | What::Parts)
                     && mode.casts_rays()
-                    && args.target_error.is_none()
+                    && (args.lightmap.is_some() || args.target_error.is_some())
+                    && (args.lightmap.is_some() || args.receivers.is_empty())
                     && args.sampling == SamplingArg::OwenSobol
             }
         },

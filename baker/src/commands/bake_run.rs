@@ -447,7 +447,12 @@ fn summary(plan: &BakePlan, transfer: &Transfer, what: &str) -> String {
             // Texel bakes: the baked texels only (the others cast no rays).
             let baked = transfer.visibility.iter().filter(|v| v.rays > 0).count();
             format!(
-                "{mode}, adaptive to {target:e}: {:.0} rays per {} on average",
+                "{mode}, adaptive to {target:e}{}: {:.0} rays per {} on average",
+                if options.denoise {
+                    " after denoising"
+                } else {
+                    ""
+                },
                 transfer.rays_cast as f64 / baked.max(1) as f64,
                 if plan.lightmap.resolution.is_some() {
                     "texel"

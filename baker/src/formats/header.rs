@@ -262,6 +262,10 @@ pub struct Adaptive {
     pub replicates: u32,
     /// Rays cast by all vertices together (u64 at 116).
     pub rays_cast: u64,
+    /// The error estimates and the target are of the denoised transfer: read from the
+    /// denoised bit (aux bit 5) of an adaptive file, which every reader knows.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub after_denoise: bool,
 }
 
 mod as_name;
@@ -349,6 +353,7 @@ impl Header {
             target_error: 0.0,
             replicates: 0,
             rays_cast: 0,
+            after_denoise: false,
         });
         bytes.extend(adaptive.target_error.to_le_bytes());
         bytes.extend(adaptive.replicates.to_le_bytes());
@@ -594,10 +599,12 @@ fn read_adaptive(
             sampling.name()
         ));
     }
+    let after_denoise = aux_flags & AUX_DENOISED != 0;
     Ok(Some(Adaptive {
         target_error,
         replicates,
         rays_cast,
+        after_denoise,
     }))
 }
 

@@ -273,7 +273,7 @@ pub fn bake_texels(
     // Watertight for the final texel origins (moved-out ones included).
     let tracer = watertight.as_deref().or(tracer);
     // The denoiser's guides read the texels' points, which the receivers may take.
-    let guides = match (options.denoise, tracer) {
+    let mut guides = match (options.denoise, tracer) {
         (true, Some(_)) => Some(crate::bake::denoise::texel_guides(
             scene,
             &atlas,
@@ -304,9 +304,23 @@ pub fn bake_texels(
         let dilated = dilation::dilate_rings(&texels, |_| {});
         seam_samples(&texels, &dilated, &stitching)
     });
+    // An adaptive bake denoised samples until its denoised estimate is within the target,
+    // and denoises as it goes ([`crate::bake::adaptive_denoised`]).
+    let adaptive_guides = guides
+        .take_if(|_| crate::bake::adaptive_denoised::applies(options, tracer))
+        .zip(tracer);
     let (mut baked, (factored, factor_seconds)) = stages.time("bake", || {
         rayon::join(
-            || bake_receivers(scene, tracer, &estimator, &targets, progress),
+            || match adaptive_guides {
+                Some((guides, tracer)) => crate::bake::transfer::denoised_adaptive(
+                    &estimator,
+                    tracer,
+                    guides,
+                    crate::bake::denoise::Settings::TEXELS,
+                    progress,
+                ),
+                None => bake_receivers(scene, tracer, &estimator, &targets, progress),
+            },
             || {
                 let started = Instant::now();
                 let factored = stitch::factor(&samples);

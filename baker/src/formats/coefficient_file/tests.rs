@@ -30,6 +30,7 @@ fn adaptive_file() -> CoefficientFile {
                 target_error: 1e-3,
                 replicates: 16,
                 rays_cast: 256 + 4096,
+                after_denoise: false,
             }),
             receivers: None,
             denoised: false,
