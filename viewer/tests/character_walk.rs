@@ -119,28 +119,6 @@ fn bake_files(folder: &Path) -> (Files, Bake) {
     (files, bake)
 }
 
-/// The (position, linear radiance) of every vertex of relight's binary PLY.
-fn read_ply(path: &Path) -> Vec<(Vec3, [f32; 3])> {
-    let bytes = std::fs::read(path).unwrap();
-    let end = b"end_header\n";
-    let header = bytes.windows(end.len()).position(|w| w == end).unwrap() + end.len();
-    let text = String::from_utf8_lossy(&bytes[..header]);
-    let count: usize = text
-        .lines()
-        .find_map(|l| l.strip_prefix("element vertex "))
-        .unwrap()
-        .parse()
-        .unwrap();
-    let f32s = |b: &[u8]| -> [f32; 3] {
-        std::array::from_fn(|i| f32::from_le_bytes(b[4 * i..4 * i + 4].try_into().unwrap()))
-    };
-    // Per vertex: position, normal (3 f32 each), colour (3 u8), radiance (3 f32).
-    (0..count)
-        .map(|v| &bytes[header + 39 * v..][..39])
-        .map(|b| (Vec3::from(f32s(&b[..12])), f32s(&b[27..39])))
-        .collect()
-}
-
 fn inputs(files: &Files, bake: &Bake) -> FrameInputs {
     let lights = Lights::load(Some(&files.rig), ORDER)
         .unwrap()
@@ -196,7 +174,7 @@ fn relit_mover(
         0.0,
     )
     .unwrap();
-    let relit = read_ply(&ply);
+    let relit = common::read_ply(&ply);
     let mut scene = Scene::load_posed(&walker(), None, pose).unwrap().0;
     assert_eq!(relit.len(), scene.vertex_count());
     for (p, (q, _)) in scene.positions.iter_mut().zip(&relit) {
@@ -211,30 +189,7 @@ fn relit_mover(
         .incident(Vec3::ZERO, &inputs.prt_light, true)
         .rgb
         .map(|c| c[0]);
-    let albedo = scene.vertex_albedo();
-    let n = ORDER * ORDER;
-    let mut coefficients = vec![0.0f32; scene.vertex_count() * 3 * n];
-    for (v, (_, r)) in relit.iter().enumerate() {
-        for c in 0..3 {
-            coefficients[(v * 3 + c) * n] =
-                (f64::from(r[c]) / (f64::from(albedo[v][c]) * l00[c])) as f32;
-        }
-    }
-    let transfer = prt_baker::Transfer {
-        options: BakeOptions {
-            order: ORDER,
-            ..BakeOptions::default()
-        },
-        channels: 3,
-        receiver_count: scene.vertex_count(),
-        coefficients,
-        visibility: Vec::new(),
-        backend: prt_baker::trace::Backend::None,
-        rays_cast: 0,
-        seconds: 0.0,
-        hit_cache_bytes: None,
-    };
-    let file = CoefficientFile::from_bake(&scene, &transfer);
+    let file = common::band0_file(&scene, &relit, l00, ORDER);
     Mover::new(scene, file, vec![Vec3::ZERO], 0.0, Path::new("relight.ply")).unwrap()
 }
 

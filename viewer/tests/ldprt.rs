@@ -18,7 +18,7 @@ use prt_baker::bake::ldprt::fit_bake;
 use prt_baker::scene::Pose;
 use prt_baker::support::progress::Silent;
 use prt_baker::trace::{EmbreeOptions, EmbreeTracer};
-use prt_baker::{BakeOptions, CoefficientFile, Mode, Scene};
+use prt_baker::{BakeOptions, Mode, Scene};
 use prt_viewer::lights::Lights;
 use prt_viewer::{Bake, Camera, FrameInputs, View};
 
@@ -65,28 +65,6 @@ fn posed_z_up(pose: &Pose) -> Scene {
     scene
 }
 
-/// The (position, linear radiance) of every vertex of relight's binary PLY.
-fn read_ply(path: &Path) -> Vec<(Vec3, [f32; 3])> {
-    let bytes = std::fs::read(path).unwrap();
-    let end = b"end_header\n";
-    let header = bytes.windows(end.len()).position(|w| w == end).unwrap() + end.len();
-    let text = String::from_utf8_lossy(&bytes[..header]);
-    let count: usize = text
-        .lines()
-        .find_map(|l| l.strip_prefix("element vertex "))
-        .unwrap()
-        .parse()
-        .unwrap();
-    let f32s = |b: &[u8]| -> [f32; 3] {
-        std::array::from_fn(|i| f32::from_le_bytes(b[4 * i..4 * i + 4].try_into().unwrap()))
-    };
-    // Per vertex: position, normal (3 f32 each), colour (3 u8), radiance (3 f32).
-    (0..count)
-        .map(|v| &bytes[header + 39 * v..][..39])
-        .map(|b| (Vec3::from(f32s(&b[..12])), f32s(&b[27..39])))
-        .collect()
-}
-
 /// relight's frame at `pose`, drawn by the viewer's renderer from its PLY.
 fn reference(
     gpu: &prt_viewer::Gpu,
@@ -98,7 +76,7 @@ fn reference(
     let ply = folder.join(format!("{pose}.ply"));
     prt_baker::export::relight_ldprt::relight_ldprt(&glb(), pose, ldprt, &rig(), &ply, 0.0)
         .unwrap();
-    let relit = read_ply(&ply);
+    let relit = common::read_ply(&ply);
     let mut scene = Scene::load_posed(&glb(), None, pose).unwrap().0;
     assert_eq!(relit.len(), scene.vertex_count());
     for (p, (q, _)) in scene.positions.iter_mut().zip(&relit) {
@@ -108,30 +86,7 @@ fn reference(
     let lights = Lights::load(Some(&rig()), ORDER).unwrap().for_up(scene.up);
     let inputs = FrameInputs::from_view(&View::new(camera, lights), None);
     let l00 = inputs.prt_light.rgb.each_ref().map(|c| c[0]);
-    let albedo = scene.vertex_albedo();
-    let n = ORDER * ORDER;
-    let mut coefficients = vec![0.0f32; scene.vertex_count() * 3 * n];
-    for (v, (_, r)) in relit.iter().enumerate() {
-        for c in 0..3 {
-            coefficients[(v * 3 + c) * n] =
-                (f64::from(r[c]) / (f64::from(albedo[v][c]) * l00[c])) as f32;
-        }
-    }
-    let transfer = prt_baker::Transfer {
-        options: BakeOptions {
-            order: ORDER,
-            ..BakeOptions::default()
-        },
-        channels: 3,
-        receiver_count: scene.vertex_count(),
-        coefficients,
-        visibility: Vec::new(),
-        backend: prt_baker::trace::Backend::None,
-        rays_cast: 0,
-        seconds: 0.0,
-        hit_cache_bytes: None,
-    };
-    let file = CoefficientFile::from_bake(&scene, &transfer);
+    let file = common::band0_file(&scene, &relit, l00, ORDER);
     let bake = Bake::new(scene, file, Path::new("relight.prt")).unwrap();
     common::render(gpu, &bake, &inputs, SIZE)
 }

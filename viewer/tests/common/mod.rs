@@ -119,3 +119,59 @@ pub fn from_f16(bits: u16) -> f32 {
         _ => (1.0 + mantissa / 1024.0) * 2f32.powi(exponent - 15),
     }
 }
+
+/// The vertices of `prt-bake relight`'s binary PLY: each position and its linear radiance.
+pub fn read_ply(path: &Path) -> Vec<(glam::Vec3, [f32; 3])> {
+    let bytes = std::fs::read(path).unwrap();
+    let end = b"end_header\n";
+    let header = bytes.windows(end.len()).position(|w| w == end).unwrap() + end.len();
+    let text = String::from_utf8_lossy(&bytes[..header]);
+    let count: usize = text
+        .lines()
+        .find_map(|l| l.strip_prefix("element vertex "))
+        .unwrap()
+        .parse()
+        .unwrap();
+    let f32s = |b: &[u8]| -> [f32; 3] {
+        std::array::from_fn(|i| f32::from_le_bytes(b[4 * i..4 * i + 4].try_into().unwrap()))
+    };
+    // Per vertex: position, normal (3 f32 each), colour (3 u8), radiance (3 f32).
+    (0..count)
+        .map(|v| &bytes[header + 39 * v..][..39])
+        .map(|b| (glam::Vec3::from(f32s(&b[..12])), f32s(&b[27..39])))
+        .collect()
+}
+
+/// A vertex bake of `scene` whose band-0 transfer gives back `relit`'s radiance under a light
+/// of band-0 coefficients `l00`: a CLI reference drawn by the viewer's own rasteriser.
+pub fn band0_file(
+    scene: &Scene,
+    relit: &[(glam::Vec3, [f32; 3])],
+    l00: [f64; 3],
+    order: usize,
+) -> CoefficientFile {
+    let albedo = scene.vertex_albedo();
+    let n = order * order;
+    let mut coefficients = vec![0.0f32; scene.vertex_count() * 3 * n];
+    for (v, (_, r)) in relit.iter().enumerate() {
+        for c in 0..3 {
+            coefficients[(v * 3 + c) * n] =
+                (f64::from(r[c]) / (f64::from(albedo[v][c]) * l00[c])) as f32;
+        }
+    }
+    let transfer = prt_baker::Transfer {
+        options: BakeOptions {
+            order,
+            ..BakeOptions::default()
+        },
+        channels: 3,
+        receiver_count: scene.vertex_count(),
+        coefficients,
+        visibility: Vec::new(),
+        backend: prt_baker::trace::Backend::None,
+        rays_cast: 0,
+        seconds: 0.0,
+        hit_cache_bytes: None,
+    };
+    CoefficientFile::from_bake(scene, &transfer)
+}
