@@ -36,20 +36,8 @@ const CAMERA: &str = "0,-2.6,0.8,90,-8";
 /// At least this fraction of the character's pixels must be within [`CODES`] of relight's.
 const WITHIN: f64 = 0.99;
 const CODES: u8 = 2;
-/// A sun through the open front and a sky (tests/probe_scene.rs's rig).
-const RIG: &str = r#"
-[[light]]
-kind = "sun"
-direction = [0.3, -0.8, 0.5]
-color = [1.0, 0.95, 0.9]
-intensity = 1.5
-
-[[light]]
-kind = "hemisphere"
-direction = [0.0, 0.0, 1.0]
-color = [0.3, 0.35, 0.45]
-ground_color = [0.05, 0.045, 0.04]
-"#;
+/// A sun through the open front and a sky.
+const RIG: &str = common::ROOM_RIG;
 
 fn walker() -> PathBuf {
     common::workspace().join("scenes/cornell/walker.glb")

@@ -27,21 +27,8 @@ const STOPS: [(&str, [f32; 3]); 4] = [
     ("sun", [0.0, -0.3, 1.0]),
     ("green wall", [0.75, -0.5, 0.8]),
 ];
-/// A sun through the open front (it lights the red wall's inner face; the short box shadows
-/// the floor behind it) and a sky: scripts/browser/probe-move.mjs's rig.
-const RIG: &str = r#"
-[[light]]
-kind = "sun"
-direction = [0.3, -0.8, 0.5]
-color = [1.0, 0.95, 0.9]
-intensity = 1.5
-
-[[light]]
-kind = "hemisphere"
-direction = [0.0, 0.0, 1.0]
-color = [0.3, 0.35, 0.45]
-ground_color = [0.05, 0.045, 0.04]
-"#;
+/// A sun through the open front and a sky.
+const RIG: &str = common::ROOM_RIG;
 
 fn cornell() -> Scene {
     Scene::load(&common::workspace().join("scenes/cornell/cornell.scene")).expect("Cornell")

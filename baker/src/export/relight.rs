@@ -88,6 +88,21 @@ pub struct Relit {
     pub matrix: bool,
 }
 
+impl Relit {
+    /// Vector transfer lit at `vertex_count` vertices by `rig` at `order`, before the PLY
+    /// writer fills in the largest radiance.
+    pub fn vertices(vertex_count: usize, order: usize, rig: &Rig) -> Relit {
+        Relit {
+            vertex_count,
+            lightmap: false,
+            order,
+            light_count: rig.lights.len(),
+            max_radiance: 0.0,
+            matrix: false,
+        }
+    }
+}
+
 /// Lights the bake `coefficients` of `scene` with the rig and writes `output` (PLY, see
 /// [`crate::formats::ply`]) atomically. Refuses a coefficient file baked for another scene.
 pub fn relight(
@@ -163,12 +178,8 @@ pub fn relight_from(
         None => String::new(),
     };
     let relit = Relit {
-        vertex_count: scene.vertex_count(),
-        lightmap: false,
-        order,
-        light_count: rig.lights.len(),
-        max_radiance: 0.0,
         matrix,
+        ..Relit::vertices(scene.vertex_count(), order, &rig)
     };
     let comment = format!(
         "prt-bake relight: scene {}, transfer {}, lights {} (order {order}, window {}){view}",

@@ -137,14 +137,7 @@ pub fn relight_ldprt(
     let light = rig.project(order).in_scene_frame(file.up);
     let axes = pose_axes(&file, mesh, &scene)?;
     let radiance = ldprt_radiance_axes(&file, &scene, &axes, &light);
-    let relit = Relit {
-        vertex_count: scene.vertex_count(),
-        lightmap: false,
-        order,
-        light_count: rig.lights.len(),
-        max_radiance: 0.0,
-        matrix: false,
-    };
+    let relit = Relit::vertices(scene.vertex_count(), order, &rig);
     let comment = format!(
         "prt-bake relight: mesh {} (pose {pose}), LDPRT {} ({} lobes), lights {} (order {order}, window {})",
         mesh.display(),

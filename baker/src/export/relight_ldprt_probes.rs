@@ -135,14 +135,7 @@ pub fn relight_ldprt_probes(
         at.z,
         rig.path.display()
     );
-    let relit = Relit {
-        vertex_count: scene.vertex_count(),
-        lightmap: false,
-        order,
-        light_count: rig.lights.len(),
-        max_radiance: 0.0,
-        matrix: false,
-    };
+    let relit = Relit::vertices(scene.vertex_count(), order, &rig);
     Ok((
         write_vertex_ply(&output, &scene, &radiance, exposure, comment, relit)?,
         at,

@@ -73,13 +73,6 @@ pub fn relight_rigid(
         q.w,
         rig_path.display()
     );
-    let relit = Relit {
-        vertex_count: scene.vertex_count(),
-        lightmap: false,
-        order,
-        light_count: rig.lights.len(),
-        max_radiance: 0.0,
-        matrix: false,
-    };
+    let relit = Relit::vertices(scene.vertex_count(), order, &rig);
     write_vertex_ply(&output, &scene, &radiance, exposure, comment, relit)
 }
