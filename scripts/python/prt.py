@@ -13,7 +13,8 @@
                         # [their indices]}, the arrays holding their vertices only; else None
     f.header            # dict: order, channels, vertex_count, mode, transfer ("vector" or
                         # "matrix"), up, ..., and for
-                        # adaptive bakes "adaptive": {target_error, replicates, rays_cast}
+                        # adaptive bakes "adaptive": {target_error, replicates, rays_cast,
+                        # after_denoise}
 
 A texel (lightmap) bake of a W×H lightmap stores its texels as the vertices, row-major; this
 reader shapes its arrays as `prt-bake export --npz` does: transfer (H, W, channels, n²), ao
@@ -212,6 +213,9 @@ def parse_prt(b):
         "checksum": f"{u32(CHECKSUM_OFFSET):08x}", "transfer": transfer_kind,
     }
     if adaptive:
+        # A denoised adaptive bake sampled until its denoised estimate met the target: the
+        # recorded errors are after denoising.
+        adaptive["after_denoise"] = bool(aux & AUX_DENOISED)
         header["adaptive"] = adaptive
     if aux & AUX_DENOISED:
         header["denoised"] = True
