@@ -30,12 +30,7 @@ fn between(from: Up, to: Up) -> DMat3 {
 
 /// The centre of `scene`'s bounding box (its own frame) in the frame of `probes_up`.
 pub fn character_position(scene: &Scene, probes_up: Up) -> Vec3 {
-    let (lo, hi) = scene
-        .positions
-        .iter()
-        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
-            (lo.min(*p), hi.max(*p))
-        });
+    let (lo, hi) = scene.bounds();
     let centre = DVec3::from((lo + hi) * 0.5);
     (between(scene.up, probes_up) * centre).as_vec3()
 }
