@@ -21,18 +21,7 @@ const RIG: &str = "[[light]]\nkind = \"directional\"\ntheta = 30\nphi = 200\nint
 
 /// The per-vertex radiance of a PLY written by `relight`.
 fn radiance(s: &Scratch, name: &str) -> Vec<[f32; 3]> {
-    let bytes = s.read(name);
-    let end = b"end_header\n";
-    let start = bytes.windows(end.len()).position(|w| w == end).unwrap() + end.len();
-    bytes[start..]
-        .chunks_exact(prt_baker::formats::ply::VERTEX_BYTES)
-        .take(13)
-        .map(|v| {
-            std::array::from_fn(|c| {
-                f32::from_le_bytes(v[27 + 4 * c..31 + 4 * c].try_into().unwrap())
-            })
-        })
-        .collect()
+    s.ply_radiance(name, 13)
 }
 
 fn scratch() -> Scratch {

@@ -41,6 +41,22 @@ impl Scratch {
         std::fs::read(self.path(name)).unwrap_or_else(|err| panic!("read {name}: {err}"))
     }
 
+    /// The radiance of the first `count` vertices of a PLY written by `relight`.
+    pub fn ply_radiance(&self, name: &str, count: usize) -> Vec<[f32; 3]> {
+        let bytes = self.read(name);
+        let end = b"end_header\n";
+        let start = bytes.windows(end.len()).position(|w| w == end).unwrap() + end.len();
+        bytes[start..]
+            .chunks_exact(prt_baker::formats::ply::VERTEX_BYTES)
+            .take(count)
+            .map(|v| {
+                std::array::from_fn(|c| {
+                    f32::from_le_bytes(v[27 + 4 * c..31 + 4 * c].try_into().unwrap())
+                })
+            })
+            .collect()
+    }
+
     /// Runs `prt-bake` with `args` inside the scratch folder.
     pub fn run(&self, args: &[&str]) -> Run {
         let output = Command::new(env!("CARGO_BIN_EXE_prt-bake"))
