@@ -20,11 +20,6 @@ const RIG: &str = concat!(
     "/../viewer/src/default-rig.toml"
 );
 
-/// The per-vertex radiance of a PLY written by `relight`.
-fn radiance(s: &Scratch, name: &str) -> Vec<[f32; 3]> {
-    s.ply_radiance(name, 1392)
-}
-
 /// The position `relight` reports it lit the character at.
 fn lit_at(stdout: &str) -> [f64; 3] {
     let inside = stdout
@@ -83,7 +78,10 @@ fn a_character_is_lit_through_the_probes_at_its_posed_position() {
     };
     let through = relight("walk@1.5", Some("out/open.prt"), "out/probes.ply");
     relight("walk@1.5", None, "out/rig.ply");
-    let (a, b) = (radiance(&s, "out/probes.ply"), radiance(&s, "out/rig.ply"));
+    let (a, b) = (
+        s.ply_radiance("out/probes.ply"),
+        s.ply_radiance("out/rig.ply"),
+    );
     let largest = b.iter().flatten().fold(0.0f32, |m, x| m.max(x.abs()));
     let worst = a
         .iter()

@@ -38,29 +38,6 @@ fn npz_transfer(s: &Scratch, name: &str) -> Vec<f32> {
         .collect()
 }
 
-/// The linear radiance of every vertex of a `relight` PLY (the last 3 floats of each record).
-fn ply_radiance(s: &Scratch, name: &str) -> Vec<f32> {
-    let bytes = s.read(name);
-    let end = b"end_header\n";
-    let start = bytes.windows(end.len()).position(|w| w == end).unwrap() + end.len();
-    let header = std::str::from_utf8(&bytes[..start]).unwrap();
-    let vertices: usize = header
-        .lines()
-        .find_map(|l| l.strip_prefix("element vertex "))
-        .unwrap()
-        .parse()
-        .unwrap();
-    let record = prt_baker::formats::ply::VERTEX_BYTES;
-    (0..vertices)
-        .flat_map(|v| {
-            let r = &bytes[start + v * record + record - 12..start + (v + 1) * record];
-            r.chunks_exact(4)
-                .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
-                .collect::<Vec<_>>()
-        })
-        .collect()
-}
-
 /// RMS of a − b relative to the RMS of b.
 fn relative_rms(a: &[f32], b: &[f32]) -> f64 {
     assert_eq!(a.len(), b.len());
@@ -136,7 +113,7 @@ fn relit_error_falls_with_clusters_and_components() {
         "out/ir.ply",
     ])
     .success();
-    let reference = ply_radiance(&s, "out/ir.ply");
+    let reference = s.ply_radiance("out/ir.ply").concat();
     let mut errors = Vec::new();
     for (k, m) in [(4, 4), (16, 4), (64, 4), (64, 1), (64, 2), (64, 8)] {
         let (k, m) = (k.to_string(), m.to_string());
@@ -168,7 +145,7 @@ fn relit_error_falls_with_clusters_and_components() {
         let floats = c["floats_per_vertex"].as_f64().unwrap();
         errors.push((
             c["rms_error"].as_f64().unwrap(),
-            relative_rms(&ply_radiance(&s, "out/z.ply"), &reference),
+            relative_rms(&s.ply_radiance("out/z.ply").concat(), &reference),
             floats,
         ));
     }

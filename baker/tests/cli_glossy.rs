@@ -19,11 +19,6 @@ const MTL: &str = "newmtl shiny\nKd 0.3 0.3 0.3\nKs 0.5 0.4 0.3\nNs 20\n\
 const RIG: &str = "[[light]]\nkind = \"directional\"\ntheta = 30\nphi = 200\nintensity = 2\n\n\
     [[light]]\nkind = \"constant\"\nintensity = 0.1\n";
 
-/// The per-vertex radiance of a PLY written by `relight`.
-fn radiance(s: &Scratch, name: &str) -> Vec<[f32; 3]> {
-    s.ply_radiance(name, 13)
-}
-
 fn scratch() -> Scratch {
     let s = Scratch::new();
     s.write("floor.obj", OBJ);
@@ -69,8 +64,8 @@ fn matrix_bakes_relight_diffuse_and_glossy_and_compressed() {
         glossy.stdout
     );
     let (d, g) = (
-        radiance(&s, "out/diffuse.ply"),
-        radiance(&s, "out/glossy.ply"),
+        s.ply_radiance("out/diffuse.ply"),
+        s.ply_radiance("out/glossy.ply"),
     );
     // The floor (vertices 0..9) gains a glossy term proportional to Ks = (0.5, 0.4, 0.3) (the
     // diffuse term is grey, and MTL materials keep diffuse weight 1); the matte roof is
@@ -101,7 +96,7 @@ fn matrix_bakes_relight_diffuse_and_glossy_and_compressed() {
     ])
     .success();
     relight(&s, "out/exact.prt", "out/exact.ply", Some("-0.2,0.4,1.5")).success();
-    let exact = radiance(&s, "out/exact.ply");
+    let exact = s.ply_radiance("out/exact.ply");
     for (a, b) in exact.iter().flatten().zip(g.iter().flatten()) {
         assert!((a - b).abs() <= 1e-5 * b.abs().max(1.0), "{a} against {b}");
     }

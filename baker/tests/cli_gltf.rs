@@ -39,28 +39,6 @@ color = [0.2, 0.25, 0.35]
 ground_color = [0.05, 0.04, 0.03]
 "#;
 
-/// The float radiance of a `prt-bake relight` PLY.
-fn ply_radiance(bytes: &[u8]) -> Vec<[f32; 3]> {
-    let end = b"end_header\n";
-    let header_len = bytes.windows(end.len()).position(|w| w == end).unwrap() + end.len();
-    let header = std::str::from_utf8(&bytes[..header_len]).unwrap();
-    let count: usize = header
-        .lines()
-        .find_map(|l| l.strip_prefix("element vertex "))
-        .unwrap()
-        .parse()
-        .unwrap();
-    let record = 9 * 4 + 3;
-    (0..count)
-        .map(|v| {
-            let at = header_len + v * record + 6 * 4 + 3;
-            std::array::from_fn(|i| {
-                f32::from_le_bytes(bytes[at + 4 * i..at + 4 * i + 4].try_into().unwrap())
-            })
-        })
-        .collect()
-}
-
 /// A parsed `.glb`: its JSON and binary chunk.
 struct Glb {
     json: Value,
@@ -221,8 +199,8 @@ fn y_up_gltf_export_of_a_z_up_obj_bakes_and_relights_the_same() {
         s.run(&["relight", scene, file, "--lights", "rig.toml", "-o", out])
             .success();
     }
-    let z = ply_radiance(&s.read("out/z.ply"));
-    let y = ply_radiance(&s.read("out/y.ply"));
+    let z = s.ply_radiance("out/z.ply");
+    let y = s.ply_radiance("out/y.ply");
     let difference = relative_mean_difference(&z, &y);
     eprintln!("z-up OBJ vs y-up glTF: relit radiance differs by {difference:.5} (relative mean)");
     assert!(
@@ -247,7 +225,7 @@ fn y_up_gltf_export_of_a_z_up_obj_bakes_and_relights_the_same() {
         "out/wrong.ply",
     ])
     .success();
-    let wrong = relative_mean_difference(&z, &ply_radiance(&s.read("out/wrong.ply")));
+    let wrong = relative_mean_difference(&z, &s.ply_radiance("out/wrong.ply"));
     eprintln!("with the wrong up axis: {wrong:.5}");
     assert!(
         wrong > 0.1,

@@ -42,26 +42,6 @@ fn ball_obj() -> String {
     text
 }
 
-/// The linear radiance of every vertex of a `relight` PLY (the last 3 floats of each record).
-fn ply_radiance(bytes: &[u8]) -> Vec<[f32; 3]> {
-    let end = b"end_header\n";
-    let start = bytes.windows(end.len()).position(|w| w == end).unwrap() + end.len();
-    let header = std::str::from_utf8(&bytes[..start]).unwrap();
-    let vertices: usize = header
-        .lines()
-        .find_map(|l| l.strip_prefix("element vertex "))
-        .unwrap()
-        .parse()
-        .unwrap();
-    let record = prt_baker::formats::ply::VERTEX_BYTES;
-    (0..vertices)
-        .map(|v| {
-            let r = &bytes[start + v * record + record - 12..start + (v + 1) * record];
-            std::array::from_fn(|c| f32::from_le_bytes(r[4 * c..4 * c + 4].try_into().unwrap()))
-        })
-        .collect()
-}
-
 fn ball(s: &Scratch) {
     s.write("ball.obj", ball_obj());
     let run = s
@@ -123,8 +103,8 @@ fn two_occluders_darken_a_vertex_bake_near_them_only() {
         "{}",
         run.stdout
     );
-    let plain = ply_radiance(&s.read("out/plain.ply"));
-    let shadowed = ply_radiance(&s.read("out/shadowed.ply"));
+    let plain = s.ply_radiance("out/plain.ply");
+    let shadowed = s.ply_radiance("out/shadowed.ply");
     let scene = prt_baker::Scene::load(std::path::Path::new(CORNELL)).unwrap();
     let centres = [
         glam::Vec3::new(-0.5, -0.55, 0.22),

@@ -183,22 +183,6 @@ fn probe_errors_name_what_is_wrong() {
     s.assert_out_holds(&["p.prt"]);
 }
 
-/// The per-vertex radiance of a PLY written by `relight`.
-fn radiance(s: &Scratch, name: &str, vertices: usize) -> Vec<[f32; 3]> {
-    let bytes = s.read(name);
-    let end = b"end_header\n";
-    let start = bytes.windows(end.len()).position(|w| w == end).unwrap() + end.len();
-    bytes[start..]
-        .chunks_exact(prt_baker::formats::ply::VERTEX_BYTES)
-        .take(vertices)
-        .map(|v| {
-            std::array::from_fn(|c| {
-                f32::from_le_bytes(v[27 + 4 * c..31 + 4 * c].try_into().unwrap())
-            })
-        })
-        .collect()
-}
-
 #[test]
 fn a_rigid_object_is_relit_through_the_probes() {
     let s = Scratch::new();
@@ -241,10 +225,10 @@ fn a_rigid_object_is_relit_through_the_probes() {
     // upside down the floor and the boxes, darker.
     let up = relight("out/up.ply", None);
     assert!(up.stdout.contains("rigid object"), "{}", up.stdout);
-    let up = radiance(&s, "out/up.ply", 3);
+    let up = s.ply_radiance("out/up.ply")[..3].to_vec();
     let down = relight("out/down.ply", Some("1,0,0,180"));
     drop(down);
-    let down = radiance(&s, "out/down.ply", 3);
+    let down = s.ply_radiance("out/down.ply")[..3].to_vec();
     for (u, d) in up.iter().zip(&down) {
         assert!(
             u.iter().chain(d).all(|x| x.is_finite() && *x >= -1e-3),
