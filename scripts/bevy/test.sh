@@ -150,19 +150,7 @@ for j in range(nv):
 open(sys.argv[1], "w").write("\n".join(lines) + "\n")
 PY
 printf 'newmtl grey\nKd 0.8 0.8 0.8\n' > "$OUT/ball.mtl"
-cat > "$OUT/probe-rig.toml" <<'TOML'
-[[light]]
-kind = "sun"
-direction = [0.3, -0.8, 0.5]
-color = [1.0, 0.95, 0.9]
-intensity = 1.5
-
-[[light]]
-kind = "hemisphere"
-direction = [0.0, 0.0, 1.0]
-color = [0.3, 0.35, 0.45]
-ground_color = [0.05, 0.045, 0.04]
-TOML
+cp scenes/cornell/room-rig.toml "$OUT/probe-rig.toml"
 probe_bake=(--order 3 --samples 1024 --mode interreflected --quiet)
 $BAKE bake "$OUT/ball.obj" -o "$OUT/ball.prt" --order 3 --mode shadowed --samples 256 --quiet
 $BAKE export "$OUT/ball.prt" --scene "$OUT/ball.obj" --glb "$OUT/ball.glb" >/dev/null

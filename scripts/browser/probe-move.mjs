@@ -49,20 +49,8 @@ for (let j = 0; j < nv; j++) {
 }
 fs.writeFileSync(file('ball.obj'), `${lines.join('\n')}\n`);
 fs.writeFileSync(file('ball.mtl'), 'newmtl grey\nKd 0.8 0.8 0.8\n');
-// A sun through the open front (it lights the red wall's inner face, and the short box
-// shadows the floor behind it) and a sky.
-fs.writeFileSync(file('rig.toml'), `[[light]]
-kind = "sun"
-direction = [0.3, -0.8, 0.5]
-color = [1.0, 0.95, 0.9]
-intensity = 1.5
-
-[[light]]
-kind = "hemisphere"
-direction = [0.0, 0.0, 1.0]
-color = [0.3, 0.35, 0.45]
-ground_color = [0.05, 0.045, 0.04]
-`);
+// A sun through the open front and a sky: the room's rig of the viewer's tests.
+fs.copyFileSync(path.join(repo, 'scenes/cornell/room-rig.toml'), file('rig.toml'));
 run('bake', file('ball.obj'), '-o', file('ball.prt'), '--order', '3', '--mode', 'shadowed', '--samples', '256', '--quiet');
 run('export', file('ball.prt'), '--scene', file('ball.obj'), '--glb', file('ball.glb'));
 const cornell = path.join(repo, 'scenes/cornell/cornell.scene');

@@ -12,20 +12,8 @@ BAKE=target/release/prt-bake
 VIEW=target/release/prt-view
 nice -n 10 cargo build --release -p prt-baker -p prt-viewer --example side_by_side
 mkdir -p "$OUT"
-cat >"$OUT/rig.toml" <<'RIG'
-# A sun through the open front of the room and a sky (tests/probe_scene.rs's rig).
-[[light]]
-kind = "sun"
-direction = [0.3, -0.8, 0.5]
-color = [1.0, 0.95, 0.9]
-intensity = 1.5
-
-[[light]]
-kind = "hemisphere"
-direction = [0.0, 0.0, 1.0]
-color = [0.3, 0.35, 0.45]
-ground_color = [0.05, 0.045, 0.04]
-RIG
+# A sun through the open front of the room and a sky.
+cp scenes/cornell/room-rig.toml "$OUT/rig.toml"
 ROOM=scenes/cornell/cornell.scene
 WALKER=scenes/cornell/walker.glb
 $BAKE bake $ROOM -o "$OUT/room.prt" --order 4 --mode interreflected --samples 512 --quiet

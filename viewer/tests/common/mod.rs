@@ -176,18 +176,6 @@ pub fn band0_file(
     CoefficientFile::from_bake(scene, &transfer)
 }
 
-/// A sun through the Cornell room's open front (it lights the red wall's inner face; the
-/// short box shadows the floor behind it) and a sky: scripts/browser/probe-move.mjs's rig.
-pub const ROOM_RIG: &str = r#"
-[[light]]
-kind = "sun"
-direction = [0.3, -0.8, 0.5]
-color = [1.0, 0.95, 0.9]
-intensity = 1.5
-
-[[light]]
-kind = "hemisphere"
-direction = [0.0, 0.0, 1.0]
-color = [0.3, 0.35, 0.45]
-ground_color = [0.05, 0.045, 0.04]
-"#;
+/// The Cornell room's rig for things that move through it: a sun through its open front and a
+/// sky (scenes/cornell/room-rig.toml, which the scripts read too).
+pub const ROOM_RIG: &str = include_str!("../../../scenes/cornell/room-rig.toml");
