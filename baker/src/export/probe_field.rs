@@ -14,12 +14,15 @@
 //! albedo · T·L_obj, as [`crate::export::relight::vertex_radiance`] computes it. The scene's
 //! shadow and colour reach the object through L_in; its own shadowing stays in T.
 
+use std::path::Path;
+
 use glam::{DQuat, Vec3};
 
 use crate::formats::coefficient_file::CoefficientFile;
 use crate::formats::probe_block::{ProbeBlock, ProbeGrid};
 use crate::light::LightCoefficients;
 use crate::math::sh::{self, rotation::ShRotation};
+use crate::support::error::{Error, Result};
 
 /// A probe file's probes, ready to be read at any point.
 pub struct ProbeField<'a> {
@@ -53,6 +56,19 @@ impl<'a> ProbeField<'a> {
 
     pub fn order(&self) -> usize {
         self.order
+    }
+
+    /// Refuses probes (the file `probes`) of another order than `order`, that of `bake`
+    /// (what is lit through them, named for the message: "the object FILE").
+    pub fn require_order(&self, probes: &Path, order: usize, bake: &str) -> Result<()> {
+        if self.order == order {
+            return Ok(());
+        }
+        Err(Error::InvalidOption(format!(
+            "{}: probes of order {}, but {bake} is of order {order}",
+            probes.display(),
+            self.order
+        )))
     }
 
     /// The probes' weights at `x`: trilinear over the 8 around it (fewer at a grid of one

@@ -148,12 +148,7 @@ pub fn relight_from(
     }
     // A bake of some objects (`bake --receivers`): the others are relit unshadowed.
     let file = file.spread_to_scene(coefficients, &scene)?;
-    if image_format(output).is_some() {
-        return Err(crate::Error::InvalidOption(format!(
-            "{}: a per-vertex bake relights to a .ply mesh; images are for lightmap bakes",
-            output.display()
-        )));
-    }
+    refuse_image_output(output, PER_VERTEX_TO_MESH)?;
     let output = relight_output(&scene, &[coefficients], &rig, output)?;
     let order = file.header.order as usize;
     // Rigs are written for a z-up world; a y-up bake gets them turned to its up axis.
@@ -261,6 +256,22 @@ pub(crate) fn relight_output(
     inputs.extend(files.iter().map(|f| f.to_path_buf()));
     inputs.extend(rig.input_files());
     crate::support::output::Output::new(output, &inputs)
+}
+
+/// Why a per-vertex bake refuses an image output.
+pub(crate) const PER_VERTEX_TO_MESH: &str =
+    "a per-vertex bake relights to a .ply mesh; images are for lightmap bakes";
+
+/// Refuses an image `output` for a bake that relights to a mesh: `what` says which bake and
+/// why (the error is "OUTPUT: WHAT").
+pub(crate) fn refuse_image_output(output: &Path, what: &str) -> Result<()> {
+    match image_format(output) {
+        Some(_) => Err(crate::Error::InvalidOption(format!(
+            "{}: {what}",
+            output.display()
+        ))),
+        None => Ok(()),
+    }
 }
 
 pub(crate) fn image_format(output: &Path) -> Option<ImageFormat> {

@@ -126,12 +126,7 @@ pub fn relight_ldprt(
     for warning in warnings {
         eprintln!("warning: {}: {warning}", mesh.display());
     }
-    if crate::export::relight::image_format(output).is_some() {
-        return Err(crate::Error::InvalidOption(format!(
-            "{}: an LDPRT bake relights to a .ply mesh",
-            output.display()
-        )));
-    }
+    crate::export::relight::refuse_image_output(output, "an LDPRT bake relights to a .ply mesh")?;
     let output = crate::export::relight::relight_output(&scene, &[ldprt], &rig, output)?;
     let order = file.order as usize;
     let light = rig.project(order).in_scene_frame(file.up);

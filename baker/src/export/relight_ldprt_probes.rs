@@ -92,20 +92,9 @@ pub fn relight_ldprt_probes(
     let field = ProbeField::new(&probe_file)
         .map_err(|message| Error::coefficient_file(placement.probes, message))?;
     let order = file.order as usize;
-    if field.order() != order {
-        return Err(Error::InvalidOption(format!(
-            "{}: probes of order {}, but the LDPRT bake {} is of order {order}",
-            placement.probes.display(),
-            field.order(),
-            ldprt.display()
-        )));
-    }
-    if crate::export::relight::image_format(output).is_some() {
-        return Err(Error::InvalidOption(format!(
-            "{}: an LDPRT bake relights to a .ply mesh",
-            output.display()
-        )));
-    }
+    let bake = format!("the LDPRT bake {}", ldprt.display());
+    field.require_order(placement.probes, order, &bake)?;
+    crate::export::relight::refuse_image_output(output, "an LDPRT bake relights to a .ply mesh")?;
     let files = [ldprt, placement.probes];
     let output = crate::export::relight::relight_output(&scene, &files, &rig, output)?;
     let probes_up = probe_file.header.up;

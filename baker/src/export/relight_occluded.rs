@@ -14,7 +14,8 @@ use glam::{DQuat, DVec3, Vec3};
 use rayon::prelude::*;
 
 use crate::export::relight::{
-    Relit, image_format, lightmap_image, read_with_cpca, write_vertex_ply,
+    PER_VERTEX_TO_MESH, Relit, image_format, lightmap_image, read_with_cpca, refuse_image_output,
+    write_vertex_ply,
 };
 use crate::formats::coefficient_file::{CoefficientFile, LightmapBlock};
 use crate::formats::header::TransferKind;
@@ -189,12 +190,7 @@ pub fn relight_occluded(
     }
     file.check_scene(coefficients, &scene)?;
     let file = file.spread_to_scene(coefficients, &scene)?;
-    if image_format(output).is_some() {
-        return Err(Error::InvalidOption(format!(
-            "{}: a per-vertex bake relights to a .ply mesh; images are for lightmap bakes",
-            output.display()
-        )));
-    }
+    refuse_image_output(output, PER_VERTEX_TO_MESH)?;
     let output = open_output()?;
     let albedo = scene.vertex_albedo();
     let geometry = (&scene.positions[..], &scene.normals[..]);

@@ -40,14 +40,8 @@ pub fn relight_rigid(
     let field = ProbeField::new(&probe_file)
         .map_err(|message| Error::coefficient_file(placement.probes, message))?;
     let order = object.header.order as usize;
-    if field.order() != order {
-        return Err(Error::InvalidOption(format!(
-            "{}: probes of order {}, but the object {} is of order {order}",
-            placement.probes.display(),
-            field.order(),
-            coefficients.display()
-        )));
-    }
+    let bake = format!("the object {}", coefficients.display());
+    field.require_order(placement.probes, order, &bake)?;
     let files = [coefficients, placement.probes];
     let output = crate::export::relight::relight_output(&scene, &files, &rig, output)?;
     // The rig, turned to the probes' scene's up axis; the incident radiance there, turned
