@@ -236,6 +236,45 @@ fn texel_merges_refuse_parts_of_other_atlases_scenes_and_options() {
     }
     s.run(&["merge", "out/p0.prt", "out/p2.prt", "-o", "out/m.prt"])
         .fails_with_bad_input(&["shard 1 of 3 missing"]);
+    // Shard 0's part carries the atlas for every part; the others leave it out (they are
+    // smaller by it), and a shard 0 part without it is refused.
+    let (p0, p1) = (
+        Part::read(&s.path("out/p0.prt")).unwrap(),
+        Part::read(&s.path("out/p1.prt")).unwrap(),
+    );
+    let (l0, l1) = (p0.lightmap.as_ref().unwrap(), p1.lightmap.as_ref().unwrap());
+    assert!(l0.carried && !l0.uv1.is_empty());
+    assert!(!l1.carried && l1.in_shard_zero && l1.uv1.is_empty());
+    let mut bare = p0.clone();
+    bare.lightmap = Some(l0.in_shard_zero());
+    s.write("out/bare.prt", bare.to_bytes());
+    s.run(&[
+        "merge",
+        "out/bare.prt",
+        "out/p1.prt",
+        "out/p2.prt",
+        "-o",
+        "out/m.prt",
+    ])
+    .fails_with_bad_input(&[
+        "shard 0 of 3",
+        "shard 0's part without its lightmap's atlas",
+    ]);
+    // A part that leaves the atlas out but is not marked as leaving it to shard 0 is a
+    // checkpoint block.
+    let mut block = p1.clone();
+    block.lightmap = Some(l1.without_arrays());
+    s.write("out/block.prt", block.to_bytes());
+    s.run(&[
+        "merge",
+        "out/p0.prt",
+        "out/block.prt",
+        "out/p2.prt",
+        "-o",
+        "out/m.prt",
+    ])
+    .fails_with_bad_input(&["a checkpoint block (without its lightmap's atlas)"]);
+    assert!(!s.path("out/m.prt").exists(), "a refused merge wrote");
     // A texel part is not a bake, and inspect says what it holds.
     s.run(&[
         "export",

@@ -128,8 +128,11 @@ pub(super) fn bake_in_parts(
             (prepared, watertight) =
                 prepare(&mut stages, args, scene, tracer, options, resolution)?;
             let tracer = watertight.as_deref().or(tracer);
+            // A shard's denoiser guides are its own receivers' only.
+            let all = prepared.texels.valid_count();
+            let receivers = shard.map_or(0..all, |shard| shard_range(all, shard));
             let baker = stages.time("estimator", || {
-                PartBaker::texels(scene, tracer, options, &prepared)
+                PartBaker::texels_in(scene, tracer, options, &prepared, receivers)
             })?;
             (baker, "baked texels")
         }

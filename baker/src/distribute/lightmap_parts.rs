@@ -7,8 +7,10 @@
 //! from the scene (the atlas, then the leak test, [`crate::bake::lightmap::prepare`]), so
 //! every part records a fingerprint of it, and the merge refuses parts that disagree.
 //!
-//! Every part also carries the atlas (the triangles' lightmap UVs) and the baked-texel mask:
-//! the merge has no scene, and needs them to place the texels' values in the W×H lightmap,
+//! Shard 0's part also carries the atlas (the triangles' lightmap UVs) and the baked-texel
+//! mask; the other shards' parts carry the lightmap's block only, tied to shard 0's by the
+//! fingerprint (the arrays are a quarter of a part at 720,000 triangles, and the merge needs
+//! one copy). The merge has no scene, and needs them to place the texels' values in the W×H lightmap,
 //! dilate it, and read the previous bounce at the texels the bounce rows name (the same
 //! [`crate::bake::lightmap::place`] and [`BounceTargets::slot_values`] a whole bake uses, so
 //! the merged file is the whole bake's byte for byte). A per-object atlas's parts also carry
@@ -28,6 +30,7 @@ use crate::formats::header::{HEADER_SIZE, Header, OBJECT_PLACEMENT_BYTES, Object
 use crate::formats::object_placements;
 use crate::math::sh;
 use crate::scene::Scene;
+use crate::support::digest::Digest;
 
 /// Bytes 128..192 of a texel part: the texel block of a whole texel file (128..160), then
 /// the part's atlas block (160..192).
@@ -66,30 +69,37 @@ pub struct PartLightmap {
     /// it computes them anyway and checks them by fingerprint, so a block is its texels'
     /// values only, not 30 MB of atlas each at 720,000 triangles.
     pub carried: bool,
+    /// A shard part that leaves its arrays to shard 0's part ([`PartLightmap::in_shard_zero`]),
+    /// not a checkpoint block.
+    pub in_shard_zero: bool,
 }
 
 /// Atlas block flag (bytes 180..184): the part leaves its lightmap's arrays out.
 const NOT_CARRIED: u32 = 1;
+/// Atlas block flag: the arrays left out are in shard 0's part of the same bake (with
+/// [`NOT_CARRIED`]; an older merge refuses the flag rather than take the part for a block).
+const IN_SHARD_ZERO: u32 = 2;
 
 impl PartLightmap {
     /// The lightmap of a texel bake of `scene` over `prepared`.
     pub fn new(scene: &Scene, prepared: &Prepared) -> PartLightmap {
         let atlas = &prepared.atlas;
         let texel_size = atlas.texel_size.unwrap_or(0.0);
-        let mut bytes = Vec::with_capacity(16 + atlas.uv1.len() * 24);
-        bytes.extend(prepared.texels.fingerprint().to_le_bytes());
-        bytes.extend(texel_size.to_le_bytes());
-        bytes.extend(atlas.source.code().to_le_bytes());
-        let uv = atlas.uv1.iter().flatten().flat_map(|p| p.to_array());
-        bytes.extend(uv.flat_map(f32::to_le_bytes));
-        bytes.extend(
-            prepared
-                .seams
-                .iter()
-                .flatten()
-                .flat_map(|c| c.to_le_bytes()),
-        );
-        bytes.extend(objects_section(atlas.source, &atlas.objects));
+        let mut digest = Digest::default();
+        digest.bytes(&prepared.texels.fingerprint().to_le_bytes());
+        digest.bytes(&texel_size.to_le_bytes());
+        digest.bytes(&atlas.source.code().to_le_bytes());
+        for corners in &atlas.uv1 {
+            for p in corners {
+                digest.floats(&p.to_array());
+            }
+        }
+        for partners in &prepared.seams {
+            for c in partners {
+                digest.bytes(&c.to_le_bytes());
+            }
+        }
+        digest.bytes(&objects_section(atlas.source, &atlas.objects));
         PartLightmap {
             width: atlas.width,
             height: atlas.height,
@@ -98,13 +108,14 @@ impl PartLightmap {
             texel_size,
             source: atlas.source,
             receivers: prepared.texels.valid_count() as u64,
-            fingerprint: xxhash_rust::xxh3::xxh3_64(&bytes),
+            fingerprint: digest.finish(),
             uv1: atlas.uv1.clone(),
             valid: prepared.texels.valid.clone(),
             seams: prepared.seams.clone(),
             objects: atlas.objects.clone(),
             announced_objects: atlas.objects.len() as u32,
             carried: true,
+            in_shard_zero: false,
         }
     }
 
@@ -117,7 +128,17 @@ impl PartLightmap {
             seams: Vec::new(),
             objects: Vec::new(),
             carried: false,
+            in_shard_zero: false,
             ..*self
+        }
+    }
+
+    /// The lightmap as the part of a shard other than 0 carries it: its block only, the
+    /// arrays being in shard 0's part.
+    pub fn in_shard_zero(&self) -> PartLightmap {
+        PartLightmap {
+            in_shard_zero: true,
+            ..self.without_arrays()
         }
     }
 
@@ -133,7 +154,12 @@ impl PartLightmap {
         b.extend(self.fingerprint.to_le_bytes());
         b.extend(self.receivers.to_le_bytes());
         b.extend(self.announced_objects.to_le_bytes());
-        b.extend(if self.carried { 0 } else { NOT_CARRIED }.to_le_bytes());
+        let flags = match (self.carried, self.in_shard_zero) {
+            (true, _) => 0,
+            (false, false) => NOT_CARRIED,
+            (false, true) => NOT_CARRIED | IN_SHARD_ZERO,
+        };
+        b.extend(flags.to_le_bytes());
         b.resize(BLOCK_BYTES, 0); // reserved
         b.try_into().expect("64 bytes")
     }
@@ -196,8 +222,8 @@ impl PartLightmap {
             return Err(format!("{objects} object placements in a {source:?} atlas"));
         }
         let flags = u32_at(52);
-        if flags & !NOT_CARRIED != 0 {
-            return Err(format!("atlas block flags {flags:#x} (0 or 1)"));
+        if ![0, NOT_CARRIED, NOT_CARRIED | IN_SHARD_ZERO].contains(&flags) {
+            return Err(format!("atlas block flags {flags:#x} (0, 1 or 3)"));
         }
         if b[56..].iter().any(|&x| x != 0) {
             return Err("reserved bytes 184..192 are not zero".into());
@@ -217,6 +243,7 @@ impl PartLightmap {
             objects: Vec::new(),
             announced_objects: objects,
             carried: flags & NOT_CARRIED == 0,
+            in_shard_zero: flags & IN_SHARD_ZERO != 0,
         })
     }
 

@@ -60,22 +60,16 @@ pub(crate) fn join(paths: &[PathBuf]) -> Result<Joined<'_>> {
     let mut parts = Vec::with_capacity(paths.len());
     for path in paths {
         // The rows are read again, one part at a time, by each bounce (or by the gathers).
-        let mut part = Part::read_without_rows(path)?;
+        let part = Part::read_without_rows(path)?;
         if let Some((_, first)) = parts.first() {
             check_same_bake(first, &part, path, first_path)?;
-            // One lightmap's arrays are enough (the others are checked equal by fingerprint).
-            if let Some(l) = part.lightmap.as_mut() {
-                l.uv1 = Vec::new();
-                l.valid = Vec::new();
-            }
         }
         parts.push((path.as_path(), part));
     }
     let (header, first_shard) = (parts[0].1.header.clone(), parts[0].1.id.shard);
     let receivers = parts[0].1.receiver_count();
-    // The one lightmap whose arrays were kept (texel bakes), for the whole file.
-    let lightmap = parts[0].1.lightmap.clone();
     let by_index = index_parts(parts, &header, first_path)?;
+
     let id = PartId {
         shard: first_shard,
         first_vertex: 0,
@@ -83,8 +77,9 @@ pub(crate) fn join(paths: &[PathBuf]) -> Result<Joined<'_>> {
     };
     let order: Vec<(&Path, PartId)> = by_index.values().map(|(p, part)| (*p, part.id)).collect();
     let parts = by_index.into_values().map(|(_, part)| part).collect();
-    let mut whole = Part::join(parts, id);
-    whole.lightmap = lightmap;
+    // Texel bakes: the joined part keeps shard 0's lightmap, whose part carries the arrays
+    // for every part (the others' lightmaps are checked equal by fingerprint).
+    let whole = Part::join(parts, id);
     Ok((header, order, whole))
 }
 

@@ -38,9 +38,10 @@ pub struct PartBaker<'a> {
     targets: BounceTargets<'a>,
     header: Header,
     lightmap: Option<PartLightmap>,
-    /// Denoised bakes: the guides of every receiver, whose range each part carries with
-    /// its receivers' noise.
+    /// Denoised bakes: the guides of the receivers from `guides_from` on (every receiver,
+    /// or a shard's), whose range each part carries with its receivers' noise.
     guides: Option<Guides>,
+    guides_from: usize,
 }
 
 impl<'a> PartBaker<'a> {
@@ -66,6 +67,7 @@ impl<'a> PartBaker<'a> {
             lightmap: None,
             guides: (options.denoise && tracer.is_some())
                 .then(|| denoise::vertex_guides(scene, Vec::new())),
+            guides_from: 0,
         })
     }
 
@@ -77,6 +79,19 @@ impl<'a> PartBaker<'a> {
         tracer: Option<&'a dyn Tracer>,
         options: &BakeOptions,
         prepared: &'a Prepared,
+    ) -> Result<PartBaker<'a>> {
+        let all = 0..prepared.texels.valid_count();
+        PartBaker::texels_in(scene, tracer, options, prepared, all)
+    }
+
+    /// [`PartBaker::texels`] that bakes only the baked texels `receivers` (a shard's): a
+    /// denoised bake's guides are computed for them alone, not the whole lightmap.
+    pub fn texels_in(
+        scene: &'a Scene,
+        tracer: Option<&'a dyn Tracer>,
+        options: &BakeOptions,
+        prepared: &'a Prepared,
+        receivers: Range<usize>,
     ) -> Result<PartBaker<'a>> {
         let tracer = tracer_for(options, tracer)?;
         let backend = tracer.map_or(Backend::None, |t| t.backend());
@@ -91,8 +106,10 @@ impl<'a> PartBaker<'a> {
             targets: BounceTargets::texels(&prepared.atlas, texels),
             header,
             lightmap: Some(PartLightmap::new(scene, prepared)),
-            guides: (options.denoise && tracer.is_some())
-                .then(|| denoise::texel_guides(scene, &prepared.atlas, texels, Vec::new())),
+            guides: (options.denoise && tracer.is_some()).then(|| {
+                denoise::guides::texel_guides_of(scene, &prepared.atlas, texels, receivers.clone())
+            }),
+            guides_from: receivers.start,
         })
     }
 
@@ -197,10 +214,14 @@ impl<'a> PartBaker<'a> {
                 .then(|| direct.visibility.iter().map(|v| v.bent_normal).collect()),
             rows: None,
             header: self.header.clone(),
-            lightmap: self.lightmap.clone(),
+            // Shard 0's part carries the lightmap's arrays for every part of the bake.
+            lightmap: self.lightmap.as_ref().map(|l| match shard.index {
+                0 => l.clone(),
+                _ => l.in_shard_zero(),
+            }),
             guides: self.guides.as_ref().map(|g| Guides {
                 noise: direct.visibility.iter().map(|v| v.noise).collect(),
-                ..g.range(receivers.clone())
+                ..g.range(receivers.start - self.guides_from..receivers.end - self.guides_from)
             }),
         };
         Ok((part, jobs, rays))
@@ -465,32 +486,62 @@ mod tests {
         read.header.checksum = 0;
         assert!(read == part, "a texel part read back differs");
         assert_eq!(read.receiver_count(), baked);
+        // Shard 0's part carries the lightmap's arrays; the others leave them to it.
+        let zero = ShardId { index: 0, count: 2 };
+        let (first, _) = baker.bake(zero, 0..10, &silent).unwrap();
+        assert!(first.lightmap.as_ref().unwrap().carried);
+        assert!(part.lightmap.as_ref().unwrap().in_shard_zero);
+        assert_eq!(part.lightmap.as_ref().unwrap().uv1.len(), 0);
+
+        // A denoised shard computes the guides of its own texels only, equal to the whole
+        // lightmap's (group ids first met before its range included).
+        let denoised = BakeOptions {
+            denoise: true,
+            ..options.clone()
+        };
+        let all = crate::bake::denoise::texel_guides(
+            &scene,
+            &prepared.atlas,
+            &prepared.texels,
+            Vec::new(),
+        );
+        for range in [0..baked, 10..30, baked - 7..baked] {
+            let own =
+                PartBaker::texels_in(&scene, Some(&*tracer), &denoised, &prepared, range.clone())
+                    .unwrap();
+            let (p, _) = own.bake(shard, range.clone(), &silent).unwrap();
+            let mut guides = p.guides.unwrap();
+            assert!(guides.noise.iter().all(|&v| v >= 0.0));
+            guides.noise = Vec::new();
+            assert_eq!(guides, all.range(range.clone()), "guides of {range:?}");
+        }
         // Readers of whole files refuse it.
         let err = CoefficientFile::from_bytes(&bytes).unwrap_err();
         assert!(err.contains("a shard part (shard 1 of 2"), "{err}");
 
-        // A mask that does not hold the announced baked texels.
-        let mut bad = part.clone();
+        // A mask that does not hold the announced baked texels (shard 0's part, which carries
+        // the arrays).
+        let mut bad = first.clone();
         let l = bad.lightmap.as_mut().unwrap();
         let first_empty = l.valid.iter().position(|v| !v).unwrap();
         l.valid[first_empty] = true;
         let err = Part::from_bytes(&bad.to_bytes()).unwrap_err();
         assert!(err.contains("the mask holds"), "{err}");
         // Baked texels beyond the lightmap, and a range beyond the baked texels.
-        let mut bad = part.clone();
+        let mut bad = first.clone();
         bad.lightmap.as_mut().unwrap().receivers = 24 * 24 + 1;
         let err = Part::from_bytes(&bad.to_bytes()).unwrap_err();
         assert!(err.contains("baked texels in a lightmap of 576"), "{err}");
-        let mut bad = part.clone();
+        let mut bad = first.clone();
         bad.id.first_vertex = baked as u64 - 5;
         let err = Part::from_bytes(&bad.to_bytes()).unwrap_err();
         assert!(err.contains("beyond the scene's"), "{err}");
         // A truncated tail: the file's payload no longer matches.
-        let mut short = part.to_bytes();
+        let mut short = first.to_bytes();
         short.truncate(short.len() - 1);
         assert!(Part::from_bytes(&short).is_err());
         // A row entry naming a texel beyond the lightmap.
-        let mut bad = part;
+        let mut bad = first;
         let rows = bad.rows.as_mut().unwrap();
         assert!(!rows.vertices.is_empty(), "no bounce hits recorded");
         rows.vertices[0] = 24 * 24;

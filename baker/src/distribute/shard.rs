@@ -173,15 +173,23 @@ impl Part {
         Part::checked(Part::parse(bytes, Reading::Whole)?.0)
     }
 
-    /// Refuses a texel checkpoint block, which leaves its lightmap's arrays out.
+    /// Refuses a texel checkpoint block, which leaves its lightmap's arrays out, and a part
+    /// of shard 0 that leaves them out too (the other shards' parts leave them to it).
     fn checked(part: Part) -> std::result::Result<Part, String> {
-        if part.lightmap.as_ref().is_some_and(|l| !l.carried) {
-            return Err(format!(
+        let Some(l) = part.lightmap.as_ref().filter(|l| !l.carried) else {
+            return Ok(part);
+        };
+        match (l.in_shard_zero, part.id.shard.index) {
+            (false, _) => Err(format!(
                 "{}: a checkpoint block (without its lightmap's atlas), not a part",
                 part.id
-            ));
+            )),
+            (true, 0) => Err(format!(
+                "{}: shard 0's part without its lightmap's atlas (it is the one that carries it)",
+                part.id
+            )),
+            (true, _) => Ok(part),
         }
-        Ok(part)
     }
 
     /// [`Part::from_bytes`], a texel checkpoint block too, reading what `reading` says;

@@ -5,6 +5,7 @@
 
 pub mod atomic;
 pub mod cpu_time;
+pub mod digest;
 pub mod error;
 pub mod input_path;
 pub mod limits;

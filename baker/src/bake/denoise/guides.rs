@@ -112,6 +112,22 @@ pub fn vertex_guides(scene: &Scene, noise: Vec<f32>) -> Guides {
 /// The guides of `texels`' valid texels, in row-major order, with `noise` per valid texel
 /// (or empty). Each texel's spacing is its triangle's world size of a texel.
 pub fn texel_guides(scene: &Scene, atlas: &Atlas, texels: &Texels, noise: Vec<f32>) -> Guides {
+    let all = 0..texels.valid_count();
+    Guides {
+        noise,
+        ..texel_guides_of(scene, atlas, texels, all)
+    }
+}
+
+/// [`texel_guides`] of the valid texels `range` (counted in row-major order) alone, without
+/// noise: the same guides those texels have among all (group ids and the spacing given to
+/// texels of no UV area are the whole lightmap's), for a shard that bakes only them.
+pub fn texel_guides_of(
+    scene: &Scene,
+    atlas: &Atlas,
+    texels: &Texels,
+    range: std::ops::Range<usize>,
+) -> Guides {
     let objects = triangle_objects(scene);
     let texel_area = (atlas.width as f32) * (atlas.height as f32);
     let triangle_spacing: Vec<f32> = (0..scene.triangles.len())
@@ -125,29 +141,62 @@ pub fn texel_guides(scene: &Scene, atlas: &Atlas, texels: &Texels, noise: Vec<f3
         })
         .collect();
     let mut groups = Groups(BTreeMap::new());
-    let mut guides = Guides {
-        noise,
-        ..Guides::default()
-    };
-    for i in texels.valid_indices() {
+    let mut guides = Guides::default();
+    // Group ids are numbered in the order first met, so the texels before `range` are
+    // walked too (their group only, and the map consulted only when it changes).
+    let mut last = None;
+    for (k, i) in texels.valid_indices().enumerate().take(range.end) {
         let t = texels.triangle[i] as usize;
-        let material = scene.vertex_material[scene.triangles[t][0] as usize];
+        let key = (
+            objects[t],
+            scene.vertex_material[scene.triangles[t][0] as usize],
+        );
+        let group = match last {
+            Some((previous, id)) if previous == key => id,
+            _ => groups.id(key.0, key.1),
+        };
+        last = Some((key, group));
+        if k < range.start {
+            continue;
+        }
         guides.points.push(texels.positions[i]);
         guides.normals.push(texels.mapped[i]);
         guides.surfaces.push(texels.normals[i]);
-        guides.groups.push(groups.id(objects[t], material));
+        guides.groups.push(group);
         guides.spacing.push(triangle_spacing[t]);
     }
-    fill_missing(&mut guides.spacing);
+    if guides.spacing.iter().any(|s| missing(*s)) {
+        let all: Vec<f32> = texels
+            .valid_indices()
+            .map(|i| triangle_spacing[texels.triangle[i] as usize])
+            .collect();
+        fill_with(&mut guides.spacing, known_median(&all));
+    }
     guides
+}
+
+/// A spacing the receiver has not got (an isolated vertex, a triangle of no UV area).
+fn missing(s: f32) -> bool {
+    s.is_nan() || s <= 0.0
+}
+
+/// The median of the spacings that are known (positive), 1 if none is.
+fn known_median(spacing: &[f32]) -> f32 {
+    let mut known: Vec<f32> = spacing.iter().copied().filter(|s| *s > 0.0).collect();
+    known.sort_unstable_by(f32::total_cmp);
+    known.get(known.len() / 2).copied().unwrap_or(1.0)
+}
+
+fn fill_with(spacing: &mut [f32], median: f32) {
+    for s in spacing.iter_mut().filter(|s| missing(**s)) {
+        *s = median;
+    }
 }
 
 /// Spacings of 0 (an isolated vertex, a triangle of no UV area) become the median.
 fn fill_missing(spacing: &mut [f32]) {
-    let mut known: Vec<f32> = spacing.iter().copied().filter(|s| *s > 0.0).collect();
-    known.sort_unstable_by(f32::total_cmp);
-    let median = known.get(known.len() / 2).copied().unwrap_or(1.0);
-    for s in spacing.iter_mut().filter(|s| s.is_nan() || **s <= 0.0) {
-        *s = median;
+    if spacing.iter().any(|s| missing(*s)) {
+        let median = known_median(spacing);
+        fill_with(spacing, median);
     }
 }

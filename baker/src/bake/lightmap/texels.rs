@@ -130,25 +130,23 @@ impl Texels {
     /// (after leaking texels were moved out), its mapped normal where a normal map turned it.
     /// Two shards of one bake must agree on it.
     pub fn fingerprint(&self) -> u64 {
-        let mut bytes = Vec::with_capacity(16 + self.valid.len() + 40 * self.valid_count());
-        bytes.extend(self.width.to_le_bytes());
-        bytes.extend(self.height.to_le_bytes());
-        bytes.extend(self.valid.iter().map(|&v| u8::from(v)));
-        for (i, _) in self.valid.iter().enumerate().filter(|(_, v)| **v) {
+        let mut digest = crate::support::digest::Digest::default();
+        digest.bytes(&self.width.to_le_bytes());
+        digest.bytes(&self.height.to_le_bytes());
+        for mask in self.valid.chunks(4096) {
+            let bytes: Vec<u8> = mask.iter().map(|&v| u8::from(v)).collect();
+            digest.bytes(&bytes);
+        }
+        for i in self.valid_indices() {
             for v in [self.positions[i], self.normals[i], self.origins[i]] {
-                bytes.extend(v.to_array().iter().flat_map(|x| x.to_le_bytes()));
+                digest.floats(&v.to_array());
             }
-            bytes.extend(self.triangle[i].to_le_bytes());
+            digest.bytes(&self.triangle[i].to_le_bytes());
             if self.mapped[i] != self.normals[i] {
-                bytes.extend(
-                    self.mapped[i]
-                        .to_array()
-                        .iter()
-                        .flat_map(|x| x.to_le_bytes()),
-                );
+                digest.floats(&self.mapped[i].to_array());
             }
         }
-        xxhash_rust::xxh3::xxh3_64(&bytes)
+        digest.finish()
     }
 
     /// The valid texels' indices, in order (reading only their entries of the other arrays
