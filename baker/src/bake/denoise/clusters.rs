@@ -8,14 +8,11 @@
 use super::grid::Grid;
 use super::guides::Guides;
 
-/// One cluster as found: its representative, members and weights, mass, variance and
-/// centroid.
-type Found = (u32, Vec<(u32, f32)>, f32, f32, glam::Vec3);
-
-/// Clusters of receivers, in the order of their representatives.
+/// Clusters of receivers: singletons in receiver order, or built clusters in the order of
+/// their grid cells.
 pub struct Clusters {
     /// Each cluster's representative, the member nearest the members' centroid: its point,
-    /// normals and guide stand for the cluster. Ascending.
+    /// normals and plane stand for the cluster.
     pub reps: Vec<u32>,
     /// Cluster k's members and their normalised weights: `members[starts[k]..starts[k + 1]]`.
     pub starts: Vec<u32>,
@@ -48,7 +45,7 @@ impl Clusters {
     /// cluster whose first member they may share a kernel with (the same group, normals
     /// within 25°, on its plane, within `step` of its spacings, and `similar`: raw signals
     /// apart by about their noise), or start one. Members weigh the same. A function of the
-    /// guides and the signal alone, in a fixed order: the same on any thread.
+    /// guides and the signal alone, in a fixed order (cells by key): the same on any thread.
     pub fn build(
         guides: &Guides,
         grid: &Grid,
@@ -67,7 +64,14 @@ impl Clusters {
                 && d.length_squared() <= reach * reach
                 && similar(seed, m)
         };
-        let mut found: Vec<Found> = Vec::new();
+        let mut clusters = Clusters {
+            reps: Vec::new(),
+            starts: vec![0],
+            members: Vec::with_capacity(g.points.len()),
+            mass: Vec::new(),
+            noise: Vec::new(),
+            points: Vec::new(),
+        };
         let (mut seeds, mut label) = (Vec::<usize>::new(), Vec::<usize>::new());
         for cell in grid.cells() {
             seeds.clear();
@@ -83,6 +87,8 @@ impl Clusters {
                 };
                 label.push(k);
             }
+            // Each seed's cluster, written straight into the flat arrays: no allocation
+            // per cluster.
             for k in 0..seeds.len() {
                 let mine = || cell.iter().zip(&label).filter(move |(_, l)| **l == k);
                 let (sum, n) = mine().fold((glam::Vec3::ZERO, 0.0f32), |(s, n), (&m, _)| {
@@ -91,40 +97,25 @@ impl Clusters {
                 let centre = sum / n;
                 let mut rep = u32::MAX;
                 let mut best = f32::INFINITY;
+                let mut var = 0.0f32;
+                let mut at = glam::Vec3::ZERO;
+                let w = 1.0 / n;
                 for (&m, _) in mine() {
-                    let d = g.points[m as usize].distance_squared(centre);
+                    let p = g.points[m as usize];
+                    let d = p.distance_squared(centre);
                     if d < best {
                         (best, rep) = (d, m);
                     }
+                    var += w * w * noise[m as usize];
+                    at += w * p;
+                    clusters.members.push((m, w));
                 }
-                let mut row: Vec<(u32, f32)> = mine().map(|(&m, _)| (m, 1.0)).collect();
-                let mass = row.len() as f32;
-                let mut var = 0.0f32;
-                let mut at = glam::Vec3::ZERO;
-                for (m, w) in row.iter_mut() {
-                    *w /= mass;
-                    var += *w * *w * noise[*m as usize];
-                    at += *w * g.points[*m as usize];
-                }
-                found.push((rep, row, mass, var, at));
+                clusters.points.push(at);
+                clusters.reps.push(rep);
+                clusters.starts.push(clusters.members.len() as u32);
+                clusters.mass.push(n);
+                clusters.noise.push(var);
             }
-        }
-        found.sort_unstable_by_key(|f| f.0);
-        let mut clusters = Clusters {
-            reps: Vec::with_capacity(found.len()),
-            starts: vec![0],
-            members: Vec::with_capacity(g.points.len()),
-            mass: Vec::with_capacity(found.len()),
-            noise: Vec::with_capacity(found.len()),
-            points: Vec::with_capacity(found.len()),
-        };
-        for (rep, row, mass, var, at) in found {
-            clusters.points.push(at);
-            clusters.reps.push(rep);
-            clusters.members.extend(row);
-            clusters.starts.push(clusters.members.len() as u32);
-            clusters.mass.push(mass);
-            clusters.noise.push(var);
         }
         clusters
     }

@@ -96,8 +96,12 @@ impl Grid {
         self.column_starts = starts;
     }
 
+    /// The cell of `p`: truncated, not floored (no call to `floor` per point). The two agree
+    /// for points of the grid, at or above `origin`; a query corner below it lands in cell 0
+    /// either way once clamped, and a query wholly below it visits cell 0 as well, which a
+    /// superset allows.
     fn coords(&self, p: Vec3) -> [i64; 3] {
-        let c = ((p - self.origin) / self.cell).floor();
+        let c = (p - self.origin) / self.cell;
         [c.x as i64, c.y as i64, c.z as i64]
     }
 

@@ -36,7 +36,11 @@
 //! with its representative's normals, group and guide, and its members' mean, as an à-trous
 //! pass reads a coarser level (Dammertz et al. 2010, *Edge-avoiding À-Trous wavelet
 //! transform*; SVGF), and forms one kernel per cluster, which each member evaluates at its
-//! own place. Every texel counts once; the wide pass costs a sixth. Vertices: one by one.
+//! own place. Every texel counts once; the wide pass costs a sixth. A cluster of 3 or more
+//! is its own guide, its members' mean (of variance Σ w² σ²), as SVGF's coarser levels read
+//! the level below: they are alike by construction, so their mean is about as steady as the
+//! prefilter over 1.5 spacings, and costs nothing more; only the representatives of smaller clusters
+//! (a shadow's edge, a chart's corner) are prefiltered. Vertices: one by one.
 //!
 //! The kernel weights then become those of a weighted first-order fit over i's tangent plane
 //! (local regression: Moon, Carr & Yoon 2014), evaluated at i ([`Filter::row`]): a constant
@@ -113,6 +117,8 @@ const GUIDE_KAPPA: f32 = 3.0;
 /// 1,000. At 0 (d² ≤ 1) the clusters split twice as often: the filter costs 2 ×, for 1.5 %
 /// of a 64-ray bake's error.
 const SIMILAR: f32 = 0.25;
+/// The least members a cluster needs to be its own guide ([`Filter::new`]).
+const GUIDE_MASS: f32 = 3.0;
 /// The power of the shading normals' dot product.
 const NORMAL_POWER: i32 = 32;
 
@@ -145,6 +151,8 @@ pub struct Filter<'g> {
     tap_guide: Vec<f32>,
     /// Each receiver's cluster.
     cluster_of: Vec<u32>,
+    /// Each cluster's tangent frame (its representative's plane): the fit's axes.
+    frames: Vec<(glam::Vec3, glam::Vec3)>,
     /// The prefiltered signal, `signal_width` floats per receiver (the representatives'; 0
     /// elsewhere).
     guide: Vec<f32>,
@@ -188,12 +196,13 @@ impl<'g> Filter<'g> {
         let mut filter = Filter {
             guides,
             settings,
-            wide: fine.clone(),
+            wide: grid::Grid::new(&[], 1.0),
             fine,
             clusters: Clusters::singletons(&[]),
             taps: Vec::new(),
             tap_guide: Vec::new(),
             cluster_of: Vec::new(),
+            frames: Vec::new(),
             guide: Vec::new(),
             guide_noise: Vec::new(),
             signal_width,
@@ -216,11 +225,25 @@ impl<'g> Filter<'g> {
                 })
             }
         };
+        // A cluster of at least GUIDE_MASS like texels is its own guide: its members'
+        // mean, of variance Σ w² σ² (the members are alike by construction, so the mean is
+        // the prefilter's answer at a fraction of its cost). Smaller clusters (a shadow's
+        // edge, a chart's corner) and every vertex prefilter their representative.
+        let own_guide = |k: usize| settings.step.is_some() && clusters.mass[k] >= GUIDE_MASS;
         let mut wanted = vec![false; count];
-        for &r in &clusters.reps {
-            wanted[r as usize] = true;
+        for (k, &r) in clusters.reps.iter().enumerate() {
+            wanted[r as usize] = !own_guide(k);
         }
-        let (guide, guide_noise) = filter.prefilter(&signal, &noise, &wanted);
+        let (mut guide, mut guide_noise) = filter.prefilter(&signal, &noise, &wanted);
+        let signal_means = clusters.means(&signal, signal_width);
+        for (k, &r) in clusters.reps.iter().enumerate() {
+            if own_guide(k) {
+                let r = r as usize;
+                guide[r * signal_width..][..signal_width]
+                    .copy_from_slice(&signal_means[k * signal_width..][..signal_width]);
+                guide_noise[r] = clusters.noise[k];
+            }
+        }
         filter.guide = guide;
         filter.guide_noise = guide_noise;
         filter.wide = grid::Grid::new(&clusters.points, wide_cell);
@@ -242,6 +265,11 @@ impl<'g> Filter<'g> {
             .iter()
             .flat_map(|&r| filter.guide[r as usize * signal_width..][..signal_width].iter())
             .copied()
+            .collect();
+        filter.frames = clusters
+            .reps
+            .iter()
+            .map(|&r| guides.surfaces[r as usize].any_orthonormal_pair())
             .collect();
         filter.cluster_of = vec![0; count];
         for c in 0..clusters.reps.len() {
@@ -396,6 +424,8 @@ impl<'g> Filter<'g> {
         let (ni, si, group) = (g.normals[r], g.surfaces[r], g.groups[r]);
         let (spacing, noise) = (g.spacing[r], self.taps[c].noise);
         let reach = radius * spacing;
+        let (t1, t2) = self.frames[c];
+        let scale = 1.0 / spacing;
         self.wide.visit(pi, reach, |k| {
             let tap = &self.taps[k as usize];
             let d = tap.at - pi;
@@ -409,27 +439,23 @@ impl<'g> Filter<'g> {
             let range = range_exponent(gi, gj, (noise + tap.noise) * sw as f32, kappa);
             let w = (-2.0 * r2 - off_plane * off_plane - range).exp() * facing.powi(NORMAL_POWER);
             if w > 0.0 {
-                out.push((k, [w * tap.mass, 0.0, 0.0]));
+                // With the tap's place in c's tangent plane, in spacings: the fit's (u, v).
+                let place = d * scale;
+                out.push((k, [w * tap.mass, place.dot(t1), place.dot(t2)]));
             }
         });
-        let total: f32 = out.iter().map(|&(_, w)| w[0]).sum();
         if !self.settings.linear {
+            let total: f32 = out.iter().map(|&(_, w)| w[0]).sum();
             for (_, e) in out.iter_mut() {
-                e[0] /= total;
+                *e = [e[0] / total, 0.0, 0.0];
             }
             return;
         }
-        let (t1, t2) = si.any_orthonormal_pair();
-        let scale = 1.0 / spacing;
-        let coords = |k: u32| {
-            let d = (self.clusters.points[k as usize] - pi) * scale;
-            glam::DVec3::new(1.0, f64::from(d.dot(t1)), f64::from(d.dot(t2)))
-        };
+        let coords = |[_, u, v]: [f32; 3]| glam::DVec3::new(1.0, f64::from(u), f64::from(v));
         // A = Σ w x xᵀ, symmetric: its six distinct entries.
         let mut sums = [0.0f64; 6];
-        for &(k, [w, ..]) in out.iter() {
-            let x = coords(k);
-            let w = f64::from(w);
+        for &(_, e) in out.iter() {
+            let (x, w) = (coords(e), f64::from(e[0]));
             let products = [
                 x.x * x.x,
                 x.y * x.x,
@@ -456,12 +482,12 @@ impl<'g> Filter<'g> {
         let inverse = a.inverse();
         if !inverse.is_finite() {
             for (_, e) in out.iter_mut() {
-                e[0] = (f64::from(e[0]) / mass) as f32;
+                *e = [(f64::from(e[0]) / mass) as f32, 0.0, 0.0];
             }
             return;
         }
-        for (k, e) in out.iter_mut() {
-            let y = inverse * coords(*k) * f64::from(e[0]);
+        for (_, e) in out.iter_mut() {
+            let y = inverse * coords(*e) * f64::from(e[0]);
             *e = [y.x as f32, y.y as f32, y.z as f32];
         }
     }
@@ -471,7 +497,7 @@ impl<'g> Filter<'g> {
     fn member_place(&self, c: usize, m: usize) -> [f32; 3] {
         let g = self.guides;
         let r = self.clusters.reps[c] as usize;
-        let (t1, t2) = g.surfaces[r].any_orthonormal_pair();
+        let (t1, t2) = self.frames[c];
         let d = (g.points[m] - self.clusters.points[c]) / g.spacing[r];
         [1.0, d.dot(t1), d.dot(t2)]
     }
@@ -515,16 +541,16 @@ impl<'g> Filter<'g> {
             true => Vec::new(),
             false => self.clusters.means(scalars, 1),
         };
-        // Per cluster, its members' filtered values and scalars, in member order.
-        let filtered: Vec<(Vec<f32>, Vec<f32>)> = (0..self.clusters.reps.len())
-            .into_par_iter()
-            .map_init(Vec::new, |kernel, c| {
+        // Per cluster, the fit's three sums Σ e_k · mean_k for each of (1, u, v), of the
+        // values and then of the scalars: a member's value is their dot with its place, so
+        // the clusters' means are read once per cluster, not once per member.
+        let stride = 3 * (width + 1);
+        let mut sums = vec![0.0f32; self.clusters.reps.len() * stride];
+        sums.par_chunks_mut(stride)
+            .enumerate()
+            .for_each_init(Vec::new, |kernel, (c, sums)| {
                 self.cluster_kernel(c, kernel);
-                // The fit's three sums, Σ e_k · mean_k for each of (1, u, v): a member's
-                // value is their dot with its place, so the clusters' means are read once
-                // per cluster, not once per member.
-                let mut sums = vec![0.0f32; 3 * width];
-                let mut scalar_sums = [0.0f32; 3];
+                let (sums, scalar_sums) = sums.split_at_mut(3 * width);
                 for &(k, e) in kernel.iter() {
                     let k = k as usize;
                     let mean = &means[k * width..(k + 1) * width];
@@ -539,35 +565,28 @@ impl<'g> Filter<'g> {
                         }
                     }
                 }
-                let members = self.clusters.row(c);
-                let mut out = vec![0.0f32; members.len() * width];
-                let mut out_scalars = vec![0.0f32; members.len().min(scalars.len())];
+            });
+        let mut out = vec![0.0f32; values.len()];
+        out.par_chunks_mut(width.max(1))
+            .enumerate()
+            .for_each(|(m, out)| {
+                let c = self.cluster_of[m] as usize;
+                let [p0, p1, p2] = self.member_place(c, m);
+                let sums = &sums[c * stride..][..3 * width];
                 let (s0, rest) = sums.split_at(width);
                 let (s1, s2) = rest.split_at(width);
-                for (n, &(m, _)) in members.iter().enumerate() {
-                    let [p0, p1, p2] = self.member_place(c, m as usize);
-                    let out = &mut out[n * width..(n + 1) * width];
-                    for (o, ((a, b), d)) in out.iter_mut().zip(s0.iter().zip(s1).zip(s2)) {
-                        *o = a * p0 + b * p1 + d * p2;
-                    }
-                    if let Some(o) = out_scalars.get_mut(n) {
-                        *o = scalar_sums[0] * p0 + scalar_sums[1] * p1 + scalar_sums[2] * p2;
-                    }
+                for (o, ((a, b), d)) in out.iter_mut().zip(s0.iter().zip(s1).zip(s2)) {
+                    *o = a * p0 + b * p1 + d * p2;
                 }
-                (out, out_scalars)
+            });
+        let out_scalars = (0..scalars.len())
+            .map(|m| {
+                let c = self.cluster_of[m] as usize;
+                let [p0, p1, p2] = self.member_place(c, m);
+                let s = &sums[c * stride + 3 * width..][..3];
+                s[0] * p0 + s[1] * p1 + s[2] * p2
             })
             .collect();
-        let mut out = vec![0.0f32; values.len()];
-        let mut out_scalars = vec![0.0f32; scalars.len()];
-        for (c, (values, scalars)) in filtered.into_iter().enumerate() {
-            for (n, &(m, _)) in self.clusters.row(c).iter().enumerate() {
-                let m = m as usize;
-                out[m * width..(m + 1) * width].copy_from_slice(&values[n * width..][..width]);
-                if let Some(&s) = scalars.get(n) {
-                    out_scalars[m] = s;
-                }
-            }
-        }
         (out, out_scalars)
     }
 }
