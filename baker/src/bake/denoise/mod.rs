@@ -28,15 +28,19 @@
 //!   ([`crate::bake::noise`]: the spread of its rays' runs). With d² the squared guide
 //!   difference over that variance, the weight is exp(−max(0, d² − 1)/κ²): noise is
 //!   smoothed, a real shadow edge or contact shadow, many σ deep, is kept. Where the rays
-//!   give no estimate (transfer matrices), the variance is half the median of the squared
-//!   differences to the closest neighbours ([`Filter::new`]).
+//!   give no estimate (transfer matrices; the vertices whose subsurface walks replaced their
+//!   transfer), the variance is half the median of the squared differences to the closest
+//!   neighbours ([`Filter::new`]).
 //!
 //! The wide pass (7 texel spacings, about 150 texels) does not weigh every texel: it weighs
 //! **clusters** of up to 3 × 3 like texels ([`clusters`]), each at its members' centroid,
 //! with its representative's normals, group and guide, and its members' mean, as an à-trous
 //! pass reads a coarser level (Dammertz et al. 2010, *Edge-avoiding À-Trous wavelet
 //! transform*; SVGF), and forms one kernel per cluster, which each member evaluates at its
-//! own place. Every texel counts once; the wide pass costs a sixth. Vertices: one by one.
+//! own place. Every texel counts once; the wide pass costs a sixth. Vertices (vertex bakes,
+//! transfer matrices, subsurface vertices) are read one by one, with a second-order fit over
+//! 9 spacings ([`vertices`]): a mesh is too sparse for clusters, and its curves too close
+//! for a first-order fit.
 //!
 //! The kernel weights then become those of a weighted first-order fit over i's tangent plane
 //! (local regression: Moon, Carr & Yoon 2014), evaluated at i ([`Filter::row`]): a constant
@@ -52,6 +56,7 @@
 mod clusters;
 mod grid;
 pub mod guides;
+mod vertices;
 
 use rayon::prelude::*;
 
@@ -90,11 +95,11 @@ impl Settings {
         linear: true,
         step: Some(3.0),
     };
-    /// Vertices: their neighbours up to about four edges away (measured on the torus at 64
-    /// rays), each read on its own: a mesh is too sparse for clusters.
+    /// Vertices, transfer matrices and subsurface vertices: each read on its own, with a
+    /// second-order fit ([`vertices`]; measured on the torus at 64 rays).
     pub const VERTICES: Settings = Settings {
-        radius: 4.0,
-        guide_radius: 1.2,
+        radius: 9.0,
+        guide_radius: 1.5,
         kappa: 4.0,
         linear: true,
         step: None,
@@ -198,9 +203,10 @@ impl<'g> Filter<'g> {
             guide_noise: Vec::new(),
             signal_width,
         };
-        let noise = match guides.noise.iter().any(|&v| v > 0.0) {
-            true => guides.noise.clone(),
-            false => filter.noise_from_signal(&signal),
+        let noise = match settings.step {
+            None => vertices::noise(&mut filter, &signal),
+            Some(_) if guides.noise.iter().any(|&v| v > 0.0) => guides.noise.clone(),
+            Some(_) => filter.noise_from_signal(&signal),
         };
         let clusters = match settings.step {
             None => Clusters {
@@ -386,6 +392,9 @@ impl<'g> Filter<'g> {
     /// is kept unbiased. Each member evaluates the fit at its own place, so a cluster's
     /// members differ as their neighbourhoods do, though their kernel is formed once.
     fn cluster_kernel(&self, c: usize, out: &mut Vec<(u32, [f32; 3])>) {
+        if self.settings.step.is_none() {
+            return vertices::kernel(self, c, out);
+        }
         out.clear();
         let g = self.guides;
         let sw = self.signal_width;
