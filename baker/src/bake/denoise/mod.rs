@@ -203,11 +203,17 @@ impl<'g> Filter<'g> {
             guide_noise: Vec::new(),
             signal_width,
         };
-        let noise = match settings.step {
-            None => vertices::noise(&mut filter, &signal),
-            Some(_) if guides.noise.iter().any(|&v| v > 0.0) => guides.noise.clone(),
-            Some(_) => filter.noise_from_signal(&signal),
+        let from_rays = guides.noise.iter().any(|&v| v > 0.0);
+        let noise = match (from_rays, settings.step) {
+            (true, None) => {
+                vertices::fill_noise(&guides.noise, || filter.noise_from_signal(&signal))
+            }
+            (true, Some(_)) => guides.noise.clone(),
+            (false, _) => filter.noise_from_signal(&signal),
         };
+        if !from_rays && settings.step.is_none() {
+            filter.settings.kappa *= vertices::NEIGHBOUR_KAPPA;
+        }
         let clusters = match settings.step {
             None => Clusters {
                 points: guides.points.clone(),
@@ -392,9 +398,6 @@ impl<'g> Filter<'g> {
     /// is kept unbiased. Each member evaluates the fit at its own place, so a cluster's
     /// members differ as their neighbourhoods do, though their kernel is formed once.
     fn cluster_kernel(&self, c: usize, out: &mut Vec<(u32, [f32; 3])>) {
-        if self.settings.step.is_none() {
-            return vertices::kernel(self, c, out);
-        }
         out.clear();
         let g = self.guides;
         let sw = self.signal_width;
@@ -405,6 +408,10 @@ impl<'g> Filter<'g> {
         let (ni, si, group) = (g.normals[r], g.surfaces[r], g.groups[r]);
         let (spacing, noise) = (g.spacing[r], self.taps[c].noise);
         let reach = radius * spacing;
+        let power = match self.settings.step {
+            None => vertices::NORMAL_POWER,
+            Some(_) => NORMAL_POWER,
+        };
         self.wide.visit(pi, reach, |k| {
             let tap = &self.taps[k as usize];
             let d = tap.at - pi;
@@ -416,11 +423,15 @@ impl<'g> Filter<'g> {
             let off_plane = si.dot(d) / spacing;
             let gj = &self.tap_guide[k as usize * sw..][..sw];
             let range = range_exponent(gi, gj, (noise + tap.noise) * sw as f32, kappa);
-            let w = (-2.0 * r2 - off_plane * off_plane - range).exp() * facing.powi(NORMAL_POWER);
+            let w = (-2.0 * r2 - off_plane * off_plane - range).exp() * facing.powi(power);
             if w > 0.0 {
                 out.push((k, [w * tap.mass, 0.0, 0.0]));
             }
         });
+        if self.settings.step.is_none() {
+            let at = |k: u32| (self.clusters.points[k as usize] - pi) / spacing;
+            return vertices::fit(out, at, si);
+        }
         let total: f32 = out.iter().map(|&(_, w)| w[0]).sum();
         if !self.settings.linear {
             for (_, e) in out.iter_mut() {

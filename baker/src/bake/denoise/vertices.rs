@@ -1,4 +1,4 @@
-//! Vertex kernels ([`super::Settings::VERTICES`], every receiver read on its own): a weighted
+//! Vertex kernels (`Settings::VERTICES`, every receiver read on its own): a weighted
 //! **second-order** fit over the vertex's tangent plane, in place of the texels' first-order
 //! one.
 //!
@@ -21,51 +21,29 @@
 //! first-order over 4 spacings 1.65 / 4.26 / 1.06 %, this 1.50 / 4.08 / 0.91 %
 //! (docs/explanation/denoising.md).
 
-use super::{Filter, range_exponent};
+use glam::Vec3;
 
 /// Terms of the fit: 1, u, v, u², uv, v².
 const TERMS: usize = 6;
 /// The power of the shading normals' dot product for vertices.
-const NORMAL_POWER: i32 = 8;
+pub(super) const NORMAL_POWER: i32 = 8;
 /// The ridge on the slopes (and 4 × on the curvatures), times the kernel's mass: a
 /// neighbourhood along a line (a strip one vertex wide, a mesh's border) fits no slope or
 /// curvature across it.
 const RIDGE: f64 = 1e-2;
+/// κ's scale where every vertex's noise is estimated from its neighbours (transfer
+/// matrices): that estimate holds the transfer's true change between neighbours too, so it
+/// overstates the noise (on the glossy torus at 64 rays, 2.60 % against 2.77 % at κ = 4).
+pub(super) const NEIGHBOUR_KAPPA: f32 = 0.75;
 
-/// Vertex c's kernel (c a one-receiver cluster of the wide grid), entries (k, [w, 0, 0]): w
-/// the weight of a weighted quadratic fit over c's tangent plane evaluated at c, so the
-/// member's place (1, 0, 0) of [`Filter::row`] and [`Filter::apply_with`] reads w alone.
-pub(super) fn kernel(filter: &Filter<'_>, c: usize, out: &mut Vec<(u32, [f32; 3])>) {
-    out.clear();
-    let g = filter.guides;
-    let sw = filter.signal_width;
-    let (radius, kappa) = (filter.settings.radius, filter.settings.kappa);
-    let r = filter.clusters.reps[c] as usize;
-    let gi = &filter.tap_guide[c * sw..(c + 1) * sw];
-    let pi = filter.clusters.points[c];
-    let (ni, si, group) = (g.normals[r], g.surfaces[r], g.groups[r]);
-    let (spacing, noise) = (g.spacing[r], filter.taps[c].noise);
-    let reach = radius * spacing;
-    filter.wide.visit(pi, reach, |k| {
-        let tap = &filter.taps[k as usize];
-        let d = tap.at - pi;
-        let r2 = d.length_squared() / (reach * reach);
-        let facing = ni.dot(tap.normal);
-        if r2 > 1.0 || tap.group != group || facing <= 0.0 {
-            return;
-        }
-        let off_plane = si.dot(d) / spacing;
-        let gj = &filter.tap_guide[k as usize * sw..][..sw];
-        let range = range_exponent(gi, gj, (noise + tap.noise) * sw as f32, kappa);
-        let w = (-2.0 * r2 - off_plane * off_plane - range).exp() * facing.powi(NORMAL_POWER);
-        if w > 0.0 {
-            out.push((k, [w, 0.0, 0.0]));
-        }
-    });
-    let (t1, t2) = si.any_orthonormal_pair();
-    let scale = 1.0 / spacing;
+/// Turns a vertex's kernel, entries (k, [w_k, ..]), into the weights of a weighted quadratic
+/// fit over its tangent plane (normal `surface`) evaluated at the vertex: entries
+/// (k, [w, 0, 0]), so the vertex's place (1, 0, 0) in its one-receiver cluster reads w alone.
+/// `offset(k)` is neighbour k's offset from the vertex, in its spacings.
+pub(super) fn fit(out: &mut [(u32, [f32; 3])], offset: impl Fn(u32) -> Vec3, surface: Vec3) {
+    let (t1, t2) = surface.any_orthonormal_pair();
     let basis = |k: u32| {
-        let d = (filter.clusters.points[k as usize] - pi) * scale;
+        let d = offset(k);
         let (u, v) = (f64::from(d.dot(t1)), f64::from(d.dot(t2)));
         [1.0, u, v, u * u, u * v, v * v]
     };
@@ -87,14 +65,14 @@ pub(super) fn kernel(filter: &Filter<'_>, c: usize, out: &mut Vec<(u32, [f32; 3]
     // The fit at the vertex is e₀ᵀ A⁻¹ x_k w_k: A y = e₀ is solved once.
     let Some(y) = solve_first(&a) else {
         for (_, e) in out.iter_mut() {
-            e[0] = (f64::from(e[0]) / mass) as f32;
+            *e = [(f64::from(e[0]) / mass) as f32, 0.0, 0.0];
         }
         return;
     };
     for (k, e) in out.iter_mut() {
         let x = basis(*k);
         let dot: f64 = y.iter().zip(x).map(|(y, x)| y * x).sum();
-        e[0] = (dot * f64::from(e[0])) as f32;
+        *e = [(dot * f64::from(e[0])) as f32, 0.0, 0.0];
     }
 }
 
@@ -126,27 +104,15 @@ fn solve_first(a: &[[f64; TERMS]; TERMS]) -> Option<[f64; TERMS]> {
     Some(y).filter(|y| y.iter().all(|v| v.is_finite()))
 }
 
-/// κ's scale where every vertex's noise is estimated from its neighbours (transfer
-/// matrices): that estimate holds the transfer's true change between neighbours too, so it
-/// overstates the noise (on the glossy torus at 64 rays, 2.60 % against 2.77 % at κ = 4).
-const NEIGHBOUR_KAPPA: f32 = 0.75;
-
 /// Each vertex's noise: its rays' estimate where it has one, else (0: a subsurface vertex,
 /// whose random walks replaced the opaque pass's transfer and carry no estimate, or a vertex
-/// no ray reached) the estimate from its neighbours' signal. Where no vertex has one, the
-/// range term's κ is scaled by [`NEIGHBOUR_KAPPA`].
-pub(super) fn noise(filter: &mut Filter<'_>, signal: &[f32]) -> Vec<f32> {
-    let guides = filter.guides;
-    let rays = &guides.noise;
-    if !rays.iter().any(|&v| v > 0.0) {
-        filter.settings.kappa *= NEIGHBOUR_KAPPA;
-        return filter.noise_from_signal(signal);
-    }
+/// no ray reached) the estimate from its neighbours' signal, `from_signal`.
+pub(super) fn fill_noise(rays: &[f32], from_signal: impl FnOnce() -> Vec<f32>) -> Vec<f32> {
     if rays.iter().all(|&v| v > 0.0) {
-        return rays.clone();
+        return rays.to_vec();
     }
     rays.iter()
-        .zip(filter.noise_from_signal(signal))
+        .zip(from_signal())
         .map(|(&r, s)| if r > 0.0 { r } else { s })
         .collect()
 }
