@@ -18,7 +18,7 @@
 //! (a crease past 90°), the plane distance, the group and the range term cut as for texels.
 //!
 //! Measured on the torus at 64 rays, sun and sky / low sun / sky, against 16,384 rays:
-//! first-order over 4 spacings 1.65 / 4.26 / 1.06 %, this 1.50 / 4.08 / 0.91 %
+//! first-order over 4 spacings 1.65 / 4.26 / 1.06 %, this 1.49 / 4.07 / 0.91 %
 //! (docs/explanation/denoising.md).
 
 use glam::Vec3;
