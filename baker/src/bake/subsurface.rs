@@ -199,6 +199,11 @@ pub fn apply_to_rows(
     let mut rgb = to_rgb(&transfer.coefficients, transfer.channels, n);
     for (i, &r) in slots.iter().enumerate() {
         rgb[r * 3 * n..(r + 1) * 3 * n].copy_from_slice(&baked[i * 3 * n..(i + 1) * 3 * n]);
+        // The walks' transfer replaced the opaque pass's, whose rays' noise estimate no
+        // longer holds: the denoiser estimates a walked vertex's from its neighbours.
+        if let Some(v) = transfer.visibility.get_mut(r) {
+            v.noise = 0.0;
+        }
     }
     transfer.coefficients = rgb;
     transfer.channels = 3;

@@ -28,8 +28,9 @@
 //!   ([`crate::bake::noise`]: the spread of its rays' runs). With d² the squared guide
 //!   difference over that variance, the weight is exp(−max(0, d² − 1)/κ²): noise is
 //!   smoothed, a real shadow edge or contact shadow, many σ deep, is kept. Where the rays
-//!   give no estimate (transfer matrices), the variance is half the median of the squared
-//!   differences to the closest neighbours ([`Filter::new`]).
+//!   give no estimate (transfer matrices; the vertices whose subsurface walks replaced their
+//!   transfer), the variance is half the median of the squared differences to the closest
+//!   neighbours ([`Filter::new`]).
 //!
 //! The wide pass (7 texel spacings, about 150 texels) does not weigh every texel: it weighs
 //! **clusters** of up to 3 × 3 like texels ([`clusters`]), each at its members' centroid,
@@ -40,7 +41,10 @@
 //! is its own guide, its members' mean (of variance Σ w² σ²), as SVGF's coarser levels read
 //! the level below: they are alike by construction, so their mean is about as steady as the
 //! prefilter over 1.5 spacings, and costs nothing more; only the representatives of smaller clusters
-//! (a shadow's edge, a chart's corner) are prefiltered. Vertices: one by one.
+//! (a shadow's edge, a chart's corner) are prefiltered. Vertices (vertex bakes, transfer
+//! matrices, subsurface vertices) are read one by one, with a second-order fit over 9 spacings
+//! ([`vertices`]): a mesh is too sparse for clusters, and its curves too close for a
+//! first-order fit.
 //!
 //! The kernel weights then become those of a weighted first-order fit over i's tangent plane
 //! (local regression: Moon, Carr & Yoon 2014), evaluated at i ([`Filter::row`]): a constant
@@ -56,14 +60,14 @@
 mod clusters;
 mod grid;
 pub mod guides;
+mod stage;
+mod vertices;
 
 use rayon::prelude::*;
 
-use crate::bake::estimator::Visibility;
-use crate::bake::options::BakeOptions;
-
 use clusters::Clusters;
 pub use guides::{Guides, texel_guides, vertex_guides};
+pub use stage::{denoise_baked, denoise_guided, denoise_vertices};
 
 /// The filter's sizes and strengths.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -94,11 +98,11 @@ impl Settings {
         linear: true,
         step: Some(3.0),
     };
-    /// Vertices: their neighbours up to about four edges away (measured on the torus at 64
-    /// rays), each read on its own: a mesh is too sparse for clusters.
+    /// Vertices, transfer matrices and subsurface vertices: each read on its own, with a
+    /// second-order fit ([`vertices`]; measured on the torus at 64 rays).
     pub const VERTICES: Settings = Settings {
-        radius: 4.0,
-        guide_radius: 1.2,
+        radius: 9.0,
+        guide_radius: 1.5,
         kappa: 4.0,
         linear: true,
         step: None,
@@ -207,10 +211,17 @@ impl<'g> Filter<'g> {
             guide_noise: Vec::new(),
             signal_width,
         };
-        let noise = match guides.noise.iter().any(|&v| v > 0.0) {
-            true => guides.noise.clone(),
-            false => filter.noise_from_signal(&signal),
+        let from_rays = guides.noise.iter().any(|&v| v > 0.0);
+        let noise = match (from_rays, settings.step) {
+            (true, None) => {
+                vertices::fill_noise(&guides.noise, || filter.noise_from_signal(&signal))
+            }
+            (true, Some(_)) => guides.noise.clone(),
+            (false, _) => filter.noise_from_signal(&signal),
         };
+        if !from_rays && settings.step.is_none() {
+            filter.settings.kappa *= vertices::NEIGHBOUR_KAPPA;
+        }
         let clusters = match settings.step {
             None => Clusters {
                 points: guides.points.clone(),
@@ -426,6 +437,10 @@ impl<'g> Filter<'g> {
         let reach = radius * spacing;
         let (t1, t2) = self.frames[c];
         let scale = 1.0 / spacing;
+        let power = match self.settings.step {
+            None => vertices::NORMAL_POWER,
+            Some(_) => NORMAL_POWER,
+        };
         self.wide.visit(pi, reach, |k| {
             let tap = &self.taps[k as usize];
             let d = tap.at - pi;
@@ -437,13 +452,17 @@ impl<'g> Filter<'g> {
             let off_plane = si.dot(d) / spacing;
             let gj = &self.tap_guide[k as usize * sw..][..sw];
             let range = range_exponent(gi, gj, (noise + tap.noise) * sw as f32, kappa);
-            let w = (-2.0 * r2 - off_plane * off_plane - range).exp() * facing.powi(NORMAL_POWER);
+            let w = (-2.0 * r2 - off_plane * off_plane - range).exp() * facing.powi(power);
             if w > 0.0 {
                 // With the tap's place in c's tangent plane, in spacings: the fit's (u, v).
                 let place = d * scale;
                 out.push((k, [w * tap.mass, place.dot(t1), place.dot(t2)]));
             }
         });
+        if self.settings.step.is_none() {
+            let at = |k: u32| (self.clusters.points[k as usize] - pi) / spacing;
+            return vertices::fit(out, at, si);
+        }
         if !self.settings.linear {
             let total: f32 = out.iter().map(|&(_, w)| w[0]).sum();
             for (_, e) in out.iter_mut() {
@@ -601,81 +620,6 @@ fn range_exponent(a: &[f32], b: &[f32], variance: f32, kappa: f32) -> f32 {
         false => f32::INFINITY,
     };
     (d2 - 1.0).max(0.0) / (kappa * kappa)
-}
-
-/// [`denoise_baked`] for a bake of every vertex of `scene`.
-pub fn denoise_vertices(
-    scene: &crate::Scene,
-    options: &BakeOptions,
-    coefficients: &mut Vec<f32>,
-    channels: usize,
-    visibility: &mut [Visibility],
-) {
-    let guides = vertex_guides(scene, Vec::new());
-    denoise_baked(
-        guides,
-        Settings::VERTICES,
-        options,
-        coefficients,
-        channels,
-        visibility,
-    );
-}
-
-/// Denoises a bake's per-receiver transfer (`options` says its layout) in place, with the
-/// noise its rays estimated per receiver (`visibility`'s, or none), and each receiver's
-/// accessibility with the same weights: the accessibility is the transfer's DC under a
-/// white sky, and stays so (but for the clamp to [0, 1]).
-pub fn denoise_baked(
-    guides: Guides,
-    settings: Settings,
-    options: &BakeOptions,
-    coefficients: &mut Vec<f32>,
-    channels: usize,
-    visibility: &mut [Visibility],
-) {
-    let guides = Guides {
-        noise: visibility.iter().map(|v| v.noise).collect(),
-        ..guides
-    };
-    let mut ao: Vec<f32> = visibility.iter().map(|v| v.accessibility).collect();
-    let per_channel = options.transfer.floats_per_channel(options.order);
-    denoise_guided(
-        &guides,
-        settings,
-        coefficients,
-        channels,
-        per_channel,
-        Some(&mut ao),
-    );
-    for (v, a) in visibility.iter_mut().zip(ao) {
-        v.accessibility = a;
-    }
-}
-
-/// [`denoise_baked`] of transfer whose guides carry their noise (a merge's: the parts
-/// carry both), `per_channel` floats per channel, and of the accessibility where there is
-/// one. Every path that denoises goes through here, so a merged or checkpointed bake is
-/// filtered by the very same arithmetic as the whole bake.
-pub fn denoise_guided(
-    guides: &Guides,
-    settings: Settings,
-    coefficients: &mut Vec<f32>,
-    channels: usize,
-    per_channel: usize,
-    ao: Option<&mut Vec<f32>>,
-) {
-    if guides.points.is_empty() {
-        return;
-    }
-    let filter = Filter::new(guides, settings, coefficients, channels, per_channel);
-    let scalars: &[f32] = ao.as_deref().map_or(&[], |a| a.as_slice());
-    let (filtered, filtered_ao) = filter.apply_with(coefficients, channels * per_channel, scalars);
-    *coefficients = filtered;
-    // The fit may overshoot a little; accessibility is a fraction.
-    if let Some(ao) = ao {
-        *ao = filtered_ao.into_iter().map(|a| a.clamp(0.0, 1.0)).collect();
-    }
 }
 
 #[cfg(test)]
