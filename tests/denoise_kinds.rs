@@ -159,7 +159,7 @@ fn denoised_subsurface_vertices_beat_four_times_the_rays() {
         let mut t = prt_baker::bake(&scene, Some(&tracer), &o, &Silent).unwrap();
         apply_to_vertices(&scene, &tracer, &media, &mut t, &Silent).unwrap();
         if denoise {
-            denoise::denoise_vertices(
+            denoise::stage::denoise_vertices(
                 &scene,
                 &o,
                 &mut t.coefficients,

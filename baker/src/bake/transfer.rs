@@ -176,7 +176,7 @@ pub fn bake(
     };
     let mut baked = baked;
     if options.denoise && tracer.is_some() && !adaptive_denoised {
-        crate::bake::denoise::denoise_vertices(
+        crate::bake::denoise::stage::denoise_vertices(
             scene,
             options,
             &mut baked.coefficients,

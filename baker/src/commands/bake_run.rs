@@ -294,7 +294,7 @@ fn add_subsurface(
     let started = std::time::Instant::now();
     subsurface::apply_to_vertices(scene, tracer, media, transfer, progress)?;
     if options.denoise {
-        denoise::denoise_vertices(
+        denoise::stage::denoise_vertices(
             scene,
             options,
             &mut transfer.coefficients,

@@ -468,7 +468,7 @@ impl Part {
                 .transfer
                 .floats_per_channel(self.header.order as usize);
             let channels = self.header.channels as usize;
-            denoise::denoise_guided(
+            denoise::stage::denoise_guided(
                 &guides,
                 settings,
                 &mut coefficients,

@@ -60,14 +60,13 @@
 mod clusters;
 mod grid;
 pub mod guides;
-mod stage;
+pub mod stage;
 mod vertices;
 
 use rayon::prelude::*;
 
 use clusters::Clusters;
 pub use guides::{Guides, texel_guides, vertex_guides};
-pub use stage::{denoise_baked, denoise_guided, denoise_vertices};
 
 /// The filter's sizes and strengths.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -344,7 +344,7 @@ pub fn bake_texels(
     }
     if let Some(guides) = guides {
         stages.time("denoise", || {
-            crate::bake::denoise::denoise_baked(
+            crate::bake::denoise::stage::denoise_baked(
                 guides,
                 crate::bake::denoise::Settings::TEXELS,
                 options,
