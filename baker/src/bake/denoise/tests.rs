@@ -3,7 +3,7 @@
 use super::*;
 use glam::Vec3;
 
-/// A square `side` × `side` grid of receivers at spacing 1 from `origin` along `u`, `v`,
+/// A square 12 × 12 grid of receivers at spacing 1 from `origin` along `u`, `v`,
 /// facing `normal`, in `group`.
 fn sheet(guides: &mut Guides, origin: Vec3, u: Vec3, v: Vec3, normal: Vec3, group: u32) {
     for a in 0..12 {
@@ -20,14 +20,19 @@ fn sheet(guides: &mut Guides, origin: Vec3, u: Vec3, v: Vec3, normal: Vec3, grou
 
 /// The largest weight any receiver of the first sheet (the first 144) gives the second,
 /// every receiver holding the same transfer, so only the geometric terms can tell them
-/// apart.
-fn weight_across(guides: &Guides) -> f32 {
+/// apart. Every receiver's weights must sum to 1.
+fn weight_across(guides: &Guides, settings: Settings) -> f32 {
     let transfer = vec![0.5f32; guides.points.len() * 4];
-    let filter = Filter::new(guides, Settings::TEXELS, &transfer, 1, 4);
+    let filter = Filter::new(guides, settings, &transfer, 1, 4);
     let mut row = Vec::new();
     let mut most = 0.0f32;
     for i in 0..144 {
         filter.row(i, &mut row);
+        let total: f32 = row.iter().map(|&(_, w)| w).sum();
+        assert!(
+            (total - 1.0).abs() < 1e-4,
+            "receiver {i}'s weights sum to {total}"
+        );
         for &(j, w) in &row {
             if j >= 144 {
                 most = most.max(w.abs());
@@ -39,31 +44,44 @@ fn weight_across(guides: &Guides) -> f32 {
 
 #[test]
 fn a_crease_a_step_and_another_object_get_no_weight() {
-    let (x, y, z) = (Vec3::X, Vec3::Y, Vec3::Z);
-    // A floor meeting a wall at a right angle.
-    let mut crease = Guides::default();
-    sheet(&mut crease, Vec3::ZERO, x, y, z, 0);
-    sheet(&mut crease, Vec3::new(0.0, 12.0, 0.5), x, z, -y, 0);
-    assert!(weight_across(&crease) < 1e-3, "{}", weight_across(&crease));
-    // A slab three texels above the floor, facing the same way.
-    let mut step = Guides::default();
-    sheet(&mut step, Vec3::ZERO, x, y, z, 0);
-    sheet(&mut step, Vec3::new(6.0, 0.0, 3.0), x, y, z, 0);
-    assert!(weight_across(&step) < 1e-3, "{}", weight_across(&step));
-    // Two objects side by side in one plane.
-    let mut objects = Guides::default();
-    sheet(&mut objects, Vec3::ZERO, x, y, z, 0);
-    sheet(&mut objects, Vec3::new(12.0, 0.0, 0.0), x, y, z, 1);
-    assert_eq!(weight_across(&objects), 0.0);
-    // Two objects meeting closer than a texel, within one cluster's reach: no cluster
-    // takes in both.
-    let mut touching = Guides::default();
-    sheet(&mut touching, Vec3::ZERO, x, y, z, 0);
-    sheet(&mut touching, Vec3::new(11.5, 0.0, 0.0), x, y, z, 1);
-    assert_eq!(weight_across(&touching), 0.0);
-    // And one object continuing in that plane does share.
-    let mut one = Guides::default();
-    sheet(&mut one, Vec3::ZERO, x, y, z, 0);
-    sheet(&mut one, Vec3::new(12.0, 0.0, 0.0), x, y, z, 0);
-    assert!(weight_across(&one) > 1e-2);
+    // Texels (in clusters) and vertices (one by one, a second-order fit) alike.
+    for settings in [Settings::TEXELS, Settings::VERTICES] {
+        let across = |second: (Vec3, Vec3, Vec3, Vec3, u32)| {
+            let mut guides = Guides::default();
+            sheet(&mut guides, Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z, 0);
+            let (origin, u, v, normal, group) = second;
+            sheet(&mut guides, origin, u, v, normal, group);
+            weight_across(&guides, settings)
+        };
+        let (x, y, z) = (Vec3::X, Vec3::Y, Vec3::Z);
+        // A floor meeting a wall at a right angle.
+        let crease = across((Vec3::new(0.0, 12.0, 0.5), x, z, -y, 0));
+        assert!(crease < 1e-3, "{settings:?}: {crease}");
+        // A slab three spacings above the floor, facing the same way.
+        let step = across((Vec3::new(6.0, 0.0, 3.0), x, y, z, 0));
+        assert!(step < 1e-3, "{settings:?}: {step}");
+        // Two objects side by side in one plane.
+        assert_eq!(across((Vec3::new(12.0, 0.0, 0.0), x, y, z, 1)), 0.0);
+        // Two objects meeting closer than a spacing, within one cluster's reach: no cluster
+        // takes in both.
+        assert_eq!(across((Vec3::new(11.5, 0.0, 0.0), x, y, z, 1)), 0.0);
+        // And one object continuing in that plane does share.
+        let one = across((Vec3::new(12.0, 0.0, 0.0), x, y, z, 0));
+        assert!(one > 1e-2, "{settings:?}: {one}");
+    }
+}
+
+#[test]
+fn a_quadratic_transfer_is_kept_exactly() {
+    // A bowl of transfer over one sheet: the fit reproduces it at every vertex, border
+    // and corner included (up to the ridge's small pull).
+    let mut g = Guides::default();
+    sheet(&mut g, Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z, 0);
+    let value = |p: Vec3| 1.0 + 0.05 * p.x - 0.03 * p.y + 0.01 * (p.x * p.x + p.x * p.y);
+    let transfer: Vec<f32> = g.points.iter().map(|&p| value(p)).collect();
+    let filter = Filter::new(&g, Settings::VERTICES, &transfer, 1, 1);
+    let out = filter.apply(&transfer, 1);
+    for (i, (&a, &b)) in out.iter().zip(&transfer).enumerate() {
+        assert!((a - b).abs() < 0.02 * b, "vertex {i}: {a} against {b}");
+    }
 }
