@@ -474,7 +474,7 @@ impl Part {
                 &mut coefficients,
                 channels,
                 per_channel,
-                self.ao.as_mut(),
+                self.ao.as_deref_mut(),
             );
         }
         if let Some(lightmap) = self.lightmap {

@@ -163,6 +163,53 @@ impl Grid {
     }
 }
 
+/// One [`Grid`] per group of points, each with cells sized to its own points' spacing. The
+/// filter's wide pass never weighs a point of another group (another object or material),
+/// so a query reads its own group's points alone; and an atlas packs objects at texel sizes
+/// of their own, so one cell size for all would make a small-texelled object's queries read
+/// whole cells of points beyond their reach.
+pub struct GroupedGrid {
+    /// The groups, ascending, and for each the index of its first point and its grid.
+    groups: Vec<u32>,
+    grids: Vec<(u32, Grid)>,
+}
+
+impl GroupedGrid {
+    /// Grids over `points` by their `groups`, each of cells `scale` times the median of its
+    /// points' `spacing`. The points are numbered anew, group by group in ascending order and
+    /// each group's in the order of its cells ([`Grid::renumber`]): returns the grids and the
+    /// old index of each new point.
+    pub fn new(points: &[Vec3], groups: &[u32], spacing: &[f32], scale: f32) -> (Self, Vec<u32>) {
+        let mut by_group: Vec<u32> = (0..points.len() as u32).collect();
+        by_group.sort_by_key(|&i| groups[i as usize]);
+        let mut grouped = GroupedGrid {
+            groups: Vec::new(),
+            grids: Vec::new(),
+        };
+        let mut order = Vec::with_capacity(points.len());
+        for members in by_group.chunk_by(|&a, &b| groups[a as usize] == groups[b as usize]) {
+            let mut spacings: Vec<f32> = members.iter().map(|&i| spacing[i as usize]).collect();
+            let mid = spacings.len() / 2;
+            let typical = *spacings.select_nth_unstable_by(mid, f32::total_cmp).1;
+            let at: Vec<Vec3> = members.iter().map(|&i| points[i as usize]).collect();
+            let mut grid = Grid::new(&at, (scale * typical).max(1e-12));
+            let first = order.len() as u32;
+            order.extend(grid.renumber().iter().map(|&k| members[k as usize]));
+            grouped.groups.push(groups[members[0] as usize]);
+            grouped.grids.push((first, grid));
+        }
+        (grouped, order)
+    }
+
+    /// [`Grid::visit`] of `group`'s points, by their new indices.
+    pub fn visit(&self, group: u32, p: Vec3, radius: f32, mut visit: impl FnMut(u32)) {
+        if let Ok(g) = self.groups.binary_search(&group) {
+            let (first, grid) = &self.grids[g];
+            grid.visit(p, radius, |k| visit(first + k));
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -184,6 +231,37 @@ mod tests {
             found.sort_unstable();
             let truth: Vec<u32> = (0..points.len() as u32)
                 .filter(|&i| points[i as usize].distance(*p) <= 0.08)
+                .collect();
+            assert_eq!(found, truth);
+        }
+    }
+
+    #[test]
+    fn a_grouped_query_finds_its_own_group_within_its_radius() {
+        let mut rng = crate::math::sampling::Pcg32::new(3, 4);
+        let points: Vec<Vec3> = (0..3000)
+            .map(|_| Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32() * 0.1))
+            .collect();
+        // Three groups at texel sizes 4 × apart.
+        let groups: Vec<u32> = (0..points.len()).map(|i| [7, 2, 9][i % 3]).collect();
+        let spacing: Vec<f32> = groups.iter().map(|&g| 0.01 * g as f32).collect();
+        let (grid, order) = GroupedGrid::new(&points, &groups, &spacing, 3.5);
+        let mut sorted = order.clone();
+        sorted.sort_unstable();
+        assert_eq!(sorted, (0..points.len() as u32).collect::<Vec<_>>());
+        for i in (0..points.len()).step_by(89) {
+            let (p, g) = (points[i], groups[i]);
+            let mut found = Vec::new();
+            grid.visit(g, p, 0.08, |k| {
+                let j = order[k as usize];
+                assert_eq!(groups[j as usize], g);
+                if points[j as usize].distance(p) <= 0.08 {
+                    found.push(j)
+                }
+            });
+            found.sort_unstable();
+            let truth: Vec<u32> = (0..points.len() as u32)
+                .filter(|&j| groups[j as usize] == g && points[j as usize].distance(p) <= 0.08)
                 .collect();
             assert_eq!(found, truth);
         }

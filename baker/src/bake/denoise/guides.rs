@@ -141,7 +141,15 @@ pub fn texel_guides_of(
         })
         .collect();
     let mut groups = Groups(BTreeMap::new());
-    let mut guides = Guides::default();
+    let count = range.len();
+    let mut guides = Guides {
+        points: Vec::with_capacity(count),
+        normals: Vec::with_capacity(count),
+        surfaces: Vec::with_capacity(count),
+        groups: Vec::with_capacity(count),
+        spacing: Vec::with_capacity(count),
+        noise: Vec::new(),
+    };
     // Group ids are numbered in the order first met, so the texels before `range` are
     // walked too (their group only, and the map consulted only when it changes).
     let mut last = None;

@@ -37,7 +37,9 @@
 //! with its representative's normals, group and guide, and its members' mean, as an à-trous
 //! pass reads a coarser level (Dammertz et al. 2010, *Edge-avoiding À-Trous wavelet
 //! transform*; SVGF), and forms one kernel per cluster, which each member evaluates at its
-//! own place. Every texel counts once; the wide pass costs a sixth. A cluster of 3 or more
+//! own place. The clusters within reach are found in one grid per group
+//! ([`grid::GroupedGrid`]), of cells sized to that group's own texels. Every texel counts
+//! once; the wide pass costs a sixth. A cluster of 3 or more
 //! is its own guide, its members' mean (of variance Σ w² σ²), as SVGF's coarser levels read
 //! the level below: they are alike by construction, so their mean is about as steady as the
 //! prefilter over 1.5 spacings, and costs nothing more; only the representatives of smaller clusters
@@ -120,18 +122,30 @@ const GUIDE_KAPPA: f32 = 3.0;
 /// 1,000. At 0 (d² ≤ 1) the clusters split twice as often: the filter costs 2 ×, for 1.5 %
 /// of a 64-ray bake's error.
 const SIMILAR: f32 = 0.25;
+/// The wide pass's grid cells, in radii: each group's cells are half its reach across, at
+/// its median spacing.
+const WIDE_CELL: f32 = 0.5;
 /// The least members a cluster needs to be its own guide ([`Filter::new`]).
 const GUIDE_MASS: f32 = 3.0;
-/// The power of the shading normals' dot product.
-const NORMAL_POWER: i32 = 32;
+/// The power of the shading normals' dot product, 2⁵ = 32, as the number of squarings that
+/// raise it: x^32 inline, rather than a call to the runtime's `powi` for an exponent known
+/// only at run time (the same product, bit for bit).
+const NORMAL_SQUARINGS: u32 = 5;
+
+/// x^(2^`squarings`).
+fn power_of_two(mut x: f32, squarings: u32) -> f32 {
+    for _ in 0..squarings {
+        x *= x;
+    }
+    x
+}
 
 /// What the wide pass reads of one cluster.
 struct Tap {
     /// The members' weighted centroid.
     at: glam::Vec3,
-    /// The representative's shading normal and group.
+    /// The representative's shading normal.
     normal: glam::Vec3,
-    group: u32,
     /// How many receivers the cluster stands for.
     mass: f32,
     /// The representative's guide's variance.
@@ -144,8 +158,8 @@ pub struct Filter<'g> {
     settings: Settings,
     /// The prefilter's grid over every receiver.
     fine: grid::Grid,
-    /// The wide pass's grid over the clusters' representatives (cluster indices).
-    wide: grid::Grid,
+    /// The wide pass's grids over the clusters, one per group (cluster indices).
+    wide: grid::GroupedGrid,
     clusters: Clusters,
     /// What the wide pass reads of each cluster, in cluster order (the wide grid's): read in
     /// sequence, not gathered from the guides' arrays.
@@ -156,11 +170,6 @@ pub struct Filter<'g> {
     cluster_of: Vec<u32>,
     /// Each cluster's tangent frame (its representative's plane): the fit's axes.
     frames: Vec<(glam::Vec3, glam::Vec3)>,
-    /// The prefiltered signal, `signal_width` floats per receiver (the representatives'; 0
-    /// elsewhere).
-    guide: Vec<f32>,
-    /// Its variance per receiver.
-    guide_noise: Vec<f32>,
     signal_width: usize,
 }
 
@@ -179,19 +188,26 @@ impl<'g> Filter<'g> {
         let used = per_channel.min(SIGNAL_COEFFICIENTS);
         let width = channels * per_channel;
         let signal_width = channels * used;
-        let mut signal = Vec::with_capacity(count * signal_width);
-        for receiver in transfer.chunks_exact(width.max(1)).take(count) {
-            for block in receiver.chunks_exact(per_channel.max(1)) {
-                signal.extend_from_slice(&block[..used]);
+        // Up to order 3 the signal is the whole transfer: read in place, not copied.
+        let signal: std::borrow::Cow<[f32]> = match used == per_channel {
+            true => std::borrow::Cow::Borrowed(&transfer[..count * width]),
+            false => {
+                let mut signal = Vec::with_capacity(count * signal_width);
+                for receiver in transfer.chunks_exact(width.max(1)).take(count) {
+                    for block in receiver.chunks_exact(per_channel.max(1)) {
+                        signal.extend_from_slice(&block[..used]);
+                    }
+                }
+                std::borrow::Cow::Owned(signal)
             }
-        }
+        };
         let mut spacings: Vec<f32> = guides.spacing.clone();
         let typical = match spacings.is_empty() {
             true => 1.0,
             false => *spacings.select_nth_unstable_by(count / 2, f32::total_cmp).1,
         }
         .max(1e-12);
-        let wide_cell = 0.5 * settings.radius * typical;
+        let wide_cell = WIDE_CELL * settings.radius * typical;
         let fine = grid::Grid::new(
             &guides.points,
             settings.step.map_or(wide_cell, |s| s * typical),
@@ -199,15 +215,13 @@ impl<'g> Filter<'g> {
         let mut filter = Filter {
             guides,
             settings,
-            wide: grid::Grid::new(&[], 1.0),
+            wide: grid::GroupedGrid::new(&[], &[], &[], 1.0).0,
             fine,
             clusters: Clusters::singletons(&[]),
             taps: Vec::new(),
             tap_guide: Vec::new(),
             cluster_of: Vec::new(),
             frames: Vec::new(),
-            guide: Vec::new(),
-            guide_noise: Vec::new(),
             signal_width,
         };
         let from_rays = guides.noise.iter().any(|&v| v > 0.0);
@@ -240,42 +254,59 @@ impl<'g> Filter<'g> {
         // the prefilter's answer at a fraction of its cost). Smaller clusters (a shadow's
         // edge, a chart's corner) and every vertex prefilter their representative.
         let own_guide = |k: usize| settings.step.is_some() && clusters.mass[k] >= GUIDE_MASS;
-        let mut wanted = vec![false; count];
-        for (k, &r) in clusters.reps.iter().enumerate() {
-            wanted[r as usize] = !own_guide(k);
-        }
-        let (mut guide, mut guide_noise) = filter.prefilter(&signal, &noise, &wanted);
+        let prefiltered: Vec<u32> = (0..clusters.reps.len())
+            .filter(|&k| !own_guide(k))
+            .map(|k| clusters.reps[k])
+            .collect();
+        let (guide, guide_noise) = filter.prefilter(&signal, &noise, &prefiltered);
         let signal_means = clusters.means(&signal, signal_width);
-        for (k, &r) in clusters.reps.iter().enumerate() {
-            if own_guide(k) {
-                let r = r as usize;
-                guide[r * signal_width..][..signal_width]
-                    .copy_from_slice(&signal_means[k * signal_width..][..signal_width]);
-                guide_noise[r] = clusters.noise[k];
-            }
+        drop(signal);
+        let (rep_groups, rep_spacing): (Vec<u32>, Vec<f32>) = clusters
+            .reps
+            .iter()
+            .map(|&r| (guides.groups[r as usize], guides.spacing[r as usize]))
+            .unzip();
+        let (wide, order) = grid::GroupedGrid::new(
+            &clusters.points,
+            &rep_groups,
+            &rep_spacing,
+            WIDE_CELL * settings.radius,
+        );
+        filter.wide = wide;
+        // Each cluster's guide (own or prefiltered) and its variance, in the wide grid's
+        // order.
+        let mut at_prefiltered = vec![u32::MAX; clusters.reps.len()];
+        for (n, k) in (0..clusters.reps.len())
+            .filter(|&k| !own_guide(k))
+            .enumerate()
+        {
+            at_prefiltered[k] = n as u32;
         }
-        filter.guide = guide;
-        filter.guide_noise = guide_noise;
-        filter.wide = grid::Grid::new(&clusters.points, wide_cell);
-        let clusters = clusters.permute(&filter.wide.renumber());
+        let mut tap_guide = Vec::with_capacity(order.len() * signal_width);
+        let mut tap_noise = Vec::with_capacity(order.len());
+        for &k in &order {
+            let k = k as usize;
+            let (from, at, variance) = match at_prefiltered[k] {
+                u32::MAX => (&signal_means, k, clusters.noise[k]),
+                n => (&guide, n as usize, guide_noise[n as usize]),
+            };
+            tap_guide.extend_from_slice(&from[at * signal_width..][..signal_width]);
+            tap_noise.push(variance);
+        }
+        drop((guide, guide_noise, signal_means));
+        let clusters = clusters.permute(&order);
         filter.taps = (0..clusters.reps.len())
             .map(|k| {
                 let r = clusters.reps[k] as usize;
                 Tap {
                     at: clusters.points[k],
                     normal: guides.normals[r],
-                    group: guides.groups[r],
                     mass: clusters.mass[k],
-                    noise: filter.guide_noise[r],
+                    noise: tap_noise[k],
                 }
             })
             .collect();
-        filter.tap_guide = clusters
-            .reps
-            .iter()
-            .flat_map(|&r| filter.guide[r as usize * signal_width..][..signal_width].iter())
-            .copied()
-            .collect();
+        filter.tap_guide = tap_guide;
         filter.frames = clusters
             .reps
             .iter()
@@ -316,7 +347,8 @@ impl<'g> Filter<'g> {
             return 0.0;
         }
         let off_plane = g.surfaces[i].dot(d) / g.spacing[i];
-        (-2.0 * r2 - off_plane * off_plane - range(j)).exp() * facing.powi(NORMAL_POWER)
+        (-2.0 * r2 - off_plane * off_plane - range(j)).exp()
+            * power_of_two(facing, NORMAL_SQUARINGS)
     }
 
     /// Receiver i's neighbours within `radius` spacings and their weights ([`Filter::weight`]),
@@ -373,21 +405,18 @@ impl<'g> Filter<'g> {
             .collect()
     }
 
-    /// The guide of the `wanted` receivers (0 elsewhere): the signal filtered with the
-    /// geometric terms over `guide_radius`, and its variance Σ_j w_ij² σ²_j.
-    fn prefilter(&self, signal: &[f32], noise: &[f32], wanted: &[bool]) -> (Vec<f32>, Vec<f32>) {
+    /// The guides of `receivers`, `signal_width` floats each in their order: the signal
+    /// filtered with the geometric terms over `guide_radius`, and its variance Σ_j w_ij² σ²_j.
+    fn prefilter(&self, signal: &[f32], noise: &[f32], receivers: &[u32]) -> (Vec<f32>, Vec<f32>) {
         let sw = self.signal_width;
-        let count = self.guides.points.len();
-        let mut guide = vec![0.0f32; count * sw];
-        let mut guide_noise = vec![0.0f32; count];
+        let mut guide = vec![0.0f32; receivers.len() * sw];
+        let mut guide_noise = vec![0.0f32; receivers.len()];
         guide
             .par_chunks_mut(sw.max(1))
             .zip(guide_noise.par_iter_mut())
-            .enumerate()
-            .for_each_init(Vec::new, |near, (i, (out, var))| {
-                if !wanted[i] {
-                    return;
-                }
+            .zip(receivers.par_iter())
+            .for_each_init(Vec::new, |near, ((out, var), &i)| {
+                let i = i as usize;
                 // The raw signal's own range term: a receiver's guide does not take in
                 // neighbours far brighter or darker than its noise allows (a thin wall's
                 // other side, a shadow's edge).
@@ -436,22 +465,23 @@ impl<'g> Filter<'g> {
         let reach = radius * spacing;
         let (t1, t2) = self.frames[c];
         let scale = 1.0 / spacing;
-        let power = match self.settings.step {
-            None => vertices::NORMAL_POWER,
-            Some(_) => NORMAL_POWER,
+        let squarings = match self.settings.step {
+            None => vertices::NORMAL_SQUARINGS,
+            Some(_) => NORMAL_SQUARINGS,
         };
-        self.wide.visit(pi, reach, |k| {
+        self.wide.visit(group, pi, reach, |k| {
             let tap = &self.taps[k as usize];
             let d = tap.at - pi;
             let r2 = d.length_squared() / (reach * reach);
             let facing = ni.dot(tap.normal);
-            if r2 > 1.0 || tap.group != group || facing <= 0.0 {
+            if r2 > 1.0 || facing <= 0.0 {
                 return;
             }
             let off_plane = si.dot(d) / spacing;
             let gj = &self.tap_guide[k as usize * sw..][..sw];
             let range = range_exponent(gi, gj, (noise + tap.noise) * sw as f32, kappa);
-            let w = (-2.0 * r2 - off_plane * off_plane - range).exp() * facing.powi(power);
+            let w =
+                (-2.0 * r2 - off_plane * off_plane - range).exp() * power_of_two(facing, squarings);
             if w > 0.0 {
                 // With the tap's place in c's tangent plane, in spacings: the fit's (u, v).
                 let place = d * scale;
@@ -543,17 +573,15 @@ impl<'g> Filter<'g> {
     /// The filtered values: `values` holds `width` floats per receiver, and so does the
     /// result.
     pub fn apply(&self, values: &[f32], width: usize) -> Vec<f32> {
-        self.apply_with(values, width, &[]).0
+        let mut out = values.to_vec();
+        self.apply_in_place(&mut out, width, &mut []);
+        out
     }
 
     /// [`Filter::apply`] of `values` and of `scalars` (one float per receiver, or none)
-    /// with the same kernels: each cluster's kernel is formed once.
-    pub fn apply_with(
-        &self,
-        values: &[f32],
-        width: usize,
-        scalars: &[f32],
-    ) -> (Vec<f32>, Vec<f32>) {
+    /// with the same kernels, in place: each cluster's kernel is formed once, and no
+    /// receiver-sized buffer is allocated for the result.
+    pub fn apply_in_place(&self, values: &mut [f32], width: usize, scalars: &mut [f32]) {
         let means = self.clusters.means(values, width);
         let scalar_means = match scalars.is_empty() {
             true => Vec::new(),
@@ -584,8 +612,8 @@ impl<'g> Filter<'g> {
                     }
                 }
             });
-        let mut out = vec![0.0f32; values.len()];
-        out.par_chunks_mut(width.max(1))
+        values
+            .par_chunks_mut(width.max(1))
             .enumerate()
             .for_each(|(m, out)| {
                 let c = self.cluster_of[m] as usize;
@@ -597,15 +625,12 @@ impl<'g> Filter<'g> {
                     *o = a * p0 + b * p1 + d * p2;
                 }
             });
-        let out_scalars = (0..scalars.len())
-            .map(|m| {
-                let c = self.cluster_of[m] as usize;
-                let [p0, p1, p2] = self.member_place(c, m);
-                let s = &sums[c * stride + 3 * width..][..3];
-                s[0] * p0 + s[1] * p1 + s[2] * p2
-            })
-            .collect();
-        (out, out_scalars)
+        for (m, out) in scalars.iter_mut().enumerate() {
+            let c = self.cluster_of[m] as usize;
+            let [p0, p1, p2] = self.member_place(c, m);
+            let s = &sums[c * stride + 3 * width..][..3];
+            *out = s[0] * p0 + s[1] * p1 + s[2] * p2;
+        }
     }
 }
 

@@ -11,7 +11,7 @@ use super::{Filter, Guides, Settings, vertex_guides};
 pub fn denoise_vertices(
     scene: &crate::Scene,
     options: &BakeOptions,
-    coefficients: &mut Vec<f32>,
+    coefficients: &mut [f32],
     channels: usize,
     visibility: &mut [Visibility],
 ) {
@@ -34,7 +34,7 @@ pub fn denoise_baked(
     guides: Guides,
     settings: Settings,
     options: &BakeOptions,
-    coefficients: &mut Vec<f32>,
+    coefficients: &mut [f32],
     channels: usize,
     visibility: &mut [Visibility],
 ) {
@@ -50,7 +50,7 @@ pub fn denoise_baked(
         coefficients,
         channels,
         per_channel,
-        Some(&mut ao),
+        Some(ao.as_mut_slice()),
     );
     for (v, a) in visibility.iter_mut().zip(ao) {
         v.accessibility = a;
@@ -64,20 +64,23 @@ pub fn denoise_baked(
 pub fn denoise_guided(
     guides: &Guides,
     settings: Settings,
-    coefficients: &mut Vec<f32>,
+    coefficients: &mut [f32],
     channels: usize,
     per_channel: usize,
-    ao: Option<&mut Vec<f32>>,
+    ao: Option<&mut [f32]>,
 ) {
     if guides.points.is_empty() {
         return;
     }
     let filter = Filter::new(guides, settings, coefficients, channels, per_channel);
-    let scalars: &[f32] = ao.as_deref().map_or(&[], |a| a.as_slice());
-    let (filtered, filtered_ao) = filter.apply_with(coefficients, channels * per_channel, scalars);
-    *coefficients = filtered;
+    let mut none: [f32; 0] = [];
+    let scalars = match ao {
+        Some(ao) => ao,
+        None => &mut none[..],
+    };
+    filter.apply_in_place(coefficients, channels * per_channel, scalars);
     // The fit may overshoot a little; accessibility is a fraction.
-    if let Some(ao) = ao {
-        *ao = filtered_ao.into_iter().map(|a| a.clamp(0.0, 1.0)).collect();
+    for a in scalars.iter_mut() {
+        *a = a.clamp(0.0, 1.0);
     }
 }

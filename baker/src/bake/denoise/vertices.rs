@@ -25,8 +25,8 @@ use glam::Vec3;
 
 /// Terms of the fit: 1, u, v, u², uv, v².
 const TERMS: usize = 6;
-/// The power of the shading normals' dot product for vertices.
-pub(super) const NORMAL_POWER: i32 = 8;
+/// The power of the shading normals' dot product for vertices, 2³ = 8, as squarings.
+pub(super) const NORMAL_SQUARINGS: u32 = 3;
 /// The ridge on the slopes (and 4 × on the curvatures), times the kernel's mass: a
 /// neighbourhood along a line (a strip one vertex wide, a mesh's border) fits no slope or
 /// curvature across it.
