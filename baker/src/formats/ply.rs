@@ -1,4 +1,5 @@
-//! Writing triangle meshes with per-vertex colour and radiance as PLY.
+//! Writing triangle meshes with per-vertex colour and radiance as PLY, and reading back the
+//! points and radiance of such a file (what tests and scripts compare).
 //!
 //! Binary little-endian PLY 1.0: a text header any pager shows, then packed records, so a
 //! million-vertex scene stays compact and every float is stored exactly. Per vertex:
@@ -80,6 +81,50 @@ impl ColouredMesh<'_> {
     }
 }
 
+/// Why [`read_radiance`] could not read a file as this module writes them.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum ReadError {
+    #[error("no `end_header` line: not a PLY file")]
+    NoHeader,
+    #[error("no `element vertex` count in the header")]
+    NoVertexCount,
+    #[error("the records end before the header's {0} vertices")]
+    Short(usize),
+}
+
+/// Each vertex's position and radiance, from a file [`ColouredMesh::write`] wrote (its
+/// header's vertex count, records of [`VERTEX_BYTES`]).
+pub fn read_radiance(bytes: &[u8]) -> std::result::Result<Vec<(Vec3, [f32; 3])>, ReadError> {
+    let end = b"end_header\n";
+    let start = bytes
+        .windows(end.len())
+        .position(|w| w == end)
+        .ok_or(ReadError::NoHeader)?
+        + end.len();
+    let vertices: usize = String::from_utf8_lossy(&bytes[..start])
+        .lines()
+        .find_map(|l| l.strip_prefix("element vertex ")?.trim().parse().ok())
+        .ok_or(ReadError::NoVertexCount)?;
+    let records = bytes
+        .get(start..)
+        .and_then(|b| b.get(..vertices.checked_mul(VERTEX_BYTES)?))
+        .ok_or(ReadError::Short(vertices))?;
+    let floats = |b: &[u8]| -> [f32; 3] {
+        std::array::from_fn(|c| {
+            f32::from_le_bytes([b[4 * c], b[4 * c + 1], b[4 * c + 2], b[4 * c + 3]])
+        })
+    };
+    Ok(records
+        .chunks_exact(VERTEX_BYTES)
+        .map(|r| {
+            (
+                Vec3::from(floats(&r[..12])),
+                floats(&r[VERTEX_BYTES - 12..]),
+            )
+        })
+        .collect())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -105,5 +150,13 @@ mod tests {
         assert_eq!(&bytes[at..at + 3], &[4, 5, 6]);
         assert_eq!(&bytes[at + 3..at + 7], &0.5f32.to_le_bytes());
         assert_eq!(&bytes[bytes.len() - FACE_BYTES..][..5], &[3, 0, 0, 0, 0]);
+        let read = read_radiance(&bytes).unwrap();
+        assert_eq!(read.len(), 3);
+        assert_eq!(read[1], (Vec3::X, [0.5, 0.25, 0.125]));
+        assert_eq!(
+            read_radiance(&bytes[..header_len + 40]),
+            Err(ReadError::Short(3))
+        );
+        assert_eq!(read_radiance(b"ply\n"), Err(ReadError::NoHeader));
     }
 }

@@ -41,26 +41,10 @@ impl Scratch {
         std::fs::read(self.path(name)).unwrap_or_else(|err| panic!("read {name}: {err}"))
     }
 
-    /// The linear radiance of every vertex of a PLY written by `relight` (the last 3 floats
-    /// of each record), as many as its header's `element vertex` says.
+    /// The linear radiance of every vertex of a PLY written by `relight`.
     pub fn ply_radiance(&self, name: &str) -> Vec<[f32; 3]> {
-        let bytes = self.read(name);
-        let end = b"end_header\n";
-        let start = bytes.windows(end.len()).position(|w| w == end).unwrap() + end.len();
-        let header = std::str::from_utf8(&bytes[..start]).unwrap();
-        let vertices: usize = header
-            .lines()
-            .find_map(|l| l.strip_prefix("element vertex "))
-            .unwrap()
-            .parse()
-            .unwrap();
-        let record = prt_baker::formats::ply::VERTEX_BYTES;
-        (0..vertices)
-            .map(|v| {
-                let r = &bytes[start + v * record + record - 12..start + (v + 1) * record];
-                std::array::from_fn(|c| f32::from_le_bytes(r[4 * c..4 * c + 4].try_into().unwrap()))
-            })
-            .collect()
+        let points = prt_baker::formats::ply::read_radiance(&self.read(name));
+        points.unwrap().into_iter().map(|(_, r)| r).collect()
     }
 
     /// Runs `prt-bake` with `args` inside the scratch folder.

@@ -122,24 +122,7 @@ pub fn from_f16(bits: u16) -> f32 {
 
 /// The vertices of `prt-bake relight`'s binary PLY: each position and its linear radiance.
 pub fn read_ply(path: &Path) -> Vec<(glam::Vec3, [f32; 3])> {
-    let bytes = std::fs::read(path).unwrap();
-    let end = b"end_header\n";
-    let header = bytes.windows(end.len()).position(|w| w == end).unwrap() + end.len();
-    let text = String::from_utf8_lossy(&bytes[..header]);
-    let count: usize = text
-        .lines()
-        .find_map(|l| l.strip_prefix("element vertex "))
-        .unwrap()
-        .parse()
-        .unwrap();
-    let f32s = |b: &[u8]| -> [f32; 3] {
-        std::array::from_fn(|i| f32::from_le_bytes(b[4 * i..4 * i + 4].try_into().unwrap()))
-    };
-    // Per vertex: position, normal (3 f32 each), colour (3 u8), radiance (3 f32).
-    (0..count)
-        .map(|v| &bytes[header + 39 * v..][..39])
-        .map(|b| (glam::Vec3::from(f32s(&b[..12])), f32s(&b[27..39])))
-        .collect()
+    prt_baker::formats::ply::read_radiance(&std::fs::read(path).unwrap()).unwrap()
 }
 
 /// A vertex bake of `scene` whose band-0 transfer gives back `relit`'s radiance under a light
