@@ -6,7 +6,10 @@
 //! raw, and with 16,384 rays of another seed (the reference). The denoised bake must
 //!
 //! * keep its p99 RMS coefficient error against the reference within E (the requirement);
-//! * cast at most 0.65 × the rays of the raw bake held to the same tail (E/TAIL);
+//! * cast at most 0.8 × the rays of the raw bake held to the same tail (E/TAIL): the
+//!   denoised bake audits its inferred points where its output is mostly its own estimate
+//!   (every 4th cast too), which the raw bake does not (its p99 here is 1.04 E); without the
+//!   audit the denoised bake cast 0.61 ×, with it 0.77 × (377 and 477 rays against 620);
 //! * record estimates of the denoised transfer: their RMS within a factor of 1.5 of the RMS
 //!   true error (a raw estimate is several times the denoised error);
 //! * send its rays where the filter cannot help: the floor along the box's foot casts more
@@ -20,8 +23,9 @@ use prt_tests::*;
 
 const ORDER: usize = 3;
 const TARGET: f32 = 1e-3;
-/// The share of the raw bake's rays the denoised bake may cast.
-const RAYS: f64 = 0.65;
+/// The share of the raw bake's rays the denoised bake may cast (module doc: the raw bake's
+/// inference is not audited).
+const RAYS: f64 = 0.8;
 
 /// The floor [−1, 1]² in 48² cells, and a closed box 0.5 wide and 0.4 tall on its middle, each
 /// face an object of its own.

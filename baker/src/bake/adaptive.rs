@@ -233,7 +233,21 @@ pub struct AdaptiveScratch {
     grid_current: bool,
     /// Rows of the current segment that must be cast.
     to_cast: Vec<usize>,
+    /// Whether the current extension casts every point, inferring none
+    /// ([`ReceiverState::extend`]).
+    cast_all: bool,
+    /// Every how many inferred points one is cast as well (0: none), and the rows cast so
+    /// with the answer inference gave them ([`ReceiverState::extend`]).
+    audit: usize,
+    audits: Vec<(usize, u8)>,
+    /// Audited points so far, and those whose ray disagreed with the inferred answer.
+    audited: u32,
+    mismatches: u32,
 }
+
+/// An audited extension casts the inferred points whose sequence index is a multiple of this
+/// too, to count inference's mistakes ([`crate::bake::adaptive_denoised`], "Inference").
+pub const AUDIT_EVERY: usize = 4;
 
 /// Answers rows `rows` of the tables (a segment: points of one octave at most) from `origin`
 /// along `frame`: beyond the cast prefix, a point whose neighbours in the octave's grid agree
@@ -254,7 +268,7 @@ fn cast(
 ) -> u32 {
     s.seen.resize(s.seen.len().max(rows.end), 0);
     s.to_cast.clear();
-    let infer = rows.start >= tables.cast_prefix as usize && tracer.is_some();
+    let infer = rows.start >= tables.cast_prefix as usize && tracer.is_some() && !s.cast_all;
     if infer {
         let level = usize::BITS - 1 - rows.start.leading_zeros();
         if !s.grid_current || s.grid.level() != level {
@@ -263,9 +277,14 @@ fn cast(
         }
     }
     let grid = Some(&s.grid).filter(|_| infer);
+    s.audits.clear();
     for row in rows.clone() {
         let i = tables.index[row] as usize;
         match grid.and_then(|g| g.infer(tables.bits[i])) {
+            Some(answer) if s.audit > 0 && i % s.audit == 0 => {
+                s.audits.push((row, answer));
+                s.to_cast.push(row);
+            }
             Some(answer) => s.seen[i] = answer,
             None => s.to_cast.push(row),
         }
@@ -282,6 +301,11 @@ fn cast(
         for (&row, &blocked) in batch.iter().zip(occluded.iter()) {
             s.seen[tables.index[row] as usize] = u8::from(!blocked);
         }
+    }
+    // The audited points keep their rays' answers; their inferred ones are only counted.
+    s.audited += s.audits.len() as u32;
+    for &(row, inferred) in &s.audits {
+        s.mismatches += u32::from(s.seen[tables.index[row] as usize] != inferred);
     }
     for batch in rows.clone().step_by(BATCH) {
         let batch = batch..(batch + BATCH).min(rows.end);
@@ -421,6 +445,9 @@ pub struct ReceiverState {
     pub unblocked: u32,
     /// The sum of the unblocked world directions.
     pub bent: Vec3,
+    /// Inferred points audited by a ray, and those whose ray disagreed ([`AUDIT_EVERY`]).
+    pub audited: u32,
+    pub mismatches: u32,
     /// The pilot's per-block RMS error over every coefficient ([`block_spread`]).
     pub spread: f64,
     /// The same over bands 0 and 1 only: the noise the denoiser's range term reads
@@ -452,7 +479,9 @@ impl ReceiverState {
     }
 
     /// Extends the receiver's sequence to `points` (a stop size of the tables, more than it
-    /// holds).
+    /// holds); `infer`: whether points beyond the cast prefix may be inferred, or all cast;
+    /// `audit`: cast every `audit`-th inferred point too, counting mismatches (0: none).
+    #[allow(clippy::too_many_arguments)]
     pub fn extend(
         &mut self,
         tables: &Tables,
@@ -461,7 +490,11 @@ impl ReceiverState {
         tracer: Option<&dyn Tracer>,
         s: &mut AdaptiveScratch,
         points: u32,
+        infer: bool,
+        audit: usize,
     ) {
+        (s.cast_all, s.audit) = (!infer, if infer { audit } else { 0 });
+        (s.audited, s.mismatches) = (0, 0);
         s.totals.clone_from(&self.totals);
         s.batch.resize(PILOT_BLOCKS * n, 0.0);
         s.occluded.resize(BATCH, false);
@@ -478,6 +511,9 @@ impl ReceiverState {
             self.points..points,
             (&mut self.unblocked, &mut self.bent),
         );
+        (s.cast_all, s.audit) = (false, 0);
+        self.audited += s.audited;
+        self.mismatches += s.mismatches;
         self.points = points;
         self.save(s);
     }
