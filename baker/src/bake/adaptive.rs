@@ -249,6 +249,18 @@ pub struct AdaptiveScratch {
 /// too, to count inference's mistakes ([`crate::bake::adaptive_denoised`], "Inference").
 pub const AUDIT_EVERY: usize = 4;
 
+/// How an extension ([`ReceiverState::extend`]) answers the points beyond the cast prefix.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Inference {
+    /// Every point is cast.
+    Off,
+    /// A point whose neighbours agree is inferred ([`crate::bake::inference`]).
+    On,
+    /// As `On`, and every n-th inferred point is cast as well, its ray's answer kept and a
+    /// disagreement counted.
+    Audited(usize),
+}
+
 /// Answers rows `rows` of the tables (a segment: points of one octave at most) from `origin`
 /// along `frame`: beyond the cast prefix, a point whose neighbours in the octave's grid agree
 /// is inferred ([`crate::bake::inference`]), the others are cast. Then each unblocked row's
@@ -479,8 +491,7 @@ impl ReceiverState {
     }
 
     /// Extends the receiver's sequence to `points` (a stop size of the tables, more than it
-    /// holds); `infer`: whether points beyond the cast prefix may be inferred, or all cast;
-    /// `audit`: cast every `audit`-th inferred point too, counting mismatches (0: none).
+    /// holds), inferring points as `inference` says.
     #[allow(clippy::too_many_arguments)]
     pub fn extend(
         &mut self,
@@ -490,10 +501,13 @@ impl ReceiverState {
         tracer: Option<&dyn Tracer>,
         s: &mut AdaptiveScratch,
         points: u32,
-        infer: bool,
-        audit: usize,
+        inference: Inference,
     ) {
-        (s.cast_all, s.audit) = (!infer, if infer { audit } else { 0 });
+        (s.cast_all, s.audit) = match inference {
+            Inference::Off => (true, 0),
+            Inference::On => (false, 0),
+            Inference::Audited(every) => (false, every),
+        };
         (s.audited, s.mismatches) = (0, 0);
         s.totals.clone_from(&self.totals);
         s.batch.resize(PILOT_BLOCKS * n, 0.0);

@@ -58,7 +58,9 @@
 use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 
-use crate::bake::adaptive::{AUDIT_EVERY, AdaptiveScratch, ReceiverState, Tables, predicted_error};
+use crate::bake::adaptive::{
+    AUDIT_EVERY, AdaptiveScratch, Inference, ReceiverState, Tables, predicted_error,
+};
 use crate::bake::denoise::{Filter, Guides, Settings};
 use crate::bake::estimator::{Estimator, Visibility};
 use crate::bake::options::RATE;
@@ -169,11 +171,14 @@ pub fn bake(
         }
         // Audited: the receivers whose own estimate is a large enough share of their output
         // for inference's mistakes to pass through the filter.
-        let audit: Vec<usize> = (0..count)
-            .map(|j| match assessed.own_share(j) >= AUDIT_SHARE {
-                true => AUDIT_EVERY,
-                false => 0,
-            })
+        let inference: Vec<Inference> = (0..count)
+            .map(
+                |j| match (cast_all[j], assessed.own_share(j) >= AUDIT_SHARE) {
+                    (true, _) => Inference::Off,
+                    (false, true) => Inference::Audited(AUDIT_EVERY),
+                    (false, false) => Inference::On,
+                },
+            )
             .collect();
         let growing = changed.iter().filter(|c| **c).count();
         if growing == 0 || passes == MAX_PASSES {
@@ -183,15 +188,11 @@ pub fn bake(
         states
             .par_iter_mut()
             .zip(&frames)
-            .zip(wanted.par_iter().zip(&cast_all).zip(&audit))
+            .zip(wanted.par_iter().zip(&inference))
             .zip(changed.par_iter().zip(&recast).zip(&mut inferred))
             .for_each_init(
                 AdaptiveScratch::default,
-                |s,
-                 (
-                    ((state, (o, f)), ((&want, &cast_all), &audit)),
-                    ((&changed, &recast), inferred),
-                )| {
+                |s, (((state, (o, f)), (&want, &inference)), ((&changed, &recast), inferred))| {
                     if !changed {
                         return;
                     }
@@ -203,8 +204,8 @@ pub fn bake(
                         *inferred = false;
                     }
                     if want > state.points {
-                        state.extend(tables, n, (*o, f), Some(tracer), s, want, !cast_all, audit);
-                        *inferred |= !cast_all && want > tables.cast_prefix;
+                        state.extend(tables, n, (*o, f), Some(tracer), s, want, inference);
+                        *inferred |= inference != Inference::Off && want > tables.cast_prefix;
                     }
                     progress.advance(1);
                 },

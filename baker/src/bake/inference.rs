@@ -95,7 +95,7 @@ impl Grid {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bake::adaptive::{AUDIT_EVERY, AdaptiveScratch, ReceiverState, Tables};
+    use crate::bake::adaptive::{AUDIT_EVERY, AdaptiveScratch, Inference, ReceiverState, Tables};
     use crate::bake::options::BakeOptions;
     use crate::math::sampling::OwenSobol;
     use crate::math::sh::Basis;
@@ -171,16 +171,16 @@ mod tests {
         let tables = Tables::new(&options, &Basis::new(3));
         let slit = Slit(0.02);
         let frame = (Vec3::ZERO, &Mat3::IDENTITY);
-        let extended = |infer: bool, audit: usize| {
+        let extended = |inference| {
             let s = &mut AdaptiveScratch::default();
             let mut state = ReceiverState::pilot(&tables, n, frame, Some(&slit), s);
-            state.extend(&tables, n, frame, Some(&slit), s, 4096, infer, audit);
+            state.extend(&tables, n, frame, Some(&slit), s, 4096, inference);
             state
         };
         let (cast, inferred, audited) = (
-            extended(false, 0),
-            extended(true, 0),
-            extended(true, AUDIT_EVERY),
+            extended(Inference::Off),
+            extended(Inference::On),
+            extended(Inference::Audited(AUDIT_EVERY)),
         );
         // Casting every point sees the slit's sky 4096 × 0.04/2π ≈ 26 times (its exact share);
         // inference misses some of it, and no audit runs.
