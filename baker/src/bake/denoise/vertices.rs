@@ -31,9 +31,12 @@ pub(super) const NORMAL_POWER: i32 = 8;
 /// neighbourhood along a line (a strip one vertex wide, a mesh's border) fits no slope or
 /// curvature across it.
 const RIDGE: f64 = 1e-2;
-/// κ's scale where every vertex's noise is estimated from its neighbours (transfer
-/// matrices): that estimate holds the transfer's true change between neighbours too, so it
-/// overstates the noise (on the glossy torus at 64 rays, 2.60 % against 2.77 % at κ = 4).
+/// κ's scale where every vertex's noise is estimated from its neighbours (transfer matrices
+/// at order 2, whose range-term signal is not one row): that estimate
+/// holds the transfer's true change between neighbours too, so it overstates the noise (on
+/// the glossy torus at 64 rays, 2.60 % against 2.77 % at κ = 4). Matrices at other orders
+/// carry their rays' estimate ([`crate::bake::matrix`]) and keep κ: 2.33 %, and 2.32 / 2.33
+/// / 2.58 % at κ = 3 / 4 / 6.
 pub(super) const NEIGHBOUR_KAPPA: f32 = 0.75;
 
 /// Turns a vertex's kernel, entries (k, [w_k, ..]), into the weights of a weighted quadratic
