@@ -461,7 +461,13 @@ impl<'g> Filter<'g> {
         });
         if self.settings.step.is_none() {
             let at = |k: u32| (self.clusters.points[k as usize] - pi) / spacing;
-            return vertices::fit(out, at, si);
+            let guide = |k: u32| {
+                (
+                    &self.tap_guide[k as usize * sw..][..sw],
+                    self.taps[k as usize].noise,
+                )
+            };
+            return vertices::fit(out, at, si, radius, guide);
         }
         if !self.settings.linear {
             let total: f32 = out.iter().map(|&(_, w)| w[0]).sum();
