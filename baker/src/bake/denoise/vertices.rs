@@ -135,9 +135,10 @@ fn fit_weights(
             }
         }
     }
-    for p in 0..TERMS {
-        for q in 0..p {
-            a[p][q] = a[q][p];
+    let upper = a;
+    for (p, row) in a.iter_mut().enumerate() {
+        for (q, entry) in row.iter_mut().enumerate().take(p) {
+            *entry = upper[q][p];
         }
     }
     let mass = a[0][0];
