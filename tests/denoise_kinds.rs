@@ -182,3 +182,70 @@ fn denoised_subsurface_vertices_beat_four_times_the_rays() {
         &reference.coefficients,
     );
 }
+
+/// The transfer matrices' noise from their own rays (the spread of the runs of each vertex's
+/// sequence: what the denoiser's range term weighs differences against) is the variance the
+/// range term's signal, the first row's bands 0 to 2, really has: over 16 seeds of the wax
+/// scene baked opaque, where the sphere and the wall shadow the floor. It overstates that
+/// variance a little (1.58 ×; the vector bake's, 1.16 ×), as the runs' correction for their
+/// covariance is the vector bake's; zeroed, or without its scale from the runs' means to the
+/// matrix's entries (π: 0.50 ×), it fails this.
+#[test]
+fn matrix_noise_from_rays_is_the_signals_variance_over_seeds() {
+    let scene = wax_scene();
+    let tracer = EmbreeTracer::new(&scene, EmbreeOptions::default()).expect("embree scene");
+    let bakes: Vec<Transfer> = (0..16)
+        .map(|seed| {
+            let o = BakeOptions {
+                transfer: TransferKind::Matrix,
+                ..options(64, seed, false)
+            };
+            prt_baker::bake(&scene, Some(&tracer), &o, &Silent).unwrap()
+        })
+        .collect();
+    let seeds = bakes.len() as f64;
+    let (mut estimated, mut measured) = (0.0f64, 0.0f64);
+    for v in 0..bakes[0].visibility.len() {
+        estimated += bakes
+            .iter()
+            .map(|b| f64::from(b.visibility[v].noise))
+            .sum::<f64>()
+            / seeds;
+        for j in 0..9 {
+            let entry = |b: &Transfer| f64::from(b.coefficients[v * 81 + j]);
+            let mean = bakes.iter().map(entry).sum::<f64>() / seeds;
+            let var = bakes.iter().map(|b| (entry(b) - mean).powi(2)).sum::<f64>();
+            measured += var / (seeds - 1.0) / 9.0;
+        }
+    }
+    let ratio = estimated / measured;
+    eprintln!(
+        "matrix noise: estimated {estimated:.4e}, over seeds {measured:.4e}, ratio {ratio:.3}"
+    );
+    assert!(
+        (0.7..2.5).contains(&ratio),
+        "estimated {estimated:.4e} against {measured:.4e} over seeds"
+    );
+}
+
+/// A denoised matrix bake, noise estimate and filter, is bit-identical on 1 and 3 threads.
+#[test]
+fn denoised_transfer_matrices_are_the_same_for_any_thread_count() {
+    let scene = wax_scene();
+    let tracer = EmbreeTracer::new(&scene, EmbreeOptions::default()).expect("embree scene");
+    let o = BakeOptions {
+        transfer: TransferKind::Matrix,
+        ..options(64, 1, true)
+    };
+    let bake = |threads| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| prt_baker::bake(&scene, Some(&tracer), &o, &Silent).unwrap())
+    };
+    let (one, three) = (bake(1), bake(3));
+    assert!(one.visibility.iter().any(|v| v.noise > 0.0));
+    assert_eq!(one.coefficients, three.coefficients);
+    assert_eq!(one.visibility, three.visibility);
+}

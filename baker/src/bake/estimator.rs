@@ -58,8 +58,9 @@ pub struct Visibility {
     pub error_estimate: f32,
     /// Fixed Owen–Sobol bakes: the estimated variance of one of the receiver's band-0 and
     /// band-1 coefficients (their mean), from the spread of its rays' [`NOISE_BLOCKS`]
-    /// blocks ([`crate::bake::noise`]); what the denoiser weighs differences against. 0 where
-    /// not estimated.
+    /// blocks ([`crate::bake::noise`]); for transfer matrices, of one entry of their first
+    /// row's bands 0 to 2. What the denoiser weighs differences against; 0 where not
+    /// estimated.
     pub noise: f32,
 }
 

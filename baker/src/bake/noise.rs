@@ -12,35 +12,48 @@
 //!
 //! Only band 0 and band 1 are summed (4 coefficients): they carry most of a diffuse
 //! receiver's energy, their spread is rotation-invariant per band (it is formed in the local
-//! frame), and 4 additions per unblocked ray cost next to nothing beside the ray.
+//! frame), and 4 additions per unblocked ray cost next to nothing beside the ray. Transfer
+//! matrices sum the 9 of bands 0 to 2 ([`NoiseBlocks::bands_0_to_2`]): their range term's signal
+//! is exactly those entries of the matrix's first row, next to which 9 additions cost nothing.
 
 use crate::bake::options::RATE;
 
 /// Runs of the sequence whose spread gives the estimate.
 pub const NOISE_BLOCKS: usize = 4;
-/// Coefficients summed per run: bands 0 and 1.
+/// Coefficients summed per run by vector bakes: bands 0 and 1.
 const NOISE_COEFFICIENTS: usize = 4;
+/// The most coefficients summed per run: bands 0 to 2 (transfer matrices).
+const MAX_COEFFICIENTS: usize = 9;
 
 /// One receiver's sums per run of its sequence.
 #[derive(Clone, Debug)]
 pub struct NoiseBlocks {
-    /// Coefficients summed: 4, or 1 at SH order 1.
+    /// Coefficients summed: 4 (9 for [`NoiseBlocks::bands_0_to_2`]), or n² where fewer.
     used: usize,
-    /// `sums[k · 4 + j]`: run k's sum of coefficient j over its unblocked points.
-    sums: [f64; NOISE_BLOCKS * NOISE_COEFFICIENTS],
+    /// `sums[k · 9 + j]`: run k's sum of coefficient j over its unblocked points.
+    sums: [f64; NOISE_BLOCKS * MAX_COEFFICIENTS],
 }
 
 impl NoiseBlocks {
-    /// Sums for `n` coefficients per row (the SH order's n²).
+    /// Sums of bands 0 and 1 for `n` coefficients per row (the SH order's n²).
     pub fn new(n: usize) -> NoiseBlocks {
         NoiseBlocks {
             used: n.min(NOISE_COEFFICIENTS),
-            sums: [0.0; NOISE_BLOCKS * NOISE_COEFFICIENTS],
+            sums: [0.0; NOISE_BLOCKS * MAX_COEFFICIENTS],
+        }
+    }
+
+    /// Sums of bands 0 to 2 for `n` coefficients per row: whole bands, so their spread is
+    /// the same in the local frame and in world space.
+    pub fn bands_0_to_2(n: usize) -> NoiseBlocks {
+        NoiseBlocks {
+            used: n.min(MAX_COEFFICIENTS),
+            ..NoiseBlocks::new(n)
         }
     }
 
     pub fn clear(&mut self) {
-        self.sums = [0.0; NOISE_BLOCKS * NOISE_COEFFICIENTS];
+        self.sums = [0.0; NOISE_BLOCKS * MAX_COEFFICIENTS];
     }
 
     /// Adds the rows of the points not `occluded` to their runs (`blocks`, per row).
@@ -52,7 +65,7 @@ impl NoiseBlocks {
     ) {
         for ((row, &block), &blocked) in rows.zip(blocks).zip(occluded) {
             if !blocked {
-                let sums = &mut self.sums[usize::from(block) * NOISE_COEFFICIENTS..];
+                let sums = &mut self.sums[usize::from(block) * MAX_COEFFICIENTS..];
                 for (sum, y) in sums[..self.used].iter_mut().zip(row) {
                     *sum += f64::from(*y);
                 }
@@ -73,12 +86,12 @@ impl NoiseBlocks {
         let mut spread = 0.0;
         for j in 0..self.used {
             let total: f64 = (0..NOISE_BLOCKS)
-                .map(|b| self.sums[b * NOISE_COEFFICIENTS + j])
+                .map(|b| self.sums[b * MAX_COEFFICIENTS + j])
                 .sum();
             let mean = total / samples as f64;
             for b in 0..NOISE_BLOCKS {
                 let count = (start(b as u64 + 1) - start(b as u64)) as f64;
-                let run = self.sums[b * NOISE_COEFFICIENTS + j] / count;
+                let run = self.sums[b * MAX_COEFFICIENTS + j] / count;
                 spread += (run - mean) * (run - mean);
             }
         }

@@ -27,10 +27,11 @@
 //!   with the terms above, its variance Σ w² σ²_j from each receiver's own estimate
 //!   ([`crate::bake::noise`]: the spread of its rays' runs). With d² the squared guide
 //!   difference over that variance, the weight is exp(−max(0, d² − 1)/κ²): noise is
-//!   smoothed, a real shadow edge or contact shadow, many σ deep, is kept. Where the rays
-//!   give no estimate (transfer matrices; the vertices whose subsurface walks replaced their
-//!   transfer), the variance is half the median of the squared differences to the closest
-//!   neighbours ([`Filter::new`]).
+//!   smoothed, a real shadow edge or contact shadow, many σ deep, is kept. Transfer
+//!   matrices estimate it for their first row's bands 0 to 2, their signal. Where the rays
+//!   give no estimate (the vertices whose subsurface walks replaced their transfer), the
+//!   variance is half the median of the squared differences to the closest neighbours
+//!   ([`Filter::new`]).
 //!
 //! The wide pass (7 texel spacings, about 150 texels) does not weigh every texel: it weighs
 //! **clusters** of up to 3 × 3 like texels ([`clusters`]), each at its members' centroid,
@@ -490,7 +491,13 @@ impl<'g> Filter<'g> {
         });
         if self.settings.step.is_none() {
             let at = |k: u32| (self.clusters.points[k as usize] - pi) / spacing;
-            return vertices::fit(out, at, si);
+            let guide = |k: u32| {
+                (
+                    &self.tap_guide[k as usize * sw..][..sw],
+                    self.taps[k as usize].noise,
+                )
+            };
+            return vertices::fit(out, at, si, radius, guide);
         }
         if !self.settings.linear {
             let total: f32 = out.iter().map(|&(_, w)| w[0]).sum();
