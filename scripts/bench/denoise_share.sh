@@ -2,8 +2,8 @@
 # The denoiser's share of a bake's CPU (not part of `make test`): runs one denoised bake on one
 # thread under `perf record` and counts the samples whose call stack passes through the
 # denoiser (`bake::denoise::`, its guides included) against the rest of the bake. A ratio
-# within one process, so it holds on a shared, loaded machine, where timing the denoised and
-# the raw bake one after the other does not.
+# within one process: steadier on a shared machine than timing the denoised and the raw bake
+# one after the other (it still moves with the load; take the median of several runs).
 #
 #   scripts/bench/denoise_share.sh BAKE-ARGUMENTS...
 #   scripts/bench/denoise_share.sh scenes/cornell/cornell.scene --lightmap 256 --order 3 --samples 64
