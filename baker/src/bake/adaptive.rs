@@ -233,12 +233,9 @@ pub struct AdaptiveScratch {
     grid_current: bool,
     /// Rows of the current segment that must be cast.
     to_cast: Vec<usize>,
-    /// Whether the current extension casts every point, inferring none
-    /// ([`ReceiverState::extend`]).
-    cast_all: bool,
-    /// Every how many inferred points one is cast as well (0: none), and the rows cast so
-    /// with the answer inference gave them ([`ReceiverState::extend`]).
-    audit: usize,
+    /// How this extension answers points past the cast prefix ([`ReceiverState::extend`]).
+    inference: Inference,
+    /// The audited rows of the current segment, with the answer inference gave them.
     audits: Vec<(usize, u8)>,
     /// Audited points so far, and those whose ray disagreed with the inferred answer.
     audited: u32,
@@ -250,11 +247,12 @@ pub struct AdaptiveScratch {
 pub const AUDIT_EVERY: usize = 4;
 
 /// How an extension ([`ReceiverState::extend`]) answers the points beyond the cast prefix.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub enum Inference {
     /// Every point is cast.
     Off,
     /// A point whose neighbours agree is inferred ([`crate::bake::inference`]).
+    #[default]
     On,
     /// As `On`, and every n-th inferred point is cast as well, its ray's answer kept and a
     /// disagreement counted.
@@ -280,7 +278,9 @@ fn cast(
 ) -> u32 {
     s.seen.resize(s.seen.len().max(rows.end), 0);
     s.to_cast.clear();
-    let infer = rows.start >= tables.cast_prefix as usize && tracer.is_some() && !s.cast_all;
+    let infer = rows.start >= tables.cast_prefix as usize
+        && tracer.is_some()
+        && s.inference != Inference::Off;
     if infer {
         let level = usize::BITS - 1 - rows.start.leading_zeros();
         if !s.grid_current || s.grid.level() != level {
@@ -289,11 +289,15 @@ fn cast(
         }
     }
     let grid = Some(&s.grid).filter(|_| infer);
+    let audit = match s.inference {
+        Inference::Audited(every) => every,
+        Inference::Off | Inference::On => 0,
+    };
     s.audits.clear();
     for row in rows.clone() {
         let i = tables.index[row] as usize;
         match grid.and_then(|g| g.infer(tables.bits[i])) {
-            Some(answer) if s.audit > 0 && i % s.audit == 0 => {
+            Some(answer) if audit > 0 && i % audit == 0 => {
                 s.audits.push((row, answer));
                 s.to_cast.push(row);
             }
@@ -503,11 +507,7 @@ impl ReceiverState {
         points: u32,
         inference: Inference,
     ) {
-        (s.cast_all, s.audit) = match inference {
-            Inference::Off => (true, 0),
-            Inference::On => (false, 0),
-            Inference::Audited(every) => (false, every),
-        };
+        s.inference = inference;
         (s.audited, s.mismatches) = (0, 0);
         s.totals.clone_from(&self.totals);
         s.batch.resize(PILOT_BLOCKS * n, 0.0);
@@ -525,7 +525,7 @@ impl ReceiverState {
             self.points..points,
             (&mut self.unblocked, &mut self.bent),
         );
-        (s.cast_all, s.audit) = (false, 0);
+        s.inference = Inference::default();
         self.audited += s.audited;
         self.mismatches += s.mismatches;
         self.points = points;

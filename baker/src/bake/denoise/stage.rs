@@ -73,11 +73,7 @@ pub fn denoise_guided(
         return;
     }
     let filter = Filter::new(guides, settings, coefficients, channels, per_channel);
-    let mut none: [f32; 0] = [];
-    let scalars = match ao {
-        Some(ao) => ao,
-        None => &mut none[..],
-    };
+    let scalars = ao.unwrap_or_default();
     filter.apply_in_place(coefficients, channels * per_channel, scalars);
     // The fit may overshoot a little; accessibility is a fraction.
     for a in scalars.iter_mut() {
