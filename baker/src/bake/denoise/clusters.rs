@@ -46,13 +46,18 @@ impl Clusters {
     /// within 25°, on its plane, within `step` of its spacings, and `similar`: raw signals
     /// apart by about their noise), or start one. Members weigh the same. A function of the
     /// guides and the signal alone, in a fixed order (cells by key): the same on any thread.
+    ///
+    /// Returns the clusters and their means of `signal` (`width` floats per receiver), the
+    /// very sums of [`Clusters::means`], formed while the cell's signal is still in cache:
+    /// a second pass would gather it again from all over the receivers.
     pub fn build(
         guides: &Guides,
         grid: &Grid,
         step: f32,
         noise: &[f32],
+        (signal, width): (&[f32], usize),
         similar: impl Fn(usize, usize) -> bool,
-    ) -> Clusters {
+    ) -> (Clusters, Vec<f32>) {
         let g = guides;
         let joins = |seed: usize, m: usize| {
             let d = g.points[m] - g.points[seed];
@@ -72,6 +77,8 @@ impl Clusters {
             noise: Vec::new(),
             points: Vec::new(),
         };
+        // At most one cluster per receiver: room reserved, not touched, so never moved.
+        let mut means = Vec::with_capacity(g.points.len() * width);
         let (mut seeds, mut label) = (Vec::<usize>::new(), Vec::<usize>::new());
         for cell in grid.cells() {
             seeds.clear();
@@ -100,7 +107,13 @@ impl Clusters {
                 let mut var = 0.0f32;
                 let mut at = glam::Vec3::ZERO;
                 let w = 1.0 / n;
+                let mean = means.len();
+                means.resize(mean + width, 0.0);
                 for (&m, _) in mine() {
+                    let values = &signal[m as usize * width..][..width];
+                    for (o, v) in means[mean..].iter_mut().zip(values) {
+                        *o += w * v;
+                    }
                     let p = g.points[m as usize];
                     let d = p.distance_squared(centre);
                     if d < best {
@@ -117,7 +130,7 @@ impl Clusters {
                 clusters.noise.push(var);
             }
         }
-        clusters
+        (clusters, means)
     }
 
     /// The clusters in `order` (`order[new] = old`).

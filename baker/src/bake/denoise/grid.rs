@@ -29,6 +29,14 @@ const TABLE_MAX: i64 = 1 << 22;
 const AXIS_BITS: u32 = 21;
 const AXIS_MAX: i64 = (1 << AXIS_BITS) - 1;
 
+/// The (x, y) column of a cell key.
+fn column(key: u64) -> (i64, i64) {
+    (
+        (key >> (2 * AXIS_BITS)) as i64,
+        (key >> AXIS_BITS) as i64 & AXIS_MAX,
+    )
+}
+
 impl Grid {
     /// A grid of `cell`-sized cubes over `points` (`cell` > 0).
     pub fn new(points: &[Vec3], cell: f32) -> Grid {
@@ -50,50 +58,81 @@ impl Grid {
             column_starts: Vec::new(),
             columns: (0, 0),
         };
-        let mut keyed: Vec<(u64, u32)> = points
-            .iter()
-            .enumerate()
-            .map(|(i, p)| (grid.key(grid.coords(*p)), i as u32))
-            .collect();
-        keyed.sort_unstable();
-        grid.order = keyed.iter().map(|&(_, i)| i).collect();
-        for (at, &(key, _)) in keyed.iter().enumerate() {
-            match grid.cells.last_mut() {
-                Some(last) if last.0 == key => last.2 = at as u32 + 1,
-                _ => grid.cells.push((key, at as u32, at as u32 + 1)),
-            }
+        let keys: Vec<u64> = points.iter().map(|p| grid.key(grid.coords(*p))).collect();
+        let (nx, ny) = keys.iter().fold((0, 0), |(nx, ny), &key| {
+            let (x, y) = column(key);
+            (nx.max(x + 1), ny.max(y + 1))
+        });
+        match nx * ny > TABLE_MAX {
+            true => grid.sort_by_key(&keys),
+            false => grid.sort_by_column(&keys, (nx, ny)),
         }
-        grid.index_columns();
         grid
     }
 
-    /// Fills `column_starts`, where the table is small enough.
-    fn index_columns(&mut self) {
-        let column = |key: u64| {
-            (
-                (key >> (2 * AXIS_BITS)) as i64,
-                (key >> AXIS_BITS) as i64 & AXIS_MAX,
-            )
+    /// Sorts the points by (key, index) with a counting sort by column, then by key within
+    /// each column (a few cells), and indexes the columns: no sort of every point, and the
+    /// column table is formed on the way.
+    fn sort_by_column(&mut self, keys: &[u64], (nx, ny): (i64, i64)) {
+        let index = |key: u64| {
+            let (x, y) = column(key);
+            (x * ny + y) as usize
         };
-        let (nx, ny) = self.cells.iter().fold((0, 0), |(nx, ny), c| {
-            let (x, y) = column(c.0);
-            (nx.max(x + 1), ny.max(y + 1))
-        });
-        if nx * ny > TABLE_MAX {
-            return;
+        // Counted one column ahead, summed, then each column's cursor: once the points are
+        // placed, entry c is where column c ends.
+        let mut table = vec![0u32; (nx * ny + 1) as usize];
+        for &key in keys {
+            table[index(key) + 1] += 1;
         }
+        for c in 1..table.len() {
+            table[c] += table[c - 1];
+        }
+        let mut order = vec![0u32; keys.len()];
+        for (i, &key) in keys.iter().enumerate() {
+            let at = &mut table[index(key)];
+            order[*at as usize] = i as u32;
+            *at += 1;
+        }
+        // Column by column: its points by key (a stable sort keeps index order within a
+        // cell), its cells, and the table's entry turned from the column's end among the
+        // points to its start among the cells.
+        let mut start = 0;
+        for c in 0..table.len() - 1 {
+            let end = table[c] as usize;
+            table[c] = self.cells.len() as u32;
+            order[start..end].sort_by_key(|&i| keys[i as usize]);
+            for at in start..end {
+                let key = keys[order[at] as usize];
+                match self.cells.last_mut() {
+                    Some(last) if last.0 == key => last.2 = at as u32 + 1,
+                    _ => self.cells.push((key, at as u32, at as u32 + 1)),
+                }
+            }
+            start = end;
+        }
+        let last = table.len() - 1;
+        table[last] = self.cells.len() as u32;
+        self.order = order;
+        self.column_starts = table;
         self.columns = (nx, ny);
-        // Cells are sorted by key, so by column: each column's start is the count of cells
-        // in the columns before it.
-        let mut starts = vec![0u32; (nx * ny + 1) as usize];
-        for c in &self.cells {
-            let (x, y) = column(c.0);
-            starts[(x * ny + y + 1) as usize] += 1;
+    }
+
+    /// Sorts the points by (key, index) where the grid has too many columns for a table:
+    /// each column is then found by binary search.
+    fn sort_by_key(&mut self, keys: &[u64]) {
+        let mut keyed: Vec<(u64, u32)> = keys
+            .iter()
+            .enumerate()
+            .map(|(i, &k)| (k, i as u32))
+            .collect();
+        keyed.sort_unstable();
+        self.order = keyed.iter().map(|&(_, i)| i).collect();
+        for (at, &(key, _)) in keyed.iter().enumerate() {
+            match self.cells.last_mut() {
+                Some(last) if last.0 == key => last.2 = at as u32 + 1,
+                _ => self.cells.push((key, at as u32, at as u32 + 1)),
+            }
         }
-        for k in 1..starts.len() {
-            starts[k] += starts[k - 1];
-        }
-        self.column_starts = starts;
     }
 
     /// The cell of `p`: truncated, not floored (no call to `floor` per point). The two agree
@@ -130,6 +169,7 @@ impl Grid {
 
     /// Calls `visit` with every receiver in a cell that the sphere of `radius` about `p`
     /// overlaps (a superset of those within `radius`), in a fixed order.
+    #[inline(always)]
     pub fn visit(&self, p: Vec3, radius: f32, mut visit: impl FnMut(u32)) {
         let lo = self.coords(p - Vec3::splat(radius));
         let hi = self.coords(p + Vec3::splat(radius));
@@ -202,6 +242,7 @@ impl GroupedGrid {
     }
 
     /// [`Grid::visit`] of `group`'s points, by their new indices.
+    #[inline(always)]
     pub fn visit(&self, group: u32, p: Vec3, radius: f32, mut visit: impl FnMut(u32)) {
         if let Ok(g) = self.groups.binary_search(&group) {
             let (first, grid) = &self.grids[g];
@@ -233,6 +274,38 @@ mod tests {
                 .filter(|&i| points[i as usize].distance(*p) <= 0.08)
                 .collect();
             assert_eq!(found, truth);
+        }
+    }
+
+    #[test]
+    fn the_counting_sort_orders_as_the_sort_by_key() {
+        let mut rng = crate::math::sampling::Pcg32::new(9, 10);
+        // Two layers of a sheet and a scatter: many points per cell and column.
+        let points: Vec<Vec3> = (0..3000)
+            .map(|i| match i % 3 {
+                2 => Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()),
+                k => Vec3::new(rng.next_f32(), 0.3 * k as f32, rng.next_f32()),
+            })
+            .collect();
+        let grid = Grid::new(&points, 0.07);
+        assert!(!grid.column_starts.is_empty());
+        let keys: Vec<u64> = points.iter().map(|p| grid.key(grid.coords(*p))).collect();
+        let mut sorted = Grid {
+            cells: Vec::new(),
+            order: Vec::new(),
+            column_starts: Vec::new(),
+            ..grid.clone()
+        };
+        sorted.sort_by_key(&keys);
+        assert_eq!(grid.order, sorted.order);
+        assert_eq!(grid.cells, sorted.cells);
+        // Each column's entry starts its cells.
+        let ny = grid.columns.1;
+        for (k, c) in grid.cells.iter().enumerate() {
+            let (x, y) = column(c.0);
+            let at = (x * ny + y) as usize;
+            let run = grid.column_starts[at] as usize..grid.column_starts[at + 1] as usize;
+            assert!(run.contains(&k));
         }
     }
 

@@ -63,6 +63,7 @@
 mod clusters;
 mod grid;
 pub mod guides;
+mod range;
 pub mod stage;
 mod vertices;
 
@@ -70,6 +71,7 @@ use rayon::prelude::*;
 
 use clusters::Clusters;
 pub use guides::{Guides, texel_guides, vertex_guides};
+use range::{range_exponent, range_term, squared_difference};
 
 /// The filter's sizes and strengths.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -172,6 +174,10 @@ pub struct Filter<'g> {
     /// Each cluster's tangent frame (its representative's plane): the fit's axes.
     frames: Vec<(glam::Vec3, glam::Vec3)>,
     signal_width: usize,
+    /// Each cluster's mean of the transfer the filter was formed for, in cluster order,
+    /// where its signal is the whole transfer (up to order 3; empty otherwise): the means
+    /// [`Filter::apply_to_transfer`] would otherwise form again.
+    transfer_means: Vec<f32>,
 }
 
 impl<'g> Filter<'g> {
@@ -224,26 +230,32 @@ impl<'g> Filter<'g> {
             cluster_of: Vec::new(),
             frames: Vec::new(),
             signal_width,
+            transfer_means: Vec::new(),
         };
         let from_rays = guides.noise.iter().any(|&v| v > 0.0);
-        let noise = match (from_rays, settings.step) {
+        let noise: std::borrow::Cow<[f32]> = match (from_rays, settings.step) {
             (true, None) => {
-                vertices::fill_noise(&guides.noise, || filter.noise_from_signal(&signal))
+                vertices::fill_noise(&guides.noise, || filter.noise_from_signal(&signal)).into()
             }
-            (true, Some(_)) => guides.noise.clone(),
-            (false, _) => filter.noise_from_signal(&signal),
+            (true, Some(_)) => std::borrow::Cow::Borrowed(&guides.noise),
+            (false, _) => filter.noise_from_signal(&signal).into(),
         };
         if !from_rays && settings.step.is_none() {
             filter.settings.kappa *= vertices::NEIGHBOUR_KAPPA;
         }
-        let clusters = match settings.step {
-            None => Clusters {
-                points: guides.points.clone(),
-                ..Clusters::singletons(&noise)
-            },
+        let sw = signal_width;
+        let (clusters, signal_means) = match settings.step {
+            None => {
+                let clusters = Clusters {
+                    points: guides.points.clone(),
+                    ..Clusters::singletons(&noise)
+                };
+                let means = clusters.means(&signal, sw);
+                (clusters, means)
+            }
             Some(step) => {
-                let sw = signal_width;
-                Clusters::build(guides, &filter.fine, step, &noise, |seed, m| {
+                let within = (&signal[..], sw);
+                Clusters::build(guides, &filter.fine, step, &noise, within, |seed, m| {
                     let variance = (noise[m] + noise[seed]) * sw as f32;
                     let (s, g) = (&signal[m * sw..][..sw], &signal[seed * sw..][..sw]);
                     range_exponent(s, g, variance, GUIDE_KAPPA) <= SIMILAR
@@ -260,7 +272,6 @@ impl<'g> Filter<'g> {
             .map(|k| clusters.reps[k])
             .collect();
         let (guide, guide_noise) = filter.prefilter(&signal, &noise, &prefiltered);
-        let signal_means = clusters.means(&signal, signal_width);
         drop(signal);
         let (rep_groups, rep_spacing): (Vec<u32>, Vec<f32>) = clusters
             .reps
@@ -285,16 +296,28 @@ impl<'g> Filter<'g> {
         }
         let mut tap_guide = Vec::with_capacity(order.len() * signal_width);
         let mut tap_noise = Vec::with_capacity(order.len());
+        // Up to order 3 the signal is the transfer: its means, in the wide grid's order, are
+        // the ones `apply_to_transfer` reads.
+        let whole = used == per_channel;
+        let mut means = Vec::with_capacity(if whole { order.len() * signal_width } else { 0 });
         for &k in &order {
             let k = k as usize;
-            let (from, at, variance) = match at_prefiltered[k] {
-                u32::MAX => (&signal_means, k, clusters.noise[k]),
-                n => (&guide, n as usize, guide_noise[n as usize]),
+            let mean = &signal_means[k * signal_width..][..signal_width];
+            if whole {
+                means.extend_from_slice(mean);
+            }
+            let (from, variance) = match at_prefiltered[k] {
+                u32::MAX => (mean, clusters.noise[k]),
+                n => (
+                    &guide[n as usize * signal_width..][..signal_width],
+                    guide_noise[n as usize],
+                ),
             };
-            tap_guide.extend_from_slice(&from[at * signal_width..][..signal_width]);
+            tap_guide.extend_from_slice(from);
             tap_noise.push(variance);
         }
         drop((guide, guide_noise, signal_means));
+        filter.transfer_means = means;
         let clusters = clusters.permute(&order);
         filter.taps = (0..clusters.reps.len())
             .map(|k| {
@@ -326,6 +349,7 @@ impl<'g> Filter<'g> {
     /// Receiver i's weight on j, taken to lie `at` (its own point, or its cluster's): the
     /// geometric terms times exp(−`range`), 0 outside `radius` spacings. `range` (the range term's exponent) is asked only of neighbours the
     /// geometric terms keep, and the terms share one exponential.
+    #[inline(always)]
     fn weight(
         &self,
         i: usize,
@@ -480,7 +504,8 @@ impl<'g> Filter<'g> {
             }
             let off_plane = si.dot(d) / spacing;
             let gj = &self.tap_guide[k as usize * sw..][..sw];
-            let range = range_exponent(gi, gj, (noise + tap.noise) * sw as f32, kappa);
+            let squared = squared_difference(gi, gj);
+            let range = range_term(squared, (noise + tap.noise) * sw as f32, kappa);
             let w =
                 (-2.0 * r2 - off_plane * off_plane - range).exp() * power_of_two(facing, squarings);
             if w > 0.0 {
@@ -590,6 +615,27 @@ impl<'g> Filter<'g> {
     /// receiver-sized buffer is allocated for the result.
     pub fn apply_in_place(&self, values: &mut [f32], width: usize, scalars: &mut [f32]) {
         let means = self.clusters.means(values, width);
+        self.apply_with_means(values, &means, width, scalars);
+    }
+
+    /// [`Filter::apply_in_place`] of the very transfer the filter was formed for (`width`
+    /// floats per receiver, unchanged since): where that transfer was the filter's signal,
+    /// its clusters' means are already at hand, the same floats.
+    pub fn apply_to_transfer(&self, transfer: &mut [f32], width: usize, scalars: &mut [f32]) {
+        match self.transfer_means.len() == self.clusters.reps.len() * width {
+            true => self.apply_with_means(transfer, &self.transfer_means, width, scalars),
+            false => self.apply_in_place(transfer, width, scalars),
+        }
+    }
+
+    /// [`Filter::apply_in_place`] with each cluster's mean of `values` given.
+    fn apply_with_means(
+        &self,
+        values: &mut [f32],
+        means: &[f32],
+        width: usize,
+        scalars: &mut [f32],
+    ) {
         let scalar_means = match scalars.is_empty() {
             true => Vec::new(),
             false => self.clusters.means(scalars, 1),
@@ -639,18 +685,6 @@ impl<'g> Filter<'g> {
             *out = s[0] * p0 + s[1] * p1 + s[2] * p2;
         }
     }
-}
-
-/// The range term's exponent, max(0, d² − 1)/κ² for d² the squared difference of `a` and
-/// `b` over `variance`, the difference noise alone would give (so d² ≈ 1 for noise).
-fn range_exponent(a: &[f32], b: &[f32], variance: f32, kappa: f32) -> f32 {
-    let squared: f32 = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum();
-    let d2 = match variance > 0.0 {
-        true => squared / variance,
-        false if squared == 0.0 => 0.0,
-        false => f32::INFINITY,
-    };
-    (d2 - 1.0).max(0.0) / (kappa * kappa)
 }
 
 #[cfg(test)]

@@ -74,7 +74,7 @@ pub fn denoise_guided(
     }
     let filter = Filter::new(guides, settings, coefficients, channels, per_channel);
     let scalars = ao.unwrap_or_default();
-    filter.apply_in_place(coefficients, channels * per_channel, scalars);
+    filter.apply_to_transfer(coefficients, channels * per_channel, scalars);
     // The fit may overshoot a little; accessibility is a fraction.
     for a in scalars.iter_mut() {
         *a = a.clamp(0.0, 1.0);

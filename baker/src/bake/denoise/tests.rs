@@ -85,3 +85,26 @@ fn a_quadratic_transfer_is_kept_exactly() {
         assert!((a - b).abs() < 0.02 * b, "vertex {i}: {a} against {b}");
     }
 }
+
+/// The texels' path applied to its own transfer reuses the clusters' means formed while
+/// clustering: the very floats a fresh apply forms, so the same result bit for bit.
+#[test]
+fn applying_to_the_filters_own_transfer_reuses_the_same_means() {
+    let mut guides = Guides::default();
+    sheet(&mut guides, Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z, 0);
+    let mut rng = crate::math::sampling::Pcg32::new(7, 8);
+    // Order 3, three channels: the signal is the whole transfer.
+    let width = 27;
+    let transfer: Vec<f32> = (0..guides.points.len() * width)
+        .map(|_| 0.5 + 0.05 * rng.next_f32())
+        .collect();
+    let filter = Filter::new(&guides, Settings::TEXELS, &transfer, 3, 9);
+    assert!(!filter.transfer_means.is_empty());
+    let (mut fresh, mut reused) = (transfer.clone(), transfer.clone());
+    let (mut a, mut b) = (vec![0.25f32; 144], vec![0.25f32; 144]);
+    filter.apply_in_place(&mut fresh, width, &mut a);
+    filter.apply_to_transfer(&mut reused, width, &mut b);
+    assert_eq!(fresh, reused);
+    assert_eq!(a, b);
+    assert_ne!(fresh, transfer);
+}
