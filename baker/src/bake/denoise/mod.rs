@@ -66,6 +66,7 @@ pub mod guides;
 pub mod stage;
 mod vertices;
 
+use glam::Vec4;
 use rayon::prelude::*;
 
 use clusters::Clusters;
@@ -167,6 +168,9 @@ pub struct Filter<'g> {
     taps: Vec<Tap>,
     /// Each cluster's guide (its representative's), `signal_width` floats per cluster.
     tap_guide: Vec<f32>,
+    /// For vertices, in place of `tap_guide`: each vertex's guide in vector registers'
+    /// lanes, zero-padded to [`vertices::guide_lanes`] of them.
+    tap_lanes: Vec<Vec4>,
     /// Each receiver's cluster.
     cluster_of: Vec<u32>,
     /// Each cluster's tangent frame (its representative's plane): the fit's axes.
@@ -208,10 +212,10 @@ impl<'g> Filter<'g> {
             false => *spacings.select_nth_unstable_by(count / 2, f32::total_cmp).1,
         }
         .max(1e-12);
-        let wide_cell = WIDE_CELL * settings.radius * typical;
+        // Vertices read the fine grid for the prefilter alone: cells as wide as its reach.
         let fine = grid::Grid::new(
             &guides.points,
-            settings.step.map_or(wide_cell, |s| s * typical),
+            settings.step.unwrap_or(settings.guide_radius) * typical,
         );
         let mut filter = Filter {
             guides,
@@ -221,6 +225,7 @@ impl<'g> Filter<'g> {
             clusters: Clusters::singletons(&[]),
             taps: Vec::new(),
             tap_guide: Vec::new(),
+            tap_lanes: Vec::new(),
             cluster_of: Vec::new(),
             frames: Vec::new(),
             signal_width,
@@ -307,7 +312,10 @@ impl<'g> Filter<'g> {
                 }
             })
             .collect();
-        filter.tap_guide = tap_guide;
+        match settings.step {
+            None => filter.tap_lanes = vertices::to_lanes(&tap_guide, signal_width),
+            Some(_) => filter.tap_guide = tap_guide,
+        }
         filter.frames = clusters
             .reps
             .iter()
@@ -439,6 +447,16 @@ impl<'g> Filter<'g> {
         (guide, guide_noise)
     }
 
+    /// Cluster c's kernel ([`Filter::cluster_kernel`], or a vertex's,
+    /// [`Filter::vertex_kernel`]), formed in `scratch`.
+    fn kernel<'s>(&self, c: usize, scratch: &'s mut vertices::Scratch) -> &'s [(u32, [f32; 3])] {
+        match self.settings.step {
+            None => self.vertex_kernel(c, scratch),
+            Some(_) => self.cluster_kernel(c, &mut scratch.kernel),
+        }
+        &scratch.kernel
+    }
+
     /// Cluster c's kernel over the clusters, in the wide grid's fixed order of visit:
     /// entries (k, e_k) such that a member m's weight on cluster k is
     /// ŵ_k(m) = e_k · (1, u_m, v_m), with (u_m, v_m) the member's place about c's centroid
@@ -466,10 +484,6 @@ impl<'g> Filter<'g> {
         let reach = radius * spacing;
         let (t1, t2) = self.frames[c];
         let scale = 1.0 / spacing;
-        let squarings = match self.settings.step {
-            None => vertices::NORMAL_SQUARINGS,
-            Some(_) => NORMAL_SQUARINGS,
-        };
         self.wide.visit(group, pi, reach, |k| {
             let tap = &self.taps[k as usize];
             let d = tap.at - pi;
@@ -481,24 +495,14 @@ impl<'g> Filter<'g> {
             let off_plane = si.dot(d) / spacing;
             let gj = &self.tap_guide[k as usize * sw..][..sw];
             let range = range_exponent(gi, gj, (noise + tap.noise) * sw as f32, kappa);
-            let w =
-                (-2.0 * r2 - off_plane * off_plane - range).exp() * power_of_two(facing, squarings);
+            let w = (-2.0 * r2 - off_plane * off_plane - range).exp()
+                * power_of_two(facing, NORMAL_SQUARINGS);
             if w > 0.0 {
                 // With the tap's place in c's tangent plane, in spacings: the fit's (u, v).
                 let place = d * scale;
                 out.push((k, [w * tap.mass, place.dot(t1), place.dot(t2)]));
             }
         });
-        if self.settings.step.is_none() {
-            let at = |k: u32| (self.clusters.points[k as usize] - pi) / spacing;
-            let guide = |k: u32| {
-                (
-                    &self.tap_guide[k as usize * sw..][..sw],
-                    self.taps[k as usize].noise,
-                )
-            };
-            return vertices::fit(out, at, si, radius, guide);
-        }
         if !self.settings.linear {
             let total: f32 = out.iter().map(|&(_, w)| w[0]).sum();
             for (_, e) in out.iter_mut() {
@@ -561,11 +565,11 @@ impl<'g> Filter<'g> {
     /// cluster's kernel at its place times each cluster's weights on its members.
     pub fn row(&self, i: usize, out: &mut Vec<(u32, f32)>) {
         let c = self.cluster_of[i] as usize;
-        let mut kernel = Vec::new();
-        self.cluster_kernel(c, &mut kernel);
+        let mut scratch = vertices::Scratch::default();
+        let kernel = self.kernel(c, &mut scratch);
         let place = self.member_place(c, i);
         out.clear();
-        for &(k, e) in &kernel {
+        for &(k, e) in kernel {
             let w = e[0] * place[0] + e[1] * place[1] + e[2] * place[2];
             out.extend(
                 self.clusters
@@ -596,29 +600,33 @@ impl<'g> Filter<'g> {
         };
         // Per cluster, the fit's three sums Σ e_k · mean_k for each of (1, u, v), of the
         // values and then of the scalars: a member's value is their dot with its place, so
-        // the clusters' means are read once per cluster, not once per member.
+        // the clusters' means are read once per cluster, not once per member. A vertex's
+        // place is (1, 0, 0), and its kernel's entries (w, 0, 0): it needs the first alone.
         let stride = 3 * (width + 1);
+        let terms = match self.settings.step {
+            None => 1,
+            Some(_) => 3,
+        };
         let mut sums = vec![0.0f32; self.clusters.reps.len() * stride];
-        sums.par_chunks_mut(stride)
-            .enumerate()
-            .for_each_init(Vec::new, |kernel, (c, sums)| {
-                self.cluster_kernel(c, kernel);
+        sums.par_chunks_mut(stride).enumerate().for_each_init(
+            vertices::Scratch::default,
+            |scratch, (c, sums)| {
+                let kernel = self.kernel(c, scratch);
                 let (sums, scalar_sums) = sums.split_at_mut(3 * width);
-                for &(k, e) in kernel.iter() {
+                for &(k, e) in kernel {
                     let k = k as usize;
                     let mean = &means[k * width..(k + 1) * width];
-                    for (t, sums) in sums.chunks_exact_mut(width.max(1)).enumerate() {
-                        for (o, v) in sums.iter_mut().zip(mean) {
-                            *o += e[t] * v;
-                        }
+                    for (t, sums) in sums.chunks_exact_mut(width.max(1)).enumerate().take(terms) {
+                        add_scaled(sums, e[t], mean);
                     }
                     if let Some(s) = scalar_means.get(k) {
-                        for t in 0..3 {
+                        for t in 0..terms {
                             scalar_sums[t] += e[t] * s;
                         }
                     }
                 }
-            });
+            },
+        );
         values
             .par_chunks_mut(width.max(1))
             .enumerate()
@@ -641,10 +649,29 @@ impl<'g> Filter<'g> {
     }
 }
 
+/// o += s x, elementwise, four at a time in a vector register (glam's `Vec4`): a loop
+/// of unknown length, a receiver's 27 floats, is otherwise left mostly to scalar
+/// arithmetic. The same products and sums as one at a time, bit for bit.
+fn add_scaled(o: &mut [f32], s: f32, x: &[f32]) {
+    debug_assert_eq!(o.len(), x.len());
+    let (mut o4, x4) = (o.chunks_exact_mut(4), x.chunks_exact(4));
+    for (o, x) in o4.by_ref().zip(x4.clone()) {
+        (Vec4::from_slice(o) + s * Vec4::from_slice(x)).write_to_slice(o);
+    }
+    for (o, x) in o4.into_remainder().iter_mut().zip(x4.remainder()) {
+        *o += s * x;
+    }
+}
+
 /// The range term's exponent, max(0, d² − 1)/κ² for d² the squared difference of `a` and
 /// `b` over `variance`, the difference noise alone would give (so d² ≈ 1 for noise).
 fn range_exponent(a: &[f32], b: &[f32], variance: f32, kappa: f32) -> f32 {
     let squared: f32 = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum();
+    range_of_squared(squared, variance, kappa)
+}
+
+/// [`range_exponent`] of the squared difference `squared`.
+fn range_of_squared(squared: f32, variance: f32, kappa: f32) -> f32 {
     let d2 = match variance > 0.0 {
         true => squared / variance,
         false if squared == 0.0 => 0.0,
