@@ -593,6 +593,9 @@ impl<'g> Filter<'g> {
     /// with the same kernels, in place: each cluster's kernel is formed once, and no
     /// receiver-sized buffer is allocated for the result.
     pub fn apply_in_place(&self, values: &mut [f32], width: usize, scalars: &mut [f32]) {
+        if self.settings.step.is_none() {
+            return self.apply_to_vertices(values, width, scalars);
+        }
         let means = self.clusters.means(values, width);
         let scalar_means = match scalars.is_empty() {
             true => Vec::new(),
@@ -600,13 +603,8 @@ impl<'g> Filter<'g> {
         };
         // Per cluster, the fit's three sums Σ e_k · mean_k for each of (1, u, v), of the
         // values and then of the scalars: a member's value is their dot with its place, so
-        // the clusters' means are read once per cluster, not once per member. A vertex's
-        // place is (1, 0, 0), and its kernel's entries (w, 0, 0): it needs the first alone.
+        // the clusters' means are read once per cluster, not once per member.
         let stride = 3 * (width + 1);
-        let terms = match self.settings.step {
-            None => 1,
-            Some(_) => 3,
-        };
         let mut sums = vec![0.0f32; self.clusters.reps.len() * stride];
         sums.par_chunks_mut(stride).enumerate().for_each_init(
             vertices::Scratch::default,
@@ -616,11 +614,11 @@ impl<'g> Filter<'g> {
                 for &(k, e) in kernel {
                     let k = k as usize;
                     let mean = &means[k * width..(k + 1) * width];
-                    for (t, sums) in sums.chunks_exact_mut(width.max(1)).enumerate().take(terms) {
+                    for (t, sums) in sums.chunks_exact_mut(width.max(1)).enumerate() {
                         add_scaled(sums, e[t], mean);
                     }
                     if let Some(s) = scalar_means.get(k) {
-                        for t in 0..terms {
+                        for t in 0..3 {
                             scalar_sums[t] += e[t] * s;
                         }
                     }

@@ -27,6 +27,8 @@
 
 use glam::Vec4;
 
+use rayon::prelude::*;
+
 use super::{Filter, power_of_two, range_of_squared};
 
 /// Terms of the fit: 1, u, v, u², uv, v².
@@ -118,6 +120,50 @@ impl Filter<'_> {
             )
         };
         fit(scratch, sw, guide);
+    }
+
+    /// [`Filter::apply_in_place`] for vertices: each its own cluster, at its own place, so
+    /// its value is Σ_k w_k v_k over its kernel's entries (k, [w_k, 0, 0]) alone. The values
+    /// (and the scalar after them) are read in vector registers' lanes, zero-padded, in the
+    /// kernels' order.
+    pub(super) fn apply_to_vertices(&self, values: &mut [f32], width: usize, scalars: &mut [f32]) {
+        let lanes = (width + 1).div_ceil(4);
+        // Every vertex is its own cluster, its one member.
+        let member = |c: usize| self.clusters.row(c)[0].0 as usize;
+        let mut padded = vec![Vec4::ZERO; self.clusters.reps.len() * lanes];
+        for (c, at) in padded.chunks_exact_mut(lanes).enumerate() {
+            let m = member(c);
+            let value = &values[m * width..][..width];
+            let float = |j: usize| match j.cmp(&width) {
+                std::cmp::Ordering::Less => value[j],
+                std::cmp::Ordering::Equal => scalars.get(m).copied().unwrap_or(0.0),
+                std::cmp::Ordering::Greater => 0.0,
+            };
+            for (l, lane) in at.iter_mut().enumerate() {
+                *lane = Vec4::from_array(std::array::from_fn(|i| float(4 * l + i)));
+            }
+        }
+        let mut sums = vec![Vec4::ZERO; padded.len()];
+        sums.par_chunks_mut(lanes).enumerate().for_each_init(
+            Scratch::default,
+            |scratch, (c, sums)| {
+                for &(k, [w, ..]) in self.kernel(c, scratch) {
+                    for (o, v) in sums.iter_mut().zip(&padded[k as usize * lanes..][..lanes]) {
+                        *o += w * *v;
+                    }
+                }
+            },
+        );
+        for (c, sum) in sums.chunks_exact(lanes).enumerate() {
+            let m = member(c);
+            let floats = sum.iter().flat_map(|v| v.to_array());
+            for (o, f) in values[m * width..][..width].iter_mut().zip(floats) {
+                *o = f;
+            }
+            if let Some(s) = scalars.get_mut(m) {
+                *s = sum[width / 4].to_array()[width % 4];
+            }
+        }
     }
 }
 
