@@ -66,7 +66,6 @@ pub mod guides;
 pub mod stage;
 mod vertices;
 
-use glam::Vec4;
 use rayon::prelude::*;
 
 use clusters::Clusters;
@@ -170,7 +169,7 @@ pub struct Filter<'g> {
     tap_guide: Vec<f32>,
     /// For vertices, in place of `tap_guide`: each vertex's guide in vector registers'
     /// lanes, zero-padded to [`vertices::guide_lanes`] of them.
-    tap_lanes: Vec<Vec4>,
+    tap_lanes: Vec<glam::Vec4>,
     /// Each receiver's cluster.
     cluster_of: Vec<u32>,
     /// Each cluster's tangent frame (its representative's plane): the fit's axes.
@@ -447,16 +446,6 @@ impl<'g> Filter<'g> {
         (guide, guide_noise)
     }
 
-    /// Cluster c's kernel ([`Filter::cluster_kernel`], or a vertex's,
-    /// [`Filter::vertex_kernel`]), formed in `scratch`.
-    fn kernel<'s>(&self, c: usize, scratch: &'s mut vertices::Scratch) -> &'s [(u32, [f32; 3])] {
-        match self.settings.step {
-            None => self.vertex_kernel(c, scratch),
-            Some(_) => self.cluster_kernel(c, &mut scratch.kernel),
-        }
-        &scratch.kernel
-    }
-
     /// Cluster c's kernel over the clusters, in the wide grid's fixed order of visit:
     /// entries (k, e_k) such that a member m's weight on cluster k is
     /// ŵ_k(m) = e_k · (1, u_m, v_m), with (u_m, v_m) the member's place about c's centroid
@@ -471,13 +460,33 @@ impl<'g> Filter<'g> {
     /// contact shadow, across a chart's last texels, where the neighbours lie on one side)
     /// is kept unbiased. Each member evaluates the fit at its own place, so a cluster's
     /// members differ as their neighbourhoods do, though their kernel is formed once.
-    fn cluster_kernel(&self, c: usize, out: &mut Vec<(u32, [f32; 3])>) {
+    ///
+    /// Vertices (every one its own cluster) read their guides in vector lanes, weigh
+    /// normals more mildly, keep each entry's taper and turn the kernel into a second-order
+    /// fit's weights ([`vertices::fit`]). The kernel is formed in `scratch.kernel`.
+    fn cluster_kernel(&self, c: usize, scratch: &mut vertices::Scratch) {
+        let vertices = self.settings.step.is_none();
+        let (out, tapers) = (&mut scratch.kernel, &mut scratch.taper);
         out.clear();
+        tapers.clear();
         let g = self.guides;
-        let sw = self.signal_width;
+        let (sw, lanes) = (self.signal_width, vertices::guide_lanes(self.signal_width));
         let (radius, kappa) = (self.settings.radius, self.settings.kappa);
         let r = self.clusters.reps[c] as usize;
-        let gi = &self.tap_guide[c * sw..(c + 1) * sw];
+        let squared = |k: usize| match vertices {
+            true => vertices::squared_distance(
+                &self.tap_lanes[c * lanes..][..lanes],
+                &self.tap_lanes[k * lanes..][..lanes],
+            ),
+            false => squared_difference(
+                &self.tap_guide[c * sw..][..sw],
+                &self.tap_guide[k * sw..][..sw],
+            ),
+        };
+        let squarings = match vertices {
+            true => vertices::NORMAL_SQUARINGS,
+            false => NORMAL_SQUARINGS,
+        };
         let pi = self.clusters.points[c];
         let (ni, si, group) = (g.normals[r], g.surfaces[r], g.groups[r]);
         let (spacing, noise) = (g.spacing[r], self.taps[c].noise);
@@ -493,16 +502,26 @@ impl<'g> Filter<'g> {
                 return;
             }
             let off_plane = si.dot(d) / spacing;
-            let gj = &self.tap_guide[k as usize * sw..][..sw];
-            let range = range_exponent(gi, gj, (noise + tap.noise) * sw as f32, kappa);
-            let w = (-2.0 * r2 - off_plane * off_plane - range).exp()
-                * power_of_two(facing, NORMAL_SQUARINGS);
+            let range =
+                range_of_squared(squared(k as usize), (noise + tap.noise) * sw as f32, kappa);
+            let w =
+                (-2.0 * r2 - off_plane * off_plane - range).exp() * power_of_two(facing, squarings);
             if w > 0.0 {
                 // With the tap's place in c's tangent plane, in spacings: the fit's (u, v).
                 let place = d * scale;
                 out.push((k, [w * tap.mass, place.dot(t1), place.dot(t2)]));
+                if vertices {
+                    tapers.push(vertices::taper(r2));
+                }
             }
         });
+        if vertices {
+            let guide = |k: u32| {
+                let k = k as usize;
+                (&self.tap_lanes[k * lanes..][..lanes], self.taps[k].noise)
+            };
+            return vertices::fit(scratch, sw, guide);
+        }
         if !self.settings.linear {
             let total: f32 = out.iter().map(|&(_, w)| w[0]).sum();
             for (_, e) in out.iter_mut() {
@@ -566,10 +585,10 @@ impl<'g> Filter<'g> {
     pub fn row(&self, i: usize, out: &mut Vec<(u32, f32)>) {
         let c = self.cluster_of[i] as usize;
         let mut scratch = vertices::Scratch::default();
-        let kernel = self.kernel(c, &mut scratch);
+        self.cluster_kernel(c, &mut scratch);
         let place = self.member_place(c, i);
         out.clear();
-        for &(k, e) in kernel {
+        for &(k, e) in &scratch.kernel {
             let w = e[0] * place[0] + e[1] * place[1] + e[2] * place[2];
             out.extend(
                 self.clusters
@@ -594,7 +613,8 @@ impl<'g> Filter<'g> {
     /// receiver-sized buffer is allocated for the result.
     pub fn apply_in_place(&self, values: &mut [f32], width: usize, scalars: &mut [f32]) {
         if self.settings.step.is_none() {
-            return self.apply_to_vertices(values, width, scalars);
+            let kernel = |c: usize, scratch: &mut _| self.cluster_kernel(c, scratch);
+            return vertices::apply(&self.clusters, values, width, scalars, kernel);
         }
         let means = self.clusters.means(values, width);
         let scalar_means = match scalars.is_empty() {
@@ -609,13 +629,13 @@ impl<'g> Filter<'g> {
         sums.par_chunks_mut(stride).enumerate().for_each_init(
             vertices::Scratch::default,
             |scratch, (c, sums)| {
-                let kernel = self.kernel(c, scratch);
+                self.cluster_kernel(c, scratch);
                 let (sums, scalar_sums) = sums.split_at_mut(3 * width);
-                for &(k, e) in kernel {
+                for &(k, e) in &scratch.kernel {
                     let k = k as usize;
                     let mean = &means[k * width..(k + 1) * width];
                     for (t, sums) in sums.chunks_exact_mut(width.max(1)).enumerate() {
-                        add_scaled(sums, e[t], mean);
+                        clusters::add_scaled(sums, e[t], mean);
                     }
                     if let Some(s) = scalar_means.get(k) {
                         for t in 0..3 {
@@ -647,25 +667,15 @@ impl<'g> Filter<'g> {
     }
 }
 
-/// o += s x, elementwise, four at a time in a vector register (glam's `Vec4`): a loop
-/// of unknown length, a receiver's 27 floats, is otherwise left mostly to scalar
-/// arithmetic. The same products and sums as one at a time, bit for bit.
-fn add_scaled(o: &mut [f32], s: f32, x: &[f32]) {
-    debug_assert_eq!(o.len(), x.len());
-    let (mut o4, x4) = (o.chunks_exact_mut(4), x.chunks_exact(4));
-    for (o, x) in o4.by_ref().zip(x4.clone()) {
-        (Vec4::from_slice(o) + s * Vec4::from_slice(x)).write_to_slice(o);
-    }
-    for (o, x) in o4.into_remainder().iter_mut().zip(x4.remainder()) {
-        *o += s * x;
-    }
-}
-
 /// The range term's exponent, max(0, d² − 1)/κ² for d² the squared difference of `a` and
 /// `b` over `variance`, the difference noise alone would give (so d² ≈ 1 for noise).
 fn range_exponent(a: &[f32], b: &[f32], variance: f32, kappa: f32) -> f32 {
-    let squared: f32 = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum();
-    range_of_squared(squared, variance, kappa)
+    range_of_squared(squared_difference(a, b), variance, kappa)
+}
+
+/// Σ (a − b)², in order.
+fn squared_difference(a: &[f32], b: &[f32]) -> f32 {
+    a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum()
 }
 
 /// [`range_exponent`] of the squared difference `squared`.

@@ -29,7 +29,7 @@ use glam::Vec4;
 
 use rayon::prelude::*;
 
-use super::{Filter, power_of_two, range_of_squared};
+use super::clusters::Clusters;
 
 /// Terms of the fit: 1, u, v, u², uv, v².
 const TERMS: usize = 6;
@@ -72,97 +72,58 @@ pub(super) struct Scratch {
     delta: Vec<Vec4>,
 }
 
-impl Filter<'_> {
-    /// Vertex c's weights on its neighbours, entries (k, [w_k, 0, 0]) in `scratch.kernel`:
-    /// [`Filter::cluster_kernel`]'s terms with the vertices' milder normal term (every
-    /// vertex is its own cluster), turned into the second-order fit's weights ([`fit`]).
-    pub(super) fn vertex_kernel(&self, c: usize, scratch: &mut Scratch) {
-        let g = self.guides;
-        let sw = self.signal_width;
-        let lanes = guide_lanes(sw);
-        let (radius, kappa) = (self.settings.radius, self.settings.kappa);
-        let r = self.clusters.reps[c] as usize;
-        let gi = &self.tap_lanes[c * lanes..][..lanes];
-        let pi = self.clusters.points[c];
-        let (ni, si, group) = (g.normals[r], g.surfaces[r], g.groups[r]);
-        let (spacing, noise) = (g.spacing[r], self.taps[c].noise);
-        let reach = radius * spacing;
-        let (t1, t2) = self.frames[c];
-        let scale = 1.0 / spacing;
-        scratch.kernel.clear();
-        scratch.taper.clear();
-        self.wide.visit(group, pi, reach, |k| {
-            let tap = &self.taps[k as usize];
-            let d = tap.at - pi;
-            let r2 = d.length_squared() / (reach * reach);
-            let facing = ni.dot(tap.normal);
-            if r2 > 1.0 || facing <= 0.0 {
-                return;
-            }
-            let off_plane = si.dot(d) / spacing;
-            let gj = &self.tap_lanes[k as usize * lanes..][..lanes];
-            let squared = squared_distance(gi, gj);
-            let range = range_of_squared(squared, (noise + tap.noise) * sw as f32, kappa);
-            let w = (-2.0 * r2 - off_plane * off_plane - range).exp()
-                * power_of_two(facing, NORMAL_SQUARINGS);
-            if w > 0.0 {
-                let place = d * scale;
-                scratch
-                    .kernel
-                    .push((k, [w * tap.mass, place.dot(t1), place.dot(t2)]));
-                scratch.taper.push((-NARROW * r2).exp());
+/// The narrower fit's taper of a neighbour r² kernel radii² away: exp(−NARROW · r²).
+pub(super) fn taper(r2: f32) -> f32 {
+    (-NARROW * r2).exp()
+}
+
+/// The filter's `apply_in_place` for vertices, each its own cluster of `clusters` at its
+/// own place, with `kernel(c, scratch)` forming vertex c's kernel in `scratch.kernel`: a
+/// vertex's value is Σ_k w_k v_k over its kernel's entries (k, [w_k, 0, 0]) alone. The
+/// values (and the scalar after them) are read in vector registers' lanes, zero-padded,
+/// in the kernels' order.
+pub(super) fn apply(
+    clusters: &Clusters,
+    values: &mut [f32],
+    width: usize,
+    scalars: &mut [f32],
+    kernel: impl Fn(usize, &mut Scratch) + Sync,
+) {
+    let lanes = (width + 1).div_ceil(4);
+    // Every vertex is its own cluster, its one member.
+    let member = |c: usize| clusters.row(c)[0].0 as usize;
+    let mut padded = vec![Vec4::ZERO; clusters.reps.len() * lanes];
+    for (c, at) in padded.chunks_exact_mut(lanes).enumerate() {
+        let m = member(c);
+        let value = &values[m * width..][..width];
+        let float = |j: usize| match j.cmp(&width) {
+            std::cmp::Ordering::Less => value[j],
+            std::cmp::Ordering::Equal => scalars.get(m).copied().unwrap_or(0.0),
+            std::cmp::Ordering::Greater => 0.0,
+        };
+        for (l, lane) in at.iter_mut().enumerate() {
+            *lane = Vec4::from_array(std::array::from_fn(|i| float(4 * l + i)));
+        }
+    }
+    let mut sums = vec![Vec4::ZERO; padded.len()];
+    sums.par_chunks_mut(lanes)
+        .enumerate()
+        .for_each_init(Scratch::default, |scratch, (c, sums)| {
+            kernel(c, scratch);
+            for &(k, [w, ..]) in &scratch.kernel {
+                for (o, v) in sums.iter_mut().zip(&padded[k as usize * lanes..][..lanes]) {
+                    *o += w * *v;
+                }
             }
         });
-        let guide = |k: u32| {
-            (
-                &self.tap_lanes[k as usize * lanes..][..lanes],
-                self.taps[k as usize].noise,
-            )
-        };
-        fit(scratch, sw, guide);
-    }
-
-    /// [`Filter::apply_in_place`] for vertices: each its own cluster, at its own place, so
-    /// its value is Σ_k w_k v_k over its kernel's entries (k, [w_k, 0, 0]) alone. The values
-    /// (and the scalar after them) are read in vector registers' lanes, zero-padded, in the
-    /// kernels' order.
-    pub(super) fn apply_to_vertices(&self, values: &mut [f32], width: usize, scalars: &mut [f32]) {
-        let lanes = (width + 1).div_ceil(4);
-        // Every vertex is its own cluster, its one member.
-        let member = |c: usize| self.clusters.row(c)[0].0 as usize;
-        let mut padded = vec![Vec4::ZERO; self.clusters.reps.len() * lanes];
-        for (c, at) in padded.chunks_exact_mut(lanes).enumerate() {
-            let m = member(c);
-            let value = &values[m * width..][..width];
-            let float = |j: usize| match j.cmp(&width) {
-                std::cmp::Ordering::Less => value[j],
-                std::cmp::Ordering::Equal => scalars.get(m).copied().unwrap_or(0.0),
-                std::cmp::Ordering::Greater => 0.0,
-            };
-            for (l, lane) in at.iter_mut().enumerate() {
-                *lane = Vec4::from_array(std::array::from_fn(|i| float(4 * l + i)));
-            }
+    for (c, sum) in sums.chunks_exact(lanes).enumerate() {
+        let m = member(c);
+        let floats = sum.iter().flat_map(|v| v.to_array());
+        for (o, f) in values[m * width..][..width].iter_mut().zip(floats) {
+            *o = f;
         }
-        let mut sums = vec![Vec4::ZERO; padded.len()];
-        sums.par_chunks_mut(lanes).enumerate().for_each_init(
-            Scratch::default,
-            |scratch, (c, sums)| {
-                for &(k, [w, ..]) in self.kernel(c, scratch) {
-                    for (o, v) in sums.iter_mut().zip(&padded[k as usize * lanes..][..lanes]) {
-                        *o += w * *v;
-                    }
-                }
-            },
-        );
-        for (c, sum) in sums.chunks_exact(lanes).enumerate() {
-            let m = member(c);
-            let floats = sum.iter().flat_map(|v| v.to_array());
-            for (o, f) in values[m * width..][..width].iter_mut().zip(floats) {
-                *o = f;
-            }
-            if let Some(s) = scalars.get_mut(m) {
-                *s = sum[width / 4].to_array()[width % 4];
-            }
+        if let Some(s) = scalars.get_mut(m) {
+            *s = sum[width / 4].to_array()[width % 4];
         }
     }
 }
@@ -187,7 +148,7 @@ pub(super) fn to_lanes(guides: &[f32], sw: usize) -> Vec<Vec4> {
 
 /// Σ (a − b)² over two guides' lanes (the range term's distance, for every neighbour of
 /// every vertex), four at a time, in a fixed order: the same on every thread.
-fn squared_distance(a: &[Vec4], b: &[Vec4]) -> f32 {
+pub(super) fn squared_distance(a: &[Vec4], b: &[Vec4]) -> f32 {
     let mut sum = Vec4::ZERO;
     for (x, y) in a.iter().zip(b) {
         let d = *x - *y;
