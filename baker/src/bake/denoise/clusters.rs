@@ -173,3 +173,17 @@ impl Clusters {
         out
     }
 }
+
+/// o += s x, elementwise, four at a time in a vector register (glam's `Vec4`): a loop
+/// of unknown length, a receiver's 27 floats, is otherwise left mostly to scalar
+/// arithmetic. The same products and sums as one at a time, bit for bit.
+pub fn add_scaled(o: &mut [f32], s: f32, x: &[f32]) {
+    debug_assert_eq!(o.len(), x.len());
+    let (mut o4, x4) = (o.chunks_exact_mut(4), x.chunks_exact(4));
+    for (o, x) in o4.by_ref().zip(x4.clone()) {
+        (glam::Vec4::from_slice(o) + s * glam::Vec4::from_slice(x)).write_to_slice(o);
+    }
+    for (o, x) in o4.into_remainder().iter_mut().zip(x4.remainder()) {
+        *o += s * x;
+    }
+}

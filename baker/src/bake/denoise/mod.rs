@@ -60,6 +60,7 @@
 //! the guides and the bake's transfer, formed receiver by receiver over neighbours in a fixed
 //! order: the result is bit-identical for any number of threads.
 
+mod apply;
 mod clusters;
 mod grid;
 pub mod guides;
@@ -169,6 +170,9 @@ pub struct Filter<'g> {
     taps: Vec<Tap>,
     /// Each cluster's guide (its representative's), `signal_width` floats per cluster.
     tap_guide: Vec<f32>,
+    /// For vertices, in place of `tap_guide`: each vertex's guide in vector registers'
+    /// lanes, zero-padded to [`vertices::guide_lanes`] of them.
+    tap_lanes: Vec<glam::Vec4>,
     /// Each receiver's cluster.
     cluster_of: Vec<u32>,
     /// Each cluster's tangent frame (its representative's plane): the fit's axes.
@@ -214,10 +218,10 @@ impl<'g> Filter<'g> {
             false => *spacings.select_nth_unstable_by(count / 2, f32::total_cmp).1,
         }
         .max(1e-12);
-        let wide_cell = WIDE_CELL * settings.radius * typical;
+        // Vertices read the fine grid for the prefilter alone: cells as wide as its reach.
         let fine = grid::Grid::new(
             &guides.points,
-            settings.step.map_or(wide_cell, |s| s * typical),
+            settings.step.unwrap_or(settings.guide_radius) * typical,
         );
         let mut filter = Filter {
             guides,
@@ -227,6 +231,7 @@ impl<'g> Filter<'g> {
             clusters: Clusters::singletons(&[]),
             taps: Vec::new(),
             tap_guide: Vec::new(),
+            tap_lanes: Vec::new(),
             cluster_of: Vec::new(),
             frames: Vec::new(),
             signal_width,
@@ -330,7 +335,10 @@ impl<'g> Filter<'g> {
                 }
             })
             .collect();
-        filter.tap_guide = tap_guide;
+        match settings.step {
+            None => filter.tap_lanes = vertices::to_lanes(&tap_guide, signal_width),
+            Some(_) => filter.tap_guide = tap_guide,
+        }
         filter.frames = clusters
             .reps
             .iter()
@@ -477,23 +485,39 @@ impl<'g> Filter<'g> {
     /// contact shadow, across a chart's last texels, where the neighbours lie on one side)
     /// is kept unbiased. Each member evaluates the fit at its own place, so a cluster's
     /// members differ as their neighbourhoods do, though their kernel is formed once.
-    fn cluster_kernel(&self, c: usize, out: &mut Vec<(u32, [f32; 3])>) {
+    ///
+    /// Vertices (every one its own cluster) read their guides in vector lanes, weigh
+    /// normals more mildly, keep each entry's taper and turn the kernel into a second-order
+    /// fit's weights ([`vertices::fit`]). The kernel is formed in `scratch.kernel`.
+    fn cluster_kernel(&self, c: usize, scratch: &mut vertices::Scratch) {
+        let vertices = self.settings.step.is_none();
+        let (out, tapers) = (&mut scratch.kernel, &mut scratch.taper);
         out.clear();
+        tapers.clear();
         let g = self.guides;
-        let sw = self.signal_width;
+        let (sw, lanes) = (self.signal_width, vertices::guide_lanes(self.signal_width));
         let (radius, kappa) = (self.settings.radius, self.settings.kappa);
         let r = self.clusters.reps[c] as usize;
-        let gi = &self.tap_guide[c * sw..(c + 1) * sw];
+        let squared = |k: usize| match vertices {
+            true => vertices::squared_distance(
+                &self.tap_lanes[c * lanes..][..lanes],
+                &self.tap_lanes[k * lanes..][..lanes],
+            ),
+            false => squared_difference(
+                &self.tap_guide[c * sw..][..sw],
+                &self.tap_guide[k * sw..][..sw],
+            ),
+        };
+        let squarings = match vertices {
+            true => vertices::NORMAL_SQUARINGS,
+            false => NORMAL_SQUARINGS,
+        };
         let pi = self.clusters.points[c];
         let (ni, si, group) = (g.normals[r], g.surfaces[r], g.groups[r]);
         let (spacing, noise) = (g.spacing[r], self.taps[c].noise);
         let reach = radius * spacing;
         let (t1, t2) = self.frames[c];
         let scale = 1.0 / spacing;
-        let squarings = match self.settings.step {
-            None => vertices::NORMAL_SQUARINGS,
-            Some(_) => NORMAL_SQUARINGS,
-        };
         self.wide.visit(group, pi, reach, |k| {
             let tap = &self.taps[k as usize];
             let d = tap.at - pi;
@@ -503,26 +527,24 @@ impl<'g> Filter<'g> {
                 return;
             }
             let off_plane = si.dot(d) / spacing;
-            let gj = &self.tap_guide[k as usize * sw..][..sw];
-            let squared = squared_difference(gi, gj);
-            let range = range_term(squared, (noise + tap.noise) * sw as f32, kappa);
+            let range = range_term(squared(k as usize), (noise + tap.noise) * sw as f32, kappa);
             let w =
                 (-2.0 * r2 - off_plane * off_plane - range).exp() * power_of_two(facing, squarings);
             if w > 0.0 {
                 // With the tap's place in c's tangent plane, in spacings: the fit's (u, v).
                 let place = d * scale;
                 out.push((k, [w * tap.mass, place.dot(t1), place.dot(t2)]));
+                if vertices {
+                    tapers.push(vertices::taper(r2));
+                }
             }
         });
-        if self.settings.step.is_none() {
-            let at = |k: u32| (self.clusters.points[k as usize] - pi) / spacing;
+        if vertices {
             let guide = |k: u32| {
-                (
-                    &self.tap_guide[k as usize * sw..][..sw],
-                    self.taps[k as usize].noise,
-                )
+                let k = k as usize;
+                (&self.tap_lanes[k * lanes..][..lanes], self.taps[k].noise)
             };
-            return vertices::fit(out, at, si, radius, guide);
+            return vertices::fit(scratch, sw, guide);
         }
         if !self.settings.linear {
             let total: f32 = out.iter().map(|&(_, w)| w[0]).sum();
@@ -569,120 +591,6 @@ impl<'g> Filter<'g> {
         for (_, e) in out.iter_mut() {
             let y = inverse * coords(*e) * f64::from(e[0]);
             *e = [y.x as f32, y.y as f32, y.z as f32];
-        }
-    }
-
-    /// Member m's place about cluster c's centroid, in c's representative's tangent plane, in
-    /// its spacings: (1, u, v).
-    fn member_place(&self, c: usize, m: usize) -> [f32; 3] {
-        let g = self.guides;
-        let r = self.clusters.reps[c] as usize;
-        let (t1, t2) = self.frames[c];
-        let d = (g.points[m] - self.clusters.points[c]) / g.spacing[r];
-        [1.0, d.dot(t1), d.dot(t2)]
-    }
-
-    /// Receiver i's weights on every receiver, normalised, in the receivers' order: its
-    /// cluster's kernel at its place times each cluster's weights on its members.
-    pub fn row(&self, i: usize, out: &mut Vec<(u32, f32)>) {
-        let c = self.cluster_of[i] as usize;
-        let mut kernel = Vec::new();
-        self.cluster_kernel(c, &mut kernel);
-        let place = self.member_place(c, i);
-        out.clear();
-        for &(k, e) in &kernel {
-            let w = e[0] * place[0] + e[1] * place[1] + e[2] * place[2];
-            out.extend(
-                self.clusters
-                    .row(k as usize)
-                    .iter()
-                    .map(|&(j, m)| (j, w * m)),
-            );
-        }
-        out.sort_unstable_by_key(|&(j, _)| j);
-    }
-
-    /// The filtered values: `values` holds `width` floats per receiver, and so does the
-    /// result.
-    pub fn apply(&self, values: &[f32], width: usize) -> Vec<f32> {
-        let mut out = values.to_vec();
-        self.apply_in_place(&mut out, width, &mut []);
-        out
-    }
-
-    /// [`Filter::apply`] of `values` and of `scalars` (one float per receiver, or none)
-    /// with the same kernels, in place: each cluster's kernel is formed once, and no
-    /// receiver-sized buffer is allocated for the result.
-    pub fn apply_in_place(&self, values: &mut [f32], width: usize, scalars: &mut [f32]) {
-        let means = self.clusters.means(values, width);
-        self.apply_with_means(values, &means, width, scalars);
-    }
-
-    /// [`Filter::apply_in_place`] of the very transfer the filter was formed for (`width`
-    /// floats per receiver, unchanged since): where that transfer was the filter's signal,
-    /// its clusters' means are already at hand, the same floats.
-    pub fn apply_to_transfer(&self, transfer: &mut [f32], width: usize, scalars: &mut [f32]) {
-        match self.transfer_means.len() == self.clusters.reps.len() * width {
-            true => self.apply_with_means(transfer, &self.transfer_means, width, scalars),
-            false => self.apply_in_place(transfer, width, scalars),
-        }
-    }
-
-    /// [`Filter::apply_in_place`] with each cluster's mean of `values` given.
-    fn apply_with_means(
-        &self,
-        values: &mut [f32],
-        means: &[f32],
-        width: usize,
-        scalars: &mut [f32],
-    ) {
-        let scalar_means = match scalars.is_empty() {
-            true => Vec::new(),
-            false => self.clusters.means(scalars, 1),
-        };
-        // Per cluster, the fit's three sums Σ e_k · mean_k for each of (1, u, v), of the
-        // values and then of the scalars: a member's value is their dot with its place, so
-        // the clusters' means are read once per cluster, not once per member.
-        let stride = 3 * (width + 1);
-        let mut sums = vec![0.0f32; self.clusters.reps.len() * stride];
-        sums.par_chunks_mut(stride)
-            .enumerate()
-            .for_each_init(Vec::new, |kernel, (c, sums)| {
-                self.cluster_kernel(c, kernel);
-                let (sums, scalar_sums) = sums.split_at_mut(3 * width);
-                for &(k, e) in kernel.iter() {
-                    let k = k as usize;
-                    let mean = &means[k * width..(k + 1) * width];
-                    for (t, sums) in sums.chunks_exact_mut(width.max(1)).enumerate() {
-                        for (o, v) in sums.iter_mut().zip(mean) {
-                            *o += e[t] * v;
-                        }
-                    }
-                    if let Some(s) = scalar_means.get(k) {
-                        for t in 0..3 {
-                            scalar_sums[t] += e[t] * s;
-                        }
-                    }
-                }
-            });
-        values
-            .par_chunks_mut(width.max(1))
-            .enumerate()
-            .for_each(|(m, out)| {
-                let c = self.cluster_of[m] as usize;
-                let [p0, p1, p2] = self.member_place(c, m);
-                let sums = &sums[c * stride..][..3 * width];
-                let (s0, rest) = sums.split_at(width);
-                let (s1, s2) = rest.split_at(width);
-                for (o, ((a, b), d)) in out.iter_mut().zip(s0.iter().zip(s1).zip(s2)) {
-                    *o = a * p0 + b * p1 + d * p2;
-                }
-            });
-        for (m, out) in scalars.iter_mut().enumerate() {
-            let c = self.cluster_of[m] as usize;
-            let [p0, p1, p2] = self.member_place(c, m);
-            let s = &sums[c * stride + 3 * width..][..3];
-            *out = s[0] * p0 + s[1] * p1 + s[2] * p2;
         }
     }
 }

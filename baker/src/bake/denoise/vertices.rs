@@ -25,7 +25,11 @@
 //! first-order over 4 spacings 1.65 / 4.26 / 1.06 %, the second-order fit 1.49 / 4.07 / 0.91
 //! %, with the narrower fit blended in 1.47 / 3.98 / 0.88 % (docs/explanation/denoising.md).
 
-use glam::Vec3;
+use glam::Vec4;
+
+use rayon::prelude::*;
+
+use super::clusters::Clusters;
 
 /// Terms of the fit: 1, u, v, u², uv, v².
 const TERMS: usize = 6;
@@ -45,7 +49,7 @@ pub(super) const NEIGHBOUR_KAPPA: f32 = 0.75;
 
 /// The narrower kernel's extra falloff, exp(−NARROW · r²) on top of the kernel's exp(−2 r²):
 /// half its width.
-const NARROW: f64 = 6.0;
+const NARROW: f32 = 6.0;
 /// The fits' squared difference over its noise variance from which the narrower fit is
 /// blended in, and at which it is taken whole. Measured at 64 rays (seed 1): 1 / 4 and 2 / 8
 /// blend on the torus's curvature and cost it noise (matrices 2.47 and 2.32 %); 8 / 32, 2.20
@@ -53,109 +57,241 @@ const NARROW: f64 = 6.0;
 const LEPSKI_START: f64 = 8.0;
 const LEPSKI_FULL: f64 = 32.0;
 
-/// Turns a vertex's kernel, entries (k, [w_k, ..]), into the weights of a weighted quadratic
-/// fit over its tangent plane (normal `surface`) evaluated at the vertex: entries
-/// (k, [w, 0, 0]), so the vertex's place (1, 0, 0) in its one-receiver cluster reads w alone.
-/// `offset(k)` is neighbour k's offset from the vertex, in its spacings, `radius` the
-/// kernel's, and `guide(k)` its guide and the guide's variance.
+/// A thread's buffers for the vertices it filters, reused from one vertex to the next (no
+/// vertex allocates): the kernel's entries, and what the fit keeps per neighbour.
+#[derive(Default)]
+pub(super) struct Scratch {
+    /// Entries (k, [w_k, u_k, v_k]): neighbour k's kernel weight and place in the vertex's
+    /// tangent plane, in spacings; after [`fit`], (k, [weight, 0, 0]).
+    pub kernel: Vec<(u32, [f32; 3])>,
+    /// Each entry's taper for the narrower fit, exp(−NARROW · r²), r in kernel radii.
+    pub taper: Vec<f32>,
+    /// Each entry's weight in the wide fit and in the narrower one.
+    fits: Vec<(f64, f64)>,
+    /// The two fits' difference of the guide, per signal coefficient.
+    delta: Vec<Vec4>,
+}
+
+/// The narrower fit's taper of a neighbour r² kernel radii² away: exp(−NARROW · r²).
+pub(super) fn taper(r2: f32) -> f32 {
+    (-NARROW * r2).exp()
+}
+
+/// The filter's `apply_in_place` for vertices, each its own cluster of `clusters` at its
+/// own place, with `kernel(c, scratch)` forming vertex c's kernel in `scratch.kernel`: a
+/// vertex's value is Σ_k w_k v_k over its kernel's entries (k, [w_k, 0, 0]) alone. The
+/// values (and the scalar after them) are read in vector registers' lanes, zero-padded,
+/// in the kernels' order.
+pub(super) fn apply(
+    clusters: &Clusters,
+    values: &mut [f32],
+    width: usize,
+    scalars: &mut [f32],
+    kernel: impl Fn(usize, &mut Scratch) + Sync,
+) {
+    let lanes = (width + 1).div_ceil(4);
+    // Every vertex is its own cluster, its one member.
+    let member = |c: usize| clusters.row(c)[0].0 as usize;
+    let mut padded = vec![Vec4::ZERO; clusters.reps.len() * lanes];
+    for (c, at) in padded.chunks_exact_mut(lanes).enumerate() {
+        let m = member(c);
+        let value = &values[m * width..][..width];
+        let float = |j: usize| match j.cmp(&width) {
+            std::cmp::Ordering::Less => value[j],
+            std::cmp::Ordering::Equal => scalars.get(m).copied().unwrap_or(0.0),
+            std::cmp::Ordering::Greater => 0.0,
+        };
+        for (l, lane) in at.iter_mut().enumerate() {
+            *lane = Vec4::from_array(std::array::from_fn(|i| float(4 * l + i)));
+        }
+    }
+    let mut sums = vec![Vec4::ZERO; padded.len()];
+    sums.par_chunks_mut(lanes)
+        .enumerate()
+        .for_each_init(Scratch::default, |scratch, (c, sums)| {
+            kernel(c, scratch);
+            for &(k, [w, ..]) in &scratch.kernel {
+                for (o, v) in sums.iter_mut().zip(&padded[k as usize * lanes..][..lanes]) {
+                    *o += w * *v;
+                }
+            }
+        });
+    for (c, sum) in sums.chunks_exact(lanes).enumerate() {
+        let m = member(c);
+        let floats = sum.iter().flat_map(|v| v.to_array());
+        for (o, f) in values[m * width..][..width].iter_mut().zip(floats) {
+            *o = f;
+        }
+        if let Some(s) = scalars.get_mut(m) {
+            *s = sum[width / 4].to_array()[width % 4];
+        }
+    }
+}
+
+/// Vector registers' lanes (four floats) that hold a guide of `sw` floats.
+pub(super) fn guide_lanes(sw: usize) -> usize {
+    sw.div_ceil(4)
+}
+
+/// Guides of `sw` floats each, as [`guide_lanes`] of lanes each, the last zero-padded.
+pub(super) fn to_lanes(guides: &[f32], sw: usize) -> Vec<Vec4> {
+    let mut lanes = Vec::with_capacity(guides.len().div_ceil(sw.max(1)) * guide_lanes(sw));
+    for guide in guides.chunks_exact(sw.max(1)) {
+        for four in guide.chunks(4) {
+            let mut padded = [0.0f32; 4];
+            padded[..four.len()].copy_from_slice(four);
+            lanes.push(Vec4::from_array(padded));
+        }
+    }
+    lanes
+}
+
+/// Σ (a − b)² over two guides' lanes (the range term's distance, for every neighbour of
+/// every vertex), four at a time, in a fixed order: the same on every thread.
+pub(super) fn squared_distance(a: &[Vec4], b: &[Vec4]) -> f32 {
+    let mut sum = Vec4::ZERO;
+    for (x, y) in a.iter().zip(b) {
+        let d = *x - *y;
+        sum += d * d;
+    }
+    (sum.x + sum.y) + (sum.z + sum.w)
+}
+
+/// Monomials of degree at most 4 in (u, v), by degree and then by the power of v: the
+/// distinct entries of x xᵀ for x = (1, u, v, u², uv, v²).
+const MOMENTS: usize = 15;
+
+/// Where x_p x_q lies among the [`MOMENTS`].
+const PRODUCT: [[usize; TERMS]; TERMS] = [
+    [0, 1, 2, 3, 4, 5],
+    [1, 3, 4, 6, 7, 8],
+    [2, 4, 5, 7, 8, 9],
+    [3, 6, 7, 10, 11, 12],
+    [4, 7, 8, 11, 12, 13],
+    [5, 8, 9, 12, 13, 14],
+];
+
+/// The fit's coordinates x = (1, u, v, u², uv, v²) and the monomials of x xᵀ.
+fn monomials(u: f32, v: f32) -> ([f64; TERMS], [f64; MOMENTS]) {
+    let (u, v) = (f64::from(u), f64::from(v));
+    let (uu, uv, vv) = (u * u, u * v, v * v);
+    let x = [1.0, u, v, uu, uv, vv];
+    let m = [
+        1.0,
+        u,
+        v,
+        uu,
+        uv,
+        vv,
+        uu * u,
+        uu * v,
+        u * vv,
+        vv * v,
+        uu * uu,
+        uu * uv,
+        uu * vv,
+        uv * vv,
+        vv * vv,
+    ];
+    (x, m)
+}
+
+/// Turns a vertex's kernel, `scratch.kernel`'s entries (k, [w_k, u_k, v_k]) with their
+/// tapers, into the weights of a weighted quadratic fit over its tangent plane evaluated at
+/// the vertex: entries (k, [w, 0, 0]), so the vertex's place (1, 0, 0) in its one-receiver
+/// cluster reads w alone. `guide(k)` is neighbour k's guide (`sw` floats, in
+/// [`guide_lanes`]) and the guide's variance.
 ///
 /// Where the transfer bends faster than a quadratic over the kernel (a contact shadow, a
 /// room's corner), the fit is biased. The fit over a kernel half as wide is then blended in
 /// (Lepski's rule, as in Katkovnik's intersection of confidence intervals): where the two
 /// fits of the guide differ by more than their difference's noise, Σ (a_k − b_k)² σ²_k, allows.
-pub(super) fn fit<'g>(
-    out: &mut [(u32, [f32; 3])],
-    offset: impl Fn(u32) -> Vec3,
-    surface: Vec3,
-    radius: f32,
-    guide: impl Fn(u32) -> (&'g [f32], f32),
-) {
-    let (t1, t2) = surface.any_orthonormal_pair();
-    // Per neighbour: its fit coordinates (1, u, v, u², uv, v²) and the narrower kernel's taper.
-    let xs: Vec<([f64; TERMS], f64)> = out
-        .iter()
-        .map(|&(k, _)| {
-            let d = offset(k);
-            let (u, v) = (f64::from(d.dot(t1)), f64::from(d.dot(t2)));
-            let r2 = f64::from(d.length_squared() / (radius * radius));
-            ([1.0, u, v, u * u, u * v, v * v], (-NARROW * r2).exp())
-        })
-        .collect();
-    let Some(wide) = fit_weights(out, &xs, false) else {
-        let mass: f64 = out.iter().map(|&(_, [w, ..])| f64::from(w)).sum();
+///
+/// A = Σ w x xᵀ holds 15 distinct sums of monomials, formed once per neighbour for both
+/// fits; one solve per fit gives its weights.
+pub(super) fn fit<'g>(scratch: &mut Scratch, sw: usize, guide: impl Fn(u32) -> (&'g [Vec4], f32)) {
+    let Scratch {
+        kernel: out,
+        taper,
+        fits,
+        delta,
+    } = scratch;
+    // Each moment's sums for the wide fit and the narrower one, side by side: one vector
+    // register's two lanes.
+    let mut sums = [[0.0f64; 2]; MOMENTS];
+    for (&(_, [w, u, v]), &taper) in out.iter().zip(taper.iter()) {
+        let (_, m) = monomials(u, v);
+        let w = f64::from(w);
+        let w = [w, w * f64::from(taper)];
+        for (s, m) in sums.iter_mut().zip(m) {
+            s[0] += w[0] * m;
+            s[1] += w[1] * m;
+        }
+    }
+    let (wide, narrow) = (sums.map(|s| s[0]), sums.map(|s| s[1]));
+    let Some(y) = solve_moments(&wide) else {
+        let mass = wide[0];
         for (_, e) in out.iter_mut() {
             *e = [(f64::from(e[0]) / mass) as f32, 0.0, 0.0];
         }
         return;
     };
-    let narrow = fit_weights(out, &xs, true);
-    let t = narrow.as_ref().map_or(0.0, |narrow| {
-        let sw = guide(out[0].0).0.len().max(1);
-        let (mut delta, mut variance) = (vec![0.0f64; sw], 0.0f64);
-        for (&(k, _), (a, b)) in out.iter().zip(wide.iter().zip(narrow)) {
-            let (g, noise) = guide(k);
-            for (d, x) in delta.iter_mut().zip(g) {
-                *d += (a - b) * f64::from(*x);
-            }
-            variance += (a - b) * (a - b) * f64::from(noise);
+    let yn = solve_moments(&narrow);
+    let dot =
+        |y: &[f64; TERMS], x: &[f64; TERMS]| -> f64 { y.iter().zip(x).map(|(y, x)| y * x).sum() };
+    fits.clear();
+    let Some(yn) = yn else {
+        for (_, e) in out.iter_mut() {
+            let (x, _) = monomials(e[1], e[2]);
+            *e = [(dot(&y, &x) * f64::from(e[0])) as f32, 0.0, 0.0];
         }
-        let d2 = delta.iter().map(|d| d * d).sum::<f64>() / (sw as f64 * variance);
-        let t = (d2 - LEPSKI_START) / (LEPSKI_FULL - LEPSKI_START);
-        if t.is_finite() {
-            t.clamp(0.0, 1.0)
-        } else {
-            0.0
+        return;
+    };
+    delta.clear();
+    delta.resize(guide_lanes(sw), Vec4::ZERO);
+    let mut variance = 0.0f64;
+    for (&(k, [w, u, v]), &taper) in out.iter().zip(taper.iter()) {
+        let (x, _) = monomials(u, v);
+        let w = f64::from(w);
+        let (a, b) = (dot(&y, &x) * w, dot(&yn, &x) * (w * f64::from(taper)));
+        fits.push((a, b));
+        let (g, noise) = guide(k);
+        variance += (a - b) * (a - b) * f64::from(noise);
+        let difference = (a - b) as f32;
+        for (d, g) in delta.iter_mut().zip(g) {
+            *d += difference * *g;
         }
-    });
-    for (i, (_, e)) in out.iter_mut().enumerate() {
-        let w = match &narrow {
-            Some(narrow) if t > 0.0 => (1.0 - t) * wide[i] + t * narrow[i],
-            _ => wide[i],
-        };
+    }
+    let squared: f64 = (delta.iter().flat_map(|d| d.to_array()))
+        .map(|d| f64::from(d) * f64::from(d))
+        .sum();
+    let d2 = squared / (sw.max(1) as f64 * variance);
+    let t = (d2 - LEPSKI_START) / (LEPSKI_FULL - LEPSKI_START);
+    let t = if t.is_finite() {
+        t.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    for ((_, e), &(a, b)) in out.iter_mut().zip(fits.iter()) {
+        let w = if t > 0.0 { (1.0 - t) * a + t * b } else { a };
         *e = [w as f32, 0.0, 0.0];
     }
 }
 
-/// The weights of the quadratic fit with kernel weights w_k (times the taper of `xs`, if
-/// `narrow`) at the vertex, or `None` where its normal matrix is singular.
-fn fit_weights(
-    out: &[(u32, [f32; 3])],
-    xs: &[([f64; TERMS], f64)],
-    narrow: bool,
-) -> Option<Vec<f64>> {
-    let weight = |w: f32, taper: f64| f64::from(w) * if narrow { taper } else { 1.0 };
-    // A = Σ w x xᵀ, its upper triangle.
+/// The fit at the vertex from the sums of `moments` ([`MOMENTS`]): y with A y = e₀, the
+/// ridge added, so that a neighbour's weight is w_k y · x_k; `None` where A is singular.
+fn solve_moments(moments: &[f64; MOMENTS]) -> Option<[f64; TERMS]> {
     let mut a = [[0.0f64; TERMS]; TERMS];
-    for (&(_, [w, ..]), (x, taper)) in out.iter().zip(xs) {
-        let w = weight(w, *taper);
-        for p in 0..TERMS {
-            let wx = w * x[p];
-            for q in p..TERMS {
-                a[p][q] += wx * x[q];
-            }
-        }
-    }
-    let upper = a;
     for (p, row) in a.iter_mut().enumerate() {
-        for (q, entry) in row.iter_mut().enumerate().take(p) {
-            *entry = upper[q][p];
+        for (q, entry) in row.iter_mut().enumerate() {
+            *entry = moments[PRODUCT[p][q]];
         }
     }
     let mass = a[0][0];
     for (p, row) in a.iter_mut().enumerate().skip(1) {
         row[p] += RIDGE * mass * if p >= 3 { 4.0 } else { 1.0 };
     }
-    // The fit at the vertex is e₀ᵀ A⁻¹ x_k w_k: A y = e₀ is solved once.
-    let y = solve_first(&a)?;
-    Some(
-        out.iter()
-            .zip(xs)
-            .map(|(&(_, [w, ..]), (x, taper))| {
-                let dot: f64 = y.iter().zip(x).map(|(y, x)| y * x).sum();
-                dot * weight(w, *taper)
-            })
-            .collect(),
-    )
+    solve_first(&a)
 }
 
 /// y with A y = e₀ for the symmetric `a` (Cholesky), or `None` where it is not positive
@@ -202,6 +338,7 @@ pub(super) fn fill_noise(rays: &[f32], from_signal: impl FnOnce() -> Vec<f32>) -
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::Vec3;
 
     /// A vertex on a 19 × 19 grid of neighbours (one spacing apart, radius 9) whose guide
     /// bends faster than a quadratic (a contact shadow's exp): with a noise far below the
@@ -213,29 +350,23 @@ mod tests {
         let points: Vec<Vec3> = (-9..=9)
             .flat_map(|x| (-9..=9).map(move |y| Vec3::new(x as f32, y as f32, 0.0)))
             .collect();
-        let guides: Vec<[f32; 1]> = points.iter().map(|p| [(p.x * 0.6).exp()]).collect();
-        let kernel = || -> Vec<(u32, [f32; 3])> {
-            (0..points.len() as u32)
-                .map(|k| {
-                    let r2 = points[k as usize].length_squared() / (radius * radius);
-                    (
-                        k,
-                        [(-2.0 * r2).exp() * f32::from(u8::from(r2 <= 1.0)), 0.0, 0.0],
-                    )
-                })
-                .collect()
-        };
+        let guides: Vec<[Vec4; 1]> = points
+            .iter()
+            .map(|p| [Vec4::new((p.x * 0.6).exp(), 0.0, 0.0, 0.0)])
+            .collect();
         let read = |noise: f32| {
-            let mut out = kernel();
-            fit(
-                &mut out,
-                |k| points[k as usize],
-                Vec3::Z,
-                radius,
-                |k| (&guides[k as usize][..], noise),
-            );
-            out.iter()
-                .map(|&(k, [w, ..])| w * guides[k as usize][0])
+            let mut scratch = Scratch::default();
+            for (k, p) in points.iter().enumerate() {
+                let r2 = p.length_squared() / (radius * radius);
+                let w = (-2.0 * r2).exp() * f32::from(u8::from(r2 <= 1.0));
+                scratch.kernel.push((k as u32, [w, p.x, p.y]));
+                scratch.taper.push((-NARROW * r2).exp());
+            }
+            fit(&mut scratch, 1, |k| (&guides[k as usize][..], noise));
+            scratch
+                .kernel
+                .iter()
+                .map(|&(k, [w, ..])| w * guides[k as usize][0].x)
                 .sum::<f32>()
         };
         let (quiet, noisy) = ((read(1e-6) - 1.0).abs(), (read(1e9) - 1.0).abs());
