@@ -250,13 +250,14 @@ impl<'g> Filter<'g> {
         }
         let sw = signal_width;
         let (clusters, signal_means) = match settings.step {
+            // Every vertex prefilters its guide and is applied alone
+            // ([`vertices::apply`]): no cluster means are read.
             None => {
                 let clusters = Clusters {
                     points: guides.points.clone(),
                     ..Clusters::singletons(&noise)
                 };
-                let means = clusters.means(&signal, sw);
-                (clusters, means)
+                (clusters, Vec::new())
             }
             Some(step) => {
                 let within = (&signal[..], sw);
@@ -301,18 +302,18 @@ impl<'g> Filter<'g> {
         }
         let mut tap_guide = Vec::with_capacity(order.len() * signal_width);
         let mut tap_noise = Vec::with_capacity(order.len());
-        // Up to order 3 the signal is the transfer: its means, in the wide grid's order, are
-        // the ones `apply_to_transfer` reads.
-        let whole = used == per_channel;
+        // Up to order 3 the signal is the transfer: its clusters' means, in the wide grid's
+        // order, are the ones `apply_to_transfer` reads (texels; vertices have none).
+        let whole = used == per_channel && !signal_means.is_empty();
         let mut means = Vec::with_capacity(if whole { order.len() * signal_width } else { 0 });
+        let mean = |k: usize| &signal_means[k * signal_width..][..signal_width];
         for &k in &order {
             let k = k as usize;
-            let mean = &signal_means[k * signal_width..][..signal_width];
             if whole {
-                means.extend_from_slice(mean);
+                means.extend_from_slice(mean(k));
             }
             let (from, variance) = match at_prefiltered[k] {
-                u32::MAX => (mean, clusters.noise[k]),
+                u32::MAX => (mean(k), clusters.noise[k]),
                 n => (
                     &guide[n as usize * signal_width..][..signal_width],
                     guide_noise[n as usize],
