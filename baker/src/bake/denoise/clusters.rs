@@ -110,10 +110,11 @@ impl Clusters {
                 let mean = means.len();
                 means.resize(mean + width, 0.0);
                 for (&m, _) in mine() {
-                    let values = &signal[m as usize * width..][..width];
-                    for (o, v) in means[mean..].iter_mut().zip(values) {
-                        *o += w * v;
-                    }
+                    add_scaled(
+                        &mut means[mean..],
+                        w,
+                        &signal[m as usize * width..][..width],
+                    );
                     let p = g.points[m as usize];
                     let d = p.distance_squared(centre);
                     if d < best {
@@ -165,9 +166,7 @@ impl Clusters {
         let mut out = vec![0.0f32; self.reps.len() * width];
         for (k, out) in out.chunks_mut(width.max(1)).enumerate() {
             for &(j, w) in self.row(k) {
-                for (o, v) in out.iter_mut().zip(&values[j as usize * width..][..width]) {
-                    *o += w * v;
-                }
+                add_scaled(out, w, &values[j as usize * width..][..width]);
             }
         }
         out

@@ -102,11 +102,7 @@ impl Grid {
             table[c] = self.cells.len() as u32;
             order[start..end].sort_by_key(|&i| keys[i as usize]);
             for at in start..end {
-                let key = keys[order[at] as usize];
-                match self.cells.last_mut() {
-                    Some(last) if last.0 == key => last.2 = at as u32 + 1,
-                    _ => self.cells.push((key, at as u32, at as u32 + 1)),
-                }
+                self.push_sorted(keys[order[at] as usize], at);
             }
             start = end;
         }
@@ -128,10 +124,16 @@ impl Grid {
         keyed.sort_unstable();
         self.order = keyed.iter().map(|&(_, i)| i).collect();
         for (at, &(key, _)) in keyed.iter().enumerate() {
-            match self.cells.last_mut() {
-                Some(last) if last.0 == key => last.2 = at as u32 + 1,
-                _ => self.cells.push((key, at as u32, at as u32 + 1)),
-            }
+            self.push_sorted(key, at);
+        }
+    }
+
+    /// Adds the point at `at` of the sorted order, of cell `key`, to the cells: the last
+    /// cell's run grows, or a new cell starts.
+    fn push_sorted(&mut self, key: u64, at: usize) {
+        match self.cells.last_mut() {
+            Some(last) if last.0 == key => last.2 = at as u32 + 1,
+            _ => self.cells.push((key, at as u32, at as u32 + 1)),
         }
     }
 
