@@ -134,28 +134,6 @@ impl Clusters {
         (clusters, means)
     }
 
-    /// The clusters in `order` (`order[new] = old`).
-    pub fn permute(self, order: &[u32]) -> Clusters {
-        let mut out = Clusters {
-            reps: Vec::with_capacity(order.len()),
-            starts: vec![0],
-            members: Vec::with_capacity(self.members.len()),
-            mass: Vec::with_capacity(order.len()),
-            noise: Vec::with_capacity(order.len()),
-            points: Vec::with_capacity(order.len()),
-        };
-        for &k in order {
-            let k = k as usize;
-            out.reps.push(self.reps[k]);
-            out.members.extend_from_slice(self.row(k));
-            out.starts.push(out.members.len() as u32);
-            out.mass.push(self.mass[k]);
-            out.noise.push(self.noise[k]);
-            out.points.push(self.points[k]);
-        }
-        out
-    }
-
     /// Cluster k's members and their weights.
     pub fn row(&self, k: usize) -> &[(u32, f32)] {
         &self.members[self.starts[k] as usize..self.starts[k + 1] as usize]
