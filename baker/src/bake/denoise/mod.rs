@@ -514,27 +514,38 @@ impl<'g> Filter<'g> {
         let reach = radius * spacing;
         let (t1, t2) = self.frames[c];
         let scale = 1.0 / spacing;
+        // The taps within reach and facing c, gathered first without a branch per tap:
+        // which of a cell's taps lie within reach is hard to predict, and a mispredicted
+        // branch cost more than the test. Each is kept as (k, [r², facing, 0]).
         self.wide.visit(group, pi, reach, |k| {
             let tap = &self.taps[k as usize];
-            let d = tap.at - pi;
-            let r2 = d.length_squared() / (reach * reach);
+            let r2 = (tap.at - pi).length_squared() / (reach * reach);
             let facing = ni.dot(tap.normal);
-            if r2 > 1.0 || facing <= 0.0 {
-                return;
-            }
+            out.push((k, [r2, facing, 0.0]));
+            out.truncate(out.len() - usize::from((r2 > 1.0) | (facing <= 0.0)));
+        });
+        // Their weights, in place: entry `kept` is written after entry `kept` is read.
+        let mut kept = 0;
+        for at in 0..out.len() {
+            let (k, [r2, facing, _]) = out[at];
+            let tap = &self.taps[k as usize];
+            let d = tap.at - pi;
             let off_plane = si.dot(d) / spacing;
-            let range = range_term(squared(k as usize, tap.guide as usize), (noise + tap.noise) * sw as f32, kappa);
+            let variance = (noise + tap.noise) * sw as f32;
+            let range = range_term(squared(k as usize, tap.guide as usize), variance, kappa);
             let w =
                 (-2.0 * r2 - off_plane * off_plane - range).exp() * power_of_two(facing, squarings);
             if w > 0.0 {
                 // With the tap's place in c's tangent plane, in spacings: the fit's (u, v).
                 let place = d * scale;
-                out.push((k, [w * tap.mass, place.dot(t1), place.dot(t2)]));
+                out[kept] = (k, [w * tap.mass, place.dot(t1), place.dot(t2)]);
+                kept += 1;
                 if vertices {
                     tapers.push(vertices::taper(r2));
                 }
             }
-        });
+        }
+        out.truncate(kept);
         if vertices {
             let guide = |k: u32| {
                 let k = k as usize;
