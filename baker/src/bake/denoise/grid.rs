@@ -161,12 +161,19 @@ impl Grid {
         }
     }
 
-    /// The receivers of each occupied cell, cell by cell in key order, each cell's in index
-    /// order.
-    pub fn cells(&self) -> impl Iterator<Item = &[u32]> {
-        self.cells
+    /// The receivers of each occupied cell, each cell's in index order, the cells in the
+    /// order of their first (lowest) receiver: a pass over them reads per-receiver arrays
+    /// about in sequence (a lightmap's texels row band by row band), where key order jumps
+    /// across the whole atlas from one cell to the next.
+    pub fn cells_by_first(&self) -> Vec<&[u32]> {
+        let mut cells: Vec<&[u32]> = self
+            .cells
             .iter()
             .map(|&(_, start, end)| &self.order[start as usize..end as usize])
+            .collect();
+        // No two cells share a receiver: the order is the same for any sort.
+        cells.sort_unstable_by_key(|cell| cell[0]);
+        cells
     }
 
     /// Calls `visit` with every receiver in a cell that the sphere of `radius` about `p`

@@ -166,8 +166,9 @@ pub struct Filter<'g> {
     fine: grid::Grid,
     /// The wide pass's grids over the clusters, one per group (cluster indices).
     wide: grid::GroupedGrid,
-    /// Built in the order of the fine grid's cells, each cell's together: the wide pass
-    /// reads its taps' data nearly in sequence.
+    /// Built cell by cell, the fine grid's cells in the order of their first receiver: a
+    /// cluster's neighbours are numbered close to it, and the wide pass reads their data,
+    /// and writes its members' values, about in sequence.
     clusters: Clusters,
     /// What the wide pass reads of each cluster, in cluster order.
     taps: Vec<Tap>,
