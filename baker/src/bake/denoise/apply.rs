@@ -96,50 +96,52 @@ impl Filter<'_> {
         let stride = 3 * (width + 1);
         let count = self.clusters.reps.len();
         let out = std::sync::Mutex::new((values, scalars));
-        (0..count.div_ceil(APPLY_BLOCK)).into_par_iter().for_each_init(
-            || (vertices::Scratch::default(), Vec::new(), Vec::new()),
-            |(scratch, sums, rows): &mut (_, Vec<f32>, Vec<f32>), b| {
-                let block = b * APPLY_BLOCK..((b + 1) * APPLY_BLOCK).min(count);
-                rows.clear();
-                for c in block.clone() {
-                    self.cluster_kernel(c, scratch);
-                    sums.clear();
-                    sums.resize(stride, 0.0);
-                    let (sums, scalar_sums) = sums.split_at_mut(3 * width);
-                    for &(k, e) in &scratch.kernel {
-                        let k = k as usize;
-                        let mean = &means[k * width..(k + 1) * width];
-                        for (t, sums) in sums.chunks_exact_mut(width.max(1)).enumerate() {
-                            clusters::add_scaled(sums, e[t], mean);
-                        }
-                        if let Some(s) = scalar_means.get(k) {
-                            for t in 0..3 {
-                                scalar_sums[t] += e[t] * s;
+        (0..count.div_ceil(APPLY_BLOCK))
+            .into_par_iter()
+            .for_each_init(
+                || (vertices::Scratch::default(), Vec::new(), Vec::new()),
+                |(scratch, sums, rows): &mut (_, Vec<f32>, Vec<f32>), b| {
+                    let block = b * APPLY_BLOCK..((b + 1) * APPLY_BLOCK).min(count);
+                    rows.clear();
+                    for c in block.clone() {
+                        self.cluster_kernel(c, scratch);
+                        sums.clear();
+                        sums.resize(stride, 0.0);
+                        let (sums, scalar_sums) = sums.split_at_mut(3 * width);
+                        for &(k, e) in &scratch.kernel {
+                            let k = k as usize;
+                            let mean = &means[k * width..(k + 1) * width];
+                            for (t, sums) in sums.chunks_exact_mut(width.max(1)).enumerate() {
+                                clusters::add_scaled(sums, e[t], mean);
+                            }
+                            if let Some(s) = scalar_means.get(k) {
+                                for t in 0..3 {
+                                    scalar_sums[t] += e[t] * s;
+                                }
                             }
                         }
+                        // Each member's values, then its scalar.
+                        let (s0, rest) = sums.split_at(width);
+                        let (s1, s2) = rest.split_at(width);
+                        for &(m, _) in self.clusters.row(c) {
+                            let [p0, p1, p2] = self.member_place(c, m as usize);
+                            let dot = |(a, (b, d)): (&f32, (&f32, &f32))| a * p0 + b * p1 + d * p2;
+                            rows.extend(s0.iter().zip(s1.iter().zip(s2)).map(dot));
+                            let s = &scalar_sums[..3];
+                            rows.push(s[0] * p0 + s[1] * p1 + s[2] * p2);
+                        }
                     }
-                    // Each member's values, then its scalar.
-                    let (s0, rest) = sums.split_at(width);
-                    let (s1, s2) = rest.split_at(width);
-                    for &(m, _) in self.clusters.row(c) {
-                        let [p0, p1, p2] = self.member_place(c, m as usize);
-                        let dot = |(a, (b, d)): (&f32, (&f32, &f32))| a * p0 + b * p1 + d * p2;
-                        rows.extend(s0.iter().zip(s1.iter().zip(s2)).map(dot));
-                        let s = &scalar_sums[..3];
-                        rows.push(s[0] * p0 + s[1] * p1 + s[2] * p2);
+                    let mut out = out.lock().expect("no block panicked");
+                    let (values, scalars) = &mut *out;
+                    let members = block.flat_map(|c| self.clusters.row(c));
+                    for (&(m, _), row) in members.zip(rows.chunks_exact(width + 1)) {
+                        let m = m as usize;
+                        values[m * width..][..width].copy_from_slice(&row[..width]);
+                        if let Some(s) = scalars.get_mut(m) {
+                            *s = row[width];
+                        }
                     }
-                }
-                let mut out = out.lock().expect("no block panicked");
-                let (values, scalars) = &mut *out;
-                let members = block.flat_map(|c| self.clusters.row(c));
-                for (&(m, _), row) in members.zip(rows.chunks_exact(width + 1)) {
-                    let m = m as usize;
-                    values[m * width..][..width].copy_from_slice(&row[..width]);
-                    if let Some(s) = scalars.get_mut(m) {
-                        *s = row[width];
-                    }
-                }
-            },
-        );
+                },
+            );
     }
 }
