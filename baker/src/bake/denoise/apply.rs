@@ -5,6 +5,10 @@ use rayon::prelude::*;
 
 use super::{Filter, clusters, vertices};
 
+/// Clusters per block of [`Filter::apply_with_means`]: one lock per block's values, which
+/// stay in a core's cache (about 400 texels' at 64).
+const APPLY_BLOCK: usize = 64;
+
 impl Filter<'_> {
     /// Member m's place about cluster c's centroid, in c's representative's tangent plane, in
     /// its spacings: (1, u, v).
@@ -60,8 +64,11 @@ impl Filter<'_> {
     /// floats per receiver, unchanged since): where that transfer was the filter's signal,
     /// its clusters' means are already at hand, the same floats.
     pub fn apply_to_transfer(&self, transfer: &mut [f32], width: usize, scalars: &mut [f32]) {
-        match self.transfer_means.len() == self.clusters.reps.len() * width {
-            true => self.apply_with_means(transfer, &self.transfer_means, width, scalars),
+        match self.transfer_means && self.signal_width == width {
+            true => {
+                let means = &self.tap_guide[..self.clusters.reps.len() * width];
+                self.apply_with_means(transfer, means, width, scalars)
+            }
             false => self.apply_in_place(transfer, width, scalars),
         }
     }
@@ -80,46 +87,61 @@ impl Filter<'_> {
         };
         // Per cluster, the fit's three sums Σ e_k · mean_k for each of (1, u, v), of the
         // values and then of the scalars: a member's value is their dot with its place, so
-        // the clusters' means are read once per cluster, not once per member.
+        // the clusters' means are read once per cluster, not once per member. The sums are
+        // a thread's own, used up before its next cluster: no buffer of every cluster's
+        // (12 MB of fresh pages on the courtyard, which cost more than forming the sums). A
+        // block's members' values are formed outside the lock and copied in under it;
+        // every receiver is one cluster's member, so the result is the same in any order of
+        // blocks.
         let stride = 3 * (width + 1);
-        let mut sums = vec![0.0f32; self.clusters.reps.len() * stride];
-        sums.par_chunks_mut(stride).enumerate().for_each_init(
-            vertices::Scratch::default,
-            |scratch, (c, sums)| {
-                self.cluster_kernel(c, scratch);
-                let (sums, scalar_sums) = sums.split_at_mut(3 * width);
-                for &(k, e) in &scratch.kernel {
-                    let k = k as usize;
-                    let mean = &means[k * width..(k + 1) * width];
-                    for (t, sums) in sums.chunks_exact_mut(width.max(1)).enumerate() {
-                        clusters::add_scaled(sums, e[t], mean);
-                    }
-                    if let Some(s) = scalar_means.get(k) {
-                        for t in 0..3 {
-                            scalar_sums[t] += e[t] * s;
+        let count = self.clusters.reps.len();
+        let out = std::sync::Mutex::new((values, scalars));
+        (0..count.div_ceil(APPLY_BLOCK))
+            .into_par_iter()
+            .for_each_init(
+                || (vertices::Scratch::default(), Vec::new(), Vec::new()),
+                |(scratch, sums, rows): &mut (_, Vec<f32>, Vec<f32>), b| {
+                    let block = b * APPLY_BLOCK..((b + 1) * APPLY_BLOCK).min(count);
+                    rows.clear();
+                    for c in block.clone() {
+                        self.cluster_kernel(c, scratch);
+                        sums.clear();
+                        sums.resize(stride, 0.0);
+                        let (sums, scalar_sums) = sums.split_at_mut(3 * width);
+                        for &(k, e) in &scratch.kernel {
+                            let k = k as usize;
+                            let mean = &means[k * width..(k + 1) * width];
+                            for (t, sums) in sums.chunks_exact_mut(width.max(1)).enumerate() {
+                                clusters::add_scaled(sums, e[t], mean);
+                            }
+                            if let Some(s) = scalar_means.get(k) {
+                                for t in 0..3 {
+                                    scalar_sums[t] += e[t] * s;
+                                }
+                            }
+                        }
+                        // Each member's values, then its scalar.
+                        let (s0, rest) = sums.split_at(width);
+                        let (s1, s2) = rest.split_at(width);
+                        for &(m, _) in self.clusters.row(c) {
+                            let [p0, p1, p2] = self.member_place(c, m as usize);
+                            let dot = |(a, (b, d)): (&f32, (&f32, &f32))| a * p0 + b * p1 + d * p2;
+                            rows.extend(s0.iter().zip(s1.iter().zip(s2)).map(dot));
+                            let s = &scalar_sums[..3];
+                            rows.push(s[0] * p0 + s[1] * p1 + s[2] * p2);
                         }
                     }
-                }
-            },
-        );
-        values
-            .par_chunks_mut(width.max(1))
-            .enumerate()
-            .for_each(|(m, out)| {
-                let c = self.cluster_of[m] as usize;
-                let [p0, p1, p2] = self.member_place(c, m);
-                let sums = &sums[c * stride..][..3 * width];
-                let (s0, rest) = sums.split_at(width);
-                let (s1, s2) = rest.split_at(width);
-                for (o, ((a, b), d)) in out.iter_mut().zip(s0.iter().zip(s1).zip(s2)) {
-                    *o = a * p0 + b * p1 + d * p2;
-                }
-            });
-        for (m, out) in scalars.iter_mut().enumerate() {
-            let c = self.cluster_of[m] as usize;
-            let [p0, p1, p2] = self.member_place(c, m);
-            let s = &sums[c * stride + 3 * width..][..3];
-            *out = s[0] * p0 + s[1] * p1 + s[2] * p2;
-        }
+                    let mut out = out.lock().expect("no block panicked");
+                    let (values, scalars) = &mut *out;
+                    let members = block.flat_map(|c| self.clusters.row(c));
+                    for (&(m, _), row) in members.zip(rows.chunks_exact(width + 1)) {
+                        let m = m as usize;
+                        values[m * width..][..width].copy_from_slice(&row[..width]);
+                        if let Some(s) = scalars.get_mut(m) {
+                            *s = row[width];
+                        }
+                    }
+                },
+            );
     }
 }

@@ -8,8 +8,8 @@
 use super::grid::Grid;
 use super::guides::Guides;
 
-/// Clusters of receivers: singletons in receiver order, or built clusters in the order of
-/// their grid cells.
+/// Clusters of receivers: singletons in receiver order, or built clusters cell by cell, the
+/// cells in the order of their first receiver ([`Grid::cells_by_first`]).
 pub struct Clusters {
     /// Each cluster's representative, the member nearest the members' centroid: its point,
     /// normals and plane stand for the cluster.
@@ -45,7 +45,8 @@ impl Clusters {
     /// cluster whose first member they may share a kernel with (the same group, normals
     /// within 25°, on its plane, within `step` of its spacings, and `similar`: raw signals
     /// apart by about their noise), or start one. Members weigh the same. A function of the
-    /// guides and the signal alone, in a fixed order (cells by key): the same on any thread.
+    /// guides and the signal alone, in a fixed order (cells by their first receiver): the
+    /// same on any thread.
     ///
     /// Returns the clusters and their means of `signal` (`width` floats per receiver), the
     /// very sums of [`Clusters::means`], formed while the cell's signal is still in cache:
@@ -80,7 +81,7 @@ impl Clusters {
         // At most one cluster per receiver: room reserved, not touched, so never moved.
         let mut means = Vec::with_capacity(g.points.len() * width);
         let (mut seeds, mut label) = (Vec::<usize>::new(), Vec::<usize>::new());
-        for cell in grid.cells() {
+        for cell in grid.cells_by_first() {
             seeds.clear();
             label.clear();
             for &m in cell {
@@ -132,28 +133,6 @@ impl Clusters {
             }
         }
         (clusters, means)
-    }
-
-    /// The clusters in `order` (`order[new] = old`).
-    pub fn permute(self, order: &[u32]) -> Clusters {
-        let mut out = Clusters {
-            reps: Vec::with_capacity(order.len()),
-            starts: vec![0],
-            members: Vec::with_capacity(self.members.len()),
-            mass: Vec::with_capacity(order.len()),
-            noise: Vec::with_capacity(order.len()),
-            points: Vec::with_capacity(order.len()),
-        };
-        for &k in order {
-            let k = k as usize;
-            out.reps.push(self.reps[k]);
-            out.members.extend_from_slice(self.row(k));
-            out.starts.push(out.members.len() as u32);
-            out.mass.push(self.mass[k]);
-            out.noise.push(self.noise[k]);
-            out.points.push(self.points[k]);
-        }
-        out
     }
 
     /// Cluster k's members and their weights.

@@ -152,21 +152,28 @@ impl Grid {
         })
     }
 
-    /// Numbers the points in the order of their cells: returns the old index of each new one
-    /// (`order`), and the grid visits new indices from here on, consecutive within a cell, so
-    /// data stored in this order is read in sequence.
-    pub fn renumber(&mut self) -> Vec<u32> {
-        let order = std::mem::take(&mut self.order);
-        self.order = (0..order.len() as u32).collect();
-        order
+    /// Names the points anew, point i as `labels[i]` (ascending with i, so each cell's are
+    /// still visited in index order): a grid over a subset answers with the whole set's
+    /// indices.
+    pub fn relabel(&mut self, labels: &[u32]) {
+        for i in self.order.iter_mut() {
+            *i = labels[*i as usize];
+        }
     }
 
-    /// The receivers of each occupied cell, cell by cell in key order, each cell's in index
-    /// order.
-    pub fn cells(&self) -> impl Iterator<Item = &[u32]> {
-        self.cells
+    /// The receivers of each occupied cell, each cell's in index order, the cells in the
+    /// order of their first (lowest) receiver: a pass over them reads per-receiver arrays
+    /// about in sequence (a lightmap's texels row band by row band), where key order jumps
+    /// across the whole atlas from one cell to the next.
+    pub fn cells_by_first(&self) -> Vec<&[u32]> {
+        let mut cells: Vec<&[u32]> = self
+            .cells
             .iter()
             .map(|&(_, start, end)| &self.order[start as usize..end as usize])
+            .collect();
+        // No two cells share a receiver: the order is the same for any sort.
+        cells.sort_unstable_by_key(|cell| cell[0]);
+        cells
     }
 
     /// Calls `visit` with every receiver in a cell that the sphere of `radius` about `p`
@@ -211,44 +218,40 @@ impl Grid {
 /// of their own, so one cell size for all would make a small-texelled object's queries read
 /// whole cells of points beyond their reach.
 pub struct GroupedGrid {
-    /// The groups, ascending, and for each the index of its first point and its grid.
+    /// The groups, ascending, and for each its grid (of the points' own indices).
     groups: Vec<u32>,
-    grids: Vec<(u32, Grid)>,
+    grids: Vec<Grid>,
 }
 
 impl GroupedGrid {
     /// Grids over `points` by their `groups`, each of cells `scale` times the median of its
-    /// points' `spacing`. The points are numbered anew, group by group in ascending order and
-    /// each group's in the order of its cells ([`Grid::renumber`]): returns the grids and the
-    /// old index of each new point.
-    pub fn new(points: &[Vec3], groups: &[u32], spacing: &[f32], scale: f32) -> (Self, Vec<u32>) {
+    /// points' `spacing`.
+    pub fn new(points: &[Vec3], groups: &[u32], spacing: &[f32], scale: f32) -> Self {
         let mut by_group: Vec<u32> = (0..points.len() as u32).collect();
         by_group.sort_by_key(|&i| groups[i as usize]);
         let mut grouped = GroupedGrid {
             groups: Vec::new(),
             grids: Vec::new(),
         };
-        let mut order = Vec::with_capacity(points.len());
+        // Each group's points in ascending index order (the sort is stable).
         for members in by_group.chunk_by(|&a, &b| groups[a as usize] == groups[b as usize]) {
             let mut spacings: Vec<f32> = members.iter().map(|&i| spacing[i as usize]).collect();
             let mid = spacings.len() / 2;
             let typical = *spacings.select_nth_unstable_by(mid, f32::total_cmp).1;
             let at: Vec<Vec3> = members.iter().map(|&i| points[i as usize]).collect();
             let mut grid = Grid::new(&at, (scale * typical).max(1e-12));
-            let first = order.len() as u32;
-            order.extend(grid.renumber().iter().map(|&k| members[k as usize]));
+            grid.relabel(members);
             grouped.groups.push(groups[members[0] as usize]);
-            grouped.grids.push((first, grid));
+            grouped.grids.push(grid);
         }
-        (grouped, order)
+        grouped
     }
 
-    /// [`Grid::visit`] of `group`'s points, by their new indices.
+    /// [`Grid::visit`] of `group`'s points.
     #[inline(always)]
-    pub fn visit(&self, group: u32, p: Vec3, radius: f32, mut visit: impl FnMut(u32)) {
+    pub fn visit(&self, group: u32, p: Vec3, radius: f32, visit: impl FnMut(u32)) {
         if let Ok(g) = self.groups.binary_search(&group) {
-            let (first, grid) = &self.grids[g];
-            grid.visit(p, radius, |k| visit(first + k));
+            self.grids[g].visit(p, radius, visit);
         }
     }
 }
@@ -320,15 +323,11 @@ mod tests {
         // Three groups at texel sizes 4 × apart.
         let groups: Vec<u32> = (0..points.len()).map(|i| [7, 2, 9][i % 3]).collect();
         let spacing: Vec<f32> = groups.iter().map(|&g| 0.01 * g as f32).collect();
-        let (grid, order) = GroupedGrid::new(&points, &groups, &spacing, 3.5);
-        let mut sorted = order.clone();
-        sorted.sort_unstable();
-        assert_eq!(sorted, (0..points.len() as u32).collect::<Vec<_>>());
+        let grid = GroupedGrid::new(&points, &groups, &spacing, 3.5);
         for i in (0..points.len()).step_by(89) {
             let (p, g) = (points[i], groups[i]);
             let mut found = Vec::new();
-            grid.visit(g, p, 0.08, |k| {
-                let j = order[k as usize];
+            grid.visit(g, p, 0.08, |j| {
                 assert_eq!(groups[j as usize], g);
                 if points[j as usize].distance(p) <= 0.08 {
                     found.push(j)

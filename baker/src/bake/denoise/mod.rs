@@ -154,6 +154,8 @@ struct Tap {
     mass: f32,
     /// The representative's guide's variance.
     noise: f32,
+    /// The guide's row in [`Filter::tap_guide`].
+    guide: u32,
 }
 
 /// The weights of one bake's receivers, ready to apply to any per-receiver values.
@@ -164,11 +166,15 @@ pub struct Filter<'g> {
     fine: grid::Grid,
     /// The wide pass's grids over the clusters, one per group (cluster indices).
     wide: grid::GroupedGrid,
+    /// Built cell by cell, the fine grid's cells in the order of their first receiver: a
+    /// cluster's neighbours are numbered close to it, and the wide pass reads their data,
+    /// and writes its members' values, about in sequence.
     clusters: Clusters,
-    /// What the wide pass reads of each cluster, in cluster order (the wide grid's): read in
-    /// sequence, not gathered from the guides' arrays.
+    /// What the wide pass reads of each cluster, in cluster order.
     taps: Vec<Tap>,
-    /// Each cluster's guide (its representative's), `signal_width` floats per cluster.
+    /// Texels: each cluster's mean of the signal, `signal_width` floats per cluster in
+    /// cluster order, then the prefiltered guides of the clusters too small to be their own
+    /// guide ([`Tap::guide`] is a cluster's row).
     tap_guide: Vec<f32>,
     /// For vertices, in place of `tap_guide`: each vertex's guide in vector registers'
     /// lanes, zero-padded to [`vertices::guide_lanes`] of them.
@@ -178,10 +184,10 @@ pub struct Filter<'g> {
     /// Each cluster's tangent frame (its representative's plane): the fit's axes.
     frames: Vec<(glam::Vec3, glam::Vec3)>,
     signal_width: usize,
-    /// Each cluster's mean of the transfer the filter was formed for, in cluster order,
-    /// where its signal is the whole transfer (up to order 3; empty otherwise): the means
+    /// Whether `tap_guide`'s first rows, the clusters' means, are those of the transfer the
+    /// filter was formed for (its signal is the whole transfer, up to order 3): the means
     /// [`Filter::apply_to_transfer`] would otherwise form again.
-    transfer_means: Vec<f32>,
+    transfer_means: bool,
 }
 
 impl<'g> Filter<'g> {
@@ -226,7 +232,7 @@ impl<'g> Filter<'g> {
         let mut filter = Filter {
             guides,
             settings,
-            wide: grid::GroupedGrid::new(&[], &[], &[], 1.0).0,
+            wide: grid::GroupedGrid::new(&[], &[], &[], 1.0),
             fine,
             clusters: Clusters::singletons(&[]),
             taps: Vec::new(),
@@ -235,7 +241,7 @@ impl<'g> Filter<'g> {
             cluster_of: Vec::new(),
             frames: Vec::new(),
             signal_width,
-            transfer_means: Vec::new(),
+            transfer_means: false,
         };
         let from_rays = guides.noise.iter().any(|&v| v > 0.0);
         let noise: std::borrow::Cow<[f32]> = match (from_rays, settings.step) {
@@ -249,7 +255,7 @@ impl<'g> Filter<'g> {
             filter.settings.kappa *= vertices::NEIGHBOUR_KAPPA;
         }
         let sw = signal_width;
-        let (clusters, signal_means) = match settings.step {
+        let (clusters, mut means) = match settings.step {
             // Every vertex prefilters its guide and is applied alone
             // ([`vertices::apply`]): no cluster means are read.
             None => {
@@ -271,74 +277,58 @@ impl<'g> Filter<'g> {
         // A cluster of at least GUIDE_MASS like texels is its own guide: its members'
         // mean, of variance Σ w² σ² (the members are alike by construction, so the mean is
         // the prefilter's answer at a fraction of its cost). Smaller clusters (a shadow's
-        // edge, a chart's corner) and every vertex prefilter their representative.
+        // edge, a chart's corner) and every vertex prefilter their representative, into
+        // rows after the means: the guides and the means share one buffer, no row copied.
         let own_guide = |k: usize| settings.step.is_some() && clusters.mass[k] >= GUIDE_MASS;
         let prefiltered: Vec<u32> = (0..clusters.reps.len())
             .filter(|&k| !own_guide(k))
             .map(|k| clusters.reps[k])
             .collect();
-        let (guide, guide_noise) = filter.prefilter(&signal, &noise, &prefiltered);
+        let first = means.len() / sw.max(1);
+        means.resize(means.len() + prefiltered.len() * sw, 0.0);
+        let mut guide_noise = vec![0.0f32; prefiltered.len()];
+        filter.prefilter(
+            &signal,
+            &noise,
+            &prefiltered,
+            (&mut means[first * sw..], &mut guide_noise),
+        );
         drop(signal);
         let (rep_groups, rep_spacing): (Vec<u32>, Vec<f32>) = clusters
             .reps
             .iter()
             .map(|&r| (guides.groups[r as usize], guides.spacing[r as usize]))
             .unzip();
-        let (wide, order) = grid::GroupedGrid::new(
+        filter.wide = grid::GroupedGrid::new(
             &clusters.points,
             &rep_groups,
             &rep_spacing,
             WIDE_CELL * settings.radius,
         );
-        filter.wide = wide;
-        // Each cluster's guide (own or prefiltered) and its variance, in the wide grid's
-        // order.
-        let mut at_prefiltered = vec![u32::MAX; clusters.reps.len()];
-        for (n, k) in (0..clusters.reps.len())
-            .filter(|&k| !own_guide(k))
-            .enumerate()
-        {
-            at_prefiltered[k] = n as u32;
-        }
-        let mut tap_guide = Vec::with_capacity(order.len() * signal_width);
-        let mut tap_noise = Vec::with_capacity(order.len());
-        // Up to order 3 the signal is the transfer: its clusters' means, in the wide grid's
-        // order, are the ones `apply_to_transfer` reads (texels; vertices have none).
-        let whole = used == per_channel && !signal_means.is_empty();
-        let mut means = Vec::with_capacity(if whole { order.len() * signal_width } else { 0 });
-        let mean = |k: usize| &signal_means[k * signal_width..][..signal_width];
-        for &k in &order {
-            let k = k as usize;
-            if whole {
-                means.extend_from_slice(mean(k));
-            }
-            let (from, variance) = match at_prefiltered[k] {
-                u32::MAX => (mean(k), clusters.noise[k]),
-                n => (
-                    &guide[n as usize * signal_width..][..signal_width],
-                    guide_noise[n as usize],
-                ),
-            };
-            tap_guide.extend_from_slice(from);
-            tap_noise.push(variance);
-        }
-        drop((guide, guide_noise, signal_means));
-        filter.transfer_means = means;
-        let clusters = clusters.permute(&order);
-        filter.taps = (0..clusters.reps.len())
-            .map(|k| {
-                let r = clusters.reps[k] as usize;
-                Tap {
-                    at: clusters.points[k],
-                    normal: guides.normals[r],
-                    mass: clusters.mass[k],
-                    noise: tap_noise[k],
+        let mut next = first;
+        filter.taps = Vec::with_capacity(clusters.reps.len());
+        for k in 0..clusters.reps.len() {
+            let (guide, noise) = match own_guide(k) {
+                true => (k, clusters.noise[k]),
+                false => {
+                    next += 1;
+                    (next - 1, guide_noise[next - 1 - first])
                 }
-            })
-            .collect();
+            };
+            filter.taps.push(Tap {
+                at: clusters.points[k],
+                normal: guides.normals[clusters.reps[k] as usize],
+                mass: clusters.mass[k],
+                noise,
+                guide: guide as u32,
+            });
+        }
+        // Up to order 3 the signal is the transfer: its clusters' means are the ones
+        // `apply_to_transfer` reads (texels; vertices have none).
+        filter.transfer_means = used == per_channel && first == clusters.reps.len();
         match settings.step {
-            None => filter.tap_lanes = vertices::to_lanes(&tap_guide, signal_width),
-            Some(_) => filter.tap_guide = tap_guide,
+            None => filter.tap_lanes = vertices::to_lanes(&means, signal_width),
+            Some(_) => filter.tap_guide = means,
         }
         filter.frames = clusters
             .reps
@@ -439,12 +429,17 @@ impl<'g> Filter<'g> {
             .collect()
     }
 
-    /// The guides of `receivers`, `signal_width` floats each in their order: the signal
-    /// filtered with the geometric terms over `guide_radius`, and its variance Σ_j w_ij² σ²_j.
-    fn prefilter(&self, signal: &[f32], noise: &[f32], receivers: &[u32]) -> (Vec<f32>, Vec<f32>) {
+    /// The guides of `receivers` into `guide`, `signal_width` floats each in their order: the
+    /// signal filtered with the geometric terms over `guide_radius`; and its variance
+    /// Σ_j w_ij² σ²_j into `guide_noise`.
+    fn prefilter(
+        &self,
+        signal: &[f32],
+        noise: &[f32],
+        receivers: &[u32],
+        (guide, guide_noise): (&mut [f32], &mut [f32]),
+    ) {
         let sw = self.signal_width;
-        let mut guide = vec![0.0f32; receivers.len() * sw];
-        let mut guide_noise = vec![0.0f32; receivers.len()];
         guide
             .par_chunks_mut(sw.max(1))
             .zip(guide_noise.par_iter_mut())
@@ -469,7 +464,6 @@ impl<'g> Filter<'g> {
                     *var += w * w * noise[j];
                 }
             });
-        (guide, guide_noise)
     }
 
     /// Cluster c's kernel over the clusters, in the wide grid's fixed order of visit:
@@ -499,14 +493,16 @@ impl<'g> Filter<'g> {
         let (sw, lanes) = (self.signal_width, vertices::guide_lanes(self.signal_width));
         let (radius, kappa) = (self.settings.radius, self.settings.kappa);
         let r = self.clusters.reps[c] as usize;
-        let squared = |k: usize| match vertices {
+        let own = self.taps[c].guide as usize;
+        // Tap k's guide's squared difference from c's, its guide in row `row`.
+        let squared = |k: usize, row: usize| match vertices {
             true => vertices::squared_distance(
                 &self.tap_lanes[c * lanes..][..lanes],
                 &self.tap_lanes[k * lanes..][..lanes],
             ),
             false => squared_difference(
-                &self.tap_guide[c * sw..][..sw],
-                &self.tap_guide[k * sw..][..sw],
+                &self.tap_guide[own * sw..][..sw],
+                &self.tap_guide[row * sw..][..sw],
             ),
         };
         let squarings = match vertices {
@@ -519,27 +515,38 @@ impl<'g> Filter<'g> {
         let reach = radius * spacing;
         let (t1, t2) = self.frames[c];
         let scale = 1.0 / spacing;
+        // The taps within reach and facing c, gathered first without a branch per tap:
+        // which of a cell's taps lie within reach is hard to predict, and a mispredicted
+        // branch cost more than the test. Each is kept as (k, [r², facing, 0]).
         self.wide.visit(group, pi, reach, |k| {
             let tap = &self.taps[k as usize];
-            let d = tap.at - pi;
-            let r2 = d.length_squared() / (reach * reach);
+            let r2 = (tap.at - pi).length_squared() / (reach * reach);
             let facing = ni.dot(tap.normal);
-            if r2 > 1.0 || facing <= 0.0 {
-                return;
-            }
+            out.push((k, [r2, facing, 0.0]));
+            out.truncate(out.len() - usize::from((r2 > 1.0) | (facing <= 0.0)));
+        });
+        // Their weights, in place: entry `kept` is written after entry `kept` is read.
+        let mut kept = 0;
+        for at in 0..out.len() {
+            let (k, [r2, facing, _]) = out[at];
+            let tap = &self.taps[k as usize];
+            let d = tap.at - pi;
             let off_plane = si.dot(d) / spacing;
-            let range = range_term(squared(k as usize), (noise + tap.noise) * sw as f32, kappa);
+            let variance = (noise + tap.noise) * sw as f32;
+            let range = range_term(squared(k as usize, tap.guide as usize), variance, kappa);
             let w =
                 (-2.0 * r2 - off_plane * off_plane - range).exp() * power_of_two(facing, squarings);
             if w > 0.0 {
                 // With the tap's place in c's tangent plane, in spacings: the fit's (u, v).
                 let place = d * scale;
-                out.push((k, [w * tap.mass, place.dot(t1), place.dot(t2)]));
+                out[kept] = (k, [w * tap.mass, place.dot(t1), place.dot(t2)]);
+                kept += 1;
                 if vertices {
                     tapers.push(vertices::taper(r2));
                 }
             }
-        });
+        }
+        out.truncate(kept);
         if vertices {
             let guide = |k: u32| {
                 let k = k as usize;

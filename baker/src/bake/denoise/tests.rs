@@ -107,7 +107,7 @@ fn applying_to_the_filters_own_transfer_reuses_the_same_means() {
         .map(|_| 0.5 + 0.05 * rng.next_f32())
         .collect();
     let filter = Filter::new(&guides, Settings::TEXELS, &transfer, 3, 9);
-    assert!(!filter.transfer_means.is_empty());
+    assert!(filter.transfer_means);
     let (mut fresh, mut reused) = (transfer.clone(), transfer.clone());
     let (mut a, mut b) = (vec![0.25f32; 144], vec![0.25f32; 144]);
     filter.apply_in_place(&mut fresh, width, &mut a);
@@ -115,4 +115,54 @@ fn applying_to_the_filters_own_transfer_reuses_the_same_means() {
     assert_eq!(fresh, reused);
     assert_eq!(a, b);
     assert_ne!(fresh, transfer);
+}
+
+/// Applying the texels' filter (clusters' means, each cluster's fit sums read by its
+/// members, written block by block) gives every receiver, values and scalar alike, what
+/// its own row of weights gives ([`Filter::row`], formed receiver by receiver): the
+/// independent path.
+#[test]
+fn applying_the_filter_gives_each_receiver_its_row_of_weights() {
+    let mut guides = Guides::default();
+    sheet(&mut guides, Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z, 0);
+    // A second object beside it, so clusters of two groups interleave.
+    sheet(
+        &mut guides,
+        Vec3::new(12.0, 0.0, 0.0),
+        Vec3::X,
+        Vec3::Y,
+        Vec3::Z,
+        1,
+    );
+    let mut rng = crate::math::sampling::Pcg32::new(3, 5);
+    let width = 9;
+    let count = guides.points.len();
+    // A slope across the sheets and a little noise: the fit's (u, v) terms count.
+    let transfer: Vec<f32> = (0..count * width)
+        .map(|n| 0.2 + 0.01 * (n / width % 12) as f32 + 0.02 * rng.next_f32())
+        .collect();
+    let scalars: Vec<f32> = (0..count)
+        .map(|i| 0.3 + 0.02 * (i / 12 % 12) as f32 + 0.01 * rng.next_f32())
+        .collect();
+    let filter = Filter::new(&guides, Settings::TEXELS, &transfer, 1, 9);
+    let (mut values, mut filtered) = (transfer.clone(), scalars.clone());
+    filter.apply_in_place(&mut values, width, &mut filtered);
+    let mut row = Vec::new();
+    for i in 0..count {
+        filter.row(i, &mut row);
+        let scalar: f32 = row.iter().map(|&(j, w)| w * scalars[j as usize]).sum();
+        assert!(
+            (filtered[i] - scalar).abs() < 1e-5,
+            "{i}: {} {scalar}",
+            filtered[i]
+        );
+        for c in 0..width {
+            let value: f32 = row
+                .iter()
+                .map(|&(j, w)| w * transfer[j as usize * width + c])
+                .sum();
+            let got = values[i * width + c];
+            assert!((got - value).abs() < 1e-5, "{i}, {c}: {got} {value}");
+        }
+    }
 }
