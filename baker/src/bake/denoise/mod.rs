@@ -66,6 +66,8 @@ mod grid;
 pub mod guides;
 mod range;
 pub mod stage;
+mod vertex_apply;
+mod vertex_clusters;
 mod vertices;
 
 use rayon::prelude::*;
@@ -88,6 +90,9 @@ pub struct Settings {
     /// The wide pass reads clusters about this many spacings across ([`clusters`]), or
     /// every receiver (`None`).
     pub step: Option<f32>,
+    /// A second-order fit, with vertices' terms ([`vertices`]), in place of the first-order
+    /// one.
+    pub quadratic: bool,
 }
 
 impl Settings {
@@ -102,6 +107,7 @@ impl Settings {
         kappa: 4.0,
         linear: true,
         step: Some(3.0),
+        quadratic: false,
     };
     /// Vertices, transfer matrices and subsurface vertices: each read on its own, with a
     /// second-order fit ([`vertices`]; measured on the torus at 64 rays).
@@ -110,7 +116,8 @@ impl Settings {
         guide_radius: 1.5,
         kappa: 4.0,
         linear: true,
-        step: None,
+        step: Some(vertices::STEP),
+        quadratic: true,
     };
 }
 
@@ -238,26 +245,29 @@ impl<'g> Filter<'g> {
             transfer_means: Vec::new(),
         };
         let from_rays = guides.noise.iter().any(|&v| v > 0.0);
-        let noise: std::borrow::Cow<[f32]> = match (from_rays, settings.step) {
-            (true, None) => {
+        let noise: std::borrow::Cow<[f32]> = match (from_rays, settings.quadratic) {
+            (true, true) => {
                 vertices::fill_noise(&guides.noise, || filter.noise_from_signal(&signal)).into()
             }
-            (true, Some(_)) => std::borrow::Cow::Borrowed(&guides.noise),
+            (true, false) => std::borrow::Cow::Borrowed(&guides.noise),
             (false, _) => filter.noise_from_signal(&signal).into(),
         };
-        if !from_rays && settings.step.is_none() {
+        if !from_rays && settings.quadratic {
             filter.settings.kappa *= vertices::NEIGHBOUR_KAPPA;
         }
         let sw = signal_width;
         let (clusters, signal_means) = match settings.step {
-            // Every vertex prefilters its guide and is applied alone
-            // ([`vertices::apply`]): no cluster means are read.
+            // Every receiver its own cluster, its guide prefiltered.
             None => {
                 let clusters = Clusters {
                     points: guides.points.clone(),
                     ..Clusters::singletons(&noise)
                 };
                 (clusters, Vec::new())
+            }
+            // Vertices gather around seeds, each within its own spacings.
+            Some(step) if settings.quadratic => {
+                vertex_clusters::build(guides, &filter.fine, step, &noise, (&signal[..], sw))
             }
             Some(step) => {
                 let within = (&signal[..], sw);
@@ -336,9 +346,9 @@ impl<'g> Filter<'g> {
                 }
             })
             .collect();
-        match settings.step {
-            None => filter.tap_lanes = vertices::to_lanes(&tap_guide, signal_width),
-            Some(_) => filter.tap_guide = tap_guide,
+        match settings.quadratic {
+            true => filter.tap_lanes = vertices::to_lanes(&tap_guide, signal_width),
+            false => filter.tap_guide = tap_guide,
         }
         filter.frames = clusters
             .reps
@@ -491,7 +501,7 @@ impl<'g> Filter<'g> {
     /// normals more mildly, keep each entry's taper and turn the kernel into a second-order
     /// fit's weights ([`vertices::fit`]). The kernel is formed in `scratch.kernel`.
     fn cluster_kernel(&self, c: usize, scratch: &mut vertices::Scratch) {
-        let vertices = self.settings.step.is_none();
+        let vertices = self.settings.quadratic;
         let (out, tapers) = (&mut scratch.kernel, &mut scratch.taper);
         out.clear();
         tapers.clear();
