@@ -44,10 +44,14 @@ impl Filter<'_> {
         sums.par_chunks_mut(stride).enumerate().for_each_init(
             vertices::Scratch::default,
             |scratch, (c, sums)| {
+                // A cluster of one vertex reads its fit at its centroid, the vertex: the
+                // first term alone.
+                scratch.centre_only = self.clusters.mass[c] == 1.0;
+                let used = if scratch.centre_only { 1 } else { TERMS };
                 self.cluster_kernel(c, scratch);
                 for (&(k, _), e) in scratch.kernel.iter().zip(&scratch.weights) {
                     let mean = &padded[k as usize * lanes..][..lanes];
-                    for (sums, &e) in sums.chunks_exact_mut(lanes).zip(e) {
+                    for (sums, &e) in sums.chunks_exact_mut(lanes).zip(e).take(used) {
                         for (o, v) in sums.iter_mut().zip(mean) {
                             *o += e * *v;
                         }

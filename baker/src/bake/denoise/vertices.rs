@@ -67,6 +67,9 @@ pub(super) struct Scratch {
     /// After [`fit`], each entry's weight as a function of the member's place: a member at
     /// (u, v) weighs entry k by `weights[k]` · [`terms`](u, v).
     pub weights: Vec<[f32; TERMS]>,
+    /// Whether the fit is read at the centroid alone (a cluster of one vertex): each entry's
+    /// weight at (0, 0) alone, in `weights[k][0]`, the rest 0.
+    pub centre_only: bool,
     /// The two fits' difference of the guide, per signal coefficient.
     delta: Vec<Vec4>,
 }
@@ -174,8 +177,11 @@ pub(super) fn fit<'g>(scratch: &mut Scratch, sw: usize, guide: impl Fn(u32) -> (
         kernel,
         taper,
         weights,
+        centre_only,
         delta,
     } = scratch;
+    // The terms the weights are formed for: the first alone at the centroid.
+    let used = if *centre_only { 1 } else { TERMS };
     weights.clear();
     // Each moment's sums for the wide fit and the narrower one, side by side: one vector
     // register's two lanes.
@@ -204,18 +210,22 @@ pub(super) fn fit<'g>(scratch: &mut Scratch, sw: usize, guide: impl Fn(u32) -> (
     for (&(_, [w, u, v]), &taper) in kernel.iter().zip(taper.iter()) {
         let (x, _) = monomials(u, v);
         let w = f64::from(w);
-        let mut e = times(&b, &x, w * (1.0 - t));
+        let mut e = times(&b, &x, w * (1.0 - t), used);
         if let (Some(bn), true) = (&bn, t > 0.0) {
-            let en = times(bn, &x, w * f64::from(taper) * t);
+            let en = times(bn, &x, w * f64::from(taper) * t, used);
             e.iter_mut().zip(en).for_each(|(e, n)| *e += n);
         }
         weights.push(e.map(|e| e as f32));
     }
 }
 
-/// s · B x for the symmetric B.
-fn times(b: &[[f64; TERMS]; TERMS], x: &[f64; TERMS], s: f64) -> [f64; TERMS] {
-    std::array::from_fn(|p| s * b[p].iter().zip(x).map(|(b, x)| b * x).sum::<f64>())
+/// s · B x for the symmetric B, its first `used` entries (the rest 0).
+fn times(b: &[[f64; TERMS]; TERMS], x: &[f64; TERMS], s: f64, used: usize) -> [f64; TERMS] {
+    let mut out = [0.0; TERMS];
+    for (o, row) in out.iter_mut().zip(b).take(used) {
+        *o = s * row.iter().zip(x).map(|(b, x)| b * x).sum::<f64>();
+    }
+    out
 }
 
 /// The narrower fit's share of the blend (Lepski's rule), from both fits' weights at the
