@@ -45,9 +45,9 @@
 //! the level below: they are alike by construction, so their mean is about as steady as the
 //! prefilter over 1.5 spacings, and costs nothing more; only the representatives of smaller clusters
 //! (a shadow's edge, a chart's corner) are prefiltered. Vertices (vertex bakes, transfer
-//! matrices, subsurface vertices) are read one by one, with a second-order fit over 9 spacings
-//! ([`vertices`]): a mesh is too sparse for clusters, and its curves too close for a
-//! first-order fit.
+//! matrices, subsurface vertices) gather into clusters of like neighbours around seeds, each
+//! within its own spacings ([`vertex_clusters`]), with a second-order fit over 9 spacings
+//! ([`vertices`]): a mesh's curves are too close for a first-order fit.
 //!
 //! The kernel weights then become those of a weighted first-order fit over i's tangent plane
 //! (local regression: Moon, Carr & Yoon 2014), evaluated at i ([`Filter::row`]): a constant
@@ -109,8 +109,9 @@ impl Settings {
         step: Some(3.0),
         quadratic: false,
     };
-    /// Vertices, transfer matrices and subsurface vertices: each read on its own, with a
-    /// second-order fit ([`vertices`]; measured on the torus at 64 rays).
+    /// Vertices, transfer matrices and subsurface vertices: in clusters of like vertices
+    /// within 1.25 of a seed's spacings ([`vertex_clusters`]), with a second-order fit
+    /// ([`vertices`]; measured on the torus at 64 rays).
     pub const VERTICES: Settings = Settings {
         radius: 9.0,
         guide_radius: 1.5,
@@ -497,9 +498,9 @@ impl<'g> Filter<'g> {
     /// is kept unbiased. Each member evaluates the fit at its own place, so a cluster's
     /// members differ as their neighbourhoods do, though their kernel is formed once.
     ///
-    /// Vertices (every one its own cluster) read their guides in vector lanes, weigh
-    /// normals more mildly, keep each entry's taper and turn the kernel into a second-order
-    /// fit's weights ([`vertices::fit`]). The kernel is formed in `scratch.kernel`.
+    /// Vertices read their guides in vector lanes, weigh normals more mildly, keep each
+    /// entry's taper and turn the kernel into a second-order fit's weights
+    /// ([`vertices::fit`]). The kernel is formed in `scratch.kernel`.
     fn cluster_kernel(&self, c: usize, scratch: &mut vertices::Scratch) {
         let vertices = self.settings.quadratic;
         let (out, tapers) = (&mut scratch.kernel, &mut scratch.taper);

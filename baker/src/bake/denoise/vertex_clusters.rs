@@ -99,3 +99,42 @@ pub fn build(
     }
     (clusters, means)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    /// A sheet of 16 × 16 vertices, one spacing apart, lit on its left half and in shadow on
+    /// its right (many noise deviations apart): the clusters gather several vertices each,
+    /// and none holds vertices of both halves.
+    #[test]
+    fn no_cluster_takes_in_both_sides_of_a_shadow_edge() {
+        let mut g = Guides::default();
+        for a in 0..16 {
+            for b in 0..16 {
+                g.points.push(Vec3::new(a as f32, b as f32, 0.0));
+                g.normals.push(Vec3::Z);
+                g.surfaces.push(Vec3::Z);
+                g.groups.push(0);
+                g.spacing.push(1.0);
+                g.noise.push(1e-4);
+            }
+        }
+        let lit = |p: Vec3| p.x < 7.5;
+        let signal: Vec<f32> = g.points.iter().map(|&p| if lit(p) { 0.8 } else { 0.2 }).collect();
+        let grid = Grid::new(&g.points, 2.5);
+        let (clusters, means) = build(&g, &grid, 2.5, &g.noise, (&signal, 1));
+        let joined = (0..clusters.reps.len()).filter(|&k| clusters.mass[k] > 1.0).count();
+        assert!(joined > 20, "{joined} clusters of more than one vertex");
+        let members: usize = clusters.mass.iter().map(|&m| m as usize).sum();
+        assert_eq!(members, g.points.len());
+        for k in 0..clusters.reps.len() {
+            let sides: Vec<bool> = (clusters.row(k).iter())
+                .map(|&(m, _)| lit(g.points[m as usize]))
+                .collect();
+            assert!(sides.iter().all(|&s| s == sides[0]), "cluster {k}: {sides:?}");
+            assert!((means[k] - signal[clusters.reps[k] as usize]).abs() < 1e-6);
+        }
+    }
+}
