@@ -63,8 +63,16 @@ impl Filter<'_> {
         // Member m's value in lanes `range` of its cluster's sums, at its place.
         if std::env::var_os("PRT_DN_DEBUG").is_some() {
             let mut scratch = vertices::Scratch::default();
-            let entries: usize = (0..clusters).map(|c| { self.cluster_kernel(c, &mut scratch); scratch.kernel.len() }).sum();
-            eprintln!("entries {entries} per cluster {}", entries as f64 / clusters as f64);
+            let entries: usize = (0..clusters)
+                .map(|c| {
+                    self.cluster_kernel(c, &mut scratch);
+                    scratch.kernel.len()
+                })
+                .sum();
+            eprintln!(
+                "entries {entries} per cluster {}",
+                entries as f64 / clusters as f64
+            );
         }
         let value = |m: usize, range: std::ops::Range<usize>, out: &mut [Vec4]| {
             let c = self.cluster_of[m] as usize;
@@ -78,16 +86,19 @@ impl Filter<'_> {
                 }
             }
         };
-        values.par_chunks_mut(width.max(1)).enumerate().for_each_init(
-            || vec![Vec4::ZERO; lanes],
-            |lanes, (m, out)| {
-                value(m, 0..lanes.len(), lanes);
-                let floats = lanes.iter().flat_map(|v| v.to_array());
-                for (o, f) in out.iter_mut().zip(floats) {
-                    *o = f;
-                }
-            },
-        );
+        values
+            .par_chunks_mut(width.max(1))
+            .enumerate()
+            .for_each_init(
+                || vec![Vec4::ZERO; lanes],
+                |lanes, (m, out)| {
+                    value(m, 0..lanes.len(), lanes);
+                    let floats = lanes.iter().flat_map(|v| v.to_array());
+                    for (o, f) in out.iter_mut().zip(floats) {
+                        *o = f;
+                    }
+                },
+            );
         let mut lane = [Vec4::ZERO];
         for (m, s) in scalars.iter_mut().enumerate() {
             value(m, width / 4..width / 4 + 1, &mut lane);

@@ -33,7 +33,10 @@ pub fn build(
 ) -> (Clusters, Vec<f32>) {
     let g = guides;
     let similar = |seed: usize, m: usize| {
-        let (a, b) = (&signal[m * width..][..width], &signal[seed * width..][..width]);
+        let (a, b) = (
+            &signal[m * width..][..width],
+            &signal[seed * width..][..width],
+        );
         let squared: f32 = a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum();
         squared <= SIMILAR * (noise[m] + noise[seed]) * width as f32
     };
@@ -77,7 +80,9 @@ pub fn build(
             });
             let n = mine.len() as f32;
             let w = 1.0 / n;
-            let centre = mine.iter().fold(glam::Vec3::ZERO, |s, &m| s + w * g.points[m]);
+            let centre = mine
+                .iter()
+                .fold(glam::Vec3::ZERO, |s, &m| s + w * g.points[m]);
             let (mut rep, mut best, mut var) = (seed, f32::INFINITY, 0.0f32);
             let mean = means.len();
             means.resize(mean + width, 0.0);
@@ -122,10 +127,16 @@ mod tests {
             }
         }
         let lit = |p: Vec3| p.x < 7.5;
-        let signal: Vec<f32> = g.points.iter().map(|&p| if lit(p) { 0.8 } else { 0.2 }).collect();
+        let signal: Vec<f32> = g
+            .points
+            .iter()
+            .map(|&p| if lit(p) { 0.8 } else { 0.2 })
+            .collect();
         let grid = Grid::new(&g.points, 2.5);
         let (clusters, means) = build(&g, &grid, 2.5, &g.noise, (&signal, 1));
-        let joined = (0..clusters.reps.len()).filter(|&k| clusters.mass[k] > 1.0).count();
+        let joined = (0..clusters.reps.len())
+            .filter(|&k| clusters.mass[k] > 1.0)
+            .count();
         assert!(joined > 20, "{joined} clusters of more than one vertex");
         let members: usize = clusters.mass.iter().map(|&m| m as usize).sum();
         assert_eq!(members, g.points.len());
@@ -133,7 +144,10 @@ mod tests {
             let sides: Vec<bool> = (clusters.row(k).iter())
                 .map(|&(m, _)| lit(g.points[m as usize]))
                 .collect();
-            assert!(sides.iter().all(|&s| s == sides[0]), "cluster {k}: {sides:?}");
+            assert!(
+                sides.iter().all(|&s| s == sides[0]),
+                "cluster {k}: {sides:?}"
+            );
             assert!((means[k] - signal[clusters.reps[k] as usize]).abs() < 1e-6);
         }
     }

@@ -202,7 +202,15 @@ pub(super) fn fit<'g>(scratch: &mut Scratch, sw: usize, guide: impl Fn(u32) -> (
     let (wide, narrow) = (sums.map(|s| s[0]), sums.map(|s| s[1]));
     let Some(b) = invert_moments(&wide) else {
         let mass = wide[0];
-        let mean = |w: f32| std::array::from_fn(|t| if t == 0 { (f64::from(w) / mass) as f32 } else { 0.0 });
+        let mean = |w: f32| {
+            std::array::from_fn(|t| {
+                if t == 0 {
+                    (f64::from(w) / mass) as f32
+                } else {
+                    0.0
+                }
+            })
+        };
         weights.extend(kernel.iter().map(|&(_, [w, ..])| mean(w)));
         return;
     };
@@ -263,7 +271,11 @@ fn blend<'g>(
         .sum();
     let d2 = squared / (sw.max(1) as f64 * variance);
     let t = (d2 - LEPSKI_START) / (LEPSKI_FULL - LEPSKI_START);
-    if t.is_finite() { t.clamp(0.0, 1.0) } else { 0.0 }
+    if t.is_finite() {
+        t.clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
 }
 
 /// A⁻¹ from the sums of `moments` ([`MOMENTS`]), the ridge added (A's first row and column
