@@ -12,7 +12,7 @@ const APPLY_BLOCK: usize = 64;
 impl Filter<'_> {
     /// Member m's place about cluster c's centroid, in c's representative's tangent plane, in
     /// its spacings: (1, u, v).
-    fn member_place(&self, c: usize, m: usize) -> [f32; 3] {
+    pub(super) fn member_place(&self, c: usize, m: usize) -> [f32; 3] {
         let g = self.guides;
         let r = self.clusters.reps[c] as usize;
         let (t1, t2) = self.frames[c];
@@ -27,9 +27,13 @@ impl Filter<'_> {
         let mut scratch = vertices::Scratch::default();
         self.cluster_kernel(c, &mut scratch);
         let place = self.member_place(c, i);
+        let terms = vertices::terms(place[1], place[2]);
         out.clear();
-        for &(k, e) in &scratch.kernel {
-            let w = e[0] * place[0] + e[1] * place[1] + e[2] * place[2];
+        for (n, &(k, e)) in scratch.kernel.iter().enumerate() {
+            let w = match self.settings.quadratic {
+                true => vertices::dot(&scratch.weights[n], &terms),
+                false => e[0] * place[0] + e[1] * place[1] + e[2] * place[2],
+            };
             out.extend(
                 self.clusters
                     .row(k as usize)
@@ -52,10 +56,6 @@ impl Filter<'_> {
     /// with the same kernels, in place: each cluster's kernel is formed once, and no
     /// receiver-sized buffer is allocated for the result.
     pub fn apply_in_place(&self, values: &mut [f32], width: usize, scalars: &mut [f32]) {
-        if self.settings.step.is_none() {
-            let kernel = |c: usize, scratch: &mut _| self.cluster_kernel(c, scratch);
-            return vertices::apply(&self.clusters, values, width, scalars, kernel);
-        }
         let means = self.clusters.means(values, width);
         self.apply_with_means(values, &means, width, scalars);
     }
@@ -81,6 +81,9 @@ impl Filter<'_> {
         width: usize,
         scalars: &mut [f32],
     ) {
+        if self.settings.quadratic {
+            return self.apply_quadratic(values, means, width, scalars);
+        }
         let scalar_means = match scalars.is_empty() {
             true => Vec::new(),
             false => self.clusters.means(scalars, 1),

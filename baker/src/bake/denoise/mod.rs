@@ -45,9 +45,9 @@
 //! the level below: they are alike by construction, so their mean is about as steady as the
 //! prefilter over 1.5 spacings, and costs nothing more; only the representatives of smaller clusters
 //! (a shadow's edge, a chart's corner) are prefiltered. Vertices (vertex bakes, transfer
-//! matrices, subsurface vertices) are read one by one, with a second-order fit over 9 spacings
-//! ([`vertices`]): a mesh is too sparse for clusters, and its curves too close for a
-//! first-order fit.
+//! matrices, subsurface vertices) gather into clusters of like neighbours around seeds, each
+//! within its own spacings ([`vertex_clusters`]), with a second-order fit over 9 spacings
+//! ([`vertices`]): a mesh's curves are too close for a first-order fit.
 //!
 //! The kernel weights then become those of a weighted first-order fit over i's tangent plane
 //! (local regression: Moon, Carr & Yoon 2014), evaluated at i ([`Filter::row`]): a constant
@@ -66,6 +66,8 @@ mod grid;
 pub mod guides;
 mod range;
 pub mod stage;
+mod vertex_apply;
+mod vertex_clusters;
 mod vertices;
 
 use rayon::prelude::*;
@@ -88,6 +90,9 @@ pub struct Settings {
     /// The wide pass reads clusters about this many spacings across ([`clusters`]), or
     /// every receiver (`None`).
     pub step: Option<f32>,
+    /// A second-order fit, with vertices' terms ([`vertices`]), in place of the first-order
+    /// one.
+    pub quadratic: bool,
 }
 
 impl Settings {
@@ -102,15 +107,18 @@ impl Settings {
         kappa: 4.0,
         linear: true,
         step: Some(3.0),
+        quadratic: false,
     };
-    /// Vertices, transfer matrices and subsurface vertices: each read on its own, with a
-    /// second-order fit ([`vertices`]; measured on the torus at 64 rays).
+    /// Vertices, transfer matrices and subsurface vertices: in clusters of like vertices
+    /// within 1.25 of a seed's spacings ([`vertex_clusters`]), with a second-order fit
+    /// ([`vertices`]; measured on the torus at 64 rays).
     pub const VERTICES: Settings = Settings {
         radius: 9.0,
         guide_radius: 1.5,
         kappa: 4.0,
         linear: true,
-        step: None,
+        step: Some(vertices::STEP),
+        quadratic: true,
     };
 }
 
@@ -172,12 +180,12 @@ pub struct Filter<'g> {
     clusters: Clusters,
     /// What the wide pass reads of each cluster, in cluster order.
     taps: Vec<Tap>,
-    /// Texels: each cluster's mean of the signal, `signal_width` floats per cluster in
-    /// cluster order, then the prefiltered guides of the clusters too small to be their own
-    /// guide ([`Tap::guide`] is a cluster's row).
+    /// Each cluster's mean of the signal, `signal_width` floats per cluster in cluster
+    /// order, then the prefiltered guides of the clusters too small to be their own guide
+    /// ([`Tap::guide`] is a cluster's row).
     tap_guide: Vec<f32>,
-    /// For vertices, in place of `tap_guide`: each vertex's guide in vector registers'
-    /// lanes, zero-padded to [`vertices::guide_lanes`] of them.
+    /// For vertices, the rows of `tap_guide` in vector registers' lanes, zero-padded to
+    /// [`vertices::guide_lanes`] of them: what their kernels read.
     tap_lanes: Vec<glam::Vec4>,
     /// Each receiver's cluster.
     cluster_of: Vec<u32>,
@@ -244,26 +252,29 @@ impl<'g> Filter<'g> {
             transfer_means: false,
         };
         let from_rays = guides.noise.iter().any(|&v| v > 0.0);
-        let noise: std::borrow::Cow<[f32]> = match (from_rays, settings.step) {
-            (true, None) => {
+        let noise: std::borrow::Cow<[f32]> = match (from_rays, settings.quadratic) {
+            (true, true) => {
                 vertices::fill_noise(&guides.noise, || filter.noise_from_signal(&signal)).into()
             }
-            (true, Some(_)) => std::borrow::Cow::Borrowed(&guides.noise),
+            (true, false) => std::borrow::Cow::Borrowed(&guides.noise),
             (false, _) => filter.noise_from_signal(&signal).into(),
         };
-        if !from_rays && settings.step.is_none() {
+        if !from_rays && settings.quadratic {
             filter.settings.kappa *= vertices::NEIGHBOUR_KAPPA;
         }
         let sw = signal_width;
         let (clusters, mut means) = match settings.step {
-            // Every vertex prefilters its guide and is applied alone
-            // ([`vertices::apply`]): no cluster means are read.
+            // Every receiver its own cluster, its guide prefiltered.
             None => {
                 let clusters = Clusters {
                     points: guides.points.clone(),
                     ..Clusters::singletons(&noise)
                 };
                 (clusters, Vec::new())
+            }
+            // Vertices gather around seeds, each within its own spacings.
+            Some(step) if settings.quadratic => {
+                vertex_clusters::build(guides, &filter.fine, step, &noise, (&signal[..], sw))
             }
             Some(step) => {
                 let within = (&signal[..], sw);
@@ -324,12 +335,12 @@ impl<'g> Filter<'g> {
             });
         }
         // Up to order 3 the signal is the transfer: its clusters' means are the ones
-        // `apply_to_transfer` reads (texels; vertices have none).
+        // `apply_to_transfer` reads.
         filter.transfer_means = used == per_channel && first == clusters.reps.len();
-        match settings.step {
-            None => filter.tap_lanes = vertices::to_lanes(&means, signal_width),
-            Some(_) => filter.tap_guide = means,
+        if settings.quadratic {
+            filter.tap_lanes = vertices::to_lanes(&means, signal_width);
         }
+        filter.tap_guide = means;
         filter.frames = clusters
             .reps
             .iter()
@@ -481,11 +492,11 @@ impl<'g> Filter<'g> {
     /// is kept unbiased. Each member evaluates the fit at its own place, so a cluster's
     /// members differ as their neighbourhoods do, though their kernel is formed once.
     ///
-    /// Vertices (every one its own cluster) read their guides in vector lanes, weigh
-    /// normals more mildly, keep each entry's taper and turn the kernel into a second-order
-    /// fit's weights ([`vertices::fit`]). The kernel is formed in `scratch.kernel`.
+    /// Vertices read their guides in vector lanes, weigh normals more mildly, keep each
+    /// entry's taper and turn the kernel into a second-order fit's weights
+    /// ([`vertices::fit`]). The kernel is formed in `scratch.kernel`.
     fn cluster_kernel(&self, c: usize, scratch: &mut vertices::Scratch) {
-        let vertices = self.settings.step.is_none();
+        let vertices = self.settings.quadratic;
         let (out, tapers) = (&mut scratch.kernel, &mut scratch.taper);
         out.clear();
         tapers.clear();
@@ -494,11 +505,11 @@ impl<'g> Filter<'g> {
         let (radius, kappa) = (self.settings.radius, self.settings.kappa);
         let r = self.clusters.reps[c] as usize;
         let own = self.taps[c].guide as usize;
-        // Tap k's guide's squared difference from c's, its guide in row `row`.
-        let squared = |k: usize, row: usize| match vertices {
+        // The squared difference of the guide in row `row` from c's.
+        let squared = |row: usize| match vertices {
             true => vertices::squared_distance(
-                &self.tap_lanes[c * lanes..][..lanes],
-                &self.tap_lanes[k * lanes..][..lanes],
+                &self.tap_lanes[own * lanes..][..lanes],
+                &self.tap_lanes[row * lanes..][..lanes],
             ),
             false => squared_difference(
                 &self.tap_guide[own * sw..][..sw],
@@ -533,7 +544,7 @@ impl<'g> Filter<'g> {
             let d = tap.at - pi;
             let off_plane = si.dot(d) / spacing;
             let variance = (noise + tap.noise) * sw as f32;
-            let range = range_term(squared(k as usize, tap.guide as usize), variance, kappa);
+            let range = range_term(squared(tap.guide as usize), variance, kappa);
             let w =
                 (-2.0 * r2 - off_plane * off_plane - range).exp() * power_of_two(facing, squarings);
             if w > 0.0 {
@@ -549,8 +560,9 @@ impl<'g> Filter<'g> {
         out.truncate(kept);
         if vertices {
             let guide = |k: u32| {
-                let k = k as usize;
-                (&self.tap_lanes[k * lanes..][..lanes], self.taps[k].noise)
+                let tap = &self.taps[k as usize];
+                let row = tap.guide as usize;
+                (&self.tap_lanes[row * lanes..][..lanes], tap.noise)
             };
             return vertices::fit(scratch, sw, guide);
         }

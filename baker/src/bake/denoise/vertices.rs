@@ -1,6 +1,7 @@
-//! Vertex kernels (`Settings::VERTICES`, every receiver read on its own): a weighted
-//! **second-order** fit over the vertex's tangent plane, in place of the texels' first-order
-//! one.
+//! Vertex kernels (`Settings::VERTICES`): a weighted **second-order** fit over the tangent
+//! plane, in place of the texels' first-order one, formed once per cluster of like vertices
+//! ([`super::vertex_clusters`]) and evaluated by each member at its own place
+//! ([`super::vertex_apply`]).
 //!
 //! A mesh is sparse beside a lightmap: the torus's floor has a vertex every 0.2 units, and
 //! its contact shadow, the room's corners and the torus's own curvature change the transfer
@@ -9,8 +10,8 @@
 //! rays); a quadratic fit, 1, u, v, u², uv, v² (Cleveland & Devlin 1988, *Locally weighted
 //! regression*; Moon, Carr & Yoon 2014 for rendering), is unbiased for a transfer curving
 //! along the surface, so it can read neighbours twice as far away (9 spacings) and average
-//! more noise away at a lower bias. Its weights are still one set per vertex, shared by every
-//! coefficient and channel, and sum to 1.
+//! more noise away at a lower bias. Its weights are one set per vertex, shared by every
+//! coefficient and channel, and sum to 1 at every member's place.
 //!
 //! The shading normals' term is milder than the texels' ((n_i · n_j)^8 against ^32): on a
 //! smoothly curved mesh the fit, not the term, accounts for the normal's turn, and a strong
@@ -23,16 +24,17 @@
 //!
 //! Measured on the torus at 64 rays, sun and sky / low sun / sky, against 16,384 rays:
 //! first-order over 4 spacings 1.65 / 4.26 / 1.06 %, the second-order fit 1.49 / 4.07 / 0.91
-//! %, with the narrower fit blended in 1.47 / 3.98 / 0.88 % (docs/explanation/denoising.md).
+//! %, with the narrower fit blended in 1.47 / 3.98 / 0.88 %; in clusters (1.5 vertices on
+//! average) 1.46 / 3.98 / 0.88 %, transfer matrices 2.25 % against 2.20 %, for 0.74 × the
+//! filter's instructions (docs/explanation/denoising.md). The blend is judged once per
+//! cluster, at its centroid.
 
 use glam::Vec4;
 
-use rayon::prelude::*;
-
-use super::clusters::Clusters;
-
 /// Terms of the fit: 1, u, v, u², uv, v².
-const TERMS: usize = 6;
+pub(super) const TERMS: usize = 6;
+/// The vertices' clusters' reach, in vertex spacings ([`super::clusters`]).
+pub(super) const STEP: f32 = 2.5;
 /// The power of the shading normals' dot product for vertices, 2³ = 8, as squarings.
 pub(super) const NORMAL_SQUARINGS: u32 = 3;
 /// The ridge on the slopes (and 4 × on the curvatures), times the kernel's mass: a
@@ -57,17 +59,21 @@ const NARROW: f32 = 6.0;
 const LEPSKI_START: f64 = 8.0;
 const LEPSKI_FULL: f64 = 32.0;
 
-/// A thread's buffers for the vertices it filters, reused from one vertex to the next (no
-/// vertex allocates): the kernel's entries, and what the fit keeps per neighbour.
+/// A thread's buffers for the clusters it filters, reused from one cluster to the next (no
+/// cluster allocates): the kernel's entries, and what the fit keeps per neighbour.
 #[derive(Default)]
 pub(super) struct Scratch {
-    /// Entries (k, [w_k, u_k, v_k]): neighbour k's kernel weight and place in the vertex's
-    /// tangent plane, in spacings; after [`fit`], (k, [weight, 0, 0]).
+    /// Entries (k, [w_k, u_k, v_k]): neighbour cluster k's kernel weight and place in the
+    /// cluster's tangent plane about its centroid, in spacings.
     pub kernel: Vec<(u32, [f32; 3])>,
     /// Each entry's taper for the narrower fit, exp(−NARROW · r²), r in kernel radii.
     pub taper: Vec<f32>,
-    /// Each entry's weight in the wide fit and in the narrower one.
-    fits: Vec<(f64, f64)>,
+    /// After [`fit`], each entry's weight as a function of the member's place: a member at
+    /// (u, v) weighs entry k by `weights[k]` · [`terms`](u, v).
+    pub weights: Vec<[f32; TERMS]>,
+    /// Whether the fit is read at the centroid alone (a cluster of one vertex): each entry's
+    /// weight at (0, 0) alone, in `weights[k][0]`, the rest 0.
+    pub centre_only: bool,
     /// The two fits' difference of the guide, per signal coefficient.
     delta: Vec<Vec4>,
 }
@@ -77,55 +83,14 @@ pub(super) fn taper(r2: f32) -> f32 {
     (-NARROW * r2).exp()
 }
 
-/// The filter's `apply_in_place` for vertices, each its own cluster of `clusters` at its
-/// own place, with `kernel(c, scratch)` forming vertex c's kernel in `scratch.kernel`: a
-/// vertex's value is Σ_k w_k v_k over its kernel's entries (k, [w_k, 0, 0]) alone. The
-/// values (and the scalar after them) are read in vector registers' lanes, zero-padded,
-/// in the kernels' order.
-pub(super) fn apply(
-    clusters: &Clusters,
-    values: &mut [f32],
-    width: usize,
-    scalars: &mut [f32],
-    kernel: impl Fn(usize, &mut Scratch) + Sync,
-) {
-    let lanes = (width + 1).div_ceil(4);
-    // Every vertex is its own cluster, its one member.
-    let member = |c: usize| clusters.row(c)[0].0 as usize;
-    let mut padded = vec![Vec4::ZERO; clusters.reps.len() * lanes];
-    for (c, at) in padded.chunks_exact_mut(lanes).enumerate() {
-        let m = member(c);
-        let value = &values[m * width..][..width];
-        let float = |j: usize| match j.cmp(&width) {
-            std::cmp::Ordering::Less => value[j],
-            std::cmp::Ordering::Equal => scalars.get(m).copied().unwrap_or(0.0),
-            std::cmp::Ordering::Greater => 0.0,
-        };
-        for (l, lane) in at.iter_mut().enumerate() {
-            *lane = Vec4::from_array(std::array::from_fn(|i| float(4 * l + i)));
-        }
-    }
-    let mut sums = vec![Vec4::ZERO; padded.len()];
-    sums.par_chunks_mut(lanes)
-        .enumerate()
-        .for_each_init(Scratch::default, |scratch, (c, sums)| {
-            kernel(c, scratch);
-            for &(k, [w, ..]) in &scratch.kernel {
-                for (o, v) in sums.iter_mut().zip(&padded[k as usize * lanes..][..lanes]) {
-                    *o += w * *v;
-                }
-            }
-        });
-    for (c, sum) in sums.chunks_exact(lanes).enumerate() {
-        let m = member(c);
-        let floats = sum.iter().flat_map(|v| v.to_array());
-        for (o, f) in values[m * width..][..width].iter_mut().zip(floats) {
-            *o = f;
-        }
-        if let Some(s) = scalars.get_mut(m) {
-            *s = sum[width / 4].to_array()[width % 4];
-        }
-    }
+/// The fit's terms at (u, v): 1, u, v, u², uv, v².
+pub(super) fn terms(u: f32, v: f32) -> [f32; TERMS] {
+    [1.0, u, v, u * u, u * v, v * v]
+}
+
+/// a · b over the fit's terms.
+pub(super) fn dot(a: &[f32; TERMS], b: &[f32; TERMS]) -> f32 {
+    a.iter().zip(b).map(|(a, b)| a * b).sum()
 }
 
 /// Vector registers' lanes (four floats) that hold a guide of `sw` floats.
@@ -196,30 +161,36 @@ fn monomials(u: f32, v: f32) -> ([f64; TERMS], [f64; MOMENTS]) {
     (x, m)
 }
 
-/// Turns a vertex's kernel, `scratch.kernel`'s entries (k, [w_k, u_k, v_k]) with their
-/// tapers, into the weights of a weighted quadratic fit over its tangent plane evaluated at
-/// the vertex: entries (k, [w, 0, 0]), so the vertex's place (1, 0, 0) in its one-receiver
-/// cluster reads w alone. `guide(k)` is neighbour k's guide (`sw` floats, in
-/// [`guide_lanes`]) and the guide's variance.
+/// Turns a cluster's kernel, `scratch.kernel`'s entries (k, [w_k, u_k, v_k]) with their
+/// tapers, into the weights of a weighted quadratic fit over its tangent plane, as functions
+/// of the place it is evaluated at: `scratch.weights`, e_k = w_k A⁻¹ x_k with
+/// x = (1, u, v, u², uv, v²) and A = Σ w_k x_k x_kᵀ, so that a member at x_m weighs entry k
+/// by e_k · x_m. These sum to 1 at every place. `guide(k)` is neighbour k's guide (`sw`
+/// floats, in [`guide_lanes`]) and the guide's variance.
 ///
 /// Where the transfer bends faster than a quadratic over the kernel (a contact shadow, a
 /// room's corner), the fit is biased. The fit over a kernel half as wide is then blended in
 /// (Lepski's rule, as in Katkovnik's intersection of confidence intervals): where the two
-/// fits of the guide differ by more than their difference's noise, Σ (a_k − b_k)² σ²_k, allows.
+/// fits of the guide at the cluster's centroid differ by more than their difference's noise,
+/// Σ (a_k − b_k)² σ²_k, allows. One blend per cluster, which all its members share.
 ///
 /// A = Σ w x xᵀ holds 15 distinct sums of monomials, formed once per neighbour for both
-/// fits; one solve per fit gives its weights.
+/// fits; one inverse per fit gives its weights.
 pub(super) fn fit<'g>(scratch: &mut Scratch, sw: usize, guide: impl Fn(u32) -> (&'g [Vec4], f32)) {
     let Scratch {
-        kernel: out,
+        kernel,
         taper,
-        fits,
+        weights,
+        centre_only,
         delta,
     } = scratch;
+    // The terms the weights are formed for: the first alone at the centroid.
+    let used = if *centre_only { 1 } else { TERMS };
+    weights.clear();
     // Each moment's sums for the wide fit and the narrower one, side by side: one vector
     // register's two lanes.
     let mut sums = [[0.0f64; 2]; MOMENTS];
-    for (&(_, [w, u, v]), &taper) in out.iter().zip(taper.iter()) {
+    for (&(_, [w, u, v]), &taper) in kernel.iter().zip(taper.iter()) {
         let (_, m) = monomials(u, v);
         let w = f64::from(w);
         let w = [w, w * f64::from(taper)];
@@ -229,32 +200,65 @@ pub(super) fn fit<'g>(scratch: &mut Scratch, sw: usize, guide: impl Fn(u32) -> (
         }
     }
     let (wide, narrow) = (sums.map(|s| s[0]), sums.map(|s| s[1]));
-    let Some(y) = solve_moments(&wide) else {
+    let Some(b) = invert_moments(&wide) else {
         let mass = wide[0];
-        for (_, e) in out.iter_mut() {
-            *e = [(f64::from(e[0]) / mass) as f32, 0.0, 0.0];
-        }
+        let mean = |w: f32| {
+            std::array::from_fn(|t| {
+                if t == 0 {
+                    (f64::from(w) / mass) as f32
+                } else {
+                    0.0
+                }
+            })
+        };
+        weights.extend(kernel.iter().map(|&(_, [w, ..])| mean(w)));
         return;
     };
-    let yn = solve_moments(&narrow);
+    let bn = invert_moments(&narrow);
+    let t = match &bn {
+        Some(bn) => blend(kernel, taper, delta, (&b[0], &bn[0]), sw, guide),
+        None => 0.0,
+    };
+    for (&(_, [w, u, v]), &taper) in kernel.iter().zip(taper.iter()) {
+        let (x, _) = monomials(u, v);
+        let w = f64::from(w);
+        let mut e = times(&b, &x, w * (1.0 - t), used);
+        if let (Some(bn), true) = (&bn, t > 0.0) {
+            let en = times(bn, &x, w * f64::from(taper) * t, used);
+            e.iter_mut().zip(en).for_each(|(e, n)| *e += n);
+        }
+        weights.push(e.map(|e| e as f32));
+    }
+}
+
+/// s · B x for the symmetric B, its first `used` entries (the rest 0).
+fn times(b: &[[f64; TERMS]; TERMS], x: &[f64; TERMS], s: f64, used: usize) -> [f64; TERMS] {
+    let mut out = [0.0; TERMS];
+    for (o, row) in out.iter_mut().zip(b).take(used) {
+        *o = s * row.iter().zip(x).map(|(b, x)| b * x).sum::<f64>();
+    }
+    out
+}
+
+/// The narrower fit's share of the blend (Lepski's rule), from both fits' weights at the
+/// centroid, w_k y · x_k and w_k τ_k yₙ · x_k.
+fn blend<'g>(
+    kernel: &[(u32, [f32; 3])],
+    taper: &[f32],
+    delta: &mut Vec<Vec4>,
+    (y, yn): (&[f64; TERMS], &[f64; TERMS]),
+    sw: usize,
+    guide: impl Fn(u32) -> (&'g [Vec4], f32),
+) -> f64 {
     let dot =
         |y: &[f64; TERMS], x: &[f64; TERMS]| -> f64 { y.iter().zip(x).map(|(y, x)| y * x).sum() };
-    fits.clear();
-    let Some(yn) = yn else {
-        for (_, e) in out.iter_mut() {
-            let (x, _) = monomials(e[1], e[2]);
-            *e = [(dot(&y, &x) * f64::from(e[0])) as f32, 0.0, 0.0];
-        }
-        return;
-    };
     delta.clear();
     delta.resize(guide_lanes(sw), Vec4::ZERO);
     let mut variance = 0.0f64;
-    for (&(k, [w, u, v]), &taper) in out.iter().zip(taper.iter()) {
+    for (&(k, [w, u, v]), &taper) in kernel.iter().zip(taper.iter()) {
         let (x, _) = monomials(u, v);
         let w = f64::from(w);
-        let (a, b) = (dot(&y, &x) * w, dot(&yn, &x) * (w * f64::from(taper)));
-        fits.push((a, b));
+        let (a, b) = (dot(y, &x) * w, dot(yn, &x) * (w * f64::from(taper)));
         let (g, noise) = guide(k);
         variance += (a - b) * (a - b) * f64::from(noise);
         let difference = (a - b) as f32;
@@ -267,20 +271,17 @@ pub(super) fn fit<'g>(scratch: &mut Scratch, sw: usize, guide: impl Fn(u32) -> (
         .sum();
     let d2 = squared / (sw.max(1) as f64 * variance);
     let t = (d2 - LEPSKI_START) / (LEPSKI_FULL - LEPSKI_START);
-    let t = if t.is_finite() {
+    if t.is_finite() {
         t.clamp(0.0, 1.0)
     } else {
         0.0
-    };
-    for ((_, e), &(a, b)) in out.iter_mut().zip(fits.iter()) {
-        let w = if t > 0.0 { (1.0 - t) * a + t * b } else { a };
-        *e = [w as f32, 0.0, 0.0];
     }
 }
 
-/// The fit at the vertex from the sums of `moments` ([`MOMENTS`]): y with A y = e₀, the
-/// ridge added, so that a neighbour's weight is w_k y · x_k; `None` where A is singular.
-fn solve_moments(moments: &[f64; MOMENTS]) -> Option<[f64; TERMS]> {
+/// A⁻¹ from the sums of `moments` ([`MOMENTS`]), the ridge added (A's first row and column
+/// untouched, so Σ_k w_k A⁻¹ x_k = e₀ still: the weights sum to 1 at every place); `None`
+/// where A is singular.
+fn invert_moments(moments: &[f64; MOMENTS]) -> Option<[[f64; TERMS]; TERMS]> {
     let mut a = [[0.0f64; TERMS]; TERMS];
     for (p, row) in a.iter_mut().enumerate() {
         for (q, entry) in row.iter_mut().enumerate() {
@@ -291,12 +292,17 @@ fn solve_moments(moments: &[f64; MOMENTS]) -> Option<[f64; TERMS]> {
     for (p, row) in a.iter_mut().enumerate().skip(1) {
         row[p] += RIDGE * mass * if p >= 3 { 4.0 } else { 1.0 };
     }
-    solve_first(&a)
+    let l = cholesky(&a)?;
+    let mut inverse = [[0.0f64; TERMS]; TERMS];
+    for (column, out) in inverse.iter_mut().enumerate() {
+        *out = solve(&l, column);
+    }
+    Some(inverse).filter(|b| b.iter().flatten().all(|v| v.is_finite()))
 }
 
-/// y with A y = e₀ for the symmetric `a` (Cholesky), or `None` where it is not positive
-/// definite.
-fn solve_first(a: &[[f64; TERMS]; TERMS]) -> Option<[f64; TERMS]> {
+/// The Cholesky factor L (A = L Lᵀ) of the symmetric `a`, or `None` where it is not
+/// positive definite.
+fn cholesky(a: &[[f64; TERMS]; TERMS]) -> Option<[[f64; TERMS]; TERMS]> {
     let mut l = [[0.0f64; TERMS]; TERMS];
     for i in 0..TERMS {
         for j in 0..=i {
@@ -310,16 +316,21 @@ fn solve_first(a: &[[f64; TERMS]; TERMS]) -> Option<[f64; TERMS]> {
             }
         }
     }
+    Some(l)
+}
+
+/// y with L Lᵀ y = e_`column`.
+fn solve(l: &[[f64; TERMS]; TERMS], column: usize) -> [f64; TERMS] {
     let mut z = [0.0f64; TERMS];
     for i in 0..TERMS {
-        let b = f64::from(u8::from(i == 0));
+        let b = f64::from(u8::from(i == column));
         z[i] = (b - (0..i).map(|k| l[i][k] * z[k]).sum::<f64>()) / l[i][i];
     }
     let mut y = [0.0f64; TERMS];
     for i in (0..TERMS).rev() {
         y[i] = (z[i] - (i + 1..TERMS).map(|k| l[k][i] * y[k]).sum::<f64>()) / l[i][i];
     }
-    Some(y).filter(|y| y.iter().all(|v| v.is_finite()))
+    y
 }
 
 /// Each vertex's noise: its rays' estimate where it has one, else (0: a subsurface vertex,
@@ -363,10 +374,9 @@ mod tests {
                 scratch.taper.push((-NARROW * r2).exp());
             }
             fit(&mut scratch, 1, |k| (&guides[k as usize][..], noise));
-            scratch
-                .kernel
-                .iter()
-                .map(|&(k, [w, ..])| w * guides[k as usize][0].x)
+            let at = terms(0.0, 0.0);
+            (scratch.kernel.iter().zip(&scratch.weights))
+                .map(|(&(k, _), e)| dot(e, &at) * guides[k as usize][0].x)
                 .sum::<f32>()
         };
         let (quiet, noisy) = ((read(1e-6) - 1.0).abs(), (read(1e9) - 1.0).abs());
