@@ -29,7 +29,7 @@
 
 use glam::Vec3;
 
-use crate::bake::options::BakeOptions;
+use crate::bake::options::{BakeOptions, TransferKind};
 use crate::math::sampling::vertex_seed;
 
 /// Texels a tile spans each way.
@@ -43,9 +43,10 @@ const MAX_GROUPS: u32 = 16;
 const BUDGET: u64 = 64 << 20;
 
 /// The groups of sets a bake with `options` and tables of `set_bytes` per set samples from:
-/// 0 where its receivers sample independently (no denoising, or not even one group fits).
+/// 0 where its receivers sample independently (no denoising, transfer matrices, whose
+/// tables are their own, or not even one group fits).
 pub fn groups(options: &BakeOptions, set_bytes: u64) -> u32 {
-    if !options.denoise {
+    if !options.denoise || options.transfer != TransferKind::Vector {
         return 0;
     }
     let group = set_bytes.saturating_mul(u64::from(SETS_PER_GROUP)).max(1);
@@ -161,6 +162,11 @@ mod tests {
         assert_eq!(groups(&options, 1000), 0);
         options.denoise = true;
         assert_eq!(groups(&options, 1000), MAX_GROUPS);
+        let matrices = BakeOptions {
+            transfer: TransferKind::Matrix,
+            ..options.clone()
+        };
+        assert_eq!(groups(&matrices, 1000), 0);
         assert_eq!(groups(&options, BUDGET / 32), 2);
         assert_eq!(groups(&options, BUDGET), 0);
     }
