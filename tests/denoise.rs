@@ -5,7 +5,10 @@
 
 use glam::Vec3;
 use prt_baker::bake::denoise::{self, Filter, Settings};
+use prt_baker::bake::estimator::Estimator;
 use prt_baker::bake::lightmap::{self, Atlas, LightmapBake};
+use prt_baker::bake::receivers::BounceTargets;
+use prt_baker::bake::transfer::bake_receivers;
 use prt_baker::math::sh::Basis;
 use prt_baker::support::progress::Silent;
 use prt_baker::trace::{EmbreeOptions, EmbreeTracer};
@@ -49,7 +52,16 @@ fn relit(bake: &LightmapBake, dir: Vec3) -> Vec<f32> {
 fn denoising_commutes_with_relighting_and_is_the_bake_s_own() {
     let scene = Scene::load(&scenes_dir().join("torus/torus.scene")).expect("torus");
     let tracer = EmbreeTracer::new(&scene, EmbreeOptions::default()).expect("embree scene");
-    let raw = prt_baker::bake(&scene, Some(&tracer), &options(64, false), &Silent).unwrap();
+    // The raw estimate a denoised bake filters: its receivers sample complementary point
+    // sets (bake/strata.rs), not those of a bake that is not denoised.
+    let estimator = Estimator::new(&scene, &options(64, true)).unwrap();
+    let raw = bake_receivers(
+        &scene,
+        Some(&tracer),
+        &estimator,
+        &BounceTargets::Vertices,
+        &Silent,
+    );
     let n = 9;
     let guides = denoise::Guides {
         noise: raw.visibility.iter().map(|v| v.noise).collect(),

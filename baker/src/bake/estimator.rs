@@ -9,14 +9,19 @@
 //! all vertices. The default estimator does the same in each vertex's *local* frame (z along
 //! the normal): one Owen-scrambled, cosine-weighted point set per bake (from the seed), with
 //! y_j precomputed at every point. A vertex turns the set by its own random angle about its
-//! normal (so neighbouring vertices do not share sample directions), casts the rays, adds the
+//! normal (so neighbouring vertices do not share sample directions); the receivers of a
+//! denoised bake instead take, unturned, one of several complementary sets by their place
+//! (a texel's in the lightmap, a vertex's in space), so that the denoiser's average over
+//! neighbours integrates like a larger set ([`crate::bake::strata`]). A receiver casts the
+//! rays, adds the
 //! table rows of the unblocked ones, and rotates the local coefficients into world space once
 //! ([`crate::math::sh::RecurrenceRotator`], exact). Per ray that is a 3×3 transform and a row sum:
 //! the cost of a bake is the cost of its rays. Each row also holds the local direction, so the
 //! same sums give the bent normal; and a batch of rays most of which are unblocked is summed
 //! as the batch's precomputed total minus its blocked rows (on an open surface, most rays are
 //! unblocked). The table takes N·(24 + 4n²) bytes: 0.9 MB for the demo's 10,000 rays at
-//! order 4, 280 MB for a million rays at order 8.
+//! order 4, 280 MB for a million rays at order 8 (a denoised bake's joint sets, up to 256
+//! tables, at most 64 MB more).
 //!
 //! Every quantity is a pure function of (seed, vertex, sample index) and sums are formed in a
 //! fixed order, so a bake is bit-identical whatever the number of threads.
@@ -28,6 +33,7 @@ use crate::bake::bounce_rows::{CornerProbe, HitRecorder, JobRows, RowBuilder};
 use crate::bake::noise::{NOISE_BLOCKS, NoiseBlocks};
 use crate::bake::options::BakeOptions;
 use crate::bake::receivers::{RECEIVERS_PER_JOB, Receivers};
+use crate::bake::strata;
 use crate::math::sampling::{
     Frame, OwenSobol, Pcg32, Sampling, cosine_hemisphere, hilbert_index, to_unit_float,
     uniform_sphere, vertex_seed,
@@ -171,7 +177,8 @@ pub struct Estimator {
     horizons: Option<Vec<Vec3>>,
     /// [`Receivers::streams`].
     streams: Option<Vec<u64>>,
-    /// The bake's cosine-weighted directions in the local frame (Owen–Sobol only).
+    /// The bake's cosine-weighted directions in the local frame (Owen–Sobol only): `samples`
+    /// per set, the sets one after another (one set, or a denoised bake's joint sets).
     local_dirs: Vec<Vec3>,
     /// Row i (width n² + 3): y_j(local_dirs[i]) for j < n², then local_dirs[i] itself, whose
     /// sum over the unblocked rays gives the bent normal with the same additions. With bounce
@@ -188,6 +195,11 @@ pub struct Estimator {
     row_blocks: Vec<u8>,
     /// Adaptive bakes (`--target-error`): the pilot and its extensions, instead of the table above.
     adaptive: Option<crate::bake::adaptive::Tables>,
+    /// The groups of joint sets the tables hold ([`strata::groups`]); 0: one set, turned by
+    /// each receiver.
+    groups: u32,
+    /// With `groups`, each receiver's stratum ([`crate::bake::receivers::Receivers::strata`]).
+    strata: Vec<u32>,
 }
 
 impl Estimator {
@@ -214,11 +226,25 @@ impl Estimator {
                     .into(),
             ));
         }
-        if options.sampling == Sampling::OwenSobol && adaptive.is_none() {
-            let points = OwenSobol::new(vertex_seed(options.seed, u64::MAX));
+        let width = n + DIR_COLUMNS;
+        let set_bytes = crate::bake::memory::table_bytes(options).unwrap_or(u64::MAX);
+        let groups = match (&receivers.strata, options.sampling, &adaptive) {
+            (Some(_), Sampling::OwenSobol, None) => strata::groups(options, set_bytes),
+            _ => 0,
+        };
+        let sets = (groups * strata::SETS_PER_GROUP).max(1);
+        for set in 0..sets {
+            if options.sampling != Sampling::OwenSobol || adaptive.is_some() {
+                break;
+            }
+            // Joint sets: a group's sets are consecutive blocks of one sequence; one set is
+            // the sequence's first block.
+            let (sequence, block) = (set / strata::SETS_PER_GROUP, set % strata::SETS_PER_GROUP);
+            let points = OwenSobol::new(vertex_seed(options.seed, u64::MAX - u64::from(sequence)));
+            let first = block * options.samples;
             let mut uv: Vec<(u32, f32, f32)> = (0..options.samples)
                 .map(|i| {
-                    let (u1, u2) = points.point(i);
+                    let (u1, u2) = points.point(first + i);
                     (i, u1, u2)
                 })
                 .collect();
@@ -228,30 +254,29 @@ impl Estimator {
             // set, and so the estimate, does not depend on the order.
             let bounce_samples = options.effective_bounce_samples();
             uv.sort_by_key(|&(i, u1, u2)| (i >= bounce_samples, hilbert_index(u1, u2)));
-            local_dirs = uv
-                .iter()
-                .map(|&(_, u1, u2)| cosine_hemisphere(u1, u2))
-                .collect();
-            row_blocks = uv
-                .iter()
-                .map(|&(i, _, _)| {
-                    (u64::from(i) * NOISE_BLOCKS as u64 / u64::from(options.samples)) as u8
-                })
-                .collect();
-            let width = n + DIR_COLUMNS;
-            local_rows = vec![0.0; local_dirs.len() * width];
-            for (row, d) in local_rows.chunks_mut(width).zip(&local_dirs) {
+            let start = local_dirs.len();
+            local_dirs.extend(uv.iter().map(|&(_, u1, u2)| cosine_hemisphere(u1, u2)));
+            row_blocks.extend(uv.iter().map(|&(i, _, _)| {
+                (u64::from(i) * NOISE_BLOCKS as u64 / u64::from(options.samples)) as u8
+            }));
+            local_rows.resize(local_dirs.len() * width, 0.0);
+            let rows = &mut local_rows[start * width..];
+            for (row, d) in rows.chunks_mut(width).zip(&local_dirs[start..]) {
                 basis.eval(*d, &mut row[..n]);
                 row[n..].copy_from_slice(&d.to_array());
             }
             for batch in batch_ranges(options) {
                 let mut total = vec![0.0f32; width];
-                for row in local_rows[batch.start * width..batch.end * width].chunks_exact(width) {
+                for row in rows[batch.start * width..batch.end * width].chunks_exact(width) {
                     add_row(&mut total, row);
                 }
                 batch_totals.extend(total);
             }
         }
+        let strata = match groups {
+            0 => Vec::new(),
+            _ => receivers.strata.unwrap_or_default(),
+        };
         Ok(Estimator {
             options: options.clone(),
             rotator: RecurrenceRotator::new(options.order),
@@ -265,6 +290,8 @@ impl Estimator {
             batch_totals,
             row_blocks,
             adaptive,
+            groups,
+            strata,
         })
     }
 
@@ -288,10 +315,26 @@ impl Estimator {
         self.streams.as_ref().map_or(v as u64, |s| s[v])
     }
 
+    /// The first of receiver `v`'s `samples` rows in the tables: its joint set's
+    /// ([`strata`]), or the one set's.
+    fn first_row(&self, v: usize) -> usize {
+        match self.groups {
+            0 => 0,
+            groups => {
+                let set = strata::set_of(self.options.seed, self.strata[v], groups);
+                set * self.options.samples as usize
+            }
+        }
+    }
+
     /// Vertex `v`'s local frame (columns: tangent, bitangent, normal), turned about the normal
-    /// by an angle drawn from (seed, v).
+    /// by an angle drawn from (seed, v); unturned where the receivers sample joint sets, which
+    /// complement one another in one frame ([`strata`]).
     pub fn vertex_frame(&self, v: usize) -> Mat3 {
         let frame = Frame::from_normal(self.normals[v]);
+        if self.groups > 0 {
+            return Mat3::from_cols(frame.tangent, frame.bitangent, frame.normal);
+        }
         let angle = std::f32::consts::TAU
             * to_unit_float(vertex_seed(self.options.seed, self.stream(v)) as u32);
         let (sin, cos) = angle.sin_cos();
@@ -319,7 +362,9 @@ impl Estimator {
         weights.clear();
         match self.options.sampling {
             Sampling::OwenSobol => {
-                dirs.extend(self.local_dirs[range].iter().map(|d| *frame * *d));
+                let first = self.first_row(v);
+                let rows = first + range.start..first + range.end;
+                dirs.extend(self.local_dirs[rows].iter().map(|d| *frame * *d));
                 weights.resize(dirs.len(), 1.0);
             }
             Sampling::ThesisRandom => {
@@ -488,7 +533,9 @@ impl Estimator {
                 self.block_below_horizon(v, &s.dirs, &mut s.occluded[..len]);
             }
             match self.options.sampling {
-                Sampling::OwenSobol => self.sum_owen_sobol_batch(b, start..end, s, &mut unblocked),
+                Sampling::OwenSobol => {
+                    self.sum_owen_sobol_batch(v, b, start..end, s, &mut unblocked)
+                }
                 Sampling::ThesisRandom => self.sum_thesis_batch(len, s, &mut unblocked, &mut bent),
             }
             for (total, b) in s.total.iter_mut().zip(&s.batch_sum) {
@@ -533,18 +580,21 @@ impl Estimator {
         }
     }
 
-    /// Owen–Sobol batch `b` (rays `rays`): every weight is 1, so the sum of the unblocked
-    /// rows, formed as the batch's precomputed total minus its blocked rows when fewer are
-    /// blocked; the rows' last columns carry the local direction, so the same sum gives the
-    /// bent normal. Adds the unblocked count to `unblocked`.
+    /// Receiver `v`'s Owen–Sobol batch `b` (rays `rays`): every weight is 1, so the sum of
+    /// the unblocked rows, formed as the batch's precomputed total minus its blocked rows
+    /// when fewer are blocked; the rows' last columns carry the local direction, so the same
+    /// sum gives the bent normal. Adds the unblocked count to `unblocked`.
     fn sum_owen_sobol_batch(
         &self,
+        v: usize,
         b: usize,
         rays: std::ops::Range<usize>,
         s: &mut Scratch,
         unblocked: &mut f64,
     ) {
-        let (start, end) = (rays.start, rays.end);
+        let first = self.first_row(v);
+        let b = b + first / self.options.samples as usize * self.batches().count();
+        let (start, end) = (first + rays.start, first + rays.end);
         let len = end - start;
         let occluded = &s.occluded[..len];
         let blocked = occluded.iter().filter(|&&b| b).count();

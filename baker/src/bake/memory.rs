@@ -15,7 +15,10 @@ use crate::support::limits::check;
 /// scene's vertices. None if it overflows.
 pub fn bake_bytes(options: &BakeOptions, vertices: u64, triangles: u64) -> Option<u64> {
     let n = sh::coeff_count(options.order) as u64;
-    let tables = table_bytes(options)?;
+    // A denoised bake's joint sets: up to 256 tables ([`crate::bake::strata`]), or one.
+    let one = table_bytes(options)?;
+    let sets = crate::bake::strata::groups(options, one) * crate::bake::strata::SETS_PER_GROUP;
+    let tables = one.checked_mul(u64::from(sets.max(1)))?;
     // Positions, normals, uvs, material, ray origins; triangles and a BVH of ~3 nodes each.
     let scene = vertices
         .checked_mul(64)?
@@ -60,7 +63,7 @@ pub fn bake_bytes(options: &BakeOptions, vertices: u64, triangles: u64) -> Optio
 /// The estimator's sample tables: per sample its local direction (12 bytes), its row of n² SH
 /// values and the direction again (4 n² + 12 bytes), and the sort key while they are built
 /// (12 bytes). None if it overflows.
-fn table_bytes(options: &BakeOptions) -> Option<u64> {
+pub(crate) fn table_bytes(options: &BakeOptions) -> Option<u64> {
     let n = sh::coeff_count(options.order) as u64;
     u64::from(options.samples).checked_mul(36 + 4 * n)
 }

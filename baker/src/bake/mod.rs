@@ -1,7 +1,8 @@
 //! The bake: what is asked ([`options`]), where transfer is baked ([`receivers`]: vertices or
 //! lightmap texels), the per-receiver [`estimator`], its [`adaptive`] variant (with [`inference`]) and the [`matrix`] one (with bounces: [`matrix_bounce`]), the bounces
 //! ([`bounce_rows`], [`interreflection`]), the entry points ([`transfer`], [`lightmap`]),
-//! the memory a bake needs ([`memory`]), the denoiser of its transfer ([`denoise`], guided
+//! the memory a bake needs ([`memory`]), the point sets a denoised bake's neighbours share
+//! ([`strata`]), the denoiser of its transfer ([`denoise`], guided
 //! by each receiver's [`noise`]) and the coefficient file it fills ([`file`]).
 //!
 //! May import: [`crate::support`], [`crate::math`], [`crate::scene`], [`crate::trace`],
@@ -31,5 +32,6 @@ pub mod probes;
 pub mod receiver_names;
 pub mod receiver_subset;
 pub mod receivers;
+pub mod strata;
 pub mod subsurface;
 pub mod transfer;

@@ -167,6 +167,7 @@ fn probe_receivers(positions: &[Vec3]) -> Receivers {
             .collect(),
         horizons: None,
         streams: Some((0..2 * positions.len() as u64).collect()),
+        strata: None,
     }
 }
 

@@ -68,6 +68,10 @@ pub fn bake_objects_translucent(
         normals: pick(&all.normals),
         horizons: None,
         streams: Some(rows.iter().map(|&v| u64::from(v)).collect()),
+        strata: all
+            .strata
+            .as_ref()
+            .map(|s| rows.iter().map(|&v| s[v as usize]).collect()),
     };
     let estimator = Estimator::for_receivers(receivers, options)?;
     let baked = bake_receivers(

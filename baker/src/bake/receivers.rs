@@ -47,6 +47,10 @@ pub struct Receivers {
     /// texel still sample every other texel alike). `None`: the receiver's position in the
     /// list, as for vertices.
     pub streams: Option<Vec<u64>>,
+    /// Each receiver's stratum ([`crate::bake::strata`]: a texel's 4 × 4 tile and its place
+    /// there, a vertex's rank in a spatial order), from which a denoised bake gives
+    /// neighbours complementary point sets. `None`: every receiver samples on its own.
+    pub strata: Option<Vec<u32>>,
 }
 
 impl Receivers {
@@ -57,6 +61,7 @@ impl Receivers {
             normals: scene.normals.clone(),
             horizons: None,
             streams: None,
+            strata: Some(crate::bake::strata::vertex_strata(&scene.positions)),
         }
     }
 
@@ -74,6 +79,7 @@ impl Receivers {
             normals: pick(&texels.mapped),
             horizons: turned.then(|| pick(&texels.normals)),
             streams: Some(streams),
+            strata: Some(crate::bake::strata::texel_strata(&valid, texels.width)),
         }
     }
 
@@ -95,6 +101,7 @@ impl Receivers {
         };
         let turned = valid.iter().any(|&i| texels.mapped[i] != texels.normals[i]);
         let streams = valid.iter().map(|&i| i as u64).collect();
+        let strata = crate::bake::strata::texel_strata(&valid, texels.width);
         let origins = compact(&mut texels.origins);
         let normals = compact(&mut texels.mapped);
         let horizons = turned.then(|| compact(&mut texels.normals));
@@ -106,6 +113,7 @@ impl Receivers {
             normals,
             horizons,
             streams: Some(streams),
+            strata: Some(strata),
         }
     }
 
