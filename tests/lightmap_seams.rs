@@ -182,6 +182,7 @@ fn point_transfer(tracer: &dyn Tracer, options: &BakeOptions, at: Vec3) -> Vec<f
         normals: vec![Vec3::Z],
         horizons: None,
         streams: None,
+        strata: None,
     };
     let estimator = Estimator::for_receivers(receivers, options).expect("valid options");
     let n = sh::coeff_count(options.order);

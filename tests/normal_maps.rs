@@ -407,6 +407,7 @@ fn directions_below_the_surface_count_as_blocked_where_nothing_is_hit() {
             normals: vec![n.as_vec3()],
             horizons: Some(vec![Vec3::Z]),
             streams: None,
+            strata: None,
         };
         let estimator = Estimator::for_receivers(receivers, &options(Mode::Shadowed, samples))
             .expect("estimator");

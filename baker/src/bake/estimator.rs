@@ -30,14 +30,12 @@ use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 
 use crate::bake::bounce_rows::{CornerProbe, HitRecorder, JobRows, RowBuilder};
-use crate::bake::noise::{NOISE_BLOCKS, NoiseBlocks};
+use crate::bake::noise::NoiseBlocks;
 use crate::bake::options::BakeOptions;
 use crate::bake::receivers::{RECEIVERS_PER_JOB, Receivers};
+use crate::bake::sample_sets::{BATCH, DIR_COLUMNS, SampleSets, batch_ranges};
 use crate::bake::strata;
-use crate::math::sampling::{
-    Frame, OwenSobol, Pcg32, Sampling, cosine_hemisphere, hilbert_index, to_unit_float,
-    uniform_sphere, vertex_seed,
-};
+use crate::math::sampling::{Frame, Pcg32, Sampling, to_unit_float, uniform_sphere, vertex_seed};
 use crate::math::sh::{Basis, RecurrenceRotator, RotationScratch};
 use crate::scene::Scene;
 use crate::support::error::Result;
@@ -63,17 +61,12 @@ pub struct Visibility {
     /// ([`crate::bake::adaptive`]); 0 otherwise.
     pub error_estimate: f32,
     /// Fixed Owen–Sobol bakes: the estimated variance of one of the receiver's band-0 and
-    /// band-1 coefficients (their mean), from the spread of its rays' [`NOISE_BLOCKS`]
+    /// band-1 coefficients (their mean), from the spread of its rays' [`crate::bake::noise::NOISE_BLOCKS`]
     /// blocks ([`crate::bake::noise`]); for transfer matrices, of one entry of their first
     /// row's bands 0 to 2. What the denoiser weighs differences against; 0 where not
     /// estimated.
     pub noise: f32,
 }
-
-/// Rays per tracer call: the batch over which the SH sums are first formed in f32.
-const BATCH: usize = 256;
-/// The columns after the n² coefficients in the estimator's rows: the local direction.
-const DIR_COLUMNS: usize = 3;
 
 /// The result of the shadowed (or unshadowed) pass over every vertex.
 pub(crate) struct DirectPass {
@@ -132,24 +125,6 @@ pub(crate) fn direct_pass(
     }
 }
 
-/// The batches of sample indices a vertex traces: at most [`BATCH`] long, and split at the
-/// bounce samples' end, so each batch is all bounce samples or none.
-pub(crate) fn batch_ranges(
-    options: &BakeOptions,
-) -> impl Iterator<Item = std::ops::Range<usize>> + use<> {
-    let samples = options.samples as usize;
-    let bounce = options.effective_bounce_samples() as usize;
-    let mut start = 0;
-    std::iter::from_fn(move || {
-        (start < samples).then(|| {
-            let limit = if start < bounce { bounce } else { samples };
-            let range = start..(start + BATCH).min(limit);
-            start = range.end;
-            range
-        })
-    })
-}
-
 /// `acc += row`, element by element.
 #[inline]
 fn add_row(acc: &mut [f32], row: &[f32]) {
@@ -177,22 +152,11 @@ pub struct Estimator {
     horizons: Option<Vec<Vec3>>,
     /// [`Receivers::streams`].
     streams: Option<Vec<u64>>,
-    /// The bake's cosine-weighted directions in the local frame (Owen–Sobol only): `samples`
-    /// per set, the sets one after another (one set, or a denoised bake's joint sets).
-    local_dirs: Vec<Vec3>,
-    /// Row i (width n² + 3): y_j(local_dirs[i]) for j < n², then local_dirs[i] itself, whose
-    /// sum over the unblocked rays gives the bent normal with the same additions. With bounce
-    /// samples (interreflected mode), rows 0..M are the sequence's first M points — a
-    /// stratified set of their own — the rest follow; thesis-random samples are independent,
-    /// so their first M serve.
-    local_rows: Vec<f32>,
-    /// Per batch of [`Estimator::batches`], the sum of its rows of `local_rows`: a batch in
-    /// which fewer rays are blocked than not is summed as this total minus its blocked rows.
-    batch_totals: Vec<f32>,
-    /// Per row of `local_rows`, the block of the sequence its point belongs to (its index
-    /// in the sequence × [`NOISE_BLOCKS`] / samples): the rows are sorted for tracing, the
-    /// blocks are runs of the sequence.
-    row_blocks: Vec<u8>,
+    /// The sample tables (Owen–Sobol only): one set, or a denoised bake's joint sets, each
+    /// `samples` rows. With bounce samples (interreflected mode), a set's rows 0..M are its
+    /// sequence's first M points — a stratified set of their own — the rest follow;
+    /// thesis-random samples are independent, so their first M serve.
+    tables: SampleSets,
     /// Adaptive bakes (`--target-error`): the pilot and its extensions, instead of the table above.
     adaptive: Option<crate::bake::adaptive::Tables>,
     /// The groups of joint sets the tables hold ([`strata::groups`]); 0: one set, turned by
@@ -213,9 +177,6 @@ impl Estimator {
     pub fn for_receivers(receivers: Receivers, options: &BakeOptions) -> Result<Estimator> {
         options.validate()?;
         let basis = Basis::new(options.order);
-        let n = basis.coeff_count();
-        let (mut local_dirs, mut local_rows, mut batch_totals, mut row_blocks) =
-            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let adaptive = options
             .target_error
             .map(|_| crate::bake::adaptive::Tables::new(options, &basis));
@@ -226,53 +187,17 @@ impl Estimator {
                     .into(),
             ));
         }
-        let width = n + DIR_COLUMNS;
         let set_bytes = crate::bake::memory::table_bytes(options).unwrap_or(u64::MAX);
         let groups = match (&receivers.strata, options.sampling, &adaptive) {
             (Some(_), Sampling::OwenSobol, None) => strata::groups(options, set_bytes),
             _ => 0,
         };
-        let sets = (groups * strata::SETS_PER_GROUP).max(1);
-        for set in 0..sets {
-            if options.sampling != Sampling::OwenSobol || adaptive.is_some() {
-                break;
+        let tables = match (options.sampling, &adaptive) {
+            (Sampling::OwenSobol, None) => {
+                SampleSets::new(options, &basis, (groups * strata::SETS_PER_GROUP).max(1))
             }
-            // Joint sets: a group's sets are consecutive blocks of one sequence; one set is
-            // the sequence's first block.
-            let (sequence, block) = (set / strata::SETS_PER_GROUP, set % strata::SETS_PER_GROUP);
-            let points = OwenSobol::new(vertex_seed(options.seed, u64::MAX - u64::from(sequence)));
-            let first = block * options.samples;
-            let mut uv: Vec<(u32, f32, f32)> = (0..options.samples)
-                .map(|i| {
-                    let (u1, u2) = points.point(first + i);
-                    (i, u1, u2)
-                })
-                .collect();
-            // The bounce samples (the sequence's first M points) come first, so a batch is
-            // all closest-hit rays or all occlusion rays; within each group, consecutive rays
-            // with close directions trace much faster (Embree forms coherent packets). The
-            // set, and so the estimate, does not depend on the order.
-            let bounce_samples = options.effective_bounce_samples();
-            uv.sort_by_key(|&(i, u1, u2)| (i >= bounce_samples, hilbert_index(u1, u2)));
-            let start = local_dirs.len();
-            local_dirs.extend(uv.iter().map(|&(_, u1, u2)| cosine_hemisphere(u1, u2)));
-            row_blocks.extend(uv.iter().map(|&(i, _, _)| {
-                (u64::from(i) * NOISE_BLOCKS as u64 / u64::from(options.samples)) as u8
-            }));
-            local_rows.resize(local_dirs.len() * width, 0.0);
-            let rows = &mut local_rows[start * width..];
-            for (row, d) in rows.chunks_mut(width).zip(&local_dirs[start..]) {
-                basis.eval(*d, &mut row[..n]);
-                row[n..].copy_from_slice(&d.to_array());
-            }
-            for batch in batch_ranges(options) {
-                let mut total = vec![0.0f32; width];
-                for row in rows[batch.start * width..batch.end * width].chunks_exact(width) {
-                    add_row(&mut total, row);
-                }
-                batch_totals.extend(total);
-            }
-        }
+            _ => SampleSets::default(),
+        };
         let strata = match groups {
             0 => Vec::new(),
             _ => receivers.strata.unwrap_or_default(),
@@ -285,10 +210,7 @@ impl Estimator {
             origins: receivers.origins,
             horizons: receivers.horizons,
             streams: receivers.streams,
-            local_dirs,
-            local_rows,
-            batch_totals,
-            row_blocks,
+            tables,
             adaptive,
             groups,
             strata,
@@ -364,7 +286,7 @@ impl Estimator {
             Sampling::OwenSobol => {
                 let first = self.first_row(v);
                 let rows = first + range.start..first + range.end;
-                dirs.extend(self.local_dirs[rows].iter().map(|d| *frame * *d));
+                dirs.extend(self.tables.dirs[rows].iter().map(|d| *frame * *d));
                 weights.resize(dirs.len(), 1.0);
             }
             Sampling::ThesisRandom => {
@@ -600,12 +522,12 @@ impl Estimator {
         let blocked = occluded.iter().filter(|&&b| b).count();
         *unblocked += (len - blocked) as f64;
         let width = self.basis.coeff_count() + DIR_COLUMNS;
-        let rows = self.local_rows[start * width..end * width].chunks_exact(width);
+        let rows = self.tables.rows[start * width..end * width].chunks_exact(width);
         s.noise
-            .add_unblocked(rows.clone(), &self.row_blocks[start..end], occluded);
+            .add_unblocked(rows.clone(), &self.tables.row_blocks[start..end], occluded);
         if 2 * blocked <= len {
             s.batch_sum
-                .copy_from_slice(&self.batch_totals[b * width..(b + 1) * width]);
+                .copy_from_slice(&self.tables.batch_totals[b * width..(b + 1) * width]);
             for (row, _) in rows.zip(occluded).filter(|(_, blocked)| **blocked) {
                 sub_row(&mut s.batch_sum, row);
             }

@@ -46,10 +46,11 @@
 use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 
-use crate::bake::estimator::{DirectPass, Estimator, Visibility, batch_ranges};
+use crate::bake::estimator::{DirectPass, Estimator, Visibility};
 use crate::bake::matrix_hits::{BounceLight, BounceScratch};
 use crate::bake::noise::{NOISE_BLOCKS, NoiseBlocks};
 use crate::bake::receivers::RECEIVERS_PER_JOB;
+use crate::bake::sample_sets::batch_ranges;
 use crate::math::sampling::{OwenSobol, hilbert_index, vertex_seed};
 use crate::math::sh::RecurrenceRotator;
 use crate::math::sh::rotation::ShRotation;

@@ -1,5 +1,5 @@
 //! The bake: what is asked ([`options`]), where transfer is baked ([`receivers`]: vertices or
-//! lightmap texels), the per-receiver [`estimator`], its [`adaptive`] variant (with [`inference`]) and the [`matrix`] one (with bounces: [`matrix_bounce`]), the bounces
+//! lightmap texels), the per-receiver [`estimator`] (its tables: [`sample_sets`]), its [`adaptive`] variant (with [`inference`]) and the [`matrix`] one (with bounces: [`matrix_bounce`]), the bounces
 //! ([`bounce_rows`], [`interreflection`]), the entry points ([`transfer`], [`lightmap`]),
 //! the memory a bake needs ([`memory`]), the point sets a denoised bake's neighbours share
 //! ([`strata`]), the denoiser of its transfer ([`denoise`], guided
@@ -32,6 +32,7 @@ pub mod probes;
 pub mod receiver_names;
 pub mod receiver_subset;
 pub mod receivers;
+pub mod sample_sets;
 pub mod strata;
 pub mod subsurface;
 pub mod transfer;
