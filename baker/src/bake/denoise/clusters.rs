@@ -26,7 +26,30 @@ pub struct Clusters {
     pub points: Vec<glam::Vec3>,
 }
 
+/// Whether receiver m may join seed's cluster by the geometry alone: within `reach` of it,
+/// the same group (object and material), normals within 25°, and on its plane.
+pub(super) fn on_one_surface(g: &Guides, seed: usize, m: usize, reach: f32) -> bool {
+    let d = g.points[m] - g.points[seed];
+    g.groups[seed] == g.groups[m]
+        && g.normals[seed].dot(g.normals[m]) > 0.9
+        && g.surfaces[seed].dot(g.surfaces[m]) > 0.9
+        && g.surfaces[seed].dot(d).abs() < 0.5 * g.spacing[seed]
+        && d.length_squared() <= reach * reach
+}
+
 impl Clusters {
+    /// No clusters yet, room for `receivers` members.
+    pub(super) fn empty(receivers: usize) -> Clusters {
+        Clusters {
+            reps: Vec::new(),
+            starts: vec![0],
+            members: Vec::with_capacity(receivers),
+            mass: Vec::new(),
+            noise: Vec::new(),
+            points: Vec::new(),
+        }
+    }
+
     /// Every receiver its own cluster: the wide pass reads the raw values.
     pub fn singletons(noise: &[f32]) -> Clusters {
         let count = noise.len() as u32;
@@ -61,23 +84,9 @@ impl Clusters {
     ) -> (Clusters, Vec<f32>) {
         let g = guides;
         let joins = |seed: usize, m: usize| {
-            let d = g.points[m] - g.points[seed];
-            let reach = step * g.spacing[seed];
-            g.groups[seed] == g.groups[m]
-                && g.normals[seed].dot(g.normals[m]) > 0.9
-                && g.surfaces[seed].dot(g.surfaces[m]) > 0.9
-                && g.surfaces[seed].dot(d).abs() < 0.5 * g.spacing[seed]
-                && d.length_squared() <= reach * reach
-                && similar(seed, m)
+            on_one_surface(g, seed, m, step * g.spacing[seed]) && similar(seed, m)
         };
-        let mut clusters = Clusters {
-            reps: Vec::new(),
-            starts: vec![0],
-            members: Vec::with_capacity(g.points.len()),
-            mass: Vec::new(),
-            noise: Vec::new(),
-            points: Vec::new(),
-        };
+        let mut clusters = Clusters::empty(g.points.len());
         // At most one cluster per receiver: room reserved, not touched, so never moved.
         let mut means = Vec::with_capacity(g.points.len() * width);
         let (mut seeds, mut label) = (Vec::<usize>::new(), Vec::<usize>::new());

@@ -4,7 +4,7 @@
 //! cell each ([`Clusters::build`]), would leave a sparse object's vertices one to a cell:
 //! here each seed takes in its neighbours within its own spacings.
 
-use super::clusters::{Clusters, add_scaled};
+use super::clusters::{Clusters, add_scaled, on_one_surface};
 use super::grid::Grid;
 use super::guides::Guides;
 
@@ -17,10 +17,10 @@ use super::guides::Guides;
 const SIMILAR: f32 = 0.6;
 
 /// Clusters of vertices within `step` / 2 of a seed's spacings: in the fine grid's fixed
-/// order (cells by key, vertices by index within a cell), each vertex no cluster holds yet
-/// seeds one, and takes in every neighbour no cluster holds that may share its kernel (within
-/// reach, the same group, normals within 25°, on its plane, and raw signals apart by less
-/// than their noise, [`SIMILAR`]). Members weigh the same. A function of the guides and the
+/// order (cells by their first vertex, vertices by index within a cell), each vertex no
+/// cluster holds yet seeds one, and takes in every neighbour no cluster holds that may share
+/// its kernel ([`super::clusters::on_one_surface`], and raw signals apart by less than their
+/// noise, [`SIMILAR`]). Members weigh the same. A function of the guides and the
 /// signal (`width` floats per vertex) alone, in a fixed order: the same on any thread.
 ///
 /// Returns the clusters and their means of `signal`, as [`Clusters::build`] does.
@@ -41,24 +41,10 @@ pub fn build(
         squared <= SIMILAR * (noise[m] + noise[seed]) * width as f32
     };
     let joins = |seed: usize, m: usize| {
-        let d = g.points[m] - g.points[seed];
-        let reach = 0.5 * step * g.spacing[seed];
-        d.length_squared() <= reach * reach
-            && g.groups[seed] == g.groups[m]
-            && g.normals[seed].dot(g.normals[m]) > 0.9
-            && g.surfaces[seed].dot(g.surfaces[m]) > 0.9
-            && g.surfaces[seed].dot(d).abs() < 0.5 * g.spacing[seed]
-            && similar(seed, m)
+        on_one_surface(g, seed, m, 0.5 * step * g.spacing[seed]) && similar(seed, m)
     };
     let count = g.points.len();
-    let mut clusters = Clusters {
-        reps: Vec::new(),
-        starts: vec![0],
-        members: Vec::with_capacity(count),
-        mass: Vec::new(),
-        noise: Vec::new(),
-        points: Vec::new(),
-    };
+    let mut clusters = Clusters::empty(count);
     let mut means = Vec::new();
     let mut taken = vec![false; count];
     let mut mine = Vec::new();
