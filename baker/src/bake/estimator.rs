@@ -169,7 +169,7 @@ pub struct Estimator {
 impl Estimator {
     /// The estimator for the scene's vertices.
     pub fn new(scene: &Scene, options: &BakeOptions) -> Result<Estimator> {
-        Estimator::for_receivers(Receivers::vertices(scene), options)
+        Estimator::for_receivers(Receivers::vertices(scene, options), options)
     }
 
     /// The estimator for any receivers (vertices, or lightmap texels: [`crate::bake::lightmap`]);

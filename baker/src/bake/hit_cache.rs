@@ -96,6 +96,7 @@ impl FrozenJob {
 mod tests {
 
     use crate::bake::bounce_rows::{CornerProbe, HitRecorder, JobRows, RowBuilder};
+    use crate::bake::options::BakeOptions;
     use crate::bake::receivers::Receivers;
     use crate::bake::receivers::{BounceTargets, RECEIVERS_PER_JOB};
     use crate::math::sampling::Pcg32;
@@ -134,7 +135,7 @@ mod tests {
         // does: each receiver's row from the cache must be, bit for bit, the recorded one.
         let (scene, atlas, texels) = crate::bake::lightmap::texels::cornell_lightmap(64);
         let tracer = ObvhsTracer::new(&scene, ObvhsOptions::default());
-        let receivers = Receivers::vertices(&scene);
+        let receivers = Receivers::vertices(&scene, &BakeOptions::default());
         let probe = CornerProbe {
             tracer: &tracer,
             origins: &receivers.origins,

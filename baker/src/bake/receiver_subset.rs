@@ -61,7 +61,7 @@ pub fn bake_objects_translucent(
     }
     let tracer = tracer_for(options, tracer)?;
     let started = Instant::now();
-    let all = Receivers::vertices(scene);
+    let all = Receivers::vertices(scene, options);
     let pick = |values: &[glam::Vec3]| rows.iter().map(|&v| values[v as usize]).collect();
     let receivers = Receivers {
         origins: pick(&all.origins),

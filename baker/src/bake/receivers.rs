@@ -54,14 +54,17 @@ pub struct Receivers {
 }
 
 impl Receivers {
-    /// The scene's vertices, rays leaving from [`ray_origins`].
-    pub fn vertices(scene: &Scene) -> Receivers {
+    /// The scene's vertices, rays leaving from [`ray_origins`]; with their strata where a bake
+    /// with `options` samples them jointly ([`crate::bake::strata::vertex_strata`], a sort
+    /// of the vertices that other bakes skip).
+    pub fn vertices(scene: &Scene, options: &crate::bake::options::BakeOptions) -> Receivers {
+        let joint = crate::bake::strata::samples_jointly(options);
         Receivers {
             origins: ray_origins(scene),
             normals: scene.normals.clone(),
             horizons: None,
             streams: None,
-            strata: Some(crate::bake::strata::vertex_strata(&scene.positions)),
+            strata: joint.then(|| crate::bake::strata::vertex_strata(&scene.positions)),
         }
     }
 

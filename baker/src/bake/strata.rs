@@ -46,11 +46,17 @@ const BUDGET: u64 = 64 << 20;
 /// 0 where its receivers sample independently (no denoising, transfer matrices, whose
 /// tables are their own, or not even one group fits).
 pub fn groups(options: &BakeOptions, set_bytes: u64) -> u32 {
-    if !options.denoise || options.transfer != TransferKind::Vector {
+    if !samples_jointly(options) {
         return 0;
     }
     let group = set_bytes.saturating_mul(u64::from(SETS_PER_GROUP)).max(1);
     (BUDGET / group).min(u64::from(MAX_GROUPS)) as u32
+}
+
+/// Whether a bake with `options` may sample its receivers jointly: a denoised bake of vector
+/// transfer.
+pub fn samples_jointly(options: &BakeOptions) -> bool {
+    options.denoise && options.transfer == TransferKind::Vector
 }
 
 /// Each of `valid` texels' (indices y · `width` + x) stratum: its tile's index times
