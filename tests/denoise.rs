@@ -1,7 +1,7 @@
 //! Denoised transfer (`bake --denoise`): it commutes with relighting, it is bit-identical for
 //! any thread count, no light crosses a thin wall or a plane facing the other way, and on the
 //! Cornell room a 64-ray lightmap, denoised, is closer to a converged bake than a raw bake
-//! with 8 × its rays.
+//! with 8 × its rays, by a fifth.
 
 use glam::Vec3;
 use prt_baker::bake::denoise::{self, Filter, Settings};
@@ -228,8 +228,11 @@ fn sixty_four_rays_denoised_beat_five_hundred_and_twelve_raw_in_the_cornell_room
         let e512 = relit_error(&raw512, &reference, dir);
         let ed = relit_error(&denoised, &reference, dir);
         eprintln!("light {dir}: raw 64 {e64:.4}, raw 512 {e512:.4}, denoised 64 {ed:.4}");
+        // By a fifth: with the receivers sampling on their own rather than neighbours
+        // taking complementary sets (bake/strata.rs), 0.95 and 0.87 of raw 512's error; with
+        // them, 0.74 and 0.63.
         assert!(
-            ed < e512,
+            ed < 0.8 * e512,
             "denoised 64 rays {ed:.4} against raw 512 {e512:.4}"
         );
     }
