@@ -232,7 +232,8 @@ impl<'g> Filter<'g> {
             false => *spacings.select_nth_unstable_by(count / 2, f32::total_cmp).1,
         }
         .max(1e-12);
-        // Vertices read the fine grid for the prefilter alone: cells as wide as its reach.
+        // Cells a cluster across (`step` typical spacings), which the clustering walks and
+        // the prefilter reads; with no clusters, as wide as the prefilter's reach.
         let fine = grid::Grid::new(
             &guides.points,
             settings.step.unwrap_or(settings.guide_radius) * typical,
