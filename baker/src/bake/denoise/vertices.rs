@@ -18,18 +18,25 @@
 //! term leaves a curved surface's vertex only its closest neighbours. Normals facing apart
 //! (a crease past 90°), the plane distance, the group and the range term cut as for texels.
 //!
+//! The range term is **robust** ([`reweigh`]): a neighbour is weighed by how far its guide lies
+//! from a first quadratic fit of its neighbourhood, not from the vertex's own guide, which on a
+//! curved mesh cut the neighbours the fit would follow and left the fit their noise.
+//!
 //! Where the transfer bends faster than a quadratic over 9 spacings (the floor under the
-//! torus, a room's corner) a fit half as wide is blended in, by how far the two fits of the
-//! guide differ against their difference's noise (Lepski's rule: [`fit`]).
+//! torus, a room's corner) fits a half and a quarter as wide are blended in, by how far the
+//! fits of the guide differ against their difference's noise (Lepski's rule: [`fit`]).
 //!
 //! Measured on the torus at 64 rays, sun and sky / low sun / sky, against 16,384 rays:
 //! first-order over 4 spacings 1.65 / 4.26 / 1.06 %, the second-order fit 1.49 / 4.07 / 0.91
 //! %, with the narrower fit blended in 1.47 / 3.98 / 0.88 %; in clusters (1.5 vertices on
-//! average) 1.46 / 3.98 / 0.88 %, transfer matrices 2.25 % against 2.20 %, for 0.74 × the
-//! filter's instructions (docs/explanation/denoising.md). The blend is judged once per
-//! cluster, at its centroid.
+//! average) 1.46 / 3.98 / 0.88 %, for 0.74 × the filter's instructions; with joint strata
+//! 1.29 / 3.51 / 0.80 %; with the robust range term, κ = 3 and the quarter-width fit 1.11 /
+//! 2.84 / 0.69 % (a raw bake of 512 rays: 1.16 / 3.24 / 0.65 %), the filter's time 1.9 ×
+//! (docs/explanation/denoising.md). The blend is judged once per cluster, at its centroid.
 
 use glam::Vec4;
+
+use super::range::range_term;
 
 /// Terms of the fit: 1, u, v, u², uv, v².
 pub(super) const TERMS: usize = 6;
@@ -44,20 +51,20 @@ const RIDGE: f64 = 1e-2;
 /// κ's scale where every vertex's noise is estimated from its neighbours (transfer matrices
 /// at order 2, whose range-term signal is not one row): that estimate
 /// holds the transfer's true change between neighbours too, so it overstates the noise (on
-/// the glossy torus at 64 rays, 2.60 % against 2.77 % at κ = 4). Matrices at other orders
-/// carry their rays' estimate ([`crate::bake::matrix`]) and keep κ: 2.33 %, and 2.32 / 2.33
-/// / 2.58 % at κ = 3 / 4 / 6.
+/// the glossy torus at 64 rays, 2.60 % against 2.77 % at κ = 4, before the robust range
+/// term). Matrices at other orders carry their rays' estimate ([`crate::bake::matrix`]) and
+/// keep κ.
 pub(super) const NEIGHBOUR_KAPPA: f32 = 0.75;
 
-/// The narrower kernel's extra falloff, exp(−NARROW · r²) on top of the kernel's exp(−2 r²):
-/// half its width.
-const NARROW: f32 = 6.0;
-/// The fits' squared difference over its noise variance from which the narrower fit is
-/// blended in, and at which it is taken whole. Measured at 64 rays (seed 1): 1 / 4 and 2 / 8
-/// blend on the torus's curvature and cost it noise (matrices 2.47 and 2.32 %); 8 / 32, 2.20
-/// %; 16 / 64, 2.22 %.
-const LEPSKI_START: f64 = 8.0;
-const LEPSKI_FULL: f64 = 32.0;
+/// The narrower kernels' extra falloffs, exp(−NARROWER[l] · r²) on top of the kernel's
+/// exp(−2 r²), r in kernel radii: about half its width, and a quarter.
+const NARROWER: [f32; 2] = [6.0, 20.0];
+/// Per narrower fit, the squared difference of the guide's fits over its noise variance from
+/// which it is blended in, and at which it is taken whole (Lepski's rule, [`fit`]). Measured
+/// on the torus at 64 rays, 8 seeds, sun and sky / low sun / sky, the robust range term on:
+/// one narrower fit at 8 / 32, 1.12 / 2.91 / 0.72 % (4 seeds); at 4 / 16, 1.11 / 2.88 / 0.71 %; the
+/// quarter-width fit added at 6 / 24, 1.10 / 2.85 / 0.68 % (at 4 / 16, 1.11 / 2.86 / 0.68 %).
+const LEPSKI: [(f64, f64); 2] = [(4.0, 16.0), (6.0, 24.0)];
 
 /// A thread's buffers for the clusters it filters, reused from one cluster to the next (no
 /// cluster allocates): the kernel's entries, and what the fit keeps per neighbour.
@@ -66,21 +73,28 @@ pub(super) struct Scratch {
     /// Entries (k, [w_k, u_k, v_k]): neighbour cluster k's kernel weight and place in the
     /// cluster's tangent plane about its centroid, in spacings.
     pub kernel: Vec<(u32, [f32; 3])>,
-    /// Each entry's taper for the narrower fit, exp(−NARROW · r²), r in kernel radii.
-    pub taper: Vec<f32>,
+    /// Each entry's weight without the range term ([`reweigh`] forms it again).
+    pub geometric: Vec<f32>,
+    /// Each entry's tapers for the narrower fits ([`tapers`]).
+    pub taper: Vec<[f32; 2]>,
     /// After [`fit`], each entry's weight as a function of the member's place: a member at
     /// (u, v) weighs entry k by `weights[k]` · [`terms`](u, v).
     pub weights: Vec<[f32; TERMS]>,
     /// Whether the fit is read at the centroid alone (a cluster of one vertex): each entry's
     /// weight at (0, 0) alone, in `weights[k][0]`, the rest 0.
     pub centre_only: bool,
-    /// The two fits' difference of the guide, per signal coefficient.
+    /// The fits' weights while they are blended.
+    blended: Vec<[f64; TERMS]>,
+    /// Per coefficient of the guide, in lanes: two fits' difference ([`blend`]), a fit's
+    /// value at an entry ([`reweigh`]).
     delta: Vec<Vec4>,
+    /// [`reweigh`]'s fit of the guide: its coefficients, per term, in lanes.
+    coefficients: Vec<Vec4>,
 }
 
-/// The narrower fit's taper of a neighbour r² kernel radii² away: exp(−NARROW · r²).
-pub(super) fn taper(r2: f32) -> f32 {
-    (-NARROW * r2).exp()
+/// The narrower fits' tapers of a neighbour r² kernel radii² away: exp(−NARROWER[l] · r²).
+pub(super) fn tapers(r2: f32) -> [f32; 2] {
+    NARROWER.map(|a| (-a * r2).exp())
 }
 
 /// The fit's terms at (u, v): 1, u, v, u², uv, v².
@@ -161,6 +175,87 @@ fn monomials(u: f32, v: f32) -> ([f64; TERMS], [f64; MOMENTS]) {
     (x, m)
 }
 
+/// Weighs each of a cluster's kernel entries by its guide's distance from a quadratic fit
+/// of the guides, rather than from the cluster's own guide: the **robust range term**.
+///
+/// The range term of [`super::Filter::weight`] compares a neighbour's guide with the
+/// centre's. On a curved mesh the transfer changes from vertex to vertex (the torus's turns
+/// towards and away from the sky), so it cuts neighbours that the quadratic fit would follow
+/// exactly, and keeps the fit from averaging them: the noise it leaves is most of a denoised
+/// vertex bake's error. Here the kernel's weights as formed (that range term in them) fit the
+/// guide once, and each entry is weighed again by its guide's residual from that fit, the
+/// kernel's other terms unchanged: a neighbour the fit explains is kept, one across a shadow's
+/// edge (far from a fit that the near side dominates) is cut. One step of iteratively
+/// reweighted local regression (Cleveland 1979, *Robust locally weighted regression and
+/// smoothing scatterplots*), with the range term as its weight function. Measured on the
+/// torus at 64 rays, 8 seeds: 1.26 / 3.45 / 0.78 % -> 1.11 / 2.88 / 0.71 % (κ = 3, with the
+/// Lepski thresholds of [`LEPSKI`]); a second step does not help (1.12 / 2.92 / 0.71 %, 4 seeds).
+///
+/// `guide(k)` gives entry k's guide and its variance, `noise` the cluster's own.
+pub(super) fn reweigh<'g>(
+    scratch: &mut Scratch,
+    (sw, kappa, noise): (usize, f32, f32),
+    guide: &impl Fn(u32) -> (&'g [Vec4], f32),
+) {
+    let Scratch {
+        kernel,
+        geometric,
+        delta: fitted,
+        coefficients,
+        ..
+    } = scratch;
+    let lanes = guide_lanes(sw);
+    // A = Σ w x xᵀ's moments, and the sums Σ w x_t g of the guide per term (in `fitted`'s
+    // place until the fit is solved).
+    let mut sums = [0.0f64; MOMENTS];
+    let moments = fitted;
+    moments.clear();
+    moments.resize(TERMS * lanes, Vec4::ZERO);
+    for &(k, [w, u, v]) in kernel.iter() {
+        let (_, m) = monomials(u, v);
+        for (s, m) in sums.iter_mut().zip(m) {
+            *s += f64::from(w) * m;
+        }
+        let (g, _) = guide(k);
+        for (sum, x) in moments.chunks_exact_mut(lanes).zip(terms(u, v)) {
+            for (o, g) in sum.iter_mut().zip(g) {
+                *o += (w * x) * *g;
+            }
+        }
+    }
+    let Some(b) = invert_moments(&sums) else {
+        return;
+    };
+    // The fit's coefficients, β = A⁻¹ Σ w x gᵀ.
+    coefficients.clear();
+    coefficients.resize(TERMS * lanes, Vec4::ZERO);
+    for (beta, row) in coefficients.chunks_exact_mut(lanes).zip(&b) {
+        for (sum, &a) in moments.chunks_exact(lanes).zip(row) {
+            for (o, s) in beta.iter_mut().zip(sum) {
+                *o += a as f32 * *s;
+            }
+        }
+    }
+    for (entry, &geometric) in kernel.iter_mut().zip(geometric.iter()) {
+        let (k, [_, u, v]) = *entry;
+        let x = terms(u, v);
+        let (g, variance) = guide(k);
+        // Σ over the lanes of (g − Σ_t x_t β_t)², lane by lane in registers.
+        let mut squared = Vec4::ZERO;
+        for (l, g) in g.iter().enumerate() {
+            let mut fitted = Vec4::ZERO;
+            for (t, x) in x.iter().enumerate() {
+                fitted += *x * coefficients[t * lanes + l];
+            }
+            let d = *g - fitted;
+            squared += d * d;
+        }
+        let squared = (squared.x + squared.y) + (squared.z + squared.w);
+        let range = range_term(squared, (noise + variance) * sw as f32, kappa);
+        entry.1[0] = geometric * (-range).exp();
+    }
+}
+
 /// Turns a cluster's kernel, `scratch.kernel`'s entries (k, [w_k, u_k, v_k]) with their
 /// tapers, into the weights of a weighted quadratic fit over its tangent plane, as functions
 /// of the place it is evaluated at: `scratch.weights`, e_k = w_k A⁻¹ x_k with
@@ -169,39 +264,42 @@ fn monomials(u: f32, v: f32) -> ([f64; TERMS], [f64; MOMENTS]) {
 /// floats, in [`guide_lanes`]) and the guide's variance.
 ///
 /// Where the transfer bends faster than a quadratic over the kernel (a contact shadow, a
-/// room's corner), the fit is biased. The fit over a kernel half as wide is then blended in
-/// (Lepski's rule, as in Katkovnik's intersection of confidence intervals): where the two
-/// fits of the guide at the cluster's centroid differ by more than their difference's noise,
-/// Σ (a_k − b_k)² σ²_k, allows. One blend per cluster, which all its members share.
+/// room's corner), the fit is biased. The fits over kernels a half and a quarter as wide are
+/// then blended in, one after the other (Lepski's rule, as in Katkovnik's intersection of
+/// confidence intervals): where the blend so far and the next narrower fit, read at the
+/// cluster's centroid, differ in the guide by more than their difference's noise,
+/// Σ (a_k − b_k)² σ²_k, allows ([`LEPSKI`]). One blend per cluster, which all its members
+/// share.
 ///
-/// A = Σ w x xᵀ holds 15 distinct sums of monomials, formed once per neighbour for both
-/// fits; one inverse per fit gives its weights.
-pub(super) fn fit<'g>(scratch: &mut Scratch, sw: usize, guide: impl Fn(u32) -> (&'g [Vec4], f32)) {
+/// A = Σ w x xᵀ holds 15 distinct sums of monomials, formed once per neighbour for every
+/// fit; one inverse per fit gives its weights.
+pub(super) fn fit<'g>(scratch: &mut Scratch, sw: usize, guide: &impl Fn(u32) -> (&'g [Vec4], f32)) {
     let Scratch {
         kernel,
         taper,
         weights,
         centre_only,
+        blended,
         delta,
+        ..
     } = scratch;
     // The terms the weights are formed for: the first alone at the centroid.
     let used = if *centre_only { 1 } else { TERMS };
     weights.clear();
-    // Each moment's sums for the wide fit and the narrower one, side by side: one vector
-    // register's two lanes.
-    let mut sums = [[0.0f64; 2]; MOMENTS];
-    for (&(_, [w, u, v]), &taper) in kernel.iter().zip(taper.iter()) {
+    // Each moment's sums for the wide fit and the narrower ones, side by side.
+    let mut sums = [[0.0f64; 3]; MOMENTS];
+    for (&(_, [w, u, v]), &[t1, t2]) in kernel.iter().zip(taper.iter()) {
         let (_, m) = monomials(u, v);
         let w = f64::from(w);
-        let w = [w, w * f64::from(taper)];
+        let w = [w, w * f64::from(t1), w * f64::from(t2)];
         for (s, m) in sums.iter_mut().zip(m) {
-            s[0] += w[0] * m;
-            s[1] += w[1] * m;
+            for (s, w) in s.iter_mut().zip(w) {
+                *s += w * m;
+            }
         }
     }
-    let (wide, narrow) = (sums.map(|s| s[0]), sums.map(|s| s[1]));
-    let Some(b) = invert_moments(&wide) else {
-        let mass = wide[0];
+    let Some(b) = invert_moments(&sums.map(|s| s[0])) else {
+        let mass = sums[0][0];
         let mean = |w: f32| {
             std::array::from_fn(|t| {
                 if t == 0 {
@@ -214,21 +312,36 @@ pub(super) fn fit<'g>(scratch: &mut Scratch, sw: usize, guide: impl Fn(u32) -> (
         weights.extend(kernel.iter().map(|&(_, [w, ..])| mean(w)));
         return;
     };
-    let bn = invert_moments(&narrow);
-    let t = match &bn {
-        Some(bn) => blend(kernel, taper, delta, (&b[0], &bn[0]), sw, guide),
-        None => 0.0,
-    };
-    for (&(_, [w, u, v]), &taper) in kernel.iter().zip(taper.iter()) {
+    blended.clear();
+    blended.extend(kernel.iter().map(|&(_, [w, u, v])| {
         let (x, _) = monomials(u, v);
-        let w = f64::from(w);
-        let mut e = times(&b, &x, w * (1.0 - t), used);
-        if let (Some(bn), true) = (&bn, t > 0.0) {
-            let en = times(bn, &x, w * f64::from(taper) * t, used);
-            e.iter_mut().zip(en).for_each(|(e, n)| *e += n);
+        times(&b, &x, f64::from(w), used)
+    }));
+    for (level, &thresholds) in LEPSKI.iter().enumerate() {
+        let Some(bn) = invert_moments(&sums.map(|s| s[level + 1])) else {
+            continue;
+        };
+        let narrow = |&(_, [w, u, v]): &(u32, [f32; 3]), taper: &[f32; 2], used: usize| {
+            let (x, _) = monomials(u, v);
+            times(&bn, &x, f64::from(w) * f64::from(taper[level]), used)
+        };
+        // Both fits' weights at the centroid, their first terms.
+        let at_centroid = kernel
+            .iter()
+            .zip(taper.iter())
+            .zip(blended.iter())
+            .map(|((entry, taper), e)| (entry.0, e[0], narrow(entry, taper, 1)[0]));
+        let t = blend(at_centroid, delta, sw, thresholds, guide);
+        if t > 0.0 {
+            for ((entry, taper), e) in kernel.iter().zip(taper.iter()).zip(blended.iter_mut()) {
+                let n = narrow(entry, taper, used);
+                e.iter_mut()
+                    .zip(n)
+                    .for_each(|(e, n)| *e = *e * (1.0 - t) + n * t);
+            }
         }
-        weights.push(e.map(|e| e as f32));
     }
+    weights.extend(blended.iter().map(|e| e.map(|e| e as f32)));
 }
 
 /// s · B x for the symmetric B, its first `used` entries (the rest 0).
@@ -240,25 +353,19 @@ fn times(b: &[[f64; TERMS]; TERMS], x: &[f64; TERMS], s: f64, used: usize) -> [f
     out
 }
 
-/// The narrower fit's share of the blend (Lepski's rule), from both fits' weights at the
-/// centroid, w_k y · x_k and w_k τ_k yₙ · x_k.
+/// The narrower fit's share of the blend (Lepski's rule, between `thresholds`), from both
+/// fits' weights at the centroid, (k, a_k, b_k) per entry.
 fn blend<'g>(
-    kernel: &[(u32, [f32; 3])],
-    taper: &[f32],
+    at_centroid: impl Iterator<Item = (u32, f64, f64)>,
     delta: &mut Vec<Vec4>,
-    (y, yn): (&[f64; TERMS], &[f64; TERMS]),
     sw: usize,
-    guide: impl Fn(u32) -> (&'g [Vec4], f32),
+    (start, full): (f64, f64),
+    guide: &impl Fn(u32) -> (&'g [Vec4], f32),
 ) -> f64 {
-    let dot =
-        |y: &[f64; TERMS], x: &[f64; TERMS]| -> f64 { y.iter().zip(x).map(|(y, x)| y * x).sum() };
     delta.clear();
     delta.resize(guide_lanes(sw), Vec4::ZERO);
     let mut variance = 0.0f64;
-    for (&(k, [w, u, v]), &taper) in kernel.iter().zip(taper.iter()) {
-        let (x, _) = monomials(u, v);
-        let w = f64::from(w);
-        let (a, b) = (dot(y, &x) * w, dot(yn, &x) * (w * f64::from(taper)));
+    for (k, a, b) in at_centroid {
         let (g, noise) = guide(k);
         variance += (a - b) * (a - b) * f64::from(noise);
         let difference = (a - b) as f32;
@@ -270,7 +377,7 @@ fn blend<'g>(
         .map(|d| f64::from(d) * f64::from(d))
         .sum();
     let d2 = squared / (sw.max(1) as f64 * variance);
-    let t = (d2 - LEPSKI_START) / (LEPSKI_FULL - LEPSKI_START);
+    let t = (d2 - start) / (full - start);
     if t.is_finite() {
         t.clamp(0.0, 1.0)
     } else {
@@ -371,9 +478,9 @@ mod tests {
                 let r2 = p.length_squared() / (radius * radius);
                 let w = (-2.0 * r2).exp() * f32::from(u8::from(r2 <= 1.0));
                 scratch.kernel.push((k as u32, [w, p.x, p.y]));
-                scratch.taper.push((-NARROW * r2).exp());
+                scratch.taper.push(tapers(r2));
             }
-            fit(&mut scratch, 1, |k| (&guides[k as usize][..], noise));
+            fit(&mut scratch, 1, &|k| (&guides[k as usize][..], noise));
             let at = terms(0.0, 0.0);
             (scratch.kernel.iter().zip(&scratch.weights))
                 .map(|(&(k, _), e)| dot(e, &at) * guides[k as usize][0].x)
