@@ -31,7 +31,7 @@ use rayon::prelude::*;
 
 use crate::bake::bounce_rows::{CornerProbe, HitRecorder, JobRows, RowBuilder};
 use crate::bake::noise::NoiseBlocks;
-use crate::bake::options::BakeOptions;
+use crate::bake::options::{BakeOptions, TransferKind};
 use crate::bake::receivers::{RECEIVERS_PER_JOB, Receivers};
 use crate::bake::sample_sets::{BATCH, DIR_COLUMNS, SampleSets, batch_ranges};
 use crate::bake::strata;
@@ -153,7 +153,7 @@ pub struct Estimator {
     /// [`Receivers::streams`].
     streams: Option<Vec<u64>>,
     /// The sample tables (Owen–Sobol only): one set, or a denoised bake's joint sets, each
-    /// `samples` rows. With bounce samples (interreflected mode), a set's rows 0..M are its
+    /// `samples` rows (a matrix bake's joint sets are in its matrix tables, these hold one). With bounce samples (interreflected mode), a set's rows 0..M are its
     /// sequence's first M points — a stratified set of their own — the rest follow;
     /// thesis-random samples are independent, so their first M serve.
     tables: SampleSets,
@@ -187,15 +187,19 @@ impl Estimator {
                     .into(),
             ));
         }
-        let set_bytes = crate::bake::memory::table_bytes(options).unwrap_or(u64::MAX);
+        let set_bytes = crate::bake::memory::set_bytes(options).unwrap_or(u64::MAX);
         let groups = match (&receivers.strata, options.sampling, &adaptive) {
             (Some(_), Sampling::OwenSobol, None) => strata::groups(options, set_bytes),
             _ => 0,
         };
+        // A matrix bake's joint sets are its own tables ([`crate::bake::matrix`]): the
+        // vector tables keep their one set.
+        let vector_sets = match options.transfer {
+            TransferKind::Vector => (groups * strata::SETS_PER_GROUP).max(1),
+            TransferKind::Matrix => 1,
+        };
         let tables = match (options.sampling, &adaptive) {
-            (Sampling::OwenSobol, None) => {
-                SampleSets::new(options, &basis, (groups * strata::SETS_PER_GROUP).max(1))
-            }
+            (Sampling::OwenSobol, None) => SampleSets::new(options, &basis, vector_sets),
             _ => SampleSets::default(),
         };
         let strata = match groups {
@@ -237,16 +241,26 @@ impl Estimator {
         self.streams.as_ref().map_or(v as u64, |s| s[v])
     }
 
-    /// The first of receiver `v`'s `samples` rows in the tables: its joint set's
-    /// ([`strata`]), or the one set's.
-    fn first_row(&self, v: usize) -> usize {
+    /// The sample sets the bake's tables hold, vector or matrix: the joint sets
+    /// ([`strata`]), or one.
+    pub(crate) fn set_count(&self) -> u32 {
+        (self.groups * strata::SETS_PER_GROUP).max(1)
+    }
+
+    /// The set receiver `v` samples, of [`Estimator::set_count`]: its stratum's
+    /// ([`strata::set_of`]), or the one set. Its frame is then unturned
+    /// ([`Estimator::vertex_frame`]).
+    pub(crate) fn set(&self, v: usize) -> usize {
         match self.groups {
             0 => 0,
-            groups => {
-                let set = strata::set_of(self.options.seed, self.strata[v], groups);
-                set * self.options.samples as usize
-            }
+            groups => strata::set_of(self.options.seed, self.strata[v], groups),
         }
+    }
+
+    /// The first of receiver `v`'s `samples` rows in the tables (the vector estimator's or
+    /// the matrix one's: each set takes `samples` rows).
+    pub(crate) fn first_row(&self, v: usize) -> usize {
+        self.set(v) * self.options.samples as usize
     }
 
     /// Vertex `v`'s local frame (columns: tangent, bitangent, normal), turned about the normal

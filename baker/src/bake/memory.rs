@@ -3,7 +3,7 @@
 //! system kill it halfway ([`crate::support::limits`] holds the limit itself).
 
 use crate::bake::bounce_rows::BYTES_PER_ENTRY;
-use crate::bake::options::{BakeOptions, Mode};
+use crate::bake::options::{BakeOptions, Mode, TransferKind};
 use crate::math::sh;
 use crate::support::error::{Error, Result};
 use crate::support::limits::check;
@@ -15,10 +15,15 @@ use crate::support::limits::check;
 /// scene's vertices. None if it overflows.
 pub fn bake_bytes(options: &BakeOptions, vertices: u64, triangles: u64) -> Option<u64> {
     let n = sh::coeff_count(options.order) as u64;
-    // A denoised bake's joint sets: up to 256 tables ([`crate::bake::strata`]), or one.
-    let one = table_bytes(options)?;
+    // A denoised bake's joint sets: up to 256 tables ([`crate::bake::strata`]), or one; a
+    // matrix bake's are matrix tables, beside the vector estimator's one set.
+    let one = set_bytes(options)?;
     let sets = crate::bake::strata::groups(options, one) * crate::bake::strata::SETS_PER_GROUP;
     let tables = one.checked_mul(u64::from(sets.max(1)))?;
+    let tables = match options.transfer {
+        TransferKind::Vector => tables,
+        TransferKind::Matrix => tables.checked_add(table_bytes(options)?)?,
+    };
     // Positions, normals, uvs, material, ray origins; triangles and a BVH of ~3 nodes each.
     let scene = vertices
         .checked_mul(64)?
@@ -66,6 +71,15 @@ pub fn bake_bytes(options: &BakeOptions, vertices: u64, triangles: u64) -> Optio
 pub(crate) fn table_bytes(options: &BakeOptions) -> Option<u64> {
     let n = sh::coeff_count(options.order) as u64;
     u64::from(options.samples).checked_mul(36 + 4 * n)
+}
+
+/// One sample set's tables, the unit of a denoised bake's joint sets: the vector
+/// estimator's ([`table_bytes`]) or a matrix bake's ([`crate::bake::matrix`]).
+pub(crate) fn set_bytes(options: &BakeOptions) -> Option<u64> {
+    match options.transfer {
+        TransferKind::Vector => table_bytes(options),
+        TransferKind::Matrix => crate::bake::matrix::table_bytes(options),
+    }
 }
 
 /// Refuses `--samples` and `--order` whose sample tables alone cannot fit, before the scene

@@ -2,7 +2,8 @@
 //! Owen-scrambled Sobol points, their cosine-weighted directions in the local frame, a row of
 //! SH values and the direction per point, each batch's sum of rows and each point's noise
 //! block. One set, or a denoised bake's joint sets ([`crate::bake::strata`]), one after
-//! another.
+//! another; [`set_points`] gives a set's points to the transfer matrices' tables too
+//! ([`crate::bake::matrix`]).
 
 use glam::Vec3;
 
@@ -40,22 +41,7 @@ impl SampleSets {
         let width = n + DIR_COLUMNS;
         let mut tables = SampleSets::default();
         for set in 0..sets {
-            // A group's sets are consecutive blocks of one sequence.
-            let (sequence, block) = (set / SETS_PER_GROUP, set % SETS_PER_GROUP);
-            let points = OwenSobol::new(vertex_seed(options.seed, u64::MAX - u64::from(sequence)));
-            let first = block * options.samples;
-            let mut uv: Vec<(u32, f32, f32)> = (0..options.samples)
-                .map(|i| {
-                    let (u1, u2) = points.point(first + i);
-                    (i, u1, u2)
-                })
-                .collect();
-            // The bounce samples (the sequence's first M points) come first, so a batch is
-            // all closest-hit rays or all occlusion rays; within each group, consecutive rays
-            // with close directions trace much faster (Embree forms coherent packets). The
-            // set, and so the estimate, does not depend on the order.
-            let bounce_samples = options.effective_bounce_samples();
-            uv.sort_by_key(|&(i, u1, u2)| (i >= bounce_samples, hilbert_index(u1, u2)));
+            let uv = set_points(options, set);
             let start = tables.dirs.len();
             let dirs = uv.iter().map(|&(_, u1, u2)| cosine_hemisphere(u1, u2));
             tables.dirs.extend(dirs);
@@ -80,6 +66,30 @@ impl SampleSets {
         }
         tables
     }
+}
+
+/// Set `set`'s `samples` points (index in the set, u₁, u₂) in the order they are traced:
+/// block `set` mod [`SETS_PER_GROUP`] of sequence `set` / [`SETS_PER_GROUP`] (a group's sets
+/// are consecutive blocks of one sequence; set 0 is the one set of a bake that samples its
+/// receivers independently). The vector and the matrix estimators' tables both start here.
+pub(crate) fn set_points(options: &BakeOptions, set: u32) -> Vec<(u32, f32, f32)> {
+    let (sequence, block) = (set / SETS_PER_GROUP, set % SETS_PER_GROUP);
+    let points = OwenSobol::new(vertex_seed(options.seed, u64::MAX - u64::from(sequence)));
+    let first = block * options.samples;
+    let mut uv: Vec<(u32, f32, f32)> = (0..options.samples)
+        .map(|i| {
+            let (u1, u2) = points.point(first + i);
+            (i, u1, u2)
+        })
+        .collect();
+    // The bounce samples (the set's first M points) come first, so a batch is all
+    // closest-hit rays or all occlusion rays; within each part, consecutive rays with close
+    // directions trace much faster (Embree forms coherent packets). The set, and so the
+    // estimate, does not depend on the order. Each key computed once (a stable sort, as
+    // `sort_by_key`: the same order).
+    let bounce_samples = options.effective_bounce_samples();
+    uv.sort_by_cached_key(|&(i, u1, u2)| (i >= bounce_samples, hilbert_index(u1, u2)));
+    uv
 }
 
 /// The batches of sample indices a vertex traces: at most [`BATCH`] long, and split at the
