@@ -74,11 +74,11 @@ pub(crate) fn table_bytes(options: &BakeOptions) -> Option<u64> {
 }
 
 /// One sample set's tables, the unit of a denoised bake's joint sets: the vector
-/// estimator's ([`table_bytes`]) or a matrix bake's ([`crate::bake::matrix`]).
+/// estimator's ([`table_bytes`]) or a matrix bake's ([`crate::bake::matrix_layout`]).
 pub(crate) fn set_bytes(options: &BakeOptions) -> Option<u64> {
     match options.transfer {
         TransferKind::Vector => table_bytes(options),
-        TransferKind::Matrix => crate::bake::matrix::table_bytes(options),
+        TransferKind::Matrix => crate::bake::matrix_layout::table_bytes(options),
     }
 }
 

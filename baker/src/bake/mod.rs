@@ -23,6 +23,7 @@ pub mod lightmap;
 pub mod matrix;
 pub mod matrix_bounce;
 pub mod matrix_hits;
+pub mod matrix_layout;
 pub mod memory;
 pub mod noise;
 pub mod occluder_fit;
