@@ -445,6 +445,11 @@ impl PackedRows {
         }
     }
 
+    /// The whole file's bytes the rows were read from.
+    pub fn file_bytes(&self) -> &[u8] {
+        &self.bytes
+    }
+
     fn entry_bytes(&self) -> usize {
         match self.grey {
             true => GREY_BYTES_PER_ENTRY as usize,

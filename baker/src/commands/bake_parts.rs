@@ -122,7 +122,7 @@ pub(super) fn bake_in_parts(
     // (or computes the same atlas and leak test), and bakes through a tracer watertight for
     // the texels, as a whole bake does.
     let (prepared, watertight);
-    let (baker, noun) = match args.lightmap {
+    let (mut baker, noun) = match args.lightmap {
         None => (PartBaker::vertices(scene, tracer, options)?, "vertices"),
         Some(resolution) => {
             (prepared, watertight) =
@@ -145,7 +145,7 @@ pub(super) fn bake_in_parts(
     let range = (id, vertices.clone());
     let (part, rows, rays, blocks) = bake_range(
         args,
-        &baker,
+        &mut baker,
         options,
         range,
         shard.is_some(),
@@ -190,7 +190,7 @@ type BakedPart = (Part, Option<EncodedRows>, u64, String);
 /// or whole.
 fn bake_range(
     args: &PartsArgs<'_>,
-    baker: &PartBaker,
+    baker: &mut PartBaker,
     options: &BakeOptions,
     (id, vertices): (ShardId, Range<usize>),
     shard: bool,

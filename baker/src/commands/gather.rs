@@ -27,8 +27,9 @@ pub fn run(args: GatherArgs) -> Result<(), Error> {
     let output = Output::new(&args.output, &inputs)?;
     let started = std::time::Instant::now();
     let progress = super::progress(args.quiet);
-    let file = bounce_stages::gather(&args.part, &args.lower, progress.as_ref())?;
-    output.write_parts(&file.encode().parts())?;
+    let gathered = bounce_stages::gather(&args.part, &args.lower, progress.as_ref())?;
+    output.write_parts(&gathered.encode().parts())?;
+    let file = &gathered.file;
     let shard = file.shard.map_or(String::new(), |s| format!("{s}, "));
     println!(
         "gathered bounce {} of {} ({shard}receivers {}..{}), {:.2} s -> {}",

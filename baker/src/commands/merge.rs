@@ -4,7 +4,7 @@
 
 use std::path::PathBuf;
 
-use prt_baker::distribute::bounce_stages::{self, BounceFile};
+use prt_baker::distribute::bounce_stages::{self, Merged};
 use prt_baker::distribute::merge::merge_with;
 use prt_baker::distribute::stitch_columns;
 use prt_baker::support::output::Output;
@@ -56,17 +56,17 @@ pub fn run(args: MergeArgs) -> Result<(), Error> {
         (None, false) => None,
     };
     let file = match bounce {
-        Some(bounce) if args.factor.is_some() && !bounce.is_last() => {
+        Some(merged) if args.factor.is_some() && !merged.file.is_last() => {
             return Err(Error::Shards(format!(
                 "--factor: the gathers of bounce {} of {} make a bounce file, not the bake's: \
                  give --factor to the last bounce's merge",
-                bounce.k, bounce.stub.header.bounces
+                merged.file.k, merged.file.stub.header.bounces
             )));
         }
-        Some(bounce) if !bounce.is_last() || args.direct => {
-            return write_bounce(&bounce, parts.len(), &output_policy, started);
+        Some(merged) if !merged.file.is_last() || args.direct => {
+            return write_bounce(&merged, parts.len(), &output_policy, started);
         }
-        Some(bounce) => bounce.into_file(stitch),
+        Some(merged) => merged.file.into_file(stitch),
         None => merge_with(parts, stitch, progress.as_ref())?,
     };
     let file = match &args.factor {
@@ -95,12 +95,13 @@ pub fn run(args: MergeArgs) -> Result<(), Error> {
 }
 
 fn write_bounce(
-    bounce: &BounceFile,
+    merged: &Merged,
     parts: usize,
     output: &Output,
     started: std::time::Instant,
 ) -> Result<(), Error> {
-    output.write_parts(&bounce.encode().parts())?;
+    output.write_parts(&merged.encode().parts())?;
+    let bounce = &merged.file;
     println!(
         "merged {parts} files, bounce {} of {} of {} receivers, {:.2} s -> {}",
         bounce.k,

@@ -28,7 +28,6 @@
 //! the whole bake denoises its transfer after the bounces; last an xxh3 of everything before
 //! it. Version 1 files (aux and guides in every merged file) are refused: run the stages again.
 
-use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -36,8 +35,9 @@ use glam::Vec3;
 
 use crate::CoefficientFile;
 use crate::bake::denoise::Guides;
-use crate::bake::interreflection::{self, RowSource, Rows};
+use crate::bake::interreflection::{self, PackedRows, RowSource, Rows};
 use crate::bake::transfer::{Estimator, Mode};
+use crate::distribute::big_reads::Mapped;
 use crate::distribute::merge::{join, refuse};
 use crate::distribute::part_guides::{GUIDE_WORDS, guide_bytes, parse_guides};
 use crate::distribute::shard::{Part, PartId, ShardId, header_difference, options_of, shard_range};
@@ -51,6 +51,20 @@ const MAGIC: &[u8; 8] = b"PRTBNC\0\x02";
 const MAGIC_1: &[u8; 8] = b"PRTBNC\0\x01";
 /// Magic, k, shard index, shard count, reserved, first, count, stub length, fingerprint.
 const HEAD: usize = 56;
+
+/// What a reading of a bounce file decodes; the rest is checked by the checksum only.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Keep {
+    All,
+    /// `merge --lower`'s reading of bounce file k − 1: its values only at k − 1 = 0, where
+    /// they are the total so far; a gather of bounce k has read them.
+    Merge,
+    /// A gather's: neither values (read from the file's bytes), total (150 MB at 2048²) nor
+    /// guides, and the stub's lightmap mask only.
+    Gather,
+    /// `merge --lower`'s reading of a gather: all but its values (read from the file's bytes).
+    Gathered,
+}
 
 /// Bounce k of a range of a bake's receivers (a shard's gather) or of all of them (merged).
 #[derive(Clone, Debug, PartialEq)]
@@ -89,14 +103,16 @@ impl BounceFile {
         k == stub.header.bounces
     }
 
-    /// T₀ + … + T_k per receiver: at k = 0, T₀ broadcast to every channel, as the bake starts
-    /// its total.
-    fn total_so_far(&self) -> Vec<f32> {
-        if self.k > 0 {
-            return self.total.clone();
+    /// T₀ + … + T_k per receiver, taken out of the file: at k = 0, T₀ broadcast to every
+    /// channel, as the bake starts its total (T₀ itself where there is one channel).
+    fn take_total_so_far(&mut self) -> Vec<f32> {
+        let channels = self.stub.header.channels as usize;
+        match (self.k, channels) {
+            (0, 1) => return std::mem::take(&mut self.values),
+            (0, _) => {}
+            _ => return std::mem::take(&mut self.total),
         }
         let n = sh::coeff_count(self.stub.header.order as usize);
-        let channels = self.stub.header.channels as usize;
         let mut total = Vec::with_capacity(self.values.len() * channels);
         for t0 in self.values.chunks_exact(n) {
             for _ in 0..channels {
@@ -113,8 +129,21 @@ impl BounceFile {
     /// The file's bytes in pieces, the arrays borrowed ([`Encoded`]): a merged bounce file is
     /// 55 MB at 2048², which building whole copied into fresh memory before writing.
     pub fn encode(&self) -> Encoded<'_> {
-        let stub = self.stub.to_bytes();
-        let mut head = Vec::with_capacity(HEAD + stub.len());
+        self.encode_with(None, None)
+    }
+
+    /// [`BounceFile::encode`] with the values as the gathers' files hold them (`values`, a
+    /// merge's, [`Merged`]) and the guides' words `raw` as a part's file holds them (a last
+    /// gather's, [`Gathered`]) where given, instead of [`BounceFile::values`] and
+    /// [`BounceFile::guides`].
+    fn encode_with<'a>(
+        &'a self,
+        values: Option<&[&'a [u8]]>,
+        raw: Option<&'a [u8]>,
+    ) -> Encoded<'a> {
+        // The stub's pieces follow the head as they are: its lightmap's arrays borrowed.
+        let stub = self.stub.encode();
+        let mut head = Vec::with_capacity(HEAD);
         head.extend(MAGIC);
         head.extend(self.k.to_le_bytes());
         let shard = self.shard.unwrap_or(ShardId { index: 0, count: 0 });
@@ -125,10 +154,13 @@ impl BounceFile {
         head.extend(self.count.to_le_bytes());
         head.extend((stub.len() as u64).to_le_bytes());
         head.extend(self.fingerprint.unwrap_or(0).to_le_bytes());
-        head.extend(stub);
         let mut e = Encoded::default();
         e.push(head);
-        e.put(&self.values, f32::to_le_bytes);
+        e.append(stub);
+        match values {
+            Some(pieces) => pieces.iter().for_each(|p| e.put(p, |b: u8| [b])),
+            None => e.put(&self.values, f32::to_le_bytes),
+        }
         e.put(&self.total, f32::to_le_bytes);
         e.put(self.ao.as_deref().unwrap_or_default(), f32::to_le_bytes);
         let bent = self.bent_normal.as_deref().unwrap_or_default();
@@ -139,7 +171,10 @@ impl BounceFile {
             }
             b
         });
-        e.push(self.guides.as_ref().map_or(Vec::new(), guide_bytes));
+        match raw {
+            Some(words) => e.put(words, |b: u8| [b]),
+            None => e.push(self.guides.as_ref().map_or(Vec::new(), guide_bytes)),
+        }
         let mut hasher = xxhash_rust::xxh3::Xxh3::new();
         for part in e.parts() {
             hasher.update(part);
@@ -149,12 +184,15 @@ impl BounceFile {
     }
 
     pub fn from_bytes(bytes: &[u8]) -> std::result::Result<BounceFile, String> {
-        BounceFile::from_bytes_with(bytes, true)
+        Ok(BounceFile::from_bytes_with(bytes, Keep::All)?.0)
     }
 
-    /// [`BounceFile::from_bytes`]; without `keep_total` a merged file's running total is
-    /// checked by the checksum only and left empty (a gather never reads it: 150 MB at 2048²).
-    fn from_bytes_with(bytes: &[u8], keep_total: bool) -> std::result::Result<BounceFile, String> {
+    /// [`BounceFile::from_bytes`] keeping what `keep` says (the rest is checked by the
+    /// checksum only and left empty), and where the values lie in `bytes`.
+    fn from_bytes_with(
+        bytes: &[u8],
+        keep: Keep,
+    ) -> std::result::Result<(BounceFile, usize), String> {
         if bytes.len() >= 8 && &bytes[..8] == MAGIC_1 {
             return Err(
                 "a bounce file of an older prt-bake (version 1): run the bake's stages \
@@ -178,7 +216,10 @@ impl BounceFile {
             .checked_add(stub_len)
             .filter(|&e| e <= body.len() as u64)
             .ok_or("the stub runs past the end")? as usize;
-        let stub = Part::from_bytes(&body[HEAD..stub_end])?;
+        let stub = match keep {
+            Keep::Gather => Part::stub_mask_from_bytes(&body[HEAD..stub_end])?,
+            _ => Part::from_bytes(&body[HEAD..stub_end])?,
+        };
         let receivers = stub.receiver_count() as u64;
         if first.checked_add(count).is_none_or(|end| end > receivers) {
             return Err(format!(
@@ -234,9 +275,15 @@ impl BounceFile {
                 }
             }
         };
-        let values = take(count_us * width, true);
+        // A merge reads bounce k − 1 only where it is the total so far (k − 1 = 0).
+        let keep_values = match keep {
+            Keep::All => true,
+            Keep::Merge => k == 0,
+            Keep::Gather | Keep::Gathered => false,
+        };
+        let values = take(count_us * width, keep_values);
         let total = match with_total {
-            true => take(count_us * total_width, keep_total),
+            true => take(count_us * total_width, keep != Keep::Gather),
             false => Vec::new(),
         };
         let ao = (last && aux.ao).then(|| take(count_us, true));
@@ -246,13 +293,13 @@ impl BounceFile {
                 .map(Vec3::from_slice)
                 .collect()
         });
-        // A gather (no `keep_total`) reads no guides: only the last merge denoises.
+        // A gather reads no guides: only the last merge denoises.
         let guide_len = count_us * GUIDE_WORDS * 4;
-        let guides = match guided && keep_total {
+        let guides = match guided && keep != Keep::Gather {
             true => Some(parse_guides(&floats[floats.len() - guide_len..], count_us)?),
             false => None,
         };
-        Ok(BounceFile {
+        let file = BounceFile {
             k,
             shard: (!merged).then_some(ShardId {
                 index,
@@ -267,17 +314,21 @@ impl BounceFile {
             ao,
             bent_normal,
             guides,
-        })
+        };
+        Ok((file, stub_end))
     }
 
     pub fn read(path: &Path) -> Result<BounceFile> {
-        BounceFile::read_with(path, true)
+        Ok(BounceFile::read_with(path, Keep::All)?.0)
     }
 
-    fn read_with(path: &Path, keep_total: bool) -> Result<BounceFile> {
+    /// [`BounceFile::read`] keeping what `keep` says; also the file's bytes and where its
+    /// values lie in them.
+    fn read_with(path: &Path, keep: Keep) -> Result<(BounceFile, Mapped, usize)> {
         let bytes = crate::distribute::big_reads::map(path)?;
-        BounceFile::from_bytes_with(&bytes, keep_total)
-            .map_err(|message| Error::coefficient_file(path, message))
+        let (file, at) = BounceFile::from_bytes_with(&bytes, keep)
+            .map_err(|message| Error::coefficient_file(path, message))?;
+        Ok((file, bytes, at))
     }
 
     /// Writes the file atomically, in pieces.
@@ -293,9 +344,9 @@ impl BounceFile {
 
     /// The bake's file from the last merged bounce file ([`BounceFile::is_last`]); a texel
     /// bake's lightmap stitched only with `stitch`.
-    pub fn into_file(self, stitch: bool) -> CoefficientFile {
+    pub fn into_file(mut self, stitch: bool) -> CoefficientFile {
         let receivers = self.stub.receiver_count();
-        let total = self.total_so_far();
+        let total = self.take_total_so_far();
         let part = Part {
             id: PartId {
                 shard: ShardId { index: 0, count: 1 },
@@ -311,8 +362,8 @@ impl BounceFile {
     }
 }
 
-/// A part of no receivers that carries `part`'s header and lightmap.
-fn stub_of(part: &Part) -> Part {
+/// A part of no receivers that carries `part`'s header and lightmap (taken out of `part`).
+fn stub_of(part: &mut Part) -> Part {
     let aux = part.header.aux;
     Part {
         header: part.header.clone(),
@@ -329,7 +380,7 @@ fn stub_of(part: &Part) -> Part {
             vertices: Vec::new(),
             weights: Vec::new(),
         }),
-        lightmap: part.lightmap.clone(),
+        lightmap: part.lightmap.take(),
         guides: part.header.denoised.then(Default::default),
     }
 }
@@ -364,34 +415,63 @@ fn check_same_bake(
 /// `merge --direct`: bounce file 0 from every part of an interreflected bake (their direct
 /// transfer, joined; the total so far is T₀ broadcast, not stored). The aux arrays and guides
 /// stay in the parts: the last bounce's gathers carry them on.
-pub fn direct(paths: &[PathBuf]) -> Result<BounceFile> {
-    let (header, _, whole) = join(paths)?;
+pub fn direct(paths: &[PathBuf]) -> Result<Merged> {
+    let (header, _, mut whole) = join(paths, false)?;
     if header.mode != Mode::Interreflected {
         return Err(Error::InvalidOption(
             "merge --direct is for interreflected bakes (the others have no bounces)".into(),
         ));
     }
-    let stub = stub_of(&whole);
-    let last = BounceFile::carries_aux(&stub, 0);
-    Ok(BounceFile {
+    // Without bounces bounce file 0 is the last one: it carries the aux arrays and guides.
+    let last = header.bounces == 0;
+    if last {
+        whole = join(paths, true)?.2;
+    }
+    let fingerprint = fingerprint(&whole);
+    let count = whole.receiver_count() as u64;
+    let stub = stub_of(&mut whole);
+    let file = BounceFile {
         k: 0,
         shard: None,
         first: 0,
-        count: whole.receiver_count() as u64,
-        fingerprint: fingerprint(&whole),
+        count,
+        fingerprint,
         values: whole.coefficients,
         total: Vec::new(),
         ao: whole.ao.filter(|_| last),
         bent_normal: whole.bent_normal.filter(|_| last),
         guides: whole.guides.filter(|_| last),
         stub,
+    };
+    Ok(Merged {
+        file,
+        values: Vec::new(),
     })
+}
+
+/// A shard's gather ([`gather`]): its bounce file, which the last bounce's gather writes with
+/// the part's guides as the part's file holds them (12 words a receiver, copied once rather
+/// than decoded and encoded again: 25 MB a shard at 1024²).
+pub struct Gathered {
+    pub file: BounceFile,
+    /// The part's rows, which hold its file's bytes.
+    rows: PackedRows,
+    /// Where the guides lie in them (the last bounce of a denoised bake).
+    guides: Option<std::ops::Range<usize>>,
+}
+
+impl Gathered {
+    /// The gather's file in pieces ([`BounceFile::encode`]).
+    pub fn encode(&self) -> Encoded<'_> {
+        let raw = self.guides.clone().map(|r| &self.rows.file_bytes()[r]);
+        self.file.encode_with(None, raw)
+    }
 }
 
 /// `prt-bake gather`: bounce k + 1 at the receivers of the part at `part_path`, from its rows
 /// and the merged bounce file k at `lower_path`.
-pub fn gather(part_path: &Path, lower_path: &Path, progress: &dyn Progress) -> Result<BounceFile> {
-    let lower = BounceFile::read_with(lower_path, false)?;
+pub fn gather(part_path: &Path, lower_path: &Path, progress: &dyn Progress) -> Result<Gathered> {
+    let (lower, lower_bytes, values_at) = BounceFile::read_with(lower_path, Keep::Gather)?;
     // The last bounce's gather carries the part's aux arrays and guides to the last merge.
     let last = BounceFile::carries_aux(&lower.stub, lower.k + 1);
     let (part, rows) = Part::read_packed_rows(part_path, last)?;
@@ -421,10 +501,16 @@ pub fn gather(part_path: &Path, lower_path: &Path, progress: &dyn Progress) -> R
     let previous_channels = if lower.k == 0 { 1 } else { channels };
     let k = lower.k + 1;
     progress.begin(&format!("bounce {k}"), u64::from(part.id.vertices), 0);
-    // Texel bakes: the previous bounce in the lightmap, dilated, as the bake reads it.
+    // The previous bounce, from the file's bytes; texel bakes: in the lightmap, dilated, as
+    // the bake reads it.
+    let values =
+        &lower_bytes[values_at..values_at + lower.count as usize * previous_channels * n * 4];
     let previous = match &lower.stub.lightmap {
-        Some(l) => Cow::Owned(l.placed_and_dilated(&lower.values, previous_channels * n)),
-        None => Cow::Borrowed(&lower.values[..]),
+        Some(l) => l.placed_and_dilated(values, previous_channels * n),
+        None => values
+            .chunks_exact(4)
+            .map(|w| f32::from_le_bytes(w.try_into().expect("4")))
+            .collect(),
     };
     let mut values = vec![0.0f32; part.id.vertices as usize * channels * n];
     interreflection::bounce_pass(
@@ -438,7 +524,11 @@ pub fn gather(part_path: &Path, lower_path: &Path, progress: &dyn Progress) -> R
         progress,
     );
     progress.finish();
-    Ok(BounceFile {
+    let guides = match last {
+        true => part.guide_words_at(),
+        false => None,
+    };
+    let file = BounceFile {
         k,
         shard: Some(part.id.shard),
         first: part.id.first_vertex,
@@ -453,14 +543,36 @@ pub fn gather(part_path: &Path, lower_path: &Path, progress: &dyn Progress) -> R
         total: Vec::new(),
         ao: part.ao,
         bent_normal: part.bent_normal,
-        guides: part.guides,
-    })
+        guides: None,
+    };
+    Ok(Gathered { file, rows, guides })
+}
+
+/// A merge's bounce file ([`merge`], [`direct`]): a `merge --lower`'s values stay in the
+/// gathers' files, written from there (two copies of them in fresh memory before: 38 MB
+/// each at 1024²).
+pub struct Merged {
+    pub file: BounceFile,
+    /// The gathers' bytes and where their values lie, in shard order; empty: the file's own
+    /// [`BounceFile::values`].
+    values: Vec<(Mapped, std::ops::Range<usize>)>,
+}
+
+impl Merged {
+    /// The merged file in pieces ([`BounceFile::encode`]).
+    pub fn encode(&self) -> Encoded<'_> {
+        let pieces: Vec<&[u8]> = self.values.iter().map(|(b, r)| &b[r.clone()]).collect();
+        match pieces.is_empty() {
+            true => self.file.encode(),
+            false => self.file.encode_with(Some(&pieces), None),
+        }
+    }
 }
 
 /// `merge --lower`: bounce file k from every shard's gather of bounce k (`paths`, any order)
 /// and the merged bounce file k − 1 (`lower_path`): bounce k joined, and added to the total.
-pub fn merge(paths: &[PathBuf], lower_path: &Path) -> Result<BounceFile> {
-    let lower = BounceFile::read(lower_path)?;
+pub fn merge(paths: &[PathBuf], lower_path: &Path) -> Result<Merged> {
+    let mut lower = BounceFile::read_with(lower_path, Keep::Merge)?.0;
     if lower.shard.is_some() {
         return Err(refuse(format!(
             "{}: one shard's gather, not a merged bounce file",
@@ -469,10 +581,10 @@ pub fn merge(paths: &[PathBuf], lower_path: &Path) -> Result<BounceFile> {
     }
     let k = lower.k + 1;
     let receivers = lower.count as usize;
-    let mut by_index: BTreeMap<u32, (&Path, BounceFile)> = BTreeMap::new();
+    let mut by_index: BTreeMap<u32, (&Path, BounceFile, Mapped, usize)> = BTreeMap::new();
     let mut count = None;
     for path in paths {
-        let file = BounceFile::read(path)?;
+        let (file, bytes, at) = BounceFile::read_with(path, Keep::Gathered)?;
         check_same_bake(
             &lower,
             (&file.stub.header, file.fingerprint),
@@ -513,14 +625,14 @@ pub fn merge(paths: &[PathBuf], lower_path: &Path) -> Result<BounceFile> {
                 range.end
             )));
         }
-        if let Some((other, _)) = by_index.get(&shard.index) {
+        if let Some((other, ..)) = by_index.get(&shard.index) {
             return Err(refuse(format!(
                 "{} and {}: both are {shard}",
                 other.display(),
                 path.display()
             )));
         }
-        by_index.insert(shard.index, (path.as_path(), file));
+        by_index.insert(shard.index, (path.as_path(), file, bytes, at));
     }
     let count = count.ok_or_else(|| Error::InvalidOption("merge needs the gathers".into()))?;
     let missing: Vec<String> = (0..count)
@@ -533,12 +645,22 @@ pub fn merge(paths: &[PathBuf], lower_path: &Path) -> Result<BounceFile> {
             missing.join(", ")
         )));
     }
-    let mut total = lower.total_so_far();
-    let mut values = Vec::with_capacity(total.len());
+    let mut total = lower.take_total_so_far();
+    let width = BounceFile::widths(&lower.stub, k).0;
+    let mut values = Vec::new();
     // The last bounce's gathers carry their receivers' aux arrays and guides, in shard order.
     let (mut ao, mut bent_normal, mut guides) = (None, None, None);
-    for (_, file) in by_index.into_values() {
-        values.extend(file.values);
+    let mut totals = &mut total[..];
+    for (_, file, bytes, at) in by_index.into_values() {
+        // The running total, as `sum_bounces` adds each bounce.
+        let floats = file.count as usize * width;
+        let range = at..at + floats * 4;
+        let (these, rest) = std::mem::take(&mut totals).split_at_mut(floats);
+        for (t, w) in these.iter_mut().zip(bytes[range.clone()].chunks_exact(4)) {
+            *t += f32::from_le_bytes(w.try_into().expect("4 bytes"));
+        }
+        totals = rest;
+        values.push((bytes, range));
         join_aux(&mut ao, file.ao);
         join_aux(&mut bent_normal, file.bent_normal);
         match (&mut guides, file.guides) {
@@ -547,19 +669,16 @@ pub fn merge(paths: &[PathBuf], lower_path: &Path) -> Result<BounceFile> {
             (Some(_), None) => {}
         }
     }
-    // The running total, as `sum_bounces` adds each bounce.
-    for (t, b) in total.iter_mut().zip(&values) {
-        *t += b;
-    }
-    Ok(BounceFile {
+    let file = BounceFile {
         k,
-        values,
+        values: Vec::new(),
         total,
         ao,
         bent_normal,
         guides,
         ..lower
-    })
+    };
+    Ok(Merged { file, values })
 }
 
 /// Appends a gather's aux array to the ones before it.

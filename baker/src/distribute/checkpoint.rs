@@ -106,7 +106,7 @@ pub fn bake(
         .collect();
     // The blocks hold their lightmap's block only; the bake's own has the arrays.
     let mut part = Part::join(parts, id);
-    part.lightmap = baker.lightmap().cloned();
+    part.lightmap = baker.lightmap_with_arrays();
     Ok(Checkpointed {
         part,
         blocks: blocks.len(),

@@ -26,6 +26,7 @@ use crate::bake::lightmap::{
 };
 use crate::bake::transfer::{BounceTargets, Visibility};
 use crate::formats::coefficient_file::{CoefficientFile, LightmapBlock};
+use crate::formats::encoded::Encoded;
 use crate::formats::header::{HEADER_SIZE, Header, OBJECT_PLACEMENT_BYTES, ObjectPlacement};
 use crate::formats::object_placements;
 use crate::math::sh;
@@ -81,8 +82,14 @@ const NOT_CARRIED: u32 = 1;
 const IN_SHARD_ZERO: u32 = 2;
 
 impl PartLightmap {
-    /// The lightmap of a texel bake of `scene` over `prepared`.
+    /// The lightmap of a texel bake of `scene` over `prepared`, with its arrays.
     pub fn new(scene: &Scene, prepared: &Prepared) -> PartLightmap {
+        PartLightmap::block_of(scene, prepared).with_arrays(prepared)
+    }
+
+    /// [`PartLightmap::new`]'s block only (size, counts, fingerprint), the arrays not copied:
+    /// a shard other than 0 carries no arrays, and shard 0 copies them once, into its part.
+    pub fn block_of(scene: &Scene, prepared: &Prepared) -> PartLightmap {
         let atlas = &prepared.atlas;
         let texel_size = atlas.texel_size.unwrap_or(0.0);
         let mut digest = Digest::default();
@@ -109,13 +116,26 @@ impl PartLightmap {
             source: atlas.source,
             receivers: prepared.texels.valid_count() as u64,
             fingerprint: digest.finish(),
-            uv1: atlas.uv1.clone(),
+            uv1: Vec::new(),
+            valid: Vec::new(),
+            seams: Vec::new(),
+            objects: Vec::new(),
+            announced_objects: atlas.objects.len() as u32,
+            carried: false,
+            in_shard_zero: false,
+        }
+    }
+
+    /// [`PartLightmap::block_of`] with its arrays, copied from `prepared`: what shard 0's part
+    /// carries.
+    pub fn with_arrays(self, prepared: &Prepared) -> PartLightmap {
+        PartLightmap {
+            uv1: prepared.atlas.uv1.clone(),
             valid: prepared.texels.valid.clone(),
             seams: prepared.seams.clone(),
-            objects: atlas.objects.clone(),
-            announced_objects: atlas.objects.len() as u32,
+            objects: prepared.atlas.objects.clone(),
             carried: true,
-            in_shard_zero: false,
+            ..self
         }
     }
 
@@ -167,23 +187,34 @@ impl PartLightmap {
     /// The bytes after a part's other arrays: the UVs (f32), the mask (u8, 1 = baked), per
     /// triangle and edge its seam partner (u32), then for a per-object atlas the placements
     /// (the texel file's per-object section, [`object_placements`]).
-    pub(crate) fn tail_bytes(&self) -> Vec<u8> {
+    /// They are appended to `e` borrowed (shard 0's part and the merged bounce files carry
+    /// them: 26 MB at 720,000 triangles).
+    pub(crate) fn put_tail<'a>(&'a self, e: &mut Encoded<'a>) {
         if !self.carried {
-            return Vec::new();
+            return;
         }
-        let mut bytes = Vec::with_capacity(self.tail_len().unwrap_or(0) as usize);
-        for f in self.uv1.iter().flatten().flat_map(|p| p.to_array()) {
-            bytes.extend_from_slice(&f.to_le_bytes());
-        }
-        bytes.extend(self.valid.iter().map(|&v| u8::from(v)));
-        for c in self.seams.iter().flatten() {
-            bytes.extend_from_slice(&c.to_le_bytes());
-        }
-        bytes.extend(objects_section(self.source, &self.objects));
-        bytes
+        e.put(&self.uv1, |t: [Vec2; 3]| {
+            let mut b = [0u8; 24];
+            for (o, f) in b
+                .chunks_exact_mut(4)
+                .zip(t.iter().flat_map(|p| p.to_array()))
+            {
+                o.copy_from_slice(&f.to_le_bytes());
+            }
+            b
+        });
+        e.put(&self.valid, |v: bool| [u8::from(v)]);
+        e.put(&self.seams, |c: [u32; 3]| {
+            let mut b = [0u8; 12];
+            for (o, c) in b.chunks_exact_mut(4).zip(c) {
+                o.copy_from_slice(&c.to_le_bytes());
+            }
+            b
+        });
+        e.push(objects_section(self.source, &self.objects));
     }
 
-    /// Length of [`PartLightmap::tail_bytes`]; `None` where a corrupted count overflows.
+    /// Length of [`PartLightmap::put_tail`]; `None` where a corrupted count overflows.
     pub(crate) fn tail_len(&self) -> Option<u64> {
         if !self.carried {
             return Some(0);
@@ -247,8 +278,13 @@ impl PartLightmap {
         })
     }
 
-    /// Reads [`PartLightmap::tail_bytes`] (exactly [`PartLightmap::tail_len`] bytes).
-    pub(crate) fn read_tail(&mut self, tail: &[u8]) -> std::result::Result<(), String> {
+    /// Reads [`PartLightmap::put_tail`] (exactly [`PartLightmap::tail_len`] bytes); without
+    /// `arrays` only the mask (and placements), the UVs and seam partners left empty.
+    pub(crate) fn read_tail(
+        &mut self,
+        tail: &[u8],
+        arrays: bool,
+    ) -> std::result::Result<(), String> {
         if !self.carried {
             return Ok(());
         }
@@ -261,26 +297,36 @@ impl PartLightmap {
         if self.source == AtlasSource::PerObject {
             self.objects = object_placements::decode(objects)?;
         }
-        let codes: Vec<u32> = seams
-            .chunks_exact(4)
-            .map(|c| u32::from_le_bytes(c.try_into().expect("4 bytes")))
+        // Decoded straight into place (every merge and gather reads a lightmap: intermediate
+        // arrays were 26 MB of fresh memory each at 720,000 triangles).
+        let (seams, uv) = match arrays {
+            true => (seams, uv),
+            false => (&[][..], &[][..]),
+        };
+        let code_at =
+            |c: &[u8], k: usize| u32::from_le_bytes(c[4 * k..4 * k + 4].try_into().expect("4"));
+        self.seams = seams
+            .chunks_exact(12)
+            .map(|c| [code_at(c, 0), code_at(c, 1), code_at(c, 2)])
             .collect();
         let edges = 3 * self.scene_triangle_count as usize;
-        if let Some(i) = codes
+        if let Some(i) = self
+            .seams
             .iter()
+            .flatten()
             .position(|&c| c != NO_PARTNER && c as usize / 2 >= edges)
         {
-            return Err(format!(
-                "seam partner {} of edge {i} is not an edge",
-                codes[i]
-            ));
+            let code = self.seams[i / 3][i % 3];
+            return Err(format!("seam partner {code} of edge {i} is not an edge"));
         }
-        self.seams = codes.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
-        let floats: Vec<f32> = uv
-            .chunks_exact(4)
-            .map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes")))
+        let float_at = |c: &[u8], k: usize| f32::from_bits(code_at(c, k));
+        self.uv1 = uv
+            .chunks_exact(24)
+            .map(|c| [0, 2, 4].map(|k| Vec2::new(float_at(c, k), float_at(c, k + 1))))
             .collect();
-        self.uv1 = crate::formats::coefficient_file::triangle_uvs(&floats)?;
+        if let Some(i) = self.uv1.iter().flatten().position(|p| !p.is_finite()) {
+            return Err(format!("lightmap UV of triangle {} is not finite", i / 3));
+        }
         if let Some(i) = mask.iter().position(|&b| b > 1) {
             return Err(format!("texel {i}'s mask byte is {} (0 or 1)", mask[i]));
         }
@@ -350,15 +396,19 @@ impl PartLightmap {
         Texels::mask(self.width, self.height, self.valid.clone())
     }
 
-    /// Bounce values at the baked texels (`width` floats each, in their row-major order)
-    /// placed in the W×H lightmap and dilated: what [`BounceTargets::slot_values`] makes of
-    /// them, without the lookup's other arrays (a gather reads no hit, only its rows).
-    pub(crate) fn placed_and_dilated(&self, values: &[f32], width: usize) -> Vec<f32> {
+    /// Bounce values at the baked texels (`width` floats each, in their row-major order, as
+    /// little-endian bytes: read from a bounce file, not decoded first) placed in the W×H
+    /// lightmap and dilated: what [`BounceTargets::slot_values`] makes of them, without the
+    /// lookup's other arrays (a gather reads no hit, only its rows).
+    pub(crate) fn placed_and_dilated(&self, values: &[u8], width: usize) -> Vec<f32> {
         let texels = self.texels();
         let mut map = vec![0.0f32; texels.valid.len() * width];
         let valid = texels.valid.iter().enumerate().filter(|(_, v)| **v);
-        for ((i, _), value) in valid.zip(values.chunks_exact(width)) {
-            map[i * width..(i + 1) * width].copy_from_slice(value);
+        for ((i, _), value) in valid.zip(values.chunks_exact(4 * width)) {
+            let words = value.chunks_exact(4);
+            for (m, w) in map[i * width..(i + 1) * width].iter_mut().zip(words) {
+                *m = f32::from_le_bytes(w.try_into().expect("4 bytes"));
+            }
         }
         crate::bake::lightmap::dilation::dilate_values(&texels, width, &mut map);
         map

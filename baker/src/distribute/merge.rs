@@ -40,7 +40,7 @@ pub fn merge_with(
     if crate::distribute::probe_shards::is_probe_part(first_path)? {
         return crate::distribute::probe_shards::merge(paths);
     }
-    let (header, order, mut whole) = join(paths)?;
+    let (header, order, mut whole) = join(paths, true)?;
     if header.mode != Mode::Interreflected {
         let coefficients = std::mem::take(&mut whole.coefficients);
         return Ok(whole.into_file_with(coefficients, stitch));
@@ -51,16 +51,17 @@ pub fn merge_with(
 /// A merge's parts joined: the bake's header, each part's path and identity, the joined part.
 pub(crate) type Joined<'a> = (Header, Vec<(&'a Path, PartId)>, Part);
 
-/// Reads and checks every part at `paths` (without their bounce rows) and joins them: the
-/// bake's header, each part's path and identity in shard order, and the joined part.
-pub(crate) fn join(paths: &[PathBuf]) -> Result<Joined<'_>> {
+/// Reads and checks every part at `paths` (without their bounce rows; without `aux`, without
+/// their aux arrays and guides too) and joins them: the bake's header, each part's path and
+/// identity in shard order, and the joined part.
+pub(crate) fn join(paths: &[PathBuf], aux: bool) -> Result<Joined<'_>> {
     let first_path = paths
         .first()
         .ok_or_else(|| Error::InvalidOption("merge needs at least one part".into()))?;
     let mut parts = Vec::with_capacity(paths.len());
     for path in paths {
         // The rows are read again, one part at a time, by each bounce (or by the gathers).
-        let part = Part::read_without_rows(path)?;
+        let part = Part::read_without_rows(path, aux)?;
         if let Some((_, first)) = parts.first() {
             check_same_bake(first, &part, path, first_path)?;
         }

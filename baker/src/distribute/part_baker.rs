@@ -37,7 +37,9 @@ pub struct PartBaker<'a> {
     estimator: Estimator,
     targets: BounceTargets<'a>,
     header: Header,
-    lightmap: Option<PartLightmap>,
+    /// Texel bakes: the lightmap's block ([`PartLightmap::block_of`]) and the preparation its
+    /// arrays are copied from, into shard 0's part only.
+    lightmap: Option<(PartLightmap, &'a Prepared)>,
     /// Denoised bakes: the guides of the receivers from `guides_from` on (every receiver,
     /// or a shard's), whose range each part carries with its receivers' noise.
     guides: Option<Guides>,
@@ -105,7 +107,7 @@ impl<'a> PartBaker<'a> {
             estimator,
             targets: BounceTargets::texels(&prepared.atlas, texels),
             header,
-            lightmap: Some(PartLightmap::new(scene, prepared)),
+            lightmap: Some((PartLightmap::block_of(scene, prepared), prepared)),
             guides: (options.denoise && tracer.is_some()).then(|| {
                 denoise::guides::texel_guides_of(scene, &prepared.atlas, texels, receivers.clone())
             }),
@@ -123,9 +125,15 @@ impl<'a> PartBaker<'a> {
         &self.header
     }
 
-    /// Texel bakes: the lightmap every part carries.
+    /// Texel bakes: the lightmap's block (size, counts, fingerprint), without its arrays.
     pub fn lightmap(&self) -> Option<&PartLightmap> {
-        self.lightmap.as_ref()
+        self.lightmap.as_ref().map(|(block, _)| block)
+    }
+
+    /// Texel bakes: the lightmap with its arrays, as shard 0's part carries it.
+    pub fn lightmap_with_arrays(&self) -> Option<PartLightmap> {
+        let (block, prepared) = self.lightmap.as_ref()?;
+        Some(block.clone().with_arrays(prepared))
     }
 
     /// Bakes `receivers` into a part of `shard`. In interreflected mode the part carries its
@@ -138,7 +146,7 @@ impl<'a> PartBaker<'a> {
         receivers: Range<usize>,
         progress: &dyn Progress,
     ) -> Result<(Part, u64)> {
-        let (mut part, jobs, rays) = self.bake_direct(shard, receivers.clone(), progress)?;
+        let (mut part, jobs, rays) = self.bake_direct(shard, receivers.clone(), None, progress)?;
         if let Some(jobs) = jobs {
             let rows = Rows::from_jobs(jobs);
             self.check_rows(rows.bytes(), &receivers)?;
@@ -148,14 +156,22 @@ impl<'a> PartBaker<'a> {
     }
 
     /// [`PartBaker::bake`] with the bounce rows encoded as the part's file stores them (the
-    /// part's own `rows` left empty: [`Part::encode_with`]), never held as [`Rows`].
+    /// part's own `rows` left empty: [`Part::encode_with`]), never held as [`Rows`]. Where
+    /// `receivers` are all the baker's guides cover (a shard's), the part takes those guides
+    /// rather than a copy: a later part of this baker would have none.
     pub fn bake_encoded(
-        &self,
+        &mut self,
         shard: ShardId,
         receivers: Range<usize>,
         progress: &dyn Progress,
     ) -> Result<(Part, Option<EncodedRows>, u64)> {
-        let (part, jobs, rays) = self.bake_direct(shard, receivers.clone(), progress)?;
+        let covers =
+            |g: &Guides| self.guides_from == receivers.start && g.points.len() == receivers.len();
+        let own = match self.guides.as_ref().is_some_and(covers) {
+            true => self.guides.take(),
+            false => None,
+        };
+        let (part, jobs, rays) = self.bake_direct(shard, receivers.clone(), own, progress)?;
         let rows = jobs.map(encode_jobs);
         if let Some(rows) = &rows {
             self.check_rows(rows.rows_bytes(), &receivers)?;
@@ -164,12 +180,14 @@ impl<'a> PartBaker<'a> {
     }
 
     /// The direct pass: the part without rows, its jobs' rows (interreflected mode) and the
-    /// rays cast.
+    /// rays cast. The part's guides are `own` where given (exactly its receivers'), else
+    /// copied from the baker's.
     #[allow(clippy::type_complexity)]
     fn bake_direct(
         &self,
         shard: ShardId,
         receivers: Range<usize>,
+        own: Option<Guides>,
         progress: &dyn Progress,
     ) -> Result<(Part, Option<HitCache<'_>>, u64)> {
         let options = &self.estimator.options;
@@ -215,14 +233,23 @@ impl<'a> PartBaker<'a> {
             rows: None,
             header: self.header.clone(),
             // Shard 0's part carries the lightmap's arrays for every part of the bake.
-            lightmap: self.lightmap.as_ref().map(|l| match shard.index {
-                0 => l.clone(),
-                _ => l.in_shard_zero(),
-            }),
-            guides: self.guides.as_ref().map(|g| Guides {
-                noise: direct.visibility.iter().map(|v| v.noise).collect(),
-                ..g.range(receivers.start - self.guides_from..receivers.end - self.guides_from)
-            }),
+            lightmap: self
+                .lightmap
+                .as_ref()
+                .map(|(block, prepared)| match shard.index {
+                    0 => block.clone().with_arrays(prepared),
+                    _ => block.in_shard_zero(),
+                }),
+            guides: own
+                .or_else(|| {
+                    let from = self.guides_from;
+                    let g = self.guides.as_ref()?;
+                    Some(g.range(receivers.start - from..receivers.end - from))
+                })
+                .map(|g| Guides {
+                    noise: direct.visibility.iter().map(|v| v.noise).collect(),
+                    ..g
+                }),
         };
         Ok((part, jobs, rays))
     }
@@ -470,7 +497,7 @@ mod tests {
         let atlas = crate::bake::lightmap::Atlas::generate(&scene, 24, None).unwrap();
         let prepared =
             crate::bake::lightmap::prepare(&scene, Some(&*tracer), options.seed, atlas).unwrap();
-        let baker = PartBaker::texels(&scene, Some(&*tracer), &options, &prepared).unwrap();
+        let mut baker = PartBaker::texels(&scene, Some(&*tracer), &options, &prepared).unwrap();
         let baked = baker.receivers();
         assert_eq!(baked, prepared.texels.valid_count());
         let shard = ShardId { index: 1, count: 2 };

@@ -25,16 +25,17 @@ impl Part {
     /// [`Part::encode`] with its bounce rows already encoded (`rows`, the part's own `rows`
     /// unused): a shard encodes them straight from its direct pass ([`encode_jobs`]).
     pub fn encode_with(&self, rows: Option<EncodedRows>) -> Encoded<'_> {
-        let tail = self
-            .lightmap
-            .as_ref()
-            .map_or(Vec::new(), |l| l.tail_bytes());
+        let tail = self.lightmap.as_ref().map_or(Ok(0), |l| {
+            l.tail_len()
+                .ok_or("a lightmap's arrays of more bytes than fit")
+        });
+        let tail = tail.expect("the arrays of a lightmap in memory fit") as usize;
         let ao = self.ao.as_deref().unwrap_or_default();
         let bent = self.bent_normal.as_deref().unwrap_or_default();
         let guides = self.guides.as_ref().map_or(Vec::new(), guide_bytes);
         let arrays = 4 * (self.coefficients.len() + ao.len() + 3 * bent.len()) + guides.len();
         let row_len = rows.as_ref().map_or(0, EncodedRows::byte_len);
-        let payload = (arrays + row_len + tail.len()) as u64;
+        let payload = (arrays + row_len + tail) as u64;
         // The header as for an empty payload (and whatever follows it there), its payload
         // length then set; a texel part's block goes right after the 128 header bytes.
         let mut head = coefficient_file::bytes_with_payload(&self.header, &self.id.to_bytes(), &[]);
@@ -61,7 +62,9 @@ impl Part {
                 e.push(entries);
             }
         }
-        e.push(tail);
+        if let Some(l) = &self.lightmap {
+            l.put_tail(&mut e);
+        }
         e.seal();
         e
     }

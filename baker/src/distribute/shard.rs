@@ -152,6 +152,21 @@ impl Part {
         self.id.range()
     }
 
+    /// Where the denoiser's guides lie in the part's file (denoised bakes): after the
+    /// transfer and the aux arrays, 12 words a receiver.
+    pub fn guide_words_at(&self) -> Option<Range<usize>> {
+        let header_size = match self.lightmap {
+            Some(_) => LIGHTMAP_PART_HEADER_SIZE,
+            None => HEADER_SIZE,
+        };
+        let aux = usize::from(self.header.aux.ao) + 3 * usize::from(self.header.aux.bent_normal);
+        let count = self.id.vertices as usize;
+        let at = header_size + count * (Part::coefficient_width(&self.header) + aux) * 4;
+        self.header
+            .denoised
+            .then_some(at..at + count * GUIDE_WORDS * 4)
+    }
+
     /// The part file's bytes (checksummed): [`Part::encode`]'s pieces in one buffer.
     pub fn to_bytes(&self) -> Vec<u8> {
         self.encode().into_vec()
@@ -250,8 +265,9 @@ impl Part {
             }
             let (starts, grey) = row_starts(&payload[rows_at as usize..], &id)?;
             let at = header_size + rows_at as usize + 4 + 4 * count;
-            let (ao, bent_normal, guides) = match aux {
-                true => aux_arrays(&payload[count * width * 4..], &header, count)
+            // The guides stay in the bytes ([`Part::guide_words_at`]): a gather copies them.
+            let (ao, bent_normal, _) = match aux {
+                true => aux_arrays(&payload[count * width * 4..], &header, count, false)
                     .map_err(|m| format!("{id}: {m}"))?,
                 false => (None, None, None),
             };
@@ -263,13 +279,16 @@ impl Part {
                 bent_normal,
                 rows: None,
                 lightmap,
-                guides,
+                guides: None,
             };
             return Ok((part, Some((at, starts, grey))));
         }
         if let Some(l) = lightmap.as_mut() {
-            l.read_tail(&bytes[bytes.len() - tail as usize..])
-                .map_err(|message| format!("{id}: {message}"))?;
+            l.read_tail(
+                &bytes[bytes.len() - tail as usize..],
+                reading != Reading::Mask,
+            )
+            .map_err(|message| format!("{id}: {message}"))?;
         }
         let mut words = payload.chunks_exact(4);
         let mut f32s = |n: usize| -> Vec<f32> {
@@ -280,9 +299,12 @@ impl Part {
                 .collect()
         };
         let coefficients = f32s(count * width);
-        let (ao, bent_normal, guides) = aux_arrays(&payload[count * width * 4..], &header, count)
-            .map_err(|m| format!("{id}: {m}"))?;
-        let rows = if interreflected && reading == Reading::WithoutRows {
+        let (ao, bent_normal, guides) = match reading {
+            Reading::WithoutRows { aux: false } => (None, None, None),
+            _ => aux_arrays(&payload[count * width * 4..], &header, count, true)
+                .map_err(|m| format!("{id}: {m}"))?,
+        };
+        let rows = if interreflected && matches!(reading, Reading::WithoutRows { .. }) {
             row_starts(&payload[rows_at as usize..], &id)?;
             None
         } else if interreflected {
@@ -323,9 +345,18 @@ impl Part {
     }
 
     /// [`Part::read`] without the bounce rows (their lengths checked): `merge --direct` and
-    /// the merge's first reading need only the direct transfer and the lightmap.
-    pub fn read_without_rows(path: &Path) -> Result<Part> {
-        Part::read_with(path, Reading::WithoutRows)
+    /// the merge's first reading need only the direct transfer and the lightmap. Without
+    /// `aux`, the aux arrays and guides are left out too (`merge --direct` of a bake with
+    /// bounces: the last gathers carry them on).
+    pub fn read_without_rows(path: &Path, aux: bool) -> Result<Part> {
+        Part::read_with(path, Reading::WithoutRows { aux })
+    }
+
+    /// [`Part::from_bytes`] of a part of no receivers (a bounce file's stub) whose
+    /// lightmap's mask is read but not its UVs nor seam partners: a gather places and dilates
+    /// the previous bounce with the mask alone.
+    pub fn stub_mask_from_bytes(bytes: &[u8]) -> std::result::Result<Part, String> {
+        Part::checked(Part::parse(bytes, Reading::Mask)?.0)
     }
 
     fn read_with(path: &Path, reading: Reading) -> Result<Part> {
@@ -338,7 +369,8 @@ impl Part {
     /// What a gather reads of a part: its header, identity and lightmap block (not its
     /// arrays, nor its transfer), and its bounce rows where they lie in the file's bytes,
     /// each entry checked as [`Part::read`] checks it.
-    /// With `aux`, also its aux arrays and guides (the last bounce's gather passes them on).
+    /// With `aux`, also its aux arrays (the last bounce's gather passes them on, and the guides
+    /// from the file's bytes: [`Part::guide_words_at`]).
     pub fn read_packed_rows(path: &Path, aux: bool) -> Result<(Part, PackedRows)> {
         let bytes = crate::distribute::big_reads::map(path)?;
         Part::packed_rows_from_bytes(bytes, aux).map_err(|m| Error::coefficient_file(path, m))
@@ -506,11 +538,16 @@ type RowsAt = (usize, Vec<u64>, bool);
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Reading {
     Whole,
-    /// Everything but the bounce rows' entries (their lengths are checked).
-    WithoutRows,
+    /// [`Reading::Whole`] but a lightmap's UVs and seam partners (its mask is read).
+    Mask,
+    /// Everything but the bounce rows' entries (their lengths are checked); without `aux`
+    /// also without the aux arrays and guides.
+    WithoutRows {
+        aux: bool,
+    },
     /// The header, identity and lightmap block, and where the rows lie ([`PackedRows`]);
-    /// with `aux` also the aux arrays and the denoiser's guides (the last bounce's gather
-    /// carries them to the last merge).
+    /// with `aux` also the aux arrays (the last bounce's gather carries them, and the
+    /// denoiser's guides as they lie in the file, to the last merge).
     Packed {
         aux: bool,
     },
@@ -519,9 +556,15 @@ enum Reading {
 /// A part's aux arrays and guides, from `bytes` that start after its transfer.
 type AuxArrays = (Option<Vec<f32>>, Option<Vec<Vec3>>, Option<Guides>);
 
-/// The aux arrays (AO, bent normals) and the denoiser's guides of `count` receivers, from the
-/// bytes that follow their transfer (the lengths are checked by the caller).
-fn aux_arrays(bytes: &[u8], header: &Header, count: usize) -> Result<AuxArrays, String> {
+/// The aux arrays (AO, bent normals) and, with `guides`, the denoiser's guides of `count`
+/// receivers, from the bytes that follow their transfer (the lengths are checked by the
+/// caller).
+fn aux_arrays(
+    bytes: &[u8],
+    header: &Header,
+    count: usize,
+    guides: bool,
+) -> Result<AuxArrays, String> {
     let mut words = bytes
         .chunks_exact(4)
         .map(|w| f32::from_le_bytes(w.try_into().expect("4 bytes")));
@@ -533,7 +576,7 @@ fn aux_arrays(bytes: &[u8], header: &Header, count: usize) -> Result<AuxArrays, 
             .map(Vec3::from_slice)
             .collect::<Vec<_>>()
     });
-    let guides = match header.denoised {
+    let guides = match header.denoised && guides {
         true => {
             let at =
                 count * (usize::from(header.aux.ao) + 3 * usize::from(header.aux.bent_normal)) * 4;

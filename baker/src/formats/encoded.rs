@@ -44,6 +44,11 @@ impl<'a> Encoded<'a> {
         }
     }
 
+    /// Appends `other`'s pieces, as they are (borrowed ones stay borrowed).
+    pub fn append(&mut self, other: Encoded<'a>) {
+        self.parts.extend(other.parts);
+    }
+
     /// Overwrites bytes `offset..` of the first piece (a header's checksum, once the rest is
     /// known).
     pub fn patch(&mut self, offset: usize, bytes: &[u8]) {
