@@ -195,7 +195,7 @@ impl Estimator {
         // A matrix bake's joint sets are its own tables ([`crate::bake::matrix`]): the
         // vector tables keep their one set.
         let vector_sets = match options.transfer {
-            TransferKind::Vector => (groups * strata::SETS_PER_GROUP).max(1),
+            TransferKind::Vector => strata::set_count(groups),
             TransferKind::Matrix => 1,
         };
         let tables = match (options.sampling, &adaptive) {
@@ -244,7 +244,7 @@ impl Estimator {
     /// The sample sets the bake's tables hold, vector or matrix: the joint sets
     /// ([`strata`]), or one.
     pub(crate) fn set_count(&self) -> u32 {
-        (self.groups * strata::SETS_PER_GROUP).max(1)
+        strata::set_count(self.groups)
     }
 
     /// The set receiver `v` samples, of [`Estimator::set_count`]: its stratum's

@@ -18,8 +18,8 @@ pub fn bake_bytes(options: &BakeOptions, vertices: u64, triangles: u64) -> Optio
     // A denoised bake's joint sets: up to 256 tables ([`crate::bake::strata`]), or one; a
     // matrix bake's are matrix tables, beside the vector estimator's one set.
     let one = set_bytes(options)?;
-    let sets = crate::bake::strata::groups(options, one) * crate::bake::strata::SETS_PER_GROUP;
-    let tables = one.checked_mul(u64::from(sets.max(1)))?;
+    let sets = crate::bake::strata::set_count(crate::bake::strata::groups(options, one));
+    let tables = one.checked_mul(u64::from(sets))?;
     let tables = match options.transfer {
         TransferKind::Vector => tables,
         TransferKind::Matrix => tables.checked_add(table_bytes(options)?)?,

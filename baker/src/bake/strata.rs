@@ -58,6 +58,12 @@ pub fn groups(options: &BakeOptions, set_bytes: u64) -> u32 {
     (BUDGET / group).min(u64::from(MAX_GROUPS)) as u32
 }
 
+/// The sample sets a bake samples from with `groups` groups: every group's sets, or the one
+/// set of a bake whose receivers sample independently (0 groups).
+pub fn set_count(groups: u32) -> u32 {
+    (groups * SETS_PER_GROUP).max(1)
+}
+
 /// Whether a bake with `options` may sample its receivers jointly: a denoised bake, of
 /// transfer vectors or matrices.
 pub fn samples_jointly(options: &BakeOptions) -> bool {
