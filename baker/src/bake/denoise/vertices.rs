@@ -62,8 +62,9 @@ const NARROWER: [f32; 2] = [6.0, 20.0];
 /// Per narrower fit, the squared difference of the guide's fits over its noise variance from
 /// which it is blended in, and at which it is taken whole (Lepski's rule, [`fit`]). Measured
 /// on the torus at 64 rays, 8 seeds, sun and sky / low sun / sky, the robust range term on:
-/// one narrower fit at 8 / 32, 1.12 / 2.91 / 0.72 % (4 seeds); at 4 / 16, 1.11 / 2.88 / 0.71 %; the
-/// quarter-width fit added at 6 / 24, 1.10 / 2.85 / 0.68 % (at 4 / 16, 1.11 / 2.86 / 0.68 %).
+/// one narrower fit at 8 / 32, 1.12 / 2.91 / 0.72 % (4 seeds); at 4 / 16, 1.11 / 2.88 /
+/// 0.71 %; the quarter-width fit added at 6 / 24, 1.10 / 2.85 / 0.68 % (at 4 / 16, 1.11 /
+/// 2.86 / 0.68 %).
 const LEPSKI: [(f64, f64); 2] = [(4.0, 16.0), (6.0, 24.0)];
 
 /// A thread's buffers for the clusters it filters, reused from one cluster to the next (no
@@ -85,8 +86,8 @@ pub(super) struct Scratch {
     pub centre_only: bool,
     /// The fits' weights while they are blended.
     blended: Vec<[f64; TERMS]>,
-    /// Per coefficient of the guide, in lanes: two fits' difference ([`blend`]), a fit's
-    /// value at an entry ([`reweigh`]).
+    /// Per coefficient of the guide, in lanes: two fits' difference ([`blend`]); per term,
+    /// the guide's sums Σ w x_t g ([`reweigh`]).
     delta: Vec<Vec4>,
     /// [`reweigh`]'s fit of the guide: its coefficients, per term, in lanes.
     coefficients: Vec<Vec4>,
@@ -188,8 +189,9 @@ fn monomials(u: f32, v: f32) -> ([f64; TERMS], [f64; MOMENTS]) {
 /// edge (far from a fit that the near side dominates) is cut. One step of iteratively
 /// reweighted local regression (Cleveland 1979, *Robust locally weighted regression and
 /// smoothing scatterplots*), with the range term as its weight function. Measured on the
-/// torus at 64 rays, 8 seeds: 1.26 / 3.45 / 0.78 % -> 1.11 / 2.88 / 0.71 % (κ = 3, with the
-/// Lepski thresholds of [`LEPSKI`]); a second step does not help (1.12 / 2.92 / 0.71 %, 4 seeds).
+/// torus at 64 rays, 8 seeds: 1.26 / 3.45 / 0.78 % -> 1.11 / 2.88 / 0.71 % (κ = 3, the
+/// half-width fit blended from 4 / 16, before the quarter-width fit); a second step does not
+/// help (1.12 / 2.92 / 0.71 %, 4 seeds).
 ///
 /// `guide(k)` gives entry k's guide and its variance, `noise` the cluster's own.
 pub(super) fn reweigh<'g>(
@@ -200,15 +202,13 @@ pub(super) fn reweigh<'g>(
     let Scratch {
         kernel,
         geometric,
-        delta: fitted,
+        delta: moments,
         coefficients,
         ..
     } = scratch;
     let lanes = guide_lanes(sw);
-    // A = Σ w x xᵀ's moments, and the sums Σ w x_t g of the guide per term (in `fitted`'s
-    // place until the fit is solved).
+    // A = Σ w x xᵀ's sums of monomials, and the guide's sums Σ w x_t g per term.
     let mut sums = [0.0f64; MOMENTS];
-    let moments = fitted;
     moments.clear();
     moments.resize(TERMS * lanes, Vec4::ZERO);
     for &(k, [w, u, v]) in kernel.iter() {
