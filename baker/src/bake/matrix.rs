@@ -78,18 +78,12 @@ pub fn uniform_hemisphere(u1: f32, u2: f32) -> Vec3 {
 /// order they are traced: the vector bake's point set of the seed, in its Hilbert order
 /// ([`Estimator::for_receivers`]), mapped to the uniform hemisphere. In interreflected mode
 /// the bounce samples (the sequence's first M points, a stratified set of their own) come
-/// first, in their own Hilbert order, as in the vector bake.
+/// first, in their own Hilbert order, as in the vector bake: its first set ([`set_points`]).
 pub fn local_directions(options: &crate::bake::options::BakeOptions) -> Vec<Vec3> {
-    sorted_points(options)
+    set_points(options, 0)
         .iter()
         .map(|&(_, u1, u2)| uniform_hemisphere(u1, u2))
         .collect()
-}
-
-/// The seed's points (index in the sequence, u₁, u₂) in the order they are traced: the
-/// vector bake's first set ([`set_points`]).
-fn sorted_points(options: &crate::bake::options::BakeOptions) -> Vec<(u32, f32, f32)> {
-    set_points(options, 0)
 }
 
 /// The bake's tables: the local directions, y at each, the extra columns, and per batch the
