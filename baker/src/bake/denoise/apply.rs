@@ -3,7 +3,7 @@
 
 use rayon::prelude::*;
 
-use super::{Filter, clusters, vertices};
+use super::{Filter, clusters, normal_fit, vertices};
 
 /// Clusters per block of [`Filter::apply_with_means`]: one lock per block's values, which
 /// stay in a core's cache (about 400 texels' at 64).
@@ -20,6 +20,15 @@ impl Filter<'_> {
         [1.0, d.dot(t1), d.dot(t2)]
     }
 
+    /// Member m's shading normal less its cluster c's representative's, in c's frame: where
+    /// the cluster's fit is in the normal too, its last two regressors
+    /// ([`super::normal_fit`]).
+    pub(super) fn member_normal(&self, c: usize, m: usize) -> [f32; 2] {
+        let g = self.guides;
+        let r = self.clusters.reps[c] as usize;
+        normal_fit::offset(g.normals[m], g.normals[r], self.frames[c])
+    }
+
     /// Receiver i's weights on every receiver, normalised, in the receivers' order: its
     /// cluster's kernel at its place times each cluster's weights on its members.
     pub fn row(&self, i: usize, out: &mut Vec<(u32, f32)>) {
@@ -28,12 +37,16 @@ impl Filter<'_> {
         self.cluster_kernel(c, &mut scratch);
         let place = self.member_place(c, i);
         let terms = vertices::terms(place[1], place[2]);
+        let [a, b] = self.member_normal(c, i);
         out.clear();
         for (n, &(k, e)) in scratch.kernel.iter().enumerate() {
-            let w = match self.settings.quadratic {
+            let mut w = match self.settings.quadratic {
                 true => vertices::dot(&scratch.weights[n], &terms),
                 false => e[0] * place[0] + e[1] * place[1] + e[2] * place[2],
             };
+            if let Some([na, nb]) = scratch.normal.get(n) {
+                w += na * a + nb * b;
+            }
             out.extend(
                 self.clusters
                     .row(k as usize)
@@ -96,7 +109,6 @@ impl Filter<'_> {
         // block's members' values are formed outside the lock and copied in under it;
         // every receiver is one cluster's member, so the result is the same in any order of
         // blocks.
-        let stride = 3 * (width + 1);
         let count = self.clusters.reps.len();
         let out = std::sync::Mutex::new((values, scalars));
         (0..count.div_ceil(APPLY_BLOCK))
@@ -108,30 +120,60 @@ impl Filter<'_> {
                     rows.clear();
                     for c in block.clone() {
                         self.cluster_kernel(c, scratch);
+                        // The fit's terms: (1, u, v), and (a, b) where it is in the normal
+                        // too.
+                        let terms = match scratch.normal.is_empty() {
+                            true => 3,
+                            false => normal_fit::TERMS,
+                        };
                         sums.clear();
-                        sums.resize(stride, 0.0);
-                        let (sums, scalar_sums) = sums.split_at_mut(3 * width);
-                        for &(k, e) in &scratch.kernel {
+                        sums.resize(terms * (width + 1), 0.0);
+                        let (sums, scalar_sums) = sums.split_at_mut(terms * width);
+                        for (n, &(k, e)) in scratch.kernel.iter().enumerate() {
                             let k = k as usize;
+                            let e = match scratch.normal.get(n) {
+                                Some(&[a, b]) => [e[0], e[1], e[2], a, b],
+                                None => [e[0], e[1], e[2], 0.0, 0.0],
+                            };
                             let mean = &means[k * width..(k + 1) * width];
                             for (t, sums) in sums.chunks_exact_mut(width.max(1)).enumerate() {
                                 clusters::add_scaled(sums, e[t], mean);
                             }
                             if let Some(s) = scalar_means.get(k) {
-                                for t in 0..3 {
+                                for t in 0..terms {
                                     scalar_sums[t] += e[t] * s;
                                 }
                             }
                         }
                         // Each member's values, then its scalar.
-                        let (s0, rest) = sums.split_at(width);
-                        let (s1, s2) = rest.split_at(width);
                         for &(m, _) in self.clusters.row(c) {
                             let [p0, p1, p2] = self.member_place(c, m as usize);
-                            let dot = |(a, (b, d)): (&f32, (&f32, &f32))| a * p0 + b * p1 + d * p2;
-                            rows.extend(s0.iter().zip(s1.iter().zip(s2)).map(dot));
-                            let s = &scalar_sums[..3];
-                            rows.push(s[0] * p0 + s[1] * p1 + s[2] * p2);
+                            match terms {
+                                3 => {
+                                    let (s0, rest) = sums.split_at(width);
+                                    let (s1, s2) = rest.split_at(width);
+                                    let dot = |(a, (b, d)): (&f32, (&f32, &f32))| {
+                                        a * p0 + b * p1 + d * p2
+                                    };
+                                    rows.extend(s0.iter().zip(s1.iter().zip(s2)).map(dot));
+                                }
+                                _ => {
+                                    let [p3, p4] = self.member_normal(c, m as usize);
+                                    let p = [p0, p1, p2, p3, p4];
+                                    rows.extend((0..width).map(|j| {
+                                        (0..terms).map(|t| sums[t * width + j] * p[t]).sum::<f32>()
+                                    }));
+                                }
+                            }
+                            let s = &scalar_sums[..terms];
+                            let p = match terms {
+                                3 => [p0, p1, p2, 0.0, 0.0],
+                                _ => {
+                                    let [p3, p4] = self.member_normal(c, m as usize);
+                                    [p0, p1, p2, p3, p4]
+                                }
+                            };
+                            rows.push(s.iter().zip(p).map(|(s, p)| s * p).sum());
                         }
                     }
                     let mut out = out.lock().expect("no block panicked");

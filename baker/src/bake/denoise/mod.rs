@@ -66,6 +66,7 @@ mod apply;
 mod clusters;
 mod grid;
 pub mod guides;
+mod normal_fit;
 mod range;
 pub mod stage;
 mod vertex_apply;
@@ -195,6 +196,9 @@ pub struct Filter<'g> {
     cluster_of: Vec<u32>,
     /// Each cluster's tangent frame (its representative's plane): the fit's axes.
     frames: Vec<(glam::Vec3, glam::Vec3)>,
+    /// Texels: each cluster's members' mean shading normal, where [`normal_fit`] reads the
+    /// cluster's normal (empty for vertices).
+    tap_normals: Vec<glam::Vec3>,
     signal_width: usize,
     /// Whether `tap_guide`'s first rows, the clusters' means, are those of the transfer the
     /// filter was formed for (its signal is the whole transfer, up to order 3): the means
@@ -253,6 +257,7 @@ impl<'g> Filter<'g> {
             tap_lanes: Vec::new(),
             cluster_of: Vec::new(),
             frames: Vec::new(),
+            tap_normals: Vec::new(),
             signal_width,
             transfer_means: false,
         };
@@ -351,6 +356,16 @@ impl<'g> Filter<'g> {
             .iter()
             .map(|&r| guides.surfaces[r as usize].any_orthonormal_pair())
             .collect();
+        if !settings.quadratic {
+            filter.tap_normals = (0..clusters.reps.len())
+                .map(|c| {
+                    let sum = clusters.row(c).iter().fold(glam::Vec3::ZERO, |s, &(m, w)| {
+                        s + guides.normals[m as usize] * w
+                    });
+                    sum.normalize_or(guides.normals[clusters.reps[c] as usize])
+                })
+                .collect();
+        }
         filter.cluster_of = vec![0; count];
         for c in 0..clusters.reps.len() {
             for &(m, _) in clusters.row(c) {
@@ -590,6 +605,16 @@ impl<'g> Filter<'g> {
             for (_, e) in out.iter_mut() {
                 *e = [e[0] / total, 0.0, 0.0];
             }
+            return;
+        }
+        // Where the shading normals vary (a normal map), the fit is in the normal too.
+        scratch.normal.clear();
+        tapers.clear();
+        tapers.extend(
+            out.iter()
+                .map(|&(k, _)| normal_fit::offset(self.tap_normals[k as usize], ni, (t1, t2))),
+        );
+        if normal_fit::varies(tapers) && normal_fit::fit(out, tapers, &mut scratch.normal) {
             return;
         }
         let coords = |[_, u, v]: [f32; 3]| glam::DVec3::new(1.0, f64::from(u), f64::from(v));

@@ -84,6 +84,10 @@ pub(super) struct Scratch {
     /// Whether the fit is read at the centroid alone (a cluster of one vertex): each entry's
     /// weight at (0, 0) alone, in `weights[k][0]`, the rest 0.
     pub centre_only: bool,
+    /// Texels: each entry's weights on the normal offsets (a, b) where the cluster's fit
+    /// is in the shading normal too ([`super::normal_fit`]); empty where it is in the plane
+    /// alone.
+    pub normal: Vec<[f32; 2]>,
     /// The fits' weights while they are blended.
     blended: Vec<[f64; TERMS]>,
     /// Per coefficient of the guide, in lanes: two fits' difference ([`blend`]); per term,
