@@ -550,29 +550,33 @@ impl<'g> Filter<'g> {
             let d = tap.at - pi;
             let off_plane = si.dot(d) / spacing;
             let variance = (noise + tap.noise) * sw as f32;
-            let range = range_term(squared(tap.guide as usize), variance, kappa);
-            // The geometric terms, and the range term on top: vertices keep every entry the
-            // geometry weighs, as their robust range term weighs them again.
             let facing = power_of_two(facing, squarings);
-            let (w, geometric) = match vertices {
-                false => (
-                    (-2.0 * r2 - off_plane * off_plane - range).exp() * facing,
-                    0.0,
-                ),
+            let w = match vertices {
+                false => {
+                    let range = range_term(squared(tap.guide as usize), variance, kappa);
+                    (-2.0 * r2 - off_plane * off_plane - range).exp() * facing
+                }
+                // The geometric terms, and the range term on top: vertices keep every entry
+                // the geometry weighs, as their robust range term weighs them again.
                 true => {
                     let geometric = (-2.0 * r2 - off_plane * off_plane).exp() * facing;
-                    (geometric * (-range).exp(), geometric)
+                    if geometric.is_nan() || geometric < vertices::NEGLIGIBLE {
+                        continue;
+                    }
+                    let range = range_term(squared(tap.guide as usize), variance, kappa);
+                    tapers.push(vertices::tapers(r2));
+                    scratch.geometric.push(geometric * tap.mass);
+                    match range > 0.0 {
+                        true => geometric * (-range).exp(),
+                        false => geometric,
+                    }
                 }
             };
-            if w > 0.0 || geometric > 0.0 {
+            if vertices || w > 0.0 {
                 // With the tap's place in c's tangent plane, in spacings: the fit's (u, v).
                 let place = d * scale;
                 out[kept] = (k, [w * tap.mass, place.dot(t1), place.dot(t2)]);
                 kept += 1;
-                if vertices {
-                    tapers.push(vertices::tapers(r2));
-                    scratch.geometric.push(geometric * tap.mass);
-                }
             }
         }
         out.truncate(kept);
