@@ -36,6 +36,7 @@
 
 use glam::Vec4;
 
+use super::exp4::exp4;
 use super::range::range_term;
 
 /// Terms of the fit: 1, u, v, u², uv, v².
@@ -71,9 +72,10 @@ pub(super) struct Scratch {
     /// Entries (k, [w_k, u_k, v_k]): neighbour cluster k's kernel weight and place in the
     /// cluster's tangent plane about its centroid, in spacings.
     pub kernel: Vec<(u32, [f32; 3])>,
-    /// Each entry's weight without the range term ([`reweigh`] forms it again).
-    pub geometric: Vec<f32>,
-    /// Each entry's tapers for the narrower fits ([`tapers`]).
+    /// Each entry's weight without the range term ([`reweigh`] forms it again), as
+    /// (e, s) for s · exp(e).
+    pub geometric: Vec<(f32, f32)>,
+    /// Each entry's tapers for the narrower fits ([`weigh`]).
     pub taper: Vec<[f32; 2]>,
     /// After [`fit`], each entry's weight as a function of the member's place: a member at
     /// (u, v) weighs entry k by `weights[k]` · [`terms`](u, v).
@@ -97,15 +99,58 @@ pub(super) struct Scratch {
 /// 9e-6.
 pub(super) const NEGLIGIBLE: f32 = 1e-6;
 
-/// The narrower fits' tapers of a neighbour r² kernel radii² away, their extra falloffs on
-/// top of the kernel's exp(−2 r²) (about half its width, and a quarter): exp(−6 r²) and
-/// exp(−20 r²), that Gaussian's cube and tenth power, one exponential where two were (the
-/// same but for rounding).
-pub(super) fn tapers(r2: f32) -> [f32; 2] {
-    let a = (-2.0 * r2).exp();
-    let a2 = a * a;
-    let a5 = a2 * a2 * a;
-    [a2 * a, a5 * a5]
+/// ln [`NEGLIGIBLE`]: the kernel keeps an entry whose Gaussian terms' exponent and whose
+/// normals' term are both above their least.
+pub(super) const LN_NEGLIGIBLE: f32 = -13.815_511;
+
+/// A cluster's kernel as [`super::Filter::cluster_kernel`] gathers it, each entry's weight
+/// as its exponent (w = s · exp(e), e and s the geometric terms' [`Scratch::geometric`],
+/// less the range term in e) and its r² (kernel radii²) in its first taper, turned into its
+/// weight and its tapers, four entries at a time ([`exp4`]).
+///
+/// The narrower fits' tapers, their extra falloffs on top of the kernel's exp(−2 r²) (about
+/// half its width, and a quarter), are exp(−6 r²) and exp(−20 r²): that Gaussian's cube and
+/// tenth power, one exponential where two were (the same but for rounding).
+pub(super) fn weigh(scratch: &mut Scratch) {
+    let Scratch {
+        kernel,
+        geometric,
+        taper,
+        ..
+    } = scratch;
+    exponentials(kernel, geometric);
+    let tapers = |r2: Vec4| {
+        let a = exp4(r2 * -2.0);
+        let (a2, a5) = (a * a, a * a * a * a * a);
+        ((a2 * a).to_array(), (a5 * a5).to_array())
+    };
+    let mut chunks = taper.chunks_exact_mut(4);
+    for four in &mut chunks {
+        let (t1, t2) = tapers(Vec4::from_array(std::array::from_fn(|l| four[l][0])));
+        for (l, t) in four.iter_mut().enumerate() {
+            *t = [t1[l], t2[l]];
+        }
+    }
+    for t in chunks.into_remainder() {
+        let (t1, t2) = tapers(Vec4::splat(t[0]));
+        *t = [t1[0], t2[0]];
+    }
+}
+
+/// Each entry's weight s · exp(w), w the exponent in its first term, four at a time.
+fn exponentials(kernel: &mut [(u32, [f32; 3])], geometric: &[(f32, f32)]) {
+    let (mut chunks, mut scales) = (kernel.chunks_exact_mut(4), geometric.chunks_exact(4));
+    for (four, s) in (&mut chunks).zip(&mut scales) {
+        let e = Vec4::from_array(std::array::from_fn(|l| four[l].1[0]));
+        let s = Vec4::from_array(std::array::from_fn(|l| s[l].1));
+        let w = (exp4(e) * s).to_array();
+        for (entry, w) in four.iter_mut().zip(w) {
+            entry.1[0] = w;
+        }
+    }
+    for (entry, &(_, s)) in chunks.into_remainder().iter_mut().zip(scales.remainder()) {
+        entry.1[0] = (exp4(Vec4::splat(entry.1[0])) * s).x;
+    }
 }
 
 /// The fit's terms at (u, v): 1, u, v, u², uv, v².
@@ -137,19 +182,32 @@ pub(super) fn to_lanes(guides: &[f32], sw: usize) -> Vec<Vec4> {
 }
 
 /// Σ (a − b)² over two guides' lanes (the range term's distance, for every neighbour of
-/// every vertex), four at a time, in a fixed order: the same on every thread.
+/// every vertex), four at a time, in a fixed order: the same on every thread. The common
+/// guides' lanes are constants, so that the loop unrolls.
+#[inline(always)]
 pub(super) fn squared_distance(a: &[Vec4], b: &[Vec4]) -> f32 {
-    let mut sum = Vec4::ZERO;
-    for (x, y) in a.iter().zip(b) {
-        let d = *x - *y;
-        sum += d * d;
+    #[inline(always)]
+    fn in_lanes(a: &[Vec4], b: &[Vec4], lanes: usize) -> f32 {
+        let (a, b) = (&a[..lanes], &b[..lanes]);
+        let mut sum = Vec4::ZERO;
+        for l in 0..lanes {
+            let d = a[l] - b[l];
+            sum += d * d;
+        }
+        (sum.x + sum.y) + (sum.z + sum.w)
     }
-    (sum.x + sum.y) + (sum.z + sum.w)
+    match a.len().min(b.len()) {
+        1 => in_lanes(a, b, 1),
+        3 => in_lanes(a, b, 3),
+        7 => in_lanes(a, b, 7),
+        lanes => in_lanes(a, b, lanes),
+    }
 }
 
-/// Monomials of degree at most 4 in (u, v), by degree and then by the power of v: the
-/// distinct entries of x xᵀ for x = (1, u, v, u², uv, v²).
-const MOMENTS: usize = 15;
+/// Monomials of degree at most 4 in (u, v), by degree and then by the power of v: the 15
+/// distinct entries of x xᵀ for x = (1, u, v, u², uv, v²), and a 0 after them, so that
+/// their sums pair into vector registers.
+const MOMENTS: usize = 16;
 
 /// Where x_p x_q lies among the [`MOMENTS`].
 const PRODUCT: [[usize; TERMS]; TERMS] = [
@@ -162,6 +220,7 @@ const PRODUCT: [[usize; TERMS]; TERMS] = [
 ];
 
 /// The fit's coordinates x = (1, u, v, u², uv, v²) and the monomials of x xᵀ.
+#[inline(always)]
 fn monomials(u: f32, v: f32) -> ([f64; TERMS], [f64; MOMENTS]) {
     let (u, v) = (f64::from(u), f64::from(v));
     let (uu, uv, vv) = (u * u, u * v, v * v);
@@ -182,6 +241,7 @@ fn monomials(u: f32, v: f32) -> ([f64; TERMS], [f64; MOMENTS]) {
         uu * vv,
         uv * vv,
         vv * vv,
+        0.0,
     ];
     (x, m)
 }
@@ -267,7 +327,7 @@ fn reweigh_in_lanes<'g>(
             }
         }
     }
-    for (entry, &geometric) in kernel.iter_mut().zip(geometric.iter()) {
+    for (entry, &(exponent, _)) in kernel.iter_mut().zip(geometric.iter()) {
         let (k, [_, u, v]) = *entry;
         let x = terms(u, v);
         let (g, variance) = guide(k);
@@ -284,11 +344,9 @@ fn reweigh_in_lanes<'g>(
         }
         let squared = (squared.x + squared.y) + (squared.z + squared.w);
         let range = range_term(squared, (noise + variance) * sw as f32, kappa);
-        entry.1[0] = match range > 0.0 {
-            true => geometric * (-range).exp(),
-            false => geometric,
-        };
+        entry.1[0] = exponent - range;
     }
+    exponentials(kernel, geometric);
 }
 
 /// Turns a cluster's kernel, `scratch.kernel`'s entries (k, [w_k, u_k, v_k]) with their
@@ -426,9 +484,16 @@ fn blend<'g>(
     (start, full): (f64, f64),
     guide: &impl Fn(u32) -> (&'g [Vec4], f32),
 ) -> f64 {
-    delta.clear();
-    delta.resize(lanes, Vec4::ZERO);
-    let delta = &mut delta[..lanes];
+    // The difference's sums in registers, up to 8 lanes.
+    let mut local = [Vec4::ZERO; 8];
+    let delta = match lanes <= local.len() {
+        true => &mut local[..lanes],
+        false => {
+            delta.clear();
+            delta.resize(lanes, Vec4::ZERO);
+            &mut delta[..]
+        }
+    };
     let mut variance = 0.0f64;
     for (k, a, b) in at_centroid {
         let (g, noise) = guide(k);
@@ -544,7 +609,7 @@ mod tests {
                 let r2 = p.length_squared() / (radius * radius);
                 let w = (-2.0 * r2).exp() * f32::from(u8::from(r2 <= 1.0));
                 scratch.kernel.push((k as u32, [w, p.x, p.y]));
-                scratch.taper.push(tapers(r2));
+                scratch.taper.push([(-6.0 * r2).exp(), (-20.0 * r2).exp()]);
             }
             fit(&mut scratch, 1, &|k| (&guides[k as usize][..], noise));
             let at = terms(0.0, 0.0);
