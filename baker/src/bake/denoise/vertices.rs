@@ -95,8 +95,8 @@ pub(super) struct Scratch {
 /// The least weight of the geometric terms (all but the range term, at most 1) that an entry
 /// needs to be kept: a neighbour far off the cluster's plane (around the torus's tube) or
 /// facing away weighs less, and skipping it (its range term, its tapers, its share of every
-/// fit) moves the torus's denoised transfer by 4e-7 of its largest coefficient; at 1e-5, by
-/// 9e-6.
+/// fit; a tenth of the torus's entries) moved the torus's denoised transfer by 4e-7 of its
+/// largest coefficient; at 1e-5, by 9e-6.
 pub(super) const NEGLIGIBLE: f32 = 1e-6;
 
 /// ln [`NEGLIGIBLE`]: the kernel keeps an entry whose Gaussian terms' exponent and whose
