@@ -64,6 +64,7 @@
 
 mod apply;
 mod clusters;
+mod exp4;
 mod grid;
 pub mod guides;
 mod normal_fit;
@@ -527,15 +528,16 @@ impl<'g> Filter<'g> {
         let r = self.clusters.reps[c] as usize;
         let own = self.taps[c].guide as usize;
         // The squared difference of the guide in row `row` from c's.
-        let squared = |row: usize| match vertices {
-            true => vertices::squared_distance(
-                &self.tap_lanes[own * lanes..][..lanes],
-                &self.tap_lanes[row * lanes..][..lanes],
-            ),
-            false => squared_difference(
+        let squared = |row: usize| {
+            squared_difference(
                 &self.tap_guide[own * sw..][..sw],
                 &self.tap_guide[row * sw..][..sw],
-            ),
+            )
+        };
+        // Vertices' guides, in lanes.
+        let own_lanes = match vertices {
+            true => &self.tap_lanes[own * lanes..][..lanes],
+            false => &[],
         };
         let squarings = match vertices {
             true => vertices::NORMAL_SQUARINGS,
@@ -565,29 +567,38 @@ impl<'g> Filter<'g> {
             let d = tap.at - pi;
             let off_plane = si.dot(d) / spacing;
             let variance = (noise + tap.noise) * sw as f32;
-            let range = range_term(squared(tap.guide as usize), variance, kappa);
-            // The geometric terms, and the range term on top: vertices keep every entry the
-            // geometry weighs, as their robust range term weighs them again.
             let facing = power_of_two(facing, squarings);
-            let (w, geometric) = match vertices {
-                false => (
-                    (-2.0 * r2 - off_plane * off_plane - range).exp() * facing,
-                    0.0,
-                ),
+            let w = match vertices {
+                false => {
+                    let range = range_term(squared(tap.guide as usize), variance, kappa);
+                    (-2.0 * r2 - off_plane * off_plane - range).exp() * facing
+                }
+                // The geometric terms, and the range term on top, as exponents (taken four
+                // at a time, [`vertices::weigh`]): vertices keep every entry the geometry
+                // weighs, as their robust range term weighs them again.
                 true => {
-                    let geometric = (-2.0 * r2 - off_plane * off_plane).exp() * facing;
-                    (geometric * (-range).exp(), geometric)
+                    let exponent = -2.0 * r2 - off_plane * off_plane;
+                    if exponent < vertices::LN_NEGLIGIBLE || facing < vertices::NEGLIGIBLE {
+                        continue;
+                    }
+                    let row = tap.guide as usize;
+                    let theirs = &self.tap_lanes[row * lanes..][..lanes];
+                    let squared = vertices::squared_distance(own_lanes, theirs);
+                    let range = range_term(squared, variance, kappa);
+                    tapers.push([r2, 0.0]);
+                    scratch.geometric.push((exponent, facing * tap.mass));
+                    exponent - range
                 }
             };
-            if w > 0.0 || geometric > 0.0 {
+            if vertices || w > 0.0 {
                 // With the tap's place in c's tangent plane, in spacings: the fit's (u, v).
                 let place = d * scale;
-                out[kept] = (k, [w * tap.mass, place.dot(t1), place.dot(t2)]);
+                let w = match vertices {
+                    true => w,
+                    false => w * tap.mass,
+                };
+                out[kept] = (k, [w, place.dot(t1), place.dot(t2)]);
                 kept += 1;
-                if vertices {
-                    tapers.push(vertices::tapers(r2));
-                    scratch.geometric.push(geometric * tap.mass);
-                }
             }
         }
         out.truncate(kept);
@@ -597,6 +608,7 @@ impl<'g> Filter<'g> {
                 let row = tap.guide as usize;
                 (&self.tap_lanes[row * lanes..][..lanes], tap.noise)
             };
+            vertices::weigh(scratch);
             vertices::reweigh(scratch, (sw, kappa, noise), &guide);
             return vertices::fit(scratch, sw, &guide);
         }

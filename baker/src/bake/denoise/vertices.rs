@@ -36,6 +36,7 @@
 
 use glam::Vec4;
 
+use super::exp4::exp4;
 use super::range::range_term;
 
 /// Terms of the fit: 1, u, v, u², uv, v².
@@ -56,9 +57,6 @@ const RIDGE: f64 = 1e-2;
 /// keep κ.
 pub(super) const NEIGHBOUR_KAPPA: f32 = 0.75;
 
-/// The narrower kernels' extra falloffs, exp(−NARROWER[l] · r²) on top of the kernel's
-/// exp(−2 r²), r in kernel radii: about half its width, and a quarter.
-const NARROWER: [f32; 2] = [6.0, 20.0];
 /// Per narrower fit, the squared difference of the guide's fits over its noise variance from
 /// which it is blended in, and at which it is taken whole (Lepski's rule, [`fit`]). Measured
 /// on the torus at 64 rays, 8 seeds, sun and sky / low sun / sky, the robust range term on:
@@ -74,9 +72,10 @@ pub(super) struct Scratch {
     /// Entries (k, [w_k, u_k, v_k]): neighbour cluster k's kernel weight and place in the
     /// cluster's tangent plane about its centroid, in spacings.
     pub kernel: Vec<(u32, [f32; 3])>,
-    /// Each entry's weight without the range term ([`reweigh`] forms it again).
-    pub geometric: Vec<f32>,
-    /// Each entry's tapers for the narrower fits ([`tapers`]).
+    /// Each entry's weight without the range term ([`reweigh`] forms it again), as
+    /// (e, s) for s · exp(e).
+    pub geometric: Vec<(f32, f32)>,
+    /// Each entry's tapers for the narrower fits ([`weigh`]).
     pub taper: Vec<[f32; 2]>,
     /// After [`fit`], each entry's weight as a function of the member's place: a member at
     /// (u, v) weighs entry k by `weights[k]` · [`terms`](u, v).
@@ -97,9 +96,65 @@ pub(super) struct Scratch {
     coefficients: Vec<Vec4>,
 }
 
-/// The narrower fits' tapers of a neighbour r² kernel radii² away: exp(−NARROWER[l] · r²).
-pub(super) fn tapers(r2: f32) -> [f32; 2] {
-    NARROWER.map(|a| (-a * r2).exp())
+/// The least weight of the geometric terms (all but the range term, at most 1) that an entry
+/// needs to be kept: a neighbour far off the cluster's plane (around the torus's tube) or
+/// facing away weighs less, and skipping it (its range term, its tapers, its share of every
+/// fit; a tenth of the torus's entries) moved the torus's denoised transfer by 4e-7 of its
+/// largest coefficient; at 1e-5, by 9e-6.
+pub(super) const NEGLIGIBLE: f32 = 1e-6;
+
+/// ln [`NEGLIGIBLE`]: the kernel keeps an entry whose Gaussian terms' exponent and whose
+/// normals' term are both above their least.
+pub(super) const LN_NEGLIGIBLE: f32 = -13.815_511;
+
+/// A cluster's kernel as [`super::Filter::cluster_kernel`] gathers it, each entry's weight
+/// as its exponent (w = s · exp(e), e and s the geometric terms' [`Scratch::geometric`],
+/// less the range term in e) and its r² (kernel radii²) in its first taper, turned into its
+/// weight and its tapers, four entries at a time ([`exp4`]).
+///
+/// The narrower fits' tapers, their extra falloffs on top of the kernel's exp(−2 r²) (about
+/// half its width, and a quarter), are exp(−6 r²) and exp(−20 r²): that Gaussian's cube and
+/// tenth power, one exponential where two were (the same but for rounding).
+pub(super) fn weigh(scratch: &mut Scratch) {
+    let Scratch {
+        kernel,
+        geometric,
+        taper,
+        ..
+    } = scratch;
+    exponentials(kernel, geometric);
+    let tapers = |r2: Vec4| {
+        let a = exp4(r2 * -2.0);
+        let (a2, a5) = (a * a, a * a * a * a * a);
+        ((a2 * a).to_array(), (a5 * a5).to_array())
+    };
+    let mut chunks = taper.chunks_exact_mut(4);
+    for four in &mut chunks {
+        let (t1, t2) = tapers(Vec4::from_array(std::array::from_fn(|l| four[l][0])));
+        for (l, t) in four.iter_mut().enumerate() {
+            *t = [t1[l], t2[l]];
+        }
+    }
+    for t in chunks.into_remainder() {
+        let (t1, t2) = tapers(Vec4::splat(t[0]));
+        *t = [t1[0], t2[0]];
+    }
+}
+
+/// Each entry's weight s · exp(w), w the exponent in its first term, four at a time.
+fn exponentials(kernel: &mut [(u32, [f32; 3])], geometric: &[(f32, f32)]) {
+    let (mut chunks, mut scales) = (kernel.chunks_exact_mut(4), geometric.chunks_exact(4));
+    for (four, s) in (&mut chunks).zip(&mut scales) {
+        let e = Vec4::from_array(std::array::from_fn(|l| four[l].1[0]));
+        let s = Vec4::from_array(std::array::from_fn(|l| s[l].1));
+        let w = (exp4(e) * s).to_array();
+        for (entry, w) in four.iter_mut().zip(w) {
+            entry.1[0] = w;
+        }
+    }
+    for (entry, &(_, s)) in chunks.into_remainder().iter_mut().zip(scales.remainder()) {
+        entry.1[0] = (exp4(Vec4::splat(entry.1[0])) * s).x;
+    }
 }
 
 /// The fit's terms at (u, v): 1, u, v, u², uv, v².
@@ -131,19 +186,32 @@ pub(super) fn to_lanes(guides: &[f32], sw: usize) -> Vec<Vec4> {
 }
 
 /// Σ (a − b)² over two guides' lanes (the range term's distance, for every neighbour of
-/// every vertex), four at a time, in a fixed order: the same on every thread.
+/// every vertex), four at a time, in a fixed order: the same on every thread. The common
+/// guides' lanes are constants, so that the loop unrolls.
+#[inline(always)]
 pub(super) fn squared_distance(a: &[Vec4], b: &[Vec4]) -> f32 {
-    let mut sum = Vec4::ZERO;
-    for (x, y) in a.iter().zip(b) {
-        let d = *x - *y;
-        sum += d * d;
+    #[inline(always)]
+    fn in_lanes(a: &[Vec4], b: &[Vec4], lanes: usize) -> f32 {
+        let (a, b) = (&a[..lanes], &b[..lanes]);
+        let mut sum = Vec4::ZERO;
+        for l in 0..lanes {
+            let d = a[l] - b[l];
+            sum += d * d;
+        }
+        (sum.x + sum.y) + (sum.z + sum.w)
     }
-    (sum.x + sum.y) + (sum.z + sum.w)
+    match a.len().min(b.len()) {
+        1 => in_lanes(a, b, 1),
+        3 => in_lanes(a, b, 3),
+        7 => in_lanes(a, b, 7),
+        lanes => in_lanes(a, b, lanes),
+    }
 }
 
-/// Monomials of degree at most 4 in (u, v), by degree and then by the power of v: the
-/// distinct entries of x xᵀ for x = (1, u, v, u², uv, v²).
-const MOMENTS: usize = 15;
+/// Monomials of degree at most 4 in (u, v), by degree and then by the power of v: the 15
+/// distinct entries of x xᵀ for x = (1, u, v, u², uv, v²), and a 0 after them, so that
+/// their sums pair into vector registers.
+const MOMENTS: usize = 16;
 
 /// Where x_p x_q lies among the [`MOMENTS`].
 const PRODUCT: [[usize; TERMS]; TERMS] = [
@@ -156,6 +224,7 @@ const PRODUCT: [[usize; TERMS]; TERMS] = [
 ];
 
 /// The fit's coordinates x = (1, u, v, u², uv, v²) and the monomials of x xᵀ.
+#[inline(always)]
 fn monomials(u: f32, v: f32) -> ([f64; TERMS], [f64; MOMENTS]) {
     let (u, v) = (f64::from(u), f64::from(v));
     let (uu, uv, vv) = (u * u, u * v, v * v);
@@ -176,6 +245,7 @@ fn monomials(u: f32, v: f32) -> ([f64; TERMS], [f64; MOMENTS]) {
         uu * vv,
         uv * vv,
         vv * vv,
+        0.0,
     ];
     (x, m)
 }
@@ -203,6 +273,24 @@ pub(super) fn reweigh<'g>(
     (sw, kappa, noise): (usize, f32, f32),
     guide: &impl Fn(u32) -> (&'g [Vec4], f32),
 ) {
+    let settings = (sw, kappa, noise);
+    // The common guides' lanes as constants, so that the loops over them unroll.
+    match guide_lanes(sw) {
+        1 => reweigh_in_lanes(scratch, 1, settings, guide),
+        3 => reweigh_in_lanes(scratch, 3, settings, guide),
+        7 => reweigh_in_lanes(scratch, 7, settings, guide),
+        lanes => reweigh_in_lanes(scratch, lanes, settings, guide),
+    }
+}
+
+/// [`reweigh`] for guides of `lanes` lanes.
+#[inline(always)]
+fn reweigh_in_lanes<'g>(
+    scratch: &mut Scratch,
+    lanes: usize,
+    (sw, kappa, noise): (usize, f32, f32),
+    guide: &impl Fn(u32) -> (&'g [Vec4], f32),
+) {
     let Scratch {
         kernel,
         geometric,
@@ -210,20 +298,22 @@ pub(super) fn reweigh<'g>(
         coefficients,
         ..
     } = scratch;
-    let lanes = guide_lanes(sw);
     // A = Σ w x xᵀ's sums of monomials, and the guide's sums Σ w x_t g per term.
     let mut sums = [0.0f64; MOMENTS];
     moments.clear();
     moments.resize(TERMS * lanes, Vec4::ZERO);
+    let moments = &mut moments[..TERMS * lanes];
     for &(k, [w, u, v]) in kernel.iter() {
         let (_, m) = monomials(u, v);
         for (s, m) in sums.iter_mut().zip(m) {
             *s += f64::from(w) * m;
         }
-        let (g, _) = guide(k);
-        for (sum, x) in moments.chunks_exact_mut(lanes).zip(terms(u, v)) {
-            for (o, g) in sum.iter_mut().zip(g) {
-                *o += (w * x) * *g;
+        let g = &guide(k).0[..lanes];
+        let x = terms(u, v);
+        for (t, &x) in x.iter().enumerate() {
+            let (wx, sum) = (w * x, &mut moments[t * lanes..][..lanes]);
+            for l in 0..lanes {
+                sum[l] += wx * g[l];
             }
         }
     }
@@ -233,6 +323,7 @@ pub(super) fn reweigh<'g>(
     // The fit's coefficients, β = A⁻¹ Σ w x gᵀ.
     coefficients.clear();
     coefficients.resize(TERMS * lanes, Vec4::ZERO);
+    let coefficients = &mut coefficients[..TERMS * lanes];
     for (beta, row) in coefficients.chunks_exact_mut(lanes).zip(&b) {
         for (sum, &a) in moments.chunks_exact(lanes).zip(row) {
             for (o, s) in beta.iter_mut().zip(sum) {
@@ -240,24 +331,26 @@ pub(super) fn reweigh<'g>(
             }
         }
     }
-    for (entry, &geometric) in kernel.iter_mut().zip(geometric.iter()) {
+    for (entry, &(exponent, _)) in kernel.iter_mut().zip(geometric.iter()) {
         let (k, [_, u, v]) = *entry;
         let x = terms(u, v);
         let (g, variance) = guide(k);
+        let g = &g[..lanes];
         // Σ over the lanes of (g − Σ_t x_t β_t)², lane by lane in registers.
         let mut squared = Vec4::ZERO;
-        for (l, g) in g.iter().enumerate() {
+        for l in 0..lanes {
             let mut fitted = Vec4::ZERO;
             for (t, x) in x.iter().enumerate() {
                 fitted += *x * coefficients[t * lanes + l];
             }
-            let d = *g - fitted;
+            let d = g[l] - fitted;
             squared += d * d;
         }
         let squared = (squared.x + squared.y) + (squared.z + squared.w);
         let range = range_term(squared, (noise + variance) * sw as f32, kappa);
-        entry.1[0] = geometric * (-range).exp();
+        entry.1[0] = exponent - range;
     }
+    exponentials(kernel, geometric);
 }
 
 /// Turns a cluster's kernel, `scratch.kernel`'s entries (k, [w_k, u_k, v_k]) with their
@@ -278,6 +371,23 @@ pub(super) fn reweigh<'g>(
 /// A = Σ w x xᵀ holds 15 distinct sums of monomials, formed once per neighbour for every
 /// fit; one inverse per fit gives its weights.
 pub(super) fn fit<'g>(scratch: &mut Scratch, sw: usize, guide: &impl Fn(u32) -> (&'g [Vec4], f32)) {
+    // The common guides' lanes as constants, as in [`reweigh`].
+    match guide_lanes(sw) {
+        1 => fit_in_lanes(scratch, 1, sw, guide),
+        3 => fit_in_lanes(scratch, 3, sw, guide),
+        7 => fit_in_lanes(scratch, 7, sw, guide),
+        lanes => fit_in_lanes(scratch, lanes, sw, guide),
+    }
+}
+
+/// [`fit`] for guides of `lanes` lanes.
+#[inline(always)]
+fn fit_in_lanes<'g>(
+    scratch: &mut Scratch,
+    lanes: usize,
+    sw: usize,
+    guide: &impl Fn(u32) -> (&'g [Vec4], f32),
+) {
     let Scratch {
         kernel,
         taper,
@@ -287,22 +397,20 @@ pub(super) fn fit<'g>(scratch: &mut Scratch, sw: usize, guide: &impl Fn(u32) -> 
         delta,
         ..
     } = scratch;
-    // The terms the weights are formed for: the first alone at the centroid.
-    let used = if *centre_only { 1 } else { TERMS };
     weights.clear();
-    // Each moment's sums for the wide fit and the narrower ones, side by side.
-    let mut sums = [[0.0f64; 3]; MOMENTS];
+    // The moments' sums for the wide fit and for the narrower ones, each in its own row.
+    let mut sums = [[0.0f64; MOMENTS]; 3];
     for (&(_, [w, u, v]), &[t1, t2]) in kernel.iter().zip(taper.iter()) {
         let (_, m) = monomials(u, v);
         let w = f64::from(w);
         let w = [w, w * f64::from(t1), w * f64::from(t2)];
-        for (s, m) in sums.iter_mut().zip(m) {
-            for (s, w) in s.iter_mut().zip(w) {
+        for (sums, w) in sums.iter_mut().zip(w) {
+            for (s, m) in sums.iter_mut().zip(m) {
                 *s += w * m;
             }
         }
     }
-    let Some(b) = invert_moments(&sums.map(|s| s[0])) else {
+    let Some(b) = invert_moments(&sums[0]) else {
         let mass = sums[0][0];
         let mean = |w: f32| {
             std::array::from_fn(|t| {
@@ -316,29 +424,35 @@ pub(super) fn fit<'g>(scratch: &mut Scratch, sw: usize, guide: &impl Fn(u32) -> 
         weights.extend(kernel.iter().map(|&(_, [w, ..])| mean(w)));
         return;
     };
+    // The weights' terms formed: the first alone, at the centroid, for a cluster of one.
+    let times = |b: &[[f64; TERMS]; TERMS], x: &[f64; TERMS], s: f64| match *centre_only {
+        true => times(b, x, s, 1),
+        false => times(b, x, s, TERMS),
+    };
     blended.clear();
     blended.extend(kernel.iter().map(|&(_, [w, u, v])| {
         let (x, _) = monomials(u, v);
-        times(&b, &x, f64::from(w), used)
+        times(&b, &x, f64::from(w))
     }));
     for (level, &thresholds) in LEPSKI.iter().enumerate() {
-        let Some(bn) = invert_moments(&sums.map(|s| s[level + 1])) else {
+        let Some(bn) = invert_moments(&sums[level + 1]) else {
             continue;
         };
-        let narrow = |&(_, [w, u, v]): &(u32, [f32; 3]), taper: &[f32; 2], used: usize| {
-            let (x, _) = monomials(u, v);
-            times(&bn, &x, f64::from(w) * f64::from(taper[level]), used)
+        // The narrower fit's weight and its coordinates.
+        let narrow = |&(_, [w, u, v]): &(u32, [f32; 3]), taper: &[f32; 2]| {
+            (f64::from(w) * f64::from(taper[level]), monomials(u, v).0)
         };
         // Both fits' weights at the centroid, their first terms.
-        let at_centroid = kernel
-            .iter()
-            .zip(taper.iter())
-            .zip(blended.iter())
-            .map(|((entry, taper), e)| (entry.0, e[0], narrow(entry, taper, 1)[0]));
-        let t = blend(at_centroid, delta, sw, thresholds, guide);
+        let at_centroid =
+            (kernel.iter().zip(taper.iter()).zip(blended.iter())).map(|((entry, taper), e)| {
+                let (s, x) = narrow(entry, taper);
+                (entry.0, e[0], s * dot6(&bn[0], &x))
+            });
+        let t = blend(at_centroid, (delta, lanes), sw, thresholds, guide);
         if t > 0.0 {
             for ((entry, taper), e) in kernel.iter().zip(taper.iter()).zip(blended.iter_mut()) {
-                let n = narrow(entry, taper, used);
+                let (s, x) = narrow(entry, taper);
+                let n = times(&bn, &x, s);
                 e.iter_mut()
                     .zip(n)
                     .for_each(|(e, n)| *e = *e * (1.0 - t) + n * t);
@@ -348,33 +462,50 @@ pub(super) fn fit<'g>(scratch: &mut Scratch, sw: usize, guide: &impl Fn(u32) -> 
     weights.extend(blended.iter().map(|e| e.map(|e| e as f32)));
 }
 
+/// a · x over the fit's terms, in order.
+#[inline(always)]
+fn dot6(a: &[f64; TERMS], x: &[f64; TERMS]) -> f64 {
+    a.iter().zip(x).map(|(a, x)| a * x).sum()
+}
+
 /// s · B x for the symmetric B, its first `used` entries (the rest 0).
+#[inline(always)]
 fn times(b: &[[f64; TERMS]; TERMS], x: &[f64; TERMS], s: f64, used: usize) -> [f64; TERMS] {
     let mut out = [0.0; TERMS];
     for (o, row) in out.iter_mut().zip(b).take(used) {
-        *o = s * row.iter().zip(x).map(|(b, x)| b * x).sum::<f64>();
+        *o = s * dot6(row, x);
     }
     out
 }
 
 /// The narrower fit's share of the blend (Lepski's rule, between `thresholds`), from both
 /// fits' weights at the centroid, (k, a_k, b_k) per entry.
+#[inline(always)]
 fn blend<'g>(
     at_centroid: impl Iterator<Item = (u32, f64, f64)>,
-    delta: &mut Vec<Vec4>,
+    (delta, lanes): (&mut Vec<Vec4>, usize),
     sw: usize,
     (start, full): (f64, f64),
     guide: &impl Fn(u32) -> (&'g [Vec4], f32),
 ) -> f64 {
-    delta.clear();
-    delta.resize(guide_lanes(sw), Vec4::ZERO);
+    // The difference's sums in registers, up to 8 lanes.
+    let mut local = [Vec4::ZERO; 8];
+    let delta = match lanes <= local.len() {
+        true => &mut local[..lanes],
+        false => {
+            delta.clear();
+            delta.resize(lanes, Vec4::ZERO);
+            &mut delta[..]
+        }
+    };
     let mut variance = 0.0f64;
     for (k, a, b) in at_centroid {
         let (g, noise) = guide(k);
+        let g = &g[..lanes];
         variance += (a - b) * (a - b) * f64::from(noise);
         let difference = (a - b) as f32;
-        for (d, g) in delta.iter_mut().zip(g) {
-            *d += difference * *g;
+        for l in 0..lanes {
+            delta[l] += difference * g[l];
         }
     }
     let squared: f64 = (delta.iter().flat_map(|d| d.to_array()))
@@ -482,7 +613,7 @@ mod tests {
                 let r2 = p.length_squared() / (radius * radius);
                 let w = (-2.0 * r2).exp() * f32::from(u8::from(r2 <= 1.0));
                 scratch.kernel.push((k as u32, [w, p.x, p.y]));
-                scratch.taper.push(tapers(r2));
+                scratch.taper.push([(-6.0 * r2).exp(), (-20.0 * r2).exp()]);
             }
             fit(&mut scratch, 1, &|k| (&guides[k as usize][..], noise));
             let at = terms(0.0, 0.0);
