@@ -200,6 +200,9 @@ pub struct Filter<'g> {
     /// Texels: each cluster's members' mean shading normal, where [`normal_fit`] reads the
     /// cluster's normal (empty for vertices).
     tap_normals: Vec<glam::Vec3>,
+    /// Texels: per group (object and material), whether a normal map turns some shading
+    /// normal off its surface's: only those groups' clusters try [`normal_fit`].
+    mapped_groups: Vec<bool>,
     signal_width: usize,
     /// Whether `tap_guide`'s first rows, the clusters' means, are those of the transfer the
     /// filter was formed for (its signal is the whole transfer, up to order 3): the means
@@ -259,6 +262,7 @@ impl<'g> Filter<'g> {
             cluster_of: Vec::new(),
             frames: Vec::new(),
             tap_normals: Vec::new(),
+            mapped_groups: Vec::new(),
             signal_width,
             transfer_means: false,
         };
@@ -366,6 +370,18 @@ impl<'g> Filter<'g> {
                     sum.normalize_or(guides.normals[clusters.reps[c] as usize])
                 })
                 .collect();
+            let groups = guides.groups.iter().max().map_or(0, |&g| g as usize + 1);
+            filter.mapped_groups = vec![false; groups];
+            for ((&group, n), s) in guides
+                .groups
+                .iter()
+                .zip(&guides.normals)
+                .zip(&guides.surfaces)
+            {
+                if n != s {
+                    filter.mapped_groups[group as usize] = true;
+                }
+            }
         }
         filter.cluster_of = vec![0; count];
         for c in 0..clusters.reps.len() {
@@ -619,15 +635,17 @@ impl<'g> Filter<'g> {
             }
             return;
         }
-        // Where the shading normals vary (a normal map), the fit is in the normal too.
+        // Where a normal map turns the shading normals, the fit is in the normal too.
         scratch.normal.clear();
-        tapers.clear();
-        tapers.extend(
-            out.iter()
-                .map(|&(k, _)| normal_fit::offset(self.tap_normals[k as usize], ni, (t1, t2))),
-        );
-        if normal_fit::varies(tapers) && normal_fit::fit(out, tapers, &mut scratch.normal) {
-            return;
+        if self.mapped_groups[group as usize] {
+            tapers.clear();
+            tapers.extend(
+                out.iter()
+                    .map(|&(k, _)| normal_fit::offset(self.tap_normals[k as usize], ni, (t1, t2))),
+            );
+            if normal_fit::varies(tapers) && normal_fit::fit(out, tapers, &mut scratch.normal) {
+                return;
+            }
         }
         let coords = |[_, u, v]: [f32; 3]| glam::DVec3::new(1.0, f64::from(u), f64::from(v));
         // A = Σ w x xᵀ, symmetric: its six distinct entries.

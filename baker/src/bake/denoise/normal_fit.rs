@@ -88,7 +88,7 @@ fn cholesky(m: &[[f64; TERMS]; TERMS]) -> Option<[[f64; TERMS]; TERMS]> {
         for j in 0..=i {
             let s: f64 = m[i][j] - (0..j).map(|k| l[i][k] * l[j][k]).sum::<f64>();
             if i == j {
-                if !(s > 0.0) || !s.is_finite() {
+                if s <= 0.0 || !s.is_finite() {
                     return None;
                 }
                 l[i][i] = s.sqrt();
