@@ -63,6 +63,7 @@
 //! order: the result is bit-identical for any number of threads.
 
 mod apply;
+mod cholesky;
 mod clusters;
 mod exp4;
 mod grid;

@@ -15,6 +15,8 @@
 
 use glam::Vec3;
 
+use super::cholesky;
+
 /// Below this spread of the neighbours' normal offsets (about 0.6°) the fit stays in the
 /// plane.
 pub(super) const SPREAD: f32 = 0.01;
@@ -65,49 +67,19 @@ pub(super) fn fit(
     m[2][2] += PLANE_RIDGE * mass;
     m[3][3] += RIDGE * mass;
     m[4][4] += RIDGE * mass;
-    let Some(l) = cholesky(&m) else {
+    let Some(l) = cholesky::factor(&m, 0.0) else {
         return false;
     };
     normal.clear();
     for (entry, &o) in kernel.iter_mut().zip(offsets) {
         let e = entry.1;
         let mut y = x(e, o);
-        solve(&l, &mut y);
+        cholesky::solve(&l, &mut y);
         let w = f64::from(e[0]);
         entry.1 = [y[0], y[1], y[2]].map(|y| (y * w) as f32);
         normal.push([y[3], y[4]].map(|y| (y * w) as f32));
     }
     true
-}
-
-/// The lower Cholesky factor of the symmetric `m` (its lower triangle read), or `None` where
-/// it is not positive definite.
-fn cholesky(m: &[[f64; TERMS]; TERMS]) -> Option<[[f64; TERMS]; TERMS]> {
-    let mut l = [[0.0f64; TERMS]; TERMS];
-    for i in 0..TERMS {
-        for j in 0..=i {
-            let s: f64 = m[i][j] - (0..j).map(|k| l[i][k] * l[j][k]).sum::<f64>();
-            if i == j {
-                if s <= 0.0 || !s.is_finite() {
-                    return None;
-                }
-                l[i][i] = s.sqrt();
-            } else {
-                l[i][j] = s / l[j][j];
-            }
-        }
-    }
-    Some(l)
-}
-
-/// y ← (L Lᵀ)⁻¹ y.
-fn solve(l: &[[f64; TERMS]; TERMS], y: &mut [f64; TERMS]) {
-    for i in 0..TERMS {
-        y[i] = (y[i] - (0..i).map(|k| l[i][k] * y[k]).sum::<f64>()) / l[i][i];
-    }
-    for i in (0..TERMS).rev() {
-        y[i] = (y[i] - (i + 1..TERMS).map(|k| l[k][i] * y[k]).sum::<f64>()) / l[i][i];
-    }
 }
 
 #[cfg(test)]

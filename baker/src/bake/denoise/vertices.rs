@@ -36,6 +36,7 @@
 
 use glam::Vec4;
 
+use super::cholesky;
 use super::exp4::exp4;
 use super::range::range_term;
 
@@ -534,45 +535,13 @@ fn invert_moments(moments: &[f64; MOMENTS]) -> Option<[[f64; TERMS]; TERMS]> {
     for (p, row) in a.iter_mut().enumerate().skip(1) {
         row[p] += RIDGE * mass * if p >= 3 { 4.0 } else { 1.0 };
     }
-    let l = cholesky(&a)?;
+    let l = cholesky::factor(&a, 1e-12 * a[0][0])?;
     let mut inverse = [[0.0f64; TERMS]; TERMS];
     for (column, out) in inverse.iter_mut().enumerate() {
-        *out = solve(&l, column);
+        out[column] = 1.0;
+        cholesky::solve(&l, out);
     }
     Some(inverse).filter(|b| b.iter().flatten().all(|v| v.is_finite()))
-}
-
-/// The Cholesky factor L (A = L Lᵀ) of the symmetric `a`, or `None` where it is not
-/// positive definite.
-fn cholesky(a: &[[f64; TERMS]; TERMS]) -> Option<[[f64; TERMS]; TERMS]> {
-    let mut l = [[0.0f64; TERMS]; TERMS];
-    for i in 0..TERMS {
-        for j in 0..=i {
-            let s: f64 = a[i][j] - (0..j).map(|k| l[i][k] * l[j][k]).sum::<f64>();
-            if i != j {
-                l[i][j] = s / l[j][j];
-            } else if s > 1e-12 * a[0][0] {
-                l[i][i] = s.sqrt();
-            } else {
-                return None;
-            }
-        }
-    }
-    Some(l)
-}
-
-/// y with L Lᵀ y = e_`column`.
-fn solve(l: &[[f64; TERMS]; TERMS], column: usize) -> [f64; TERMS] {
-    let mut z = [0.0f64; TERMS];
-    for i in 0..TERMS {
-        let b = f64::from(u8::from(i == column));
-        z[i] = (b - (0..i).map(|k| l[i][k] * z[k]).sum::<f64>()) / l[i][i];
-    }
-    let mut y = [0.0f64; TERMS];
-    for i in (0..TERMS).rev() {
-        y[i] = (z[i] - (i + 1..TERMS).map(|k| l[k][i] * y[k]).sum::<f64>()) / l[i][i];
-    }
-    y
 }
 
 /// Each vertex's noise: its rays' estimate where it has one, else (0: a subsurface vertex,
