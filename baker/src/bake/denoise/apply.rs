@@ -148,6 +148,11 @@ impl Filter<'_> {
                         // Each member's values, then its scalar.
                         for &(m, _) in self.clusters.row(c) {
                             let [p0, p1, p2] = self.member_place(c, m as usize);
+                            let [p3, p4] = match terms {
+                                3 => [0.0; 2],
+                                _ => self.member_normal(c, m as usize),
+                            };
+                            let p = [p0, p1, p2, p3, p4];
                             match terms {
                                 3 => {
                                     let (s0, rest) = sums.split_at(width);
@@ -157,22 +162,11 @@ impl Filter<'_> {
                                     };
                                     rows.extend(s0.iter().zip(s1.iter().zip(s2)).map(dot));
                                 }
-                                _ => {
-                                    let [p3, p4] = self.member_normal(c, m as usize);
-                                    let p = [p0, p1, p2, p3, p4];
-                                    rows.extend((0..width).map(|j| {
-                                        (0..terms).map(|t| sums[t * width + j] * p[t]).sum::<f32>()
-                                    }));
-                                }
+                                _ => rows.extend((0..width).map(|j| {
+                                    (0..terms).map(|t| sums[t * width + j] * p[t]).sum::<f32>()
+                                })),
                             }
                             let s = &scalar_sums[..terms];
-                            let p = match terms {
-                                3 => [p0, p1, p2, 0.0, 0.0],
-                                _ => {
-                                    let [p3, p4] = self.member_normal(c, m as usize);
-                                    [p0, p1, p2, p3, p4]
-                                }
-                            };
                             rows.push(s.iter().zip(p).map(|(s, p)| s * p).sum());
                         }
                     }

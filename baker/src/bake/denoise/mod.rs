@@ -198,8 +198,8 @@ pub struct Filter<'g> {
     cluster_of: Vec<u32>,
     /// Each cluster's tangent frame (its representative's plane): the fit's axes.
     frames: Vec<(glam::Vec3, glam::Vec3)>,
-    /// Texels: each cluster's members' mean shading normal, where [`normal_fit`] reads the
-    /// cluster's normal (empty for vertices).
+    /// Texels of a bake with a normal map: each cluster's members' mean shading normal,
+    /// where [`normal_fit`] reads the cluster's normal (empty otherwise).
     tap_normals: Vec<glam::Vec3>,
     /// Texels: per group (object and material), whether a normal map turns some shading
     /// normal off its surface's: only those groups' clusters try [`normal_fit`].
@@ -363,14 +363,6 @@ impl<'g> Filter<'g> {
             .map(|&r| guides.surfaces[r as usize].any_orthonormal_pair())
             .collect();
         if !settings.quadratic {
-            filter.tap_normals = (0..clusters.reps.len())
-                .map(|c| {
-                    let sum = clusters.row(c).iter().fold(glam::Vec3::ZERO, |s, &(m, w)| {
-                        s + guides.normals[m as usize] * w
-                    });
-                    sum.normalize_or(guides.normals[clusters.reps[c] as usize])
-                })
-                .collect();
             let groups = guides.groups.iter().max().map_or(0, |&g| g as usize + 1);
             filter.mapped_groups = vec![false; groups];
             for ((&group, n), s) in guides
@@ -383,6 +375,17 @@ impl<'g> Filter<'g> {
                     filter.mapped_groups[group as usize] = true;
                 }
             }
+        }
+        // The clusters' mean normals, which only a normal-mapped group's fit reads.
+        if filter.mapped_groups.contains(&true) {
+            filter.tap_normals = (0..clusters.reps.len())
+                .map(|c| {
+                    let sum = clusters.row(c).iter().fold(glam::Vec3::ZERO, |s, &(m, w)| {
+                        s + guides.normals[m as usize] * w
+                    });
+                    sum.normalize_or(guides.normals[clusters.reps[c] as usize])
+                })
+                .collect();
         }
         filter.cluster_of = vec![0; count];
         for c in 0..clusters.reps.len() {
