@@ -48,7 +48,7 @@ const started = Date.now();
 const matrix = path.join(out, 'glossy-m.prt');
 const compressed = path.join(out, 'glossy-c.prt');
 const glb = path.join(out, 'glossy.glb');
-run('bake', scene, '-o', matrix, '--transfer', 'matrix', '--order', '4', '--samples', '64', '--seed', '1', '--quiet');
+run('bake', scene, '-o', matrix, '--transfer', 'matrix', '--order', '4', '--samples', '64', '--seed', '1', '--denoise', 'on', '--quiet');
 run('compress', matrix, '-o', compressed, '--clusters', '64', '--pcs', '4', '--starts', '1');
 run('export', compressed, '--scene', scene, '--glb', glb, '--lights', rig);
 console.log(`browser: glossy: baked, compressed and exported in ${((Date.now() - started) / 1000).toFixed(1)} s`);
