@@ -95,6 +95,60 @@ pub(super) struct Scratch {
     delta: Vec<Vec4>,
     /// [`reweigh`]'s fit of the guide: its coefficients, per term, in lanes.
     coefficients: Vec<Vec4>,
+    /// Each entry's guide, [`guide_lanes`] lanes each in the kernel's order, and its
+    /// variance, gathered once ([`gather`]) for the four passes that read them.
+    rows: Vec<Vec4>,
+    row_noise: Vec<f32>,
+    /// Each entry's monomials ([`monomials`]), formed once for the four fits' sums.
+    monomials: Vec<[f64; MOMENTS]>,
+    /// Whether `rows`, `row_noise` and `monomials` hold the kernel's entries.
+    gathered: bool,
+}
+
+/// Gathers each kernel entry's guide lanes, variance and monomials into `scratch`, in the
+/// kernel's order: [`reweigh`] and [`fit`] read the guides in four passes and the monomials
+/// in five, which each looked the guide up by its tap or formed the monomials again.
+#[inline(always)]
+fn gather<'g>(scratch: &mut Scratch, lanes: usize, guide: &impl Fn(u32) -> (&'g [Vec4], f32)) {
+    let Scratch {
+        kernel,
+        rows,
+        row_noise,
+        monomials: mono,
+        gathered,
+        ..
+    } = scratch;
+    // Resized, not cleared: every entry is written below.
+    rows.resize(kernel.len() * lanes, Vec4::ZERO);
+    row_noise.resize(kernel.len(), 0.0);
+    mono.resize(kernel.len(), [0.0; MOMENTS]);
+    let gathered_rows = rows.chunks_exact_mut(lanes).zip(row_noise.iter_mut());
+    for ((&(k, [_, u, v]), (row, noise)), m) in
+        kernel.iter().zip(gathered_rows).zip(mono.iter_mut())
+    {
+        let (g, variance) = guide(k);
+        for (o, g) in row.iter_mut().zip(&g[..lanes]) {
+            *o = *g;
+        }
+        *noise = variance;
+        *m = monomials(u, v).1;
+    }
+    *gathered = true;
+}
+
+/// Adds Σ w m over the `weighted` entries (w, m) to `sums`, in order, in registers.
+#[inline(always)]
+fn add_moments<'m>(
+    sums: &mut [f64; MOMENTS],
+    weighted: impl Iterator<Item = (f64, &'m [f64; MOMENTS])>,
+) {
+    let mut local = *sums;
+    for (w, m) in weighted {
+        for (s, m) in local.iter_mut().zip(m) {
+            *s += w * m;
+        }
+    }
+    *sums = local;
 }
 
 /// The least weight of the geometric terms (all but the range term, at most 1) that an entry
@@ -116,6 +170,7 @@ pub(super) const LN_NEGLIGIBLE: f32 = -13.815_511;
 /// The narrower fits' tapers, their extra falloffs on top of the kernel's exp(−2 r²) (about
 /// half its width, and a quarter), are exp(−6 r²) and exp(−20 r²): that Gaussian's cube and
 /// tenth power, one exponential where two were (the same but for rounding).
+#[inline(never)]
 pub(super) fn weigh(scratch: &mut Scratch) {
     let Scratch {
         kernel,
@@ -269,6 +324,10 @@ fn monomials(u: f32, v: f32) -> ([f64; TERMS], [f64; MOMENTS]) {
 /// help (1.12 / 2.92 / 0.71 %, 4 seeds).
 ///
 /// `guide(k)` gives entry k's guide and its variance, `noise` the cluster's own.
+///
+/// Kept out of line, as are [`weigh`] and [`fit`]: each runs once per cluster, and is
+/// compiled, and profiled, on its own.
+#[inline(never)]
 pub(super) fn reweigh<'g>(
     scratch: &mut Scratch,
     (sw, kappa, noise): (usize, f32, f32),
@@ -292,11 +351,15 @@ fn reweigh_in_lanes<'g>(
     (sw, kappa, noise): (usize, f32, f32),
     guide: &impl Fn(u32) -> (&'g [Vec4], f32),
 ) {
+    gather(scratch, lanes, guide);
     let Scratch {
         kernel,
         geometric,
         delta: moments,
         coefficients,
+        rows,
+        row_noise,
+        monomials: mono,
         ..
     } = scratch;
     // A = Σ w x xᵀ's sums of monomials, and the guide's sums Σ w x_t g per term.
@@ -304,18 +367,27 @@ fn reweigh_in_lanes<'g>(
     moments.clear();
     moments.resize(TERMS * lanes, Vec4::ZERO);
     let moments = &mut moments[..TERMS * lanes];
-    for &(k, [w, u, v]) in kernel.iter() {
-        let (_, m) = monomials(u, v);
-        for (s, m) in sums.iter_mut().zip(m) {
-            *s += f64::from(w) * m;
-        }
-        let g = &guide(k).0[..lanes];
-        let x = terms(u, v);
-        for (t, &x) in x.iter().enumerate() {
-            let (wx, sum) = (w * x, &mut moments[t * lanes..][..lanes]);
-            for l in 0..lanes {
-                sum[l] += wx * g[l];
+    let entries = kernel.iter().zip(mono.iter());
+    add_moments(
+        &mut sums,
+        entries.map(|(&(_, [w, ..]), m)| (f64::from(w), m)),
+    );
+    // One term and up to 8 lanes at a time, the sums in registers: all 6 terms' sums at
+    // once outgrew them. The same sums in the same order (x_t from the monomials, the same
+    // float: a product of two floats is exact in a double).
+    for (t, sums) in moments.chunks_exact_mut(lanes).enumerate() {
+        for (block, sums) in sums.chunks_mut(8).enumerate() {
+            let mut local = [Vec4::ZERO; 8];
+            let local = &mut local[..sums.len()];
+            for ((&(_, [w, ..]), m), g) in
+                kernel.iter().zip(mono.iter()).zip(rows.chunks_exact(lanes))
+            {
+                let wx = w * m[t] as f32;
+                for (s, g) in local.iter_mut().zip(&g[block * 8..]) {
+                    *s += wx * *g;
+                }
             }
+            sums.copy_from_slice(local);
         }
     }
     let Some(b) = invert_moments(&sums) else {
@@ -332,10 +404,12 @@ fn reweigh_in_lanes<'g>(
             }
         }
     }
-    for (entry, &(exponent, _)) in kernel.iter_mut().zip(geometric.iter()) {
-        let (k, [_, u, v]) = *entry;
+    let gathered = rows.chunks_exact(lanes).zip(row_noise.iter());
+    for ((entry, &(exponent, _)), (g, &variance)) in
+        kernel.iter_mut().zip(geometric.iter()).zip(gathered)
+    {
+        let [_, u, v] = entry.1;
         let x = terms(u, v);
-        let (g, variance) = guide(k);
         let g = &g[..lanes];
         // Σ over the lanes of (g − Σ_t x_t β_t)², lane by lane in registers.
         let mut squared = Vec4::ZERO;
@@ -371,6 +445,7 @@ fn reweigh_in_lanes<'g>(
 ///
 /// A = Σ w x xᵀ holds 15 distinct sums of monomials, formed once per neighbour for every
 /// fit; one inverse per fit gives its weights.
+#[inline(never)]
 pub(super) fn fit<'g>(scratch: &mut Scratch, sw: usize, guide: &impl Fn(u32) -> (&'g [Vec4], f32)) {
     // The common guides' lanes as constants, as in [`reweigh`].
     match guide_lanes(sw) {
@@ -389,6 +464,10 @@ fn fit_in_lanes<'g>(
     sw: usize,
     guide: &impl Fn(u32) -> (&'g [Vec4], f32),
 ) {
+    if !scratch.gathered {
+        gather(scratch, lanes, guide);
+    }
+    scratch.gathered = false;
     let Scratch {
         kernel,
         taper,
@@ -396,20 +475,25 @@ fn fit_in_lanes<'g>(
         centre_only,
         blended,
         delta,
+        rows,
+        row_noise,
+        monomials: mono,
         ..
     } = scratch;
     weights.clear();
-    // The moments' sums for the wide fit and for the narrower ones, each in its own row.
+    // The moments' sums for the wide fit and for the narrower ones, each in its own row,
+    // one fit at a time: the three fits' sums at once outgrew the vector registers.
     let mut sums = [[0.0f64; MOMENTS]; 3];
-    for (&(_, [w, u, v]), &[t1, t2]) in kernel.iter().zip(taper.iter()) {
-        let (_, m) = monomials(u, v);
-        let w = f64::from(w);
-        let w = [w, w * f64::from(t1), w * f64::from(t2)];
-        for (sums, w) in sums.iter_mut().zip(w) {
-            for (s, m) in sums.iter_mut().zip(m) {
-                *s += w * m;
-            }
-        }
+    let entries = kernel.iter().zip(mono.iter());
+    add_moments(
+        &mut sums[0],
+        entries.map(|(&(_, [w, ..]), m)| (f64::from(w), m)),
+    );
+    for level in 0..LEPSKI.len() {
+        let entries = kernel.iter().zip(taper.iter()).zip(mono.iter());
+        let weighted =
+            entries.map(|((&(_, [w, ..]), t), m)| (f64::from(w) * f64::from(t[level]), m));
+        add_moments(&mut sums[level + 1], weighted);
     }
     let Some(b) = invert_moments(&sums[0]) else {
         let mass = sums[0][0];
@@ -431,28 +515,31 @@ fn fit_in_lanes<'g>(
         false => times(b, x, s, TERMS),
     };
     blended.clear();
-    blended.extend(kernel.iter().map(|&(_, [w, u, v])| {
-        let (x, _) = monomials(u, v);
-        times(&b, &x, f64::from(w))
-    }));
+    let x = |m: &[f64; MOMENTS]| -> [f64; TERMS] { std::array::from_fn(|t| m[t]) };
+    blended.extend(
+        (kernel.iter().zip(mono.iter())).map(|(&(_, [w, ..]), m)| times(&b, &x(m), f64::from(w))),
+    );
     for (level, &thresholds) in LEPSKI.iter().enumerate() {
         let Some(bn) = invert_moments(&sums[level + 1]) else {
             continue;
         };
         // The narrower fit's weight and its coordinates.
-        let narrow = |&(_, [w, u, v]): &(u32, [f32; 3]), taper: &[f32; 2]| {
-            (f64::from(w) * f64::from(taper[level]), monomials(u, v).0)
+        let narrow = |&(_, [w, ..]): &(u32, [f32; 3]), taper: &[f32; 2], m| {
+            (f64::from(w) * f64::from(taper[level]), x(m))
         };
+        let entries = || kernel.iter().zip(taper.iter()).zip(mono.iter());
         // Both fits' weights at the centroid, their first terms.
-        let at_centroid =
-            (kernel.iter().zip(taper.iter()).zip(blended.iter())).map(|((entry, taper), e)| {
-                let (s, x) = narrow(entry, taper);
-                (entry.0, e[0], s * dot6(&bn[0], &x))
+        let at_centroid = entries()
+            .zip(blended.iter())
+            .map(|(((entry, taper), m), e)| {
+                let (s, x) = narrow(entry, taper, m);
+                (e[0], s * dot6(&bn[0], &x))
             });
-        let t = blend(at_centroid, (delta, lanes), sw, thresholds, guide);
+        let gathered = (rows.chunks_exact(lanes), &row_noise[..]);
+        let t = blend(at_centroid, gathered, (delta, lanes), sw, thresholds);
         if t > 0.0 {
-            for ((entry, taper), e) in kernel.iter().zip(taper.iter()).zip(blended.iter_mut()) {
-                let (s, x) = narrow(entry, taper);
+            for (((entry, taper), m), e) in entries().zip(blended.iter_mut()) {
+                let (s, x) = narrow(entry, taper, m);
                 let n = times(&bn, &x, s);
                 e.iter_mut()
                     .zip(n)
@@ -480,14 +567,15 @@ fn times(b: &[[f64; TERMS]; TERMS], x: &[f64; TERMS], s: f64, used: usize) -> [f
 }
 
 /// The narrower fit's share of the blend (Lepski's rule, between `thresholds`), from both
-/// fits' weights at the centroid, (k, a_k, b_k) per entry.
+/// fits' weights at the centroid, (a_k, b_k) per entry, and the entries' gathered guides
+/// and variances.
 #[inline(always)]
-fn blend<'g>(
-    at_centroid: impl Iterator<Item = (u32, f64, f64)>,
+fn blend<'r>(
+    at_centroid: impl Iterator<Item = (f64, f64)>,
+    (rows, row_noise): (impl Iterator<Item = &'r [Vec4]>, &[f32]),
     (delta, lanes): (&mut Vec<Vec4>, usize),
     sw: usize,
     (start, full): (f64, f64),
-    guide: &impl Fn(u32) -> (&'g [Vec4], f32),
 ) -> f64 {
     // The difference's sums in registers, up to 8 lanes.
     let mut local = [Vec4::ZERO; 8];
@@ -500,8 +588,7 @@ fn blend<'g>(
         }
     };
     let mut variance = 0.0f64;
-    for (k, a, b) in at_centroid {
-        let (g, noise) = guide(k);
+    for (((a, b), g), &noise) in at_centroid.zip(rows).zip(row_noise) {
         let g = &g[..lanes];
         variance += (a - b) * (a - b) * f64::from(noise);
         let difference = (a - b) as f32;
