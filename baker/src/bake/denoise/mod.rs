@@ -629,8 +629,9 @@ impl<'g> Filter<'g> {
                 (&self.tap_lanes[row * lanes..][..lanes], tap.noise)
             };
             vertices::weigh(scratch);
-            vertices::reweigh(scratch, (sw, kappa, noise), &guide);
-            return vertices::fit(scratch, sw, &guide);
+            vertices::gather(scratch, sw, &guide);
+            vertices::reweigh(scratch, (sw, kappa, noise));
+            return vertices::fit(scratch, sw);
         }
         if !self.settings.linear {
             let total: f32 = out.iter().map(|&(_, w)| w[0]).sum();

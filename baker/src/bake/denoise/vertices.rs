@@ -101,21 +101,39 @@ pub(super) struct Scratch {
     row_noise: Vec<f32>,
     /// Each entry's monomials ([`monomials`]), formed once for the four fits' sums.
     monomials: Vec<[f64; MOMENTS]>,
-    /// Whether `rows`, `row_noise` and `monomials` hold the kernel's entries.
-    gathered: bool,
 }
 
-/// Gathers each kernel entry's guide lanes, variance and monomials into `scratch`, in the
-/// kernel's order: [`reweigh`] and [`fit`] read the guides in four passes and the monomials
-/// in five, which each looked the guide up by its tap or formed the monomials again.
+/// Gathers each kernel entry's guide lanes (`guide(k)`: neighbour k's guide, `sw` floats in
+/// [`guide_lanes`], and its variance) and monomials into `scratch`, in the kernel's order,
+/// once the kernel's entries and places are formed: [`reweigh`] and [`fit`] read the guides
+/// in four passes and the monomials in five, which each looked the guide up by its tap or
+/// formed the monomials again.
+pub(super) fn gather<'g>(
+    scratch: &mut Scratch,
+    sw: usize,
+    guide: &impl Fn(u32) -> (&'g [Vec4], f32),
+) {
+    // The common guides' lanes as constants, as in [`reweigh`].
+    match guide_lanes(sw) {
+        1 => gather_in_lanes(scratch, 1, guide),
+        3 => gather_in_lanes(scratch, 3, guide),
+        7 => gather_in_lanes(scratch, 7, guide),
+        lanes => gather_in_lanes(scratch, lanes, guide),
+    }
+}
+
+/// [`gather`] for guides of `lanes` lanes.
 #[inline(always)]
-fn gather<'g>(scratch: &mut Scratch, lanes: usize, guide: &impl Fn(u32) -> (&'g [Vec4], f32)) {
+fn gather_in_lanes<'g>(
+    scratch: &mut Scratch,
+    lanes: usize,
+    guide: &impl Fn(u32) -> (&'g [Vec4], f32),
+) {
     let Scratch {
         kernel,
         rows,
         row_noise,
         monomials: mono,
-        gathered,
         ..
     } = scratch;
     // Resized, not cleared: every entry is written below.
@@ -133,7 +151,6 @@ fn gather<'g>(scratch: &mut Scratch, lanes: usize, guide: &impl Fn(u32) -> (&'g 
         *noise = variance;
         *m = monomials(u, v).1;
     }
-    *gathered = true;
 }
 
 /// Adds Σ w m over the `weighted` entries (w, m) to `sums`, in order, in registers.
@@ -323,35 +340,26 @@ fn monomials(u: f32, v: f32) -> ([f64; TERMS], [f64; MOMENTS]) {
 /// half-width fit blended from 4 / 16, before the quarter-width fit); a second step does not
 /// help (1.12 / 2.92 / 0.71 %, 4 seeds).
 ///
-/// `guide(k)` gives entry k's guide and its variance, `noise` the cluster's own.
+/// It reads the entries' guides and variances as [`gather`] left them; `noise` is the
+/// cluster's own.
 ///
 /// Kept out of line, as are [`weigh`] and [`fit`]: each runs once per cluster, and is
 /// compiled, and profiled, on its own.
 #[inline(never)]
-pub(super) fn reweigh<'g>(
-    scratch: &mut Scratch,
-    (sw, kappa, noise): (usize, f32, f32),
-    guide: &impl Fn(u32) -> (&'g [Vec4], f32),
-) {
+pub(super) fn reweigh(scratch: &mut Scratch, (sw, kappa, noise): (usize, f32, f32)) {
     let settings = (sw, kappa, noise);
     // The common guides' lanes as constants, so that the loops over them unroll.
     match guide_lanes(sw) {
-        1 => reweigh_in_lanes(scratch, 1, settings, guide),
-        3 => reweigh_in_lanes(scratch, 3, settings, guide),
-        7 => reweigh_in_lanes(scratch, 7, settings, guide),
-        lanes => reweigh_in_lanes(scratch, lanes, settings, guide),
+        1 => reweigh_in_lanes(scratch, 1, settings),
+        3 => reweigh_in_lanes(scratch, 3, settings),
+        7 => reweigh_in_lanes(scratch, 7, settings),
+        lanes => reweigh_in_lanes(scratch, lanes, settings),
     }
 }
 
 /// [`reweigh`] for guides of `lanes` lanes.
 #[inline(always)]
-fn reweigh_in_lanes<'g>(
-    scratch: &mut Scratch,
-    lanes: usize,
-    (sw, kappa, noise): (usize, f32, f32),
-    guide: &impl Fn(u32) -> (&'g [Vec4], f32),
-) {
-    gather(scratch, lanes, guide);
+fn reweigh_in_lanes(scratch: &mut Scratch, lanes: usize, (sw, kappa, noise): (usize, f32, f32)) {
     let Scratch {
         kernel,
         geometric,
@@ -432,8 +440,8 @@ fn reweigh_in_lanes<'g>(
 /// tapers, into the weights of a weighted quadratic fit over its tangent plane, as functions
 /// of the place it is evaluated at: `scratch.weights`, e_k = w_k A⁻¹ x_k with
 /// x = (1, u, v, u², uv, v²) and A = Σ w_k x_k x_kᵀ, so that a member at x_m weighs entry k
-/// by e_k · x_m. These sum to 1 at every place. `guide(k)` is neighbour k's guide (`sw`
-/// floats, in [`guide_lanes`]) and the guide's variance.
+/// by e_k · x_m. These sum to 1 at every place. It reads the entries' guides (`sw` floats,
+/// in [`guide_lanes`]) and variances as [`gather`] left them.
 ///
 /// Where the transfer bends faster than a quadratic over the kernel (a contact shadow, a
 /// room's corner), the fit is biased. The fits over kernels a half and a quarter as wide are
@@ -446,28 +454,19 @@ fn reweigh_in_lanes<'g>(
 /// A = Σ w x xᵀ holds 15 distinct sums of monomials, formed once per neighbour for every
 /// fit; one inverse per fit gives its weights.
 #[inline(never)]
-pub(super) fn fit<'g>(scratch: &mut Scratch, sw: usize, guide: &impl Fn(u32) -> (&'g [Vec4], f32)) {
+pub(super) fn fit(scratch: &mut Scratch, sw: usize) {
     // The common guides' lanes as constants, as in [`reweigh`].
     match guide_lanes(sw) {
-        1 => fit_in_lanes(scratch, 1, sw, guide),
-        3 => fit_in_lanes(scratch, 3, sw, guide),
-        7 => fit_in_lanes(scratch, 7, sw, guide),
-        lanes => fit_in_lanes(scratch, lanes, sw, guide),
+        1 => fit_in_lanes(scratch, 1, sw),
+        3 => fit_in_lanes(scratch, 3, sw),
+        7 => fit_in_lanes(scratch, 7, sw),
+        lanes => fit_in_lanes(scratch, lanes, sw),
     }
 }
 
 /// [`fit`] for guides of `lanes` lanes.
 #[inline(always)]
-fn fit_in_lanes<'g>(
-    scratch: &mut Scratch,
-    lanes: usize,
-    sw: usize,
-    guide: &impl Fn(u32) -> (&'g [Vec4], f32),
-) {
-    if !scratch.gathered {
-        gather(scratch, lanes, guide);
-    }
-    scratch.gathered = false;
+fn fit_in_lanes(scratch: &mut Scratch, lanes: usize, sw: usize) {
     let Scratch {
         kernel,
         taper,
@@ -671,7 +670,8 @@ mod tests {
                 scratch.kernel.push((k as u32, [w, p.x, p.y]));
                 scratch.taper.push([(-6.0 * r2).exp(), (-20.0 * r2).exp()]);
             }
-            fit(&mut scratch, 1, &|k| (&guides[k as usize][..], noise));
+            gather(&mut scratch, 1, &|k| (&guides[k as usize][..], noise));
+            fit(&mut scratch, 1);
             let at = terms(0.0, 0.0);
             (scratch.kernel.iter().zip(&scratch.weights))
                 .map(|(&(k, _), e)| dot(e, &at) * guides[k as usize][0].x)
