@@ -56,7 +56,9 @@
 //! kernel biases every gradient (towards a contact shadow, over a chart's last texels, where
 //! the neighbours lie on one side), the fit does not. Its weights may go negative and cost a
 //! little noise; on the Cornell room at 128² it takes a 64-ray bake's error from 3.5 % to
-//! 1.9 % (docs/explanation/denoising.md).
+//! 1.9 % (docs/explanation/denoising.md). Where the transfer bends within a few texels, a fit
+//! half as wide is blended in by Lepski's rule ([`texel_fit`]); over a normal map the fit is
+//! in the normal too, with a robust range term ([`normal_fit`]).
 //!
 //! The weights sum to 1, so a constant transfer is kept exactly. They are a pure function of
 //! the guides and the bake's transfer, formed receiver by receiver over neighbours in a fixed
@@ -71,6 +73,7 @@ pub mod guides;
 mod normal_fit;
 mod range;
 pub mod stage;
+mod texel_fit;
 mod vertex_apply;
 mod vertex_clusters;
 mod vertices;
@@ -565,6 +568,7 @@ impl<'g> Filter<'g> {
         };
         let pi = self.clusters.points[c];
         let (ni, si, group) = (g.normals[r], g.surfaces[r], g.groups[r]);
+        let mapped = !vertices && self.mapped_groups[group as usize];
         let (spacing, noise) = (g.spacing[r], self.taps[c].noise);
         let reach = radius * spacing;
         let (t1, t2) = self.frames[c];
@@ -591,7 +595,16 @@ impl<'g> Filter<'g> {
             let w = match vertices {
                 false => {
                     let range = range_term(squared(tap.guide as usize), variance, kappa);
-                    (-2.0 * r2 - off_plane * off_plane - range).exp() * facing
+                    let exponent = -2.0 * r2 - off_plane * off_plane;
+                    if mapped {
+                        // Kept for the robust range term ([`normal_fit::reweigh`]), where
+                        // the geometric terms weigh at all.
+                        if exponent < vertices::LN_NEGLIGIBLE {
+                            continue;
+                        }
+                        scratch.geometric.push((exponent, facing * tap.mass));
+                    }
+                    (exponent - range).exp() * facing
                 }
                 // The geometric terms, and the range term on top, as exponents (taken four
                 // at a time, [`vertices::weigh`]): vertices keep every entry the geometry
@@ -610,7 +623,7 @@ impl<'g> Filter<'g> {
                     exponent - range
                 }
             };
-            if vertices || w > 0.0 {
+            if vertices || mapped || w > 0.0 {
                 // With the tap's place in c's tangent plane, in spacings: the fit's (u, v).
                 let place = d * scale;
                 let w = match vertices {
@@ -640,56 +653,37 @@ impl<'g> Filter<'g> {
             }
             return;
         }
+        let guide = |k: u32| {
+            let tap = &self.taps[k as usize];
+            (&self.tap_guide[tap.guide as usize * sw..][..sw], tap.noise)
+        };
         // Where a normal map turns the shading normals, the fit is in the normal too.
         scratch.normal.clear();
         if self.mapped_groups[group as usize] {
-            tapers.clear();
-            tapers.extend(
-                out.iter()
-                    .map(|&(k, _)| normal_fit::offset(self.tap_normals[k as usize], ni, (t1, t2))),
-            );
-            if normal_fit::varies(tapers) && normal_fit::fit(out, tapers, &mut scratch.normal) {
+            let normal = |k: u32| self.tap_normals[k as usize];
+            let centre = (ni, (t1, t2));
+            let kernel = (&mut out[..], &scratch.geometric[..], &mut scratch.normal);
+            let fits = &mut scratch.normal_fits;
+            if normal_fit::fit_kernel(kernel, fits, normal, centre, guide, (noise, sw, kappa)) {
                 return;
             }
         }
-        let coords = |[_, u, v]: [f32; 3]| glam::DVec3::new(1.0, f64::from(u), f64::from(v));
-        // A = Σ w x xᵀ, symmetric: its six distinct entries.
-        let mut sums = [0.0f64; 6];
-        for &(_, e) in out.iter() {
-            let (x, w) = (coords(e), f64::from(e[0]));
-            let products = [
-                x.x * x.x,
-                x.y * x.x,
-                x.z * x.x,
-                x.y * x.y,
-                x.z * x.y,
-                x.z * x.z,
-            ];
-            for (s, p) in sums.iter_mut().zip(products) {
-                *s += p * w;
-            }
-        }
-        let [s00, s10, s20, s11, s21, s22] = sums;
-        let mut a = glam::DMat3::from_cols(
-            glam::DVec3::new(s00, s10, s20),
-            glam::DVec3::new(s10, s11, s21),
-            glam::DVec3::new(s20, s21, s22),
+        let fit = &mut scratch.plane_fit;
+        fit.clear();
+        fit.extend(
+            out.iter()
+                .map(|&(k, [w, u, v])| (k, w, [1.0, u, v].map(f64::from))),
         );
-        // A little ridge on the slopes: a neighbourhood along a line (a one-texel-wide strip)
-        // fits no slope across it.
-        let mass = a.x_axis.x;
-        a.y_axis.y += 1e-2 * mass;
-        a.z_axis.z += 1e-2 * mass;
-        let inverse = a.inverse();
-        if !inverse.is_finite() {
-            for (_, e) in out.iter_mut() {
-                *e = [(f64::from(e[0]) / mass) as f32, 0.0, 0.0];
+        let narrower = Some(f64::from(radius));
+        if texel_fit::fit(fit, &texel_fit::PLANE_RIDGES, narrower, sw, guide) {
+            for ((_, e), f) in out.iter_mut().zip(&fit.fitted) {
+                *e = f.map(|f| f as f32);
             }
             return;
         }
+        let mass: f64 = out.iter().map(|&(_, e)| f64::from(e[0])).sum();
         for (_, e) in out.iter_mut() {
-            let y = inverse * coords(*e) * f64::from(e[0]);
-            *e = [y.x as f32, y.y as f32, y.z as f32];
+            *e = [(f64::from(e[0]) / mass) as f32, 0.0, 0.0];
         }
     }
 }

@@ -12,20 +12,27 @@
 //! regression*; Bitterli et al. 2016, *Nonlinearly weighted first-order regression for
 //! denoising Monte Carlo renderings*). Where the normals do not vary (no normal map, a flat
 //! chart) the cluster keeps the fit over the plane alone, as before, to the bit.
+//!
+//! The bumps also make neighbours' transfer differ by many noise deviations, so a range term
+//! that compares each neighbour with the texel's own guide cuts most of them, and leaves the
+//! fit few neighbours to follow the bumps with. Over a normal map the range term is robust
+//! ([`reweigh`]): each neighbour is weighed again by its distance from the first fit at its
+//! place and normal (one step of iteratively reweighted local regression, Cleveland 1979), as
+//! the vertices' is. On the courtyard's wall it took the low sun's error from 1.19 to 0.96
+//! points (raw 512 rays: 0.88).
 
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 
-use super::cholesky;
+use super::texel_fit::Scratch;
 
 /// Below this spread of the neighbours' normal offsets (about 0.6°) the fit stays in the
 /// plane.
 pub(super) const SPREAD: f32 = 0.01;
-/// A ridge on the normal's slopes, relative to the kernel's mass: a neighbourhood whose
-/// normals vary along one direction only fits no slope across it. Small beside the offsets'
-/// own second moment (about 10⁻² for a normal map's ±6°).
-const RIDGE: f64 = 1e-4;
-/// The plane slopes' ridge, as the plane-only fit's.
-const PLANE_RIDGE: f64 = 1e-2;
+/// The fit's ridge on each term, relative to the kernel's mass: on the plane's slopes as the
+/// plane fit's ([`super::texel_fit::PLANE_RIDGES`]); on the normal's, small beside the
+/// offsets' own second moment (about 10⁻² for a normal map's ±6°), so that a neighbourhood
+/// whose normals vary along one direction only fits no slope across it.
+pub(super) const RIDGES: [f64; TERMS] = [0.0, 1e-2, 1e-2, 1e-4, 1e-4];
 
 /// The fit's terms: 1, u, v, a, b.
 pub(super) const TERMS: usize = 5;
@@ -43,47 +50,142 @@ pub(super) fn varies(offsets: &[[f32; 2]]) -> bool {
         .any(|[a, b]| a.abs() >= SPREAD || b.abs() >= SPREAD)
 }
 
-/// Turns kernel entries (k, [w, u, v]) with normal offsets `offsets` into the fit's weights:
-/// entry k's weight at a member's (1, u, v, a, b) is the dot of that with
-/// (entry[0], entry[1], entry[2], normal[0], normal[1]); `normal` receives the last two.
-/// Returns false (entries untouched) where the system is singular.
-pub(super) fn fit(
-    kernel: &mut [(u32, [f32; 3])],
-    offsets: &[[f32; 2]],
-    normal: &mut Vec<[f32; 2]>,
+/// What [`fit_kernel`] forms for each cluster.
+#[derive(Default)]
+pub(super) struct Fits {
+    /// Each entry's normal offset ([`offset`]).
+    offsets: Vec<[f32; 2]>,
+    fit: Scratch<TERMS>,
+    robust: Robust,
+}
+
+/// A cluster's kernel entries (k, [w, u, v]), their weights without the range term, and where
+/// the fit in the normal writes its normal terms.
+pub(super) type Kernel<'a> = (
+    &'a mut [(u32, [f32; 3])],
+    &'a [(f32, f32)],
+    &'a mut Vec<[f32; 2]>,
+);
+
+/// Turns a cluster's kernel (entries (k, [w, u, v]), with `geometric` their weights without
+/// the range term as (e, s) for s · exp(e)) into the weights of the fit in the plane and the
+/// normal, the normal's terms into `normal_terms`: a first fit, its entries weighed again by
+/// their distance from it ([`reweigh`]), and the fit of those weights. `normal(k)` is
+/// cluster k's mean shading normal; `centre` the cluster's own and its tangent frame.
+/// Returns false (the kernel untouched) where the normals do not vary or a fit is singular.
+pub(super) fn fit_kernel<'g>(
+    (kernel, geometric, normal_terms): Kernel,
+    scratch: &mut Fits,
+    normal: impl Fn(u32) -> Vec3,
+    (centre, frame): (Vec3, (Vec3, Vec3)),
+    guide: impl Fn(u32) -> (&'g [f32], f32) + Copy,
+    (noise, sw, kappa): (f32, usize, f32),
 ) -> bool {
-    let x = |[_, u, v]: [f32; 3], [a, b]: [f32; 2]| [1.0, u, v, a, b].map(f64::from);
-    let mut m = [[0.0f64; TERMS]; TERMS];
-    for (&(_, e), &o) in kernel.iter().zip(offsets) {
-        let (x, w) = (x(e, o), f64::from(e[0]));
-        for p in 0..TERMS {
-            for q in 0..=p {
-                m[p][q] += w * x[p] * x[q];
-            }
-        }
-    }
-    let mass = m[0][0];
-    m[1][1] += PLANE_RIDGE * mass;
-    m[2][2] += PLANE_RIDGE * mass;
-    m[3][3] += RIDGE * mass;
-    m[4][4] += RIDGE * mass;
-    let Some(l) = cholesky::factor(&m, 0.0) else {
+    let Fits {
+        offsets,
+        fit,
+        robust,
+    } = scratch;
+    offsets.clear();
+    offsets.extend(
+        kernel
+            .iter()
+            .map(|&(k, _)| offset(normal(k), centre, frame)),
+    );
+    if !varies(offsets) {
         return false;
-    };
-    normal.clear();
-    for (entry, &o) in kernel.iter_mut().zip(offsets) {
-        let e = entry.1;
-        let mut y = x(e, o);
-        cholesky::solve(&l, &mut y);
-        let w = f64::from(e[0]);
-        entry.1 = [y[0], y[1], y[2]].map(|y| (y * w) as f32);
-        normal.push([y[3], y[4]].map(|y| (y * w) as f32));
+    }
+    fit.clear();
+    fit.extend(
+        (kernel.iter().zip(offsets.iter()))
+            .map(|(&(k, [w, u, v]), &[a, b])| (k, w, [1.0, u, v, a, b].map(f64::from))),
+    );
+    if !super::texel_fit::fit(fit, &RIDGES, None, sw, guide) {
+        return false;
+    }
+    reweigh(fit, geometric, guide, (noise, sw, kappa), robust);
+    if !super::texel_fit::fit(fit, &RIDGES, None, sw, guide) {
+        return false;
+    }
+    normal_terms.clear();
+    for ((_, e), f) in kernel.iter_mut().zip(&fit.fitted) {
+        *e = [f[0], f[1], f[2]].map(|f| f as f32);
+        normal_terms.push([f[3], f[4]].map(|f| f as f32));
     }
     true
 }
 
+/// Weighs each entry again by its guide's distance from the first fit's guide at its place
+/// and normal: a neighbour whose guide differs by the bumps the fit follows is kept, one
+/// across a shadow's edge is cut (one step of iteratively reweighted local regression, as the
+/// vertices' robust range term: [`super::vertices::reweigh`]). `geometric[k]` is entry k's
+/// weight without the range term as (e, s) for s · exp(e).
+pub(super) fn reweigh<'g>(
+    fit: &mut Scratch<TERMS>,
+    geometric: &[(f32, f32)],
+    guide: impl Fn(u32) -> (&'g [f32], f32),
+    (noise, sw, kappa): (f32, usize, f32),
+    scratch: &mut Robust,
+) {
+    let lanes = sw.div_ceil(4);
+    let Robust { beta, rows, noises } = scratch;
+    // Each entry's guide in vector lanes, zero-padded, read twice below.
+    rows.clear();
+    noises.clear();
+    for &k in &fit.key {
+        let (row, their_noise) = guide(k);
+        let chunks = row.chunks_exact(4);
+        let rest = chunks.remainder();
+        rows.extend(chunks.map(Vec4::from_slice));
+        if !rest.is_empty() {
+            rows.push(Vec4::from_array(std::array::from_fn(|c| {
+                rest.get(c).copied().unwrap_or(0.0)
+            })));
+        }
+        noises.push(their_noise);
+    }
+    // The guide's fit: per four coefficients of the guide, its terms' coefficients.
+    beta.clear();
+    beta.resize(lanes, [Vec4::ZERO; TERMS]);
+    for (g, e) in rows.chunks_exact(lanes).zip(&fit.fitted) {
+        let e = e.map(|e| e as f32);
+        for (b, &g) in beta.iter_mut().zip(g) {
+            for (b, &e) in b.iter_mut().zip(&e) {
+                *b += g * e;
+            }
+        }
+    }
+    let entries = fit.weight.iter_mut().zip(&fit.terms);
+    for (((w, x), g), (&their_noise, &(e, s))) in entries
+        .zip(rows.chunks_exact(lanes))
+        .zip(noises.iter().zip(geometric))
+    {
+        let x = x.map(|x| x as f32);
+        let mut squared = Vec4::ZERO;
+        for (b, &g) in beta.iter().zip(g) {
+            let predicted = b.iter().zip(&x).fold(Vec4::ZERO, |p, (b, &x)| p + *b * x);
+            let r = g - predicted;
+            squared += r * r;
+        }
+        let variance = (noise + their_noise) * sw as f32;
+        let range = super::range::range_term(squared.element_sum(), variance, kappa);
+        *w = f64::from((e - range).exp() * s);
+    }
+}
+
+/// What [`reweigh`] forms for each cluster.
+#[derive(Default)]
+pub(super) struct Robust {
+    /// The guide's fit: per four coefficients, each term's coefficients.
+    beta: Vec<[Vec4; TERMS]>,
+    /// Each entry's guide, in lanes of four, and its variance.
+    rows: Vec<Vec4>,
+    noises: Vec<f32>,
+}
+
 #[cfg(test)]
 mod tests {
+    use super::super::texel_fit::fit;
     use super::*;
 
     /// A value linear in place and normal offset is reproduced exactly at every member's
@@ -107,18 +209,20 @@ mod tests {
             .zip(&offsets)
             .map(|(&(_, [_, u, v]), &[a, b])| value(u, v, a, b))
             .collect();
-        let mut normal = Vec::new();
         assert!(varies(&offsets));
-        assert!(fit(&mut kernel, &offsets, &mut normal));
+        let mut scratch = Scratch::<TERMS>::default();
+        scratch.extend(
+            kernel
+                .iter()
+                .zip(&offsets)
+                .map(|(&(k, [w, u, v]), &[a, b])| (k, w, [1.0, u, v, a, b].map(f64::from))),
+        );
+        assert!(fit(&mut scratch, &RIDGES, None, 1, |_| (&[], 0.0)));
         for (u, v, a, b) in [(0.0, 0.0, 0.0, 0.0), (1.0, -0.5, 0.1, 0.05)] {
             let place = [1.0, u, v, a, b];
             let weight = |n: usize| {
-                let (e, o) = (kernel[n].1, normal[n]);
-                e[0] * place[0]
-                    + e[1] * place[1]
-                    + e[2] * place[2]
-                    + o[0] * place[3]
-                    + o[1] * place[4]
+                let e = scratch.fitted[n];
+                (0..TERMS).map(|t| e[t] * f64::from(place[t])).sum::<f64>() as f32
             };
             let total: f32 = (0..kernel.len()).map(weight).sum();
             let fitted: f32 = (0..kernel.len()).map(|n| weight(n) * values[n]).sum();
@@ -127,5 +231,67 @@ mod tests {
             let want = value(u, v, a, b);
             assert!((fitted - want).abs() < 0.02, "{fitted} against {want}");
         }
+    }
+
+    /// Neighbours whose guide differs from the centre's by the normal map's bumps, several
+    /// noise deviations apart but on the fit, get their geometric weight back from the range
+    /// term that compared them with the centre; those across a step, off the fit, stay cut.
+    #[test]
+    fn the_reweighing_keeps_the_bumps_and_cuts_a_step() {
+        let (noise, kappa) = (1e-4f32, 4.0f32);
+        let mut scratch = Scratch::<TERMS>::default();
+        let (mut guides, mut geometric) = (Vec::new(), Vec::new());
+        let offsets = |i: u32| {
+            let a = ((i * 37) % 11) as f32 * 0.02 - 0.1;
+            (a, ((i * 17) % 5) as f32 * 0.02 - 0.04)
+        };
+        let centre = 24;
+        for i in 0..49u32 {
+            let (u, v) = ((i % 7) as f32 - 3.0, (i / 7) as f32 - 3.0);
+            let (a, b) = offsets(i);
+            // The last column a step down.
+            let step = if u >= 3.0 { -0.5 } else { 0.0 };
+            guides.push([0.5 + a - b + step]);
+            geometric.push((-0.1 * (u * u + v * v), 1.0f32));
+        }
+        for i in 0..49u32 {
+            let (u, v) = ((i % 7) as f32 - 3.0, (i / 7) as f32 - 3.0);
+            let (a, b) = offsets(i);
+            let d = guides[i as usize][0] - guides[centre][0];
+            let range = crate::bake::denoise::range::range_term(d * d, 2.0 * noise, kappa);
+            let w = (geometric[i as usize].0 - range).exp();
+            scratch.extend(std::iter::once((i, w, [1.0, u, v, a, b].map(f64::from))));
+        }
+        let before = scratch.weight.clone();
+        let guide = |k: u32| (&guides[k as usize][..], noise);
+        assert!(fit(&mut scratch, &RIDGES, None, 1, guide));
+        reweigh(
+            &mut scratch,
+            &geometric,
+            guide,
+            (noise, 1, kappa),
+            &mut Robust::default(),
+        );
+        let (mut bumps_before, mut bumps_after) = (0.0, 0.0);
+        for (k, &w) in scratch.weight.iter().enumerate() {
+            let full = f64::from(geometric[k].0.exp());
+            if k % 7 == 6 {
+                assert!(
+                    w < 1e-3 * full,
+                    "entry {k} across the step keeps {w} of {full}"
+                );
+            } else {
+                bumps_before += before[k] / full;
+                bumps_after += w / full;
+            }
+        }
+        assert!(
+            bumps_after > 0.9 * 42.0,
+            "the bumps keep {bumps_after} of 42"
+        );
+        assert!(
+            bumps_before < 0.7 * 42.0,
+            "the range term kept {bumps_before} of 42"
+        );
     }
 }

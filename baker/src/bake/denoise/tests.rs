@@ -199,3 +199,52 @@ fn a_transfer_that_follows_a_normal_map_is_kept() {
         .fold(0.0f32, f32::max);
     assert!(most < 0.01, "largest change {most}");
 }
+
+/// A normal-mapped sheet whose noisy transfer follows its bumps and steps down across a
+/// shadow's edge at x = 11.5: the filter smooths the noise over the bumps (its range term
+/// compares each neighbour with the fit in the normal, not with the texel's own guide, which
+/// differs by the bumps) and keeps the edge.
+#[test]
+fn noise_over_a_normal_map_is_smoothed_and_its_shadow_edge_kept() {
+    let mut guides = Guides::default();
+    let mut rng = crate::math::sampling::Pcg32::new(3, 4);
+    let sigma = 0.02f32;
+    let (mut clean, mut transfer) = (Vec::new(), Vec::new());
+    for a in 0..24 {
+        for b in 0..24 {
+            let tilt = Vec3::new(
+                (a as f32 * 1.7).sin(),
+                (b as f32 * 2.3 + a as f32).cos(),
+                0.0,
+            );
+            let n = (Vec3::Z + 0.15 * tilt).normalize();
+            guides.points.push(Vec3::new(a as f32, b as f32, 0.0));
+            guides.normals.push(n);
+            guides.surfaces.push(Vec3::Z);
+            guides.groups.push(0);
+            guides.spacing.push(1.0);
+            guides.noise.push(sigma * sigma);
+            let lit = if a < 12 { 1.0 } else { 0.2 };
+            let value = [0.5, 0.3 * n.y, 0.3 * n.z, 0.3 * n.x].map(|t| t * lit);
+            clean.extend(value);
+            // Uniform noise of deviation sigma.
+            transfer.extend(value.map(|t| t + sigma * 3f32.sqrt() * (2.0 * rng.next_f32() - 1.0)));
+        }
+    }
+    let filter = Filter::new(&guides, Settings::TEXELS, &transfer, 1, 4);
+    let filtered = filter.apply(&transfer, 4);
+    let rms = |values: &[f32]| {
+        let squares: f32 = (values.iter().zip(&clean))
+            .map(|(a, b)| (a - b) * (a - b))
+            .sum();
+        (squares / values.len() as f32).sqrt()
+    };
+    let (before, after) = (rms(&transfer), rms(&filtered));
+    assert!(after < 0.6 * before, "noise {before} -> {after}");
+    // The dark side's first column takes no light across the edge.
+    for b in 0..24 {
+        let i = (12 * 24 + b) * 4;
+        let rise = filtered[i] - clean[i];
+        assert!(rise < 2.0 * sigma, "texel (12, {b}) rose by {rise}");
+    }
+}

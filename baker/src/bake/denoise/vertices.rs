@@ -88,6 +88,9 @@ pub(super) struct Scratch {
     /// is in the shading normal too ([`super::normal_fit`]); empty where it is in the plane
     /// alone.
     pub normal: Vec<[f32; 2]>,
+    /// Texels: what their fits read ([`super::texel_fit`]).
+    pub plane_fit: super::texel_fit::Scratch<{ super::texel_fit::PLANE }>,
+    pub normal_fits: super::normal_fit::Fits,
     /// The fits' weights while they are blended.
     blended: Vec<[f64; TERMS]>,
     /// Per coefficient of the guide, in lanes: two fits' difference ([`blend`]); per term,
