@@ -597,8 +597,8 @@ impl<'g> Filter<'g> {
                     let range = range_term(squared(tap.guide as usize), variance, kappa);
                     let exponent = -2.0 * r2 - off_plane * off_plane;
                     if mapped {
-                        // Kept for the robust range term ([`normal_fit::reweigh`]), where
-                        // the geometric terms weigh at all.
+                        // Every entry the geometric terms weigh is kept, with those terms:
+                        // the robust range term weighs it again ([`normal_fit::reweigh`]).
                         if exponent < vertices::LN_NEGLIGIBLE {
                             continue;
                         }
