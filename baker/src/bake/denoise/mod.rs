@@ -194,8 +194,8 @@ pub struct Filter<'g> {
     /// order, then the prefiltered guides of the clusters too small to be their own guide
     /// ([`Tap::guide`] is a cluster's row).
     tap_guide: Vec<f32>,
-    /// For vertices, the rows of `tap_guide` in vector registers' lanes, zero-padded to
-    /// [`vertices::guide_lanes`] of them: what their kernels read.
+    /// The rows of `tap_guide` in vector registers' lanes, zero-padded to
+    /// [`range::guide_lanes`] of them: what the kernels' fits read.
     tap_lanes: Vec<glam::Vec4>,
     /// Each receiver's cluster.
     cluster_of: Vec<u32>,
@@ -356,9 +356,7 @@ impl<'g> Filter<'g> {
         // Up to order 3 the signal is the transfer: its clusters' means are the ones
         // `apply_to_transfer` reads.
         filter.transfer_means = used == per_channel && first == clusters.reps.len();
-        if settings.quadratic {
-            filter.tap_lanes = vertices::to_lanes(&means, signal_width);
-        }
+        filter.tap_lanes = range::to_lanes(&means, signal_width);
         filter.tap_guide = means;
         filter.frames = clusters
             .reps
@@ -546,7 +544,7 @@ impl<'g> Filter<'g> {
         tapers.clear();
         scratch.geometric.clear();
         let g = self.guides;
-        let (sw, lanes) = (self.signal_width, vertices::guide_lanes(self.signal_width));
+        let (sw, lanes) = (self.signal_width, range::guide_lanes(self.signal_width));
         let (radius, kappa) = (self.settings.radius, self.settings.kappa);
         let r = self.clusters.reps[c] as usize;
         let own = self.taps[c].guide as usize;
@@ -635,12 +633,13 @@ impl<'g> Filter<'g> {
             }
         }
         out.truncate(kept);
+        // Neighbour cluster k's guide, in lanes, and its variance.
+        let guide = |k: u32| {
+            let tap = &self.taps[k as usize];
+            let row = tap.guide as usize;
+            (&self.tap_lanes[row * lanes..][..lanes], tap.noise)
+        };
         if vertices {
-            let guide = |k: u32| {
-                let tap = &self.taps[k as usize];
-                let row = tap.guide as usize;
-                (&self.tap_lanes[row * lanes..][..lanes], tap.noise)
-            };
             vertices::weigh(scratch);
             vertices::gather(scratch, sw, &guide);
             vertices::reweigh(scratch, (sw, kappa, noise));
@@ -653,13 +652,9 @@ impl<'g> Filter<'g> {
             }
             return;
         }
-        let guide = |k: u32| {
-            let tap = &self.taps[k as usize];
-            (&self.tap_guide[tap.guide as usize * sw..][..sw], tap.noise)
-        };
         // Where a normal map turns the shading normals, the fit is in the normal too.
         scratch.normal.clear();
-        if self.mapped_groups[group as usize] {
+        if mapped {
             let normal = |k: u32| self.tap_normals[k as usize];
             let centre = (ni, (t1, t2));
             let kernel = (&mut out[..], &scratch.geometric[..], &mut scratch.normal);

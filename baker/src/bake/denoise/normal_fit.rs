@@ -56,7 +56,8 @@ pub(super) struct Fits {
     /// Each entry's normal offset ([`offset`]).
     offsets: Vec<[f32; 2]>,
     fit: Scratch<TERMS>,
-    robust: Robust,
+    /// The guide's fit in [`reweigh`]: per four coefficients, each term's coefficients.
+    beta: Vec<[Vec4; TERMS]>,
 }
 
 /// A cluster's kernel entries (k, [w, u, v]), their weights without the range term, and where
@@ -78,14 +79,10 @@ pub(super) fn fit_kernel<'g>(
     scratch: &mut Fits,
     normal: impl Fn(u32) -> Vec3,
     (centre, frame): (Vec3, (Vec3, Vec3)),
-    guide: impl Fn(u32) -> (&'g [f32], f32) + Copy,
+    guide: impl Fn(u32) -> (&'g [Vec4], f32) + Copy,
     (noise, sw, kappa): (f32, usize, f32),
 ) -> bool {
-    let Fits {
-        offsets,
-        fit,
-        robust,
-    } = scratch;
+    let Fits { offsets, fit, beta } = scratch;
     offsets.clear();
     offsets.extend(
         kernel
@@ -103,7 +100,7 @@ pub(super) fn fit_kernel<'g>(
     if !super::texel_fit::fit(fit, &RIDGES, None, sw, guide) {
         return false;
     }
-    reweigh(fit, geometric, guide, (noise, sw, kappa), robust);
+    reweigh(fit, geometric, guide, (noise, sw, kappa), beta);
     if !super::texel_fit::fit(fit, &RIDGES, None, sw, guide) {
         return false;
     }
@@ -123,44 +120,25 @@ pub(super) fn fit_kernel<'g>(
 pub(super) fn reweigh<'g>(
     fit: &mut Scratch<TERMS>,
     geometric: &[(f32, f32)],
-    guide: impl Fn(u32) -> (&'g [f32], f32),
+    guide: impl Fn(u32) -> (&'g [Vec4], f32),
     (noise, sw, kappa): (f32, usize, f32),
-    scratch: &mut Robust,
+    beta: &mut Vec<[Vec4; TERMS]>,
 ) {
-    let lanes = sw.div_ceil(4);
-    let Robust { beta, rows, noises } = scratch;
-    // Each entry's guide in vector lanes, zero-padded, read twice below.
-    rows.clear();
-    noises.clear();
-    for &k in &fit.key {
-        let (row, their_noise) = guide(k);
-        let chunks = row.chunks_exact(4);
-        let rest = chunks.remainder();
-        rows.extend(chunks.map(Vec4::from_slice));
-        if !rest.is_empty() {
-            rows.push(Vec4::from_array(std::array::from_fn(|c| {
-                rest.get(c).copied().unwrap_or(0.0)
-            })));
-        }
-        noises.push(their_noise);
-    }
     // The guide's fit: per four coefficients of the guide, its terms' coefficients.
     beta.clear();
-    beta.resize(lanes, [Vec4::ZERO; TERMS]);
-    for (g, e) in rows.chunks_exact(lanes).zip(&fit.fitted) {
+    beta.resize(super::range::guide_lanes(sw), [Vec4::ZERO; TERMS]);
+    for (&k, e) in fit.key.iter().zip(&fit.fitted) {
         let e = e.map(|e| e as f32);
-        for (b, &g) in beta.iter_mut().zip(g) {
+        for (b, &g) in beta.iter_mut().zip(guide(k).0) {
             for (b, &e) in b.iter_mut().zip(&e) {
                 *b += g * e;
             }
         }
     }
     let entries = fit.weight.iter_mut().zip(&fit.terms);
-    for (((w, x), g), (&their_noise, &(e, s))) in entries
-        .zip(rows.chunks_exact(lanes))
-        .zip(noises.iter().zip(geometric))
-    {
+    for (((w, x), &k), &(e, s)) in entries.zip(&fit.key).zip(geometric) {
         let x = x.map(|x| x as f32);
+        let (g, their_noise) = guide(k);
         let mut squared = Vec4::ZERO;
         for (b, &g) in beta.iter().zip(g) {
             let predicted = b.iter().zip(&x).fold(Vec4::ZERO, |p, (b, &x)| p + *b * x);
@@ -171,16 +149,6 @@ pub(super) fn reweigh<'g>(
         let range = super::range::range_term(squared.element_sum(), variance, kappa);
         *w = f64::from((e - range).exp() * s);
     }
-}
-
-/// What [`reweigh`] forms for each cluster.
-#[derive(Default)]
-pub(super) struct Robust {
-    /// The guide's fit: per four coefficients, each term's coefficients.
-    beta: Vec<[Vec4; TERMS]>,
-    /// Each entry's guide, in lanes of four, and its variance.
-    rows: Vec<Vec4>,
-    noises: Vec<f32>,
 }
 
 #[cfg(test)]
@@ -251,13 +219,13 @@ mod tests {
             let (a, b) = offsets(i);
             // The last column a step down.
             let step = if u >= 3.0 { -0.5 } else { 0.0 };
-            guides.push([0.5 + a - b + step]);
+            guides.push([Vec4::new(0.5 + a - b + step, 0.0, 0.0, 0.0)]);
             geometric.push((-0.1 * (u * u + v * v), 1.0f32));
         }
         for i in 0..49u32 {
             let (u, v) = ((i % 7) as f32 - 3.0, (i / 7) as f32 - 3.0);
             let (a, b) = offsets(i);
-            let d = guides[i as usize][0] - guides[centre][0];
+            let d = guides[i as usize][0].x - guides[centre][0].x;
             let range = crate::bake::denoise::range::range_term(d * d, 2.0 * noise, kappa);
             let w = (geometric[i as usize].0 - range).exp();
             scratch.extend(std::iter::once((i, w, [1.0, u, v, a, b].map(f64::from))));
@@ -270,7 +238,7 @@ mod tests {
             &geometric,
             guide,
             (noise, 1, kappa),
-            &mut Robust::default(),
+            &mut Vec::new(),
         );
         let (mut bumps_before, mut bumps_after) = (0.0, 0.0);
         for (k, &w) in scratch.weight.iter().enumerate() {

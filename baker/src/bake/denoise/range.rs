@@ -1,5 +1,7 @@
 //! The range term ([`super::Filter`]): how far apart two receivers' signals are against how
 //! far apart noise alone would put them.
+//! And the guides' layout in vector lanes, which the vertices' range terms and every fit's
+//! guide sums read.
 
 use glam::Vec4;
 
@@ -50,6 +52,24 @@ pub(super) fn range_term(squared: f32, variance: f32, kappa: f32) -> f32 {
         false => f32::INFINITY,
     };
     (d2 - 1.0).max(0.0) / (kappa * kappa)
+}
+
+/// Vector registers' lanes (four floats) that hold a guide of `sw` floats.
+pub(super) fn guide_lanes(sw: usize) -> usize {
+    sw.div_ceil(4)
+}
+
+/// Guides of `sw` floats each, as [`guide_lanes`] of lanes each, the last zero-padded.
+pub(super) fn to_lanes(guides: &[f32], sw: usize) -> Vec<Vec4> {
+    let mut lanes = Vec::with_capacity(guides.len().div_ceil(sw.max(1)) * guide_lanes(sw));
+    for guide in guides.chunks_exact(sw.max(1)) {
+        for four in guide.chunks(4) {
+            let mut padded = [0.0f32; 4];
+            padded[..four.len()].copy_from_slice(four);
+            lanes.push(Vec4::from_array(padded));
+        }
+    }
+    lanes
 }
 
 #[cfg(test)]

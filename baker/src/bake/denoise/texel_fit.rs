@@ -62,8 +62,6 @@ impl<const N: usize> Scratch<N> {
         self.taper.clear();
     }
 
-    /// Adds cluster k's entry, of kernel weight `w` and terms `x` (x[1], x[2]: its place in
-    /// the tangent plane, in spacings).
     /// Adds entries (k, w, x): cluster k's, of kernel weight w and terms x (x[1], x[2]: its
     /// place in the tangent plane, in spacings).
     pub fn extend(&mut self, entries: impl Iterator<Item = (u32, f32, [f64; N])> + Clone) {
@@ -116,15 +114,15 @@ fn weights<const N: usize>(b: &[[f64; N]; N], x: &[f64; N], w: f64) -> [f64; N] 
 /// Turns the kernel pushed into `scratch` into the weights of its first-order fit,
 /// e_k = w_k A⁻¹ x_k with A = Σ w_k x_k x_kᵀ, into `scratch.fitted`: they sum to 1 at every
 /// place. With `narrower`, the kernel's radius in spacings, the half-width fit is blended in
-/// by [`NARROWER`]; `guide(k)` gives
-/// cluster k's guide (`sw` floats) and its variance. Returns false (nothing fitted) where the
-/// wide fit is singular.
+/// by [`NARROWER`]; `guide(k)` gives cluster k's guide (`sw` floats in
+/// [`super::range::guide_lanes`] lanes) and its variance. Returns false (nothing fitted)
+/// where the wide fit is singular.
 pub(super) fn fit<'g, const N: usize>(
     scratch: &mut Scratch<N>,
     ridge: &[f64; N],
     narrower: Option<f64>,
     sw: usize,
-    guide: impl Fn(u32) -> (&'g [f32], f32),
+    guide: impl Fn(u32) -> (&'g [Vec4], f32),
 ) -> bool {
     let Scratch {
         key,
@@ -161,10 +159,9 @@ pub(super) fn fit<'g, const N: usize>(
     let Some(narrow) = factor(weight, terms, Some(taper), ridge).map(|l| inverse(&l)) else {
         return true;
     };
-    // The difference's sums in vector lanes, four coefficients at a time.
-    let lanes = sw.div_ceil(4);
+    // The difference's sums in the guides' lanes, four coefficients at a time.
     delta.clear();
-    delta.resize(lanes, Vec4::ZERO);
+    delta.resize(super::range::guide_lanes(sw), Vec4::ZERO);
     let mut variance = 0.0f64;
     for (k, (x, e)) in terms.iter().zip(fitted.iter()).enumerate() {
         // The narrower fit's weight at the centroid: its inverse's first row, dotted.
@@ -173,14 +170,8 @@ pub(super) fn fit<'g, const N: usize>(
         let (row, noise) = guide(key[k]);
         variance += difference * difference * f64::from(noise);
         let difference = Vec4::splat(difference as f32);
-        let chunks = row.chunks_exact(4);
-        let rest = chunks.remainder();
-        for (d, g) in delta.iter_mut().zip(chunks) {
-            *d += difference * Vec4::from_slice(g);
-        }
-        if let Some(d) = delta.get_mut(sw / 4) {
-            let g = std::array::from_fn(|l| rest.get(l).copied().unwrap_or(0.0));
-            *d += difference * Vec4::from_array(g);
+        for (d, &g) in delta.iter_mut().zip(row) {
+            *d += difference * g;
         }
     }
     let squared: f64 = delta.iter().map(|d| f64::from(d.length_squared())).sum();
@@ -214,9 +205,9 @@ mod tests {
             .flat_map(|x| (-7..=7).map(move |y| (f64::from(x), f64::from(y))))
             .filter(|(x, y)| x * x + y * y <= radius * radius)
             .collect();
-        let guides: Vec<[f32; 1]> = places
+        let guides: Vec<[Vec4; 1]> = places
             .iter()
-            .map(|&(x, _)| [(x * 0.6).exp() as f32])
+            .map(|&(x, _)| [Vec4::new((x * 0.6).exp() as f32, 0.0, 0.0, 0.0)])
             .collect();
         let read = |narrower: Option<f64>, noise: f32| {
             let mut scratch = Scratch::<PLANE>::default();
@@ -228,7 +219,7 @@ mod tests {
                 (&guides[k as usize][..], noise)
             }));
             let at_centre: f64 = (scratch.fitted.iter().zip(&guides))
-                .map(|(e, g)| e[0] * f64::from(g[0]))
+                .map(|(e, g)| e[0] * f64::from(g[0].x))
                 .sum();
             (scratch.fitted, at_centre)
         };

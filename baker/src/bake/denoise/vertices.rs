@@ -38,7 +38,7 @@ use glam::Vec4;
 
 use super::cholesky;
 use super::exp4::exp4;
-use super::range::range_term;
+use super::range::{guide_lanes, range_term};
 
 /// Terms of the fit: 1, u, v, u², uv, v².
 pub(super) const TERMS: usize = 6;
@@ -241,24 +241,6 @@ pub(super) fn terms(u: f32, v: f32) -> [f32; TERMS] {
 /// a · b over the fit's terms.
 pub(super) fn dot(a: &[f32; TERMS], b: &[f32; TERMS]) -> f32 {
     a.iter().zip(b).map(|(a, b)| a * b).sum()
-}
-
-/// Vector registers' lanes (four floats) that hold a guide of `sw` floats.
-pub(super) fn guide_lanes(sw: usize) -> usize {
-    sw.div_ceil(4)
-}
-
-/// Guides of `sw` floats each, as [`guide_lanes`] of lanes each, the last zero-padded.
-pub(super) fn to_lanes(guides: &[f32], sw: usize) -> Vec<Vec4> {
-    let mut lanes = Vec::with_capacity(guides.len().div_ceil(sw.max(1)) * guide_lanes(sw));
-    for guide in guides.chunks_exact(sw.max(1)) {
-        for four in guide.chunks(4) {
-            let mut padded = [0.0f32; 4];
-            padded[..four.len()].copy_from_slice(four);
-            lanes.push(Vec4::from_array(padded));
-        }
-    }
-    lanes
 }
 
 /// Σ (a − b)² over two guides' lanes (the range term's distance, for every neighbour of
