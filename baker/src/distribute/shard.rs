@@ -492,7 +492,7 @@ impl Part {
                 .take()
                 .expect("a denoised part carries its guides");
             let settings = match self.lightmap {
-                Some(_) => Settings::TEXELS,
+                Some(_) => Settings::texels(self.header.samples_per_vertex),
                 None => Settings::VERTICES,
             };
             let per_channel = self

@@ -72,6 +72,7 @@ mod grid;
 pub mod guides;
 mod normal_fit;
 mod range;
+mod settings;
 pub mod stage;
 mod texel_fit;
 mod vertex_apply;
@@ -83,54 +84,7 @@ use rayon::prelude::*;
 use clusters::Clusters;
 pub use guides::{Guides, texel_guides, vertex_guides};
 use range::{range_exponent, range_term, squared_difference};
-
-/// The filter's sizes and strengths.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Settings {
-    /// Neighbours within this many spacings.
-    pub radius: f32,
-    /// The guide's prefilter radius, in spacings.
-    pub guide_radius: f32,
-    /// κ: how many noise deviations of difference the range term tolerates.
-    pub kappa: f32,
-    /// A first-order fit over the tangent plane instead of a weighted mean.
-    pub linear: bool,
-    /// The wide pass reads clusters about this many spacings across ([`clusters`]), or
-    /// every receiver (`None`).
-    pub step: Option<f32>,
-    /// A second-order fit, with vertices' terms ([`vertices`]), in place of the first-order
-    /// one.
-    pub quadratic: bool,
-}
-
-impl Settings {
-    /// Lightmap texels: 7 texels each way, over clusters of up to 3 × 3 texels (measured on
-    /// the Cornell room at 64 rays: docs/explanation/denoising.md). Against 6 texels over
-    /// clusters of 2 × 2, the wide pass reads half the clusters and the error is lower
-    /// (1.31 against 1.36 % under a sun and sky); 6 texels over 3 × 3 cost as little but
-    /// add 4 % to the error.
-    pub const TEXELS: Settings = Settings {
-        radius: 7.0,
-        guide_radius: 1.5,
-        kappa: 4.0,
-        linear: true,
-        step: Some(3.0),
-        quadratic: false,
-    };
-    /// Vertices, transfer matrices and subsurface vertices: in clusters of like vertices
-    /// within 1.25 of a seed's spacings ([`vertex_clusters`]), with a second-order fit and
-    /// the robust range term at κ = 3 ([`vertices`]; measured on the torus at 64 rays, 4
-    /// seeds, before the quarter-width fit: κ = 4, 1.16 / 3.02 / 0.78 %; 3, 1.12 / 2.91 /
-    /// 0.72 %; κ = 2 for the robust term alone, 1.16 / 2.93 / 0.76 %).
-    pub const VERTICES: Settings = Settings {
-        radius: 9.0,
-        guide_radius: 1.5,
-        kappa: 3.0,
-        linear: true,
-        step: Some(vertices::STEP),
-        quadratic: true,
-    };
-}
+pub use settings::{FINE_CLUSTERS_FROM, Settings};
 
 /// Coefficients per channel the range term compares: bands 0 to 2 (band 2 tells a sun's
 /// shadow edges apart better than bands 0 and 1 alone: 0.58 -> 0.55 % at 256 rays on the

@@ -241,3 +241,20 @@ fn noise_over_a_normal_map_is_smoothed_and_its_shadow_edge_kept() {
         assert!(rise < 2.0 * sigma, "texel (12, {b}) rose by {rise}");
     }
 }
+
+/// Texel bakes of many rays are filtered in finer clusters, and the merge of a bake's parts
+/// picks the very same settings from its header's rays ([`Settings::texels`]).
+#[test]
+fn texels_are_clustered_finer_from_256_rays() {
+    assert_eq!(Settings::texels(FINE_CLUSTERS_FROM - 1), Settings::TEXELS);
+    assert_eq!(Settings::texels(64), Settings::TEXELS);
+    let fine = Settings::texels(FINE_CLUSTERS_FROM);
+    assert_eq!(fine.step, Some(2.0));
+    assert_eq!(
+        Settings {
+            step: Some(3.0),
+            ..fine
+        },
+        Settings::TEXELS
+    );
+}

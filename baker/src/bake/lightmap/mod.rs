@@ -346,7 +346,7 @@ pub fn bake_texels(
         stages.time("denoise", || {
             crate::bake::denoise::stage::denoise_baked(
                 guides,
-                crate::bake::denoise::Settings::TEXELS,
+                crate::bake::denoise::Settings::texels(options.samples),
                 options,
                 &mut baked.coefficients,
                 baked.channels,

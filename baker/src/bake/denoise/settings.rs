@@ -1,0 +1,74 @@
+//! The filter's sizes and strengths for each kind of receiver, and how a texel bake's rays
+//! choose its clusters.
+
+/// The rays a texel from which texels are filtered in clusters of up to 2 × 2, not 3 × 3
+/// ([`Settings::texels`]). A cluster's members share its kernel, its range term and its
+/// choice of width, and the wide pass reads their mean: finer clusters leave less noise,
+/// which counts more as the rays lower the rest. Relit error against 65,536 rays (sun and
+/// sky / low sun / sky), the Cornell room at 256², 256 rays, 2 seeds (8 under the sky): 3 ×
+/// 3, 0.50 / 0.39 / 0.344 %; 2 × 2, 0.48 / 0.38 / 0.331 %; every texel its own kernel, 0.45 /
+/// 0.35 / 0.302 %, for 10 × the filter's time; a raw bake of 2,048 rays, 0.57 / 0.45 / 0.336
+/// %. At 1,024 rays, seed 1: 0.308 / 0.238 / 0.200, 0.295 / 0.233 / 0.194, 0.290 / 0.226 /
+/// 0.190 %. Under 256 rays the finer clusters are not worth their time: at 64 rays they cost
+/// the courtyard 2.2 × the filter's time for 6 % of its error. At 256 rays the room's filter
+/// takes 0.07–0.08 CPU-s of a 0.61 s raw bake (3 × 3: 0.04–0.05).
+pub const FINE_CLUSTERS_FROM: u32 = 256;
+
+/// The filter's sizes and strengths.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Settings {
+    /// Neighbours within this many spacings.
+    pub radius: f32,
+    /// The guide's prefilter radius, in spacings.
+    pub guide_radius: f32,
+    /// κ: how many noise deviations of difference the range term tolerates.
+    pub kappa: f32,
+    /// A first-order fit over the tangent plane instead of a weighted mean.
+    pub linear: bool,
+    /// The wide pass reads clusters about this many spacings across ([`super::clusters`]), or
+    /// every receiver (`None`).
+    pub step: Option<f32>,
+    /// A second-order fit, with vertices' terms ([`super::vertices`]), in place of the first-order
+    /// one.
+    pub quadratic: bool,
+}
+
+impl Settings {
+    /// Lightmap texels: 7 texels each way, over clusters of up to 3 × 3 texels (measured on
+    /// the Cornell room at 64 rays: docs/explanation/denoising.md). Against 6 texels over
+    /// clusters of 2 × 2, the wide pass reads half the clusters and the error is lower
+    /// (1.31 against 1.36 % under a sun and sky); 6 texels over 3 × 3 cost as little but
+    /// add 4 % to the error.
+    pub const TEXELS: Settings = Settings {
+        radius: 7.0,
+        guide_radius: 1.5,
+        kappa: 4.0,
+        linear: true,
+        step: Some(3.0),
+        quadratic: false,
+    };
+    /// [`Settings::TEXELS`] for a bake of `samples` rays a texel: from
+    /// [`FINE_CLUSTERS_FROM`] rays, clusters of up to 2 × 2 texels.
+    pub fn texels(samples: u32) -> Settings {
+        match samples >= FINE_CLUSTERS_FROM {
+            true => Settings {
+                step: Some(2.0),
+                ..Settings::TEXELS
+            },
+            false => Settings::TEXELS,
+        }
+    }
+    /// Vertices, transfer matrices and subsurface vertices: in clusters of like vertices
+    /// within 1.25 of a seed's spacings ([`super::vertex_clusters`]), with a second-order fit and
+    /// the robust range term at κ = 3 ([`super::vertices`]; measured on the torus at 64 rays, 4
+    /// seeds, before the quarter-width fit: κ = 4, 1.16 / 3.02 / 0.78 %; 3, 1.12 / 2.91 /
+    /// 0.72 %; κ = 2 for the robust term alone, 1.16 / 2.93 / 0.76 %).
+    pub const VERTICES: Settings = Settings {
+        radius: 9.0,
+        guide_radius: 1.5,
+        kappa: 3.0,
+        linear: true,
+        step: Some(super::vertices::STEP),
+        quadratic: true,
+    };
+}
