@@ -272,7 +272,7 @@ fn denoised_with(scene: &Scene, bake: &LightmapBake, settings: Settings) -> Ligh
         .collect();
     let guides = denoise::texel_guides(scene, &bake.atlas, &bake.texels, noise);
     let mut values: Vec<f32> = (baked.iter())
-        .flat_map(|&i| transfer.coefficients[i * width..][..width].to_vec())
+        .flat_map(|&i| transfer.coefficients[i * width..][..width].iter().copied())
         .collect();
     denoise::stage::denoise_guided(
         &guides,

@@ -305,7 +305,9 @@ pub fn bake_texels(
         seam_samples(&texels, &dilated, &stitching)
     });
     // An adaptive bake denoised samples until its denoised estimate is within the target,
-    // and denoises as it goes ([`crate::bake::adaptive_denoised`]).
+    // and denoises as it goes ([`crate::bake::adaptive_denoised`]). Its texels take different
+    // rays and its filter is formed every pass, so it keeps the 3 × 3 clusters whatever
+    // `--samples` says (`Settings::texels` is for fixed bakes; adaptive bakes have no parts).
     let adaptive_guides = guides
         .take_if(|_| crate::bake::adaptive_denoised::applies(options, tracer))
         .zip(tracer);
