@@ -130,15 +130,17 @@ impl BakePlan {
     }
 }
 
-/// Refuses `--denoise on` for probes, which are not denoised. Bakes in shards or
-/// checkpoints are denoised where every receiver is in (the merge, or the checkpointed
-/// bake's join), with the guides their parts carry; `prepare-lightmap` takes the bake's
-/// options, and its preparation serves denoised and raw shards alike.
+/// Refuses `--denoise on` for probes: a filter over a probe grid's neighbours biases them
+/// more than it removes noise (docs/explanation/denoising.md#probes-are-not-denoised).
+/// Bakes in shards or checkpoints are denoised where every receiver is in (the merge, or the
+/// checkpointed bake's join), with the guides their parts carry; `prepare-lightmap` takes the
+/// bake's options, and its preparation serves denoised and raw shards alike.
 pub fn check_denoise(options: &BakeOptions, what: &What) -> Result<(), Error> {
     match options.denoise && matches!(what, What::Probes(_)) {
         true => Err(Error::InvalidOption(
             "--denoise on is for vertex and texel bakes (whole, in shards or checkpointed): \
-             probes are not denoised"
+             probes are not denoised (a filter over their neighbours costs more bias than it \
+             removes noise); raise --samples instead"
                 .into(),
         )),
         false => Ok(()),
