@@ -11,6 +11,7 @@
     f.lightmap          # texel bakes (--lightmap): a Lightmap (below), else None
     f.receivers         # files of some objects (--receivers): {"object_count": N, "objects":
                         # [their indices]}, the arrays holding their vertices only; else None
+    f.probes            # probe bakes (--probes): a dict (below), else None
     f.header            # dict: order, channels, vertex_count, mode, transfer ("vector" or
                         # "matrix"), up, ..., and for
                         # adaptive bakes "adaptive": {target_error, replicates, rays_cast,
@@ -24,9 +25,15 @@ reader shapes its arrays as `prt-bake export --npz` does: transfer (H, W, channe
 (triangles, 3, 2) float32 lightmap UVs per triangle corner, and .valid,
 .dilated (H, W) bool texel states (baked; padding dilated from baked neighbours).
 
+A probe bake (--probes) stores P transfer probes as the vertices: f.transfer is their (P,
+channels, n², n²) matrices (export's probe_transfer), and f.probes holds "positions" (P, 3)
+float32, "backface_fraction" (P,) float32 (above 0.25 the probe is inside geometry) and
+"grid": {"counts": (NX, NY, NZ), "lo": (x, y, z), "hi": (x, y, z)} for a grid: bake (probe
+(i, j, k) at index i + NX·(j + NY·k)), None for a list of points.
+
 Every variant of version 1 is read: grey or RGB transfer, vectors or matrices (`bake
 --transfer matrix`), any order 1..45, the auxiliary arrays, z- or y-up, adaptive bakes and
-texel bakes; and compressed files (version 2, `prt-bake compress`), whose transfer is
+texel bakes, probe bakes; and compressed files (version 2, `prt-bake compress`), whose transfer is
 reconstructed exactly as `prt-bake export --npz` reconstructs it (f.header["compression"]
 holds what `inspect` prints, f.cpca the stored means (K, D), bases (K, M, D), cluster
 indices (V,) and weights (V, M), D = channels × n² floats per receiver, n⁴ for matrices).
@@ -45,6 +52,8 @@ import numpy as np
 MAGIC = b"\x89PRT\r\n\x1a\n"
 HEADER_SIZE = 128
 LIGHTMAP_HEADER_SIZE = 160  # the 128-byte header, then the 32-byte texel block
+PROBE_HEADER_SIZE = 176  # the 128-byte header, then the 48-byte probe block
+INSIDE_FRACTION = 0.25  # probes whose back-face fraction is above this are inside geometry
 CHECKSUM_OFFSET = 124
 MODES = {0: "unshadowed", 1: "shadowed", 2: "interreflected"}
 BACKENDS = {0: "none", 1: "embree", 2: "obvhs"}
@@ -104,6 +113,8 @@ class PrtFile:
     # Files of some objects (bake --receivers): {"object_count": N, "objects": [indices]}; the
     # arrays hold those objects' vertices only, in scene order.
     receivers: "dict | None" = None
+    # Probe bakes (--probes): {"positions", "backface_fraction", "grid"} (see the module's doc).
+    probes: "dict | None" = None
 
 
 def read_prt(path):
@@ -132,7 +143,8 @@ def parse_prt(b):
     if u32(8) != 1:
         raise PrtError(f"unsupported format version {u32(8)}")
     header_size, payload, order, channels, vertices = _checked_frame(
-        b, (HEADER_SIZE, LIGHTMAP_HEADER_SIZE), "128 bytes, 160 for lightmap bakes", "coefficients")
+        b, (HEADER_SIZE, LIGHTMAP_HEADER_SIZE, PROBE_HEADER_SIZE),
+        "128 bytes, 160 for lightmap bakes, 176 for probe bakes", "coefficients")
     # Bytes 36..40: the mode (u16) and the transfer kind (u16; 0 in every vector file, so a
     # reader of the old u32 mode refuses a matrix file).
     mode_code, kind = int(np.frombuffer(b, "<u2", 1, 36)[0]), int(np.frombuffer(b, "<u2", 1, 38)[0])
@@ -163,6 +175,9 @@ def parse_prt(b):
         raise PrtError(f"a shard part (shard {index} of {count}, vertices {first}..{first + part_vertices}) "
                        "of a bake, not a whole bake: combine the parts with `prt-bake merge`")
 
+    probe_grid = None
+    if header_size == PROBE_HEADER_SIZE:
+        probe_grid = _read_probe_block(b, vertices, transfer_kind, aux, adaptive)
     lightmap = None
     if header_size == LIGHTMAP_HEADER_SIZE:
         width, height = u32(128), u32(132)
@@ -191,6 +206,8 @@ def parse_prt(b):
                                "does not match")
             object_section = payload - needed
             needed = payload
+    if header_size == PROBE_HEADER_SIZE:
+        needed += vertices * 4 * 4  # each probe's position and back-face fraction
     receiver_section = 0
     if aux & AUX_RECEIVERS:
         if lightmap is not None:
@@ -279,6 +296,15 @@ def parse_prt(b):
         bent_normal = None if bent_normal is None else bent_normal.reshape(*shape, 3)
         rays = None if rays is None else rays.reshape(shape)
         error_estimate = None if error_estimate is None else error_estimate.reshape(shape)
+    probes = None
+    if header_size == PROBE_HEADER_SIZE:
+        positions, backface = take("<f4", 3 * vertices).reshape(vertices, 3), take("<f4", vertices)
+        if not np.all(np.isfinite(positions)):
+            raise PrtError(f"position of probe {int(np.argmax(~np.isfinite(positions).all(1)))} is not finite")
+        if not np.all((backface >= 0) & (backface <= 1)):
+            raise PrtError(f"back-face fraction of probe {int(np.argmax(~((backface >= 0) & (backface <= 1))))} "
+                           "is outside [0, 1]")
+        probes = {"positions": positions, "backface_fraction": backface, "grid": probe_grid}
     receivers = None
     if receiver_section:
         words = take("<u4", receiver_section // 4)
@@ -294,7 +320,30 @@ def parse_prt(b):
         receivers = {"object_count": object_count, "objects": objects}
         header["receivers"] = receivers
     assert cursor.offset == len(b)
-    return PrtFile(header, transfer, ao, bent_normal, rays, error_estimate, lightmap, receivers=receivers)
+    return PrtFile(header, transfer, ao, bent_normal, rays, error_estimate, lightmap, receivers=receivers,
+                   probes=probes)
+
+
+def _read_probe_block(b, vertices, transfer_kind, aux, adaptive):
+    """Header bytes 128..176 of a probe file, checked against the header: the grid, or None for
+    a list of points."""
+    count = int(np.frombuffer(b, "<u8", 1, 128)[0])
+    counts = tuple(int(n) for n in np.frombuffer(b, "<u4", 3, 136))
+    box = np.frombuffer(b, "<f4", 6, 148)
+    if count != vertices:
+        raise PrtError(f"the probe block counts {count} probes, the header {vertices}")
+    if transfer_kind != "matrix":
+        raise PrtError("a probe file of vector transfer (probes hold matrices)")
+    if aux or adaptive:
+        raise PrtError("auxiliary arrays or a target error in a probe file")
+    if any(b[172:176]):
+        raise PrtError("reserved bytes 172..176 of the probe block are not zero")
+    if not any(counts) and not np.any(box):
+        return None
+    lo, hi = box[:3], box[3:]
+    if int(np.prod(counts, dtype=np.uint64)) != count or not np.all(np.isfinite(box)) or np.any(lo > hi):
+        raise PrtError(f"a probe grid of {counts[0]}×{counts[1]}×{counts[2]} over [{lo}, {hi}] for {count} probes")
+    return {"counts": counts, "lo": tuple(map(float, lo)), "hi": tuple(map(float, hi))}
 
 
 def _read_adaptive(b, aux, mode, sampling):
@@ -364,8 +413,9 @@ def _parse_compressed(b):
         return int(np.frombuffer(b, "<u8", 1, offset)[0])
 
     header_size, payload, order, channels, vertices = _checked_frame(
-        b, (HEADER_SIZE + CPCA_BLOCK_SIZE, LIGHTMAP_HEADER_SIZE + CPCA_BLOCK_SIZE),
-        "version 2 headers are 160 bytes, 192 for lightmap bakes", "compressed coefficients")
+        b, (HEADER_SIZE + CPCA_BLOCK_SIZE, LIGHTMAP_HEADER_SIZE + CPCA_BLOCK_SIZE,
+            PROBE_HEADER_SIZE + CPCA_BLOCK_SIZE),
+        "version 2 headers are 160 bytes, 192 for lightmap bakes, 208 for probe bakes", "compressed coefficients")
     base = header_size - CPCA_BLOCK_SIZE
     n2 = order * order
     dim = channels * (n2 * n2 if int(np.frombuffer(b, "<u2", 1, 38)[0]) == 1 else n2)

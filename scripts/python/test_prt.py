@@ -1,8 +1,8 @@
 """Tests prt.py against `prt-bake export --npz` and `prt-bake inspect` on every variant:
 grey and RGB transfer, orders 1, 3, 4 and 5, with and without the aux arrays, z- and y-up,
 transfer matrices (orders 2 and 3, shadowed and unshadowed, y-up),
-an adaptive bake (rays cast, estimated errors), texel (lightmap) bakes and a file of some
-objects (--receivers); that a shard part
+an adaptive bake (rays cast, estimated errors), texel (lightmap) bakes, a file of some
+objects (--receivers) and probe bakes (a grid, and a list of points); that a shard part
 is refused; and that corrupted or truncated files of each kind are refused with the reason.
 Usage: test_prt.py PRT_BAKE OUT_DIR."""
 
@@ -40,7 +40,10 @@ VARIANTS = {
     "matrix-order3-aux": (torus, ["--transfer", "matrix", "--order", "3", "--aux", "ao"]),
     "matrix-order2-unshadowed-y-up": (cornell, ["--transfer", "matrix", "--order", "2", "--mode", "unshadowed",
                                                 "--up", "y"]),
+    "probes-grid-rgb": (cornell, ["--probes", "grid:3,2,2", "--order", "3", "--mode", "interreflected"]),
+    "probes-list": (cornell, ["--probes", str(out / "probe-points.txt"), "--order", "2"]),
 }
+(out / "probe-points.txt").write_text("# three probes\n0 0 0.5\n0.25 -0.3 1.2\n\n-0.5 0.5 1.9\n")
 # What export writes from the scene rather than from the file.
 SCENE_ARRAYS = {"positions", "normals", "albedo", "uv", "triangles", "texel_positions", "texel_normals"}
 
@@ -55,6 +58,9 @@ def arrays_of(f):
             "error_estimate": f.error_estimate}
     if f.lightmap is not None:
         ours.update(uv1=f.lightmap.uv1, texel_valid=f.lightmap.valid, texel_dilated=f.lightmap.dilated)
+    if f.probes is not None:
+        ours = {"probe_transfer": f.transfer, "probe_positions": f.probes["positions"],
+                "probe_backface_fraction": f.probes["backface_fraction"]}
     return {name: array for name, array in ours.items() if array is not None}
 
 
@@ -99,6 +105,16 @@ for name, (scene, extra) in VARIANTS.items():
         assert same_summary(nearest_rank_summary(f.error_estimate[baked]), per_vertex["estimated_error"]), name
         above = int(np.sum(f.error_estimate[baked] > np.float32(f.header["adaptive"]["target_error"])))
         assert above == per_vertex["vertices_above_target"], name
+    assert (f.probes is None) == ("probes" not in inspected), name
+    if f.probes is not None:
+        block, grid, at = inspected["probes"], f.probes["grid"], f.probes["positions"]
+        assert block["count"] == len(at) == f.header["vertex_count"], name
+        assert np.array_equal(np.float32(block["min"]), at.min(0)) and np.array_equal(np.float32(block["max"]), at.max(0))
+        assert (grid is None) == ("grid" not in block), name
+        if grid is not None:
+            assert list(grid["counts"]) == block["grid"]["counts"], name
+            assert all(np.float32(block["grid"][k]).tolist() == list(grid[k]) for k in ("lo", "hi")), name
+            assert np.prod(grid["counts"]) == len(at)
     lightmap = f.lightmap
     assert (lightmap is None) == ("lightmap" not in inspected), name
     if lightmap is not None:
@@ -166,6 +182,21 @@ for broken, reason in ((patched(data, 38, np.uint16(2)), "unknown transfer kind 
                        (patched(data, 128 + 4 * 80, np.float32(np.inf)), "coefficient")):
     refused(broken, reason, "matrix file")
 print("test_prt.py: corrupted matrix files are refused by prt.py and by prt-bake inspect")
+
+# A probe file: the probe block at 128..176 (count u64, grid counts 3 × u32, box 6 × f32,
+# reserved), then P × (channels × n⁴) coefficients, positions (P × 3), back-face fractions (P).
+data = (out / "probes-grid-rgb.prt").read_bytes()
+P = parse_prt(data).header["vertex_count"]
+fractions_at = len(data) - 4 * P
+for broken, reason in ((patched(data, 128, np.uint64(P + 1)), "the probe block counts"),
+                       (patched(data, 136, np.uint32(5)), "a probe grid of 5×2×2"),
+                       (patched(data, 172, np.uint32(1)), "reserved bytes 172..176"),
+                       (patched(data, 38, np.uint16(0)), "vector transfer"),
+                       (patched(data, fractions_at - 4, np.float32(np.nan)), "position of probe"),
+                       (patched(data, fractions_at + 4, np.float32(1.5)), "back-face fraction of probe 1"),
+                       (data[:-4], "announces")):
+    refused(broken, reason, "probe file")
+print("test_prt.py: corrupted probe files are refused by prt.py and by prt-bake inspect")
 
 # Adaptive: payload after 128 + V*(16 + 1 + 3)*4 bytes: rays (V u32), then errors (V f32).
 data = (out / "adaptive-aux.prt").read_bytes()
@@ -249,7 +280,8 @@ print(f"test_prt.py: a file of {len(f.receivers['objects'])} of {f.receivers['ob
 
 # Compressed (version 2) files: vertex and texel, grey and RGB, a matrix file; prt.py's
 # reconstruction equal to the npz export's (which reconstructs), its header to inspect's.
-for name in ("grey-order3-aux", "rgb-order5-ao", "adaptive-aux", "lightmap16-aux", "matrix-order3-aux"):
+for name in ("grey-order3-aux", "rgb-order5-ao", "adaptive-aux", "lightmap16-aux", "matrix-order3-aux",
+             "probes-grid-rgb"):
     scene = VARIANTS[name][0]
     packed, npz = out / f"{name}-cpca.prt", out / f"{name}-cpca.npz"
     run("compress", str(out / f"{name}.prt"), "-o", str(packed), "--clusters", "8", "--pcs", "3")
@@ -279,7 +311,7 @@ for broken, reason in ((patched(data, 8, np.uint32(3)), "unsupported format vers
                        (patched(data, cluster_at + 4 * 5, np.uint32(K)), "receiver 5 is in cluster 8"),
                        (data[:-4], "announces")):
     refused(broken, reason, "compressed file")
-print("test_prt.py: compressed files (vertex, texel, RGB, matrix) reconstructed as the npz export "
+print("test_prt.py: compressed files (vertex, texel, RGB, matrix, probes) reconstructed as the npz export "
       "does; corrupted ones are refused by prt.py and by prt-bake inspect")
 
 # The EXR export of texel bakes (prt-bake export --exr) read with OpenEXR's own Python
