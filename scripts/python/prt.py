@@ -53,7 +53,6 @@ MAGIC = b"\x89PRT\r\n\x1a\n"
 HEADER_SIZE = 128
 LIGHTMAP_HEADER_SIZE = 160  # the 128-byte header, then the 32-byte texel block
 PROBE_HEADER_SIZE = 176  # the 128-byte header, then the 48-byte probe block
-INSIDE_FRACTION = 0.25  # probes whose back-face fraction is above this are inside geometry
 CHECKSUM_OFFSET = 124
 MODES = {0: "unshadowed", 1: "shadowed", 2: "interreflected"}
 BACKENDS = {0: "none", 1: "embree", 2: "obvhs"}
