@@ -34,7 +34,10 @@ OUT="$(pwd)/target/blender/addon"
 
 started=$(date +%s.%N)
 rm -rf "$OUT"
-mkdir -p "$OUT/user" "$OUT/user-legacy"
+mkdir -p "$OUT/user" "$OUT/user-legacy" "$OUT/tmp"
+# Blender's session folders (blender_XXXXXX) stay behind when a test leaves through os._exit:
+# they go into the test's own folder, which the next run removes, not into /tmp.
+export TMPDIR="$OUT/tmp"
 python3 "$HERE/make_zip.py" "$OUT/prt_bake.zip"
 # The rig: a directional light and a hemisphere sky; and the same turned 90° about +z
 # ((x, y, z) -> (-y, x, z)), what the add-on's light_rotation = 90° must reproduce.
