@@ -54,13 +54,14 @@ def run(*args):
 
 def arrays_of(f):
     """prt.py's arrays under the names export --npz gives them."""
+    if f.probes is not None:
+        # A probe file has no aux arrays; export names its arrays apart.
+        return {"probe_transfer": f.transfer, "probe_positions": f.probes["positions"],
+                "probe_backface_fraction": f.probes["backface_fraction"]}
     ours = {"transfer_matrix" if f.header["transfer"] == "matrix" else "transfer": f.transfer, "ao": f.ao, "bent_normal": f.bent_normal, "rays": f.rays,
             "error_estimate": f.error_estimate}
     if f.lightmap is not None:
         ours.update(uv1=f.lightmap.uv1, texel_valid=f.lightmap.valid, texel_dilated=f.lightmap.dilated)
-    if f.probes is not None:
-        ours = {"probe_transfer": f.transfer, "probe_positions": f.probes["positions"],
-                "probe_backface_fraction": f.probes["backface_fraction"]}
     return {name: array for name, array in ours.items() if array is not None}
 
 
