@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """Tables from scripts/bench/lightmap_scale.sh's results.tsv: per cell the runs' wall, CPU and
 peak memory, their ray rates per CPU-second against the vertex bake and raw Embree, the staged
-pipelines' summed CPU against the whole bake, and the per-texel figures that
-docs/guides/clusters.md's 16-node plan multiplies out.
+pipelines' summed CPU against the whole bake (and apart their user and system time), and the
+per-texel figures that docs/guides/clusters.md's 16-node plan multiplies out.
 
     scale_report.py RESULTS.tsv [--cell QUADS:RES] [--threads T]
     scale_report.py RESULTS.tsv --plan RES [--nodes N] [--cores T] [--triangles M] [--fill F]
@@ -35,7 +35,8 @@ def load(path):
     with open(path, newline="") as f:
         for row in csv.DictReader(f, delimiter="\t"):
             cells.setdefault(row["cell"], OrderedDict())[row["run"]] = {
-                k: number(row[k]) for k in ("wall_s", "cpu_s", "rss_mb", "rays", "texels", "seam_points", "bytes")
+                k: number(row.get(k)) for k in ("wall_s", "cpu_s", "rss_mb", "rays", "texels", "seam_points", "bytes",
+                                               "system_s")
             }
     return cells
 
@@ -126,6 +127,14 @@ def cell_report(cell, runs, threads):
               f"{path:.2f} CPU-s on {tag.split('-N')[1]} machines; peak {rss:.0f} MB (whole "
               f"{fmt(whole['rss_mb'] if whole else None, '{:.0f}')}); byte-identical: "
               f"{'yes' if same == 1 else 'NO' if same == 0 else '—'}")
+        # The kernel's share apart: on a virtual machine that hands memory back to its host, a
+        # page the process touches first costs milliseconds a megabyte of system time, and the
+        # stages' files and buffers touch several times the whole bake's memory.
+        system = [r.get("system_s") for r in stages.values() if r["cpu_s"] is not None]
+        if whole and whole.get("system_s") is not None and None not in system:
+            user, whole_user = total - sum(system), whole["cpu_s"] - whole["system_s"]
+            print(f"  user {user:.2f} = {user / whole_user:.2f} × the whole bake's {whole_user:.2f}; "
+                  f"system {sum(system):.2f} against {whole['system_s']:.2f}")
         per_texel(tag, stages, cpu, res, baked, seams, bytes_of=runs)
 
 
