@@ -73,7 +73,7 @@ else
 fi
 mkdir -p "$out"
 results=$out/results.tsv
-printf 'cell\trun\twall_s\tcpu_s\trss_mb\trays\ttexels\tseam_points\tbytes\tsystem_s\n' >"$results"
+printf 'cell\trun\twall_s\tcpu_s\trss_mb\trays\ttexels\tseam_points\tbytes\tsystem_s\tfaults\n' >"$results"
 threads=$(nproc)
 differs=""
 echo "lightmap_scale: $bake, cells ${cells[*]}, shards ${shards:-none}, order $order, shadowed $samples rays," \
@@ -93,18 +93,19 @@ timed() {
         tail -n 5 "$dir/$name.err" >&2
         exit 1
     fi
-    local wall cpu system rss rays texels seams
+    local wall cpu system faults rss rays texels seams
     wall=$(seconds "$(grep 'Elapsed (wall clock)' "$dir/$name.time" | awk '{print $NF}')")
     cpu=$(awk -F': ' '/User time|System time/ {s += $2} END {printf "%.2f", s}' "$dir/$name.time")
     system=$(awk -F': ' '/System time/ {printf "%.2f", $2}' "$dir/$name.time")
+    faults=$(awk -F': ' '/Minor \(reclaiming a frame\) page faults/ {print $2}' "$dir/$name.time")
     rss=$(awk '/Maximum resident/ {printf "%d", $NF / 1024}' "$dir/$name.time")
     # The bake's summary line: "baked R of WxH texels, S seam points, N rays, …" or
     # "baked V vertices, N rays, …".
     rays=$(grep -ho '[0-9]* rays' "$dir/$name.out" "$dir/$name.err" | head -n 1 | cut -d' ' -f1 || true)
     texels=$(grep -hoE 'baked [0-9]+ (of|vertices)' "$dir/$name.out" "$dir/$name.err" | head -n 1 | cut -d' ' -f2 || true)
     seams=$(grep -hoE '[0-9]+ seam points' "$dir/$name.out" "$dir/$name.err" | head -n 1 | cut -d' ' -f1 || true)
-    printf '%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t\t%s\n' "$cell" "$name" "$wall" "$cpu" "$rss" "${rays:-}" \
-        "${texels:-}" "${seams:-}" "$system" >>"$results"
+    printf '%s\t%s\t%s\t%s\t%s\t%s\t%s\t%s\t\t%s\t%s\n' "$cell" "$name" "$wall" "$cpu" "$rss" "${rays:-}" \
+        "${texels:-}" "${seams:-}" "$system" "$faults" >>"$results"
     printf '  %-22s wall %8.2f s  CPU %8.2f s (system %6.2f)  peak %6d MB\n' "$name" "$wall" "$cpu" "$system" "$rss"
     # A --verbose bake's stages: their summed CPU as a row "NAME:stages" (the rest of the
     # process is loading the scene and building its BVH), and printed, CPU seconds only.

@@ -36,7 +36,7 @@ def load(path):
         for row in csv.DictReader(f, delimiter="\t"):
             cells.setdefault(row["cell"], OrderedDict())[row["run"]] = {
                 k: number(row.get(k)) for k in ("wall_s", "cpu_s", "rss_mb", "rays", "texels", "seam_points", "bytes",
-                                               "system_s")
+                                               "system_s", "faults")
             }
     return cells
 
@@ -133,8 +133,11 @@ def cell_report(cell, runs, threads):
         system = [r.get("system_s") for r in stages.values() if r["cpu_s"] is not None]
         if whole and whole.get("system_s") is not None and None not in system:
             user, whole_user = total - sum(system), whole["cpu_s"] - whole["system_s"]
+            faults = [r.get("faults") for r in stages.values() if r["cpu_s"] is not None]
+            touched = (f"; page faults {sum(faults):,.0f} against {whole['faults']:,.0f}"
+                       if whole.get("faults") is not None and None not in faults else "")
             print(f"  user {user:.2f} = {user / whole_user:.2f} × the whole bake's {whole_user:.2f}; "
-                  f"system {sum(system):.2f} against {whole['system_s']:.2f}")
+                  f"system {sum(system):.2f} against {whole['system_s']:.2f}{touched}")
         per_texel(tag, stages, cpu, res, baked, seams, bytes_of=runs)
 
 
