@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """Tables from scripts/bench/lightmap_scale.sh's results.tsv: per cell the runs' wall, CPU and
 peak memory, their ray rates per CPU-second against the vertex bake and raw Embree, the staged
-pipelines' summed CPU against the whole bake (and apart their user and system time), and the
-per-texel figures that docs/guides/clusters.md's 16-node plan multiplies out.
+pipelines' summed CPU against the whole bake (and apart their user time, system time and page
+faults), and the per-texel figures that docs/guides/clusters.md's 16-node plan multiplies out.
 
     scale_report.py RESULTS.tsv [--cell QUADS:RES] [--threads T]
     scale_report.py RESULTS.tsv --plan RES [--nodes N] [--cores T] [--triangles M] [--fill F]
