@@ -130,12 +130,12 @@ def cell_report(cell, runs, threads):
         # The kernel's share apart: on a virtual machine that hands memory back to its host, a
         # page the process touches first costs milliseconds a megabyte of system time, and the
         # stages' files and buffers touch several times the whole bake's memory.
-        system = [r.get("system_s") for r in stages.values() if r["cpu_s"] is not None]
-        if whole and whole.get("system_s") is not None and None not in system:
+        ran = [r for r in stages.values() if r["cpu_s"] is not None]
+        system, faults = [r["system_s"] for r in ran], [r["faults"] for r in ran]
+        if whole and whole["system_s"] is not None and None not in system:
             user, whole_user = total - sum(system), whole["cpu_s"] - whole["system_s"]
-            faults = [r.get("faults") for r in stages.values() if r["cpu_s"] is not None]
             touched = (f"; page faults {sum(faults):,.0f} against {whole['faults']:,.0f}"
-                       if whole.get("faults") is not None and None not in faults else "")
+                       if whole["faults"] is not None and None not in faults else "")
             print(f"  user {user:.2f} = {user / whole_user:.2f} × the whole bake's {whole_user:.2f}; "
                   f"system {sum(system):.2f} against {whole['system_s']:.2f}{touched}")
         per_texel(tag, stages, cpu, res, baked, seams, bytes_of=runs)
