@@ -244,5 +244,33 @@ fn whole_lightmap_bakes_are_denoised_by_default_and_say_so() {
     bake(&["--mode", "unshadowed", "--denoise", "on"]).fails_with(2, &["--denoise on"]);
     bake(&["--probes", "grid:2,2,2", "--denoise", "on"]).fails_with(2, &["--denoise on"]);
 
+    // Without --samples a denoised bake casts 64 rays a receiver, a raw one 1,024, and an
+    // adaptive one (denoised too) keeps 1,024 as its cap.
+    let rays_of = |extra: &[&str]| {
+        let mut args = vec![
+            "bake",
+            CORNELL,
+            "-o",
+            "out/x.prt",
+            "--quiet",
+            "--order",
+            "2",
+        ];
+        args.extend(extra);
+        let summary = s.run(&args).success().stdout;
+        let samples = |n: u32| summary.contains(&format!(" {n} samples,"));
+        assert!(samples(64) != samples(1024), "{summary}");
+        if samples(64) { 64 } else { 1024 }
+    };
+    assert_eq!(rays_of(&["--lightmap", "16"]), 64);
+    assert_eq!(rays_of(&["--lightmap", "16", "--denoise", "off"]), 1024);
+    assert_eq!(rays_of(&["--threads", "1", "--denoise", "on"]), 64);
+    assert_eq!(
+        rays_of(&["--lightmap", "16", "--target-error", "0.5"]),
+        1024
+    );
+    assert_eq!(rays_of(&["--mode", "unshadowed"]), 1024);
+    std::fs::remove_file(s.path("out/x.prt")).unwrap();
+
     s.assert_out_holds(&["auto.prt", "off.prt", "vertex.prt", "vertex-on.prt"]);
 }

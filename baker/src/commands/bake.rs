@@ -13,7 +13,7 @@ use prt_baker::{BakeOptions, Error, Mode};
 use super::UpArg;
 use super::bake_plan::{BakePlan, LightmapPlan, LoadPlan, Report, Split, What, tracer_options};
 use super::bake_values::{
-    AtlasArg, AuxArg, BackendArg, DenoiseArg, ModeArg, SamplingArg, TransferArgs,
+    AtlasArg, AuxArg, BackendArg, DenoiseArg, ModeArg, SamplingArg, TransferArgs, default_samples,
 };
 use super::scene_load::{DoubleSidedArg, InstancesArg};
 
@@ -36,9 +36,10 @@ pub struct BakeArgs {
     /// SH order n: bands 0..n-1, n² coefficients per vertex.
     #[arg(long, default_value_t = 4)]
     order: usize,
-    /// Rays cast per vertex (directions per vertex in unshadowed mode).
-    #[arg(long, default_value_t = 1024)]
-    samples: u32,
+    /// Rays cast per vertex or texel (directions per vertex in unshadowed mode). Default: 64
+    /// where the bake is denoised (--denoise), 1,024 otherwise and as --target-error's cap.
+    #[arg(long)]
+    samples: Option<u32>,
     #[arg(long, value_enum, default_value_t = ModeArg::Shadowed)]
     mode: ModeArg,
     #[command(flatten)]
@@ -199,32 +200,35 @@ fn what(args: &BakeArgs) -> What {
 /// [`BakeOptions::validate`] and against the memory limit).
 fn options(args: &BakeArgs, what: &What) -> BakeOptions {
     let mode = args.mode.mode();
+    // `prepare-lightmap` takes its shards' default: every stage casts the same rays.
+    let denoised_parts = denoised(args, !matches!(what, What::Probes(_)));
+    let bounces = if mode == Mode::Interreflected { 1 } else { 0 };
     BakeOptions {
         order: args.order,
-        samples: args.samples,
+        samples: (args.samples)
+            .unwrap_or_else(|| default_samples(denoised_parts, args.target_error.is_some())),
         mode,
         seed: args.seed,
         sampling: args.sampling.sampling(),
-        bounces: args
-            .bounces
-            .unwrap_or(if mode == Mode::Interreflected { 1 } else { 0 }),
+        bounces: args.bounces.unwrap_or(bounces),
         bounce_samples: args.bounce_samples,
         aux: AuxArg::aux(&args.aux),
         hit_cache_limit: args.hit_cache_mb.saturating_mul(1 << 20),
         target_error: args.target_error,
         transfer: args.transfer.transfer.kind(),
-        denoise: match args.denoise {
-            DenoiseArg::On => true,
-            DenoiseArg::Off => false,
-            DenoiseArg::Auto => {
-                matches!(what, What::Whole | What::Parts)
-                    && mode.casts_rays()
-                    && (args.lightmap.is_some() || args.target_error.is_some())
-                    && (args.lightmap.is_some() || args.receivers.is_empty())
-                    && args.sampling == SamplingArg::OwenSobol
-            }
-        },
+        denoise: denoised(args, matches!(what, What::Whole | What::Parts)),
     }
+}
+
+/// Whether `--denoise` filters a bake of receivers (auto: lightmaps and adaptive bakes, as lightmappers do).
+fn denoised(args: &BakeArgs, receivers: bool) -> bool {
+    args.denoise.or_auto(
+        receivers
+            && args.mode.mode().casts_rays()
+            && (args.lightmap.is_some() || args.target_error.is_some())
+            && (args.lightmap.is_some() || args.receivers.is_empty())
+            && args.sampling == SamplingArg::OwenSobol,
+    )
 }
 
 /// The plan of the arguments, checked in this order: the options, denoising only receivers,

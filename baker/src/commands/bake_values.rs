@@ -15,6 +15,24 @@ pub enum DenoiseArg {
     Off,
 }
 
+impl DenoiseArg {
+    /// On, off, or for `auto` what `usual` says (`commands::bake` knows which bakes).
+    pub fn or_auto(self, usual: bool) -> bool {
+        match self {
+            DenoiseArg::On => true,
+            DenoiseArg::Off => false,
+            DenoiseArg::Auto => usual,
+        }
+    }
+}
+
+/// `--samples`' default: 64 rays where the bake is denoised, which makes them about as clean
+/// as 512 to 1,024 raw ones (docs/explanation/denoising.md); 1,024 for a raw bake, and as an
+/// adaptive bake's cap.
+pub fn default_samples(denoised: bool, adaptive: bool) -> u32 {
+    if denoised && !adaptive { 64 } else { 1024 }
+}
+
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum TransferArg {
     Vector,
