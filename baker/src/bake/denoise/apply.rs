@@ -5,6 +5,14 @@ use rayon::prelude::*;
 
 use super::{Filter, clusters, normal_fit, vertices};
 
+/// How [`Filter::apply_with_means`] writes a lattice's answer: over the values, or as the
+/// mean of it and the other lattice's answer already there.
+#[derive(Clone, Copy)]
+enum Write {
+    Replace,
+    Average,
+}
+
 /// Clusters per block of [`Filter::apply_with_means`]: one lock per block's values, which
 /// stay in a core's cache (about 400 texels' at 64).
 const APPLY_BLOCK: usize = 64;
@@ -30,8 +38,20 @@ impl Filter<'_> {
     }
 
     /// Receiver i's weights on every receiver, normalised, in the receivers' order: its
-    /// cluster's kernel at its place times each cluster's weights on its members.
+    /// cluster's kernel at its place times each cluster's weights on its members, or the mean
+    /// of those weights on the two lattices ([`super::Settings::second_lattice`]).
     pub fn row(&self, i: usize, out: &mut Vec<(u32, f32)>) {
+        self.lattice_row(i, out);
+        if let Some(shifted) = &self.shifted {
+            let mut theirs = Vec::new();
+            shifted.lattice_row(i, &mut theirs);
+            let mine = std::mem::take(out);
+            mean_of_rows(&mine, &theirs, out);
+        }
+    }
+
+    /// [`Filter::row`] on this filter's lattice alone.
+    fn lattice_row(&self, i: usize, out: &mut Vec<(u32, f32)>) {
         let c = self.cluster_of[i] as usize;
         let mut scratch = vertices::Scratch::default();
         self.cluster_kernel(c, &mut scratch);
@@ -70,37 +90,70 @@ impl Filter<'_> {
     /// receiver-sized buffer is allocated for the result.
     pub fn apply_in_place(&self, values: &mut [f32], width: usize, scalars: &mut [f32]) {
         let means = self.clusters.means(values, width);
-        self.apply_with_means(values, &means, width, scalars);
+        let shifted = self
+            .shifted
+            .as_ref()
+            .map(|s| s.clusters.means(values, width));
+        self.apply_on_lattices(values, (&means, shifted.as_deref()), width, scalars);
     }
 
     /// [`Filter::apply_in_place`] of the very transfer the filter was formed for (`width`
     /// floats per receiver, unchanged since): where that transfer was the filter's signal,
     /// its clusters' means are already at hand, the same floats.
     pub fn apply_to_transfer(&self, transfer: &mut [f32], width: usize, scalars: &mut [f32]) {
-        match self.transfer_means && self.signal_width == width {
+        let at_hand = |f: &Filter| f.transfer_means && f.signal_width == width;
+        match at_hand(self) && self.shifted.as_deref().is_none_or(at_hand) {
             true => {
-                let means = &self.tap_guide[..self.clusters.reps.len() * width];
-                self.apply_with_means(transfer, means, width, scalars)
+                let shifted = self.shifted.as_deref().map(|s| s.transfer_means_of(width));
+                let means = (self.transfer_means_of(width), shifted);
+                self.apply_on_lattices(transfer, means, width, scalars)
             }
             false => self.apply_in_place(transfer, width, scalars),
         }
     }
 
-    /// [`Filter::apply_in_place`] with each cluster's mean of `values` given.
-    fn apply_with_means(
+    /// The clusters' means of the transfer the filter was formed for, `width` floats each.
+    fn transfer_means_of(&self, width: usize) -> &[f32] {
+        &self.tap_guide[..self.clusters.reps.len() * width]
+    }
+
+    /// [`Filter::apply_in_place`] with each cluster's mean of `values` given, on this
+    /// filter's lattice and on the shifted one's where there is one (`shifted_means`, its
+    /// clusters' means). Every mean is formed before any value is written.
+    fn apply_on_lattices(
         &self,
         values: &mut [f32],
-        means: &[f32],
+        (means, shifted_means): (&[f32], Option<&[f32]>),
         width: usize,
         scalars: &mut [f32],
     ) {
         if self.settings.quadratic {
             return self.apply_quadratic(values, means, width, scalars);
         }
-        let scalar_means = match scalars.is_empty() {
+        let scalar_means = |f: &Filter| match scalars.is_empty() {
             true => Vec::new(),
-            false => self.clusters.means(scalars, 1),
+            false => f.clusters.means(scalars, 1),
         };
+        let mine = scalar_means(self);
+        let theirs = self.shifted.as_deref().map(scalar_means);
+        self.apply_with_means(values, (means, &mine), width, scalars, Write::Replace);
+        if let (Some(shifted), Some(means), Some(theirs)) =
+            (self.shifted.as_deref(), shifted_means, theirs)
+        {
+            shifted.apply_with_means(values, (means, &theirs), width, scalars, Write::Average);
+        }
+    }
+
+    /// One lattice's answer from each cluster's mean of the values and of the scalars,
+    /// written over them or averaged with what they hold (`write`).
+    fn apply_with_means(
+        &self,
+        values: &mut [f32],
+        (means, scalar_means): (&[f32], &[f32]),
+        width: usize,
+        scalars: &mut [f32],
+        write: Write,
+    ) {
         // Per cluster, the fit's three sums Σ e_k · mean_k for each of (1, u, v), of the
         // values and then of the scalars: a member's value is their dot with its place, so
         // the clusters' means are read once per cluster, not once per member. The sums are
@@ -175,12 +228,51 @@ impl Filter<'_> {
                     let members = block.flat_map(|c| self.clusters.row(c));
                     for (&(m, _), row) in members.zip(rows.chunks_exact(width + 1)) {
                         let m = m as usize;
-                        values[m * width..][..width].copy_from_slice(&row[..width]);
+                        let value = &mut values[m * width..][..width];
+                        match write {
+                            Write::Replace => value.copy_from_slice(&row[..width]),
+                            Write::Average => {
+                                for (v, r) in value.iter_mut().zip(&row[..width]) {
+                                    *v = 0.5 * (*v + r);
+                                }
+                            }
+                        }
                         if let Some(s) = scalars.get_mut(m) {
-                            *s = row[width];
+                            *s = match write {
+                                Write::Replace => row[width],
+                                Write::Average => 0.5 * (*s + row[width]),
+                            };
                         }
                     }
                 },
             );
+    }
+}
+
+/// The mean of two rows of weights (each sorted by receiver, one entry per receiver), sorted,
+/// one entry per receiver.
+fn mean_of_rows(a: &[(u32, f32)], b: &[(u32, f32)], out: &mut Vec<(u32, f32)>) {
+    out.clear();
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() || j < b.len() {
+        let (ka, kb) = (a.get(i).map(|e| e.0), b.get(j).map(|e| e.0));
+        match (ka, kb) {
+            (Some(x), Some(y)) if x == y => {
+                out.push((x, 0.5 * (a[i].1 + b[j].1)));
+                (i, j) = (i + 1, j + 1);
+            }
+            (Some(x), Some(y)) if x < y => {
+                out.push((x, 0.5 * a[i].1));
+                i += 1;
+            }
+            (Some(x), None) => {
+                out.push((x, 0.5 * a[i].1));
+                i += 1;
+            }
+            _ => {
+                out.push((b[j].0, 0.5 * b[j].1));
+                j += 1;
+            }
+        }
     }
 }
