@@ -247,7 +247,7 @@ fn whole_lightmap_bakes_are_denoised_by_default_and_say_so() {
     // Without --samples a denoised bake casts 64 rays a receiver, a raw one 1,024, and an
     // adaptive one (denoised too) keeps 1,024 as its cap.
     let rays_of = |extra: &[&str]| {
-        let mut args = vec![
+        let base = [
             "bake",
             CORNELL,
             "-o",
@@ -256,8 +256,7 @@ fn whole_lightmap_bakes_are_denoised_by_default_and_say_so() {
             "--order",
             "2",
         ];
-        args.extend(extra);
-        let summary = s.run(&args).success().stdout;
+        let summary = s.run(&[&base[..], extra].concat()).success().stdout;
         let samples = |n: u32| summary.contains(&format!(" {n} samples,"));
         assert!(samples(64) != samples(1024), "{summary}");
         if samples(64) { 64 } else { 1024 }

@@ -201,12 +201,12 @@ fn what(args: &BakeArgs) -> What {
 fn options(args: &BakeArgs, what: &What) -> BakeOptions {
     let mode = args.mode.mode();
     // `prepare-lightmap` takes its shards' default: every stage casts the same rays.
-    let denoised_parts = denoised(args, !matches!(what, What::Probes(_)));
+    let receivers_denoised = denoised(args, !matches!(what, What::Probes(_)));
+    let samples = default_samples(receivers_denoised, args.target_error.is_some());
     let bounces = if mode == Mode::Interreflected { 1 } else { 0 };
     BakeOptions {
         order: args.order,
-        samples: (args.samples)
-            .unwrap_or_else(|| default_samples(denoised_parts, args.target_error.is_some())),
+        samples: args.samples.unwrap_or(samples),
         mode,
         seed: args.seed,
         sampling: args.sampling.sampling(),

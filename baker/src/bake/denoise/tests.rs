@@ -265,17 +265,13 @@ fn texels_are_clustered_finer_from_256_rays() {
 /// lattice. The mean over two lattices half a cluster apart is closer to the transfer.
 #[test]
 fn two_lattices_of_clusters_follow_a_bend_closer_than_one() {
+    // A floor of 36 × 36 receivers: 3 × 3 sheets side by side.
     let mut g = Guides::default();
-    for a in 0..36 {
-        for b in 0..36 {
-            g.points.push(Vec3::new(a as f32, b as f32, 0.0));
-            g.normals.push(Vec3::Z);
-            g.surfaces.push(Vec3::Z);
-            g.groups.push(0);
-            g.spacing.push(1.0);
-            g.noise.push(3e-3);
-        }
+    for (a, b) in (0..3).flat_map(|a| (0..3).map(move |b| (a, b))) {
+        let origin = Vec3::new(12.0 * a as f32, 12.0 * b as f32, 0.0);
+        sheet(&mut g, origin, Vec3::X, Vec3::Y, Vec3::Z, 0);
     }
+    g.noise.fill(3e-3);
     let value = |p: Vec3| 1.0 - 0.8 * (-p.x / 2.5).exp();
     let transfer: Vec<f32> = g.points.iter().map(|&p| value(p)).collect();
     let error = |settings: Settings| {
