@@ -197,31 +197,12 @@ impl<'g> Filter<'g> {
         channels: usize,
         per_channel: usize,
     ) -> Filter<'g> {
-        let shape = (transfer, channels, per_channel);
-        let mut filter = Filter::on_lattice(guides, settings, shape, 0.0);
-        if settings.second_lattice && settings.step.is_some() && !settings.quadratic {
-            let settings = Settings {
-                second_lattice: false,
-                ..settings
-            };
-            let shifted = Filter::on_lattice(guides, settings, shape, SECOND_LATTICE_SHIFT);
-            filter.shifted = Some(Box::new(shifted));
-        }
-        filter
-    }
-
-    /// [`Filter::new`] on one lattice of clusters, its cells moved by `shift` of a cell.
-    fn on_lattice(
-        guides: &'g Guides,
-        settings: Settings,
-        (transfer, channels, per_channel): (&[f32], usize, usize),
-        shift: f32,
-    ) -> Filter<'g> {
         let count = guides.points.len();
         let used = per_channel.min(SIGNAL_COEFFICIENTS);
         let width = channels * per_channel;
         let signal_width = channels * used;
-        // Up to order 3 the signal is the whole transfer: read in place, not copied.
+        // Up to order 3 the signal is the whole transfer: read in place, not copied. Both
+        // lattices read the same signal.
         let signal: std::borrow::Cow<[f32]> = match used == per_channel {
             true => std::borrow::Cow::Borrowed(&transfer[..count * width]),
             false => {
@@ -234,6 +215,29 @@ impl<'g> Filter<'g> {
                 std::borrow::Cow::Owned(signal)
             }
         };
+        let input = (&signal[..], signal_width, used == per_channel);
+        let mut filter = Filter::on_lattice(guides, settings, input, 0.0);
+        if settings.second_lattice && settings.step.is_some() && !settings.quadratic {
+            let settings = Settings {
+                second_lattice: false,
+                ..settings
+            };
+            let shifted = Filter::on_lattice(guides, settings, input, SECOND_LATTICE_SHIFT);
+            filter.shifted = Some(Box::new(shifted));
+        }
+        filter
+    }
+
+    /// [`Filter::new`] on one lattice of clusters, its cells moved by `shift` of a cell, for
+    /// the range term's `signal`, `signal_width` floats per receiver, which is the whole
+    /// transfer where `whole`.
+    fn on_lattice(
+        guides: &'g Guides,
+        settings: Settings,
+        (signal, signal_width, whole): (&[f32], usize, bool),
+        shift: f32,
+    ) -> Filter<'g> {
+        let count = guides.points.len();
         let mut spacings: Vec<f32> = guides.spacing.clone();
         let typical = match spacings.is_empty() {
             true => 1.0,
@@ -267,10 +271,10 @@ impl<'g> Filter<'g> {
         let from_rays = guides.noise.iter().any(|&v| v > 0.0);
         let noise: std::borrow::Cow<[f32]> = match (from_rays, settings.quadratic) {
             (true, true) => {
-                vertices::fill_noise(&guides.noise, || filter.noise_from_signal(&signal)).into()
+                vertices::fill_noise(&guides.noise, || filter.noise_from_signal(signal)).into()
             }
             (true, false) => std::borrow::Cow::Borrowed(&guides.noise),
-            (false, _) => filter.noise_from_signal(&signal).into(),
+            (false, _) => filter.noise_from_signal(signal).into(),
         };
         if !from_rays && settings.quadratic {
             filter.settings.kappa *= vertices::NEIGHBOUR_KAPPA;
@@ -287,10 +291,10 @@ impl<'g> Filter<'g> {
             }
             // Vertices gather around seeds, each within its own spacings.
             Some(step) if settings.quadratic => {
-                vertex_clusters::build(guides, &filter.fine, step, &noise, (&signal[..], sw))
+                vertex_clusters::build(guides, &filter.fine, step, &noise, (signal, sw))
             }
             Some(step) => {
-                let within = (&signal[..], sw);
+                let within = (signal, sw);
                 Clusters::build(guides, &filter.fine, step, &noise, within, |seed, m| {
                     let variance = (noise[m] + noise[seed]) * sw as f32;
                     let (s, g) = (&signal[m * sw..][..sw], &signal[seed * sw..][..sw]);
@@ -312,12 +316,11 @@ impl<'g> Filter<'g> {
         means.resize(means.len() + prefiltered.len() * sw, 0.0);
         let mut guide_noise = vec![0.0f32; prefiltered.len()];
         filter.prefilter(
-            &signal,
+            signal,
             &noise,
             &prefiltered,
             (&mut means[first * sw..], &mut guide_noise),
         );
-        drop(signal);
         let (rep_groups, rep_spacing): (Vec<u32>, Vec<f32>) = clusters
             .reps
             .iter()
@@ -349,7 +352,7 @@ impl<'g> Filter<'g> {
         }
         // Up to order 3 the signal is the transfer: its clusters' means are the ones
         // `apply_to_transfer` reads.
-        filter.transfer_means = used == per_channel && first == clusters.reps.len();
+        filter.transfer_means = whole && first == clusters.reps.len();
         filter.tap_lanes = range::to_lanes(&means, signal_width);
         filter.tap_guide = means;
         filter.frames = clusters
