@@ -36,8 +36,8 @@ pub struct BakeArgs {
     /// SH order n: bands 0..n-1, n² coefficients per vertex.
     #[arg(long, default_value_t = 4)]
     order: usize,
-    /// Rays cast per vertex or texel (directions per vertex in unshadowed mode). Default: 64
-    /// where the bake is denoised (--denoise), 1,024 otherwise and as --target-error's cap.
+    /// Rays per vertex or texel (directions in unshadowed mode), best a power of two or a
+    /// multiple of 16. Default: 64 where denoised (--denoise), else 1,024 (--target-error's cap).
     #[arg(long)]
     samples: Option<u32>,
     #[arg(long, value_enum, default_value_t = ModeArg::Shadowed)]

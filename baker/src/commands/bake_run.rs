@@ -38,6 +38,9 @@ struct Receivers {
 pub fn run(plan: &BakePlan) -> Result<(), Error> {
     super::bake_ldprt::check(plan)?;
     start(plan)?;
+    if let Some(note) = plan.options.samples_note() {
+        eprintln!("prt-bake: {note}");
+    }
     // What every process of a bake pays before its own work (`--verbose`).
     let mut setup = lightmap::Stages::default();
     let (scene, output) = load(plan, &mut setup)?;
