@@ -325,6 +325,30 @@ fn bake_is_deterministic_across_thread_counts_and_depends_on_the_seed() {
     s.assert_out_holds(&["one.prt", "two.prt", "other.prt"]);
 }
 
+/// A `--samples` past a whole run of the Sobol points is noted (it adds more noise than it
+/// takes away); whole runs are not, nor are probes (half their rays a hemisphere).
+#[test]
+fn samples_past_a_whole_sobol_run_are_noted() {
+    let s = Scratch::new();
+    let said = |samples: &str| s.bake(CORNELL, "n.prt", &["--samples", samples]).stderr;
+    assert!(
+        said("75").contains("prt-bake: note: --samples 75 is neither a power of two"),
+        "{}",
+        said("75")
+    );
+    assert!(!said("80").contains("note: --samples"), "{}", said("80"));
+    let probes = s.bake(
+        CORNELL,
+        "p.prt",
+        &["--samples", "6", "--probes", "grid:2,2,2"],
+    );
+    assert!(
+        !probes.stderr.contains("note: --samples"),
+        "{}",
+        probes.stderr
+    );
+}
+
 #[test]
 fn inspect_prints_the_header_as_json() {
     let s = Scratch::new();

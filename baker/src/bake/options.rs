@@ -130,7 +130,8 @@ impl BakeOptions {
     /// the rays past the last whole run add more noise than they take away. Measured on the
     /// production courtyard at 512², relit under a sun and sky against 16,384 rays: 64 rays
     /// 5.36 %, 72 5.75 %, 75 6.07 %, 80 5.06 %, 96 4.18 %, 100 4.67 % (denoised: 1.06, 1.08,
-    /// 1.10, 1.03, 0.90, 0.96 %). An adaptive bake chooses its own counts.
+    /// 1.10, 1.03, 0.90, 0.96 %). An adaptive bake chooses its own counts. (A probe casts
+    /// half its rays from each hemisphere: `commands` does not ask this of probes.)
     pub fn samples_note(&self) -> Option<String> {
         let n = self.samples;
         let balanced = n.is_power_of_two() || n % BALANCED_RUN == 0;
@@ -147,8 +148,8 @@ impl BakeOptions {
         };
         Some(format!(
             "note: --samples {n} is neither a power of two nor a multiple of {BALANCED_RUN}: the \
-             Sobol points are balanced in whole runs of a power of two, and the {} rays past {below} \
-             add more noise than they take away: {below} or {above} rays do better",
+             Sobol points are balanced in whole runs of a power of two, and the rays past \
+             {below} ({}) add more noise than they take away; {below} or {above} rays do better",
             n - below
         ))
     }
@@ -242,17 +243,17 @@ mod tests {
         }
         let said = note(75, None).expect("75 is noted");
         assert!(
-            said.contains("11 rays past 64") && said.contains("64 or 80"),
+            said.contains("rays past 64 (11)") && said.contains("64 or 80"),
             "{said}"
         );
         let said = note(100, None).expect("100 is noted");
         assert!(
-            said.contains("4 rays past 96") && said.contains("96 or 112"),
+            said.contains("rays past 96 (4)") && said.contains("96 or 112"),
             "{said}"
         );
         let said = note(12, None).expect("12 is noted");
         assert!(
-            said.contains("4 rays past 8") && said.contains("8 or 16"),
+            said.contains("rays past 8 (4)") && said.contains("8 or 16"),
             "{said}"
         );
         assert_eq!(note(75, Some(1e-3)), None);

@@ -38,7 +38,8 @@ struct Receivers {
 pub fn run(plan: &BakePlan) -> Result<(), Error> {
     super::bake_ldprt::check(plan)?;
     start(plan)?;
-    if let Some(note) = plan.options.samples_note() {
+    let of_probes = matches!(plan.what, What::Probes(_));
+    if let Some(note) = plan.options.samples_note().filter(|_| !of_probes) {
         eprintln!("prt-bake: {note}");
     }
     // What every process of a bake pays before its own work (`--verbose`).
