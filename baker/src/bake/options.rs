@@ -138,13 +138,13 @@ impl BakeOptions {
         if balanced || self.sampling != Sampling::OwenSobol || self.target_error.is_some() {
             return None;
         }
-        let below = match n > BALANCED_RUN {
-            true => n / BALANCED_RUN * BALANCED_RUN,
-            false => 1 << n.ilog2(),
-        };
-        let above = match n > BALANCED_RUN {
-            true => below + BALANCED_RUN,
-            false => below * 2,
+        // The whole runs on either side: of 16 from 16 rays, of a power of two below.
+        let (below, above) = match n > BALANCED_RUN {
+            true => (
+                n / BALANCED_RUN * BALANCED_RUN,
+                n.next_multiple_of(BALANCED_RUN),
+            ),
+            false => (1 << n.ilog2(), n.next_power_of_two()),
         };
         Some(format!(
             "note: --samples {n} is neither a power of two nor a multiple of {BALANCED_RUN}: the \

@@ -216,28 +216,6 @@ impl<'g> Filter<'g> {
             }
         };
         let input = (&signal[..], signal_width, used == per_channel);
-        let mut filter = Filter::on_lattice(guides, settings, input, 0.0);
-        if settings.second_lattice && settings.step.is_some() && !settings.quadratic {
-            let settings = Settings {
-                second_lattice: false,
-                ..settings
-            };
-            let shifted = Filter::on_lattice(guides, settings, input, SECOND_LATTICE_SHIFT);
-            filter.shifted = Some(Box::new(shifted));
-        }
-        filter
-    }
-
-    /// [`Filter::new`] on one lattice of clusters, its cells moved by `shift` of a cell, for
-    /// the range term's `signal`, `signal_width` floats per receiver, which is the whole
-    /// transfer where `whole`.
-    fn on_lattice(
-        guides: &'g Guides,
-        settings: Settings,
-        (signal, signal_width, whole): (&[f32], usize, bool),
-        shift: f32,
-    ) -> Filter<'g> {
-        let count = guides.points.len();
         let mut spacings: Vec<f32> = guides.spacing.clone();
         let typical = match spacings.is_empty() {
             true => 1.0,
@@ -245,12 +223,33 @@ impl<'g> Filter<'g> {
         }
         .max(1e-12);
         // Cells a cluster across (`step` typical spacings), which the clustering walks and
-        // the prefilter reads; with no clusters, as wide as the prefilter's reach.
-        let fine = grid::Grid::shifted(
-            &guides.points,
-            settings.step.unwrap_or(settings.guide_radius) * typical,
-            shift,
-        );
+        // the prefilter reads; with no clusters, as wide as the prefilter's reach. Both
+        // lattices' cells are of this size.
+        let cell = settings.step.unwrap_or(settings.guide_radius) * typical;
+        let fine = grid::Grid::new(&guides.points, cell);
+        let mut filter = Filter::on_lattice(guides, settings, input, fine);
+        if settings.second_lattice && settings.step.is_some() && !settings.quadratic {
+            let settings = Settings {
+                second_lattice: false,
+                ..settings
+            };
+            let fine = grid::Grid::shifted(&guides.points, cell, SECOND_LATTICE_SHIFT);
+            let shifted = Filter::on_lattice(guides, settings, input, fine);
+            filter.shifted = Some(Box::new(shifted));
+        }
+        filter
+    }
+
+    /// [`Filter::new`] on one lattice of clusters, the cells of `fine`, for the range term's
+    /// `signal`, `signal_width` floats per receiver, which is the whole transfer where
+    /// `whole`.
+    fn on_lattice(
+        guides: &'g Guides,
+        settings: Settings,
+        (signal, signal_width, whole): (&[f32], usize, bool),
+        fine: grid::Grid,
+    ) -> Filter<'g> {
+        let count = guides.points.len();
         let mut filter = Filter {
             guides,
             settings,
