@@ -28,13 +28,14 @@ impl Filter<'_> {
         [1.0, d.dot(t1), d.dot(t2)]
     }
 
-    /// Member m's shading normal less its cluster c's representative's, in c's frame: where
-    /// the cluster's fit is in the normal too, its last two regressors
+    /// The terms of member m's shading normal less its cluster c's representative's, in c's
+    /// frame: where the cluster's fit is in the normal too, its last regressors
     /// ([`super::normal_fit`]).
-    pub(super) fn member_normal(&self, c: usize, m: usize) -> [f32; 2] {
+    pub(super) fn member_normal(&self, c: usize, m: usize) -> [f32; normal_fit::NORMAL] {
         let g = self.guides;
         let r = self.clusters.reps[c] as usize;
-        normal_fit::offset(g.normals[m], g.normals[r], self.frames[c])
+        let offset = normal_fit::offset(g.normals[m], g.normals[r], self.frames[c]);
+        normal_fit::normal_terms(offset, self.settings.normal_quadratic)
     }
 
     /// Receiver i's weights on every receiver, normalised, in the receivers' order: its
@@ -57,15 +58,16 @@ impl Filter<'_> {
         self.cluster_kernel(c, &mut scratch);
         let place = self.member_place(c, i);
         let terms = vertices::terms(place[1], place[2]);
-        let [a, b] = self.member_normal(c, i);
+        let member_normal = self.member_normal(c, i);
         out.clear();
         for (n, &(k, e)) in scratch.kernel.iter().enumerate() {
             let mut w = match self.settings.quadratic {
                 true => vertices::dot(&scratch.weights[n], &terms),
                 false => e[0] * place[0] + e[1] * place[1] + e[2] * place[2],
             };
-            if let Some([na, nb]) = scratch.normal.get(n) {
-                w += na * a + nb * b;
+            if let Some(normal) = scratch.normal.get(n) {
+                let terms = normal.iter().zip(&member_normal);
+                w += terms.map(|(n, m)| n * m).sum::<f32>();
             }
             out.extend(
                 self.clusters
@@ -173,21 +175,23 @@ impl Filter<'_> {
                     rows.clear();
                     for c in block.clone() {
                         self.cluster_kernel(c, scratch);
-                        // The fit's terms: (1, u, v), and (a, b) where it is in the normal
-                        // too.
+                        // The fit's terms: (1, u, v), and the normal's where it is in the
+                        // normal too.
                         let terms = match scratch.normal.is_empty() {
                             true => 3,
-                            false => normal_fit::TERMS,
+                            false => 3 + normal_fit::normal_count(self.settings.normal_quadratic),
                         };
                         sums.clear();
                         sums.resize(terms * (width + 1), 0.0);
                         let (sums, scalar_sums) = sums.split_at_mut(terms * width);
                         for (n, &(k, e)) in scratch.kernel.iter().enumerate() {
                             let k = k as usize;
-                            let e = match scratch.normal.get(n) {
-                                Some(&[a, b]) => [e[0], e[1], e[2], a, b],
-                                None => [e[0], e[1], e[2], 0.0, 0.0],
-                            };
+                            let normal = scratch.normal.get(n);
+                            let e: [f32; 3 + normal_fit::NORMAL] =
+                                std::array::from_fn(|t| match t {
+                                    0..3 => e[t],
+                                    _ => normal.map_or(0.0, |n| n[t - 3]),
+                                });
                             let mean = &means[k * width..(k + 1) * width];
                             for (t, sums) in sums.chunks_exact_mut(width.max(1)).enumerate() {
                                 clusters::add_scaled(sums, e[t], mean);
@@ -201,11 +205,15 @@ impl Filter<'_> {
                         // Each member's values, then its scalar.
                         for &(m, _) in self.clusters.row(c) {
                             let [p0, p1, p2] = self.member_place(c, m as usize);
-                            let [p3, p4] = match terms {
-                                3 => [0.0; 2],
+                            let normal = match terms {
+                                3 => [0.0; normal_fit::NORMAL],
                                 _ => self.member_normal(c, m as usize),
                             };
-                            let p = [p0, p1, p2, p3, p4];
+                            let p: [f32; 3 + normal_fit::NORMAL] =
+                                std::array::from_fn(|t| match t {
+                                    0..3 => [p0, p1, p2][t],
+                                    _ => normal[t - 3],
+                                });
                             match terms {
                                 3 => {
                                     let (s0, rest) = sums.split_at(width);

@@ -655,7 +655,8 @@ impl<'g> Filter<'g> {
             let centre = (ni, (t1, t2));
             let kernel = (&mut out[..], &scratch.geometric[..], &mut scratch.normal);
             let fits = &mut scratch.normal_fits;
-            if normal_fit::fit_kernel(kernel, fits, normal, centre, guide, (noise, sw, kappa)) {
+            let settings = (noise, sw, kappa, self.settings.normal_quadratic);
+            if normal_fit::fit_kernel(kernel, fits, normal, centre, guide, settings) {
                 return;
             }
         }

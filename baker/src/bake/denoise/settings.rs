@@ -38,6 +38,9 @@ pub struct Settings {
     /// gives 1.12 / 1.79 / 0.64 %, and every texel its own kernel 1.02 / 1.63 / 0.59 % for
     /// 14 × the filter's time.
     pub second_lattice: bool,
+    /// Over a normal map, a fit in the normal's squares and product too
+    /// ([`super::normal_fit`]): unbiased for band 2, noisier by three regressors.
+    pub normal_quadratic: bool,
 }
 
 impl Settings {
@@ -54,13 +57,16 @@ impl Settings {
         step: Some(3.0),
         quadratic: false,
         second_lattice: true,
+        normal_quadratic: false,
     };
     /// [`Settings::TEXELS`] for a bake of `samples` rays a texel: from
-    /// [`FINE_CLUSTERS_FROM`] rays, clusters of up to 2 × 2 texels.
+    /// [`FINE_CLUSTERS_FROM`] rays, clusters of up to 2 × 2 texels, and over a normal map a
+    /// fit quadratic in the normal (at 64 rays its noise outweighs the bias it removes).
     pub fn texels(samples: u32) -> Settings {
         match samples >= FINE_CLUSTERS_FROM {
             true => Settings {
                 step: Some(2.0),
+                normal_quadratic: true,
                 ..Settings::TEXELS
             },
             false => Settings::TEXELS,
@@ -79,5 +85,6 @@ impl Settings {
         step: Some(super::vertices::STEP),
         quadratic: true,
         second_lattice: false,
+        normal_quadratic: false,
     };
 }

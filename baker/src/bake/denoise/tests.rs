@@ -250,9 +250,11 @@ fn texels_are_clustered_finer_from_256_rays() {
     assert_eq!(Settings::texels(64), Settings::TEXELS);
     let fine = Settings::texels(FINE_CLUSTERS_FROM);
     assert_eq!(fine.step, Some(2.0));
+    assert!(fine.normal_quadratic);
     assert_eq!(
         Settings {
             step: Some(3.0),
+            normal_quadratic: false,
             ..fine
         },
         Settings::TEXELS

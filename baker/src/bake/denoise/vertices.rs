@@ -87,7 +87,7 @@ pub(super) struct Scratch {
     /// Texels: each entry's weights on the normal offsets (a, b) where the cluster's fit
     /// is in the shading normal too ([`super::normal_fit`]); empty where it is in the plane
     /// alone.
-    pub normal: Vec<[f32; 2]>,
+    pub normal: Vec<[f32; super::normal_fit::NORMAL]>,
     /// Texels: what their fits read ([`super::texel_fit`]).
     pub plane_fit: super::texel_fit::Scratch<{ super::texel_fit::PLANE }>,
     pub normal_fits: super::normal_fit::Fits,
