@@ -90,8 +90,9 @@ pub(super) fn varies(offsets: &[[f32; 2]]) -> bool {
 pub(super) struct Fits {
     /// Each entry's normal offset ([`offset`]).
     offsets: Vec<[f32; 2]>,
-    linear: Scratch<LINEAR>,
-    quadratic: Scratch<QUADRATIC>,
+    /// The fits' buffers, first-order and quadratic in the normal.
+    first_order: Scratch<LINEAR>,
+    second_order: Scratch<QUADRATIC>,
     /// The guide's fit in [`reweigh`]: per four coefficients, each term's coefficients.
     beta: Vec<[Vec4; QUADRATIC]>,
 }
@@ -122,15 +123,15 @@ pub(super) fn fit_kernel<'g>(
 ) -> bool {
     let Fits {
         offsets,
-        linear,
-        quadratic: square,
+        first_order,
+        second_order,
         beta,
     } = scratch;
     let settings = (noise, sw, kappa);
     let (fixed, normal) = ((offsets, beta), (normal, centre));
     match quadratic {
-        true => fit_kernel_in(kernel, square, fixed, normal, guide, settings, quadratic),
-        false => fit_kernel_in(kernel, linear, fixed, normal, guide, settings, quadratic),
+        true => fit_kernel_in(kernel, second_order, fixed, normal, guide, settings, true),
+        false => fit_kernel_in(kernel, first_order, fixed, normal, guide, settings, false),
     }
 }
 
