@@ -130,12 +130,12 @@ pub(super) fn fit_kernel<'g>(
     let settings = (noise, sw, kappa);
     let (fixed, normal) = ((offsets, beta), (normal, centre));
     match quadratic {
-        true => fit_kernel_in(kernel, second_order, fixed, normal, guide, settings, true),
-        false => fit_kernel_in(kernel, first_order, fixed, normal, guide, settings, false),
+        true => fit_kernel_in(kernel, second_order, fixed, normal, guide, settings),
+        false => fit_kernel_in(kernel, first_order, fixed, normal, guide, settings),
     }
 }
 
-/// [`fit_kernel`] with `N` terms.
+/// [`fit_kernel`] with `N` terms: [`LINEAR`] or [`QUADRATIC`].
 fn fit_kernel_in<'g, const N: usize>(
     (kernel, geometric, fitted_normal): Kernel,
     fit: &mut Scratch<N>,
@@ -143,8 +143,9 @@ fn fit_kernel_in<'g, const N: usize>(
     (normal, (centre, frame)): (impl Fn(u32) -> Vec3, (Vec3, (Vec3, Vec3))),
     guide: impl Fn(u32) -> (&'g [Vec4], f32) + Copy,
     settings: (f32, usize, f32),
-    quadratic: bool,
 ) -> bool {
+    // The fit of every term is the one quadratic in the normal.
+    let quadratic = N == QUADRATIC;
     offsets.clear();
     offsets.extend(
         kernel
