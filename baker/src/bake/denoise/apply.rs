@@ -28,14 +28,36 @@ impl Filter<'_> {
         [1.0, d.dot(t1), d.dot(t2)]
     }
 
-    /// The terms of member m's shading normal less its cluster c's representative's, in c's
-    /// frame: where the cluster's fit is in the normal too, its last regressors
-    /// ([`super::normal_fit`]).
-    pub(super) fn member_normal(&self, c: usize, m: usize) -> [f32; normal_fit::NORMAL] {
+    /// Member m's terms past the plane's, where its cluster c's fit has them: over a normal
+    /// map, its shading normal's less c's representative's, in c's frame
+    /// ([`super::normal_fit`]); elsewhere its contact term less c's ([`super::contact`]).
+    pub(super) fn member_extra(&self, c: usize, m: usize) -> [f32; normal_fit::NORMAL] {
         let g = self.guides;
         let r = self.clusters.reps[c] as usize;
+        if !self
+            .mapped_groups
+            .get(g.groups[r] as usize)
+            .is_some_and(|&mapped| mapped)
+        {
+            let mut terms = [0.0; normal_fit::NORMAL];
+            if let (Some(member), Some(cluster)) = (self.contact.get(m), self.tap_contact.get(c)) {
+                terms[0] = member - cluster;
+            }
+            return terms;
+        }
         let offset = normal_fit::offset(g.normals[m], g.normals[r], self.frames[c]);
         normal_fit::normal_terms(offset, self.settings.normal_quadratic)
+    }
+
+    /// How many terms past the plane's cluster c's fit has: none where `plane_only` (its
+    /// kernel wrote no extra weights), the normal's over a normal map, else the contact term.
+    fn extra_count(&self, c: usize, plane_only: bool) -> usize {
+        let group = self.guides.groups[self.clusters.reps[c] as usize] as usize;
+        match (plane_only, self.mapped_groups.get(group)) {
+            (true, _) => 0,
+            (false, Some(true)) => normal_fit::normal_count(self.settings.normal_quadratic),
+            (false, _) => 1,
+        }
     }
 
     /// Receiver i's weights on every receiver, normalised, in the receivers' order: its
@@ -58,15 +80,15 @@ impl Filter<'_> {
         self.cluster_kernel(c, &mut scratch);
         let place = self.member_place(c, i);
         let terms = vertices::terms(place[1], place[2]);
-        let member_normal = self.member_normal(c, i);
+        let member_extra = self.member_extra(c, i);
         out.clear();
         for (n, &(k, e)) in scratch.kernel.iter().enumerate() {
             let mut w = match self.settings.quadratic {
                 true => vertices::dot(&scratch.weights[n], &terms),
                 false => e[0] * place[0] + e[1] * place[1] + e[2] * place[2],
             };
-            if let Some(normal) = scratch.normal.get(n) {
-                let terms = normal.iter().zip(&member_normal);
+            if let Some(extra) = scratch.extra.get(n) {
+                let terms = extra.iter().zip(&member_extra);
                 w += terms.map(|(n, m)| n * m).sum::<f32>();
             }
             out.extend(
@@ -175,22 +197,19 @@ impl Filter<'_> {
                     rows.clear();
                     for c in block.clone() {
                         self.cluster_kernel(c, scratch);
-                        // The fit's terms: (1, u, v), and the normal's where it is in the
-                        // normal too.
-                        let terms = match scratch.normal.is_empty() {
-                            true => 3,
-                            false => 3 + normal_fit::normal_count(self.settings.normal_quadratic),
-                        };
+                        // The fit's terms: (1, u, v), and the normal's or the contact
+                        // term where it has them.
+                        let terms = 3 + self.extra_count(c, scratch.extra.is_empty());
                         sums.clear();
                         sums.resize(terms * (width + 1), 0.0);
                         let (sums, scalar_sums) = sums.split_at_mut(terms * width);
                         for (n, &(k, e)) in scratch.kernel.iter().enumerate() {
                             let k = k as usize;
-                            let normal = scratch.normal.get(n);
+                            let extra = scratch.extra.get(n);
                             let e: [f32; 3 + normal_fit::NORMAL] =
                                 std::array::from_fn(|t| match t {
                                     0..3 => e[t],
-                                    _ => normal.map_or(0.0, |n| n[t - 3]),
+                                    _ => extra.map_or(0.0, |x| x[t - 3]),
                                 });
                             let mean = &means[k * width..(k + 1) * width];
                             for (t, sums) in sums.chunks_exact_mut(width.max(1)).enumerate() {
@@ -205,14 +224,14 @@ impl Filter<'_> {
                         // Each member's values, then its scalar.
                         for &(m, _) in self.clusters.row(c) {
                             let [p0, p1, p2] = self.member_place(c, m as usize);
-                            let normal = match terms {
+                            let extra = match terms {
                                 3 => [0.0; normal_fit::NORMAL],
-                                _ => self.member_normal(c, m as usize),
+                                _ => self.member_extra(c, m as usize),
                             };
                             let p: [f32; 3 + normal_fit::NORMAL] =
                                 std::array::from_fn(|t| match t {
                                     0..3 => [p0, p1, p2][t],
-                                    _ => normal[t - 3],
+                                    _ => extra[t - 3],
                                 });
                             match terms {
                                 3 => {

@@ -187,6 +187,15 @@ impl Grid {
     /// overlaps (a superset of those within `radius`), in a fixed order.
     #[inline(always)]
     pub fn visit(&self, p: Vec3, radius: f32, mut visit: impl FnMut(u32)) {
+        self.visit_cells(p, radius, |_, members| {
+            members.iter().for_each(|&i| visit(i))
+        });
+    }
+
+    /// [`Grid::visit`] a cell at a time: `visit(cell, members)` for each occupied cell the
+    /// sphere overlaps, `cell` its index in [`Grid::cell_members`]' order.
+    #[inline(always)]
+    pub fn visit_cells(&self, p: Vec3, radius: f32, mut visit: impl FnMut(usize, &[u32])) {
         let lo = self.coords(p - Vec3::splat(radius));
         let hi = self.coords(p + Vec3::splat(radius));
         // Cells of one (x, y) are consecutive keys: the column's run, or one search, finds
@@ -200,22 +209,34 @@ impl Grid {
             for y in lo[1].max(0)..=hi[1].min(ny - 1) {
                 let first = self.key([x, y, lo[2]]);
                 let last = self.key([x, y, hi[2]]);
-                let run = match table {
+                let column = match table {
                     true => {
                         let c = (x * ny + y) as usize;
-                        let column = &self.column_starts[c..c + 2];
-                        let cells = &self.cells[column[0] as usize..column[1] as usize];
-                        &cells[cells.partition_point(|c| c.0 < first)..]
+                        self.column_starts[c] as usize..self.column_starts[c + 1] as usize
                     }
-                    false => &self.cells[self.cells.partition_point(|c| c.0 < first)..],
+                    false => 0..self.cells.len(),
                 };
-                for &(_, start, end) in run.iter().take_while(|c| c.0 <= last) {
-                    self.order[start as usize..end as usize]
-                        .iter()
-                        .for_each(|&i| visit(i));
+                let cells = &self.cells[column.clone()];
+                let from = column.start + cells.partition_point(|c| c.0 < first);
+                for (at, &(key, start, end)) in self.cells.iter().enumerate().skip(from) {
+                    if key > last {
+                        break;
+                    }
+                    visit(at, &self.order[start as usize..end as usize]);
                 }
             }
         }
+    }
+
+    /// The cells' side.
+    pub fn cell(&self) -> f32 {
+        self.cell
+    }
+
+    /// Each occupied cell's receivers, in index order, in the order [`Grid::visit_cells`]
+    /// numbers the cells.
+    pub fn cell_members(&self) -> impl Iterator<Item = &[u32]> {
+        (self.cells.iter()).map(|&(_, start, end)| &self.order[start as usize..end as usize])
     }
 }
 

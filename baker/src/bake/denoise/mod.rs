@@ -79,6 +79,7 @@
 mod apply;
 mod cholesky;
 mod clusters;
+mod contact;
 mod exp4;
 mod grid;
 pub mod guides;
@@ -176,6 +177,10 @@ pub struct Filter<'g> {
     /// Texels: per group (object and material), whether a normal map turns some shading
     /// normal off its surface's: only those groups' clusters try [`normal_fit`].
     mapped_groups: Vec<bool>,
+    /// Texels ([`Settings::contact`]): each receiver's contact term and each cluster's, which
+    /// the other groups' clusters fit in ([`contact`]); empty otherwise.
+    contact: std::sync::Arc<[f32]>,
+    tap_contact: Vec<f32>,
     signal_width: usize,
     /// Whether `tap_guide`'s first rows, the clusters' means, are those of the transfer the
     /// filter was formed for (its signal is the whole transfer, up to order 3): the means
@@ -226,15 +231,21 @@ impl<'g> Filter<'g> {
         // the prefilter reads; with no clusters, as wide as the prefilter's reach. Both
         // lattices' cells are of this size.
         let cell = settings.step.unwrap_or(settings.guide_radius) * typical;
+        // Texels in clusters: what the second lattice and the contact term are for.
+        let texels = settings.step.is_some() && !settings.quadratic;
         let fine = grid::Grid::new(&guides.points, cell);
-        let mut filter = Filter::on_lattice(guides, settings, input, fine);
-        if settings.second_lattice && settings.step.is_some() && !settings.quadratic {
+        let contact: std::sync::Arc<[f32]> = match texels && settings.contact {
+            true => contact::terms(guides, &fine).into(),
+            false => std::sync::Arc::new([]),
+        };
+        let mut filter = Filter::on_lattice(guides, settings, input, fine, contact.clone());
+        if settings.second_lattice && texels {
             let settings = Settings {
                 second_lattice: false,
                 ..settings
             };
             let fine = grid::Grid::shifted(&guides.points, cell, SECOND_LATTICE_SHIFT);
-            let shifted = Filter::on_lattice(guides, settings, input, fine);
+            let shifted = Filter::on_lattice(guides, settings, input, fine, contact);
             filter.shifted = Some(Box::new(shifted));
         }
         filter
@@ -242,12 +253,13 @@ impl<'g> Filter<'g> {
 
     /// [`Filter::new`] on one lattice of clusters, the cells of `fine`, for the range term's
     /// `signal`, `signal_width` floats per receiver, which is the whole transfer where
-    /// `whole`.
+    /// `whole`, with each receiver's `contact` term (empty where not fitted in).
     fn on_lattice(
         guides: &'g Guides,
         settings: Settings,
         (signal, signal_width, whole): (&[f32], usize, bool),
         fine: grid::Grid,
+        contact: std::sync::Arc<[f32]>,
     ) -> Filter<'g> {
         let count = guides.points.len();
         let mut filter = Filter {
@@ -263,6 +275,8 @@ impl<'g> Filter<'g> {
             frames: Vec::new(),
             tap_normals: Vec::new(),
             mapped_groups: Vec::new(),
+            contact,
+            tap_contact: Vec::new(),
             signal_width,
             transfer_means: false,
             shifted: None,
@@ -360,18 +374,7 @@ impl<'g> Filter<'g> {
             .map(|&r| guides.surfaces[r as usize].any_orthonormal_pair())
             .collect();
         if !settings.quadratic {
-            let groups = guides.groups.iter().max().map_or(0, |&g| g as usize + 1);
-            filter.mapped_groups = vec![false; groups];
-            for ((&group, n), s) in guides
-                .groups
-                .iter()
-                .zip(&guides.normals)
-                .zip(&guides.surfaces)
-            {
-                if n != s {
-                    filter.mapped_groups[group as usize] = true;
-                }
-            }
+            filter.mapped_groups = normal_fit::mapped_groups(guides);
         }
         // The clusters' mean normals, which only a normal-mapped group's fit reads.
         if filter.mapped_groups.contains(&true) {
@@ -383,6 +386,9 @@ impl<'g> Filter<'g> {
                     sum.normalize_or(guides.normals[clusters.reps[c] as usize])
                 })
                 .collect();
+        }
+        if !filter.contact.is_empty() {
+            filter.tap_contact = contact::cluster_terms(&clusters, &filter.contact);
         }
         filter.cluster_of = vec![0; count];
         for c in 0..clusters.reps.len() {
@@ -649,14 +655,24 @@ impl<'g> Filter<'g> {
             return;
         }
         // Where a normal map turns the shading normals, the fit is in the normal too.
-        scratch.normal.clear();
+        scratch.extra.clear();
         if mapped {
             let normal = |k: u32| self.tap_normals[k as usize];
             let centre = (ni, (t1, t2));
-            let kernel = (&mut out[..], &scratch.geometric[..], &mut scratch.normal);
+            let kernel = (&mut out[..], &scratch.geometric[..], &mut scratch.extra);
             let fits = &mut scratch.normal_fits;
             let settings = (noise, sw, kappa, self.settings.normal_quadratic);
             if normal_fit::fit_kernel(kernel, fits, normal, centre, guide, settings) {
+                return;
+            }
+        }
+        // Near another surface, other groups' fits are in the contact term too.
+        if !self.tap_contact.is_empty() && !mapped {
+            let own = self.tap_contact[c];
+            let offset = |k: u32| self.tap_contact[k as usize] - own;
+            let kernel = (&mut out[..], &mut scratch.extra);
+            let at = (f64::from(radius), sw);
+            if contact::fit_kernel(kernel, &mut scratch.contact_fits, offset, at, guide) {
                 return;
             }
         }

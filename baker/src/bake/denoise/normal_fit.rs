@@ -72,6 +72,20 @@ pub(super) fn normal_count(quadratic: bool) -> usize {
     }
 }
 
+/// Per group (object and material), whether a normal map turns some shading normal off its
+/// surface's: only those groups' clusters try [`fit_kernel`].
+pub(super) fn mapped_groups(guides: &super::guides::Guides) -> Vec<bool> {
+    let groups = guides.groups.iter().max().map_or(0, |&g| g as usize + 1);
+    let mut mapped = vec![false; groups];
+    let normals = guides.normals.iter().zip(&guides.surfaces);
+    for (&group, (n, s)) in guides.groups.iter().zip(normals) {
+        if n != s {
+            mapped[group as usize] = true;
+        }
+    }
+    mapped
+}
+
 /// A normal's offset from `centre` in the frame (t1, t2).
 pub(super) fn offset(normal: Vec3, centre: Vec3, (t1, t2): (Vec3, Vec3)) -> [f32; 2] {
     let d = normal - centre;

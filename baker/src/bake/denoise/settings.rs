@@ -41,6 +41,8 @@ pub struct Settings {
     /// Over a normal map, a fit in the normal's squares and product too
     /// ([`super::normal_fit`]): unbiased for band 2, noisier by three regressors.
     pub normal_quadratic: bool,
+    /// Texels: near another surface, a fit in the distance to it too ([`super::contact`]).
+    pub contact: bool,
 }
 
 impl Settings {
@@ -58,6 +60,7 @@ impl Settings {
         quadratic: false,
         second_lattice: true,
         normal_quadratic: false,
+        contact: true,
     };
     /// [`Settings::TEXELS`] for a bake of `samples` rays a texel: from
     /// [`FINE_CLUSTERS_FROM`] rays, clusters of up to 2 × 2 texels, and over a normal map a
@@ -86,5 +89,6 @@ impl Settings {
         quadratic: true,
         second_lattice: false,
         normal_quadratic: false,
+        contact: false,
     };
 }

@@ -26,7 +26,7 @@ use super::exp4::exp4;
 /// seeds: 1.28 / 2.20 / 0.73 % without it; 1.16 / 2.00 / 0.68 % at 2 / 8; 1.17 / 2.02 / 0.68
 /// % at 2.5 / 10; 1.18 / 2.04 / 0.68 % at 3 / 12. The Cornell room at 256² moved by under 1
 /// % at 2.5 / 10 at 64 and 256 rays, and rose by up to 0.6 % at 2 / 8.
-const NARROWER: (f64, f64) = (2.5, 10.0);
+pub(super) const NARROWER: (f64, f64) = (2.5, 10.0);
 
 /// The plane fit's terms: 1, u, v.
 pub(super) const PLANE: usize = 3;

@@ -84,13 +84,15 @@ pub(super) struct Scratch {
     /// Whether the fit is read at the centroid alone (a cluster of one vertex): each entry's
     /// weight at (0, 0) alone, in `weights[k][0]`, the rest 0.
     pub centre_only: bool,
-    /// Texels: each entry's weights on the normal's terms (a, b, and a², ab, b² where the
-    /// fit is quadratic in it) where the cluster's fit is in the shading normal too
-    /// ([`super::normal_fit`]); empty where it is in the plane alone.
-    pub normal: Vec<[f32; super::normal_fit::NORMAL]>,
+    /// Texels: each entry's weights on the fit's terms past the plane's (1, u, v), where
+    /// the cluster's fit has them: the shading normal's (a, b, and a², ab, b² where the fit
+    /// is quadratic in it; [`super::normal_fit`]), or the contact term ([`super::contact`]);
+    /// empty where the fit is in the plane alone.
+    pub extra: Vec<[f32; super::normal_fit::NORMAL]>,
     /// Texels: what their fits read ([`super::texel_fit`]).
     pub plane_fit: super::texel_fit::Scratch<{ super::texel_fit::PLANE }>,
     pub normal_fits: super::normal_fit::Fits,
+    pub contact_fits: super::contact::Fits,
     /// The fits' weights while they are blended.
     blended: Vec<[f64; TERMS]>,
     /// Per coefficient of the guide, in lanes: two fits' difference ([`blend`]); per term,
