@@ -70,7 +70,7 @@
 //! little noise; on the Cornell room at 128² it takes a 64-ray bake's error from 3.5 % to
 //! 1.9 % (docs/explanation/denoising.md). Where the transfer bends within a few texels, a fit
 //! half as wide is blended in by Lepski's rule ([`texel_fit`]); over a normal map the fit is
-//! in the normal too, with a robust range term ([`normal_fit`]).
+//! in the normal too ([`normal_fit`]); near another surface, in the distance to it ([`contact`]).
 //!
 //! The weights sum to 1, so a constant transfer is kept exactly. They are a pure function of
 //! the guides and the bake's transfer, formed receiver by receiver over neighbours in a fixed
@@ -178,7 +178,7 @@ pub struct Filter<'g> {
     /// normal off its surface's: only those groups' clusters try [`normal_fit`].
     mapped_groups: Vec<bool>,
     /// Texels ([`Settings::contact`]): each receiver's contact term and each cluster's, which
-    /// the other groups' clusters fit in ([`contact`]); empty otherwise.
+    /// the fits of groups without a normal map read ([`contact`]); empty otherwise.
     contact: std::sync::Arc<[f32]>,
     tap_contact: Vec<f32>,
     signal_width: usize,
