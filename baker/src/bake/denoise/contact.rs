@@ -58,53 +58,144 @@ fn term(d: f32) -> f32 {
 /// same for every lattice, thread and shard.
 pub(super) fn terms(guides: &Guides, grid: &Grid) -> Vec<f32> {
     use rayon::prelude::*;
-    // Most cells hold a few flat surfaces (a floor and its back face): a texel finds none of
-    // a surface's members another surface where it is of its own group and turned from the
-    // texel's by well under a crease, or lies parallel to the texel's plane and within half
-    // a spacing of it. Such cells are skipped without reading their texels.
-    let kinds: Vec<Option<Vec<Kind>>> = grid.cell_members().map(|m| kinds(guides, m)).collect();
-    let skip = (CREASE.acos() - FLAT.acos()).cos();
-    let diagonal = 3f32.sqrt();
-    (0..guides.points.len())
+    // Most cells hold a few flat surfaces (a floor and its back face), and most of a cell's
+    // neighbours hold the same: none of them another surface to the cell's texels (of their
+    // group and turned by well under a crease, or parallel and within half a spacing of
+    // their plane). Each flat surface of a cell finds, once for all its texels, the
+    // neighbour cells that may hold another surface; a texel reads only those cells' texels.
+    let cells: Vec<&[u32]> = grid.cell_members().collect();
+    let kinds: Vec<Option<Vec<Kind>>> = cells.iter().map(|m| kinds(guides, m)).collect();
+    let per_cell: Vec<Vec<(u32, f32)>> = (0..cells.len())
         .into_par_iter()
-        .map(|i| {
-            let (p, s, spacing, group) = (
-                guides.points[i],
-                guides.surfaces[i],
-                guides.spacing[i],
-                guides.groups[i],
-            );
-            let reach = REACH * spacing;
-            // How far a member of a visited cell can lie from p.
-            let far = diagonal * (reach + grid.cell());
-            let ignored = |kind: &Kind| {
-                let facing = kind.axis.dot(s);
-                if kind.group == group && facing >= skip {
-                    return true;
+        .map_init(Vec::new, |near: &mut Vec<usize>, c| {
+            let mut out = Vec::with_capacity(cells[c].len());
+            let Some(own) = &kinds[c] else {
+                for &i in cells[c] {
+                    let (p, reach) = (
+                        guides.points[i as usize],
+                        REACH * guides.spacing[i as usize],
+                    );
+                    near.clear();
+                    grid.visit_cells(p, reach, |n, _| near.push(n));
+                    let far = 3f32.sqrt() * (reach + grid.cell());
+                    out.push((
+                        i,
+                        closest(guides, (&cells, &kinds), (i as usize, far), near),
+                    ));
                 }
-                // Parallel: s = ±axis + e, |e|² = 2 − 2 |axis · s|.
-                let e = (2.0 - 2.0 * facing.abs()).max(0.0).sqrt();
-                let at = kind.axis.dot(p);
-                let off = (kind.low - at).abs().max((kind.high - at).abs());
-                off + e * far < (OFF_PLANE - MARGIN) * spacing
+                return out;
             };
-            let mut closest = f32::INFINITY;
-            grid.visit_cells(p, reach, |cell, members| {
-                if kinds[cell].as_ref().is_some_and(|k| k.iter().all(ignored)) {
-                    return;
+            for kind in own {
+                let members = || {
+                    cells[c]
+                        .iter()
+                        .filter(|&&i| guides.groups[i as usize] == kind.group)
+                };
+                let (mut low, mut high) = (glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY);
+                let (mut widest, mut finest) = (0.0f32, f32::INFINITY);
+                for &i in members() {
+                    let (p, spacing) = (guides.points[i as usize], guides.spacing[i as usize]);
+                    (low, high) = (low.min(p), high.max(p));
+                    (widest, finest) = (widest.max(spacing), finest.min(spacing));
                 }
-                for &j in members {
-                    let j = j as usize;
-                    let other = guides.groups[j] != group || guides.surfaces[j].dot(s) <= CREASE;
-                    let d = guides.points[j] - p;
-                    if other && s.dot(d).abs() >= OFF_PLANE * spacing {
-                        closest = closest.min(d.length());
+                let centre = 0.5 * (low + high);
+                let radius = 0.5 * (high - low).max_element() + REACH * widest;
+                // How far a member of a cell the cube about centre overlaps can lie from it.
+                let far = 3f32.sqrt() * (radius + grid.cell());
+                let bounds = (centre, far, finest);
+                near.clear();
+                grid.visit_cells(centre, radius, |n, _| {
+                    if !kinds[n]
+                        .as_ref()
+                        .is_some_and(|k| k.iter().all(|k| apart(kind, k, bounds)))
+                    {
+                        near.push(n);
                     }
+                });
+                for &i in members() {
+                    let term = match near.is_empty() {
+                        true => 0.0,
+                        false => closest(guides, (&cells, &kinds), (i as usize, 2.0 * far), near),
+                    };
+                    out.push((i, term));
                 }
-            });
-            term(closest / spacing)
+            }
+            out
         })
-        .collect()
+        .collect();
+    let mut terms = vec![0.0; guides.points.len()];
+    for (i, term) in per_cell.into_iter().flatten() {
+        terms[i as usize] = term;
+    }
+    terms
+}
+
+/// Receiver i's contact term from the receivers of cells `near` (a superset of the cells
+/// within its reach, whose members lie within `far` of it), each cell skipped where each of
+/// its [`Kind`]s is no other surface to i.
+fn closest(
+    guides: &Guides,
+    (cells, kinds): (&[&[u32]], &[Option<Vec<Kind>>]),
+    (i, far): (usize, f32),
+    near: &[usize],
+) -> f32 {
+    let (p, s, spacing, group) = (
+        guides.points[i],
+        guides.surfaces[i],
+        guides.spacing[i],
+        guides.groups[i],
+    );
+    let skip = (CREASE.acos() - FLAT.acos()).cos();
+    let ignored = |kind: &Kind| {
+        let facing = kind.axis.dot(s);
+        if kind.group == group && facing >= skip {
+            return true;
+        }
+        // Parallel: s = ±axis + e, |e|² = 2 − 2 |axis · s|.
+        let e = (2.0 - 2.0 * facing.abs()).max(0.0).sqrt();
+        let at = kind.axis.dot(p);
+        let off = (kind.low - at).abs().max((kind.high - at).abs());
+        off + e * far < (OFF_PLANE - MARGIN) * spacing
+    };
+    let mut closest = f32::INFINITY;
+    for &cell in near {
+        if kinds[cell].as_ref().is_some_and(|k| k.iter().all(ignored)) {
+            continue;
+        }
+        for &j in cells[cell] {
+            let j = j as usize;
+            let other = guides.groups[j] != group || guides.surfaces[j].dot(s) <= CREASE;
+            let d = guides.points[j] - p;
+            if other && s.dot(d).abs() >= OFF_PLANE * spacing {
+                closest = closest.min(d.length());
+            }
+        }
+    }
+    term(closest / spacing)
+}
+/// Whether no member of the flat surface `other` is another surface to any member of `own`,
+/// all of whose members lie within `far` of `centre`, as do `other`'s, the closest `spacing`
+/// apart: of `own`'s group and turned by well under a crease from it, or parallel to it and
+/// within half a spacing of its members' planes.
+fn apart(own: &Kind, other: &Kind, (centre, far, spacing): (glam::Vec3, f32, f32)) -> bool {
+    let facing = own.axis.dot(other.axis);
+    // Each member's normal lies within acos(FLAT) of its surface's axis.
+    if other.group == own.group && facing >= (CREASE.acos() - 2.0 * FLAT.acos()).cos() {
+        return true;
+    }
+    // Along own's axis, other's members lie where their own axis puts them, give or take its
+    // turn from own's, over their distance from the centre.
+    let turn = (2.0 - 2.0 * facing.abs()).max(0.0).sqrt();
+    let at = other.axis.dot(centre);
+    let (low, high) = match facing >= 0.0 {
+        true => (other.low - at, other.high - at),
+        false => (at - other.high, at - other.low),
+    };
+    let centre = own.axis.dot(centre);
+    let (low, high) = (centre + low - turn * far, centre + high + turn * far);
+    // A member's distance from another's plane, its normal within `tilt` of own's axis.
+    let off = (high - own.low).max(own.high - low);
+    off + own.tilt * 2.0 * far < (OFF_PLANE - MARGIN) * spacing
 }
 
 /// Slack on [`OFF_PLANE`] for a cell's members read from its [`Kind`]s, against rounding.
@@ -117,6 +208,8 @@ const KINDS: usize = 4;
 struct Kind {
     group: u32,
     axis: glam::Vec3,
+    /// The farthest member's normal from the axis, |n − axis|.
+    tilt: f32,
     low: f32,
     high: f32,
 }
@@ -135,6 +228,7 @@ fn kinds(guides: &Guides, members: &[u32]) -> Option<Vec<Kind>> {
                 kinds.push(Kind {
                     group,
                     axis: normal,
+                    tilt: 0.0,
                     low: along,
                     high: along,
                 });
@@ -143,9 +237,11 @@ fn kinds(guides: &Guides, members: &[u32]) -> Option<Vec<Kind>> {
             None => return None,
         };
         let kind = &mut kinds[at];
-        if normal.dot(kind.axis) < FLAT {
+        let facing = normal.dot(kind.axis);
+        if facing < FLAT {
             return None;
         }
+        kind.tilt = kind.tilt.max((2.0 - 2.0 * facing).max(0.0).sqrt());
         let along = kind.axis.dot(guides.points[j]);
         (kind.low, kind.high) = (kind.low.min(along), kind.high.max(along));
     }
