@@ -20,7 +20,8 @@
 //! 0.877 / 0.305 -> 0.520 / 0.855 / 0.294 %); the Cornell room within 0.5 %. Without the rule,
 //! the courtyard 1.019 / 1.679 / 0.578 % and the room 2–3 % worse; the contact term linear in
 //! d, 1.039 %; a reach of 2, 4 or 8 texels, 1.019, 1.011 and 1.033 % (without the rule);
-//! (1 − d / 3) and its square as two regressors, no better than one.
+//! (1 − d / 3) and its square as two regressors, no better than one. The courtyard's filter
+//! takes 0.31 CPU-s on one thread instead of 0.25, the terms 30 ms of it.
 
 use glam::Vec4;
 
