@@ -293,3 +293,54 @@ fn two_lattices_of_clusters_follow_a_bend_closer_than_one() {
     // 0.0076 against 0.0095.
     assert!(two < 0.9 * one, "two lattices {two}, one {one}");
 }
+
+/// A floor with a wall standing on it at x = −0.5, and a transfer that darkens towards the
+/// wall's foot with the contact term (linear in it, so bending within 3 texels of the wall),
+/// without noise but filtered as if it had some: the fit over the plane misses the bend, the
+/// fit in the contact term follows it closer.
+#[test]
+fn the_contact_term_follows_a_floor_darkening_at_a_wall_s_foot() {
+    // A floor of 36 × 36 receivers (3 × 3 sheets), and a wall of 36 × 12 facing it.
+    let mut g = Guides::default();
+    for (a, b) in (0..3).flat_map(|a| (0..3).map(move |b| (a, b))) {
+        let origin = Vec3::new(12.0 * a as f32, 12.0 * b as f32, 0.0);
+        sheet(&mut g, origin, Vec3::X, Vec3::Y, Vec3::Z, 0);
+    }
+    let floor = g.points.len();
+    for b in 0..3 {
+        let origin = Vec3::new(-0.5, 12.0 * b as f32, 0.5);
+        sheet(&mut g, origin, Vec3::Y, Vec3::Z, Vec3::X, 1);
+    }
+    g.noise.fill(1e-3);
+    // The wall's closest texel to a floor texel at x lies (x + 0.5, 0.5) from it.
+    let contact = |p: Vec3| contact_term(((p.x + 0.5).powi(2) + 0.25).sqrt());
+    let value = |i: usize| match i < floor {
+        true => 1.0 - 0.6 * contact(g.points[i]),
+        false => 0.5,
+    };
+    let transfer: Vec<f32> = (0..g.points.len()).map(value).collect();
+    let error = |settings: Settings| {
+        let out = Filter::new(&g, settings, &transfer, 1, 1).apply(&transfer, 1);
+        let squares: f32 = (out[..floor].iter().zip(&transfer))
+            .map(|(a, b)| (a - b) * (a - b))
+            .sum();
+        (squares / floor as f32).sqrt()
+    };
+    let with = error(Settings::TEXELS);
+    let without = error(Settings {
+        contact: false,
+        ..Settings::TEXELS
+    });
+    // 0.0027 against 0.0032: the term's ridge holds its slope back where few neighbours
+    // are near the wall.
+    assert!(
+        with < 0.9 * without,
+        "with the contact term {with}, without {without}"
+    );
+}
+
+/// [`contact`]'s term of a distance in spacings, as the filter forms it.
+fn contact_term(d: f32) -> f32 {
+    let x = (1.0 - d / contact::REACH).max(0.0);
+    x * x
+}
