@@ -12,7 +12,7 @@
 //!
 //! A regressor costs noise where it removes no bias (the Cornell room's corners, whose plane
 //! fit was unbiased already: 2–3 % more error at 64 rays). So the fit in the contact term
-//! counts, by Lepski's rule as the narrower fit does ([`texel_fit::NARROWER`]), only where it
+//! counts, by Lepski's rule as the narrower fit does ([`texel_fit::share_of_second`]), only where it
 //! differs from the plane's fit on the guide by more than that difference's noise.
 //!
 //! Measured at 64 rays against 16,384, sun and sky / low sun / sky, 2 seeds: the production
@@ -48,7 +48,7 @@ const FLAT: f32 = 0.999;
 
 /// The contact term of a distance `d`, in spacings: 1 at contact, 0 from [`REACH`] on, with
 /// no kink there.
-fn term(d: f32) -> f32 {
+pub(super) fn term(d: f32) -> f32 {
     let x = (1.0 - d / REACH).max(0.0);
     x * x
 }
@@ -146,18 +146,16 @@ fn closest(
         guides.spacing[i],
         guides.groups[i],
     );
-    let skip = (CREASE.acos() - FLAT.acos()).cos();
-    let ignored = |kind: &Kind| {
-        let facing = kind.axis.dot(s);
-        if kind.group == group && facing >= skip {
-            return true;
-        }
-        // Parallel: s = ±axis + e, |e|² = 2 − 2 |axis · s|.
-        let e = (2.0 - 2.0 * facing.abs()).max(0.0).sqrt();
-        let at = kind.axis.dot(p);
-        let off = (kind.low - at).abs().max((kind.high - at).abs());
-        off + e * far < (OFF_PLANE - MARGIN) * spacing
+    // The texel as a surface of its own, to test each cell's surfaces against.
+    let at = s.dot(p);
+    let texel = Kind {
+        group,
+        axis: s,
+        tilt: 0.0,
+        low: at,
+        high: at,
     };
+    let ignored = |kind: &Kind| apart(&texel, kind, (p, far, spacing));
     let mut closest = f32::INFINITY;
     for &cell in near {
         if kinds[cell].as_ref().is_some_and(|k| k.iter().all(ignored)) {
@@ -315,25 +313,10 @@ pub(super) fn fit_kernel<'g>(
     {
         return false;
     }
-    // The two fits of the guide at the centroid, and their difference's noise.
-    delta.clear();
-    delta.resize(super::range::guide_lanes(sw), Vec4::ZERO);
-    let mut variance = 0.0f64;
-    for ((&(k, _), a), b) in kernel.iter().zip(&contact.fitted).zip(&plane.fitted) {
-        let difference = a[0] - b[0];
-        let (row, noise) = guide(k);
-        variance += difference * difference * f64::from(noise);
-        let difference = Vec4::splat(difference as f32);
-        for (d, &g) in delta.iter_mut().zip(row) {
-            *d += difference * g;
-        }
-    }
-    let squared: f64 = delta.iter().map(|d| f64::from(d.length_squared())).sum();
-    let (start, full) = texel_fit::NARROWER;
-    let d2 = squared / (sw.max(1) as f64 * variance);
-    let share = ((d2 - start) / (full - start)).clamp(0.0, 1.0);
-    // NaN (no variance) keeps the plane's fit.
-    let share = if share > 0.0 { share } else { 0.0 };
+    // Lepski's rule, as for the narrower fit: the contact term counts where the two fits of
+    // the guide at the centroid differ by more than their difference's noise.
+    let differences = (contact.fitted.iter().zip(&plane.fitted)).map(|(a, b)| b[0] - a[0]);
+    let share = texel_fit::share_of_second((&plane.key, differences), sw, guide, delta);
     extra.clear();
     for (n, (_, e)) in kernel.iter_mut().enumerate() {
         let (a, b) = (contact.fitted[n], plane.fitted[n]);

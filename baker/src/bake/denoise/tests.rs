@@ -267,24 +267,12 @@ fn texels_are_clustered_finer_from_256_rays() {
 /// lattice. The mean over two lattices half a cluster apart is closer to the transfer.
 #[test]
 fn two_lattices_of_clusters_follow_a_bend_closer_than_one() {
-    // A floor of 36 × 36 receivers: 3 × 3 sheets side by side.
     let mut g = Guides::default();
-    for (a, b) in (0..3).flat_map(|a| (0..3).map(move |b| (a, b))) {
-        let origin = Vec3::new(12.0 * a as f32, 12.0 * b as f32, 0.0);
-        sheet(&mut g, origin, Vec3::X, Vec3::Y, Vec3::Z, 0);
-    }
+    floor(&mut g);
     g.noise.fill(3e-3);
     let value = |p: Vec3| 1.0 - 0.8 * (-p.x / 2.5).exp();
     let transfer: Vec<f32> = g.points.iter().map(|&p| value(p)).collect();
-    let error = |settings: Settings| {
-        let out = Filter::new(&g, settings, &transfer, 1, 1).apply(&transfer, 1);
-        let squares: f32 = out
-            .iter()
-            .zip(&transfer)
-            .map(|(a, b)| (a - b) * (a - b))
-            .sum();
-        (squares / out.len() as f32).sqrt()
-    };
+    let error = |settings| filtered_error(&g, settings, &transfer, g.points.len());
     let two = error(Settings::TEXELS);
     let one = error(Settings {
         second_lattice: false,
@@ -300,32 +288,23 @@ fn two_lattices_of_clusters_follow_a_bend_closer_than_one() {
 /// fit in the contact term follows it closer.
 #[test]
 fn the_contact_term_follows_a_floor_darkening_at_a_wall_s_foot() {
-    // A floor of 36 × 36 receivers (3 × 3 sheets), and a wall of 36 × 12 facing it.
+    // The floor, and a wall of 36 × 12 facing it.
     let mut g = Guides::default();
-    for (a, b) in (0..3).flat_map(|a| (0..3).map(move |b| (a, b))) {
-        let origin = Vec3::new(12.0 * a as f32, 12.0 * b as f32, 0.0);
-        sheet(&mut g, origin, Vec3::X, Vec3::Y, Vec3::Z, 0);
-    }
-    let floor = g.points.len();
+    floor(&mut g);
+    let on_floor = g.points.len();
     for b in 0..3 {
         let origin = Vec3::new(-0.5, 12.0 * b as f32, 0.5);
         sheet(&mut g, origin, Vec3::Y, Vec3::Z, Vec3::X, 1);
     }
     g.noise.fill(1e-3);
     // The wall's closest texel to a floor texel at x lies (x + 0.5, 0.5) from it.
-    let contact = |p: Vec3| contact_term(((p.x + 0.5).powi(2) + 0.25).sqrt());
-    let value = |i: usize| match i < floor {
+    let contact = |p: Vec3| contact::term(((p.x + 0.5).powi(2) + 0.25).sqrt());
+    let value = |i: usize| match i < on_floor {
         true => 1.0 - 0.6 * contact(g.points[i]),
         false => 0.5,
     };
     let transfer: Vec<f32> = (0..g.points.len()).map(value).collect();
-    let error = |settings: Settings| {
-        let out = Filter::new(&g, settings, &transfer, 1, 1).apply(&transfer, 1);
-        let squares: f32 = (out[..floor].iter().zip(&transfer))
-            .map(|(a, b)| (a - b) * (a - b))
-            .sum();
-        (squares / floor as f32).sqrt()
-    };
+    let error = |settings| filtered_error(&g, settings, &transfer, on_floor);
     let with = error(Settings::TEXELS);
     let without = error(Settings {
         contact: false,
@@ -339,8 +318,20 @@ fn the_contact_term_follows_a_floor_darkening_at_a_wall_s_foot() {
     );
 }
 
-/// [`contact`]'s term of a distance in spacings, as the filter forms it.
-fn contact_term(d: f32) -> f32 {
-    let x = (1.0 - d / contact::REACH).max(0.0);
-    x * x
+/// A floor of 36 × 36 receivers at z = 0 facing up: 3 × 3 sheets side by side, in group 0.
+fn floor(guides: &mut Guides) {
+    for (a, b) in (0..3).flat_map(|a| (0..3).map(move |b| (a, b))) {
+        let origin = Vec3::new(12.0 * a as f32, 12.0 * b as f32, 0.0);
+        sheet(guides, origin, Vec3::X, Vec3::Y, Vec3::Z, 0);
+    }
+}
+
+/// The RMS difference of the first `count` receivers' `transfer` (one float each) filtered
+/// with `settings` from the transfer itself.
+fn filtered_error(guides: &Guides, settings: Settings, transfer: &[f32], count: usize) -> f32 {
+    let out = Filter::new(guides, settings, transfer, 1, 1).apply(transfer, 1);
+    let squares: f32 = (out[..count].iter().zip(transfer))
+        .map(|(a, b)| (a - b) * (a - b))
+        .sum();
+    (squares / count as f32).sqrt()
 }

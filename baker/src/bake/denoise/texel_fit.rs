@@ -26,7 +26,7 @@ use super::exp4::exp4;
 /// seeds: 1.28 / 2.20 / 0.73 % without it; 1.16 / 2.00 / 0.68 % at 2 / 8; 1.17 / 2.02 / 0.68
 /// % at 2.5 / 10; 1.18 / 2.04 / 0.68 % at 3 / 12. The Cornell room at 256² moved by under 1
 /// % at 2.5 / 10 at 64 and 256 rays, and rose by up to 0.6 % at 2 / 8.
-pub(super) const NARROWER: (f64, f64) = (2.5, 10.0);
+const NARROWER: (f64, f64) = (2.5, 10.0);
 
 /// The plane fit's terms: 1, u, v.
 pub(super) const PLANE: usize = 3;
@@ -159,15 +159,42 @@ pub(super) fn fit<'g, const N: usize>(
     let Some(narrow) = factor(weight, terms, Some(taper), ridge).map(|l| inverse(&l)) else {
         return true;
     };
-    // The difference's sums in the guides' lanes, four coefficients at a time.
+    // The narrower fit's weight at the centroid: its inverse's first row, dotted.
+    let narrow_at_centre = |(k, x): (usize, &[f64; N])| {
+        narrow[0].iter().zip(x).map(|(f, x)| f * x).sum::<f64>() * weight[k] * taper[k]
+    };
+    let differences = (fitted.iter().zip(terms.iter().enumerate()))
+        .map(|(e, entry)| e[0] - narrow_at_centre(entry));
+    let share = share_of_second((key, differences), sw, guide, delta);
+    if share > 0.0 {
+        for (k, (x, e)) in terms.iter().zip(fitted.iter_mut()).enumerate() {
+            let n = weights(&narrow, x, weight[k] * taper[k]);
+            for (e, n) in e.iter_mut().zip(n) {
+                *e = *e * (1.0 - share) + n * share;
+            }
+        }
+    }
+    true
+}
+
+/// Lepski's rule between two fits of one kernel: the share of the second to blend into the
+/// first. `differences` holds each entry's weight at the centroid in the first fit less in
+/// the second, entry k reading cluster `keys[k]`'s guide (`sw` floats in lanes, and its
+/// variance, from `guide`). The two fits of the guide at the centroid differ by d² of their
+/// difference's noise, Σ (a_k − b_k)² σ²_k: the share is 0 up to [`NARROWER`]'s first
+/// threshold and 1 from its second, and 0 where there is no noise (d² NaN). `delta` is the
+/// difference's buffer, per four coefficients of the guide.
+pub(super) fn share_of_second<'g>(
+    (keys, differences): (&[u32], impl Iterator<Item = f64>),
+    sw: usize,
+    guide: impl Fn(u32) -> (&'g [Vec4], f32),
+    delta: &mut Vec<Vec4>,
+) -> f64 {
     delta.clear();
     delta.resize(super::range::guide_lanes(sw), Vec4::ZERO);
     let mut variance = 0.0f64;
-    for (k, (x, e)) in terms.iter().zip(fitted.iter()).enumerate() {
-        // The narrower fit's weight at the centroid: its inverse's first row, dotted.
-        let b = narrow[0].iter().zip(x).map(|(f, x)| f * x).sum::<f64>() * weight[k] * taper[k];
-        let difference = e[0] - b;
-        let (row, noise) = guide(key[k]);
+    for (&k, difference) in keys.iter().zip(differences) {
+        let (row, noise) = guide(k);
         variance += difference * difference * f64::from(noise);
         let difference = Vec4::splat(difference as f32);
         for (d, &g) in delta.iter_mut().zip(row) {
@@ -178,16 +205,8 @@ pub(super) fn fit<'g, const N: usize>(
     let (start, full) = NARROWER;
     let d2 = squared / (sw.max(1) as f64 * variance);
     let share = ((d2 - start) / (full - start)).clamp(0.0, 1.0);
-    // NaN (no variance) keeps the wide fit.
-    if share > 0.0 {
-        for (k, (x, e)) in terms.iter().zip(fitted.iter_mut()).enumerate() {
-            let n = weights(&narrow, x, weight[k] * taper[k]);
-            for (e, n) in e.iter_mut().zip(n) {
-                *e = *e * (1.0 - share) + n * share;
-            }
-        }
-    }
-    true
+    // NaN (no variance) keeps the first fit.
+    if share > 0.0 { share } else { 0.0 }
 }
 
 #[cfg(test)]
