@@ -29,8 +29,9 @@ impl Filter<'_> {
     }
 
     /// Member m's terms past the plane's, where its cluster c's fit has them: over a normal
-    /// map, its shading normal's less c's representative's, in c's frame
-    /// ([`super::normal_fit`]); elsewhere its contact term less c's ([`super::contact`]).
+    /// map, its shading normal's less c's representative's, in c's frame, and their squares
+    /// and product ([`super::normal_fit`]); elsewhere its contact term less c's and its
+    /// place's squares and product ([`super::texel_kernel`]).
     pub(super) fn member_extra(&self, c: usize, m: usize) -> [f32; normal_fit::NORMAL] {
         let g = self.guides;
         let r = self.clusters.reps[c] as usize;
@@ -39,25 +40,15 @@ impl Filter<'_> {
             .get(g.groups[r] as usize)
             .is_some_and(|&mapped| mapped)
         {
-            let mut terms = [0.0; normal_fit::NORMAL];
-            if let (Some(member), Some(cluster)) = (self.contact.get(m), self.tap_contact.get(c)) {
-                terms[0] = member - cluster;
-            }
-            return terms;
+            let contact = match (self.contact.get(m), self.tap_contact.get(c)) {
+                (Some(member), Some(cluster)) => member - cluster,
+                _ => 0.0,
+            };
+            let [_, u, v] = self.member_place(c, m);
+            return [contact, u * u, u * v, v * v, 0.0];
         }
         let offset = normal_fit::offset(g.normals[m], g.normals[r], self.frames[c]);
-        normal_fit::normal_terms(offset, self.settings.normal_quadratic)
-    }
-
-    /// How many terms past the plane's cluster c's fit has: none where `plane_only` (its
-    /// kernel wrote no extra weights), the normal's over a normal map, else the contact term.
-    fn extra_count(&self, c: usize, plane_only: bool) -> usize {
-        let group = self.guides.groups[self.clusters.reps[c] as usize] as usize;
-        match (plane_only, self.mapped_groups.get(group)) {
-            (true, _) => 0,
-            (false, Some(true)) => normal_fit::normal_count(self.settings.normal_quadratic),
-            (false, _) => 1,
-        }
+        normal_fit::normal_terms(offset, true)
     }
 
     /// Receiver i's weights on every receiver, normalised, in the receivers' order: its
@@ -65,12 +56,19 @@ impl Filter<'_> {
     /// of those weights on the two lattices ([`super::Settings::second_lattice`]).
     pub fn row(&self, i: usize, out: &mut Vec<(u32, f32)>) {
         self.lattice_row(i, out);
-        if let Some(shifted) = &self.shifted {
+        if let Some(shifted) = self.shifted.as_deref().filter(|_| !self.first_alone(i)) {
             let mut theirs = Vec::new();
             shifted.lattice_row(i, &mut theirs);
             let mine = std::mem::take(out);
             mean_of_rows(&mine, &theirs, out);
         }
+    }
+
+    /// Whether receiver i's answer is the first lattice's alone: a cluster of its own on
+    /// both lattices ([`super::contact::alone`]), whose two kernels would read the same
+    /// neighbours but for their clustering.
+    fn first_alone(&self, i: usize) -> bool {
+        super::contact::alone(&self.contact, i)
     }
 
     /// [`Filter::row`] on this filter's lattice alone.
@@ -194,12 +192,17 @@ impl Filter<'_> {
                 || (vertices::Scratch::default(), Vec::new(), Vec::new()),
                 |(scratch, sums, rows): &mut (_, Vec<f32>, Vec<f32>), b| {
                     let block = b * APPLY_BLOCK..((b + 1) * APPLY_BLOCK).min(count);
+                    // On the second lattice, the clusters whose answer is the first's.
+                    let answers = |&c: &usize| match write {
+                        Write::Replace => true,
+                        Write::Average => !self.first_alone(self.clusters.reps[c] as usize),
+                    };
                     rows.clear();
-                    for c in block.clone() {
+                    for c in block.clone().filter(answers) {
                         self.cluster_kernel(c, scratch);
                         // The fit's terms: (1, u, v), and the normal's or the contact
                         // term where it has them.
-                        let terms = 3 + self.extra_count(c, scratch.extra.is_empty());
+                        let terms = 3 + scratch.extra_terms;
                         sums.clear();
                         sums.resize(terms * (width + 1), 0.0);
                         let (sums, scalar_sums) = sums.split_at_mut(terms * width);
@@ -252,7 +255,7 @@ impl Filter<'_> {
                     }
                     let mut out = out.lock().expect("no block panicked");
                     let (values, scalars) = &mut *out;
-                    let members = block.flat_map(|c| self.clusters.row(c));
+                    let members = block.filter(answers).flat_map(|c| self.clusters.row(c));
                     for (&(m, _), row) in members.zip(rows.chunks_exact(width + 1)) {
                         let m = m as usize;
                         let value = &mut values[m * width..][..width];

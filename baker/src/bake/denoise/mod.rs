@@ -88,6 +88,7 @@ mod range;
 mod settings;
 pub mod stage;
 mod texel_fit;
+mod texel_kernel;
 mod vertex_apply;
 mod vertex_clusters;
 mod vertices;
@@ -308,7 +309,12 @@ impl<'g> Filter<'g> {
             }
             Some(step) => {
                 let within = (signal, sw);
+                // Texels in contact with another surface are clusters of their own.
+                let alone = |i: usize| contact::alone(&filter.contact, i);
                 Clusters::build(guides, &filter.fine, step, &noise, within, |seed, m| {
+                    if alone(seed) || alone(m) {
+                        return false;
+                    }
                     let variance = (noise[m] + noise[seed]) * sw as f32;
                     let (s, g) = (&signal[m * sw..][..sw], &signal[seed * sw..][..sw]);
                     range_exponent(s, g, variance, GUIDE_KAPPA) <= SIMILAR
@@ -647,6 +653,8 @@ impl<'g> Filter<'g> {
             vertices::reweigh(scratch, (sw, kappa, noise));
             return vertices::fit(scratch, sw);
         }
+        scratch.extra.clear();
+        scratch.extra_terms = 0;
         if !self.settings.linear {
             let total: f32 = out.iter().map(|&(_, w)| w[0]).sum();
             for (_, e) in out.iter_mut() {
@@ -654,39 +662,29 @@ impl<'g> Filter<'g> {
             }
             return;
         }
-        // Where a normal map turns the shading normals, the fit is in the normal too.
-        scratch.extra.clear();
-        if mapped {
+        // Where a normal map turns the shading normals, the fit is in the normal too;
+        // elsewhere over the plane, and in the contact term and the plane's squares where
+        // they follow the guide closer (not over a normal map, whose members read their
+        // normal's terms: [`Filter::member_extra`]).
+        let in_normal = mapped.then(|| {
             let normal = |k: u32| self.tap_normals[k as usize];
-            let centre = (ni, (t1, t2));
             let kernel = (&mut out[..], &scratch.geometric[..], &mut scratch.extra);
-            let fits = &mut scratch.normal_fits;
             let settings = (noise, sw, kappa, self.settings.normal_quadratic);
-            if normal_fit::fit_kernel(kernel, fits, normal, centre, guide, settings) {
-                return;
-            }
-        }
-        // Near another surface, other groups' fits are in the contact term too.
-        if !self.tap_contact.is_empty() && !mapped {
-            let own = self.tap_contact[c];
-            let offset = |k: u32| self.tap_contact[k as usize] - own;
-            let kernel = (&mut out[..], &mut scratch.extra);
-            let at = (f64::from(radius), sw);
-            if contact::fit_kernel(kernel, &mut scratch.contact_fits, offset, at, guide) {
-                return;
-            }
-        }
-        let fit = &mut scratch.plane_fit;
-        fit.clear();
-        fit.extend(
-            out.iter()
-                .map(|&(k, [w, u, v])| (k, w, [1.0, u, v].map(f64::from))),
-        );
-        let narrower = Some(f64::from(radius));
-        if texel_fit::fit(fit, &texel_fit::PLANE_RIDGES, narrower, sw, guide) {
-            for ((_, e), f) in out.iter_mut().zip(&fit.fitted) {
-                *e = f.map(|f| f as f32);
-            }
+            let fits = &mut scratch.normal_fits;
+            normal_fit::fit_kernel(kernel, fits, normal, (ni, (t1, t2)), guide, settings)
+        });
+        let own = self.tap_contact.get(c).copied().unwrap_or(0.0);
+        let contact = |k: u32| match mapped {
+            true => 0.0,
+            false => self.tap_contact.get(k as usize).map_or(0.0, |&t| t - own),
+        };
+        let at = (sw, self.settings.curved && !mapped);
+        let fits = &mut scratch.texel_fits;
+        let count = in_normal.flatten().or_else(|| {
+            texel_kernel::fit_kernel((&mut out[..], &mut scratch.extra), fits, contact, at, guide)
+        });
+        if let Some(count) = count {
+            scratch.extra_terms = count;
             return;
         }
         let mass: f64 = out.iter().map(|&(_, e)| f64::from(e[0])).sum();

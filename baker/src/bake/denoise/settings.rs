@@ -43,6 +43,9 @@ pub struct Settings {
     pub normal_quadratic: bool,
     /// Texels: near another surface, a fit in the distance to it too ([`super::contact`]).
     pub contact: bool,
+    /// Texels: where the transfer curves over the kernel, a fit in the squares of the
+    /// plane's coordinates too ([`super::texel_kernel`]).
+    pub curved: bool,
 }
 
 impl Settings {
@@ -61,6 +64,7 @@ impl Settings {
         second_lattice: true,
         normal_quadratic: false,
         contact: true,
+        curved: true,
     };
     /// [`Settings::TEXELS`] for a bake of `samples` rays a texel: from
     /// [`FINE_CLUSTERS_FROM`] rays, clusters of up to 2 × 2 texels, and over a normal map a
@@ -90,5 +94,6 @@ impl Settings {
         second_lattice: false,
         normal_quadratic: false,
         contact: false,
+        curved: false,
     };
 }

@@ -1,32 +1,33 @@
-//! Texels' weighted first-order fits: over the tangent plane ([`PLANE`] terms), or in the
-//! shading normal too ([`super::normal_fit`]), with a fit half as wide blended into the
-//! plane's where the wide one cannot follow the guide.
+//! Texels' weighted fits: first-order over the tangent plane ([`PLANE`] terms), in the
+//! shading normal too ([`super::normal_fit`]) or in the contact term
+//! ([`super::contact`]), and the curved fit in the plane's squares blended in where the
+//! first-order one cannot follow the guide ([`blend_curved`]); and Lepski's rule, which
+//! chooses between two fits of one kernel ([`share_of_second`]).
 //!
-//! A first-order fit over 7 texels is unbiased for a transfer that changes linearly along the
-//! surface, not for one that bends within a few texels: the ring of a contact shadow around a
-//! crate's foot, a leaf's shadow, the crease of sky occlusion along a box's corner. There a
-//! fit half as wide is blended in by Lepski's rule, as in Katkovnik's intersection of
-//! confidence intervals (Katkovnik 1999, *A new method for varying adaptive bandwidth
-//! selection*), as the vertices' fits are ([`super::vertices::fit`]): both fits are read on
-//! the guide at the cluster's centroid, and where they differ by more than their
-//! difference's noise Σ (a_k − b_k)² σ²_k allows, the narrower one counts, in part from
-//! [`NARROWER`]'s first threshold and wholly from its second. Where the transfer is smooth
-//! the two agree within their noise and the wide fit is kept. A fit a quarter as wide, as
-//! the vertices have, changed nothing more; in the normal-mapped fit the narrower one raised
-//! the courtyard wall's error (docs/explanation/denoising.md).
+//! A first-order fit over 7 texels is unbiased for a transfer that changes linearly along
+//! the surface, not for one that curves over the kernel: the shade of a crate darkening the
+//! floor towards its foot, the crease of sky occlusion along a box's corner. There the fit
+//! in the squares of the plane's coordinates is blended in by Lepski's rule, as in
+//! Katkovnik's intersection of confidence intervals (Katkovnik 1999, *A new method for
+//! varying adaptive bandwidth selection*), as the vertices' narrower fits are
+//! ([`super::vertices::fit`]): both fits are read on the guide at the cluster's centroid,
+//! and where they differ by more than their difference's noise Σ (a_k − b_k)² σ²_k allows,
+//! the curved one counts, in part from [`CURVED_FROM`]'s first threshold and wholly from
+//! its second. Where the transfer is straight the two agree within their noise and the
+//! first-order fit is kept.
+//!
+//! The curved fit replaced a first-order fit half as wide, blended in the same way: on the
+//! production courtyard at 64 rays it left 0.4 % more error beside the curved fit and the
+//! clusters of one texel near contact ([`super::contact::alone`]), for a sixth of the
+//! filter's time (docs/explanation/denoising.md).
 
 use glam::Vec4;
 
 use super::cholesky;
-use super::exp4::exp4;
 
-/// The squared difference of the wide and the half-width fits of the guide, over its noise
-/// variance, from which the narrower fit is blended in and at which it is taken whole.
-/// Measured at 64 rays on the production courtyard at 512², sun and sky / low sun / sky, 2
-/// seeds: 1.28 / 2.20 / 0.73 % without it; 1.16 / 2.00 / 0.68 % at 2 / 8; 1.17 / 2.02 / 0.68
-/// % at 2.5 / 10; 1.18 / 2.04 / 0.68 % at 3 / 12. The Cornell room at 256² moved by under 1
-/// % at 2.5 / 10 at 64 and 256 rays, and rose by up to 0.6 % at 2 / 8.
-const NARROWER: (f64, f64) = (2.5, 10.0);
+/// A kernel's entry: cluster k's, with [w, u, v], its weight and its place in the tangent
+/// plane, which the fits turn into its weights on (1, u, v).
+pub(super) type Entry = (u32, [f32; 3]);
 
 /// The plane fit's terms: 1, u, v.
 pub(super) const PLANE: usize = 3;
@@ -34,6 +35,22 @@ pub(super) const PLANE: usize = 3;
 /// The plane fit's ridge on each term, relative to the kernel's mass: a neighbourhood along a
 /// line (a one-texel-wide strip) fits no slope across it.
 pub(super) const PLANE_RIDGES: [f64; PLANE] = [0.0, 1e-2, 1e-2];
+
+/// The curved fit's terms: 1, u, v, the contact term c ([`super::contact`]), u², uv, v².
+pub(super) const CURVED: usize = 7;
+
+/// The curved fit's ridge on each term, relative to the kernel's mass: as the plane's on its
+/// slopes and the contact fit's on c; small beside the squares' own second moments (about
+/// 10 spacings² over the kernel), where 10⁻⁴ and 1 gave the same error.
+const CURVED_RIDGES: [f64; CURVED] = [0.0, 1e-2, 1e-2, 1e-2, 1e-2, 1e-2, 1e-2];
+
+/// The squared difference of the fit so far and the curved fit on the guide, over its noise
+/// variance, from which the curved fit is blended in and at which it is taken whole. At 64
+/// rays on the production courtyard at 512², sun and sky / low sun / sky, 2 seeds (before
+/// the clusters of one near contact): 0.970 / 1.603 / 0.566 % at 2.5 / 10; **0.967 / 1.597
+/// / 0.566 %** at 2 / 8; 0.981 / 1.601 / 0.573 % at 1 / 4; 0.986 / 1.633 / 0.572 % at 5 /
+/// 20; the curved fit whole, 1.061 / 1.706 / 0.604 %.
+const CURVED_FROM: (f64, f64) = (2.0, 8.0);
 
 /// One cluster's kernel as its fit reads it, and the fit's weights.
 #[derive(Default)]
@@ -44,13 +61,9 @@ pub(super) struct Scratch<const N: usize> {
     pub weight: Vec<f64>,
     /// Each entry's terms x_k: (1, u, v, …) at its place.
     pub terms: Vec<[f64; N]>,
-    /// Each entry's taper for the narrower fit, exp(−6 r²) on top of the kernel's exp(−2 r²),
-    /// r its distance in the plane in kernel radii: a Gaussian half as wide.
-    taper: Vec<f64>,
     /// The fit's weights: entry k weighs a member at x by `fitted[k]` · x.
     pub fitted: Vec<[f64; N]>,
-    /// Per coefficient of the guide, four to a lane: the two fits' difference at the
-    /// centroid.
+    /// Per coefficient of the guide, four to a lane: two fits' difference at the centroid.
     delta: Vec<Vec4>,
 }
 
@@ -59,7 +72,6 @@ impl<const N: usize> Scratch<N> {
         self.key.clear();
         self.weight.clear();
         self.terms.clear();
-        self.taper.clear();
     }
 
     /// Adds entries (k, w, x): cluster k's, of kernel weight w and terms x (x[1], x[2]: its
@@ -72,17 +84,15 @@ impl<const N: usize> Scratch<N> {
     }
 }
 
-/// The Cholesky factor of A = Σ w_k s_k x_k x_kᵀ, its ridge (`ridge[t]` × the mass on term
-/// t) added, with s_k the entries' tapers for the narrower fit (1 for the wide one).
+/// The Cholesky factor of A = Σ w_k x_k x_kᵀ, its ridge (`ridge[t]` × the mass on term t)
+/// added.
 fn factor<const N: usize>(
     weight: &[f64],
     terms: &[[f64; N]],
-    taper: Option<&[f64]>,
     ridge: &[f64; N],
 ) -> Option<[[f64; N]; N]> {
     let mut a = [[0.0f64; N]; N];
-    for (k, (&w, x)) in weight.iter().zip(terms).enumerate() {
-        let w = w * taper.map_or(1.0, |t| t[k]);
+    for (&w, x) in weight.iter().zip(terms) {
         for p in 0..N {
             for q in 0..=p {
                 a[p][q] += w * x[p] * x[q];
@@ -113,26 +123,15 @@ fn weights<const N: usize>(b: &[[f64; N]; N], x: &[f64; N], w: f64) -> [f64; N] 
 
 /// Turns the kernel pushed into `scratch` into the weights of its first-order fit,
 /// e_k = w_k A⁻¹ x_k with A = Σ w_k x_k x_kᵀ, into `scratch.fitted`: they sum to 1 at every
-/// place. With `narrower`, the kernel's radius in spacings, the half-width fit is blended in
-/// by [`NARROWER`]; `guide(k)` gives cluster k's guide (`sw` floats in
-/// [`super::range::guide_lanes`] lanes) and its variance. Returns false (nothing fitted)
-/// where the wide fit is singular.
-pub(super) fn fit<'g, const N: usize>(
-    scratch: &mut Scratch<N>,
-    ridge: &[f64; N],
-    narrower: Option<f64>,
-    sw: usize,
-    guide: impl Fn(u32) -> (&'g [Vec4], f32),
-) -> bool {
+/// place. Returns false (nothing fitted) where the fit is singular.
+pub(super) fn fit<const N: usize>(scratch: &mut Scratch<N>, ridge: &[f64; N]) -> bool {
     let Scratch {
-        key,
         weight,
         terms,
-        taper,
         fitted,
-        delta,
+        ..
     } = scratch;
-    let Some(wide) = factor(weight, terms, None, ridge).map(|l| inverse(&l)) else {
+    let Some(inverse) = factor(weight, terms, ridge).map(|l| inverse(&l)) else {
         return false;
     };
     fitted.clear();
@@ -140,40 +139,8 @@ pub(super) fn fit<'g, const N: usize>(
         weight
             .iter()
             .zip(terms.iter())
-            .map(|(&w, x)| weights(&wide, x, w)),
+            .map(|(&w, x)| weights(&inverse, x, w)),
     );
-    let Some(radius) = narrower else {
-        return true;
-    };
-    // The tapers, four at a time.
-    let falloff = Vec4::splat((-6.0 / (radius * radius)) as f32);
-    taper.clear();
-    for four in terms.chunks(4) {
-        let r2 = Vec4::from_array(std::array::from_fn(|l| {
-            four.get(l)
-                .map_or(0.0, |x| (x[1] * x[1] + x[2] * x[2]) as f32)
-        }));
-        let t = exp4(r2 * falloff).to_array();
-        taper.extend(t[..four.len()].iter().map(|&t| f64::from(t)));
-    }
-    let Some(narrow) = factor(weight, terms, Some(taper), ridge).map(|l| inverse(&l)) else {
-        return true;
-    };
-    // The narrower fit's weight at the centroid: its inverse's first row, dotted.
-    let narrow_at_centre = |(k, x): (usize, &[f64; N])| {
-        narrow[0].iter().zip(x).map(|(f, x)| f * x).sum::<f64>() * weight[k] * taper[k]
-    };
-    let differences = (fitted.iter().zip(terms.iter().enumerate()))
-        .map(|(e, entry)| e[0] - narrow_at_centre(entry));
-    let share = share_of_second((key, differences), sw, guide, delta);
-    if share > 0.0 {
-        for (k, (x, e)) in terms.iter().zip(fitted.iter_mut()).enumerate() {
-            let n = weights(&narrow, x, weight[k] * taper[k]);
-            for (e, n) in e.iter_mut().zip(n) {
-                *e = *e * (1.0 - share) + n * share;
-            }
-        }
-    }
     true
 }
 
@@ -181,14 +148,15 @@ pub(super) fn fit<'g, const N: usize>(
 /// first. `differences` holds each entry's weight at the centroid in the first fit less in
 /// the second, entry k reading cluster `keys[k]`'s guide (`sw` floats in lanes, and its
 /// variance, from `guide`). The two fits of the guide at the centroid differ by d² of their
-/// difference's noise, Σ (a_k − b_k)² σ²_k: the share is 0 up to [`NARROWER`]'s first
-/// threshold and 1 from its second, and 0 where there is no noise (d² NaN). `delta` is the
+/// difference's noise, Σ (a_k − b_k)² σ²_k: the share is 0 up to the first of `thresholds`
+/// and 1 from the second, and 0 where there is no noise (d² NaN). `delta` is the
 /// difference's buffer, per four coefficients of the guide.
 pub(super) fn share_of_second<'g>(
     (keys, differences): (&[u32], impl Iterator<Item = f64>),
     sw: usize,
     guide: impl Fn(u32) -> (&'g [Vec4], f32),
     delta: &mut Vec<Vec4>,
+    (start, full): (f64, f64),
 ) -> f64 {
     delta.clear();
     delta.resize(super::range::guide_lanes(sw), Vec4::ZERO);
@@ -202,54 +170,115 @@ pub(super) fn share_of_second<'g>(
         }
     }
     let squared: f64 = delta.iter().map(|d| f64::from(d.length_squared())).sum();
-    let (start, full) = NARROWER;
     let d2 = squared / (sw.max(1) as f64 * variance);
     let share = ((d2 - start) / (full - start)).clamp(0.0, 1.0);
     // NaN (no variance) keeps the first fit.
     if share > 0.0 { share } else { 0.0 }
 }
 
+/// Blends the curved fit ([`CURVED`] terms) of the kernel in `curved` (its entries pushed)
+/// into the fit so far, `current`: each entry's weights on the same terms, 0 on those the
+/// fit so far has not. Lepski's rule at [`CURVED_FROM`] compares the two at the centroid;
+/// the test needs only the curved fit's weights there (one solve), and its other weights
+/// are formed only where it counts. Returns whether it counts.
+///
+/// A first-order fit over 7 texels misses where the transfer curves over the kernel: the
+/// shade of a crate darkens the floor faster towards its foot, over 10–20 texels, and the
+/// plane's fit reads the floor too bright near the crate and too dark further out (the
+/// half-width fit blends in only where the bend is sharper than its noise). The squares of
+/// the plane's coordinates follow that curve; where the transfer is straight they cost noise
+/// and the rule keeps the fit so far.
+pub(super) fn blend_curved<'g>(
+    curved: &mut Scratch<CURVED>,
+    current: &mut [[f64; CURVED]],
+    sw: usize,
+    guide: impl Fn(u32) -> (&'g [Vec4], f32),
+) -> bool {
+    let Scratch {
+        key,
+        weight,
+        terms,
+        delta,
+        ..
+    } = curved;
+    let Some(l) = factor(weight, terms, &CURVED_RIDGES) else {
+        return false;
+    };
+    // The fit's weights at the centroid: A⁻¹'s first row, dotted with each entry's terms.
+    let mut first = [0.0; CURVED];
+    first[0] = 1.0;
+    cholesky::solve(&l, &mut first);
+    let at_centre = |k: usize| -> f64 {
+        let x = &terms[k];
+        first.iter().zip(x).map(|(f, x)| f * x).sum::<f64>() * weight[k]
+    };
+    let differences = (0..key.len()).map(|k| current[k][0] - at_centre(k));
+    let share = share_of_second((key, differences), sw, guide, delta, CURVED_FROM);
+    if share <= 0.0 {
+        return false;
+    }
+    let inverse = inverse(&l);
+    for (k, (x, e)) in terms.iter().zip(current.iter_mut()).enumerate() {
+        let c = weights(&inverse, x, weight[k]);
+        for (e, c) in e.iter_mut().zip(c) {
+            *e = *e * (1.0 - share) + c * share;
+        }
+    }
+    true
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    /// A texel on a 15 × 15 grid of neighbours (one spacing apart, radius 7) whose guide bends
-    /// faster than a line (a contact shadow's exp): with a noise far below the fits'
-    /// difference the narrower fit is blended in and reads the texel's value closer; with a
-    /// noise far above it the wide fit is kept, to the bit.
+    /// A texel on a 15 × 15 grid of neighbours (one spacing apart, radius 7) whose guide
+    /// curves over the kernel, as a crate's shade does towards its foot: with a noise far
+    /// below the fits' difference the curved fit is blended in and reads the texel's value
+    /// where the plane's misses; with a noise far above it the plane's fit is kept, to the
+    /// bit.
     #[test]
-    fn the_narrower_fit_is_blended_in_where_the_guide_bends_beyond_its_noise() {
+    fn the_curved_fit_is_blended_in_where_the_guide_curves_beyond_its_noise() {
         let radius = 7.0f64;
         let places: Vec<(f64, f64)> = (-7..=7)
             .flat_map(|x| (-7..=7).map(move |y| (f64::from(x), f64::from(y))))
             .filter(|(x, y)| x * x + y * y <= radius * radius)
             .collect();
-        let guides: Vec<[Vec4; 1]> = places
-            .iter()
-            .map(|&(x, _)| [Vec4::new((x * 0.6).exp() as f32, 0.0, 0.0, 0.0)])
+        let value = |x: f64, y: f64| 0.5 + 0.05 * x + 0.01 * x * x - 0.005 * x * y;
+        let guides: Vec<[Vec4; 1]> = (places.iter())
+            .map(|&(x, y)| [Vec4::new(value(x, y) as f32, 0.0, 0.0, 0.0)])
             .collect();
-        let read = |narrower: Option<f64>, noise: f32| {
-            let mut scratch = Scratch::<PLANE>::default();
-            scratch.extend(places.iter().enumerate().map(|(k, &(x, y))| {
-                let w = (-2.0 * (x * x + y * y) / (radius * radius)).exp() as f32;
-                (k as u32, w, [1.0, x, y])
+        let weight = |x: f64, y: f64| (-2.0 * (x * x + y * y) / (radius * radius)).exp() as f32;
+        let mut plane = Scratch::<PLANE>::default();
+        plane.extend(
+            (places.iter().enumerate()).map(|(k, &(x, y))| (k as u32, weight(x, y), [1.0, x, y])),
+        );
+        assert!(fit(&mut plane, &PLANE_RIDGES));
+        let first_order: Vec<[f64; CURVED]> = (plane.fitted.iter())
+            .map(|f| std::array::from_fn(|t| f.get(t).copied().unwrap_or(0.0)))
+            .collect();
+        let read = |noise: f32| {
+            let mut curved = Scratch::<CURVED>::default();
+            curved.extend(places.iter().enumerate().map(|(k, &(x, y))| {
+                (
+                    k as u32,
+                    weight(x, y),
+                    [1.0, x, y, 0.0, x * x, x * y, y * y],
+                )
             }));
-            assert!(fit(&mut scratch, &PLANE_RIDGES, narrower, 1, |k| {
-                (&guides[k as usize][..], noise)
-            }));
-            let at_centre: f64 = (scratch.fitted.iter().zip(&guides))
+            let mut weights = first_order.clone();
+            let guide = |k: u32| (&guides[k as usize][..], noise);
+            let blended = blend_curved(&mut curved, &mut weights, 1, guide);
+            let at_centre: f64 = (weights.iter().zip(&guides))
                 .map(|(e, g)| e[0] * f64::from(g[0].x))
                 .sum();
-            (scratch.fitted, at_centre)
+            (blended, weights, (at_centre - 0.5).abs())
         };
-        let (wide, wide_value) = read(None, 1e-6);
-        let (quiet, quiet_value) = read(Some(radius), 1e-6);
-        let (noisy, _) = read(Some(radius), 1e9);
-        assert!(
-            (quiet_value - 1.0).abs() < 0.5 * (wide_value - 1.0).abs(),
-            "{quiet_value} {wide_value}"
-        );
-        assert_eq!(noisy, wide);
-        assert_ne!(quiet, wide);
+        let (blended, _, curved) = read(1e-8);
+        assert!(blended, "not blended in at a low noise");
+        let (blended, kept, _) = read(1e9);
+        assert!(!blended, "blended in at a high noise");
+        assert_eq!(kept, first_order);
+        let (_, _, missed) = read(1e9);
+        assert!(curved < 0.01 * missed, "curved {curved}, plane {missed}");
     }
 }

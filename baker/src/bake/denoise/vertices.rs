@@ -86,13 +86,15 @@ pub(super) struct Scratch {
     pub centre_only: bool,
     /// Texels: each entry's weights on the fit's terms past the plane's (1, u, v), where
     /// the cluster's fit has them: the shading normal's (a, b, and a², ab, b² where the fit
-    /// is quadratic in it; [`super::normal_fit`]), or the contact term ([`super::contact`]);
-    /// empty where the fit is in the plane alone.
+    /// is quadratic in it; [`super::normal_fit`]), or the contact term and the plane's
+    /// squares (c, u², uv, v²; [`super::texel_kernel`]); empty where the fit is in the
+    /// plane alone.
     pub extra: Vec<[f32; super::normal_fit::NORMAL]>,
-    /// Texels: what their fits read ([`super::texel_fit`]).
-    pub plane_fit: super::texel_fit::Scratch<{ super::texel_fit::PLANE }>,
+    /// Texels: how many of `extra`'s terms the fit has (0 where it is empty).
+    pub extra_terms: usize,
+    /// Texels: what their fits read.
     pub normal_fits: super::normal_fit::Fits,
-    pub contact_fits: super::contact::Fits,
+    pub texel_fits: super::texel_kernel::Fits,
     /// The fits' weights while they are blended.
     blended: Vec<[f64; TERMS]>,
     /// Per coefficient of the guide, in lanes: two fits' difference ([`blend`]); per term,
