@@ -200,8 +200,8 @@ impl Filter<'_> {
                     rows.clear();
                     for c in block.clone().filter(answers) {
                         self.cluster_kernel(c, scratch);
-                        // The fit's terms: (1, u, v), and the normal's or the contact
-                        // term where it has them.
+                        // The fit's terms: (1, u, v), and those past them where it has
+                        // them ([`Filter::member_extra`]).
                         let terms = 3 + scratch.extra_terms;
                         sums.clear();
                         sums.resize(terms * (width + 1), 0.0);

@@ -12,16 +12,22 @@
 //!
 //! A regressor costs noise where it removes no bias (the Cornell room's corners, whose plane
 //! fit was unbiased already: 2–3 % more error at 64 rays). So the fit in the contact term
-//! counts, by Lepski's rule as the narrower fit does ([`texel_fit::share_of_second`]), only where it
-//! differs from the plane's fit on the guide by more than that difference's noise.
+//! counts, by Lepski's rule as the curved fit does ([`texel_fit::share_of_second`]), only
+//! where it differs from the plane's fit on the guide by more than that difference's noise.
+//!
+//! Texels with a contact term are clusters of their own ([`alone`]): around a crate's foot
+//! the transfer bends faster than over a cluster's 3 texels, and a cluster's members share
+//! its kernel and its fits' choices. With the curved fit ([`texel_fit::blend_curved`]), the
+//! courtyard at 64 rays 0.957 / 1.601 / 0.560 % -> 0.918 / 1.531 / 0.526 %, for about twice
+//! the filter's time.
 //!
 //! Measured at 64 rays against 16,384, sun and sky / low sun / sky, 2 seeds: the production
 //! courtyard 1.057 / 1.737 / 0.612 % -> **1.010 / 1.673 / 0.583 %** (at 256 rays 0.537 /
 //! 0.877 / 0.305 -> 0.520 / 0.855 / 0.294 %); the Cornell room within 0.5 %. Without the rule,
 //! the courtyard 1.019 / 1.679 / 0.578 % and the room 2–3 % worse; the contact term linear in
 //! d, 1.039 %; a reach of 2, 4 or 8 texels, 1.019, 1.011 and 1.033 % (without the rule);
-//! (1 − d / 3) and its square as two regressors, no better than one. The courtyard's filter
-//! takes 0.31 CPU-s on one thread instead of 0.25, the terms 30 ms of it.
+//! (1 − d / 3) and its square as two regressors, no better than one. Finding the terms takes
+//! 30 ms of the courtyard's filter on one thread.
 
 use glam::Vec4;
 
@@ -37,7 +43,8 @@ pub(super) const REACH: f32 = 3.0;
 const RIDGES: [f64; PLANE + 1] = [PLANE_RIDGES[0], PLANE_RIDGES[1], PLANE_RIDGES[2], 1e-2];
 /// The squared difference of the plane's fit and the fit in the contact term on the guide,
 /// over its noise variance, from which the contact term counts and at which its fit is
-/// taken whole: the thresholds the half-width fit had (docs/explanation/denoising.md).
+/// taken whole (measured with a fit half as wide blended into both, since replaced by the
+/// curved fit: docs/explanation/denoising.md).
 const CONTACT_FROM: (f64, f64) = (2.5, 10.0);
 /// A texel of the same object and material is another surface where its surface normal turns
 /// from the texel's by more than this cosine (a crease of one mesh, about 45°).
@@ -49,8 +56,9 @@ const OFF_PLANE: f32 = 0.5;
 /// first member's.
 const FLAT: f32 = 0.999;
 
-/// Texels whose contact term is above this, within about 2 texels of another surface, are
-/// clusters of their own ([`alone`]).
+/// Texels whose contact term is above this, within [`REACH`] of another surface, are clusters
+/// of their own ([`alone`]). On the courtyard at 64 rays: above 0, 0.918 %; above 0.1 (within
+/// 2 texels), 0.931 % for 0.85 × the filter's time; above 0.3, 0.957 %.
 const ALONE_ABOVE: f32 = 0.0;
 
 /// Whether receiver i, of contact term `terms[i]` (none where `terms` is empty), is a
@@ -287,9 +295,9 @@ pub(super) struct Fits {
 /// Blends the fit in (u, v, c) of a cluster's kernel entries (k, [w, u, v]) into the fit
 /// over the plane, `current` (each entry's weights on the terms of [`CURVED`], the plane's
 /// fit on the first three), where its neighbours' contact terms differ from its own:
-/// `offset(k)`, neighbour k's term less the cluster's. The fit in the contact term (the
-/// narrower fit blended in at `radius`) counts by how far it departs from the plane's on
-/// the guide. Returns whether it counts (else `current` is as it was).
+/// `offset(k)`, neighbour k's term less the cluster's. The fit in the contact term counts by
+/// how far it departs from the plane's on the guide. Returns whether it counts (else
+/// `current` is as it was).
 pub(super) fn blend<'g>(
     (entries, current): (&[Entry], &mut [[f64; CURVED]]),
     fits: &mut Fits,
@@ -309,7 +317,7 @@ pub(super) fn blend<'g>(
     if !texel_fit::fit(contact, &RIDGES) {
         return false;
     }
-    // Lepski's rule, as for the narrower fit: the contact term counts where the two fits of
+    // Lepski's rule, as for the curved fit: the contact term counts where the two fits of
     // the guide at the centroid differ by more than their difference's noise.
     let differences = (contact.fitted.iter().zip(current.iter())).map(|(a, b)| b[0] - a[0]);
     let keys = (&contact.key[..], differences);

@@ -68,9 +68,10 @@
 //! kernel biases every gradient (towards a contact shadow, over a chart's last texels, where
 //! the neighbours lie on one side), the fit does not. Its weights may go negative and cost a
 //! little noise; on the Cornell room at 128² it takes a 64-ray bake's error from 3.5 % to
-//! 1.9 % (docs/explanation/denoising.md). Where the transfer bends within a few texels, a fit
-//! half as wide is blended in by Lepski's rule ([`texel_fit`]); over a normal map the fit is
-//! in the normal too ([`normal_fit`]); near another surface, in the distance to it ([`contact`]).
+//! 1.9 % (docs/explanation/denoising.md). Where the transfer curves over the kernel, a fit in
+//! the plane's squares is blended in by Lepski's rule ([`texel_fit`]); over a normal map the
+//! fit is in the normal too ([`normal_fit`]); near another surface, in the distance to it,
+//! and there each texel is a cluster of its own ([`contact`]).
 //!
 //! The weights sum to 1, so a constant transfer is kept exactly. They are a pure function of
 //! the guides and the bake's transfer, formed receiver by receiver over neighbours in a fixed

@@ -184,8 +184,7 @@ pub(super) fn share_of_second<'g>(
 ///
 /// A first-order fit over 7 texels misses where the transfer curves over the kernel: the
 /// shade of a crate darkens the floor faster towards its foot, over 10–20 texels, and the
-/// plane's fit reads the floor too bright near the crate and too dark further out (the
-/// half-width fit blends in only where the bend is sharper than its noise). The squares of
+/// plane's fit reads the floor too bright near the crate and too dark further out. The squares of
 /// the plane's coordinates follow that curve; where the transfer is straight they cost noise
 /// and the rule keeps the fit so far.
 pub(super) fn blend_curved<'g>(
