@@ -18,8 +18,8 @@
 //! Texels with a contact term are clusters of their own ([`alone`]): around a crate's foot
 //! the transfer bends faster than over a cluster's 3 texels, and a cluster's members share
 //! its kernel and its fits' choices. With the curved fit ([`texel_fit::blend_curved`]), the
-//! courtyard at 64 rays 0.957 / 1.601 / 0.560 % -> 0.918 / 1.531 / 0.526 %, for about twice
-//! the filter's time.
+//! courtyard at 64 rays 0.957 / 1.601 / 0.560 % -> 0.918 / 1.531 / 0.526 %, for 1.6 × the
+//! filter's time.
 //!
 //! Measured at 64 rays against 16,384, sun and sky / low sun / sky, 2 seeds: the production
 //! courtyard 1.057 / 1.737 / 0.612 % -> **1.010 / 1.673 / 0.583 %** (at 256 rays 0.537 /
