@@ -19,7 +19,9 @@
 //! bake of more rays can pay. On the courtyard (2 seeds, sun and sky / low sun / sky): at
 //! 1,024 rays 0.316 / 0.515 / 0.172 % -> 0.303 / 0.494 / 0.165 %; at 256 rays 0.551 / 0.881
 //! / 0.313 % -> 0.537 / 0.877 / 0.305 % (the wall's part of the sun and sky 0.243 -> 0.210
-//! points); at 64 rays the low sun's 1.74 % rose to 1.80 %.
+//! points); at 64 rays the low sun's 1.74 % rose to 1.80 %, so under 256 rays the quadratic
+//! fit is blended in by Lepski's rule ([`QUADRATIC_FROM`]) where it departs from the
+//! first-order one by more than noise.
 //!
 //! The bumps also make neighbours' transfer differ by many noise deviations, so a range term
 //! that compares each neighbour with the texel's own guide cuts most of them, and leaves the
