@@ -10,7 +10,7 @@ use crate::bake::probes::ProbeBaker;
 use crate::distribute::probe_parts::ProbePart;
 use crate::distribute::shard::{PartId, ShardId, shard_range};
 use crate::formats::coefficient_file::CoefficientFile;
-use crate::formats::header::Header;
+use crate::formats::header::{Header, PROBE_HEADER_SIZE};
 use crate::formats::probe_block::ProbeBlock;
 use crate::scene::Scene;
 use crate::support::error::{Error, Result};
@@ -150,10 +150,15 @@ pub fn bake_checkpointed(
     })
 }
 
-/// Whether the file at `path` is a probe bake's part (so `merge` merges probe parts).
+/// Whether the file at `path` is a probe bake's part (so `merge` merges probe parts). Its
+/// header says so: only that is read, not a texel part of hundreds of megabytes.
 pub fn is_probe_part(path: &Path) -> Result<bool> {
-    let bytes = std::fs::read(path).map_err(|err| Error::io(path, err))?;
-    Ok(ProbePart::is_probe_part(&bytes))
+    use std::io::Read;
+    let file = std::fs::File::open(path).map_err(|err| Error::io(path, err))?;
+    let mut header = Vec::with_capacity(PROBE_HEADER_SIZE);
+    (file.take(PROBE_HEADER_SIZE as u64).read_to_end(&mut header))
+        .map_err(|err| Error::io(path, err))?;
+    Ok(ProbePart::is_probe_part(&header))
 }
 
 /// Reads, checks and merges the probe parts at `paths` (in any order): one bake's (same
