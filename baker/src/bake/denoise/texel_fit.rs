@@ -91,13 +91,18 @@ fn factor<const N: usize>(
     terms: &[[f64; N]],
     ridge: &[f64; N],
 ) -> Option<[[f64; N]; N]> {
+    // Row by row, each row's sums kept in registers over the entries rather than the whole
+    // matrix in memory: the same sums, in the same order.
     let mut a = [[0.0f64; N]; N];
-    for (&w, x) in weight.iter().zip(terms) {
-        for p in 0..N {
-            for q in 0..=p {
-                a[p][q] += w * x[p] * x[q];
+    for (p, row) in a.iter_mut().enumerate() {
+        let mut sums = [0.0f64; N];
+        for (&w, x) in weight.iter().zip(terms) {
+            let wx = w * x[p];
+            for (s, &xq) in sums[..=p].iter_mut().zip(x) {
+                *s += wx * xq;
             }
         }
+        row[..=p].copy_from_slice(&sums[..=p]);
     }
     let mass = a[0][0];
     for (p, row) in a.iter_mut().enumerate() {
@@ -116,9 +121,23 @@ fn inverse<const N: usize>(l: &[[f64; N]; N]) -> [[f64; N]; N] {
     })
 }
 
-/// A⁻¹ x w: an entry's weights in the fit of inverse `b`.
-fn weights<const N: usize>(b: &[[f64; N]; N], x: &[f64; N], w: f64) -> [f64; N] {
-    b.map(|row| row.iter().zip(x).map(|(b, x)| b * x).sum::<f64>() * w)
+/// A⁻¹ x w: an entry's weights in the fit of inverse `b`, given as its columns: the sum
+/// over x's terms in their order, each a column scaled, runs down the rows in vector
+/// registers.
+#[inline(always)]
+fn weights<const N: usize>(columns: &[[f64; N]; N], x: &[f64; N], w: f64) -> [f64; N] {
+    let mut out = [-0.0; N];
+    for (column, &x) in columns.iter().zip(x) {
+        for (out, b) in out.iter_mut().zip(column) {
+            *out += b * x;
+        }
+    }
+    out.map(|sum| sum * w)
+}
+
+/// The columns of `b`.
+fn columns<const N: usize>(b: &[[f64; N]; N]) -> [[f64; N]; N] {
+    std::array::from_fn(|q| std::array::from_fn(|p| b[p][q]))
 }
 
 /// Turns the kernel pushed into `scratch` into the weights of its first-order fit,
@@ -131,7 +150,7 @@ pub(super) fn fit<const N: usize>(scratch: &mut Scratch<N>, ridge: &[f64; N]) ->
         fitted,
         ..
     } = scratch;
-    let Some(inverse) = factor(weight, terms, ridge).map(|l| inverse(&l)) else {
+    let Some(inverse) = factor(weight, terms, ridge).map(|l| columns(&inverse(&l))) else {
         return false;
     };
     fitted.clear();
@@ -216,7 +235,7 @@ pub(super) fn blend_curved<'g>(
     if share <= 0.0 {
         return false;
     }
-    let inverse = inverse(&l);
+    let inverse = columns(&inverse(&l));
     for (k, (x, e)) in terms.iter().zip(current.iter_mut()).enumerate() {
         let c = weights(&inverse, x, weight[k]);
         for (e, c) in e.iter_mut().zip(c) {
