@@ -69,9 +69,9 @@
 //! the neighbours lie on one side), the fit does not. Its weights may go negative and cost a
 //! little noise; on the Cornell room at 128² it takes a 64-ray bake's error from 3.5 % to
 //! 1.9 % (docs/explanation/denoising.md). Where the transfer curves over the kernel, a fit in
-//! the plane's squares is blended in by Lepski's rule ([`texel_fit`]); over a normal map the
-//! fit is in the normal too ([`normal_fit`]); near another surface, in the distance to it,
-//! and there each texel is a cluster of its own ([`contact`]).
+//! the plane's squares is blended in by Lepski's rule ([`texel_fit`]); over a normal map or a
+//! surface that bends within texels the fit is in the normal too ([`normal_fit`]); near
+//! another surface, in the distance to it, each texel a cluster of its own ([`contact`]).
 //!
 //! The weights sum to 1, so a constant transfer is kept exactly. They are a pure function of
 //! the guides and the bake's transfer, formed receiver by receiver over neighbours in a fixed
@@ -173,14 +173,13 @@ pub struct Filter<'g> {
     cluster_of: Vec<u32>,
     /// Each cluster's tangent frame (its representative's plane): the fit's axes.
     frames: Vec<(glam::Vec3, glam::Vec3)>,
-    /// Texels of a bake with a normal map: each cluster's members' mean shading normal,
+    /// Texels of groups fitted in the normal: each cluster's members' mean shading normal,
     /// where [`normal_fit`] reads the cluster's normal (empty otherwise).
     tap_normals: Vec<glam::Vec3>,
-    /// Texels: per group (object and material), whether a normal map turns some shading
-    /// normal off its surface's: only those groups' clusters try [`normal_fit`].
-    mapped_groups: Vec<bool>,
+    /// Texels: per group (object and material), whether its clusters try [`normal_fit`].
+    normal_groups: Vec<normal_fit::Normals>,
     /// Texels ([`Settings::contact`]): each receiver's contact term and each cluster's, which
-    /// the fits of groups without a normal map read ([`contact`]); empty otherwise.
+    /// the fits of groups fitted over the plane read ([`contact`]); empty otherwise.
     contact: std::sync::Arc<[f32]>,
     tap_contact: Vec<f32>,
     signal_width: usize,
@@ -276,7 +275,7 @@ impl<'g> Filter<'g> {
             cluster_of: Vec::new(),
             frames: Vec::new(),
             tap_normals: Vec::new(),
-            mapped_groups: Vec::new(),
+            normal_groups: Vec::new(),
             contact,
             tap_contact: Vec::new(),
             signal_width,
@@ -381,10 +380,10 @@ impl<'g> Filter<'g> {
             .map(|&r| guides.surfaces[r as usize].any_orthonormal_pair())
             .collect();
         if !settings.quadratic {
-            filter.mapped_groups = normal_fit::mapped_groups(guides);
+            filter.normal_groups = normal_fit::groups(guides, &filter.fine);
         }
-        // The clusters' mean normals, which only a normal-mapped group's fit reads.
-        if filter.mapped_groups.contains(&true) {
+        // The clusters' mean normals, which only a fit in the normal reads.
+        if (filter.normal_groups.iter()).any(|&n| n != normal_fit::Normals::Plane) {
             filter.tap_normals = (0..clusters.reps.len())
                 .map(|c| {
                     let sum = clusters.row(c).iter().fold(glam::Vec3::ZERO, |s, &(m, w)| {
@@ -569,13 +568,15 @@ impl<'g> Filter<'g> {
             true => &self.tap_lanes[own * lanes..][..lanes],
             false => &[],
         };
-        let squarings = match vertices {
-            true => vertices::NORMAL_SQUARINGS,
-            false => NORMAL_SQUARINGS,
-        };
         let pi = self.clusters.points[c];
         let (ni, si, group) = (g.normals[r], g.surfaces[r], g.groups[r]);
-        let mapped = !vertices && self.mapped_groups[group as usize];
+        let normals = self.normal_groups.get(group as usize);
+        let mapped = normals.is_some_and(|&n| n != normal_fit::Normals::Plane);
+        let squarings = match (vertices, normals) {
+            (true, _) => vertices::NORMAL_SQUARINGS,
+            (false, Some(normal_fit::Normals::Bends)) => normal_fit::BENDING_POWER,
+            (false, _) => NORMAL_SQUARINGS,
+        };
         let (spacing, noise) = (g.spacing[r], self.taps[c].noise);
         let reach = radius * spacing;
         let (t1, t2) = self.frames[c];

@@ -422,3 +422,61 @@ fn noisy_error(
     }
     (squares / (8 * count) as f32).sqrt()
 }
+
+/// A corrugated sheet whose surface normals turn about 6° a texel, as a terrain's do, with a
+/// noisy transfer that follows the normal: it bends ([`normal_fit::groups`]), so it is fitted
+/// in the normal with a normal term at the power 1, and keeps far less noise than a fit over
+/// the plane does (0.0098 against 0.0168 for a noise of 0.05; at the power 32, 0.0127). A
+/// flat sheet under a normal map does not bend.
+#[test]
+fn a_surface_that_bends_within_a_few_texels_is_fitted_in_its_normal() {
+    let mut guides = Guides::default();
+    for (a, b) in (0..32).flat_map(|a| (0..32).map(move |b| (a as f32, b as f32))) {
+        let n = Vec3::new(-0.6 * (0.3 * a).cos(), 0.0, 1.0).normalize();
+        guides.points.push(Vec3::new(a, b, 2.0 * (0.3 * a).sin()));
+        guides.normals.push(n);
+        guides.surfaces.push(n);
+        guides.groups.push(0);
+        guides.spacing.push(1.0);
+    }
+    let sigma = 0.05f32;
+    guides.noise = vec![sigma * sigma; guides.points.len()];
+    let fine = grid::Grid::new(&guides.points, 3.0);
+    assert_eq!(
+        normal_fit::groups(&guides, &fine),
+        [normal_fit::Normals::Bends]
+    );
+    let clean: Vec<f32> = guides.normals.iter().map(|n| 0.5 + 0.4 * n.x).collect();
+    let error = |bends: bool| {
+        let mut squares = 0.0;
+        for seed in 0..4 {
+            let mut rng = crate::math::sampling::Pcg32::new(seed, 5);
+            let noisy: Vec<f32> = (clean.iter())
+                .map(|t| t + sigma * 3f32.sqrt() * (2.0 * rng.next_f32() - 1.0))
+                .collect();
+            let mut filter = Filter::new(&guides, Settings::TEXELS, &noisy, 1, 1);
+            if !bends {
+                filter.normal_groups = vec![normal_fit::Normals::Plane];
+                let shifted = filter.shifted.as_deref_mut().expect("two lattices");
+                shifted.normal_groups = vec![normal_fit::Normals::Plane];
+            }
+            let out = filter.apply(&noisy, 1);
+            squares += (out.iter().zip(&clean))
+                .map(|(a, b)| (a - b) * (a - b))
+                .sum::<f32>();
+        }
+        (squares / (4 * clean.len()) as f32).sqrt()
+    };
+    let (bends, plane) = (error(true), error(false));
+    eprintln!("noise {sigma}: bending {bends}, over the plane {plane}");
+    assert!(
+        bends < 0.7 * plane,
+        "bending {bends}, over the plane {plane}"
+    );
+    let flat = bumpy_sheet(0.0);
+    let fine = grid::Grid::new(&flat.points, 3.0);
+    assert_eq!(
+        normal_fit::groups(&flat, &fine),
+        [normal_fit::Normals::Mapped]
+    );
+}
