@@ -98,6 +98,7 @@ use rayon::prelude::*;
 
 use clusters::Clusters;
 pub use guides::{Guides, texel_guides, vertex_guides};
+use normal_fit::{NORMAL_SQUARINGS, power_of_two};
 use range::{range_exponent, range_term, squared_difference};
 pub use settings::{FINE_CLUSTERS_FROM, Settings};
 
@@ -121,18 +122,6 @@ const GUIDE_MASS: f32 = 3.0;
 /// How far the second lattice's cells lie from the first's, in cells along every axis: half
 /// a cluster, so that each seam of one lattice runs through the other's clusters.
 const SECOND_LATTICE_SHIFT: f32 = 0.5;
-/// The power of the shading normals' dot product, 2⁵ = 32, as the number of squarings that
-/// raise it: x^32 inline, rather than a call to the runtime's `powi` for an exponent known
-/// only at run time (the same product, bit for bit).
-const NORMAL_SQUARINGS: u32 = 5;
-
-/// x^(2^`squarings`).
-fn power_of_two(mut x: f32, squarings: u32) -> f32 {
-    for _ in 0..squarings {
-        x *= x;
-    }
-    x
-}
 
 /// What the wide pass reads of one cluster.
 struct Tap {
@@ -235,18 +224,24 @@ impl<'g> Filter<'g> {
         // Texels in clusters: what the second lattice and the contact term are for.
         let texels = settings.step.is_some() && !settings.quadratic;
         let fine = grid::Grid::new(&guides.points, cell);
+        // Texels: how each group is fitted, the same on both lattices.
+        let normals = match settings.quadratic {
+            true => Vec::new(),
+            false => normal_fit::groups(guides, &fine),
+        };
         let contact: std::sync::Arc<[f32]> = match texels && settings.contact {
             true => contact::terms(guides, &fine).into(),
             false => std::sync::Arc::new([]),
         };
-        let mut filter = Filter::on_lattice(guides, settings, input, fine, contact.clone());
+        let terms = (contact.clone(), normals.clone());
+        let mut filter = Filter::on_lattice(guides, settings, input, fine, terms);
         if settings.second_lattice && texels {
             let settings = Settings {
                 second_lattice: false,
                 ..settings
             };
             let fine = grid::Grid::shifted(&guides.points, cell, SECOND_LATTICE_SHIFT);
-            let shifted = Filter::on_lattice(guides, settings, input, fine, contact);
+            let shifted = Filter::on_lattice(guides, settings, input, fine, (contact, normals));
             filter.shifted = Some(Box::new(shifted));
         }
         filter
@@ -254,13 +249,14 @@ impl<'g> Filter<'g> {
 
     /// [`Filter::new`] on one lattice of clusters, the cells of `fine`, for the range term's
     /// `signal`, `signal_width` floats per receiver, which is the whole transfer where
-    /// `whole`, with each receiver's `contact` term (empty where not fitted in).
+    /// `whole`, with each receiver's `contact` term (empty where not fitted in) and each
+    /// group's way of fitting its `normals` (empty for vertices).
     fn on_lattice(
         guides: &'g Guides,
         settings: Settings,
         (signal, signal_width, whole): (&[f32], usize, bool),
         fine: grid::Grid,
-        contact: std::sync::Arc<[f32]>,
+        (contact, normals): (std::sync::Arc<[f32]>, Vec<normal_fit::Normals>),
     ) -> Filter<'g> {
         let count = guides.points.len();
         let mut filter = Filter {
@@ -275,7 +271,7 @@ impl<'g> Filter<'g> {
             cluster_of: Vec::new(),
             frames: Vec::new(),
             tap_normals: Vec::new(),
-            normal_groups: Vec::new(),
+            normal_groups: normals,
             contact,
             tap_contact: Vec::new(),
             signal_width,
@@ -379,9 +375,6 @@ impl<'g> Filter<'g> {
             .iter()
             .map(|&r| guides.surfaces[r as usize].any_orthonormal_pair())
             .collect();
-        if !settings.quadratic {
-            filter.normal_groups = normal_fit::groups(guides, &filter.fine);
-        }
         // The clusters' mean normals, which only a fit in the normal reads.
         if (filter.normal_groups.iter()).any(|&n| n != normal_fit::Normals::Plane) {
             filter.tap_normals = (0..clusters.reps.len())
