@@ -314,17 +314,20 @@ pub(super) fn blend<'g>(
         let x = [1.0, f64::from(u), f64::from(v), f64::from(offset(k))];
         (k, w, x)
     }));
-    if !texel_fit::fit(contact, &RIDGES) {
+    let Some(l) = texel_fit::factor_fit(contact, &RIDGES) else {
         return false;
-    }
+    };
     // Lepski's rule, as for the curved fit: the contact term counts where the two fits of
-    // the guide at the centroid differ by more than their difference's noise.
-    let differences = (contact.fitted.iter().zip(current.iter())).map(|(a, b)| b[0] - a[0]);
+    // the guide at the centroid differ by more than their difference's noise. The fit's
+    // other weights are formed only where it counts.
+    let centre = texel_fit::at_centre(&l, (&contact.terms, &contact.weight));
+    let differences = current.iter().zip(centre).map(|(b, a)| b[0] - a);
     let keys = (&contact.key[..], differences);
     let share = texel_fit::share_of_second(keys, sw, guide, delta, CONTACT_FROM);
     if share <= 0.0 {
         return false;
     }
+    texel_fit::fill(&l, contact);
     for (e, a) in current.iter_mut().zip(&contact.fitted) {
         for t in 0..PLANE {
             e[t] = a[t] * share + e[t] * (1.0 - share);

@@ -236,29 +236,39 @@ pub(super) fn fit_kernel<'g>(
                 return None;
             }
             match quadratic_on(first_order, entries, second_order) {
-                true => {
-                    let differences = (first_order.fitted.iter().zip(&second_order.fitted))
-                        .map(|(a, b)| a[0] - b[0]);
+                // The quadratic fit's other weights are formed only where it counts.
+                Some(l) => {
+                    let quadratic = (&second_order.terms[..], &second_order.weight[..]);
+                    let centre = super::texel_fit::at_centre(&l, quadratic);
+                    let differences =
+                        (first_order.fitted.iter().zip(centre)).map(|(a, b)| a[0] - b);
                     let keys = (&first_order.key[..], differences);
-                    super::texel_fit::share_of_second(keys, sw, guide, delta, QUADRATIC_FROM)
+                    let share =
+                        super::texel_fit::share_of_second(keys, sw, guide, delta, QUADRATIC_FROM);
+                    if share > 0.0 {
+                        super::texel_fit::fill(&l, second_order);
+                    }
+                    share
                 }
-                false => 0.0,
+                None => 0.0,
             }
         }
     };
+    // Each entry's weights on the fit's terms, the two fits blended by the share: one row
+    // at a time, in registers.
     fitted_normal.clear();
     for (n, (_, e)) in kernel.iter_mut().enumerate() {
-        let weight = |t: usize| -> f32 {
-            let quadratic = || second_order.fitted[n][t];
-            let linear = || first_order.fitted[n].get(t).copied().unwrap_or(0.0);
-            match share {
-                0.0 => linear() as f32,
-                1.0 => quadratic() as f32,
-                _ => (quadratic() * share + linear() * (1.0 - share)) as f32,
+        let linear = |t: usize| first_order.fitted[n].get(t).copied().unwrap_or(0.0);
+        let row: [f64; QUADRATIC] = match share {
+            0.0 => std::array::from_fn(linear),
+            1.0 => second_order.fitted[n],
+            _ => {
+                let quadratic = &second_order.fitted[n];
+                std::array::from_fn(|t| quadratic[t] * share + linear(t) * (1.0 - share))
             }
         };
-        *e = std::array::from_fn(weight);
-        fitted_normal.push(std::array::from_fn(|t| weight(3 + t)));
+        *e = std::array::from_fn(|t| row[t] as f32);
+        fitted_normal.push(std::array::from_fn(|t| row[3 + t] as f32));
     }
     Some(match share > 0.0 {
         true => QUADRATIC - 3,
@@ -267,16 +277,17 @@ pub(super) fn fit_kernel<'g>(
 }
 
 /// The quadratic fit of a cluster's kernel entries with the first-order fit's robust
-/// weights, `first`'s, into `fit.fitted`: its entries weighed again by their distance from
+/// weights, `first`'s: its entries weighed again by their distance from
 /// the first-order fit, which band 2's curve over a normal map's bumps leaves within the
 /// range term's reach. Its own first fit and reweighing would cost as much again: on the
 /// courtyard at 64 rays the filter took 0.85 CPU-s instead of 0.74, for 0.918 / 1.531 /
-/// 0.526 % against 0.917 / 1.530 / 0.526 %. Returns false where the fit is singular.
+/// 0.526 % against 0.917 / 1.530 / 0.526 %. Returns the fit's Cholesky factor, its weights
+/// not yet formed ([`super::texel_fit::factor_fit`]), or None where it is singular.
 fn quadratic_on(
     first: &Scratch<LINEAR>,
     (kernel, _, offsets): Entries,
     fit: &mut Scratch<QUADRATIC>,
-) -> bool {
+) -> Option<[[f64; QUADRATIC]; QUADRATIC]> {
     fit.clear();
     fit.key.extend_from_slice(&first.key);
     fit.weight.extend_from_slice(&first.weight);
@@ -284,7 +295,7 @@ fn quadratic_on(
         (kernel.iter().zip(offsets))
             .map(|(&(_, [_, u, v]), &o)| terms(u, v, normal_terms(o, true))),
     );
-    super::texel_fit::fit(fit, &ridges::<QUADRATIC>())
+    super::texel_fit::factor_fit(fit, &ridges::<QUADRATIC>())
 }
 
 /// A cluster's kernel entries, their weights without the range term, and their normal

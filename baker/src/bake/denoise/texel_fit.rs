@@ -144,15 +144,49 @@ fn columns<const N: usize>(b: &[[f64; N]; N]) -> [[f64; N]; N] {
 /// e_k = w_k A⁻¹ x_k with A = Σ w_k x_k x_kᵀ, into `scratch.fitted`: they sum to 1 at every
 /// place. Returns false (nothing fitted) where the fit is singular.
 pub(super) fn fit<const N: usize>(scratch: &mut Scratch<N>, ridge: &[f64; N]) -> bool {
+    match factor_fit(scratch, ridge) {
+        Some(l) => {
+            fill(&l, scratch);
+            true
+        }
+        None => false,
+    }
+}
+
+/// The Cholesky factor of the fit of the kernel pushed into `scratch`, for a fit that
+/// Lepski's rule tests first: the rule reads its weights at the centroid alone
+/// ([`at_centre`]), one solve, and its every weight ([`fill`]) is formed only where it
+/// counts. None where the fit is singular.
+pub(super) fn factor_fit<const N: usize>(
+    scratch: &Scratch<N>,
+    ridge: &[f64; N],
+) -> Option<[[f64; N]; N]> {
+    factor(&scratch.weight, &scratch.terms, ridge)
+}
+
+/// Each entry's weight at the centroid in the fit of Cholesky factor `l`: A⁻¹'s first row
+/// dotted with its terms, the same floats as [`fill`]'s `fitted[k][0]`.
+pub(super) fn at_centre<'a, const N: usize>(
+    l: &[[f64; N]; N],
+    (terms, weight): (&'a [[f64; N]], &'a [f64]),
+) -> impl Iterator<Item = f64> + 'a {
+    let mut first = [0.0; N];
+    first[0] = 1.0;
+    cholesky::solve(l, &mut first);
+    (terms.iter().zip(weight))
+        .map(move |(x, w)| first.iter().zip(x).map(|(f, x)| f * x).sum::<f64>() * w)
+}
+
+/// The fit's weights from its Cholesky factor `l` into `scratch.fitted`, as [`fit`] forms
+/// them.
+pub(super) fn fill<const N: usize>(l: &[[f64; N]; N], scratch: &mut Scratch<N>) {
     let Scratch {
         weight,
         terms,
         fitted,
         ..
     } = scratch;
-    let Some(inverse) = factor(weight, terms, ridge).map(|l| columns(&inverse(&l))) else {
-        return false;
-    };
+    let inverse = columns(&inverse(l));
     fitted.clear();
     fitted.extend(
         weight
@@ -160,7 +194,6 @@ pub(super) fn fit<const N: usize>(scratch: &mut Scratch<N>, ridge: &[f64; N]) ->
             .zip(terms.iter())
             .map(|(&w, x)| weights(&inverse, x, w)),
     );
-    true
 }
 
 /// Lepski's rule between two fits of one kernel: the share of the second to blend into the
@@ -222,15 +255,8 @@ pub(super) fn blend_curved<'g>(
     let Some(l) = factor(weight, terms, &CURVED_RIDGES) else {
         return false;
     };
-    // The fit's weights at the centroid: A⁻¹'s first row, dotted with each entry's terms.
-    let mut first = [0.0; CURVED];
-    first[0] = 1.0;
-    cholesky::solve(&l, &mut first);
-    let at_centre = |k: usize| -> f64 {
-        let x = &terms[k];
-        first.iter().zip(x).map(|(f, x)| f * x).sum::<f64>() * weight[k]
-    };
-    let differences = (0..key.len()).map(|k| current[k][0] - at_centre(k));
+    let centre = at_centre(&l, (terms, weight));
+    let differences = current.iter().zip(centre).map(|(e, c)| e[0] - c);
     let share = share_of_second((key, differences), sw, guide, delta, CURVED_FROM);
     if share <= 0.0 {
         return false;
