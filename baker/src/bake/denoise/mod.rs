@@ -85,6 +85,7 @@ mod exp4;
 mod grid;
 pub mod guides;
 mod normal_fit;
+mod prefilter;
 mod range;
 mod settings;
 pub mod stage;
@@ -93,8 +94,6 @@ mod texel_kernel;
 mod vertex_apply;
 mod vertex_clusters;
 mod vertices;
-
-use rayon::prelude::*;
 
 use clusters::Clusters;
 pub use guides::{Guides, texel_guides, vertex_guides};
@@ -454,72 +453,6 @@ impl<'g> Filter<'g> {
         });
     }
 
-    /// The variance of each receiver's signal where the rays gave none: half the median
-    /// squared difference to its closest neighbours (noise alone puts two receivers 2σ²
-    /// apart; the median ignores the few across an edge).
-    fn noise_from_signal(&self, signal: &[f32]) -> Vec<f32> {
-        let sw = self.signal_width;
-        (0..self.guides.points.len())
-            .into_par_iter()
-            .map_init(
-                || (Vec::new(), Vec::new()),
-                |(near, squares): &mut (Vec<(u32, f32)>, Vec<f32>), i| {
-                    self.neighbours(i, self.settings.guide_radius, near, |_| 0.0);
-                    squares.clear();
-                    squares.extend(near.iter().filter(|&&(j, _)| j as usize != i).map(
-                        |&(j, _)| {
-                            let (a, b) =
-                                (&signal[i * sw..][..sw], &signal[j as usize * sw..][..sw]);
-                            a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f32>() / sw as f32
-                        },
-                    ));
-                    if squares.is_empty() {
-                        return 0.0;
-                    }
-                    let mid = squares.len() / 2;
-                    *squares.select_nth_unstable_by(mid, f32::total_cmp).1 * 0.5
-                },
-            )
-            .collect()
-    }
-
-    /// The guides of `receivers` into `guide`, `signal_width` floats each in their order: the
-    /// signal filtered with the geometric terms over `guide_radius`; and its variance
-    /// Σ_j w_ij² σ²_j into `guide_noise`.
-    fn prefilter(
-        &self,
-        signal: &[f32],
-        noise: &[f32],
-        receivers: &[u32],
-        (guide, guide_noise): (&mut [f32], &mut [f32]),
-    ) {
-        let sw = self.signal_width;
-        guide
-            .par_chunks_mut(sw.max(1))
-            .zip(guide_noise.par_iter_mut())
-            .zip(receivers.par_iter())
-            .for_each_init(Vec::new, |near, ((out, var), &i)| {
-                let i = i as usize;
-                // The raw signal's own range term: a receiver's guide does not take in
-                // neighbours far brighter or darker than its noise allows (a thin wall's
-                // other side, a shadow's edge).
-                let si = &signal[i * sw..(i + 1) * sw];
-                self.neighbours(i, self.settings.guide_radius, near, |j| {
-                    let sj = &signal[j * sw..(j + 1) * sw];
-                    range_exponent(si, sj, (noise[i] + noise[j]) * sw as f32, GUIDE_KAPPA)
-                });
-                let total: f32 = near.iter().map(|&(_, w)| w).sum();
-                for &(j, w) in near.iter() {
-                    let w = w / total;
-                    let j = j as usize;
-                    for (o, s) in out.iter_mut().zip(&signal[j * sw..(j + 1) * sw]) {
-                        *o += w * s;
-                    }
-                    *var += w * w * noise[j];
-                }
-            });
-    }
-
     /// Cluster c's kernel over the clusters, in the wide grid's fixed order of visit:
     /// entries (k, e_k) such that a member m's weight on cluster k is
     /// ŵ_k(m) = e_k · (1, u_m, v_m), with (u_m, v_m) the member's place about c's centroid
@@ -544,6 +477,7 @@ impl<'g> Filter<'g> {
         out.clear();
         tapers.clear();
         scratch.geometric.clear();
+        scratch.scales.clear();
         let g = self.guides;
         let (sw, lanes) = (self.signal_width, range::guide_lanes(self.signal_width));
         let (radius, kappa) = (self.settings.radius, self.settings.kappa);
@@ -605,7 +539,9 @@ impl<'g> Filter<'g> {
                         }
                         scratch.geometric.push((exponent, facing * tap.mass));
                     }
-                    (exponent - range).exp() * facing
+                    // The exponentials are taken four at a time below.
+                    scratch.scales.push([facing, tap.mass]);
+                    exponent - range
                 }
                 // The geometric terms, and the range term on top, as exponents (taken four
                 // at a time, [`vertices::weigh`]): vertices keep every entry the geometry
@@ -624,18 +560,20 @@ impl<'g> Filter<'g> {
                     exponent - range
                 }
             };
-            if vertices || mapped || w > 0.0 {
-                // With the tap's place in c's tangent plane, in spacings: the fit's (u, v).
-                let place = d * scale;
-                let w = match vertices {
-                    true => w,
-                    false => w * tap.mass,
-                };
-                out[kept] = (k, [w, place.dot(t1), place.dot(t2)]);
-                kept += 1;
-            }
+            // With the tap's place in the centre's tangent plane, in spacings: the fit's (u, v).
+            let place = d * scale;
+            out[kept] = (k, [w, place.dot(t1), place.dot(t2)]);
+            kept += 1;
         }
         out.truncate(kept);
+        // Texels: each entry's weight exp(exponent) · normal term · mass, and only those
+        // it keeps where no robust range term weighs them again.
+        if !vertices {
+            exp4::weigh(out, &scratch.scales);
+            if !mapped {
+                out.retain(|&(_, [w, ..])| w > 0.0);
+            }
+        }
         // Neighbour cluster k's guide, in lanes, and its variance.
         let guide = |k: u32| {
             let tap = &self.taps[k as usize];

@@ -34,6 +34,7 @@
 use glam::{Vec3, Vec4};
 use rayon::prelude::*;
 
+use super::exp4::exp4;
 use super::texel_fit::{Entry, Scratch};
 
 /// Below this spread of the neighbours' normal offsets (about 0.6°) the fit stays in the
@@ -362,7 +363,7 @@ pub(super) fn reweigh<'g, const N: usize>(
         }
     }
     let entries = fit.weight.iter_mut().zip(&fit.terms);
-    for (((w, x), &k), &(e, s)) in entries.zip(&fit.key).zip(geometric) {
+    for (((w, x), &k), &(e, _)) in entries.zip(&fit.key).zip(geometric) {
         let x = x.map(|x| x as f32);
         let (g, their_noise) = guide(k);
         let mut squared = Vec4::ZERO;
@@ -373,7 +374,21 @@ pub(super) fn reweigh<'g, const N: usize>(
         }
         let variance = (noise + their_noise) * sw as f32;
         let range = super::range::range_term(squared.element_sum(), variance, kappa);
-        *w = f64::from((e - range).exp() * s);
+        // The exponent, for now: the exponentials are taken four at a time below.
+        *w = f64::from(e - range);
+    }
+    // Each weight s · exp(e − range), in vector registers ([`exp4`]).
+    debug_assert_eq!(fit.weight.len(), geometric.len());
+    let (mut chunks, mut scales) = (fit.weight.chunks_exact_mut(4), geometric.chunks_exact(4));
+    for (four, s) in (&mut chunks).zip(&mut scales) {
+        let e = Vec4::from_array(std::array::from_fn(|l| four[l] as f32));
+        let s = Vec4::from_array(std::array::from_fn(|l| s[l].1));
+        for (w, x) in four.iter_mut().zip((exp4(e) * s).to_array()) {
+            *w = f64::from(x);
+        }
+    }
+    for (w, &(_, s)) in chunks.into_remainder().iter_mut().zip(scales.remainder()) {
+        *w = f64::from((exp4(Vec4::splat(*w as f32)) * s).x);
     }
 }
 

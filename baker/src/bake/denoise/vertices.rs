@@ -78,6 +78,9 @@ pub(super) struct Scratch {
     pub geometric: Vec<(f32, f32)>,
     /// Each entry's tapers for the narrower fits ([`weigh`]).
     pub taper: Vec<[f32; 2]>,
+    /// Texels: each entry's normal term and mass, which scale its exponential
+    /// ([`super::exp4::weigh`]).
+    pub scales: Vec<[f32; 2]>,
     /// After [`fit`], each entry's weight as a function of the member's place: a member at
     /// (u, v) weighs entry k by `weights[k]` · [`terms`](u, v).
     pub weights: Vec<[f32; TERMS]>,
