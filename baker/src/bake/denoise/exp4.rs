@@ -40,6 +40,25 @@ pub(super) fn exp4(x: Vec4) -> Vec4 {
     Vec4::select(x.cmpge(Vec4::splat(-87.0)), y * scale, Vec4::ZERO)
 }
 
+/// Each kernel entry's weight (exp(x) · a) · b, x the exponent in its first term and [a, b]
+/// its `scales`, four at a time: the texel kernels' weights ([`super::Filter::kernel`]).
+pub(super) fn weigh(kernel: &mut [(u32, [f32; 3])], scales: &[[f32; 2]]) {
+    debug_assert_eq!(kernel.len(), scales.len());
+    let (mut chunks, mut fours) = (kernel.chunks_exact_mut(4), scales.chunks_exact(4));
+    for (four, s) in (&mut chunks).zip(&mut fours) {
+        let x = Vec4::from_array(std::array::from_fn(|l| four[l].1[0]));
+        let a = Vec4::from_array(std::array::from_fn(|l| s[l][0]));
+        let b = Vec4::from_array(std::array::from_fn(|l| s[l][1]));
+        let w = exp4(x) * a * b;
+        for (entry, w) in four.iter_mut().zip(w.to_array()) {
+            entry.1[0] = w;
+        }
+    }
+    for (entry, s) in chunks.into_remainder().iter_mut().zip(fours.remainder()) {
+        entry.1[0] = (exp4(Vec4::splat(entry.1[0])) * s[0] * s[1]).x;
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -65,24 +84,5 @@ mod tests {
         }
         let special = exp4(Vec4::new(0.0, f32::NEG_INFINITY, f32::NAN, -1e30)).to_array();
         assert_eq!(special, [1.0, 0.0, 0.0, 0.0]);
-    }
-}
-
-/// Each kernel entry's weight (exp(x) · a) · b, x the exponent in its first term and [a, b]
-/// its `scales`, four at a time: the texel kernels' weights ([`super::Filter::kernel`]).
-pub(super) fn weigh(kernel: &mut [(u32, [f32; 3])], scales: &[[f32; 2]]) {
-    debug_assert_eq!(kernel.len(), scales.len());
-    let (mut chunks, mut fours) = (kernel.chunks_exact_mut(4), scales.chunks_exact(4));
-    for (four, s) in (&mut chunks).zip(&mut fours) {
-        let x = Vec4::from_array(std::array::from_fn(|l| four[l].1[0]));
-        let a = Vec4::from_array(std::array::from_fn(|l| s[l][0]));
-        let b = Vec4::from_array(std::array::from_fn(|l| s[l][1]));
-        let w = exp4(x) * a * b;
-        for (entry, w) in four.iter_mut().zip(w.to_array()) {
-            entry.1[0] = w;
-        }
-    }
-    for (entry, s) in chunks.into_remainder().iter_mut().zip(fours.remainder()) {
-        entry.1[0] = (exp4(Vec4::splat(entry.1[0])) * s[0] * s[1]).x;
     }
 }
