@@ -560,7 +560,7 @@ impl<'g> Filter<'g> {
                     exponent - range
                 }
             };
-            // With the tap's place in the centre's tangent plane, in spacings: the fit's (u, v).
+            // With the tap's place in c's tangent plane, in spacings: the fit's (u, v).
             let place = d * scale;
             out[kept] = (k, [w, place.dot(t1), place.dot(t2)]);
             kept += 1;
