@@ -275,6 +275,37 @@ pub(super) fn blend_curved<'g>(
 mod tests {
     use super::*;
 
+    /// Lepski's rule reads a fit's weights at the centroid from its factor alone
+    /// ([`at_centre`]) and forms the rest only where the fit counts ([`fill`]): the two must
+    /// be the same floats, or a fit that counts would be blended with other weights than the
+    /// rule tested.
+    #[test]
+    fn the_weights_at_the_centroid_are_the_fits_to_the_bit() {
+        let mut fit = Scratch::<CURVED>::default();
+        fit.extend((0..40u32).map(|k| {
+            let (u, v) = ((k % 7) as f64 - 3.1, (k / 7) as f64 - 2.7);
+            let c = 0.9 / (1.0 + f64::from(k));
+            (
+                k,
+                0.2 + (k % 5) as f32 * 0.3,
+                [1.0, u, v, c, u * u, u * v, v * v],
+            )
+        }));
+        let l = factor_fit(&fit, &CURVED_RIDGES).expect("a fit of 40 entries");
+        let centre: Vec<f64> = at_centre(&l, (&fit.terms, &fit.weight)).collect();
+        fill(&l, &mut fit);
+        for (k, (c, f)) in centre.iter().zip(&fit.fitted).enumerate() {
+            assert_eq!(
+                c.to_bits(),
+                f[0].to_bits(),
+                "entry {k}: {c} against {}",
+                f[0]
+            );
+        }
+        // They sum to 1: the fit keeps a constant.
+        assert!((centre.iter().sum::<f64>() - 1.0).abs() < 1e-9);
+    }
+
     /// A texel on a 15 × 15 grid of neighbours (one spacing apart, radius 7) whose guide
     /// curves over the kernel, as a crate's shade does towards its foot: with a noise far
     /// below the fits' difference the curved fit is blended in and reads the texel's value
