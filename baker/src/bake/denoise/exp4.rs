@@ -2,7 +2,7 @@
 //! a kernel weighs each of its 200-odd entries by three exponentials (its Gaussian terms
 //! with its range term, its tapers, its robust range term), and the runtime's `expf`, one
 //! call per float, took a tenth of a vertex bake's time. The texel kernels' weights too
-//! ([`weigh`]): on a terrain fitted in the normal, `expf` took 9 % of the filter's time. Cephes'
+//! (the same [`weigh`]): on a terrain fitted in the normal, `expf` took 9 % of the filter's time. Cephes'
 //! `expf` (Moshier 1989, *Methods and programs for mathematical functions*), in vector
 //! registers.
 
@@ -42,23 +42,39 @@ pub(super) fn exp4(x: Vec4) -> Vec4 {
     Vec4::select(x.cmpge(Vec4::splat(-87.0)), y * scale, Vec4::ZERO)
 }
 
-/// Each kernel entry's weight (exp(x) · a) · b, x the exponent in its first term and [a, b]
-/// its `scales`, four at a time: the texel kernels' weights ([`super::Filter::kernel`]).
-pub(super) fn weigh(kernel: &mut [(u32, [f32; 3])], scales: &[[f32; 2]]) {
-    debug_assert_eq!(kernel.len(), scales.len());
-    let (mut chunks, mut fours) = (kernel.chunks_exact_mut(4), scales.chunks_exact(4));
+/// Each weight s · exp(x), four at a time, for x the exponent `exponent` reads from it and
+/// (_, s) its `scales`: the kernels' weights, texels' and vertices' alike, and the robust
+/// range term's ([`super::normal_fit::reweigh`]).
+#[inline(always)]
+pub(super) fn scaled<T>(
+    weights: &mut [T],
+    scales: &[(f32, f32)],
+    exponent: impl Fn(&T) -> f32,
+    set: impl Fn(&mut T, f32),
+) {
+    debug_assert_eq!(weights.len(), scales.len());
+    let (mut chunks, mut fours) = (weights.chunks_exact_mut(4), scales.chunks_exact(4));
     for (four, s) in (&mut chunks).zip(&mut fours) {
-        let x = Vec4::from_array(std::array::from_fn(|l| four[l].1[0]));
-        let a = Vec4::from_array(std::array::from_fn(|l| s[l][0]));
-        let b = Vec4::from_array(std::array::from_fn(|l| s[l][1]));
-        let w = exp4(x) * a * b;
-        for (entry, w) in four.iter_mut().zip(w.to_array()) {
-            entry.1[0] = w;
+        let x = Vec4::from_array(std::array::from_fn(|l| exponent(&four[l])));
+        let s = Vec4::from_array(std::array::from_fn(|l| s[l].1));
+        for (w, x) in four.iter_mut().zip((exp4(x) * s).to_array()) {
+            set(w, x);
         }
     }
-    for (entry, s) in chunks.into_remainder().iter_mut().zip(fours.remainder()) {
-        entry.1[0] = (exp4(Vec4::splat(entry.1[0])) * s[0] * s[1]).x;
+    for (w, &(_, s)) in chunks.into_remainder().iter_mut().zip(fours.remainder()) {
+        let x = (exp4(Vec4::splat(exponent(w))) * s).x;
+        set(w, x);
     }
+}
+
+/// Each kernel entry (k, [x, u, v])'s weight s · exp(x), (_, s) its `scales`.
+pub(super) fn weigh(kernel: &mut [(u32, [f32; 3])], scales: &[(f32, f32)]) {
+    scaled(
+        kernel,
+        scales,
+        |entry| entry.1[0],
+        |entry, w| entry.1[0] = w,
+    );
 }
 
 #[cfg(test)]

@@ -477,7 +477,6 @@ impl<'g> Filter<'g> {
         out.clear();
         tapers.clear();
         scratch.geometric.clear();
-        scratch.scales.clear();
         let g = self.guides;
         let (sw, lanes) = (self.signal_width, range::guide_lanes(self.signal_width));
         let (radius, kappa) = (self.settings.radius, self.settings.kappa);
@@ -531,16 +530,14 @@ impl<'g> Filter<'g> {
                 false => {
                     let range = range_term(squared(tap.guide as usize), variance, kappa);
                     let exponent = -2.0 * r2 - off_plane * off_plane;
-                    if mapped {
-                        // Every entry the geometric terms weigh is kept, with those terms:
-                        // the robust range term weighs it again ([`normal_fit::reweigh`]).
-                        if exponent < vertices::LN_NEGLIGIBLE {
-                            continue;
-                        }
-                        scratch.geometric.push((exponent, facing * tap.mass));
+                    // Over a normal map, every entry the geometric terms weigh is kept,
+                    // with those terms: the robust range term weighs it again
+                    // ([`normal_fit::reweigh`]).
+                    if mapped && exponent < vertices::LN_NEGLIGIBLE {
+                        continue;
                     }
                     // The exponentials are taken four at a time below.
-                    scratch.scales.push([facing, tap.mass]);
+                    scratch.geometric.push((exponent, facing * tap.mass));
                     exponent - range
                 }
                 // The geometric terms, and the range term on top, as exponents (taken four
@@ -569,9 +566,11 @@ impl<'g> Filter<'g> {
         // Texels: each entry's weight exp(exponent) · normal term · mass, and only those
         // it keeps where no robust range term weighs them again.
         if !vertices {
-            exp4::weigh(out, &scratch.scales);
+            exp4::weigh(out, &scratch.geometric);
             if !mapped {
+                // No robust range term reads the geometric terms here.
                 out.retain(|&(_, [w, ..])| w > 0.0);
+                scratch.geometric.clear();
             }
         }
         // Neighbour cluster k's guide, in lanes, and its variance.

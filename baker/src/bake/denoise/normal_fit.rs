@@ -34,7 +34,7 @@
 use glam::{Vec3, Vec4};
 use rayon::prelude::*;
 
-use super::exp4::exp4;
+use super::exp4;
 use super::texel_fit::{Entry, Scratch};
 
 /// Below this spread of the neighbours' normal offsets (about 0.6°) the fit stays in the
@@ -377,19 +377,13 @@ pub(super) fn reweigh<'g, const N: usize>(
         // The exponent, for now: the exponentials are taken four at a time below.
         *w = f64::from(e - range);
     }
-    // Each weight s · exp(e − range), in vector registers ([`exp4`]).
-    debug_assert_eq!(fit.weight.len(), geometric.len());
-    let (mut chunks, mut scales) = (fit.weight.chunks_exact_mut(4), geometric.chunks_exact(4));
-    for (four, s) in (&mut chunks).zip(&mut scales) {
-        let e = Vec4::from_array(std::array::from_fn(|l| four[l] as f32));
-        let s = Vec4::from_array(std::array::from_fn(|l| s[l].1));
-        for (w, x) in four.iter_mut().zip((exp4(e) * s).to_array()) {
-            *w = f64::from(x);
-        }
-    }
-    for (w, &(_, s)) in chunks.into_remainder().iter_mut().zip(scales.remainder()) {
-        *w = f64::from((exp4(Vec4::splat(*w as f32)) * s).x);
-    }
+    // Each weight s · exp(e − range), in vector registers.
+    exp4::scaled(
+        &mut fit.weight,
+        geometric,
+        |&w| w as f32,
+        |w, x| *w = f64::from(x),
+    );
 }
 
 #[cfg(test)]

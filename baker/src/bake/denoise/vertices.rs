@@ -37,7 +37,7 @@
 use glam::Vec4;
 
 use super::cholesky;
-use super::exp4::exp4;
+use super::exp4::{self, exp4};
 use super::range::{guide_lanes, range_term};
 
 /// Terms of the fit: 1, u, v, u², uv, v².
@@ -78,9 +78,6 @@ pub(super) struct Scratch {
     pub geometric: Vec<(f32, f32)>,
     /// Each entry's tapers for the narrower fits ([`weigh`]).
     pub taper: Vec<[f32; 2]>,
-    /// Texels: each entry's normal term and mass, which scale its exponential
-    /// ([`super::exp4::weigh`]).
-    pub scales: Vec<[f32; 2]>,
     /// After [`fit`], each entry's weight as a function of the member's place: a member at
     /// (u, v) weighs entry k by `weights[k]` · [`terms`](u, v).
     pub weights: Vec<[f32; TERMS]>,
@@ -205,7 +202,7 @@ pub(super) fn weigh(scratch: &mut Scratch) {
         taper,
         ..
     } = scratch;
-    exponentials(kernel, geometric);
+    exp4::weigh(kernel, geometric);
     let tapers = |r2: Vec4| {
         let a = exp4(r2 * -2.0);
         let (a2, a5) = (a * a, a * a * a * a * a);
@@ -221,22 +218,6 @@ pub(super) fn weigh(scratch: &mut Scratch) {
     for t in chunks.into_remainder() {
         let (t1, t2) = tapers(Vec4::splat(t[0]));
         *t = [t1[0], t2[0]];
-    }
-}
-
-/// Each entry's weight s · exp(w), w the exponent in its first term, four at a time.
-fn exponentials(kernel: &mut [(u32, [f32; 3])], geometric: &[(f32, f32)]) {
-    let (mut chunks, mut scales) = (kernel.chunks_exact_mut(4), geometric.chunks_exact(4));
-    for (four, s) in (&mut chunks).zip(&mut scales) {
-        let e = Vec4::from_array(std::array::from_fn(|l| four[l].1[0]));
-        let s = Vec4::from_array(std::array::from_fn(|l| s[l].1));
-        let w = (exp4(e) * s).to_array();
-        for (entry, w) in four.iter_mut().zip(w) {
-            entry.1[0] = w;
-        }
-    }
-    for (entry, &(_, s)) in chunks.into_remainder().iter_mut().zip(scales.remainder()) {
-        entry.1[0] = (exp4(Vec4::splat(entry.1[0])) * s).x;
     }
 }
 
@@ -425,7 +406,7 @@ fn reweigh_in_lanes(scratch: &mut Scratch, lanes: usize, (sw, kappa, noise): (us
         let range = range_term(squared, (noise + variance) * sw as f32, kappa);
         entry.1[0] = exponent - range;
     }
-    exponentials(kernel, geometric);
+    exp4::weigh(kernel, geometric);
 }
 
 /// Turns a cluster's kernel, `scratch.kernel`'s entries (k, [w_k, u_k, v_k]) with their
