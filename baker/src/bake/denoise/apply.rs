@@ -197,58 +197,7 @@ impl Filter<'_> {
                     rows.clear();
                     for c in block.clone().filter(answers) {
                         self.cluster_kernel(c, scratch);
-                        // The fit's terms: (1, u, v), and those past them where it has
-                        // them ([`Filter::member_extra`]).
-                        let terms = 3 + scratch.extra_terms;
-                        sums.clear();
-                        sums.resize(terms * (width + 1), 0.0);
-                        let (sums, scalar_sums) = sums.split_at_mut(terms * width);
-                        for (n, &(k, e)) in scratch.kernel.iter().enumerate() {
-                            let k = k as usize;
-                            let extra = scratch.extra.get(n);
-                            let e: [f32; 3 + normal_fit::NORMAL] =
-                                std::array::from_fn(|t| match t {
-                                    0..3 => e[t],
-                                    _ => extra.map_or(0.0, |x| x[t - 3]),
-                                });
-                            let mean = &means[k * width..(k + 1) * width];
-                            for (t, sums) in sums.chunks_exact_mut(width.max(1)).enumerate() {
-                                clusters::add_scaled(sums, e[t], mean);
-                            }
-                            if let Some(s) = scalar_means.get(k) {
-                                for t in 0..terms {
-                                    scalar_sums[t] += e[t] * s;
-                                }
-                            }
-                        }
-                        // Each member's values, then its scalar.
-                        for &(m, _) in self.clusters.row(c) {
-                            let [p0, p1, p2] = self.member_place(c, m as usize);
-                            let extra = match terms {
-                                3 => [0.0; normal_fit::NORMAL],
-                                _ => self.member_extra(c, m as usize),
-                            };
-                            let p: [f32; 3 + normal_fit::NORMAL] =
-                                std::array::from_fn(|t| match t {
-                                    0..3 => [p0, p1, p2][t],
-                                    _ => extra[t - 3],
-                                });
-                            match terms {
-                                3 => {
-                                    let (s0, rest) = sums.split_at(width);
-                                    let (s1, s2) = rest.split_at(width);
-                                    let dot = |(a, (b, d)): (&f32, (&f32, &f32))| {
-                                        a * p0 + b * p1 + d * p2
-                                    };
-                                    rows.extend(s0.iter().zip(s1.iter().zip(s2)).map(dot));
-                                }
-                                _ => rows.extend((0..width).map(|j| {
-                                    (0..terms).map(|t| sums[t * width + j] * p[t]).sum::<f32>()
-                                })),
-                            }
-                            let s = &scalar_sums[..terms];
-                            rows.push(s.iter().zip(p).map(|(s, p)| s * p).sum());
-                        }
+                        self.answer_members(c, scratch, (means, scalar_means), width, sums, rows);
                     }
                     let mut out = out.lock().expect("no block panicked");
                     let (values, scalars) = &mut *out;
@@ -273,6 +222,98 @@ impl Filter<'_> {
                     }
                 },
             );
+    }
+
+    /// Appends each member of cluster c's answer, `width` values then its scalar, to `rows`,
+    /// from c's kernel in `scratch` and each cluster's mean of the values and the scalars.
+    /// A member's weight on neighbour k is e_k · p, p its terms (its place, and those past
+    /// it: [`Filter::member_extra`]). Where c has at least as many members as its fit has
+    /// terms, the fit's sums Σ e_k · mean_k are formed once, each term's, and every member
+    /// dots them with its p: the neighbours' means are read once per term, not once per
+    /// member. Where it has fewer (a texel alone, in contact or at a shadow's edge, whose fit
+    /// has up to 8 terms), each member weighs the means with its own weights: on a terrain
+    /// whose texels are mostly alone, 5 % of the filter's time.
+    fn answer_members(
+        &self,
+        c: usize,
+        scratch: &vertices::Scratch,
+        (means, scalar_means): (&[f32], &[f32]),
+        width: usize,
+        sums: &mut Vec<f32>,
+        rows: &mut Vec<f32>,
+    ) {
+        // The fit's terms: (1, u, v), and those past them where it has them.
+        let terms = 3 + scratch.extra_terms;
+        // Entry n's weights on the terms, and member m's terms.
+        let entry = |n: usize| -> [f32; 3 + normal_fit::NORMAL] {
+            let (e, extra) = (scratch.kernel[n].1, scratch.extra.get(n));
+            std::array::from_fn(|t| match t {
+                0..3 => e[t],
+                _ => extra.map_or(0.0, |x| x[t - 3]),
+            })
+        };
+        let member = |m: usize| -> [f32; 3 + normal_fit::NORMAL] {
+            let place = self.member_place(c, m);
+            let extra = match terms {
+                3 => [0.0; normal_fit::NORMAL],
+                _ => self.member_extra(c, m),
+            };
+            std::array::from_fn(|t| match t {
+                0..3 => place[t],
+                _ => extra[t - 3],
+            })
+        };
+        let members = self.clusters.row(c);
+        if members.len() < terms {
+            for &(m, _) in members {
+                let p = member(m as usize);
+                let start = rows.len();
+                rows.resize(start + width + 1, 0.0);
+                let (row, scalar) = rows[start..].split_at_mut(width);
+                for (n, &(k, _)) in scratch.kernel.iter().enumerate() {
+                    let k = k as usize;
+                    let w: f32 = entry(n).iter().zip(&p).map(|(e, p)| e * p).sum();
+                    clusters::add_scaled(row, w, &means[k * width..][..width]);
+                    if let Some(s) = scalar_means.get(k) {
+                        scalar[0] += w * s;
+                    }
+                }
+            }
+            return;
+        }
+        sums.clear();
+        sums.resize(terms * (width + 1), 0.0);
+        let (sums, scalar_sums) = sums.split_at_mut(terms * width);
+        for (n, &(k, _)) in scratch.kernel.iter().enumerate() {
+            let k = k as usize;
+            let e = entry(n);
+            let mean = &means[k * width..(k + 1) * width];
+            for (t, sums) in sums.chunks_exact_mut(width.max(1)).enumerate() {
+                clusters::add_scaled(sums, e[t], mean);
+            }
+            if let Some(s) = scalar_means.get(k) {
+                for t in 0..terms {
+                    scalar_sums[t] += e[t] * s;
+                }
+            }
+        }
+        // Each member's values, then its scalar.
+        for &(m, _) in members {
+            let p = member(m as usize);
+            match terms {
+                3 => {
+                    let (s0, rest) = sums.split_at(width);
+                    let (s1, s2) = rest.split_at(width);
+                    let dot = |(a, (b, d)): (&f32, (&f32, &f32))| a * p[0] + b * p[1] + d * p[2];
+                    rows.extend(s0.iter().zip(s1.iter().zip(s2)).map(dot));
+                }
+                _ => rows.extend(
+                    (0..width).map(|j| (0..terms).map(|t| sums[t * width + j] * p[t]).sum::<f32>()),
+                ),
+            }
+            let s = &scalar_sums[..terms];
+            rows.push(s.iter().zip(p).map(|(s, p)| s * p).sum());
+        }
     }
 }
 
