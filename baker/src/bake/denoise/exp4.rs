@@ -1,10 +1,9 @@
-//! Exponentials four at a time, for the vertex kernels' weights ([`super::vertices::weigh`]):
-//! a kernel weighs each of its 200-odd entries by three exponentials (its Gaussian terms
-//! with its range term, its tapers, its robust range term), and the runtime's `expf`, one
-//! call per float, took a tenth of a vertex bake's time. The texel kernels' weights too
-//! (the same [`weigh`]): on a terrain fitted in the normal, `expf` took 9 % of the filter's time. Cephes'
-//! `expf` (Moshier 1989, *Methods and programs for mathematical functions*), in vector
-//! registers.
+//! Exponentials four at a time, for the kernels' weights ([`weigh`]): a vertex kernel weighs
+//! each of its 200-odd entries by three exponentials (its Gaussian terms with its range
+//! term, its tapers, its robust range term), and the runtime's `expf`, one call per float,
+//! took a tenth of a vertex bake's time; on a terrain's texels fitted in the normal, 9 % of
+//! the filter's. Cephes' `expf` (Moshier 1989, *Methods and programs for mathematical
+//! functions*), in vector registers.
 
 use glam::Vec4;
 
