@@ -3,7 +3,7 @@
 
 use rayon::prelude::*;
 
-use super::{Filter, clusters, normal_fit, vertices};
+use super::{Filter, clusters, demodulate, normal_fit, vertices};
 
 /// How [`Filter::apply_with_means`] writes a lattice's answer: over the values, or as the
 /// mean of it and the other lattice's answer already there.
@@ -118,8 +118,12 @@ impl Filter<'_> {
 
     /// [`Filter::apply_in_place`] of the very transfer the filter was formed for (`width`
     /// floats per receiver, unchanged since): where that transfer was the filter's signal,
-    /// its clusters' means are already at hand, the same floats.
+    /// its clusters' means are already at hand, the same floats. Over a normal map the
+    /// filter smooths the transfer less each texel's unoccluded transfer ([`demodulate`]),
+    /// and each texel's own is added back.
     pub fn apply_to_transfer(&self, transfer: &mut [f32], width: usize, scalars: &mut [f32]) {
+        let (unoccluded, per_channel) = (&self.unoccluded.0, self.unoccluded.1);
+        demodulate::shift(transfer, unoccluded, per_channel, -1.0);
         let at_hand = |f: &Filter| f.transfer_means && f.signal_width == width;
         match at_hand(self) && self.shifted.as_deref().is_none_or(at_hand) {
             true => {
@@ -129,6 +133,7 @@ impl Filter<'_> {
             }
             false => self.apply_in_place(transfer, width, scalars),
         }
+        demodulate::shift(transfer, unoccluded, per_channel, 1.0);
     }
 
     /// The clusters' means of the transfer the filter was formed for, `width` floats each.

@@ -70,7 +70,8 @@
 //! little noise; on the Cornell room at 128² it takes a 64-ray bake's error from 3.5 % to
 //! 1.9 % (docs/explanation/denoising.md). Where the transfer curves over the kernel, a fit in
 //! the plane's squares is blended in by Lepski's rule ([`texel_fit`]); over a normal map or a
-//! surface that bends within texels the fit is in the normal too ([`normal_fit`]); near
+//! surface that bends within texels the fit is in the normal too ([`normal_fit`]), and over a
+//! normal map the unoccluded lobe is taken out before and put back after ([`demodulate`]); near
 //! another surface, in the distance to it, each texel a cluster of its own ([`contact`]).
 //!
 //! The weights sum to 1, so a constant transfer is kept exactly. They are a pure function of
@@ -81,6 +82,7 @@ mod apply;
 mod cholesky;
 mod clusters;
 mod contact;
+mod demodulate;
 mod exp4;
 mod grid;
 pub mod guides;
@@ -178,6 +180,10 @@ pub struct Filter<'g> {
     /// The filter of the same receivers on the lattice half a cluster across
     /// ([`Settings::second_lattice`]): this filter's answer is the mean of the two.
     shifted: Option<Box<Filter<'g>>>,
+    /// Texels over a normal map: each receiver's unoccluded transfer, which the transfer's
+    /// filter takes out and puts back ([`demodulate`]), and the floats per channel; empty
+    /// where there is none.
+    unoccluded: (Vec<f32>, usize),
 }
 
 impl<'g> Filter<'g> {
@@ -195,21 +201,6 @@ impl<'g> Filter<'g> {
         let used = per_channel.min(SIGNAL_COEFFICIENTS);
         let width = channels * per_channel;
         let signal_width = channels * used;
-        // Up to order 3 the signal is the whole transfer: read in place, not copied. Both
-        // lattices read the same signal.
-        let signal: std::borrow::Cow<[f32]> = match used == per_channel {
-            true => std::borrow::Cow::Borrowed(&transfer[..count * width]),
-            false => {
-                let mut signal = Vec::with_capacity(count * signal_width);
-                for receiver in transfer.chunks_exact(width.max(1)).take(count) {
-                    for block in receiver.chunks_exact(per_channel.max(1)) {
-                        signal.extend_from_slice(&block[..used]);
-                    }
-                }
-                std::borrow::Cow::Owned(signal)
-            }
-        };
-        let input = (&signal[..], signal_width, used == per_channel);
         let mut spacings: Vec<f32> = guides.spacing.clone();
         let typical = match spacings.is_empty() {
             true => 1.0,
@@ -232,8 +223,35 @@ impl<'g> Filter<'g> {
             true => contact::terms(guides, &fine).into(),
             false => std::sync::Arc::new([]),
         };
+        // Over a normal map, the transfer less each texel's unoccluded transfer.
+        let unoccluded = match texels {
+            true => demodulate::offsets(guides, &normals, per_channel),
+            false => Vec::new(),
+        };
+        // Up to order 3 the signal is the whole transfer: read in place, not copied, but
+        // where it is demodulated. Both lattices read the same signal.
+        let signal: std::borrow::Cow<[f32]> = match (used == per_channel, unoccluded.is_empty()) {
+            (true, true) => std::borrow::Cow::Borrowed(&transfer[..count * width]),
+            _ => {
+                let mut signal = Vec::with_capacity(count * signal_width);
+                for (i, receiver) in transfer.chunks_exact(width.max(1)).take(count).enumerate() {
+                    for block in receiver.chunks_exact(per_channel.max(1)) {
+                        let start = signal.len();
+                        signal.extend_from_slice(&block[..used]);
+                        if let Some(u) = unoccluded.get(i * per_channel..(i + 1) * per_channel) {
+                            for (s, u) in signal[start..].iter_mut().zip(u) {
+                                *s -= u;
+                            }
+                        }
+                    }
+                }
+                std::borrow::Cow::Owned(signal)
+            }
+        };
+        let input = (&signal[..], signal_width, used == per_channel);
         let terms = (contact.clone(), normals.clone());
         let mut filter = Filter::on_lattice(guides, settings, input, fine, terms);
+        filter.unoccluded = (unoccluded, per_channel);
         if settings.second_lattice && texels {
             let settings = Settings {
                 second_lattice: false,
@@ -276,6 +294,7 @@ impl<'g> Filter<'g> {
             signal_width,
             transfer_means: false,
             shifted: None,
+            unoccluded: (Vec::new(), 0),
         };
         let from_rays = guides.noise.iter().any(|&v| v > 0.0);
         let noise: std::borrow::Cow<[f32]> = match (from_rays, settings.quadratic) {
