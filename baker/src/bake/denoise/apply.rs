@@ -3,7 +3,7 @@
 
 use rayon::prelude::*;
 
-use super::{Filter, clusters, demodulate, normal_fit, vertices};
+use super::{Filter, clusters, normal_fit, vertices};
 
 /// How [`Filter::apply_with_means`] writes a lattice's answer: over the values, or as the
 /// mean of it and the other lattice's answer already there.
@@ -50,7 +50,9 @@ impl Filter<'_> {
 
     /// Receiver i's weights on every receiver, normalised, in the receivers' order: its
     /// cluster's kernel at its place times each cluster's weights on its members, or the mean
-    /// of those weights on the two lattices ([`super::Settings::second_lattice`]).
+    /// of those weights on the two lattices ([`super::Settings::second_lattice`]). Over a
+    /// normal map [`Filter::apply_to_transfer`] adds to what they give each texel's lobe less
+    /// their sum of its neighbours' ([`super::demodulate`]).
     pub fn row(&self, i: usize, out: &mut Vec<(u32, f32)>) {
         self.lattice_row(i, out);
         if let Some(shifted) = self.shifted.as_deref().filter(|_| !self.first_alone(i)) {
@@ -119,11 +121,15 @@ impl Filter<'_> {
     /// [`Filter::apply_in_place`] of the very transfer the filter was formed for (`width`
     /// floats per receiver, unchanged since): where that transfer was the filter's signal,
     /// its clusters' means are already at hand, the same floats. Over a normal map the
-    /// filter smooths the transfer less each texel's unoccluded transfer ([`demodulate`]),
-    /// and each texel's own is added back.
+    /// filter smooths the transfer less each texel's unoccluded lobe
+    /// ([`super::demodulate`]), and each texel's own is added back.
     pub fn apply_to_transfer(&self, transfer: &mut [f32], width: usize, scalars: &mut [f32]) {
-        let (unoccluded, per_channel) = (&self.unoccluded.0, self.unoccluded.1);
-        demodulate::shift(transfer, unoccluded, per_channel, -1.0);
+        let demodulate = |transfer: &mut [f32], sign: f32| {
+            if let Some((demodulation, per_channel)) = &self.demodulation {
+                demodulation.shift(self.guides, transfer, *per_channel, sign);
+            }
+        };
+        demodulate(transfer, -1.0);
         let at_hand = |f: &Filter| f.transfer_means && f.signal_width == width;
         match at_hand(self) && self.shifted.as_deref().is_none_or(at_hand) {
             true => {
@@ -133,7 +139,7 @@ impl Filter<'_> {
             }
             false => self.apply_in_place(transfer, width, scalars),
         }
-        demodulate::shift(transfer, unoccluded, per_channel, 1.0);
+        demodulate(transfer, 1.0);
     }
 
     /// The clusters' means of the transfer the filter was formed for, `width` floats each.

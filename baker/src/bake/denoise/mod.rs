@@ -180,10 +180,9 @@ pub struct Filter<'g> {
     /// The filter of the same receivers on the lattice half a cluster across
     /// ([`Settings::second_lattice`]): this filter's answer is the mean of the two.
     shifted: Option<Box<Filter<'g>>>,
-    /// Texels over a normal map: each receiver's unoccluded transfer, which the transfer's
-    /// filter takes out and puts back ([`demodulate`]), and the floats per channel; empty
-    /// where there is none.
-    unoccluded: (Vec<f32>, usize),
+    /// Texels over a normal map: which receivers' lobes the transfer's filter takes out and
+    /// puts back ([`demodulate`]), and the transfer's floats per channel.
+    demodulation: Option<(demodulate::Demodulation, usize)>,
 }
 
 impl<'g> Filter<'g> {
@@ -223,23 +222,26 @@ impl<'g> Filter<'g> {
             true => contact::terms(guides, &fine).into(),
             false => std::sync::Arc::new([]),
         };
-        // Over a normal map, the transfer less each texel's unoccluded transfer.
-        let unoccluded = match texels {
-            true => demodulate::offsets(guides, &normals, per_channel),
-            false => Vec::new(),
+        // Over a normal map, the transfer less each texel's unoccluded lobe.
+        let demodulation = match texels {
+            true => demodulate::Demodulation::new(guides, &normals, per_channel),
+            false => None,
         };
         // Up to order 3 the signal is the whole transfer: read in place, not copied, but
         // where it is demodulated. Both lattices read the same signal.
-        let signal: std::borrow::Cow<[f32]> = match (used == per_channel, unoccluded.is_empty()) {
-            (true, true) => std::borrow::Cow::Borrowed(&transfer[..count * width]),
+        let signal: std::borrow::Cow<[f32]> = match (used == per_channel, &demodulation) {
+            (true, None) => std::borrow::Cow::Borrowed(&transfer[..count * width]),
             _ => {
                 let mut signal = Vec::with_capacity(count * signal_width);
+                let mut lobe = vec![0.0f32; per_channel];
                 for (i, receiver) in transfer.chunks_exact(width.max(1)).take(count).enumerate() {
+                    let demodulated =
+                        (demodulation.as_ref()).is_some_and(|d| d.lobe_of(guides, i, &mut lobe));
                     for block in receiver.chunks_exact(per_channel.max(1)) {
                         let start = signal.len();
                         signal.extend_from_slice(&block[..used]);
-                        if let Some(u) = unoccluded.get(i * per_channel..(i + 1) * per_channel) {
-                            for (s, u) in signal[start..].iter_mut().zip(u) {
+                        if demodulated {
+                            for (s, u) in signal[start..].iter_mut().zip(&lobe) {
                                 *s -= u;
                             }
                         }
@@ -251,7 +253,7 @@ impl<'g> Filter<'g> {
         let input = (&signal[..], signal_width, used == per_channel);
         let terms = (contact.clone(), normals.clone());
         let mut filter = Filter::on_lattice(guides, settings, input, fine, terms);
-        filter.unoccluded = (unoccluded, per_channel);
+        filter.demodulation = demodulation.map(|d| (d, per_channel));
         if settings.second_lattice && texels {
             let settings = Settings {
                 second_lattice: false,
@@ -294,7 +296,7 @@ impl<'g> Filter<'g> {
             signal_width,
             transfer_means: false,
             shifted: None,
-            unoccluded: (Vec::new(), 0),
+            demodulation: None,
         };
         let from_rays = guides.noise.iter().any(|&v| v > 0.0);
         let noise: std::borrow::Cow<[f32]> = match (from_rays, settings.quadratic) {
