@@ -125,8 +125,8 @@ impl Filter<'_> {
     /// ([`super::demodulate`]), and each texel's own is added back.
     pub fn apply_to_transfer(&self, transfer: &mut [f32], width: usize, scalars: &mut [f32]) {
         let demodulate = |transfer: &mut [f32], sign: f32| {
-            if let Some((demodulation, per_channel)) = &self.demodulation {
-                demodulation.shift(self.guides, transfer, *per_channel, sign);
+            if let Some(demodulation) = &self.demodulation {
+                demodulation.shift(self.guides, transfer, sign);
             }
         };
         demodulate(transfer, -1.0);

@@ -22,37 +22,31 @@ use glam::Vec3;
 
 use super::guides::Guides;
 use super::normal_fit::Normals;
-use crate::math::sh::{Basis, coeff_count};
+use crate::math::glossy::lobe_bands;
+use crate::math::sh::{Basis, MAX_ORDER, coeff_count};
 
-/// Â_l / π, the clamped cosine lobe's coefficient of band l: 1, 2/3, then 0 for odd l and
-/// 2 (−1)^(l/2 − 1) / ((l + 2)(l − 1)) · l! / (2^l ((l/2)!)²) for even l.
-fn lobe(l: usize) -> f64 {
-    match l {
-        0 => 1.0,
-        1 => 2.0 / 3.0,
-        l if l % 2 == 1 => 0.0,
-        l => {
-            // l! / (2^l ((l/2)!)²), the central binomial coefficient over 2^l.
-            let half = l / 2;
-            let central = (1..=half).fold(1.0f64, |c, k| c * (half + k) as f64 / k as f64);
-            let sign = if half % 2 == 1 { 1.0 } else { -1.0 };
-            2.0 * sign / (((l + 2) * (l - 1)) as f64) * central / 2f64.powi(l as i32)
-        }
-    }
+/// Each coefficient's factor Â_l/π for an order-`order` bake: the clamped cosine over π is
+/// the glossy lobe of exponent 1 ([`lobe_bands`]), band l's factor repeated 2l + 1 times.
+pub(super) fn lobe_factors(order: usize) -> Vec<f32> {
+    let bands = lobe_bands(1.0, order);
+    (0..order)
+        .flat_map(|l| std::iter::repeat_n(bands[l], 2 * l + 1))
+        .collect()
 }
 
-/// The unoccluded transfer of an order-`order` bake about `normal`.
-pub(super) fn unoccluded(basis: &Basis, normal: Vec3, out: &mut [f32]) {
+/// The unoccluded transfer about `normal`, `factors` the bake's [`lobe_factors`].
+pub(super) fn unoccluded(basis: &Basis, factors: &[f32], normal: Vec3, out: &mut [f32]) {
     basis.eval(normal, out);
-    for (i, y) in out.iter_mut().enumerate() {
-        let l = (i as f64).sqrt() as usize;
-        *y *= lobe(l) as f32;
+    for (y, f) in out.iter_mut().zip(factors) {
+        *y *= f;
     }
 }
 
-/// Which receivers are filtered demodulated, and their lobes' basis.
+/// Which receivers are filtered demodulated, and how their lobes are formed.
 pub(super) struct Demodulation {
     basis: Basis,
+    /// Each coefficient's factor ([`lobe_factors`]).
+    factors: Vec<f32>,
     /// Per receiver, whether its lobe is taken out.
     demodulated: Vec<bool>,
 }
@@ -69,7 +63,7 @@ impl Demodulation {
     /// when needed, not stored: at order 12 a large lightmap's would take gigabytes.
     pub(super) fn new(guides: &Guides, normals: &[Normals], per_channel: usize) -> Option<Self> {
         let order = (per_channel as f64).sqrt() as usize;
-        if !(1..=12).contains(&order) || coeff_count(order) != per_channel {
+        if !(1..=MAX_ORDER).contains(&order) || coeff_count(order) != per_channel {
             return None;
         }
         let mapped = |g: u32| normals.get(g as usize) == Some(&Normals::Mapped);
@@ -78,8 +72,14 @@ impl Demodulation {
             .collect();
         demodulated.contains(&true).then(|| Demodulation {
             basis: Basis::new(order),
+            factors: lobe_factors(order),
             demodulated,
         })
+    }
+
+    /// The floats per channel of the transfer it demodulates.
+    pub(super) fn per_channel(&self) -> usize {
+        self.factors.len()
     }
 
     /// Receiver i's lobe into `out` (n² floats), or false where it keeps its transfer.
@@ -87,20 +87,20 @@ impl Demodulation {
         if !self.demodulated[i] {
             return false;
         }
-        unoccluded(&self.basis, guides.normals[i], out);
+        unoccluded(&self.basis, &self.factors, guides.normals[i], out);
         true
     }
 
     /// Adds `sign` × each demodulated receiver's lobe to each of its channels' blocks of
-    /// `values` (`per_channel` floats each).
-    pub(super) fn shift(&self, guides: &Guides, values: &mut [f32], per_channel: usize, sign: f32) {
+    /// `values`.
+    pub(super) fn shift(&self, guides: &Guides, values: &mut [f32], sign: f32) {
         let width = values.len() / self.demodulated.len().max(1);
-        let mut lobe = vec![0.0f32; per_channel];
+        let mut lobe = vec![0.0f32; self.per_channel()];
         for (i, v) in values.chunks_exact_mut(width.max(1)).enumerate() {
             if !self.lobe_of(guides, i, &mut lobe) {
                 continue;
             }
-            for block in v.chunks_exact_mut(per_channel) {
+            for block in v.chunks_exact_mut(lobe.len()) {
                 for (v, u) in block.iter_mut().zip(&lobe) {
                     *v += sign * u;
                 }
@@ -113,24 +113,14 @@ impl Demodulation {
 mod tests {
     use super::*;
 
-    /// The lobe's coefficients are the clamped cosine's: π, 2π/3, π/4, 0, −π/24 over π, and
-    /// the unoccluded transfer about +z is its zonal harmonics, a light from +z seeing cos θ.
+    /// Relit by the light y(n), the unoccluded transfer about n gives Σ_l Â_l/π Σ_m
+    /// y_lm(n)², and Σ_m y_lm(n)² = (2l + 1) / 4π for any n (the addition theorem).
     #[test]
-    fn the_lobe_is_the_clamped_cosine() {
-        let expected = [1.0, 2.0 / 3.0, 0.25, 0.0, -1.0 / 24.0, 0.0, 1.0 / 64.0];
-        for (l, e) in expected.iter().enumerate() {
-            assert!(
-                (lobe(l) - e).abs() < 1e-12,
-                "band {l}: {} against {e}",
-                lobe(l)
-            );
-        }
-        // Relit by the light y(n), the unoccluded transfer about n gives Σ_l Â_l/π Σ_m
-        // y_lm(n)², and Σ_m y_lm(n)² = (2l + 1) / 4π for any n (the addition theorem).
+    fn the_unoccluded_transfer_is_the_clamped_cosine_lobe_about_the_normal() {
         let basis = Basis::new(3);
         let (mut u, mut y) = ([0.0f32; 9], [0.0f32; 9]);
         let n = Vec3::new(0.3, -0.5, 0.8).normalize();
-        unoccluded(&basis, n, &mut u);
+        unoccluded(&basis, &lobe_factors(3), n, &mut u);
         basis.eval(n, &mut y);
         let lit: f32 = u.iter().zip(&y).map(|(u, y)| u * y).sum();
         let expected = (1.0 + 3.0 * 2.0 / 3.0 + 5.0 * 0.25) / (4.0 * std::f32::consts::PI);

@@ -181,8 +181,8 @@ pub struct Filter<'g> {
     /// ([`Settings::second_lattice`]): this filter's answer is the mean of the two.
     shifted: Option<Box<Filter<'g>>>,
     /// Texels over a normal map: which receivers' lobes the transfer's filter takes out and
-    /// puts back ([`demodulate`]), and the transfer's floats per channel.
-    demodulation: Option<(demodulate::Demodulation, usize)>,
+    /// puts back ([`demodulate`]).
+    demodulation: Option<demodulate::Demodulation>,
 }
 
 impl<'g> Filter<'g> {
@@ -253,7 +253,7 @@ impl<'g> Filter<'g> {
         let input = (&signal[..], signal_width, used == per_channel);
         let terms = (contact.clone(), normals.clone());
         let mut filter = Filter::on_lattice(guides, settings, input, fine, terms);
-        filter.demodulation = demodulation.map(|d| (d, per_channel));
+        filter.demodulation = demodulation;
         if settings.second_lattice && texels {
             let settings = Settings {
                 second_lattice: false,

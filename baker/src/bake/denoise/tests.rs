@@ -249,11 +249,11 @@ fn noise_over_a_normal_map_is_smoothed_and_its_shadow_edge_kept() {
 #[test]
 fn an_unoccluded_lobe_over_a_normal_map_is_kept() {
     let guides = bumpy_sheet(1e-6);
-    let basis = crate::math::sh::Basis::new(3);
+    let (basis, factors) = (crate::math::sh::Basis::new(3), demodulate::lobe_factors(3));
     let transfer: Vec<f32> = (guides.normals.iter())
         .flat_map(|&n| {
             let mut u = [0.0f32; 9];
-            demodulate::unoccluded(&basis, n, &mut u);
+            demodulate::unoccluded(&basis, &factors, n, &mut u);
             u
         })
         .collect();
