@@ -37,7 +37,7 @@ impl Filter<'_> {
         let r = self.clusters.reps[c] as usize;
         let normals = self.normal_groups.get(g.groups[r] as usize);
         if normals.is_none_or(|&n| n == normal_fit::Normals::Plane) {
-            let contact = match (self.contact.get(m), self.tap_contact.get(c)) {
+            let contact = match (self.contact.terms.get(m), self.tap_contact.get(c)) {
                 (Some(member), Some(cluster)) => member - cluster,
                 _ => 0.0,
             };
@@ -64,10 +64,10 @@ impl Filter<'_> {
     }
 
     /// Whether receiver i's answer is the first lattice's alone: a cluster of its own on
-    /// both lattices ([`super::contact::alone`]), whose two kernels would read the same
+    /// both lattices ([`super::contact::Contacts::alone`]), whose two kernels would read the same
     /// neighbours but for their clustering.
     fn first_alone(&self, i: usize) -> bool {
-        super::contact::alone(&self.contact, i)
+        self.contact.alone(i)
     }
 
     /// [`Filter::row`] on this filter's lattice alone.

@@ -15,11 +15,10 @@
 //! counts, by Lepski's rule as the curved fit does ([`texel_fit::share_of_second`]), only
 //! where it differs from the plane's fit on the guide by more than that difference's noise.
 //!
-//! Texels with a contact term are clusters of their own ([`alone`]): around a crate's foot
-//! the transfer bends faster than over a cluster's 3 texels, and a cluster's members share
-//! its kernel and its fits' choices. With the curved fit ([`texel_fit::blend_curved`]), the
-//! courtyard at 64 rays 0.957 / 1.601 / 0.560 % -> 0.918 / 1.531 / 0.526 %, for 1.6 × the
-//! filter's time.
+//! Texels with a contact term are clusters of their own ([`Contacts::alone`]): around a crate's
+//! foot the transfer bends faster than over a cluster's 3 texels, and a cluster's members share its
+//! kernel and its fits' choices. With the curved fit ([`texel_fit::blend_curved`]), the courtyard
+//! at 64 rays 0.957 / 1.601 / 0.560 % -> 0.918 / 1.531 / 0.526 %, for 1.6 × the filter's time.
 //!
 //! Measured at 64 rays against 16,384, sun and sky / low sun / sky, 2 seeds: the production
 //! courtyard 1.057 / 1.737 / 0.612 % -> **1.010 / 1.673 / 0.583 %** (at 256 rays 0.537 /
@@ -28,8 +27,21 @@
 //! d, 1.039 %; a reach of 2, 4 or 8 texels, 1.019, 1.011 and 1.033 % (without the rule);
 //! (1 − d / 3) and its square as two regressors, no better than one. Finding the terms takes
 //! 30 ms of the courtyard's filter on one thread.
+//!
+//! Another object standing on a texel's surface is a wall between the texels on its two
+//! sides: they see it from opposite sides, and under a low sun one side lies in its shadow.
+//! A texel in contact with another object's or material's surface reads no neighbour across
+//! that surface's plane ([`Contacts::separator`]), as no light may cross a thin wall.
+//! Measured against 16,384 rays, sun and sky / low sun / sky: the courtyard at 256 rays
+//! 0.464 / 0.763 / 0.269 % -> 0.463 / 0.761 / 0.267 % (seed 2: 0.474 / 0.774 / 0.273 ->
+//! 0.473 / 0.771 / 0.270 %), at 64 rays within 0.3 %; the Cornell room at 64 rays 0.926 /
+//! 0.725 / 0.610 -> 0.925 / 0.725 / 0.607 %. Not across a crease of one surface: a terrain's
+//! folds are no wall (its error rose 2–4 % with them). Nor in the guide's prefilter (the
+//! courtyard 0.465 / 0.765 / 0.268 % with it).
 
-use glam::Vec4;
+use std::sync::Arc;
+
+use glam::{Vec3, Vec4};
 
 use super::clusters::Clusters;
 use super::grid::Grid;
@@ -56,17 +68,53 @@ const OFF_PLANE: f32 = 0.5;
 /// first member's.
 const FLAT: f32 = 0.999;
 
-/// Texels whose contact term is above this, within [`REACH`] of another surface, are clusters
-/// of their own ([`alone`]). On the courtyard at 64 rays: above 0, 0.918 %; above 0.1 (within
-/// 2 texels), 0.931 % for 0.85 × the filter's time; above 0.3, 0.957 %.
+/// Texels whose contact term is above this, within [`REACH`] of another surface, are clusters of
+/// their own ([`Contacts::alone`]). On the courtyard at 64 rays: above 0, 0.918 %; above 0.1
+/// (within 2 texels), 0.931 % for 0.85 × the filter's time; above 0.3, 0.957 %.
 const ALONE_ABOVE: f32 = 0.0;
 
-/// Whether receiver i, of contact term `terms[i]` (none where `terms` is empty), is a
-/// cluster of its own: a cluster's members share its kernel, its range term and its fits'
-/// choices, and the wide pass reads their mean at their centroid, where the transfer bends
-/// around another surface's foot faster than over a cluster's 3 texels.
-pub(super) fn alone(terms: &[f32], i: usize) -> bool {
-    terms.get(i).is_some_and(|&c| c > ALONE_ABOVE)
+/// How far off a separating plane, in the texel's spacings, the texel and a neighbour must
+/// lie for the plane to part them ([`Contacts::separator`]): a texel on the plane (under a
+/// wall standing on a texel centre) has no side, and a neighbour cluster's centroid on it is
+/// on neither. 0 and 1 gave the courtyard's 256-ray bake 0.462 / 0.762 / 0.266 % and 0.466
+/// / 0.762 / 0.269 %.
+const SIDE_MARGIN: f32 = 0.25;
+
+/// Each receiver's contact term ([`terms`]) and, where the closest other surface is another
+/// object's or material's, that surface's plane there.
+#[derive(Clone, Default)]
+pub(super) struct Contacts {
+    /// Each receiver's contact term; empty where the filter has none.
+    pub terms: Arc<[f32]>,
+    /// (receiver, plane) in receiver order: the other surface's unit normal m in xyz and
+    /// −m · q in w, q its closest texel, so that plane · (x, 1) is x's distance from it.
+    planes: Arc<[(u32, Vec4)]>,
+}
+
+impl Contacts {
+    /// Whether receiver i is a cluster of its own: a cluster's members share its kernel, its
+    /// range term and its fits' choices, and the wide pass reads their mean at their
+    /// centroid, where the transfer bends around another surface's foot faster than over a
+    /// cluster's 3 texels.
+    pub(super) fn alone(&self, i: usize) -> bool {
+        self.terms.get(i).is_some_and(|&c| c > ALONE_ABOVE)
+    }
+
+    /// The plane of the other object that receiver i, at `p` with `spacing`, stands beside,
+    /// scaled so that `plane · (x, 1)` is a point's distance from it in i's spacings on i's
+    /// side (negative across it); `None` where i has none or lies on it.
+    pub(super) fn separator(&self, i: usize, p: Vec3, spacing: f32) -> Option<Vec4> {
+        let at = self.planes.binary_search_by_key(&(i as u32), |&(r, _)| r);
+        let plane = self.planes[at.ok()?].1 / spacing;
+        let side = plane.dot(p.extend(1.0));
+        (side.abs() > SIDE_MARGIN).then(|| plane * side.signum())
+    }
+
+    /// Whether a point whose distance from a [`Contacts::separator`] plane is `side` (of
+    /// `plane · (x, 1)`) lies across it.
+    pub(super) fn across(side: f32) -> bool {
+        side < -SIDE_MARGIN
+    }
 }
 
 /// The contact term of a distance `d`, in spacings: 1 at contact, 0 from [`REACH`] on, with
@@ -80,7 +128,7 @@ pub(super) fn term(d: f32) -> f32 {
 /// [`REACH`] of its spacings: of another group (object and material), or of its own across a
 /// crease, and off its plane. `grid` holds every receiver. A function of the guides alone, the
 /// same for every lattice, thread and shard.
-pub(super) fn terms(guides: &Guides, grid: &Grid) -> Vec<f32> {
+pub(super) fn terms(guides: &Guides, grid: &Grid) -> Contacts {
     use rayon::prelude::*;
     // Most cells hold a few flat surfaces (a floor and its back face), and most of a cell's
     // neighbours hold the same: none of them another surface to the cell's texels (of their
@@ -89,7 +137,7 @@ pub(super) fn terms(guides: &Guides, grid: &Grid) -> Vec<f32> {
     // neighbour cells that may hold another surface; a texel reads only those cells' texels.
     let cells: Vec<&[u32]> = grid.cell_members().collect();
     let kinds: Vec<Option<Vec<Kind>>> = cells.iter().map(|m| kinds(guides, m)).collect();
-    let per_cell: Vec<Vec<(u32, f32)>> = (0..cells.len())
+    let per_cell: Vec<Vec<(u32, Closest)>> = (0..cells.len())
         .into_par_iter()
         .map_init(Vec::new, |near: &mut Vec<usize>, c| {
             let mut out = Vec::with_capacity(cells[c].len());
@@ -115,7 +163,7 @@ pub(super) fn terms(guides: &Guides, grid: &Grid) -> Vec<f32> {
                         .iter()
                         .filter(|&&i| guides.groups[i as usize] == kind.group)
                 };
-                let (mut low, mut high) = (glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY);
+                let (mut low, mut high) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
                 let (mut widest, mut finest) = (0.0f32, f32::INFINITY);
                 for &i in members() {
                     let (p, spacing) = (guides.points[i as usize], guides.spacing[i as usize]);
@@ -138,7 +186,7 @@ pub(super) fn terms(guides: &Guides, grid: &Grid) -> Vec<f32> {
                 });
                 for &i in members() {
                     let term = match near.is_empty() {
-                        true => 0.0,
+                        true => Closest::default(),
                         false => closest(guides, (&cells, &kinds), (i as usize, 2.0 * far), near),
                     };
                     out.push((i, term));
@@ -148,10 +196,24 @@ pub(super) fn terms(guides: &Guides, grid: &Grid) -> Vec<f32> {
         })
         .collect();
     let mut terms = vec![0.0; guides.points.len()];
-    for (i, term) in per_cell.into_iter().flatten() {
-        terms[i as usize] = term;
+    let mut planes = Vec::new();
+    for (i, closest) in per_cell.into_iter().flatten() {
+        terms[i as usize] = closest.term;
+        planes.extend(closest.plane.map(|plane| (i, plane)));
     }
-    terms
+    planes.sort_unstable_by_key(|&(i, _)| i);
+    Contacts {
+        terms: terms.into(),
+        planes: planes.into(),
+    }
+}
+
+/// A receiver's contact term and, where its closest other surface is of another group, that
+/// surface's plane ([`Contacts`]).
+#[derive(Default)]
+struct Closest {
+    term: f32,
+    plane: Option<Vec4>,
 }
 
 /// Receiver i's contact term from the receivers of cells `near` (a superset of the cells
@@ -162,7 +224,7 @@ fn closest(
     (cells, kinds): (&[&[u32]], &[Option<Vec<Kind>>]),
     (i, far): (usize, f32),
     near: &[usize],
-) -> f32 {
+) -> Closest {
     let (p, s, spacing, group) = (
         guides.points[i],
         guides.surfaces[i],
@@ -179,7 +241,7 @@ fn closest(
         high: at,
     };
     let ignored = |kind: &Kind| apart(&texel, kind, (p, far, spacing));
-    let mut closest = f32::INFINITY;
+    let (mut closest, mut nearest) = (f32::INFINITY, None);
     for &cell in near {
         if kinds[cell].as_ref().is_some_and(|k| k.iter().all(ignored)) {
             continue;
@@ -188,18 +250,25 @@ fn closest(
             let j = j as usize;
             let other = guides.groups[j] != group || guides.surfaces[j].dot(s) <= CREASE;
             let d = guides.points[j] - p;
-            if other && s.dot(d).abs() >= OFF_PLANE * spacing {
-                closest = closest.min(d.length());
+            if other && s.dot(d).abs() >= OFF_PLANE * spacing && d.length() < closest {
+                closest = d.length();
+                nearest = Some(j);
             }
         }
     }
-    term(closest / spacing)
+    let term = term(closest / spacing);
+    // Another group's surface parts the texels on its sides; a crease of the texel's own
+    // surface does not.
+    let plane = nearest
+        .filter(|&j| term > 0.0 && guides.groups[j] != group)
+        .map(|j| guides.surfaces[j].extend(-guides.surfaces[j].dot(guides.points[j])));
+    Closest { term, plane }
 }
 /// Whether no member of the flat surface `other` is another surface to any member of `own`,
 /// all of whose members lie within `far` of `centre`, as do `other`'s, the closest `spacing`
 /// apart: of `own`'s group and turned by well under a crease from it, or parallel to it and
 /// within half a spacing of its members' planes.
-fn apart(own: &Kind, other: &Kind, (centre, far, spacing): (glam::Vec3, f32, f32)) -> bool {
+fn apart(own: &Kind, other: &Kind, (centre, far, spacing): (Vec3, f32, f32)) -> bool {
     let facing = own.axis.dot(other.axis);
     // Each member's normal lies within acos(FLAT) of its surface's axis.
     if other.group == own.group && facing >= (CREASE.acos() - 2.0 * FLAT.acos()).cos() {
@@ -229,7 +298,7 @@ const KINDS: usize = 4;
 /// normal, every member's within [`FLAT`]) and the range of its members' distances along it.
 struct Kind {
     group: u32,
-    axis: glam::Vec3,
+    axis: Vec3,
     /// The farthest member's normal from the axis, |n − axis|.
     tilt: f32,
     low: f32,
@@ -339,7 +408,6 @@ pub(super) fn blend<'g>(
 
 #[cfg(test)]
 mod tests {
-    use glam::Vec3;
 
     use super::*;
 
@@ -370,8 +438,8 @@ mod tests {
             }
         }
         for cell in [0.3, 0.07, 1.0] {
-            let terms = terms(&guides, &Grid::new(&guides.points, cell));
-            for (i, &t) in terms.iter().enumerate() {
+            let contacts = terms(&guides, &Grid::new(&guides.points, cell));
+            for (i, &t) in contacts.terms.iter().enumerate() {
                 let p = guides.points[i];
                 let expected = match guides.groups[i] {
                     // The wall's closest texel to a floor texel is at z = 0.1.

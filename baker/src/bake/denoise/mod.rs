@@ -169,8 +169,9 @@ pub struct Filter<'g> {
     /// Texels: per group (object and material), whether its clusters try [`normal_fit`].
     normal_groups: Vec<normal_fit::Normals>,
     /// Texels ([`Settings::contact`]): each receiver's contact term and each cluster's, which
-    /// the fits of groups fitted over the plane read ([`contact`]); empty otherwise.
-    contact: std::sync::Arc<[f32]>,
+    /// the fits of groups fitted over the plane read, and the planes that part texels in
+    /// contact from their neighbours ([`contact`]); empty otherwise.
+    contact: contact::Contacts,
     tap_contact: Vec<f32>,
     signal_width: usize,
     /// Whether `tap_guide`'s first rows, the clusters' means, are those of the transfer the
@@ -218,9 +219,9 @@ impl<'g> Filter<'g> {
             true => Vec::new(),
             false => normal_fit::groups(guides, &fine),
         };
-        let contact: std::sync::Arc<[f32]> = match texels && settings.contact {
-            true => contact::terms(guides, &fine).into(),
-            false => std::sync::Arc::new([]),
+        let contact = match texels && settings.contact {
+            true => contact::terms(guides, &fine),
+            false => contact::Contacts::default(),
         };
         // Over a normal map, the transfer less each texel's unoccluded lobe.
         let demodulation = match texels {
@@ -275,7 +276,7 @@ impl<'g> Filter<'g> {
         settings: Settings,
         (signal, signal_width, whole): (&[f32], usize, bool),
         fine: grid::Grid,
-        (contact, normals): (std::sync::Arc<[f32]>, Vec<normal_fit::Normals>),
+        (contact, normals): (contact::Contacts, Vec<normal_fit::Normals>),
     ) -> Filter<'g> {
         let count = guides.points.len();
         let mut filter = Filter {
@@ -326,7 +327,7 @@ impl<'g> Filter<'g> {
             Some(step) => {
                 let within = (signal, sw);
                 // Texels in contact with another surface are clusters of their own.
-                let alone = |i: usize| contact::alone(&filter.contact, i);
+                let alone = |i: usize| filter.contact.alone(i);
                 Clusters::build(guides, &filter.fine, step, &noise, within, |seed, m| {
                     if alone(seed) || alone(m) {
                         return false;
@@ -406,8 +407,8 @@ impl<'g> Filter<'g> {
                 })
                 .collect();
         }
-        if !filter.contact.is_empty() {
-            filter.tap_contact = contact::cluster_terms(&clusters, &filter.contact);
+        if !filter.contact.terms.is_empty() {
+            filter.tap_contact = contact::cluster_terms(&clusters, &filter.contact.terms);
         }
         filter.cluster_of = vec![0; count];
         for c in 0..clusters.reps.len() {
@@ -528,15 +529,22 @@ impl<'g> Filter<'g> {
         let reach = radius * spacing;
         let (t1, t2) = self.frames[c];
         let scale = 1.0 / spacing;
-        // The taps within reach and facing c, gathered first without a branch per tap:
-        // which of a cell's taps lie within reach is hard to predict, and a mispredicted
-        // branch cost more than the test. Each is kept as (k, [r², facing, 0]).
+        // A texel beside another object reads nothing across its plane ([`contact`]).
+        let separator = match vertices {
+            true => None,
+            false => self.contact.separator(r, pi, spacing),
+        };
+        let plane = separator.unwrap_or(glam::Vec4::ZERO);
+        // The taps within reach, facing c and on its side, gathered first without a branch
+        // per tap: which of a cell's taps lie within reach is hard to predict, and a
+        // mispredicted branch cost more than the test. Each is kept as (k, [r², facing, 0]).
         self.wide.visit(group, pi, reach, |k| {
             let tap = &self.taps[k as usize];
             let r2 = (tap.at - pi).length_squared() / (reach * reach);
             let facing = ni.dot(tap.normal);
+            let across = contact::Contacts::across(plane.dot(tap.at.extend(1.0)));
             out.push((k, [r2, facing, 0.0]));
-            out.truncate(out.len() - usize::from((r2 > 1.0) | (facing <= 0.0)));
+            out.truncate(out.len() - usize::from((r2 > 1.0) | (facing <= 0.0) | across));
         });
         // Their weights, in place: entry `kept` is written after entry `kept` is read.
         let mut kept = 0;

@@ -375,7 +375,7 @@ fn texels_in_contact_are_clusters_of_their_own() {
             let row = f.clusters.row(c);
             let in_contact = row
                 .iter()
-                .filter(|&&(m, _)| filter.contact[m as usize] > 0.0);
+                .filter(|&&(m, _)| filter.contact.terms[m as usize] > 0.0);
             match in_contact.count() {
                 0 => {}
                 n => {
@@ -388,6 +388,38 @@ fn texels_in_contact_are_clusters_of_their_own() {
     // The floor's first three columns (x = 0, 1, 2, within 3 texels of the wall's foot) and
     // the wall's first three rows, 36 texels each, on both lattices.
     assert_eq!(alone, 2 * 6 * 36);
+}
+
+/// A thin card (another object) standing across the floor between its columns 17 and 18,
+/// the floor's two sides a step apart that the range term cannot see (a noise 3 × the step):
+/// the texels within the contact term's reach of the card keep their own side's value; each
+/// would read the other side's through the fit without the card's plane (0.23 of the step
+/// at x = 15).
+#[test]
+fn texels_beside_another_object_read_nothing_across_it() {
+    let mut g = Guides::default();
+    floor(&mut g);
+    let on_floor = g.points.len();
+    for b in 0..3 {
+        let origin = Vec3::new(17.5, 12.0 * b as f32, 0.5);
+        sheet(&mut g, origin, Vec3::Y, Vec3::Z, Vec3::X, 1);
+    }
+    g.noise.fill(1.0);
+    let step = 0.3;
+    let value = |i: usize| match (i < on_floor, g.points[i].x > 17.5) {
+        (true, false) => 1.0,
+        (true, true) => 1.0 + step,
+        (false, _) => 0.5,
+    };
+    let transfer: Vec<f32> = (0..g.points.len()).map(value).collect();
+    let out = Filter::new(&g, Settings::TEXELS, &transfer, 1, 1).apply(&transfer, 1);
+    for i in 0..on_floor {
+        let x = g.points[i].x;
+        if (15.0..=20.0).contains(&x) {
+            let moved = (out[i] - transfer[i]).abs();
+            assert!(moved < 1e-5 * step, "{}: {moved}", g.points[i]);
+        }
+    }
 }
 
 /// The floor of [`floor`] and a wall of 36 × 12 standing on it at x = −0.5, facing it (group
