@@ -19,6 +19,11 @@
 //! foot the transfer bends faster than over a cluster's 3 texels, and a cluster's members share its
 //! kernel and its fits' choices. With the curved fit ([`texel_fit::blend_curved`]), the courtyard
 //! at 64 rays 0.957 / 1.601 / 0.560 % -> 0.918 / 1.531 / 0.526 %, for 1.6 × the filter's time.
+//! They are most of the terrain's filter time (58 % of its texels, by its folds), and not
+//! cheaper kept otherwise: at 512², 64 rays, those by a fold joining clusters took 0.64 × the
+//! time for 2.26 / 2.64 / 1.82 % against 2.14 / 2.52 / 1.67 % (only those beyond 1.7
+//! spacings, 2.24 %); their kernels 0.75 × as wide, 0.86 × for 2.18 % (the courtyard 0.94 ×,
+//! 0.3–0.9 % worse).
 //!
 //! Measured at 64 rays against 16,384, sun and sky / low sun / sky, 2 seeds: the production
 //! courtyard 1.057 / 1.737 / 0.612 % -> **1.010 / 1.673 / 0.583 %** (at 256 rays 0.537 /

@@ -43,8 +43,8 @@
 //! once; the wide pass costs a sixth. A cluster of 3 or more
 //! is its own guide, its members' mean (of variance Σ w² σ²), as SVGF's coarser levels read
 //! the level below: they are alike by construction, so their mean is about as steady as the
-//! prefilter over 1.5 spacings, and costs nothing more; only the representatives of smaller clusters
-//! (a shadow's edge, a chart's corner) are prefiltered.
+//! prefilter over 1.5 spacings, and costs nothing more; only the representatives of smaller
+//! clusters (a shadow's edge, a chart's corner) are prefiltered.
 //!
 //! A member at its cluster's edge reads a fit made about a centroid a texel or two away, and
 //! its neighbour across the seam another cluster's: where the transfer bends (a contact
@@ -72,7 +72,8 @@
 //! the plane's squares is blended in by Lepski's rule ([`texel_fit`]); over a normal map or a
 //! surface that bends within texels the fit is in the normal too ([`normal_fit`]), and over a
 //! normal map the unoccluded lobe is taken out before and put back after ([`demodulate`]); near
-//! another surface, in the distance to it, each texel a cluster of its own ([`contact`]).
+//! another surface, in the distance to it, each texel a cluster of its own that reads nothing
+//! across another object standing beside it ([`contact`]).
 //!
 //! The weights sum to 1, so a constant transfer is kept exactly. They are a pure function of
 //! the guides and the bake's transfer, formed receiver by receiver over neighbours in a fixed
@@ -421,8 +422,9 @@ impl<'g> Filter<'g> {
     }
 
     /// Receiver i's weight on j, taken to lie `at` (its own point, or its cluster's): the
-    /// geometric terms times exp(−`range`), 0 outside `radius` spacings. `range` (the range term's exponent) is asked only of neighbours the
-    /// geometric terms keep, and the terms share one exponential.
+    /// geometric terms times exp(−`range`), 0 outside `radius` spacings. `range` (the range
+    /// term's exponent) is asked only of neighbours the geometric terms keep, and the terms
+    /// share one exponential.
     #[inline(always)]
     fn weight(
         &self,

@@ -1,7 +1,7 @@
 //! A texel cluster's fit, where no normal map turns its normals: over its tangent plane
-//! ([`texel_fit::fit`]), then, each by Lepski's rule where it departs from the fit so far by more than
-//! their difference's noise, in its contact term ([`contact::blend`]) and in the plane's
-//! squares ([`texel_fit::blend_curved`]).
+//! ([`texel_fit::fit`]), then, each by Lepski's rule where it departs from the fit so far by
+//! more than their difference's noise, in its contact term ([`contact::blend`]) and in the
+//! plane's squares ([`texel_fit::blend_curved`]).
 
 use glam::Vec4;
 
