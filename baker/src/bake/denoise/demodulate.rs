@@ -78,12 +78,12 @@ impl Demodulation {
     }
 
     /// The floats per channel of the transfer it demodulates.
-    pub(super) fn per_channel(&self) -> usize {
+    fn per_channel(&self) -> usize {
         self.factors.len()
     }
 
     /// Receiver i's lobe into `out` (n² floats), or false where it keeps its transfer.
-    pub(super) fn lobe_of(&self, guides: &Guides, i: usize, out: &mut [f32]) -> bool {
+    fn lobe_of(&self, guides: &Guides, i: usize, out: &mut [f32]) -> bool {
         if !self.demodulated[i] {
             return false;
         }
@@ -97,13 +97,27 @@ impl Demodulation {
         let width = values.len() / self.demodulated.len().max(1);
         let mut lobe = vec![0.0f32; self.per_channel()];
         for (i, v) in values.chunks_exact_mut(width.max(1)).enumerate() {
-            if !self.lobe_of(guides, i, &mut lobe) {
-                continue;
-            }
-            for block in v.chunks_exact_mut(lobe.len()) {
-                for (v, u) in block.iter_mut().zip(&lobe) {
-                    *v += sign * u;
-                }
+            self.shift_receiver(guides, i, (v, self.per_channel()), &mut lobe, sign);
+        }
+    }
+
+    /// Adds `sign` × receiver i's lobe to each block of `block` floats of `values`, its
+    /// channels (the lobe's first `block` coefficients: the range term's signal reads bands 0
+    /// to 2 alone); `lobe` is room for n² floats.
+    pub(super) fn shift_receiver(
+        &self,
+        guides: &Guides,
+        i: usize,
+        (values, block): (&mut [f32], usize),
+        lobe: &mut [f32],
+        sign: f32,
+    ) {
+        if !self.lobe_of(guides, i, lobe) {
+            return;
+        }
+        for channel in values.chunks_exact_mut(block.max(1)) {
+            for (v, u) in channel.iter_mut().zip(&*lobe) {
+                *v += sign * u;
             }
         }
     }

@@ -237,16 +237,13 @@ impl<'g> Filter<'g> {
                 let mut signal = Vec::with_capacity(count * signal_width);
                 let mut lobe = vec![0.0f32; per_channel];
                 for (i, receiver) in transfer.chunks_exact(width.max(1)).take(count).enumerate() {
-                    let demodulated =
-                        (demodulation.as_ref()).is_some_and(|d| d.lobe_of(guides, i, &mut lobe));
+                    let start = signal.len();
                     for block in receiver.chunks_exact(per_channel.max(1)) {
-                        let start = signal.len();
                         signal.extend_from_slice(&block[..used]);
-                        if demodulated {
-                            for (s, u) in signal[start..].iter_mut().zip(&lobe) {
-                                *s -= u;
-                            }
-                        }
+                    }
+                    if let Some(d) = &demodulation {
+                        let values = (&mut signal[start..], used);
+                        d.shift_receiver(guides, i, values, &mut lobe, -1.0);
                     }
                 }
                 std::borrow::Cow::Owned(signal)
