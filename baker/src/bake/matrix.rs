@@ -24,7 +24,7 @@
 //! the vector bake's joint sets, unturned, as [`Estimator::set`] picks them
 //! ([`crate::bake::strata`]): the tables hold every set, one after another, and a receiver
 //! reads its own set's rows and batch totals. That took the glossy torus's denoised error
-//! at 64 rays from 2.25 to 1.95 % (docs/explanation/denoising.md).
+//! at 64 rays from 2.25 to 1.95 % (docs/explanation/denoising-record.md).
 //!
 //! # How it is organised
 //!

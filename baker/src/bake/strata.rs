@@ -24,7 +24,7 @@
 //! which set a receiver takes, for both.
 //!
 //! Measured on the Cornell room at 256², 64 rays, denoised, under a sun and sky / a low sun
-//! / a sky (docs/explanation/denoising.md): 1.27 / 1.03 / 0.86 % with independent texels,
+//! / a sky (docs/explanation/denoising-record.md): 1.27 / 1.03 / 0.86 % with independent texels,
 //! 0.99 / 0.84 / 0.70 % with joint strata; 16 sets in a single sequence for every tile
 //! gave 1.12 / 0.96 / 0.76 %, 16 independently scrambled sets 1.21 / 0.97 / 0.82 %.
 //! The raw error of each texel is unchanged (8.8 against 8.6 %, one seed). The torus's

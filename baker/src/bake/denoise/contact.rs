@@ -61,7 +61,7 @@ const RIDGES: [f64; PLANE + 1] = [PLANE_RIDGES[0], PLANE_RIDGES[1], PLANE_RIDGES
 /// The squared difference of the plane's fit and the fit in the contact term on the guide,
 /// over its noise variance, from which the contact term counts and at which its fit is
 /// taken whole (measured with a fit half as wide blended into both, since replaced by the
-/// curved fit: docs/explanation/denoising.md).
+/// curved fit: docs/explanation/denoising-record.md).
 const CONTACT_FROM: (f64, f64) = (2.5, 10.0);
 /// A texel of the same object and material is another surface where its surface normal turns
 /// from the texel's by more than this cosine (a crease of one mesh, about 45°).

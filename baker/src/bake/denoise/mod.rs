@@ -18,7 +18,8 @@
 //!   the atlas: charts that meet at a seam share neighbours, charts that merely sit side by
 //!   side in the atlas never mix;
 //! * the **shading normals'** agreement, (n_i · n_j)^32 (normal-mapped texels use their mapped
-//!   normal, so a bump's two sides stay apart), and 0 for normals facing apart;
+//!   normal; where the fit is in the normal, the wide pass takes n_i · n_j itself), and 0 for
+//!   normals facing apart;
 //! * the **plane distance** of j from i's surface, |s_i · (p_j − p_i)|, in spacings: a thin
 //!   wall's other side, a step or a slab lying on a floor are off i's plane;
 //! * the same **object and material**;
@@ -54,7 +55,7 @@
 //! the mean of the two filters (translation-invariant denoising, "cycle spinning": Coifman &
 //! Donoho 1995, *Translation-invariant de-noising*): each seam of one lattice runs through
 //! the other's clusters. On the courtyard at 64 rays the error falls by 7 %, for twice the
-//! filter's time: more than that time spent on rays buys (docs/explanation/denoising.md).
+//! filter's time: more than that time spent on rays buys (docs/explanation/denoising-record.md).
 //!
 //! Vertices (vertex bakes, transfer
 //! matrices, subsurface vertices) gather into clusters of like neighbours around seeds, each
@@ -68,9 +69,10 @@
 //! kernel biases every gradient (towards a contact shadow, over a chart's last texels, where
 //! the neighbours lie on one side), the fit does not. Its weights may go negative and cost a
 //! little noise; on the Cornell room at 128² it takes a 64-ray bake's error from 3.5 % to
-//! 1.9 % (docs/explanation/denoising.md). Where the transfer curves over the kernel, a fit in
-//! the plane's squares is blended in by Lepski's rule ([`texel_fit`]); over a normal map or a
-//! surface that bends within texels the fit is in the normal too ([`normal_fit`]), and over a
+//! 1.9 % (docs/explanation/denoising-record.md). Where the transfer curves over the kernel, a
+//! fit in the plane's squares is blended in by Lepski's rule ([`texel_fit`]); over a normal
+//! map or a surface that bends within texels the fit is in the normal too ([`normal_fit`]),
+//! and its normal term is the cosine itself, not its 32nd power; over a
 //! normal map the unoccluded lobe is taken out before and put back after ([`demodulate`]); near
 //! another surface, in the distance to it, each texel a cluster of its own that reads nothing
 //! across another object standing beside it ([`contact`]).
@@ -518,11 +520,12 @@ impl<'g> Filter<'g> {
         let pi = self.clusters.points[c];
         let (ni, si, group) = (g.normals[r], g.surfaces[r], g.groups[r]);
         let normals = self.normal_groups.get(group as usize);
+        // Fitted in the normal: over a normal map, or a surface that bends.
         let mapped = normals.is_some_and(|&n| n != normal_fit::Normals::Plane);
-        let squarings = match (vertices, normals) {
+        let squarings = match (vertices, mapped) {
             (true, _) => vertices::NORMAL_SQUARINGS,
-            (false, Some(normal_fit::Normals::Bends)) => normal_fit::BENDING_POWER,
-            (false, _) => NORMAL_SQUARINGS,
+            (false, true) => normal_fit::FITTED_POWER,
+            (false, false) => NORMAL_SQUARINGS,
         };
         let (spacing, noise) = (g.spacing[r], self.taps[c].noise);
         let reach = radius * spacing;

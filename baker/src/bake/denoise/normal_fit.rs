@@ -83,8 +83,8 @@ pub(super) enum Normals {
     Plane,
     /// In the normal too: a normal map turns some shading normal off its surface's.
     Mapped,
-    /// In the normal too, and its normal term at the power [`BENDING_POWER`]: its surface
-    /// bends within a few texels ([`BENDS`]), as a terrain's does.
+    /// In the normal too: its surface bends within a few texels ([`BENDS`]), as a
+    /// terrain's does.
     Bends,
 }
 
@@ -96,10 +96,12 @@ pub(super) enum Normals {
 /// 1.67 % (raw 512 rays: 1.49 / 1.77 / 1.15 %).
 const BENDS: f32 = 6e-4;
 
-/// The normal term's power over a surface that bends, as the number of squarings that raise
-/// it ([`power_of_two`]): 0, the cosine itself. At 32, the few neighbours it keeps
-/// where the normals turn 6° a texel leave most of the noise.
-pub(super) const BENDING_POWER: u32 = 0;
+/// The normal term's power where the fit is in the normal (over a normal map, or a surface
+/// that bends), as the number of squarings that raise it ([`power_of_two`]): 0, the cosine
+/// itself. The fit follows the transfer's turn with the normal, so a neighbour's turned
+/// normal needs no cut of its own; at 32, the few neighbours the term keeps where the
+/// normals turn 6° a texel, or across a brick's joint, leave most of the noise.
+pub(super) const FITTED_POWER: u32 = 0;
 
 /// The power of the shading normals' dot product over a plane, 2⁵ = 32, as the number of
 /// squarings that raise it: x^32 inline, rather than a call to the runtime's `powi` for an

@@ -50,7 +50,7 @@ pub struct Settings {
 
 impl Settings {
     /// Lightmap texels: 7 texels each way, over clusters of up to 3 × 3 texels (measured on
-    /// the Cornell room at 64 rays: docs/explanation/denoising.md). Against 6 texels over
+    /// the Cornell room at 64 rays: docs/explanation/denoising-record.md). Against 6 texels over
     /// clusters of 2 × 2, the wide pass reads half the clusters and the error is lower
     /// (1.31 against 1.36 % under a sun and sky); 6 texels over 3 × 3 cost as little but
     /// add 4 % to the error.

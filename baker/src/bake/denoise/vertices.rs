@@ -32,7 +32,7 @@
 //! average) 1.46 / 3.98 / 0.88 %, for 0.74 × the filter's instructions; with joint strata
 //! 1.29 / 3.51 / 0.80 %; with the robust range term, κ = 3 and the quarter-width fit 1.11 /
 //! 2.84 / 0.69 % (a raw bake of 512 rays: 1.16 / 3.24 / 0.65 %), the filter's time 1.9 ×
-//! (docs/explanation/denoising.md). The blend is judged once per cluster, at its centroid.
+//! (docs/explanation/denoising-record.md). The blend is judged once per cluster, at its centroid.
 
 use glam::Vec4;
 
