@@ -35,8 +35,7 @@ impl Filter<'_> {
     pub(super) fn member_extra(&self, c: usize, m: usize) -> [f32; normal_fit::NORMAL] {
         let g = self.guides;
         let r = self.clusters.reps[c] as usize;
-        let normals = self.normal_groups.get(g.groups[r] as usize);
-        if normals.is_none_or(|&n| n == normal_fit::Normals::Plane) {
+        if !self.fitted_in_normal(g.groups[r]) {
             let contact = match (self.contact.terms.get(m), self.tap_contact.get(c)) {
                 (Some(member), Some(cluster)) => member - cluster,
                 _ => 0.0,

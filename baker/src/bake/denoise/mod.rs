@@ -420,6 +420,12 @@ impl<'g> Filter<'g> {
         filter
     }
 
+    /// Whether the texels of `group` are fitted in the normal too ([`normal_fit`]): over a
+    /// normal map, or a surface that bends within a few texels. Vertices never are.
+    fn fitted_in_normal(&self, group: u32) -> bool {
+        (self.normal_groups.get(group as usize)).is_some_and(|&n| n != normal_fit::Normals::Plane)
+    }
+
     /// Receiver i's weight on j, taken to lie `at` (its own point, or its cluster's): the
     /// geometric terms times exp(−`range`), 0 outside `radius` spacings. `range` (the range
     /// term's exponent) is asked only of neighbours the geometric terms keep, and the terms
@@ -519,9 +525,8 @@ impl<'g> Filter<'g> {
         };
         let pi = self.clusters.points[c];
         let (ni, si, group) = (g.normals[r], g.surfaces[r], g.groups[r]);
-        let normals = self.normal_groups.get(group as usize);
         // Fitted in the normal: over a normal map, or a surface that bends.
-        let mapped = normals.is_some_and(|&n| n != normal_fit::Normals::Plane);
+        let mapped = self.fitted_in_normal(group);
         let squarings = match (vertices, mapped) {
             (true, _) => vertices::NORMAL_SQUARINGS,
             (false, true) => normal_fit::FITTED_POWER,
