@@ -83,6 +83,7 @@
 
 mod apply;
 mod cholesky;
+mod clipped_lobe;
 mod clusters;
 mod contact;
 mod demodulate;
@@ -237,7 +238,7 @@ impl<'g> Filter<'g> {
             (true, None) => std::borrow::Cow::Borrowed(&transfer[..count * width]),
             _ => {
                 let mut signal = Vec::with_capacity(count * signal_width);
-                let mut lobe = vec![0.0f32; per_channel];
+                let mut lobe = demodulate::Scratch::default();
                 for (i, receiver) in transfer.chunks_exact(width.max(1)).take(count).enumerate() {
                     let start = signal.len();
                     for block in receiver.chunks_exact(per_channel.max(1)) {

@@ -3,6 +3,8 @@
 use super::*;
 use glam::Vec3;
 
+use super::clipped_lobe::{ClippedLobes, LobeScratch};
+
 /// A square 12 × 12 grid of receivers at spacing 1 from `origin` along `u`, `v`,
 /// facing `normal`, in `group`.
 fn sheet(guides: &mut Guides, origin: Vec3, u: Vec3, v: Vec3, normal: Vec3, group: u32) {
@@ -244,7 +246,7 @@ fn noise_over_a_normal_map_is_smoothed_and_its_shadow_edge_kept() {
 
 /// A normal-mapped sheet with a joint every 6 texels, whose two walls tilt the shading normal
 /// 30° either way, and whose noisy order-3 transfer is the unoccluded lobe about the normal
-/// less a part the scene blocks, the same for every texel. With the lobe taken out
+/// over the sheet's hemisphere ([`clipped_lobe`]) less a part the scene blocks, the same for every texel. With the lobe taken out
 /// ([`demodulate`]) the fit in the normal has little left to follow, so the joints' texels
 /// read the whole sheet's neighbours: their noise falls to 0.20 of the raw's. With the normal
 /// term at the power 32 (cos 30° to it: 0.01) they read only their own wall's few: 0.31.
@@ -265,14 +267,14 @@ fn a_normal_map_s_joints_read_every_neighbour() {
             }
         }
     }
-    let (basis, factors) = (crate::math::sh::Basis::new(3), demodulate::lobe_factors(3));
+    let (lobes, mut scratch) = (ClippedLobes::new(3), LobeScratch::default());
     let mut blocked = [0.0f32; 9];
-    demodulate::unoccluded(&basis, &factors, Vec3::X, &mut blocked);
+    lobes.lobe(Vec3::X, Vec3::X, &mut blocked, &mut scratch);
     let mut rng = crate::math::sampling::Pcg32::new(5, 6);
     let (mut clean, mut transfer) = (Vec::new(), Vec::new());
-    for &n in &guides.normals {
+    for (&n, &h) in guides.normals.iter().zip(&guides.surfaces) {
         let mut value = [0.0f32; 9];
-        demodulate::unoccluded(&basis, &factors, n, &mut value);
+        lobes.lobe(n, h, &mut value, &mut scratch);
         for (v, b) in value.iter_mut().zip(&blocked) {
             *v -= 0.2 * b;
         }
@@ -301,17 +303,17 @@ fn a_normal_map_s_joints_read_every_neighbour() {
 }
 
 /// A normal-mapped sheet whose order-3 transfer is the unoccluded lobe about each texel's
-/// shading normal: the filter takes the lobe out and puts it back ([`demodulate`]), so every
-/// bump is kept to float rounding. The fit in the normal alone follows the lobe only to
-/// second order, and changes it by up to 0.0018.
+/// shading normal over the sheet's hemisphere ([`clipped_lobe`]): the filter takes the lobe
+/// out and puts it back ([`demodulate`]), so every bump is kept to float rounding. The fit
+/// in the normal alone follows the lobe only to second order.
 #[test]
 fn an_unoccluded_lobe_over_a_normal_map_is_kept() {
     let guides = bumpy_sheet(1e-6);
-    let (basis, factors) = (crate::math::sh::Basis::new(3), demodulate::lobe_factors(3));
-    let transfer: Vec<f32> = (guides.normals.iter())
-        .flat_map(|&n| {
+    let (lobes, mut scratch) = (ClippedLobes::new(3), LobeScratch::default());
+    let transfer: Vec<f32> = (guides.normals.iter().zip(&guides.surfaces))
+        .flat_map(|(&n, &h)| {
             let mut u = [0.0f32; 9];
-            demodulate::unoccluded(&basis, &factors, n, &mut u);
+            lobes.lobe(n, h, &mut u, &mut scratch);
             u
         })
         .collect();
