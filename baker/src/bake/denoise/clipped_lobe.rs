@@ -19,7 +19,7 @@ use glam::{DMat3, Vec3};
 use crate::math::sh::{Basis, RecurrenceRotator, RotationScratch, coeff_count};
 
 /// Angles θ from 0 to π at which the lobe is tabulated; between them it is interpolated
-/// linearly (an error under 10⁻⁵ at order 4).
+/// linearly. The lobe need not be exact: a texel takes out and puts back the same one.
 const BINS: usize = 512;
 
 /// The clipped lobes of one order, tabulated over θ.

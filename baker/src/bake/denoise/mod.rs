@@ -238,7 +238,7 @@ impl<'g> Filter<'g> {
             (true, None) => std::borrow::Cow::Borrowed(&transfer[..count * width]),
             _ => {
                 let mut signal = Vec::with_capacity(count * signal_width);
-                let mut lobe = demodulate::Scratch::default();
+                let mut scratch = demodulate::Scratch::default();
                 for (i, receiver) in transfer.chunks_exact(width.max(1)).take(count).enumerate() {
                     let start = signal.len();
                     for block in receiver.chunks_exact(per_channel.max(1)) {
@@ -246,7 +246,7 @@ impl<'g> Filter<'g> {
                     }
                     if let Some(d) = &demodulation {
                         let values = (&mut signal[start..], used);
-                        d.shift_receiver(guides, i, values, &mut lobe, -1.0);
+                        d.shift_receiver(guides, i, values, &mut scratch, -1.0);
                     }
                 }
                 std::borrow::Cow::Owned(signal)

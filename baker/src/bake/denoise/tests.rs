@@ -246,10 +246,11 @@ fn noise_over_a_normal_map_is_smoothed_and_its_shadow_edge_kept() {
 
 /// A normal-mapped sheet with a joint every 6 texels, whose two walls tilt the shading normal
 /// 30° either way, and whose noisy order-3 transfer is the unoccluded lobe about the normal
-/// over the sheet's hemisphere ([`clipped_lobe`]) less a part the scene blocks, the same for every texel. With the lobe taken out
-/// ([`demodulate`]) the fit in the normal has little left to follow, so the joints' texels
-/// read the whole sheet's neighbours: their noise falls to 0.20 of the raw's. With the normal
-/// term at the power 32 (cos 30° to it: 0.01) they read only their own wall's few: 0.31.
+/// over the sheet's hemisphere ([`clipped_lobe`]) less a part the scene blocks, the same for
+/// every texel. With the lobe taken out ([`demodulate`]) the fit in the normal has little
+/// left to follow, so the joints' texels read the whole sheet's neighbours: their noise falls
+/// to 0.20 of the raw's. With the normal term at the power 32 (cos 30° to it: 0.01) they
+/// read only their own wall's few: 0.31.
 #[test]
 fn a_normal_map_s_joints_read_every_neighbour() {
     let sigma = 0.02f32;
