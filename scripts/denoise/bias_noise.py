@@ -64,13 +64,14 @@ def main():
     names = ["all"] + list(masks)
     masks["all"] = np.ones(height * width, dtype=bool)
 
-    def squares(path):
+    def same_atlas_receivers(path):
+        """Its transfer and baked-texel mask, refused where its atlas is not the reference's."""
         t, mask = receivers(read_prt(path))
         if t.shape[0] != ref_t.shape[0]:
             sys.exit(f"{path}: {t.shape[0]} texels, the reference {args.reference} has {ref_t.shape[0]}")
         return t, mask
 
-    seeds = [squares(p) for p in args.seeds]
+    seeds = [same_atlas_receivers(p) for p in args.seeds]
     both = baked.copy()
     for _, mask in seeds:
         both &= mask
@@ -96,7 +97,7 @@ def main():
                  for t, b, v in zip(total, bias, noise)]
         print(f"  {len(seeds)} seeds, total (bias / noise)".ljust(30) + "".join(c.rjust(24) for c in cells))
         for path in args.versus:
-            t, mask = squares(path)
+            t, mask = same_atlas_receivers(path)
             e2 = (relit(t, coefficients) - a) ** 2
             cells = [f"{100 * part(e2, masks[n] & mask) ** 0.5:.3f}" for n in names]
             print(f"  {os.path.basename(path)}".ljust(30) + "".join(c.rjust(24) for c in cells))

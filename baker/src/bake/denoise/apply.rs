@@ -128,15 +128,19 @@ impl Filter<'_> {
                 demodulation.shift(self.guides, transfer, sign);
             }
         };
-        demodulate(transfer, -1.0);
         let at_hand = |f: &Filter| f.transfer_means && f.signal_width == width;
         match at_hand(self) && self.shifted.as_deref().is_none_or(at_hand) {
+            // The means were formed from the demodulated signal, and every receiver's
+            // value is written over: the transfer itself is not read, so not demodulated.
             true => {
                 let shifted = self.shifted.as_deref().map(|s| s.transfer_means_of(width));
                 let means = (self.transfer_means_of(width), shifted);
                 self.apply_on_lattices(transfer, means, width, scalars)
             }
-            false => self.apply_in_place(transfer, width, scalars),
+            false => {
+                demodulate(transfer, -1.0);
+                self.apply_in_place(transfer, width, scalars)
+            }
         }
         demodulate(transfer, 1.0);
     }

@@ -47,10 +47,13 @@ impl ClippedLobes {
         let steps = 32 * order.max(8);
         let basis = Basis::new(order);
         let dt = FRAC_PI_2 / steps as f64;
+        // Each step's θ′, as its sine and cosine, and its harmonics there.
+        let step_angles: Vec<(f64, f64)> = (0..steps)
+            .map(|k| ((k as f64 + 0.5) * dt).sin_cos())
+            .collect();
         let mut ys = vec![0.0f32; steps * width];
-        for (k, y) in ys.chunks_exact_mut(width).enumerate() {
-            let t = (k as f64 + 0.5) * dt;
-            basis.eval(Vec3::new(t.sin() as f32, 0.0, t.cos() as f32), y);
+        for (y, &(sin, cos)) in ys.chunks_exact_mut(width).zip(&step_angles) {
+            basis.eval(Vec3::new(sin as f32, 0.0, cos as f32), y);
         }
         // Each coefficient's m, and the harmonics of sin(|m|φ) (m < 0) have no part.
         let ms: Vec<i32> = (0..order as i32).flat_map(|l| -l..=l).collect();
@@ -59,10 +62,9 @@ impl ClippedLobes {
         let mut sines = vec![0.0f64; order + 1];
         let mut table = vec![0.0f64; (BINS + 1) * width];
         for (bin, row) in table.chunks_exact_mut(width).enumerate() {
-            let theta = PI * bin as f64 / BINS as f64;
-            for (k, y) in ys.chunks_exact(width).enumerate() {
-                let t = (k as f64 + 0.5) * dt;
-                let (a, b) = (theta.sin() * t.sin(), theta.cos() * t.cos());
+            let (sin_theta, cos_theta) = (PI * bin as f64 / BINS as f64).sin_cos();
+            for (y, &(sin_t, cos_t)) in ys.chunks_exact(width).zip(&step_angles) {
+                let (a, b) = (sin_theta * sin_t, cos_theta * cos_t);
                 let phi0 = match a > 0.0 {
                     true => (-b / a).clamp(-1.0, 1.0).acos(),
                     false if b > 0.0 => PI,
@@ -77,7 +79,7 @@ impl ClippedLobes {
                     0 => 2.0 * phi0,
                     k => 2.0 * sines[k as usize] / f64::from(k),
                 };
-                let step = t.sin() * dt / PI;
+                let step = sin_t * dt / PI;
                 for ((c, &y), &m) in row.iter_mut().zip(y).zip(&ms) {
                     if m >= 0 {
                         let around = 0.5 * a * (s((m - 1).abs()) + s(m + 1)) + b * s(m);
