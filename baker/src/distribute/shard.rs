@@ -492,7 +492,9 @@ impl Part {
                 .take()
                 .expect("a denoised part carries its guides");
             let settings = match self.lightmap {
-                Some(_) => Settings::texels(self.header.samples_per_vertex),
+                Some(_) => {
+                    Settings::texels(self.header.samples_per_vertex, self.header.order as usize)
+                }
                 None => Settings::VERTICES,
             };
             let per_channel = self

@@ -105,7 +105,7 @@ use clusters::Clusters;
 pub use guides::{Guides, texel_guides, vertex_guides};
 use normal_fit::{NORMAL_SQUARINGS, power_of_two};
 use range::{range_exponent, range_term, squared_difference};
-pub use settings::{FINE_CLUSTERS_FROM, Settings};
+pub use settings::{FINE_CLUSTERS_FROM, SHARP_FROM_ORDER, Settings};
 
 /// Coefficients per channel the range term compares: bands 0 to 2 (band 2 tells a sun's
 /// shadow edges apart better than bands 0 and 1 alone: 0.58 -> 0.55 % at 256 rays on the

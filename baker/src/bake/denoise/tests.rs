@@ -328,12 +328,15 @@ fn an_unoccluded_lobe_over_a_normal_map_is_kept() {
 }
 
 /// Texel bakes of many rays are filtered in finer clusters, and the merge of a bake's parts
-/// picks the very same settings from its header's rays ([`Settings::texels`]).
+/// picks the very same settings from its header's rays and order ([`Settings::texels`]).
 #[test]
 fn texels_are_clustered_finer_from_256_rays() {
-    assert_eq!(Settings::texels(FINE_CLUSTERS_FROM - 1), Settings::TEXELS);
-    assert_eq!(Settings::texels(64), Settings::TEXELS);
-    let fine = Settings::texels(FINE_CLUSTERS_FROM);
+    assert_eq!(
+        Settings::texels(FINE_CLUSTERS_FROM - 1, 3),
+        Settings::TEXELS
+    );
+    assert_eq!(Settings::texels(64, 3), Settings::TEXELS);
+    let fine = Settings::texels(FINE_CLUSTERS_FROM, 3);
     assert_eq!(fine.step, Some(2.0));
     assert!(fine.normal_quadratic);
     assert_eq!(
@@ -344,6 +347,18 @@ fn texels_are_clustered_finer_from_256_rays() {
         },
         Settings::TEXELS
     );
+}
+
+/// From order 12 the range term of texels is stricter, whatever the rays, and only there.
+#[test]
+fn texels_of_high_orders_tolerate_less_difference() {
+    for samples in [64, FINE_CLUSTERS_FROM] {
+        let below = Settings::texels(samples, SHARP_FROM_ORDER - 1);
+        let from = Settings::texels(samples, SHARP_FROM_ORDER);
+        assert_eq!(below.kappa, 4.0);
+        assert_eq!(from.kappa, 3.0);
+        assert_eq!(Settings { kappa: 4.0, ..from }, below);
+    }
 }
 
 /// A transfer that bends like a contact shadow's (dark at a wall's foot, x = 0, lighter

@@ -307,7 +307,8 @@ pub fn bake_texels(
     // An adaptive bake denoised samples until its denoised estimate is within the target,
     // and denoises as it goes ([`crate::bake::adaptive_denoised`]). Its texels take different
     // rays and its filter is formed every pass, so it keeps the 3 × 3 clusters whatever
-    // `--samples` says (`Settings::texels` is for fixed bakes; adaptive bakes have no parts).
+    // `--samples` says (`Settings::texels` is for fixed bakes; adaptive bakes have no parts),
+    // with the order's range term.
     let adaptive_guides = guides
         .take_if(|_| crate::bake::adaptive_denoised::applies(options, tracer))
         .zip(tracer);
@@ -318,7 +319,7 @@ pub fn bake_texels(
                     &estimator,
                     tracer,
                     guides,
-                    crate::bake::denoise::Settings::TEXELS,
+                    crate::bake::denoise::Settings::TEXELS.at_order(options.order),
                     progress,
                 ),
                 None => bake_receivers(scene, tracer, &estimator, &targets, progress),
@@ -348,7 +349,7 @@ pub fn bake_texels(
         stages.time("denoise", || {
             crate::bake::denoise::stage::denoise_baked(
                 guides,
-                crate::bake::denoise::Settings::texels(options.samples),
+                crate::bake::denoise::Settings::texels(options.samples, options.order),
                 options,
                 &mut baked.coefficients,
                 baked.channels,
