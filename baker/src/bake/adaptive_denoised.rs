@@ -64,7 +64,7 @@ use crate::bake::adaptive::{
 use crate::bake::denoise::{Filter, Guides, Settings};
 use crate::bake::estimator::{Estimator, Visibility};
 use crate::bake::options::RATE;
-use crate::math::sh::{RecurrenceRotator, RotationScratch};
+use crate::math::sh::{RotationScratch, ZyzRotator};
 use crate::support::progress::Progress;
 use crate::trace::Tracer;
 
@@ -133,7 +133,7 @@ pub fn bake(
         })
         .collect();
     progress.finish();
-    let rotator = RecurrenceRotator::new(estimator.options.order);
+    let rotator = ZyzRotator::new(estimator.options.order);
     let mut guides = guides;
     let mut transfer = vec![0.0f32; count * n];
     // Receivers whose sums changed since the last pass (all, after the pilot), and those
@@ -484,7 +484,7 @@ fn stop_at_least(tables: &Tables, points: f64) -> u32 {
 fn world_transfer(
     states: &[ReceiverState],
     frames: &[(Vec3, Mat3)],
-    rotator: &RecurrenceRotator,
+    rotator: &ZyzRotator,
     n: usize,
     changed: &[bool],
     out: &mut [f32],

@@ -15,7 +15,7 @@
 //! neighbours integrates like a larger set ([`crate::bake::strata`]). A receiver casts the
 //! rays, adds the
 //! table rows of the unblocked ones, and rotates the local coefficients into world space once
-//! ([`crate::math::sh::RecurrenceRotator`], exact). Per ray that is a 3×3 transform and a row sum:
+//! ([`crate::math::sh::ZyzRotator`], exact). Per ray that is a 3×3 transform and a row sum:
 //! the cost of a bake is the cost of its rays. Each row also holds the local direction, so the
 //! same sums give the bent normal; and a batch of rays most of which are unblocked is summed
 //! as the batch's precomputed total minus its blocked rows (on an open surface, most rays are
@@ -36,7 +36,7 @@ use crate::bake::receivers::{RECEIVERS_PER_JOB, Receivers};
 use crate::bake::sample_sets::{BATCH, DIR_COLUMNS, SampleSets, batch_ranges};
 use crate::bake::strata;
 use crate::math::sampling::{Frame, Pcg32, Sampling, to_unit_float, uniform_sphere, vertex_seed};
-use crate::math::sh::{Basis, RecurrenceRotator, RotationScratch};
+use crate::math::sh::{Basis, RotationScratch, ZyzRotator};
 use crate::scene::Scene;
 use crate::support::error::Result;
 use crate::support::progress::Progress;
@@ -145,7 +145,7 @@ fn sub_row(acc: &mut [f32], row: &[f32]) {
 pub struct Estimator {
     pub(crate) options: BakeOptions,
     pub(crate) basis: Basis,
-    rotator: RecurrenceRotator,
+    rotator: ZyzRotator,
     pub(crate) normals: Vec<Vec3>,
     origins: Vec<Vec3>,
     /// [`Receivers::horizons`].
@@ -208,7 +208,7 @@ impl Estimator {
         };
         Ok(Estimator {
             options: options.clone(),
-            rotator: RecurrenceRotator::new(options.order),
+            rotator: ZyzRotator::new(options.order),
             basis,
             normals: receivers.normals,
             origins: receivers.origins,

@@ -28,4 +28,4 @@ pub mod rotation;
 pub mod triple;
 
 pub use basis::*;
-pub use rotation::{RecurrenceRotator, RotationScratch};
+pub use rotation::{RecurrenceRotator, RotationScratch, ZyzRotator};
