@@ -143,8 +143,8 @@ impl ShRotation {
 }
 
 /// Ivanic–Ruedenberg's recurrence with its per-entry constants computed once for an order:
-/// for order 4 about 80 entries of a few products each, and no allocation. Where the blocks
-/// are applied once, [`ZyzRotator::rotate`] costs less from order 4 on.
+/// for order 4 about 80 entries of a few products each. Where the blocks would be applied
+/// once, [`ZyzRotator::rotate`] costs less.
 #[derive(Clone, Debug)]
 pub struct RecurrenceRotator {
     order: usize,
@@ -152,11 +152,9 @@ pub struct RecurrenceRotator {
     constants: Vec<Vec<[f64; 3]>>,
 }
 
-/// Storage reused by [`RecurrenceRotator::rotate`] (the current rotation's blocks without the
-/// Condon–Shortley phase) and [`ZyzRotator::rotate`] (the coefficients between factors).
+/// Storage reused by [`ZyzRotator::rotate`]: the coefficients between its factors.
 #[derive(Clone, Debug, Default)]
 pub struct RotationScratch {
-    plain: Vec<Vec<f64>>,
     between: Vec<f64>,
 }
 
@@ -174,8 +172,7 @@ impl RecurrenceRotator {
 
     /// The SH matrix of the rotation `m` (orthonormal, determinant +1).
     pub fn rotation(&self, m: DMat3) -> ShRotation {
-        let mut plain = Vec::new();
-        self.plain_blocks(m, &mut plain);
+        let mut plain = self.plain_blocks(m);
         for (l, block) in plain.iter_mut().enumerate() {
             let w = 2 * l + 1;
             for i in 0..w {
@@ -193,29 +190,11 @@ impl RecurrenceRotator {
         }
     }
 
-    /// `out` = the coefficients of g(s) = f(mᵀs), where `c` holds f's (both n² long), as
-    /// `self.rotation(m).apply(c, out)` computes them, without building the phased blocks:
-    /// the phase's sign (−1)^(i+j) is (−1)^i·(−1)^j, applied to `c` and `out`.
-    pub fn rotate(&self, m: DMat3, c: &[f64], out: &mut [f64], scratch: &mut RotationScratch) {
-        self.plain_blocks(m, &mut scratch.plain);
-        let sign = |i: usize| if i % 2 == 1 { -1.0 } else { 1.0 };
-        for (l, block) in scratch.plain.iter().enumerate() {
-            let (start, w) = (l * l, 2 * l + 1);
-            let input = &c[start..start + w];
-            for (i, o) in out[start..start + w].iter_mut().enumerate() {
-                let row = &block[i * w..(i + 1) * w];
-                let sum: f64 = (0..w).map(|j| row[j] * sign(j) * input[j]).sum();
-                *o = sign(i) * sum;
-            }
-        }
-    }
-
-    /// The band blocks of `m` without the Condon–Shortley phase, band l at `plain[l]`.
-    fn plain_blocks(&self, m: DMat3, plain: &mut Vec<Vec<f64>>) {
-        plain.resize_with(self.order, Vec::new);
-        for (l, block) in plain.iter_mut().enumerate() {
-            block.resize((2 * l + 1) * (2 * l + 1), 0.0);
-        }
+    /// The band blocks of `m` without the Condon–Shortley phase, band l at index l.
+    fn plain_blocks(&self, m: DMat3) -> Vec<Vec<f64>> {
+        let mut plain: Vec<Vec<f64>> = (0..self.order)
+            .map(|l| vec![0.0; (2 * l + 1) * (2 * l + 1)])
+            .collect();
         if self.order > 0 {
             plain[0][0] = 1.0;
         }
@@ -240,6 +219,7 @@ impl RecurrenceRotator {
                 &mut rest[0],
             );
         }
+        plain
     }
 }
 
@@ -300,21 +280,20 @@ impl ZyzRotator {
     /// block: the five factors are applied to the vector in turn. The two fixed ones cost a
     /// quarter of Σ (2l+1)² products each and the three turns about z 4 per pair, where
     /// building every block by the recurrence costs tens of operations an entry: at order 12,
-    /// 1.4 µs against [`RecurrenceRotator::rotate`]'s 20 µs (`cargo test --release -p
-    /// prt-baker rotation_speed -- --ignored --nocapture`). The baker turns every receiver
-    /// with it.
+    /// 1.4 µs against 20 µs for [`RecurrenceRotator::rotation`] and its blocks applied
+    /// (`cargo test --release -p prt-baker rotation_speed -- --ignored --nocapture`). The
+    /// baker turns every receiver with it.
     pub fn rotate(&self, m: DMat3, c: &[f64], out: &mut [f64], scratch: &mut RotationScratch) {
         let n = coeff_count(self.order());
         let (alpha, beta, gamma) = euler_zyz(m);
         let between = &mut scratch.between;
-        between.clear();
-        between.extend_from_slice(&c[..n]);
-        turn_about_z(self.order(), alpha, between);
-        self.x_plus_entries.apply(between, out);
-        turn_about_z(self.order(), beta, out);
-        self.x_minus_entries.apply(out, between);
-        turn_about_z(self.order(), gamma, between);
-        out[..n].copy_from_slice(between);
+        between.resize(n, 0.0);
+        out[..n].copy_from_slice(&c[..n]);
+        turn_about_z(self.order(), alpha, out);
+        self.x_plus_entries.apply(out, between);
+        turn_about_z(self.order(), beta, between);
+        self.x_minus_entries.apply(between, out);
+        turn_about_z(self.order(), gamma, out);
     }
 }
 
