@@ -1,17 +1,10 @@
-//! Applying a [`Filter`]: each cluster's kernel formed once, its fit's sums read by every
-//! member at its own place.
+//! Applying a [`Filter`]: each cluster's kernel formed once and its fit's sums kept, read
+//! by every member at its own place and blended with the fits about it ([`super::blend`]).
 
 use rayon::prelude::*;
 
+use super::blend::{self, TERMS};
 use super::{Filter, clusters, normal_fit, vertices};
-
-/// How [`Filter::apply_with_means`] writes a lattice's answer: over the values, or as the
-/// mean of it and the other lattice's answer already there.
-#[derive(Clone, Copy)]
-enum Write {
-    Replace,
-    Average,
-}
 
 /// Clusters per block of [`Filter::apply_with_means`]: one lock per block's values, which
 /// stay in a core's cache (about 400 texels' at 64).
@@ -47,37 +40,69 @@ impl Filter<'_> {
         normal_fit::normal_terms(offset, true)
     }
 
-    /// Receiver i's weights on every receiver, normalised, in the receivers' order: its
-    /// cluster's kernel at its place times each cluster's weights on its members, or the mean
-    /// of those weights on the two lattices ([`super::Settings::second_lattice`]). Over a
-    /// normal map [`Filter::apply_to_transfer`] adds to what they give each texel's lobe less
-    /// their sum of its neighbours' ([`super::demodulate`]).
+    /// Receiver i's weights on every receiver, normalised, in the receivers' order: through
+    /// each fit it blends ([`super::blend`]), that cluster's kernel read at i's place times
+    /// each cluster's weights on its members, times i's share of the fit. Over a normal map
+    /// [`Filter::apply_to_transfer`] adds to what they give each texel's lobe less their sum
+    /// of its neighbours' ([`super::demodulate`]).
     pub fn row(&self, i: usize, out: &mut Vec<(u32, f32)>) {
-        self.lattice_row(i, out);
-        if let Some(shifted) = self.shifted.as_deref().filter(|_| !self.first_alone(i)) {
-            let mut theirs = Vec::new();
-            shifted.lattice_row(i, &mut theirs);
-            let mine = std::mem::take(out);
-            mean_of_rows(&mine, &theirs, out);
+        let c = self.cluster_of[i] as usize;
+        let (mut near, mut shares) = (Vec::new(), Vec::new());
+        self.blend_neighbours(c, &mut near);
+        self.blend_tents((c, i), &near, &mut shares);
+        // Through each fit i reads: its weights, and its fit of the signal at i, as the
+        // filter's application reads them.
+        let sw = self.signal_width;
+        let mut scratch = vertices::Scratch::default();
+        let (mut sums, mut signal) = (Vec::new(), vec![0.0f32; near.len() * sw]);
+        let mut through: Vec<Vec<(u32, f32)>> = vec![Vec::new(); near.len()];
+        for (n, &k) in near.iter().enumerate() {
+            if shares[n] == 0.0 {
+                continue;
+            }
+            let k = k as usize;
+            self.cluster_kernel(k, &mut scratch);
+            self.kernel_row(k, i, &scratch, &mut through[n]);
+            if near.len() > 1 {
+                sums.clear();
+                self.fit_sums(&scratch, (self.signal_means(), &[]), sw, &mut sums);
+                let terms = 3 + scratch.extra_terms;
+                let p = self.member_terms(k, i, terms);
+                blend::read_fit(&sums, (terms, sw), &p, &mut signal[n * sw..][..sw]);
+            }
+        }
+        for n in 1..near.len() {
+            if shares[n] != 0.0 {
+                let pair = (c, near[n] as usize);
+                shares[n] *= self.agreement(pair, &signal[..sw], &signal[n * sw..][..sw]);
+            }
+        }
+        let total: f32 = shares.iter().sum();
+        let mut all: Vec<(u32, f32)> = (through.iter().zip(&shares))
+            .flat_map(|(row, &share)| row.iter().map(move |&(j, w)| (j, share / total * w)))
+            .collect();
+        all.sort_by_key(|&(j, _)| j);
+        out.clear();
+        for (j, w) in all {
+            match out.last_mut() {
+                Some(last) if last.0 == j => last.1 += w,
+                _ => out.push((j, w)),
+            }
         }
     }
 
-    /// Whether receiver i's answer is the first lattice's alone: a cluster of its own on
-    /// both lattices ([`super::contact::Contacts::alone`]), whose two kernels would read the same
-    /// neighbours but for their clustering.
-    fn first_alone(&self, i: usize) -> bool {
-        self.contact.alone(i)
-    }
-
-    /// [`Filter::row`] on this filter's lattice alone.
-    fn lattice_row(&self, i: usize, out: &mut Vec<(u32, f32)>) {
-        let c = self.cluster_of[i] as usize;
-        let mut scratch = vertices::Scratch::default();
-        self.cluster_kernel(c, &mut scratch);
+    /// Appends receiver i's weights on every receiver through cluster c's fit, its kernel
+    /// in `scratch`, read at i's place (one entry per member of each cluster it reads).
+    fn kernel_row(
+        &self,
+        c: usize,
+        i: usize,
+        scratch: &vertices::Scratch,
+        out: &mut Vec<(u32, f32)>,
+    ) {
         let place = self.member_place(c, i);
         let terms = vertices::terms(place[1], place[2]);
         let member_extra = self.member_extra(c, i);
-        out.clear();
         for (n, &(k, e)) in scratch.kernel.iter().enumerate() {
             let mut w = match self.settings.quadratic {
                 true => vertices::dot(&scratch.weights[n], &terms),
@@ -87,14 +112,9 @@ impl Filter<'_> {
                 let terms = extra.iter().zip(&member_extra);
                 w += terms.map(|(n, m)| n * m).sum::<f32>();
             }
-            out.extend(
-                self.clusters
-                    .row(k as usize)
-                    .iter()
-                    .map(|&(j, m)| (j, w * m)),
-            );
+            let members = self.clusters.row(k as usize).iter();
+            out.extend(members.map(|&(j, m)| (j, w * m)));
         }
-        out.sort_unstable_by_key(|&(j, _)| j);
     }
 
     /// The filtered values: `values` holds `width` floats per receiver, and so does the
@@ -106,15 +126,10 @@ impl Filter<'_> {
     }
 
     /// [`Filter::apply`] of `values` and of `scalars` (one float per receiver, or none)
-    /// with the same kernels, in place: each cluster's kernel is formed once, and no
-    /// receiver-sized buffer is allocated for the result.
+    /// with the same kernels, in place: each cluster's kernel is formed once.
     pub fn apply_in_place(&self, values: &mut [f32], width: usize, scalars: &mut [f32]) {
         let means = self.clusters.means(values, width);
-        let shifted = self
-            .shifted
-            .as_ref()
-            .map(|s| s.clusters.means(values, width));
-        self.apply_on_lattices(values, (&means, shifted.as_deref()), width, scalars);
+        self.apply_with_means(values, &means, width, scalars);
     }
 
     /// [`Filter::apply_in_place`] of the very transfer the filter was formed for (`width`
@@ -128,15 +143,10 @@ impl Filter<'_> {
                 demodulation.shift(self.guides, transfer, sign);
             }
         };
-        let at_hand = |f: &Filter| f.transfer_means && f.signal_width == width;
-        match at_hand(self) && self.shifted.as_deref().is_none_or(at_hand) {
+        match self.transfer_means && self.signal_width == width {
             // The means were formed from the demodulated signal, and every receiver's
             // value is written over: the transfer itself is not read, so not demodulated.
-            true => {
-                let shifted = self.shifted.as_deref().map(|s| s.transfer_means_of(width));
-                let means = (self.transfer_means_of(width), shifted);
-                self.apply_on_lattices(transfer, means, width, scalars)
-            }
+            true => self.apply_with_means(transfer, self.signal_means(), width, scalars),
             false => {
                 demodulate(transfer, -1.0);
                 self.apply_in_place(transfer, width, scalars)
@@ -145,97 +155,167 @@ impl Filter<'_> {
         demodulate(transfer, 1.0);
     }
 
-    /// The clusters' means of the transfer the filter was formed for, `width` floats each.
-    fn transfer_means_of(&self, width: usize) -> &[f32] {
-        &self.tap_guide[..self.clusters.reps.len() * width]
+    /// The clusters' means of the filter's signal, `signal_width` floats each: the first
+    /// rows of its guides.
+    fn signal_means(&self) -> &[f32] {
+        &self.tap_guide[..self.clusters.reps.len() * self.signal_width]
     }
 
-    /// [`Filter::apply_in_place`] with each cluster's mean of `values` given, on this
-    /// filter's lattice and on the shifted one's where there is one (`shifted_means`, its
-    /// clusters' means). Every mean is formed before any value is written.
-    fn apply_on_lattices(
+    /// [`Filter::apply_in_place`] with each cluster's mean of the values given. Every
+    /// cluster's kernel is formed first: a blended cluster ([`Filter::blended`]) keeps its
+    /// fit's sums, of the values and of the signal, for its members and its neighbours' to
+    /// read; any other answers its members at once. Then each blended cluster's members
+    /// read the fits about them. The sums are the fit's Σ e_k · mean_k for each term: a
+    /// member's value is their dot with its terms, so the neighbours' means are read once
+    /// per cluster, not once per member.
+    fn apply_with_means(
         &self,
         values: &mut [f32],
-        (means, shifted_means): (&[f32], Option<&[f32]>),
+        means: &[f32],
         width: usize,
         scalars: &mut [f32],
     ) {
         if self.settings.quadratic {
             return self.apply_quadratic(values, means, width, scalars);
         }
-        let scalar_means = |f: &Filter| match scalars.is_empty() {
+        let scalar_means = match scalars.is_empty() {
             true => Vec::new(),
-            false => f.clusters.means(scalars, 1),
+            false => self.clusters.means(scalars, 1),
         };
-        let mine = scalar_means(self);
-        let theirs = self.shifted.as_deref().map(scalar_means);
-        self.apply_with_means(values, (means, &mine), width, scalars, Write::Replace);
-        if let (Some(shifted), Some(means), Some(theirs)) =
-            (self.shifted.as_deref(), shifted_means, theirs)
-        {
-            shifted.apply_with_means(values, (means, &theirs), width, scalars, Write::Average);
-        }
-    }
-
-    /// One lattice's answer from each cluster's mean of the values and of the scalars,
-    /// written over them or averaged with what they hold (`write`).
-    fn apply_with_means(
-        &self,
-        values: &mut [f32],
-        (means, scalar_means): (&[f32], &[f32]),
-        width: usize,
-        scalars: &mut [f32],
-        write: Write,
-    ) {
-        // Per cluster, the fit's three sums Σ e_k · mean_k for each of (1, u, v), of the
-        // values and then of the scalars: a member's value is their dot with its place, so
-        // the clusters' means are read once per cluster, not once per member. The sums are
-        // a thread's own, used up before its next cluster: no buffer of every cluster's
-        // (12 MB of fresh pages on the courtyard, which cost more than forming the sums). A
-        // block's members' values are formed outside the lock and copied in under it;
-        // every receiver is one cluster's member, so the result is the same in any order of
-        // blocks.
-        let count = self.clusters.reps.len();
-        let out = std::sync::Mutex::new((values, scalars));
-        (0..count.div_ceil(APPLY_BLOCK))
+        let (count, sw) = (self.clusters.reps.len(), self.signal_width);
+        let block = |b: usize| b * APPLY_BLOCK..((b + 1) * APPLY_BLOCK).min(count);
+        let blocks = count.div_ceil(APPLY_BLOCK);
+        // Per block, each cluster's sums or its members' answers, and where each starts.
+        let formed: Vec<(Vec<usize>, Vec<f32>)> = (0..blocks)
             .into_par_iter()
-            .for_each_init(
-                || (vertices::Scratch::default(), Vec::new(), Vec::new()),
-                |(scratch, sums, rows): &mut (_, Vec<f32>, Vec<f32>), b| {
-                    let block = b * APPLY_BLOCK..((b + 1) * APPLY_BLOCK).min(count);
-                    // On the second lattice, the clusters whose answer is the first's.
-                    let answers = |&c: &usize| match write {
-                        Write::Replace => true,
-                        Write::Average => !self.first_alone(self.clusters.reps[c] as usize),
-                    };
-                    rows.clear();
-                    for c in block.clone().filter(answers) {
+            .map_init(
+                || (vertices::Scratch::default(), Vec::new()),
+                |(scratch, sums): &mut (_, Vec<f32>), b| {
+                    let (mut starts, mut data) = (Vec::with_capacity(APPLY_BLOCK + 1), Vec::new());
+                    for c in block(b) {
+                        starts.push(data.len());
                         self.cluster_kernel(c, scratch);
-                        self.answer_members(c, scratch, (means, scalar_means), width, sums, rows);
-                    }
-                    let mut out = out.lock().expect("no block panicked");
-                    let (values, scalars) = &mut *out;
-                    let members = block.filter(answers).flat_map(|c| self.clusters.row(c));
-                    for (&(m, _), row) in members.zip(rows.chunks_exact(width + 1)) {
-                        let m = m as usize;
-                        let value = &mut values[m * width..][..width];
-                        match write {
-                            Write::Replace => value.copy_from_slice(&row[..width]),
-                            Write::Average => {
-                                for (v, r) in value.iter_mut().zip(&row[..width]) {
-                                    *v = 0.5 * (*v + r);
-                                }
+                        match self.blended(c) {
+                            true => {
+                                self.fit_sums(scratch, (means, &scalar_means), width, &mut data);
+                                self.fit_sums(scratch, (self.signal_means(), &[]), sw, &mut data);
+                            }
+                            false => {
+                                let means = (means, &scalar_means[..]);
+                                self.answer_members(c, scratch, means, width, sums, &mut data)
                             }
                         }
-                        if let Some(s) = scalars.get_mut(m) {
-                            *s = match write {
-                                Write::Replace => row[width],
-                                Write::Average => 0.5 * (*s + row[width]),
-                            };
+                    }
+                    starts.push(data.len());
+                    (starts, data)
+                },
+            )
+            .collect();
+        let formed_of = |c: usize| {
+            let (starts, data) = &formed[c / APPLY_BLOCK];
+            &data[starts[c % APPLY_BLOCK]..starts[c % APPLY_BLOCK + 1]]
+        };
+        // A blended cluster's sums: of the values (with the scalars'), of the signal, and
+        // the fit's terms.
+        let sums_of = |k: usize| {
+            let data = formed_of(k);
+            let terms = data.len() / (width + 1 + sw + 1);
+            let (values, signal) = data.split_at(terms * (width + 1));
+            (values, signal, terms)
+        };
+        // Each block's members' values are formed outside the lock and copied in under it;
+        // every receiver is one cluster's member, so the result is the same in any order.
+        let out = std::sync::Mutex::new((values, scalars));
+        (0..blocks).into_par_iter().for_each_init(
+            || (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new()),
+            |(near, shares, signal, fits, rows), b| {
+                rows.clear();
+                for c in block(b) {
+                    if !self.blended(c) {
+                        rows.extend_from_slice(formed_of(c));
+                        continue;
+                    }
+                    self.blend_neighbours(c, near);
+                    for &(m, _) in self.clusters.row(c) {
+                        let m = m as usize;
+                        self.blend_tents((c, m), near, shares);
+                        // Each fit the member reads, of the signal and of the values.
+                        signal.resize(near.len() * sw, 0.0);
+                        fits.resize(near.len() * (width + 1), 0.0);
+                        for (n, &k) in near.iter().enumerate() {
+                            if shares[n] == 0.0 {
+                                continue;
+                            }
+                            let (values, signal_sums, terms) = sums_of(k as usize);
+                            let p = self.member_terms(k as usize, m, terms);
+                            let into = &mut signal[n * sw..][..sw];
+                            blend::read_fit(signal_sums, (terms, sw), &p, into);
+                            let into = &mut fits[n * (width + 1)..][..width + 1];
+                            blend::read_fit(values, (terms, width), &p, into);
+                        }
+                        for n in 1..near.len() {
+                            if shares[n] != 0.0 {
+                                let pair = (c, near[n] as usize);
+                                let theirs = &signal[n * sw..][..sw];
+                                shares[n] *= self.agreement(pair, &signal[..sw], theirs);
+                            }
+                        }
+                        let total: f32 = shares.iter().sum();
+                        let start = rows.len();
+                        rows.resize(start + width + 1, 0.0);
+                        for (n, &share) in shares.iter().enumerate() {
+                            if share != 0.0 {
+                                let fit = &fits[n * (width + 1)..][..width + 1];
+                                clusters::add_scaled(&mut rows[start..], share / total, fit);
+                            }
                         }
                     }
-                },
-            );
+                }
+                let mut out = out.lock().expect("no block panicked");
+                let (values, scalars) = &mut *out;
+                let members = block(b).flat_map(|c| self.clusters.row(c));
+                for (&(m, _), row) in members.zip(rows.chunks_exact(width + 1)) {
+                    let m = m as usize;
+                    values[m * width..][..width].copy_from_slice(&row[..width]);
+                    if let Some(s) = scalars.get_mut(m) {
+                        *s = row[width];
+                    }
+                }
+            },
+        );
+    }
+
+    /// Appends the fit's sums of the kernel in `scratch`, Σ e_k · mean_k for each of its
+    /// terms, `width` values each, then each term's sum of the scalars' means (0 where there
+    /// are none).
+    pub(super) fn fit_sums(
+        &self,
+        scratch: &vertices::Scratch,
+        (means, scalar_means): (&[f32], &[f32]),
+        width: usize,
+        out: &mut Vec<f32>,
+    ) {
+        let terms = 3 + scratch.extra_terms;
+        let start = out.len();
+        out.resize(start + terms * (width + 1), 0.0);
+        let (sums, scalar_sums) = out[start..].split_at_mut(terms * width);
+        for (n, &(k, e)) in scratch.kernel.iter().enumerate() {
+            let k = k as usize;
+            let extra = scratch.extra.get(n);
+            let e: [f32; TERMS] = std::array::from_fn(|t| match t {
+                0..3 => e[t],
+                _ => extra.map_or(0.0, |x| x[t - 3]),
+            });
+            let mean = &means[k * width..][..width];
+            for (t, sums) in sums.chunks_exact_mut(width.max(1)).enumerate() {
+                clusters::add_scaled(sums, e[t], mean);
+            }
+            if let Some(s) = scalar_means.get(k) {
+                for t in 0..terms {
+                    scalar_sums[t] += e[t] * s;
+                }
+            }
+        }
     }
 
     /// Appends each member of cluster c's answer, `width` values then its scalar, to `rows`,
@@ -259,24 +339,14 @@ impl Filter<'_> {
         // The fit's terms: (1, u, v), and those past them where it has them.
         let terms = 3 + scratch.extra_terms;
         // Entry n's weights on the terms, and member m's terms.
-        let entry = |n: usize| -> [f32; 3 + normal_fit::NORMAL] {
+        let entry = |n: usize| -> [f32; TERMS] {
             let (e, extra) = (scratch.kernel[n].1, scratch.extra.get(n));
             std::array::from_fn(|t| match t {
                 0..3 => e[t],
                 _ => extra.map_or(0.0, |x| x[t - 3]),
             })
         };
-        let member = |m: usize| -> [f32; 3 + normal_fit::NORMAL] {
-            let place = self.member_place(c, m);
-            let extra = match terms {
-                3 => [0.0; normal_fit::NORMAL],
-                _ => self.member_extra(c, m),
-            };
-            std::array::from_fn(|t| match t {
-                0..3 => place[t],
-                _ => extra[t - 3],
-            })
-        };
+        let member = |m: usize| self.member_terms(c, m, terms);
         let members = self.clusters.row(c);
         if members.len() < terms {
             for &(m, _) in members {
@@ -327,34 +397,6 @@ impl Filter<'_> {
             }
             let s = &scalar_sums[..terms];
             rows.push(s.iter().zip(p).map(|(s, p)| s * p).sum());
-        }
-    }
-}
-
-/// The mean of two rows of weights (each sorted by receiver, one entry per receiver), sorted,
-/// one entry per receiver.
-fn mean_of_rows(a: &[(u32, f32)], b: &[(u32, f32)], out: &mut Vec<(u32, f32)>) {
-    out.clear();
-    let (mut i, mut j) = (0, 0);
-    while i < a.len() || j < b.len() {
-        let (ka, kb) = (a.get(i).map(|e| e.0), b.get(j).map(|e| e.0));
-        match (ka, kb) {
-            (Some(x), Some(y)) if x == y => {
-                out.push((x, 0.5 * (a[i].1 + b[j].1)));
-                (i, j) = (i + 1, j + 1);
-            }
-            (Some(x), Some(y)) if x < y => {
-                out.push((x, 0.5 * a[i].1));
-                i += 1;
-            }
-            (Some(x), None) => {
-                out.push((x, 0.5 * a[i].1));
-                i += 1;
-            }
-            _ => {
-                out.push((b[j].0, 0.5 * b[j].1));
-                j += 1;
-            }
         }
     }
 }

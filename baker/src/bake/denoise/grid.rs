@@ -40,16 +40,9 @@ fn column(key: u64) -> (i64, i64) {
 impl Grid {
     /// A grid of `cell`-sized cubes over `points` (`cell` > 0).
     pub fn new(points: &[Vec3], cell: f32) -> Grid {
-        Grid::shifted(points, cell, 0.0)
-    }
-
-    /// [`Grid::new`] with its cells moved by `shift` of a cell along every axis: the clusters
-    /// of a second lattice ([`super::Settings::second_lattice`]).
-    pub fn shifted(points: &[Vec3], cell: f32, shift: f32) -> Grid {
         let origin = points
             .iter()
-            .fold(Vec3::splat(f32::INFINITY), |a, p| a.min(*p))
-            - Vec3::splat(shift * cell);
+            .fold(Vec3::splat(f32::INFINITY), |a, p| a.min(*p));
         // Far larger scenes than 2²¹ cells a side get coarser cells (a slower query, the
         // same neighbours).
         let extent = points

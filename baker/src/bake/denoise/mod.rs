@@ -50,12 +50,13 @@
 //! A member at its cluster's edge reads a fit made about a centroid a texel or two away, and
 //! its neighbour across the seam another cluster's: where the transfer bends (a contact
 //! shadow's ring, the line where two cards cross) the lattice of clusters shows in the
-//! result, as a bias every seed repeats. So texels are filtered on **two lattices** of
-//! clusters, the second's cells half a cluster from the first's along every axis, and take
-//! the mean of the two filters (translation-invariant denoising, "cycle spinning": Coifman &
-//! Donoho 1995, *Translation-invariant de-noising*): each seam of one lattice runs through
-//! the other's clusters. On the courtyard at 64 rays the error falls by 7 %, for twice the
-//! filter's time: more than that time spent on rays buys (docs/explanation/denoising-record.md).
+//! result, as a bias every seed repeats. So each texel **blends the fits about it**
+//! ([`blend`]): its own cluster's and its like neighbours', each read at its place and
+//! weighed by a tent in its distance from their centroids, as the guided filter averages
+//! the models of every window that holds a pixel. The answer is continuous across the
+//! seams, and the neighbours' kernels average more noise away: on the courtyard at 64 rays
+//! the error of two lattices of clusters half a cluster apart (cycle spinning), for four
+//! fifths of their time (docs/explanation/denoising-record.md).
 //!
 //! Vertices (vertex bakes, transfer
 //! matrices, subsurface vertices) gather into clusters of like neighbours around seeds, each
@@ -82,6 +83,7 @@
 //! order: the result is bit-identical for any number of threads.
 
 mod apply;
+mod blend;
 mod cholesky;
 mod clipped_lobe;
 mod clusters;
@@ -124,9 +126,6 @@ const SIMILAR: f32 = 0.25;
 const WIDE_CELL: f32 = 0.5;
 /// The least members a cluster needs to be its own guide ([`Filter::new`]).
 const GUIDE_MASS: f32 = 3.0;
-/// How far the second lattice's cells lie from the first's, in cells along every axis: half
-/// a cluster, so that each seam of one lattice runs through the other's clusters.
-const SECOND_LATTICE_SHIFT: f32 = 0.5;
 
 /// What the wide pass reads of one cluster.
 struct Tap {
@@ -182,9 +181,6 @@ pub struct Filter<'g> {
     /// filter was formed for (its signal is the whole transfer, up to order 3): the means
     /// [`Filter::apply_to_transfer`] would otherwise form again.
     transfer_means: bool,
-    /// The filter of the same receivers on the lattice half a cluster across
-    /// ([`Settings::second_lattice`]): this filter's answer is the mean of the two.
-    shifted: Option<Box<Filter<'g>>>,
     /// Texels over a normal map: which receivers' lobes the transfer's filter takes out and
     /// puts back ([`demodulate`]).
     demodulation: Option<demodulate::Demodulation>,
@@ -212,13 +208,12 @@ impl<'g> Filter<'g> {
         }
         .max(1e-12);
         // Cells a cluster across (`step` typical spacings), which the clustering walks and
-        // the prefilter reads; with no clusters, as wide as the prefilter's reach. Both
-        // lattices' cells are of this size.
+        // the prefilter reads; with no clusters, as wide as the prefilter's reach.
         let cell = settings.step.unwrap_or(settings.guide_radius) * typical;
-        // Texels in clusters: what the second lattice and the contact term are for.
+        // Texels in clusters: what the contact term is for.
         let texels = settings.step.is_some() && !settings.quadratic;
         let fine = grid::Grid::new(&guides.points, cell);
-        // Texels: how each group is fitted, the same on both lattices.
+        // Texels: how each group is fitted.
         let normals = match settings.quadratic {
             true => Vec::new(),
             false => normal_fit::groups(guides, &fine),
@@ -233,7 +228,7 @@ impl<'g> Filter<'g> {
             false => None,
         };
         // Up to order 3 the signal is the whole transfer: read in place, not copied, but
-        // where it is demodulated. Both lattices read the same signal.
+        // where it is demodulated.
         let signal: std::borrow::Cow<[f32]> = match (used == per_channel, &demodulation) {
             (true, None) => std::borrow::Cow::Borrowed(&transfer[..count * width]),
             _ => {
@@ -253,18 +248,8 @@ impl<'g> Filter<'g> {
             }
         };
         let input = (&signal[..], signal_width, used == per_channel);
-        let terms = (contact.clone(), normals.clone());
-        let mut filter = Filter::on_lattice(guides, settings, input, fine, terms);
+        let mut filter = Filter::on_lattice(guides, settings, input, fine, (contact, normals));
         filter.demodulation = demodulation;
-        if settings.second_lattice && texels {
-            let settings = Settings {
-                second_lattice: false,
-                ..settings
-            };
-            let fine = grid::Grid::shifted(&guides.points, cell, SECOND_LATTICE_SHIFT);
-            let shifted = Filter::on_lattice(guides, settings, input, fine, (contact, normals));
-            filter.shifted = Some(Box::new(shifted));
-        }
         filter
     }
 
@@ -297,7 +282,6 @@ impl<'g> Filter<'g> {
             tap_contact: Vec::new(),
             signal_width,
             transfer_means: false,
-            shifted: None,
             demodulation: None,
         };
         let from_rays = guides.noise.iter().any(|&v| v > 0.0);
