@@ -55,8 +55,8 @@
 //! weighed by a tent in its distance from their centroids, as the guided filter averages
 //! the models of every window that holds a pixel. The answer is continuous across the
 //! seams, and the neighbours' kernels average more noise away: on the courtyard at 64 rays
-//! the error of two lattices of clusters half a cluster apart (cycle spinning), for four
-//! fifths of their time (docs/explanation/denoising-record.md).
+//! it gives the error of two lattices of clusters half a cluster apart (cycle spinning,
+//! which it replaced) in four fifths of their time (docs/explanation/denoising-record.md).
 //!
 //! Vertices (vertex bakes, transfer
 //! matrices, subsurface vertices) gather into clusters of like neighbours around seeds, each
