@@ -299,13 +299,9 @@ impl Filter<'_> {
         let start = out.len();
         out.resize(start + terms * (width + 1), 0.0);
         let (sums, scalar_sums) = out[start..].split_at_mut(terms * width);
-        for (n, &(k, e)) in scratch.kernel.iter().enumerate() {
+        for (n, &(k, _)) in scratch.kernel.iter().enumerate() {
             let k = k as usize;
-            let extra = scratch.extra.get(n);
-            let e: [f32; TERMS] = std::array::from_fn(|t| match t {
-                0..3 => e[t],
-                _ => extra.map_or(0.0, |x| x[t - 3]),
-            });
+            let e = entry_terms(scratch, n);
             let mean = &means[k * width..][..width];
             for (t, sums) in sums.chunks_exact_mut(width.max(1)).enumerate() {
                 clusters::add_scaled(sums, e[t], mean);
@@ -338,14 +334,7 @@ impl Filter<'_> {
     ) {
         // The fit's terms: (1, u, v), and those past them where it has them.
         let terms = 3 + scratch.extra_terms;
-        // Entry n's weights on the terms, and member m's terms.
-        let entry = |n: usize| -> [f32; TERMS] {
-            let (e, extra) = (scratch.kernel[n].1, scratch.extra.get(n));
-            std::array::from_fn(|t| match t {
-                0..3 => e[t],
-                _ => extra.map_or(0.0, |x| x[t - 3]),
-            })
-        };
+        // Member m's terms.
         let member = |m: usize| self.member_terms(c, m, terms);
         let members = self.clusters.row(c);
         if members.len() < terms {
@@ -356,7 +345,11 @@ impl Filter<'_> {
                 let (row, scalar) = rows[start..].split_at_mut(width);
                 for (n, &(k, _)) in scratch.kernel.iter().enumerate() {
                     let k = k as usize;
-                    let w: f32 = entry(n).iter().zip(&p).map(|(e, p)| e * p).sum();
+                    let w: f32 = entry_terms(scratch, n)
+                        .iter()
+                        .zip(&p)
+                        .map(|(e, p)| e * p)
+                        .sum();
                     clusters::add_scaled(row, w, &means[k * width..][..width]);
                     if let Some(s) = scalar_means.get(k) {
                         scalar[0] += w * s;
@@ -366,21 +359,8 @@ impl Filter<'_> {
             return;
         }
         sums.clear();
-        sums.resize(terms * (width + 1), 0.0);
-        let (sums, scalar_sums) = sums.split_at_mut(terms * width);
-        for (n, &(k, _)) in scratch.kernel.iter().enumerate() {
-            let k = k as usize;
-            let e = entry(n);
-            let mean = &means[k * width..(k + 1) * width];
-            for (t, sums) in sums.chunks_exact_mut(width.max(1)).enumerate() {
-                clusters::add_scaled(sums, e[t], mean);
-            }
-            if let Some(s) = scalar_means.get(k) {
-                for t in 0..terms {
-                    scalar_sums[t] += e[t] * s;
-                }
-            }
-        }
+        self.fit_sums(scratch, (means, scalar_means), width, sums);
+        let (sums, scalar_sums) = sums.split_at(terms * width);
         // Each member's values, then its scalar.
         for &(m, _) in members {
             let p = member(m as usize);
@@ -399,4 +379,14 @@ impl Filter<'_> {
             rows.push(s.iter().zip(p).map(|(s, p)| s * p).sum());
         }
     }
+}
+
+/// Kernel entry n's weights on its fit's terms: (1, u, v), then those past them, 0 past the
+/// fit's own.
+fn entry_terms(scratch: &vertices::Scratch, n: usize) -> [f32; TERMS] {
+    let (e, extra) = (scratch.kernel[n].1, scratch.extra.get(n));
+    std::array::from_fn(|t| match t {
+        0..3 => e[t],
+        _ => extra.map_or(0.0, |x| x[t - 3]),
+    })
 }
