@@ -129,7 +129,7 @@ impl Filter<'_> {
     /// with the same kernels, in place: each cluster's kernel is formed once.
     pub fn apply_in_place(&self, values: &mut [f32], width: usize, scalars: &mut [f32]) {
         let means = self.clusters.means(values, width);
-        self.apply_with_means(values, &means, width, scalars);
+        self.apply_with_means(values, (&means, false), width, scalars);
     }
 
     /// [`Filter::apply_in_place`] of the very transfer the filter was formed for (`width`
@@ -146,7 +146,7 @@ impl Filter<'_> {
         match self.transfer_means && self.signal_width == width {
             // The means were formed from the demodulated signal, and every receiver's
             // value is written over: the transfer itself is not read, so not demodulated.
-            true => self.apply_with_means(transfer, self.signal_means(), width, scalars),
+            true => self.apply_with_means(transfer, (self.signal_means(), true), width, scalars),
             false => {
                 demodulate(transfer, -1.0);
                 self.apply_in_place(transfer, width, scalars)
@@ -161,17 +161,19 @@ impl Filter<'_> {
         &self.tap_guide[..self.clusters.reps.len() * self.signal_width]
     }
 
-    /// [`Filter::apply_in_place`] with each cluster's mean of the values given. Every
-    /// cluster's kernel is formed first: a blended cluster ([`Filter::blended`]) keeps its
-    /// fit's sums, of the values and of the signal, for its members and its neighbours' to
-    /// read; any other answers its members at once. Then each blended cluster's members
-    /// read the fits about them. The sums are the fit's Σ e_k · mean_k for each term: a
-    /// member's value is their dot with its terms, so the neighbours' means are read once
-    /// per cluster, not once per member.
+    /// [`Filter::apply_in_place`] with each cluster's mean of the values given, and whether
+    /// those means are the signal's ([`Filter::signal_means`]). Every cluster's kernel is
+    /// formed first: a blended cluster ([`Filter::blended`]) keeps its fit's sums, of the
+    /// values and of the signal, for its members and its neighbours' to read; any other
+    /// answers its members at once. Then each blended cluster's members read the fits about
+    /// them. The sums are the fit's Σ e_k · mean_k for each term: a member's value is their
+    /// dot with its terms, so the neighbours' means are read once per cluster, not once per
+    /// member. Where the values are the signal (shadowed transfer up to order 3), their sums
+    /// and fits serve as the signal's: the same floats, formed once.
     fn apply_with_means(
         &self,
         values: &mut [f32],
-        means: &[f32],
+        (means, means_are_signal): (&[f32], bool),
         width: usize,
         scalars: &mut [f32],
     ) {
@@ -183,6 +185,14 @@ impl Filter<'_> {
             false => self.clusters.means(scalars, 1),
         };
         let (count, sw) = (self.clusters.reps.len(), self.signal_width);
+        // The signal's sums and fits are the values' own (their first `sw` floats).
+        let signal_is_values = means_are_signal && width == sw;
+        // Each blended cluster's sums: of the values (with the scalars'), then, unless they
+        // are the signal's, of the signal.
+        let signal_floats = match signal_is_values {
+            true => 0,
+            false => sw + 1,
+        };
         let block = |b: usize| b * APPLY_BLOCK..((b + 1) * APPLY_BLOCK).min(count);
         let blocks = count.div_ceil(APPLY_BLOCK);
         // Per block, each cluster's sums or its members' answers, and where each starts.
@@ -198,7 +208,10 @@ impl Filter<'_> {
                         match self.blended(c) {
                             true => {
                                 self.fit_sums(scratch, (means, &scalar_means), width, &mut data);
-                                self.fit_sums(scratch, (self.signal_means(), &[]), sw, &mut data);
+                                if !signal_is_values {
+                                    let signal = (self.signal_means(), &[][..]);
+                                    self.fit_sums(scratch, signal, sw, &mut data);
+                                }
                             }
                             false => {
                                 let means = (means, &scalar_means[..]);
@@ -219,7 +232,7 @@ impl Filter<'_> {
         // the fit's terms.
         let sums_of = |k: usize| {
             let data = formed_of(k);
-            let terms = data.len() / (width + 1 + sw + 1);
+            let terms = data.len() / (width + 1 + signal_floats);
             let (values, signal) = data.split_at(terms * (width + 1));
             (values, signal, terms)
         };
@@ -248,16 +261,22 @@ impl Filter<'_> {
                             }
                             let (values, signal_sums, terms) = sums_of(k as usize);
                             let p = self.member_terms(k as usize, m, terms);
-                            let into = &mut signal[n * sw..][..sw];
-                            blend::read_fit(signal_sums, (terms, sw), &p, into);
+                            if !signal_is_values {
+                                let into = &mut signal[n * sw..][..sw];
+                                blend::read_fit(signal_sums, (terms, sw), &p, into);
+                            }
                             let into = &mut fits[n * (width + 1)..][..width + 1];
                             blend::read_fit(values, (terms, width), &p, into);
                         }
+                        // Fit n's signal at the member.
+                        let signal_of = |n: usize| match signal_is_values {
+                            true => &fits[n * (width + 1)..][..sw],
+                            false => &signal[n * sw..][..sw],
+                        };
                         for n in 1..near.len() {
                             if shares[n] != 0.0 {
                                 let pair = (c, near[n] as usize);
-                                let theirs = &signal[n * sw..][..sw];
-                                shares[n] *= self.agreement(pair, &signal[..sw], theirs);
+                                shares[n] *= self.agreement(pair, signal_of(0), signal_of(n));
                             }
                         }
                         let total: f32 = shares.iter().sum();

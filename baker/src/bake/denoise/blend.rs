@@ -132,10 +132,14 @@ pub(super) fn read_fit(
     p: &[f32; TERMS],
     out: &mut [f32],
 ) {
-    for (j, out) in out[..width].iter_mut().enumerate() {
-        *out = (0..terms).map(|t| sums[t * width + j] * p[t]).sum();
+    // Term by term, four floats at a time: the same products, summed in the same order, as
+    // coefficient by coefficient.
+    let (values, scalar) = out.split_at_mut(width);
+    values.fill(0.0);
+    for (t, sums) in sums.chunks_exact(width.max(1)).take(terms).enumerate() {
+        super::clusters::add_scaled(values, p[t], sums);
     }
-    if let Some(scalar) = out.get_mut(width) {
+    if let Some(scalar) = scalar.first_mut() {
         *scalar = (0..terms).map(|t| sums[terms * width + t] * p[t]).sum();
     }
 }
