@@ -239,13 +239,7 @@ impl Assessed {
         n: usize,
     ) -> Assessed {
         let count = states.len();
-        let rows: Vec<Vec<(u32, f32)>> = (0..count)
-            .into_par_iter()
-            .map_init(Vec::new, |row, i| {
-                filter.row(i, row);
-                row.clone()
-            })
-            .collect();
+        let rows = filter.rows();
         let variance = pooled_variance(states, tables, &rows);
         let filtered: Vec<f32> = rows
             .par_iter()

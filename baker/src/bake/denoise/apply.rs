@@ -6,6 +6,28 @@ use rayon::prelude::*;
 use super::blend::{self, TERMS};
 use super::{Filter, clusters, normal_fit, vertices};
 
+/// A receiver and its [`Filter::row`].
+type MemberRow = (u32, Vec<(u32, f32)>);
+
+/// What [`Filter::rows`] reuses from one cluster to the next: the clusters whose fits a
+/// cluster's members blend, each one's kernel and sums of the signal once formed, and a
+/// member's shares of them, its fits of the signal, its weights through each and their
+/// sums.
+#[derive(Default)]
+struct RowScratch {
+    near: Vec<u32>,
+    shares: Vec<f32>,
+    kernels: Vec<vertices::Scratch>,
+    formed: Vec<bool>,
+    sums: Vec<Vec<f32>>,
+    signal: Vec<f32>,
+    through: Vec<Vec<(u32, f32)>>,
+    /// Each receiver's weight in the row being summed, `None` where it has none yet.
+    dense: Vec<Option<f32>>,
+    /// The receivers the row has weights on, in the order first met.
+    touched: Vec<u32>,
+}
+
 /// Clusters per block of [`Filter::apply_with_means`]: one lock per block's values, which
 /// stay in a core's cache (about 400 texels' at 64).
 const APPLY_BLOCK: usize = 64;
@@ -47,47 +69,110 @@ impl Filter<'_> {
     /// of its neighbours' ([`super::demodulate`]).
     pub fn row(&self, i: usize, out: &mut Vec<(u32, f32)>) {
         let c = self.cluster_of[i] as usize;
-        let (mut near, mut shares) = (Vec::new(), Vec::new());
-        self.blend_neighbours(c, &mut near);
-        self.blend_tents((c, i), &near, &mut shares);
-        // Through each fit i reads: its weights, and its fit of the signal at i, as the
-        // filter's application reads them.
-        let sw = self.signal_width;
-        let mut scratch = vertices::Scratch::default();
-        let (mut sums, mut signal) = (Vec::new(), vec![0.0f32; near.len() * sw]);
-        let mut through: Vec<Vec<(u32, f32)>> = vec![Vec::new(); near.len()];
-        for (n, &k) in near.iter().enumerate() {
-            if shares[n] == 0.0 {
-                continue;
-            }
-            let k = k as usize;
-            self.cluster_kernel(k, &mut scratch);
-            self.kernel_row(k, i, &scratch, &mut through[n]);
-            if near.len() > 1 {
-                sums.clear();
-                self.fit_sums(&scratch, (self.signal_means(), &[]), sw, &mut sums);
-                let terms = 3 + scratch.extra_terms;
-                let p = self.member_terms(k, i, terms);
-                blend::read_fit(&sums, (terms, sw), &p, &mut signal[n * sw..][..sw]);
-            }
-        }
-        for n in 1..near.len() {
-            if shares[n] != 0.0 {
-                let pair = (c, near[n] as usize);
-                shares[n] *= self.agreement(pair, &signal[..sw], &signal[n * sw..][..sw]);
-            }
-        }
-        let total: f32 = shares.iter().sum();
-        let mut all: Vec<(u32, f32)> = (through.iter().zip(&shares))
-            .flat_map(|(row, &share)| row.iter().map(move |&(j, w)| (j, share / total * w)))
-            .collect();
-        all.sort_by_key(|&(j, _)| j);
+        let mut rows = Vec::new();
+        self.member_rows(c, &mut RowScratch::default(), &mut rows);
         out.clear();
-        for (j, w) in all {
-            match out.last_mut() {
-                Some(last) if last.0 == j => last.1 += w,
-                _ => out.push((j, w)),
+        if let Some((_, row)) = rows.into_iter().find(|&(m, _)| m as usize == i) {
+            *out = row;
+        }
+    }
+
+    /// Every receiver's [`Filter::row`], in receiver order: the fits a cluster's members
+    /// blend are formed once for all of them, not once per member.
+    pub fn rows(&self) -> Vec<Vec<(u32, f32)>> {
+        let per_cluster: Vec<Vec<MemberRow>> = (0..self.clusters.reps.len())
+            .into_par_iter()
+            .map_init(RowScratch::default, |scratch, c| {
+                let mut rows = Vec::new();
+                self.member_rows(c, scratch, &mut rows);
+                rows
+            })
+            .collect();
+        let mut rows = vec![Vec::new(); self.cluster_of.len()];
+        for (m, row) in per_cluster.into_iter().flatten() {
+            rows[m as usize] = row;
+        }
+        rows
+    }
+
+    /// Each member of cluster c with its [`Filter::row`], into `out`: each fit a member
+    /// reads (its kernel, and its sums of the signal) is formed the first time a member
+    /// reads it.
+    fn member_rows(&self, c: usize, scratch: &mut RowScratch, out: &mut Vec<MemberRow>) {
+        let RowScratch {
+            near,
+            shares,
+            kernels,
+            formed,
+            sums,
+            signal,
+            through,
+            dense,
+            touched,
+        } = scratch;
+        self.blend_neighbours(c, near);
+        let sw = self.signal_width;
+        kernels.resize_with(kernels.len().max(near.len()), Default::default);
+        sums.resize_with(sums.len().max(near.len()), Vec::new);
+        through.resize_with(through.len().max(near.len()), Vec::new);
+        formed.clear();
+        formed.resize(near.len(), false);
+        signal.resize(near.len() * sw, 0.0);
+        for &(m, _) in self.clusters.row(c) {
+            let i = m as usize;
+            self.blend_tents((c, i), near, shares);
+            // Through each fit i reads: its weights, and its fit of the signal at i, as the
+            // filter's application reads them.
+            for (n, &k) in near.iter().enumerate() {
+                through[n].clear();
+                if shares[n] == 0.0 {
+                    continue;
+                }
+                let k = k as usize;
+                if !formed[n] {
+                    self.cluster_kernel(k, &mut kernels[n]);
+                    if near.len() > 1 {
+                        sums[n].clear();
+                        self.fit_sums(&kernels[n], (self.signal_means(), &[]), sw, &mut sums[n]);
+                    }
+                    formed[n] = true;
+                }
+                self.kernel_row(k, i, &kernels[n], &mut through[n]);
+                if near.len() > 1 {
+                    let terms = 3 + kernels[n].extra_terms;
+                    let p = self.member_terms(k, i, terms);
+                    blend::read_fit(&sums[n], (terms, sw), &p, &mut signal[n * sw..][..sw]);
+                }
             }
+            for n in 1..near.len() {
+                if shares[n] != 0.0 {
+                    let pair = (c, near[n] as usize);
+                    shares[n] *= self.agreement(pair, &signal[..sw], &signal[n * sw..][..sw]);
+                }
+            }
+            // The weights on each receiver summed in the order they come, gathered in a
+            // dense row (what a stable sort by receiver and a sum of the runs would give,
+            // without sorting every entry).
+            let total: f32 = shares.iter().sum();
+            dense.resize(self.cluster_of.len(), None);
+            touched.clear();
+            for (row, &share) in through.iter().zip(shares.iter()) {
+                for &(j, w) in row {
+                    let w = share / total * w;
+                    match &mut dense[j as usize] {
+                        Some(sum) => *sum += w,
+                        first => {
+                            *first = Some(w);
+                            touched.push(j);
+                        }
+                    }
+                }
+            }
+            touched.sort_unstable();
+            let row = (touched.iter())
+                .map(|&j| (j, dense[j as usize].take().expect("touched")))
+                .collect();
+            out.push((m, row));
         }
     }
 
