@@ -344,11 +344,11 @@ fn floor_profile(bake: &LightmapBake, dir: Vec3) -> Vec<(f32, f32)> {
 
 /// A sun's shadow edge keeps its width: texels 0.15 of the wall's height, the 10–90 % width
 /// of the wall's shadow edge denoised at 64 rays is within 1.25 × that of 4,096 raw rays, at
-/// order 10 (1.08 ×; seeds 2 to 6, 0.99–1.12 ×) and at order 12, where the edge is half a
-/// unit wide and the range term is stricter (κ = 3: 1.09 ×; seeds 2 to 6, 0.97–1.24 ×; at
-/// κ = 4, 1.01–1.29 ×). Without the range term and the curved fit it is not (the blurred
-/// edge's dark side no longer reaches its 10 % level; at order 10 with the curved fit alone,
-/// 1.21 ×). At order 4, 1.2 units wide, the edge widens by 1.03–1.05 × before the curved fit
+/// order 10 (1.07 ×; seeds 2 to 6, 0.97–1.11 ×) and at order 12, where the edge is half a
+/// unit wide and the range term is stricter (κ = 3: 1.08 ×; seeds 2 to 6, 0.96–1.22 ×; at
+/// κ = 4, 1.01–1.29 × before texels in contact joined along it). Without the range term and
+/// the curved fit it is not (the blurred edge's dark side no longer reaches its 10 % level;
+/// at order 10 with the curved fit alone, 1.21 ×). At order 4, 1.2 units wide, the edge widens by 1.03–1.05 × before the curved fit
 /// (docs/explanation/denoising.md).
 #[test]
 fn a_sun_s_shadow_edge_keeps_its_width() {

@@ -15,15 +15,19 @@
 //! counts, by Lepski's rule as the curved fit does ([`texel_fit::share_of_second`]), only
 //! where it differs from the plane's fit on the guide by more than that difference's noise.
 //!
-//! Texels with a contact term are clusters of their own ([`Contacts::alone`]): around a crate's
-//! foot the transfer bends faster than over a cluster's 3 texels, and a cluster's members share its
-//! kernel and its fits' choices. With the curved fit ([`texel_fit::blend_curved`]), the courtyard
-//! at 64 rays 0.957 / 1.601 / 0.560 % -> 0.918 / 1.531 / 0.526 %, for 1.6 × the filter's time.
-//! They are most of the terrain's filter time (58 % of its texels, by its folds), and not
-//! cheaper kept otherwise: at 512², 64 rays, those by a fold joining clusters took 0.64 × the
-//! time for 2.26 / 2.64 / 1.82 % against 2.14 / 2.52 / 1.67 % (only those beyond 1.7
-//! spacings, 2.24 %); their kernels 0.75 × as wide, 0.86 × for 2.18 % (the courtyard 0.94 ×,
-//! 0.3–0.9 % worse).
+//! Texels with a contact term share a cluster only with texels as far from the same surface
+//! ([`Contacts::joinable`]): around a crate's foot the transfer bends with the distance to it
+//! faster than over a cluster's 3 texels, and a cluster's members share its kernel and its
+//! fits' choices, but along the foot it hardly changes. Each such texel a cluster of its own,
+//! with the curved fit ([`texel_fit::blend_curved`]), took the courtyard at 64 rays from
+//! 0.957 / 1.601 / 0.560 % to 0.918 / 1.531 / 0.526 %, for 1.6 × the filter's time; joined
+//! along the foot and blending the fits within half a step ([`super::blend`]), the error is
+//! the same for 0.88 × the instructions ([`JOIN_WITHIN`]; at 256², 1–3 % more). They are
+//! most of the terrain's filter time (58 % of its texels, by its folds): there, joined at any
+//! distance to a fold, they took 0.64 × the time for 2.26 / 2.64 / 1.82 % against 2.14 /
+//! 2.52 / 1.67 % (only those beyond 1.7 spacings, 2.24 %); their kernels 0.75 × as wide,
+//! 0.86 × for 2.18 % (the courtyard 0.94 ×, 0.3–0.9 % worse); joined along the fold, 0.90 ×
+//! the instructions for 1.3–1.9 % less error.
 //!
 //! Measured at 64 rays against 16,384, sun and sky / low sun / sky, 2 seeds: the production
 //! courtyard 1.057 / 1.737 / 0.612 % -> **1.010 / 1.673 / 0.583 %** (at 256 rays 0.537 /
@@ -73,10 +77,23 @@ const OFF_PLANE: f32 = 0.5;
 /// first member's.
 const FLAT: f32 = 0.999;
 
-/// Texels whose contact term is above this, within [`REACH`] of another surface, are clusters of
-/// their own ([`Contacts::alone`]). On the courtyard at 64 rays: above 0, 0.918 %; above 0.1
-/// (within 2 texels), 0.931 % for 0.85 × the filter's time; above 0.3, 0.957 %.
-const ALONE_ABOVE: f32 = 0.0;
+/// Texels whose contact term is above this, within [`REACH`] of another surface, are in
+/// contact ([`Contacts::in_contact`]). When each was a cluster of its own, on the courtyard at
+/// 64 rays: above 0, 0.918 %; above 0.1 (within 2 texels), 0.931 % for 0.85 × the filter's
+/// time; above 0.3, 0.957 %.
+const CONTACT_ABOVE: f32 = 0.0;
+
+/// Texels in contact share a cluster only where their contact terms lie within this of each
+/// other, beside the same other surface ([`Contacts::joinable`]): a row of texels along a
+/// crate's foot, not a ring about its corner. The courtyard at 64 rays, sun and sky / low sun
+/// / sky, 4 seeds, and the instructions of the one-shard part's merge, which runs the stage
+/// (callgrind): each texel a cluster of its own, 0.867 / 1.435 / 0.500 %, 5.65 G; within
+/// 0.01 and their fits blended over half a step ([`super::blend`]), 0.867 / 1.451 / 0.502 %,
+/// 5.00 G; seeds 1–2 against within 0.01: equal terms, 1.0–1.4 % less error (low sun 0.6 %)
+/// for 1.2 × the instructions; within 0.02, 0.2–0.7 % more for 0.98 ×; within 0.01 but not
+/// blended, 1–1.6 % more for 0.94 ×. The Cornell room's error falls by up to 2.4 %, the
+/// terrain's by 1.3–1.9 %.
+const JOIN_WITHIN: f32 = 0.01;
 
 /// How far off a separating plane, in the texel's spacings, the texel and a neighbour must
 /// lie for the plane to part them ([`Contacts::separator`]): a texel on the plane (under a
@@ -97,22 +114,58 @@ pub(super) struct Contacts {
 }
 
 impl Contacts {
-    /// Whether receiver i is a cluster of its own: a cluster's members share its kernel, its
-    /// range term and its fits' choices, and the wide pass reads their mean at their
-    /// centroid, where the transfer bends around another surface's foot faster than over a
-    /// cluster's 3 texels.
-    pub(super) fn alone(&self, i: usize) -> bool {
-        self.terms.get(i).is_some_and(|&c| c > ALONE_ABOVE)
+    /// Whether receiver i lies within [`REACH`] of another surface.
+    pub(super) fn in_contact(&self, i: usize) -> bool {
+        self.terms.get(i).is_some_and(|&c| c > CONTACT_ABOVE)
+    }
+
+    /// Whether receivers a and b may share a cluster by their contact: neither in contact,
+    /// or both, at about the same distance ([`JOIN_WITHIN`]) from the same other surface's
+    /// plane (or both from a crease of their own surface), a's spacing `spacing`. A
+    /// cluster's members share its kernel, its range term and its fits' choices, and the
+    /// wide pass reads their mean at their centroid: around another surface's foot the
+    /// transfer bends with the distance to it faster than over a cluster's 3 texels, but
+    /// hardly along it.
+    pub(super) fn joinable(&self, (a, b): (usize, usize), spacing: f32) -> bool {
+        match (self.in_contact(a), self.in_contact(b)) {
+            (false, false) => return true,
+            (true, true) => {}
+            _ => return false,
+        }
+        if (self.terms[a] - self.terms[b]).abs() > JOIN_WITHIN {
+            return false;
+        }
+        match (self.plane(a), self.plane(b)) {
+            (None, None) => true,
+            (Some(pa), Some(pb)) => {
+                let parallel = pa.truncate().dot(pb.truncate()) > FLAT;
+                parallel && (pa.w - pb.w).abs() < SIDE_MARGIN * spacing
+            }
+            _ => false,
+        }
+    }
+
+    /// The plane of the other object that receiver i stands beside, its unit normal in xyz
+    /// and its offset in w; `None` where it has none.
+    fn plane(&self, i: usize) -> Option<Vec4> {
+        let at = self.planes.binary_search_by_key(&(i as u32), |&(r, _)| r);
+        Some(self.planes[at.ok()?].1)
     }
 
     /// The plane of the other object that receiver i, at `p` with `spacing`, stands beside,
     /// scaled so that `plane · (x, 1)` is a point's distance from it in i's spacings on i's
     /// side (negative across it); `None` where i has none or lies on it.
     pub(super) fn separator(&self, i: usize, p: Vec3, spacing: f32) -> Option<Vec4> {
-        let at = self.planes.binary_search_by_key(&(i as u32), |&(r, _)| r);
-        let plane = self.planes[at.ok()?].1 / spacing;
+        let plane = self.plane(i)? / spacing;
         let side = plane.dot(p.extend(1.0));
         (side.abs() > SIDE_MARGIN).then(|| plane * side.signum())
+    }
+
+    /// Whether `p` lies across receiver i's [`Contacts::separator`] (i at `at` with
+    /// `spacing`).
+    pub(super) fn parts(&self, i: usize, (at, spacing): (Vec3, f32), p: Vec3) -> bool {
+        (self.separator(i, at, spacing))
+            .is_some_and(|plane| Contacts::across(plane.dot(p.extend(1.0))))
     }
 
     /// Whether a point whose distance from a [`Contacts::separator`] plane is `side` (of

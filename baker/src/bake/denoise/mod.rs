@@ -75,8 +75,8 @@
 //! map or a surface that bends within texels the fit is in the normal too ([`normal_fit`]),
 //! and its normal term is the cosine itself, not its 32nd power; over a
 //! normal map the unoccluded lobe is taken out before and put back after ([`demodulate`]); near
-//! another surface, in the distance to it, each texel a cluster of its own that reads nothing
-//! across another object standing beside it ([`contact`]).
+//! another surface, in the distance to it, in clusters of texels as far from it, which read
+//! nothing across another object standing beside it ([`contact`]).
 //!
 //! The weights sum to 1, so a constant transfer is kept exactly. They are a pure function of
 //! the guides and the bake's transfer, formed receiver by receiver over neighbours in a fixed
@@ -311,10 +311,11 @@ impl<'g> Filter<'g> {
             }
             Some(step) => {
                 let within = (signal, sw);
-                // Texels in contact with another surface are clusters of their own.
-                let alone = |i: usize| filter.contact.alone(i);
+                // Texels in contact with another surface join only each other, at the same
+                // distance from the same surface.
+                let contact = &filter.contact;
                 Clusters::build(guides, &filter.fine, step, &noise, within, |seed, m| {
-                    if alone(seed) || alone(m) {
+                    if !contact.joinable((seed, m), guides.spacing[seed]) {
                         return false;
                     }
                     let variance = (noise[m] + noise[seed]) * sw as f32;

@@ -18,7 +18,7 @@
 //!
 //! The curved fit replaced a first-order fit half as wide, blended in the same way: on the
 //! production courtyard at 64 rays it left 0.4 % more error beside the curved fit and the
-//! clusters of one texel near contact ([`super::contact::Contacts::alone`]), for a sixth of the
+//! clusters of one texel near contact ([`super::contact::Contacts::joinable`]), for a sixth of the
 //! filter's time (docs/explanation/denoising-record.md).
 
 use glam::Vec4;
