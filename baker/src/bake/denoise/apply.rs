@@ -118,6 +118,7 @@ impl Filter<'_> {
         formed.clear();
         formed.resize(near.len(), false);
         signal.resize(near.len() * sw, 0.0);
+        dense.resize(self.cluster_of.len(), None);
         for &(m, _) in self.clusters.row(c) {
             let i = m as usize;
             self.blend_tents((c, i), near, shares);
@@ -154,7 +155,6 @@ impl Filter<'_> {
             // dense row (what a stable sort by receiver and a sum of the runs would give,
             // without sorting every entry).
             let total: f32 = shares.iter().sum();
-            dense.resize(self.cluster_of.len(), None);
             touched.clear();
             for (row, &share) in through.iter().zip(shares.iter()) {
                 for &(j, w) in row {
@@ -248,13 +248,15 @@ impl Filter<'_> {
 
     /// [`Filter::apply_in_place`] with each cluster's mean of the values given, and whether
     /// those means are the signal's ([`Filter::signal_means`]). Every cluster's kernel is
-    /// formed first: a blended cluster ([`Filter::blended`]) keeps its fit's sums, of the
-    /// values and of the signal, for its members and its neighbours' to read; any other
-    /// answers its members at once. Then each blended cluster's members read the fits about
-    /// them. The sums are the fit's Σ e_k · mean_k for each term: a member's value is their
-    /// dot with its terms, so the neighbours' means are read once per cluster, not once per
-    /// member. Where the values are the signal (shadowed transfer up to order 3), their sums
-    /// and fits serve as the signal's: the same floats, formed once.
+    /// formed first: with [`Settings::blend`] it keeps its fit's sums, of the values and of
+    /// the signal, for its members and its neighbours' to read; else it answers its members
+    /// at once. Then, blended, each cluster's members read the fits about them. The sums are
+    /// the fit's Σ e_k · mean_k for each term: a member's value is their dot with its terms,
+    /// so the neighbours' means are read once per cluster, not once per member. Where the
+    /// values are the signal (shadowed transfer up to order 3), their sums and fits serve as
+    /// the signal's: the same floats, formed once.
+    ///
+    /// [`Settings::blend`]: super::Settings::blend
     fn apply_with_means(
         &self,
         values: &mut [f32],
@@ -290,7 +292,7 @@ impl Filter<'_> {
                     for c in block(b) {
                         starts.push(data.len());
                         self.cluster_kernel(c, scratch);
-                        match self.blended(c) {
+                        match self.settings.blend {
                             true => {
                                 self.fit_sums(scratch, (means, &scalar_means), width, &mut data);
                                 if !signal_is_values {
@@ -329,7 +331,7 @@ impl Filter<'_> {
             |(near, shares, signal, fits, rows), b| {
                 rows.clear();
                 for c in block(b) {
-                    if !self.blended(c) {
+                    if !self.settings.blend {
                         rows.extend_from_slice(formed_of(c));
                         continue;
                     }

@@ -18,6 +18,7 @@
 //! The shares depend on the geometry and the signal alone, never on the values filtered, so
 //! the filter stays linear: every coefficient and channel shares them.
 
+use super::contact::Contacts;
 use super::{Filter, normal_fit};
 
 /// A neighbour cluster's fit counts for a member within this many cluster steps of its
@@ -31,8 +32,9 @@ const REACH: f32 = 1.0;
 /// read a step away departs from it. Measured with texels in contact joined where their
 /// contact terms are equal within 0.01, on the courtyard at 64 rays, seeds 1–2: 0.5 step,
 /// 0.869 / 1.428 / 0.502 % (seed 2: 0.853 / 1.466 / 0.495 %); a third of a step, within
-/// 0.3 % of it; not blended, 0.883 / 1.445 / 0.506 %; a whole step, as every other cluster,
-/// as good for 1.3 × the filter's time.
+/// 0.6 % of it; not blended, 0.883 / 1.445 / 0.506 %. A whole step, as every other cluster
+/// (measured without the joins), left 0.4–0.8 % more error than half a step, for 1.13 × its
+/// instructions.
 const CONTACT_REACH: f32 = 0.5;
 
 /// κ of the agreement between a neighbour's fit of the signal and the cluster's own at the
@@ -44,22 +46,25 @@ const AGREEMENT_KAPPA: f32 = 1.5;
 pub(super) const TERMS: usize = 3 + normal_fit::NORMAL;
 
 impl Filter<'_> {
-    /// Whether cluster c's members blend the fits about them, and its fit is read by other
-    /// clusters' members: every cluster with [`Settings::blend`].
+    /// Cluster c's representative's [`Contacts::separator`] at c's centroid: the plane of
+    /// another object standing beside it, which no fit or kernel entry of c's reads across.
     ///
-    /// [`Settings::blend`]: super::Settings::blend
-    pub(super) fn blended(&self, _c: usize) -> bool {
-        self.settings.blend
+    /// [`Contacts::separator`]: super::contact::Contacts::separator
+    pub(super) fn cluster_separator(&self, c: usize) -> Option<glam::Vec4> {
+        let r = self.clusters.reps[c] as usize;
+        (self.contact).separator(r, self.clusters.points[c], self.guides.spacing[r])
     }
 
-    /// The clusters whose fits cluster c's members blend, into `out`: c first, then, where
-    /// c is [`Filter::blended`], every other blended cluster of its surface (the same group,
-    /// normals within 25°, about on its plane, neither across the other's separating plane:
-    /// [`super::contact::Contacts::separator`]) that one of its members lies within reach of.
+    /// The clusters whose fits cluster c's members blend, into `out`: c first, then, with
+    /// [`Settings::blend`], every other cluster of its surface (the same group, normals
+    /// within 25°, about on its plane, neither across the other's separating plane:
+    /// [`Filter::cluster_separator`]) that one of its members lies within reach of.
+    ///
+    /// [`Settings::blend`]: super::Settings::blend
     pub(super) fn blend_neighbours(&self, c: usize, out: &mut Vec<u32>) {
         out.clear();
         out.push(c as u32);
-        if !self.blended(c) {
+        if !self.settings.blend {
             return;
         }
         let g = self.guides;
@@ -70,24 +75,22 @@ impl Filter<'_> {
             .map(|&(m, _)| g.points[m as usize].distance(pi))
             .fold(0.0f32, f32::max);
         let reach = self.blend_width(c) + farthest;
-        // Whether cluster a's representative's separating plane parts it from point p.
-        let parts = |a: usize, p: glam::Vec3| {
-            let ra = self.clusters.reps[a] as usize;
-            let at = (self.clusters.points[a], g.spacing[ra]);
-            self.contact.parts(ra, at, p)
+        // Whether a separating plane parts point p from the cluster it is of.
+        let parts = |plane: Option<glam::Vec4>, p: glam::Vec3| {
+            plane.is_some_and(|plane| Contacts::across(plane.dot(p.extend(1.0))))
         };
+        let own = self.cluster_separator(c);
         self.wide.visit(g.groups[r], pi, reach, |k| {
             let k = k as usize;
             let rk = self.clusters.reps[k] as usize;
             let d = self.taps[k].at - pi;
             let keep = k != c
-                && self.blended(k)
                 && d.length_squared() <= reach * reach
                 && g.normals[r].dot(g.normals[rk]) > 0.9
                 && g.surfaces[r].dot(g.surfaces[rk]) > 0.9
                 && g.surfaces[r].dot(d).abs() < spacing
-                && !parts(c, self.taps[k].at)
-                && !parts(k, pi);
+                && !parts(own, self.taps[k].at)
+                && !parts(self.cluster_separator(k), pi);
             if keep {
                 out.push(k as u32);
             }

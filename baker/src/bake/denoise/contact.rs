@@ -161,13 +161,6 @@ impl Contacts {
         (side.abs() > SIDE_MARGIN).then(|| plane * side.signum())
     }
 
-    /// Whether `p` lies across receiver i's [`Contacts::separator`] (i at `at` with
-    /// `spacing`).
-    pub(super) fn parts(&self, i: usize, (at, spacing): (Vec3, f32), p: Vec3) -> bool {
-        (self.separator(i, at, spacing))
-            .is_some_and(|plane| Contacts::across(plane.dot(p.extend(1.0))))
-    }
-
     /// Whether a point whose distance from a [`Contacts::separator`] plane is `side` (of
     /// `plane · (x, 1)`) lies across it.
     pub(super) fn across(side: f32) -> bool {

@@ -525,7 +525,7 @@ impl<'g> Filter<'g> {
         // A texel beside another object reads nothing across its plane ([`contact`]).
         let separator = match vertices {
             true => None,
-            false => self.contact.separator(r, pi, spacing),
+            false => self.cluster_separator(c),
         };
         let plane = separator.unwrap_or(glam::Vec4::ZERO);
         // The taps within reach, facing c and on its side, gathered first without a branch

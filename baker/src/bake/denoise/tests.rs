@@ -445,8 +445,10 @@ fn the_curved_fit_follows_a_broad_shade() {
 
 /// The floor and the wall of the test above: a texel within the contact term's reach of the
 /// wall shares a cluster only with texels as far from it (a column along the wall's foot, a
-/// row along its bottom), never with one farther out or not in contact; and a cluster blends
-/// no fit of a cluster across the wall's plane ([`Filter::blend_neighbours`]).
+/// row along its bottom), never with one farther out or not in contact; and no cluster of
+/// the floor blends a fit of the wall's, or the wall's of the floor's
+/// ([`Filter::blend_neighbours`]; they are two objects: a separating plane within one object
+/// is held by `texels_beside_another_object_read_nothing_across_it`).
 #[test]
 fn texels_in_contact_share_clusters_only_at_one_distance() {
     let (g, on_floor) = floor_and_wall();
