@@ -4,7 +4,7 @@
 use rayon::prelude::*;
 
 use super::blend::{self, TERMS};
-use super::{Filter, clusters, normal_fit, vertices};
+use super::{Filter, clusters, lanes, normal_fit, vertices};
 
 /// A receiver and its [`Filter::row`].
 type MemberRow = (u32, Vec<(u32, f32)>);
@@ -405,17 +405,29 @@ impl Filter<'_> {
         let start = out.len();
         out.resize(start + terms * (width + 1), 0.0);
         let (sums, scalar_sums) = out[start..].split_at_mut(terms * width);
-        for (n, &(k, _)) in scratch.kernel.iter().enumerate() {
-            let k = k as usize;
-            let e = entry_terms(scratch, n);
-            let mean = &means[k * width..][..width];
-            for (t, sums) in sums.chunks_exact_mut(width.max(1)).enumerate() {
-                clusters::add_scaled(sums, e[t], mean);
-            }
-            if let Some(s) = scalar_means.get(k) {
-                for t in 0..terms {
-                    scalar_sums[t] += e[t] * s;
+        let entries = (scratch.kernel.iter().enumerate()).map(|(n, &(k, _))| {
+            (
+                entry_terms(scratch, n),
+                &means[k as usize * width..][..width],
+            )
+        });
+        match lanes::fits(terms, width) {
+            true => lanes::weighted_sums(entries, (terms, width), sums),
+            false => {
+                for (e, mean) in entries {
+                    for (t, sums) in sums.chunks_exact_mut(width.max(1)).enumerate() {
+                        clusters::add_scaled(sums, e[t], mean);
+                    }
                 }
+            }
+        }
+        if scalar_means.is_empty() {
+            return;
+        }
+        for (n, &(k, _)) in scratch.kernel.iter().enumerate() {
+            let (e, s) = (entry_terms(scratch, n), scalar_means[k as usize]);
+            for t in 0..terms {
+                scalar_sums[t] += e[t] * s;
             }
         }
     }

@@ -51,8 +51,17 @@ impl Filter<'_> {
     ///
     /// [`Contacts::separator`]: super::contact::Contacts::separator
     pub(super) fn cluster_separator(&self, c: usize) -> Option<glam::Vec4> {
-        let r = self.clusters.reps[c] as usize;
-        (self.contact).separator(r, self.clusters.points[c], self.guides.spacing[r])
+        self.separators.get(c).copied().flatten()
+    }
+
+    /// Every cluster's [`Filter::cluster_separator`], formed once: each blend reads those of
+    /// all its candidate neighbours, and each a search among the planes.
+    pub(super) fn cluster_separators(&self) -> Vec<Option<glam::Vec4>> {
+        let separator = |c: usize| {
+            let r = self.clusters.reps[c] as usize;
+            (self.contact).separator(r, self.clusters.points[c], self.guides.spacing[r])
+        };
+        (0..self.clusters.reps.len()).map(separator).collect()
     }
 
     /// The clusters whose fits cluster c's members blend, into `out`: c first, then, with
@@ -160,9 +169,13 @@ pub(super) fn read_fit(
     // Term by term, four floats at a time: the same products, summed in the same order, as
     // coefficient by coefficient.
     let (values, scalar) = out.split_at_mut(width);
-    values.fill(0.0);
-    for (t, sums) in sums.chunks_exact(width.max(1)).take(terms).enumerate() {
-        super::clusters::add_scaled(values, p[t], sums);
+    if super::lanes::fits(terms, width) {
+        super::lanes::read_sums(&sums[..terms * width], (terms, width), p, values);
+    } else {
+        values.fill(0.0);
+        for (t, sums) in sums.chunks_exact(width.max(1)).take(terms).enumerate() {
+            super::clusters::add_scaled(values, p[t], sums);
+        }
     }
     if let Some(scalar) = scalar.first_mut() {
         *scalar = (0..terms).map(|t| sums[terms * width + t] * p[t]).sum();

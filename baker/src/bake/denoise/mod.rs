@@ -92,6 +92,7 @@ mod demodulate;
 mod exp4;
 mod grid;
 pub mod guides;
+mod lanes;
 mod normal_fit;
 mod prefilter;
 mod range;
@@ -176,6 +177,8 @@ pub struct Filter<'g> {
     /// contact from their neighbours ([`contact`]); empty otherwise.
     contact: contact::Contacts,
     tap_contact: Vec<f32>,
+    /// Each cluster's [`Filter::cluster_separator`] (empty where there are no contact terms).
+    separators: Vec<Option<glam::Vec4>>,
     signal_width: usize,
     /// Whether `tap_guide`'s first rows, the clusters' means, are those of the transfer the
     /// filter was formed for (its signal is the whole transfer, up to order 3): the means
@@ -280,6 +283,7 @@ impl<'g> Filter<'g> {
             normal_groups: normals,
             contact,
             tap_contact: Vec::new(),
+            separators: Vec::new(),
             signal_width,
             transfer_means: false,
             demodulation: None,
@@ -403,6 +407,9 @@ impl<'g> Filter<'g> {
             }
         }
         filter.clusters = clusters;
+        if !filter.contact.terms.is_empty() {
+            filter.separators = filter.cluster_separators();
+        }
         filter
     }
 
