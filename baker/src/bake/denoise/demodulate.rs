@@ -41,7 +41,16 @@ pub(super) struct Demodulation {
     per_channel: usize,
     /// Per receiver, whether its lobe is taken out.
     demodulated: Vec<bool>,
+    /// Where they take no more than [`STORED_FLOATS`], every demodulated receiver's lobe,
+    /// `per_channel` floats each in receiver order, and each receiver's first float there.
+    stored: Option<(Vec<f32>, Vec<u32>)>,
 }
+
+/// The most floats of lobes [`Demodulation`] keeps (64 MiB): each lobe is read twice, once
+/// taken out of the filter's signal and once put back, and formed once where they are kept
+/// (on the courtyard's wall, 2 % of the filter's instructions). At order 12 a large
+/// lightmap's would take gigabytes, so there they are formed each time.
+const STORED_FLOATS: usize = 1 << 24;
 
 impl Demodulation {
     /// The receivers whose group is fitted over a normal map ([`Normals::Mapped`]) and whose
@@ -51,8 +60,7 @@ impl Demodulation {
     /// A texel whose rays were all blocked is left as it is: it has neither transfer nor
     /// noise, and its lobe taken out would leave a pattern of bumps the filter reads as
     /// exact, which splits every cluster on a wall's shaded side (on the courtyard's wall,
-    /// 11,000 clusters became 30,000, reading 7 × the neighbours). The lobes are formed
-    /// when needed, not stored: at order 12 a large lightmap's would take gigabytes.
+    /// 11,000 clusters became 30,000, reading 7 × the neighbours).
     pub(super) fn new(guides: &Guides, normals: &[Normals], per_channel: usize) -> Option<Self> {
         let order = (per_channel as f64).sqrt() as usize;
         if !(1..=MAX_ORDER).contains(&order) || coeff_count(order) != per_channel {
@@ -62,11 +70,28 @@ impl Demodulation {
         let demodulated: Vec<bool> = (0..guides.points.len())
             .map(|i| mapped(guides.groups[i]) && guides.noise.get(i) != Some(&0.0))
             .collect();
-        demodulated.contains(&true).then(|| Demodulation {
+        let mut demodulation = Demodulation {
             lobes: ClippedLobes::new(order),
             per_channel,
             demodulated,
-        })
+            stored: None,
+        };
+        let count = demodulation.demodulated.iter().filter(|&&d| d).count();
+        if count == 0 {
+            return None;
+        }
+        if count * per_channel <= STORED_FLOATS {
+            let (mut lobes, mut first) = (Vec::with_capacity(count * per_channel), Vec::new());
+            let mut scratch = Scratch::default();
+            for i in 0..guides.points.len() {
+                first.push(lobes.len() as u32);
+                if demodulation.lobe_of(guides, i, &mut scratch) {
+                    lobes.extend_from_slice(&scratch.lobe);
+                }
+            }
+            demodulation.stored = Some((lobes, first));
+        }
+        Some(demodulation)
     }
 
     /// Receiver i's lobe into `scratch.lobe`, or false where it keeps its transfer.
@@ -75,6 +100,13 @@ impl Demodulation {
             return false;
         }
         scratch.lobe.resize(self.per_channel, 0.0);
+        if let Some((lobes, first)) = &self.stored {
+            let first = first[i] as usize;
+            scratch
+                .lobe
+                .copy_from_slice(&lobes[first..][..self.per_channel]);
+            return true;
+        }
         let (n, h) = (guides.normals[i], guides.surfaces[i]);
         self.lobes.lobe(n, h, &mut scratch.lobe, &mut scratch.turn);
         true
