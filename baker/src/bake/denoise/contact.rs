@@ -188,6 +188,15 @@ pub(super) fn terms(guides: &Guides, grid: &Grid) -> Contacts {
     // neighbour cells that may hold another surface; a texel reads only those cells' texels.
     let cells: Vec<&[u32]> = grid.cell_members().collect();
     let kinds: Vec<Option<Vec<Kind>>> = cells.iter().map(|m| kinds(guides, m)).collect();
+    let boxes: Vec<(Vec3, Vec3)> = (cells.iter())
+        .map(|m| {
+            let points = m.iter().map(|&j| guides.points[j as usize]);
+            points.fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
+                (lo.min(p), hi.max(p))
+            })
+        })
+        .collect();
+    let searched = (&cells[..], &kinds[..], &boxes[..]);
     let per_cell: Vec<Vec<(u32, Closest)>> = (0..cells.len())
         .into_par_iter()
         .map_init(Vec::new, |near: &mut Vec<usize>, c| {
@@ -201,10 +210,7 @@ pub(super) fn terms(guides: &Guides, grid: &Grid) -> Contacts {
                     near.clear();
                     grid.visit_cells(p, reach, |n, _| near.push(n));
                     let far = 3f32.sqrt() * (reach + grid.cell());
-                    out.push((
-                        i,
-                        closest(guides, (&cells, &kinds), (i as usize, far), near),
-                    ));
+                    out.push((i, closest(guides, searched, (i as usize, far), near)));
                 }
                 return out;
             };
@@ -238,7 +244,7 @@ pub(super) fn terms(guides: &Guides, grid: &Grid) -> Contacts {
                 for &i in members() {
                     let term = match near.is_empty() {
                         true => Closest::default(),
-                        false => closest(guides, (&cells, &kinds), (i as usize, 2.0 * far), near),
+                        false => closest(guides, searched, (i as usize, 2.0 * far), near),
                     };
                     out.push((i, term));
                 }
@@ -269,10 +275,11 @@ struct Closest {
 
 /// Receiver i's contact term from the receivers of cells `near` (a superset of the cells
 /// within its reach, whose members lie within `far` of it), each cell skipped where each of
-/// its [`Kind`]s is no other surface to i.
+/// its [`Kind`]s is no other surface to i, or where its members' bounding box lies no closer
+/// than the closest other surface found so far.
 fn closest(
     guides: &Guides,
-    (cells, kinds): (&[&[u32]], &[Option<Vec<Kind>>]),
+    (cells, kinds, boxes): (&[&[u32]], &[Option<Vec<Kind>>], &[(Vec3, Vec3)]),
     (i, far): (usize, f32),
     near: &[usize],
 ) -> Closest {
@@ -295,6 +302,13 @@ fn closest(
     let (mut closest, mut nearest) = (f32::INFINITY, None);
     for &cell in near {
         if kinds[cell].as_ref().is_some_and(|k| k.iter().all(ignored)) {
+            continue;
+        }
+        // No member lies closer than the box: each of its offsets from p is at least as
+        // long, axis by axis, and a length is monotonic in them, in floats too, so the
+        // members passed over would not have been taken (the same result, bit for bit).
+        let (low, high) = boxes[cell];
+        if (p.clamp(low, high) - p).length() >= closest {
             continue;
         }
         for &j in cells[cell] {
