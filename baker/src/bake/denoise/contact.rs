@@ -273,13 +273,17 @@ struct Closest {
     plane: Option<Vec4>,
 }
 
+/// What [`closest`] reads of the grid's cells: each one's members, [`Kind`]s (`None` where
+/// they are not flat) and members' bounding box.
+type Searched<'a> = (&'a [&'a [u32]], &'a [Option<Vec<Kind>>], &'a [(Vec3, Vec3)]);
+
 /// Receiver i's contact term from the receivers of cells `near` (a superset of the cells
 /// within its reach, whose members lie within `far` of it), each cell skipped where each of
 /// its [`Kind`]s is no other surface to i, or where its members' bounding box lies no closer
 /// than the closest other surface found so far.
 fn closest(
     guides: &Guides,
-    (cells, kinds, boxes): (&[&[u32]], &[Option<Vec<Kind>>], &[(Vec3, Vec3)]),
+    (cells, kinds, boxes): Searched,
     (i, far): (usize, f32),
     near: &[usize],
 ) -> Closest {
