@@ -9,8 +9,6 @@
 
 use glam::Vec4;
 
-use super::blend::TERMS;
-
 /// Row `x` of `W` floats in `L` = ⌈W / 4⌉ lanes of four, 0 past its end.
 #[inline(always)]
 fn load<const W: usize, const L: usize>(x: &[f32]) -> [Vec4; L] {
@@ -39,20 +37,20 @@ pub(super) fn fits(terms: usize, width: usize) -> bool {
     matches!(width, 9 | 27) && matches!(terms, 3 | 4 | 5 | 7 | 8)
 }
 
-/// Calls `$f::<T, W, L>` for `$terms` terms of `$width` floats ([`fits`] holds).
+/// Calls `$f::<T, W, L, _>` for `$terms` terms of `$width` floats ([`fits`] holds).
 macro_rules! dispatch {
     ($f:ident, $terms:expr, $width:expr, $($arg:expr),*) => {
         match ($terms, $width) {
-            (3, 9) => $f::<3, 9, 3>($($arg),*),
-            (4, 9) => $f::<4, 9, 3>($($arg),*),
-            (5, 9) => $f::<5, 9, 3>($($arg),*),
-            (7, 9) => $f::<7, 9, 3>($($arg),*),
-            (8, 9) => $f::<8, 9, 3>($($arg),*),
-            (3, 27) => $f::<3, 27, 7>($($arg),*),
-            (4, 27) => $f::<4, 27, 7>($($arg),*),
-            (5, 27) => $f::<5, 27, 7>($($arg),*),
-            (7, 27) => $f::<7, 27, 7>($($arg),*),
-            (8, 27) => $f::<8, 27, 7>($($arg),*),
+            (3, 9) => $f::<3, 9, 3, _>($($arg),*),
+            (4, 9) => $f::<4, 9, 3, _>($($arg),*),
+            (5, 9) => $f::<5, 9, 3, _>($($arg),*),
+            (7, 9) => $f::<7, 9, 3, _>($($arg),*),
+            (8, 9) => $f::<8, 9, 3, _>($($arg),*),
+            (3, 27) => $f::<3, 27, 7, _>($($arg),*),
+            (4, 27) => $f::<4, 27, 7, _>($($arg),*),
+            (5, 27) => $f::<5, 27, 7, _>($($arg),*),
+            (7, 27) => $f::<7, 27, 7, _>($($arg),*),
+            (8, 27) => $f::<8, 27, 7, _>($($arg),*),
             _ => unreachable!("fits() is checked first"),
         }
     };
@@ -61,8 +59,8 @@ macro_rules! dispatch {
 /// For each of `terms` terms t, Σ_n e_n[t] · x_n over `entries` (e_n, x_n) in order, into
 /// `sums`: `terms` rows of `width` floats, which it overwrites (the sums start at 0).
 /// [`fits`] must hold.
-pub(super) fn weighted_sums<'x>(
-    entries: impl Iterator<Item = ([f32; TERMS], &'x [f32])>,
+pub(super) fn weighted_sums<'x, const E: usize>(
+    entries: impl Iterator<Item = ([f32; E], &'x [f32])>,
     (terms, width): (usize, usize),
     sums: &mut [f32],
 ) {
@@ -70,8 +68,8 @@ pub(super) fn weighted_sums<'x>(
 }
 
 #[inline(always)]
-fn weighted_sums_in<'x, const T: usize, const W: usize, const L: usize>(
-    entries: impl Iterator<Item = ([f32; TERMS], &'x [f32])>,
+fn weighted_sums_in<'x, const T: usize, const W: usize, const L: usize, const E: usize>(
+    entries: impl Iterator<Item = ([f32; E], &'x [f32])>,
     sums: &mut [f32],
 ) {
     let mut acc = [[Vec4::ZERO; L]; T];
@@ -90,19 +88,19 @@ fn weighted_sums_in<'x, const T: usize, const W: usize, const L: usize>(
 
 /// Σ_t p[t] · sums[t] over `terms` rows of `width` floats in `sums`, into `out` (`width`
 /// floats). [`fits`] must hold.
-pub(super) fn read_sums(
+pub(super) fn read_sums<const E: usize>(
     sums: &[f32],
     (terms, width): (usize, usize),
-    p: &[f32; TERMS],
+    p: &[f32; E],
     out: &mut [f32],
 ) {
     dispatch!(read_sums_in, terms, width, sums, p, out)
 }
 
 #[inline(always)]
-fn read_sums_in<const T: usize, const W: usize, const L: usize>(
+fn read_sums_in<const T: usize, const W: usize, const L: usize, const E: usize>(
     sums: &[f32],
-    p: &[f32; TERMS],
+    p: &[f32; E],
     out: &mut [f32],
 ) {
     let sums: &[f32] = &sums[..T * W];
@@ -119,6 +117,9 @@ fn read_sums_in<const T: usize, const W: usize, const L: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The most terms a fit has, as the filter's.
+    const TERMS: usize = 8;
     use crate::bake::denoise::clusters::add_scaled;
 
     fn bits(floats: &[f32]) -> Vec<u32> {
