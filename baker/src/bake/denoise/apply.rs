@@ -411,16 +411,7 @@ impl Filter<'_> {
                 &means[k as usize * width..][..width],
             )
         });
-        match lanes::fits(terms, width) {
-            true => lanes::weighted_sums(entries, (terms, width), sums),
-            false => {
-                for (e, mean) in entries {
-                    for (t, sums) in sums.chunks_exact_mut(width.max(1)).enumerate() {
-                        clusters::add_scaled(sums, e[t], mean);
-                    }
-                }
-            }
-        }
+        lanes::weighted_sums(entries, (terms, width), sums);
         if scalar_means.is_empty() {
             return;
         }

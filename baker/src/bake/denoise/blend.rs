@@ -169,14 +169,7 @@ pub(super) fn read_fit(
     // Term by term, four floats at a time: the same products, summed in the same order, as
     // coefficient by coefficient.
     let (values, scalar) = out.split_at_mut(width);
-    if super::lanes::fits(terms, width) {
-        super::lanes::read_sums(&sums[..terms * width], (terms, width), p, values);
-    } else {
-        values.fill(0.0);
-        for (t, sums) in sums.chunks_exact(width.max(1)).take(terms).enumerate() {
-            super::clusters::add_scaled(values, p[t], sums);
-        }
-    }
+    super::lanes::read_sums(sums, (terms, width), p, values);
     if let Some(scalar) = scalar.first_mut() {
         *scalar = (0..terms).map(|t| sums[terms * width + t] * p[t]).sum();
     }

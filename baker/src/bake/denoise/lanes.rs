@@ -5,9 +5,11 @@
 //! at a time through memory ([`super::clusters::add_scaled`]), each float was loaded and
 //! stored again for every entry and term, which cost more than the products. Every float
 //! here gets the same products summed in the same order as there, so the results are the
-//! same bits.
+//! same bits; rows of other widths, and fits of other terms, are still summed through memory.
 
 use glam::Vec4;
+
+use super::clusters::add_scaled;
 
 /// Row `x` of `W` floats in `L` = ⌈W / 4⌉ lanes of four, 0 past its end.
 #[inline(always)]
@@ -30,14 +32,14 @@ fn store<const W: usize, const L: usize>(lanes: &[Vec4; L], out: &mut [f32]) {
     }
 }
 
-/// Whether [`weighted_sums`] and [`read_sums`] take `terms` terms of rows of `width`
-/// floats (order 3's coefficients in one channel or three); elsewhere the caller sums them
+/// Whether [`weighted_sums`] and [`read_sums`] hold `terms` terms of rows of `width` floats
+/// in registers (order 3's coefficients in one channel or three); elsewhere they sum them
 /// through memory.
-pub(super) fn fits(terms: usize, width: usize) -> bool {
+fn in_registers(terms: usize, width: usize) -> bool {
     matches!(width, 9 | 27) && matches!(terms, 3 | 4 | 5 | 7 | 8)
 }
 
-/// Calls `$f::<T, W, L, _>` for `$terms` terms of `$width` floats ([`fits`] holds).
+/// Calls `$f::<T, W, L, _>` for `$terms` terms of `$width` floats ([`in_registers`] holds).
 macro_rules! dispatch {
     ($f:ident, $terms:expr, $width:expr, $($arg:expr),*) => {
         match ($terms, $width) {
@@ -51,20 +53,28 @@ macro_rules! dispatch {
             (5, 27) => $f::<5, 27, 7, _>($($arg),*),
             (7, 27) => $f::<7, 27, 7, _>($($arg),*),
             (8, 27) => $f::<8, 27, 7, _>($($arg),*),
-            _ => unreachable!("fits() is checked first"),
+            _ => unreachable!("in_registers() is checked first"),
         }
     };
 }
 
 /// For each of `terms` terms t, Σ_n e_n[t] · x_n over `entries` (e_n, x_n) in order, into
 /// `sums`: `terms` rows of `width` floats, which it overwrites (the sums start at 0).
-/// [`fits`] must hold.
 pub(super) fn weighted_sums<'x, const E: usize>(
     entries: impl Iterator<Item = ([f32; E], &'x [f32])>,
     (terms, width): (usize, usize),
     sums: &mut [f32],
 ) {
-    dispatch!(weighted_sums_in, terms, width, entries, sums)
+    if in_registers(terms, width) {
+        return dispatch!(weighted_sums_in, terms, width, entries, sums);
+    }
+    let sums = &mut sums[..terms * width];
+    sums.fill(0.0);
+    for (e, x) in entries {
+        for (t, sums) in sums.chunks_exact_mut(width.max(1)).enumerate() {
+            add_scaled(sums, e[t], x);
+        }
+    }
 }
 
 #[inline(always)]
@@ -86,15 +96,22 @@ fn weighted_sums_in<'x, const T: usize, const W: usize, const L: usize, const E:
     }
 }
 
-/// Σ_t p[t] · sums[t] over `terms` rows of `width` floats in `sums`, into `out` (`width`
-/// floats). [`fits`] must hold.
+/// Σ_t p[t] · sums[t] over the first `terms` rows of `width` floats in `sums`, into `out`
+/// (`width` floats).
 pub(super) fn read_sums<const E: usize>(
     sums: &[f32],
     (terms, width): (usize, usize),
     p: &[f32; E],
     out: &mut [f32],
 ) {
-    dispatch!(read_sums_in, terms, width, sums, p, out)
+    if in_registers(terms, width) {
+        return dispatch!(read_sums_in, terms, width, sums, p, out);
+    }
+    let out = &mut out[..width];
+    out.fill(0.0);
+    for (t, sums) in sums.chunks_exact(width.max(1)).take(terms).enumerate() {
+        add_scaled(out, p[t], sums);
+    }
 }
 
 #[inline(always)]
@@ -120,7 +137,6 @@ mod tests {
 
     /// The most terms a fit has, as the filter's.
     const TERMS: usize = 8;
-    use crate::bake::denoise::clusters::add_scaled;
 
     fn bits(floats: &[f32]) -> Vec<u32> {
         floats.iter().map(|f| f.to_bits()).collect()
@@ -137,7 +153,7 @@ mod tests {
     fn sums_in_registers_are_those_through_memory() {
         for width in [9, 27] {
             for terms in [3, 4, 5, 7, 8] {
-                assert!(fits(terms, width));
+                assert!(in_registers(terms, width));
                 let rows: Vec<f32> = (0..13 * width).map(float).collect();
                 let entries = (0..13).map(|n| {
                     let e: [f32; TERMS] = std::array::from_fn(|t| float(1000 + n * TERMS + t));
