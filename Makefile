@@ -119,7 +119,7 @@ no-embree: deps
 	@if ldd $(NO_EMBREE_BAKE) | grep -i embree; then \
 		echo "no-embree: $(NO_EMBREE_BAKE) links Embree"; exit 1; fi
 	@mkdir -p out
-	$(NO_EMBREE_BAKE) bake $(SCENE) -o out/torus-obvhs.prt --samples 10000 --quiet
+	$(NO_EMBREE_BAKE) bake $(SCENE) -o out/torus-obvhs.prt --samples 1024 --quiet
 	@$(NO_EMBREE_BAKE) inspect out/torus-obvhs.prt | grep -q '"backend": "obvhs"' || \
 		{ echo "no-embree: out/torus-obvhs.prt was not baked with obvhs"; exit 1; }
 	@echo "no-embree: built and baked without Embree (ldd: no libembree)"

@@ -19,8 +19,13 @@ use bevy::window::ExitCondition;
 /// An app that renders headless (no window, no ambient light) as fast as it can.
 pub fn headless_app() -> App {
     let mut app = App::new();
+    let plugins = DefaultPlugins.build();
+    // Built with the interactive window too (make bevy builds every target once, with
+    // `--features window`): headless, no event loop is opened.
+    #[cfg(feature = "window")]
+    let plugins = plugins.disable::<bevy::winit::WinitPlugin>();
     app.add_plugins(
-        DefaultPlugins
+        plugins
             .set(WindowPlugin {
                 primary_window: None,
                 exit_condition: ExitCondition::DontExit,
