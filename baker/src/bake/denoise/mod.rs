@@ -120,7 +120,8 @@ const GUIDE_KAPPA: f32 = 3.0;
 /// How far apart two texels' raw signals may be to share a cluster, as the range term's
 /// exponent at κ = [`GUIDE_KAPPA`]: d² up to 3.25, what noise alone gives but for 1 pair in
 /// 1,000. At 0 (d² ≤ 1) the clusters split twice as often: the filter costs 2 ×, for 1.5 %
-/// of a 64-ray bake's error.
+/// of a 64-ray bake's error. Looser, the courtyard's 64-ray filter takes 0.88 × the
+/// instructions at 0.5 and 0.83 × at 1.0, for 1–2 % and 3–4 % more error.
 const SIMILAR: f32 = 0.25;
 /// The wide pass's grid cells, in radii: each group's cells are half its reach across, at
 /// its median spacing.
