@@ -24,8 +24,9 @@ cargo fmt --manifest-path "$MANIFEST" --check
 # checking): Bevy's crates are compiled once, not checked once more in the dev profile
 # (docs/explanation/performance.md). The wrapper and its arguments (CLIPPY_ARGS, the channel
 # by which `cargo clippy -- -D warnings` hands them to clippy-driver) touch the plugin's
-# crate alone, so Bevy's crates build as a plain `cargo build --release` of the guide's
-# builds them. Every cargo call below shares these settings, so none builds again.
+# crate alone, so Bevy's crates are the very build that the guide's plain
+# `cargo run --release --features window` reuses. Every cargo call below shares these
+# settings, so none builds again.
 RUSTC_WORKSPACE_WRAPPER=$(command -v clippy-driver) ||
     { echo "bevy: clippy-driver not found (rustup component add clippy)" >&2; exit 1; }
 export RUSTC_WORKSPACE_WRAPPER CLIPPY_ARGS="-D__CLIPPY_HACKERY__warnings__CLIPPY_HACKERY__"
