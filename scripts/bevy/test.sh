@@ -34,16 +34,17 @@ export RUSTC_WORKSPACE_WRAPPER CLIPPY_ARGS="-D__CLIPPY_HACKERY__warnings__CLIPPY
 # change it, the build below would still lint but no longer fail on a warning. So a file
 # with one warning (clippy::ptr_arg) must fail through the same wrapper and arguments first.
 canary=$(mktemp -d)
-printf 'pub fn len(v: &Vec<u8>) -> usize {\n    v.len()\n}\n' >"$canary/canary.rs"
-if "$RUSTC_WORKSPACE_WRAPPER" rustc --crate-type lib --edition 2021 "$canary/canary.rs" \
-    --out-dir "$canary" >"$canary/log" 2>&1 || ! grep -q 'clippy::ptr_arg' "$canary/log"; then
+failed_on_it=no
+log=$(printf 'pub fn len(v: &Vec<u8>) -> usize {\n    v.len()\n}\n' |
+    "$RUSTC_WORKSPACE_WRAPPER" rustc - --crate-name canary --crate-type lib --edition 2021 \
+        --emit=metadata --out-dir "$canary" 2>&1) || failed_on_it=yes
+rm -rf "$canary"
+if [ "$failed_on_it" = no ] || ! grep -q 'clippy::ptr_arg' <<<"$log"; then
     echo "bevy: clippy-driver with CLIPPY_ARGS=$CLIPPY_ARGS did not fail on clippy::ptr_arg:" >&2
-    cat "$canary/log" >&2
+    echo "$log" >&2
     echo "bevy: this toolchain's Clippy takes its arguments another way: update this script" >&2
-    rm -rf "$canary"
     exit 1
 fi
-rm -rf "$canary"
 FEATURES=(--release --features window)
 cargo build --manifest-path "$MANIFEST" "${FEATURES[@]}" --all-targets
 cargo test --manifest-path "$MANIFEST" "${FEATURES[@]}" --lib
