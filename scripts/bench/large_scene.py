@@ -29,6 +29,10 @@ def height(x, y):
 
 
 def main():
+    # Usage errors exit 2 before anything is written: `--help` is not a file name.
+    if len(sys.argv) < 2 or len(sys.argv) > 4 or any(a.startswith("-") for a in sys.argv[1:]):
+        print(__doc__, file=sys.stderr)
+        sys.exit(0 if sys.argv[1:] in (["-h"], ["--help"]) else 2)
     out = Path(sys.argv[1])
     global RELIEF
     n = int(sys.argv[2]) if len(sys.argv) > 2 else 708
