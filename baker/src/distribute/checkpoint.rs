@@ -42,8 +42,29 @@ pub struct Checkpointed {
 }
 
 /// `DIR/block-NNNNNN.prt`.
-fn block_path(dir: &Path, index: usize) -> PathBuf {
+pub(super) fn block_path(dir: &Path, index: usize) -> PathBuf {
     dir.join(format!("block-{index:06}.prt"))
+}
+
+/// The block files in checkpoint folder `dir`, in the order the folder lists them: each
+/// `block-N.prt`'s path and N (`None` where N is no number: a file the caller refuses).
+/// Other names are passed over: hidden names are the atomic writer's temporary files of a
+/// killed run.
+pub(super) fn block_files(dir: &Path) -> Result<Vec<(PathBuf, Option<usize>)>> {
+    let mut files = Vec::new();
+    for entry in std::fs::read_dir(dir).map_err(|err| Error::io(dir, err))? {
+        let path = entry.map_err(|err| Error::io(dir, err))?.path();
+        let name = path.file_name().unwrap_or_default().to_string_lossy();
+        let Some(index) = name
+            .strip_prefix("block-")
+            .and_then(|rest| rest.strip_suffix(".prt"))
+        else {
+            continue;
+        };
+        let index = index.parse().ok();
+        files.push((path, index));
+    }
+    Ok(files)
 }
 
 /// `range` cut into consecutive blocks of `block` items (vertices or probes), the last one
@@ -133,16 +154,7 @@ fn reuse_blocks(
     };
 
     let mut done: Vec<Option<Part>> = vec![None; blocks.len()];
-    for entry in std::fs::read_dir(dir).map_err(|err| Error::io(dir, err))? {
-        let path = entry.map_err(|err| Error::io(dir, err))?.path();
-        let name = path.file_name().unwrap_or_default().to_string_lossy();
-        // Hidden names are the atomic writer's temporary files of a killed run.
-        let Some(index) = name
-            .strip_prefix("block-")
-            .and_then(|rest| rest.strip_suffix(".prt"))
-        else {
-            continue;
-        };
+    for (path, index) in block_files(dir)? {
         let part = Part::read_block(&path)?;
         let lightmap_difference = match (baker.lightmap(), &part.lightmap) {
             (None, None) => None,
@@ -157,7 +169,6 @@ fn reuse_blocks(
                 path.display()
             )));
         }
-        let index: Option<usize> = index.parse().ok();
         match index.and_then(|i| blocks.get(i).map(|b| (i, b))) {
             Some((i, block)) if part.id == expected_id(block) => done[i] = Some(part),
             _ => {

@@ -7,6 +7,7 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use crate::bake::probes::ProbeBaker;
+use crate::distribute::checkpoint;
 use crate::distribute::probe_parts::ProbePart;
 use crate::distribute::shard::{PartId, ShardId, shard_range};
 use crate::formats::coefficient_file::CoefficientFile;
@@ -87,7 +88,7 @@ pub fn bake_checkpointed(
     block: usize,
     progress: &dyn Progress,
 ) -> Result<Checkpointed> {
-    let blocks = super::checkpoint::blocks_of(&range, block)?;
+    let blocks = checkpoint::blocks_of(&range, block)?;
     std::fs::create_dir_all(dir).map_err(|err| Error::io(dir, err))?;
     let id_of = |b: &Range<usize>| PartId {
         shard,
@@ -96,16 +97,7 @@ pub fn bake_checkpointed(
     };
     let expected = template(header, probes, id_of(&range));
     let mut done: Vec<Option<ProbePart>> = vec![None; blocks.len()];
-    for entry in std::fs::read_dir(dir).map_err(|err| Error::io(dir, err))? {
-        let path = entry.map_err(|err| Error::io(dir, err))?.path();
-        let name = path.file_name().unwrap_or_default().to_string_lossy();
-        // Hidden names are the atomic writer's temporary files of a killed run.
-        let Some(index) = name
-            .strip_prefix("block-")
-            .and_then(|rest| rest.strip_suffix(".prt"))
-        else {
-            continue;
-        };
+    for (path, index) in checkpoint::block_files(dir)? {
         let part = ProbePart::read(&path)?;
         if let Some(difference) = expected.bake_difference(&part) {
             return Err(Error::Shards(format!(
@@ -113,7 +105,7 @@ pub fn bake_checkpointed(
                 path.display()
             )));
         }
-        match index.parse::<usize>().ok().filter(|&i| i < blocks.len()) {
+        match index.filter(|&i| i < blocks.len()) {
             Some(i) if part.id == id_of(&blocks[i]) => done[i] = Some(part),
             _ => {
                 let held = part.id.range();
@@ -136,7 +128,7 @@ pub fn bake_checkpointed(
     for (i, b) in blocks.iter().enumerate() {
         if done[i].is_none() {
             let (part, block_rays) = bake_part(baker, header, probes, id_of(b), progress)?;
-            part.write(&dir.join(format!("block-{i:06}.prt")))?;
+            part.write(&checkpoint::block_path(dir, i))?;
             rays += block_rays;
             done[i] = Some(part);
         }
