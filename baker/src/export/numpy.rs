@@ -135,14 +135,7 @@ fn export_lightmap_npz(
     inputs.push(path.to_path_buf());
     let output = crate::support::output::Output::new(output, &inputs)?;
     let (w, h) = (block.width as usize, block.height as usize);
-    let atlas = crate::bake::lightmap::Atlas {
-        width: block.width,
-        height: block.height,
-        uv1: block.uv1.clone(),
-        source: block.source,
-        texel_size: (block.texel_size > 0.0).then_some(block.texel_size),
-        objects: block.objects.clone(),
-    };
+    let atlas = crate::bake::lightmap::Atlas::of_block(block);
     let texels = crate::bake::lightmap::Texels::rasterise(scene, &atlas);
     let receivers = Receivers::new(&texels.positions, &texels.normals, file);
     let (geometry, aux) = receivers.arrays(&[h, w], ["texel_positions", "texel_normals"]);

@@ -218,14 +218,7 @@ const PADDING_REACH: i64 = 4;
 /// point of the nearest covered texel within [`PADDING_REACH`], so a shadow does not stop
 /// short of a chart's edge under bilinear filtering.
 pub fn texel_points(scene: &Scene, block: &LightmapBlock) -> (Vec<Vec3>, Vec<Vec3>) {
-    let atlas = crate::bake::lightmap::Atlas {
-        width: block.width,
-        height: block.height,
-        uv1: block.uv1.clone(),
-        source: block.source,
-        texel_size: (block.texel_size > 0.0).then_some(block.texel_size),
-        objects: block.objects.clone(),
-    };
+    let atlas = crate::bake::lightmap::Atlas::of_block(block);
     let texels = crate::bake::lightmap::Texels::rasterise(scene, &atlas);
     let (w, h) = (i64::from(block.width), i64::from(block.height));
     let covered = |x: i64, y: i64| {

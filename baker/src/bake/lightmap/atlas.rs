@@ -32,6 +32,7 @@ use glam::Vec2;
 
 pub use crate::formats::header::{AtlasSource, ObjectPlacement, ObjectUvs};
 
+use crate::formats::coefficient_file::LightmapBlock;
 use crate::scene::Scene;
 use crate::support::error::{Error, Result};
 
@@ -52,6 +53,18 @@ pub struct Atlas {
 }
 
 impl Atlas {
+    /// The atlas a baked file's lightmap block stores, as the bake that wrote it had it.
+    pub fn of_block(block: &LightmapBlock) -> Atlas {
+        Atlas {
+            width: block.width,
+            height: block.height,
+            uv1: block.uv1.clone(),
+            source: block.source,
+            texel_size: (block.texel_size > 0.0).then_some(block.texel_size),
+            objects: block.objects.clone(),
+        }
+    }
+
     /// An atlas from per-vertex lightmap UVs in [0, 1] (the scene's TEXCOORD_1, or a test's).
     /// The glTF loader's lightmap UVs come here instead of being unwrapped.
     pub fn from_vertex_uvs(scene: &Scene, uvs: &[Vec2], width: u32, height: u32) -> Result<Atlas> {
