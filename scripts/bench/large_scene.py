@@ -29,10 +29,14 @@ def height(x, y):
 
 
 def main():
-    # Usage errors exit 2 before anything is written: `--help` is not a file name.
+    # `--help` is not a file name: asked for, the usage goes to standard output; any other
+    # option or a wrong count of arguments is a usage error (exit 2) before anything is written.
+    if sys.argv[1:] in (["-h"], ["--help"]):
+        print(__doc__)
+        sys.exit(0)
     if len(sys.argv) < 2 or len(sys.argv) > 4 or any(a.startswith("-") for a in sys.argv[1:]):
         print(__doc__, file=sys.stderr)
-        sys.exit(0 if sys.argv[1:] in (["-h"], ["--help"]) else 2)
+        sys.exit(2)
     out = Path(sys.argv[1])
     global RELIEF
     n = int(sys.argv[2]) if len(sys.argv) > 2 else 708
